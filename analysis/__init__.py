@@ -1,0 +1,1 @@
+"""Reduction of stored waveforms, the paper's model, tables, audit, figures, report."""

@@ -1,0 +1,242 @@
+"""The paper's analytical power model (Section 3), as small pure functions.
+
+Every function takes peak-to-peak voltages and returns peak-to-peak amplitudes; the
+`Convention` says how the paper's V and A are read inside the printed equations, which
+material constants are used, where the neutral plane is, and whether the print slips of
+Eqs. 28 and 29 are kept. Nothing here guesses a convention: a caller names one.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+from typing import Literal
+
+from squeezebench.errors import UserError
+
+
+class ModelGeometryError(UserError, ValueError):
+    """A geometry for which a printed equation has no finite value."""
+
+
+@dataclass(frozen=True)
+class Materials:
+    """Table 2: the aluminium resonator and the NCE 41 piezoceramic."""
+
+    resonator_young_pa: float
+    resonator_poisson: float
+    resonator_density_kg_m3: float
+    piezo_c11_pa: float
+    piezo_poisson: float
+    piezo_d31_c_per_n: float
+    piezo_density_kg_m3: float
+
+
+#: Table 2 as the extraction prints it: E_i = 67109 N/m² taken literally (so α ≈ 0).
+#: c11 and d31 lost their exponents in print ("8010^9", "-13010^-12"); read as 80e9 and -130e-12.
+MATERIALS_AS_PRINTED = Materials(
+    resonator_young_pa=67109.0,
+    resonator_poisson=0.34,
+    resonator_density_kg_m3=2790.0,
+    piezo_c11_pa=80e9,
+    piezo_poisson=0.33,
+    piezo_d31_c_per_n=-130e-12,
+    piezo_density_kg_m3=7900.0,
+)
+
+#: Table 2 as physically meant: aluminium E_i = 67 GPa.
+MATERIALS_PHYSICAL = replace(MATERIALS_AS_PRINTED, resonator_young_pa=67e9)
+
+
+@dataclass(frozen=True)
+class Convention:
+    """How the printed equations are read; recorded next to every derived number."""
+
+    name: str
+    materials: Materials
+    voltage: Literal["pp", "amplitude"] = "pp"  # what V means inside Eqs. 25/27
+    amplitude: Literal["pp", "amplitude"] = "pp"  # what A of Eq. 27 is
+    neutral_plane: Literal["stack_middle", "resonator_middle"] = "stack_middle"
+    eq28_with_pi: bool = True  # substituting Eq. 27 into Eq. 25 yields a factor pi
+    eq29_as_printed: bool = False  # printed ratio b_large/b_small is inverted w.r.t. the text
+
+    def voltage_in_equation(self, voltage_vpp: float) -> float:
+        return voltage_vpp if self.voltage == "pp" else voltage_vpp / 2.0
+
+    def amplitude_pp_from_equation(self, amplitude: float) -> float:
+        return amplitude if self.amplitude == "pp" else 2.0 * amplitude
+
+    def amplitude_in_equation(self, amplitude_pp_m: float) -> float:
+        return amplitude_pp_m if self.amplitude == "pp" else amplitude_pp_m / 2.0
+
+
+#: The reading that reproduces the paper's own numbers: printed E_i, peak-to-peak V and A,
+#: neutral plane at the middle of the two-layer stack, Eq. 28 with its pi and Eq. 29 with
+#: the ratio the text describes (Q falls as the piezo gets longer).
+PAPER_CONVENTION = Convention(name="paper", materials=MATERIALS_AS_PRINTED)
+
+#: Every equation exactly as printed (Eq. 28 without pi, Eq. 29 with b_large/b_small).
+AS_PRINTED_CONVENTION = Convention(
+    name="as_printed", materials=MATERIALS_AS_PRINTED, eq28_with_pi=False, eq29_as_printed=True
+)
+
+#: Physical material constants, otherwise the paper's reading.
+PHYSICAL_CONVENTION = Convention(name="physical", materials=MATERIALS_PHYSICAL)
+
+
+@dataclass(frozen=True)
+class PlateGeometry:
+    """The half-wavelength section of Fig. 4 and the actuators driving it."""
+
+    resonator_thickness_m: float  # h_i
+    piezo_thickness_m: float  # h_p
+    piezo_length_m: float  # b_p, the piezo length along the nodal lines
+    half_wavelength_m: float  # lambda / 2
+    n_powered_piezos: int  # n_c
+
+    def __post_init__(self) -> None:
+        for field_name in ("resonator_thickness_m", "piezo_thickness_m", "piezo_length_m",
+                           "half_wavelength_m"):
+            value = getattr(self, field_name)
+            if not (math.isfinite(value) and value > 0):
+                raise ModelGeometryError(f"PlateGeometry.{field_name} must be > 0, got {value!r}")
+        if self.n_powered_piezos < 1:
+            raise ModelGeometryError(
+                f"PlateGeometry.n_powered_piezos must be >= 1, got {self.n_powered_piezos!r}")
+
+    @property
+    def wavelength_m(self) -> float:
+        return 2.0 * self.half_wavelength_m
+
+
+def reduced_modulus_pa(young_pa: float, poisson: float) -> float:
+    """G' = G / (1 - nu^2) (Eq. 6) and c'11 = c11 / (1 - nu_p^2) (Eq. 8): plane strain in y."""
+    return young_pa / (1.0 - poisson**2)
+
+
+def neutral_plane_m(geometry: PlateGeometry, convention: Convention) -> float:
+    """z0 measured from the free face of the piezo layer (z = 0), Fig. 4.
+
+    The paper puts it at "the middle plane"; which middle is a convention.
+    """
+    h_p, h_i = geometry.piezo_thickness_m, geometry.resonator_thickness_m
+    if convention.neutral_plane == "stack_middle":
+        return (h_p + h_i) / 2.0
+    return h_p + h_i / 2.0
+
+
+def inverse_a(f0: float, alpha: float, beta: float) -> float:
+    """1/a of Eq. 12, with f0 = z0/h_p, alpha = G'/c'11, beta = h_i/h_p (Eq. 13).
+
+    Raises ModelGeometryError where the denominator vanishes (1/a has no finite value):
+    the check is relative to the size of the terms, so cancellation is caught too.
+    """
+    numerator = 1.0 - 2.0 * f0
+    bracket = 3 * beta + 3 * beta**2 + beta**3 - 6 * f0 - 3 * beta * f0 + 3 * beta * f0**2
+    denominator = 1.0 - 3.0 * f0 + 3.0 * f0**2 - alpha * bracket
+    scale = 1.0 + 3.0 * abs(f0) + 3.0 * f0**2 + abs(alpha) * (
+        3 * beta + 3 * beta**2 + beta**3 + 6 * abs(f0) + 3 * beta * abs(f0) + 3 * beta * f0**2)
+    if abs(denominator) <= 1e-12 * scale:
+        raise ModelGeometryError(
+            f"Eq. 12 denominator vanishes for f0={f0:.6g}, alpha={alpha:.6g}, beta={beta:.6g}: "
+            "the bending factor a is zero and Eqs. 25/27 diverge for this geometry")
+    return numerator / denominator
+
+
+def a_factor(geometry: PlateGeometry, convention: Convention) -> float:
+    """The bending factor a of Eqs. 11-13 for this geometry and reading of Table 2."""
+    m = convention.materials
+    alpha = (reduced_modulus_pa(m.resonator_young_pa, m.resonator_poisson)
+             / reduced_modulus_pa(m.piezo_c11_pa, m.piezo_poisson))
+    beta = geometry.resonator_thickness_m / geometry.piezo_thickness_m
+    f0 = neutral_plane_m(geometry, convention) / geometry.piezo_thickness_m
+    inv = inverse_a(f0, alpha, beta)
+    if abs(inv) <= 1e-12 * (1.0 + 2.0 * abs(f0)):
+        raise ModelGeometryError(
+            f"Eq. 12 numerator 1 - 2 f0 vanishes (f0={f0:.6g}, z0 at the piezo mid-plane): "
+            "the piezo produces no bending moment and a is infinite")
+    return 1.0 / inv
+
+
+def _amplitude_per_q(voltage_vpp: float, geometry: PlateGeometry, convention: Convention) -> float:
+    """Eq. 27 divided by Q, in the convention's amplitude meaning."""
+    m = convention.materials
+    v = convention.voltage_in_equation(voltage_vpp)
+    a = a_factor(geometry, convention)
+    return (geometry.n_powered_piezos * 3.0 / 64.0 * m.piezo_d31_c_per_n * v
+            * geometry.wavelength_m**2 / (geometry.piezo_thickness_m**2 * a))
+
+
+def amplitude_pp_m(q: float, voltage_vpp: float, geometry: PlateGeometry,
+                   convention: Convention) -> float:
+    """Eq. 27: A = Q n_c (3/64) d31 V lambda^2 / (h_p^2 a), returned peak-to-peak."""
+    return convention.amplitude_pp_from_equation(q * _amplitude_per_q(voltage_vpp, geometry, convention))
+
+
+def q_from_amplitude(amplitude_pp: float, voltage_vpp: float, geometry: PlateGeometry,
+                     convention: Convention) -> float:
+    """Eq. 27 solved for the dynamic amplification factor Q."""
+    _require_positive(voltage_vpp=voltage_vpp)
+    return convention.amplitude_in_equation(amplitude_pp) / _amplitude_per_q(voltage_vpp, geometry, convention)
+
+
+def _power_per_q_tan(voltage_vpp: float, frequency_hz: float, geometry: PlateGeometry,
+                     convention: Convention) -> float:
+    """Eq. 25 divided by Q tan(theta')."""
+    m = convention.materials
+    v = convention.voltage_in_equation(voltage_vpp)
+    h_p = geometry.piezo_thickness_m
+    z0 = neutral_plane_m(geometry, convention)
+    a = a_factor(geometry, convention)
+    c11p = reduced_modulus_pa(m.piezo_c11_pa, m.piezo_poisson)
+    return (v**2 * geometry.n_powered_piezos**2
+            * 3.0 * geometry.piezo_length_m * geometry.wavelength_m / 4.0
+            * math.pi * frequency_hz * m.piezo_d31_c_per_n**2 * c11p
+            * (2.0 * z0 - h_p) / (h_p**2 * a))
+
+
+def power_w(q: float, tan_theta: float, voltage_vpp: float, frequency_hz: float,
+            geometry: PlateGeometry, convention: Convention) -> float:
+    """Eq. 25: P = V^2 n_c^2 Q tan(theta') (3 b_p lambda / 4) pi f d31^2 c'11 (2 z0 - h_p)/(h_p^2 a)."""
+    return q * tan_theta * _power_per_q_tan(voltage_vpp, frequency_hz, geometry, convention)
+
+
+def tan_theta_from_power(power: float, voltage_vpp: float, q: float, frequency_hz: float,
+                         geometry: PlateGeometry, convention: Convention) -> float:
+    """Eq. 25 solved for tan(theta'): (Q tan theta' from the power) / Q, as the paper does."""
+    _require_positive(voltage_vpp=voltage_vpp, frequency_hz=frequency_hz)
+    if q == 0 or not math.isfinite(q):
+        raise ModelGeometryError(f"tan(theta') needs a finite non-zero Q, got {q!r}")
+    return power / (q * _power_per_q_tan(voltage_vpp, frequency_hz, geometry, convention))
+
+
+def power_from_amplitude_w(amplitude_pp: float, q: float, tan_theta: float, frequency_hz: float,
+                           geometry: PlateGeometry, convention: Convention) -> float:
+    """Eq. 28: P = (A^2/Q) tan(theta') f b_p c'11 (2 z0 - h_p) 1024 h_p^2 a / (3 lambda^3).
+
+    Eq. 27 substituted into Eq. 25 carries a factor pi that the print lacks;
+    `convention.eq28_with_pi` decides. Note n_c has dropped out.
+    """
+    m = convention.materials
+    amp = convention.amplitude_in_equation(amplitude_pp)
+    h_p = geometry.piezo_thickness_m
+    z0 = neutral_plane_m(geometry, convention)
+    a = a_factor(geometry, convention)
+    c11p = reduced_modulus_pa(m.piezo_c11_pa, m.piezo_poisson)
+    printed = (amp**2 / q * tan_theta * frequency_hz * geometry.piezo_length_m * c11p
+               * (2.0 * z0 - h_p) * 1024.0 * h_p**2 * a / (3.0 * geometry.wavelength_m**3))
+    return printed * math.pi if convention.eq28_with_pi else printed
+
+
+def q_large_from_small(q_small: float, b_large_m: float, b_small_m: float, as_printed: bool) -> float:
+    """Eq. 29: Q_large = Q_small b_large / b_small as printed; the text (Q falls as the piezo
+    gets longer) and Table 5 need the inverse ratio b_small / b_large."""
+    _require_positive(b_large_m=b_large_m, b_small_m=b_small_m)
+    ratio = b_large_m / b_small_m if as_printed else b_small_m / b_large_m
+    return q_small * ratio
+
+
+def _require_positive(**values: float) -> None:
+    for name, value in values.items():
+        if not (math.isfinite(value) and value > 0):
+            raise ModelGeometryError(f"{name} must be a finite positive number, got {value!r}")

@@ -1,0 +1,1 @@
+"""Drivers for the bench instruments, their typed errors and the bench description."""

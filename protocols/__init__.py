@@ -1,0 +1,1 @@
+"""The paper's procedures as scripts, the campaign runner and run storage."""

@@ -1,0 +1,1 @@
+"""The simulated bench: scenes, physics, effects and a virtual clock behind PyVISA."""

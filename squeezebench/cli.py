@@ -1,0 +1,112 @@
+"""The `squeezebench` command: check, run, report, reproduce, plan.
+
+Each subcommand is a thin call into the package that does the work; the command line
+only turns user errors into one clear message and an exit status.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from squeezebench import __version__, paths
+from squeezebench.errors import UserError
+
+EXIT_USER_ERROR = 2
+EXIT_INTERRUPTED = 130
+
+
+def _bench_config(bench: str):
+    from instruments.bench import load_bench_file, sim_bench_config
+
+    if bench == "sim":
+        return sim_bench_config(paths.default_scene())
+    return load_bench_file(Path(bench))
+
+
+def cmd_check(args: argparse.Namespace) -> int:
+    from instruments.bench import check_bench
+
+    return check_bench(_bench_config(args.bench), out=print)
+
+
+def cmd_run(args: argparse.Namespace) -> int:
+    from protocols.campaign import run_campaign
+
+    run_dir = run_campaign(Path(args.campaign), resume=args.resume, out_dir=args.out)
+    print(f"run stored in {run_dir}")
+    return 0
+
+
+def cmd_report(args: argparse.Namespace) -> int:
+    from analysis.report import write_report
+
+    index = write_report(Path(args.run_dir))
+    print(f"report written to {index}")
+    return 0
+
+
+def cmd_reproduce(args: argparse.Namespace) -> int:
+    from analysis.report import write_report
+    from protocols.campaign import run_campaign
+
+    run_dir = run_campaign(paths.paper_campaign(), resume=args.resume, out_dir=args.out)
+    index = write_report(run_dir)
+    print(f"run stored in {run_dir}\nreport written to {index}")
+    return 0
+
+
+def cmd_plan(args: argparse.Namespace) -> int:
+    from protocols.planning import plan_campaign
+
+    print(plan_campaign(Path(args.campaign), target_rel_error=args.target_rel_error))
+    return 0
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="squeezebench", description=__doc__)
+    parser.add_argument("--version", action="version", version=f"squeezebench {__version__}")
+    sub = parser.add_subparsers(dest="command", required=True)
+
+    check = sub.add_parser("check", help="open every instrument and print its identification")
+    check.add_argument("--bench", default="sim", help="'sim' or a bench YAML file (default: sim)")
+    check.set_defaults(func=cmd_check)
+
+    run = sub.add_parser("run", help="run a campaign file")
+    run.add_argument("campaign", help="campaign YAML file")
+    run.add_argument("--resume", action="store_true", help="continue after the last completed step")
+    run.add_argument("--out", type=Path, default=None, help="run directory (default: from the campaign)")
+    run.set_defaults(func=cmd_run)
+
+    report = sub.add_parser("report", help="recompute tables and figures from a stored run")
+    report.add_argument("run_dir", help="run directory written by 'squeezebench run'")
+    report.set_defaults(func=cmd_report)
+
+    reproduce = sub.add_parser("reproduce", help="the whole paper on the simulated bench, then the report")
+    reproduce.add_argument("--out", type=Path, default=Path("runs/paper"), help="run directory (default: runs/paper)")
+    reproduce.add_argument("--resume", action="store_true", help="continue an interrupted reproduction")
+    reproduce.set_defaults(func=cmd_reproduce)
+
+    plan = sub.add_parser("plan", help="cheapest acquisition settings meeting an accuracy target")
+    plan.add_argument("campaign", help="campaign YAML file")
+    plan.add_argument("--target-rel-error", type=float, default=0.01, help="relative error goal (default 0.01)")
+    plan.set_defaults(func=cmd_plan)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    try:
+        return args.func(args)
+    except UserError as exc:
+        print(f"squeezebench {args.command}: {exc}", file=sys.stderr)
+        return EXIT_USER_ERROR
+    except KeyboardInterrupt:
+        print(f"squeezebench {args.command}: interrupted; completed steps are stored, "
+              "use --resume to continue", file=sys.stderr)
+        return EXIT_INTERRUPTED
+
+
+if __name__ == "__main__":
+    sys.exit(main())
