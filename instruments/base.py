@@ -1,0 +1,136 @@
+"""The driver base: one instrument of the bench over a PyVISA message-based resource.
+
+A driver knows its role on the bench (`generator`, `scope`, `vibrometer`) and the
+resource's address so every error names both. All traffic goes through `write`,
+`query` and `query_block`, which turn PyVISA's errors into the project's typed errors:
+a VISA timeout becomes `InstrumentTimeout` naming the command, any other VISA failure
+an `InstrumentError` with VISA's own description.
+"""
+
+from __future__ import annotations
+
+from contextlib import contextmanager
+from typing import Any, Iterator
+
+import numpy as np
+from pyvisa import constants
+from pyvisa.errors import VisaIOError
+
+from instruments.errors import GarbledReply, InstrumentConnectionError, InstrumentError, InstrumentTimeout
+from instruments.properties import controls_of
+
+#: Every instrument of the bench ends its messages with LF, both ways.
+TERMINATION = "\n"
+#: VISA timeout of ordinary commands; long operations raise it temporarily.
+DEFAULT_TIMEOUT_S = 2.0
+
+
+class Instrument:
+    """Message-based traffic with typed errors; not tied to SCPI (the OFV-5000 is not).
+
+    A driver defines `identification` and `MODEL`, what the identification must contain
+    for the instrument to be the one the driver is written for.
+    """
+
+    MODEL: str = ""
+
+    def __init__(self, resource: Any, role: str) -> None:
+        self.resource = resource
+        self.role = role
+        self.resource_name = str(getattr(resource, "resource_name", resource))
+        resource.read_termination = TERMINATION
+        resource.write_termination = TERMINATION
+        resource.timeout = DEFAULT_TIMEOUT_S * 1000.0
+
+    # -- what the control descriptors use ---------------------------------------------------
+    @property
+    def property_prefix(self) -> str:
+        return self.role
+
+    @property
+    def command_fields(self) -> dict[str, Any]:
+        return {}
+
+    # -- traffic -------------------------------------------------------------------------------
+    def write(self, command: str) -> None:
+        with self._visa(command):
+            self.resource.write(command)
+
+    def query(self, command: str) -> str:
+        with self._visa(command):
+            return self.resource.query(command).strip()
+
+    def query_block(self, command: str) -> np.ndarray:
+        """An IEEE 488.2 definite-length block of big-endian signed 16-bit samples.
+
+        PyVISA parses the block header; a malformed block is a GarbledReply.
+        """
+        with self._visa(command):
+            try:
+                return self.resource.query_binary_values(command, datatype="h", is_big_endian=True,
+                                                         container=np.array)
+            except ValueError as exc:  # PyVISA's block parser refusing the data
+                raise GarbledReply(self.role, self.resource_name, command, b"<binary block>", str(exc)) from None
+
+    @contextmanager
+    def _visa(self, operation: str) -> Iterator[None]:
+        try:
+            yield
+        except VisaIOError as exc:
+            if exc.error_code == constants.StatusCode.error_timeout:
+                raise InstrumentTimeout(self.role, self.resource_name, operation,
+                                        self.resource.timeout / 1000.0) from None
+            raise InstrumentError(self.role, self.resource_name,
+                                  f"VISA error during {operation!r}: {exc.description}") from None
+
+    @contextmanager
+    def timeout(self, timeout_s: float) -> Iterator[None]:
+        """Raise the VISA timeout for one long operation, then restore it."""
+        previous_ms = self.resource.timeout
+        self.resource.timeout = timeout_s * 1000.0
+        try:
+            yield
+        finally:
+            self.resource.timeout = previous_ms
+
+    def parse_reply(self, command: str, reply: str, parse=float) -> Any:
+        """`parse(reply)`, or GarbledReply naming the command and the reply."""
+        try:
+            return parse(reply)
+        except ValueError as exc:
+            raise GarbledReply(self.role, self.resource_name, command, reply, str(exc)) from None
+
+    # -- common to every driver ----------------------------------------------------------------
+    @property
+    def identification(self) -> str:
+        raise NotImplementedError
+
+    def identify(self) -> str:
+        """The identification, checked to be a `MODEL` (another instrument at the address
+        is a connection error, not something to send commands to)."""
+        identification = self.identification
+        if not identification:
+            raise InstrumentConnectionError(self.role, self.resource_name, "no answer to the identification query")
+        if self.MODEL not in identification:
+            raise InstrumentConnectionError(self.role, self.resource_name,
+                                            f"it answers {identification!r}, which is not a {self.MODEL}")
+        return identification
+
+    def settings_snapshot(self) -> dict[str, Any]:
+        """Every readable setting, queried now (provenance of a run)."""
+        return {name: getattr(self, name) for name in controls_of(type(self))}
+
+
+class SCPIInstrument(Instrument):
+    """An IEEE 488.2 instrument: `*IDN?`, `*RST`, `*CLS`."""
+
+    @property
+    def identification(self) -> str:
+        return self.query("*IDN?")
+
+    def reset(self) -> None:
+        self.write("*RST")
+
+    def clear_status(self) -> None:
+        """Empty the error/event queue and the status registers."""
+        self.write("*CLS")

@@ -1,0 +1,387 @@
+"""The bench: its description (file or scene), opening it, checking it.
+
+This is the one place that knows whether the bench is simulated. `open_bench` builds a
+PyVISA ResourceManager over the library the configuration names:
+
+- `"<scene.yaml>@simbench"`: simbench's simulated bench; the clock and the operator come
+  from it (a request for a plate state switches the scene, no prompt);
+- `"<definitions.yaml>@sim"`: plain pyvisa-sim (static answers; driver tests), with wall
+  time and an operator that only records what it is asked;
+- anything else (`""`, `"@py"`, a VISA library path): the real bench, with wall time and
+  an operator prompted on the terminal.
+
+The drivers never know which: they only see a PyVISA resource.
+
+The amplifier (gain 20) and the current probe have no remote interface: `BenchElectronics`
+holds what they do, and every conversion between generator and piezo voltage goes
+through it.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+import uuid
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Callable, Mapping
+
+import pyvisa
+import yaml
+from pyvisa.errors import VisaIOError
+
+from instruments.agilent33120a import Agilent33120A
+from instruments.base import Instrument
+from instruments.errors import BenchFileError, InstrumentConnectionError, InstrumentError, InstrumentTimeout
+from instruments.ofv5000 import OFV5000
+from instruments.tds3054b import TDS3054B
+
+ROLES = ("generator", "scope", "vibrometer")
+DRIVERS: dict[str, type[Instrument]] = {"generator": Agilent33120A, "scope": TDS3054B, "vibrometer": OFV5000}
+#: Addresses of the simulated bench (simbench/definitions/bench.yaml).
+SIM_RESOURCES = {"generator": "GPIB0::10::INSTR", "scope": "TCPIP0::192.168.0.20::INSTR",
+                 "vibrometer": "ASRL1::INSTR"}
+SIMBENCH = "@simbench"
+PLAIN_SIM = "@sim"
+GENERATOR_LOADS = ("50", "INF")
+
+
+@dataclass(frozen=True)
+class BenchElectronics:
+    """What is between and around the remote-controlled instruments."""
+
+    amplifier_gain: float = 20.0               # NF HSA 4052 as used in the paper
+    amplifier_max_output_vpp: float = 300.0    # +-150 V swing (bench value, not the paper's)
+    shunt_ohm: float = 2.0
+    voltage_probe_attenuation: float = 100.0   # 100:1 probe on CH1
+    current_probe_a_per_a: float = 1.0         # TCP202 on CH2, read in amperes
+    generator_load: str = "INF"                # the amplifier input is high impedance
+
+    def __post_init__(self) -> None:
+        for f in dataclasses.fields(self):
+            value = getattr(self, f.name)
+            if f.name == "generator_load":
+                if value not in GENERATOR_LOADS:
+                    raise ValueError(f"generator_load must be one of {', '.join(GENERATOR_LOADS)}, got {value!r}")
+            elif isinstance(value, bool) or not isinstance(value, (int, float)) or not 0 < value < float("inf"):
+                raise ValueError(f"{f.name} must be a positive number, got {value!r}")
+
+    @property
+    def voltage_probe_gain(self) -> float:
+        """CH1's probe gain (output/input) for the voltage probe."""
+        return 1.0 / self.voltage_probe_attenuation
+
+    def piezo_vpp_for_generator_vpp(self, generator_vpp: float) -> float:
+        return self.amplifier_gain * generator_vpp
+
+    def generator_vpp_for_piezo_vpp(self, piezo_vpp: float) -> float:
+        return piezo_vpp / self.amplifier_gain
+
+
+@dataclass(frozen=True)
+class BenchConfig:
+    """Which VISA library, which address for each role, which electronics."""
+
+    visa_library: str
+    resources: Mapping[str, str]
+    electronics: BenchElectronics = field(default_factory=BenchElectronics)
+    source: str | None = None   # the file it was read from, for messages
+
+
+# -- bench files ------------------------------------------------------------------------------------
+_BENCH_FIELDS = ("visa_library", "resources", "electronics")
+_ELECTRONICS_FIELDS = tuple(f.name for f in dataclasses.fields(BenchElectronics))
+
+
+def _read_yaml(path: Path) -> Any:
+    try:
+        text = path.read_text(encoding="utf-8")
+    except OSError as exc:
+        raise BenchFileError(path, "file", f"cannot be read ({exc.strerror or exc})") from None
+    try:
+        return yaml.safe_load(text)
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None)
+        where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark is not None else ""
+        raise BenchFileError(path, "YAML", f"not valid YAML{where}: {getattr(exc, 'problem', exc)}") from None
+
+
+def _electronics(path: Path, section: Any, field_prefix: str, strict: bool) -> BenchElectronics:
+    """BenchElectronics from a mapping; `strict` refuses keys it does not know (a bench
+    file), otherwise they are left to whoever reads them (a scene)."""
+    if section is None:
+        return BenchElectronics()
+    if not isinstance(section, dict):
+        raise BenchFileError(path, field_prefix, f"must be a mapping of {', '.join(_ELECTRONICS_FIELDS)}")
+    values = {}
+    for key, value in section.items():
+        if key not in _ELECTRONICS_FIELDS:
+            if strict:
+                raise BenchFileError(path, f"{field_prefix}.{key}",
+                                     f"unknown field (allowed: {', '.join(_ELECTRONICS_FIELDS)})")
+            continue
+        if key == "generator_load":
+            value = str(value).upper()
+            if value not in GENERATOR_LOADS:
+                raise BenchFileError(path, f"{field_prefix}.{key}",
+                                     f"{section[key]!r} is not allowed (allowed: {', '.join(GENERATOR_LOADS)})")
+        elif isinstance(value, bool) or not isinstance(value, (int, float)) or not 0 < value < float("inf"):
+            raise BenchFileError(path, f"{field_prefix}.{key}",
+                                 f"{value!r} is not allowed (allowed: a positive number)")
+        values[key] = float(value) if key != "generator_load" else value
+    return BenchElectronics(**values)
+
+
+def load_bench_file(path: str | Path) -> BenchConfig:
+    """A real bench from YAML:
+
+        visa_library: "@py"          # "" for the system VISA library
+        resources: {generator: GPIB0::10::INSTR, scope: TCPIP0::192.168.0.20::INSTR,
+                    vibrometer: ASRL1::INSTR}
+        electronics: {amplifier_gain: 20, ...}    # optional; defaults of BenchElectronics
+
+    Anything wrong is a BenchFileError naming the file, the field and what is allowed.
+    """
+    path = Path(path)
+    data = _read_yaml(path)
+    if not isinstance(data, dict):
+        raise BenchFileError(path, "top level", f"must be a mapping with {', '.join(_BENCH_FIELDS)}")
+    for key in data:
+        if key not in _BENCH_FIELDS:
+            raise BenchFileError(path, str(key), f"unknown field (allowed: {', '.join(_BENCH_FIELDS)})")
+    library = data.get("visa_library", "")
+    if library is None:
+        library = ""
+    if not isinstance(library, str):
+        raise BenchFileError(path, "visa_library", f"{library!r} is not allowed (allowed: a string such as "
+                                                   "\"@py\", or \"\" for the system VISA library)")
+    resources = data.get("resources")
+    if not isinstance(resources, dict):
+        raise BenchFileError(path, "resources", f"must be a mapping of {', '.join(ROLES)} to VISA addresses")
+    for role in resources:
+        if role not in ROLES:
+            raise BenchFileError(path, f"resources.{role}", f"unknown role (allowed: {', '.join(ROLES)})")
+    for role in ROLES:
+        address = resources.get(role)
+        if not isinstance(address, str) or not address.strip():
+            raise BenchFileError(path, f"resources.{role}",
+                                 f"missing or not a VISA address (e.g. {SIM_RESOURCES[role]})")
+    return BenchConfig(visa_library=library, resources={role: resources[role].strip() for role in ROLES},
+                       electronics=_electronics(path, data.get("electronics"), "electronics", strict=True),
+                       source=str(path))
+
+
+def sim_bench_config(scene_path: str | Path) -> BenchConfig:
+    """The simulated bench of a scene: its `electronics:` section, the default addresses."""
+    path = Path(scene_path)
+    scene = _read_yaml(path)
+    if not isinstance(scene, dict):
+        raise BenchFileError(path, "top level", "must be a mapping (a scene file)")
+    return BenchConfig(visa_library=f"{path}{SIMBENCH}", resources=dict(SIM_RESOURCES),
+                       electronics=_electronics(path, scene.get("electronics"), "electronics", strict=False),
+                       source=str(path))
+
+
+# -- clock and operator -----------------------------------------------------------------------------
+class WallClock:
+    """Bench time is wall time (seconds since the bench was opened)."""
+
+    def __init__(self) -> None:
+        self._start = time.monotonic()
+
+    def now_s(self) -> float:
+        return time.monotonic() - self._start
+
+    def sleep(self, seconds: float) -> None:
+        time.sleep(max(0.0, float(seconds)))
+
+
+class TerminalOperator:
+    """A person at the bench: prints what to do and waits for Enter."""
+
+    def __init__(self, out: Callable[[str], None] = print, wait: Callable[[str], Any] = input) -> None:
+        self._out = out
+        self._wait = wait
+
+    def request(self, instruction: str, state: str | None = None) -> None:
+        self._out(instruction if state is None else f"{instruction} (plate state: {state})")
+        self._wait("Press Enter when done. ")
+
+    def mount(self, scene_or_plate: str | Path) -> None:
+        self.request(f"Mount plate {Path(str(scene_or_plate)).stem} on the bench.")
+
+
+class SimulatedOperator:
+    """The simulated bench does what is asked at once: switch the plate state, mount a scene."""
+
+    def __init__(self, simulated_bench: Any) -> None:
+        self._bench = simulated_bench
+
+    def request(self, instruction: str, state: str | None = None) -> None:
+        if state is not None:
+            self._bench.set_state(state)
+
+    def mount(self, scene_or_plate: str | Path) -> None:
+        self._bench.mount(scene_or_plate)
+
+
+class NullOperator:
+    """No plate behind the instruments (plain pyvisa-sim): remembers what it was asked."""
+
+    def __init__(self) -> None:
+        self.requests: list[tuple[str, str | None]] = []
+
+    def request(self, instruction: str, state: str | None = None) -> None:
+        self.requests.append((instruction, state))
+
+    def mount(self, scene_or_plate: str | Path) -> None:
+        self.requests.append((f"mount {scene_or_plate}", None))
+
+
+# -- opening ---------------------------------------------------------------------------------------
+class Bench:
+    """The opened bench; close it (or use it as a context manager) to release the instruments."""
+
+    def __init__(self, config: BenchConfig, resource_manager: pyvisa.ResourceManager,
+                 drivers: dict[str, Instrument], clock: Any, operator: Any) -> None:
+        self.config = config
+        self.electronics = config.electronics
+        self.generator: Agilent33120A = drivers["generator"]
+        self.scope: TDS3054B = drivers["scope"]
+        self.vibrometer: OFV5000 = drivers["vibrometer"]
+        self.drivers = drivers
+        self.clock = clock
+        self.operator = operator
+        self.resource_manager = resource_manager
+
+    def identify(self) -> dict[str, str]:
+        return {role: driver.identification for role, driver in self.drivers.items()}
+
+    def settings_snapshot(self) -> dict[str, dict[str, Any]]:
+        return {role: driver.settings_snapshot() for role, driver in self.drivers.items()}
+
+    def close(self) -> None:
+        self.resource_manager.close()
+
+    def __enter__(self) -> Bench:
+        return self
+
+    def __exit__(self, *exc_info: Any) -> None:
+        self.close()
+
+
+def _library_path(visa_library: str) -> str:
+    """A simulated bench gets a unique path: PyVISA keeps one library per path, and each
+    bench must start from its scene, not from another bench's state."""
+    if visa_library.endswith(SIMBENCH):
+        return f"{visa_library[:-len(SIMBENCH)]}#{uuid.uuid4().hex}{SIMBENCH}"
+    return visa_library
+
+
+def _resource_manager(library: str) -> pyvisa.ResourceManager:
+    try:
+        return pyvisa.ResourceManager(library)
+    except (OSError, ValueError, VisaIOError) as exc:
+        raise InstrumentConnectionError("bench", library or "(system VISA library)",
+                                        f"cannot load the VISA library: {exc}") from None
+
+
+def _open_role(resource_manager: pyvisa.ResourceManager, role: str, address: str) -> Instrument:
+    """The role's driver, connected and identified, or InstrumentConnectionError."""
+    try:
+        resource = resource_manager.open_resource(address)
+    except (VisaIOError, ValueError) as exc:
+        reason = exc.description if isinstance(exc, VisaIOError) else str(exc)
+        raise InstrumentConnectionError(role, address, f"no instrument at this address ({reason})") from None
+    try:
+        driver = DRIVERS[role](resource, role)
+        driver.identify()
+        return driver
+    except InstrumentConnectionError as exc:
+        resource.close()
+        raise InstrumentConnectionError(role, address, exc.reason) from None
+    except InstrumentTimeout as exc:
+        resource.close()
+        raise InstrumentConnectionError(role, address, f"no answer to {exc.operation}") from None
+    except InstrumentError as exc:
+        resource.close()
+        raise InstrumentConnectionError(role, address, exc.message) from None
+
+
+def open_bench(config: BenchConfig) -> Bench:
+    """Open every instrument of `config`; InstrumentConnectionError names the first role
+    that does not answer (nothing stays open then)."""
+    library = _library_path(config.visa_library)
+    resource_manager = _resource_manager(library)
+    try:
+        drivers = {role: _open_role(resource_manager, role, config.resources[role]) for role in ROLES}
+        # The load setting belongs to what the generator drives (the amplifier input), not
+        # to a protocol: with the wrong one every programmed amplitude is off by two.
+        drivers["generator"].output_load = config.electronics.generator_load
+        if library.endswith(SIMBENCH):
+            simulated = resource_manager.visalib.bench
+            clock, operator = simulated.clock, SimulatedOperator(simulated)
+        elif library.endswith(PLAIN_SIM):
+            clock, operator = WallClock(), NullOperator()
+        else:
+            clock, operator = WallClock(), TerminalOperator()
+    except BaseException:
+        resource_manager.close()
+        raise
+    return Bench(config, resource_manager, drivers, clock, operator)
+
+
+# -- checking ---------------------------------------------------------------------------------------
+#: What `check_bench` shows of each instrument.
+MAIN_SETTINGS = {
+    "generator": ("shape", "frequency_hz", "amplitude_vpp", "offset_v", "output_load"),
+    "scope": ("horizontal_scale_s_per_div", "record_length", "acquire_mode", "num_averages"),
+    "vibrometer": ("velocity_range", "low_pass_filter"),
+}
+
+
+def _settings_lines(role: str, driver: Instrument) -> list[str]:
+    lines = [f"    {name} = {getattr(driver, name)!r}" for name in MAIN_SETTINGS[role]]
+    if isinstance(driver, TDS3054B):
+        for number in (1, 2, 3, 4):
+            ch = driver.channel(number)
+            lines.append(f"    ch{number}: probe_gain = {ch.probe_gain!r}, "
+                         f"scale_v_per_div = {ch.scale_v_per_div!r}, coupling = {ch.coupling!r}")
+    return lines
+
+
+def check_bench(config: BenchConfig, out: Callable[[str], None] = print) -> int:
+    """Open every instrument and print its role, address, identification and main
+    settings. Returns 0, or 1 after naming each role and address that did not answer."""
+    library = _library_path(config.visa_library)
+    out(f"VISA library: {config.visa_library or '(system default)'}")
+    try:
+        resource_manager = _resource_manager(library)
+    except InstrumentConnectionError as exc:
+        out(str(exc))
+        return 1
+    failed = []
+    try:
+        for role in ROLES:
+            address = config.resources[role]
+            try:
+                driver = _open_role(resource_manager, role, address)
+                lines = [f"{role} at {address}: {driver.identification}", *_settings_lines(role, driver)]
+            except InstrumentError as exc:
+                failed.append(role)
+                out(f"{role} at {address} did not answer as expected: {exc.message}")
+                continue
+            for line in lines:
+                out(line)
+    finally:
+        resource_manager.close()
+    e = config.electronics
+    out(f"electronics (not remote-controlled): amplifier gain {e.amplifier_gain:g} "
+        f"(max {e.amplifier_max_output_vpp:g} Vpp out), voltage probe {e.voltage_probe_attenuation:g}:1, "
+        f"current probe {e.current_probe_a_per_a:g} A/A, shunt {e.shunt_ohm:g} ohm, "
+        f"generator load setting {e.generator_load}")
+    if failed:
+        out(f"bench check FAILED: {', '.join(failed)} did not answer")
+        return 1
+    out("bench check passed")
+    return 0

@@ -1,0 +1,217 @@
+"""Bench description, opening and checking, on plain pyvisa-sim and on simbench."""
+
+from __future__ import annotations
+
+import shutil
+from pathlib import Path
+
+import pytest
+import yaml
+
+from instruments.agilent33120a import Agilent33120A
+from instruments.bench import (SIM_RESOURCES, Bench, BenchConfig, BenchElectronics, NullOperator,
+                               SimulatedOperator, TerminalOperator, WallClock, check_bench, load_bench_file,
+                               open_bench, sim_bench_config)
+from instruments.errors import BenchFileError, InstrumentConnectionError
+from instruments.ofv5000 import OFV5000
+from instruments.tds3054b import TDS3054B
+from squeezebench.errors import UserError
+
+ROOT = Path(__file__).resolve().parents[1]
+DEFINITIONS = ROOT / "simbench" / "definitions"
+SCENE = ROOT / "data" / "scenes" / "one_column_1mm.yaml"
+
+
+@pytest.fixture
+def sim_library(tmp_path) -> str:
+    """A plain pyvisa-sim bench of its own (PyVISA keeps one library per path)."""
+    for path in DEFINITIONS.glob("*.yaml"):
+        shutil.copy(path, tmp_path)
+    return f"{tmp_path / 'bench.yaml'}@sim"
+
+
+def write_yaml(tmp_path: Path, data, name: str = "bench.yaml") -> Path:
+    path = tmp_path / name
+    path.write_text(data if isinstance(data, str) else yaml.safe_dump(data))
+    return path
+
+
+GOOD_BENCH = {"visa_library": "@py", "resources": dict(SIM_RESOURCES),
+              "electronics": {"amplifier_gain": 20, "amplifier_max_output_vpp": 240, "generator_load": "INF"}}
+
+
+# -- electronics ----------------------------------------------------------------------------------
+def test_electronics_conversions():
+    electronics = BenchElectronics(amplifier_gain=20.0)
+    assert electronics.piezo_vpp_for_generator_vpp(2.5) == 50.0
+    assert electronics.generator_vpp_for_piezo_vpp(100.0) == 5.0
+    assert electronics.voltage_probe_gain == 0.01
+
+
+@pytest.mark.parametrize("changes", [{"amplifier_gain": 0}, {"shunt_ohm": -2.0}, {"generator_load": "75"},
+                                     {"current_probe_a_per_a": True}])
+def test_electronics_refuses_nonsense(changes):
+    with pytest.raises(ValueError):
+        BenchElectronics(**changes)
+
+
+# -- bench files ----------------------------------------------------------------------------------
+def test_load_bench_file(tmp_path):
+    config = load_bench_file(write_yaml(tmp_path, GOOD_BENCH))
+    assert config.visa_library == "@py"
+    assert config.resources == SIM_RESOURCES
+    assert config.electronics == BenchElectronics(amplifier_max_output_vpp=240.0)
+    assert config.source == str(tmp_path / "bench.yaml")
+
+
+@pytest.mark.parametrize("content, field, allowed", [
+    ("resources: [unclosed", "YAML", "not valid YAML at line 1"),
+    ("- just\n- a list\n", "top level", "visa_library, resources, electronics"),
+    ({**GOOD_BENCH, "amplifier": 20}, "amplifier", "visa_library, resources, electronics"),
+    ({**GOOD_BENCH, "visa_library": 3}, "visa_library", "\"@py\""),
+    ({**GOOD_BENCH, "resources": {"generator": "GPIB0::10::INSTR", "scope": "TCPIP0::1.2.3.4::INSTR"}},
+     "resources.vibrometer", "e.g. ASRL1::INSTR"),
+    ({**GOOD_BENCH, "resources": {**SIM_RESOURCES, "amplifier": "GPIB0::5::INSTR"}},
+     "resources.amplifier", "generator, scope, vibrometer"),
+    ({**GOOD_BENCH, "electronics": {"amplifier_gain": "twenty"}}, "electronics.amplifier_gain",
+     "a positive number"),
+    ({**GOOD_BENCH, "electronics": {"generator_load": 75}}, "electronics.generator_load", "50, INF"),
+    ({**GOOD_BENCH, "electronics": {"gain": 20}}, "electronics.gain", "amplifier_gain, amplifier_max_output_vpp"),
+])
+def test_bench_file_errors_name_file_field_and_allowed_values(tmp_path, content, field, allowed):
+    path = write_yaml(tmp_path, content)
+    with pytest.raises(BenchFileError) as info:
+        load_bench_file(path)
+    message = str(info.value)
+    assert message.startswith(str(path)) and f": {field}:" in message and allowed in message
+    assert isinstance(info.value, UserError)
+
+
+def test_missing_bench_file(tmp_path):
+    with pytest.raises(BenchFileError, match=r"nowhere.yaml: file: cannot be read"):
+        load_bench_file(tmp_path / "nowhere.yaml")
+
+
+def test_sim_bench_config_reads_the_scene_electronics(tmp_path):
+    scene = write_yaml(tmp_path, {"plate": {"name": "p"}, "electronics": {
+        "amplifier_gain": 10, "shunt_ohm": 1.5, "amplifier_input_ohm": 10000}}, "scene.yaml")
+    config = sim_bench_config(scene)
+    assert config.visa_library == f"{scene}@simbench"
+    assert config.resources == SIM_RESOURCES
+    # keys it names are read, the others keep their defaults, simbench's own are ignored
+    assert config.electronics == BenchElectronics(amplifier_gain=10.0, shunt_ohm=1.5)
+
+
+def test_sim_bench_config_errors(tmp_path):
+    scene = write_yaml(tmp_path, {"electronics": {"voltage_probe_attenuation": -100}}, "scene.yaml")
+    with pytest.raises(BenchFileError, match=r"scene.yaml: electronics.voltage_probe_attenuation: .*positive"):
+        sim_bench_config(scene)
+    with pytest.raises(BenchFileError, match="file: cannot be read"):
+        sim_bench_config(tmp_path / "missing.yaml")
+
+
+# -- opening --------------------------------------------------------------------------------------
+def test_open_bench_on_plain_pyvisa_sim(sim_library):
+    config = BenchConfig(sim_library, dict(SIM_RESOURCES))
+    with open_bench(config) as bench:
+        assert isinstance(bench, Bench)
+        assert (type(bench.generator), type(bench.scope), type(bench.vibrometer)) == \
+            (Agilent33120A, TDS3054B, OFV5000)
+        assert isinstance(bench.clock, WallClock) and isinstance(bench.operator, NullOperator)
+        assert bench.electronics is config.electronics
+        assert bench.generator.output_load == "INF"      # what the amplifier input needs
+        identifications = bench.identify()
+        assert "33120A" in identifications["generator"] and "TDS 3054" in identifications["scope"]
+        assert identifications["vibrometer"] == "OFV-5000"
+        snapshot = bench.settings_snapshot()
+        assert snapshot["generator"]["output_load"] == "INF" and snapshot["scope"]["ch1"]["coupling"] == "DC"
+        bench.operator.request("Cut the plate to 59 mm", state="59x41")
+        assert bench.operator.requests == [("Cut the plate to 59 mm", "59x41")]
+        resource = bench.generator.resource
+    with pytest.raises(Exception):   # closed with the bench
+        resource.query("*IDN?")
+
+
+# pyvisa-sim opens an unknown address without complaint (a VISA library refuses it) and
+# then reads nothing from it: the identification is empty.
+@pytest.mark.filterwarnings("ignore:read string doesn't end with termination characters")
+def test_open_bench_names_the_role_that_does_not_answer(sim_library):
+    config = BenchConfig(sim_library, {**SIM_RESOURCES, "scope": "TCPIP0::192.168.0.99::INSTR"})
+    with pytest.raises(InstrumentConnectionError) as info:
+        open_bench(config)
+    assert info.value.role == "scope" and info.value.resource == "TCPIP0::192.168.0.99::INSTR"
+    assert "scope (TCPIP0::192.168.0.99::INSTR)" in str(info.value)
+    assert isinstance(info.value, UserError)
+
+
+def test_open_bench_refuses_another_instrument_at_an_address(sim_library, monkeypatch):
+    monkeypatch.setattr("instruments.base.DEFAULT_TIMEOUT_S", 0.1)   # the OFV-5000 will not answer *IDN?
+    config = BenchConfig(sim_library, {**SIM_RESOURCES, "generator": SIM_RESOURCES["scope"]})
+    with pytest.raises(InstrumentConnectionError,
+                       match=r"generator \(TCPIP0::192.168.0.20::INSTR\).*'TEKTRONIX,TDS 3054B.*not a 33120A"):
+        open_bench(config)
+    config = BenchConfig(sim_library, {**SIM_RESOURCES, "generator": SIM_RESOURCES["vibrometer"]})
+    with pytest.raises(InstrumentConnectionError, match=r"generator \(ASRL1::INSTR\).*no answer to \*IDN\?"):
+        open_bench(config)   # the OFV-5000 does not speak SCPI
+
+
+def test_unloadable_visa_library(tmp_path):
+    with pytest.raises(InstrumentConnectionError, match="cannot load the VISA library"):
+        open_bench(BenchConfig(f"{tmp_path / 'missing.yaml'}@sim", dict(SIM_RESOURCES)))
+
+
+# -- checking -------------------------------------------------------------------------------------
+def test_check_bench_on_plain_pyvisa_sim(sim_library):
+    lines: list[str] = []
+    assert check_bench(BenchConfig(sim_library, dict(SIM_RESOURCES)), out=lines.append) == 0
+    text = "\n".join(lines)
+    assert "generator at GPIB0::10::INSTR: HEWLETT-PACKARD,33120A" in text
+    assert "scope at TCPIP0::192.168.0.20::INSTR: TEKTRONIX,TDS 3054B" in text
+    assert "vibrometer at ASRL1::INSTR: OFV-5000" in text
+    assert "frequency_hz = 1000.0" in text and "velocity_range = '1000mm/s/V'" in text
+    assert text.endswith("bench check passed")
+
+
+@pytest.mark.filterwarnings("ignore:read string doesn't end with termination characters")
+def test_check_bench_with_a_missing_address(sim_library):
+    lines: list[str] = []
+    config = BenchConfig(sim_library, {**SIM_RESOURCES, "vibrometer": "ASRL7::INSTR"})
+    assert check_bench(config, out=lines.append) == 1
+    text = "\n".join(lines)
+    assert "vibrometer at ASRL7::INSTR did not answer as expected" in text
+    assert "generator at GPIB0::10::INSTR: HEWLETT-PACKARD,33120A" in text   # the others are still shown
+    assert text.endswith("bench check FAILED: vibrometer did not answer")
+
+
+# -- operators ------------------------------------------------------------------------------------
+def test_terminal_operator_prompts_and_waits():
+    shown, prompts = [], []
+    operator = TerminalOperator(out=shown.append, wait=prompts.append)
+    operator.request("Cut the plate to 59 mm", state="59x41")
+    operator.mount("data/scenes/small_plate_2.yaml")
+    assert shown == ["Cut the plate to 59 mm (plate state: 59x41)", "Mount plate small_plate_2 on the bench."]
+    assert len(prompts) == 2
+
+
+def test_wall_clock():
+    clock = WallClock()
+    start = clock.now_s()
+    clock.sleep(0.01)
+    assert clock.now_s() - start >= 0.01
+
+
+# -- the simulated bench ----------------------------------------------------------------------------
+def test_open_bench_on_simbench_uses_its_clock_and_operator():
+    pytest.importorskip("simbench.backend")
+    config = sim_bench_config(SCENE)
+    with open_bench(config) as first, open_bench(config) as second:
+        simulated = first.resource_manager.visalib.bench
+        assert first.clock is simulated.clock and isinstance(first.operator, SimulatedOperator)
+        start_s = first.clock.now_s()
+        first.clock.sleep(3600.0)                          # bench time, not wall time
+        assert first.clock.now_s() - start_s == pytest.approx(3600.0)
+        assert second.clock.now_s() < 3600.0              # each bench is its own
+        first.operator.request("Cut the plate to 59 mm", state="59x41")
+        assert simulated.state_name == "59x41"
+        first.generator.frequency_hz = 37000.0
+        assert second.generator.frequency_hz != 37000.0
