@@ -1,0 +1,469 @@
+"""Opt-in departures from the ideal bench, each named in a scene's `effects:` list.
+
+An effect is a small object with default parameters (a scene may override any) that
+acts at one or more stages of the simulation:
+
+- `amplifier`: reshapes the amplifier model (limits);
+- `load`: reshapes the plate as the amplifier sees it (shunt, losses, modes, heat);
+- `motion`: reshapes the modal velocities over an acquisition (ring-up after a change);
+- `signals`: edits the noise-free sensor outputs (offsets, vibrometer clipping);
+- `noise`: adds per-acquisition random noise, as an rms in screen divisions;
+- `digitizer`: sets how the scope digitises (quantisation, averaging).
+
+`EffectPipeline` keeps, per stage, only the effects acting there, chosen once when the
+scene is loaded: an effect that is off is never called, and the ideal bench runs none.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+from typing import ClassVar
+
+import numpy as np
+
+from simbench import physics
+
+#: Screen channels: CH1 piezo voltage (V), CH2 current (A), CH3 vibrometer output (V).
+CHANNELS = ("CH1", "CH2", "CH3")
+VIBROMETER_CHANNEL = 2  # index of CH3 in CHANNELS
+
+
+@dataclass
+class AcquisitionContext:
+    """What the stages need to know about one acquisition."""
+
+    record_times_s: np.ndarray  # sample times from the trigger (s)
+    start_s: float  # bench time when the first averaged acquisition starts
+    acquisition_period_s: float  # from one averaged acquisition to the next
+    averages: int  # 1 in sample mode
+    scale_per_div: np.ndarray  # channel units per division, per channel
+    display_gain: np.ndarray  # channel units per physical unit (probe settings)
+    vibrometer_range_mps_per_v: float
+
+
+class Effect:
+    """Base of all effects: a name, default parameters and the stages it acts at."""
+
+    name: ClassVar[str]
+    defaults: ClassVar[dict[str, float]] = {}
+    stages: ClassVar[frozenset[str]] = frozenset()
+
+    def __init__(self, scene, **parameters: float) -> None:
+        self.scene = scene
+        self.parameters = {**self.defaults, **parameters}
+
+    def attach(self, bench) -> None:
+        """Called once when a simulated bench starts using this effect."""
+
+    def detach(self, bench) -> None:
+        """Called when the bench swaps the scene (mount) or closes."""
+
+    def state_key(self):
+        """What of the effect's own state the steady state depends on (None: nothing)."""
+        return None
+
+
+class Shunt(Effect):
+    """The 2-ohm current shunt in series with the plate (Sec. 2.1). CH1 probes the
+    amplifier output, so the power the scope computes includes the shunt's loss."""
+
+    name = "shunt"
+    stages = frozenset({"load"})
+
+    def load(self, load: physics.PlateLoad) -> physics.PlateLoad:
+        return replace(load, series_ohm=self.scene.electronics.shunt_ohm)
+
+
+class DielectricLossEffect(Effect):
+    """C0 loses tan(delta) growing with the field (Rayleigh hysteresis).
+
+    Default calibrated on the paper's Fig. 2c stress case (Sec. 2.2): on the 1-column
+    plate (4 piezos 5 x 9 x 0.5 mm, C0 = 4.30 nF with eps_r 1350) the power at the same
+    velocity rose from 100 mW to 120 mW when 240 Vpp at 37560 Hz replaced 37.6 Vpp at
+    37180 Hz. The 20 mW are 0.5 V^2 w C0 tan(delta) at 120 V amplitude: tan(delta) =
+    0.002735 at 240 V/mm, i.e. 120 V amplitude across 0.5 mm.
+    """
+
+    name = "dielectric_loss"
+    defaults = {"tan_delta_at_reference": 0.002735, "reference_field_amplitude_v_per_mm": 240.0,
+                "exponent": 1.0}
+    stages = frozenset({"load"})
+
+    def load(self, load: physics.PlateLoad) -> physics.PlateLoad:
+        p = self.parameters
+        return replace(load, dielectric=physics.DielectricLoss(
+            tan_delta_at_reference=p["tan_delta_at_reference"],
+            reference_field_amplitude_v_per_m=p["reference_field_amplitude_v_per_mm"] * 1e3,
+            exponent=p["exponent"],
+            piezo_thickness_m=self.scene.actuators.piezo.thickness_mm * 1e-3))
+
+
+class AmplifierLimits(Effect):
+    """The amplifier's output swing (clipping) and first-order bandwidth, from the
+    scene's `electronics`."""
+
+    name = "amplifier_limits"
+    stages = frozenset({"amplifier"})
+
+    def amplifier(self, amplifier: physics.Amplifier) -> physics.Amplifier:
+        e = self.scene.electronics
+        return replace(amplifier, bandwidth_hz=e.amplifier_bandwidth_hz,
+                        max_output_vpp=e.amplifier_max_output_vpp)
+
+
+class NeighbouringMode(Effect):
+    """A second vibration mode near the working one: another motional branch.
+
+    Its frequency, sharpness, drive and loss are ratios to the working mode's, and
+    `visibility` is how much of its modal velocity the vibrometer sees at the point.
+    """
+
+    name = "neighbouring_mode"
+    defaults = {"frequency_ratio": 1.02, "q_mech_ratio": 1.0, "force_factor_ratio": 0.5,
+                "resistance_ratio": 1.0, "visibility": 0.3}
+    stages = frozenset({"load"})
+
+    def load(self, load: physics.PlateLoad) -> physics.PlateLoad:
+        p, main = self.parameters, load.branches[0]
+        neighbour = physics.MotionalBranch(
+            frequency_hz=main.frequency_hz * p["frequency_ratio"],
+            q_mech=main.q_mech * p["q_mech_ratio"],
+            force_factor_n_per_v=main.force_factor_n_per_v * p["force_factor_ratio"],
+            resistance_ns_per_m=main.resistance_ns_per_m * p["resistance_ratio"],
+            visibility=p["visibility"])
+        return replace(load, branches=(*load.branches, neighbour))
+
+
+class HeatingDrift(Effect):
+    """The plate warms with the power it dissipates and its resonance falls.
+
+    First-order thermal model dT/dt = (P R_th - dT) / tau_th, advanced with the bench
+    clock (power piecewise constant between clock advances). Assumed: free convection
+    from both faces, h = 10 W/m2K (the plate lies on a cushion); aluminium specific heat
+    900 J/kgK and Table 2's density 2790 kg/m3; frequency coefficient -2e-4 per kelvin
+    (the Young's modulus of aluminium falls about 4e-4/K, f scales with its square root).
+    """
+
+    name = "heating_drift"
+    defaults = {"frequency_coefficient_per_k": -2e-4, "convection_w_per_m2_k": 10.0,
+                "specific_heat_j_per_kg_k": 900.0, "density_kg_m3": 2790.0}
+    stages = frozenset({"load"})
+
+    def __init__(self, scene, **parameters: float) -> None:
+        super().__init__(scene, **parameters)
+        p, plate = self.parameters, scene.plate
+        area_m2 = 2.0 * plate.length_mm * plate.width_mm * 1e-6
+        mass_kg = p["density_kg_m3"] * plate.length_mm * plate.width_mm * plate.thickness_mm * 1e-9
+        self.thermal_resistance_k_per_w = 1.0 / (p["convection_w_per_m2_k"] * area_m2)
+        self.time_constant_s = self.thermal_resistance_k_per_w * mass_kg * p["specific_heat_j_per_kg_k"]
+        self.temperature_rise_k = 0.0
+        self._plate_power_w = None
+
+    def load(self, load: physics.PlateLoad) -> physics.PlateLoad:
+        factor = 1.0 + self.parameters["frequency_coefficient_per_k"] * self.temperature_rise_k
+        return load.with_branch_frequencies_scaled(factor)
+
+    def attach(self, bench) -> None:
+        self._plate_power_w = bench.plate_power_w
+        bench.clock.subscribe(self._advance)
+
+    def detach(self, bench) -> None:
+        bench.clock.unsubscribe(self._advance)
+
+    def state_key(self) -> float:
+        return self.temperature_rise_k
+
+    def _advance(self, start_s: float, duration_s: float) -> None:
+        # Sub-steps of a tenth of tau keep the power (which depends on the temperature
+        # through the detuning) nearly constant within each step.
+        steps = max(1, math.ceil(10.0 * duration_s / self.time_constant_s))
+        decay = math.exp(-duration_s / steps / self.time_constant_s)
+        for _ in range(steps):
+            final_k = self._plate_power_w() * self.thermal_resistance_k_per_w
+            self.temperature_rise_k = final_k + (self.temperature_rise_k - final_k) * decay
+
+
+class SettlingTransient(Effect):
+    """After a drive change the vibration approaches its new steady state with the
+    ring time tau = q_mech / (pi f_r) of each mode; an acquisition started too early
+    sees the old amplitude fading into the new one.
+
+    Simplification: each mode's fundamental phasor moves exponentially from its value
+    at the change to the new steady state; the beat between the drive and the free
+    ring-down frequency is not modelled (it averages out over triggered acquisitions).
+    """
+
+    name = "settling_transient"
+    stages = frozenset({"motion"})
+
+    def __init__(self, scene, **parameters: float) -> None:
+        super().__init__(scene, **parameters)
+        self._change_s = 0.0
+        self._start = None  # branch fundamentals at the change
+        self._target = None  # branch fundamentals of the new steady state
+        self._tau_s = None
+
+    def attach(self, bench) -> None:
+        self.settle(bench.steady_state())
+
+    def settle(self, steady: physics.SteadyState) -> None:
+        """Forget the past: the plate is in steady state (a fresh mount, a new state)."""
+        self._start = self._target = steady.branch_velocity_phasors_mps[:, 0]
+        self._tau_s = np.array([b.ring_time_constant_s for b in steady.branches])
+
+    def drive_changed(self, now_s: float, steady: physics.SteadyState) -> None:
+        self._start = self._fundamentals_at(now_s)
+        self._target = steady.branch_velocity_phasors_mps[:, 0]
+        self._tau_s = np.array([b.ring_time_constant_s for b in steady.branches])
+        self._change_s = now_s
+
+    def _fundamentals_at(self, time_s: float) -> np.ndarray:
+        fade = np.exp(-(time_s - self._change_s) / self._tau_s)
+        start = _padded(self._start, len(self._target))
+        return self._target + (start - self._target) * fade
+
+    def motion(self, fundamentals: np.ndarray, ctx: AcquisitionContext) -> np.ndarray:
+        """(n_branches, n_samples) fundamentals, averaged over the acquisitions."""
+        start = _padded(self._start, len(self._target))
+        since_change_s = ctx.start_s - self._change_s + (ctx.record_times_s - ctx.record_times_s[0])
+        # mean over k of exp(-(t + k T)/tau): a geometric series
+        per_acquisition = np.exp(-ctx.acquisition_period_s / self._tau_s)
+        k = np.arange(ctx.averages)
+        mean_fade = np.mean(per_acquisition[:, None] ** k[None, :], axis=1)
+        fade = mean_fade[:, None] * np.exp(-since_change_s[None, :] / self._tau_s[:, None])
+        return fundamentals + (start - self._target)[:, None] * fade
+
+
+class DcOffset(Effect):
+    """DC offsets at the scope inputs: the voltage probe output (0.5 mV is 50 mV at the
+    piezo through 100:1), the TCP202 residual after degauss, the vibrometer output.
+    They bias the MATH mean by the product of the CH1 and CH2 offsets."""
+
+    name = "dc_offset"
+    defaults = {"ch1_v": 0.0005, "ch2_a": 0.002, "ch3_v": 0.005}
+    stages = frozenset({"signals"})
+
+    def signals(self, signals: np.ndarray, ctx: AcquisitionContext) -> np.ndarray:
+        p = self.parameters
+        return signals + np.array([p["ch1_v"], p["ch2_a"], p["ch3_v"]])[:, None]
+
+
+class VibrometerRange(Effect):
+    """The velocity decoder's output saturates at +-10 V; OverRange then reads 1
+    (`SimulatedBench.vibrometer_over_range`)."""
+
+    name = "vibrometer_range"
+    defaults = {"output_limit_v": 10.0}
+    stages = frozenset({"signals"})
+
+    def signals(self, signals: np.ndarray, ctx: AcquisitionContext) -> np.ndarray:
+        limit = self.parameters["output_limit_v"]
+        output = signals[VIBROMETER_CHANNEL]
+        if np.max(np.abs(output)) > limit:
+            signals = signals.copy()
+            signals[VIBROMETER_CHANNEL] = np.clip(output, -limit, limit)
+        return signals
+
+
+class ScopeNoise(Effect):
+    """Vertical noise of the scope, rms in divisions per channel (the TCP202 adds its
+    own, so CH2 is noisier)."""
+
+    name = "scope_noise"
+    defaults = {"ch1_div_rms": 0.01, "ch2_div_rms": 0.03, "ch3_div_rms": 0.01}
+    stages = frozenset({"noise"})
+
+    def noise_div_rms(self, ctx: AcquisitionContext) -> np.ndarray:
+        p = self.parameters
+        return np.array([p["ch1_div_rms"], p["ch2_div_rms"], p["ch3_div_rms"]])
+
+
+class VibrometerNoise(Effect):
+    """Velocity noise of the decoder, rms in m/s (assumed: a fraction of a mm/s over
+    the decoder bandwidth), seen on CH3 through the range."""
+
+    name = "vibrometer_noise"
+    defaults = {"velocity_mps_rms": 2e-4}
+    stages = frozenset({"noise"})
+
+    def noise_div_rms(self, ctx: AcquisitionContext) -> np.ndarray:
+        output_v = self.parameters["velocity_mps_rms"] / ctx.vibrometer_range_mps_per_v
+        ch3_div = output_v * ctx.display_gain[VIBROMETER_CHANNEL] / ctx.scale_per_div[VIBROMETER_CHANNEL]
+        return np.array([0.0, 0.0, ch3_div])
+
+
+class Quantisation(Effect):
+    """The TDS3000's ADC: 9 bits per sample; averages kept to 14 bits (read with
+    DAT:WID 2, left-justified in 16 bits)."""
+
+    name = "quantisation"
+    defaults = {"sample_bits": 9, "average_bits": 14}
+    stages = frozenset({"digitizer"})
+
+    def digitizer(self, settings: "DigitizerSettings") -> "DigitizerSettings":
+        p = self.parameters
+        return replace(settings, sample_lsb_div=ADC_SPAN_DIV / 2 ** p["sample_bits"],
+                        average_lsb_div=ADC_SPAN_DIV / 2 ** p["average_bits"])
+
+
+class Averaging(Effect):
+    """ACQ:MOD AVE averages N acquisitions: random noise falls as 1/sqrt(N) and noise
+    dithers the quantisation. Off, an averaged acquisition is one sample-mode record.
+
+    Drawing N records of 10k points is costly, so when the noise is at least
+    `dither_threshold_lsb` sample steps, quantisation errors are independent and nearly
+    uniform (bias below exp(-2 pi^2) of a step) and the average is drawn directly as
+    signal + N(0, (sigma^2 + lsb^2/12) / N); below it, quantisation is deterministic
+    (averaging cannot remove it) and the N records are simulated.
+    """
+
+    name = "averaging"
+    defaults = {"dither_threshold_lsb": 1.0}
+    stages = frozenset({"digitizer"})
+
+    def digitizer(self, settings: "DigitizerSettings") -> "DigitizerSettings":
+        return replace(settings, averaging=True,
+                        dither_threshold_lsb=self.parameters["dither_threshold_lsb"])
+
+
+EFFECTS: dict[str, type[Effect]] = {cls.name: cls for cls in (
+    Shunt, DielectricLossEffect, AmplifierLimits, NeighbouringMode, HeatingDrift,
+    SettlingTransient, DcOffset, VibrometerRange, ScopeNoise, VibrometerNoise,
+    Quantisation, Averaging)}
+
+
+# -- the digitiser ----------------------------------------------------------------------
+#: 16-bit samples span 65536 / 6400 = 10.24 divisions: 25 levels per division at 8 bits.
+COUNTS_PER_DIV = 6400.0
+ADC_SPAN_DIV = 65536 / COUNTS_PER_DIV
+ADC_MIN_DIV = -32768 / COUNTS_PER_DIV
+ADC_MAX_DIV = 32767 / COUNTS_PER_DIV
+
+
+@dataclass(frozen=True)
+class DigitizerSettings:
+    sample_lsb_div: float | None = None  # None: not quantised
+    average_lsb_div: float | None = None
+    averaging: bool = False
+    dither_threshold_lsb: float = 1.0
+
+
+def digitize(screen_div: np.ndarray, noise_div_rms: np.ndarray, averages: int,
+             settings: DigitizerSettings, rng: np.random.Generator | None) -> np.ndarray:
+    """Screen positions (divisions) of the record the scope keeps, per channel."""
+    out = np.empty_like(screen_div)
+    n = screen_div.shape[1]
+    averaged = settings.averaging and averages > 1
+    for ch, (signal, sigma) in enumerate(zip(screen_div, noise_div_rms)):
+        lsb = settings.sample_lsb_div
+        if not averaged:
+            noisy = signal + sigma * rng.standard_normal(n) if sigma > 0 else signal
+            out[ch] = _quantise(_clip(noisy), lsb)
+        elif lsb is None:
+            out[ch] = _clip(signal) + (sigma / math.sqrt(averages)) * rng.standard_normal(n) \
+                if sigma > 0 else _clip(signal)
+        elif sigma >= settings.dither_threshold_lsb * lsb:
+            spread = math.sqrt((sigma**2 + lsb**2 / 12.0) / averages)
+            out[ch] = _quantise(_clip(signal) + spread * rng.standard_normal(n), settings.average_lsb_div)
+        else:
+            out[ch] = _quantise(_mean_of_records(signal, sigma, averages, lsb, rng), settings.average_lsb_div)
+    return _clip(out)
+
+
+def _mean_of_records(signal: np.ndarray, sigma: float, averages: int, lsb: float,
+                     rng: np.random.Generator | None) -> np.ndarray:
+    """Average of `averages` quantised records, drawn in blocks to bound memory."""
+    if sigma == 0:  # every record is the same
+        return _quantise(_clip(signal), lsb)
+    total = np.zeros_like(signal)
+    block = max(1, 2_000_000 // signal.size)
+    for first in range(0, averages, block):
+        count = min(block, averages - first)
+        records = signal[None, :] + sigma * rng.standard_normal((count, signal.size))
+        total += _quantise(_clip(records), lsb).sum(axis=0)
+    return total / averages
+
+
+def _clip(divisions: np.ndarray) -> np.ndarray:
+    return np.clip(divisions, ADC_MIN_DIV, ADC_MAX_DIV)
+
+
+def _quantise(divisions: np.ndarray, lsb_div: float | None) -> np.ndarray:
+    return divisions if lsb_div is None else np.round(divisions / lsb_div) * lsb_div
+
+
+# -- the pipeline -----------------------------------------------------------------------
+class EffectPipeline:
+    """The effects of a scene, sorted by the stage they act at."""
+
+    STAGES = ("amplifier", "load", "motion", "signals", "noise", "digitizer")
+
+    def __init__(self, effects: list[Effect]) -> None:
+        self.effects = effects
+        self.by_stage = {stage: [e for e in effects if stage in e.stages] for stage in self.STAGES}
+        self._amplifier = [e.amplifier for e in self.by_stage["amplifier"]]
+        self._load = [e.load for e in self.by_stage["load"]]
+        self._motion = [e.motion for e in self.by_stage["motion"]]
+        self._signals = [e.signals for e in self.by_stage["signals"]]
+        self._noise = [e.noise_div_rms for e in self.by_stage["noise"]]
+        self.digitizer_settings = DigitizerSettings()
+        for effect in self.by_stage["digitizer"]:
+            self.digitizer_settings = effect.digitizer(self.digitizer_settings)
+        self.is_random = bool(self._noise)
+
+    @property
+    def names(self) -> list[str]:
+        return [e.name for e in self.effects]
+
+    def get(self, name: str) -> Effect | None:
+        return next((e for e in self.effects if e.name == name), None)
+
+    def amplifier(self, amplifier: physics.Amplifier) -> physics.Amplifier:
+        for stage in self._amplifier:
+            amplifier = stage(amplifier)
+        return amplifier
+
+    def load(self, load: physics.PlateLoad) -> physics.PlateLoad:
+        for stage in self._load:
+            load = stage(load)
+        return load
+
+    def motion(self, fundamentals: np.ndarray, ctx: AcquisitionContext) -> np.ndarray:
+        for stage in self._motion:
+            fundamentals = stage(fundamentals, ctx)
+        return fundamentals
+
+    @property
+    def has_motion(self) -> bool:
+        return bool(self._motion)
+
+    def signals(self, signals: np.ndarray, ctx: AcquisitionContext) -> np.ndarray:
+        for stage in self._signals:
+            signals = stage(signals, ctx)
+        return signals
+
+    def noise_div_rms(self, ctx: AcquisitionContext) -> np.ndarray:
+        """Independent noises add in power."""
+        variance = np.zeros(len(CHANNELS))
+        for stage in self._noise:
+            variance += stage(ctx) ** 2
+        return np.sqrt(variance)
+
+    def attach(self, bench) -> None:
+        for effect in self.effects:
+            effect.attach(bench)
+
+    def detach(self, bench) -> None:
+        for effect in self.effects:
+            effect.detach(bench)
+
+
+def build_pipeline(scene) -> EffectPipeline:
+    """Fresh effect objects (they may hold state, e.g. a temperature) for a scene."""
+    return EffectPipeline([EFFECTS[spec.name](scene, **spec.parameters) for spec in scene.effects])
+
+
+def _padded(values: np.ndarray, length: int) -> np.ndarray:
+    """A branch vector extended with zeros (a mode that did not exist was at rest)."""
+    return values if len(values) == length else np.concatenate([values, np.zeros(length - len(values))])

@@ -1,0 +1,483 @@
+"""Scene files: one plate on the simulated bench, its states, electronics and effects.
+
+A scene is YAML (see `data/scenes/`). Top-level sections:
+
+```
+plate:        {name, material, length_mm, width_mm, thickness_mm}
+actuators:    {piezo: {length_mm, width_mm, thickness_mm, material, relative_permittivity},
+               piezos_per_column, columns: [{name, position_mm}, ...]}
+mode:         {name, half_wavelength_mm}
+states:       {<name>: {description, resonance_frequency_hz, q_mech, powered_columns,
+               n_powered_piezos, calibration}}
+initial_state: <a state name>
+electronics:  {amplifier_gain, amplifier_max_output_vpp, amplifier_bandwidth_hz,
+               amplifier_input_ohm, shunt_ohm, voltage_probe_attenuation,
+               current_probe_a_per_a, generator_load}
+measurement_point: {x_mm, y_mm, signal_level_percent}
+effects:      [<name> | {<name>: {<parameter>: <number>}}, ...]
+seed:         <int>
+provenance:   {<dotted field, or a section>: <where the number comes from>}
+```
+
+A state's `calibration` is the measurement at resonance the state reproduces, in one of
+three forms: `{voltage_vpp, velocity_pp_mps, power_w}`, `{voltage_vpp, amplitude_pp_m,
+power_w}` or `{paper_model: {q, tan_theta, voltage_vpp, convention}}`, the last computed
+with the paper's Eqs. 25 and 27 (`analysis.model`) on the scene's geometry.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+from analysis import model
+from simbench import physics
+from simbench.effects import EFFECTS
+from squeezebench.errors import UserError
+
+#: Readings of the paper's model a `paper_model` calibration may name.
+CONVENTIONS = {c.name: c for c in (model.PAPER_CONVENTION, model.AS_PRINTED_CONVENTION,
+                                   model.PHYSICAL_CONVENTION)}
+GENERATOR_LOADS = ("INF", "50")
+
+
+class SceneError(UserError):
+    """A scene file that cannot be used; the message names file, field and what is allowed."""
+
+
+@dataclass(frozen=True)
+class Plate:
+    name: str
+    material: str
+    length_mm: float
+    width_mm: float
+    thickness_mm: float
+
+
+@dataclass(frozen=True)
+class Piezo:
+    length_mm: float  # b_p of Eq. 25: along the nodal lines
+    width_mm: float
+    thickness_mm: float
+    material: str
+    relative_permittivity: float  # eps33 at constant stress / eps0
+
+    @property
+    def area_m2(self) -> float:
+        return self.length_mm * self.width_mm * 1e-6
+
+
+@dataclass(frozen=True)
+class Column:
+    name: str
+    position_mm: float  # along the plate length, from one end
+
+
+@dataclass(frozen=True)
+class Actuators:
+    piezo: Piezo
+    piezos_per_column: int
+    columns: tuple[Column, ...]
+
+
+@dataclass(frozen=True)
+class Mode:
+    name: str
+    half_wavelength_mm: float
+
+
+@dataclass(frozen=True)
+class Calibration:
+    """The published (or model) measurement at resonance a state reproduces."""
+
+    voltage_vpp: float
+    velocity_pp_mps: float
+    power_w: float
+    form: str  # "velocity", "amplitude" or "paper_model"
+
+
+@dataclass(frozen=True)
+class State:
+    """One condition of the plate: a cut, a set of powered columns..."""
+
+    name: str
+    description: str
+    resonance_frequency_hz: float
+    q_mech: float
+    powered_columns: tuple[str, ...]
+    n_powered_piezos: int
+    calibration: Calibration
+    capacitance_f: float  # clamped capacitance of the powered piezos
+    branch: physics.MotionalBranch  # the working mode, calibrated
+
+    def load(self) -> physics.PlateLoad:
+        """The plate as the amplifier sees it, with every effect off."""
+        return physics.PlateLoad(capacitance_f=self.capacitance_f, branches=(self.branch,))
+
+
+@dataclass(frozen=True)
+class Electronics:
+    amplifier_gain: float = 20.0
+    amplifier_max_output_vpp: float = 300.0
+    amplifier_bandwidth_hz: float = 500e3
+    amplifier_input_ohm: float = 10e3
+    shunt_ohm: float = 2.0
+    voltage_probe_attenuation: float = 100.0
+    current_probe_a_per_a: float = 1.0
+    generator_load: str = "INF"
+
+    def amplifier(self) -> physics.Amplifier:
+        """The amplifier with every effect off (limits are the amplifier_limits effect)."""
+        return physics.Amplifier(gain=self.amplifier_gain, input_ohm=self.amplifier_input_ohm)
+
+
+@dataclass(frozen=True)
+class MeasurementPoint:
+    x_mm: float
+    y_mm: float
+    signal_level_percent: float = 80.0
+
+
+@dataclass(frozen=True)
+class EffectSpec:
+    name: str
+    parameters: dict[str, float]
+
+
+@dataclass(frozen=True)
+class Scene:
+    path: Path
+    plate: Plate
+    actuators: Actuators
+    mode: Mode
+    states: dict[str, State]
+    initial_state: str
+    electronics: Electronics
+    measurement_point: MeasurementPoint
+    effects: tuple[EffectSpec, ...]
+    seed: int
+    provenance: dict[str, str]
+
+    def state(self, name: str) -> State:
+        try:
+            return self.states[name]
+        except KeyError:
+            raise SceneError(f"{self.path}: states: no state {name!r}; "
+                             f"allowed: {', '.join(self.states)}") from None
+
+    def geometry(self, state: State) -> model.PlateGeometry:
+        """The half-wavelength section of the paper's Fig. 4 for `state`."""
+        return _geometry(self.plate, self.actuators.piezo, self.mode, state.n_powered_piezos)
+
+
+def _geometry(plate: Plate, piezo: Piezo, mode: Mode, n_powered: int) -> model.PlateGeometry:
+    return model.PlateGeometry(
+        resonator_thickness_m=plate.thickness_mm * 1e-3, piezo_thickness_m=piezo.thickness_mm * 1e-3,
+        piezo_length_m=piezo.length_mm * 1e-3, half_wavelength_m=mode.half_wavelength_mm * 1e-3,
+        n_powered_piezos=n_powered)
+
+
+_MISSING = object()
+
+
+class _Reader:
+    """Typed access to the raw YAML with errors naming file, field and what is allowed."""
+
+    def __init__(self, path: Path) -> None:
+        self.path = path
+
+    def error(self, field: str, problem: str) -> SceneError:
+        return SceneError(f"{self.path}: {field}: {problem}")
+
+    def mapping(self, value: Any, field: str, required: tuple[str, ...],
+                optional: tuple[str, ...] = ()) -> dict:
+        if not isinstance(value, dict):
+            raise self.error(field, f"must be a mapping with {', '.join(required + optional)}, "
+                                    f"got {type(value).__name__}")
+        unknown = [k for k in value if k not in required + optional]
+        if unknown:
+            raise self.error(f"{field}.{unknown[0]}", "unknown field; allowed: "
+                             + ", ".join(required + optional))
+        missing = [k for k in required if k not in value]
+        if missing:
+            raise self.error(f"{field}.{missing[0]}", "is missing")
+        return value
+
+    def number(self, data: dict, key: str, field: str, *, minimum: float = 0.0,
+               strict: bool = True, default: Any = _MISSING) -> float:
+        value = data.get(key, default)
+        name = f"{field}.{key}" if field else key
+        if value is _MISSING:
+            raise self.error(name, "is missing")
+        bound = f"> {minimum:g}" if strict else f">= {minimum:g}"
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) \
+                or (value <= minimum if strict else value < minimum):
+            raise self.error(name, f"must be a number {bound}, got {value!r}")
+        return float(value)
+
+    def integer(self, data: dict, key: str, field: str, minimum: int = 1) -> int:
+        value = data.get(key, _MISSING)
+        if value is _MISSING:
+            raise self.error(f"{field}.{key}", "is missing")
+        if isinstance(value, bool) or not isinstance(value, int) or value < minimum:
+            raise self.error(f"{field}.{key}", f"must be an integer >= {minimum}, got {value!r}")
+        return value
+
+    def text(self, data: dict, key: str, field: str, default: Any = _MISSING,
+             allowed: tuple[str, ...] | None = None) -> str:
+        value = data.get(key, default)
+        if value is _MISSING:
+            raise self.error(f"{field}.{key}", "is missing")
+        value = str(value)
+        if allowed is not None and value not in allowed:
+            raise self.error(f"{field}.{key}", f"got {value!r}; allowed: {', '.join(allowed)}")
+        return value
+
+
+def load_scene(path: str | Path) -> Scene:
+    """Read and validate a scene file; calibrate every state's motional branch."""
+    path = Path(path)
+    reader = _Reader(path)
+    try:
+        raw = yaml.safe_load(path.read_text(encoding="utf-8"))
+    except OSError as exc:
+        raise SceneError(f"{path}: cannot read the scene file ({exc.strerror})") from exc
+    except yaml.YAMLError as exc:
+        raise SceneError(f"{path}: not valid YAML ({exc})") from exc
+    top = reader.mapping(raw, "scene", required=("plate", "actuators", "mode", "states", "initial_state"),
+                         optional=("electronics", "measurement_point", "effects", "seed", "provenance",
+                                   "description"))
+    plate = _plate(reader, top["plate"])
+    actuators = _actuators(reader, top["actuators"])
+    mode_data = reader.mapping(top["mode"], "mode", required=("name", "half_wavelength_mm"))
+    mode = Mode(str(mode_data["name"]), reader.number(mode_data, "half_wavelength_mm", "mode"))
+    states = _states(reader, top["states"], plate, actuators, mode)
+    initial = reader.text(top, "initial_state", "", allowed=tuple(states))
+    return Scene(
+        path=path, plate=plate, actuators=actuators, mode=mode, states=states, initial_state=initial,
+        electronics=_electronics(reader, top.get("electronics", {})),
+        measurement_point=_measurement_point(reader, top.get("measurement_point", {"x_mm": 0, "y_mm": 0})),
+        effects=_effects(reader, top.get("effects", [])),
+        seed=reader.integer(top, "seed", "", minimum=0) if "seed" in top else 0,
+        provenance=_provenance(reader, top.get("provenance", {}), raw),
+    )
+
+
+def _plate(reader: _Reader, data: Any) -> Plate:
+    data = reader.mapping(data, "plate", required=("name", "material", "length_mm", "width_mm",
+                                                   "thickness_mm"))
+    return Plate(str(data["name"]), str(data["material"]),
+                 *(reader.number(data, k, "plate") for k in ("length_mm", "width_mm", "thickness_mm")))
+
+
+def _actuators(reader: _Reader, data: Any) -> Actuators:
+    data = reader.mapping(data, "actuators", required=("piezo", "piezos_per_column", "columns"))
+    piezo_data = reader.mapping(data["piezo"], "actuators.piezo",
+                                required=("length_mm", "width_mm", "thickness_mm", "material",
+                                          "relative_permittivity"))
+    piezo = Piezo(*(reader.number(piezo_data, k, "actuators.piezo")
+                    for k in ("length_mm", "width_mm", "thickness_mm")),
+                  material=str(piezo_data["material"]),
+                  relative_permittivity=reader.number(piezo_data, "relative_permittivity", "actuators.piezo"))
+    columns_data = data["columns"]
+    if not isinstance(columns_data, list) or not columns_data:
+        raise reader.error("actuators.columns", "must be a non-empty list of {name, position_mm}")
+    columns = []
+    for i, column in enumerate(columns_data):
+        field = f"actuators.columns[{i}]"
+        column = reader.mapping(column, field, required=("name", "position_mm"))
+        columns.append(Column(str(column["name"]),
+                              reader.number(column, "position_mm", field, strict=False)))
+    names = [c.name for c in columns]
+    if len(set(names)) != len(names):
+        raise reader.error("actuators.columns", f"column names must be unique, got {names}")
+    return Actuators(piezo, reader.integer(data, "piezos_per_column", "actuators"), tuple(columns))
+
+
+def _states(reader: _Reader, data: Any, plate: Plate, actuators: Actuators, mode: Mode) -> dict[str, State]:
+    if not isinstance(data, dict) or not data:
+        raise reader.error("states", "must be a non-empty mapping of state name to state")
+    column_names = tuple(c.name for c in actuators.columns)
+    states = {}
+    for name, state in data.items():
+        name, field = str(name), f"states.{name}"
+        state = reader.mapping(state, field, required=(
+            "resonance_frequency_hz", "q_mech", "powered_columns", "n_powered_piezos", "calibration"),
+            optional=("description",))
+        powered = state["powered_columns"]
+        if not isinstance(powered, list) or not powered:
+            raise reader.error(f"{field}.powered_columns",
+                               f"must be a non-empty list; allowed: {', '.join(column_names)}")
+        for column in powered:
+            if str(column) not in column_names:
+                raise reader.error(f"{field}.powered_columns",
+                                   f"got {column!r}; allowed: {', '.join(column_names)}")
+        n_powered = reader.integer(state, "n_powered_piezos", field)
+        if n_powered != len(powered) * actuators.piezos_per_column:
+            raise reader.error(f"{field}.n_powered_piezos",
+                               f"got {n_powered}; allowed: {len(powered) * actuators.piezos_per_column} "
+                               f"({len(powered)} powered columns x {actuators.piezos_per_column} piezos)")
+        frequency_hz = reader.number(state, "resonance_frequency_hz", field)
+        q_mech = reader.number(state, "q_mech", field)
+        geometry = _geometry(plate, actuators.piezo, mode, n_powered)
+        calibration = _calibration(reader, state["calibration"], f"{field}.calibration", frequency_hz, geometry)
+        states[name] = State(
+            name=name, description=str(state.get("description", "")), resonance_frequency_hz=frequency_hz,
+            q_mech=q_mech, powered_columns=tuple(str(c) for c in powered), n_powered_piezos=n_powered,
+            calibration=calibration,
+            capacitance_f=physics.piezo_capacitance_f(
+                n_powered, actuators.piezo.area_m2, actuators.piezo.thickness_mm * 1e-3,
+                actuators.piezo.relative_permittivity),
+            branch=physics.calibrate_branch(frequency_hz, q_mech, calibration.voltage_vpp,
+                                            calibration.velocity_pp_mps, calibration.power_w))
+    return states
+
+
+_CALIBRATION_FORMS = ("{voltage_vpp, velocity_pp_mps, power_w}", "{voltage_vpp, amplitude_pp_m, power_w}",
+                      "{paper_model: {q, tan_theta, voltage_vpp, convention}}")
+
+
+def _calibration(reader: _Reader, data: Any, field: str, frequency_hz: float,
+                 geometry: model.PlateGeometry) -> Calibration:
+    if not isinstance(data, dict):
+        raise reader.error(field, "must be one of " + " or ".join(_CALIBRATION_FORMS))
+    if "paper_model" in data:
+        reader.mapping(data, field, required=("paper_model",))
+        sub = f"{field}.paper_model"
+        pm = reader.mapping(data["paper_model"], sub, required=("q", "tan_theta", "voltage_vpp", "convention"))
+        convention = CONVENTIONS[reader.text(pm, "convention", sub, allowed=tuple(CONVENTIONS))]
+        voltage_vpp = reader.number(pm, "voltage_vpp", sub)
+        q = reader.number(pm, "q", sub)
+        tan_theta = pm["tan_theta"]
+        if isinstance(tan_theta, bool) or not isinstance(tan_theta, (int, float)) or not math.isfinite(tan_theta):
+            raise reader.error(f"{sub}.tan_theta", f"must be a number, got {tan_theta!r}")
+        try:
+            amplitude = model.amplitude_pp_m(q, voltage_vpp, geometry, convention)
+            power = model.power_w(q, float(tan_theta), voltage_vpp, frequency_hz, geometry, convention)
+        except model.ModelGeometryError as exc:
+            raise reader.error(sub, f"the paper's model has no value for this geometry ({exc})") from exc
+        if not (amplitude > 0 and power > 0):
+            raise reader.error(sub, f"gives amplitude {amplitude:.3g} m and power {power:.3g} W under "
+                                    f"convention {convention.name!r}; both must be positive "
+                                    "(check the sign of tan_theta for this convention)")
+        return Calibration(voltage_vpp, physics.velocity_pp_from_amplitude_pp(amplitude, frequency_hz),
+                           power, "paper_model")
+    if "amplitude_pp_m" in data:
+        reader.mapping(data, field, required=("voltage_vpp", "amplitude_pp_m", "power_w"))
+        velocity = physics.velocity_pp_from_amplitude_pp(reader.number(data, "amplitude_pp_m", field),
+                                                         frequency_hz)
+        form = "amplitude"
+    elif "velocity_pp_mps" in data:
+        reader.mapping(data, field, required=("voltage_vpp", "velocity_pp_mps", "power_w"))
+        velocity = reader.number(data, "velocity_pp_mps", field)
+        form = "velocity"
+    else:
+        raise reader.error(field, "must be one of " + " or ".join(_CALIBRATION_FORMS))
+    return Calibration(reader.number(data, "voltage_vpp", field), velocity,
+                       reader.number(data, "power_w", field), form)
+
+
+def _electronics(reader: _Reader, data: Any) -> Electronics:
+    defaults = Electronics()
+    numbers = ("amplifier_gain", "amplifier_max_output_vpp", "amplifier_bandwidth_hz", "amplifier_input_ohm",
+               "shunt_ohm", "voltage_probe_attenuation", "current_probe_a_per_a")
+    data = reader.mapping(data, "electronics", required=(), optional=numbers + ("generator_load",))
+    values = {k: reader.number(data, k, "electronics", default=getattr(defaults, k), strict=k != "shunt_ohm")
+              for k in numbers}
+    load = reader.text(data, "generator_load", "electronics", default=defaults.generator_load,
+                       allowed=GENERATOR_LOADS)
+    return Electronics(**values, generator_load=load)
+
+
+def _measurement_point(reader: _Reader, data: Any) -> MeasurementPoint:
+    data = reader.mapping(data, "measurement_point", required=("x_mm", "y_mm"),
+                          optional=("signal_level_percent", "description"))
+    level = reader.number(data, "signal_level_percent", "measurement_point", default=80.0, strict=False)
+    if level > 100:
+        raise reader.error("measurement_point.signal_level_percent", f"must be 0..100, got {level!r}")
+    return MeasurementPoint(reader.number(data, "x_mm", "measurement_point", strict=False),
+                            reader.number(data, "y_mm", "measurement_point", strict=False), level)
+
+
+def _effects(reader: _Reader, data: Any) -> tuple[EffectSpec, ...]:
+    allowed = ", ".join(EFFECTS)
+    if not isinstance(data, list):
+        raise reader.error("effects", f"must be a list of effect names or {{name: {{parameters}}}}; "
+                                      f"allowed names: {allowed}")
+    specs = []
+    for i, entry in enumerate(data):
+        field = f"effects[{i}]"
+        if isinstance(entry, dict) and len(entry) == 1:
+            name, parameters = next(iter(entry.items()))
+            parameters = {} if parameters is None else parameters
+        elif isinstance(entry, str):
+            name, parameters = entry, {}
+        else:
+            raise reader.error(field, f"must be a name or {{name: {{parameters}}}}; allowed names: {allowed}")
+        if name not in EFFECTS:
+            raise reader.error(field, f"unknown effect {name!r}; allowed: {allowed}")
+        defaults = EFFECTS[name].defaults
+        if not isinstance(parameters, dict):
+            raise reader.error(f"{field}.{name}", "parameters must be a mapping")
+        for key, value in parameters.items():
+            if key not in defaults:
+                raise reader.error(f"{field}.{name}.{key}", "unknown parameter; allowed: "
+                                   + (", ".join(defaults) or "none (this effect has no parameters)"))
+            if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+                raise reader.error(f"{field}.{name}.{key}", f"must be a number, got {value!r}")
+        if name in (s.name for s in specs):
+            raise reader.error(field, f"effect {name!r} is listed twice")
+        specs.append(EffectSpec(name, {k: float(v) for k, v in parameters.items()}))
+    return tuple(specs)
+
+
+def _provenance(reader: _Reader, data: Any, raw: dict) -> dict[str, str]:
+    """Where each number comes from; a key is a dotted field path or a whole section."""
+    if not isinstance(data, dict):
+        raise reader.error("provenance", "must be a mapping of field path to text")
+    known = set(field_paths(raw))
+    for key in data:
+        if str(key) not in known:
+            raise reader.error(f"provenance.{key}", "names no field of this scene; use a dotted path "
+                                                    "such as 'states.<name>.q_mech' or a section name")
+    return {str(k): str(v) for k, v in data.items()}
+
+
+def field_paths(value: Any, prefix: str = "") -> list[str]:
+    """Every dotted path in a raw scene (sections and leaves; list items as name[i])."""
+    paths = [prefix] if prefix else []
+    if isinstance(value, dict):
+        for key, item in value.items():
+            if prefix == "" and key == "provenance":
+                continue
+            paths += field_paths(item, f"{prefix}.{key}" if prefix else str(key))
+    elif isinstance(value, list):
+        for i, item in enumerate(value):
+            paths += field_paths(item, f"{prefix}[{i}]")
+    return paths
+
+
+def numeric_field_paths(raw: dict) -> list[str]:
+    """Paths of every number in a raw scene: each needs a provenance entry."""
+    def numbers(value: Any, prefix: str) -> list[str]:
+        if isinstance(value, dict):
+            return [p for k, v in value.items() if not (prefix == "" and k in ("provenance", "seed"))
+                    for p in numbers(v, f"{prefix}.{k}" if prefix else str(k))]
+        if isinstance(value, list):
+            return [p for i, v in enumerate(value) for p in numbers(v, f"{prefix}[{i}]")]
+        return [prefix] if isinstance(value, (int, float)) and not isinstance(value, bool) else []
+    return numbers(raw, "")
+
+
+def covered_by_provenance(path: str, provenance: dict[str, str]) -> bool:
+    """A number is covered by its own entry or by one for an enclosing section."""
+    while path:
+        if path in provenance:
+            return True
+        cut = max(path.rfind("."), path.rfind("["))
+        path = path[:cut] if cut > 0 else ""
+    return False

@@ -1,0 +1,137 @@
+"""The simulated bench behind the instruments: scene, state, effects, clock, physics.
+
+The three simulated instruments (`simbench.devices`) read their settings from their
+pyvisa-sim state and ask this object for the physics: the generator's settings drive
+the plate, the scope's acquisitions see it, the vibrometer's range scales CH3.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from simbench import effects as fx
+from simbench import physics, traces
+from simbench.clock import VirtualClock
+from simbench.scene import Scene, load_scene
+
+
+class SimulatedBench:
+    """One bench: what `visa_lib.bench` is for tests, studies and the operator."""
+
+    def __init__(self, scene: Scene) -> None:
+        self.clock = VirtualClock()
+        self.generator = self.scope = self.vibrometer = None  # bound by the backend
+        self._closed = False
+        self._install(scene)
+
+    # -- the plate ------------------------------------------------------------------------
+    @property
+    def scene(self) -> Scene:
+        return self._scene
+
+    @property
+    def state(self):
+        return self._scene.state(self.state_name)
+
+    def set_state(self, name: str) -> None:
+        """Switch the plate to another state of its scene (a cut, other powered columns)."""
+        self._scene.state(name)  # a SceneError naming the allowed states
+        self.state_name = name
+        for effect in self.effects.by_stage["motion"]:  # the operator took minutes
+            effect.settle(self.steady_state())
+
+    def mount(self, scene_path: str | Path) -> None:
+        """Put another plate on the bench (the instruments keep their settings)."""
+        self.effects.detach(self)
+        self._install(load_scene(scene_path))
+        self.effects.attach(self)
+
+    def _install(self, scene: Scene) -> None:
+        self._scene = scene
+        self.state_name = scene.initial_state
+        self.effects = fx.build_pipeline(scene)
+        self._steady_cache: tuple = (None, None)
+        self._record_cache: tuple = (None, None)
+        self.acquisitions_since_generator_write = 0
+
+    def start(self) -> None:
+        """Called by the backend once the instruments are bound."""
+        self.effects.attach(self)
+
+    # -- physics ----------------------------------------------------------------------------
+    def steady_state(self) -> physics.SteadyState:
+        """Steady state at the present generator settings (cached until they change)."""
+        generator = self.generator.settings()
+        key = (self.state_name, generator, *(e.state_key() for e in self.effects.by_stage["load"]))
+        if self._steady_cache[0] != key:
+            amplifier = self.effects.amplifier(self._scene.electronics.amplifier())
+            drive = physics.amplifier_output(generator, amplifier)
+            load = self.effects.load(self.state.load())
+            self._steady_cache = (key, physics.solve_steady_state(load, drive, generator.frequency_hz))
+        return self._steady_cache[1]
+
+    def truth(self) -> physics.SteadyState:
+        """The closed-form steady state for the present settings (tests, accuracy study)."""
+        return self.steady_state()
+
+    def plate_power_w(self) -> float:
+        return self.steady_state().plate_power_w
+
+    def sensor_gains(self) -> np.ndarray:
+        """Physical signal -> scope input: voltage probe, current probe, decoder range."""
+        e = self._scene.electronics
+        return np.array([1.0 / e.voltage_probe_attenuation, e.current_probe_a_per_a,
+                         1.0 / self.vibrometer.range_mps_per_v()])
+
+    def vibrometer_over_range(self) -> bool:
+        """Live OverRange flag: the decoder output peak beyond its limit."""
+        effect = self.effects.get("vibrometer_range")
+        if effect is None:
+            return False
+        steady = self.steady_state()
+        peak_v = 0.5 * steady.velocity_pp_mps / self.vibrometer.range_mps_per_v()
+        return peak_v > effect.parameters["output_limit_v"]
+
+    # -- events from the instruments ---------------------------------------------------------
+    def generator_written(self, drive_changed: bool) -> None:
+        """A command reached the generator: the random streams restart from it (so a
+        resumed step, which re-sends its commands, draws what the first attempt drew);
+        a changed drive also starts a transient."""
+        self.acquisitions_since_generator_write = 0
+        if drive_changed:
+            for effect in self.effects.by_stage["motion"]:
+                effect.drive_changed(self.clock.now_s(), self.steady_state())
+
+    def acquire(self, setup: traces.ScopeSetup, acquisition_period_s: float) -> traces.Record:
+        """One acquisition starting now; its random stream is set by what defines it.
+
+        Without noise or transients a record depends only on the settings, so the last
+        one is reused while they stay the same (the ideal bench costs almost nothing).
+        """
+        steady = self.steady_state()
+        if not (self.effects.is_random or self.effects.has_motion):
+            key = (self._steady_cache[0], setup, tuple(self.sensor_gains()))
+            if self._record_cache[0] != key:
+                self._record_cache = (key, traces.acquire(
+                    steady, setup, self.sensor_gains(), self.vibrometer.range_mps_per_v(), self.effects,
+                    self.clock.now_s(), acquisition_period_s, None))
+            return self._record_cache[1]
+        rng = None
+        if self.effects.is_random:
+            seed = traces.acquisition_seed(self._scene.seed, self.state_name,
+                                           repr(self.generator.settings()),
+                                           self.acquisitions_since_generator_write)
+            rng = np.random.default_rng(seed)
+        self.acquisitions_since_generator_write += 1
+        return traces.acquire(steady, setup, self.sensor_gains(),
+                              self.vibrometer.range_mps_per_v(), self.effects, self.clock.now_s(),
+                              acquisition_period_s, rng)
+
+    def close(self) -> None:
+        """Stop the effects' clock subscriptions (once: PyVISA may close twice)."""
+        if not self._closed:
+            self.effects.detach(self)
+            self._closed = True
+

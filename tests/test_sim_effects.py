@@ -1,0 +1,199 @@
+"""Each effect, alone and seeded, changes only the quantities it should."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from simbench import effects as fx
+from test_sim_support import RawBench, sampled_truth, scene_file
+
+F_HZ = 37180.0
+GENERATOR_VPP = 1.88  # 37.6 Vpp at the piezos (less the input divider)
+
+
+def bench_with(tmp_path, effects, name="one_column_1mm.yaml", frequency_hz=F_HZ, generator_vpp=GENERATOR_VPP,
+               **configure) -> RawBench:
+    bench = RawBench(scene_file(tmp_path, name, effects=effects))
+    bench.drive(frequency_hz, generator_vpp)
+    bench.configure(frequency_hz, **configure)
+    return bench
+
+
+def readings(bench: RawBench) -> dict[str, float]:
+    bench.acquire()
+    return {"power": bench.measure("MATH", "MEAN"), "ch1_pp": bench.measure("CH1", "PK2"),
+            "ch2_pp": bench.measure("CH2", "PK2"), "ch3_pp": bench.measure("CH3", "PK2"),
+            "ch1_mean": bench.measure("CH1", "MEAN"), "ch2_mean": bench.measure("CH2", "MEAN"),
+            "ch3_mean": bench.measure("CH3", "MEAN")}
+
+
+@pytest.fixture()
+def ideal(tmp_path):
+    return readings(bench_with(tmp_path, []))
+
+
+def test_every_effect_has_a_test():
+    tested = {name[len("test_"):] for name in globals() if name.startswith("test_")}
+    assert set(fx.EFFECTS) <= tested
+
+
+def test_shunt(tmp_path, ideal):
+    bench = bench_with(tmp_path, ["shunt"])
+    truth, got = bench.sim.truth(), readings(bench)
+    # the scope sees the shunt's loss; the plate sees a little less voltage
+    shunt_loss_w = 0.5 * abs(truth.current_phasor) ** 2 * 2.0
+    assert truth.power_w - truth.plate_power_w == pytest.approx(shunt_loss_w, rel=1e-9)
+    assert got["power"] == pytest.approx(truth.power_w, rel=1e-9)
+    assert got["ch1_pp"] == pytest.approx(ideal["ch1_pp"], rel=1e-12)  # CH1 is the amplifier output
+    assert 0.99 < got["ch3_pp"] / ideal["ch3_pp"] < 1.0
+    assert shunt_loss_w < 0.1 * truth.power_w  # "at most 10 %" (Sec. 2.1)
+
+
+def test_dielectric_loss(tmp_path, ideal):
+    """Calibrated on Fig. 2c: the same velocity at 37560 Hz needs 240 V; Pt 100 -> 120 mW."""
+    bench = bench_with(tmp_path, ["dielectric_loss"])
+    at_resonance = bench.sim.truth()
+    assert readings(bench)["ch3_pp"] == pytest.approx(ideal["ch3_pp"], rel=1e-12)  # no shunt: same motion
+    assert at_resonance.power_w == pytest.approx(ideal["power"], rel=2e-3)  # negligible at 37.6 V
+    bench.drive(37560.0, 240.0 / 20.0 * 10.05 / 10.0)
+    stressed = bench.sim.truth()
+    assert stressed.velocity_pp_mps == pytest.approx(at_resonance.velocity_pp_mps, rel=0.01)
+    assert stressed.power_w == pytest.approx(0.120, abs=0.003)
+
+
+def test_amplifier_limits(tmp_path, ideal):
+    bench = bench_with(tmp_path, ["amplifier_limits"])
+    bandwidth = 1.0 / math.hypot(1.0, F_HZ / 500e3)  # first order, 500 kHz
+    assert readings(bench)["ch1_pp"] == pytest.approx(ideal["ch1_pp"] * bandwidth, rel=1e-9)
+    bench.drive(F_HZ, 18.0)  # 358 Vpp asked of a 300 Vpp amplifier
+    truth = bench.sim.truth()
+    assert truth.output_voltage_pp_v == pytest.approx(300.0, rel=5e-3)  # 31 harmonics: Gibbs ripple
+    assert len(truth.orders) > 1  # a clipped sine carries harmonics
+    linear_velocity = truth.velocity_pp_mps / abs(truth.output_voltage_phasors_v[0])
+    assert abs(truth.output_voltage_phasors_v[0]) < 0.5 * 358 * 0.995 * bandwidth
+    assert linear_velocity > 0
+
+
+def test_neighbouring_mode(tmp_path):
+    plain, neighbour = bench_with(tmp_path, []), bench_with(tmp_path, ["neighbouring_mode"])
+    at_working = neighbour.sim.truth().velocity_pp_mps / plain.sim.truth().velocity_pp_mps
+    assert at_working == pytest.approx(1.0, abs=0.02)  # 2 % away, q 310: far off its peak
+    for bench in (plain, neighbour):
+        bench.drive(F_HZ * 1.02, GENERATOR_VPP)
+    second = neighbour.sim.truth()
+    assert second.velocity_pp_mps > 2 * plain.sim.truth().velocity_pp_mps  # seen at 30 % visibility
+    assert second.power_w > 5 * plain.sim.truth().power_w
+
+
+def test_heating_drift(tmp_path):
+    bench = bench_with(tmp_path, ["heating_drift"])
+    heating = bench.sim.effects.get("heating_drift")
+    cold = bench.sim.truth()
+    bench.sim.clock.sleep(10 * heating.time_constant_s)
+    warm = bench.sim.truth()
+    rise_k = heating.temperature_rise_k
+    assert rise_k == pytest.approx(warm.plate_power_w * heating.thermal_resistance_k_per_w, rel=1e-3)
+    assert warm.branches[0].frequency_hz == pytest.approx(F_HZ * (1 - 2e-4 * rise_k), rel=1e-12)
+    assert warm.velocity_pp_mps < cold.velocity_pp_mps  # the resonance moved away from the drive
+    bench.generator.write("VOLT 0.05")
+    bench.sim.clock.sleep(20 * heating.time_constant_s)
+    assert heating.temperature_rise_k < 0.01 * rise_k  # cooled down
+
+
+def test_settling_transient(tmp_path):
+    bench = bench_with(tmp_path, ["settling_transient"], averages=None)
+    tau_s = 310 / (math.pi * F_HZ)
+    bench.drive(F_HZ + 300.0, GENERATOR_VPP)  # well off resonance: a small vibration
+    bench.sim.clock.sleep(30 * tau_s)
+    bench.generator.write(f"FREQ {F_HZ!r}")  # settles in 10 ms, under 4 ring times
+    bench.acquire()
+    ringing_up = bench.measure("CH3", "PK2")
+    bench.sim.clock.sleep(30 * tau_s)
+    bench.acquire()
+    settled = bench.measure("CH3", "PK2")
+    expected = sampled_truth(bench.sim.truth(), bench.fetch("CH3")[0], bench.range_mps_per_v)
+    assert settled == pytest.approx(np.ptp(expected["CH3"]), rel=1e-9)
+    remaining = math.exp(-(0.010 + 0.001) / tau_s)  # settling and a few bus messages
+    assert 1.0 - 2.0 * remaining < ringing_up / settled < 1.0 - 0.3 * remaining
+    assert bench.measure("CH1", "PK2") == pytest.approx(np.ptp(expected["CH1"]), rel=1e-9)  # the drive: no transient
+
+
+def test_dc_offset(tmp_path, ideal):
+    got = readings(bench_with(tmp_path, ["dc_offset"]))
+    offsets = fx.DcOffset.defaults
+    assert got["ch1_mean"] == pytest.approx(ideal["ch1_mean"] + offsets["ch1_v"] * 100, rel=1e-6)
+    assert got["ch2_mean"] == pytest.approx(ideal["ch2_mean"] + offsets["ch2_a"], rel=1e-6)
+    assert got["ch3_mean"] == pytest.approx(ideal["ch3_mean"] + offsets["ch3_v"], rel=1e-6)
+    for key in ("ch1_pp", "ch2_pp", "ch3_pp"):
+        assert got[key] == pytest.approx(ideal[key], rel=1e-9)
+    # whole periods: the MATH mean is off by the product of the offsets only
+    assert got["power"] - ideal["power"] == pytest.approx(offsets["ch1_v"] * 100 * offsets["ch2_a"], rel=1e-6)
+
+
+def _residual_rms(bench: RawBench, source: str) -> float:
+    time_s, values, _, _ = bench.fetch(source)
+    expected = sampled_truth(bench.sim.truth(), time_s, bench.range_mps_per_v)[source]
+    return float(np.std(values - expected))
+
+
+def test_scope_noise(tmp_path, ideal):
+    bench = bench_with(tmp_path, ["scope_noise"], averages=None, record_length=10000)
+    got = readings(bench)
+    scales = {ch: float(bench.scope.query(f"CH{ch}:SCA?")) for ch in (1, 2, 3)}
+    for ch, div_rms in ((1, 0.01), (2, 0.03), (3, 0.01)):
+        assert _residual_rms(bench, f"CH{ch}") == pytest.approx(div_rms * scales[ch], rel=0.05)
+    assert got["power"] == pytest.approx(ideal["power"], rel=2e-3)  # noise averages out of the mean
+    assert got["ch1_pp"] > ideal["ch1_pp"]
+
+
+def test_averaging(tmp_path):
+    """Noise falls as 1/sqrt(N) (dithered regime: noise >= one 9-bit step)."""
+    sample = bench_with(tmp_path, ["scope_noise", "averaging"], averages=None, record_length=10000)
+    averaged = bench_with(tmp_path, ["scope_noise", "averaging"], averages=64, record_length=10000)
+    not_modelled = bench_with(tmp_path, ["scope_noise"], averages=64, record_length=10000)
+    for bench in (sample, averaged, not_modelled):
+        bench.acquire()
+    ratio = _residual_rms(sample, "CH2") / _residual_rms(averaged, "CH2")
+    assert ratio == pytest.approx(8.0, rel=0.1)
+    assert _residual_rms(not_modelled, "CH2") == pytest.approx(_residual_rms(sample, "CH2"), rel=0.05)
+
+
+def test_quantisation(tmp_path, ideal):
+    sample = bench_with(tmp_path, ["quantisation"], averages=None)
+    sample.acquire()
+    raw = sample.fetch("CH3")[2]
+    assert np.all(raw % 128 == 0)  # 9 bits, left-justified in 16
+    averaged = bench_with(tmp_path, ["quantisation", "averaging"], averages=16)
+    averaged.acquire()
+    # without noise to dither it, averaging cannot beat the 9-bit step
+    assert np.all(averaged.fetch("CH3")[2] % 128 == 0)
+    dithered = bench_with(tmp_path, ["quantisation", "averaging", "scope_noise"], averages=16)
+    dithered.acquire()
+    raw = dithered.fetch("CH3")[2]
+    assert np.all(raw % 4 == 0) and np.any(raw % 128 != 0)  # 14 bits kept
+    assert readings(sample)["power"] == pytest.approx(ideal["power"], rel=0.01)
+
+
+def test_vibrometer_noise(tmp_path):
+    bench = bench_with(tmp_path, ["vibrometer_noise"], averages=None, record_length=10000)
+    bench.acquire()
+    assert _residual_rms(bench, "CH3") == pytest.approx(2e-4 / bench.range_mps_per_v, rel=0.05)
+    for source in ("CH1", "CH2"):  # only the 16-bit rounding of the block
+        assert _residual_rms(bench, source) < bench.fetch(source)[3]["y_mult"]
+
+
+def test_vibrometer_range(tmp_path):
+    bench = bench_with(tmp_path, ["vibrometer_range"])
+    assert bench.vibrometer.query("Get,OverRange,0,Value") == "0"
+    bench.configure(F_HZ, range_name="5mm/s/V", fill_div=1.0)  # 0.37 m/s pp is 75 V pp
+    assert bench.vibrometer.query("Get,OverRange,0,Value") == "1"
+    bench.acquire()
+    assert bench.measure("CH3", "PK2") == pytest.approx(20.0, rel=1e-9)  # +-10 V
+    plain = bench_with(tmp_path, [])
+    plain.configure(F_HZ, range_name="5mm/s/V", fill_div=1.0)
+    assert plain.vibrometer.query("Get,OverRange,0,Value") == "0"
+    plain.acquire()
+    assert plain.measure("CH3", "PK2") > 20.0

@@ -1,0 +1,88 @@
+"""The single-mode plate model obeys the paper's scaling laws (Eqs. 1, 25, 27, 28)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from simbench import physics
+
+F_HZ = 37180.0
+IDEAL_AMPLIFIER = physics.Amplifier(gain=20.0, input_ohm=math.inf)
+
+
+def plate(n_powered: int = 4, force_per_piezo: float = 0.0142, resistance: float = 5.69):
+    branch = physics.MotionalBranch(F_HZ, 310.0, n_powered * force_per_piezo, resistance)
+    capacitance = physics.piezo_capacitance_f(n_powered, 45e-6, 0.5e-3, 1350.0)
+    return physics.PlateLoad(capacitance_f=capacitance, branches=(branch,))
+
+
+def solve(load, generator_vpp, frequency_hz=F_HZ, amplifier=IDEAL_AMPLIFIER):
+    generator = physics.GeneratorSettings(frequency_hz=frequency_hz, amplitude=generator_vpp)
+    return physics.solve_steady_state(load, physics.amplifier_output(generator, amplifier), frequency_hz)
+
+
+def test_calibrated_branch_reproduces_velocity_and_power_at_resonance():
+    branch = physics.calibrate_branch(F_HZ, 310.0, 37.6, 0.375, 0.100)
+    capacitance = physics.piezo_capacitance_f(4, 45e-6, 0.5e-3, 1350.0)
+    steady = solve(physics.PlateLoad(capacitance, (branch,)), 37.6 / 20.0)
+    assert steady.velocity_pp_mps == pytest.approx(0.375, rel=1e-12)
+    assert steady.power_w == pytest.approx(0.100, rel=1e-12)  # C0 is lossless
+
+
+def test_amplitude_grows_with_n_c_times_v():
+    """Eq. 1 / Eq. 27: A proportional to n_c V (same piezos, same plate)."""
+    one, two = solve(plate(4), 1.0), solve(plate(8), 0.5)
+    assert two.amplitude_pp_m == pytest.approx(one.amplitude_pp_m, rel=1e-12)
+    assert solve(plate(4), 2.0).amplitude_pp_m == pytest.approx(2 * one.amplitude_pp_m, rel=1e-12)
+
+
+def test_power_grows_with_v_squared():
+    """Eq. 25 at a fixed plate."""
+    assert solve(plate(), 2.0).power_w == pytest.approx(4 * solve(plate(), 1.0).power_w, rel=1e-12)
+
+
+def test_power_at_a_given_amplitude_does_not_depend_on_n_c():
+    """Eq. 28: twice the piezos at half the voltage give the same amplitude and power."""
+    one, two = solve(plate(4), 1.0), solve(plate(8), 0.5)
+    assert two.power_w == pytest.approx(one.power_w, rel=1e-12)
+
+
+def test_resonance_and_q_mech():
+    load = plate()
+    peak = solve(load, 1.0).velocity_pp_mps
+    half_bandwidth_hz = F_HZ / (2 * 310.0)
+    edge = solve(load, 1.0, F_HZ + half_bandwidth_hz).velocity_pp_mps
+    assert edge / peak == pytest.approx(1 / math.sqrt(2), rel=1e-3)
+    assert load.branches[0].ring_time_constant_s == pytest.approx(310.0 / (math.pi * F_HZ))
+
+
+def test_generator_and_amplifier_input():
+    assert physics.generator_emf_vpp(1.0, 50.0) == 2.0
+    assert physics.generator_emf_vpp(1.0, math.inf) == 1.0
+    assert physics.divider_vpp(1.0, 50.0, 10e3) == pytest.approx(10e3 / 10050)
+    rms = physics.GeneratorSettings(F_HZ, 1.0, voltage_unit="VRMS")
+    assert rms.amplitude_vpp == pytest.approx(2 * math.sqrt(2))
+    dbm = physics.GeneratorSettings(F_HZ, 10.0, voltage_unit="DBM")  # 10 mW into 50 ohm
+    assert dbm.amplitude_vpp == pytest.approx(2 * math.sqrt(2) * math.sqrt(0.5))
+
+
+def test_clipped_drive_keeps_its_fundamental_and_power_balance():
+    amplifier = physics.Amplifier(gain=20.0, input_ohm=math.inf, max_output_vpp=300.0)
+    steady = solve(plate(), 20.0, amplifier=amplifier)  # 400 Vpp asked
+    assert len(steady.orders) > 1
+    assert steady.output_voltage_pp_v == pytest.approx(300.0, rel=5e-3)
+    phase = np.linspace(0, 2 * np.pi, 4096, endpoint=False)
+    v = np.real(steady.output_voltage_phasors_v @ np.exp(1j * np.outer(steady.orders, phase)))
+    i = np.real(steady.current_phasors_a @ np.exp(1j * np.outer(steady.orders, phase)))
+    assert np.mean(v * i) == pytest.approx(steady.power_w, rel=1e-9)
+
+
+def test_shunt_divides_the_drive():
+    shunted = physics.PlateLoad(plate().capacitance_f, plate().branches, series_ohm=2.0)
+    steady = solve(shunted, 1.0)
+    assert steady.power_w - steady.plate_power_w == pytest.approx(abs(steady.current_phasor) ** 2, rel=1e-9)
+    # 1 Vpp from the generator is 10 V amplitude at the amplifier output
+    assert steady.piezo_voltage_phasor == pytest.approx(10.0 - 2.0 * steady.current_phasor, rel=1e-12)
