@@ -56,7 +56,7 @@ class Convention:
     materials: Materials
     voltage: Literal["pp", "amplitude"] = "pp"  # what V means inside Eqs. 25/27
     amplitude: Literal["pp", "amplitude"] = "pp"  # what A of Eq. 27 is
-    neutral_plane: Literal["stack_middle", "resonator_middle"] = "stack_middle"
+    neutral_plane: Literal["stack_middle", "resonator_middle", "bending_neutral"] = "stack_middle"
     eq28_with_pi: bool = True  # substituting Eq. 27 into Eq. 25 yields a factor pi
     eq29_as_printed: bool = False  # printed ratio b_large/b_small is inverted w.r.t. the text
 
@@ -117,12 +117,21 @@ def reduced_modulus_pa(young_pa: float, poisson: float) -> float:
 def neutral_plane_m(geometry: PlateGeometry, convention: Convention) -> float:
     """z0 measured from the free face of the piezo layer (z = 0), Fig. 4.
 
-    The paper puts it at "the middle plane"; which middle is a convention.
+    The paper puts it at "the middle plane"; which middle is a convention:
+    `stack_middle` (h_p + h_i)/2, `resonator_middle` h_p + h_i/2, or `bending_neutral`,
+    the stiffness-weighted centroid of the two layers (composite beam theory), which
+    depends on the materials: with E_i as printed it falls on the piezo mid-plane.
     """
     h_p, h_i = geometry.piezo_thickness_m, geometry.resonator_thickness_m
     if convention.neutral_plane == "stack_middle":
         return (h_p + h_i) / 2.0
-    return h_p + h_i / 2.0
+    if convention.neutral_plane == "resonator_middle":
+        return h_p + h_i / 2.0
+    m = convention.materials
+    stiffness_piezo = reduced_modulus_pa(m.piezo_c11_pa, m.piezo_poisson) * h_p
+    stiffness_resonator = reduced_modulus_pa(m.resonator_young_pa, m.resonator_poisson) * h_i
+    return ((stiffness_piezo * h_p / 2.0 + stiffness_resonator * (h_p + h_i / 2.0))
+            / (stiffness_piezo + stiffness_resonator))
 
 
 def inverse_a(f0: float, alpha: float, beta: float) -> float:

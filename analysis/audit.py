@@ -1,0 +1,315 @@
+"""The audit: each inconsistency of the paper, computed from its printed values.
+
+Only printed values (data/paper/, with their source) and the model's equations enter;
+every number shown is computed here. `convention_grid` goes further: it evaluates the
+large plate's published operating point (Sec. 5.3.2, Table 5) and the Table 4 loss
+tangent under every combination of the readings the paper leaves open, and says which
+readings reproduce which published number.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from dataclasses import dataclass, replace
+
+import numpy as np
+import pandas as pd
+
+from analysis import model
+from analysis.paper import paper_source, paper_value
+
+MM = 1e-3
+#: A published number counts as reproduced within this relative difference (the paper
+#: itself calls estimate vs measurement within 10 % a match; its numbers have 2-3 digits).
+MATCH_REL = 0.10
+
+
+@dataclass(frozen=True)
+class Finding:
+    """One audited point: what was computed, the printed value it is compared with."""
+
+    topic: str
+    quantity: str
+    computed: float
+    printed: float | None
+    source: str
+    comment: str
+
+    def as_row(self) -> dict:
+        rel = (self.computed - self.printed) / abs(self.printed) if self.printed else None
+        return {"topic": self.topic, "quantity": self.quantity, "computed": self.computed,
+                "printed": self.printed, "relative_difference": rel, "source": self.source,
+                "comment": self.comment}
+
+
+# --- the printed plates as model geometries ----------------------------------------------
+
+def large_plate_geometry(n_powered_piezos: int | None = None, piezo_side: str = "length",
+                         wavelength_reading: str = "two_half") -> model.PlateGeometry:
+    """The large plate of Sec. 5.2 under a reading of b_p and lambda."""
+    half = paper_value("large_plate", "large_plate", "half_wavelength_mm") * MM
+    side = "piezo_length_mm" if piezo_side == "length" else "piezo_width_mm"
+    return model.PlateGeometry(
+        resonator_thickness_m=paper_value("large_plate", "large_plate", "resonator_thickness_mm") * MM,
+        piezo_thickness_m=paper_value("large_plate", "large_plate", "piezo_thickness_mm") * MM,
+        piezo_length_m=paper_value("large_plate", "large_plate", side) * MM,
+        half_wavelength_m=half if wavelength_reading == "two_half" else half / 2.0,
+        n_powered_piezos=int(n_powered_piezos or paper_value("large_plate", "large_plate", "n_piezos")))
+
+
+def table4_geometry(configuration: str, nc_reading: str = "piezos", piezo_side: str = "length",
+                    wavelength_reading: str = "two_half") -> model.PlateGeometry:
+    """The Table 4 plate (76 x 41 x 1.2 mm, (9, 0) mode: lambda/2 = length / 9)."""
+    half = (paper_value("table4", "plate", "resonator_length_mm")
+            / paper_value("table4", "plate", "n_antinodes")) * MM
+    powered_columns = paper_value("table4", configuration, "n_powered_columns")
+    per_column = paper_value("table4", "plate", "piezos_per_column")
+    n_c = {"piezos": powered_columns * per_column, "columns": powered_columns,
+           "actuating": powered_columns * per_column}[nc_reading]
+    side = "piezo_length_mm" if piezo_side == "length" else "piezo_width_mm"
+    return model.PlateGeometry(
+        resonator_thickness_m=paper_value("table4", "plate", "resonator_thickness_mm") * MM,
+        piezo_thickness_m=paper_value("table4", "plate", "piezo_thickness_mm") * MM,
+        piezo_length_m=paper_value("table4", "plate", side) * MM,
+        half_wavelength_m=half if wavelength_reading == "two_half" else half / 2.0,
+        n_powered_piezos=int(n_c))
+
+
+def large_plate_nc(reading: str) -> int:
+    """n_c on the large plate: all piezos, one per corner group, or all but the sensor."""
+    n = paper_value("large_plate", "large_plate", "n_piezos")
+    return int({"piezos": n, "columns": paper_value("large_plate", "large_plate", "n_corner_groups"),
+                "actuating": n - paper_value("large_plate", "large_plate", "n_sensor_piezos")}[reading])
+
+
+def _large_operating_point() -> dict[str, float]:
+    return {"q": paper_value("table5", "measured", "q"),
+            "tan_theta": paper_value("table5", "measured", "tan_theta"),
+            "voltage_vpp": paper_value("large_plate", "large_plate", "voltage_vpp"),
+            "frequency_hz": paper_value("large_plate", "large_plate", "frequency_hz"),
+            "power_w": paper_value("large_plate", "large_plate", "power_w"),
+            "amplitude_m": paper_value("large_plate", "large_plate", "amplitude_m")}
+
+
+# --- the findings ------------------------------------------------------------------------
+
+def eq29_findings() -> list[Finding]:
+    """Eq. 29 printed (b_large/b_small) vs the text's reading (b_small/b_large)."""
+    q_small = paper_value("small_plates", "small_plate_4", "q")
+    b_large = paper_value("large_plate", "large_plate", "piezo_length_mm")
+    b_small = paper_value("small_plates", "plate", "piezo_length_mm")
+    printed = paper_value("table5", "estimated", "q")
+    source = paper_source("table5", "estimated", "q")
+    as_printed = model.q_large_from_small(q_small, b_large, b_small, as_printed=True)
+    inverted = model.q_large_from_small(q_small, b_large, b_small, as_printed=False)
+    return [
+        Finding("Eq. 29 inverted", "Q_large, Eq. 29 as printed (b_large/b_small)", as_printed, printed,
+                source, "the printed ratio makes Q grow with piezo length, against the text"),
+        Finding("Eq. 29 inverted", "Q_large with b_small/b_large", inverted, printed, source,
+                "the inverse ratio reproduces Table 5 (to the rounding of Q_small)"),
+        Finding("Eq. 29 inverted", "Q_small that would print Table 5's estimate",
+                printed / (b_small / b_large), q_small, "Sec. 5.3.2",
+                "Table 5's last digit needs Q_small slightly above its printed rounding"),
+    ]
+
+
+def eq28_findings() -> list[Finding]:
+    """Eq. 27 substituted into Eq. 25 vs Eq. 28 as printed: the ratio is pi."""
+    op = _large_operating_point()
+    geometry = large_plate_geometry()
+    convention = model.PAPER_CONVENTION
+    amplitude = model.amplitude_pp_m(op["q"], op["voltage_vpp"], geometry, convention)
+    eq25 = model.power_w(op["q"], op["tan_theta"], op["voltage_vpp"], op["frequency_hz"], geometry, convention)
+    printed28 = model.power_from_amplitude_w(amplitude, op["q"], op["tan_theta"], op["frequency_hz"], geometry,
+                                             replace(convention, eq28_with_pi=False))
+    return [Finding("Eq. 28 missing pi", "Eq. 25 / Eq. 28 as printed, same Q, V, A", eq25 / printed28, None,
+                    "Eqs. 25, 27, 28", f"equals pi = {math.pi:.6f}: Eq. 28 lost a factor pi")]
+
+
+def sign_findings() -> list[Finding]:
+    """The sign of a (Eq. 12) and what it does to Eqs. 25 and 27 at the large plate."""
+    op = _large_operating_point()
+    geometry = large_plate_geometry()
+    findings = []
+    for convention, label in ((model.PAPER_CONVENTION, "E_i as printed"),
+                              (model.PHYSICAL_CONVENTION, "E_i = 67 GPa")):
+        a = model.a_factor(geometry, convention)
+        amplitude = model.amplitude_pp_m(op["q"], op["voltage_vpp"], geometry, convention)
+        power = model.power_w(op["q"], op["tan_theta"], op["voltage_vpp"], op["frequency_hz"], geometry,
+                              convention)
+        q_needed = model.q_from_amplitude(op["amplitude_m"], op["voltage_vpp"], geometry, convention)
+        findings += [
+            Finding("sign of Eq. 25", f"a (Eq. 12), 2 mm large plate, {label}", a, None, "Eq. 12, Table 2",
+                    "negative a makes Q > 0 with d31 < 0 give A > 0, and tan theta' < 0 give P > 0"),
+            Finding("sign of Eq. 25", f"A pp at the published point, Q=1.48, {label}", amplitude,
+                    op["amplitude_m"], "Sec. 5.3.2", "Eq. 27"),
+            Finding("sign of Eq. 25", f"P at the published point, Q=1.48, tan=-1.24, {label}", power,
+                    op["power_w"], "Sec. 5.3.2", "Eq. 25; negative power is unphysical"),
+            Finding("Table 5 under E_i", f"Q from Eq. 27 for the published 1 um at 32 Vpp, {label}",
+                    q_needed, paper_value("table5", "measured", "q"), "Table 5",
+                    "the Q a reader obtains from the published amplitude"),
+            Finding("Table 5 under E_i", f"tan theta' from Eq. 25 for 1.3 W at 32 Vpp with that Q, {label}",
+                    model.tan_theta_from_power(op["power_w"], op["voltage_vpp"], q_needed, op["frequency_hz"],
+                                               geometry, convention),
+                    paper_value("table5", "measured", "tan_theta"), "Table 5",
+                    "the loss tangent the published power implies"),
+        ]
+    return findings
+
+
+def table4_findings(convention: model.Convention = model.PAPER_CONVENTION) -> list[Finding]:
+    """Table 4: amplitude pp = velocity pp / (2 pi f), and tan theta' from Eqs. 25/27."""
+    findings = []
+    tangents = []
+    for configuration in ("1-column", "2-columns 1 powered", "2-columns 2 powered"):
+        velocity = paper_value("table4", configuration, "velocity_pp_mps")
+        frequency = paper_value("table4", configuration, "frequency_hz")
+        amplitude = paper_value("table4", configuration, "amplitude_pp_m")
+        findings.append(Finding("Table 4 amplitude", f"v_pp/(2 pi f), {configuration}",
+                                velocity / (2 * math.pi * frequency), amplitude, "Table 4",
+                                "the printed amplitude is the velocity divided by 2 pi f"))
+        tangents.append(_table4_tan_theta(configuration, convention, table4_geometry(configuration)))
+    findings.append(Finding("Table 4 loss tangent", f"mean tan theta' from Table 4 ({convention.name})",
+                            float(np.mean(tangents)), paper_value("small_plates", "1.2mm", "tan_theta_mean"),
+                            "Sec. 4", "Q from Eq. 27, then tan theta' from Eq. 25 divided by Q"))
+    return findings
+
+
+def _table4_tan_theta(configuration: str, convention: model.Convention,
+                      geometry: model.PlateGeometry) -> float:
+    voltage = paper_value("table4", configuration, "voltage_vpp")
+    frequency = paper_value("table4", configuration, "frequency_hz")
+    q = model.q_from_amplitude(paper_value("table4", configuration, "amplitude_pp_m"), voltage, geometry,
+                               convention)
+    return model.tan_theta_from_power(paper_value("table4", configuration, "power_w"), voltage, q, frequency,
+                                      geometry, convention)
+
+
+def neutral_plane_findings() -> list[Finding]:
+    """a and the published-point amplitude under each choice of z0, for both E_i."""
+    op = _large_operating_point()
+    geometry = large_plate_geometry()
+    findings = []
+    for materials_label, base in (("E_i printed", model.PAPER_CONVENTION),
+                                  ("E_i 67 GPa", model.PHYSICAL_CONVENTION)):
+        for plane in ("stack_middle", "resonator_middle", "bending_neutral"):
+            convention = replace(base, neutral_plane=plane)
+            z0 = model.neutral_plane_m(geometry, convention)
+            try:
+                a = model.a_factor(geometry, convention)
+                amplitude = model.amplitude_pp_m(op["q"], op["voltage_vpp"], geometry, convention)
+                comment = f"z0 = {z0 * 1e3:.4g} mm; A pp at the published point {amplitude * 1e6:.4g} um"
+            except model.ModelGeometryError as exc:
+                a, comment = math.nan, f"z0 = {z0 * 1e3:.4g} mm: {exc}"
+            findings.append(Finding("neutral plane", f"a, {plane}, {materials_label}", a, None,
+                                    "Sec. 3.2, Eq. 12", comment))
+    return findings
+
+
+def power_estimate_findings() -> list[Finding]:
+    """Eq. 25 is linear in Q tan theta': Table 5's estimate vs measurement in power."""
+    ratio = (paper_value("table5", "estimated", "q") * paper_value("table5", "estimated", "tan_theta")) / (
+        paper_value("table5", "measured", "q") * paper_value("table5", "measured", "tan_theta"))
+    return [Finding("Table 5 power", "P estimated / P measured from Table 5 (Eq. 25)", ratio, 1.0,
+                    "Table 5, Sec. 5.3.2", "the paper reports an average error below 10 %")]
+
+
+def print_slip_findings() -> list[Finding]:
+    """Eq. 14 writes 3 d31 (z0-z)/(2 h_p a); Eqs. 20-21 write (3/2) d31 (z0-z)/(2 h_p a)."""
+    eq14 = 3.0 / 2.0
+    eq20 = (3.0 / 2.0) / 2.0
+    return [Finding("Eqs. 20-21 factor", "Eq. 14 coefficient / Eq. 20 coefficient", eq14 / eq20, None,
+                    "Eqs. 14, 20, 21", "a factor 2 lost between the strain and its rate"),
+            Finding("Table 3 label", "uncut plate length (mm), Fig. 2 caption vs Table 3",
+                    paper_value("table3", "plate", "resonator_length_mm"), 75.0, "Table 3, Fig. 2",
+                    "Table 3 heads the uncut plate 75 x 41; the caption says 76 mm")]
+
+
+def audit_findings() -> pd.DataFrame:
+    findings = (eq29_findings() + eq28_findings() + sign_findings() + power_estimate_findings()
+                + table4_findings() + neutral_plane_findings() + print_slip_findings())
+    return pd.DataFrame([f.as_row() for f in findings])
+
+
+# --- the convention grid -----------------------------------------------------------------
+
+GRID_AXES = {
+    "materials": ("printed", "physical"),
+    "voltage": ("pp", "amplitude"),
+    "amplitude": ("pp", "amplitude"),
+    "neutral_plane": ("stack_middle", "resonator_middle", "bending_neutral"),
+    "n_c": ("piezos", "columns", "actuating"),
+    "b_p": ("length", "width"),
+    "wavelength": ("two_half", "half"),
+}
+
+
+def convention_grid() -> pd.DataFrame:
+    """Every reading of GRID_AXES at the large plate's published point (32 Vpp, Q and
+    tan theta' of Table 5 measured, 52.4 kHz) and for Table 4's loss tangent.
+
+    Columns: the reading, a, the model amplitude (in the reading's own A meaning, as the
+    paper would print it) and power, their ratio to the published ~1 um and 1.3 W, the
+    Table 4 mean tan theta' against the printed 1.2 mm mean, and which of them match.
+    """
+    op = _large_operating_point()
+    tan_printed = paper_value("small_plates", "1.2mm", "tan_theta_mean")
+    materials = {"printed": model.MATERIALS_AS_PRINTED, "physical": model.MATERIALS_PHYSICAL}
+    rows = []
+    for values in itertools.product(*GRID_AXES.values()):
+        reading = dict(zip(GRID_AXES, values))
+        convention = model.Convention(
+            name="grid", materials=materials[reading["materials"]], voltage=reading["voltage"],
+            amplitude=reading["amplitude"], neutral_plane=reading["neutral_plane"])
+        geometry = large_plate_geometry(large_plate_nc(reading["n_c"]), reading["b_p"], reading["wavelength"])
+        row = dict(reading)
+        try:
+            row["a"] = model.a_factor(geometry, convention)
+            amplitude_pp = model.amplitude_pp_m(op["q"], op["voltage_vpp"], geometry, convention)
+            row["amplitude_as_printed_m"] = convention.amplitude_in_equation(amplitude_pp)
+            row["power_w"] = model.power_w(op["q"], op["tan_theta"], op["voltage_vpp"], op["frequency_hz"],
+                                           geometry, convention)
+            row["table4_tan_theta_mean"] = float(np.mean([
+                _table4_tan_theta(c, convention, table4_geometry(c, reading["n_c"], reading["b_p"],
+                                                                 reading["wavelength"]))
+                for c in ("1-column", "2-columns 1 powered", "2-columns 2 powered")]))
+        except model.ModelGeometryError:
+            rows.append({**row, "defined": False})
+            continue
+        row["defined"] = True
+        row["amplitude_ratio"] = row["amplitude_as_printed_m"] / op["amplitude_m"]
+        row["power_ratio"] = row["power_w"] / op["power_w"]
+        row["table4_tan_ratio"] = row["table4_tan_theta_mean"] / tan_printed
+        for target in ("amplitude", "power", "table4_tan"):
+            ratio = row[f"{target}_ratio"]
+            row[f"matches_{target}"] = bool(ratio > 0 and abs(ratio - 1.0) <= MATCH_REL)
+        row["log_misfit"] = float(np.sqrt(np.mean([
+            math.log10(abs(row[f"{t}_ratio"])) ** 2 for t in ("amplitude", "power", "table4_tan")])))
+        row["signs_consistent"] = bool(row["amplitude_ratio"] > 0 and row["power_ratio"] > 0)
+        rows.append(row)
+    frame = pd.DataFrame(rows)
+    return frame.sort_values(["defined", "signs_consistent", "log_misfit"],
+                             ascending=[False, False, True], kind="stable").reset_index(drop=True)
+
+
+def grid_summary(grid: pd.DataFrame) -> pd.DataFrame:
+    """How many readings reproduce each published number, and the best reading for each."""
+    defined = grid[grid["defined"]]
+    rows = []
+    for target, label in (("amplitude", "about 1 um at 32 Vpp (Sec. 5.3.2)"),
+                          ("power", "1.3 W at 32 Vpp (Sec. 5.3.2)"),
+                          ("table4_tan", "tan theta' of the 1.2 mm plates from Table 4 (Sec. 4)")):
+        hits = defined[defined[f"matches_{target}"]]
+        best = defined.iloc[int(np.argmin(np.abs(np.log10(np.abs(defined[f"{target}_ratio"])))))]
+        rows.append({"published": label, "readings_matching": len(hits), "readings_defined": len(defined),
+                     "best_reading": _reading_label(best), "best_ratio": best[f"{target}_ratio"]})
+    all_three = defined[defined["matches_amplitude"] & defined["matches_power"] & defined["matches_table4_tan"]]
+    rows.append({"published": "all three at once", "readings_matching": len(all_three),
+                 "readings_defined": len(defined),
+                 "best_reading": _reading_label(defined.iloc[0]), "best_ratio": defined.iloc[0]["log_misfit"]})
+    return pd.DataFrame(rows)
+
+
+def _reading_label(row: pd.Series) -> str:
+    return ", ".join(f"{axis}={row[axis]}" for axis in GRID_AXES)

@@ -1,0 +1,504 @@
+"""Tables 3, 4 and 5 and the per-plate Q / tan(theta') of Fig. 5, recomputed from a run.
+
+Every number comes from the stored waveforms reduced by `analysis.waveforms` (the
+scope's on-line numbers are shown beside them as a cross-check) and is set side by side
+with the paper's printed value (data/paper/) and the relative difference.
+
+Tables are tidy: one row per (item, quantity). A value that could not be obtained is
+never NaN in a finished table: `finish_table` writes "not measured" / "not reachable".
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import pandas as pd
+from scipy import optimize
+
+from analysis import model
+from analysis.paper import paper_table
+from analysis.rundata import RunData
+from analysis.waveforms import Estimate, PointReduction, reduce_point
+from squeezebench.errors import UserError
+
+TABLE_COLUMNS = ["table", "item", "quantity", "unit", "value", "std_uncertainty",
+                 "scope_value", "paper_value", "paper_source", "relative_difference", "status"]
+NOT_MEASURED = "not measured"
+NOT_REACHABLE = "not reachable"
+#: A straight line through fewer points has no residual to judge it by.
+MIN_FIT_POINTS = 3
+
+UNITS = {"n_antinodes": "1", "frequency_hz": "Hz", "voltage_vpp": "V", "power_w": "W",
+         "velocity_pp_mps": "m/s", "amplitude_pp_m": "m", "q": "1", "tan_theta": "1"}
+
+
+class FitError(UserError):
+    """A curve fit that was refused (too few points, no spread) or failed."""
+
+
+class MissingDataError(UserError):
+    """A run lacks what a table needs; the message says what and where."""
+
+
+@dataclass(frozen=True)
+class LineFit:
+    """y = slope x + intercept with standard uncertainties, in the caller's units."""
+
+    slope: Estimate
+    intercept: Estimate
+    n_points: int
+
+
+def fit_line(x, y, y_std=None, *, what: str) -> LineFit:
+    """Weighted straight-line fit with `scipy.optimize.curve_fit` on scaled variables
+    (x / max|x|, y / max|y|, so the normal equations are of order one whatever the
+    units). With stated uncertainties the covariance is theirs, inflated by the reduced
+    chi-square when the points scatter more than stated (never deflated: exact points
+    keep their stated uncertainty); without, the residual scatter alone."""
+    x = np.asarray(x, dtype=float)
+    y = np.asarray(y, dtype=float)
+    keep = np.isfinite(x) & np.isfinite(y)
+    x, y = x[keep], y[keep]
+    if x.size < MIN_FIT_POINTS:
+        raise FitError(f"{what}: a line fit needs at least {MIN_FIT_POINTS} points, got {x.size}")
+    x_scale, y_scale = np.max(np.abs(x)), np.max(np.abs(y))
+    if x_scale == 0 or np.ptp(x) <= 1e-9 * x_scale:
+        raise FitError(f"{what}: all {x.size} points share one abscissa; no slope can be fitted")
+    if y_scale == 0:
+        y_scale = 1.0
+    sigma = None
+    if y_std is not None:
+        s = np.asarray(y_std, dtype=float)[keep] / y_scale
+        sigma = s if np.all(s > 0) and np.all(np.isfinite(s)) else None
+    u, v = x / x_scale, y / y_scale
+    try:
+        params, covariance = optimize.curve_fit(lambda t, m, c: m * t + c, u, v, p0=(1.0, 0.0),
+                                                sigma=sigma, absolute_sigma=sigma is not None)
+    except (RuntimeError, ValueError) as exc:
+        raise FitError(f"{what}: line fit failed ({exc})") from exc
+    if sigma is not None:
+        chi2_per_dof = float(np.sum(((v - params[0] * u - params[1]) / sigma) ** 2)) / (u.size - 2)
+        covariance = covariance * max(chi2_per_dof, 1.0)
+    errors = np.sqrt(np.clip(np.diag(covariance), 0.0, None))
+    errors = np.where(np.isfinite(errors), errors, 0.0)  # exact data: zero scatter
+    return LineFit(slope=Estimate(params[0] * y_scale / x_scale, errors[0] * y_scale / x_scale),
+                   intercept=Estimate(params[1] * y_scale, errors[1] * y_scale),
+                   n_points=int(x.size))
+
+
+def mean_estimate(values, uncertainties) -> Estimate:
+    """Mean of repeated points; uncertainty combines the stated ones and the scatter."""
+    values = np.asarray(values, dtype=float)
+    uncertainties = np.asarray(uncertainties, dtype=float)
+    n = values.size
+    stated = math.sqrt(float(np.sum(uncertainties**2))) / n
+    scatter = float(np.std(values, ddof=1)) / math.sqrt(n) if n > 1 else 0.0
+    return Estimate(float(values.mean()), math.hypot(stated, scatter))
+
+
+def flag(column: pd.Series, default: bool) -> pd.Series:
+    """A boolean column of the concatenated steps; steps that lack it get `default`."""
+    return column.map(lambda x: default if pd.isna(x) else bool(x)).astype(bool)
+
+
+def relative_difference(value: float, reference: float) -> float:
+    return (value - reference) / abs(reference) if reference else math.nan
+
+
+# --- reduction of the stored points ------------------------------------------------------
+
+def reduced_points(run: RunData, rows: pd.DataFrame) -> pd.DataFrame:
+    """`rows` with the reduction of each row's waveform file added as columns
+    (frequency_hz, piezo_voltage_vpp, power_w, power_fit_w, velocity_pp_mps, ... each
+    with `_u`). Reductions are cached on the run, so every table sees the same numbers."""
+    cache = run.reductions
+    reduced = []
+    for row in rows.itertuples(index=False):
+        path = getattr(row, "waveform_file", None)
+        if not isinstance(path, str) or not path:
+            reduced.append({})
+            continue
+        if path not in cache:
+            waveform = run.waveform(path)
+            samples = waveform.samples
+            try:
+                cache[path] = reduce_point(
+                    samples["time_s"], samples["piezo_voltage_v"], samples["current_a"],
+                    samples["vibrometer_output_v"], float(row.vibrometer_scale_mps_per_v),
+                    y_increments=waveform.y_increments(), averages=waveform.averages(),
+                    frequency_hint_hz=float(row.generator_frequency_hz)).as_row()
+            except (ValueError, KeyError) as exc:
+                raise MissingDataError(f"{run.run_dir / path}: cannot reduce this record ({exc})") from exc
+        reduced.append(cache[path])
+    extra = pd.DataFrame(reduced, index=rows.index).reindex(columns=REDUCTION_COLUMNS)
+    # The rows carry the scope's own velocity_pp_mps; the reduction replaces it (the
+    # scope's number stays available as scope_velocity_pp_v x vibrometer scale).
+    return pd.concat([rows.drop(columns=[c for c in REDUCTION_COLUMNS if c in rows]), extra], axis=1)
+
+
+def with_scope_fallback(points: pd.DataFrame) -> pd.DataFrame:
+    """Points without a stored waveform (e.g. resonance sweep points) take the scope's
+    on-line power and velocity instead of the reduction."""
+    points = points.copy()
+    points["power_w"] = points["power_w"].fillna(points["scope_power_w"])
+    points["velocity_pp_mps"] = points["velocity_pp_mps"].fillna(_scope_velocity_pp_mps(points))
+    return points
+
+
+REDUCTION_COLUMNS = [f"{name}{suffix}" for name in PointReduction.__dataclass_fields__
+                     for suffix in (("",) if name in ("n_periods", "velocity_raw_pp_mps") else ("", "_u"))]
+
+
+def _scope_velocity_pp_mps(points: pd.DataFrame) -> pd.Series:
+    return points["scope_velocity_pp_v"] * points["vibrometer_scale_mps_per_v"]
+
+
+# --- Tables 3 and 4 ----------------------------------------------------------------------
+
+def _side_by_side(table: str, paper_name: str, items: dict[str, pd.DataFrame],
+                  quantities: list[str], constant_columns: dict[str, str]) -> pd.DataFrame:
+    """One row per (paper item, quantity): recomputed value, scope value, printed value."""
+    paper = paper_table(paper_name)
+    rows = []
+    for item in paper["item"].unique():
+        if item == "plate":
+            continue
+        points = items.get(item)
+        for quantity in quantities:
+            printed = paper[(paper["item"] == item) & (paper["quantity"] == quantity)]
+            row = {"table": table, "item": item, "quantity": quantity, "unit": UNITS[quantity],
+                   "value": math.nan, "std_uncertainty": math.nan, "scope_value": math.nan,
+                   "paper_value": float(printed["value"].iloc[0]) if len(printed) else math.nan,
+                   "paper_source": str(printed["source"].iloc[0]) if len(printed) else "",
+                   "status": NOT_MEASURED}
+            if points is not None and len(points):
+                reachable = flag(points["reachable"], default=True) if "reachable" in points else None
+                if reachable is not None and not reachable.any():
+                    row["status"] = NOT_REACHABLE
+                else:
+                    if reachable is not None:
+                        points = points[reachable]
+                    row.update(_quantity_value(points, quantity, constant_columns))
+                    row["status"] = "measured"
+            row["relative_difference"] = relative_difference(row["value"], row["paper_value"])
+            rows.append(row)
+    return pd.DataFrame(rows, columns=TABLE_COLUMNS)
+
+
+def _quantity_value(points: pd.DataFrame, quantity: str, constant_columns: dict[str, str]) -> dict:
+    if quantity in constant_columns:
+        value = float(points[constant_columns[quantity]].iloc[0])
+        return {"value": value, "std_uncertainty": 0.0}
+    column = "piezo_voltage_vpp" if quantity == "voltage_vpp" else quantity
+    estimate = mean_estimate(points[column], points[f"{column}_u"])
+    scope_frequency = points.get("scope_frequency_hz", points["generator_frequency_hz"])
+    scope = {"power_w": points["scope_power_w"],
+             "amplitude_pp_m": _scope_velocity_pp_mps(points) / (2 * math.pi * scope_frequency),
+             "velocity_pp_mps": _scope_velocity_pp_mps(points),
+             "frequency_hz": scope_frequency,
+             "voltage_vpp": points.get("scope_piezo_voltage_pp_v", points["piezo_voltage_setpoint_vpp"]),
+             }.get(quantity)
+    return {"value": estimate.value, "std_uncertainty": estimate.std_uncertainty,
+            "scope_value": float(scope.mean()) if scope is not None else math.nan}
+
+
+def _protocol_points(run: RunData, protocol: str) -> pd.DataFrame:
+    rows = run.protocol(protocol)
+    if rows.empty:
+        raise MissingDataError(f"protocol '{protocol}' is not in this run "
+                               f"({run.run_dir / 'measurements'})")
+    if "sweep" in rows:
+        rows = rows[~flag(rows["sweep"], default=False)]
+    return reduced_points(run, rows.reset_index(drop=True))
+
+
+TABLE3_QUANTITIES = ["n_antinodes", "frequency_hz", "voltage_vpp", "power_w", "velocity_pp_mps"]
+TABLE4_QUANTITIES = ["frequency_hz", "voltage_vpp", "power_w", "velocity_pp_mps", "amplitude_pp_m"]
+
+
+def empty_table(name: str, quantities: list[str]) -> pd.DataFrame:
+    """The paper's rows of a table with nothing measured (the protocol was not run)."""
+    return _side_by_side(name, name, {}, quantities, {})
+
+
+def table3(run: RunData) -> pd.DataFrame:
+    """Table 3 (Sec. 2.3.1): the one-column plate cut to shorter lengths, 20 Vpp."""
+    points = _protocol_points(run, "resonator_cutting")
+    printed_lengths = [float(i) for i in paper_table("table3")["item"].unique() if i != "plate"]
+    items: dict[str, pd.DataFrame] = {}
+    for length, group in points.groupby("plate_length_mm"):
+        # The uncut plate is 76 mm in Fig. 2 but labelled 75 in Table 3: match within 1.5 mm.
+        nearest = min(printed_lengths, key=lambda p: abs(p - float(length)))
+        if abs(nearest - float(length)) <= 1.5:
+            items[f"{nearest:g}"] = group
+    return _side_by_side("table3", "table3", items, TABLE3_QUANTITIES, {"n_antinodes": "n_antinodes"})
+
+
+def table4(run: RunData) -> pd.DataFrame:
+    """Table 4 (Sec. 2.3.2): one- and two-column plates, one or two columns powered."""
+    points = _protocol_points(run, "powered_columns")
+    items = {str(name): group for name, group in points.groupby("configuration")}
+    return _side_by_side("table4", "table4", items, TABLE4_QUANTITIES, {})
+
+
+# --- Fig. 5 and Table 5 ------------------------------------------------------------------
+
+_GEOMETRY_FIELDS = ("resonator_thickness_m", "piezo_thickness_m", "piezo_length_m", "half_wavelength_m")
+
+
+def _mappings(node):
+    """Every mapping inside a parsed YAML document, depth first."""
+    if isinstance(node, dict):
+        yield node
+        children = node.values()
+    elif isinstance(node, list):
+        children = node
+    else:
+        return
+    for child in children:
+        yield from _mappings(child)
+
+
+def _first(node, predicate):
+    return next((m for m in _mappings(node) if predicate(m)), None)
+
+
+def _plate_node(scene: dict, plate: str):
+    """The part of a scene that describes `plate`: a key named after it, or a mapping
+    whose name/plate field is it."""
+    named = _first(scene, lambda m: m.get("name") == plate or m.get("plate") == plate
+                   or isinstance(m.get(plate), dict))
+    if named is None:
+        return None
+    return named[plate] if isinstance(named.get(plate), dict) else named
+
+
+def _length_m(mapping: dict, field_m: str) -> float | None:
+    """A length stored in metres (`<name>_m`) or millimetres (`<name>_mm`)."""
+    if field_m in mapping:
+        return float(mapping[field_m])
+    field_mm = field_m[:-2] + "_mm"
+    return float(mapping[field_mm]) * 1e-3 if field_mm in mapping else None
+
+
+def plate_geometry(run: RunData, plate: str, n_powered_piezos: int) -> model.PlateGeometry:
+    """The model geometry of one plate from the run's scene copies under inputs/
+    (a scene named after the plate, or a section of a scene naming it), with the
+    PlateGeometry length fields in metres or millimetres."""
+    for file_name, scene in run.scenes.items():
+        node = scene if file_name.rsplit(".", 1)[0] == plate else _plate_node(scene, plate)
+        fields = _first(node, lambda m: all(_length_m(m, k) is not None for k in _GEOMETRY_FIELDS)) \
+            if node is not None else None
+        if fields is not None:
+            return model.PlateGeometry(**{key: _length_m(fields, key) for key in _GEOMETRY_FIELDS},
+                                       n_powered_piezos=int(n_powered_piezos))
+    raise MissingDataError(f"geometry of '{plate}' (fields {', '.join(_GEOMETRY_FIELDS)}, in m or as "
+                           f"*_mm) is not in any scene copy under {run.run_dir / 'inputs'}")
+
+
+@dataclass(frozen=True)
+class PlateCharacterisation:
+    """Fig. 5 for one plate: Q from Eq. 27 via the slope of amplitude vs voltage, and
+    tan(theta') from Eq. 25 via the slope of power vs V^2, divided by Q."""
+
+    plate: str
+    geometry: model.PlateGeometry
+    frequency_hz: float
+    amplitude_slope: LineFit  # amplitude_pp_m per volt pp
+    power_slope: LineFit  # W per Vpp^2
+    q: Estimate
+    tan_theta: Estimate
+    points: pd.DataFrame
+
+
+def characterise_plate(plate: str, points: pd.DataFrame, geometry: model.PlateGeometry,
+                       convention: model.Convention) -> PlateCharacterisation:
+    """Eqs. 27 and 25 are linear in V and V^2, so a slope at V = 1 Vpp carries them:
+    Q = slope_A / (A per Q at 1 Vpp); Q tan(theta') = slope_P / (P per Q tan at 1 Vpp)."""
+    amplitude_fit = fit_line(points["piezo_voltage_vpp"], points["amplitude_pp_m"],
+                             points["amplitude_pp_m_u"], what=f"{plate}: amplitude vs voltage (Fig. 8)")
+    power_fit = fit_line(points["piezo_voltage_vpp"] ** 2, points["power_w"], points["power_w_u"],
+                         what=f"{plate}: power vs voltage squared (Fig. 9)")
+    frequency = float(points["frequency_hz"].mean())
+    q_value = model.q_from_amplitude(amplitude_fit.slope.value, 1.0, geometry, convention)
+    q_rel = amplitude_fit.slope.std_uncertainty / abs(amplitude_fit.slope.value)
+    tan_value = model.tan_theta_from_power(power_fit.slope.value, 1.0, q_value, frequency, geometry,
+                                           convention)
+    tan_rel = math.hypot(power_fit.slope.std_uncertainty / abs(power_fit.slope.value), q_rel)
+    return PlateCharacterisation(
+        plate=plate, geometry=geometry, frequency_hz=frequency, amplitude_slope=amplitude_fit,
+        power_slope=power_fit, q=Estimate(q_value, abs(q_value) * q_rel),
+        tan_theta=Estimate(tan_value, abs(tan_value) * tan_rel), points=points)
+
+
+def characterise_plates(run: RunData, convention: model.Convention) -> dict[str, PlateCharacterisation]:
+    """Fig. 5 for every plate of the characterisation protocol (small plates and the large one)."""
+    points = _protocol_points(run, "characterisation")
+    results = {}
+    for plate, group in points.groupby("plate", sort=True):
+        geometry = plate_geometry(run, str(plate), int(group["n_powered_piezos"].iloc[0]))
+        results[str(plate)] = characterise_plate(str(plate), group, geometry, convention)
+    return results
+
+
+def fig5_table(plates: dict[str, PlateCharacterisation]) -> pd.DataFrame:
+    """Q and tan(theta') per plate, then the mean tan(theta') per resonator thickness.
+    The paper's per-plate labels of Fig. 5 did not survive; what its text prints (Plate 4's
+    Q, the mean tan(theta') per thickness) is set beside."""
+    paper = {(row.item, row.quantity): (row.value, row.source)
+             for row in paper_table("small_plates").itertuples(index=False)}
+
+    def row(item, quantity, estimate: Estimate, thickness_mm: float, printed_key) -> dict:
+        printed, source = paper.get(printed_key, (math.nan, ""))
+        return {"table": "fig5", "item": item, "quantity": quantity, "unit": "1",
+                "value": estimate.value, "std_uncertainty": estimate.std_uncertainty,
+                "scope_value": math.nan, "paper_value": printed, "paper_source": source,
+                "relative_difference": relative_difference(estimate.value, printed),
+                "status": "measured", "resonator_thickness_mm": thickness_mm}
+
+    rows = []
+    for name, result in plates.items():
+        thickness_mm = result.geometry.resonator_thickness_m * 1e3
+        rows.append(row(name, "q", result.q, thickness_mm, (name, "q")))
+        rows.append(row(name, "tan_theta", result.tan_theta, thickness_mm, (name, "tan_theta")))
+    small = {n: p for n, p in plates.items() if n != LARGE_PLATE}
+    for thickness_mm in sorted({round(p.geometry.resonator_thickness_m * 1e3, 6) for p in small.values()}):
+        same = [p.tan_theta for p in small.values()
+                if math.isclose(p.geometry.resonator_thickness_m * 1e3, thickness_mm, rel_tol=1e-6)]
+        mean = mean_estimate([e.value for e in same], [e.std_uncertainty for e in same])
+        rows.append(row(f"small plates {thickness_mm:g} mm", "tan_theta_mean", mean, thickness_mm,
+                        (f"{thickness_mm:g}mm", "tan_theta_mean")))
+    return pd.DataFrame(rows, columns=TABLE_COLUMNS + ["resonator_thickness_mm"])
+
+
+LARGE_PLATE = "large_plate"
+#: Sec. 5.2: the large plate copies the Plate 4 layout, so Eq. 29 starts from Plate 4's Q.
+TEMPLATE_SMALL_PLATE = "small_plate_4"
+
+
+@dataclass(frozen=True)
+class Table5Estimate:
+    q: Estimate
+    tan_theta: Estimate
+
+
+def estimate_large_from_small(plates: dict[str, PlateCharacterisation],
+                              convention: model.Convention) -> Table5Estimate:
+    """Table 5's estimate: Q by Eq. 29 from Plate 4; tan(theta') the mean over the small
+    plates with the large plate's resonator thickness (Sec. 5.3.2)."""
+    missing = [p for p in (LARGE_PLATE, TEMPLATE_SMALL_PLATE) if p not in plates]
+    if missing:
+        raise MissingDataError(f"Table 5 needs the characterisation of {', '.join(missing)}")
+    large, template = plates[LARGE_PLATE], plates[TEMPLATE_SMALL_PLATE]
+    ratio = model.q_large_from_small(1.0, large.geometry.piezo_length_m, template.geometry.piezo_length_m,
+                                     as_printed=convention.eq29_as_printed)
+    same_thickness = [p.tan_theta for name, p in plates.items() if name != LARGE_PLATE and math.isclose(
+        p.geometry.resonator_thickness_m, large.geometry.resonator_thickness_m, rel_tol=1e-6)]
+    if not same_thickness:
+        raise MissingDataError("Table 5 needs small plates as thick as the large plate")
+    tan = mean_estimate([e.value for e in same_thickness], [e.std_uncertainty for e in same_thickness])
+    return Table5Estimate(q=Estimate(template.q.value * ratio, template.q.std_uncertainty * ratio),
+                          tan_theta=tan)
+
+
+def table5(plates: dict[str, PlateCharacterisation], convention: model.Convention) -> pd.DataFrame:
+    """Table 5: estimated from the small plates vs measured on the large plate."""
+    estimate = estimate_large_from_small(plates, convention)
+    measured = plates[LARGE_PLATE]
+    paper = paper_table("table5")
+    rows = []
+    for item, values in (("estimated", estimate), ("measured", measured)):
+        for quantity in ("q", "tan_theta"):
+            value: Estimate = getattr(values, quantity)
+            printed = paper[(paper["item"] == item) & (paper["quantity"] == quantity)]
+            paper_value = float(printed["value"].iloc[0])
+            rows.append({"table": "table5", "item": item, "quantity": quantity, "unit": "1",
+                         "value": value.value, "std_uncertainty": value.std_uncertainty,
+                         "scope_value": math.nan, "paper_value": paper_value,
+                         "paper_source": str(printed["source"].iloc[0]),
+                         "relative_difference": relative_difference(value.value, paper_value),
+                         "status": "measured"})
+    return pd.DataFrame(rows, columns=TABLE_COLUMNS)
+
+
+def estimated_large_plate_power_w(plates: dict[str, PlateCharacterisation],
+                                  convention: model.Convention) -> pd.DataFrame:
+    """Fig. 9's estimate: Eq. 25 with Table 5's estimated Q and tan(theta') at each
+    measured voltage of the large plate, beside the measured power."""
+    estimate = estimate_large_from_small(plates, convention)
+    large = plates[LARGE_PLATE]
+    voltages = large.points["piezo_voltage_vpp"].to_numpy()
+    estimated = [model.power_w(estimate.q.value, estimate.tan_theta.value, v, large.frequency_hz,
+                               large.geometry, convention) for v in voltages]
+    return pd.DataFrame({"piezo_voltage_vpp": voltages, "power_measured_w": large.points["power_w"].to_numpy(),
+                         "power_estimated_w": estimated})
+
+
+def finish_table(frame: pd.DataFrame, value_columns=("value", "std_uncertainty", "scope_value",
+                                                     "paper_value", "relative_difference")) -> pd.DataFrame:
+    """Replace every non-finite number by words, so no NaN/inf is shown or written:
+    a missing printed value is 'not printed', a missing scope number 'not recorded',
+    anything else takes the row's status ('not measured', 'not reachable')."""
+    out = frame.astype(object)
+    if "paper_source" in out:
+        out["paper_source"] = out["paper_source"].where(out["paper_source"] != "", "not printed")
+    for column in (c for c in value_columns if c in frame):
+        for index, number in frame[column].items():
+            if isinstance(number, (int, float, np.integer, np.floating)) and math.isfinite(number):
+                continue
+            row = frame.loc[index]
+            status = row.get("status", NOT_MEASURED)
+            paper_missing = "paper_value" in row and not _finite(row["paper_value"])
+            out.at[index, column] = ("not printed" if column == "paper_value" or (
+                column == "relative_difference" and paper_missing)
+                else "not recorded" if column == "scope_value" and status == "measured" else status)
+    return out
+
+
+def _finite(value) -> bool:
+    return isinstance(value, (int, float, np.integer, np.floating)) and math.isfinite(value)
+
+
+# --- Fig. 2 and the resonance sweeps -----------------------------------------------------
+
+def detuning_table(run: RunData) -> pd.DataFrame:
+    """Fig. 2 (Sec. 2.2): Pt / P0 per plate, velocity level and target velocity ratio,
+    where P0 is the power at resonance (its own row has ratio 1) and Pt the power once v0
+    is regained (or at the stress point). Unreachable targets stay as rows with status
+    'not reachable'."""
+    points = with_scope_fallback(_protocol_points(run, "detuning"))
+    rows = []
+    # One campaign run is one series of Fig. 2 (the stress point is a run of its own on
+    # the same plate, with its own resonance power).
+    for (run_name, plate, level), group in points.groupby(["run_name", "plate", "velocity_level_pp_mps"],
+                                                          sort=True):
+        at_resonance = group[group["detuning_phase"] == "resonance"]
+        p0 = float(at_resonance["power_w"].mean()) if len(at_resonance) else math.nan
+        for phase in ("resonance", "regained", "stress"):
+            for ratio, target in group[group["detuning_phase"] == phase].groupby("target_velocity_ratio"):
+                reachable = bool(flag(target["reachable"], default=True).all()) if "reachable" in target else True
+                power = float(target["power_w"].mean())
+                rows.append({"run_name": run_name, "plate": plate, "velocity_level_pp_mps": float(level),
+                             "detuning_phase": phase,
+                             "target_velocity_ratio": float(ratio),
+                             "frequency_hz": float(target["frequency_hz"].fillna(
+                                 target["generator_frequency_hz"]).mean()),
+                             "voltage_vpp": float(target["piezo_voltage_setpoint_vpp"].mean()),
+                             "power_w": power if reachable else math.nan,
+                             "power_resonance_w": p0,
+                             "power_ratio": power / p0 if reachable and p0 > 0 else math.nan,
+                             "status": "measured" if reachable else NOT_REACHABLE})
+    return pd.DataFrame(rows, columns=["run_name", "plate", "velocity_level_pp_mps", "detuning_phase",
+                                       "target_velocity_ratio", "frequency_hz", "voltage_vpp", "power_w",
+                                       "power_resonance_w", "power_ratio", "status"])
+
+
+def resonance_sweeps(run: RunData) -> pd.DataFrame:
+    """The frequency sweep points of every resonance search (rows with sweep=True)."""
+    rows = run.protocol("resonance_search")
+    if rows.empty or "sweep" not in rows:
+        raise MissingDataError("no resonance sweep points in this run (protocol 'resonance_search', sweep=True)")
+    sweeps = rows[flag(rows["sweep"], default=False)].reset_index(drop=True)
+    return with_scope_fallback(reduced_points(run, sweeps))

@@ -1,0 +1,65 @@
+"""The audit computes the paper's inconsistencies from its printed values."""
+
+from __future__ import annotations
+
+import math
+
+import pandas as pd
+import pytest
+
+from analysis import audit
+
+
+@pytest.fixture(scope="module")
+def findings() -> pd.DataFrame:
+    return audit.audit_findings().set_index("quantity")
+
+
+def _computed(findings, start):
+    rows = findings[findings.index.str.startswith(start)]
+    assert len(rows) == 1, start
+    return float(rows["computed"].iloc[0])
+
+
+def test_sign_of_a_under_both_moduli(findings):
+    assert _computed(findings, "a (Eq. 12), 2 mm large plate, E_i as printed") == pytest.approx(-3.06, abs=0.01)
+    assert _computed(findings, "a (Eq. 12), 2 mm large plate, E_i = 67 GPa") == pytest.approx(29.4, abs=0.05)
+    # printed E_i: ~1 um pp at 32 Vpp with Q = 1.48 and positive power; 67 GPa: both negative
+    assert _computed(findings, "A pp at the published point, Q=1.48, E_i as printed") == pytest.approx(1e-6, rel=0.05)
+    assert _computed(findings, "P at the published point, Q=1.48, tan=-1.24, E_i as printed") > 0
+    assert _computed(findings, "P at the published point, Q=1.48, tan=-1.24, E_i = 67 GPa") < 0
+    q_physical = _computed(findings, "Q from Eq. 27 for the published 1 um at 32 Vpp, E_i = 67 GPa")
+    assert -11 < q_physical / 1.48 < -8  # about ten times |Q|, and of the wrong sign
+
+
+def test_eq29_inverted(findings):
+    assert _computed(findings, "Q_large, Eq. 29 as printed") == pytest.approx(2.34 * 14 / 9, rel=1e-9)
+    assert _computed(findings, "Q_large with b_small/b_large") == pytest.approx(2.34 * 9 / 14, rel=1e-9)
+
+
+def test_eq28_missing_pi(findings):
+    assert _computed(findings, "Eq. 25 / Eq. 28 as printed") == pytest.approx(math.pi, rel=1e-12)
+
+
+def test_table4_amplitude_is_velocity_over_2_pi_f(findings):
+    rows = findings[findings["topic"] == "Table 4 amplitude"]
+    assert len(rows) == 3
+    assert (rows["relative_difference"].abs() < 0.01).all()
+
+
+def test_table4_loss_tangent_far_below_the_published_mean(findings):
+    tan = _computed(findings, "mean tan theta' from Table 4")
+    assert tan < 0 and abs(tan) < 1.64 / 10
+
+
+def test_convention_grid_states_which_reading_matches_what():
+    grid = audit.convention_grid()
+    assert len(grid) == math.prod(len(v) for v in audit.GRID_AXES.values())
+    paper = grid[(grid["materials"] == "printed") & (grid["voltage"] == "pp") & (grid["amplitude"] == "pp")
+                 & (grid["neutral_plane"] == "stack_middle") & (grid["n_c"] == "piezos")
+                 & (grid["b_p"] == "length") & (grid["wavelength"] == "two_half")].iloc[0]
+    assert paper["matches_amplitude"] and not paper["matches_power"]
+    assert paper["power_ratio"] > 5  # Eq. 25 at Table 5's Q, tan gives ~11x the published 1.3 W
+    summary = audit.grid_summary(grid)
+    assert list(summary["published"])[-1] == "all three at once"
+    assert (summary["readings_defined"] > 0).all()
