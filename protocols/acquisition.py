@@ -1,0 +1,256 @@
+"""One measured point, the way Section 2.1 measures it.
+
+CH1 is the piezo voltage (through the voltage probe), CH2 the current (TCP202), CH3 the
+vibrometer output; MATH = CH1 * CH2 is the instantaneous power, and its MEAN over the
+record "after careful DC cancellation and noise reduction through averaging" is the
+supplied power. The scope averages N acquisitions and the horizontal scale is chosen so
+the record holds the requested number of periods.
+
+Vertical scales follow the signal: each channel is set so the expected peak-to-peak
+fills about `fill_divisions` of the 8 on screen. The expectation is the last point of
+the same step scaled by the drive voltage (velocity and current are proportional to
+the piezo voltage near a resonance); a step starts with no expectation and a coarse
+range. A clipped channel (ClippedTraceError, or a peak-to-peak at the screen edge) is
+re-ranged coarser and acquired again; a trace using less than `min_fill_divisions` is
+re-ranged finer once, because ADC steps of a barely visible trace would dominate the
+power. The vibrometer's decoder range is chosen the same way from the expected velocity.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from typing import Any
+
+import pandas as pd
+
+from instruments.errors import ClippedTraceError
+from protocols.safety import DriveController
+from squeezebench.errors import UserError
+
+SCREEN_DIVISIONS = 8.0
+HORIZONTAL_DIVISIONS = 10.0
+PIEZO_CHANNEL, CURRENT_CHANNEL, VELOCITY_CHANNEL = 1, 2, 3
+
+#: OFV-5000 velocity decoder ranges, most sensitive first (m/s per V of output).
+#: A clipped trace is re-acquired with this much more range (its true size is unknown).
+CLIP_GROWTH = 4.0
+VIBROMETER_RANGES_MPS_PER_V = {"5mm/s/V": 0.005, "25mm/s/V": 0.025,
+                               "125mm/s/V": 0.125, "1000mm/s/V": 1.0}
+
+
+class RangingError(UserError):
+    """A channel stays clipped at its coarsest scale: the signal is beyond the bench."""
+
+
+@dataclass(frozen=True)
+class AcquisitionSettings:
+    """Campaign `acquisition:` section."""
+
+    averages: int = 16               # ACQ:NUMAV, a power of two 2..512
+    record_length: int = 500         # HOR:RECO, 500 or 10000 points
+    periods_per_record: float = 20.0  # periods of the drive the record holds
+    settle_s: float = 0.5            # bench time after each generator change (ring-up)
+    fill_divisions: float = 6.0      # expected pp on screen, of 8 divisions
+    min_fill_divisions: float = 2.0  # below this a channel is re-ranged finer
+    max_ranging_attempts: int = 8    # acquisitions per point before giving up
+    vibrometer_max_output_pp_v: float = 8.0   # keep the decoder output within this pp
+
+    def __post_init__(self) -> None:
+        if self.averages < 2 or self.averages > 512 or self.averages & (self.averages - 1):
+            raise ValueError(f"averages must be a power of two in 2..512, got {self.averages!r}")
+        if self.record_length not in (500, 10000):
+            raise ValueError(f"record_length must be 500 or 10000, got {self.record_length!r}")
+        if not self.periods_per_record > 0 or self.settle_s < 0:
+            raise ValueError("periods_per_record must be positive and settle_s not negative")
+        if not 0 < self.min_fill_divisions < self.fill_divisions < SCREEN_DIVISIONS:
+            raise ValueError("need 0 < min_fill_divisions < fill_divisions < 8")
+
+
+@dataclass
+class Point:
+    """What one measured point gives: drive, scope measurements, maybe waveforms."""
+
+    generator_frequency_hz: float
+    generator_amplitude_vpp: float
+    amplifier_gain: float
+    piezo_voltage_setpoint_vpp: float
+    averages: int
+    record_length: int
+    scope_power_w: float          # MATH MEAN
+    scope_velocity_pp_v: float    # CH3 PK2
+    scope_piezo_voltage_pp_v: float   # CH1 PK2 (piezo volts: the probe gain is set)
+    scope_current_pp_a: float     # CH2 PK2
+    scope_frequency_hz: float     # CH1 FREQ
+    vibrometer_scale_mps_per_v: float
+    clock_s: float                # bench clock at the end of the point
+    waveforms: pd.DataFrame | None = None
+    waveform_metadata: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def velocity_pp_mps(self) -> float:
+        return self.scope_velocity_pp_v * self.vibrometer_scale_mps_per_v
+
+
+class Acquisition:
+    """Configures the scope and vibrometer for, and acquires, measured points."""
+
+    def __init__(self, bench, drive: DriveController, settings: AcquisitionSettings):
+        self.bench = bench
+        self.drive = drive
+        self.settings = settings
+        self._vibrometer_scale = max(VIBROMETER_RANGES_MPS_PER_V.values())
+        self.reset_ranges()
+
+    def reset_ranges(self) -> None:
+        """Forget expectations: a step starts from the same state however it is reached."""
+        # Per-volt expectations from the last point: current pp (A) and velocity pp (m/s).
+        self._current_pp_a_per_vpp: float | None = None
+        self._velocity_pp_mps_per_vpp: float | None = None
+        self._horizontal_scale_s: float | None = None
+
+    def configure(self) -> None:
+        """Fixed settings of the scope: probes, coupling, averaging, MATH, record length.
+
+        Called once when a run opens its bench, before any step: a resumed step finds the
+        scope exactly as an uninterrupted one does.
+        """
+        scope, electronics = self.bench.scope, self.bench.electronics
+        scope.configure_channel(PIEZO_CHANNEL, probe_gain=1.0 / electronics.voltage_probe_attenuation)
+        scope.configure_channel(CURRENT_CHANNEL, probe_gain=electronics.current_probe_a_per_a)
+        scope.configure_channel(VELOCITY_CHANNEL, probe_gain=1.0)
+        scope.set_math_product()
+        scope.set_record_length(self.settings.record_length)
+        scope.set_averaging(self.settings.averages)
+        # The finest/coarsest scale depends on the probe gain just set; ranging stays inside it.
+        self._scale_limits = {channel: scope.channel(channel).scale_range_per_div()
+                              for channel in (PIEZO_CHANNEL, CURRENT_CHANNEL, VELOCITY_CHANNEL)}
+
+    # -- measuring ------------------------------------------------------------------------
+    def measure_at(self, frequency_hz: float) -> Point:
+        """Set the drive frequency and measure without keeping waveforms (searches)."""
+        self.drive.set_frequency(frequency_hz)
+        return self.measure(keep_waveforms=False)
+
+    def measure(self, keep_waveforms: bool = True) -> Point:
+        """Acquire one point at the present drive, re-ranging until nothing clips."""
+        settings, scope = self.settings, self.bench.scope
+        piezo_vpp = self.drive.piezo_voltage_vpp
+        self._set_horizontal(self.drive.frequency_hz)
+        pp, waveforms = self._acquire_in_range(piezo_vpp, keep_waveforms)
+        point = Point(
+            generator_frequency_hz=self.drive.frequency_hz,
+            generator_amplitude_vpp=self.drive.generator_amplitude_vpp,
+            amplifier_gain=self.drive.amplifier_gain,
+            piezo_voltage_setpoint_vpp=piezo_vpp,
+            averages=settings.averages,
+            record_length=settings.record_length,
+            scope_power_w=scope.measure("MATH", "MEAN"),
+            scope_velocity_pp_v=pp[VELOCITY_CHANNEL],
+            scope_piezo_voltage_pp_v=pp[PIEZO_CHANNEL],
+            scope_current_pp_a=pp[CURRENT_CHANNEL],
+            scope_frequency_hz=scope.measure(PIEZO_CHANNEL, "FREQ"),
+            vibrometer_scale_mps_per_v=self._vibrometer_scale,
+            clock_s=self.bench.clock.now_s(),
+        )
+        if waveforms is not None:
+            point.waveforms, point.waveform_metadata = waveforms
+            point.waveform_metadata.update(
+                vibrometer_scale_mps_per_v=self._vibrometer_scale,
+                generator={"frequency_hz": point.generator_frequency_hz,
+                           "amplitude_vpp": point.generator_amplitude_vpp,
+                           "amplifier_gain": point.amplifier_gain})
+        self._current_pp_a_per_vpp = point.scope_current_pp_a / piezo_vpp
+        self._velocity_pp_mps_per_vpp = point.velocity_pp_mps / piezo_vpp
+        return point
+
+    def _acquire_in_range(self, piezo_vpp: float, keep_waveforms: bool):
+        """Acquire until no channel clips or is too faint; return PK2 per channel, waveforms."""
+        settings, scope = self.settings, self.bench.scope
+        self._vibrometer_scale = self._set_vibrometer_range(
+            self._expected(self._velocity_pp_mps_per_vpp, piezo_vpp))
+        scales = self._initial_scales(piezo_vpp)
+        refined: set[int] = set()
+        for _ in range(settings.max_ranging_attempts):
+            for channel, scale in scales.items():
+                finest, coarsest = self._scale_limits[channel]
+                scales[channel] = min(max(scale, finest), coarsest)
+                scope.set_vertical_scale(channel, scales[channel])
+            scope.acquire()
+            if self.bench.vibrometer.over_range():
+                self._range(scales, VELOCITY_CHANNEL, CLIP_GROWTH * SCREEN_DIVISIONS * scales[VELOCITY_CHANNEL])
+                continue
+            pp = {channel: scope.measure(channel, "PK2") for channel in scales}
+            rerange = {}
+            for channel, scale in scales.items():
+                if pp[channel] >= 0.98 * SCREEN_DIVISIONS * scale:   # at the ADC limit
+                    rerange[channel] = CLIP_GROWTH * pp[channel]
+                elif channel not in refined and pp[channel] < settings.min_fill_divisions * scale:
+                    refined.add(channel)
+                    rerange[channel] = pp[channel]
+            if not rerange:
+                try:
+                    return pp, (self._fetch_waveforms() if keep_waveforms else None)
+                except ClippedTraceError as exc:   # a spike the PK2 of an average missed
+                    rerange[exc.channel] = CLIP_GROWTH * pp[exc.channel]
+            for channel, expected_pp in rerange.items():
+                self._range(scales, channel, expected_pp)
+        raise RangingError(f"could not range the scope within {settings.max_ranging_attempts} "
+                           f"acquisitions at {piezo_vpp:.4g} Vpp, {self.drive.frequency_hz:.1f} Hz")
+
+    # -- ranging --------------------------------------------------------------------------
+    @staticmethod
+    def _expected(per_vpp: float | None, piezo_vpp: float) -> float | None:
+        return None if per_vpp is None else per_vpp * piezo_vpp
+
+    def _initial_scales(self, piezo_vpp: float) -> dict[int, float]:
+        fill = self.settings.fill_divisions
+        current_pp_a = self._expected(self._current_pp_a_per_vpp, piezo_vpp)
+        velocity_pp_mps = self._expected(self._velocity_pp_mps_per_vpp, piezo_vpp)
+        return {
+            PIEZO_CHANNEL: piezo_vpp / fill,
+            # Unknown current: start coarse (1 A pp is watts on these plates), refine after.
+            CURRENT_CHANNEL: (current_pp_a or 1.0) / fill,
+            # Unknown velocity: the decoder is at its coarsest, its output at most the limit.
+            VELOCITY_CHANNEL: (velocity_pp_mps / self._vibrometer_scale if velocity_pp_mps
+                               else self.settings.vibrometer_max_output_pp_v) / fill,
+        }
+
+    def _range(self, scales: dict[int, float], channel: int, expected_pp: float) -> None:
+        """Set `channel` for a trace of `expected_pp` (channel units); CH3 via the decoder."""
+        expected_pp = max(expected_pp, 1e-9)   # a flat trace: range on the finest scales
+        if channel == VELOCITY_CHANNEL:
+            velocity_pp_mps = expected_pp * self._vibrometer_scale
+            self._vibrometer_scale = self._set_vibrometer_range(velocity_pp_mps)
+            expected_pp = velocity_pp_mps / self._vibrometer_scale
+        scales[channel] = expected_pp / self.settings.fill_divisions
+
+    def _set_vibrometer_range(self, expected_velocity_pp_mps: float | None) -> float:
+        """The most sensitive decoder range keeping the output within its limit."""
+        limit_v = self.settings.vibrometer_max_output_pp_v
+        chosen = max(VIBROMETER_RANGES_MPS_PER_V.values())   # unknown velocity: coarsest
+        if expected_velocity_pp_mps is not None:
+            fitting = [s for s in VIBROMETER_RANGES_MPS_PER_V.values()
+                       if expected_velocity_pp_mps / s <= limit_v]
+            chosen = min(fitting) if fitting else chosen
+        name = next(n for n, s in VIBROMETER_RANGES_MPS_PER_V.items() if s == chosen)
+        self.bench.vibrometer.set_range(name)
+        return chosen
+
+    def _set_horizontal(self, frequency_hz: float) -> None:
+        scale_s = self.settings.periods_per_record / frequency_hz / HORIZONTAL_DIVISIONS
+        if scale_s != self._horizontal_scale_s:
+            self.bench.scope.set_horizontal_scale(scale_s)
+            self._horizontal_scale_s = scale_s
+
+    def _fetch_waveforms(self) -> tuple[pd.DataFrame, dict[str, Any]]:
+        scope = self.bench.scope
+        traces = {name: scope.fetch_waveform(channel) for name, channel in
+                  (("piezo_voltage_v", PIEZO_CHANNEL), ("current_a", CURRENT_CHANNEL),
+                   ("vibrometer_output_v", VELOCITY_CHANNEL))}
+        first = traces["piezo_voltage_v"]
+        frame = pd.DataFrame({"time_s": first.time_s, **{n: t.values for n, t in traces.items()}})
+        metadata = {"preamble": {n: {"y_increment": t.y_increment, "bits": t.bits,
+                                     "averages": t.averages} for n, t in traces.items()}}
+        json.dumps(metadata)  # fail here, not at storage, on a non-JSON preamble value
+        return frame, metadata

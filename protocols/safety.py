@@ -1,0 +1,156 @@
+"""The only path from a protocol to the generator: limits, ramps and a safe exit.
+
+Every change of the generator's amplitude or frequency goes through `DriveController`.
+The piezo voltage is what the limits are about, and it is the amplifier's output:
+`piezo_voltage_vpp = amplifier_gain * generator_amplitude_vpp`. The controller refuses,
+before anything is sent, a piezo voltage above the campaign limit (the paper: "we do not
+apply voltage above 100 V") or above what the amplifier can deliver; it ramps large
+changes in steps (a sudden 100 V step on a capacitive load is a current spike through
+the shunt and the piezos); and, used as a context manager, it leaves the generator at its
+minimum output whatever happens inside: an exception, Ctrl-C or a normal end.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from dataclasses import dataclass
+
+from squeezebench.errors import UserError
+
+log = logging.getLogger(__name__)
+
+#: The paper, Section 2.2: "in our application, we do not apply voltage above 100 V".
+PAPER_MAX_PIEZO_VOLTAGE_VPP = 100.0
+#: gain * (v / gain) may exceed v by an ulp: a limit is met "exactly" within this factor.
+_ROUNDING = 1.0 + 1e-12
+
+
+class SafetyLimitError(UserError):
+    """A requested piezo voltage above a limit; nothing was sent to the generator."""
+
+    def __init__(self, limit_name: str, limit_vpp: float, requested_vpp: float):
+        self.limit_name = limit_name
+        self.limit_vpp = limit_vpp
+        self.requested_vpp = requested_vpp
+        super().__init__(
+            f"refused a piezo voltage of {requested_vpp:.4g} Vpp: above the {limit_name} "
+            f"of {limit_vpp:.4g} Vpp (raise it explicitly in the run's 'safety' section "
+            "only if the plate is meant to take it)")
+
+
+@dataclass(frozen=True)
+class SafetyLimits:
+    """The limits of one protocol run (campaign `safety:` section)."""
+
+    max_piezo_voltage_vpp: float = PAPER_MAX_PIEZO_VOLTAGE_VPP
+    ramp_step_vpp: float = 10.0   # largest piezo-voltage change sent in one command
+    ramp_dwell_s: float = 0.01    # bench time between two ramp commands
+
+    def __post_init__(self) -> None:
+        for name in ("max_piezo_voltage_vpp", "ramp_step_vpp"):
+            if not getattr(self, name) > 0:
+                raise ValueError(f"{name} must be positive, got {getattr(self, name)!r}")
+        if self.ramp_dwell_s < 0:
+            raise ValueError(f"ramp_dwell_s must not be negative, got {self.ramp_dwell_s!r}")
+
+
+class DriveController:
+    """Sets the piezo drive (frequency, piezo voltage pp) within the run's limits.
+
+    `generator` is an `instruments.Agilent33120A`, `electronics` the bench's
+    `BenchElectronics`, `clock` the bench clock (its `sleep` lets a ramp step and a
+    settling wait pass on the bench's time, virtual on a dry run).
+    """
+
+    def __init__(self, generator, electronics, clock, limits: SafetyLimits,
+                 settle_s: float = 0.0):
+        self._generator = generator
+        self._clock = clock
+        self.limits = limits
+        self.amplifier_gain = float(electronics.amplifier_gain)
+        self.amplifier_max_output_vpp = float(electronics.amplifier_max_output_vpp)
+        self.settle_s = settle_s
+        self.minimum_generator_amplitude_vpp = float(generator.min_amplitude_vpp)
+        # The generator cannot go below its minimum: that much always reaches the piezos.
+        self.check(self.amplifier_gain * self.minimum_generator_amplitude_vpp)
+        # Unknown until we set it: the generator may hold anything from a previous session.
+        self.generator_amplitude_vpp = math.nan
+        self.frequency_hz = math.nan
+
+    # -- limits ---------------------------------------------------------------------------
+    @property
+    def max_piezo_voltage_vpp(self) -> float:
+        """The highest piezo voltage this controller will set (the tighter limit)."""
+        return min(self.limits.max_piezo_voltage_vpp, self.amplifier_max_output_vpp)
+
+    def check(self, piezo_voltage_vpp: float) -> None:
+        """Raise SafetyLimitError if `piezo_voltage_vpp` is above a limit."""
+        if not math.isfinite(piezo_voltage_vpp) or piezo_voltage_vpp < 0:
+            raise SafetyLimitError("valid range", self.max_piezo_voltage_vpp, piezo_voltage_vpp)
+        if piezo_voltage_vpp > self.amplifier_max_output_vpp * _ROUNDING:
+            raise SafetyLimitError("amplifier's maximum output", self.amplifier_max_output_vpp,
+                                   piezo_voltage_vpp)
+        if piezo_voltage_vpp > self.limits.max_piezo_voltage_vpp * _ROUNDING:
+            raise SafetyLimitError("run's piezo voltage limit", self.limits.max_piezo_voltage_vpp,
+                                   piezo_voltage_vpp)
+
+    # -- drive ----------------------------------------------------------------------------
+    @property
+    def piezo_voltage_vpp(self) -> float:
+        return self.amplifier_gain * self.generator_amplitude_vpp
+
+    def set_piezo_voltage(self, piezo_voltage_vpp: float) -> None:
+        """Ramp to `piezo_voltage_vpp` (checked first), then wait the settling time."""
+        self.check(piezo_voltage_vpp)
+        target_vpp = max(piezo_voltage_vpp / self.amplifier_gain,
+                         self.minimum_generator_amplitude_vpp)
+        start_vpp = self.generator_amplitude_vpp
+        if math.isnan(start_vpp):  # unknown state: come from the bottom, never from above
+            start_vpp = self.minimum_generator_amplitude_vpp
+        step_vpp = self.limits.ramp_step_vpp / self.amplifier_gain
+        n_steps = max(1, math.ceil(abs(target_vpp - start_vpp) / step_vpp))
+        for i in range(1, n_steps + 1):
+            amplitude_vpp = target_vpp if i == n_steps else start_vpp + (target_vpp - start_vpp) * i / n_steps
+            self._send_amplitude(amplitude_vpp)
+            if i < n_steps:
+                self._clock.sleep(self.limits.ramp_dwell_s)
+        self._clock.sleep(self.settle_s)
+
+    def set_frequency(self, frequency_hz: float) -> None:
+        """Set the drive frequency, then wait the settling time (the plate rings up)."""
+        self._generator.set_frequency(frequency_hz)
+        self.frequency_hz = float(frequency_hz)
+        self._clock.sleep(self.settle_s)
+
+    def to_minimum(self, ramp: bool = True) -> None:
+        """Bring the generator to its minimum output (ramped unless `ramp` is False)."""
+        if ramp and not math.isnan(self.generator_amplitude_vpp):
+            self.set_piezo_voltage(0.0)
+        else:
+            self._send_amplitude(self.minimum_generator_amplitude_vpp)
+
+    def _send_amplitude(self, generator_amplitude_vpp: float) -> None:
+        # The one place that writes an amplitude: the last check is made on what is sent,
+        # quantised to 1 µVpp so the decimal text on the bus is exactly the checked number
+        # (a 9-digit rendering of a binary float can round up past the limit).
+        sent_vpp = round(generator_amplitude_vpp, 6)
+        if self.amplifier_gain * sent_vpp > self.max_piezo_voltage_vpp:
+            sent_vpp -= 1e-6
+        self.check(self.amplifier_gain * sent_vpp)
+        self._generator.set_amplitude_vpp(sent_vpp)
+        self.generator_amplitude_vpp = sent_vpp
+
+    # -- safe exit ------------------------------------------------------------------------
+    def __enter__(self) -> DriveController:
+        return self
+
+    def __exit__(self, exc_type, exc, tb) -> None:
+        # On an error or Ctrl-C drop at once (the bench may be in any state); on a normal
+        # end ramp down like any other change.
+        try:
+            self.to_minimum(ramp=exc_type is None)
+        except Exception:
+            if exc_type is None:
+                raise
+            log.exception("could not set the generator to its minimum after %s", exc_type.__name__)

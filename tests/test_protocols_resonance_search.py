@@ -1,0 +1,41 @@
+"""The resonance search finds narrow and wide peaks from velocity readings alone."""
+
+import math
+
+import pytest
+from hypothesis import given, settings, strategies as st
+
+from protocols.acquisition import Point
+from protocols.resonance import ResonanceError, SearchSettings, find_resonance, track_resonance
+
+
+def lorentzian(f0_hz, q_mech, peak_pp_mps=0.2):
+    """|H| of a single mode: what a velocity reading near resonance looks like."""
+    def measure_at(frequency_hz):
+        detuning = 2.0 * q_mech * (frequency_hz - f0_hz) / f0_hz
+        velocity = peak_pp_mps / math.sqrt(1.0 + detuning ** 2)
+        return Point(frequency_hz, 0.5, 20.0, 10.0, 16, 500, 0.0, velocity, 10.0, 0.01,
+                     frequency_hz, 1.0, 0.0)
+    return measure_at
+
+
+@settings(max_examples=40, deadline=None)
+@given(f0_hz=st.floats(36_100, 38_900), q_mech=st.sampled_from([50.0, 300.0, 2_000.0, 1e4]))
+def test_search_finds_the_peak_within_tolerance(f0_hz, q_mech):
+    search = SearchSettings(start_hz=36_000, stop_hz=39_000, points=31, tolerance_hz=0.2)
+    found = find_resonance(lorentzian(f0_hz, q_mech), search)
+    assert abs(found.frequency_hz - f0_hz) < 0.2
+    # A narrow peak costs no more than a wide one: the sweep plus ~log(bracket/tol) points.
+    assert len(found.points) <= 31 + 25
+
+
+def test_peak_outside_the_range_is_a_user_error():
+    with pytest.raises(ResonanceError, match="edge"):
+        find_resonance(lorentzian(40_000, 100), SearchSettings(start_hz=36_000, stop_hz=39_000))
+
+
+@pytest.mark.parametrize("drift_hz", [-37.0, -3.0, 0.0, 2.5, 61.0])
+def test_tracking_follows_a_drifted_resonance(drift_hz):
+    search = SearchSettings(start_hz=36_000, stop_hz=39_000, tolerance_hz=0.1, tracking_step_hz=5.0)
+    found = track_resonance(lorentzian(37_180 + drift_hz, 1e4), 37_180, search)
+    assert abs(found.frequency_hz - (37_180 + drift_hz)) < 0.1
