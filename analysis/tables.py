@@ -245,57 +245,30 @@ def table4(run: RunData) -> pd.DataFrame:
 
 # --- Fig. 5 and Table 5 ------------------------------------------------------------------
 
-_GEOMETRY_FIELDS = ("resonator_thickness_m", "piezo_thickness_m", "piezo_length_m", "half_wavelength_m")
-
-
-def _mappings(node):
-    """Every mapping inside a parsed YAML document, depth first."""
-    if isinstance(node, dict):
-        yield node
-        children = node.values()
-    elif isinstance(node, list):
-        children = node
-    else:
-        return
-    for child in children:
-        yield from _mappings(child)
-
-
-def _first(node, predicate):
-    return next((m for m in _mappings(node) if predicate(m)), None)
-
-
-def _plate_node(scene: dict, plate: str):
-    """The part of a scene that describes `plate`: a key named after it, or a mapping
-    whose name/plate field is it."""
-    named = _first(scene, lambda m: m.get("name") == plate or m.get("plate") == plate
-                   or isinstance(m.get(plate), dict))
-    if named is None:
-        return None
-    return named[plate] if isinstance(named.get(plate), dict) else named
-
-
-def _length_m(mapping: dict, field_m: str) -> float | None:
-    """A length stored in metres (`<name>_m`) or millimetres (`<name>_mm`)."""
-    if field_m in mapping:
-        return float(mapping[field_m])
-    field_mm = field_m[:-2] + "_mm"
-    return float(mapping[field_mm]) * 1e-3 if field_mm in mapping else None
+#: Where a scene file (simbench schema) keeps each length of the model geometry, in mm.
+_SCENE_GEOMETRY_MM = {
+    "resonator_thickness_m": ("plate", "thickness_mm"),
+    "piezo_thickness_m": ("actuators", "piezo", "thickness_mm"),
+    "piezo_length_m": ("actuators", "piezo", "length_mm"),
+    "half_wavelength_m": ("mode", "half_wavelength_mm"),
+}
 
 
 def plate_geometry(run: RunData, plate: str, n_powered_piezos: int) -> model.PlateGeometry:
-    """The model geometry of one plate from the run's scene copies under inputs/
-    (a scene named after the plate, or a section of a scene naming it), with the
-    PlateGeometry length fields in metres or millimetres."""
-    for file_name, scene in run.scenes.items():
-        node = scene if file_name.rsplit(".", 1)[0] == plate else _plate_node(scene, plate)
-        fields = _first(node, lambda m: all(_length_m(m, k) is not None for k in _GEOMETRY_FIELDS)) \
-            if node is not None else None
-        if fields is not None:
-            return model.PlateGeometry(**{key: _length_m(fields, key) for key in _GEOMETRY_FIELDS},
-                                       n_powered_piezos=int(n_powered_piezos))
-    raise MissingDataError(f"geometry of '{plate}' (fields {', '.join(_GEOMETRY_FIELDS)}, in m or as "
-                           f"*_mm) is not in any scene copy under {run.run_dir / 'inputs'}")
+    """The model geometry of one plate from its scene copy `inputs/<plate>.yaml`."""
+    scene = run.scenes.get(f"{plate}.yaml")
+    if scene is None:
+        raise MissingDataError(f"no scene copy inputs/{plate}.yaml in {run.run_dir}: "
+                               "the geometry of the plate is unknown")
+    lengths_m = {}
+    for field, keys in _SCENE_GEOMETRY_MM.items():
+        node = scene
+        for key in keys:
+            node = node.get(key) if isinstance(node, dict) else None
+        if not isinstance(node, (int, float)):
+            raise MissingDataError(f"inputs/{plate}.yaml has no number at {'.'.join(keys)}")
+        lengths_m[field] = float(node) * 1e-3
+    return model.PlateGeometry(**lengths_m, n_powered_piezos=int(n_powered_piezos))
 
 
 @dataclass(frozen=True)

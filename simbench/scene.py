@@ -124,7 +124,7 @@ class Electronics:
     amplifier_gain: float = 20.0
     amplifier_max_output_vpp: float = 300.0
     amplifier_bandwidth_hz: float = 500e3
-    amplifier_input_ohm: float = 10e3
+    amplifier_input_ohm: float = 1e6
     shunt_ohm: float = 2.0
     voltage_probe_attenuation: float = 100.0
     current_probe_a_per_a: float = 1.0

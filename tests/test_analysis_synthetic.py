@@ -115,6 +115,14 @@ def _geometry(thickness_m, piezo_length_m, half_wavelength_m):
             "piezo_length_m": piezo_length_m, "half_wavelength_m": half_wavelength_m}
 
 
+def _scene(geometry):
+    """The parts of a simbench scene file that carry the model geometry (millimetres)."""
+    return {"plate": {"thickness_mm": geometry["resonator_thickness_m"] * 1e3},
+            "actuators": {"piezo": {"thickness_mm": geometry["piezo_thickness_m"] * 1e3,
+                                    "length_mm": geometry["piezo_length_m"] * 1e3}},
+            "mode": {"half_wavelength_mm": geometry["half_wavelength_m"] * 1e3}}
+
+
 def build_run(run_dir: Path, *, rng=None, noise=0.0, protocols=("resonator_cutting", "powered_columns",
                                                                     "characterisation", "detuning",
                                                                     "resonance_search")) -> Path:
@@ -139,11 +147,10 @@ def build_run(run_dir: Path, *, rng=None, noise=0.0, protocols=("resonator_cutti
         plates = dict(SMALL_PLATES)
         plates["large_plate"] = (2e-3, 8, paper_value("table5", "measured", "q"),
                                  paper_value("table5", "measured", "tan_theta"))
-        scene_plates = {}
         for plate, (thickness, n_c, q, tan) in plates.items():
             large = plate == "large_plate"
             geometry = _geometry(thickness, (14e-3 if large else 9e-3), (9e-3 if large else 76e-3 / 9))
-            scene_plates[plate] = {"geometry": geometry}
+            scenes[f"{plate}.yaml"] = _scene(geometry)
             plate_geometry = model.PlateGeometry(**geometry, n_powered_piezos=n_c)
             frequency = 52_400.0 if large else 45_000.0
             for voltage in VOLTAGES_VPP:
@@ -151,7 +158,6 @@ def build_run(run_dir: Path, *, rng=None, noise=0.0, protocols=("resonator_cutti
                 power = model.power_w(q, tan, voltage, frequency, plate_geometry, model.PAPER_CONVENTION)
                 builder.point("characterisation", f"plate_{plate}", "characterisation", plate, frequency,
                               voltage, power, amplitude * 2 * math.pi * frequency, n_powered_piezos=n_c)
-        scenes["plates.yaml"] = {"plates": scene_plates}
     if "detuning" in protocols:
         for level, p0 in ((0.125, 0.030), (0.25, 0.110)):
             step = f"level_{level}"

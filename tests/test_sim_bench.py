@@ -42,7 +42,7 @@ def test_ideal_measurements_equal_the_closed_form(ideal):
 def test_ideal_truth_is_the_calibrated_plate_at_resonance(ideal):
     truth = ideal.sim.truth()
     state = ideal.sim.state
-    divider = 10e3 / (10e3 + 50.0)  # 50-ohm generator into the 10 kOhm amplifier input
+    divider = 1e6 / (1e6 + 50.0)  # 50-ohm generator into the 1 MOhm amplifier input
     piezo_vpp = 20 * 1.88 * divider
     calibration = state.calibration
     assert truth.piezo_voltage_pp_v == pytest.approx(piezo_vpp, rel=1e-12)
@@ -76,7 +76,7 @@ def test_generator_load_50_doubles_the_drive(tmp_path):
     at_inf = bench.sim.truth().piezo_voltage_pp_v
     bench.drive(F_HZ, 0.5, load="50")
     assert bench.sim.truth().piezo_voltage_pp_v == pytest.approx(2.0 * at_inf, rel=1e-12)
-    assert at_inf == pytest.approx(20 * 0.5 * 10e3 / 10.05e3, rel=1e-12)
+    assert at_inf == pytest.approx(20 * 0.5 * 1e6 / (1e6 + 50.0), rel=1e-12)
 
 
 def test_bench_clock_accounts_for_acquisitions(ideal):
@@ -124,7 +124,7 @@ def test_set_state_and_mount(tmp_path):
     bench = RawBench(scene_file(tmp_path, effects=[]))
     bench.drive(37160.0, 1.0)
     bench.sim.set_state("75x41")
-    assert bench.sim.truth().velocity_pp_mps == pytest.approx(0.175 * 20.0 * 10e3 / 10.05e3 / 20.0, rel=1e-9)
+    assert bench.sim.truth().velocity_pp_mps == pytest.approx(0.175 * 20.0 * 1e6 / (1e6 + 50.0) / 20.0, rel=1e-9)
     with pytest.raises(SceneError, match="76x41, 75x41, 59x41, 28x41"):
         bench.sim.set_state("80x41")
     bench.sim.mount(scene_file(tmp_path, "two_column_1p2mm.yaml", effects=[]))

@@ -90,7 +90,7 @@ def test_noise_free_dry_run_reproduces_the_calibration(tmp_path, name, state):
     """At resonance and the published voltage: the published power and velocity pp.
 
     The generator is set as a protocol sets it (piezo Vpp / gain); the 50-ohm generator
-    into the 10 kOhm amplifier input delivers 0.5 % less, the only departure.
+    into the 1 MOhm amplifier input delivers 50 ppm less, the only departure.
     """
     bench = RawBench(scene_file(tmp_path, name, effects=[]))
     bench.sim.set_state(state)
@@ -99,7 +99,7 @@ def test_noise_free_dry_run_reproduces_the_calibration(tmp_path, name, state):
     bench.drive(target.resonance_frequency_hz, calibration.voltage_vpp / 20.0)
     bench.configure(target.resonance_frequency_hz, record_length=10000)
     bench.acquire()
-    divider = 10e3 / (10e3 + 50.0)
+    divider = 1e6 / (1e6 + 50.0)
     power_w = bench.measure("MATH", "MEAN")
     velocity_pp_mps = bench.measure("CH3", "PK2") * bench.range_mps_per_v
     assert power_w == pytest.approx(calibration.power_w * divider**2, rel=1e-9)
