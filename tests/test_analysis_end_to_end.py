@@ -1,35 +1,19 @@
-"""End to end on the simulated bench: the paper campaign's Table 4 run, then the report.
-
-Skipped until the drivers, the simulated bench and its scenes are in place.
-"""
+"""End to end on the simulated bench: the paper campaign's Table 4 run, then the report."""
 
 from __future__ import annotations
-
-import importlib.util
 
 import pandas as pd
 import pytest
 import yaml
 
+from analysis.report import write_report
+from protocols.campaign import run_campaign
 from squeezebench import paths
 
 TABLE4_RUN = "table4_powered_columns"
 
 
-def _ready() -> bool:
-    modules = ("instruments.bench", "simbench.scene", "protocols.campaign")
-    try:
-        if any(importlib.util.find_spec(m) is None for m in modules):
-            return False
-    except ModuleNotFoundError:
-        return False
-    return paths.paper_campaign().is_file() and any(paths.scenes_dir().glob("*.yaml"))
-
-
-@pytest.mark.skipif(not _ready(), reason="instruments/simbench/scenes not available yet")
 def test_table4_campaign_then_report(tmp_path):
-    from analysis.report import write_report
-    from protocols.campaign import run_campaign
 
     campaign = yaml.safe_load(paths.paper_campaign().read_text())
     campaign["runs"] = [run for run in campaign["runs"] if run["name"] == TABLE4_RUN]

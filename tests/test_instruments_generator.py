@@ -3,8 +3,6 @@
 from __future__ import annotations
 
 import math
-import shutil
-from pathlib import Path
 
 import pytest
 import pyvisa
@@ -13,32 +11,12 @@ from instruments.agilent33120a import Agilent33120A
 from instruments.errors import GarbledReply, InstrumentError, InstrumentTimeout, OutOfRangeError
 from squeezebench.errors import UserError
 
-DEFINITIONS = Path(__file__).resolve().parents[1] / "simbench" / "definitions"
 ADDRESS = "GPIB0::10::INSTR"
 
 
 @pytest.fixture
-def resource(tmp_path):
-    """A fresh simulated generator (its own copy of the definitions: no shared state)."""
-    for path in DEFINITIONS.glob("*.yaml"):
-        shutil.copy(path, tmp_path)
-    rm = pyvisa.ResourceManager(f"{tmp_path / 'bench.yaml'}@sim")
-    yield rm.open_resource(ADDRESS)
-    rm.close()
-
-
-@pytest.fixture
-def sent(resource, monkeypatch):
-    """Every message written to the resource (queries included)."""
-    messages: list[str] = []
-    write = resource.write
-
-    def recording_write(message, *args, **kwargs):
-        messages.append(message)
-        return write(message, *args, **kwargs)
-
-    monkeypatch.setattr(resource, "write", recording_write)
-    return messages
+def resource(rm):
+    return rm.open_resource(ADDRESS)
 
 
 @pytest.fixture

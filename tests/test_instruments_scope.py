@@ -7,8 +7,6 @@ parser run on them (the VISA session still reads them through pyvisa-sim).
 
 from __future__ import annotations
 
-import shutil
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -19,17 +17,7 @@ from instruments.errors import (ClippedTraceError, GarbledReply, InstrumentError
                                 NoValidMeasurement, OutOfRangeError)
 from instruments.tds3054b import HORIZONTAL_SCALES_S_PER_DIV, TDS3054B, Waveform
 
-DEFINITIONS = Path(__file__).resolve().parents[1] / "simbench" / "definitions"
 ADDRESS = "TCPIP0::192.168.0.20::INSTR"
-
-
-@pytest.fixture
-def rm(tmp_path):
-    for path in DEFINITIONS.glob("*.yaml"):
-        shutil.copy(path, tmp_path)
-    manager = pyvisa.ResourceManager(f"{tmp_path / 'bench.yaml'}@sim")
-    yield manager
-    manager.close()
 
 
 @pytest.fixture
@@ -41,19 +29,6 @@ def resource(rm):
 def device(rm, resource):
     """The pyvisa-sim device behind the resource, to change what it answers."""
     return rm.visalib.sessions[resource.session].device
-
-
-@pytest.fixture
-def sent(resource, monkeypatch):
-    messages: list[str] = []
-    write = resource.write
-
-    def recording_write(message, *args, **kwargs):
-        messages.append(message)
-        return write(message, *args, **kwargs)
-
-    monkeypatch.setattr(resource, "write", recording_write)
-    return messages
 
 
 @pytest.fixture

@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import shutil
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -12,35 +10,12 @@ import pyvisa
 from instruments.errors import GarbledReply, InstrumentError, OutOfRangeError
 from instruments.ofv5000 import OFV5000, VELOCITY_RANGES_MPS_PER_V
 
-DEFINITIONS = Path(__file__).resolve().parents[1] / "simbench" / "definitions"
 ADDRESS = "ASRL1::INSTR"
-
-
-@pytest.fixture
-def rm(tmp_path):
-    for path in DEFINITIONS.glob("*.yaml"):
-        shutil.copy(path, tmp_path)
-    manager = pyvisa.ResourceManager(f"{tmp_path / 'bench.yaml'}@sim")
-    yield manager
-    manager.close()
 
 
 @pytest.fixture
 def resource(rm):
     return rm.open_resource(ADDRESS)
-
-
-@pytest.fixture
-def sent(resource, monkeypatch):
-    messages: list[str] = []
-    write = resource.write
-
-    def recording_write(message, *args, **kwargs):
-        messages.append(message)
-        return write(message, *args, **kwargs)
-
-    monkeypatch.setattr(resource, "write", recording_write)
-    return messages
 
 
 @pytest.fixture
