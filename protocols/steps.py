@@ -71,12 +71,12 @@ class StepContext:
     def bench_time_s(self, clock_s: float | None = None) -> float:
         """Campaign bench time at bench clock `clock_s` (default: now).
 
-        Rounded to the microsecond: a resumed run adds the same durations to a base read
-        back from the journal, and must not differ from an uninterrupted run in the last
-        bits of a float sum.
+        Rounded to the nanosecond, the simulated clock's tick: a resumed run adds the same
+        durations to a base read back from the journal, and must not differ from an
+        uninterrupted run in the last bits of a float sum.
         """
         clock_s = self.bench.clock.now_s() if clock_s is None else clock_s
-        return round(self.bench_time_base_s + (clock_s - self.clock_start_s), 6)
+        return round(self.bench_time_base_s + (clock_s - self.clock_start_s), 9)
 
     def record(self, point: Point, protocol: str | None = None, **columns: Any) -> dict[str, Any]:
         """Store one measured point as a tidy row (and its waveforms, if it kept them)."""

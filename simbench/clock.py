@@ -36,27 +36,33 @@ BUS_TIMINGS = {
 
 
 class VirtualClock:
-    """Bench time in seconds since the bench was opened."""
+    """Bench time since the bench was opened, kept in whole nanoseconds.
+
+    Integer nanoseconds make a step's duration independent of where the clock stood when
+    the step began (float sums are not), so a resumed campaign times its steps exactly as
+    an uninterrupted one.
+    """
 
     def __init__(self) -> None:
-        self._now_s = 0.0
+        self._now_ns = 0
         self._listeners: list[Callable[[float, float], None]] = []
 
     def now_s(self) -> float:
-        return self._now_s
+        return self._now_ns / 1e9
 
     def advance(self, duration_s: float) -> None:
         """Let `duration_s` of bench time pass; listeners see (start_s, duration_s)."""
         if duration_s < 0:
             raise ValueError(f"the bench clock cannot go back ({duration_s!r} s)")
-        start_s = self._now_s
-        self._now_s += duration_s
+        duration_ns = round(duration_s * 1e9)
+        start_s = self.now_s()
+        self._now_ns += duration_ns
         for listener in self._listeners:
-            listener(start_s, duration_s)
+            listener(start_s, duration_ns / 1e9)
 
     def advance_to(self, time_s: float) -> None:
-        if time_s > self._now_s:
-            self.advance(time_s - self._now_s)
+        if time_s > self.now_s():
+            self.advance(time_s - self.now_s())
 
     def sleep(self, seconds: float) -> None:
         """A protocol's settling wait: costs bench time, no wall time."""
