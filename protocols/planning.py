@@ -1,0 +1,243 @@
+"""Acquisition planning: the cheapest scope averaging that meets an accuracy target.
+
+For every distinct plate (scene, state) the campaign's runs measure, on the simulated
+bench at its resonance and the run's (smallest) voltage, the relative error of the
+power reduced from the stored waveforms (analysis.waveforms.integer_period_mean_power_w,
+as the analysis does) against the scene's closed-form truth (`truth().power_w`) is measured for each
+averaging count 2, 4, ..., 512 over several acquisitions (their random streams are seeded
+by the scene, so the plan is reproducible); the 95th percentile of |error| is compared
+with the target. A run gets the cheapest averaging meeting the target on all its plates
+(512 when none does). The campaign is then run twice on the simulated bench into
+temporary directories, with the planned averaging and with 512 everywhere (the fixed
+baseline), and the virtual bench time of each run is read from the journals.
+
+Only simulated benches (`bench: {scene: ...}`) can be planned: the truth is needed.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import multiprocessing
+import tempfile
+from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import yaml
+
+from analysis.waveforms import integer_period_mean_power_w, sample_interval_s
+from instruments.bench import open_bench, sim_bench_config
+from protocols.acquisition import Acquisition, AcquisitionSettings
+from protocols.campaign import Run, load_campaign, run_campaign
+from protocols.safety import DriveController
+from protocols.storage import RunStore
+from squeezebench.errors import UserError
+
+AVERAGES = tuple(2 ** k for k in range(1, 10))   # 2..512: what the TDS3000 offers (sample mode excluded: settings need >= 2)
+BASELINE_AVERAGES = 512
+REPEATS = 8                    # acquisitions per averaging count; p95 of 8 is near the max
+ERROR_PERCENTILE = 95.0
+DEFAULT_VOLTAGE_VPP = 20.0     # detuning runs set voltage from a velocity level; ~20 Vpp is typical
+RESONANCE_SCAN_POINTS = 201    # truth is closed-form: a fine scan costs no bench wall time
+
+
+@dataclasses.dataclass
+class AveragingResult:
+    averages: int
+    p95_rel_error: float
+    bench_time_per_point_s: float   # virtual bench time of one measured point
+
+
+@dataclasses.dataclass
+class PlateStudy:
+    scene: Path
+    state: str | None
+    voltage_vpp: float
+    resonance_hz: float
+    results: list[AveragingResult]
+
+    def cheapest(self, target_rel_error: float) -> AveragingResult:
+        meeting = [r for r in self.results if r.p95_rel_error <= target_rel_error]
+        if meeting:
+            return min(meeting, key=lambda r: (r.bench_time_per_point_s, r.averages))
+        return max(self.results, key=lambda r: r.averages)
+
+
+def _waveform_power_w(point) -> float:
+    """Power from the stored waveforms, as the analysis reduces them (DC removed, integer
+    periods). The scope's MATH MEAN keeps the channels' DC offsets' product, a bias no
+    averaging removes, so it cannot meet a tight target at any averaging count."""
+    frame = point.waveforms
+    return integer_period_mean_power_w(frame["piezo_voltage_v"].to_numpy(), frame["current_a"].to_numpy(),
+                                       sample_interval_s(frame["time_s"].to_numpy()), point.scope_frequency_hz)
+
+
+def _run_plates(run: Run) -> list[tuple[Path, str | None, Any]]:
+    """(scene, state, plate) of every step of `run`, each once."""
+    seen: dict[tuple[Path, str | None], Any] = {}
+    for step in run.steps():
+        scene = step.plate.scene or run.bench.scene
+        seen.setdefault((scene, step.plate.state), step.plate)
+    return [(scene, state, plate) for (scene, state), plate in seen.items()]
+
+
+def _run_voltage_vpp(run: Run, plate: Any) -> float:
+    """The smallest voltage the run drives the plate at: the hardest point to measure."""
+    for source in (plate, run.parameters):
+        voltage = getattr(source, "piezo_voltage_vpp", None)
+        if voltage:
+            return float(voltage)
+    voltages = getattr(run.parameters, "voltages_vpp", None)
+    return float(min(voltages)) if voltages else DEFAULT_VOLTAGE_VPP
+
+
+def _search_range_hz(run: Run, plate: Any) -> tuple[float, float]:
+    search = getattr(plate, "search", None) or getattr(run.parameters, "search", None)
+    return float(search.start_hz), float(search.stop_hz)
+
+
+def study_plate(run: Run, scene: Path, state: str | None, plate: Any,
+                averages: tuple[int, ...] = AVERAGES, repeats: int = REPEATS) -> PlateStudy:
+    """Error and bench cost of each averaging count on one plate, at resonance."""
+    voltage_vpp = _run_voltage_vpp(run, plate)
+    with open_bench(sim_bench_config(scene)) as bench:
+        simulated = bench.resource_manager.visalib.bench
+        if state is not None:
+            simulated.set_state(state)
+        drive = DriveController(bench.generator, bench.electronics, bench.clock, run.safety,
+                                settle_s=run.acquisition.settle_s)
+        with drive:
+            drive.set_piezo_voltage(voltage_vpp)
+            # Resonance from the closed-form truth (velocity peak), not a measured search.
+            start_hz, stop_hz = _search_range_hz(run, plate)
+            best_hz, best_velocity_pp_mps = start_hz, -math.inf
+            for frequency_hz in np.linspace(start_hz, stop_hz, RESONANCE_SCAN_POINTS):
+                drive.set_frequency(float(frequency_hz))
+                velocity_pp_mps = simulated.truth().velocity_pp_mps
+                if velocity_pp_mps > best_velocity_pp_mps:
+                    best_hz, best_velocity_pp_mps = float(frequency_hz), velocity_pp_mps
+            drive.set_frequency(best_hz)
+            truth_power_w = simulated.truth().power_w
+            results = []
+            for n_averages in averages:
+                settings = dataclasses.replace(run.acquisition, averages=n_averages)
+                acquisition = Acquisition(bench, drive, settings)
+                acquisition.configure()
+                acquisition.measure(keep_waveforms=False)   # ranges the channels once
+                errors, costs_s = [], []
+                for _ in range(repeats):
+                    start_s = bench.clock.now_s()
+                    point = acquisition.measure(keep_waveforms=True)
+                    costs_s.append(bench.clock.now_s() - start_s)
+                    errors.append(abs(_waveform_power_w(point) / truth_power_w - 1.0))
+                results.append(AveragingResult(n_averages, float(np.percentile(errors, ERROR_PERCENTILE)),
+                                               float(np.mean(costs_s))))
+    return PlateStudy(scene, state, voltage_vpp, best_hz, results)
+
+
+def _campaign_with_averages(campaign_path: Path, averages_by_run: dict[str, int], out: Path) -> Path:
+    """A copy of the campaign file with each run's `acquisition.averages` overridden."""
+    data = yaml.safe_load(campaign_path.read_text(encoding="utf-8"))
+    for run in data["runs"]:
+        run.setdefault("acquisition", {})["averages"] = averages_by_run[run["name"]]
+    out.write_text(yaml.safe_dump(data, sort_keys=False), encoding="utf-8")
+    return out
+
+
+def _bench_time_by_run_s(run_dir: Path) -> dict[str, float]:
+    """Virtual bench time of each run, from the journal's cumulative campaign time."""
+    times_s: dict[str, float] = {}
+    previous_s = 0.0
+    for entry in RunStore(run_dir).journal():
+        total_s = entry["campaign_bench_time_s"]
+        times_s[entry["run"]] = times_s.get(entry["run"], 0.0) + total_s - previous_s
+        previous_s = total_s
+    return times_s
+
+
+def simulate_bench_time_s(campaign_path: Path, averages_by_run: dict[str, int]) -> dict[str, float]:
+    """Run the campaign on the simulated bench with these averages; bench time per run."""
+    with tempfile.TemporaryDirectory(prefix="squeezebench-plan-") as tmp:
+        tmp_dir = Path(tmp)
+        variant = _campaign_with_averages(campaign_path, averages_by_run, tmp_dir / campaign_path.name)
+        run_dir = run_campaign(variant, out_dir=tmp_dir / "run")
+        return _bench_time_by_run_s(run_dir)
+
+
+@dataclasses.dataclass
+class Plan:
+    target_rel_error: float
+    studies: dict[str, list[PlateStudy]]
+    averages_by_run: dict[str, int]
+    error_by_run: dict[str, float]
+    planned_s: dict[str, float]
+    baseline_s: dict[str, float]
+    repeats: int = REPEATS   # acquisitions per averaging count in the study
+
+    @property
+    def planned_total_s(self) -> float:
+        return sum(self.planned_s.values())
+
+    @property
+    def baseline_total_s(self) -> float:
+        return sum(self.baseline_s.values())
+
+    def table(self) -> str:
+        lines = [f"target relative power error (p95 of {self.repeats} acquisitions): {self.target_rel_error:g}",
+                 f"{'run':<24} {'averages':>8} {'p95 error':>10} {'planned s':>10} {'512-avg s':>10} {'ratio':>6}"]
+        for name, n_averages in self.averages_by_run.items():
+            planned_s, baseline_s = self.planned_s.get(name, 0.0), self.baseline_s.get(name, 0.0)
+            ratio = planned_s / baseline_s if baseline_s else math.nan
+            lines.append(f"{name:<24} {n_averages:>8d} {self.error_by_run[name]:>10.2e} "
+                         f"{planned_s:>10.1f} {baseline_s:>10.1f} {ratio:>6.2f}")
+        ratio = self.planned_total_s / self.baseline_total_s if self.baseline_total_s else math.nan
+        lines.append(f"{'total':<24} {'':>8} {max(self.error_by_run.values()):>10.2e} "
+                     f"{self.planned_total_s:>10.1f} {self.baseline_total_s:>10.1f} {ratio:>6.2f}")
+        return "\n".join(lines)
+
+
+def make_plan(campaign_path: Path, target_rel_error: float, repeats: int = REPEATS) -> Plan:
+    if not target_rel_error > 0:
+        raise UserError(f"target relative error must be positive, got {target_rel_error!r}")
+    campaign = load_campaign(Path(campaign_path))
+    if any(run.bench.scene is None for run in campaign.runs):
+        raise UserError("only simulated benches (bench: {scene: ...}) can be planned")
+    # The 512-average baseline does not depend on the study and is the slowest part in
+    # wall time (the simulator computes every averaged acquisition): run it in another
+    # process meanwhile. Both runs are seeded by the scenes, so the result is the same.
+    with ProcessPoolExecutor(max_workers=1, mp_context=multiprocessing.get_context("spawn")) as pool:
+        baseline_future = pool.submit(simulate_bench_time_s, Path(campaign_path),
+                                      {run.name: BASELINE_AVERAGES for run in campaign.runs})
+        plan = _study_and_plan(campaign, Path(campaign_path), target_rel_error, repeats)
+        plan.baseline_s = baseline_future.result()
+    return plan
+
+
+def _study_and_plan(campaign, campaign_path: Path, target_rel_error: float, repeats: int) -> Plan:
+    cache: dict[tuple, PlateStudy] = {}
+    studies: dict[str, list[PlateStudy]] = {}
+    averages_by_run: dict[str, int] = {}
+    error_by_run: dict[str, float] = {}
+    for run in campaign.runs:
+        run_studies = []
+        for scene, state, plate in _run_plates(run):
+            key = (scene, state, _run_voltage_vpp(run, plate), _search_range_hz(run, plate),
+                   run.acquisition, run.safety)
+            if key not in cache:
+                cache[key] = study_plate(run, scene, state, plate, repeats=repeats)
+            run_studies.append(cache[key])
+        # The run's averaging must meet the target on every plate it measures.
+        n_averages = max(s.cheapest(target_rel_error).averages for s in run_studies)
+        studies[run.name] = run_studies
+        averages_by_run[run.name] = n_averages
+        error_by_run[run.name] = max(next(r.p95_rel_error for r in s.results if r.averages == n_averages)
+                                     for s in run_studies)
+    planned_s = simulate_bench_time_s(campaign_path, averages_by_run)
+    return Plan(target_rel_error, studies, averages_by_run, error_by_run, planned_s, baseline_s={}, repeats=repeats)
+
+
+def plan_campaign(campaign_path: Path, target_rel_error: float = 0.01) -> str:
+    """The `squeezebench plan` table: per run the averaging, error and bench times."""
+    return make_plan(Path(campaign_path), target_rel_error).table()
