@@ -162,6 +162,54 @@ def calibrate_branch(frequency_hz: float, q_mech: float, voltage_vpp: float,
     return MotionalBranch(frequency_hz, q_mech, force_factor, resistance)
 
 
+class CalibrationError(ValueError):
+    """No motional branch makes the bench read the calibration values."""
+
+
+def calibrate_branch_as_measured(surroundings: PlateLoad, frequency_hz: float, q_mech: float,
+                                 voltage_vpp: float, velocity_pp_mps: float, power_w: float,
+                                 *, rtol: float = 1e-13, max_iterations: int = 50) -> MotionalBranch:
+    """The branch that makes the scope read the calibration values at resonance when
+    the amplifier drives it through `surroundings` (C0, a series shunt, a lossy C0;
+    its `branches` must be empty).
+
+    Why: a published measurement was taken at the amplifier output (CH1, before the
+    shunt) and its power is CH1 x CH2, which includes the shunt's R_s |I|^2 / 2 and C0's
+    dielectric loss. The piezos see only V_p = V_out / (1 + R_s Y) and the mode must
+    dissipate only what is left, P - P_shunt - P_dielectric. Both losses depend on the
+    branch (through I and V_p), so the branch is recalibrated until it stops changing:
+    R_s |Y| is a few per cent on the shipped plates, so about six passes reach `rtol`.
+    Without shunt and dielectric loss the first pass is `calibrate_branch` exactly.
+    """
+    if surroundings.branches:
+        raise ValueError("surroundings must hold no motional branch (only C0, shunt, dielectric)")
+    omega = 2.0 * math.pi * frequency_hz
+    output_v = voltage_vpp / 2.0  # amplitude, phase reference
+    branch = calibrate_branch(frequency_hz, q_mech, voltage_vpp, velocity_pp_mps, power_w)
+    piezo_v = complex(output_v)
+    for _ in range(max_iterations):
+        # At resonance Z_mech = R_mech: the branch is a real admittance (n_c psi)^2 / R.
+        capacitive = complex(surroundings.capacitive_admittance(omega, abs(piezo_v)))
+        admittance = capacitive + branch.force_factor_n_per_v**2 / branch.resistance_ns_per_m
+        piezo_v = output_v / (1.0 + surroundings.series_ohm * admittance)
+        current_a = admittance * piezo_v
+        shunt_w = 0.5 * surroundings.series_ohm * abs(current_a) ** 2
+        dielectric_w = 0.5 * abs(piezo_v) ** 2 * capacitive.real
+        motional_w = power_w - shunt_w - dielectric_w
+        if motional_w <= 0.0:
+            raise CalibrationError(
+                f"power {power_w:.4g} W at {voltage_vpp:.4g} Vpp does not cover the shunt "
+                f"({shunt_w:.4g} W) and dielectric ({dielectric_w:.4g} W) losses")
+        updated = calibrate_branch(frequency_hz, q_mech, 2.0 * abs(piezo_v), velocity_pp_mps, motional_w)
+        converged = (math.isclose(updated.resistance_ns_per_m, branch.resistance_ns_per_m, rel_tol=rtol)
+                     and math.isclose(updated.force_factor_n_per_v, branch.force_factor_n_per_v, rel_tol=rtol))
+        branch = updated
+        if converged:
+            return branch
+    raise CalibrationError(f"the branch behind the shunt and dielectric loss did not converge in "
+                           f"{max_iterations} passes (losses too large against {power_w:.4g} W?)")
+
+
 def velocity_pp_from_amplitude_pp(amplitude_pp_m: float, frequency_hz: float) -> float:
     """Sinusoidal motion: velocity pp = 2 pi f x amplitude pp (Table 4 obeys it)."""
     return 2.0 * math.pi * frequency_hz * amplitude_pp_m

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -86,3 +87,48 @@ def test_shunt_divides_the_drive():
     assert steady.power_w - steady.plate_power_w == pytest.approx(abs(steady.current_phasor) ** 2, rel=1e-9)
     # 1 Vpp from the generator is 10 V amplitude at the amplifier output
     assert steady.piezo_voltage_phasor == pytest.approx(10.0 - 2.0 * steady.current_phasor, rel=1e-12)
+
+
+def _lossy_surroundings(n_powered: int = 8, tan_delta_at_reference: float = 0.01) -> physics.PlateLoad:
+    """C0 behind the 2-ohm shunt, lossy: a strong case (8 piezos, tan delta 4x the default)."""
+    dielectric = physics.DielectricLoss(tan_delta_at_reference, 240e3, 1.0, 0.5e-3)
+    return physics.PlateLoad(physics.piezo_capacitance_f(n_powered, 45e-6, 0.5e-3, 1350.0), (),
+                             series_ohm=2.0, dielectric=dielectric)
+
+
+def _at_resonance(load: physics.PlateLoad, output_vpp: float) -> physics.SteadyState:
+    """Driven at the branch's resonance with exactly `output_vpp` at the amplifier output."""
+    drive = physics.Drive(np.array([1]), np.array([output_vpp / 2.0 + 0j]), 0.0)
+    return physics.solve_steady_state(load, drive, load.branches[0].frequency_hz)
+
+
+def test_branch_calibrated_through_shunt_and_dielectric_loss_reads_the_calibration():
+    """CH1 Vpp, CH1 x CH2 power and velocity pp at the calibration point are the targets,
+    though the shunt and the lossy C0 take part of the power and of the voltage."""
+    surroundings = _lossy_surroundings()
+    branch = physics.calibrate_branch_as_measured(surroundings, 44720.0, 250.0, 12.0, 0.27, 0.100)
+    steady = _at_resonance(replace(surroundings, branches=(branch,)), 12.0)
+    assert steady.output_voltage_pp_v == pytest.approx(12.0, rel=1e-12)
+    assert steady.power_w == pytest.approx(0.100, rel=1e-9)
+    assert steady.velocity_pp_mps == pytest.approx(0.27, rel=1e-9)
+    # the effects matter here: the plate alone would read well off
+    plain = physics.calibrate_branch(44720.0, 250.0, 12.0, 0.27, 0.100)
+    naive = _at_resonance(replace(surroundings, branches=(plain,)), 12.0)
+    assert abs(naive.power_w / 0.100 - 1.0) > 5e-3
+    assert abs(naive.velocity_pp_mps / 0.27 - 1.0) > 5e-3
+    assert steady.plate_power_w < steady.power_w  # the shunt's loss is in the reading
+
+
+def test_branch_calibrated_without_shunt_or_loss_is_calibrate_branch():
+    plain = physics.PlateLoad(physics.piezo_capacitance_f(4, 45e-6, 0.5e-3, 1350.0), ())
+    assert physics.calibrate_branch_as_measured(plain, F_HZ, 310.0, 37.6, 0.375, 0.100) == \
+        physics.calibrate_branch(F_HZ, 310.0, 37.6, 0.375, 0.100)
+
+
+def test_calibration_through_losses_larger_than_the_power_is_refused():
+    with pytest.raises(physics.CalibrationError, match="does not cover the shunt"):
+        physics.calibrate_branch_as_measured(_lossy_surroundings(tan_delta_at_reference=1.0),
+                                             44720.0, 250.0, 120.0, 0.27, 0.100)
+    with pytest.raises(physics.CalibrationError, match="did not converge"):
+        physics.calibrate_branch_as_measured(_lossy_surroundings(), 44720.0, 250.0, 12.0, 0.27, 0.100,
+                                             max_iterations=1)

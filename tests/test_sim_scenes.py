@@ -9,6 +9,7 @@ import pytest
 import yaml
 
 from analysis import model
+from simbench import physics
 from simbench.scene import SceneError, covered_by_provenance, load_scene, numeric_field_paths
 from squeezebench import paths
 from test_sim_support import RawBench, scene_file
@@ -133,3 +134,57 @@ def test_nine_column_plate_cannot_regain_0p375_at_half_within_100_vpp():
     needed_vpp = state.calibration.voltage_vpp * (0.375 / state.calibration.velocity_pp_mps) / 0.5
     assert needed_vpp > 100
     assert needed_vpp * 0.25 / 0.375 < 100  # 0.25 m/s, which the paper did run, stays reachable
+
+
+def _truth_at_calibration(bench: RawBench, state: str):
+    """The simulator's noise-free steady state at resonance with exactly the calibration
+    voltage at the amplifier output (the generator compensates the 50-ohm divider)."""
+    bench.sim.set_state(state)
+    target = bench.sim.state
+    divider = 1e6 / (1e6 + 50.0)
+    bench.drive(target.resonance_frequency_hz, target.calibration.voltage_vpp / 20.0 / divider)
+    return bench.sim.truth(), target.calibration
+
+
+@pytest.mark.parametrize("name, state", STATES)
+def test_shipped_effects_read_the_calibration_at_resonance(tmp_path, name, state):
+    """Every shipped scene turns the shunt on: the scope must still read the published
+    numbers (amplifier-output Vpp, CH1 x CH2 power, velocity pp)."""
+    truth, calibration = _truth_at_calibration(RawBench(scene_file(tmp_path, name)), state)
+    assert truth.output_voltage_pp_v == pytest.approx(calibration.voltage_vpp, rel=1e-9)
+    assert truth.power_w == pytest.approx(calibration.power_w, rel=1e-9)
+    assert truth.velocity_pp_mps == pytest.approx(calibration.velocity_pp_mps, rel=1e-9)
+
+
+def test_calibration_uses_the_scenes_effect_parameters(tmp_path):
+    """A dielectric loss 10x the default (an override) on the 8-piezo state: the noise-free
+    scope still reads the calibration, CH1 x CH2 through the record included."""
+    effects = ["shunt", {"dielectric_loss": {"tan_delta_at_reference": 0.02735}}]
+    bench = RawBench(scene_file(tmp_path, "two_column_1p2mm.yaml", effects=effects))
+    truth, calibration = _truth_at_calibration(bench, "two_powered")
+    assert truth.power_w == pytest.approx(calibration.power_w, rel=1e-9)
+    assert truth.velocity_pp_mps == pytest.approx(calibration.velocity_pp_mps, rel=1e-9)
+    assert truth.power_w - truth.plate_power_w > 1e-3  # the shunt takes over 1 % of it
+    bench.configure(truth.frequency_hz, record_length=10000)
+    bench.acquire()
+    assert bench.measure("MATH", "MEAN") == pytest.approx(calibration.power_w, rel=1e-9)
+    default = load_scene(scene_file(tmp_path, "two_column_1p2mm.yaml", effects=["shunt", "dielectric_loss"]))
+    assert default.states["two_powered"].branch != bench.sim.state.branch
+
+
+@pytest.mark.parametrize("effects", [[], ["scope_noise", "quantisation", "averaging", "dc_offset",
+                                          "neighbouring_mode", "heating_drift", "amplifier_limits"]])
+def test_without_shunt_or_dielectric_loss_the_branch_is_calibrate_branch(tmp_path, effects):
+    scene = load_scene(scene_file(tmp_path, "one_column_1mm.yaml", effects=effects))
+    for state in scene.states.values():
+        c = state.calibration
+        assert state.branch == physics.calibrate_branch(state.resonance_frequency_hz, state.q_mech,
+                                                        c.voltage_vpp, c.velocity_pp_mps, c.power_w)
+
+
+def test_calibration_the_losses_cannot_reach_names_the_state(tmp_path):
+    path = scene_file(tmp_path, "one_column_1mm.yaml",
+                      effects=["shunt", {"dielectric_loss": {"tan_delta_at_reference": 1.0, "exponent": 0}}])
+    with pytest.raises(SceneError, match=r"states\.76x41\.calibration: cannot be reproduced with shunt, "
+                                         r"dielectric_loss on: power 0\.1 W at 37\.6 Vpp does not cover"):
+        load_scene(path)
