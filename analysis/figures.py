@@ -12,6 +12,7 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402  (the backend must be chosen first)
 import numpy as np  # noqa: E402
+from matplotlib.ticker import NullFormatter  # noqa: E402
 import pandas as pd  # noqa: E402
 
 from analysis.tables import PlateCharacterisation  # noqa: E402
@@ -98,4 +99,43 @@ def fig9_power(power: pd.DataFrame, path: Path) -> Path:
     ax.set_xlabel("voltage squared (V pp^2)")
     ax.set_ylabel("power (W)")
     ax.legend(fontsize=7)
+    return _save(fig, path)
+
+
+def study_fronts(summary: pd.DataFrame, path: Path) -> Path:
+    """Accuracy study: p95 |relative error| against bench time per trial, one panel per
+    quantity, every configuration as a dot and each experiment's Pareto front as a line.
+    Columns: see analysis.study.summarise."""
+    quantities = sorted(summary["quantity"].unique())
+    columns = min(3, len(quantities))
+    rows = -(-len(quantities) // columns)
+    fig, axes = plt.subplots(rows, columns, figsize=(4.2 * columns, 3.4 * rows), squeeze=False)
+    for ax, quantity in zip(axes.flat, quantities):
+        data = summary[summary["quantity"] == quantity]
+        for experiment, group in data.groupby("experiment"):
+            dots = ax.loglog(group["bench_time_s"], group["p95_abs_rel_error"].clip(lower=1e-9), ".", alpha=0.4)
+            front = group[group["on_front"]].sort_values("bench_time_s")
+            ax.step(front["bench_time_s"], front["p95_abs_rel_error"].clip(lower=1e-9), "-", where="post",
+                    color=dots[0].get_color(), label=experiment)
+        ax.set_title(quantity, fontsize=9)
+        ax.xaxis.set_minor_formatter(NullFormatter())   # log minor labels overlap
+        ax.set_xlabel("bench time per trial (s)")
+        ax.set_ylabel("p95 |relative error|")
+        ax.legend(fontsize=7)
+    for ax in list(axes.flat)[len(quantities):]:
+        ax.set_visible(False)
+    return _save(fig, path)
+
+
+def heating_drift(heating: pd.DataFrame, path: Path) -> Path:
+    """Power error against averaging on a heating plate, at the frequency found cold and
+    with the resonance tracked before each point. Columns: analysis.study.heating_table."""
+    fig, ax = plt.subplots(figsize=(5.5, 3.6))
+    for column, label in (("p95_abs_rel_error_fixed_frequency", "frequency found cold"),
+                          ("p95_abs_rel_error_tracked", "resonance tracked")):
+        if column in heating:
+            ax.loglog(heating["averages"], heating[column], "o-", label=label)
+    ax.set_xlabel("scope averages per point")
+    ax.set_ylabel("p95 |relative error| of power")
+    ax.legend(fontsize=8)
     return _save(fig, path)

@@ -7,6 +7,7 @@ the plate, the scope's acquisitions see it, the vibrometer's range scales CH3.
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -42,6 +43,11 @@ class SimulatedBench:
         for effect in self.effects.by_stage["motion"]:  # the operator took minutes
             effect.settle(self.steady_state())
 
+    def reseed(self, seed: int) -> None:
+        """Another noise realisation of the same bench (the accuracy study's repeats: the
+        streams restart at every generator command, so re-driving alone repeats them)."""
+        self._scene = replace(self._scene, seed=int(seed))
+
     def mount(self, scene_path: str | Path) -> None:
         """Put another plate on the bench (the instruments keep their settings)."""
         self.effects.detach(self)
@@ -66,15 +72,25 @@ class SimulatedBench:
         generator = self.generator.settings()
         key = (self.state_name, generator, *(e.state_key() for e in self.effects.by_stage["load"]))
         if self._steady_cache[0] != key:
-            amplifier = self.effects.amplifier(self._scene.electronics.amplifier())
-            drive = physics.amplifier_output(generator, amplifier)
-            load = self.effects.load(self.state.load())
-            self._steady_cache = (key, physics.solve_steady_state(load, drive, generator.frequency_hz))
+            self._steady_cache = (key, self._solve(generator, self.effects.load(self.state.load())))
         return self._steady_cache[1]
+
+    def _solve(self, generator: physics.GeneratorSettings, load: physics.PlateLoad) -> physics.SteadyState:
+        amplifier = self.effects.amplifier(self._scene.electronics.amplifier())
+        return physics.solve_steady_state(load, physics.amplifier_output(generator, amplifier),
+                                          generator.frequency_hz)
 
     def truth(self) -> physics.SteadyState:
         """The closed-form steady state for the present settings (tests, accuracy study)."""
         return self.steady_state()
+
+    def resonance_truth(self) -> physics.SteadyState:
+        """The closed-form steady state at the present voltage, driven at the main mode's
+        resonance as it is now (heating may have moved it): what "at resonance" means
+        when the accuracy study scores a measurement. The drive is not changed."""
+        load = self.effects.load(self.state.load())
+        generator = replace(self.generator.settings(), frequency_hz=load.branches[0].frequency_hz)
+        return self._solve(generator, load)
 
     def plate_power_w(self) -> float:
         return self.steady_state().plate_power_w

@@ -1,4 +1,4 @@
-"""The `squeezebench` command: check, run, report, reproduce, plan.
+"""The `squeezebench` command: check, run, report, reproduce, plan, study.
 
 Each subcommand is a thin call into the package that does the work; the command line
 only turns user errors into one clear message and an exit status.
@@ -14,6 +14,8 @@ from squeezebench import __version__, paths
 from squeezebench.errors import UserError
 
 EXIT_USER_ERROR = 2
+#: protocols.accuracy_study.AccuracyStudy.EXPERIMENTS, spelled here so `--help` imports nothing heavy.
+AccuracyStudyExperiments = ("averages", "record", "search", "settle", "sweep", "heating")
 EXIT_INTERRUPTED = 130
 
 
@@ -49,11 +51,27 @@ def cmd_report(args: argparse.Namespace) -> int:
 
 def cmd_reproduce(args: argparse.Namespace) -> int:
     from analysis.report import write_report
+    from protocols.accuracy_study import run_study
     from protocols.campaign import run_campaign
 
     run_dir = run_campaign(paths.paper_campaign(), resume=args.resume, out_dir=args.out)
+    if not args.no_study:
+        run_study(run_dir, resume=args.resume)
     index = write_report(run_dir)
     print(f"run stored in {run_dir}\nreport written to {index}")
+    return 0
+
+
+def cmd_study(args: argparse.Namespace) -> int:
+    from dataclasses import replace
+
+    from protocols.accuracy_study import StudySettings, run_study
+
+    if args.repeats < 2:
+        raise UserError(f"--repeats must be at least 2 (a distribution), got {args.repeats}")
+    experiments = tuple(args.experiment) if args.experiment else AccuracyStudyExperiments
+    study_dir = run_study(args.out, replace(StudySettings(), repeats=args.repeats), experiments, resume=args.resume)
+    print(f"study stored in {study_dir}; 'squeezebench report {args.out}' shows it")
     return 0
 
 
@@ -86,7 +104,18 @@ def build_parser() -> argparse.ArgumentParser:
     reproduce = sub.add_parser("reproduce", help="the whole paper on the simulated bench, then the report")
     reproduce.add_argument("--out", type=Path, default=Path("runs/paper"), help="run directory (default: runs/paper)")
     reproduce.add_argument("--resume", action="store_true", help="continue an interrupted reproduction")
+    reproduce.add_argument("--no-study", action="store_true",
+                           help="skip the accuracy-vs-bench-time study (about a minute)")
     reproduce.set_defaults(func=cmd_reproduce)
+
+    study = sub.add_parser("study", help="accuracy against bench time on the simulated bench")
+    study.add_argument("--out", type=Path, default=Path("runs/study"),
+                       help="run directory; trials go to OUT/study/ (default: runs/study)")
+    study.add_argument("--repeats", type=int, default=8, help="trials per configuration (default 8)")
+    study.add_argument("--experiment", action="append", choices=AccuracyStudyExperiments,
+                       help="run only this experiment (repeatable; default: all)")
+    study.add_argument("--resume", action="store_true", help="keep experiments already stored")
+    study.set_defaults(func=cmd_study)
 
     plan = sub.add_parser("plan", help="cheapest acquisition settings meeting an accuracy target")
     plan.add_argument("campaign", help="campaign YAML file")

@@ -74,7 +74,7 @@ def test_optional_sections_plug_in(tmp_path):
                                                                   index=False)
     text = report.write_report(run_dir).read_text()
     assert "pf_0.001" in text
-    assert "no study/ folder" in text
+    assert "no study trials" in text
 
 
 def test_only_journaled_steps_are_read(tmp_path):

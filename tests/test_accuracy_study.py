@@ -1,0 +1,127 @@
+"""The accuracy study on the simulated bench (small settings, seeded) and its analysis."""
+
+import dataclasses
+import shutil
+
+import numpy as np
+import pandas as pd
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from analysis import study
+from analysis.report import write_report
+from protocols.accuracy_study import KNOBS, StudySettings, run_study
+from squeezebench.cli import main
+from test_analysis_synthetic import build_run
+
+SMALL = StudySettings(
+    repeats=2, averages=(2, 512), periods_per_record=(2.0, 20.0), record_lengths=(500,),
+    search_points=(11,), search_tolerances_hz=(1.0,), search_averages=(16,), settle_s=(0.0, 0.2),
+    sweep_voltage_counts=(3,), sweep_averages=(16,), heating_averages=(2, 512), heating_points=4)
+
+
+@pytest.fixture(scope="module")
+def run_dir(tmp_path_factory):
+    out = tmp_path_factory.mktemp("study")
+    run_study(out, SMALL, progress=lambda message: None)
+    return out
+
+
+@pytest.fixture(scope="module")
+def summary(run_dir):
+    return study.summarise(study.load_trials(run_dir))
+
+
+def p95(summary, experiment, quantity, **knobs):
+    rows = summary[(summary["experiment"] == experiment) & (summary["quantity"] == quantity)]
+    for knob, value in knobs.items():
+        rows = rows[rows[knob] == value]
+    assert len(rows) == 1, rows
+    return float(rows["p95_abs_rel_error"].iloc[0])
+
+
+def test_trials_are_tidy_and_complete(run_dir):
+    trials = study.load_trials(run_dir)
+    assert set(trials["experiment"]) == {"averages", "record", "search", "settle", "sweep", "heating"}
+    assert {*KNOBS, "repeat", "bench_time_s", "quantity", "measured_value", "true_value", "rel_error"} <= set(trials)
+    numbers = trials.select_dtypes("number")
+    assert np.isfinite(numbers.to_numpy()).all()
+    assert (trials["bench_time_s"] > 0).all()
+    assert set(trials["quantity"]) == {"power_w", "velocity_pp_mps", "amplitude_pp_m",
+                                       "resonance_frequency_hz", "q", "tan_theta"}
+    # the scenes as run are stored beside the trials
+    assert (run_dir / "study" / "inputs" / "one_column_1mm+heating_drift.yaml").is_file()
+
+
+def test_averaging_buys_accuracy_with_bench_time(summary):
+    assert p95(summary, "averages", "power_w", averages=512) < 0.2 * p95(summary, "averages", "power_w", averages=2)
+    cost = summary[(summary["experiment"] == "averages") & (summary["quantity"] == "power_w")]
+    assert cost.set_index("averages")["bench_time_s"].is_monotonic_increasing
+
+
+def test_a_short_settling_wait_reads_the_ringing_plate(summary):
+    # ring time ~40 ms on the sharpened plate: no wait reads the old amplitude fading out
+    assert p95(summary, "settle", "velocity_pp_mps", settle_s=0.0) > 0.01
+    assert p95(summary, "settle", "velocity_pp_mps", settle_s=0.2) < 0.002
+
+
+def test_heating_longer_averaging_drifts_off_resonance_and_tracking_fixes_it(summary):
+    fixed_long = p95(summary, "heating", "power_w", averages=512, tracking=False)
+    assert fixed_long > 5 * p95(summary, "heating", "power_w", averages=2, tracking=False)
+    assert p95(summary, "heating", "power_w", averages=512, tracking=True) < 0.2 * fixed_long
+
+
+def test_search_and_sweep_recover_the_truth(summary):
+    assert p95(summary, "search", "resonance_frequency_hz") * 37160 < 5.0   # within 5 Hz
+    assert p95(summary, "sweep", "q") < 1e-3
+    assert p95(summary, "sweep", "tan_theta") < 1e-3
+
+
+def test_report_shows_the_study(run_dir, tmp_path):
+    campaign_run = build_run(tmp_path / "run", protocols=("powered_columns",))
+    shutil.copytree(run_dir / "study", campaign_run / "study")
+    text = write_report(campaign_run).read_text()
+    assert "Settings on each Pareto front" in text and "Heating drift" in text
+    report_dir = campaign_run / "report"
+    assert (report_dir / "study_fronts.png").is_file() and (report_dir / "study_heating.png").is_file()
+    fronts = pd.read_csv(report_dir / "study_fronts.csv")
+    assert set(fronts["quantity"]) == {"power_w", "velocity_pp_mps", "amplitude_pp_m",
+                                       "resonance_frequency_hz", "q", "tan_theta"}
+
+
+def test_resume_keeps_stored_experiments_and_other_settings_start_over(tmp_path):
+    tiny = dataclasses.replace(SMALL, averages=(2, 4))
+    run_study(tmp_path, tiny, experiments=("averages",), progress=lambda message: None)
+    stored = tmp_path / "study" / "averages.parquet"
+    before = stored.stat().st_mtime_ns
+    run_study(tmp_path, tiny, experiments=("averages", "record"), resume=True, progress=lambda message: None)
+    assert stored.stat().st_mtime_ns == before
+    assert (tmp_path / "study" / "record.parquet").is_file()
+    run_study(tmp_path, dataclasses.replace(tiny, repeats=3), experiments=("settle",), resume=True,
+              progress=lambda message: None)
+    assert sorted(p.name for p in (tmp_path / "study").glob("*.parquet")) == ["settle.parquet"]
+
+
+def test_cli_study_runs_one_experiment(tmp_path, capsys):
+    assert main(["study", "--out", str(tmp_path), "--repeats", "2", "--experiment", "settle"]) == 0
+    assert (tmp_path / "study" / "settle.parquet").is_file()
+    assert main(["study", "--out", str(tmp_path), "--repeats", "1"]) == 2
+    assert "at least 2" in capsys.readouterr().err
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.lists(st.tuples(st.floats(1e-3, 1e3), st.floats(1e-9, 1.0)), min_size=1, max_size=30))
+def test_front_holds_exactly_the_undominated_configurations(points):
+    group = pd.DataFrame(points, columns=["bench_time_s", "p95_abs_rel_error"])
+    front = set(study.front_index(group))
+    for label, row in group.iterrows():
+        others = group.drop(index=label)
+        dominated = ((others["bench_time_s"] <= row["bench_time_s"])
+                     & (others["p95_abs_rel_error"] <= row["p95_abs_rel_error"])
+                     & ((others["bench_time_s"] < row["bench_time_s"])
+                        | (others["p95_abs_rel_error"] < row["p95_abs_rel_error"]))).any()
+        duplicate_kept = any(group.loc[i, "bench_time_s"] == row["bench_time_s"]
+                             and group.loc[i, "p95_abs_rel_error"] == row["p95_abs_rel_error"]
+                             for i in front - {label})
+        assert (label in front) == (not dominated and not duplicate_kept)
