@@ -16,7 +16,8 @@ import numpy as np
 from pyvisa import constants
 from pyvisa.errors import VisaIOError
 
-from instruments.errors import GarbledReply, InstrumentConnectionError, InstrumentError, InstrumentTimeout
+from instruments.errors import (ConnectionLost, GarbledReply, InstrumentConnectionError, InstrumentError,
+                                InstrumentTimeout)
 from instruments.properties import controls_of
 
 #: Every instrument of the bench ends its messages with LF, both ways.
@@ -80,8 +81,14 @@ class Instrument:
             if exc.error_code == constants.StatusCode.error_timeout:
                 raise InstrumentTimeout(self.role, self.resource_name, operation,
                                         self.resource.timeout / 1000.0) from None
+            if exc.error_code == constants.StatusCode.error_connection_lost:
+                raise ConnectionLost(self.role, self.resource_name, operation) from None
             raise InstrumentError(self.role, self.resource_name,
                                   f"VISA error during {operation!r}: {exc.description}") from None
+        except UnicodeDecodeError as exc:   # line noise instead of the instrument's text
+            raise GarbledReply(self.role, self.resource_name, operation, exc.object, "not ASCII text") from None
+        except OSError as exc:   # socket-based VISA backends (pyvisa-py TCPIP) lose links this way
+            raise ConnectionLost(self.role, self.resource_name, operation, str(exc)) from None
 
     @contextmanager
     def timeout(self, timeout_s: float) -> Iterator[None]:

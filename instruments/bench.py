@@ -257,6 +257,12 @@ class Bench:
     def identify(self) -> dict[str, str]:
         return {role: driver.identification for role, driver in self.drivers.items()}
 
+    def check_errors(self) -> None:
+        """Drain the generator's and the scope's error queues (the vibrometer keeps none):
+        InstrumentError with the instrument's own code and message for the first error."""
+        for driver in (self.generator, self.scope):
+            driver.check_errors()
+
     def settings_snapshot(self) -> dict[str, dict[str, Any]]:
         return {role: driver.settings_snapshot() for role, driver in self.drivers.items()}
 

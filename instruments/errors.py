@@ -76,6 +76,14 @@ class InstrumentConnectionError(InstrumentError):
         super().__init__(role, resource, f"cannot connect: {reason}")
 
 
+class ConnectionLost(InstrumentError):
+    """An instrument that answered before stopped answering for good (cable, power, network)."""
+
+    def __init__(self, role: str, resource: str, operation: str, detail: str = ""):
+        self.operation = operation
+        super().__init__(role, resource, f"connection lost during {operation!r}" + (f": {detail}" if detail else ""))
+
+
 class OutOfRangeError(ValueError):
     """A setting outside what the instrument allows; nothing was sent."""
 

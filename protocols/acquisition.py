@@ -19,6 +19,7 @@ power. The vibrometer's decoder range is chosen the same way from the expected v
 from __future__ import annotations
 
 import json
+import logging
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -27,6 +28,8 @@ import pandas as pd
 from instruments.errors import ClippedTraceError
 from protocols.safety import DriveController
 from squeezebench.errors import UserError
+
+log = logging.getLogger(__name__)
 
 SCREEN_DIVISIONS = 8.0
 HORIZONTAL_DIVISIONS = 10.0
@@ -78,9 +81,9 @@ class Point:
     averages: int
     record_length: int
     scope_power_w: float          # MATH MEAN
-    scope_velocity_pp_v: float    # CH3 PK2
-    scope_piezo_voltage_pp_v: float   # CH1 PK2 (piezo volts: the probe gain is set)
-    scope_current_pp_a: float     # CH2 PK2
+    scope_velocity_pp_v: float    # CH3 MAXIMUM - MINIMUM
+    scope_piezo_voltage_pp_v: float   # CH1 (piezo volts: the probe gain is set)
+    scope_current_pp_a: float     # CH2
     scope_frequency_hz: float     # CH1 FREQ
     vibrometer_scale_mps_per_v: float
     clock_s: float                # bench clock at the end of the point
@@ -165,7 +168,7 @@ class Acquisition:
         return point
 
     def _acquire_in_range(self, piezo_vpp: float, keep_waveforms: bool):
-        """Acquire until no channel clips or is too faint; return PK2 per channel, waveforms."""
+        """Acquire until no channel clips or is too faint; return pp per channel, waveforms."""
         settings, scope = self.settings, self.bench.scope
         self._vibrometer_scale = self._set_vibrometer_range(
             self._expected(self._velocity_pp_mps_per_vpp, piezo_vpp))
@@ -180,20 +183,25 @@ class Acquisition:
             if self.bench.vibrometer.over_range():
                 self._range(scales, VELOCITY_CHANNEL, CLIP_GROWTH * SCREEN_DIVISIONS * scales[VELOCITY_CHANNEL])
                 continue
-            pp = {channel: scope.measure(channel, "PK2") for channel in scales}
-            rerange = {}
+            # Maximum and minimum, not PK2: a spike clips one side only, within the PK2 limit.
+            peaks = {channel: (scope.measure(channel, "MAXIMUM"), scope.measure(channel, "MINIMUM"))
+                     for channel in scales}
+            pp = {channel: high - low for channel, (high, low) in peaks.items()}
+            rerange = {}   # channel: (expected pp, why)
             for channel, scale in scales.items():
-                if pp[channel] >= 0.98 * SCREEN_DIVISIONS * scale:   # at the ADC limit
-                    rerange[channel] = CLIP_GROWTH * pp[channel]
+                edge = 0.98 * SCREEN_DIVISIONS / 2 * scale   # channels sit at position 0
+                if max(peaks[channel][0], -peaks[channel][1]) >= edge:   # at the ADC limit
+                    rerange[channel] = (CLIP_GROWTH * pp[channel], "clipped")
                 elif channel not in refined and pp[channel] < settings.min_fill_divisions * scale:
                     refined.add(channel)
-                    rerange[channel] = pp[channel]
+                    rerange[channel] = (pp[channel], "too faint")
             if not rerange:
                 try:
                     return pp, (self._fetch_waveforms() if keep_waveforms else None)
                 except ClippedTraceError as exc:   # a spike the PK2 of an average missed
-                    rerange[exc.channel] = CLIP_GROWTH * pp[exc.channel]
-            for channel, expected_pp in rerange.items():
+                    rerange[exc.channel] = (CLIP_GROWTH * pp[exc.channel], "clipped trace")
+            for channel, (expected_pp, why) in rerange.items():
+                log.info("CH%d %s at %.4g per division: re-ranging", channel, why, scales[channel])
                 self._range(scales, channel, expected_pp)
         raise RangingError(f"could not range the scope within {settings.max_ranging_attempts} "
                            f"acquisitions at {piezo_vpp:.4g} Vpp, {self.drive.frequency_hz:.1f} Hz")

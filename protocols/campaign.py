@@ -321,6 +321,7 @@ class _Runner:
                                     settle_s=run.acquisition.settle_s)
             acquisition = Acquisition(bench, drive, run.acquisition)
             acquisition.configure()
+            bench.check_errors()   # a setting the instruments refused would void every step
             mounted = _Mounted(scene=run.bench.scene, state=None)
             with drive:
                 for step in pending:
@@ -336,6 +337,9 @@ class _Runner:
                           bench_time_base_s=self.bench_time_s, clock_start_s=bench.clock.now_s())
         step.measure(ctx)
         drive.to_minimum()   # every step ends safe: the operator may touch the plate next
+        # An error an instrument queued during the step (a refused setting) makes its
+        # points doubtful: the step is not stored, and a resume measures it again.
+        bench.check_errors()
         bench_time_s = ctx.bench_time_s()
         self.store.write_step(run.name, step.step_id, ctx.rows, ctx.waveforms)
         entry = {"run": run.name, "step": step.step_id, "protocol": run.protocol,

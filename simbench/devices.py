@@ -40,6 +40,10 @@ GENERATOR_LEVEL_SETTLE_S = 0.030
 SCOPE_REARM_S = 0.010
 
 
+class _Truncated(bytearray):
+    """The part of a reply that arrived; its end never does."""
+
+
 @dataclass
 class Deferred:
     """A reply the instrument gives only once it has finished (e.g. `*OPC?`)."""
@@ -59,6 +63,7 @@ class SimulatedInstrument:
         self.bus = bus
         self._input = bytearray()
         self._replies: deque = deque()
+        self._disconnected = False
         self._defaults = self._property_values()
         self._dynamic: dict[bytes, Callable[[], bytes | Deferred]] = self.dynamic_queries()
 
@@ -75,15 +80,55 @@ class SimulatedInstrument:
         message = bytes(self._input[:-len(eom)])
         self._input.clear()
         for query in message.split(self.device.delimiter) if self.device.delimiter else [message]:
+            faults = self._faults(query) if self.bench.effects.bus else ()
             reply = self.handle(query)
             if isinstance(reply, Deferred):
                 reply.payload += self.device._response_eom
-                self._replies.append(reply)
             elif reply is not None and reply is not NoResponse:
-                self._replies.append(bytearray(reply + self.device._response_eom))
+                reply = bytearray(reply + self.device._response_eom)
+            else:
+                continue
+            for fault in faults:
+                reply = self._faulty_reply(fault, reply)
+            if reply is not None:
+                self._replies.append(reply)
+
+    def is_query(self, message: bytes) -> bool:
+        """Whether `message` asks for a reply (IEEE 488.2: it ends with '?')."""
+        return message.endswith(b"?")
+
+    # -- faults (the scene's `bus` effects) ----------------------------------------------------
+    def _faults(self, query: bytes) -> list:
+        """The bus faults hitting this message; a disconnect fails it at once."""
+        bench = self.bench
+        bench.messages_received += 1
+        faults = [f for f in bench.effects.bus if f.hits(self.role, bench.messages_received, self.is_query(query))]
+        if any(f.name == "disconnect" for f in faults):
+            self._disconnected = True
+        if self._disconnected:
+            raise errors.VisaIOError(constants.VI_ERROR_CONN_LOST)
+        for fault in faults:
+            if fault.name == "instrument_error":
+                self.device.error_response("command_error")
+        return [f for f in faults if f.needs_reply]
+
+    def _faulty_reply(self, fault, reply: bytearray | Deferred) -> bytearray | Deferred | None:
+        payload = reply.payload if isinstance(reply, Deferred) else reply
+        if fault.name == "bus_timeout":
+            return None
+        if fault.name == "garbled_reply":
+            payload = bytearray(b"\xff\xfe\x1b#@!" + self.device._response_eom)
+        elif fault.name == "truncated_reply":
+            payload = _Truncated(payload[:max(1, (len(payload) - len(self.device._response_eom)) // 2)])
+        if isinstance(reply, Deferred):
+            reply.payload = payload
+            return reply
+        return payload
 
     def read(self, count: int, timeout_s: float) -> tuple[bytes, constants.StatusCode]:
         clock = self.bench.clock
+        if self._disconnected:
+            raise errors.VisaIOError(constants.VI_ERROR_CONN_LOST)
         if not self._replies:
             self._time_out(timeout_s)
         head = self._replies[0]
@@ -91,13 +136,16 @@ class SimulatedInstrument:
             if head.ready_s - clock.now_s() > timeout_s:
                 self._time_out(timeout_s)
             clock.advance_to(head.ready_s)
-            head = self._replies[0] = bytearray(head.payload)
+            payload = head.payload
+            head = self._replies[0] = payload if isinstance(payload, _Truncated) else bytearray(payload)
         chunk = bytes(head[:count])
         del head[:count]
         clock.advance(self.bus.message_s(len(chunk)))
         if head:
             return chunk, constants.StatusCode.success_max_count_read
         self._replies.popleft()
+        if isinstance(head, _Truncated):   # no END: the reader asks for the rest, which never comes
+            return chunk, constants.StatusCode.success_max_count_read
         return chunk, constants.StatusCode.success
 
     def _time_out(self, timeout_s: float) -> None:
@@ -209,6 +257,9 @@ class Vibrometer(SimulatedInstrument):
     """Polytec OFV-5000: the decoder range scales CH3; OverRange and SignalLevel live."""
 
     role = "vibrometer"
+
+    def is_query(self, message: bytes) -> bool:
+        return message.startswith(b"Get")   # its protocol: Get,<item>,<channel>,<field>
     _RANGE = re.compile(r"^\s*([0-9.]+)\s*(mm|m)/s/V\s*$")
 
     def dynamic_queries(self):
@@ -228,7 +279,8 @@ class Vibrometer(SimulatedInstrument):
 _ENCODINGS = {"RIB": (">i2", "RI", "MSB"), "RPB": (">u2", "RP", "MSB"),
               "SRI": ("<i2", "RI", "LSB"), "SRP": ("<u2", "RP", "LSB")}
 #: Long forms of the measurement types the simulator computes.
-_MEASUREMENTS = {"CMEAN": "CME", "PK2PK": "PK2", "FREQUENCY": "FREQ", "AMPLITUDE": "AMP"}
+_MEASUREMENTS = {"CMEAN": "CME", "PK2PK": "PK2", "FREQUENCY": "FREQ", "AMPLITUDE": "AMP",
+                 "MAXIMUM": "MAX", "MINIMUM": "MINI"}
 _UNITS = {"CH1": "V", "CH2": "A", "CH3": "V", "MATH": "VA"}
 
 

@@ -8,7 +8,10 @@ acts at one or more stages of the simulation:
 - `motion`: reshapes the modal velocities over an acquisition (ring-up after a change);
 - `signals`: edits the noise-free sensor outputs (offsets, vibrometer clipping);
 - `noise`: adds per-acquisition random noise, as an rms in screen divisions;
-- `digitizer`: sets how the scope digitises (quantisation, averaging).
+- `digitizer`: sets how the scope digitises (quantisation, averaging);
+- `bus`: faults of the instruments and their link (timeouts, garbled or truncated
+  replies, error-queue entries, a disconnect), for testing what a campaign does on a
+  bad day.
 
 `EffectPipeline` keeps, per stage, only the effects acting there, chosen once when the
 scene is loaded: an effect that is off is never called, and the ideal bench runs none.
@@ -47,7 +50,11 @@ class Effect:
 
     name: ClassVar[str]
     defaults: ClassVar[dict[str, float]] = {}
+    #: Allowed (low, high) of a parameter, checked when the scene is read.
+    limits: ClassVar[dict[str, tuple[float, float]]] = {}
     stages: ClassVar[frozenset[str]] = frozenset()
+    #: True when two acquisitions at the same settings differ (the record cannot be reused).
+    varies_per_acquisition: ClassVar[bool] = False
 
     def __init__(self, scene, **parameters: float) -> None:
         self.scene = scene
@@ -327,10 +334,103 @@ class Averaging(Effect):
                         dither_threshold_lsb=self.parameters["dither_threshold_lsb"])
 
 
+# -- faults (issue 7) ------------------------------------------------------------------------
+class ClippedTrace(Effect):
+    """A burst on CH2 (a switching spike, a probe knocked) far beyond the screen in the
+    `count` acquisitions from the `at_acquisition`-th one of the bench: the record
+    clips, the driver raises ClippedTraceError and the protocol must re-range."""
+
+    name = "clipped_trace"
+    defaults = {"at_acquisition": 5.0, "count": 1.0, "height_div": 20.0}
+    limits = {"at_acquisition": (1.0, math.inf), "count": (1.0, math.inf), "height_div": (6.0, math.inf)}
+    stages = frozenset({"signals"})
+    varies_per_acquisition = True
+
+    def __init__(self, scene, **parameters: float) -> None:
+        super().__init__(scene, **parameters)
+        self.acquisitions = 0
+
+    def signals(self, signals: np.ndarray, ctx: AcquisitionContext) -> np.ndarray:
+        self.acquisitions += 1
+        first = self.parameters["at_acquisition"]
+        if not first <= self.acquisitions < first + self.parameters["count"]:
+            return signals
+        signals = signals.copy()
+        burst = slice(signals.shape[1] // 2, signals.shape[1] // 2 + max(1, signals.shape[1] // 50))
+        height = self.parameters["height_div"] * ctx.scale_per_div[1] / ctx.display_gain[1]
+        signals[1, burst] += height
+        return signals
+
+
+class BusFault(Effect):
+    """A fault of one instrument or its link, from the `at_message`-th message the bench's
+    instruments receive (every command and query of all three, counted from when the
+    bench opens), on `instrument` (1 generator, 2 scope, 3 vibrometer; 0 any of them),
+    for `count` messages. A reply fault hits the first `count` queries from there."""
+
+    defaults = {"at_message": 200.0, "instrument": 0.0, "count": 1.0}
+    limits = {"at_message": (1.0, math.inf), "instrument": (0.0, 3.0), "count": (1.0, math.inf)}
+    stages = frozenset({"bus"})
+    ROLES = (None, "generator", "scope", "vibrometer")
+    needs_reply: ClassVar[bool] = True
+
+    def __init__(self, scene, **parameters: float) -> None:
+        super().__init__(scene, **parameters)
+        self.role = self.ROLES[int(self.parameters["instrument"])]
+        self.remaining = int(self.parameters["count"])
+
+    def hits(self, role: str, message_number: int, is_query: bool) -> bool:
+        """Whether this message is faulted (and one fault fewer remains)."""
+        if (self.remaining <= 0 or message_number < self.parameters["at_message"]
+                or (self.role is not None and role != self.role) or (self.needs_reply and not is_query)):
+            return False
+        self.remaining -= 1
+        return True
+
+
+class BusTimeout(BusFault):
+    """The instrument never answers the query: the read waits out its VISA timeout."""
+
+    name = "bus_timeout"
+
+
+class GarbledReplyFault(BusFault):
+    """The reply arrives as line noise (bytes that are not the instrument's text)."""
+
+    name = "garbled_reply"
+
+
+class TruncatedReplyFault(BusFault):
+    """Only the first half of the reply arrives, without its end: the read times out."""
+
+    name = "truncated_reply"
+
+
+class InstrumentErrorEntry(BusFault):
+    """The instrument refuses the message and queues an error (SYST:ERR? / *ESR?+EVMSG?),
+    as a real one does for a setting it cannot apply."""
+
+    name = "instrument_error"
+    needs_reply = False
+
+
+class Disconnect(BusFault):
+    """The instrument drops off the bus (cable, power, network) for good: from the
+    `at_message`-th message on every write and read to it fails (`count` is unused)."""
+
+    name = "disconnect"
+    needs_reply = False
+
+    def hits(self, role: str, message_number: int, is_query: bool) -> bool:
+        return (message_number >= self.parameters["at_message"]
+                and (self.role is None or role == self.role))
+
+
 EFFECTS: dict[str, type[Effect]] = {cls.name: cls for cls in (
     Shunt, DielectricLossEffect, AmplifierLimits, NeighbouringMode, HeatingDrift,
     SettlingTransient, DcOffset, VibrometerRange, ScopeNoise, VibrometerNoise,
-    Quantisation, Averaging)}
+    Quantisation, Averaging, ClippedTrace, BusTimeout, GarbledReplyFault, TruncatedReplyFault,
+    InstrumentErrorEntry, Disconnect)}
 
 
 # -- the digitiser ----------------------------------------------------------------------
@@ -397,7 +497,7 @@ def _quantise(divisions: np.ndarray, lsb_div: float | None) -> np.ndarray:
 class EffectPipeline:
     """The effects of a scene, sorted by the stage they act at."""
 
-    STAGES = ("amplifier", "load", "motion", "signals", "noise", "digitizer")
+    STAGES = ("amplifier", "load", "motion", "signals", "noise", "digitizer", "bus")
 
     def __init__(self, effects: list[Effect]) -> None:
         self.effects = effects
@@ -411,6 +511,9 @@ class EffectPipeline:
         for effect in self.by_stage["digitizer"]:
             self.digitizer_settings = effect.digitizer(self.digitizer_settings)
         self.is_random = bool(self._noise)
+        #: Acquisitions at the same settings may differ: no record can be reused.
+        self.varies = self.is_random or bool(self._motion) or any(e.varies_per_acquisition for e in effects)
+        self.bus = self.by_stage["bus"]
 
     @property
     def names(self) -> list[str]:

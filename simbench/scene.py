@@ -468,6 +468,9 @@ def _effects(reader: _Reader, data: Any) -> tuple[EffectSpec, ...]:
                                    + (", ".join(defaults) or "none (this effect has no parameters)"))
             if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
                 raise reader.error(f"{field}.{name}.{key}", f"must be a number, got {value!r}")
+            low, high = EFFECTS[name].limits.get(key, (-math.inf, math.inf))
+            if not low <= value <= high:
+                raise reader.error(f"{field}.{name}.{key}", f"must be in {low:g}..{high:g}, got {value!r}")
         if name in (s.name for s in specs):
             raise reader.error(field, f"effect {name!r} is listed twice")
         specs.append(EffectSpec(name, {k: float(v) for k, v in parameters.items()}))

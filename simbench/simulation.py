@@ -61,6 +61,7 @@ class SimulatedBench:
         self._steady_cache: tuple = (None, None)
         self._record_cache: tuple = (None, None)
         self.acquisitions_since_generator_write = 0
+        self.messages_received = 0   # by the three instruments: what bus faults count
 
     def start(self) -> None:
         """Called by the backend once the instruments are bound."""
@@ -127,7 +128,7 @@ class SimulatedBench:
         one is reused while they stay the same (the ideal bench costs almost nothing).
         """
         steady = self.steady_state()
-        if not (self.effects.is_random or self.effects.has_motion):
+        if not self.effects.varies:
             key = (self._steady_cache[0], setup, tuple(self.sensor_gains()))
             if self._record_cache[0] != key:
                 self._record_cache = (key, traces.acquire(

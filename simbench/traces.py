@@ -160,6 +160,10 @@ def measure(record: Record, source: str, kind: str) -> float:
         return float(trace[whole_periods(record.setup.times_s(), record.frequency_hz, True)].mean())
     if kind in ("PK2", "AMP"):  # AMP (high - low) equals PK2 on a sine without overshoot
         return float(trace.max() - trace.min())
+    if kind == "MAX":
+        return float(trace.max())
+    if kind == "MINI":
+        return float(trace.min())
     if kind == "RMS":
         return float(np.sqrt(np.mean(trace**2)))
     if kind == "FREQ":

@@ -14,6 +14,7 @@ import pandas as pd
 import pytest
 from pyvisa.resources import MessageBasedResource
 
+from instruments.errors import ConnectionLost
 from protocols.campaign import run_campaign
 from protocols.storage import RunStore, read_measurements
 from test_protocols_support import ONE_COLUMN_PLATE, noise_free_scene, write_campaign
@@ -23,8 +24,12 @@ class InjectedFault(Exception):
     """Stands for an instrument that stops answering mid-campaign."""
 
 
-def small_campaign(tmp_path):
-    scene = str(noise_free_scene(tmp_path, "one_column_1mm.yaml"))
+#: What the drivers turn an injected fault into (a socket error is a lost connection).
+RAISED_AS = {ConnectionResetError: ConnectionLost}
+
+
+def small_campaign(tmp_path, effects=None):
+    scene = str(noise_free_scene(tmp_path, "one_column_1mm.yaml", effects))
     search = {"start_hz": 36000, "stop_hz": 38500, "points": 11, "tolerance_hz": 1.0}
     return write_campaign(tmp_path, [
         {"name": "detuning", "protocol": "detuning", "plate": ONE_COLUMN_PLATE,
@@ -81,7 +86,7 @@ def test_kill_at_random_instrument_writes_then_resume(reference, tmp_path, monke
                 counter = WriteCounter(patch, fail_at=fail_at, fault=fault)
                 try:
                     run_campaign(campaign, resume=True, out_dir=run_dir)
-                except fault:
+                except RAISED_AS.get(fault, fault):
                     pass
                 else:
                     assert attempt > 0 and counter.count < fail_at, "the first kill must land"

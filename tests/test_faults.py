@@ -2,7 +2,9 @@
 
 Faults are raised at MessageBasedResource level (below every driver) so the driver's
 own translation to typed errors is what is tested: a VISA timeout, a garbled reply and a
-disconnect in the middle of a campaign. After each: the typed error names what failed,
+disconnect in the middle of a campaign. Then the same faults named in a scene (the
+simulated bench's fault effects), which come back in every resumed session, and a
+clipped trace the protocol must re-range. After each: the typed error names what failed,
 the generator was last set to its minimum amplitude (the plate is safe to touch), every
 completed step is stored and visible, a resume completes the campaign, and no NaN/inf
 reaches any stored measurement table.
@@ -26,7 +28,7 @@ from pyvisa.errors import VisaIOError
 from pyvisa.resources import MessageBasedResource
 
 from instruments.agilent33120a import AMPLITUDE_RANGE_VPP
-from instruments.errors import GarbledReply, InstrumentTimeout
+from instruments.errors import ConnectionLost, GarbledReply, InstrumentError, InstrumentTimeout
 from protocols.campaign import run_campaign
 from protocols.storage import RunStore, read_measurements
 from squeezebench import cli, paths
@@ -169,8 +171,9 @@ def test_disconnect_mid_campaign_stops_safely_and_resumes(reference, tmp_path, m
     run_dir = tmp_path / "run"
     with monkeypatch.context() as patch:
         tap = BusTap(patch, fail_at=n_writes // 2, fault=connection_reset)
-        with pytest.raises(ConnectionResetError):
+        with pytest.raises(ConnectionLost) as caught:
             run_campaign(campaign, out_dir=run_dir)
+    assert "went away" in str(caught.value) and caught.value.role == "scope"
     assert tap.last_amplitude_vpp is not None and _is_minimum(tap.last_amplitude_vpp)
     journal = RunStore(run_dir).journal()
     assert journal
@@ -191,7 +194,7 @@ def test_repeated_faults_then_resume_leave_only_finite_values(reference, tmp_pat
             tap = BusTap(patch, **fault)
             try:
                 run_campaign(campaign, resume=True, out_dir=run_dir)
-            except (InstrumentTimeout, GarbledReply, ConnectionResetError):
+            except (InstrumentTimeout, GarbledReply, ConnectionLost):
                 pass
         if tap.fired:
             assert tap.last_amplitude_vpp is not None and _is_minimum(tap.last_amplitude_vpp)
@@ -275,3 +278,57 @@ def test_malformed_bench_file(tmp_path, capsys, text, field):
     path.write_text(text)
     status, err = _cli(["check", "--bench", path], capsys)
     _assert_user_error(status, err, path, f": {field}")
+
+
+# -- faults named in the scene (the simulated bench's fault effects) ---------------------------
+def _until_complete(campaign, run_dir, expected_error, max_sessions=30):
+    """Run, then resume after each fault, until the campaign completes; the errors seen."""
+    errors = []
+    for _ in range(max_sessions):
+        try:
+            run_campaign(campaign, resume=True, out_dir=run_dir)
+            return errors
+        except expected_error as exc:
+            errors.append(exc)
+            journal = RunStore(run_dir).journal()
+            if journal:
+                assert len(read_measurements(run_dir)) == sum(e["rows"] for e in journal)
+                assert_no_nonfinite(run_dir)
+    raise AssertionError(f"still failing after {max_sessions} sessions: {errors[-1]}")
+
+
+@pytest.mark.parametrize("effect, parameters, error, words", [
+    ("disconnect", {"instrument": 2}, ConnectionLost, ("scope", "connection lost")),
+    ("bus_timeout", {"instrument": 2}, InstrumentTimeout, ("scope", "no answer")),
+    ("truncated_reply", {"instrument": 1}, InstrumentTimeout, ("generator", "no answer")),
+    ("garbled_reply", {"instrument": 2}, GarbledReply, ("scope", "not ASCII")),
+    ("instrument_error", {"instrument": 1, "count": 3}, InstrumentError, ("generator", "Data out of range")),
+])
+def test_scene_faults_stop_cleanly_and_every_resume_keeps_what_was_measured(
+        reference, tmp_path, monkeypatch, effect, parameters, error, words):
+    """The fault comes back in every session (a flaky bench stays flaky), so each session
+    completes the steps before it; in the end the rows are the fault-free run's."""
+    _, expected, _, _ = reference
+    # Message 2000 of a bench session: a session opens with ~80 messages and the longest
+    # step takes ~1750, so every session completes a step before the fault comes back.
+    campaign = small_campaign(tmp_path, effects=[{effect: {"at_message": 2000, **parameters}}])
+    with monkeypatch.context() as patch:
+        tap = BusTap(patch)
+        errors = _until_complete(campaign, tmp_path / "run", error)
+    assert errors, "the fault must fire"
+    for word in words:
+        assert word in str(errors[0])
+    assert tap.last_amplitude_vpp is not None and _is_minimum(tap.last_amplitude_vpp)
+    pd.testing.assert_frame_equal(read_measurements(tmp_path / "run"), expected, check_exact=True)
+
+
+def test_a_clipped_trace_is_re_ranged_and_the_campaign_completes(reference, tmp_path):
+    _, expected, _, _ = reference
+    campaign = small_campaign(tmp_path, effects=[{"clipped_trace": {"at_acquisition": 30, "count": 2}}])
+    rows = read_measurements(run_campaign(campaign, out_dir=tmp_path / "run"))
+    assert "CH2 clipped" in (tmp_path / "run" / "log.txt").read_text()
+    # noise-free: the re-ranged points read what the undisturbed run read, only later
+    assert (rows["bench_time_s"] >= expected["bench_time_s"]).all()
+    pd.testing.assert_frame_equal(rows.drop(columns="bench_time_s"), expected.drop(columns="bench_time_s"),
+                                  check_exact=False, rtol=1e-9)
+    assert_no_nonfinite(tmp_path / "run")

@@ -19,10 +19,10 @@ FAST_ACQUISITION = {"averages": 2, "record_length": 500, "periods_per_record": 1
 ONE_COLUMN_PLATE = {"n_powered_columns": 1, "n_powered_piezos": 4}
 
 
-def noise_free_scene(tmp_path: Path, name: str) -> Path:
-    """A copy of a shipped scene without effects (noise, drift...), in tmp_path."""
+def noise_free_scene(tmp_path: Path, name: str, effects: list | None = None) -> Path:
+    """A copy of a shipped scene without effects (noise, drift...) but `effects`, in tmp_path."""
     scene = yaml.safe_load((paths.scenes_dir() / name).read_text())
-    scene["effects"] = []
+    scene["effects"] = effects or []
     path = tmp_path / name
     path.write_text(yaml.safe_dump(scene, sort_keys=False))
     return path

@@ -7,7 +7,10 @@ import math
 import numpy as np
 import pytest
 
+from instruments.bench import open_bench, sim_bench_config
+from instruments.errors import ConnectionLost, GarbledReply, InstrumentError, InstrumentTimeout
 from simbench import effects as fx
+from simbench.scene import SceneError, load_scene
 from test_sim_support import RawBench, sampled_truth, scene_file
 
 F_HZ = 37180.0
@@ -200,3 +203,78 @@ def test_vibrometer_range(tmp_path):
     assert plain.vibrometer.query("Get,OverRange,0,Value") == "0"
     plain.acquire()
     assert plain.measure("CH3", "PK2") > 20.0
+
+
+# -- faults: through the drivers, which must turn each into its typed error ------------------
+@pytest.fixture()
+def faulty(tmp_path):
+    """A driver-level bench whose scene names one fault; `arm(name)` points the fault at
+    the next message, so the count does not depend on what opening the bench sent."""
+    opened = []
+
+    def open_with(effect: str, **parameters):
+        scene = scene_file(tmp_path, effects=[{effect: {"at_message": 10**6, **parameters}}])
+        bench = open_bench(sim_bench_config(scene))
+        opened.append(bench)
+        simulated = bench.resource_manager.visalib.bench
+        simulated.effects.get(effect).parameters["at_message"] = simulated.messages_received + 1
+        return bench
+
+    yield open_with
+    for bench in opened:
+        bench.close()
+
+
+def test_bus_timeout(faulty):
+    bench = faulty("bus_timeout", instrument=2)
+    with pytest.raises(InstrumentTimeout, match=r"scope .*no answer to \*IDN\?"):
+        bench.scope.identification
+    assert "TDS 3054B" in bench.scope.identification   # one fault (count 1), then answers again
+
+
+def test_garbled_reply(faulty):
+    bench = faulty("garbled_reply", instrument=1)
+    with pytest.raises(GarbledReply, match=r"generator .*\*IDN\?.*not ASCII"):
+        bench.generator.identification
+
+
+def test_truncated_reply(faulty):
+    bench = faulty("truncated_reply", instrument=1)
+    # half a number must never be read as a number: the missing end is a timeout
+    with pytest.raises(InstrumentTimeout, match="FREQ"):
+        bench.generator.frequency_hz
+
+
+def test_instrument_error(faulty):
+    bench = faulty("instrument_error", instrument=1)
+    bench.generator.set_frequency(37000.0)
+    with pytest.raises(InstrumentError, match="Data out of range") as caught:
+        bench.check_errors()
+    assert caught.value.code == -222 and caught.value.role == "generator"
+    bench.check_errors()   # the queue is empty again
+
+
+def test_disconnect(faulty):
+    bench = faulty("disconnect", instrument=2)
+    for _ in range(2):   # for good, not once
+        with pytest.raises(ConnectionLost, match=r"scope .*connection lost during '\*IDN\?'"):
+            bench.scope.identification
+    assert "33120A" in bench.generator.identification   # the others stay reachable
+
+
+def test_clipped_trace(tmp_path):
+    bench = RawBench(scene_file(tmp_path, effects=[{"clipped_trace": {"at_acquisition": 2}}]))
+    bench.drive(F_HZ, GENERATOR_VPP)
+    bench.configure(F_HZ)
+    peaks = []
+    for _ in range(3):
+        bench.acquire()
+        peaks.append(bench.fetch("CH2")[2].max())   # raw counts
+    adc_limit = fx.ADC_MAX_DIV * fx.COUNTS_PER_DIV
+    assert peaks[0] < 0.9 * adc_limit and peaks[2] < 0.9 * adc_limit
+    assert peaks[1] >= adc_limit - 256   # the second acquisition clips (to the averaged LSB)
+
+
+def test_fault_parameters_are_checked(tmp_path):
+    with pytest.raises(SceneError, match=r"effects\[0\]\.disconnect\.instrument: must be in 0\.\.3"):
+        load_scene(scene_file(tmp_path, effects=[{"disconnect": {"instrument": 4}}]))
