@@ -249,8 +249,10 @@ def _join(field: str | None, key: str) -> str:
 
 
 # -- running -----------------------------------------------------------------------------
-def run_campaign(path: Path, resume: bool = False, out_dir: Path | None = None) -> Path:
-    """Run (or with `resume`, continue) a campaign; return its run directory."""
+def run_campaign(path: Path, resume: bool = False, out_dir: Path | None = None,
+                 progress: bool = True) -> Path:
+    """Run (or with `resume`, continue) a campaign; return its run directory. `progress`
+    off hides the progress bar (a campaign run inside another tool, e.g. the planner)."""
     campaign = load_campaign(path)
     run_dir = Path(out_dir) if out_dir is not None else campaign.output_dir
     store = RunStore(run_dir)
@@ -269,7 +271,7 @@ def run_campaign(path: Path, resume: bool = False, out_dir: Path | None = None) 
     try:
         log.info("campaign %s (%s) in %s, %s", campaign.name, campaign.file, run_dir,
                  f"resuming after {len(journal)} steps" if journal else "new run")
-        _Runner(campaign, store, journal).run()
+        _Runner(campaign, store, journal, progress).run()
         log.info("campaign %s complete", campaign.name)
     except BaseException as exc:
         log.error("campaign stopped by %s: %s; completed steps are stored, resume to continue",
@@ -281,8 +283,10 @@ def run_campaign(path: Path, resume: bool = False, out_dir: Path | None = None) 
 
 
 class _Runner:
-    def __init__(self, campaign: Campaign, store: RunStore, journal: list[dict[str, Any]]):
+    def __init__(self, campaign: Campaign, store: RunStore, journal: list[dict[str, Any]],
+                 progress: bool = True):
         self.campaign = campaign
+        self.progress = progress
         self.store = store
         self.journal = journal
         self.done = {(entry["run"], entry["step"]) for entry in journal}
@@ -293,7 +297,7 @@ class _Runner:
     def run(self) -> None:
         total = sum(len(steps) for _, steps in self.plans)
         with tqdm(total=total, initial=len(self.done), unit="step", desc=self.campaign.name,
-                  dynamic_ncols=True) as self.bar:
+                  dynamic_ncols=True, disable=not self.progress) as self.bar:
             self._show_times()
             for run, steps in self.plans:
                 pending = [step for step in steps if (run.name, step.step_id) not in self.done]

@@ -162,7 +162,7 @@ def simulate_bench_time_s(campaign_path: Path, averages_by_run: dict[str, int]) 
     with tempfile.TemporaryDirectory(prefix="squeezebench-plan-") as tmp:
         tmp_dir = Path(tmp)
         variant = _campaign_with_averages(campaign_path, averages_by_run, tmp_dir / campaign_path.name)
-        run_dir = run_campaign(variant, out_dir=tmp_dir / "run")
+        run_dir = run_campaign(variant, out_dir=tmp_dir / "run", progress=False)
         return _bench_time_by_run_s(run_dir)
 
 

@@ -1,0 +1,102 @@
+"""Tables 3 and 4 recomputed from dry runs of the shipped paper campaign.
+
+Noise-free scenes give the printed values within 0.1 %; the shipped scenes (noise,
+quantisation, offsets, shunt, dielectric loss) within 1 %, and each stored point's stated
+uncertainty covers the scene's closed-form truth at that point's drive. The printed
+amplitudes are left out of the 0.1 % check: Table 4 prints 1.08 um where its own 0.30 m/s
+at 43792 Hz gives 1.09 um (the audit shows it); they are checked within 1 %.
+"""
+
+from __future__ import annotations
+
+import math
+
+import pandas as pd
+import pytest
+import yaml
+
+from analysis.report import write_report
+from analysis.rundata import load_run
+from analysis.tables import reduced_points
+from protocols.campaign import run_campaign
+from simbench import physics
+from simbench.effects import build_pipeline
+from simbench.scene import load_scene
+from squeezebench import paths
+
+RUNS = ("table3_cutting", "table4_powered_columns")
+CALIBRATED = ("frequency_hz", "voltage_vpp", "power_w", "velocity_pp_mps")
+COVERAGE_K = 3.0   # |value - truth| <= 3 standard uncertainties
+
+
+def _with_scenes(node, scenes: dict[str, str]):
+    """The campaign with every `scene:` replaced by the path in `scenes`."""
+    if isinstance(node, dict):
+        return {k: (scenes[v] if k == "scene" else _with_scenes(v, scenes)) for k, v in node.items()}
+    if isinstance(node, list):
+        return [_with_scenes(v, scenes) for v in node]
+    return node
+
+
+def _run(tmp_path, noise_free: bool):
+    campaign = yaml.safe_load(paths.paper_campaign().read_text())
+    campaign["runs"] = [run for run in campaign["runs"] if run["name"] in RUNS]
+    scenes = {}
+    for name in ("one_column_1mm.yaml", "one_column_1p2mm.yaml", "two_column_1p2mm.yaml"):
+        scene = yaml.safe_load((paths.scenes_dir() / name).read_text())
+        if noise_free:
+            scene["effects"] = []
+        scenes[name] = str(tmp_path / name)
+        (tmp_path / name).write_text(yaml.safe_dump(scene, sort_keys=False))
+    campaign = _with_scenes(campaign, scenes)
+    campaign_file = tmp_path / "tables.yaml"
+    campaign_file.write_text(yaml.safe_dump(campaign, sort_keys=False))
+    run_dir = run_campaign(campaign_file, out_dir=tmp_path / "run")
+    write_report(run_dir)
+    table = pd.concat([pd.read_csv(run_dir / "report" / f"table{n}.csv") for n in (3, 4)], ignore_index=True)
+    return run_dir, table[table["quantity"] != "n_antinodes"]
+
+
+@pytest.fixture(scope="module")
+def noise_free(tmp_path_factory):
+    return _run(tmp_path_factory.mktemp("noise_free"), noise_free=True)
+
+
+@pytest.fixture(scope="module")
+def realistic(tmp_path_factory):
+    return _run(tmp_path_factory.mktemp("realistic"), noise_free=False)
+
+
+def test_noise_free_tables_3_and_4_within_0p1_percent(noise_free):
+    _, table = noise_free
+    assert set(table["status"]) == {"measured"}
+    calibrated = table[table["quantity"].isin(CALIBRATED)]
+    worst = calibrated.loc[calibrated["relative_difference"].abs().idxmax()]
+    assert abs(worst["relative_difference"]) < 1e-3, worst.to_dict()
+    assert (table["relative_difference"].abs() < 0.01).all()   # amplitudes: the printed rounding
+
+
+def test_realistic_tables_3_and_4_within_1_percent(realistic):
+    _, table = realistic
+    assert set(table["status"]) == {"measured"}
+    worst = table.loc[table["relative_difference"].abs().idxmax()]
+    assert abs(worst["relative_difference"]) < 0.01, worst.to_dict()
+
+
+@pytest.mark.parametrize("bench", ["noise_free", "realistic"])
+def test_stated_uncertainties_cover_the_scenes_truth(bench, request):
+    run_dir, _ = request.getfixturevalue(bench)
+    run = load_run(run_dir)
+    points = reduced_points(run, run.measurements[run.measurements["waveform_file"].notna()])
+    checked = 0
+    for point in points.itertuples(index=False):
+        scene = load_scene(run_dir / "inputs" / f"{point.plate}.yaml")
+        state = scene.state(point.scene_state if isinstance(point.scene_state, str) else scene.initial_state)
+        truth = physics.steady_state(state, scene.electronics, point.generator_frequency_hz,
+                                     point.generator_amplitude_vpp, build_pipeline(scene))
+        for measured, u, true in ((point.power_w, point.power_w_u, truth.power_w),
+                                  (point.velocity_pp_mps, point.velocity_pp_mps_u, truth.velocity_pp_mps)):
+            assert math.isfinite(u) and u > 0
+            assert abs(measured - true) <= COVERAGE_K * u, (point.step_id, measured, true, u)
+        checked += 1
+    assert checked >= 6
