@@ -94,7 +94,8 @@ def main() -> None:
     bare = pyvisa.ResourceManager(f"{DEFINITIONS}@sim").open_resource(SCOPE, **TERMINATIONS)
     with tempfile.TemporaryDirectory() as tmp:
         ideal_scene = scene_with(Path(tmp), [])
-        every_scene = scene_with(Path(tmp), list(EFFECTS))
+        # every effect of a healthy bench: faults would stop the acquisitions being timed
+        every_scene = scene_with(Path(tmp), [name for name, effect in EFFECTS.items() if not effect.fault])
         _, scene_scope = prepared_scope(ideal_scene)
         bare_s = best_of(repeat, idn_queries, bare) / 200
         scene_s = best_of(repeat, idn_queries, scene_scope) / 200

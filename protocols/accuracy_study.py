@@ -66,7 +66,7 @@ class StudySettings:
     periods_per_record: tuple[float, ...] = (2.0, 5.0, 10.0, 20.0, 50.0)
     record_lengths: tuple[int, ...] = (500, 10000)
     search_points: tuple[int, ...] = (11, 41, 81)
-    search_tolerances_hz: tuple[float, ...] = (10.0, 1.0, 0.1)
+    search_tolerances_hz: tuple[float, ...] = (10.0, 0.5)
     search_averages: tuple[int, ...] = (4, 16, 64)   # the flat top of the peak is found in the noise
     search_half_span_hz: float = 300.0   # the search brackets the resonance by this much
     search_voltage_vpp: float = 10.0
@@ -77,7 +77,7 @@ class StudySettings:
     settle_q_mech: float = 5000.0
     # Characterisation of a small plate (Fig. 5): n voltages evenly over the range.
     sweep_scene: str = "small_plate_1.yaml"
-    sweep_voltage_counts: tuple[int, ...] = (3, 4, 6, 9)   # a line fit needs 3
+    sweep_voltage_counts: tuple[int, ...] = (3, 5, 9)   # a line fit needs 3
     sweep_voltage_range_vpp: tuple[float, float] = (10.0, 40.0)
     sweep_averages: tuple[int, ...] = (4, 32, 256)
     # Heating: the uncut plate held at a high drive.

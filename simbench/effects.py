@@ -55,6 +55,8 @@ class Effect:
     stages: ClassVar[frozenset[str]] = frozenset()
     #: True when two acquisitions at the same settings differ (the record cannot be reused).
     varies_per_acquisition: ClassVar[bool] = False
+    #: A fault (issue 7) rather than a property of a healthy bench.
+    fault: ClassVar[bool] = False
 
     def __init__(self, scene, **parameters: float) -> None:
         self.scene = scene
@@ -345,6 +347,7 @@ class ClippedTrace(Effect):
     limits = {"at_acquisition": (1.0, math.inf), "count": (1.0, math.inf), "height_div": (6.0, math.inf)}
     stages = frozenset({"signals"})
     varies_per_acquisition = True
+    fault = True
 
     def __init__(self, scene, **parameters: float) -> None:
         super().__init__(scene, **parameters)
@@ -371,6 +374,7 @@ class BusFault(Effect):
     defaults = {"at_message": 200.0, "instrument": 0.0, "count": 1.0}
     limits = {"at_message": (1.0, math.inf), "instrument": (0.0, 3.0), "count": (1.0, math.inf)}
     stages = frozenset({"bus"})
+    fault = True
     ROLES = (None, "generator", "scope", "vibrometer")
     needs_reply: ClassVar[bool] = True
 
