@@ -7,7 +7,7 @@ stored waveforms (`analysis.waveforms.reduce_point`; Q and tan(theta') by
 `analysis.tables.characterise_plate`), so an error here is an error in the report.
 
 Experiments (the scene, state and voltage of each are in `StudySettings`):
-- `averages`: scope averaging 2..512 at resonance -> power, velocity, amplitude;
+- `averages`: sample mode and scope averaging 2..512 at resonance -> power, velocity, amplitude;
 - `record`: periods per record x record length (500 / 10000 points) -> the same;
 - `search`: coarse sweep points x golden-section tolerance -> resonance frequency;
 - `settle`: wait after a voltage step (ring-up, `settling_transient` on) -> power, velocity;
@@ -62,7 +62,7 @@ class StudySettings:
     point_scene: str = "one_column_1mm.yaml"
     point_state: str = "75x41"
     point_voltage_vpp: float = 20.0
-    averages: tuple[int, ...] = (2, 4, 8, 16, 32, 64, 128, 256, 512)
+    averages: tuple[int, ...] = (1, 2, 4, 8, 16, 32, 64, 128, 256, 512)   # 1: sample mode
     periods_per_record: tuple[float, ...] = (2.0, 5.0, 10.0, 20.0, 50.0)
     record_lengths: tuple[int, ...] = (500, 10000)
     search_points: tuple[int, ...] = (11, 41, 81)

@@ -50,7 +50,7 @@ class RangingError(UserError):
 class AcquisitionSettings:
     """Campaign `acquisition:` section."""
 
-    averages: int = 16               # ACQ:NUMAV, a power of two 2..512
+    averages: int = 16               # 1: sample mode; else ACQ:NUMAV, a power of two 2..512
     record_length: int = 500         # HOR:RECO, 500 or 10000 points
     periods_per_record: float = 20.0  # periods of the drive the record holds
     settle_s: float = 0.5            # bench time after each generator change (ring-up)
@@ -60,8 +60,9 @@ class AcquisitionSettings:
     vibrometer_max_output_pp_v: float = 8.0   # keep the decoder output within this pp
 
     def __post_init__(self) -> None:
-        if self.averages < 2 or self.averages > 512 or self.averages & (self.averages - 1):
-            raise ValueError(f"averages must be a power of two in 2..512, got {self.averages!r}")
+        if self.averages < 1 or self.averages > 512 or self.averages & (self.averages - 1):
+            raise ValueError(f"averages must be 1 (sample mode) or a power of two in 2..512, "
+                             f"got {self.averages!r}")
         if self.record_length not in (500, 10000):
             raise ValueError(f"record_length must be 500 or 10000, got {self.record_length!r}")
         if not self.periods_per_record > 0 or self.settle_s < 0:
@@ -124,7 +125,10 @@ class Acquisition:
         scope.configure_channel(VELOCITY_CHANNEL, probe_gain=1.0)
         scope.set_math_product()
         scope.set_record_length(self.settings.record_length)
-        scope.set_averaging(self.settings.averages)
+        if self.settings.averages == 1:
+            scope.acquire_mode = "SAMPLE"
+        else:
+            scope.set_averaging(self.settings.averages)
         # The finest/coarsest scale depends on the probe gain just set; ranging stays inside it.
         self._scale_limits = {channel: scope.channel(channel).scale_range_per_div()
                               for channel in (PIEZO_CHANNEL, CURRENT_CHANNEL, VELOCITY_CHANNEL)}

@@ -4,7 +4,7 @@ For every distinct plate (scene, state) the campaign's runs measure, on the simu
 bench at its resonance and the run's (smallest) voltage, the relative error of the
 power reduced from the stored waveforms (analysis.waveforms.integer_period_mean_power_w,
 as the analysis does) against the scene's closed-form truth (`truth().power_w`) is measured for each
-averaging count 2, 4, ..., 512 over several acquisitions (their random streams are seeded
+averaging count 1 (sample mode), 2, 4, ..., 512 over several acquisitions (their random streams are seeded
 by the scene, so the plan is reproducible); the 95th percentile of |error| is compared
 with the target. A run gets the cheapest averaging meeting the target on all its plates
 (512 when none does). The campaign is then run twice on the simulated bench into
@@ -35,7 +35,7 @@ from protocols.safety import DriveController
 from protocols.storage import RunStore
 from squeezebench.errors import UserError
 
-AVERAGES = tuple(2 ** k for k in range(1, 10))   # 2..512: what the TDS3000 offers (sample mode excluded: settings need >= 2)
+AVERAGES = tuple(2 ** k for k in range(10))   # 1 (sample mode), 2..512: what the TDS3000 offers
 BASELINE_AVERAGES = 512
 REPEATS = 8                    # acquisitions per averaging count; p95 of 8 is near the max
 ERROR_PERCENTILE = 95.0
