@@ -29,7 +29,7 @@ import yaml
 
 from analysis.waveforms import integer_period_mean_power_w, sample_interval_s
 from instruments.bench import open_bench, sim_bench_config
-from protocols.acquisition import Acquisition, AcquisitionSettings
+from protocols.acquisition import Acquisition
 from protocols.campaign import Run, load_campaign, run_campaign
 from protocols.safety import DriveController
 from protocols.storage import RunStore

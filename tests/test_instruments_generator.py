@@ -5,7 +5,6 @@ from __future__ import annotations
 import math
 
 import pytest
-import pyvisa
 
 from instruments.agilent33120a import Agilent33120A
 from instruments.errors import GarbledReply, InstrumentError, InstrumentTimeout, OutOfRangeError

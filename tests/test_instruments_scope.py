@@ -7,10 +7,8 @@ parser run on them (the VISA session still reads them through pyvisa-sim).
 
 from __future__ import annotations
 
-
 import numpy as np
 import pytest
-import pyvisa
 from pyvisa_sim.component import NoResponse
 
 from instruments.errors import (ClippedTraceError, GarbledReply, InstrumentError, InstrumentTimeout,
