@@ -17,7 +17,7 @@ import pandas as pd
 from analysis.tables import MissingDataError
 
 STUDY_DIR = "study"
-#: The settings every trial row carries (protocols.accuracy_study.KNOBS).
+#: The settings every trial row carries, varied or not (protocols.accuracy_study writes them).
 KNOBS = ("averages", "record_length", "periods_per_record", "search_points", "search_tolerance_hz",
          "settle_s", "n_voltages", "tracking")
 ERROR_PERCENTILE = 95.0

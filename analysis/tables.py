@@ -20,7 +20,7 @@ from scipy import optimize
 from analysis import model
 from analysis.paper import paper_table
 from analysis.rundata import RunData
-from analysis.waveforms import Estimate, PointReduction, reduce_point
+from analysis.waveforms import Estimate, PointReduction, reduce_record
 from squeezebench.errors import UserError
 
 TABLE_COLUMNS = ["table", "item", "quantity", "unit", "value", "std_uncertainty",
@@ -122,11 +122,9 @@ def reduced_points(run: RunData, rows: pd.DataFrame) -> pd.DataFrame:
             continue
         if path not in cache:
             waveform = run.waveform(path)
-            samples = waveform.samples
             try:
-                cache[path] = reduce_point(
-                    samples["time_s"], samples["piezo_voltage_v"], samples["current_a"],
-                    samples["vibrometer_output_v"], float(row.vibrometer_scale_mps_per_v),
+                cache[path] = reduce_record(
+                    waveform.samples, float(row.vibrometer_scale_mps_per_v),
                     y_increments=waveform.y_increments(), averages=waveform.averages(),
                     frequency_hint_hz=float(row.generator_frequency_hz)).as_row()
             except (ValueError, KeyError) as exc:

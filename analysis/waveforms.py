@@ -362,6 +362,15 @@ def reduce_point(time_s, piezo_voltage_v, current_a, vibrometer_output_v,
     )
 
 
+def reduce_record(samples, vibrometer_scale_mps_per_v: float, *, y_increments: dict[str, float] | None = None,
+                  averages: int = 1, frequency_hint_hz: float | None = None) -> PointReduction:
+    """`reduce_point` of a stored record: a table with the columns of design.md's waveform
+    files (time_s, piezo_voltage_v, current_a, vibrometer_output_v)."""
+    return reduce_point(samples["time_s"], samples["piezo_voltage_v"], samples["current_a"],
+                        samples["vibrometer_output_v"], vibrometer_scale_mps_per_v,
+                        y_increments=y_increments, averages=averages, frequency_hint_hz=frequency_hint_hz)
+
+
 def amplitude_pp_from_velocity_pp(velocity_pp_mps: Estimate, frequency_hz: Estimate) -> Estimate:
     """Displacement pp of a sine from its velocity pp: v_pp / (2 pi f); relative
     uncertainties add in quadrature (independent)."""

@@ -38,18 +38,15 @@ import yaml
 
 import squeezebench
 from analysis import model
+from analysis.study import STUDY_DIR
 from analysis.tables import characterise_plate
-from analysis.waveforms import PointReduction, reduce_point
+from analysis.waveforms import PointReduction, reduce_record
 from instruments.bench import open_bench, sim_bench_config
 from protocols.acquisition import Acquisition, AcquisitionSettings, Point
 from protocols.resonance import SearchSettings, find_resonance, track_resonance
 from protocols.safety import DriveController, SafetyLimits
 from squeezebench import paths
 
-STUDY_DIR = "study"
-#: The knobs every trial row carries (its full settings, varied or not).
-KNOBS = ("averages", "record_length", "periods_per_record", "search_points", "search_tolerance_hz",
-         "settle_s", "n_voltages", "tracking")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -146,11 +143,10 @@ def _open(scene: Path, state: str | None, settle_s: float) -> Iterator[_Bench]:
 
 def _reduce(point: Point) -> PointReduction:
     """The report's reduction of the point's waveforms."""
-    frame, preamble = point.waveforms, point.waveform_metadata["preamble"]
-    return reduce_point(frame["time_s"], frame["piezo_voltage_v"], frame["current_a"],
-                        frame["vibrometer_output_v"], point.vibrometer_scale_mps_per_v,
-                        y_increments={name: p["y_increment"] for name, p in preamble.items()},
-                        averages=point.averages, frequency_hint_hz=point.generator_frequency_hz)
+    preamble = point.waveform_metadata["preamble"]
+    return reduce_record(point.waveforms, point.vibrometer_scale_mps_per_v,
+                         y_increments={name: p["y_increment"] for name, p in preamble.items()},
+                         averages=point.averages, frequency_hint_hz=point.generator_frequency_hz)
 
 
 def _point_values(reduction: PointReduction, truth) -> dict[str, tuple[float, float]]:

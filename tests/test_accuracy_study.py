@@ -11,8 +11,8 @@ from hypothesis import strategies as st
 
 from analysis import study
 from analysis.report import write_report
-from protocols.accuracy_study import KNOBS, StudySettings, run_study
-from squeezebench.cli import main
+from protocols.accuracy_study import AccuracyStudy, StudySettings, run_study
+from squeezebench.cli import AccuracyStudyExperiments, main
 from test_analysis_synthetic import build_run
 
 SMALL = StudySettings(
@@ -44,7 +44,7 @@ def p95(summary, experiment, quantity, **knobs):
 def test_trials_are_tidy_and_complete(run_dir):
     trials = study.load_trials(run_dir)
     assert set(trials["experiment"]) == {"averages", "record", "search", "settle", "sweep", "heating"}
-    assert {*KNOBS, "repeat", "bench_time_s", "quantity", "measured_value", "true_value", "rel_error"} <= set(trials)
+    assert {*study.KNOBS, "repeat", "bench_time_s", "quantity", "measured_value", "true_value", "rel_error"} <= set(trials)
     numbers = trials.select_dtypes("number")
     assert np.isfinite(numbers.to_numpy()).all()
     assert (trials["bench_time_s"] > 0).all()
@@ -104,6 +104,7 @@ def test_resume_keeps_stored_experiments_and_other_settings_start_over(tmp_path)
 
 
 def test_cli_study_runs_one_experiment(tmp_path, capsys):
+    assert AccuracyStudyExperiments == AccuracyStudy.EXPERIMENTS   # spelled twice: keep them one
     assert main(["study", "--out", str(tmp_path), "--repeats", "2", "--experiment", "settle"]) == 0
     assert (tmp_path / "study" / "settle.parquet").is_file()
     assert main(["study", "--out", str(tmp_path), "--repeats", "1"]) == 2
