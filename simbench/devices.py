@@ -40,10 +40,6 @@ GENERATOR_LEVEL_SETTLE_S = 0.030
 SCOPE_REARM_S = 0.010
 
 
-class _Truncated(bytearray):
-    """The part of a reply that arrived; its end never does."""
-
-
 @dataclass
 class Deferred:
     """A reply the instrument gives only once it has finished (e.g. `*OPC?`)."""
@@ -63,7 +59,7 @@ class SimulatedInstrument:
         self.bus = bus
         self._input = bytearray()
         self._replies: deque = deque()
-        self._disconnected = False
+        self.disconnected = False   # set by the `disconnect` fault, for good
         self._defaults = self._property_values()
         self._dynamic: dict[bytes, Callable[[], bytes | Deferred]] = self.dynamic_queries()
 
@@ -90,7 +86,9 @@ class SimulatedInstrument:
                 continue
             for fault in faults:
                 reply = self._faulty_reply(fault, reply)
-            if reply is not None:
+                if reply is None:   # lost: later faults have nothing to act on
+                    break
+            else:
                 self._replies.append(reply)
 
     def is_query(self, message: bytes) -> bool:
@@ -99,35 +97,29 @@ class SimulatedInstrument:
 
     # -- faults (the scene's `bus` effects) ----------------------------------------------------
     def _faults(self, query: bytes) -> list:
-        """The bus faults hitting this message; a disconnect fails it at once."""
+        """The bus faults hitting this message, after they acted; a disconnect fails it."""
         bench = self.bench
         bench.messages_received += 1
         faults = [f for f in bench.effects.bus if f.hits(self.role, bench.messages_received, self.is_query(query))]
-        if any(f.name == "disconnect" for f in faults):
-            self._disconnected = True
-        if self._disconnected:
-            raise errors.VisaIOError(constants.VI_ERROR_CONN_LOST)
         for fault in faults:
-            if fault.name == "instrument_error":
-                self.device.error_response("command_error")
-        return [f for f in faults if f.needs_reply]
+            fault.act(self)
+        if self.disconnected:
+            raise errors.VisaIOError(constants.VI_ERROR_CONN_LOST)
+        return faults
 
     def _faulty_reply(self, fault, reply: bytearray | Deferred) -> bytearray | Deferred | None:
-        payload = reply.payload if isinstance(reply, Deferred) else reply
-        if fault.name == "bus_timeout":
-            return None
-        if fault.name == "garbled_reply":
-            payload = bytearray(b"\xff\xfe\x1b#@!" + self.device._response_eom)
-        elif fault.name == "truncated_reply":
-            payload = _Truncated(payload[:max(1, (len(payload) - len(self.device._response_eom)) // 2)])
+        eom = self.device._response_eom
         if isinstance(reply, Deferred):
+            payload = fault.reply(reply.payload, eom)
+            if payload is None:
+                return None
             reply.payload = payload
             return reply
-        return payload
+        return fault.reply(reply, eom)
 
     def read(self, count: int, timeout_s: float) -> tuple[bytes, constants.StatusCode]:
         clock = self.bench.clock
-        if self._disconnected:
+        if self.disconnected:
             raise errors.VisaIOError(constants.VI_ERROR_CONN_LOST)
         if not self._replies:
             self._time_out(timeout_s)
@@ -137,14 +129,14 @@ class SimulatedInstrument:
                 self._time_out(timeout_s)
             clock.advance_to(head.ready_s)
             payload = head.payload
-            head = self._replies[0] = payload if isinstance(payload, _Truncated) else bytearray(payload)
+            head = self._replies[0] = payload if isinstance(payload, fx.TruncatedPayload) else bytearray(payload)
         chunk = bytes(head[:count])
         del head[:count]
         clock.advance(self.bus.message_s(len(chunk)))
         if head:
             return chunk, constants.StatusCode.success_max_count_read
         self._replies.popleft()
-        if isinstance(head, _Truncated):   # no END: the reader asks for the rest, which never comes
+        if isinstance(head, fx.TruncatedPayload):   # no END: the reader asks for the rest, which never comes
             return chunk, constants.StatusCode.success_max_count_read
         return chunk, constants.StatusCode.success
 
@@ -257,10 +249,10 @@ class Vibrometer(SimulatedInstrument):
     """Polytec OFV-5000: the decoder range scales CH3; OverRange and SignalLevel live."""
 
     role = "vibrometer"
+    _RANGE = re.compile(r"^\s*([0-9.]+)\s*(mm|m)/s/V\s*$")
 
     def is_query(self, message: bytes) -> bool:
         return message.startswith(b"Get")   # its protocol: Get,<item>,<channel>,<field>
-    _RANGE = re.compile(r"^\s*([0-9.]+)\s*(mm|m)/s/V\s*$")
 
     def dynamic_queries(self):
         return {b"Get,OverRange,0,Value": lambda: b"1" if self.bench.vibrometer_over_range() else b"0",

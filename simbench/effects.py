@@ -365,11 +365,19 @@ class ClippedTrace(Effect):
         return signals
 
 
+class TruncatedPayload(bytearray):
+    """The part of a reply that arrived; its end never does."""
+
+
 class BusFault(Effect):
     """A fault of one instrument or its link, from the `at_message`-th message the bench's
     instruments receive (every command and query of all three, counted from when the
     bench opens), on `instrument` (1 generator, 2 scope, 3 vibrometer; 0 any of them),
-    for `count` messages. A reply fault hits the first `count` queries from there."""
+    for `count` messages. A reply fault hits the first `count` queries from there.
+
+    A simulated instrument calls `act` before it handles a message the fault hits, and
+    passes the reply (with its terminator) through `reply`.
+    """
 
     defaults = {"at_message": 200.0, "instrument": 0.0, "count": 1.0}
     limits = {"at_message": (1.0, math.inf), "instrument": (0.0, 3.0), "count": (1.0, math.inf)}
@@ -391,11 +399,21 @@ class BusFault(Effect):
         self.remaining -= 1
         return True
 
+    def act(self, instrument) -> None:
+        """What the fault does to the instrument before it handles the message."""
+
+    def reply(self, payload: bytearray, eom: bytes) -> bytearray | None:
+        """The reply as it reaches the bus (None: nothing arrives)."""
+        return payload
+
 
 class BusTimeout(BusFault):
     """The instrument never answers the query: the read waits out its VISA timeout."""
 
     name = "bus_timeout"
+
+    def reply(self, payload: bytearray, eom: bytes) -> None:
+        return None
 
 
 class GarbledReplyFault(BusFault):
@@ -403,19 +421,29 @@ class GarbledReplyFault(BusFault):
 
     name = "garbled_reply"
 
+    def reply(self, payload: bytearray, eom: bytes) -> bytearray:
+        return bytearray(b"\xff\xfe\x1b#@!" + eom)
+
 
 class TruncatedReplyFault(BusFault):
     """Only the first half of the reply arrives, without its end: the read times out."""
 
     name = "truncated_reply"
 
+    def reply(self, payload: bytearray, eom: bytes) -> TruncatedPayload:
+        return TruncatedPayload(payload[:max(1, (len(payload) - len(eom)) // 2)])
+
 
 class InstrumentErrorEntry(BusFault):
-    """The instrument refuses the message and queues an error (SYST:ERR? / *ESR?+EVMSG?),
-    as a real one does for a setting it cannot apply."""
+    """The instrument queues an error (SYST:ERR? / *ESR? + EVMSG?) as it handles the
+    message, as a real one does for a setting it cannot apply. The vibrometer keeps no
+    error queue: on it the fault does nothing."""
 
     name = "instrument_error"
     needs_reply = False
+
+    def act(self, instrument) -> None:
+        instrument.device.error_response("command_error")
 
 
 class Disconnect(BusFault):
@@ -428,6 +456,9 @@ class Disconnect(BusFault):
     def hits(self, role: str, message_number: int, is_query: bool) -> bool:
         return (message_number >= self.parameters["at_message"]
                 and (self.role is None or role == self.role))
+
+    def act(self, instrument) -> None:
+        instrument.disconnected = True
 
 
 EFFECTS: dict[str, type[Effect]] = {cls.name: cls for cls in (
