@@ -114,6 +114,12 @@ class Agilent33120A(SCPIInstrument):
         """The nearest the 33120A has to "output off": the minimum amplitude of the load setting."""
         self.amplitude_vpp = self.min_amplitude_vpp
 
+    def sine_at_minimum(self) -> None:
+        """A plain sine (no offset) at the minimum amplitude of the load setting, whatever a
+        previous session left: the amplitude is lowered first, then the output reshaped."""
+        self.output_to_minimum()
+        self.apply_sine(self.frequency_hz, self.min_amplitude_vpp)
+
     # What the protocols' DriveController calls (one command each).
     def set_frequency(self, frequency_hz: float) -> None:
         self.frequency_hz = frequency_hz

@@ -74,8 +74,10 @@ class DriveController:
         self.minimum_generator_amplitude_vpp = float(generator.min_amplitude_vpp)
         # The generator cannot go below its minimum: that much always reaches the piezos.
         self.check(self.amplifier_gain * self.minimum_generator_amplitude_vpp)
-        # Unknown until we set it: the generator may hold anything from a previous session.
-        self.generator_amplitude_vpp = math.nan
+        # The generator may hold anything from a previous session (a square wave, an
+        # offset): every drive starts from a plain sine at its minimum.
+        generator.sine_at_minimum()
+        self.generator_amplitude_vpp = self.minimum_generator_amplitude_vpp
         self.frequency_hz = math.nan
 
     # -- limits ---------------------------------------------------------------------------
@@ -106,8 +108,6 @@ class DriveController:
         target_vpp = max(piezo_voltage_vpp / self.amplifier_gain,
                          self.minimum_generator_amplitude_vpp)
         start_vpp = self.generator_amplitude_vpp
-        if math.isnan(start_vpp):  # unknown state: come from the bottom, never from above
-            start_vpp = self.minimum_generator_amplitude_vpp
         step_vpp = self.limits.ramp_step_vpp / self.amplifier_gain
         n_steps = max(1, math.ceil(abs(target_vpp - start_vpp) / step_vpp))
         for i in range(1, n_steps + 1):
@@ -125,7 +125,7 @@ class DriveController:
 
     def to_minimum(self, ramp: bool = True) -> None:
         """Bring the generator to its minimum output (ramped unless `ramp` is False)."""
-        if ramp and not math.isnan(self.generator_amplitude_vpp):
+        if ramp:
             self.set_piezo_voltage(0.0)
         else:
             self._send_amplitude(self.minimum_generator_amplitude_vpp)

@@ -178,3 +178,15 @@ def test_settings_snapshot(generator):
     generator.apply_sine(37180.0, 1.5)
     assert generator.settings_snapshot() == {"shape": "SIN", "frequency_hz": 37180.0, "voltage_unit": "VPP",
                                              "amplitude_vpp": 1.5, "offset_v": 0.0, "output_load": "INF"}
+
+
+def test_sine_at_minimum_lowers_first_then_reshapes(generator, sent):
+    generator.output_load = "INF"
+    generator.shape = "SQU"
+    generator.amplitude_vpp = 5.0
+    generator.offset_v = 1.0
+    del sent[:]
+    generator.sine_at_minimum()
+    changes = settings(sent)
+    assert changes[0] == "VOLT 0.1"   # the amplitude comes down before anything else changes
+    assert (generator.shape, generator.offset_v, generator.amplitude_vpp) == ("SIN", 0.0, 0.1)

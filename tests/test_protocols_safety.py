@@ -14,12 +14,16 @@ class RecordingGenerator:
     def __init__(self):
         self.amplitudes_vpp = []
         self.frequencies_hz = []
+        self.reset_to_minimum = False
 
     def set_amplitude_vpp(self, vpp):
         self.amplitudes_vpp.append(vpp)
 
     def set_frequency(self, hz):
         self.frequencies_hz.append(hz)
+
+    def sine_at_minimum(self):
+        self.reset_to_minimum = True
 
 
 class Clock:
@@ -48,6 +52,7 @@ def drive(limit_vpp=100.0, ramp_step_vpp=10.0, max_output_vpp=300.0):
 
 def test_refusal_names_the_limit_and_sends_nothing():
     controller, generator = drive(limit_vpp=100.0)
+    assert generator.reset_to_minimum   # whatever a previous session left
     with pytest.raises(SafetyLimitError, match="run's piezo voltage limit of 100 Vpp"):
         controller.set_piezo_voltage(120.0)
     assert generator.amplitudes_vpp == []
