@@ -1,15 +1,18 @@
-"""Acquisition planning: the cheapest scope averaging that meets an accuracy target.
+"""Acquisition planning: the cheapest scope settings that meet an accuracy target.
 
 For every distinct plate (scene, state) the campaign's runs measure, on the simulated
 bench at its resonance and the run's (smallest) voltage, the relative error of the
 power reduced from the stored waveforms (analysis.waveforms.integer_period_mean_power_w,
-as the analysis does) against the scene's closed-form truth (`truth().power_w`) is measured for each
-averaging count 1 (sample mode), 2, 4, ..., 512 over several acquisitions (their random streams are seeded
-by the scene, so the plan is reproducible); the 95th percentile of |error| is compared
-with the target. A run gets the cheapest averaging meeting the target on all its plates
-(512 when none does). The campaign is then run twice on the simulated bench into
-temporary directories, with the planned averaging and with 512 everywhere (the fixed
-baseline), and the virtual bench time of each run is read from the journals.
+as the analysis does) against the scene's closed-form truth (`truth().power_w`) is
+measured for each setting: record length 500 or 10000 points x averaging 1 (sample
+mode), 2, 4, ..., 512, over several acquisitions (their random streams are seeded by the
+scene, so the plan is reproducible); the 95th percentile of |error| is compared with the
+target. A run gets the setting meeting the target on all its plates at the least bench
+time per point (the baseline's when none does: every step of a run shares its
+acquisition settings). The campaign is then run twice on the simulated bench into
+temporary directories, with the planned settings and with 512 averages everywhere (the
+fixed baseline, at the campaign's record lengths), and the virtual bench time of each run
+is read from the journals.
 
 Only simulated benches (`bench: {scene: ...}`) can be planned: the truth is needed.
 """
@@ -36,6 +39,7 @@ from protocols.storage import RunStore
 from squeezebench.errors import UserError
 
 AVERAGES = tuple(2 ** k for k in range(10))   # 1 (sample mode), 2..512: what the TDS3000 offers
+RECORD_LENGTHS = (500, 10000)                   # HOR:RECO: what the TDS3000 offers
 BASELINE_AVERAGES = 512
 REPEATS = 8                    # acquisitions per averaging count; p95 of 8 is near the max
 ERROR_PERCENTILE = 95.0
@@ -43,9 +47,17 @@ DEFAULT_VOLTAGE_VPP = 20.0     # detuning runs set voltage from a velocity level
 RESONANCE_SCAN_POINTS = 201    # truth is closed-form: a fine scan costs no bench wall time
 
 
-@dataclasses.dataclass
-class AveragingResult:
+@dataclasses.dataclass(frozen=True)
+class Setting:
+    """What the plan chooses per run: the scope's record length and averaging."""
+
+    record_length: int
     averages: int
+
+
+@dataclasses.dataclass
+class SettingResult:
+    setting: Setting
     p95_rel_error: float
     bench_time_per_point_s: float   # virtual bench time of one measured point
 
@@ -56,13 +68,21 @@ class PlateStudy:
     state: str | None
     voltage_vpp: float
     resonance_hz: float
-    results: list[AveragingResult]
+    results: list[SettingResult]
 
-    def cheapest(self, target_rel_error: float) -> AveragingResult:
-        meeting = [r for r in self.results if r.p95_rel_error <= target_rel_error]
-        if meeting:
-            return min(meeting, key=lambda r: (r.bench_time_per_point_s, r.averages))
-        return max(self.results, key=lambda r: r.averages)
+    def result(self, setting: Setting) -> SettingResult:
+        return next(r for r in self.results if r.setting == setting)
+
+
+def cheapest_setting(studies: list[PlateStudy], target_rel_error: float, fallback: Setting) -> Setting:
+    """The setting meeting the target on every plate at the least bench time per point
+    (summed over the plates); `fallback` when none meets it everywhere."""
+    meeting = [r.setting for r in studies[0].results
+               if all(s.result(r.setting).p95_rel_error <= target_rel_error for s in studies)]
+    if not meeting:
+        return fallback
+    return min(meeting, key=lambda setting: (sum(s.result(setting).bench_time_per_point_s for s in studies),
+                                             setting.averages))
 
 
 def _waveform_power_w(point) -> float:
@@ -98,9 +118,8 @@ def _search_range_hz(run: Run, plate: Any) -> tuple[float, float]:
     return float(search.start_hz), float(search.stop_hz)
 
 
-def study_plate(run: Run, scene: Path, state: str | None, plate: Any,
-                averages: tuple[int, ...] = AVERAGES, repeats: int = REPEATS) -> PlateStudy:
-    """Error and bench cost of each averaging count on one plate, at resonance."""
+def study_plate(run: Run, scene: Path, state: str | None, plate: Any, repeats: int = REPEATS) -> PlateStudy:
+    """Error and bench cost of each setting on one plate, at resonance."""
     voltage_vpp = _run_voltage_vpp(run, plate)
     with open_bench(sim_bench_config(scene)) as bench:
         simulated = bench.resource_manager.visalib.bench
@@ -121,9 +140,9 @@ def study_plate(run: Run, scene: Path, state: str | None, plate: Any,
             drive.set_frequency(best_hz)
             truth_power_w = simulated.truth().power_w
             results = []
-            for n_averages in averages:
-                settings = dataclasses.replace(run.acquisition, averages=n_averages)
-                acquisition = Acquisition(bench, drive, settings)
+            for setting in (Setting(r, n) for r in RECORD_LENGTHS for n in AVERAGES):
+                acquisition = Acquisition(bench, drive, dataclasses.replace(
+                    run.acquisition, record_length=setting.record_length, averages=setting.averages))
                 acquisition.configure()
                 acquisition.measure(keep_waveforms=False)   # ranges the channels once
                 errors, costs_s = [], []
@@ -132,16 +151,16 @@ def study_plate(run: Run, scene: Path, state: str | None, plate: Any,
                     point = acquisition.measure(keep_waveforms=True)
                     costs_s.append(bench.clock.now_s() - start_s)
                     errors.append(abs(_waveform_power_w(point) / truth_power_w - 1.0))
-                results.append(AveragingResult(n_averages, float(np.percentile(errors, ERROR_PERCENTILE)),
-                                               float(np.mean(costs_s))))
+                results.append(SettingResult(setting, float(np.percentile(errors, ERROR_PERCENTILE)),
+                                             float(np.mean(costs_s))))
     return PlateStudy(scene, state, voltage_vpp, best_hz, results)
 
 
-def _campaign_with_averages(campaign_path: Path, averages_by_run: dict[str, int], out: Path) -> Path:
-    """A copy of the campaign file with each run's `acquisition.averages` overridden."""
+def _campaign_with_acquisition(campaign_path: Path, acquisition_by_run: dict[str, dict], out: Path) -> Path:
+    """A copy of the campaign file with keys of each run's `acquisition:` overridden."""
     data = yaml.safe_load(campaign_path.read_text(encoding="utf-8"))
     for run in data["runs"]:
-        run.setdefault("acquisition", {})["averages"] = averages_by_run[run["name"]]
+        run.setdefault("acquisition", {}).update(acquisition_by_run[run["name"]])
     out.write_text(yaml.safe_dump(data, sort_keys=False), encoding="utf-8")
     return out
 
@@ -157,11 +176,11 @@ def _bench_time_by_run_s(run_dir: Path) -> dict[str, float]:
     return times_s
 
 
-def simulate_bench_time_s(campaign_path: Path, averages_by_run: dict[str, int]) -> dict[str, float]:
-    """Run the campaign on the simulated bench with these averages; bench time per run."""
+def simulate_bench_time_s(campaign_path: Path, acquisition_by_run: dict[str, dict]) -> dict[str, float]:
+    """Run the campaign on the simulated bench with these acquisition settings; bench time per run."""
     with tempfile.TemporaryDirectory(prefix="squeezebench-plan-") as tmp:
         tmp_dir = Path(tmp)
-        variant = _campaign_with_averages(campaign_path, averages_by_run, tmp_dir / campaign_path.name)
+        variant = _campaign_with_acquisition(campaign_path, acquisition_by_run, tmp_dir / campaign_path.name)
         run_dir = run_campaign(variant, out_dir=tmp_dir / "run", progress=False)
         return _bench_time_by_run_s(run_dir)
 
@@ -170,11 +189,11 @@ def simulate_bench_time_s(campaign_path: Path, averages_by_run: dict[str, int]) 
 class Plan:
     target_rel_error: float
     studies: dict[str, list[PlateStudy]]
-    averages_by_run: dict[str, int]
+    settings_by_run: dict[str, Setting]
     error_by_run: dict[str, float]
     planned_s: dict[str, float]
     baseline_s: dict[str, float]
-    repeats: int = REPEATS   # acquisitions per averaging count in the study
+    repeats: int = REPEATS   # acquisitions per setting in the study
 
     @property
     def planned_total_s(self) -> float:
@@ -186,14 +205,15 @@ class Plan:
 
     def table(self) -> str:
         lines = [f"target relative power error (p95 of {self.repeats} acquisitions): {self.target_rel_error:g}",
-                 f"{'run':<24} {'averages':>8} {'p95 error':>10} {'planned s':>10} {'512-avg s':>10} {'ratio':>6}"]
-        for name, n_averages in self.averages_by_run.items():
+                 f"{'run':<24} {'record':>6} {'averages':>8} {'p95 error':>10} {'planned s':>10} "
+                 f"{'512-avg s':>10} {'ratio':>6}"]
+        for name, setting in self.settings_by_run.items():
             planned_s, baseline_s = self.planned_s.get(name, 0.0), self.baseline_s.get(name, 0.0)
             ratio = planned_s / baseline_s if baseline_s else math.nan
-            lines.append(f"{name:<24} {n_averages:>8d} {self.error_by_run[name]:>10.2e} "
-                         f"{planned_s:>10.1f} {baseline_s:>10.1f} {ratio:>6.2f}")
+            lines.append(f"{name:<24} {setting.record_length:>6d} {setting.averages:>8d} "
+                         f"{self.error_by_run[name]:>10.2e} {planned_s:>10.1f} {baseline_s:>10.1f} {ratio:>6.2f}")
         ratio = self.planned_total_s / self.baseline_total_s if self.baseline_total_s else math.nan
-        lines.append(f"{'total':<24} {'':>8} {max(self.error_by_run.values()):>10.2e} "
+        lines.append(f"{'total':<24} {'':>6} {'':>8} {max(self.error_by_run.values()):>10.2e} "
                      f"{self.planned_total_s:>10.1f} {self.baseline_total_s:>10.1f} {ratio:>6.2f}")
         return "\n".join(lines)
 
@@ -209,7 +229,7 @@ def make_plan(campaign_path: Path, target_rel_error: float, repeats: int = REPEA
     # process meanwhile. Both runs are seeded by the scenes, so the result is the same.
     with ProcessPoolExecutor(max_workers=1, mp_context=multiprocessing.get_context("spawn")) as pool:
         baseline_future = pool.submit(simulate_bench_time_s, Path(campaign_path),
-                                      {run.name: BASELINE_AVERAGES for run in campaign.runs})
+                                      {run.name: {"averages": BASELINE_AVERAGES} for run in campaign.runs})
         plan = _study_and_plan(campaign, Path(campaign_path), target_rel_error, repeats)
         plan.baseline_s = baseline_future.result()
     return plan
@@ -218,7 +238,7 @@ def make_plan(campaign_path: Path, target_rel_error: float, repeats: int = REPEA
 def _study_and_plan(campaign, campaign_path: Path, target_rel_error: float, repeats: int) -> Plan:
     cache: dict[tuple, PlateStudy] = {}
     studies: dict[str, list[PlateStudy]] = {}
-    averages_by_run: dict[str, int] = {}
+    settings_by_run: dict[str, Setting] = {}
     error_by_run: dict[str, float] = {}
     for run in campaign.runs:
         run_studies = []
@@ -228,16 +248,16 @@ def _study_and_plan(campaign, campaign_path: Path, target_rel_error: float, repe
             if key not in cache:
                 cache[key] = study_plate(run, scene, state, plate, repeats=repeats)
             run_studies.append(cache[key])
-        # The run's averaging must meet the target on every plate it measures.
-        n_averages = max(s.cheapest(target_rel_error).averages for s in run_studies)
+        setting = cheapest_setting(run_studies, target_rel_error,
+                                   fallback=Setting(run.acquisition.record_length, BASELINE_AVERAGES))
         studies[run.name] = run_studies
-        averages_by_run[run.name] = n_averages
-        error_by_run[run.name] = max(next(r.p95_rel_error for r in s.results if r.averages == n_averages)
-                                     for s in run_studies)
-    planned_s = simulate_bench_time_s(campaign_path, averages_by_run)
-    return Plan(target_rel_error, studies, averages_by_run, error_by_run, planned_s, baseline_s={}, repeats=repeats)
+        settings_by_run[run.name] = setting
+        error_by_run[run.name] = max(s.result(setting).p95_rel_error for s in run_studies)
+    planned_s = simulate_bench_time_s(campaign_path, {name: dataclasses.asdict(setting)
+                                                      for name, setting in settings_by_run.items()})
+    return Plan(target_rel_error, studies, settings_by_run, error_by_run, planned_s, baseline_s={}, repeats=repeats)
 
 
 def plan_campaign(campaign_path: Path, target_rel_error: float = 0.01) -> str:
-    """The `squeezebench plan` table: per run the averaging, error and bench times."""
+    """The `squeezebench plan` table: per run the setting, error and bench times."""
     return make_plan(Path(campaign_path), target_rel_error).table()

@@ -4,7 +4,7 @@ from pathlib import Path
 
 import pytest
 
-from protocols.planning import BASELINE_AVERAGES, make_plan
+from protocols.planning import BASELINE_AVERAGES, RECORD_LENGTHS, Setting, make_plan
 
 QUICK = Path(__file__).resolve().parents[1] / "data" / "campaigns" / "quick.yaml"
 TARGET_REL_ERROR = 0.01
@@ -17,19 +17,29 @@ def plan():
 
 
 def test_planned_settings_meet_the_target_in_at_most_half_the_baseline_time(plan):
-    assert set(plan.averages_by_run) == {"detuning", "cutting"}
+    assert set(plan.settings_by_run) == {"detuning", "cutting"}
     assert all(error <= TARGET_REL_ERROR for error in plan.error_by_run.values())
     assert plan.planned_total_s <= 0.5 * plan.baseline_total_s
-    assert all(n < BASELINE_AVERAGES for n in plan.averages_by_run.values())
+    assert all(s.averages < BASELINE_AVERAGES for s in plan.settings_by_run.values())
+
+
+def test_each_run_gets_the_cheapest_setting_meeting_the_target_on_all_its_plates(plan):
+    for name, studies in plan.studies.items():
+        chosen = plan.settings_by_run[name]
+        cost = lambda setting: sum(s.result(setting).bench_time_per_point_s for s in studies)  # noqa: E731
+        for result in studies[0].results:
+            if all(s.result(result.setting).p95_rel_error <= TARGET_REL_ERROR for s in studies):
+                assert cost(chosen) <= cost(result.setting)
 
 
 def test_errors_shrink_with_averaging(plan):
     # Averaging removes noise: 512 averages beat 2 on every plate studied.
     for studies in plan.studies.values():
         for study in studies:
-            by_averages = {r.averages: r for r in study.results}
-            assert by_averages[512].p95_rel_error < by_averages[2].p95_rel_error
-            assert by_averages[512].bench_time_per_point_s > by_averages[2].bench_time_per_point_s
+            for record_length in RECORD_LENGTHS:
+                many, few = (study.result(Setting(record_length, n)) for n in (512, 2))
+                assert many.p95_rel_error < few.p95_rel_error
+                assert many.bench_time_per_point_s > few.bench_time_per_point_s
 
 
 def test_table_lists_each_run_and_the_total(plan):
