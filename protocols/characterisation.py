@@ -6,13 +6,19 @@ frequency" and "applied several voltages", reading amplitude (vibrometer) and po
 (scope). Analysis fits amplitude against V (Eq. 27 gives Q) and power against V² (Eq. 25
 gives Q·tanθ'). The resonance may move with drive level (heating, nonlinearity), so it
 is re-centred before each voltage unless `track_resonance` is off. One plate is one step.
+
+Tracking reads only the velocity, which is clean with little averaging: with
+`tracking_averages` set, the search runs at that averaging and only the recorded points
+use the run's. On a heating plate this matters (the accuracy study's `heating`
+experiment): a slow search lags the drift it is meant to follow.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 from protocols import resonance
+from protocols.acquisition import Acquisition, AcquisitionSettings
 from protocols.resonance import SearchSettings, track_resonance
 from protocols.steps import Plate, Step, StepContext
 
@@ -30,10 +36,13 @@ class Parameters:
     voltages_vpp: tuple[float, ...]
     plates: tuple[CharacterisedPlate, ...] = ()   # default: the run's own plate
     track_resonance: bool = True
+    tracking_averages: int | None = None   # default: the run's averaging
 
     def __post_init__(self) -> None:
         if not self.voltages_vpp or any(not v > 0 for v in self.voltages_vpp):
             raise ValueError("voltages_vpp must be a non-empty list of positive voltages")
+        if self.tracking_averages is not None:
+            AcquisitionSettings(averages=self.tracking_averages)   # the same rule as the run's
 
 
 def plan(params: Parameters, plate: Plate) -> list[Step]:
@@ -45,9 +54,17 @@ def plan(params: Parameters, plate: Plate) -> list[Step]:
 
 def _sweep_voltage(ctx: StepContext, params: Parameters, search: SearchSettings) -> None:
     frequency_hz = resonance.record_search(ctx, search)
+    tracker = ctx.acquisition
+    if params.tracking_averages is not None:
+        tracker = Acquisition(ctx.bench, ctx.drive, replace(ctx.acquisition.settings,
+                                                            averages=params.tracking_averages))
     for voltage_vpp in sorted(params.voltages_vpp):   # upwards: the drive only ever ramps up
         ctx.drive.set_piezo_voltage(voltage_vpp)
         if params.track_resonance:
-            frequency_hz = track_resonance(ctx.acquisition.measure_at, frequency_hz, search).frequency_hz
+            if tracker is not ctx.acquisition:
+                tracker.configure()
+            frequency_hz = track_resonance(tracker.measure_at, frequency_hz, search).frequency_hz
+            if tracker is not ctx.acquisition:
+                ctx.acquisition.configure()
         ctx.drive.set_frequency(frequency_hz)
         ctx.record(ctx.acquisition.measure(keep_waveforms=True), resonance_frequency_hz=frequency_hz)

@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from test_protocols_support import noise_free_scene, results, run_rows
+from test_protocols_support import FAST_ACQUISITION, ONE_COLUMN_PLATE, noise_free_scene, results, run_rows
 
 #: Table 3 / Table 4 as printed: frequency (Hz), power (W), velocity (m/s pp).
 TABLE3 = {75: (37160, 0.027, 0.175), 59: (37180, 0.023, 0.188), 28: (35130, 0.025, 0.188)}
@@ -80,3 +80,29 @@ def test_large_plate_voltage_sweep_is_linear(tmp_path):
     # Sec. 5.3.2: about 1 µm at 32 Vpp, for about 1.3 W.
     at_32 = sweep[sweep["piezo_voltage_setpoint_vpp"] == 32].iloc[0]
     assert at_32["velocity_pp_mps"] / (2 * np.pi * at_32["generator_frequency_hz"]) == pytest.approx(1e-6, rel=0.3)
+
+
+def test_characterisation_tracks_a_heating_plate_with_cheap_averaging(tmp_path):
+    """The accuracy study's heating finding applied to the protocol: tracking with few
+    averages follows the drift as well and costs far less bench time."""
+    scene = noise_free_scene(tmp_path, "one_column_1mm.yaml", effects=["heating_drift", "scope_noise"])
+    bench_time_s, on_resonance = {}, {}
+    for tracking_averages in (None, 4):
+        parameters = {"search": {"start_hz": 36000, "stop_hz": 38500, "points": 26},
+                      "voltages_vpp": [40, 60, 75]}
+        if tracking_averages is not None:
+            parameters["tracking_averages"] = tracking_averages
+        folder = tmp_path / f"tracking_{tracking_averages}"
+        folder.mkdir()
+        _, rows = run_rows(folder, [{"name": "hot", "protocol": "characterisation", "bench": {"scene": str(scene)},
+                                     "plate": ONE_COLUMN_PLATE, "parameters": parameters}],
+                           acquisition={**FAST_ACQUISITION, "averages": 256})
+        sweep = results(rows, "characterisation")
+        # from the first point to the last: two trackings and two points (not the first search)
+        bench_time_s[tracking_averages] = sweep["bench_time_s"].iloc[-1] - sweep["bench_time_s"].iloc[0]
+        # at resonance the velocity per volt is the plate's (heating moves f, not Q)
+        per_volt = sweep["scope_velocity_pp_v"] * sweep["vibrometer_scale_mps_per_v"] / sweep["piezo_voltage_setpoint_vpp"]
+        on_resonance[tracking_averages] = (per_volt / per_volt.iloc[0]).to_numpy()
+    assert bench_time_s[4] < 0.5 * bench_time_s[None]
+    for tracking_averages, ratios in on_resonance.items():
+        assert ratios == pytest.approx(1.0, abs=5e-3), tracking_averages   # the flat top, in the noise
