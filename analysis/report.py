@@ -56,7 +56,7 @@ SectionBuilder = Callable[[ReportContext], Section]
 def write_report(run_dir: Path | str) -> Path:
     """Recompute everything from the stored run; return the path of index.html."""
     run = load_run(run_dir)
-    if run.measurements.empty:
+    if run.measurements.empty and not (run.run_dir / "study").is_dir():   # a study alone is reportable
         raise UserError(f"{run.run_dir}: the run holds no measurements yet "
                         "(measurements/*/*.parquet); nothing to report")
     out_dir = run.run_dir / "report"

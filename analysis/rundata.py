@@ -71,9 +71,10 @@ def load_run(run_dir: Path | str) -> RunData:
         raise RunDataError(f"{run_dir}: no such run directory")
     files = completed_step_files(run_dir)
     manifest_path = run_dir / "manifest.json"
-    if not files and not manifest_path.exists():
-        raise RunDataError(f"{run_dir}: not a run directory (no manifest.json and no "
-                           "measurements/*/*.parquet); run 'squeezebench run CAMPAIGN' first")
+    if not files and not manifest_path.exists() and not (run_dir / "study").is_dir():
+        raise RunDataError(f"{run_dir}: not a run directory (no manifest.json, no "
+                           "measurements/*/*.parquet and no study/); run 'squeezebench run CAMPAIGN' "
+                           "or 'squeezebench study' first")
     return RunData(
         run_dir=run_dir,
         manifest=_read_manifest(manifest_path),

@@ -103,10 +103,13 @@ def test_resume_keeps_stored_experiments_and_other_settings_start_over(tmp_path)
     assert sorted(p.name for p in (tmp_path / "study").glob("*.parquet")) == ["settle.parquet"]
 
 
-def test_cli_study_runs_one_experiment(tmp_path, capsys):
+def test_cli_study_runs_one_experiment_and_report_shows_it(tmp_path, capsys):
     assert AccuracyStudyExperiments == AccuracyStudy.EXPERIMENTS   # spelled twice: keep them one
     assert main(["study", "--out", str(tmp_path), "--repeats", "2", "--experiment", "settle"]) == 0
     assert (tmp_path / "study" / "settle.parquet").is_file()
+    assert main(["report", str(tmp_path)]) == 0   # what `study` tells the user to run
+    text = (tmp_path / "report" / "index.html").read_text()
+    assert "Settings on each Pareto front" in text and "settle_s=" in text
     assert main(["study", "--out", str(tmp_path), "--repeats", "1"]) == 2
     assert "at least 2" in capsys.readouterr().err
 
