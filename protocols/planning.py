@@ -41,7 +41,7 @@ from squeezebench.errors import UserError
 AVERAGES = tuple(2 ** k for k in range(10))   # 1 (sample mode), 2..512: what the TDS3000 offers
 RECORD_LENGTHS = (500, 10000)                   # HOR:RECO: what the TDS3000 offers
 BASELINE_AVERAGES = 512
-REPEATS = 8                    # acquisitions per averaging count; p95 of 8 is near the max
+REPEATS = 8                    # acquisitions per setting; p95 of 8 is near the max
 ERROR_PERCENTILE = 95.0
 DEFAULT_VOLTAGE_VPP = 20.0     # detuning runs set voltage from a velocity level; ~20 Vpp is typical
 RESONANCE_SCAN_POINTS = 201    # truth is closed-form: a fine scan costs no bench wall time
