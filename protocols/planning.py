@@ -258,6 +258,13 @@ def _study_and_plan(campaign, campaign_path: Path, target_rel_error: float, repe
     return Plan(target_rel_error, studies, settings_by_run, error_by_run, planned_s, baseline_s={}, repeats=repeats)
 
 
-def plan_campaign(campaign_path: Path, target_rel_error: float = 0.01) -> str:
-    """The `squeezebench plan` table: per run the setting, error and bench times."""
-    return make_plan(Path(campaign_path), target_rel_error).table()
+def plan_campaign(campaign_path: Path, target_rel_error: float = 0.01, write: Path | None = None) -> str:
+    """The `squeezebench plan` table: per run the setting, error and bench times; with
+    `write`, also the campaign file with the planned settings, ready to run."""
+    plan = make_plan(Path(campaign_path), target_rel_error)
+    table = plan.table()
+    if write is not None:
+        _campaign_with_acquisition(Path(campaign_path), {name: dataclasses.asdict(setting) for name, setting
+                                                         in plan.settings_by_run.items()}, Path(write))
+        table += f"\nplanned campaign written to {write}"
+    return table

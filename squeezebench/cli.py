@@ -78,7 +78,7 @@ def cmd_study(args: argparse.Namespace) -> int:
 def cmd_plan(args: argparse.Namespace) -> int:
     from protocols.planning import plan_campaign
 
-    print(plan_campaign(Path(args.campaign), target_rel_error=args.target_rel_error))
+    print(plan_campaign(Path(args.campaign), target_rel_error=args.target_rel_error, write=args.write))
     return 0
 
 
@@ -120,6 +120,8 @@ def build_parser() -> argparse.ArgumentParser:
     plan = sub.add_parser("plan", help="cheapest acquisition settings meeting an accuracy target")
     plan.add_argument("campaign", help="campaign YAML file")
     plan.add_argument("--target-rel-error", type=float, default=0.01, help="relative error goal (default 0.01)")
+    plan.add_argument("--write", type=Path, default=None, metavar="FILE",
+                      help="also write the campaign with the planned settings to FILE")
     plan.set_defaults(func=cmd_plan)
     return parser
 

@@ -47,3 +47,20 @@ def test_table_lists_each_run_and_the_total(plan):
     for name in ("detuning", "cutting", "total"):
         assert name in table
 
+
+
+def test_the_planned_campaign_is_written_with_the_planned_settings(tmp_path, monkeypatch):
+    from protocols import planning
+    from protocols.campaign import load_campaign
+
+    # the plan itself is tested above; here only what `--write` does with it
+    fake = planning.Plan(TARGET_REL_ERROR, {}, {"detuning": Setting(500, 4), "cutting": Setting(10000, 1)},
+                         {"detuning": 0.005, "cutting": 0.004}, {"detuning": 1.0, "cutting": 1.0},
+                         {"detuning": 9.0, "cutting": 9.0})
+    monkeypatch.setattr(planning, "make_plan", lambda path, target: fake)
+    out = tmp_path / "planned.yaml"
+    text = planning.plan_campaign(QUICK, TARGET_REL_ERROR, write=out)
+    assert f"written to {out}" in text
+    runs = {run.name: run.acquisition for run in load_campaign(out).runs}
+    assert (runs["detuning"].record_length, runs["detuning"].averages) == (500, 4)
+    assert (runs["cutting"].record_length, runs["cutting"].averages) == (10000, 1)
