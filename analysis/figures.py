@@ -110,13 +110,17 @@ def study_fronts(summary: pd.DataFrame, path: Path) -> Path:
     columns = min(3, len(quantities))
     rows = -(-len(quantities) // columns)
     fig, axes = plt.subplots(rows, columns, figsize=(4.2 * columns, 3.4 * rows), squeeze=False)
+    # one colour per experiment across the panels
+    colours = dict(zip(sorted(summary["experiment"].unique()), plt.rcParams["axes.prop_cycle"].by_key()["color"]))
     for ax, quantity in zip(axes.flat, quantities):
         data = summary[summary["quantity"] == quantity]
         for experiment, group in data.groupby("experiment"):
-            dots = ax.loglog(group["bench_time_s"], group["p95_abs_rel_error"].clip(lower=1e-9), ".", alpha=0.4)
+            colour = colours.get(experiment, "black")
+            ax.loglog(group["bench_time_s"], group["p95_abs_rel_error"].clip(lower=1e-9), ".", alpha=0.4,
+                      color=colour)
             front = group[group["on_front"]].sort_values("bench_time_s")
             ax.step(front["bench_time_s"], front["p95_abs_rel_error"].clip(lower=1e-9), "-", where="post",
-                    color=dots[0].get_color(), label=experiment)
+                    color=colour, label=experiment)
         ax.set_title(quantity, fontsize=9)
         ax.xaxis.set_minor_formatter(NullFormatter())   # log minor labels overlap
         ax.set_xlabel("bench time per trial (s)")
