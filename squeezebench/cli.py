@@ -14,9 +14,9 @@ from squeezebench import __version__, paths
 from squeezebench.errors import UserError
 
 EXIT_USER_ERROR = 2
-#: protocols.accuracy_study.AccuracyStudy.EXPERIMENTS, spelled here so `--help` imports nothing heavy.
-AccuracyStudyExperiments = ("averages", "record", "search", "settle", "sweep", "heating")
 EXIT_INTERRUPTED = 130
+#: protocols.accuracy_study.AccuracyStudy.EXPERIMENTS, spelled here so `--help` imports nothing heavy.
+STUDY_EXPERIMENTS = ("averages", "record", "search", "settle", "sweep", "heating")
 
 
 def _bench_config(bench: str):
@@ -67,10 +67,12 @@ def cmd_study(args: argparse.Namespace) -> int:
 
     from protocols.accuracy_study import StudySettings, run_study
 
-    if args.repeats < 2:
-        raise UserError(f"--repeats must be at least 2 (a distribution), got {args.repeats}")
-    experiments = tuple(args.experiment) if args.experiment else AccuracyStudyExperiments
-    study_dir = run_study(args.out, replace(StudySettings(), repeats=args.repeats), experiments, resume=args.resume)
+    try:
+        settings = replace(StudySettings(), repeats=args.repeats)
+    except ValueError as exc:
+        raise UserError(f"--repeats: {exc}") from None
+    experiments = tuple(args.experiment) if args.experiment else STUDY_EXPERIMENTS
+    study_dir = run_study(args.out, settings, experiments, resume=args.resume)
     print(f"study stored in {study_dir}; 'squeezebench report {args.out}' shows it")
     return 0
 
@@ -112,7 +114,7 @@ def build_parser() -> argparse.ArgumentParser:
     study.add_argument("--out", type=Path, default=Path("runs/study"),
                        help="run directory; trials go to OUT/study/ (default: runs/study)")
     study.add_argument("--repeats", type=int, default=8, help="trials per configuration (default 8)")
-    study.add_argument("--experiment", action="append", choices=AccuracyStudyExperiments,
+    study.add_argument("--experiment", action="append", choices=STUDY_EXPERIMENTS,
                        help="run only this experiment (repeatable; default: all)")
     study.add_argument("--resume", action="store_true", help="keep experiments already stored")
     study.set_defaults(func=cmd_study)

@@ -12,7 +12,7 @@ from hypothesis import strategies as st
 from analysis import study
 from analysis.report import write_report
 from protocols.accuracy_study import AccuracyStudy, StudySettings, run_study
-from squeezebench.cli import AccuracyStudyExperiments, main
+from squeezebench.cli import STUDY_EXPERIMENTS, main
 from test_analysis_synthetic import build_run
 
 SMALL = StudySettings(
@@ -104,7 +104,7 @@ def test_resume_keeps_stored_experiments_and_other_settings_start_over(tmp_path)
 
 
 def test_cli_study_runs_one_experiment_and_report_shows_it(tmp_path, capsys):
-    assert AccuracyStudyExperiments == AccuracyStudy.EXPERIMENTS   # spelled twice: keep them one
+    assert STUDY_EXPERIMENTS == AccuracyStudy.EXPERIMENTS   # spelled twice: keep them one
     assert main(["study", "--out", str(tmp_path), "--repeats", "2", "--experiment", "settle"]) == 0
     assert (tmp_path / "study" / "settle.parquet").is_file()
     assert main(["report", str(tmp_path)]) == 0   # what `study` tells the user to run
