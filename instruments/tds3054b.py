@@ -254,7 +254,11 @@ class TDS3054B(SCPIInstrument):
         return scale
 
     def set_averaging(self, averages: int) -> None:
-        """AVERAGE mode over `averages` waveforms (checked before anything is sent)."""
+        """AVERAGE mode over `averages` waveforms (checked before anything is sent); 1 is
+        SAMPLE mode, one waveform per acquisition."""
+        if averages == 1:
+            self.acquire_mode = "SAMPLE"
+            return
         averages = checked(f"{self.role}.num_averages", type(self).num_averages.validator, averages)
         self.acquire_mode = "AVERAGE"
         self.num_averages = averages

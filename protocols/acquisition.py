@@ -125,10 +125,7 @@ class Acquisition:
         scope.configure_channel(VELOCITY_CHANNEL, probe_gain=1.0)
         scope.set_math_product()
         scope.set_record_length(self.settings.record_length)
-        if self.settings.averages == 1:
-            scope.acquire_mode = "SAMPLE"
-        else:
-            scope.set_averaging(self.settings.averages)
+        scope.set_averaging(self.settings.averages)
         # The finest/coarsest scale depends on the probe gain just set; ranging stays inside it.
         self._scale_limits = {channel: scope.channel(channel).scale_range_per_div()
                               for channel in (PIEZO_CHANNEL, CURRENT_CHANNEL, VELOCITY_CHANNEL)}

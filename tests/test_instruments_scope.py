@@ -131,6 +131,9 @@ def test_acquisition_settings_round_trip(scope, sent):
     assert (scope.acquire_mode, scope.num_averages) == ("AVERAGE", 64)
     scope.acquire_mode = "SAMPLE"
     assert sent[-1] == "ACQ:MOD SAM" and scope.acquire_mode == "SAMPLE"
+    scope.set_averaging(64)
+    scope.set_averaging(1)   # one waveform: sample mode, NUMAV untouched
+    assert sent[-1] == "ACQ:MOD SAM" and scope.acquire_mode == "SAMPLE"
 
 
 def test_horizontal_scale_rounds_up_to_the_1_2_4_sequence(scope):
