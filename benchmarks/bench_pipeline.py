@@ -15,6 +15,7 @@ import argparse
 import sys
 import tempfile
 import time
+import timeit
 from pathlib import Path
 
 import numpy as np
@@ -36,12 +37,7 @@ REDUCTION_GOAL_RATIO = 3.0
 
 def best_of(repeat: int, function, *args) -> float:
     """Best wall time of `repeat` calls: the least disturbed by the machine."""
-    times_s = []
-    for _ in range(repeat):
-        start_s = time.perf_counter()
-        function(*args)
-        times_s.append(time.perf_counter() - start_s)
-    return min(times_s)
+    return min(timeit.repeat(lambda: function(*args), number=1, repeat=repeat))
 
 
 def reproduce_wall_s() -> dict[str, float]:

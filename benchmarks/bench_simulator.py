@@ -14,7 +14,7 @@ import argparse
 import itertools
 import sys
 import tempfile
-import time
+import timeit
 from pathlib import Path
 
 import numpy as np
@@ -36,12 +36,7 @@ _TOKENS = itertools.count()
 
 def best_of(repeat: int, function, *args) -> float:
     """Best wall time of `repeat` calls: the least disturbed by the machine."""
-    times = []
-    for _ in range(repeat):
-        start = time.perf_counter()
-        function(*args)
-        times.append(time.perf_counter() - start)
-    return min(times)
+    return min(timeit.repeat(lambda: function(*args), number=1, repeat=repeat))
 
 
 def idn_queries(resource, count: int = 200) -> None:
