@@ -267,14 +267,17 @@ def study_section(context: ReportContext) -> Section:
 
 def hardcases_section(context: ReportContext) -> Section:
     """Hard cases"""
-    return _optional_folder(context, "hardcases", "Hard cases (hardcases/)")
+    return _optional_folder(context, "hardcases", "Hard cases (hardcases/)",
+                            "python benchmarks/hardcases_summary.py --out RUN_DIR")
 
 
-def _optional_folder(context: ReportContext, folder: str, title: str) -> Section:
-    """Shows every CSV (as a table) and PNG (copied beside the report) of an optional folder."""
+def _optional_folder(context: ReportContext, folder: str, title: str, how: str) -> Section:
+    """Shows every CSV (as a table) and PNG (copied beside the report) of an optional folder;
+    without it, `how` (the command that writes it)."""
     directory = context.run.run_dir / folder
     if not directory.is_dir():
-        return Section(title, f"<p class='missing'>Not part of this run (no {folder}/ folder).</p>")
+        return Section(title, f"<p class='missing'>Not part of this run (no {folder}/ folder): "
+                              f"<code>{html.escape(how)}</code> writes it.</p>")
     body = ""
     for path in sorted(directory.glob("*.csv")):
         frame = pd.read_csv(path)
