@@ -113,7 +113,9 @@ class Trials:
 
 
 @dataclasses.dataclass
-class _Bench:
+class SimulatedSession:
+    """An open simulated bench with its drive: the tools that need the scene's truth."""
+
     bench: object
     simulated: object
     drive: DriveController
@@ -131,14 +133,16 @@ class _Bench:
 
 
 @contextlib.contextmanager
-def _open(scene: Path, state: str | None, settle_s: float) -> Iterator[_Bench]:
+def open_simulated(scene: Path, state: str | None, settle_s: float,
+                   limits: SafetyLimits = SafetyLimits()) -> Iterator[SimulatedSession]:
+    """The simulated bench of `scene` in `state`, driven within `limits`."""
     with open_bench(sim_bench_config(scene)) as bench:
         simulated = bench.resource_manager.visalib.bench
         if state is not None:
             simulated.set_state(state)
-        with DriveController(bench.generator, bench.electronics, bench.clock, SafetyLimits(),
+        with DriveController(bench.generator, bench.electronics, bench.clock, limits,
                              settle_s=settle_s) as drive:
-            yield _Bench(bench, simulated, drive)
+            yield SimulatedSession(bench, simulated, drive)
 
 
 def _reduce(point: Point) -> PointReduction:
@@ -155,7 +159,7 @@ def _point_values(reduction: PointReduction, truth) -> dict[str, tuple[float, fl
             "amplitude_pp_m": (reduction.amplitude_pp_m.value, truth.amplitude_pp_m)}
 
 
-def _measure_timed(bench: _Bench, measure: Callable[[], Point]) -> tuple[Point, float]:
+def _measure_timed(bench: SimulatedSession, measure: Callable[[], Point]) -> tuple[Point, float]:
     start_s = bench.now_s()
     point = measure()
     return point, bench.now_s() - start_s
@@ -214,14 +218,14 @@ class AccuracyStudy:
         s = self.settings
         scene = self._scene(s.point_scene)
         trials = self._trials(experiment, scene, s.point_state)
-        with _open(scene, s.point_state, s.base.settle_s) as bench:
+        with open_simulated(scene, s.point_state, s.base.settle_s) as bench:
             bench.drive.set_piezo_voltage(s.point_voltage_vpp)
             bench.go_to_resonance()
             for settings in variants:
                 self._repeat_points(bench, trials, settings)
         return trials
 
-    def _repeat_points(self, bench: _Bench, trials: Trials, settings: AcquisitionSettings) -> None:
+    def _repeat_points(self, bench: SimulatedSession, trials: Trials, settings: AcquisitionSettings) -> None:
         """`repeats` points at the present drive; ranging first, as a step's earlier points do."""
         acquisition = bench.acquisition(settings)
         acquisition.measure(keep_waveforms=False)
@@ -236,7 +240,7 @@ class AccuracyStudy:
         s = self.settings
         scene = self._scene(s.point_scene)
         trials = self._trials("search", scene, s.point_state)
-        with _open(scene, s.point_state, s.base.settle_s) as bench:
+        with open_simulated(scene, s.point_state, s.base.settle_s) as bench:
             bench.drive.set_piezo_voltage(s.search_voltage_vpp)
             true_hz = bench.simulated.resonance_truth().frequency_hz
             # Where the resonance falls in the range is luck: a seeded random offset per
@@ -245,7 +249,8 @@ class AccuracyStudy:
             for n_averages, points, tolerance_hz in itertools.product(
                     s.search_averages, s.search_points, s.search_tolerances_hz):
                 # A search reads only the velocity's peak-to-peak: the short record does.
-                acquisition = bench.acquisition(dataclasses.replace(s.base, averages=n_averages, record_length=500))
+                settings = dataclasses.replace(s.base, averages=n_averages, record_length=500)
+                acquisition = bench.acquisition(settings)
                 for repeat, offset_hz in enumerate(offsets_hz):
                     bench.simulated.reseed(s.seed + repeat)
                     search = SearchSettings(true_hz + offset_hz - s.search_half_span_hz,
@@ -254,8 +259,8 @@ class AccuracyStudy:
                     acquisition.reset_ranges()   # each search starts as a step does
                     start_s = bench.now_s()
                     found = find_resonance(acquisition.measure_at, search)
-                    knobs = {"averages": n_averages, "record_length": 500, "search_points": points,
-                             "search_tolerance_hz": tolerance_hz}
+                    knobs = {"averages": n_averages, "record_length": settings.record_length,
+                             "search_points": points, "search_tolerance_hz": tolerance_hz}
                     trials.add({**self.defaults, **knobs}, repeat, bench.now_s() - start_s,
                                {"resonance_frequency_hz": (found.frequency_hz, true_hz)})
         return trials
@@ -264,7 +269,7 @@ class AccuracyStudy:
         s = self.settings
         scene = self._scene(s.point_scene, ("settling_transient",), q_mech=(s.point_state, s.settle_q_mech))
         trials = self._trials("settle", scene, s.point_state)
-        with _open(scene, s.point_state, s.base.settle_s) as bench:
+        with open_simulated(scene, s.point_state, s.base.settle_s) as bench:
             bench.drive.set_piezo_voltage(s.settle_from_vpp)
             bench.go_to_resonance()
             acquisition = bench.acquisition(s.base)
@@ -288,7 +293,7 @@ class AccuracyStudy:
         s = self.settings
         scene = self._scene(s.sweep_scene)
         trials = self._trials("sweep", scene, None)
-        with _open(scene, None, s.base.settle_s) as bench:
+        with open_simulated(scene, None, s.base.settle_s) as bench:
             state = bench.simulated.state
             geometry = bench.simulated.scene.geometry(state)
             for n_voltages in s.sweep_voltage_counts:
@@ -308,7 +313,7 @@ class AccuracyStudy:
                                     "tan_theta": (measured.tan_theta.value, truth.tan_theta.value)})
         return trials
 
-    def _characterise(self, bench: _Bench, voltages_vpp, geometry, measure: Acquisition | None):
+    def _characterise(self, bench: SimulatedSession, voltages_vpp, geometry, measure: Acquisition | None):
         """Q and tan(theta') from points at resonance (measured, or the closed-form truth
         at the same voltages when `measure` is None), by the report's own reduction."""
         rows = []
@@ -321,12 +326,7 @@ class AccuracyStudy:
                              "amplitude_pp_m_u": 0.0, "power_w": truth.power_w, "power_w_u": 0.0,
                              "frequency_hz": truth.frequency_hz})
             else:
-                reduction = _reduce(measure.measure())
-                rows.append({"piezo_voltage_vpp": reduction.piezo_voltage_vpp.value,
-                             "amplitude_pp_m": reduction.amplitude_pp_m.value,
-                             "amplitude_pp_m_u": reduction.amplitude_pp_m.std_uncertainty,
-                             "power_w": reduction.power_w.value, "power_w_u": reduction.power_w.std_uncertainty,
-                             "frequency_hz": reduction.frequency_hz.value})
+                rows.append(_reduce(measure.measure()).as_row())   # the columns the report's points carry
         return characterise_plate(self.settings.sweep_scene, pd.DataFrame(rows), geometry, model.PAPER_CONVENTION)
 
     def heating(self) -> Trials:
@@ -338,7 +338,7 @@ class AccuracyStudy:
         for track in (False, True):
             for n_averages in s.heating_averages:
                 # A fresh, cold plate per configuration: the resonance is found cold.
-                with _open(scene, s.heating_state, s.base.settle_s) as bench:
+                with open_simulated(scene, s.heating_state, s.base.settle_s) as bench:
                     tracker = bench.acquisition(dataclasses.replace(s.base, averages=s.tracking_averages))
                     acquisition = bench.acquisition(dataclasses.replace(s.base, averages=n_averages))
                     bench.drive.set_piezo_voltage(s.heating_voltage_vpp)

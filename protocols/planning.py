@@ -31,10 +31,8 @@ import numpy as np
 import yaml
 
 from analysis.waveforms import integer_period_mean_power_w, sample_interval_s
-from instruments.bench import open_bench, sim_bench_config
-from protocols.acquisition import Acquisition
+from protocols.accuracy_study import open_simulated
 from protocols.campaign import Run, load_campaign, run_campaign
-from protocols.safety import DriveController
 from protocols.storage import RunStore
 from squeezebench.errors import UserError
 
@@ -44,7 +42,6 @@ BASELINE_AVERAGES = 512
 REPEATS = 8                    # acquisitions per setting; p95 of 8 is near the max
 ERROR_PERCENTILE = 95.0
 DEFAULT_VOLTAGE_VPP = 20.0     # detuning runs set voltage from a velocity level; ~20 Vpp is typical
-RESONANCE_SCAN_POINTS = 201    # truth is closed-form: a fine scan costs no bench wall time
 
 
 @dataclasses.dataclass(frozen=True)
@@ -113,47 +110,28 @@ def _run_voltage_vpp(run: Run, plate: Any) -> float:
     return float(min(voltages)) if voltages else DEFAULT_VOLTAGE_VPP
 
 
-def _search_range_hz(run: Run, plate: Any) -> tuple[float, float]:
-    search = getattr(plate, "search", None) or getattr(run.parameters, "search", None)
-    return float(search.start_hz), float(search.stop_hz)
-
-
 def study_plate(run: Run, scene: Path, state: str | None, plate: Any, repeats: int = REPEATS) -> PlateStudy:
     """Error and bench cost of each setting on one plate, at resonance."""
     voltage_vpp = _run_voltage_vpp(run, plate)
-    with open_bench(sim_bench_config(scene)) as bench:
-        simulated = bench.resource_manager.visalib.bench
-        if state is not None:
-            simulated.set_state(state)
-        drive = DriveController(bench.generator, bench.electronics, bench.clock, run.safety,
-                                settle_s=run.acquisition.settle_s)
-        with drive:
-            drive.set_piezo_voltage(voltage_vpp)
-            # Resonance from the closed-form truth (velocity peak), not a measured search.
-            start_hz, stop_hz = _search_range_hz(run, plate)
-            best_hz, best_velocity_pp_mps = start_hz, -math.inf
-            for frequency_hz in np.linspace(start_hz, stop_hz, RESONANCE_SCAN_POINTS):
-                drive.set_frequency(float(frequency_hz))
-                velocity_pp_mps = simulated.truth().velocity_pp_mps
-                if velocity_pp_mps > best_velocity_pp_mps:
-                    best_hz, best_velocity_pp_mps = float(frequency_hz), velocity_pp_mps
-            drive.set_frequency(best_hz)
-            truth_power_w = simulated.truth().power_w
-            results = []
-            for setting in (Setting(r, n) for r in RECORD_LENGTHS for n in AVERAGES):
-                acquisition = Acquisition(bench, drive, dataclasses.replace(
-                    run.acquisition, record_length=setting.record_length, averages=setting.averages))
-                acquisition.configure()
-                acquisition.measure(keep_waveforms=False)   # ranges the channels once
-                errors, costs_s = [], []
-                for _ in range(repeats):
-                    start_s = bench.clock.now_s()
-                    point = acquisition.measure(keep_waveforms=True)
-                    costs_s.append(bench.clock.now_s() - start_s)
-                    errors.append(abs(_waveform_power_w(point) / truth_power_w - 1.0))
-                results.append(SettingResult(setting, float(np.percentile(errors, ERROR_PERCENTILE)),
-                                             float(np.mean(costs_s))))
-    return PlateStudy(scene, state, voltage_vpp, best_hz, results)
+    with open_simulated(scene, state, run.acquisition.settle_s, run.safety) as session:
+        bench, drive = session.bench, session.drive
+        drive.set_piezo_voltage(voltage_vpp)
+        session.go_to_resonance()   # the closed-form resonance, not a measured search
+        truth_power_w = session.simulated.truth().power_w
+        results = []
+        for setting in (Setting(r, n) for r in RECORD_LENGTHS for n in AVERAGES):
+            acquisition = session.acquisition(dataclasses.replace(
+                run.acquisition, record_length=setting.record_length, averages=setting.averages))
+            acquisition.measure(keep_waveforms=False)   # ranges the channels once
+            errors, costs_s = [], []
+            for _ in range(repeats):
+                start_s = bench.clock.now_s()
+                point = acquisition.measure(keep_waveforms=True)
+                costs_s.append(bench.clock.now_s() - start_s)
+                errors.append(abs(_waveform_power_w(point) / truth_power_w - 1.0))
+            results.append(SettingResult(setting, float(np.percentile(errors, ERROR_PERCENTILE)),
+                                         float(np.mean(costs_s))))
+    return PlateStudy(scene, state, voltage_vpp, drive.frequency_hz, results)
 
 
 def _campaign_with_acquisition(campaign_path: Path, acquisition_by_run: dict[str, dict], out: Path) -> Path:
@@ -243,8 +221,7 @@ def _study_and_plan(campaign, campaign_path: Path, target_rel_error: float, repe
     for run in campaign.runs:
         run_studies = []
         for scene, state, plate in _run_plates(run):
-            key = (scene, state, _run_voltage_vpp(run, plate), _search_range_hz(run, plate),
-                   run.acquisition, run.safety)
+            key = (scene, state, _run_voltage_vpp(run, plate), run.acquisition, run.safety)
             if key not in cache:
                 cache[key] = study_plate(run, scene, state, plate, repeats=repeats)
             run_studies.append(cache[key])
