@@ -77,13 +77,6 @@ def fronts_table(summary: pd.DataFrame) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
-def cheapest_meeting(summary: pd.DataFrame, target_rel_error: float) -> pd.DataFrame:
-    """Per experiment and quantity, the cheapest configuration whose p95 error meets the target."""
-    meeting = summary[summary["p95_abs_rel_error"] <= target_rel_error]
-    index = meeting.groupby(["experiment", "quantity"])["bench_time_s"].idxmin()
-    return meeting.loc[index]
-
-
 def heating_table(summary: pd.DataFrame) -> pd.DataFrame:
     """Power error against averaging, at the frequency found cold and with tracking."""
     heating = summary[(summary["experiment"] == "heating") & (summary["quantity"] == "power_w")]

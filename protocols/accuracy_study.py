@@ -3,7 +3,7 @@
 Each experiment varies the settings that cost bench time and scores every measurement
 against the scene's closed-form truth (`SimulatedBench.resonance_truth`), with the cost
 read from the virtual bench clock. Measurements are reduced exactly as the report reduces
-stored waveforms (`analysis.waveforms.reduce_point`; Q and tan(theta') by
+stored waveforms (`analysis.waveforms.reduce_record`; Q and tan(theta') by
 `analysis.tables.characterise_plate`), so an error here is an error in the report.
 
 Experiments (the scene, state and voltage of each are in `StudySettings`):
@@ -159,12 +159,6 @@ def _point_values(reduction: PointReduction, truth) -> dict[str, tuple[float, fl
             "amplitude_pp_m": (reduction.amplitude_pp_m.value, truth.amplitude_pp_m)}
 
 
-def _measure_timed(bench: SimulatedSession, measure: Callable[[], Point]) -> tuple[Point, float]:
-    start_s = bench.now_s()
-    point = measure()
-    return point, bench.now_s() - start_s
-
-
 class AccuracyStudy:
     """Runs the experiments of one study into a run directory's study/ folder."""
 
@@ -233,8 +227,10 @@ class AccuracyStudy:
         knobs = {"averages": settings.averages, "record_length": settings.record_length,
                  "periods_per_record": settings.periods_per_record}
         for repeat in range(self.settings.repeats):
-            point, cost_s = _measure_timed(bench, acquisition.measure)
-            trials.add({**self.defaults, **knobs}, repeat, cost_s, _point_values(_reduce(point), truth))
+            start_s = bench.now_s()
+            point = acquisition.measure()
+            trials.add({**self.defaults, **knobs}, repeat, bench.now_s() - start_s,
+                       _point_values(_reduce(point), truth))
 
     def search(self) -> Trials:
         s = self.settings
