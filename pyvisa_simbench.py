@@ -1,2 +1,2 @@
 """PyVISA backend shim: `ResourceManager("scene.yaml@simbench")`."""
-from simbench.backend import SceneVisaLibrary as WRAPPER_CLASS  # noqa: F401
+from squeezebench.simbench.backend import SceneVisaLibrary as WRAPPER_CLASS  # noqa: F401

@@ -16,8 +16,8 @@ from dataclasses import dataclass, replace
 import numpy as np
 import pandas as pd
 
-from analysis import model
-from analysis.paper import paper_source, paper_value
+from squeezebench.analysis import model
+from squeezebench.analysis.paper import paper_source, paper_value
 
 MM = 1e-3
 #: A published number counts as reproduced within this relative difference (the paper

@@ -15,7 +15,7 @@ import numpy as np  # noqa: E402
 from matplotlib.ticker import NullFormatter  # noqa: E402
 import pandas as pd  # noqa: E402
 
-from analysis.tables import PlateCharacterisation  # noqa: E402
+from squeezebench.analysis.tables import PlateCharacterisation  # noqa: E402
 
 #: Fixed metadata so that re-running the report gives byte-identical PNG files.
 _PNG_METADATA = {"Software": None}

@@ -21,8 +21,8 @@ import numpy as np
 import pandas as pd
 
 import squeezebench
-from analysis import audit, figures, model, study, tables
-from analysis.rundata import RunData, load_run
+from squeezebench.analysis import audit, figures, model, study, tables
+from squeezebench.analysis.rundata import RunData, load_run
 from squeezebench.errors import UserError
 
 #: The conventions every derived number of this report uses (the audit shows the others).

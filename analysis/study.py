@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from analysis.tables import MissingDataError
+from squeezebench.analysis.tables import MissingDataError
 
 STUDY_DIR = "study"
 #: The settings every trial row carries, varied or not (protocols.accuracy_study writes them).

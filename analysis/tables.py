@@ -17,10 +17,10 @@ import numpy as np
 import pandas as pd
 from scipy import optimize
 
-from analysis import model
-from analysis.paper import paper_table
-from analysis.rundata import RunData
-from analysis.waveforms import Estimate, PointReduction, reduce_record
+from squeezebench.analysis import model
+from squeezebench.analysis.paper import paper_table
+from squeezebench.analysis.rundata import RunData
+from squeezebench.analysis.waveforms import Estimate, PointReduction, reduce_record
 from squeezebench.errors import UserError
 
 TABLE_COLUMNS = ["table", "item", "quantity", "unit", "value", "std_uncertainty",

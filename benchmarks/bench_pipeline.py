@@ -23,10 +23,10 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from analysis.report import write_report  # noqa: E402
-from analysis.waveforms import integer_period_mean_power_w  # noqa: E402
-from protocols.accuracy_study import run_study  # noqa: E402
-from protocols.campaign import run_campaign  # noqa: E402
+from squeezebench.analysis.report import write_report  # noqa: E402
+from squeezebench.analysis.waveforms import integer_period_mean_power_w  # noqa: E402
+from squeezebench.protocols.accuracy_study import run_study  # noqa: E402
+from squeezebench.protocols.campaign import run_campaign  # noqa: E402
 
 PAPER = ROOT / "data" / "campaigns" / "paper.yaml"
 N_SAMPLES = 10_000

@@ -24,8 +24,8 @@ import yaml
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from simbench.backend import DEFINITIONS  # noqa: E402
-from simbench.effects import EFFECTS  # noqa: E402
+from squeezebench.simbench.backend import DEFINITIONS  # noqa: E402
+from squeezebench.simbench.effects import EFFECTS  # noqa: E402
 from squeezebench import paths  # noqa: E402
 
 TERMINATIONS = {"read_termination": "\n", "write_termination": "\n"}

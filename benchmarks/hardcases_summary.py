@@ -34,8 +34,8 @@ import yaml
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from analysis import model  # noqa: E402
-from analysis import waveforms as wf  # noqa: E402
+from squeezebench.analysis import model  # noqa: E402
+from squeezebench.analysis import waveforms as wf  # noqa: E402
 
 F_HZ = 43_792.0
 V_AMP, I_AMP = 12.0, 0.05
@@ -203,10 +203,10 @@ MAX_SESSIONS = 20
 
 
 def fault_cases():
-    from instruments.agilent33120a import AMPLITUDE_RANGE_VPP
-    from instruments.errors import ConnectionLost, GarbledReply, InstrumentError, InstrumentTimeout
-    from protocols.campaign import run_campaign
-    from protocols.storage import RunStore, read_measurements
+    from squeezebench.instruments.agilent33120a import AMPLITUDE_RANGE_VPP
+    from squeezebench.instruments.errors import ConnectionLost, GarbledReply, InstrumentError, InstrumentTimeout
+    from squeezebench.protocols.campaign import run_campaign
+    from squeezebench.protocols.storage import RunStore, read_measurements
 
     minima = [low for low, _ in AMPLITUDE_RANGE_VPP.values()]
     tolerance = ("typed error, generator at minimum, journal = stored rows, no NaN/inf; "

@@ -1,17 +1,17 @@
 """Drivers for the bench instruments, their typed errors and the bench description.
 
-    from instruments import open_bench, sim_bench_config
+    from squeezebench.instruments import open_bench, sim_bench_config
     with open_bench(sim_bench_config("data/scenes/one_column_1mm.yaml")) as bench:
         bench.generator.apply_sine(40e3, 1.0)
 """
 
-from instruments.agilent33120a import Agilent33120A
-from instruments.bench import (Bench, BenchConfig, BenchElectronics, check_bench, load_bench_file, open_bench,
+from squeezebench.instruments.agilent33120a import Agilent33120A
+from squeezebench.instruments.bench import (Bench, BenchConfig, BenchElectronics, check_bench, load_bench_file, open_bench,
                                sim_bench_config)
-from instruments.errors import (BenchFileError, ClippedTraceError, GarbledReply, InstrumentConnectionError,
+from squeezebench.instruments.errors import (BenchFileError, ClippedTraceError, GarbledReply, InstrumentConnectionError,
                                 InstrumentError, InstrumentTimeout, NoValidMeasurement, OutOfRangeError)
-from instruments.ofv5000 import OFV5000
-from instruments.tds3054b import TDS3054B, Waveform
+from squeezebench.instruments.ofv5000 import OFV5000
+from squeezebench.instruments.tds3054b import TDS3054B, Waveform
 
 __all__ = ["Agilent33120A", "TDS3054B", "OFV5000", "Waveform", "Bench", "BenchConfig", "BenchElectronics",
            "check_bench", "load_bench_file", "open_bench", "sim_bench_config", "BenchFileError",

@@ -18,9 +18,9 @@ from __future__ import annotations
 import re
 from typing import Any
 
-from instruments.base import SCPIInstrument
-from instruments.errors import InstrumentError
-from instruments.properties import Validator, checked, control, strict_range
+from squeezebench.instruments.base import SCPIInstrument
+from squeezebench.instruments.errors import InstrumentError
+from squeezebench.instruments.properties import Validator, checked, control, strict_range
 
 #: Sine frequency limits (Hz).
 FREQUENCY_RANGE_HZ = (100e-6, 15e6)

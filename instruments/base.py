@@ -16,9 +16,9 @@ import numpy as np
 from pyvisa import constants
 from pyvisa.errors import VisaIOError
 
-from instruments.errors import (ConnectionLost, GarbledReply, InstrumentConnectionError, InstrumentError,
+from squeezebench.instruments.errors import (ConnectionLost, GarbledReply, InstrumentConnectionError, InstrumentError,
                                 InstrumentTimeout)
-from instruments.properties import controls_of
+from squeezebench.instruments.properties import controls_of
 
 #: Every instrument of the bench ends its messages with LF, both ways.
 TERMINATION = "\n"

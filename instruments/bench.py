@@ -30,11 +30,11 @@ import pyvisa
 import yaml
 from pyvisa.errors import VisaIOError
 
-from instruments.agilent33120a import Agilent33120A
-from instruments.base import Instrument
-from instruments.errors import BenchFileError, InstrumentConnectionError, InstrumentError, InstrumentTimeout
-from instruments.ofv5000 import OFV5000
-from instruments.tds3054b import TDS3054B
+from squeezebench.instruments.agilent33120a import Agilent33120A
+from squeezebench.instruments.base import Instrument
+from squeezebench.instruments.errors import BenchFileError, InstrumentConnectionError, InstrumentError, InstrumentTimeout
+from squeezebench.instruments.ofv5000 import OFV5000
+from squeezebench.instruments.tds3054b import TDS3054B
 
 ROLES = ("generator", "scope", "vibrometer")
 DRIVERS: dict[str, type[Instrument]] = {"generator": Agilent33120A, "scope": TDS3054B, "vibrometer": OFV5000}

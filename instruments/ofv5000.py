@@ -21,8 +21,8 @@ import numpy as np
 from pyvisa import constants
 from pyvisa.resources import SerialInstrument
 
-from instruments.base import Instrument
-from instruments.properties import checked, control, strict_discrete_set
+from squeezebench.instruments.base import Instrument
+from squeezebench.instruments.properties import checked, control, strict_discrete_set
 
 #: Velocity decoder ranges (controller's names) and their scale factors (m/s per V).
 VELOCITY_RANGES_MPS_PER_V = {"5mm/s/V": 0.005, "25mm/s/V": 0.025, "125mm/s/V": 0.125, "1000mm/s/V": 1.0}

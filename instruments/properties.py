@@ -23,7 +23,7 @@ import math
 from dataclasses import dataclass
 from typing import Any, Callable, Iterable
 
-from instruments.errors import GarbledReply, InstrumentError, OutOfRangeError
+from squeezebench.instruments.errors import GarbledReply, InstrumentError, OutOfRangeError
 
 
 @dataclass(frozen=True)

@@ -18,10 +18,10 @@ from typing import Any
 
 import numpy as np
 
-from instruments.base import SCPIInstrument
-from instruments.errors import (ClippedTraceError, GarbledReply, InstrumentError, InstrumentTimeout,
+from squeezebench.instruments.base import SCPIInstrument
+from squeezebench.instruments.errors import (ClippedTraceError, GarbledReply, InstrumentError, InstrumentTimeout,
                                 NoValidMeasurement, OutOfRangeError)
-from instruments.properties import (checked, control, strict_discrete_set, strict_integer_range, strict_range,
+from squeezebench.instruments.properties import (checked, control, strict_discrete_set, strict_integer_range, strict_range,
                                     token_for_reply, unquote)
 
 CHANNELS = (1, 2, 3, 4)

@@ -37,14 +37,14 @@ import pandas as pd
 import yaml
 
 import squeezebench
-from analysis import model
-from analysis.study import STUDY_DIR
-from analysis.tables import characterise_plate
-from analysis.waveforms import PointReduction, reduce_record
-from instruments.bench import open_bench, sim_bench_config
-from protocols.acquisition import Acquisition, AcquisitionSettings, Point
-from protocols.resonance import SearchSettings, find_resonance, track_resonance
-from protocols.safety import DriveController, SafetyLimits
+from squeezebench.analysis import model
+from squeezebench.analysis.study import STUDY_DIR
+from squeezebench.analysis.tables import characterise_plate
+from squeezebench.analysis.waveforms import PointReduction, reduce_record
+from squeezebench.instruments.bench import open_bench, sim_bench_config
+from squeezebench.protocols.acquisition import Acquisition, AcquisitionSettings, Point
+from squeezebench.protocols.resonance import SearchSettings, find_resonance, track_resonance
+from squeezebench.protocols.safety import DriveController, SafetyLimits
 from squeezebench import paths
 
 

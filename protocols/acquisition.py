@@ -25,8 +25,8 @@ from typing import Any
 
 import pandas as pd
 
-from instruments.errors import ClippedTraceError
-from protocols.safety import DriveController
+from squeezebench.instruments.errors import ClippedTraceError
+from squeezebench.protocols.safety import DriveController
 from squeezebench.errors import UserError
 
 log = logging.getLogger(__name__)

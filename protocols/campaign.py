@@ -41,12 +41,12 @@ from typing import Any
 import yaml
 from tqdm import tqdm
 
-from instruments.bench import load_bench_file, open_bench, sim_bench_config
-from protocols import characterisation, cutting, detuning, powered_columns, resonance
-from protocols.acquisition import Acquisition, AcquisitionSettings
-from protocols.safety import DriveController, SafetyLimits
-from protocols.steps import Plate, Step, StepContext
-from protocols.storage import RunStore, sha256_file
+from squeezebench.instruments.bench import load_bench_file, open_bench, sim_bench_config
+from squeezebench.protocols import characterisation, cutting, detuning, powered_columns, resonance
+from squeezebench.protocols.acquisition import Acquisition, AcquisitionSettings
+from squeezebench.protocols.safety import DriveController, SafetyLimits
+from squeezebench.protocols.steps import Plate, Step, StepContext
+from squeezebench.protocols.storage import RunStore, sha256_file
 from squeezebench import paths
 from squeezebench.errors import UserError
 
@@ -56,7 +56,7 @@ PROTOCOLS = {module.PROTOCOL: module for module in
              (resonance, detuning, cutting, powered_columns, characterisation)}
 _NAME = re.compile(r"^[A-Za-z0-9_.-]+$")
 #: Loggers whose records go to the run's log.txt.
-_LOGGED_PACKAGES = ("protocols", "instruments")
+_LOGGED_PACKAGES = ("squeezebench.protocols", "squeezebench.instruments")
 
 
 class CampaignError(UserError):

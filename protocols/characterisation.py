@@ -17,10 +17,10 @@ from __future__ import annotations
 
 from dataclasses import dataclass, replace
 
-from protocols import resonance
-from protocols.acquisition import Acquisition, AcquisitionSettings
-from protocols.resonance import SearchSettings, track_resonance
-from protocols.steps import Plate, Step, StepContext
+from squeezebench.protocols import resonance
+from squeezebench.protocols.acquisition import Acquisition, AcquisitionSettings
+from squeezebench.protocols.resonance import SearchSettings, track_resonance
+from squeezebench.protocols.steps import Plate, Step, StepContext
 
 PROTOCOL = "characterisation"
 

@@ -22,9 +22,9 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from protocols import resonance as resonance_protocol
-from protocols.resonance import SearchSettings, track_resonance
-from protocols.steps import Plate, Step, StepContext
+from squeezebench.protocols import resonance as resonance_protocol
+from squeezebench.protocols.resonance import SearchSettings, track_resonance
+from squeezebench.protocols.steps import Plate, Step, StepContext
 
 PROTOCOL = "detuning"
 

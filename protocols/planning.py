@@ -30,10 +30,10 @@ from typing import Any
 import numpy as np
 import yaml
 
-from analysis.waveforms import integer_period_mean_power_w, sample_interval_s
-from protocols.accuracy_study import open_simulated
-from protocols.campaign import Run, load_campaign, run_campaign
-from protocols.storage import RunStore
+from squeezebench.analysis.waveforms import integer_period_mean_power_w, sample_interval_s
+from squeezebench.protocols.accuracy_study import open_simulated
+from squeezebench.protocols.campaign import Run, load_campaign, run_campaign
+from squeezebench.protocols.storage import RunStore
 from squeezebench.errors import UserError
 
 AVERAGES = tuple(2 ** k for k in range(10))   # 1 (sample mode), 2..512: what the TDS3000 offers

@@ -11,9 +11,9 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from protocols import resonance
-from protocols.resonance import SearchSettings
-from protocols.steps import Plate, Step, StepContext
+from squeezebench.protocols import resonance
+from squeezebench.protocols.resonance import SearchSettings
+from squeezebench.protocols.steps import Plate, Step, StepContext
 
 PROTOCOL = "powered_columns"
 

@@ -20,8 +20,8 @@ import math
 from dataclasses import dataclass
 from typing import Callable
 
-from protocols.acquisition import Point
-from protocols.steps import Plate, Step, StepContext
+from squeezebench.protocols.acquisition import Point
+from squeezebench.protocols.steps import Plate, Step, StepContext
 from squeezebench.errors import UserError
 
 PROTOCOL = "resonance_search"

@@ -14,8 +14,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable
 
-from protocols.acquisition import Acquisition, Point
-from protocols.safety import DriveController
+from squeezebench.protocols.acquisition import Acquisition, Point
+from squeezebench.protocols.safety import DriveController
 
 
 @dataclass(frozen=True, kw_only=True)

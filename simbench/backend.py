@@ -16,10 +16,10 @@ from pyvisa.util import LibraryPath
 from pyvisa_sim import parser
 from pyvisa_sim.highlevel import SimVisaLibrary
 
-from simbench.clock import BUS_TIMINGS
-from simbench.devices import INSTRUMENTS, SimulatedInstrument
-from simbench.scene import load_scene
-from simbench.simulation import SimulatedBench
+from squeezebench.simbench.clock import BUS_TIMINGS
+from squeezebench.simbench.devices import INSTRUMENTS, SimulatedInstrument
+from squeezebench.simbench.scene import load_scene
+from squeezebench.simbench.simulation import SimulatedBench
 from squeezebench import paths
 
 DEFINITIONS = Path(__file__).resolve().parent / "definitions" / "bench.yaml"

@@ -27,9 +27,9 @@ from pyvisa import constants, errors
 from pyvisa_sim.component import NoResponse
 from pyvisa_sim.devices import Device
 
-from simbench import effects as fx
-from simbench import physics, traces
-from simbench.clock import BusTiming
+from squeezebench.simbench import effects as fx
+from squeezebench.simbench import physics, traces
+from squeezebench.simbench.clock import BusTiming
 
 #: Bench time the 33120A takes to apply a change (assumed: a new frequency settles in
 #: about 10 ms; an amplitude, offset or load change may switch attenuator relays).

@@ -25,7 +25,7 @@ from typing import ClassVar
 
 import numpy as np
 
-from simbench import physics
+from squeezebench.simbench import physics
 
 #: Screen channels: CH1 piezo voltage (V), CH2 current (A), CH3 vibrometer output (V).
 CHANNELS = ("CH1", "CH2", "CH3")

@@ -37,9 +37,9 @@ from typing import Any
 
 import yaml
 
-from analysis import model
-from simbench import physics
-from simbench.effects import EFFECTS
+from squeezebench.analysis import model
+from squeezebench.simbench import physics
+from squeezebench.simbench.effects import EFFECTS
 from squeezebench.errors import UserError
 
 #: Readings of the paper's model a `paper_model` calibration may name.

@@ -12,10 +12,10 @@ from pathlib import Path
 
 import numpy as np
 
-from simbench import effects as fx
-from simbench import physics, traces
-from simbench.clock import VirtualClock
-from simbench.scene import Scene, load_scene
+from squeezebench.simbench import effects as fx
+from squeezebench.simbench import physics, traces
+from squeezebench.simbench.clock import VirtualClock
+from squeezebench.simbench.scene import Scene, load_scene
 
 
 class SimulatedBench:

@@ -14,8 +14,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from simbench import effects as fx
-from simbench import physics
+from squeezebench.simbench import effects as fx
+from squeezebench.simbench import physics
 
 HORIZONTAL_DIVISIONS = 10
 

@@ -20,7 +20,7 @@ STUDY_EXPERIMENTS = ("averages", "record", "search", "settle", "sweep", "heating
 
 
 def _bench_config(bench: str):
-    from instruments.bench import load_bench_file, sim_bench_config
+    from squeezebench.instruments.bench import load_bench_file, sim_bench_config
 
     if bench == "sim":
         return sim_bench_config(paths.default_scene())
@@ -28,13 +28,13 @@ def _bench_config(bench: str):
 
 
 def cmd_check(args: argparse.Namespace) -> int:
-    from instruments.bench import check_bench
+    from squeezebench.instruments.bench import check_bench
 
     return check_bench(_bench_config(args.bench), out=print)
 
 
 def cmd_run(args: argparse.Namespace) -> int:
-    from protocols.campaign import run_campaign
+    from squeezebench.protocols.campaign import run_campaign
 
     run_dir = run_campaign(Path(args.campaign), resume=args.resume, out_dir=args.out)
     print(f"run stored in {run_dir}")
@@ -42,7 +42,7 @@ def cmd_run(args: argparse.Namespace) -> int:
 
 
 def cmd_report(args: argparse.Namespace) -> int:
-    from analysis.report import write_report
+    from squeezebench.analysis.report import write_report
 
     index = write_report(Path(args.run_dir))
     print(f"report written to {index}")
@@ -50,9 +50,9 @@ def cmd_report(args: argparse.Namespace) -> int:
 
 
 def cmd_reproduce(args: argparse.Namespace) -> int:
-    from analysis.report import write_report
-    from protocols.accuracy_study import run_study
-    from protocols.campaign import run_campaign
+    from squeezebench.analysis.report import write_report
+    from squeezebench.protocols.accuracy_study import run_study
+    from squeezebench.protocols.campaign import run_campaign
 
     run_dir = run_campaign(paths.paper_campaign(), resume=args.resume, out_dir=args.out)
     if not args.no_study:
@@ -65,7 +65,7 @@ def cmd_reproduce(args: argparse.Namespace) -> int:
 def cmd_study(args: argparse.Namespace) -> int:
     from dataclasses import replace
 
-    from protocols.accuracy_study import StudySettings, run_study
+    from squeezebench.protocols.accuracy_study import StudySettings, run_study
 
     try:
         settings = replace(StudySettings(), repeats=args.repeats)
@@ -78,7 +78,7 @@ def cmd_study(args: argparse.Namespace) -> int:
 
 
 def cmd_plan(args: argparse.Namespace) -> int:
-    from protocols.planning import plan_campaign
+    from squeezebench.protocols.planning import plan_campaign
 
     print(plan_campaign(Path(args.campaign), target_rel_error=args.target_rel_error, write=args.write))
     return 0

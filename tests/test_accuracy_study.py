@@ -9,9 +9,9 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from analysis import study
-from analysis.report import write_report
-from protocols.accuracy_study import AccuracyStudy, StudySettings, run_study
+from squeezebench.analysis import study
+from squeezebench.analysis.report import write_report
+from squeezebench.protocols.accuracy_study import AccuracyStudy, StudySettings, run_study
 from squeezebench.cli import STUDY_EXPERIMENTS, main
 from test_analysis_synthetic import build_run
 

@@ -7,7 +7,7 @@ import math
 import pandas as pd
 import pytest
 
-from analysis import audit
+from squeezebench.analysis import audit
 
 
 @pytest.fixture(scope="module")

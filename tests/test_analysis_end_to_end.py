@@ -6,8 +6,8 @@ import pandas as pd
 import pytest
 import yaml
 
-from analysis.report import write_report
-from protocols.campaign import run_campaign
+from squeezebench.analysis.report import write_report
+from squeezebench.protocols.campaign import run_campaign
 from squeezebench import paths
 
 TABLE4_RUN = "table4_powered_columns"

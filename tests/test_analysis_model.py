@@ -9,7 +9,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from analysis import model
+from squeezebench.analysis import model
 
 CONVENTIONS = [model.PAPER_CONVENTION, model.PHYSICAL_CONVENTION,
                replace(model.PAPER_CONVENTION, voltage="amplitude", amplitude="amplitude"),

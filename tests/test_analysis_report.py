@@ -8,7 +8,7 @@ import shutil
 import pandas as pd
 import pytest
 
-from analysis import report
+from squeezebench.analysis import report
 from squeezebench.errors import UserError
 from test_analysis_synthetic import build_run
 
@@ -81,7 +81,7 @@ def test_only_journaled_steps_are_read(tmp_path):
     """A step whose journal line is missing (killed before it) is not complete."""
     import json
 
-    from analysis.rundata import load_run
+    from squeezebench.analysis.rundata import load_run
 
     run_dir = build_run(tmp_path / "journaled", protocols=("powered_columns",))
     steps = sorted((run_dir / "measurements" / "columns").glob("*.parquet"))

@@ -15,13 +15,13 @@ import pandas as pd
 import pytest
 import yaml
 
-from analysis.report import write_report
-from analysis.rundata import load_run
-from analysis.tables import reduced_points
-from protocols.campaign import run_campaign
-from simbench import physics
-from simbench.effects import build_pipeline
-from simbench.scene import load_scene
+from squeezebench.analysis.report import write_report
+from squeezebench.analysis.rundata import load_run
+from squeezebench.analysis.tables import reduced_points
+from squeezebench.protocols.campaign import run_campaign
+from squeezebench.simbench import physics
+from squeezebench.simbench.effects import build_pipeline
+from squeezebench.simbench.scene import load_scene
 from squeezebench import paths
 
 RUNS = ("table3_cutting", "table4_powered_columns")

@@ -15,9 +15,9 @@ import pyarrow.parquet as pq
 import pytest
 import yaml
 
-from analysis import model, tables
-from analysis.paper import paper_value
-from analysis.rundata import load_run
+from squeezebench.analysis import model, tables
+from squeezebench.analysis.paper import paper_value
+from squeezebench.analysis.rundata import load_run
 
 SCALE_MPS_PER_V = 0.125
 N_SAMPLES = 10_000

@@ -10,7 +10,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from analysis import waveforms as wf
+from squeezebench.analysis import waveforms as wf
 
 
 def sines(n=4000, periods=23.4, f=43_792.0, v_amp=12.0, i_amp=0.05, phi=1.0, dc_v=0.0, dc_i=0.0,

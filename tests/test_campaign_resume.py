@@ -14,9 +14,9 @@ import pandas as pd
 import pytest
 from pyvisa.resources import MessageBasedResource
 
-from instruments.errors import ConnectionLost
-from protocols.campaign import run_campaign
-from protocols.storage import RunStore, read_measurements
+from squeezebench.instruments.errors import ConnectionLost
+from squeezebench.protocols.campaign import run_campaign
+from squeezebench.protocols.storage import RunStore, read_measurements
 from test_protocols_support import ONE_COLUMN_PLATE, noise_free_scene, write_campaign
 
 
@@ -139,7 +139,7 @@ def test_torn_journal_line_is_not_a_step(reference, tmp_path):
 
 
 def test_a_new_run_refuses_an_existing_directory(reference, tmp_path):
-    from protocols.campaign import CampaignError
+    from squeezebench.protocols.campaign import CampaignError
 
     campaign, _, _ = reference
     run_campaign(campaign, out_dir=tmp_path / "once")

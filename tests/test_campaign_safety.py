@@ -14,8 +14,8 @@ import pytest
 from hypothesis import HealthCheck, given, settings, strategies as st
 from pyvisa.resources import MessageBasedResource
 
-from protocols.campaign import run_campaign
-from protocols.safety import SafetyLimitError
+from squeezebench.protocols.campaign import run_campaign
+from squeezebench.protocols.safety import SafetyLimitError
 from test_protocols_support import ONE_COLUMN_PLATE, noise_free_scene, write_campaign
 
 AMPLITUDE_COMMAND = re.compile(r"^VOLT\s+([-+0-9.eE]+)\s*$")

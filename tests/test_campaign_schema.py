@@ -3,7 +3,7 @@
 import pytest
 import yaml
 
-from protocols.campaign import CampaignError, load_campaign
+from squeezebench.protocols.campaign import CampaignError, load_campaign
 from squeezebench.errors import UserError
 
 GOOD_RUN = {"name": "cut", "protocol": "resonator_cutting", "bench": {"scene": "one_column_1mm.yaml"},

@@ -27,10 +27,10 @@ from pyvisa import constants
 from pyvisa.errors import VisaIOError
 from pyvisa.resources import MessageBasedResource
 
-from instruments.agilent33120a import AMPLITUDE_RANGE_VPP
-from instruments.errors import ConnectionLost, GarbledReply, InstrumentError, InstrumentTimeout
-from protocols.campaign import run_campaign
-from protocols.storage import RunStore, read_measurements
+from squeezebench.instruments.agilent33120a import AMPLITUDE_RANGE_VPP
+from squeezebench.instruments.errors import ConnectionLost, GarbledReply, InstrumentError, InstrumentTimeout
+from squeezebench.protocols.campaign import run_campaign
+from squeezebench.protocols.storage import RunStore, read_measurements
 from squeezebench import cli, paths
 from test_campaign_resume import small_campaign
 from test_protocols_support import FAST_ACQUISITION, ONE_COLUMN_PLATE, write_campaign

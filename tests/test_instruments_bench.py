@@ -8,13 +8,13 @@ from pathlib import Path
 import pytest
 import yaml
 
-from instruments.agilent33120a import Agilent33120A
-from instruments.bench import (SIM_RESOURCES, Bench, BenchConfig, BenchElectronics, NullOperator,
+from squeezebench.instruments.agilent33120a import Agilent33120A
+from squeezebench.instruments.bench import (SIM_RESOURCES, Bench, BenchConfig, BenchElectronics, NullOperator,
                                SimulatedOperator, TerminalOperator, WallClock, check_bench, load_bench_file,
                                open_bench, sim_bench_config)
-from instruments.errors import BenchFileError, InstrumentConnectionError
-from instruments.ofv5000 import OFV5000
-from instruments.tds3054b import TDS3054B
+from squeezebench.instruments.errors import BenchFileError, InstrumentConnectionError
+from squeezebench.instruments.ofv5000 import OFV5000
+from squeezebench.instruments.tds3054b import TDS3054B
 from squeezebench.errors import UserError
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -145,7 +145,7 @@ def test_open_bench_names_the_role_that_does_not_answer(sim_library):
 
 
 def test_open_bench_refuses_another_instrument_at_an_address(sim_library, monkeypatch):
-    monkeypatch.setattr("instruments.base.DEFAULT_TIMEOUT_S", 0.1)   # the OFV-5000 will not answer *IDN?
+    monkeypatch.setattr("squeezebench.instruments.base.DEFAULT_TIMEOUT_S", 0.1)   # the OFV-5000 will not answer *IDN?
     config = BenchConfig(sim_library, {**SIM_RESOURCES, "generator": SIM_RESOURCES["scope"]})
     with pytest.raises(InstrumentConnectionError,
                        match=r"generator \(TCPIP0::192.168.0.20::INSTR\).*'TEKTRONIX,TDS 3054B.*not a 33120A"):
@@ -202,7 +202,7 @@ def test_wall_clock():
 
 # -- the simulated bench ----------------------------------------------------------------------------
 def test_open_bench_on_simbench_uses_its_clock_and_operator():
-    pytest.importorskip("simbench.backend")
+    pytest.importorskip("squeezebench.simbench.backend")
     config = sim_bench_config(SCENE)
     with open_bench(config) as first, open_bench(config) as second:
         simulated = first.resource_manager.visalib.bench

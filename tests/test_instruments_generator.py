@@ -6,8 +6,8 @@ import math
 
 import pytest
 
-from instruments.agilent33120a import Agilent33120A
-from instruments.errors import GarbledReply, InstrumentError, InstrumentTimeout, OutOfRangeError
+from squeezebench.instruments.agilent33120a import Agilent33120A
+from squeezebench.instruments.errors import GarbledReply, InstrumentError, InstrumentTimeout, OutOfRangeError
 from squeezebench.errors import UserError
 
 ADDRESS = "GPIB0::10::INSTR"

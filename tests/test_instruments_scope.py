@@ -11,9 +11,9 @@ import numpy as np
 import pytest
 from pyvisa_sim.component import NoResponse
 
-from instruments.errors import (ClippedTraceError, GarbledReply, InstrumentError, InstrumentTimeout,
+from squeezebench.instruments.errors import (ClippedTraceError, GarbledReply, InstrumentError, InstrumentTimeout,
                                 NoValidMeasurement, OutOfRangeError)
-from instruments.tds3054b import HORIZONTAL_SCALES_S_PER_DIV, TDS3054B, Waveform
+from squeezebench.instruments.tds3054b import HORIZONTAL_SCALES_S_PER_DIV, TDS3054B, Waveform
 
 ADDRESS = "TCPIP0::192.168.0.20::INSTR"
 

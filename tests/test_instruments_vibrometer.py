@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 import pyvisa
 
-from instruments.errors import GarbledReply, InstrumentError, OutOfRangeError
-from instruments.ofv5000 import OFV5000, VELOCITY_RANGES_MPS_PER_V
+from squeezebench.instruments.errors import GarbledReply, InstrumentError, OutOfRangeError
+from squeezebench.instruments.ofv5000 import OFV5000, VELOCITY_RANGES_MPS_PER_V
 
 ADDRESS = "ASRL1::INSTR"
 

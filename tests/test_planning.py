@@ -4,7 +4,7 @@ from pathlib import Path
 
 import pytest
 
-from protocols.planning import BASELINE_AVERAGES, RECORD_LENGTHS, Setting, make_plan
+from squeezebench.protocols.planning import BASELINE_AVERAGES, RECORD_LENGTHS, Setting, make_plan
 
 QUICK = Path(__file__).resolve().parents[1] / "data" / "campaigns" / "quick.yaml"
 TARGET_REL_ERROR = 0.01
@@ -50,8 +50,8 @@ def test_table_lists_each_run_and_the_total(plan):
 
 
 def test_the_planned_campaign_is_written_with_the_planned_settings(tmp_path, monkeypatch):
-    from protocols import planning
-    from protocols.campaign import load_campaign
+    from squeezebench.protocols import planning
+    from squeezebench.protocols.campaign import load_campaign
 
     # the plan itself is tested above; here only what `--write` does with it
     fake = planning.Plan(TARGET_REL_ERROR, {}, {"detuning": Setting(500, 4), "cutting": Setting(10000, 1)},

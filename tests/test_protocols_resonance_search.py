@@ -5,8 +5,8 @@ import math
 import pytest
 from hypothesis import given, settings, strategies as st
 
-from protocols.acquisition import Point
-from protocols.resonance import ResonanceError, SearchSettings, find_resonance, track_resonance
+from squeezebench.protocols.acquisition import Point
+from squeezebench.protocols.resonance import ResonanceError, SearchSettings, find_resonance, track_resonance
 
 
 def lorentzian(f0_hz, q_mech, peak_pp_mps=0.2):

@@ -5,7 +5,7 @@ from dataclasses import dataclass
 import pytest
 from hypothesis import given, settings, strategies as st
 
-from protocols.safety import DriveController, SafetyLimitError, SafetyLimits
+from squeezebench.protocols.safety import DriveController, SafetyLimitError, SafetyLimits
 
 
 class RecordingGenerator:

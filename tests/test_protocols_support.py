@@ -10,8 +10,8 @@ from pathlib import Path
 
 import yaml
 
-from protocols.campaign import run_campaign
-from protocols.storage import read_measurements
+from squeezebench.protocols.campaign import run_campaign
+from squeezebench.protocols.storage import read_measurements
 from squeezebench import paths
 
 #: Small acquisition settings: the tests check logic, not noise.

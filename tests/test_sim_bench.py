@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 import pyvisa
 
-from simbench import devices, physics
-from simbench.scene import SceneError
+from squeezebench.simbench import devices, physics
+from squeezebench.simbench.scene import SceneError
 from test_sim_support import RawBench, sampled_truth, scene_file
 
 F_HZ = 37180.0

@@ -7,10 +7,10 @@ import math
 import numpy as np
 import pytest
 
-from instruments.bench import open_bench, sim_bench_config
-from instruments.errors import ConnectionLost, GarbledReply, InstrumentError, InstrumentTimeout
-from simbench import effects as fx
-from simbench.scene import SceneError, load_scene
+from squeezebench.instruments.bench import open_bench, sim_bench_config
+from squeezebench.instruments.errors import ConnectionLost, GarbledReply, InstrumentError, InstrumentTimeout
+from squeezebench.simbench import effects as fx
+from squeezebench.simbench.scene import SceneError, load_scene
 from test_sim_support import RawBench, sampled_truth, scene_file
 
 F_HZ = 37180.0

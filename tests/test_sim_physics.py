@@ -8,7 +8,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from simbench import physics
+from squeezebench.simbench import physics
 
 F_HZ = 37180.0
 IDEAL_AMPLIFIER = physics.Amplifier(gain=20.0, input_ohm=math.inf)

@@ -8,9 +8,9 @@ import math
 import pytest
 import yaml
 
-from analysis import model
-from simbench import physics
-from simbench.scene import SceneError, covered_by_provenance, load_scene, numeric_field_paths
+from squeezebench.analysis import model
+from squeezebench.simbench import physics
+from squeezebench.simbench.scene import SceneError, covered_by_provenance, load_scene, numeric_field_paths
 from squeezebench import paths
 from test_sim_support import RawBench, scene_file
 
