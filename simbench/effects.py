@@ -430,8 +430,9 @@ class _ChannelDelay(SystematicEffect):
 
 class ChannelSkew(_ChannelDelay, errors={"ch2_delay_s": SPECIFICATIONS["scope_skew"].half_width}):
     """The scope's own delay of CH2 against CH1: CH2 shows i(t - ch2_delay_s). Mean
-    power becomes 0.5 Re(V conj(I) exp(j w tau)), i.e. P cos(w tau) + Q_r sin(w tau)
-    with Q_r the reactive power (phasor algebra). Default 1 ns, assumed: the TDS3000B
+    power becomes 0.5 Re(V conj(I) exp(j w tau)) = P cos(w tau) - Q_r sin(w tau), with
+    Q_r = 0.5 Im(V conj I) (negative for the capacitive plate: a delay raises the power;
+    phasor algebra). Default 1 ns, assumed: the TDS3000B
     states no channel-to-channel delay; a tenth of its +-10 ns deskew range."""
 
     name = "channel_skew"
