@@ -45,7 +45,7 @@ from tqdm import tqdm
 from squeezebench.instruments.bench import load_bench_file, open_bench, sim_bench_config
 from squeezebench.protocols import characterisation, cutting, detuning, powered_columns, resonance
 from squeezebench.protocols.acquisition import Acquisition, AcquisitionSettings
-from squeezebench.protocols.safety import DriveController, SafetyLimits
+from squeezebench.protocols.safety import DriveController, SafetyLimits, stop_signals_interrupt
 from squeezebench.protocols.steps import Plate, Step, StepContext
 from squeezebench.protocols.storage import RunStore, sha256_file
 from squeezebench import paths
@@ -255,7 +255,13 @@ def run_campaign(path: Path, resume: bool = False, out_dir: Path | None = None,
     """Run (or with `resume`, continue) a campaign; return its run directory. `progress`
     off hides the progress bar (a campaign run inside another tool, e.g. the planner);
     `say` shows what the operator must know now (default: the terminal's stderr), and
-    everything said also goes to log.txt."""
+    everything said also goes to log.txt. SIGTERM and SIGHUP stop it as Ctrl-C does."""
+    with stop_signals_interrupt():
+        return _run_campaign(path, resume, out_dir, progress, say)
+
+
+def _run_campaign(path: Path, resume: bool, out_dir: Path | None, progress: bool,
+                  say: Callable[[str], None] | None) -> Path:
     campaign = load_campaign(path)
     run_dir = Path(out_dir) if out_dir is not None else campaign.output_dir
     store = RunStore(run_dir)
