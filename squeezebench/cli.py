@@ -83,9 +83,20 @@ def cmd_check(args: argparse.Namespace) -> int:
 def cmd_run(args: argparse.Namespace) -> int:
     from squeezebench.protocols.campaign import run_campaign
 
+    watchers = {}
+    if args.plot:
+        from squeezebench.liveplot import LivePlot
+
+        plot = LivePlot()
+        watchers = {"on_point": plot.on_point, "on_step": plot.on_step}
     run_dir = run_campaign(campaign_file(args.campaign), resume=args.resume, out_dir=args.out,
-                           progress=show_progress(args))
+                           progress=show_progress(args), **watchers)
     say(args, f"run stored in {run_dir}")
+    if args.plot and plot.interactive:
+        import matplotlib.pyplot as plt
+
+        say(args, "close the plot window to finish")
+        plt.show()
     return 0
 
 
@@ -200,6 +211,8 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("campaign", help="campaign YAML file, or the name of a shipped one (quick, paper)")
     run.add_argument("--resume", action="store_true", help="continue after the last completed step")
     run.add_argument("--out", type=Path, default=None, help="run directory (default: from the campaign)")
+    run.add_argument("--plot", action="store_true",
+                     help="draw the resonance sweeps, the measured points and the resonance drift live")
     run.set_defaults(func=cmd_run)
 
     report = add("report", help="recompute tables and figures from a stored run")
