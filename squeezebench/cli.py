@@ -43,18 +43,6 @@ def show_progress(args: argparse.Namespace) -> bool:
     return not args.quiet and sys.stderr.isatty()
 
 
-def campaign_file(name: str) -> Path:
-    """A campaign path as given, else a campaign shipped with squeezebench (`quick`,
-    `paper.yaml`): an installed package has no data/ folder in the working directory."""
-    path = Path(name)
-    if path.exists():
-        return path
-    for candidate in (paths.campaigns_dir() / name, paths.campaigns_dir() / f"{name}.yaml"):
-        if candidate.is_file():
-            return candidate
-    return path   # the campaign loader names what is missing
-
-
 def _bench_config(bench: str):
     from squeezebench.instruments.bench import load_bench_file, sim_bench_config
 
@@ -89,7 +77,7 @@ def cmd_run(args: argparse.Namespace) -> int:
 
         plot = LivePlot()
         watchers = {"on_point": plot.on_point, "on_step": plot.on_step}
-    run_dir = run_campaign(campaign_file(args.campaign), resume=args.resume, out_dir=args.out,
+    run_dir = run_campaign(paths.campaign_file(args.campaign), resume=args.resume, out_dir=args.out,
                            progress=show_progress(args), **watchers)
     say(args, f"run stored in {run_dir}")
     if args.plot and plot.interactive:
@@ -175,7 +163,7 @@ def cmd_study(args: argparse.Namespace) -> int:
 def cmd_plan(args: argparse.Namespace) -> int:
     from squeezebench.protocols.planning import make_plan, plan_campaign, write_planned_campaign
 
-    campaign = campaign_file(args.campaign)
+    campaign = paths.campaign_file(args.campaign)
     if not args.json:
         say(args, plan_campaign(campaign, target_rel_error=args.target_rel_error, write=args.write))
         return 0

@@ -28,6 +28,18 @@ def campaigns_dir() -> Path:
     return data_dir() / "campaigns"
 
 
+def campaign_file(name: str | Path) -> Path:
+    """A campaign path as given, else a campaign shipped with squeezebench (`quick`,
+    `paper.yaml`): an installed package has no data/ folder in the working directory."""
+    path = Path(name)
+    if path.exists():
+        return path
+    for candidate in (campaigns_dir() / path, campaigns_dir() / f"{path}.yaml"):
+        if candidate.is_file():
+            return candidate
+    return path   # the campaign loader names what is missing
+
+
 def benches_dir() -> Path:
     """Bench file examples to copy and fill in with a lab's VISA addresses."""
     return data_dir() / "benches"
