@@ -77,6 +77,9 @@ def cmd_run(args: argparse.Namespace) -> int:
 
         plot = LivePlot()
         watchers = {"on_point": plot.on_point, "on_step": plot.on_step}
+        if not plot.interactive:
+            print("squeezebench run: warning: --plot draws off-screen: matplotlib found no display "
+                  "(set MPLBACKEND to a GUI backend such as QtAgg or TkAgg)", file=sys.stderr)
     run_dir = run_campaign(paths.campaign_file(args.campaign), resume=args.resume, out_dir=args.out,
                            progress=show_progress(args), **watchers)
     say(args, f"run stored in {run_dir}")

@@ -64,12 +64,15 @@ def test_the_panels_hold_what_was_measured(watched_quick_run):
 
 
 def test_a_failing_watcher_never_stops_the_run(tmp_path, caplog):
-    from squeezebench import paths
-    from squeezebench.protocols.campaign import run_campaign
+    from squeezebench import api
 
     def broken(row):
         raise RuntimeError("plot window gone")
 
-    run_dir = run_campaign(paths.campaigns_dir() / "quick.yaml", out_dir=tmp_path / "run", progress=False,
-                           on_point=broken)
-    assert len(RunStore(run_dir).journal()) > 0 and "plot window gone" in caplog.text
+    run = api.resonance_search(tmp_path / "run", plate={"n_powered_columns": 1, "n_powered_piezos": 4},
+                               search={"start_hz": 36000, "stop_hz": 38500, "points": 5},
+                               scene="one_column_1mm.yaml", acquisition={"averages": 1, "record_length": 500},
+                               on_point=broken, on_step=broken)
+    assert len(RunStore(run.run_dir).journal()) == 1 and len(run.points()) > 5
+    failures = [r for r in caplog.records if r.getMessage().startswith("a watcher of the run failed")]
+    assert len(failures) == len(run.points()) + 1 and "plot window gone" in caplog.text
