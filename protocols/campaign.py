@@ -45,7 +45,8 @@ from tqdm import tqdm
 from squeezebench.instruments.bench import load_bench_file, open_bench, sim_bench_config
 from squeezebench.protocols import characterisation, cutting, detuning, powered_columns, resonance
 from squeezebench.protocols.acquisition import Acquisition, AcquisitionSettings
-from squeezebench.protocols.safety import DriveController, SafetyLimits, stop_signals_interrupt
+from squeezebench.protocols.safety import (DriveController, SafetyLimits, chain_warnings,
+                                              stop_signals_interrupt)
 from squeezebench.protocols.steps import Plate, Step, StepContext
 from squeezebench.protocols.storage import RunStore, sha256_file
 from squeezebench import paths
@@ -316,6 +317,9 @@ def _run_campaign(path: Path, resume: bool, out_dir: Path | None, progress: bool
             else:
                 store.create(campaign.file)
                 journal = []
+            for warning in dict.fromkeys(f"{run.bench.input_file}: {w}" for run in campaign.runs
+                                         for w in chain_warnings(run.bench.config().electronics)):
+                tell(warning)
             log.info("campaign %s (%s) in %s, %s", campaign.name, campaign.file, run_dir,
                      f"resuming after {len(journal)} steps" if journal else "new run")
             _Runner(campaign, store, journal, progress, watchers).run()
