@@ -252,7 +252,8 @@ _SCENE_GEOMETRY_MM = {
 }
 
 
-def plate_geometry(run: RunData, plate: str, n_powered_piezos: int) -> model.PlateGeometry:
+def plate_geometry(run: RunData, plate: str, n_powered_piezos: int,
+                   n_powered_groups: int | None = None) -> model.PlateGeometry:
     """The model geometry of one plate from its scene copy `inputs/<plate>.yaml`."""
     scene = run.scenes.get(f"{plate}.yaml")
     if scene is None:
@@ -266,7 +267,8 @@ def plate_geometry(run: RunData, plate: str, n_powered_piezos: int) -> model.Pla
         if not isinstance(node, (int, float)):
             raise MissingDataError(f"inputs/{plate}.yaml has no number at {'.'.join(keys)}")
         lengths_m[field] = float(node) * 1e-3
-    return model.PlateGeometry(**lengths_m, n_powered_piezos=int(n_powered_piezos))
+    return model.PlateGeometry(**lengths_m, n_powered_piezos=int(n_powered_piezos),
+                               n_powered_groups=n_powered_groups)
 
 
 @dataclass(frozen=True)
@@ -309,7 +311,8 @@ def characterise_plates(run: RunData, convention: model.Convention) -> dict[str,
     points = _protocol_points(run, "characterisation")
     results = {}
     for plate, group in points.groupby("plate", sort=True):
-        geometry = plate_geometry(run, str(plate), int(group["n_powered_piezos"].iloc[0]))
+        geometry = plate_geometry(run, str(plate), int(group["n_powered_piezos"].iloc[0]),
+                                  int(group["n_powered_columns"].iloc[0]))
         results[str(plate)] = characterise_plate(str(plate), group, geometry, convention)
     return results
 
