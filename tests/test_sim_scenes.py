@@ -4,6 +4,7 @@ traces its numbers and, on a noise-free dry run, reproduces its published calibr
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import pytest
 import yaml
@@ -201,3 +202,43 @@ def test_calibration_the_losses_cannot_reach_names_the_state(tmp_path):
     with pytest.raises(SceneError, match=r"states\.76x41\.calibration: cannot be reproduced with shunt, "
                                          r"dielectric_loss on: power 0\.1 W at 37\.6 Vpp does not cover"):
         load_scene(path)
+
+
+# -- plates that can exist, and the scene format's reference pages --------------------------
+
+def test_every_shipped_state_is_within_the_bounds_of_a_plate_that_can_exist():
+    from squeezebench.simbench.scene import MAX_POWER_FACTOR, MAX_SHUNT_SHARE, scenes_table
+
+    table = scenes_table(sorted(paths.scenes_dir().glob("*.yaml")))
+    assert len(table) == len(STATES)
+    assert (table["effective_coupling"] <= table["material_k31"]).all()
+    assert (table["power_factor"] < MAX_POWER_FACTOR).all()
+    assert (table["modal_mass_ratio"] <= 1.0).all()
+    assert (table["shunt_share"] <= MAX_SHUNT_SHARE).all()
+    assert (table[["c0_nf", "modal_mass_g", "q_mech", "force_factor_vs_datasheet"]] > 0).all().all()
+    # the Fig. 5 plates, inferred through the consistent reading, lose per um^2 within 10x of
+    # the Table 4 plate of the same build (they were 49x under the text's reading)
+    loss = table.set_index("scene")["loss_w_per_um2"]
+    assert loss["small_plate_5"] / loss["one_column_1p2mm"] < 10
+
+
+def test_docs_pages_are_current_and_every_shipped_scene_fits_the_schema(tmp_path):
+    from squeezebench.simbench.scene_schema import SceneFile, write_docs
+
+    docs = Path(__file__).resolve().parents[1] / "docs"
+    for written in write_docs(tmp_path, sorted(paths.scenes_dir().glob("*.yaml"))):
+        assert written.read_text() == (docs / written.name).read_text(), (
+            f"docs/{written.name} is stale: python -m squeezebench.simbench.scene_schema docs/")
+    for name in SHIPPED:
+        SceneFile.model_validate(yaml.safe_load((paths.scenes_dir() / name).read_text()))
+
+
+def test_the_schema_refuses_what_the_loader_refuses():
+    import pydantic
+
+    from squeezebench.simbench.scene_schema import SceneFile
+
+    raw = yaml.safe_load((paths.scenes_dir() / "one_column_1mm.yaml").read_text())
+    raw["plate"]["material"] = "unobtainium"
+    with pytest.raises(pydantic.ValidationError, match="plate.material"):
+        SceneFile.model_validate(raw)
