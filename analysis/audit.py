@@ -247,3 +247,17 @@ def table5_verdicts(frame: pd.DataFrame) -> list[str]:
                  f"{estimated_tan.printed:.3g}.")
         words.append(text)
     return words
+
+
+def plates_under_readings(run, conventions=TABLE5_READINGS) -> pd.DataFrame:
+    """Q and tan theta' of every characterised plate of a run (the paper's, or a user's own)
+    under each reading: one row per (plate, reading)."""
+    from squeezebench.analysis import tables
+
+    rows = []
+    for convention in conventions:
+        for name, plate in tables.characterise_plates(run, convention).items():
+            rows.append({"plate": name, "reading": convention.name, "frequency_hz": plate.frequency_hz,
+                         "q": plate.q.value, "q_u": plate.q.std_uncertainty,
+                         "tan_theta": plate.tan_theta.value, "tan_theta_u": plate.tan_theta.std_uncertainty})
+    return pd.DataFrame(rows)
