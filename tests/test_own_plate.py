@@ -39,6 +39,10 @@ def test_own_plate_runs_and_reports_its_q_and_tan_theta(tmp_path):
         assert math.isfinite(q) and q > 0 and math.isfinite(tan) and tan < 0
     html = (report / "index.html").read_text()
     assert "my_plate" in html and f"{plates.loc[('my_plate', 'inferred'), 'q']:.4g}" in html
+    # the report says the plate could exist, with the figures it was checked on
+    scenes = pd.read_csv(report / "scenes.csv")
+    assert list(scenes["scene"]) == ["own_plate"] and list(scenes["origin"]) == ["physical"]
+    assert "Simulated plates: could they exist?" in html
 
 
 def test_a_campaign_miscounting_the_powered_piezos_is_refused_by_the_analysis(tmp_path):
