@@ -245,6 +245,15 @@ def motional_capacitance_f(branch: MotionalBranch) -> float:
     return branch.force_factor_n_per_v**2 / (omega**2 * modal_mass_kg(branch))
 
 
+def motional_elements(branch: MotionalBranch) -> tuple[float, float, float]:
+    """The branch seen from the terminals, (R_m ohm, L_m H, C_m F) of the Butterworth-Van
+    Dyke circuit: R_mech, M and 1/K divided by (n_c psi)^2 (the force factor is the
+    electromechanical transformer's turns ratio)."""
+    turns_squared = branch.force_factor_n_per_v**2
+    return (branch.resistance_ns_per_m / turns_squared, modal_mass_kg(branch) / turns_squared,
+            motional_capacitance_f(branch))
+
+
 def effective_coupling(branch: MotionalBranch, capacitance_f: float) -> float:
     """k_eff = sqrt(C_m / (C0 + C_m)) = sqrt((f_a^2 - f_r^2) / f_a^2) of the lossless
     Butterworth-Van Dyke circuit (IEEE Std 176); a bonded patch stays below its k31."""

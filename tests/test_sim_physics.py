@@ -176,3 +176,10 @@ def test_effective_coupling_is_the_resonance_antiresonance_spacing():
     f_r, f_a = frequency[np.argmax(admittance)], frequency[np.argmin(admittance)]
     assert physics.effective_coupling(branch, capacitance) == pytest.approx(
         math.sqrt((f_a**2 - f_r**2) / f_a**2), rel=1e-3)
+
+
+def test_motional_elements_resonate_at_the_branch_frequency_with_its_q():
+    branch = physics.branch_from_physics(F_HZ, 250.0, 4.6e-3, 0.06)
+    r_ohm, l_h, c_f = physics.motional_elements(branch)
+    assert 1 / (2 * math.pi * math.sqrt(l_h * c_f)) == pytest.approx(F_HZ, rel=1e-12)
+    assert 2 * math.pi * F_HZ * l_h / r_ohm == pytest.approx(250.0, rel=1e-12)
