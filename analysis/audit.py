@@ -245,8 +245,32 @@ def table5_verdicts(frame: pd.DataFrame) -> list[str]:
                      f"printed {measured_tan.printed:.3g} ({measured_tan.relative_difference:+.1%}); ")
         text += (f"the small plates give {estimated_tan.value:.3g} against the printed "
                  f"{estimated_tan.printed:.3g}.")
+        printed_reading = _PRINTED_NUMBERS_READINGS.get(reading)
+        if printed_reading is not None:
+            predicted = printed_estimate_power_w(printed_reading)
+            published = paper_value("large_plate", "large_plate", "power_w")
+            verdict = ("within" if abs(predicted / published - 1.0) <= MATCH_REL else "outside")
+            text += (f" From printed numbers alone: Table 5's estimate (Q {paper_value('table5', 'estimated', 'q'):g}, "
+                     f"tan theta' {paper_value('table5', 'estimated', 'tan_theta'):g}) through Eq. 25 under this "
+                     f"reading gives {predicted:.3g} W at 32 Vpp against the published {published:g} W, a factor "
+                     f"{predicted / published:.3g}: {verdict} the paper's 10 %.")
         words.append(text)
     return words
+
+
+#: The search's Reading (with its lambda and n_c) behind each convention Table 5 is shown under.
+_PRINTED_NUMBERS_READINGS = {model.PAPER_CONVENTION.name: readings.PRINTED_READING,
+                             model.INFERRED_CONVENTION.name: readings.INFERRED_READING}
+
+
+def printed_estimate_power_w(reading: readings.Reading) -> float:
+    """Eq. 25 at the published 32 Vpp and 52.4 kHz with Table 5's printed estimate of Q and
+    tan theta', on the large plate as `reading` reads it: what the paper's Fig. 9 estimate
+    is under that reading, computed from printed numbers only."""
+    return model.power_w(paper_value("table5", "estimated", "q"), paper_value("table5", "estimated", "tan_theta"),
+                         paper_value("large_plate", "large_plate", "voltage_vpp"),
+                         paper_value("large_plate", "large_plate", "frequency_hz"),
+                         reading.large_plate_geometry(), reading.convention())
 
 
 def plates_under_readings(run, conventions=TABLE5_READINGS) -> pd.DataFrame:
