@@ -16,7 +16,8 @@ A campaign file (see data/campaigns/paper.yaml):
         safety: {...}                  # optional, merged over the campaign's
         parameters: {...}              # the protocol's Parameters
 
-Scenes are looked up in `squeezebench.paths.scenes_dir()` (absolute paths are kept);
+Scenes are looked up next to the campaign file, then in `squeezebench.paths.scenes_dir()`
+(absolute paths are kept);
 bench files relative to the campaign file. Every error names the file, the field and
 what is allowed, as a CampaignError (a UserError: one message, exit status 2).
 
@@ -181,6 +182,8 @@ class _Reader:
         plate_data = dict(run["plate"]) if isinstance(run["plate"], dict) else run["plate"]
         if isinstance(plate_data, dict) and "name" not in plate_data and bench.scene is not None:
             plate_data["name"] = bench.scene.stem
+        if isinstance(plate_data, dict) and "scene" not in plate_data and bench.scene is not None:
+            plate_data["scene"] = str(bench.scene)   # a plate named otherwise keeps its geometry
         merged = lambda key: {**(top.get(key) or {}), **(run.get(key) or {})}  # noqa: E731
         return Run(
             name=name, protocol=protocol, bench=bench,
@@ -204,8 +207,11 @@ class _Reader:
         return BenchChoice(file=file)
 
     def scene(self, value: Any, field: str) -> Path:
+        """A relative scene path is the user's file next to the campaign first, then a shipped one."""
         scene = Path(str(value))
-        scene = scene if scene.is_absolute() else paths.scenes_dir() / scene
+        if not scene.is_absolute():
+            beside = self.file.parent / scene
+            scene = beside if beside.is_file() else paths.scenes_dir() / scene
         if not scene.is_file():
             known = sorted(p.name for p in paths.scenes_dir().glob("*.yaml"))
             raise self.error(field, f"no scene {scene}; available in {paths.scenes_dir()}: {', '.join(known)}")

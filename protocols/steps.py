@@ -91,6 +91,7 @@ class StepContext:
             "run_name": self.run_name,
             "protocol": protocol or self.protocol,
             "plate": plate.name,
+            "scene_file": Path(plate.scene).name if plate.scene is not None else None,
             "scene_state": plate.state,
             "step_id": self.step.step_id,
             "point_index": point_index,

@@ -92,6 +92,7 @@ def cmd_run(args: argparse.Namespace) -> int:
 
 
 def cmd_report(args: argparse.Namespace) -> int:
+    import squeezebench.scenes_section  # noqa: F401  (adds the simulated plates' section)
     from squeezebench.analysis.report import write_report
     from squeezebench.protocols.storage import RunStore
 
@@ -108,6 +109,7 @@ def cmd_report(args: argparse.Namespace) -> int:
 
 
 def cmd_reproduce(args: argparse.Namespace) -> int:
+    import squeezebench.scenes_section  # noqa: F401  (adds the simulated plates' section)
     from squeezebench.analysis.report import write_report
     from squeezebench.protocols.accuracy_study import run_study
     from squeezebench.protocols.campaign import run_campaign
