@@ -48,7 +48,8 @@ def test_run_data_as_frames_and_the_report(notebook):
             "vibrometer_output_v"} <= set(waveforms.columns)
     assert waveforms.groupby("point_index").size().eq(500).all()   # FAST's record length
     assert settings.set_index("setting").loc["acquisition.averages", "value"] == 4
-    assert (where / "runs/notebook/characterisation/report/index.html").is_file()
+    report = where / "runs/notebook/characterisation/report"
+    assert (report / "index.html").is_file() and (report / "scenes.csv").is_file()   # as the CLI's
 
 
 def test_resume_of_an_api_run_uses_the_same_campaign(notebook):
