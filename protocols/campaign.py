@@ -32,11 +32,12 @@ import dataclasses
 import datetime as dt
 import logging
 import re
+import sys
 import types
 import typing
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, Callable
 
 import yaml
 from tqdm import tqdm
@@ -44,7 +45,7 @@ from tqdm import tqdm
 from squeezebench.instruments.bench import load_bench_file, open_bench, sim_bench_config
 from squeezebench.protocols import calibration, characterisation, cutting, detuning, powered_columns, resonance
 from squeezebench.protocols.acquisition import Acquisition, AcquisitionSettings
-from squeezebench.protocols.safety import DriveController, SafetyLimits
+from squeezebench.protocols.safety import DriveController, SafetyLimits, stop_signals_interrupt
 from squeezebench.protocols.steps import Plate, Step, StepContext
 from squeezebench.protocols.storage import RunStore, sha256_file
 from squeezebench import paths
@@ -250,36 +251,64 @@ def _join(field: str | None, key: str) -> str:
 
 # -- running -----------------------------------------------------------------------------
 def run_campaign(path: Path, resume: bool = False, out_dir: Path | None = None,
-                 progress: bool = True) -> Path:
+                 progress: bool = True, say: Callable[[str], None] | None = None) -> Path:
     """Run (or with `resume`, continue) a campaign; return its run directory. `progress`
-    off hides the progress bar (a campaign run inside another tool, e.g. the planner)."""
+    off hides the progress bar (a campaign run inside another tool, e.g. the planner);
+    `say` shows what the operator must know now (default: the terminal's stderr), and
+    everything said also goes to log.txt. SIGTERM and SIGHUP stop it as Ctrl-C does."""
+    with stop_signals_interrupt():
+        return _run_campaign(path, resume, out_dir, progress, say)
+
+
+def _run_campaign(path: Path, resume: bool, out_dir: Path | None, progress: bool,
+                  say: Callable[[str], None] | None) -> Path:
     campaign = load_campaign(path)
     run_dir = Path(out_dir) if out_dir is not None else campaign.output_dir
     store = RunStore(run_dir)
-    if store.exists():
-        if not resume:
-            raise CampaignError(campaign.file, None, f"{run_dir} already holds a run; continue it "
-                                "with --resume or choose another output directory")
-        if store.manifest()["campaign"]["sha256"] != sha256_file(campaign.file):
-            raise CampaignError(campaign.file, None, f"the file changed since {run_dir} was started; "
-                                "a resumed run must use the campaign it started with")
-        journal = store.repair()
-    else:
-        store.create(campaign.file)
-        journal = []
-    handler = _attach_log(run_dir / "log.txt")
-    try:
-        log.info("campaign %s (%s) in %s, %s", campaign.name, campaign.file, run_dir,
-                 f"resuming after {len(journal)} steps" if journal else "new run")
-        _Runner(campaign, store, journal, progress).run()
-        log.info("campaign %s complete", campaign.name)
-    except BaseException as exc:
-        log.error("campaign stopped by %s: %s; completed steps are stored, resume to continue",
-                  type(exc).__name__, exc)
-        raise
-    finally:
-        _detach_log(handler)
+    foreign = store.foreign_entries()
+    if foreign:
+        raise CampaignError(campaign.file, None, f"{run_dir} is not empty and holds no run "
+                            f"(no manifest.json; it has {', '.join(foreign[:3])}"
+                            f"{', ...' if len(foreign) > 3 else ''}): a run is only written into a new "
+                            "or empty directory; choose another output directory")
+    if store.exists() and not resume:
+        raise CampaignError(campaign.file, None, f"{run_dir} already holds a run; continue it "
+                            "with --resume or choose another output directory")
+    with store.writer():
+        handler = _attach_log(run_dir / "log.txt")
+        tell = _teller(say)
+        try:
+            if store.exists():
+                if store.manifest()["campaign"]["sha256"] != sha256_file(campaign.file):
+                    raise CampaignError(campaign.file, None, f"the file changed since {run_dir} was "
+                                        "started; a resumed run must use the campaign it started with")
+                store.ensure_campaign_copy(campaign.file)
+                journal = store.repair(tell)
+            else:
+                store.create(campaign.file)
+                journal = []
+            log.info("campaign %s (%s) in %s, %s", campaign.name, campaign.file, run_dir,
+                     f"resuming after {len(journal)} steps" if journal else "new run")
+            _Runner(campaign, store, journal, progress).run()
+            log.info("campaign %s complete", campaign.name)
+        except BaseException as exc:
+            log.error("campaign stopped by %s: %s; completed steps are stored, resume to continue",
+                      type(exc).__name__, exc)
+            raise
+        finally:
+            _detach_log(handler)
     return run_dir
+
+
+def _teller(say: Callable[[str], None] | None) -> Callable[[str], None]:
+    """`say`, also logged as a warning (log.txt keeps what the terminal was told)."""
+    def tell(message: str) -> None:
+        log.warning("%s", message)
+        if say is None:
+            print(message, file=sys.stderr)
+        else:
+            say(message)
+    return tell
 
 
 class _Runner:
@@ -345,9 +374,9 @@ class _Runner:
         # points doubtful: the step is not stored, and a resume measures it again.
         bench.check_errors()
         bench_time_s = ctx.bench_time_s()
-        self.store.write_step(run.name, step.step_id, ctx.rows, ctx.waveforms)
+        files = self.store.write_step(run.name, step.step_id, ctx.rows, ctx.waveforms)
         entry = {"run": run.name, "step": step.step_id, "protocol": run.protocol,
-                 "rows": len(ctx.rows), "context": ctx.updates,
+                 "rows": len(ctx.rows), "context": ctx.updates, "files": files,
                  "campaign_bench_time_s": bench_time_s,
                  "completed_utc": dt.datetime.now(dt.timezone.utc).isoformat(timespec="seconds")}
         self.store.append_journal(entry)

@@ -7,14 +7,23 @@ before anything is sent, a piezo voltage above the campaign limit (the paper: "w
 apply voltage above 100 V") or above what the amplifier can deliver; it ramps large
 changes in steps (a sudden 100 V step on a capacitive load is a current spike through
 the shunt and the piezos); and, used as a context manager, it leaves the generator at its
-minimum output whatever happens inside: an exception, Ctrl-C or a normal end.
+minimum output whatever happens inside: an exception, Ctrl-C (SIGTERM and SIGHUP are
+turned into the same KeyboardInterrupt by `stop_signals_interrupt`) or a normal end. While
+it brings the generator down, further stop signals wait; if the generator cannot be
+reached, the terminal is told in capitals that its output state is unknown and what to do
+by hand.
 """
 
 from __future__ import annotations
 
+import contextlib
 import logging
 import math
+import signal
+import sys
+import threading
 from dataclasses import dataclass
+from typing import Iterator
 
 from squeezebench.errors import UserError
 
@@ -24,6 +33,50 @@ log = logging.getLogger(__name__)
 PAPER_MAX_PIEZO_VOLTAGE_VPP = 100.0
 #: gain * (v / gain) may exceed v by an ulp: a limit is met "exactly" within this factor.
 _ROUNDING = 1.0 + 1e-12
+
+
+#: Signals that stop a run as Ctrl-C does (SIGINT is Ctrl-C itself).
+STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
+
+
+def _raise_interrupt(signum, frame) -> None:
+    raise KeyboardInterrupt(f"stopped by {signal.Signals(signum).name}")
+
+
+@contextlib.contextmanager
+def stop_signals_interrupt() -> Iterator[None]:
+    """Inside, SIGTERM and SIGHUP raise KeyboardInterrupt like Ctrl-C (SIGINT), so every
+    way of stopping a run takes the same safe path. Only the main thread gets signals;
+    elsewhere this does nothing."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = {sig: signal.signal(sig, _raise_interrupt) for sig in STOP_SIGNALS}
+    try:
+        yield
+    finally:
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
+
+
+@contextlib.contextmanager
+def _stop_signals_deferred() -> Iterator[None]:
+    """Stop signals wait (blocked, then delivered) while the generator is brought down."""
+    main = threading.current_thread() is threading.main_thread()
+    if main:
+        signal.pthread_sigmask(signal.SIG_BLOCK, STOP_SIGNALS)
+    try:
+        yield
+    finally:
+        if main:
+            signal.pthread_sigmask(signal.SIG_UNBLOCK, STOP_SIGNALS)
+
+
+def output_state_unknown(reason: str) -> str:
+    """What the operator must read when the generator may still be driving the plate."""
+    return ("GENERATOR OUTPUT STATE UNKNOWN: the generator could not be set to its minimum "
+            f"({reason}). THE PLATE MAY STILL BE DRIVEN. By hand: switch the amplifier off or set "
+            "the 33120A's amplitude to its minimum on the front panel, before touching the plate.")
 
 
 class SafetyLimitError(UserError):
@@ -147,10 +200,19 @@ class DriveController:
 
     def __exit__(self, exc_type, exc, tb) -> None:
         # On an error or Ctrl-C drop at once (the bench may be in any state); on a normal
-        # end ramp down like any other change.
-        try:
-            self.to_minimum(ramp=exc_type is None)
-        except Exception:
-            if exc_type is None:
-                raise
-            log.exception("could not set the generator to its minimum after %s", exc_type.__name__)
+        # end ramp down like any other change, and drop at once if the ramp fails.
+        with _stop_signals_deferred():
+            try:
+                if exc_type is None:
+                    try:
+                        self.to_minimum(ramp=True)
+                        return
+                    except Exception:
+                        log.exception("ramping the generator down failed; dropping it at once")
+                self.to_minimum(ramp=False)
+            except Exception as failure:
+                message = output_state_unknown(f"{type(failure).__name__}: {failure}")
+                log.critical(message)
+                print(message, file=sys.stderr, flush=True)
+                if exc_type is None:
+                    raise

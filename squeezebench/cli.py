@@ -43,7 +43,15 @@ def cmd_run(args: argparse.Namespace) -> int:
 
 def cmd_report(args: argparse.Namespace) -> int:
     from squeezebench.analysis.report import write_report
+    from squeezebench.protocols.storage import RunStore
 
+    problems = RunStore(Path(args.run_dir)).verify()
+    if problems and not args.allow_missing:
+        more = f" (and {len(problems) - 1} more)" if len(problems) > 1 else ""
+        raise UserError(f"{problems[0]}{more}; the report would lack their rows: restore the "
+                        "files, or pass --allow-missing to report without them")
+    for problem in problems:
+        print(f"squeezebench report: warning: {problem}", file=sys.stderr)
     index = write_report(Path(args.run_dir))
     print(f"report written to {index}")
     return 0
@@ -101,6 +109,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     report = sub.add_parser("report", help="recompute tables and figures from a stored run")
     report.add_argument("run_dir", help="run directory written by 'squeezebench run'")
+    report.add_argument("--allow-missing", action="store_true",
+                        help="report even if step files in the journal are missing or fail their checksum")
     report.set_defaults(func=cmd_report)
 
     reproduce = sub.add_parser("reproduce", help="the whole paper on the simulated bench, then the report")

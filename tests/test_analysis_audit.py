@@ -55,11 +55,12 @@ def test_table4_loss_tangent_far_below_the_published_mean(findings):
 def test_convention_grid_states_which_reading_matches_what():
     grid = audit.convention_grid()
     assert len(grid) == math.prod(len(v) for v in audit.GRID_AXES.values())
-    paper = grid[(grid["materials"] == "printed") & (grid["voltage"] == "pp") & (grid["amplitude"] == "pp")
-                 & (grid["neutral_plane"] == "stack_middle") & (grid["n_c"] == "piezos")
-                 & (grid["b_p"] == "length") & (grid["wavelength"] == "two_half")].iloc[0]
-    assert paper["matches_amplitude"] and not paper["matches_power"]
-    assert paper["power_ratio"] > 5  # Eq. 25 at Table 5's Q, tan gives ~11x the published 1.3 W
+    paper = grid[(grid["materials"] == "printed") & (grid["voltage"] == "pp") & (grid["eq27_amplitude"] == "pp")
+                 & (grid["published_amplitude"] == "pp") & (grid["neutral_plane"] == "stack_middle")
+                 & (grid["n_c"] == "piezos") & (grid["b_p"] == "length") & (grid["wavelength"] == "printed")
+                 & grid["c11_reduced"] & grid["eq25_with_pi"] & (grid["eq25_coefficient"] == 0.75)].iloc[0]
+    assert paper["matches_amplitude"] and not paper["matches_tan_theta"]
+    assert paper["tan_theta_ratio"] < 0.1  # Eq. 25 gives ~-0.11 where Table 5 prints -1.24
     summary = audit.grid_summary(grid)
     assert list(summary["published"])[-1] == "all three at once"
-    assert (summary["readings_defined"] > 0).all()
+    assert (summary["readings"] > 0).all()
