@@ -16,6 +16,7 @@ specifications allow.
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 import pandas as pd
@@ -23,13 +24,21 @@ import pandas as pd
 from squeezebench.analysis.rundata import RunData
 from squeezebench.analysis.specifications import SPECIFICATIONS, Specification
 from squeezebench.analysis.tables import reduced_points
-from squeezebench.analysis.uncertainty import Deskew
 from squeezebench.analysis.waveforms import Estimate
 
 PROTOCOL = "deskew_calibration"
 RESISTOR_TIME_CONSTANT = Specification(
     0.5e-9, "s", "assumed: a low-inductance precision resistor, L/R within 0.5 ns (50 nH in 100 ohm)")
 SHUNT_TOLERANCE_REL = 0.01   # assumed: the 2 ohm shunt within 1 %
+
+
+@dataclass(frozen=True)
+class Deskew:
+    """The delay of CH2 against CH1 a calibration measured, to be removed from the power."""
+
+    delay_s: float
+    std_uncertainty_s: float
+    source: str
 
 
 def _mean(values: np.ndarray, stated_u: np.ndarray) -> Estimate:

@@ -21,7 +21,7 @@ import numpy as np
 import pandas as pd
 
 import squeezebench
-from squeezebench.analysis import audit, figures, model, study, tables
+from squeezebench.analysis import audit, figures, model, study, tables, uncertainty
 from squeezebench.analysis.rundata import RunData, load_run
 from squeezebench.errors import UserError
 
@@ -289,10 +289,40 @@ def _optional_folder(context: ReportContext, folder: str, title: str, how: str) 
     return Section(title, body or f"<p class='missing'>{folder}/ is empty.</p>")
 
 
+def uncertainty_section(context: ReportContext) -> Section:
+    """Uncertainty budgets (GUM, k = 2)"""
+    found = uncertainty.run_uncertainties(context.run)
+    if found.points.empty:
+        raise UserError("no stored records to budget")
+    quantities = list(uncertainty.POINT_BUDGETS)
+    summary = pd.DataFrame([
+        {"protocol": protocol, "quantity": q, "points": int(rows[f"{q}_U"].notna().sum()),
+         "median_expanded_relative": float((rows[f"{q}_U"] / rows[q].abs()).median()),
+         "dominant_term": rows[f"{q}_dominant"].mode().iat[0]}
+        for protocol, rows in found.points.groupby("protocol", sort=False) for q in quantities])
+    context.tables["uncertainty_summary"] = summary
+    context.tables["uncertainty_budgets"] = found.budgets
+    columns = ["run_name", "step_id", "point_index", "protocol"] + [
+        f"{q}{suffix}" for q in quantities for suffix in ("", "_U", "_dominant")]
+    context.tables["uncertainty_points"] = found.points[[c for c in columns if c in found.points]]
+    deskew = ("<p>No deskew calibration in this run: the CH2 delay enters at its specified limit.</p>"
+              if found.deskew is None else
+              f"<p>Power corrected by the deskew calibration: CH2 delay {found.deskew.delay_s * 1e9:.2f} ns "
+              f"(u = {found.deskew.std_uncertainty_s * 1e9:.2f} ns).</p>")
+    return Section("Uncertainty budgets (GUM, k = 2)",
+                   "<p>Expanded uncertainties (k = 2) of every stored point: noise of the record (Type A) "
+                   "and the instruments' specifications (Type B). Median relative U and the most frequent "
+                   "dominant term per protocol; then the whole budget of one point of each protocol.</p>"
+                   + deskew + _html_table(summary) + _html_table(found.budgets)
+                   + "<p>CSV: <a href='uncertainty_points.csv'>uncertainty_points.csv</a>, "
+                     "<a href='uncertainty_budgets.csv'>uncertainty_budgets.csv</a></p>")
+
+
 #: The report, in order. Another package adds a section by appending a builder.
 SECTIONS: list[SectionBuilder] = [
     provenance_section, conventions_section, table3_section, table4_section, detuning_section,
     resonance_section, characterisation_section, audit_section, study_section, hardcases_section,
+    uncertainty_section,
 ]
 
 

@@ -33,7 +33,10 @@ import pandas as pd
 import uncertainties
 
 from squeezebench.analysis import model
+from squeezebench.analysis.calibration import Deskew, deskew_of_run
+from squeezebench.analysis.rundata import RunData
 from squeezebench.analysis.specifications import SPECIFICATIONS, Specification
+from squeezebench.analysis.tables import reduced_points
 
 COVERAGE_FACTOR = 2.0
 BUDGET_COLUMNS = ["quantity", "unit", "value", "term", "type", "std_uncertainty", "relative",
@@ -82,15 +85,6 @@ class Budget:
                  "share": t.std_uncertainty**2 / total, "source": t.source}
                 for t in sorted(self.terms, key=lambda t: -t.std_uncertainty)]
         return pd.DataFrame(rows, columns=BUDGET_COLUMNS)
-
-
-@dataclass(frozen=True)
-class Deskew:
-    """The delay of CH2 against CH1 a calibration measured, to be removed from the power."""
-
-    delay_s: float
-    std_uncertainty_s: float
-    source: str
 
 
 def _spec_term(name: str, key: str, sensitivity: float) -> Term:
@@ -252,6 +246,27 @@ def example_budgets(points: pd.DataFrame, deskew: Deskew | None = None) -> pd.Da
             frame.insert(0, "protocol", protocol)
             frames.append(frame)
     return pd.concat(frames, ignore_index=True) if frames else pd.DataFrame()
+
+
+@dataclass(frozen=True)
+class RunUncertainties:
+    """What the report shows: every stored point with its expanded uncertainties, the
+    budgets of one point per protocol, and the deskew applied (None: no calibration)."""
+
+    points: pd.DataFrame
+    budgets: pd.DataFrame
+    deskew: Deskew | None
+
+
+def run_uncertainties(run: RunData) -> RunUncertainties:
+    """Budgets of a run's stored points, corrected by its own deskew calibration if any."""
+    deskew = deskew_of_run(run)
+    rows = run.measurements
+    if rows.empty or "waveform_file" not in rows:
+        return RunUncertainties(pd.DataFrame(), pd.DataFrame(), deskew)
+    points = reduced_points(run, rows[rows["waveform_file"].notna()])
+    points = points[points["protocol"] != "deskew_calibration"]
+    return RunUncertainties(with_expanded_uncertainties(points, deskew), example_budgets(points, deskew), deskew)
 
 
 # -- Q and tan theta' through the paper's model ----------------------------------------------

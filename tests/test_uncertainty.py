@@ -11,11 +11,13 @@ import pytest
 
 from squeezebench import paths
 from squeezebench.analysis import model
+from squeezebench.analysis.report import write_report
 from squeezebench.analysis.rundata import load_run
+from squeezebench.analysis.calibration import Deskew
 from squeezebench.analysis.specifications import SPECIFICATIONS
 from squeezebench.analysis.tables import reduced_points
 from squeezebench.analysis.uncertainty import (
-    Budget, Deskew, Term, detuning_slope_per_hz, example_budgets, model_budgets, power_budget,
+    Budget, Term, detuning_slope_per_hz, example_budgets, model_budgets, power_budget,
     velocity_budget, voltage_budget, with_expanded_uncertainties)
 from squeezebench.protocols.campaign import run_campaign
 from squeezebench.simbench import physics
@@ -107,14 +109,14 @@ def erring_bench_points(tmp_path_factory):
         state = scene.state(point["scene_state"] if isinstance(point["scene_state"], str) else scene.initial_state)
         truths.append(physics.steady_state(state, scene.electronics, point["generator_frequency_hz"],
                                            point["generator_amplitude_vpp"], build_pipeline(scene)))
-    return with_expanded_uncertainties(points), truths
+    return with_expanded_uncertainties(points), truths, run_dir
 
 
 @pytest.mark.parametrize("quantity, truth_of", [
     ("power_w", lambda t: t.power_w), ("velocity_pp_mps", lambda t: t.velocity_pp_mps),
     ("piezo_voltage_vpp", lambda t: t.output_voltage_pp_v)])
 def test_expanded_uncertainties_cover_the_truth_on_an_erring_bench(erring_bench_points, quantity, truth_of):
-    points, truths = erring_bench_points
+    points, truths, _ = erring_bench_points
     truth = np.array([truth_of(t) for t in truths])
     error = np.abs(points[quantity].to_numpy() - truth)
     assert len(points) >= 100
@@ -124,10 +126,20 @@ def test_expanded_uncertainties_cover_the_truth_on_an_erring_bench(erring_bench_
 
 
 def test_example_budgets_show_one_point_per_protocol(erring_bench_points):
-    points, _ = erring_bench_points
+    points, _, _ = erring_bench_points
     table = example_budgets(points)
     assert set(table["protocol"]) == set(points["protocol"])
     first = table[table["protocol"] == "detuning"]
     assert set(first["quantity"]) == {"power_w", "velocity_pp_mps", "piezo_voltage_vpp", "frequency_hz"}
     assert list(first.groupby("quantity")["share"].sum()) == pytest.approx([1.0] * 4)
     assert SPECIFICATIONS["current_probe_gain"].source in set(table["source"])
+
+
+def test_the_report_shows_expanded_uncertainties_and_budgets(erring_bench_points):
+    points, _, run_dir = erring_bench_points
+    write_report(run_dir)
+    summary = pd.read_csv(run_dir / "report" / "uncertainty_summary.csv")
+    assert set(summary["protocol"]) == set(points["protocol"])
+    assert (summary["median_expanded_relative"] > 0).all()
+    assert "current probe gain" in set(summary["dominant_term"])
+    assert "Uncertainty budgets (GUM, k = 2)" in (run_dir / "report" / "index.html").read_text()
