@@ -269,6 +269,44 @@ def run_uncertainties(run: RunData) -> RunUncertainties:
     return RunUncertainties(with_expanded_uncertainties(points, deskew), example_budgets(points, deskew), deskew)
 
 
+# -- the floor: what no averaging removes --------------------------------------------------------
+#: |error| at the 95th percentile of a near-normal combined distribution, in standard uncertainties.
+P95_FACTOR = 1.96
+#: Budget terms a calibration protocol of this bench replaces by its own uncertainty.
+LIFTED_BY = {"CH2 delay vs CH1 (skew, TCP202)": "deskew_calibration"}
+
+
+def systematic_floor(points: pd.DataFrame, deskew_std_uncertainty_s: float | None = None) -> pd.DataFrame:
+    """Per (run, quantity): the p95 relative error the instruments' specified errors leave
+    when the noise is averaged away (Type A set to zero), at the run's worst point, with
+    the term that dominates there and the calibration that would lift it (if any).
+
+    `deskew_std_uncertainty_s`: the floor after a deskew calibration of that uncertainty.
+    """
+    points = points.copy()
+    points["detuning_slope_per_hz"] = detuning_slope_per_hz(points)
+    deskew = None if deskew_std_uncertainty_s is None else Deskew(0.0, deskew_std_uncertainty_s, "planned")
+    rows = []
+    for run_name, run_points in points.groupby("run_name", sort=False):
+        for quantity in ("power_w", "velocity_pp_mps"):
+            worst = None
+            for _, row in run_points.iterrows():
+                row = row.to_dict()
+                if not _has_reduction(row):
+                    continue
+                budget = point_budget(quantity, {**row, f"{quantity}_u": 0.0}, deskew)
+                relative = budget.std_uncertainty / abs(budget.value)
+                if worst is None or relative > worst[0]:
+                    worst = (relative, budget)
+            if worst is None:
+                continue
+            relative, budget = worst
+            dominant = budget.dominant.name
+            rows.append({"run_name": run_name, "quantity": quantity, "floor_p95_rel": P95_FACTOR * relative,
+                         "dominant_term": dominant, "lifted_by": LIFTED_BY.get(dominant, "")})
+    return pd.DataFrame(rows, columns=["run_name", "quantity", "floor_p95_rel", "dominant_term", "lifted_by"])
+
+
 # -- Q and tan theta' through the paper's model ----------------------------------------------
 @dataclass(frozen=True)
 class Tolerance:

@@ -18,7 +18,7 @@ from squeezebench.protocols.campaign import run_campaign
 from squeezebench.simbench import physics
 from squeezebench.simbench.effects import build_pipeline
 from squeezebench.simbench.scene import load_scene
-from squeezebench.simbench.variants import campaign_with_effects
+from squeezebench.protocols.variants import campaign_with_effects
 
 PROBE_DELAY_S, SKEW_S = 8e-9, 1e-9
 GAINS = {"ch1_rel": 0.01, "ch2_rel": -0.01, "ch3_rel": 0.0}
@@ -80,3 +80,20 @@ def test_deskew_corrects_the_fig2c_stress_power(calibrated_run):
     assert corrected["power_w_U"].iloc[0] < 0.5 * plain["power_w_U"].iloc[0]
     assert plain["power_w_dominant"].iloc[0].startswith("CH2 delay")
     assert np.isfinite(corrected["power_w_uncorrected"]).all()
+
+
+def test_errors_on_erring_benches_with_and_without_calibration(tmp_path):
+    """The quick campaign on two erring benches: expanded uncertainties cover the truth,
+    and the calibration's bench time is part of the campaign's."""
+    from squeezebench.protocols.bench_errors import errors_on_benches, p95_by_run, with_calibration
+
+    quick = paths.campaigns_dir() / "quick.yaml"
+    plain = errors_on_benches(quick, range(1, 3))
+    calibrated = errors_on_benches(with_calibration(quick, tmp_path / "quick.yaml", 37000.0), range(1, 3))
+    for errors in (plain, calibrated):
+        assert errors["covered"].mean() >= 0.95
+        assert set(errors["bench_seed"]) == {1, 2}
+    assert all(calibrated.attrs["bench_time_s"][s] > plain.attrs["bench_time_s"][s] + 1.0 for s in (1, 2))
+    summary = p95_by_run(plain)
+    assert set(summary["quantity"]) == {"power_w", "velocity_pp_mps"}
+    assert (summary["p95_abs_rel_error"] > 1e-3).all()   # the instruments' errors, not noise

@@ -23,7 +23,7 @@ from squeezebench.protocols.campaign import run_campaign
 from squeezebench.simbench import physics
 from squeezebench.simbench.effects import build_pipeline
 from squeezebench.simbench.scene import load_scene
-from squeezebench.simbench.variants import campaign_with_effects, systematic_effects
+from squeezebench.protocols.variants import campaign_with_effects, systematic_effects
 
 RECT = 1.0 / math.sqrt(3.0)
 

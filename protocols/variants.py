@@ -15,7 +15,11 @@ from typing import Any
 import yaml
 
 from squeezebench import paths
-from squeezebench.simbench.effects import SYSTEMATIC_EFFECTS
+
+#: The systematic effects of `simbench.effects` (scene vocabulary: names, not imports, as
+#: protocols never import the simulator): the instruments' errors within specification.
+SYSTEMATIC_EFFECTS = ("scope_gain_error", "current_probe_gain_error", "vibrometer_scale_error",
+                      "channel_skew", "current_probe_delay", "generator_frequency_error")
 
 
 def systematic_effects(bench_seed: int, draw: bool = True, only: tuple[str, ...] = SYSTEMATIC_EFFECTS) -> list[dict]:
