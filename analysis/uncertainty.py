@@ -274,6 +274,14 @@ def run_uncertainties(run: RunData) -> RunUncertainties:
 P95_FACTOR = 1.96
 #: Budget terms a calibration protocol of this bench replaces by its own uncertainty.
 LIFTED_BY = {"CH2 delay vs CH1 (skew, TCP202)": "deskew_calibration"}
+#: What would lift the terms no protocol of this bench calibrates.
+REFERENCE_FOR = {
+    "current probe gain": "a current reference: a precision DMM reading the calibration resistor's voltage",
+    "CH1 gain": "a voltage reference: a precision DMM on the same signal",
+    "CH2 gain": "a voltage reference: a precision DMM on the same signal",
+    "CH3 gain": "a voltage reference: a precision DMM on the same signal",
+    "vibrometer decoder scale": "a reference vibration: a calibrated shaker under the laser",
+}
 
 
 def systematic_floor(points: pd.DataFrame, deskew_std_uncertainty_s: float | None = None) -> pd.DataFrame:
