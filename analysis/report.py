@@ -305,6 +305,14 @@ def uncertainty_section(context: ReportContext) -> Section:
     columns = ["run_name", "step_id", "point_index", "protocol"] + [
         f"{q}{suffix}" for q in quantities for suffix in ("", "_U", "_dominant")]
     context.tables["uncertainty_points"] = found.points[[c for c in columns if c in found.points]]
+    plates = []
+    if not context.run.protocol("characterisation").empty:
+        for name, plate in context.plates().items():
+            for budget in uncertainty.characterisation_budgets(plate, context.convention, found.deskew):
+                plates.append({"plate": name, "quantity": budget.quantity, "value": budget.value,
+                               "expanded_uncertainty": budget.expanded_uncertainty,
+                               "dominant_term": budget.dominant.name})
+    context.tables["uncertainty_q_tan_theta"] = pd.DataFrame(plates)
     deskew = ("<p>No deskew calibration in this run: the CH2 delay enters at its specified limit.</p>"
               if found.deskew is None else
               f"<p>Power corrected by the deskew calibration: CH2 delay {found.deskew.delay_s * 1e9:.2f} ns "
@@ -314,6 +322,8 @@ def uncertainty_section(context: ReportContext) -> Section:
                    "and the instruments' specifications (Type B). Median relative U and the most frequent "
                    "dominant term per protocol; then the whole budget of one point of each protocol.</p>"
                    + deskew + _html_table(summary) + _html_table(found.budgets)
+                   + "<p>Q and tan(theta') per plate with the geometry and material tolerances "
+                     "(expanded, k = 2):</p>" + _html_table(context.tables["uncertainty_q_tan_theta"])
                    + "<p>CSV: <a href='uncertainty_points.csv'>uncertainty_points.csv</a>, "
                      "<a href='uncertainty_budgets.csv'>uncertainty_budgets.csv</a></p>")
 

@@ -345,9 +345,9 @@ def model_budgets(amplitude: Budget, power: Budget, voltage: Budget, frequency_h
     budgets say what is inside); each tolerance is a separate term. The frequency's
     uncertainty (ppm) is negligible against the others and is not propagated.
     """
-    inputs = {"amplitude": uncertainties.ufloat(amplitude.value, amplitude.std_uncertainty, "amplitude"),
-              "power": uncertainties.ufloat(power.value, power.std_uncertainty, "power"),
-              "voltage": uncertainties.ufloat(voltage.value, voltage.std_uncertainty, "voltage")}
+    # an exactly known input (the slopes' V = 1 Vpp) stays a plain number
+    inputs = {name: uncertainties.ufloat(b.value, b.std_uncertainty, name) if b.std_uncertainty > 0 else b.value
+              for name, b in (("amplitude", amplitude), ("power", power), ("voltage", voltage))}
     nominal = {name: getattr(geometry, name) for name in _GEOMETRY_FIELDS}
     nominal.update({name: getattr(convention.materials, name) for name in _MATERIAL_FIELDS})
     for name, value in nominal.items():
@@ -382,3 +382,34 @@ def model_budgets(amplitude: Budget, power: Budget, voltage: Budget, frequency_h
                            sources[variable.tag]) for variable, u in components.items())
         budgets.append(Budget(quantity, "1", result.nominal_value, terms))
     return budgets[0], budgets[1]
+
+
+def characterisation_budgets(plate, convention: model.Convention, deskew: Deskew | None = None,
+                             tolerances: dict[str, Tolerance] = TOLERANCES) -> tuple[Budget, Budget]:
+    """Budgets of a plate's Q and tan theta' (`analysis.tables.PlateCharacterisation`).
+
+    The slopes carry V = 1 Vpp (Eqs. 25 and 27 are linear in V and V^2): the amplitude
+    slope reads g_CH3 g_decoder / g_CH1, the power slope g_CH2 g_probe / g_CH1 (P carries
+    g_CH1 once, V^2 twice), each with its fit's uncertainty and, for the power, the CH2
+    delay at the points' mean ratio of reactive to real power.
+    """
+    points = plate.points
+    slope_a, slope_p = plate.amplitude_slope.slope, plate.power_slope.slope
+    amplitude = Budget("amplitude_pp_m_per_vpp", "m/V", slope_a.value, (
+        Term("line fit", "A", slope_a.std_uncertainty, "weighted fit of amplitude against voltage"),
+        _spec_term("CH3 gain", "scope_gain", slope_a.value),
+        _spec_term("vibrometer decoder scale", "vibrometer_scale", slope_a.value),
+        _spec_term("CH1 gain", "scope_gain", slope_a.value)))
+    omega_ratio = float((2.0 * math.pi * points["frequency_hz"] * points["reactive_power_var"].abs()
+                         / points["power_w"].abs()).mean())
+    delay = (Term("CH2 delay vs CH1 (skew, TCP202)", "B", abs(slope_p.value) * omega_ratio * delay_std_uncertainty_s(),
+                  SPECIFICATIONS["current_probe_delay"].source) if deskew is None else
+             Term("CH2 delay after deskew", "B", abs(slope_p.value) * omega_ratio * deskew.std_uncertainty_s,
+                  deskew.source))
+    power = Budget("power_w_per_vpp2", "W/V^2", slope_p.value, (
+        Term("line fit", "A", slope_p.std_uncertainty, "weighted fit of power against voltage squared"),
+        _spec_term("CH2 gain", "scope_gain", slope_p.value),
+        _spec_term("current probe gain", "current_probe_gain", slope_p.value),
+        _spec_term("CH1 gain", "scope_gain", slope_p.value), delay))
+    at_one_volt = Budget("piezo_voltage_vpp", "V", 1.0, ())
+    return model_budgets(amplitude, power, at_one_volt, plate.frequency_hz, plate.geometry, convention, tolerances)

@@ -15,10 +15,10 @@ from squeezebench.analysis.report import write_report
 from squeezebench.analysis.rundata import load_run
 from squeezebench.analysis.calibration import Deskew
 from squeezebench.analysis.specifications import SPECIFICATIONS
-from squeezebench.analysis.tables import reduced_points
+from squeezebench.analysis.tables import characterise_plates, reduced_points
 from squeezebench.analysis.uncertainty import (
-    Budget, Term, detuning_slope_per_hz, example_budgets, model_budgets, power_budget,
-    velocity_budget, voltage_budget, with_expanded_uncertainties)
+    Budget, Term, characterisation_budgets, detuning_slope_per_hz, example_budgets, model_budgets,
+    power_budget, velocity_budget, voltage_budget, with_expanded_uncertainties)
 from squeezebench.protocols.campaign import run_campaign
 from squeezebench.simbench import physics
 from squeezebench.simbench.effects import build_pipeline
@@ -143,3 +143,17 @@ def test_the_report_shows_expanded_uncertainties_and_budgets(erring_bench_points
     assert (summary["median_expanded_relative"] > 0).all()
     assert "current probe gain" in set(summary["dominant_term"])
     assert "Uncertainty budgets (GUM, k = 2)" in (run_dir / "report" / "index.html").read_text()
+
+
+def test_q_and_tan_theta_budgets_of_the_characterised_plates(erring_bench_points):
+    _, _, run_dir = erring_bench_points
+    plates = characterise_plates(load_run(run_dir), model.PAPER_CONVENTION)
+    assert len(plates) == 7
+    for plate in plates.values():
+        q, tan = characterisation_budgets(plate, model.PAPER_CONVENTION)
+        assert q.value == pytest.approx(plate.q.value, rel=1e-9)
+        assert tan.value == pytest.approx(plate.tan_theta.value, rel=1e-9)
+        # the fit alone (what the tables state) is far below the whole budget
+        assert q.std_uncertainty > 10 * plate.q.std_uncertainty
+        terms = {t.name for t in tan.terms}
+        assert {"amplitude", "power", "piezo_d31_c_per_n", "resonator_thickness_m"} <= terms
