@@ -308,11 +308,16 @@ def uncertainty_section(context: ReportContext) -> Section:
     plates = []
     if not context.run.protocol("characterisation").empty:
         for name, plate in context.plates().items():
-            for budget in uncertainty.characterisation_budgets(plate, context.convention, found.deskew):
+            budgets = uncertainty.characterisation_budgets(plate, context.convention, found.deskew)
+            floors = uncertainty.characterisation_budgets(plate, context.convention, found.deskew, with_fit=False)
+            for budget, floor in zip(budgets, floors):
                 plates.append({"plate": name, "quantity": budget.quantity, "value": budget.value,
                                "expanded_uncertainty": budget.expanded_uncertainty,
-                               "dominant_term": budget.dominant.name})
+                               "dominant_term": budget.dominant.name,
+                               "floor_p95_rel": uncertainty.P95_FACTOR * floor.std_uncertainty / abs(floor.value)})
     context.tables["uncertainty_q_tan_theta"] = pd.DataFrame(plates)
+    deskew_u_s = None if found.deskew is None else found.deskew.std_uncertainty_s
+    context.tables["uncertainty_floors"] = uncertainty.systematic_floor(found.points, deskew_u_s)
     deskew = ("<p>No deskew calibration in this run: the CH2 delay enters at its specified limit.</p>"
               if found.deskew is None else
               f"<p>Power corrected by the deskew calibration: CH2 delay {found.deskew.delay_s * 1e9:.2f} ns "
@@ -323,7 +328,11 @@ def uncertainty_section(context: ReportContext) -> Section:
                    "dominant term per protocol; then the whole budget of one point of each protocol.</p>"
                    + deskew + _html_table(summary) + _html_table(found.budgets)
                    + "<p>Q and tan(theta') per plate with the geometry and material tolerances "
-                     "(expanded, k = 2):</p>" + _html_table(context.tables["uncertainty_q_tan_theta"])
+                     "(expanded, k = 2; floor: p95 relative error with the fits' noise gone):</p>"
+                   + _html_table(context.tables["uncertainty_q_tan_theta"])
+                   + "<p>Floor per run: the p95 relative error of power and velocity the instruments' "
+                     "specified errors leave at the run's worst point, whatever the averaging:</p>"
+                   + _html_table(context.tables["uncertainty_floors"])
                    + "<p>CSV: <a href='uncertainty_points.csv'>uncertainty_points.csv</a>, "
                      "<a href='uncertainty_budgets.csv'>uncertainty_budgets.csv</a></p>")
 

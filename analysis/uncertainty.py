@@ -385,18 +385,21 @@ def model_budgets(amplitude: Budget, power: Budget, voltage: Budget, frequency_h
 
 
 def characterisation_budgets(plate, convention: model.Convention, deskew: Deskew | None = None,
-                             tolerances: dict[str, Tolerance] = TOLERANCES) -> tuple[Budget, Budget]:
+                             tolerances: dict[str, Tolerance] = TOLERANCES,
+                             with_fit: bool = True) -> tuple[Budget, Budget]:
     """Budgets of a plate's Q and tan theta' (`analysis.tables.PlateCharacterisation`).
 
     The slopes carry V = 1 Vpp (Eqs. 25 and 27 are linear in V and V^2): the amplitude
     slope reads g_CH3 g_decoder / g_CH1, the power slope g_CH2 g_probe / g_CH1 (P carries
     g_CH1 once, V^2 twice), each with its fit's uncertainty and, for the power, the CH2
-    delay at the points' mean ratio of reactive to real power.
+    delay at the points' mean ratio of reactive to real power. Without `with_fit` the
+    line fits' own (Type A) terms are left out: the floor no number of points lowers.
     """
     points = plate.points
     slope_a, slope_p = plate.amplitude_slope.slope, plate.power_slope.slope
+    fit = 1.0 if with_fit else 0.0
     amplitude = Budget("amplitude_pp_m_per_vpp", "m/V", slope_a.value, (
-        Term("line fit", "A", slope_a.std_uncertainty, "weighted fit of amplitude against voltage"),
+        Term("line fit", "A", fit * slope_a.std_uncertainty, "weighted fit of amplitude against voltage"),
         _spec_term("CH3 gain", "scope_gain", slope_a.value),
         _spec_term("vibrometer decoder scale", "vibrometer_scale", slope_a.value),
         _spec_term("CH1 gain", "scope_gain", slope_a.value)))
@@ -407,7 +410,7 @@ def characterisation_budgets(plate, convention: model.Convention, deskew: Deskew
              Term("CH2 delay after deskew", "B", abs(slope_p.value) * omega_ratio * deskew.std_uncertainty_s,
                   deskew.source))
     power = Budget("power_w_per_vpp2", "W/V^2", slope_p.value, (
-        Term("line fit", "A", slope_p.std_uncertainty, "weighted fit of power against voltage squared"),
+        Term("line fit", "A", fit * slope_p.std_uncertainty, "weighted fit of power against voltage squared"),
         _spec_term("CH2 gain", "scope_gain", slope_p.value),
         _spec_term("current probe gain", "current_probe_gain", slope_p.value),
         _spec_term("CH1 gain", "scope_gain", slope_p.value), delay))

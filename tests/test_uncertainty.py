@@ -143,6 +143,11 @@ def test_the_report_shows_expanded_uncertainties_and_budgets(erring_bench_points
     assert (summary["median_expanded_relative"] > 0).all()
     assert "current probe gain" in set(summary["dominant_term"])
     assert "Uncertainty budgets (GUM, k = 2)" in (run_dir / "report" / "index.html").read_text()
+    floors = pd.read_csv(run_dir / "report" / "uncertainty_floors.csv")
+    assert set(floors["quantity"]) == {"power_w", "velocity_pp_mps"}
+    assert (floors["floor_p95_rel"] > 0.02).all()   # the gains alone, whatever the averaging
+    q_tan = pd.read_csv(run_dir / "report" / "uncertainty_q_tan_theta.csv")
+    assert set(q_tan["quantity"]) == {"q", "tan_theta"} and (q_tan["floor_p95_rel"] > 0.05).all()
 
 
 def test_q_and_tan_theta_budgets_of_the_characterised_plates(erring_bench_points):
