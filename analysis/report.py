@@ -305,6 +305,7 @@ def uncertainty_section(context: ReportContext) -> Section:
     columns = ["run_name", "step_id", "point_index", "protocol"] + [
         f"{q}{suffix}" for q in quantities for suffix in ("", "_U", "_dominant")]
     context.tables["uncertainty_points"] = found.points[[c for c in columns if c in found.points]]
+    context.tables["uncertainty_resonances"] = found.searches
     plates = []
     if not context.run.protocol("characterisation").empty:
         for name, plate in context.plates().items():
@@ -327,6 +328,8 @@ def uncertainty_section(context: ReportContext) -> Section:
                    "and the instruments' specifications (Type B). Median relative U and the most frequent "
                    "dominant term per protocol; then the whole budget of one point of each protocol.</p>"
                    + deskew + _html_table(summary) + _html_table(found.budgets)
+                   + "<p>Resonance frequencies found by the searches (the generator's setting there), "
+                     "expanded (k = 2):</p>" + _html_table(found.searches)
                    + "<p>Q and tan(theta') per plate with the geometry and material tolerances "
                      "(expanded, k = 2; floor: p95 relative error with the fits' noise gone):</p>"
                    + _html_table(context.tables["uncertainty_q_tan_theta"])

@@ -25,6 +25,7 @@ package (linear propagation, numerical derivatives of `analysis.model`).
 
 from __future__ import annotations
 
+import json
 import math
 from dataclasses import dataclass, replace
 
@@ -36,7 +37,7 @@ from squeezebench.analysis import model
 from squeezebench.analysis.calibration import Deskew, deskew_of_run
 from squeezebench.analysis.rundata import RunData
 from squeezebench.analysis.specifications import SPECIFICATIONS, Specification
-from squeezebench.analysis.tables import reduced_points
+from squeezebench.analysis.tables import reduced_points, with_scope_fallback
 
 COVERAGE_FACTOR = 2.0
 BUDGET_COLUMNS = ["quantity", "unit", "value", "term", "type", "std_uncertainty", "relative",
@@ -146,18 +147,78 @@ def frequency_budget(point: dict) -> Budget:
         Term("scope time base", "B", value * SCOPE_TIMEBASE.std_uncertainty, SCOPE_TIMEBASE.source)))
 
 
-def resonance_frequency_budget(frequency_hz: float, search_tolerance_hz: float,
-                               setting_u_hz: float = 0.0) -> Budget:
-    """The resonance a search reports: the generator's setting there. Its last bracket
-    (`tolerance_hz` wide) holds the maximum anywhere (rectangular, half-width half the
-    bracket); `setting_u_hz` adds what the velocity noise leaves of the peak's position."""
-    terms = [_spec_term("generator frequency", "generator_frequency", frequency_hz),
-             Term("search bracket", "B", 0.5 * search_tolerance_hz / math.sqrt(3.0),
-                  "golden-section search: the final bracket's width (protocols.resonance)")]
-    if setting_u_hz:
-        terms.append(Term("peak position under noise", "A", setting_u_hz,
-                          "velocity noise on the flat top of the resonance"))
-    return Budget("resonance_frequency_hz", "Hz", frequency_hz, tuple(terms))
+def mechanical_q_from_sweep(frequency_hz: float, sweep: pd.DataFrame) -> float | None:
+    """The resonance's sharpness from the search's points around it (sweep and refinement).
+
+    On v = v0 / sqrt(1 + k^2 d^2) (d = f - f0, k = 2 Q / f0), 1/v^2 is a straight line
+    in d^2 with slope/intercept k^2: fitted on the points above a third of the peak
+    (where one mode dominates). None with fewer than three such points or no rise."""
+    near = sweep[sweep["velocity_pp_mps"] > sweep["velocity_pp_mps"].max() / 3.0]
+    if len(near) < 3:
+        return None
+    d2 = (near["generator_frequency_hz"].to_numpy() - frequency_hz) ** 2
+    slope, intercept = np.polyfit(d2, near["velocity_pp_mps"].to_numpy() ** -2.0, 1)
+    if not (slope > 0 and intercept > 0):
+        return None
+    return math.sqrt(slope / intercept) * frequency_hz / 2.0
+
+
+@dataclass(frozen=True)
+class SearchSetup:
+    """What a run's resonance search was set to (RUN_DIR/settings/<run>.json)."""
+
+    tolerance_hz: float
+    samples_per_period: float   # of the records the search read the velocity from
+
+
+def search_setups(run: RunData) -> dict[str, SearchSetup]:
+    """The search settings of every run of `run` that searched a resonance."""
+    setups = {}
+    for path in sorted((run.run_dir / "settings").glob("*.json")):
+        settings = json.loads(path.read_text(encoding="utf-8"))
+        search = settings.get("parameters", {}).get("search")
+        if search:
+            acquisition = settings["acquisition"]
+            setups[settings["run"]] = SearchSetup(float(search["tolerance_hz"]),
+                                                  acquisition["record_length"] / acquisition["periods_per_record"])
+    return setups
+
+
+def search_budgets(rows: pd.DataFrame, setups: dict[str, SearchSetup]) -> list[tuple[str, str, Budget]]:
+    """(run, step, budget) of the resonance frequency of every search in `rows`
+    (resonance_search rows, reduced).
+
+    Near the top v/v0 = 1 - x^2/2 (x = 2 Q (f - f0) / f0, Q from the sweep). The search
+    compares the scope's sampled peak-to-peak, which lies up to 1 - cos(pi/N) below the
+    true one for N samples per period depending on where the samples fall on the sine
+    (which moves with the velocity's phase, i.e. with f): the top is found only to
+    |x| < pi/N, a half-width f0 pi / (2 Q N) (rectangular). Noise of the velocity
+    (u_rel) adds |x| < 2 sqrt(u_rel).
+    """
+    budgets = []
+    rows = with_scope_fallback(rows)   # the sweep kept the scope's velocities only
+    for (run_name, step_id), step in rows.groupby(["run_name", "step_id"], sort=False):
+        setup = setups.get(run_name)
+        sweep = step[step["sweep"].astype(bool)]
+        for _, found in step[~step["sweep"].astype(bool)].iterrows():
+            if setup is None or not _has_reduction(found.to_dict()):
+                continue
+            frequency_hz = float(found["resonance_frequency_hz"])
+            q = mechanical_q_from_sweep(frequency_hz, sweep) if len(sweep) else None
+            terms = [_spec_term("generator frequency", "generator_frequency", frequency_hz),
+                     Term("search bracket", "B", 0.5 * setup.tolerance_hz / math.sqrt(3.0),
+                          "golden-section search: the final bracket's width (protocols.resonance)")]
+            if q:
+                half_width = frequency_hz / (2.0 * q)
+                noise_rel = float(found["velocity_pp_mps_u"]) / float(found["velocity_pp_mps"])
+                terms += [Term("sampled peak-to-peak on the flat top", "B",
+                               half_width * math.pi / setup.samples_per_period / math.sqrt(3.0),
+                               f"max - min of {setup.samples_per_period:g} samples per period; Q {q:.0f} "
+                               "from the sweep"),
+                          Term("velocity noise on the flat top", "A", half_width * 2.0 * math.sqrt(noise_rel),
+                               "fit uncertainty of the velocity at the resonance found")]
+            budgets.append((run_name, step_id, Budget("resonance_frequency_hz", "Hz", frequency_hz, tuple(terms))))
+    return budgets
 
 
 POINT_BUDGETS = {"power_w": power_budget, "velocity_pp_mps": velocity_budget,
@@ -256,6 +317,7 @@ class RunUncertainties:
     points: pd.DataFrame
     budgets: pd.DataFrame
     deskew: Deskew | None
+    searches: pd.DataFrame   # one row per resonance search: value, expanded U, dominant term
 
 
 def run_uncertainties(run: RunData) -> RunUncertainties:
@@ -263,10 +325,16 @@ def run_uncertainties(run: RunData) -> RunUncertainties:
     deskew = deskew_of_run(run)
     rows = run.measurements
     if rows.empty or "waveform_file" not in rows:
-        return RunUncertainties(pd.DataFrame(), pd.DataFrame(), deskew)
+        return RunUncertainties(pd.DataFrame(), pd.DataFrame(), deskew, pd.DataFrame())
     points = reduced_points(run, rows[rows["waveform_file"].notna()])
     points = points[points["protocol"] != "deskew_calibration"]
-    return RunUncertainties(with_expanded_uncertainties(points, deskew), example_budgets(points, deskew), deskew)
+    searches = pd.DataFrame([
+        {"run_name": run_name, "step_id": step_id, "resonance_frequency_hz": budget.value,
+         "resonance_frequency_hz_U": budget.expanded_uncertainty, "dominant_term": budget.dominant.name}
+        for run_name, step_id, budget in search_budgets(reduced_points(run, run.protocol("resonance_search")),
+                                                        search_setups(run))])
+    return RunUncertainties(with_expanded_uncertainties(points, deskew), example_budgets(points, deskew), deskew,
+                            searches)
 
 
 # -- the floor: what no averaging removes --------------------------------------------------------

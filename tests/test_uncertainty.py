@@ -18,7 +18,7 @@ from squeezebench.analysis.specifications import SPECIFICATIONS
 from squeezebench.analysis.tables import characterise_plates, reduced_points
 from squeezebench.analysis.uncertainty import (
     Budget, Term, characterisation_budgets, detuning_slope_per_hz, example_budgets, model_budgets,
-    power_budget, velocity_budget, voltage_budget, with_expanded_uncertainties)
+    power_budget, run_uncertainties, velocity_budget, voltage_budget, with_expanded_uncertainties)
 from squeezebench.protocols.campaign import run_campaign
 from squeezebench.simbench import physics
 from squeezebench.simbench.effects import build_pipeline
@@ -162,3 +162,20 @@ def test_q_and_tan_theta_budgets_of_the_characterised_plates(erring_bench_points
         assert q.std_uncertainty > 10 * plate.q.std_uncertainty
         terms = {t.name for t in tan.terms}
         assert {"amplitude", "power", "piezo_d31_c_per_n", "resonator_thickness_m"} <= terms
+
+
+def test_resonance_frequencies_are_covered_by_the_search_budget(erring_bench_points):
+    _, _, run_dir = erring_bench_points
+    run = load_run(run_dir)
+    searches = run_uncertainties(run).searches
+    assert len(searches) == 17
+    covered = []
+    for row in searches.itertuples(index=False):
+        step = run.protocol("resonance_search")
+        step = step[(step["run_name"] == row.run_name) & (step["step_id"] == row.step_id)].iloc[0]
+        scene = load_scene(run_dir / "inputs" / f"{step['plate']}.yaml")
+        state = scene.state(step["scene_state"] if isinstance(step["scene_state"], str) else scene.initial_state)
+        covered.append(abs(row.resonance_frequency_hz - state.branch.frequency_hz) <= row.resonance_frequency_hz_U)
+    assert np.mean(covered) >= 0.95
+    # the sampled peak-to-peak the search compares, not the generator, limits it
+    assert (searches["dominant_term"] == "sampled peak-to-peak on the flat top").mean() > 0.5
