@@ -36,15 +36,12 @@ import uncertainties
 from squeezebench.analysis import model
 from squeezebench.analysis.calibration import Deskew, deskew_of_run
 from squeezebench.analysis.rundata import RunData
-from squeezebench.analysis.specifications import SPECIFICATIONS, Specification
+from squeezebench.analysis.specifications import SPECIFICATIONS
 from squeezebench.analysis.tables import reduced_points, with_scope_fallback
 
 COVERAGE_FACTOR = 2.0
 BUDGET_COLUMNS = ["quantity", "unit", "value", "term", "type", "std_uncertainty", "relative",
                   "share", "source"]
-#: Specification of the scope's time base (the frequency the fit measures).
-SCOPE_TIMEBASE = Specification(
-    20e-6, "1", "TDS3000B Series User Manual, App. A: sample rate and delay time accuracy +-20 ppm")
 
 
 @dataclass(frozen=True)
@@ -144,7 +141,7 @@ def frequency_budget(point: dict) -> Budget:
     value = float(point["frequency_hz"])
     return Budget("frequency_hz", "Hz", value, (
         _noise(point["frequency_hz_u"]),
-        Term("scope time base", "B", value * SCOPE_TIMEBASE.std_uncertainty, SCOPE_TIMEBASE.source)))
+        _spec_term("scope time base", "scope_timebase", value)))
 
 
 def mechanical_q_from_sweep(frequency_hz: float, sweep: pd.DataFrame) -> float | None:
@@ -396,8 +393,8 @@ TOLERANCES: dict[str, Tolerance] = {
     "piezo_thickness_m": Tolerance(0.02, "assumed: lapped piezo plates, +-0.01 mm on 0.5 mm"),
     "piezo_length_m": Tolerance(0.01, "assumed: diced piezo plates, +-0.1 mm on 9 mm"),
     "half_wavelength_m": Tolerance(0.01, "assumed: plate length / antinodes, +-0.1 mm on 8.4 mm"),
-    "piezo_d31_c_per_n": Tolerance(0.10, "assumed: batch spread of PZT coefficients, +-10 %"),
-    "piezo_c11_pa": Tolerance(0.05, "assumed: batch spread of PZT stiffness, +-5 %"),
+    "piezo_d31_c_per_n": Tolerance(0.05, "Noliac NCE41 data sheet (ver. 1203): electromechanical tolerance +-5 %"),
+    "piezo_c11_pa": Tolerance(0.05, "Noliac NCE41 data sheet (ver. 1203): physical tolerance +-5 % (s11^E)"),
     "resonator_young_pa": Tolerance(0.03, "assumed: aluminium alloys 67-71 GPa, +-3 %"),
 }
 _GEOMETRY_FIELDS = ("resonator_thickness_m", "piezo_thickness_m", "piezo_length_m", "half_wavelength_m")

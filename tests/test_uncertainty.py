@@ -17,8 +17,9 @@ from squeezebench.analysis.calibration import Deskew
 from squeezebench.analysis.specifications import SPECIFICATIONS
 from squeezebench.analysis.tables import characterise_plates, reduced_points
 from squeezebench.analysis.uncertainty import (
-    Budget, Term, characterisation_budgets, detuning_slope_per_hz, example_budgets, model_budgets,
-    power_budget, run_uncertainties, velocity_budget, voltage_budget, with_expanded_uncertainties)
+    TOLERANCES, Budget, Term, characterisation_budgets, detuning_slope_per_hz, example_budgets,
+    model_budgets, power_budget, run_uncertainties, velocity_budget, voltage_budget,
+    with_expanded_uncertainties)
 from squeezebench.protocols.campaign import run_campaign
 from squeezebench.simbench import physics
 from squeezebench.simbench.effects import build_pipeline
@@ -86,12 +87,12 @@ def test_q_and_tan_theta_propagate_the_tolerances():
     assert q.value == pytest.approx(model.q_from_amplitude(1.6e-6, 37.6, geometry, convention))
     terms = {t.name: t.std_uncertainty for t in q.terms}
     # Q ∝ A / (V d31): relative sensitivities 1 to amplitude, voltage and d31
-    assert terms["piezo_d31_c_per_n"] == pytest.approx(abs(q.value) * 0.10 * RECT, rel=1e-4)
+    assert terms["piezo_d31_c_per_n"] == pytest.approx(abs(q.value) * 0.05 * RECT, rel=1e-4)
     assert terms["amplitude"] == pytest.approx(abs(q.value) * 0.01, rel=1e-4)
     assert "power" not in terms or terms["power"] == 0
     tan_terms = {t.name: t.std_uncertainty for t in tan.terms}
     assert tan_terms["power"] == pytest.approx(abs(tan.value) * 0.02, rel=1e-4)   # tan ∝ P
-    assert q.dominant.name == tan.dominant.name == "piezo_d31_c_per_n"
+    assert q.dominant.name in TOLERANCES and tan.dominant.name in TOLERANCES   # the constants, not the readings
 
 
 # -- coverage on a bench with systematic errors ---------------------------------------------
