@@ -5,6 +5,7 @@ Only these files hold numbers typed from the paper; everything else is computed.
 
 from __future__ import annotations
 
+from decimal import Decimal
 from functools import lru_cache
 
 import pandas as pd
@@ -19,11 +20,13 @@ class PaperValueError(UserError):
 
 @lru_cache(maxsize=None)
 def paper_table(name: str) -> pd.DataFrame:
-    """One file of printed values: columns item, quantity, value, unit, source, note."""
+    """One file of printed values: columns item, quantity, value, unit, source, note, and
+    value_text (the value as typed)."""
     path = paths.paper_values_dir() / f"{name}.csv"
     if not path.is_file():
         raise PaperValueError(f"{path}: the paper's printed values are missing")
-    frame = pd.read_csv(path, dtype={"item": str}, keep_default_na=False)
+    frame = pd.read_csv(path, dtype={"item": str, "value": str}, keep_default_na=False)
+    frame["value_text"] = frame["value"].str.strip()   # as typed: its last digit is the printed precision
     frame["value"] = frame["value"].astype(float)
     return frame
 
@@ -52,3 +55,12 @@ def paper_value(name: str, item: str, quantity: str) -> float:
 def paper_source(name: str, item: str, quantity: str) -> str:
     """Where the printed value comes from (table, section or figure)."""
     return _lookup(name, item, quantity)[1]
+
+
+def printed_step(value_text: str) -> float:
+    """The step of the printed value's last digit, in its unit: '0.027' -> 0.001,
+    '1.08e-6' -> 1e-8; an integer's trailing zeros are not significant ('37160' -> 10)."""
+    number = Decimal(value_text)
+    if not any(c in value_text for c in ".eE"):
+        number = number.normalize()
+    return float(Decimal(1).scaleb(number.as_tuple().exponent))

@@ -1,9 +1,15 @@
-"""`write_report(run_dir)`: RUN_DIR/report/index.html, figures beside it, table3/4/5.csv.
+"""`write_report(run_dir)`: RUN_DIR/report/index.html, figures beside it, table3/4/5.csv
+and columns.csv (the column dictionary).
+
+The report reads like a results section with its audit trail: a summary in words, the
+paper's tables in the paper's layout (each cell: this run +- U, the printed value, the
+deviation, the origin), captioned figures with the published points drawn, every plate's
+characterisation, the audit's conclusions, and the provenance in an appendix.
 
 The report is a list of section builders (`SECTIONS`); each takes the shared
-`ReportContext` and returns a `Section`. A builder that lacks its data returns a section
-saying what is missing instead of failing, so a partial run still gets a report; optional
-folders (RUN_DIR/study/, RUN_DIR/hardcases/) plug in the same way. Output is
+`ReportContext` and returns a `Section`, or None when the run holds nothing for it (the
+summary lists what is not in the run, so no section is empty). A builder whose data is
+broken returns a section saying what is missing instead of failing. Output is
 deterministic (no clock, sorted inputs, fixed PNG metadata): re-running the report on a
 copy of the run gives identical tables.
 """
@@ -13,6 +19,7 @@ from __future__ import annotations
 import html
 import json
 import math
+import re
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Callable
@@ -21,7 +28,9 @@ import numpy as np
 import pandas as pd
 
 import squeezebench
-from squeezebench.analysis import audit, figures, model, study, tables, uncertainty
+from squeezebench.analysis import (audit, columns, figures, model, presentation, provenance, study, tables,
+                                   uncertainty)
+from squeezebench.analysis.paper import paper_value
 from squeezebench.analysis.rundata import RunData, load_run
 from squeezebench.errors import UserError
 
@@ -36,6 +45,9 @@ class ReportContext:
     convention: model.Convention = REPORT_CONVENTION
     tables: dict[str, pd.DataFrame] = field(default_factory=dict)  # name -> finished CSV table
     cache: dict[str, object] = field(default_factory=dict)
+    absent: list[str] = field(default_factory=list)   # what the run does not hold, for the summary
+    flagged: list[tuple[str, str, str]] = field(default_factory=list)  # (where, sentence, audit anchor)
+    figure_count: int = 0
 
     def plates(self) -> dict[str, tables.PlateCharacterisation]:
         """Fig. 5 characterisation, computed once for the sections that share it."""
@@ -43,14 +55,26 @@ class ReportContext:
             self.cache["plates"] = tables.characterise_plates(self.run, self.convention)
         return self.cache["plates"]
 
+    def bench(self) -> str:
+        return provenance.bench_kind(self.run.measurements, self.run.manifest)
+
+    def figure(self, path: Path, caption: str) -> str:
+        """A numbered, captioned figure (caption: what is drawn, from which runs, what the
+        paper shows)."""
+        self.figure_count += 1
+        return (f"<figure id='figure-{self.figure_count}'><img src='{html.escape(path.name)}' "
+                f"alt='{html.escape(path.stem)}'><figcaption><b>Report figure {self.figure_count}.</b> "
+                f"{caption}</figcaption></figure>")
+
 
 @dataclass(frozen=True)
 class Section:
     title: str
     body_html: str
+    anchor: str = ""
 
 
-SectionBuilder = Callable[[ReportContext], Section]
+SectionBuilder = Callable[[ReportContext], "Section | None"]
 
 
 def write_report(run_dir: Path | str) -> Path:
@@ -62,15 +86,27 @@ def write_report(run_dir: Path | str) -> Path:
     out_dir = run.run_dir / "report"
     out_dir.mkdir(exist_ok=True)
     context = ReportContext(run=run, out_dir=out_dir)
-    sections = [_guarded(builder, context) for builder in SECTIONS]
+    builders = [b for b in SECTIONS if b is not provenance_section] + [provenance_section]   # appendix last
+    sections = [section for builder in builders if (section := _guarded(builder, context)) is not None]
+    sections.insert(0, summary_section(context))   # last: it sums up what the others found
     for name, table in context.tables.items():
         table.to_csv(out_dir / f"{name}.csv", index=False)
+    written = [_header(p) for p in sorted(out_dir.glob("*.csv")) if p.name != "columns.csv"]
+    columns.write(out_dir / "columns.csv", [run.measurements, *written])
     index = out_dir / "index.html"
-    index.write_text(_page(run, sections))
+    index.write_text(_page(context, sections))
     return index
 
 
-def _guarded(builder: SectionBuilder, context: ReportContext) -> Section:
+def _header(path: Path) -> pd.DataFrame:
+    """The columns of a written CSV (none for an empty table)."""
+    try:
+        return pd.read_csv(path, nrows=0)
+    except pd.errors.EmptyDataError:
+        return pd.DataFrame()
+
+
+def _guarded(builder: SectionBuilder, context: ReportContext) -> Section | None:
     """A section whose data is missing says so instead of stopping the report."""
     try:
         return builder(context)
@@ -79,32 +115,499 @@ def _guarded(builder: SectionBuilder, context: ReportContext) -> Section:
         return Section(title, f"<p class='missing'>Not available: {html.escape(str(exc))}</p>")
 
 
+def _slug(text: str) -> str:
+    return re.sub(r"[^a-z0-9]+", "-", text.lower()).strip("-")
+
+
 # --- sections ----------------------------------------------------------------------------
 
-def provenance_section(context: ReportContext) -> Section:
-    """Provenance"""
+def _bench_words(context: ReportContext) -> str:
+    """Said on every table: where its numbers come from."""
+    kind = context.bench()
+    return {"simulated": "Dry run: simulated bench.", "real": "Measured on a real bench."}.get(
+        kind, f"Bench: {kind}.")
+
+
+def summary_section(context: ReportContext) -> Section:
+    """Summary"""
     run = context.run
-    manifest = run.manifest
-    rows = [("run directory", run.run_dir.name),
-            ("report software", f"squeezebench {squeezebench.__version__}"),
-            ("run software", json.dumps(manifest.get("software", "not recorded"), sort_keys=True)),
-            ("campaign", json.dumps(manifest.get("campaign", "not recorded"), sort_keys=True)),
-            ("created (UTC)", str(manifest.get("created_utc", "not recorded"))),
-            ("updated (UTC)", str(manifest.get("updated_utc", "not recorded")))]
-    recorded = {name: entry.get("sha256") for name, entry in manifest.get("inputs", {}).items()
-                if isinstance(entry, dict)}
-    for name, digest in run.input_sha256.items():
-        state = ("matches manifest" if recorded.get(name) == digest else
-                 "NOT the manifest's sha256" if name in recorded else "not in manifest")
-        rows.append((f"inputs/{name}", f"sha256 {digest} ({state})"))
-    for name, ids in sorted(manifest.get("instruments", {}).items()):
-        rows.append((f"instruments, run {name}", json.dumps(ids, sort_keys=True)))
-    counts = run.measurements.groupby("protocol").size() if "protocol" in run.measurements else {}
-    for protocol, count in sorted(dict(counts).items()):
-        rows.append((f"protocol {protocol}", f"{count} measured points"))
-    body = "<table>" + "".join(f"<tr><th>{html.escape(k)}</th><td>{html.escape(v)}</td></tr>"
-                               for k, v in rows) + "</table>"
-    return Section("Provenance", body)
+    kind = context.bench()
+    benches = run.manifest.get("benches", {})
+    inputs = (sorted(run.measurements["bench_input"].dropna().unique()) if "bench_input" in run.measurements
+              else sorted({b.get("bench_input", "") for b in benches.values()} - {""}))
+    if kind == "simulated":
+        lead = ("<p class='banner'><b>Dry run on the simulated bench.</b> No plate was measured: the "
+                "instruments answered from the physics of the scenes " + html.escape(", ".join(inputs)) +
+                ". A cell whose scene was calibrated on the printed value it is compared with is "
+                "shaded and labelled <i>calibration input</i>: it shows that the chain from instrument "
+                "to table returns what went in, not that the paper is confirmed.</p>")
+    elif kind == "real":
+        ids = sorted({json.dumps(v, sort_keys=True) for v in run.manifest.get("instruments", {}).values()})
+        lead = ("<p class='banner real'><b>Measured on a real bench</b> (instruments: "
+                + html.escape("; ".join(ids)) + ").</p>")
+    else:
+        lead = (f"<p class='banner'><b>Bench {html.escape(kind)}</b>: this run predates provenance "
+                "columns; its values are not labelled measured or simulated.</p>")
+    body = lead
+    measurements = run.measurements
+    if not measurements.empty:
+        plates = sorted(measurements["plate"].dropna().unique())
+        protocols = measurements.groupby("protocol")["run_name"].nunique()
+        body += ("<p>The run holds " + f"{len(measurements)} stored points from "
+                 f"{measurements['run_name'].nunique()} campaign runs ("
+                 + html.escape(", ".join(f"{p}: {n}" for p, n in protocols.items()))
+                 + f") on {len(plates)} plates: " + html.escape(", ".join(plates)) + ".</p>")
+    if context.flagged:
+        body += ("<p><b>Results outside the paper's tolerance</b> (this run's expanded uncertainty plus "
+                 "half the printed last digit):</p><ul class='flagged'>"
+                 + "".join(f"<li><a href='#{html.escape(where_anchor)}'>{html.escape(where)}</a>: {sentence}</li>"
+                           for where, sentence, where_anchor in context.flagged) + "</ul>")
+    elif any(name in context.tables for name in ("table3", "table4", "table5")):
+        body += "<p>Every value compared with the paper is within its tolerance.</p>"
+    if context.absent:
+        body += ("<p>Not in this run (sections left out):</p><ul>"
+                 + "".join(f"<li>{html.escape(a)}</li>" for a in context.absent) + "</ul>")
+    return Section("Summary", body, "summary")
+
+
+def _explanation(context: ReportContext, table: str, item: str, quantity: str,
+                 value: float) -> tuple[str, str] | None:
+    """What explains a disagreement of this run's `value` (table, item, quantity) with the
+    paper: the anchor to link and a sentence built from computed numbers, or None. An
+    explanation counts only when it reproduces this run's value (within MATCH_REL): the
+    audit's number from printed values alone, or this run under the inferred reading."""
+    findings = _findings()
+
+    def matches(number: float) -> bool:
+        return math.isfinite(value) and abs(value - number) <= audit.MATCH_REL * abs(number)
+
+    if (table, item, quantity) == ("table5", "estimated", "q"):
+        carried = _finding(findings, "Eq. 29 inverted", "Q_large with")
+        needed = _finding(findings, "Eq. 29 inverted", "Q_small")
+        if matches(carried["computed"]):
+            return ("audit-" + _slug(carried["topic"]),
+                    f"Eq. 29 carries Plate 4's printed Q = {needed['printed']:.3g} to {carried['computed']:.4g}; "
+                    f"the printed {carried['printed']:.3g} needs Q = {needed['computed']:.4g}: the paper "
+                    "computed it from Plate 4's Q before rounding")
+    if (table, item, quantity) == ("table5", "measured", "tan_theta"):
+        row = _finding(findings, "Table 5 under E_i", "tan theta'")
+        if matches(row["computed"]):
+            return ("audit-" + _slug(row["topic"]),
+                    f"the paper's own Eq. 25 with its printed Q turns its printed 1.3 W at 32 Vpp into "
+                    f"tan θ′ = {row['computed']:.3g}, not the printed {row['printed']:.3g}: under the text's "
+                    "reading the printed power and loss tangent cannot both hold, and a plate that "
+                    "returns the 1.3 W misses the printed tan θ′")
+    return _inferred_reading_explanation(context, table, item, quantity)
+
+
+def _finding(findings: pd.DataFrame, topic: str, quantity_prefix: str) -> pd.Series:
+    """The first audit finding of `topic` whose quantity starts with `quantity_prefix`."""
+    return findings[(findings["topic"] == topic) & findings["quantity"].str.startswith(quantity_prefix)].iloc[0]
+
+
+def _inferred_reading_explanation(context: ReportContext, table: str, item: str,
+                                  quantity: str) -> tuple[str, str] | None:
+    """Table 5 and Fig. 9 under the inferred reading (analysis.readings): when this run
+    agrees with the paper there, the text's reading is what disagrees."""
+    frame = _table5_under_readings(context)
+    if frame is None or table not in ("table5", "fig9"):
+        return None
+    key = ("fig9", "mean_power_difference") if table == "fig9" else (item, quantity)
+    others = frame[(frame["reading"] != model.PAPER_CONVENTION.name) & (frame["item"] == key[0])
+                   & (frame["quantity"] == key[1])]
+    for row in others.itertuples(index=False):
+        agrees = (abs(row.value) <= audit.MATCH_REL if table == "fig9"
+                  else abs(row.relative_difference) <= audit.MATCH_REL)
+        if agrees:
+            shown = (f"the estimate is within {100 * abs(row.value):.1f} % of the measured power"
+                     if table == "fig9" else
+                     f"this run gives {row.value:.3g} against the printed {row.printed:.3g} "
+                     f"({presentation.percent(row.relative_difference)})")
+            return ("readings", f"under the {html.escape(str(row.reading))} reading of the paper's open "
+                    f"conventions, {shown}: the text's reading, used in this table, is what disagrees "
+                    "with the paper's own numbers")
+    return None
+
+
+def _table5_under_readings(context: ReportContext) -> pd.DataFrame | None:
+    if "table5_readings" not in context.cache:
+        try:
+            context.cache["table5_readings"] = audit.table5_under_readings(context.run)
+        except UserError:
+            context.cache["table5_readings"] = None
+    return context.cache["table5_readings"]
+
+
+def _findings() -> pd.DataFrame:
+    return audit.audit_findings()
+
+
+def _flag(context: ReportContext, title: str, anchor: str, frame: pd.DataFrame) -> dict[str, str]:
+    """Records every cell outside its tolerance for the summary, with the sentence that
+    explains it; returns item -> the link the cell shows."""
+    links: dict[str, str] = {}
+    for row in frame[frame["agrees"].map(lambda a: a is not None and not pd.isna(a) and not a)].itertuples(index=False):
+        label = presentation.header(row.quantity)
+        sentence = (f"{html.escape(str(row.item))}, {html.escape(label)}: this run "
+                    f"{presentation.percent(row.relative_difference)} from the printed value")
+        explanation = _explanation(context, str(row.table), str(row.item), str(row.quantity), row.value)
+        if explanation:
+            link, why = explanation
+            sentence += f"; {why}. <a href='#{link}'>{'Audit' if link.startswith('audit') else 'Readings'}</a>."
+            links[str(row.item)] = f"#{link}"
+        else:
+            sentence += "; no audit finding explains it."
+            links.setdefault(str(row.item), f"#{anchor}")
+        context.flagged.append((title, sentence, anchor))
+    return links
+
+
+def _paper_table_section(context: ReportContext, name: str, title: str, protocol: str,
+                         compute: Callable[[RunData], pd.DataFrame], quantities: list[str],
+                         item_label: Callable[[str], str], intro: str) -> Section | None:
+    if context.run.protocol(protocol).empty:   # the CSV says "not measured" in every row
+        context.tables[name] = tables.finish_table(tables.empty_table(name, quantities))
+        context.absent.append(f"{title}: protocol '{protocol}' is not in this run")
+        return None
+    frame = compute(context.run)
+    context.tables[name] = tables.finish_table(frame)
+    return Section(title, _paper_table_html(context, name, title, frame, item_label, intro), name)
+
+
+def _paper_table_html(context: ReportContext, name: str, title: str, frame: pd.DataFrame,
+                      item_label: Callable[[str], str], intro: str) -> str:
+    explain = _flag(context, title, name, frame)
+    caption = (f"{html.escape(title)}. {_bench_words(context)} Each cell: this run ± U (k = 2, noise "
+               "and instrument specifications), the printed value and the deviation; ✓ within, ✗ outside "
+               "U plus half the printed last digit; beneath, the origin of the number.")
+    return (f"<p>{intro}</p>" + presentation.paper_layout(frame, name, item_label, explain, caption)
+            + presentation.calibration_notes(frame, item_label)
+            + f"<p class='csv'>Machine-readable: <a href='{name}.csv'>{name}.csv</a> "
+              "(columns in <a href='columns.csv'>columns.csv</a>).</p>")
+
+
+def table3_section(context: ReportContext) -> Section | None:
+    """Table 3"""
+    return _paper_table_section(
+        context, "table3", "Table 3: cutting the resonator (Sec. 2.3.1)", "resonator_cutting", tables.table3,
+        tables.TABLE3_QUANTITIES, lambda item: f"{item} × 41 mm",
+        "The one-column plate at 20 Vpp, cut to shorter lengths: if the resonator's own losses "
+        "mattered, the power at a given velocity would change with its length.")
+
+
+def table4_section(context: ReportContext) -> Section | None:
+    """Table 4"""
+    return _paper_table_section(
+        context, "table4", "Table 4: powered columns (Sec. 2.3.2)", "powered_columns", tables.table4,
+        tables.TABLE4_QUANTITIES, str,
+        "One- and two-column plates (76 × 41 × 1.2 mm), one or both columns powered.")
+
+
+def characterisation_section(context: ReportContext) -> Section | None:
+    """Every plate: Q, tan theta' and their fits"""
+    if context.run.protocol("characterisation").empty:
+        context.absent.append("Plate characterisation (Figs. 5, 8, 9, Table 5): protocol "
+                              "'characterisation' is not in this run")
+        return None
+    plates = context.plates()
+    context.tables["fig5"] = tables.finish_table(tables.fig5_table(plates))
+    body = ("<p>Every characterised plate of this run: Q from the slope of amplitude pp against "
+            "voltage pp (Eq. 27), tan θ′ from the slope of power against voltage pp squared (Eq. 25) "
+            "divided by Q. Both lines are fitted with an intercept, which a plate obeying the model "
+            "leaves at zero within its uncertainty; χ²/dof near 1 says the points scatter as their "
+            "uncertainties state.</p>" + _plates_table(context, plates))
+    runs = ", ".join(sorted(context.run.protocol("characterisation")["run_name"].unique()))
+    body += context.figure(
+        figures.plate_fits(plates, context.out_dir / "plate_fits.png"),
+        f"Voltage sweeps of every characterised plate (campaign runs {html.escape(runs)}): amplitude pp "
+        "against voltage pp (Eq. 27, top of each pair) and power against voltage pp squared (Eq. 25, "
+        "bottom), with the fitted lines; the small panels show the residuals in units of each point's "
+        "standard uncertainty. " + _bench_words(context))
+    body += context.figure(
+        figures.fig5_q_tan(plates, context.out_dir / "fig5.png"),
+        "Fig. 5 of the paper recomputed: Q and tan θ′ per plate with expanded uncertainties (k = 2). "
+        "The paper's per-plate points did not survive in its text; it prints Plate 4's Q (2.34, drawn "
+        "as ◆) and the mean tan θ′ per thickness (−1.30 at 2 mm, −1.64 at 1.2 mm, dashed). "
+        + _bench_words(context))
+    body += ("<p class='csv'>Per plate: <a href='fig5.csv'>fig5.csv</a>.</p>"
+             + presentation.calibration_notes(context.tables["fig5"]))
+    return Section("Every plate: Q, tan θ′ and their fits (Sec. 4, Fig. 5)", body, "plates")
+
+
+def _plates_table(context: ReportContext, plates: dict[str, tables.PlateCharacterisation]) -> str:
+    rows = []
+    for name, p in plates.items():
+        a, w = p.amplitude_slope, p.power_slope
+        rows.append("<tr>" + "".join(f"<td>{c}</td>" for c in (
+            html.escape(name), f"{p.geometry.resonator_thickness_m * 1e3:g}", f"{p.frequency_hz:.0f}",
+            presentation.with_uncertainty(p.q.value, uncertainty.COVERAGE_FACTOR * p.q.std_uncertainty),
+            presentation.with_uncertainty(p.tan_theta.value, uncertainty.COVERAGE_FACTOR * p.tan_theta.std_uncertainty),
+            presentation.with_uncertainty(a.slope.value * 1e9, a.slope.std_uncertainty * 1e9),
+            presentation.with_uncertainty(a.intercept.value * 1e9, a.intercept.std_uncertainty * 1e9),
+            _chi2(a), presentation.with_uncertainty(w.slope.value * 1e6, w.slope.std_uncertainty * 1e6),
+            presentation.with_uncertainty(w.intercept.value * 1e3, w.intercept.std_uncertainty * 1e3), _chi2(w),
+            html.escape(p.origin + (" (calibrated scene)" if p.calibrated_on else "")))) + "</tr>")
+    head = ("<tr><th rowspan=2>plate</th><th rowspan=2>thickness (mm)</th><th rowspan=2>frequency (Hz)</th>"
+            "<th rowspan=2>Q ± U</th><th rowspan=2>tan θ′ ± U</th><th colspan=3>amplitude vs voltage</th>"
+            "<th colspan=3>power vs voltage²</th><th rowspan=2>origin</th></tr>"
+            "<tr><th>slope (nm pp/Vpp)</th><th>intercept (nm pp)</th><th>χ²/dof</th>"
+            "<th>slope (µW/Vpp²)</th><th>intercept (mW)</th><th>χ²/dof</th></tr>")
+    caption = (f"Characterisation of every plate in this run. {_bench_words(context)} U is k = 2 of the "
+               "fits' uncertainty; intercepts ± their standard uncertainty.")
+    return (f"<table class='plates'><caption>{caption}</caption><thead>{head}</thead>"
+            f"<tbody>{''.join(rows)}</tbody></table>")
+
+
+def _chi2(fit: tables.LineFit) -> str:
+    return f"{fit.chi2_per_dof:.2f}" if math.isfinite(fit.chi2_per_dof) else "–"
+
+
+def table5_section(context: ReportContext) -> Section | None:
+    """Table 5, Figs. 8 and 9"""
+    context.tables["table5"] = tables.finish_table(tables.empty_table("table5", ["q", "tan_theta"]))
+    if context.run.protocol("characterisation").empty:
+        return None   # characterisation_section says so
+    plates = context.plates()
+    missing = [p for p in (tables.LARGE_PLATE, tables.TEMPLATE_SMALL_PLATE) if p not in plates]
+    if missing:
+        context.absent.append("Table 5 and Figs. 8-9: the run has no characterisation of "
+                              + ", ".join(missing))
+        return None
+    title = "Table 5: the large plate estimated from the small ones (Sec. 5.3)"
+    table5 = tables.table5(plates, context.convention)
+    context.tables["table5"] = tables.finish_table(table5)
+    body = _paper_table_html(
+        context, "table5", title, table5, lambda item: f"{item} ({'Eq. 29 from small_plate_4' if item == 'estimated' else 'large_plate'})",
+        "Estimated: Q of small_plate_4 carried to the large plate by Eq. 29, tan θ′ the mean of "
+        "the small plates as thick as the large one. Measured: the large plate's own voltage sweep.")
+    body += "<h3>Table 5 under each reading of Table 2's E_i</h3>" + html_table(
+        _table5_by_materials(context), "Table 5 recomputed from the same fits under both readings of E_i "
+        "(only a of Eqs. 25/27 changes). " + _bench_words(context))
+    large = plates[tables.LARGE_PLATE]
+    body += context.figure(
+        figures.fig8_amplitude(large, context.out_dir / "fig8.png"),
+        "Fig. 8 recomputed: amplitude pp of the large plate against voltage pp, with the fitted line "
+        f"(intercept kept) and residuals. The paper reports about {paper_value('large_plate', 'large_plate', 'amplitude_m') * 1e6:g} µm "
+        f"at {paper_value('large_plate', 'large_plate', 'voltage_vpp'):g} Vpp (★). " + _bench_words(context))
+    power = tables.estimated_large_plate_power_w(plates, context.convention)
+    error = float(np.mean(np.abs(power["power_estimated_w"] / power["power_measured_w"] - 1.0)))
+    body += context.figure(
+        figures.fig9_power(power, context.out_dir / "fig9.png"),
+        "Fig. 9 recomputed: power of the large plate against voltage pp squared, from its own sweep "
+        "(●) and estimated from the small plates through Eqs. 25 and 29 with Table 5's estimate (■). "
+        f"The paper reports {paper_value('large_plate', 'large_plate', 'power_w'):g} W at "
+        f"{paper_value('large_plate', 'large_plate', 'voltage_vpp'):g} Vpp (★) and an estimate within "
+        f"10 % of the measurement. " + _bench_words(context))
+    verdict = "within" if error < audit.MATCH_REL else "outside"
+    sentence = (f"Mean relative difference, estimated vs measured power: {100 * error:.1f} %, {verdict} "
+                f"the paper's 10 %.")
+    if error >= audit.MATCH_REL:
+        explanation = _explanation(context, "fig9", "", "power_w", error)
+        if explanation:
+            anchor, why = explanation
+            sentence += f" Why: {why}. <a href='#{anchor}'>Readings</a>."
+        else:
+            sentence += " No audit finding or reading explains it."
+        context.flagged.append(("Fig. 9", sentence, "table5"))
+    body += f"<p class='{'explain' if error >= audit.MATCH_REL else ''}'>{sentence}</p>"
+    return Section(title, body, "table5")
+
+
+def _table5_by_materials(context: ReportContext) -> pd.DataFrame:
+    """Table 5 recomputed from the same fits with E_i as printed and E_i = 67 GPa
+    (only a in Eqs. 25/27 changes: Q scales with a, tan theta' does not)."""
+    frames = []
+    for materials in (model.MATERIALS_AS_PRINTED, model.MATERIALS_PHYSICAL):
+        name = ("E_i as printed (67109 Pa)" if materials is model.MATERIALS_AS_PRINTED
+                else f"E_i = {materials.resonator_young_pa / 1e9:g} GPa")
+        convention = replace(context.convention, name=name, materials=materials)
+        frame = tables.table5(tables.characterise_plates(context.run, convention), convention)
+        frames.append(pd.DataFrame({"reading": convention.name, "item": frame["item"],
+                                    "quantity": frame["quantity"].map(presentation.header),
+                                    "this run": frame["value"].map(lambda v: f"{v:.3f}"),
+                                    "printed": frame["paper_value"].map(lambda v: f"{v:.2f}"),
+                                    "deviation (%)": (100 * frame["relative_difference"]).map(
+                                        lambda v: f"{v:+.1f}")}))
+    return pd.concat(frames, ignore_index=True)
+
+
+def detuning_section(context: ReportContext) -> Section | None:
+    """Fig. 2"""
+    if context.run.protocol("detuning").empty:
+        context.absent.append("Fig. 2: protocol 'detuning' is not in this run")
+        return None
+    summary = tables.detuning_table(context.run)
+    context.tables["fig2"] = tables.finish_table(summary, value_columns=("power_w", "power_ratio"))
+    plotted = summary[summary["status"] == "measured"]
+    runs = ", ".join(sorted(summary["run_name"].unique()))
+    body = ("<p>At each velocity level v0 the plate is detuned until its velocity falls to a fraction "
+            "of v0, then the voltage is raised until v0 is regained; Pt/P0 is the power then over the "
+            "power at resonance. Losses that grow with the voltage (dielectric) raise Pt/P0 above 1.</p>")
+    if not plotted.empty:
+        body += context.figure(
+            figures.fig2_power_ratio(plotted, context.out_dir / "fig2.png"),
+            f"Fig. 2 recomputed: Pt/P0 against the velocity fraction reached before regaining v0, one "
+            f"line per velocity level, one panel per campaign run ({html.escape(runs)}). The paper's "
+            "Fig. 2c stress point, 100 mW at resonance rising to 120 mW once v0 is regained at 37560 Hz "
+            "(Pt/P0 = 1.2), is drawn as ★ at the printed voltage ratio 37.6/240. " + _bench_words(context))
+    body += _detuning_grid(summary, _bench_words(context))
+    body += "<p class='csv'>Machine-readable: <a href='fig2.csv'>fig2.csv</a>.</p>"
+    return Section("Fig. 2: frequency detuning (Sec. 2.2)", body, "fig2")
+
+
+def _detuning_grid(summary: pd.DataFrame, bench_words: str) -> str:
+    """Fig. 2 as a table: one row per series (run, v0), Pt/P0 per velocity fraction."""
+    regained = summary[summary["detuning_phase"] != "resonance"]
+    columns = sorted(regained["target_velocity_ratio"].unique(), reverse=True)
+    head = ("<tr><th>campaign run</th><th>plate</th><th>v0 (m/s pp)</th><th>P0 (mW)</th>"
+            + "".join(f"<th>Pt/P0 at {r:.2f} v0</th>" for r in columns) + "</tr>")
+    rows = []
+    for (run, plate, level), group in summary.groupby(["run_name", "plate", "velocity_level_pp_mps"], sort=True):
+        cells = []
+        for ratio in columns:
+            match = group[(group["target_velocity_ratio"] == ratio) & (group["detuning_phase"] != "resonance")]
+            if match.empty:
+                cells.append("<td class='na'></td>")
+            elif match["status"].iloc[0] != "measured":
+                cells.append(f"<td class='na'>{html.escape(str(match['status'].iloc[0]))}</td>")
+            else:
+                phase = " (stress)" if match["detuning_phase"].iloc[0] == "stress" else ""
+                cells.append(f"<td>{match['power_ratio'].iloc[0]:.3f}{phase}</td>")
+        p0 = group["power_resonance_w"].iloc[0] * 1e3
+        rows.append(f"<tr><td>{html.escape(run)}</td><td>{html.escape(plate)}</td><td>{level:g}</td>"
+                    f"<td>{p0:.1f}</td>{''.join(cells)}</tr>")
+    caption = (f"{bench_words} Fig. 2 as numbers: Pt/P0 for each series once v0 is regained after "
+               "detuning to the given velocity fraction; 'not reachable': the safety limit stopped the voltage.")
+    return f"<table><caption>{html.escape(caption)}</caption><thead>{head}</thead><tbody>{''.join(rows)}</tbody></table>"
+
+
+def resonance_section(context: ReportContext) -> Section | None:
+    """Resonance curves"""
+    rows = context.run.protocol("resonance_search")
+    if rows.empty or "sweep" not in rows:
+        return None
+    sweeps = tables.resonance_sweeps(context.run)
+    body = context.figure(
+        figures.resonance_curves(sweeps, context.out_dir / "resonance.png"),
+        "Velocity pp against frequency during every resonance search, one panel per plate; each line "
+        "is one search (campaign run / step, in the legend), before the golden-section refinement. "
+        "The paper shows no such curve; it reports the resonance frequencies found (Tables 3, 4). "
+        + _bench_words(context))
+    return Section("Resonance searches (Sec. 2.1, 5.3)", body, "resonance")
+
+
+def audit_section(context: ReportContext) -> Section:
+    """Audit"""
+    findings = _findings()
+    grid = audit.convention_grid()
+    grid.to_csv(context.out_dir / "conventions_grid.csv", index=False)
+    conclusions = []
+    for topic, group in findings.groupby("topic", sort=False):
+        compared = group[group["printed"].notna()]
+        worst = compared.loc[compared["relative_difference"].abs().idxmax()] if len(compared) else group.iloc[0]
+        numbers = (f" (worst: {html.escape(worst['quantity'])}, computed {worst['computed']:.4g} vs printed "
+                   f"{worst['printed']:.4g}, {100 * worst['relative_difference']:+.1f} %)"
+                   if pd.notna(worst["printed"]) else f" ({html.escape(worst['quantity'])} = {worst['computed']:.4g})")
+        conclusions.append(f"<li><a href='#audit-{_slug(topic)}'><b>{html.escape(topic)}</b></a>: "
+                           f"{html.escape(str(worst['comment']))}{numbers}.</li>")
+    explained = [f"{html.escape(where)}, {why}" for where, why, _ in context.flagged if "</a>." in why]
+    body = ""
+    if explained:
+        body += ("<p><b>This run's disagreements with the paper, and what explains them:</b></p><ul>"
+                 + "".join(f"<li>{why}</li>" for why in explained) + "</ul>")
+    body += ("<p>What the paper's printed numbers and equations say about each other, computed from "
+             "its printed values alone (data/paper/), independently of any run. Conclusions, one per "
+             "finding (its largest difference from a printed value):</p>"
+             f"<ul class='conclusions'>{''.join(conclusions)}</ul>"
+            "<h3>The findings</h3><p>Relative difference = (computed − printed) / |printed|.</p>"
+            + _findings_table(findings))
+    body += ("<h3>Which reading reproduces which published number</h3>"
+             f"<p>{len(grid)} readings: {html.escape('; '.join(f'{k} in {v}' for k, v in audit.GRID_AXES.items()))}. "
+             f"A number is reproduced within {audit.MATCH_REL:.0%}. Full grid: "
+             "<a href='conventions_grid.csv'>conventions_grid.csv</a>.</p>"
+             + html_table(audit.grid_summary(grid), "Readings that reproduce each published number.")
+             + "<p>The ten best readings overall (RMS of log10 ratios):</p>"
+             + html_table(_best_readings(grid), "The ten best readings: computed / printed for each "
+                           "published number (1 = reproduced)."))
+    return Section("Audit of the paper", body, "audit")
+
+
+def _best_readings(grid: pd.DataFrame, n: int = 10) -> pd.DataFrame:
+    """The best readings, each as one line of its choices, with its ratios to the paper."""
+    best = grid[grid["defined"]].head(n)
+    reading = best[list(audit.GRID_AXES)].apply(
+        lambda row: ", ".join(f"{k}={v}" for k, v in row.items()), axis=1)
+    return pd.DataFrame({"reading": reading, "A / printed": best["amplitude_ratio"],
+                         "tan θ′ / printed": best["tan_theta_ratio"],
+                         "Table 4 tan θ′ / printed": best["table4_tan_ratio"],
+                         "RMS log10 misfit": best["log_misfit"]})
+
+
+def _findings_table(findings: pd.DataFrame) -> str:
+    seen: set[str] = set()
+    rows = []
+    for row in findings.itertuples(index=False):
+        anchor = "" if row.topic in seen else f" id='audit-{_slug(row.topic)}'"
+        seen.add(row.topic)
+        printed = f"{row.printed:.4g}" if pd.notna(row.printed) else "–"
+        rel = f"{100 * row.relative_difference:+.1f}" if pd.notna(row.relative_difference) else "–"
+        rows.append(f"<tr{anchor}>" + "".join(f"<td>{html.escape(str(c))}</td>" for c in (
+            row.topic, row.quantity, f"{row.computed:.4g}", printed, rel, row.source, row.comment)) + "</tr>")
+    head = "".join(f"<th>{h}</th>" for h in ("topic", "quantity", "computed", "printed", "difference (%)",
+                                              "source", "comment"))
+    return (f"<table class='audit'><caption>The audit's findings (printed values only; no run).</caption>"
+            f"<thead><tr>{head}</tr></thead><tbody>{''.join(rows)}</tbody></table>")
+
+
+def study_section(context: ReportContext) -> Section | None:
+    """Accuracy vs bench time"""
+    if not (context.run.run_dir / "study").is_dir():
+        context.absent.append("Accuracy vs bench time: no study/ folder ('squeezebench study --out RUN_DIR' writes it)")
+        return None
+    trials = study.load_trials(context.run.run_dir)
+    summary = study.summarise(trials)
+    summary.to_csv(context.out_dir / "study_summary.csv", index=False)
+    fronts = study.fronts_table(summary)
+    fronts.to_csv(context.out_dir / "study_fronts.csv", index=False)
+    body = (f"<p>{len(trials)} trial rows (RUN_DIR/study/*.parquet) on the simulated bench, each scored "
+            "against the scene's closed-form truth at resonance; the cost is the virtual bench time of "
+            f"one trial. Error = {study.ERROR_PERCENTILE:g}th percentile of |relative error| over the "
+            "repeats. All configurations: <a href='study_summary.csv'>study_summary.csv</a>.</p>"
+            + context.figure(figures.study_fronts(summary, context.out_dir / "study_fronts.png"),
+                             "Error against bench time per trial, one panel per quantity: every "
+                             "configuration as a dot, each experiment's Pareto front as a line. Simulated "
+                             "bench; the paper has no such study.")
+            + "<h3>Settings on each Pareto front (cheapest first)</h3>"
+            + html_table(fronts, "Settings on each Pareto front. Simulated bench."))
+    heating = study.heating_table(summary)
+    if not heating.empty:
+        body += ("<h3>Heating drift: longer averaging at a fixed frequency, and tracking</h3>"
+                 "<p>The plate warms while it is measured and its resonance falls; a point held at the "
+                 "frequency found cold loses power as the averaging (and so the series) lasts longer. "
+                 "Re-centring on the resonance before each point removes that error at the cost of "
+                 "the tracking's bench time.</p>"
+                 + context.figure(figures.heating_drift(heating, context.out_dir / "study_heating.png"),
+                                  "Power error against scope averaging on a heating plate, at the "
+                                  "frequency found cold and with the resonance tracked. Simulated bench.")
+                 + html_table(heating, "Heating drift. Simulated bench."))
+    return Section("Accuracy vs bench time", body, "study")
+
+
+def hardcases_section(context: ReportContext) -> Section | None:
+    """Hard cases"""
+    directory = context.run.run_dir / "hardcases"
+    if not directory.is_dir():
+        return None   # asked for separately (benchmarks/hardcases_summary.py --out RUN_DIR)
+    body = ""
+    for path in sorted(directory.glob("*.csv")):
+        frame = pd.read_csv(path)
+        body += f"<h3>{html.escape(path.name)}</h3>" + html_table(
+            _words_for_missing(frame, "not available"), f"{path.name} (hardcases/). Simulated bench.")
+    for path in sorted(directory.glob("*.png")):
+        copy = context.out_dir / f"hardcases_{path.name}"
+        copy.write_bytes(path.read_bytes())
+        body += context.figure(copy, f"{html.escape(path.name)} from hardcases/ (simulated bench).")
+    return Section("Hard cases (hardcases/)", body or "<p class='missing'>hardcases/ is empty.</p>", "hardcases")
 
 
 def conventions_section(context: ReportContext) -> Section:
@@ -122,178 +625,58 @@ def conventions_section(context: ReportContext) -> Section:
         "lambda/2 from the plate's scene copy in inputs/; lambda = 2 (lambda/2).",
         "Power: mean of v i over the largest integer number of periods after DC removal (the paper's "
         "MATH channel), cross-checked by a sine fit. Velocity pp: twice the fitted sine amplitude. "
-        "Amplitude pp = velocity pp / (2 pi f). Uncertainties are standard (k = 1) and cover noise "
-        "and scope resolution; the vibrometer scale, probe gains and the plate geometry are taken "
-        "as exact.",
+        "Amplitude pp = velocity pp / (2 pi f).",
+        "Uncertainties: U is the expanded uncertainty (k = 2) of the whole budget of each point "
+        "(record noise and the instruments' specifications, analysis.uncertainty); Q and tan theta' "
+        "carry k = 2 of their fits' uncertainty. A cell agrees with the paper when the difference is "
+        "within U plus half the printed value's last digit.",
         "Q: Eq. 27 with the fitted slope of amplitude pp vs voltage pp. tan theta': Eq. 25 with the "
         "fitted slope of power vs Vpp^2, divided by Q. Table 5 estimate: Q of small_plate_4 through "
         "Eq. 29; tan theta' the mean of the small plates as thick as the large plate.",
+        "Origins: measured (real bench), simulated (simulated bench), calibration input (simulated, "
+        "and the scene was calibrated on this printed value: a round trip), derived (computed from "
+        "other values), campaign setting (typed into the campaign).",
     ]
-    return Section("Conventions used", "<ul>" + "".join(f"<li>{html.escape(i)}</li>" for i in items) + "</ul>")
+    return Section("Conventions used", "<ul>" + "".join(f"<li>{html.escape(i)}</li>" for i in items) + "</ul>",
+                   "conventions")
 
 
-def _paper_table_section(context: ReportContext, name: str, title: str,
-                         compute: Callable[[RunData], pd.DataFrame], quantities: list[str]) -> Section:
-    note = ""
-    try:
-        frame = compute(context.run)
-    except UserError as exc:  # the CSV is written in any case, saying what is missing
-        frame = tables.empty_table(name, quantities)
-        note = f"<p class='missing'>{html.escape(str(exc))}</p>"
-    finished = tables.finish_table(frame)
-    context.tables[name] = finished
-    return Section(title, note + _html_table(finished) + f"<p>CSV: <a href='{name}.csv'>{name}.csv</a></p>")
+def provenance_section(context: ReportContext) -> Section:
+    """Appendix: provenance"""
+    run = context.run
+    manifest = run.manifest
+    rows = [("run directory", run.run_dir.name),
+            ("bench", context.bench()),
+            ("report software", f"squeezebench {squeezebench.__version__}"),
+            ("run software", json.dumps(manifest.get("software", "not recorded"), sort_keys=True)),
+            ("campaign", json.dumps(manifest.get("campaign", "not recorded"), sort_keys=True)),
+            ("created (UTC)", str(manifest.get("created_utc", "not recorded"))),
+            ("updated (UTC)", str(manifest.get("updated_utc", "not recorded")))]
+    recorded = {name: entry.get("sha256") for name, entry in manifest.get("inputs", {}).items()
+                if isinstance(entry, dict)}
+    for name, digest in run.input_sha256.items():
+        state = ("matches manifest" if recorded.get(name) == digest else
+                 "NOT the manifest's sha256" if name in recorded else "not in manifest")
+        rows.append((f"inputs/{name}", f"sha256 {digest} ({state})"))
+    for name, bench in sorted(manifest.get("benches", {}).items()):
+        rows.append((f"bench, run {name}", f"{bench.get('bench')} ({bench.get('bench_input')})"))
+    for name, ids in sorted(manifest.get("instruments", {}).items()):
+        rows.append((f"instruments, run {name}", json.dumps(ids, sort_keys=True)))
+    counts = run.measurements.groupby("protocol").size() if "protocol" in run.measurements else {}
+    for protocol, count in sorted(dict(counts).items()):
+        rows.append((f"protocol {protocol}", f"{count} stored points"))
+    body = ("<table class='provenance'><caption>Files, digests and instruments of this run.</caption>"
+            + "".join(f"<tr><th>{html.escape(k)}</th><td>{html.escape(v)}</td></tr>" for k, v in rows)
+            + "</table><p>Column dictionary of the measurements and CSVs: "
+              "<a href='columns.csv'>columns.csv</a> (name, unit, meaning).</p>")
+    return Section("Appendix: provenance", body, "provenance")
 
 
-def table3_section(context: ReportContext) -> Section:
-    """Table 3"""
-    return _paper_table_section(context, "table3", "Table 3: cutting the resonator (Sec. 2.3.1)",
-                                tables.table3, tables.TABLE3_QUANTITIES)
-
-
-def table4_section(context: ReportContext) -> Section:
-    """Table 4"""
-    return _paper_table_section(context, "table4", "Table 4: powered columns (Sec. 2.3.2)",
-                                tables.table4, tables.TABLE4_QUANTITIES)
-
-
-def characterisation_section(context: ReportContext) -> Section:
-    """Fig. 5, Table 5, Figs. 8 and 9"""
-    title = "Small plates (Fig. 5), Table 5, large plate (Figs. 8, 9)"
-    try:
-        plates = context.plates()
-        table5 = tables.table5(plates, context.convention)
-        note = ""
-    except UserError as exc:
-        plates, table5 = None, tables.empty_table("table5", ["q", "tan_theta"])
-        note = f"<p class='missing'>{html.escape(str(exc))}</p>"
-    context.tables["table5"] = tables.finish_table(table5)
-    body = note + "<h3>Table 5</h3>" + _html_table(context.tables["table5"])
-    body += "<p>CSV: <a href='table5.csv'>table5.csv</a></p>"
-    if plates:
-        body += "<h3>Table 5 under each reading of Table 2's E_i</h3>" + _html_table(
-            _table5_by_materials(context))
-        context.tables["fig5"] = tables.finish_table(tables.fig5_table(plates))
-        body += "<h3>Fig. 5: Q and tan theta' per plate</h3>" + _html_table(context.tables["fig5"])
-        body += "<p>CSV: <a href='fig5.csv'>fig5.csv</a></p>"
-        body += _img(figures.fig5_q_tan(plates, context.out_dir / "fig5.png"))
-        if tables.LARGE_PLATE in plates:
-            body += "<h3>Fig. 8</h3>" + _img(figures.fig8_amplitude(plates[tables.LARGE_PLATE],
-                                                                    context.out_dir / "fig8.png"))
-            try:
-                power = tables.estimated_large_plate_power_w(plates, context.convention)
-                error = np.mean(np.abs(power["power_estimated_w"] / power["power_measured_w"] - 1.0))
-                body += ("<h3>Fig. 9</h3>" + _img(figures.fig9_power(power, context.out_dir / "fig9.png"))
-                         + f"<p>Mean relative difference, estimated vs measured power: {error:.3g} "
-                         "(the paper reports below 0.10).</p>")
-            except UserError as exc:
-                body += f"<p class='missing'>Fig. 9 not available: {html.escape(str(exc))}</p>"
-    return Section(title, body)
-
-
-def _table5_by_materials(context: ReportContext) -> pd.DataFrame:
-    """Table 5 recomputed from the same fits with E_i as printed and E_i = 67 GPa
-    (only a in Eqs. 25/27 changes: Q scales with a, tan theta' does not)."""
-    frames = []
-    for materials in (model.MATERIALS_AS_PRINTED, model.MATERIALS_PHYSICAL):
-        convention = replace(context.convention, name=f"E_i = {materials.resonator_young_pa:.6g} Pa",
-                             materials=materials)
-        plates = tables.characterise_plates(context.run, convention)
-        frame = tables.table5(plates, convention)
-        frame.insert(0, "convention", convention.name)
-        frames.append(frame)
-    return tables.finish_table(pd.concat(frames, ignore_index=True))
-
-
-def detuning_section(context: ReportContext) -> Section:
-    """Fig. 2"""
-    summary = tables.detuning_table(context.run)
-    body = _html_table(tables.finish_table(summary, value_columns=("power_w", "power_ratio")))
-    plotted = summary[summary["status"] == "measured"]
-    if not plotted.empty:
-        body += _img(figures.fig2_power_ratio(plotted, context.out_dir / "fig2.png"))
-    return Section("Fig. 2: frequency detuning (Sec. 2.2)", body)
-
-
-def resonance_section(context: ReportContext) -> Section:
-    """Resonance curves"""
-    sweeps = tables.resonance_sweeps(context.run)
-    return Section("Resonance curves (Sec. 2.1, 5.3)",
-                   _img(figures.resonance_curves(sweeps, context.out_dir / "resonance.png")))
-
-
-def audit_section(context: ReportContext) -> Section:
-    """Audit"""
-    findings = audit.audit_findings()
-    grid = audit.convention_grid()
-    grid.to_csv(context.out_dir / "conventions_grid.csv", index=False)
-    body = ("<p>Every number below is computed from the paper's printed values (data/paper/) and its "
-            "equations; relative difference = (computed - printed) / |printed|.</p>"
-            + _html_table(_words_for_missing(findings, "")))
-    body += ("<h3>Which reading reproduces which published number</h3>"
-             f"<p>{len(grid)} readings: {html.escape('; '.join(f'{k} in {v}' for k, v in audit.GRID_AXES.items()))}. "
-             f"A number is reproduced within {audit.MATCH_REL:.0%}. Full grid: "
-             "<a href='conventions_grid.csv'>conventions_grid.csv</a>.</p>"
-             + _html_table(audit.grid_summary(grid))
-             + "<p>The ten best readings overall (RMS of log10 ratios):</p>"
-             + _html_table(grid[grid["defined"]].head(10)))
-    return Section("Audit of the paper", body)
-
-
-def study_section(context: ReportContext) -> Section:
-    """Accuracy vs bench time"""
-    trials = study.load_trials(context.run.run_dir)
-    summary = study.summarise(trials)
-    summary.to_csv(context.out_dir / "study_summary.csv", index=False)
-    fronts = study.fronts_table(summary)
-    fronts.to_csv(context.out_dir / "study_fronts.csv", index=False)
-    body = (f"<p>{len(trials)} trial rows (RUN_DIR/study/*.parquet) on the simulated bench, each scored "
-            "against the scene's closed-form truth at resonance; the cost is the virtual bench time of "
-            f"one trial. Error = {study.ERROR_PERCENTILE:g}th percentile of |relative error| over the "
-            "repeats. All configurations: <a href='study_summary.csv'>study_summary.csv</a>.</p>"
-            + _img(figures.study_fronts(summary, context.out_dir / "study_fronts.png"))
-            + "<h3>Settings on each Pareto front (cheapest first)</h3>" + _html_table(fronts))
-    heating = study.heating_table(summary)
-    if not heating.empty:
-        body += ("<h3>Heating drift: longer averaging at a fixed frequency, and tracking</h3>"
-                 "<p>The plate warms while it is measured and its resonance falls; a point held at the "
-                 "frequency found cold loses power as the averaging (and so the series) lasts longer. "
-                 "Re-centring on the resonance before each point removes that error at the cost of "
-                 "the tracking's bench time.</p>"
-                 + _img(figures.heating_drift(heating, context.out_dir / "study_heating.png"))
-                 + _html_table(heating))
-    return Section("Accuracy vs bench time", body)
-
-
-def hardcases_section(context: ReportContext) -> Section:
-    """Hard cases"""
-    return _optional_folder(context, "hardcases", "Hard cases (hardcases/)",
-                            "python benchmarks/hardcases_summary.py --out RUN_DIR")
-
-
-def _optional_folder(context: ReportContext, folder: str, title: str, how: str) -> Section:
-    """Shows every CSV (as a table) and PNG (copied beside the report) of an optional folder;
-    without it, `how` (the command that writes it)."""
-    directory = context.run.run_dir / folder
-    if not directory.is_dir():
-        return Section(title, f"<p class='missing'>Not part of this run (no {folder}/ folder): "
-                              f"<code>{html.escape(how)}</code> writes it.</p>")
-    body = ""
-    for path in sorted(directory.glob("*.csv")):
-        frame = pd.read_csv(path)
-        body += f"<h3>{html.escape(path.name)}</h3>" + _html_table(_words_for_missing(frame, "not available"))
-    for path in sorted(directory.glob("*.png")):
-        copy = context.out_dir / f"{folder}_{path.name}"
-        copy.write_bytes(path.read_bytes())
-        body += _img(copy)
-    return Section(title, body or f"<p class='missing'>{folder}/ is empty.</p>")
-
-
-def uncertainty_section(context: ReportContext) -> Section:
+def uncertainty_section(context: ReportContext) -> Section | None:
     """Uncertainty budgets (GUM, k = 2)"""
     found = uncertainty.run_uncertainties(context.run)
     if found.points.empty:
-        raise UserError("no stored records to budget")
+        return None   # no stored records to budget (a study-only directory)
     quantities = list(uncertainty.POINT_BUDGETS)
     summary = pd.DataFrame([
         {"protocol": protocol, "quantity": q, "points": int(rows[f"{q}_U"].notna().sum()),
@@ -327,43 +710,54 @@ def uncertainty_section(context: ReportContext) -> Section:
                    "<p>Expanded uncertainties (k = 2) of every stored point: noise of the record (Type A) "
                    "and the instruments' specifications (Type B). Median relative U and the most frequent "
                    "dominant term per protocol; then the whole budget of one point of each protocol.</p>"
-                   + deskew + _html_table(summary) + _html_table(found.budgets)
+                   + deskew + html_table(summary, "Median relative U and dominant term per protocol. " + _bench_words(context))
+                   + html_table(found.budgets[[c for c in ("protocol", "quantity", "term", "type", "relative", "share",
+                                                     "source") if c in found.budgets]],
+                                "The whole budget of one point of each protocol (relative: the term's "
+                                "standard uncertainty over the value; the point: uncertainty_budgets.csv). "
+                                + _bench_words(context))
                    + "<p>Resonance frequencies found by the searches (the generator's setting there), "
-                     "expanded (k = 2):</p>" + _html_table(found.searches)
+                     "expanded (k = 2):</p>" + html_table(found.searches, "Resonance frequencies found, expanded (k = 2). " + _bench_words(context))
                    + "<p>Q and tan(theta') per plate with the geometry and material tolerances "
                      "(expanded, k = 2; floor: p95 relative error with the fits' noise gone):</p>"
-                   + _html_table(context.tables["uncertainty_q_tan_theta"])
+                   + html_table(context.tables["uncertainty_q_tan_theta"], "Q and tan θ′ with tolerances. " + _bench_words(context))
                    + "<p>Floor per run: the p95 relative error of power and velocity the instruments' "
                      "specified errors leave at the run's worst point, whatever the averaging:</p>"
-                   + _html_table(context.tables["uncertainty_floors"])
+                   + html_table(context.tables["uncertainty_floors"], "Floor per run. " + _bench_words(context))
                    + "<p>CSV: <a href='uncertainty_points.csv'>uncertainty_points.csv</a>, "
                      "<a href='uncertainty_budgets.csv'>uncertainty_budgets.csv</a></p>")
 
 
-#: The report, in order. Another package adds a section by appending a builder.
-def readings_section(context: ReportContext) -> Section:
+
+def readings_section(context: ReportContext) -> Section | None:
     """Q and tan theta' under the text's reading and the inferred one (issue 13)"""
+    if context.run.protocol("characterisation").empty:
+        return None   # characterisation_section says so
     plates = audit.plates_under_readings(context.run)
     plates.to_csv(context.out_dir / "plates_by_reading.csv", index=False)
     body = ("<p>Every characterised plate of this run (the paper's or your own), Q from Eq. 27 and "
             "tan theta' from Eq. 25 under the text's own reading ('paper') and under the one reading "
             "that reproduces the paper's published numbers at once ('inferred', analysis.readings). "
-            "CSV: <a href='plates_by_reading.csv'>plates_by_reading.csv</a></p>" + _html_table(plates))
+            "CSV: <a href='plates_by_reading.csv'>plates_by_reading.csv</a></p>"
+            + html_table(plates, f"Q and tan θ′ of every plate under each reading. {_bench_words(context)}"))
     try:
         table5 = audit.table5_under_readings(context.run)
     except UserError as exc:
-        return Section("Plates under each reading", body + f"<p class='missing'>Table 5 and Fig. 9 under "
-                       f"each reading not available: {html.escape(str(exc))}</p>")
+        return Section("Plates under each reading", body + f"<p>Table 5 and Fig. 9 under each reading: "
+                       f"{html.escape(str(exc))}.</p>", "readings")
     table5.to_csv(context.out_dir / "table5_by_reading.csv", index=False)
-    body += ("<h3>Table 5 and Fig. 9 under each reading</h3>" + _html_table(table5)
-             + "".join(f"<p>{html.escape(words)}</p>" for words in audit.table5_verdicts(table5)))
-    return Section("Plates under each reading", body)
+    body += ("<h3>Table 5 and Fig. 9 under each reading</h3>"
+             + "".join(f"<p>{html.escape(words)}</p>" for words in audit.table5_verdicts(table5))
+             + html_table(table5, f"Table 5 and Fig. 9 under each reading. {_bench_words(context)}"))
+    return Section("Plates under each reading", body, "readings")
 
 
+#: The report, in order (the summary goes first, built last). Another package adds a
+#: section by appending a builder.
 SECTIONS: list[SectionBuilder] = [
-    provenance_section, conventions_section, table3_section, table4_section, detuning_section,
-    resonance_section, characterisation_section, readings_section, audit_section, study_section,
-    hardcases_section, uncertainty_section,
+    table3_section, table4_section, table5_section, detuning_section, characterisation_section,
+    readings_section, resonance_section, uncertainty_section, audit_section, study_section,
+    hardcases_section, conventions_section, provenance_section,
 ]
 
 
@@ -375,15 +769,22 @@ def _format(value) -> str:
     if isinstance(value, (int, np.integer)):
         return str(int(value))
     if isinstance(value, (float, np.floating)):
-        return f"{value:.4g}" if math.isfinite(value) else "not available"
+        if not math.isfinite(value):
+            return "not available"
+        if value == 0 or 1e-3 <= abs(value) < 1e6:   # 4 significant digits, never 5.24e+04
+            return np.format_float_positional(value, precision=4, unique=False, fractional=False, trim="-")
+        return f"{value:.3e}"
     return str(value)
 
 
-def _html_table(frame: pd.DataFrame) -> str:
-    head = "".join(f"<th>{html.escape(str(c))}</th>" for c in frame.columns)
+def html_table(frame: pd.DataFrame, caption: str = "") -> str:
+    """A plain table for a section builder: headers from the column names, numbers at four
+    significant digits, an optional caption (the browser test wants one on every table)."""
+    head = "".join(f"<th>{html.escape(str(c).replace('_', ' '))}</th>" for c in frame.columns)
     body = "".join("<tr>" + "".join(f"<td>{html.escape(_format(v))}</td>" for v in row) + "</tr>"
                    for row in frame.itertuples(index=False))
-    return f"<table><thead><tr>{head}</tr></thead><tbody>{body}</tbody></table>"
+    caption_html = f"<caption>{html.escape(caption)}</caption>" if caption else ""
+    return f"<table>{caption_html}<thead><tr>{head}</tr></thead><tbody>{body}</tbody></table>"
 
 
 def _words_for_missing(frame: pd.DataFrame, word: str) -> pd.DataFrame:
@@ -391,15 +792,45 @@ def _words_for_missing(frame: pd.DataFrame, word: str) -> pd.DataFrame:
     return frame.where(frame.notna(), word)
 
 
-def _img(path: Path) -> str:
-    return f"<p><img src='{html.escape(path.name)}' alt='{html.escape(path.stem)}'></p>"
+_CSS = """
+body{font-family:system-ui,sans-serif;max-width:1200px;margin:0 auto;padding:0 16px;color:#222;line-height:1.4}
+h1{font-size:1.6em}h2{border-bottom:1px solid #bbb;margin-top:2em}
+nav{font-size:.9em;margin-bottom:1em}nav a{margin-right:.8em}
+table{border-collapse:collapse;font-size:13px;margin:.6em 0;max-width:100%}
+td,th{border:1px solid #ccc;padding:3px 6px;vertical-align:top;overflow-wrap:break-word}th{background:#f4f4f4;text-align:left}
+caption{caption-side:top;text-align:left;font-size:12px;color:#444;padding:4px 0}
+table.paper td{min-width:150px}
+table.paper .run{font-weight:600;font-variant-numeric:tabular-nums}
+table.paper .paper,table.paper .origin{font-size:11px;color:#555}
+td.cal{background:#fff6d6}td.off{background:#fde2e2}td.off .mark{color:#a00;font-weight:600}
+td.ok .mark{color:#070}td.na{color:#888;font-style:italic}
+.notes{font-size:11px;color:#555}.notes ul{margin:.2em 0}
+.banner{background:#fff6d6;border:1px solid #e0c060;padding:8px 12px}
+.banner.real{background:#e6f4e6;border-color:#8b8}
+.explain{background:#fde2e2;padding:6px 10px}
+ul.flagged li{margin-bottom:.4em}
+.missing{color:#a33}
+figure{margin:1em 0;max-width:100%}figure img{max-width:100%;height:auto;display:block}
+figcaption{font-size:13px;color:#333;max-width:1000px}
+table.audit td:last-child{max-width:360px}
+.wide{overflow-x:auto;max-width:100%}
+@media print{body{max-width:none;font-size:10pt}nav{display:none}a{color:inherit;text-decoration:none}
+ h2{page-break-before:always}section:first-of-type h2{page-break-before:avoid}
+ figure,table.paper,tr{page-break-inside:avoid}td.cal,td.off,.banner{-webkit-print-color-adjust:exact;print-color-adjust:exact}}
+"""
 
 
-def _page(run: RunData, sections: list[Section]) -> str:
-    parts = [f"<section><h2>{html.escape(s.title)}</h2>{s.body_html}</section>" for s in sections]
-    return ("<!DOCTYPE html><html><head><meta charset='utf-8'>"
-            f"<title>squeezebench report: {html.escape(run.run_dir.name)}</title>"
-            "<style>body{font-family:sans-serif;max-width:1200px;margin:auto}"
-            "table{border-collapse:collapse;font-size:12px}td,th{border:1px solid #ccc;padding:2px 6px}"
-            ".missing{color:#a33}</style></head><body>"
-            f"<h1>squeezebench report: {html.escape(run.run_dir.name)}</h1>" + "".join(parts) + "</body></html>")
+def _page(context: ReportContext, sections: list[Section]) -> str:
+    run = context.run
+    kind = context.bench()
+    what = {"simulated": "dry run on the simulated bench", "real": "measured on a real bench"}.get(
+        kind, f"bench {kind}")
+    title = f"squeezebench report: {run.run_dir.name} ({what})"
+    nav = "<nav>" + "".join(f"<a href='#{s.anchor or _slug(s.title)}'>{html.escape(s.title.split(':')[0])}</a>"
+                            for s in sections) + "</nav>"
+    parts = [f"<section id='{s.anchor or _slug(s.title)}'><h2>{html.escape(s.title)}</h2>{s.body_html}</section>"
+             for s in sections]
+    return ("<!DOCTYPE html><html lang='en'><head><meta charset='utf-8'>"
+            "<meta name='viewport' content='width=device-width, initial-scale=1'>"
+            f"<title>{html.escape(title)}</title><style>{_CSS}</style></head><body>"
+            f"<h1>{html.escape(title)}</h1>{nav}" + "".join(parts) + "</body></html>")

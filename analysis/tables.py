@@ -11,27 +11,29 @@ never NaN in a finished table: `finish_table` writes "not measured" / "not reach
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 import pandas as pd
 from scipy import optimize
 
-from squeezebench.analysis import model
-from squeezebench.analysis.paper import paper_table
+from squeezebench.analysis import model, provenance
+from squeezebench.analysis.paper import paper_table, printed_step
 from squeezebench.analysis.rundata import RunData
 from squeezebench.analysis.waveforms import Estimate, PointReduction, reduce_record
 from squeezebench.errors import UserError
 
-TABLE_COLUMNS = ["table", "item", "quantity", "unit", "value", "std_uncertainty",
-                 "scope_value", "paper_value", "paper_source", "relative_difference", "status"]
+TABLE_COLUMNS = ["table", "item", "quantity", "unit", "value", "std_uncertainty", "expanded_uncertainty",
+                 "scope_value", "paper_value", "paper_source", "relative_difference", "tolerance",
+                 "agrees", "origin", "calibrated_on", "status"]
+
 NOT_MEASURED = "not measured"
 NOT_REACHABLE = "not reachable"
 #: A straight line through fewer points has no residual to judge it by.
 MIN_FIT_POINTS = 3
 
 UNITS = {"n_antinodes": "1", "frequency_hz": "Hz", "voltage_vpp": "V", "power_w": "W",
-         "velocity_pp_mps": "m/s", "amplitude_pp_m": "m", "q": "1", "tan_theta": "1"}
+         "velocity_pp_mps": "m/s", "amplitude_pp_m": "m", "q": "1", "tan_theta": "1", "tan_theta_mean": "1"}
 
 
 class FitError(UserError):
@@ -49,6 +51,7 @@ class LineFit:
     slope: Estimate
     intercept: Estimate
     n_points: int
+    chi2_per_dof: float = math.nan   # with stated uncertainties; NaN without
 
 
 def fit_line(x, y, y_std=None, *, what: str) -> LineFit:
@@ -78,6 +81,7 @@ def fit_line(x, y, y_std=None, *, what: str) -> LineFit:
                                                 sigma=sigma, absolute_sigma=sigma is not None)
     except (RuntimeError, ValueError) as exc:
         raise FitError(f"{what}: line fit failed ({exc})") from exc
+    chi2_per_dof = math.nan
     if sigma is not None:
         chi2_per_dof = float(np.sum(((v - params[0] * u - params[1]) / sigma) ** 2)) / (u.size - 2)
         covariance = covariance * max(chi2_per_dof, 1.0)
@@ -85,7 +89,7 @@ def fit_line(x, y, y_std=None, *, what: str) -> LineFit:
     errors = np.where(np.isfinite(errors), errors, 0.0)  # exact data: zero scatter
     return LineFit(slope=Estimate(params[0] * y_scale / x_scale, errors[0] * y_scale / x_scale),
                    intercept=Estimate(params[1] * y_scale, errors[1] * y_scale),
-                   n_points=int(x.size))
+                   n_points=int(x.size), chi2_per_dof=chi2_per_dof)
 
 
 def mean_estimate(values, uncertainties) -> Estimate:
@@ -105,6 +109,24 @@ def flag(column: pd.Series, default: bool) -> pd.Series:
 
 def relative_difference(value: float, reference: float) -> float:
     return (value - reference) / abs(reference) if reference else math.nan
+
+
+def compare_with_paper(row: dict, printed: pd.DataFrame) -> dict:
+    """The printed value beside `row`'s value: relative difference, the tolerance (the
+    run's expanded uncertainty plus half the step of the printed last digit) and whether
+    the difference is within it."""
+    if len(printed):
+        row["paper_value"] = float(printed["value"].iloc[0])
+        row["paper_source"] = str(printed["source"].iloc[0])
+        half_step = 0.5 * printed_step(str(printed["value_text"].iloc[0]))
+    else:
+        row["paper_value"], row["paper_source"], half_step = math.nan, "", math.nan
+    row["relative_difference"] = relative_difference(row["value"], row["paper_value"])
+    expanded = row.get("expanded_uncertainty", math.nan)
+    row["tolerance"] = (expanded if math.isfinite(expanded) else 0.0) + half_step
+    difference = abs(row["value"] - row["paper_value"])
+    row["agrees"] = bool(difference <= row["tolerance"]) if math.isfinite(difference) else None
+    return row
 
 
 # --- reduction of the stored points ------------------------------------------------------
@@ -155,40 +177,49 @@ def _scope_velocity_pp_mps(points: pd.DataFrame) -> pd.Series:
 
 # --- Tables 3 and 4 ----------------------------------------------------------------------
 
-def _side_by_side(table: str, paper_name: str, items: dict[str, pd.DataFrame],
+def _side_by_side(run: RunData | None, table: str, paper_name: str, items: dict[str, pd.DataFrame],
                   quantities: list[str], constant_columns: dict[str, str]) -> pd.DataFrame:
-    """One row per (paper item, quantity): recomputed value, scope value, printed value."""
+    """One row per (paper item, quantity): recomputed value with its uncertainties and
+    origin, scope value, printed value."""
     paper = paper_table(paper_name)
     rows = []
     for item in paper["item"].unique():
         if item == "plate":
             continue
         points = items.get(item)
+        calibrated = provenance.calibrated_on(run, points) if run is not None and points is not None else {}
         for quantity in quantities:
             printed = paper[(paper["item"] == item) & (paper["quantity"] == quantity)]
             row = {"table": table, "item": item, "quantity": quantity, "unit": UNITS[quantity],
-                   "value": math.nan, "std_uncertainty": math.nan, "scope_value": math.nan,
-                   "paper_value": float(printed["value"].iloc[0]) if len(printed) else math.nan,
-                   "paper_source": str(printed["source"].iloc[0]) if len(printed) else "",
-                   "status": NOT_MEASURED}
+                   "value": math.nan, "std_uncertainty": math.nan, "expanded_uncertainty": math.nan,
+                   "scope_value": math.nan, "origin": "", "calibrated_on": "", "status": NOT_MEASURED}
             if points is not None and len(points):
                 reachable = flag(points["reachable"], default=True) if "reachable" in points else None
                 if reachable is not None and not reachable.any():
                     row["status"] = NOT_REACHABLE
                 else:
-                    if reachable is not None:
-                        points = points[reachable]
-                    row.update(_quantity_value(points, quantity, constant_columns))
+                    used = points[reachable] if reachable is not None else points
+                    row.update(_quantity_value(used, quantity, constant_columns))
                     row["status"] = "measured"
-            row["relative_difference"] = relative_difference(row["value"], row["paper_value"])
-            rows.append(row)
+                    row["origin"] = _origin(used, quantity, calibrated, run, constant_columns)
+                    row["calibrated_on"] = calibrated.get(quantity, "")
+            rows.append(compare_with_paper(row, printed))
     return pd.DataFrame(rows, columns=TABLE_COLUMNS)
+
+
+def _origin(points: pd.DataFrame, quantity: str, calibrated: dict[str, str], run: RunData,
+            constant_columns: dict[str, str]) -> str:
+    if quantity in constant_columns:
+        return provenance.SETTING
+    if quantity in calibrated:
+        return provenance.CALIBRATION_INPUT
+    return provenance.point_origin(points, run.manifest)
 
 
 def _quantity_value(points: pd.DataFrame, quantity: str, constant_columns: dict[str, str]) -> dict:
     if quantity in constant_columns:
         value = float(points[constant_columns[quantity]].iloc[0])
-        return {"value": value, "std_uncertainty": 0.0}
+        return {"value": value, "std_uncertainty": 0.0, "expanded_uncertainty": 0.0}
     column = "piezo_voltage_vpp" if quantity == "voltage_vpp" else quantity
     estimate = mean_estimate(points[column], points[f"{column}_u"])
     scope_frequency = points.get("scope_frequency_hz", points["generator_frequency_hz"])
@@ -199,7 +230,25 @@ def _quantity_value(points: pd.DataFrame, quantity: str, constant_columns: dict[
              "voltage_vpp": points.get("scope_piezo_voltage_pp_v", points["piezo_voltage_setpoint_vpp"]),
              }.get(quantity)
     return {"value": estimate.value, "std_uncertainty": estimate.std_uncertainty,
+            "expanded_uncertainty": _expanded(points, column, estimate),
             "scope_value": float(scope.mean()) if scope is not None else math.nan}
+
+
+def _expanded(points: pd.DataFrame, column: str, estimate: Estimate) -> float:
+    """Expanded (k = 2) uncertainty of a mean of points from their whole budgets
+    (analysis.uncertainty: noise and the instruments' specifications); the amplitude
+    takes the velocity's relative budget. Without a budget, k times the noise alone."""
+    # analysis.uncertainty reads reduced points through analysis.calibration, which imports
+    # this module: imported here, once both are loaded.
+    from squeezebench.analysis import uncertainty
+
+    budgeted = "velocity_pp_mps" if column == "amplitude_pp_m" else column
+    if budgeted in uncertainty.POINT_BUDGETS and points["power_w_u"].notna().all():
+        combined = uncertainty.with_expanded_uncertainties(points)[f"{budgeted}_u_combined"]
+        if column == "amplitude_pp_m":
+            combined = combined / points["velocity_pp_mps"] * points["amplitude_pp_m"]
+        return uncertainty.COVERAGE_FACTOR * mean_estimate(points[column], combined).std_uncertainty
+    return uncertainty.COVERAGE_FACTOR * estimate.std_uncertainty
 
 
 def _protocol_points(run: RunData, protocol: str) -> pd.DataFrame:
@@ -218,7 +267,7 @@ TABLE4_QUANTITIES = ["frequency_hz", "voltage_vpp", "power_w", "velocity_pp_mps"
 
 def empty_table(name: str, quantities: list[str]) -> pd.DataFrame:
     """The paper's rows of a table with nothing measured (the protocol was not run)."""
-    return _side_by_side(name, name, {}, quantities, {})
+    return _side_by_side(None, name, name, {}, quantities, {})
 
 
 def table3(run: RunData) -> pd.DataFrame:
@@ -231,14 +280,14 @@ def table3(run: RunData) -> pd.DataFrame:
         nearest = min(printed_lengths, key=lambda p: abs(p - float(length)))
         if abs(nearest - float(length)) <= 1.5:
             items[f"{nearest:g}"] = group
-    return _side_by_side("table3", "table3", items, TABLE3_QUANTITIES, {"n_antinodes": "n_antinodes"})
+    return _side_by_side(run, "table3", "table3", items, TABLE3_QUANTITIES, {"n_antinodes": "n_antinodes"})
 
 
 def table4(run: RunData) -> pd.DataFrame:
     """Table 4 (Sec. 2.3.2): one- and two-column plates, one or two columns powered."""
     points = _protocol_points(run, "powered_columns")
     items = {str(name): group for name, group in points.groupby("configuration")}
-    return _side_by_side("table4", "table4", items, TABLE4_QUANTITIES, {})
+    return _side_by_side(run, "table4", "table4", items, TABLE4_QUANTITIES, {})
 
 
 # --- Fig. 5 and Table 5 ------------------------------------------------------------------
@@ -307,6 +356,8 @@ class PlateCharacterisation:
     q: Estimate
     tan_theta: Estimate
     points: pd.DataFrame
+    origin: str = provenance.NOT_RECORDED   # of the points (simulated / measured)
+    calibrated_on: dict[str, str] = field(default_factory=dict)   # provenance.calibrated_on
 
 
 def characterise_plate(plate: str, points: pd.DataFrame, geometry: model.PlateGeometry,
@@ -338,7 +389,9 @@ def characterise_plates(run: RunData, convention: model.Convention) -> dict[str,
         geometry = plate_geometry(run, str(plate), int(first["n_powered_piezos"]), int(first["n_powered_columns"]),
                                   scene_file=_text_or_none(first.get("scene_file")),
                                   scene_state=_text_or_none(first.get("scene_state")))
-        results[str(plate)] = characterise_plate(str(plate), group, geometry, convention)
+        results[str(plate)] = replace(characterise_plate(str(plate), group, geometry, convention),
+                                      origin=provenance.point_origin(group, run.manifest),
+                                      calibrated_on=provenance.calibrated_on(run, group))
     return results
 
 
@@ -346,29 +399,30 @@ def fig5_table(plates: dict[str, PlateCharacterisation]) -> pd.DataFrame:
     """Q and tan(theta') per plate, then the mean tan(theta') per resonator thickness.
     The paper's per-plate labels of Fig. 5 did not survive; what its text prints (Plate 4's
     Q, the mean tan(theta') per thickness) is set beside."""
-    paper = {(row.item, row.quantity): (row.value, row.source)
-             for row in paper_table("small_plates").itertuples(index=False)}
+    paper = paper_table("small_plates")
 
-    def row(item, quantity, estimate: Estimate, thickness_mm: float, printed_key) -> dict:
-        printed, source = paper.get(printed_key, (math.nan, ""))
-        return {"table": "fig5", "item": item, "quantity": quantity, "unit": "1",
-                "value": estimate.value, "std_uncertainty": estimate.std_uncertainty,
-                "scope_value": math.nan, "paper_value": printed, "paper_source": source,
-                "relative_difference": relative_difference(estimate.value, printed),
-                "status": "measured", "resonator_thickness_mm": thickness_mm}
+    def row(item, quantity, estimate: Estimate, thickness_mm: float, printed_key, calibrated) -> dict:
+        printed = paper[(paper["item"] == printed_key[0]) & (paper["quantity"] == printed_key[1])]
+        derived = _derived_row("fig5", item, quantity, estimate, calibrated)
+        derived["unit"] = "1"
+        return {**compare_with_paper(derived, printed), "resonator_thickness_mm": thickness_mm}
 
     rows = []
     for name, result in plates.items():
         thickness_mm = result.geometry.resonator_thickness_m * 1e3
-        rows.append(row(name, "q", result.q, thickness_mm, (name, "q")))
-        rows.append(row(name, "tan_theta", result.tan_theta, thickness_mm, (name, "tan_theta")))
+        for quantity in ("q", "tan_theta"):
+            rows.append(row(name, quantity, getattr(result, quantity), thickness_mm, (name, quantity),
+                            result.calibrated_on))
     small = {n: p for n, p in plates.items() if n != LARGE_PLATE}
     for thickness_mm in sorted({round(p.geometry.resonator_thickness_m * 1e3, 6) for p in small.values()}):
-        same = [p.tan_theta for p in small.values()
-                if math.isclose(p.geometry.resonator_thickness_m * 1e3, thickness_mm, rel_tol=1e-6)]
-        mean = mean_estimate([e.value for e in same], [e.std_uncertainty for e in same])
+        same = {n: p for n, p in small.items()
+                if math.isclose(p.geometry.resonator_thickness_m * 1e3, thickness_mm, rel_tol=1e-6)}
+        mean = mean_estimate([p.tan_theta.value for p in same.values()],
+                             [p.tan_theta.std_uncertainty for p in same.values()])
+        calibrated = "; ".join(f"{n}: {p.calibrated_on['tan_theta']}" for n, p in same.items()
+                               if "tan_theta" in p.calibrated_on)
         rows.append(row(f"small plates {thickness_mm:g} mm", "tan_theta_mean", mean, thickness_mm,
-                        (f"{thickness_mm:g}mm", "tan_theta_mean")))
+                        (f"{thickness_mm:g}mm", "tan_theta_mean"), {"tan_theta_mean": calibrated}))
     return pd.DataFrame(rows, columns=TABLE_COLUMNS + ["resonator_thickness_mm"])
 
 
@@ -381,6 +435,7 @@ TEMPLATE_SMALL_PLATE = "small_plate_4"
 class Table5Estimate:
     q: Estimate
     tan_theta: Estimate
+    calibrated_on: dict[str, str] = field(default_factory=dict)   # of the small plates used
 
 
 def estimate_large_from_small(plates: dict[str, PlateCharacterisation],
@@ -398,8 +453,16 @@ def estimate_large_from_small(plates: dict[str, PlateCharacterisation],
     if not same_thickness:
         raise MissingDataError("Table 5 needs small plates as thick as the large plate")
     tan = mean_estimate([e.value for e in same_thickness], [e.std_uncertainty for e in same_thickness])
+    calibrated = {}
+    if "q" in template.calibrated_on:
+        calibrated["q"] = f"{TEMPLATE_SMALL_PLATE}: {template.calibrated_on['q']}"
+    tan_sources = [f"{name}: {p.calibrated_on['tan_theta']}" for name, p in plates.items()
+                   if name != LARGE_PLATE and "tan_theta" in p.calibrated_on and math.isclose(
+                       p.geometry.resonator_thickness_m, large.geometry.resonator_thickness_m, rel_tol=1e-6)]
+    if tan_sources:
+        calibrated["tan_theta"] = "; ".join(tan_sources)
     return Table5Estimate(q=Estimate(template.q.value * ratio, template.q.std_uncertainty * ratio),
-                          tan_theta=tan)
+                          tan_theta=tan, calibrated_on=calibrated)
 
 
 def table5(plates: dict[str, PlateCharacterisation], convention: model.Convention) -> pd.DataFrame:
@@ -410,16 +473,20 @@ def table5(plates: dict[str, PlateCharacterisation], convention: model.Conventio
     rows = []
     for item, values in (("estimated", estimate), ("measured", measured)):
         for quantity in ("q", "tan_theta"):
-            value: Estimate = getattr(values, quantity)
-            printed = paper[(paper["item"] == item) & (paper["quantity"] == quantity)]
-            paper_value = float(printed["value"].iloc[0])
-            rows.append({"table": "table5", "item": item, "quantity": quantity, "unit": "1",
-                         "value": value.value, "std_uncertainty": value.std_uncertainty,
-                         "scope_value": math.nan, "paper_value": paper_value,
-                         "paper_source": str(printed["source"].iloc[0]),
-                         "relative_difference": relative_difference(value.value, paper_value),
-                         "status": "measured"})
+            rows.append(compare_with_paper(
+                _derived_row("table5", item, quantity, getattr(values, quantity), values.calibrated_on),
+                paper[(paper["item"] == item) & (paper["quantity"] == quantity)]))
     return pd.DataFrame(rows, columns=TABLE_COLUMNS)
+
+
+def _derived_row(table: str, item: str, quantity: str, value: Estimate, calibrated: dict[str, str]) -> dict:
+    """A derived value (Q, tan theta'): its expanded uncertainty is k times the fit's."""
+    from squeezebench.analysis.uncertainty import COVERAGE_FACTOR   # see _expanded
+
+    return {"table": table, "item": item, "quantity": quantity, "unit": UNITS[quantity],
+            "value": value.value, "std_uncertainty": value.std_uncertainty,
+            "expanded_uncertainty": COVERAGE_FACTOR * value.std_uncertainty, "scope_value": math.nan,
+            "origin": provenance.DERIVED, "calibrated_on": calibrated.get(quantity, ""), "status": "measured"}
 
 
 def estimated_large_plate_power_w(plates: dict[str, PlateCharacterisation],
@@ -435,12 +502,15 @@ def estimated_large_plate_power_w(plates: dict[str, PlateCharacterisation],
                          "power_estimated_w": estimated})
 
 
-def finish_table(frame: pd.DataFrame, value_columns=("value", "std_uncertainty", "scope_value",
-                                                     "paper_value", "relative_difference")) -> pd.DataFrame:
+def finish_table(frame: pd.DataFrame, value_columns=("value", "std_uncertainty", "expanded_uncertainty",
+                                                     "scope_value", "paper_value", "relative_difference",
+                                                     "tolerance")) -> pd.DataFrame:
     """Replace every non-finite number by words, so no NaN/inf is shown or written:
     a missing printed value is 'not printed', a missing scope number 'not recorded',
     anything else takes the row's status ('not measured', 'not reachable')."""
     out = frame.astype(object)
+    if "agrees" in out:   # compared only where both numbers exist
+        out["agrees"] = out["agrees"].map(lambda a: "not compared" if a is None or pd.isna(a) else bool(a))
     if "paper_source" in out:
         out["paper_source"] = out["paper_source"].where(out["paper_source"] != "", "not printed")
     for column in (c for c in value_columns if c in frame):
@@ -451,7 +521,7 @@ def finish_table(frame: pd.DataFrame, value_columns=("value", "std_uncertainty",
             status = row.get("status", NOT_MEASURED)
             paper_missing = "paper_value" in row and not _finite(row["paper_value"])
             out.at[index, column] = ("not printed" if column == "paper_value" or (
-                column == "relative_difference" and paper_missing)
+                column in ("relative_difference", "tolerance") and paper_missing)
                 else "not recorded" if column == "scope_value" and status == "measured" else status)
     return out
 

@@ -49,7 +49,7 @@ from squeezebench.protocols.acquisition import Acquisition, AcquisitionSettings
 from squeezebench.protocols.safety import (DriveController, SafetyLimits, chain_warnings,
                                               stop_signals_interrupt)
 from squeezebench.protocols.steps import Plate, Step, StepContext
-from squeezebench.protocols.storage import RunStore, sha256_file
+from squeezebench.protocols.storage import RunStore, bench_provenance, sha256_file
 from squeezebench import paths
 from squeezebench.errors import UserError
 
@@ -382,7 +382,9 @@ class _Runner:
             self.store.add_input(file)
         log.info("run %s (%s): %d steps to do", run.name, run.protocol, len(pending))
         with open_bench(run.bench.config()) as bench:
-            self.store.record_instruments(run.name, bench.identify())
+            identifications = bench.identify()
+            self.store.record_instruments(run.name, identifications, bench=bench_provenance(
+                run.bench.scene, run.bench.file, identifications))
             self.store.write_settings(run.name, {
                 "run": run.name, "protocol": run.protocol,
                 "acquisition": dataclasses.asdict(run.acquisition),
@@ -398,10 +400,10 @@ class _Runner:
             mounted = _Mounted(scene=run.bench.scene, state=None)
             with drive:
                 for step in pending:
-                    self._step(run, step, bench, drive, acquisition, context, mounted)
+                    self._step(run, step, bench, drive, acquisition, context, mounted, identifications)
 
     def _step(self, run: Run, step: Step, bench, drive: DriveController, acquisition: Acquisition,
-              context: dict[str, Any], mounted: _Mounted) -> None:
+              context: dict[str, Any], mounted: _Mounted, identifications: dict[str, str]) -> None:
         log.info("run %s: step %s", run.name, step.step_id)
         mounted.prepare(bench, step.plate)
         acquisition.reset_ranges()
@@ -415,7 +417,10 @@ class _Runner:
         # points doubtful: the step is not stored, and a resume measures it again.
         bench.check_errors()
         bench_time_s = ctx.bench_time_s()
-        files = self.store.write_step(run.name, step.step_id, ctx.rows, ctx.waveforms)
+        # A simulated step names the scene it mounted; a real one the bench file.
+        provenance = bench_provenance(mounted.scene if run.bench.scene else None, run.bench.file,
+                                      identifications)
+        files = self.store.write_step(run.name, step.step_id, ctx.rows, ctx.waveforms, provenance)
         entry = {"run": run.name, "step": step.step_id, "protocol": run.protocol,
                  "rows": len(ctx.rows), "context": ctx.updates, "files": files,
                  "campaign_bench_time_s": bench_time_s,

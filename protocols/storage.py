@@ -203,9 +203,14 @@ class RunStore:
             self._write_manifest(manifest)
         return copy
 
-    def record_instruments(self, run_name: str, identifications: dict[str, str]) -> None:
+    def record_instruments(self, run_name: str, identifications: dict[str, str],
+                           bench: dict[str, str] | None = None) -> None:
+        """The instruments' identifications and, with `bench`, what answered them
+        (`bench_provenance`: a simulated scene or a real bench file, with its sha256)."""
         manifest = self.manifest()
         manifest["instruments"][run_name] = identifications
+        if bench is not None:
+            manifest.setdefault("benches", {})[run_name] = bench
         self._write_manifest(manifest)
 
     def write_settings(self, run_name: str, settings: dict[str, Any]) -> None:
@@ -281,9 +286,12 @@ class RunStore:
 
     # -- steps ----------------------------------------------------------------------------
     def write_step(self, run_name: str, step_id: str, rows: list[dict[str, Any]],
-                   waveforms: dict[int, tuple[pd.DataFrame, dict[str, Any]]]) -> dict[str, str]:
-        """Waveforms, then the measurement table; return {relative path: sha256} of every
-        file written, for the journal line the caller appends."""
+                   waveforms: dict[int, tuple[pd.DataFrame, dict[str, Any]]],
+                   provenance: dict[str, Any] | None = None) -> dict[str, str]:
+        """Waveforms, then the measurement table (each row with the `provenance` columns,
+        so a row alone says which bench produced it); return {relative path: sha256} of
+        every file written, for the journal line the caller appends."""
+        rows = [{**row, **(provenance or {})} for row in rows]
         files: dict[str, str] = {}
         final_dir = self.run_dir / "waveforms" / run_name / step_id
         staging = final_dir.with_name(f".{step_id}.partial")
@@ -357,6 +365,18 @@ def _entry_problem(line: bytes) -> str | None:
         if not isinstance(entry.get(key), kind) or isinstance(entry.get(key), bool):
             return f"not a journal entry (field '{key}' missing or of the wrong type)"
     return None
+
+
+def bench_provenance(scene: Path | None, bench_file: Path | None,
+                     identifications: dict[str, str]) -> dict[str, str]:
+    """The columns every stored row carries about its bench: `bench` is "simulated" (the
+    scene answered; `bench_input` is its copy under inputs/) or "real" (the bench file
+    with the VISA addresses), `bench_input_sha256` that file's digest and
+    `instrument_ids` the instruments' own identifications (JSON, role -> *IDN? reply)."""
+    source = Path(scene if scene is not None else bench_file)
+    return {"bench": "simulated" if scene is not None else "real",
+            "bench_input": f"inputs/{source.name}", "bench_input_sha256": sha256_file(source),
+            "instrument_ids": json.dumps(identifications, sort_keys=True)}
 
 
 def read_measurements(run_dir: Path) -> pd.DataFrame:

@@ -14,23 +14,22 @@ from __future__ import annotations
 import html
 
 from squeezebench.analysis import report
-from squeezebench.errors import UserError
 from squeezebench.simbench.scene import BOUNDS, scenes_table
 
 
-def scenes_section(context: report.ReportContext) -> report.Section:
+def scenes_section(context: report.ReportContext) -> report.Section | None:
     """Simulated plates: could they exist?"""
     inputs = context.run.run_dir / "inputs"
     files = sorted(inputs / name for name, data in context.run.scenes.items()
                    if isinstance(data, dict) and "states" in data)
     if not files:
-        raise UserError(f"no scene in {inputs}: the run used a real bench")
+        return None   # a real bench: nothing simulated to show
     table = scenes_table(files)
     table.to_csv(context.out_dir / "scenes.csv", index=False)
     body = ("<p>The simulated plates of this run (SIMULATED: every measured number above comes from "
             "these scenes), at resonance on the scene's bench. Each state was checked at load against: "
             + html.escape("; ".join(BOUNDS.values())) + ". CSV: <a href='scenes.csv'>scenes.csv</a></p>"
-            + table.to_html(index=False, float_format=lambda v: f"{v:.4g}", border=0))
+            + report.html_table(table, "The run's simulated plates at resonance. Dry run: simulated bench."))
     return report.Section("Simulated plates: could they exist?", body)
 
 

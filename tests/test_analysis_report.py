@@ -9,6 +9,7 @@ import pandas as pd
 import pytest
 
 from squeezebench.analysis import report
+from squeezebench.analysis.rundata import load_run
 from squeezebench.errors import UserError
 from test_analysis_synthetic import build_run
 
@@ -23,10 +24,10 @@ def test_report_files(reported):
     run_dir, index = reported
     assert index == run_dir / "report" / "index.html"
     for name in ("table3.csv", "table4.csv", "table5.csv", "fig2.png", "fig5.png", "fig8.png", "fig9.png",
-                 "resonance.png", "conventions_grid.csv"):
+                 "resonance.png", "plate_fits.png", "conventions_grid.csv", "columns.csv"):
         assert (run_dir / "report" / name).is_file(), name
     text = index.read_text()
-    for needle in ("Provenance", "Conventions used", "Audit of the paper", "sha256", "E_i = 67109 Pa"):
+    for needle in ("Appendix: provenance", "Conventions used", "Audit of the paper", "sha256", "E_i = 67109 Pa"):
         assert needle in text
 
 
@@ -74,7 +75,7 @@ def test_optional_sections_plug_in(tmp_path):
                                                                   index=False)
     text = report.write_report(run_dir).read_text()
     assert "pf_0.001" in text
-    assert "no study trials" in text
+    assert "no study/ folder" in text   # left out, and said so in the summary
 
 
 def test_only_journaled_steps_are_read(tmp_path):
@@ -89,3 +90,61 @@ def test_only_journaled_steps_are_read(tmp_path):
     (run_dir / "journal.jsonl").write_text(journal + '{"run": "columns", "st')  # torn last line
     run = load_run(run_dir)
     assert sorted(run.measurements["step_id"].unique()) == sorted(p.stem for p in steps[:2])
+
+
+def test_default_report_has_no_empty_sections(reported):
+    """No hard-case or study section when their folders are absent: nothing red, nothing empty."""
+    _, index = reported
+    text = index.read_text()
+    assert "Hard cases" not in text and "class='missing'" not in text
+
+
+def test_every_column_is_in_the_dictionary(reported):
+    run_dir, _ = reported
+    dictionary = pd.read_csv(run_dir / "report" / "columns.csv", keep_default_na=False)
+    assert not (dictionary["meaning"] == "not described").any(), \
+        dictionary[dictionary["meaning"] == "not described"]["name"].tolist()
+    run = load_run(run_dir)
+    for frame in [run.measurements] + [pd.read_csv(p) for p in (run_dir / "report").glob("*.csv")
+                                      if p.name != "columns.csv" and p.read_text().strip()]:
+        assert set(frame.columns) <= set(dictionary["name"])
+
+
+def test_tables_for_people_and_machines(reported):
+    """The HTML shows the paper's precision plus one digit in display units; the CSV keeps
+    SI machine names, the uncertainty, the tolerance and the origin of each cell."""
+    run_dir, index = reported
+    text = index.read_text()
+    assert "3.716e+04" not in text and "37160" in text          # printed frequency, as printed
+    assert "power (mW)" in text and "amplitude (µm pp)" in text and "velocity (m/s pp)" in text
+    table3 = pd.read_csv(run_dir / "report" / "table3.csv")
+    for column in ("expanded_uncertainty", "tolerance", "agrees", "origin", "calibrated_on"):
+        assert column in table3
+    # the synthetic run predates provenance columns: never called measured
+    assert set(table3["origin"].dropna()) <= {"bench not recorded", "campaign setting"}
+    table5 = pd.read_csv(run_dir / "report" / "table5.csv")
+    assert set(table5["origin"]) == {"derived"}
+
+
+def test_a_run_without_the_papers_plates_is_reported_whole(tmp_path):
+    """Only a plate the paper never measured: its characterisation, fits and figure, no error."""
+    from test_analysis_synthetic import VOLTAGES_VPP, RunBuilder, _geometry, _scene
+
+    from squeezebench.analysis import model
+
+    geometry = _geometry(3e-3, 12e-3, 10e-3)
+    shape = model.PlateGeometry(**geometry, n_powered_piezos=6)
+    builder = RunBuilder(tmp_path / "lab")
+    for voltage in VOLTAGES_VPP:
+        amplitude = model.amplitude_pp_m(3.1, voltage, shape, model.PAPER_CONVENTION)
+        power = model.power_w(3.1, -0.9, voltage, 61_000.0, shape, model.PAPER_CONVENTION)
+        builder.point("lab", "plate_lab_plate_3mm", "characterisation", "lab_plate_3mm", 61_000.0, voltage,
+                      power, amplitude * 2 * 3.141592653589793 * 61_000.0, n_powered_piezos=6)
+    run_dir = builder.write({"lab_plate_3mm.yaml": _scene(geometry)})
+    text = report.write_report(run_dir).read_text()
+    assert "lab_plate_3mm" in text and (run_dir / "report" / "plate_fits.png").is_file()
+    fig5 = pd.read_csv(run_dir / "report" / "fig5.csv")
+    q = fig5[(fig5["item"] == "lab_plate_3mm") & (fig5["quantity"] == "q")]["value"].astype(float).iloc[0]
+    assert q == pytest.approx(3.1, rel=1e-3)
+    assert "class='missing'" not in text and "Not available" not in text
+    assert "Table 5 and Figs. 8-9: the run has no characterisation of large_plate, small_plate_4" in text

@@ -1,0 +1,165 @@
+"""How the report shows a number to a person: display units, the paper's precision plus
+one digit, and the paper's table layout (items across, quantities down).
+
+The CSVs keep machine names and SI units (analysis.tables); only the HTML is dressed.
+"""
+
+from __future__ import annotations
+
+import html
+import math
+from dataclasses import dataclass
+
+import pandas as pd
+
+from squeezebench.analysis import provenance
+from squeezebench.analysis.paper import paper_table, printed_step
+
+
+@dataclass(frozen=True)
+class Display:
+    label: str
+    unit: str     # as printed in a header ("" for a pure number)
+    scale: float  # SI value x scale = displayed value
+
+
+DISPLAY = {
+    "n_antinodes": Display("antinodes", "", 1.0),
+    "frequency_hz": Display("resonance frequency", "Hz", 1.0),
+    "voltage_vpp": Display("voltage", "Vpp", 1.0),
+    "power_w": Display("power", "mW", 1e3),
+    "velocity_pp_mps": Display("velocity", "m/s pp", 1.0),
+    "amplitude_pp_m": Display("amplitude", "µm pp", 1e6),
+    "q": Display("Q", "", 1.0),
+    "tan_theta": Display("tan θ′", "", 1.0),
+    "tan_theta_mean": Display("mean tan θ′", "", 1.0),
+}
+#: Significant digits of a number the paper does not print.
+UNPRINTED_DIGITS = 4
+
+
+def header(quantity: str) -> str:
+    display = DISPLAY.get(quantity, Display(quantity, "", 1.0))
+    return f"{display.label} ({display.unit})" if display.unit else display.label
+
+
+def decimals(quantity: str, value_text: str | None) -> int | None:
+    """Decimals that show the paper's precision plus one digit, in display units (None:
+    the paper prints no such number; use significant digits)."""
+    if not value_text:
+        return None
+    if quantity == "n_antinodes":   # a count
+        return 0
+    step = printed_step(value_text) * DISPLAY[quantity].scale
+    return max(0, 1 - math.floor(math.log10(step) + 1e-9))
+
+
+def number(value: float, quantity: str, places: int | None) -> str:
+    """`value` (SI) in display units: fixed decimals, or UNPRINTED_DIGITS significant."""
+    if not isinstance(value, (int, float)) or not math.isfinite(value):
+        return "–"
+    shown = value * DISPLAY.get(quantity, Display("", "", 1.0)).scale
+    if places is None:
+        magnitude = math.floor(math.log10(abs(shown))) if shown else 0
+        places = max(0, UNPRINTED_DIGITS - 1 - magnitude)
+    return f"{shown:.{places}f}".replace("-", "−")
+
+
+def paper_texts(name: str) -> dict[tuple[str, str], str]:
+    """(item, quantity) -> the printed value as typed, for the precision of each row."""
+    return {(row.item, row.quantity): row.value_text for row in paper_table(name).itertuples(index=False)}
+
+
+def cell(row: pd.Series, places: int | None, explain_href: str | None = None) -> str:
+    """One cell: "this run ± U" over "paper X, deviation %", with the origin beneath and
+    a flag (and a link to what explains it) when the deviation is outside the tolerance."""
+    if row["status"] != "measured":
+        return f"<td class='na'>{html.escape(str(row['status']))}</td>"
+    quantity = row["quantity"]
+    expanded = row.get("expanded_uncertainty")
+    has_u = isinstance(expanded, (int, float)) and math.isfinite(expanded) and expanded > 0
+    shown_places = places
+    if has_u and places is not None:   # U keeps at least one significant digit
+        shown_u = expanded * DISPLAY[quantity].scale
+        shown_places = max(places, -math.floor(math.log10(shown_u)))
+    run = number(row["value"], quantity, shown_places)
+    if has_u:
+        run += f" ± {number(expanded, quantity, shown_places)}"
+    agrees = row.get("agrees")
+    agrees = None if agrees is None or pd.isna(agrees) else bool(agrees)
+    parts = [f"<div class='run'>{run}</div>"]
+    if isinstance(row.get("paper_value"), (int, float)) and math.isfinite(row["paper_value"]):
+        deviation = percent(row["relative_difference"])
+        mark = "✓" if agrees is True else "✗ outside tolerance" if agrees is False else ""
+        parts.append(f"<div class='paper'>paper {number(row['paper_value'], quantity, None if places is None else max(0, places - 1))}"
+                     f" · <span class='dev'>{deviation}</span> <span class='mark'>{mark}</span></div>")
+    origin = str(row.get("origin") or "")
+    calibrated = str(row.get("calibrated_on") or "")
+    if calibrated:
+        origin = provenance.CALIBRATION_INPUT if origin != provenance.DERIVED else "derived from a calibration input"
+    title = f" title='{html.escape(calibrated)}'" if calibrated else ""
+    parts.append(f"<div class='origin'{title}>{html.escape(origin)}</div>")
+    if agrees is False and explain_href:
+        parts.append(f"<div class='why'><a href='{html.escape(explain_href)}'>why?</a></div>")
+    classes = ["off" if agrees is False else "ok" if agrees is True else "", "cal" if calibrated else ""]
+    return f"<td class='{' '.join(c for c in classes if c)}'>{''.join(parts)}</td>"
+
+
+def paper_layout(frame: pd.DataFrame, paper_name: str | None, item_label, explain: dict[str, str] | None = None,
+                 caption: str = "") -> str:
+    """The tidy table `frame` (analysis.tables columns) as the paper lays it out: one
+    column per item, one row per quantity, units in the row headers. `item_label` maps an
+    item to its column header; `explain` maps an item to the link explaining its flags."""
+    texts = paper_texts(paper_name) if paper_name else {}
+    items = list(dict.fromkeys(frame["item"]))
+    quantities = list(dict.fromkeys(frame["quantity"]))
+    head = "<th></th>" + "".join(f"<th>{html.escape(item_label(i))}</th>" for i in items)
+    body = ""
+    for quantity in quantities:
+        cells = ""
+        for item in items:
+            match = frame[(frame["item"] == item) & (frame["quantity"] == quantity)]
+            if match.empty:
+                cells += "<td class='na'></td>"
+                continue
+            cells += cell(match.iloc[0], decimals(quantity, texts.get((item, quantity)))
+                          if quantity in DISPLAY else None, (explain or {}).get(item))
+        body += f"<tr><th>{html.escape(header(quantity))}</th>{cells}</tr>"
+    caption_html = f"<caption>{caption}</caption>" if caption else ""
+    return f"<table class='paper'>{caption_html}<thead><tr>{head}</tr></thead><tbody>{body}</tbody></table>"
+
+
+def calibration_notes(frame: pd.DataFrame, item_label=str) -> str:
+    """What the scenes behind the shaded cells were calibrated on: one line per item,
+    each scene state once with the printed values it took."""
+    notes = frame[frame["calibrated_on"].astype(str) != ""] if "calibrated_on" in frame else frame.iloc[0:0]
+    if notes.empty:
+        return ""
+    lines = []
+    for item, group in notes.groupby("item", sort=False):
+        by_state: dict[str, list[str]] = {}
+        for source in group["calibrated_on"]:
+            for part in str(source).split("; "):
+                state, _, value = part.rpartition(": ")
+                by_state.setdefault(state, [])
+                if value not in by_state[state]:
+                    by_state[state].append(value)
+        text = "; ".join(f"{state}: {', '.join(values)}" for state, values in by_state.items())
+        lines.append(f"<li>{html.escape(item_label(str(item)))}: {html.escape(text)}</li>")
+    return ("<div class='notes'>Shaded cells return a printed value: the simulated scene was calibrated "
+            f"on it or on the values it is computed from.<ul>{''.join(lines)}</ul></div>")
+
+
+def with_uncertainty(value: float, u: float, digits: int = 2) -> str:
+    """"value ± u" with u to `digits` significant digits and value to the same decimal."""
+    if not (math.isfinite(value) and math.isfinite(u)) or u <= 0:
+        return f"{value:.4g}".replace("-", "−")
+    places = max(0, digits - 1 - math.floor(math.log10(u)))
+    return f"{value:.{places}f} ± {u:.{places}f}".replace("-", "−")
+
+
+def percent(fraction: float) -> str:
+    """A relative difference in %, two significant digits below 1 % (never "+0.0 %")."""
+    value = 100 * fraction
+    text = f"{value:+.1f}" if abs(value) >= 1 or value == 0 else f"{value:+.2g}"
+    return f"{text} %".replace("-", "−")

@@ -1,0 +1,128 @@
+"""Screenshots of the report of `squeezebench reproduce` at 1280 px, for docs/screenshots/.
+
+    python docs/make_screenshots.py [--run RUN_DIR]    # default: reproduce into a temporary folder
+
+Renders RUN_DIR/report/index.html in headless Chromium (/usr/bin/chromium or $CHROMIUM),
+measures where each part of the page is (a small script writes the measurements into
+the DOM, read back with --dump-dom), takes one screenshot of the whole page and cuts
+it into: the top, Tables 3-5, Fig. 9 and the audit. `measure` is also what the browser
+test (tests/test_report_browser.py) asserts on.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import shutil
+import subprocess
+import tempfile
+from pathlib import Path
+
+WIDTH_PX = 1280
+SCREENSHOTS = Path(__file__).resolve().parent / "screenshots"
+
+#: Writes, once the page and its images have loaded, every image's, table's and
+#: figure's box and whether each figure has a caption into <pre id="measurements">.
+_MEASURE_JS = """
+<script>
+window.addEventListener('load', () => {
+  const box = el => { const r = el.getBoundingClientRect();
+    return {left: r.left, right: r.right, width: r.width, top: r.top + window.scrollY, height: r.height}; };
+  const out = {viewport: document.documentElement.clientWidth,
+               scroll_width: document.documentElement.scrollWidth,
+               page_height: document.documentElement.scrollHeight,
+               images: [...document.images].map(img => ({src: img.getAttribute('src'), loaded: img.complete && img.naturalWidth > 0,
+                        caption: (img.closest('figure') && img.closest('figure').querySelector('figcaption')
+                                  ? img.closest('figure').querySelector('figcaption').textContent.trim() : ''), ...box(img)})),
+               tables: [...document.querySelectorAll('table')].map(t => ({caption: t.caption ? t.caption.textContent.trim() : '',
+                        ...box(t)})),
+               sections: Object.fromEntries([...document.querySelectorAll('section[id], figure[id]')].map(s => [s.id, box(s)]))};
+  const pre = document.createElement('pre');
+  pre.id = 'measurements';
+  pre.textContent = JSON.stringify(out);
+  document.body.appendChild(pre);
+});
+</script>
+"""
+
+
+def chromium() -> str:
+    """The Chromium binary; FileNotFoundError names how to install it."""
+    for candidate in (os.environ.get("CHROMIUM"), "/usr/bin/chromium", shutil.which("chromium"),
+                      shutil.which("chromium-browser"), shutil.which("google-chrome")):
+        if candidate and Path(candidate).is_file():
+            return candidate
+    raise FileNotFoundError("no Chromium found (set $CHROMIUM, or: apt-get install -y chromium)")
+
+
+def _run_chromium(arguments: list[str], timeout_s: float = 120.0) -> str:
+    with tempfile.TemporaryDirectory() as profile:
+        command = [chromium(), "--headless", "--no-sandbox", "--disable-gpu", "--disable-quic",
+                   "--no-first-run", "--disable-background-networking", "--disable-component-update",
+                   "--disable-sync", "--hide-scrollbars", f"--user-data-dir={profile}", *arguments]
+        done = subprocess.run(command, capture_output=True, text=True, timeout=timeout_s, check=True)
+    return done.stdout
+
+
+def measure(index: Path, width_px: int = WIDTH_PX) -> dict:
+    """Boxes of the rendered report at `width_px` (see _MEASURE_JS)."""
+    index = Path(index)
+    probe = index.with_name(".measure.html")   # beside index.html, so its images resolve
+    probe.write_text(index.read_text().replace("</body>", _MEASURE_JS + "</body>"))
+    try:
+        dom = _run_chromium([f"--window-size={width_px},1000", "--virtual-time-budget=10000", "--dump-dom",
+                             probe.as_uri()])
+    finally:
+        probe.unlink()
+    start = dom.index("<pre id=\"measurements\">") + len("<pre id=\"measurements\">")
+    text = dom[start:dom.index("</pre>", start)]
+    return json.loads(text.replace("&amp;", "&").replace("&lt;", "<").replace("&gt;", ">").replace("&quot;", '"'))
+
+
+def screenshots(index: Path, out_dir: Path = SCREENSHOTS) -> list[Path]:
+    """The four views a reader checks first, as PNGs under `out_dir`."""
+    from PIL import Image   # Pillow comes with matplotlib
+
+    boxes = measure(index)
+    height = int(boxes["page_height"])
+    with tempfile.TemporaryDirectory() as tmp:
+        page = Path(tmp) / "page.png"
+        _run_chromium([f"--window-size={WIDTH_PX},{height}", "--virtual-time-budget=10000",
+                       f"--screenshot={page}", Path(index).as_uri()])
+        image = Image.open(page)
+        image.load()
+    sections = boxes["sections"]
+    fig9 = next(img for img in boxes["images"] if img["src"] == "fig9.png")
+    fig9_figure = max((s for s in sections.values() if s["top"] <= fig9["top"] <= s["top"] + s["height"]
+                       and s["height"] < 2000), key=lambda s: s["top"])
+    views = {
+        "report_top.png": (0, 1100),
+        "report_tables_3_5.png": (sections["table3"]["top"] - 10,
+                                  sections["table5"]["top"] + min(sections["table5"]["height"], 1100)),
+        "report_fig9.png": (fig9_figure["top"] - 10, fig9_figure["top"] + fig9_figure["height"] + 190),   # and the sentence beneath
+        "report_audit.png": (sections["audit"]["top"] - 10, sections["audit"]["top"] + 1300),
+    }
+    out_dir.mkdir(parents=True, exist_ok=True)
+    written = []
+    for name, (top, bottom) in views.items():
+        crop = image.crop((0, max(0, int(top)), WIDTH_PX, min(image.height, int(bottom))))
+        crop.save(out_dir / name, optimize=True)
+        written.append(out_dir / name)
+    return written
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--run", type=Path, help="a run directory with its report (default: reproduce anew)")
+    args = parser.parse_args()
+    run_dir = args.run
+    if run_dir is None:
+        run_dir = Path(tempfile.mkdtemp()) / "paper"
+        subprocess.run(["squeezebench", "reproduce", "--out", str(run_dir)], check=True)
+    for path in screenshots(run_dir / "report" / "index.html"):
+        print(path)
+
+
+if __name__ == "__main__":
+    main()
