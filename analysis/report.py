@@ -426,8 +426,8 @@ def _table5_by_materials(context: ReportContext) -> pd.DataFrame:
                                     "quantity": frame["quantity"].map(presentation.header),
                                     "this run": frame["value"].map(lambda v: f"{v:.3f}"),
                                     "printed": frame["paper_value"].map(lambda v: f"{v:.2f}"),
-                                    "deviation (%)": (100 * frame["relative_difference"]).map(
-                                        lambda v: f"{v:+.1f}")}))
+                                    "deviation (%)": frame["relative_difference"].map(
+                                        lambda v: presentation.percent(v).removesuffix(" %"))}))
     return pd.concat(frames, ignore_index=True)
 
 
