@@ -106,6 +106,8 @@ class StateModel(_Strict):
                                  "the resonance); required without calibration; with one, left out: "
                                  "w_r M / R_mech from the plate's modal mass")
     powered_columns: list[str] = Field(min_length=1, description="names from actuators.columns")
+    plate_length_mm: float | None = Field(default=None, gt=0, description="the plate's length in this state "
+                                          "(a cut, Table 3); default plate.length_mm; sets the modal mass")
     n_powered_piezos: int | None = Field(default=None, ge=1, description="optional; if given it must equal "
                                          "len(powered_columns) x piezos_per_column")
     calibration: Union[MeasuredCalibration, PaperModelCalibration, None] = Field(
