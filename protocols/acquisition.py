@@ -188,6 +188,7 @@ class Acquisition:
             peaks = {channel: (scope.measure(channel, "MAXIMUM"), scope.measure(channel, "MINIMUM"))
                      for channel in scales}
             pp = {channel: high - low for channel, (high, low) in peaks.items()}
+            self.drive.check_measured(pp[PIEZO_CHANNEL])   # clipped or not, never above the limit
             rerange = {}   # channel: (expected pp, why)
             for channel, scale in scales.items():
                 edge = 0.98 * SCREEN_DIVISIONS / 2 * scale   # channels sit at position 0

@@ -46,7 +46,8 @@ from tqdm import tqdm
 from squeezebench.instruments.bench import load_bench_file, open_bench, sim_bench_config
 from squeezebench.protocols import characterisation, cutting, detuning, powered_columns, resonance
 from squeezebench.protocols.acquisition import Acquisition, AcquisitionSettings
-from squeezebench.protocols.safety import DriveController, SafetyLimits, stop_signals_interrupt
+from squeezebench.protocols.safety import (DriveController, SafetyLimits, chain_warnings,
+                                              stop_signals_interrupt)
 from squeezebench.protocols.steps import Plate, Step, StepContext
 from squeezebench.protocols.storage import RunStore, sha256_file
 from squeezebench import paths
@@ -257,17 +258,46 @@ def _join(field: str | None, key: str) -> str:
 
 # -- running -----------------------------------------------------------------------------
 def run_campaign(path: Path, resume: bool = False, out_dir: Path | None = None,
-                 progress: bool = True, say: Callable[[str], None] | None = None) -> Path:
+                 progress: bool = True, say: Callable[[str], None] | None = None,
+                 on_point: Callable[[dict[str, Any]], None] | None = None,
+                 on_step: Callable[[dict[str, Any]], None] | None = None) -> Path:
     """Run (or with `resume`, continue) a campaign; return its run directory. `progress`
     off hides the progress bar (a campaign run inside another tool, e.g. the planner);
     `say` shows what the operator must know now (default: the terminal's stderr), and
-    everything said also goes to log.txt. SIGTERM and SIGHUP stop it as Ctrl-C does."""
+    everything said also goes to log.txt. SIGTERM and SIGHUP stop it as Ctrl-C does.
+    `on_point` and `on_step` watch the run (see Watchers)."""
     with stop_signals_interrupt():
-        return _run_campaign(path, resume, out_dir, progress, say)
+        return _run_campaign(path, resume, out_dir, progress, say, Watchers(on_point, on_step))
+
+
+@dataclass(frozen=True)
+class Watchers:
+    """Who watches a run (a live plot, a notebook): `on_point(row)` gets each measurement
+    row as a step records it, before the step is stored (a step that fails is measured
+    again on resume, and its points seen again); `on_step(entry)` gets each step's journal
+    entry once the step is stored. A watcher that fails is logged and never stops the run:
+    watching must not cost a measurement."""
+
+    on_point: Callable[[dict[str, Any]], None] | None = None
+    on_step: Callable[[dict[str, Any]], None] | None = None
+
+    def point(self, row: dict[str, Any]) -> None:
+        self._call(self.on_point, row)
+
+    def step(self, entry: dict[str, Any]) -> None:
+        self._call(self.on_step, entry)
+
+    @staticmethod
+    def _call(watcher: Callable[[dict[str, Any]], None] | None, record: dict[str, Any]) -> None:
+        if watcher is not None:
+            try:
+                watcher(record)
+            except Exception:
+                log.exception("a watcher of the run failed (the run goes on)")
 
 
 def _run_campaign(path: Path, resume: bool, out_dir: Path | None, progress: bool,
-                  say: Callable[[str], None] | None) -> Path:
+                  say: Callable[[str], None] | None, watchers: Watchers) -> Path:
     campaign = load_campaign(path)
     run_dir = Path(out_dir) if out_dir is not None else campaign.output_dir
     store = RunStore(run_dir)
@@ -293,9 +323,12 @@ def _run_campaign(path: Path, resume: bool, out_dir: Path | None, progress: bool
             else:
                 store.create(campaign.file)
                 journal = []
+            for warning in dict.fromkeys(f"{run.bench.input_file}: {w}" for run in campaign.runs
+                                         for w in chain_warnings(run.bench.config().electronics)):
+                tell(warning)
             log.info("campaign %s (%s) in %s, %s", campaign.name, campaign.file, run_dir,
                      f"resuming after {len(journal)} steps" if journal else "new run")
-            _Runner(campaign, store, journal, progress).run()
+            _Runner(campaign, store, journal, progress, watchers).run()
             log.info("campaign %s complete", campaign.name)
         except BaseException as exc:
             log.error("campaign stopped by %s: %s; completed steps are stored, resume to continue",
@@ -319,9 +352,10 @@ def _teller(say: Callable[[str], None] | None) -> Callable[[str], None]:
 
 class _Runner:
     def __init__(self, campaign: Campaign, store: RunStore, journal: list[dict[str, Any]],
-                 progress: bool = True):
+                 progress: bool = True, watchers: Watchers = Watchers()):
         self.campaign = campaign
         self.progress = progress
+        self.watchers = watchers
         self.store = store
         self.journal = journal
         self.done = {(entry["run"], entry["step"]) for entry in journal}
@@ -373,7 +407,8 @@ class _Runner:
         acquisition.reset_ranges()
         ctx = StepContext(run_name=run.name, protocol=run.protocol, step=step, bench=bench,
                           drive=drive, acquisition=acquisition, context=dict(context),
-                          bench_time_base_s=self.bench_time_s, clock_start_s=bench.clock.now_s())
+                          bench_time_base_s=self.bench_time_s, clock_start_s=bench.clock.now_s(),
+                          on_point=self.watchers.point)
         step.measure(ctx)
         drive.to_minimum()   # every step ends safe: the operator may touch the plate next
         # An error an instrument queued during the step (a refused setting) makes its
@@ -392,6 +427,7 @@ class _Runner:
         self.done_this_session += 1
         log.info("run %s: step %s done, %d rows, bench time %.1f s", run.name, step.step_id,
                  len(ctx.rows), bench_time_s)
+        self.watchers.step(entry)
         self.bar.update(1)
         self._show_times()
 

@@ -67,6 +67,7 @@ class StepContext:
     updates: dict[str, Any] = field(default_factory=dict)   # context this step adds
     rows: list[dict[str, Any]] = field(default_factory=list)
     waveforms: dict[int, tuple[Any, dict[str, Any]]] = field(default_factory=dict)
+    on_point: Callable[[dict[str, Any]], None] | None = None   # sees each row as it is recorded
 
     def bench_time_s(self, clock_s: float | None = None) -> float:
         """Campaign bench time at bench clock `clock_s` (default: now).
@@ -114,5 +115,7 @@ class StepContext:
         }
         row.update(columns)
         self.rows.append(row)
+        if self.on_point is not None:
+            self.on_point(row)
         return row
 
