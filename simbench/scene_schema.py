@@ -223,7 +223,22 @@ def format_markdown() -> str:
     for m in physics.RESONATOR_MATERIALS.values():
         lines.append(f"| {m.name} (resonator) | E {m.young_pa / 1e9:g} GPa, nu {m.poisson:g}, density "
                      f"{m.density_kg_m3:g} kg/m3 | {m.source} |")
-    lines += ["", "## A plate that can exist", "", "Every state is refused at load if it breaks one of:", ""]
+    lines += ["", "## How a state's motional branch is built", "",
+              "- C0 = n eps33^T (1 - k31^2) eps0 A / h_p over the powered piezos (clamped by the plate).",
+              "- Mode shape phi(x) = cos(pi x / (lambda/2)), unit at the free ends; modal mass M = half the "
+              "plate's mass (of the state's `plate_length_mm` if cut) plus each bonded patch's mass times the "
+              "mean of phi^2 over it.",
+              "- Force factor n_c psi = sum over powered patches of |e31| b_p z_m |phi'(x_end) - phi'(x_start)|, "
+              "e31 = d31 / s11^E, z_m the patch's mid-plane distance from the composite neutral axis "
+              "(pin-force model; each column wired in phase with the mode).",
+              "- Without calibration: R_mech = w_r M / q_mech. With one: R_mech and n_c psi reproduce it at "
+              "resonance (through the shunt and dielectric loss when those effects are on) and, without "
+              "q_mech, q_mech = w_r M / R_mech.",
+              "- `simbench.physics.motional_elements` gives the branch's R/L/C seen from the terminals; "
+              "`simbench.scene.scenes_table` the figures of `docs/scenes.md`.",
+              "", "Example of a plate written only from physical parameters: `data/examples/own_plate.yaml` "
+              "(with `data/examples/own_plate_campaign.yaml`).",
+              "", "## A plate that can exist", "", "Every state is refused at load if it breaks one of:", ""]
     lines += [f"- {text}" for text in BOUNDS.values()]
     lines += ["", "## Effects", "", "| effect | parameters (defaults) |", "|---|---|"]
     lines += [f"| `{name}` | {', '.join(f'{k} = {v:g}' for k, v in effect.defaults.items()) or 'none'} |"
