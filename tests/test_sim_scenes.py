@@ -242,3 +242,15 @@ def test_the_schema_refuses_what_the_loader_refuses():
     raw["plate"]["material"] = "unobtainium"
     with pytest.raises(pydantic.ValidationError, match="plate.material"):
         SceneFile.model_validate(raw)
+
+
+def test_shipped_one_column_plate_reads_the_fig2c_stress_point():
+    """Fitted, not a material value: with the shunt and the clamped C0, 240 Vpp at 37560 Hz
+    regains v0 and reads Pt = 120 mW (Sec. 2.2)."""
+    from squeezebench.simbench.effects import build_pipeline
+
+    scene = load_scene(paths.scenes_dir() / "one_column_1mm.yaml")
+    stressed = physics.steady_state(scene.states["76x41"], scene.electronics, 37560.0, 240.0 / 20.0 * (1 + 50e-6),
+                                    build_pipeline(scene))
+    assert stressed.power_w == pytest.approx(0.120, rel=2e-3)
+    assert stressed.velocity_pp_mps == pytest.approx(0.375, rel=0.01)
