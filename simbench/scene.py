@@ -278,6 +278,7 @@ class StateFigures:
     modal_mass_g: float
     plate_mass_g: float
     shunt_share: float
+    shunt_share_detuned: float  # at the Fig. 2 50 % detuning, voltage doubled to regain v0
     loss_w_per_um2: float  # plate power / (amplitude pp in um)^2
     force_factor_vs_datasheet: float  # calibrated n_c psi over the pin-force value
     q_mech: float
@@ -311,6 +312,7 @@ class StateFigures:
                 "material_k31": self.material_k31, "power_factor": self.power_factor,
                 "modal_mass_g": self.modal_mass_g, "plate_mass_g": self.plate_mass_g,
                 "modal_mass_ratio": self.modal_mass_ratio, "shunt_share": self.shunt_share,
+                "shunt_share_detuned": self.shunt_share_detuned,
                 "loss_w_per_um2": self.loss_w_per_um2,
                 "force_factor_vs_datasheet": self.force_factor_vs_datasheet, "q_mech": self.q_mech}
 
@@ -322,11 +324,22 @@ def state_figures(scene: "Scene", state: State) -> StateFigures:
     voltage_vpp = state.calibration.voltage_vpp if state.calibration else PAPER_MODEL_REFERENCE_VPP
     load = physics.PlateLoad(capacitance_f=state.capacitance_f, branches=(state.branch,),
                              series_ohm=scene.electronics.shunt_ohm)
-    drive = physics.Drive(np.array([1]), np.array([voltage_vpp / 2.0 + 0j]), 0.0)
-    steady = physics.solve_steady_state(load, drive, state.branch.frequency_hz)
+
+    def at(frequency_hz: float, amplitude_v: float) -> physics.SteadyState:
+        drive = physics.Drive(np.array([1]), np.array([amplitude_v + 0j]), 0.0)
+        return physics.solve_steady_state(load, drive, frequency_hz)
+
+    def shunt_share(steady: physics.SteadyState) -> float:
+        shunt_w = 0.5 * scene.electronics.shunt_ohm * abs(steady.current_phasor) ** 2
+        return shunt_w / steady.power_w if steady.power_w > 0 else math.inf
+
+    steady = at(state.branch.frequency_hz, voltage_vpp / 2.0)
     current = abs(steady.current_phasor)
     apparent = 0.5 * voltage_vpp / 2.0 * current
-    shunt_w = 0.5 * scene.electronics.shunt_ohm * current**2
+    # Fig. 2: above resonance where |Z_mech| = 2 R_mech (q (r - 1/r) = sqrt(3)) the velocity
+    # halves, and twice the voltage regains it
+    x = math.sqrt(3.0) / state.q_mech
+    detuned = at(state.branch.frequency_hz * (x + math.sqrt(x * x + 4.0)) / 2.0, voltage_vpp)
     amplitude_um = steady.amplitude_pp_m * 1e6
     plate = scene.plate_in(state)
     physical_psi = force_factor_n_per_v(plate, scene.actuators, scene.mode, state.powered_columns)
@@ -339,7 +352,7 @@ def state_figures(scene: "Scene", state: State) -> StateFigures:
         power_factor=steady.power_w / apparent if apparent > 0 else 0.0,
         modal_mass_g=physics.modal_mass_kg(state.branch) * 1e3,
         plate_mass_g=assembly_mass_kg(plate, scene.actuators) * 1e3,
-        shunt_share=shunt_w / steady.power_w if steady.power_w > 0 else math.inf,
+        shunt_share=shunt_share(steady), shunt_share_detuned=shunt_share(detuned),
         loss_w_per_um2=steady.plate_power_w / amplitude_um**2 if amplitude_um > 0 else math.inf,
         force_factor_vs_datasheet=state.branch.force_factor_n_per_v / physical_psi if physical_psi > 0 else math.inf,
         q_mech=state.q_mech)
