@@ -17,7 +17,10 @@ from typing import Any, Callable, Iterable, Iterator, TypeVar
 import joblib
 from tqdm import tqdm
 
+from squeezebench.errors import UserError
+
 T = TypeVar("T")
+CONNECT_TIMEOUT_S = 10.0
 
 
 def _indexed(function: Callable[[T], Any], index: int, item: T) -> tuple[int, Any]:
@@ -34,9 +37,16 @@ def _backend(workers: int, scheduler: Any) -> Iterator[int]:
         with joblib.parallel_config(backend="loky" if workers > 1 else "sequential"):
             yield workers
         return
-    from dask.distributed import Client   # only a cluster run needs distributed
-
-    with Client(scheduler) as client, joblib.parallel_config(backend="dask"):
+    try:
+        from distributed import Client   # only a cluster run needs it
+    except ImportError:
+        raise UserError("a Dask scheduler needs the 'distributed' package: "
+                        "pip install 'squeezebench[cluster]'") from None
+    try:
+        client = Client(scheduler, timeout=CONNECT_TIMEOUT_S)
+    except OSError as exc:
+        raise UserError(f"cannot reach the Dask scheduler at {scheduler}: {exc}") from None
+    with client, joblib.parallel_config(backend="dask"):
         yield max(1, sum(client.nthreads().values()))
 
 

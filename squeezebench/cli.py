@@ -64,7 +64,7 @@ def cmd_reproduce(args: argparse.Namespace) -> int:
 
     run_dir = run_campaign(paths.paper_campaign(), resume=args.resume, out_dir=args.out)
     if not args.no_study:
-        run_study(run_dir, resume=args.resume)
+        run_study(run_dir, resume=args.resume, workers=args.workers, scheduler=args.scheduler)
     index = write_report(run_dir)
     print(f"run stored in {run_dir}\nreport written to {index}")
     return 0
@@ -80,7 +80,8 @@ def cmd_study(args: argparse.Namespace) -> int:
     except ValueError as exc:
         raise UserError(f"--repeats: {exc}") from None
     experiments = tuple(args.experiment) if args.experiment else STUDY_EXPERIMENTS
-    study_dir = run_study(args.out, settings, experiments, resume=args.resume)
+    study_dir = run_study(args.out, settings, experiments, resume=args.resume,
+                          workers=args.workers, scheduler=args.scheduler)
     print(f"study stored in {study_dir}; 'squeezebench report {args.out}' shows it")
     return 0
 
@@ -88,8 +89,23 @@ def cmd_study(args: argparse.Namespace) -> int:
 def cmd_plan(args: argparse.Namespace) -> int:
     from squeezebench.protocols.planning import plan_campaign
 
-    print(plan_campaign(Path(args.campaign), target_rel_error=args.target_rel_error, write=args.write))
+    print(plan_campaign(Path(args.campaign), target_rel_error=args.target_rel_error, write=args.write,
+                        workers=args.workers, scheduler=args.scheduler))
     return 0
+
+
+def _workers(text: str) -> int:
+    count = int(text)
+    if count < 1:
+        raise argparse.ArgumentTypeError(f"must be at least 1, got {count}")
+    return count
+
+
+def _add_parallel_options(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--workers", type=_workers, default=1, metavar="N",
+                        help="run independent trials on N local processes (default 1)")
+    parser.add_argument("--scheduler", default=None, metavar="ADDRESS",
+                        help="run the trials on the Dask cluster at ADDRESS (e.g. tcp://head:8786) instead")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -118,6 +134,7 @@ def build_parser() -> argparse.ArgumentParser:
     reproduce.add_argument("--resume", action="store_true", help="continue an interrupted reproduction")
     reproduce.add_argument("--no-study", action="store_true",
                            help="skip the accuracy-vs-bench-time study (about a minute)")
+    _add_parallel_options(reproduce)
     reproduce.set_defaults(func=cmd_reproduce)
 
     study = sub.add_parser("study", help="accuracy against bench time on the simulated bench")
@@ -127,6 +144,7 @@ def build_parser() -> argparse.ArgumentParser:
     study.add_argument("--experiment", action="append", choices=STUDY_EXPERIMENTS,
                        help="run only this experiment (repeatable; default: all)")
     study.add_argument("--resume", action="store_true", help="keep experiments already stored")
+    _add_parallel_options(study)
     study.set_defaults(func=cmd_study)
 
     plan = sub.add_parser("plan", help="cheapest acquisition settings meeting an accuracy target")
@@ -134,6 +152,7 @@ def build_parser() -> argparse.ArgumentParser:
     plan.add_argument("--target-rel-error", type=float, default=0.01, help="relative error goal (default 0.01)")
     plan.add_argument("--write", type=Path, default=None, metavar="FILE",
                       help="also write the campaign with the planned settings to FILE")
+    _add_parallel_options(plan)
     plan.set_defaults(func=cmd_plan)
     return parser
 
