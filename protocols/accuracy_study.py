@@ -177,7 +177,13 @@ class SceneSpec:
         data["effects"] = [*data.get("effects", []), *(e for e in self.extra_effects if e not in present)]
         data["seed"] = seed
         if self.q_mech is not None:
-            data["states"][self.q_mech[0]]["q_mech"] = self.q_mech[1]
+            # A sharper resonance of the same plate (same modal mass, R_mech / (q/q_old))
+            # reaching the same velocity at the same voltage needs a weaker coupling and
+            # takes q_old/q of the power: scaling the calibrated power keeps the plate
+            # physical (the scene refuses a modal mass q/q_old times the plate's).
+            state = data["states"][self.q_mech[0]]
+            state["calibration"]["power_w"] *= state["q_mech"] / self.q_mech[1]
+            state["q_mech"] = self.q_mech[1]
         return yaml.safe_dump(data, sort_keys=False)
 
 
@@ -466,12 +472,12 @@ class AccuracyStudy:
             for old in self.out_dir.glob("*.parquet"):
                 old.unlink()
             shutil.rmtree(self.trials_dir, ignore_errors=True)
-        _write_atomically(lambda path: path.write_text(json.dumps(manifest, indent=2), encoding="utf-8"),
-                          manifest_path)
+        _write_file_atomically(lambda path: path.write_text(json.dumps(manifest, indent=2), encoding="utf-8"),
+                               manifest_path)
         tasks = self.tasks(experiments)
         for task in {task.scene_file: task for task in tasks}.values():   # the scenes as run
-            _write_atomically(lambda path: path.write_text(task.scene_text, encoding="utf-8"),
-                              self.out_dir / "inputs" / task.scene_file)
+            _write_file_atomically(lambda path: path.write_text(task.scene_text, encoding="utf-8"),
+                                   self.out_dir / "inputs" / task.scene_file)
         stored_experiments = {name for name in experiments if (self.out_dir / f"{name}.parquet").exists()}
         for name in sorted(stored_experiments, key=experiments.index):
             self.progress(f"accuracy study: {name} already stored")
@@ -482,8 +488,7 @@ class AccuracyStudy:
                 f"{self.workers} worker{'s' if self.workers > 1 else ''}"
             self.progress(f"accuracy study: {len(pending)} tasks of {len(tasks)} on {where}")
         for task, frame in map_unordered(run_task, pending, self.workers, self.scheduler, "accuracy study"):
-            self._task_path(task).parent.mkdir(parents=True, exist_ok=True)
-            _write_atomically(lambda path: frame.to_parquet(path, index=False), self._task_path(task))
+            _write_atomically(frame, self._task_path(task))
         for name in experiments:
             if name not in stored_experiments:
                 self._assemble(name, [task for task in tasks if task.experiment == name])
@@ -495,12 +500,17 @@ class AccuracyStudy:
     def _assemble(self, name: str, tasks: list[Task]) -> None:
         """The experiment's file from its tasks' files, in configuration order."""
         frame = pd.concat([pd.read_parquet(self._task_path(task)) for task in tasks], ignore_index=True)
-        _write_atomically(lambda path: frame.to_parquet(path, index=False), self.out_dir / f"{name}.parquet")
+        _write_atomically(frame, self.out_dir / f"{name}.parquet")
         shutil.rmtree(self.trials_dir / name)
         self.progress(f"accuracy study: {name} stored")
 
 
-def _write_atomically(write: Callable[[Path], None], path: Path) -> None:
+def _write_atomically(frame: pd.DataFrame, path: Path) -> None:
+    """A table to `path`, atomically."""
+    _write_file_atomically(lambda temporary: frame.to_parquet(temporary, index=False), path)
+
+
+def _write_file_atomically(write: Callable[[Path], None], path: Path) -> None:
     """`write` to a temporary name beside `path`, then rename: readers see all or nothing."""
     path.parent.mkdir(parents=True, exist_ok=True)
     temporary = path.with_name(f".{path.name}.{os.getpid()}.tmp")

@@ -177,7 +177,8 @@ def average_of_records(signal: np.ndarray, sigma: float, averages: int, settings
       `dither_threshold_lsb` steps of noise, m = signal and v = sigma^2 + lsb^2/12
       (dithered quantisation, error below exp(-2 pi^2) of a step).
     Elsewhere (few averages, noise far below a step, near the clip unquantised) the N
-    records of those samples are drawn and quantised one by one.
+    records of those samples are drawn and quantised one by one. The scope keeps the
+    mean rounded to its average step (`_kept_average`).
     """
     lsb = settings.sample_lsb_div
     if sigma == 0:   # every record is the same
@@ -207,20 +208,28 @@ def average_of_records(signal: np.ndarray, sigma: float, averages: int, settings
     drawn = ~direct
     if drawn.any():
         total[drawn] = _sum_of_records(signal[drawn], sigma, averages, lsb, rng)
-    return _kept_average(total, averages, settings)
+    return _kept_average(total, averages, settings, rng)
 
 
-def _kept_average(total: np.ndarray, averages: int, settings: fx.DigitizerSettings) -> np.ndarray:
+def _kept_average(total: np.ndarray, averages: int, settings: fx.DigitizerSettings,
+                  rng: np.random.Generator) -> np.ndarray:
     """The average the scope keeps from the sum of N records (in sample steps when
-    quantised): rounded to the average step in exact arithmetic, since the sum is whole
-    steps and both steps are powers of two of the ADC span (a float sum of divisions
-    would decide the average step's ties by rounding noise)."""
+    quantised), rounded to the average step. The sum is whole steps and both steps are
+    powers of two of the ADC span, so the mean in average steps is exact and often lands
+    half-way: a tie goes either way with equal chance, keeping the kept average an
+    unbiased reading of the sum (ties to even, or up, would tie the rounding's error to
+    the signal, a bias in the power of a weak power factor)."""
     lsb, average_lsb = settings.sample_lsb_div, settings.average_lsb_div
     if lsb is None:
         return _quantise(total / averages, average_lsb)
     if average_lsb is None:
         return total * (lsb / averages)
-    return np.round(total * (round(lsb / average_lsb) / averages)) * average_lsb
+    mean = total * (round(lsb / average_lsb) / averages)   # in average steps, exact
+    kept = np.floor(mean + 0.5)
+    ties = np.flatnonzero(kept - mean == 0.5)
+    if ties.size:
+        kept[ties] -= rng.integers(0, 2, size=ties.size)
+    return kept * average_lsb
 
 
 #: Phases within a step at which `_step_moments` tabulates: linear interpolation between

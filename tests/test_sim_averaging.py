@@ -33,7 +33,7 @@ NOISE_DIV = np.array([0.5, 1.5, 0.25]) * STEP_DIV
 
 def every_record(signals: np.ndarray, averages: int, rng: np.random.Generator) -> np.ndarray:
     return traces._clip(np.stack([
-        traces._kept_average(traces._sum_of_records(s, sigma, averages, STEP_DIV, rng), averages, SETTINGS)
+        traces._kept_average(traces._sum_of_records(s, sigma, averages, STEP_DIV, rng), averages, SETTINGS, rng)
         for s, sigma in zip(signals, NOISE_DIV)]))
 
 
