@@ -49,7 +49,8 @@ def test_shunt(tmp_path, ideal):
     # the scope sees the shunt's loss; the plate sees a little less voltage
     shunt_loss_w = 0.5 * abs(truth.current_phasor) ** 2 * 2.0
     assert truth.power_w - truth.plate_power_w == pytest.approx(shunt_loss_w, rel=1e-9)
-    assert got["power"] == pytest.approx(truth.power_w, rel=1e-9)
+    # gated on whole periods, to within the gate's one-sample granularity
+    assert got["power"] == pytest.approx(truth.power_w, rel=1e-3)
     assert got["ch1_pp"] == pytest.approx(ideal["ch1_pp"], rel=1e-12)  # CH1 is the amplifier output
     assert truth.piezo_voltage_pp_v < 0.9999 * truth.output_voltage_pp_v
     # ...and the scene's calibration, made through the shunt, keeps the published reading
@@ -127,8 +128,10 @@ def test_settling_transient(tmp_path):
     assert bench.measure("CH1", "PK2") == pytest.approx(np.ptp(expected["CH1"]), rel=1e-9)  # the drive: no transient
 
 
-def test_dc_offset(tmp_path, ideal):
-    got = readings(bench_with(tmp_path, ["dc_offset"]))
+def test_dc_offset(tmp_path):
+    # 10k points: the whole-period gate is fine enough for the offsets' product
+    ideal = readings(bench_with(tmp_path, [], record_length=10000))
+    got = readings(bench_with(tmp_path, ["dc_offset"], record_length=10000))
     offsets = fx.DcOffset.defaults
     assert got["ch1_mean"] == pytest.approx(ideal["ch1_mean"] + offsets["ch1_v"] * 100, rel=1e-6)
     assert got["ch2_mean"] == pytest.approx(ideal["ch2_mean"] + offsets["ch2_a"], rel=1e-6)
@@ -136,7 +139,7 @@ def test_dc_offset(tmp_path, ideal):
     for key in ("ch1_pp", "ch2_pp", "ch3_pp"):
         assert got[key] == pytest.approx(ideal[key], rel=1e-9)
     # whole periods: the MATH mean is off by the product of the offsets only
-    assert got["power"] - ideal["power"] == pytest.approx(offsets["ch1_v"] * 100 * offsets["ch2_a"], rel=1e-6)
+    assert got["power"] - ideal["power"] == pytest.approx(offsets["ch1_v"] * 100 * offsets["ch2_a"], rel=0.01)
 
 
 def _residual_rms(bench: RawBench, source: str) -> float:
@@ -148,7 +151,7 @@ def _residual_rms(bench: RawBench, source: str) -> float:
 def test_scope_noise(tmp_path, ideal):
     bench = bench_with(tmp_path, ["scope_noise"], averages=None, record_length=10000)
     got = readings(bench)
-    scales = {ch: float(bench.scope.query(f"CH{ch}:SCA?")) for ch in (1, 2, 3)}
+    scales = {ch: float(bench.scope.query(f"CH{ch}:SCALE?")) for ch in (1, 2, 3)}
     for ch, div_rms in ((1, 0.01), (2, 0.03), (3, 0.01)):
         assert _residual_rms(bench, f"CH{ch}") == pytest.approx(div_rms * scales[ch], rel=0.05)
     assert got["power"] == pytest.approx(ideal["power"], rel=2e-3)  # noise averages out of the mean
