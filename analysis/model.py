@@ -50,18 +50,42 @@ MATERIALS_PHYSICAL = replace(MATERIALS_AS_PRINTED, resonator_young_pa=67e9)
 
 @dataclass(frozen=True)
 class Convention:
-    """How the printed equations are read; recorded next to every derived number."""
+    """How the printed equations are read; recorded next to every derived number.
+
+    Each field is one choice the paper leaves open or prints damaged; `analysis.readings`
+    searches over them and says which published numbers each combination reproduces.
+    """
 
     name: str
     materials: Materials
-    voltage: Literal["pp", "amplitude"] = "pp"  # what V means inside Eqs. 25/27
+    voltage: Literal["pp", "amplitude", "rms"] = "pp"  # what V means inside Eqs. 25/27
     amplitude: Literal["pp", "amplitude"] = "pp"  # what A of Eq. 27 is
-    neutral_plane: Literal["stack_middle", "resonator_middle", "bending_neutral"] = "stack_middle"
+    neutral_plane: Literal["stack_middle", "resonator_middle", "bending_neutral",
+                           "interface"] = "stack_middle"
     eq28_with_pi: bool = True  # substituting Eq. 27 into Eq. 25 yields a factor pi
     eq29_as_printed: bool = False  # printed ratio b_large/b_small is inverted w.r.t. the text
+    #: what n_c of Eqs. 25/27 counts: every powered piezo (the text's definition) or the
+    #: powered groups (columns of the small plates, corner pairs of the large plate)
+    n_c: Literal["piezos", "groups"] = "piezos"
+    eq25_with_pi: bool = True  # Eq. 25 as printed carries pi f; the same pi Eq. 28 lacks
+    c11_reduced: bool = True  # c'11 = c11/(1 - nu_p^2) (Eq. 8) or c11 itself in Eq. 25
+    #: Eq. 25's 3/4 follows Eq. 14; the factor-2 slip of Eqs. 20/21/24 would make it 3/8
+    eq25_coefficient: float = 0.75
 
     def voltage_in_equation(self, voltage_vpp: float) -> float:
+        if self.voltage == "rms":
+            return voltage_vpp / (2.0 * math.sqrt(2.0))
         return voltage_vpp if self.voltage == "pp" else voltage_vpp / 2.0
+
+    def n_c_in_equation(self, geometry: "PlateGeometry") -> int:
+        """n_c of Eqs. 25/27 for `geometry` under this reading."""
+        if self.n_c == "piezos":
+            return geometry.n_powered_piezos
+        if geometry.n_powered_groups is None:
+            raise ModelGeometryError(
+                f"reading {self.name!r} counts powered groups in n_c, but the geometry does not say "
+                "how many groups are powered (PlateGeometry.n_powered_groups)")
+        return geometry.n_powered_groups
 
     def amplitude_pp_from_equation(self, amplitude: float) -> float:
         return amplitude if self.amplitude == "pp" else 2.0 * amplitude
@@ -70,9 +94,11 @@ class Convention:
         return amplitude_pp_m if self.amplitude == "pp" else amplitude_pp_m / 2.0
 
 
-#: The reading that reproduces the paper's own numbers: printed E_i, peak-to-peak V and A,
-#: neutral plane at the middle of the two-layer stack, Eq. 28 with its pi and Eq. 29 with
-#: the ratio the text describes (Q falls as the piezo gets longer).
+#: The text's own definitions: printed E_i, peak-to-peak V and A, n_c every powered
+#: piezo, neutral plane at the middle of the two-layer stack, Eq. 25 with its pi, Eq. 28
+#: with the pi the substitution gives and Eq. 29 with the ratio the text describes (Q
+#: falls as the piezo gets longer). It reproduces Q = 1.48 at about 1 um, but not the
+#: printed tan(theta') (see `analysis.readings`).
 PAPER_CONVENTION = Convention(name="paper", materials=MATERIALS_AS_PRINTED)
 
 #: Every equation exactly as printed (Eq. 28 without pi, Eq. 29 with b_large/b_small).
@@ -83,6 +109,16 @@ AS_PRINTED_CONVENTION = Convention(
 #: Physical material constants, otherwise the paper's reading.
 PHYSICAL_CONVENTION = Convention(name="physical", materials=MATERIALS_PHYSICAL)
 
+#: The one family of readings that `analysis.readings.search_readings` finds reproducing
+#: Table 5's measured Q and tan(theta'), the ~1 um / 1.3 W point and Table 4's 1.2 mm
+#: mean at once: printed E_i, V peak-to-peak, Eq. 27's A zero-to-peak (the published
+#: amplitudes are peak-to-peak), n_c counting powered groups, z0 at the stack middle and
+#: Eq. 25 without its pi. It contradicts the text twice (n_c is defined as the number of
+#: piezos; Eq. 25 is printed with pi): a hypothesis about what the authors computed.
+INFERRED_CONVENTION = Convention(name="inferred", materials=MATERIALS_AS_PRINTED, voltage="pp",
+                                 amplitude="amplitude", n_c="groups", eq25_with_pi=False,
+                                 eq28_with_pi=False)
+
 
 @dataclass(frozen=True)
 class PlateGeometry:
@@ -92,7 +128,8 @@ class PlateGeometry:
     piezo_thickness_m: float  # h_p
     piezo_length_m: float  # b_p, the piezo length along the nodal lines
     half_wavelength_m: float  # lambda / 2
-    n_powered_piezos: int  # n_c
+    n_powered_piezos: int  # n_c as the text defines it
+    n_powered_groups: int | None = None  # powered columns / corner groups (a reading of n_c)
 
     def __post_init__(self) -> None:
         for field_name in ("resonator_thickness_m", "piezo_thickness_m", "piezo_length_m",
@@ -103,6 +140,9 @@ class PlateGeometry:
         if self.n_powered_piezos < 1:
             raise ModelGeometryError(
                 f"PlateGeometry.n_powered_piezos must be >= 1, got {self.n_powered_piezos!r}")
+        if self.n_powered_groups is not None and not 1 <= self.n_powered_groups <= self.n_powered_piezos:
+            raise ModelGeometryError(f"PlateGeometry.n_powered_groups must be 1..n_powered_piezos, "
+                                     f"got {self.n_powered_groups!r}")
 
     @property
     def wavelength_m(self) -> float:
@@ -127,6 +167,8 @@ def neutral_plane_m(geometry: PlateGeometry, convention: Convention) -> float:
         return (h_p + h_i) / 2.0
     if convention.neutral_plane == "resonator_middle":
         return h_p + h_i / 2.0
+    if convention.neutral_plane == "interface":
+        return h_p
     m = convention.materials
     stiffness_piezo = reduced_modulus_pa(m.piezo_c11_pa, m.piezo_poisson) * h_p
     stiffness_resonator = reduced_modulus_pa(m.resonator_young_pa, m.resonator_poisson) * h_i
@@ -172,7 +214,7 @@ def _amplitude_per_q(voltage_vpp: float, geometry: PlateGeometry, convention: Co
     m = convention.materials
     v = convention.voltage_in_equation(voltage_vpp)
     a = a_factor(geometry, convention)
-    return (geometry.n_powered_piezos * 3.0 / 64.0 * m.piezo_d31_c_per_n * v
+    return (convention.n_c_in_equation(geometry) * 3.0 / 64.0 * m.piezo_d31_c_per_n * v
             * geometry.wavelength_m**2 / (geometry.piezo_thickness_m**2 * a))
 
 
@@ -197,11 +239,17 @@ def _power_per_q_tan(voltage_vpp: float, frequency_hz: float, geometry: PlateGeo
     h_p = geometry.piezo_thickness_m
     z0 = neutral_plane_m(geometry, convention)
     a = a_factor(geometry, convention)
-    c11p = reduced_modulus_pa(m.piezo_c11_pa, m.piezo_poisson)
-    return (v**2 * geometry.n_powered_piezos**2
-            * 3.0 * geometry.piezo_length_m * geometry.wavelength_m / 4.0
-            * math.pi * frequency_hz * m.piezo_d31_c_per_n**2 * c11p
+    c11 = _piezo_c11_pa(convention)
+    pi = math.pi if convention.eq25_with_pi else 1.0
+    return (v**2 * convention.n_c_in_equation(geometry)**2
+            * convention.eq25_coefficient * geometry.piezo_length_m * geometry.wavelength_m
+            * pi * frequency_hz * m.piezo_d31_c_per_n**2 * c11
             * (2.0 * z0 - h_p) / (h_p**2 * a))
+
+
+def _piezo_c11_pa(convention: Convention) -> float:
+    m = convention.materials
+    return reduced_modulus_pa(m.piezo_c11_pa, m.piezo_poisson) if convention.c11_reduced else m.piezo_c11_pa
 
 
 def power_w(q: float, tan_theta: float, voltage_vpp: float, frequency_hz: float,
@@ -231,8 +279,8 @@ def power_from_amplitude_w(amplitude_pp: float, q: float, tan_theta: float, freq
     h_p = geometry.piezo_thickness_m
     z0 = neutral_plane_m(geometry, convention)
     a = a_factor(geometry, convention)
-    c11p = reduced_modulus_pa(m.piezo_c11_pa, m.piezo_poisson)
-    printed = (amp**2 / q * tan_theta * frequency_hz * geometry.piezo_length_m * c11p
+    c11 = _piezo_c11_pa(convention)
+    printed = (amp**2 / q * tan_theta * frequency_hz * geometry.piezo_length_m * c11
                * (2.0 * z0 - h_p) * 1024.0 * h_p**2 * a / (3.0 * geometry.wavelength_m**3))
     return printed * math.pi if convention.eq28_with_pi else printed
 

@@ -66,6 +66,7 @@ class PointReduction:
     piezo_voltage_vpp: Estimate  # from the sine fit
     power_w: Estimate  # integer-period mean of v i after DC removal (the paper's method)
     power_fit_w: Estimate  # (A_v A_i + B_v B_i)/2 from the sine fits: the cross-check
+    reactive_power_var: Estimate  # 0.5 Im(V conj I) from the sine fits: what a CH2 delay turns into power
     velocity_pp_mps: Estimate  # 2 x fitted amplitude
     velocity_raw_pp_mps: float  # max - min, biased upwards by noise; kept for comparison
     amplitude_pp_m: Estimate  # velocity_pp / (2 pi f)
@@ -291,6 +292,21 @@ def power_from_fits_w(voltage: SineFit, current: SineFit) -> Estimate:
     return Estimate(value, math.sqrt(float(variance)))
 
 
+def reactive_power_from_fits_var(voltage: SineFit, current: SineFit) -> Estimate:
+    """0.5 Im(V conj I) of two fitted sines (var; negative when the current leads).
+
+    With y = A sin + B cos the phasor is B - jA, so V conj(I) has imaginary part
+    B_v A_i - A_v B_i. A delay tau of the current channel moves the mean power by
+    -Q w tau (`simbench.effects.ChannelSkew`), which is how a deskew correction uses it.
+    """
+    v = np.array([voltage.sin_coefficient, voltage.cos_coefficient])
+    i = np.array([current.sin_coefficient, current.cos_coefficient])
+    d_dv = 0.5 * np.array([-i[1], i[0]])
+    d_di = 0.5 * np.array([v[1], -v[0]])
+    variance = d_dv @ voltage.coefficient_covariance @ d_dv + d_di @ current.coefficient_covariance @ d_di
+    return Estimate(float(d_dv @ v), math.sqrt(float(variance)))
+
+
 def integer_period_power(time_s, voltage_v, current_a, voltage_fit: SineFit,
                          current_fit: SineFit) -> tuple[Estimate, int]:
     """The scope's integer-period mean with its uncertainty (Sec. 2.1).
@@ -356,6 +372,7 @@ def reduce_point(time_s, piezo_voltage_v, current_a, vibrometer_output_v,
         piezo_voltage_vpp=fits["piezo_voltage_v"].pp,
         power_w=power,
         power_fit_w=power_from_fits_w(fits["piezo_voltage_v"], fits["current_a"]),
+        reactive_power_var=reactive_power_from_fits_var(fits["piezo_voltage_v"], fits["current_a"]),
         velocity_pp_mps=velocity,
         velocity_raw_pp_mps=float((vib.max() - vib.min()) * scale),
         amplitude_pp_m=amplitude_pp_from_velocity_pp(velocity, frequency_estimate),

@@ -42,6 +42,8 @@ SIM_RESOURCES = {"generator": "GPIB0::10::INSTR", "scope": "TCPIP0::192.168.0.20
                  "vibrometer": "ASRL1::INSTR"}
 SIMBENCH = "@simbench"
 GENERATOR_LOADS = ("50", "INF")
+#: The 33120A's output impedance (User's Guide, specifications: 50 ohm, fixed).
+GENERATOR_SOURCE_OHM = 50.0
 
 
 @dataclass(frozen=True)
@@ -54,6 +56,7 @@ class BenchElectronics:
     voltage_probe_attenuation: float = 100.0   # 100:1 probe on CH1
     current_probe_a_per_a: float = 1.0         # TCP202 on CH2, read in amperes
     generator_load: str = "INF"                # the amplifier input is high impedance
+    amplifier_input_ohm: float = 1e6           # assumed high-impedance input (not in the paper)
 
     def __post_init__(self) -> None:
         for f in dataclasses.fields(self):
@@ -69,11 +72,23 @@ class BenchElectronics:
         """CH1's probe gain (output/input) for the voltage probe."""
         return 1.0 / self.voltage_probe_attenuation
 
+    @property
+    def piezo_vpp_per_generator_vpp(self) -> float:
+        """Piezo Vpp per displayed generator Vpp, through the whole chain. The 33120A
+        scales its source so the displayed Vpp appears across the load it is told about
+        (OUTP:LOAD) through its 50 ohm output: its open-circuit voltage is the displayed
+        value times 1 + 50/load setting (x2 with LOAD 50, x1 with INF). The amplifier's
+        input impedance and the 50 ohm divide that; the amplifier multiplies by its gain."""
+        load_setting_ohm = float(self.generator_load) if self.generator_load != "INF" else float("inf")
+        open_circuit = 1.0 + GENERATOR_SOURCE_OHM / load_setting_ohm
+        divider = self.amplifier_input_ohm / (self.amplifier_input_ohm + GENERATOR_SOURCE_OHM)
+        return self.amplifier_gain * open_circuit * divider
+
     def piezo_vpp_for_generator_vpp(self, generator_vpp: float) -> float:
-        return self.amplifier_gain * generator_vpp
+        return self.piezo_vpp_per_generator_vpp * generator_vpp
 
     def generator_vpp_for_piezo_vpp(self, piezo_vpp: float) -> float:
-        return piezo_vpp / self.amplifier_gain
+        return piezo_vpp / self.piezo_vpp_per_generator_vpp
 
 
 @dataclass(frozen=True)

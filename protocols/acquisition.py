@@ -35,11 +35,8 @@ SCREEN_DIVISIONS = 8.0
 HORIZONTAL_DIVISIONS = 10.0
 PIEZO_CHANNEL, CURRENT_CHANNEL, VELOCITY_CHANNEL = 1, 2, 3
 
-#: OFV-5000 velocity decoder ranges, most sensitive first (m/s per V of output).
 #: A clipped trace is re-acquired with this much more range (its true size is unknown).
 CLIP_GROWTH = 4.0
-VIBROMETER_RANGES_MPS_PER_V = {"5mm/s/V": 0.005, "25mm/s/V": 0.025,
-                               "125mm/s/V": 0.125, "1000mm/s/V": 1.0}
 
 
 class RangingError(UserError):
@@ -50,8 +47,8 @@ class RangingError(UserError):
 class AcquisitionSettings:
     """Campaign `acquisition:` section."""
 
-    averages: int = 16               # 1: sample mode; else ACQ:NUMAV, a power of two 2..512
-    record_length: int = 500         # HOR:RECO, 500 or 10000 points
+    averages: int = 16               # 1: sample mode; else ACQUIRE:NUMAVG, a power of two 2..512
+    record_length: int = 500         # HORIZONTAL:RECORDLENGTH, 500 or 10000 points
     periods_per_record: float = 20.0  # periods of the drive the record holds
     settle_s: float = 0.5            # bench time after each generator change (ring-up)
     fill_divisions: float = 6.0      # expected pp on screen, of 8 divisions
@@ -203,6 +200,8 @@ class Acquisition:
                 except ClippedTraceError:
                     rerange[channel] = (CLIP_GROWTH * SCREEN_DIVISIONS * scale, "clipped")
             pp = {channel: high - low for channel, (high, low) in peaks.items()}
+            # Clipped or not, never above the limit (a clipped CH1 spans at least the screen).
+            self.drive.check_measured(pp.get(PIEZO_CHANNEL, SCREEN_DIVISIONS * scales[PIEZO_CHANNEL]))
             for channel, scale in scales.items():
                 if channel in rerange:
                     continue

@@ -16,7 +16,8 @@ A campaign file (see data/campaigns/paper.yaml):
         safety: {...}                  # optional, merged over the campaign's
         parameters: {...}              # the protocol's Parameters
 
-Scenes are looked up in `squeezebench.paths.scenes_dir()` (absolute paths are kept);
+Scenes are looked up next to the campaign file, then in `squeezebench.paths.scenes_dir()`
+(absolute paths are kept);
 bench files relative to the campaign file. Every error names the file, the field and
 what is allowed, as a CampaignError (a UserError: one message, exit status 2).
 
@@ -32,11 +33,12 @@ import dataclasses
 import datetime as dt
 import logging
 import re
+import sys
 import types
 import typing
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, Callable
 
 import yaml
 from tqdm import tqdm
@@ -44,7 +46,8 @@ from tqdm import tqdm
 from squeezebench.instruments.bench import load_bench_file, open_bench, sim_bench_config
 from squeezebench.protocols import characterisation, cutting, detuning, powered_columns, resonance
 from squeezebench.protocols.acquisition import Acquisition, AcquisitionSettings
-from squeezebench.protocols.safety import DriveController, SafetyLimits
+from squeezebench.protocols.safety import (DriveController, SafetyLimits, chain_warnings,
+                                              stop_signals_interrupt)
 from squeezebench.protocols.steps import Plate, Step, StepContext
 from squeezebench.protocols.storage import RunStore, sha256_file
 from squeezebench import paths
@@ -179,6 +182,8 @@ class _Reader:
         plate_data = dict(run["plate"]) if isinstance(run["plate"], dict) else run["plate"]
         if isinstance(plate_data, dict) and "name" not in plate_data and bench.scene is not None:
             plate_data["name"] = bench.scene.stem
+        if isinstance(plate_data, dict) and "scene" not in plate_data and bench.scene is not None:
+            plate_data["scene"] = str(bench.scene)   # a plate named otherwise keeps its geometry
         merged = lambda key: {**(top.get(key) or {}), **(run.get(key) or {})}  # noqa: E731
         return Run(
             name=name, protocol=protocol, bench=bench,
@@ -202,8 +207,11 @@ class _Reader:
         return BenchChoice(file=file)
 
     def scene(self, value: Any, field: str) -> Path:
+        """A relative scene path is the user's file next to the campaign first, then a shipped one."""
         scene = Path(str(value))
-        scene = scene if scene.is_absolute() else paths.scenes_dir() / scene
+        if not scene.is_absolute():
+            beside = self.file.parent / scene
+            scene = beside if beside.is_file() else paths.scenes_dir() / scene
         if not scene.is_file():
             known = sorted(p.name for p in paths.scenes_dir().glob("*.yaml"))
             raise self.error(field, f"no scene {scene}; available in {paths.scenes_dir()}: {', '.join(known)}")
@@ -250,43 +258,104 @@ def _join(field: str | None, key: str) -> str:
 
 # -- running -----------------------------------------------------------------------------
 def run_campaign(path: Path, resume: bool = False, out_dir: Path | None = None,
-                 progress: bool = True) -> Path:
+                 progress: bool = True, say: Callable[[str], None] | None = None,
+                 on_point: Callable[[dict[str, Any]], None] | None = None,
+                 on_step: Callable[[dict[str, Any]], None] | None = None) -> Path:
     """Run (or with `resume`, continue) a campaign; return its run directory. `progress`
-    off hides the progress bar (a campaign run inside another tool, e.g. the planner)."""
+    off hides the progress bar (a campaign run inside another tool, e.g. the planner);
+    `say` shows what the operator must know now (default: the terminal's stderr), and
+    everything said also goes to log.txt. SIGTERM and SIGHUP stop it as Ctrl-C does.
+    `on_point` and `on_step` watch the run (see Watchers)."""
+    with stop_signals_interrupt():
+        return _run_campaign(path, resume, out_dir, progress, say, Watchers(on_point, on_step))
+
+
+@dataclass(frozen=True)
+class Watchers:
+    """Who watches a run (a live plot, a notebook): `on_point(row)` gets each measurement
+    row as a step records it, before the step is stored (a step that fails is measured
+    again on resume, and its points seen again); `on_step(entry)` gets each step's journal
+    entry once the step is stored. A watcher that fails is logged and never stops the run:
+    watching must not cost a measurement."""
+
+    on_point: Callable[[dict[str, Any]], None] | None = None
+    on_step: Callable[[dict[str, Any]], None] | None = None
+
+    def point(self, row: dict[str, Any]) -> None:
+        self._call(self.on_point, row)
+
+    def step(self, entry: dict[str, Any]) -> None:
+        self._call(self.on_step, entry)
+
+    @staticmethod
+    def _call(watcher: Callable[[dict[str, Any]], None] | None, record: dict[str, Any]) -> None:
+        if watcher is not None:
+            try:
+                watcher(record)
+            except Exception:
+                log.exception("a watcher of the run failed (the run goes on)")
+
+
+def _run_campaign(path: Path, resume: bool, out_dir: Path | None, progress: bool,
+                  say: Callable[[str], None] | None, watchers: Watchers) -> Path:
     campaign = load_campaign(path)
     run_dir = Path(out_dir) if out_dir is not None else campaign.output_dir
     store = RunStore(run_dir)
-    if store.exists():
-        if not resume:
-            raise CampaignError(campaign.file, None, f"{run_dir} already holds a run; continue it "
-                                "with --resume or choose another output directory")
-        if store.manifest()["campaign"]["sha256"] != sha256_file(campaign.file):
-            raise CampaignError(campaign.file, None, f"the file changed since {run_dir} was started; "
-                                "a resumed run must use the campaign it started with")
-        journal = store.repair()
-    else:
-        store.create(campaign.file)
-        journal = []
-    handler = _attach_log(run_dir / "log.txt")
-    try:
-        log.info("campaign %s (%s) in %s, %s", campaign.name, campaign.file, run_dir,
-                 f"resuming after {len(journal)} steps" if journal else "new run")
-        _Runner(campaign, store, journal, progress).run()
-        log.info("campaign %s complete", campaign.name)
-    except BaseException as exc:
-        log.error("campaign stopped by %s: %s; completed steps are stored, resume to continue",
-                  type(exc).__name__, exc)
-        raise
-    finally:
-        _detach_log(handler)
+    foreign = store.foreign_entries()
+    if foreign:
+        raise CampaignError(campaign.file, None, f"{run_dir} is not empty and holds no run "
+                            f"(no manifest.json; it has {', '.join(foreign[:3])}"
+                            f"{', ...' if len(foreign) > 3 else ''}): a run is only written into a new "
+                            "or empty directory; choose another output directory")
+    if store.exists() and not resume:
+        raise CampaignError(campaign.file, None, f"{run_dir} already holds a run; continue it "
+                            "with --resume or choose another output directory")
+    with store.writer():
+        handler = _attach_log(run_dir / "log.txt")
+        tell = _teller(say)
+        try:
+            if store.exists():
+                if store.manifest()["campaign"]["sha256"] != sha256_file(campaign.file):
+                    raise CampaignError(campaign.file, None, f"the file changed since {run_dir} was "
+                                        "started; a resumed run must use the campaign it started with")
+                store.ensure_campaign_copy(campaign.file)
+                journal = store.repair(tell)
+            else:
+                store.create(campaign.file)
+                journal = []
+            for warning in dict.fromkeys(f"{run.bench.input_file}: {w}" for run in campaign.runs
+                                         for w in chain_warnings(run.bench.config().electronics)):
+                tell(warning)
+            log.info("campaign %s (%s) in %s, %s", campaign.name, campaign.file, run_dir,
+                     f"resuming after {len(journal)} steps" if journal else "new run")
+            _Runner(campaign, store, journal, progress, watchers).run()
+            log.info("campaign %s complete", campaign.name)
+        except BaseException as exc:
+            log.error("campaign stopped by %s: %s; completed steps are stored, resume to continue",
+                      type(exc).__name__, exc)
+            raise
+        finally:
+            _detach_log(handler)
     return run_dir
+
+
+def _teller(say: Callable[[str], None] | None) -> Callable[[str], None]:
+    """`say`, also logged as a warning (log.txt keeps what the terminal was told)."""
+    def tell(message: str) -> None:
+        log.warning("%s", message)
+        if say is None:
+            print(message, file=sys.stderr)
+        else:
+            say(message)
+    return tell
 
 
 class _Runner:
     def __init__(self, campaign: Campaign, store: RunStore, journal: list[dict[str, Any]],
-                 progress: bool = True):
+                 progress: bool = True, watchers: Watchers = Watchers()):
         self.campaign = campaign
         self.progress = progress
+        self.watchers = watchers
         self.store = store
         self.journal = journal
         self.done = {(entry["run"], entry["step"]) for entry in journal}
@@ -338,16 +407,17 @@ class _Runner:
         acquisition.reset_ranges()
         ctx = StepContext(run_name=run.name, protocol=run.protocol, step=step, bench=bench,
                           drive=drive, acquisition=acquisition, context=dict(context),
-                          bench_time_base_s=self.bench_time_s, clock_start_s=bench.clock.now_s())
+                          bench_time_base_s=self.bench_time_s, clock_start_s=bench.clock.now_s(),
+                          on_point=self.watchers.point)
         step.measure(ctx)
         drive.to_minimum()   # every step ends safe: the operator may touch the plate next
         # An error an instrument queued during the step (a refused setting) makes its
         # points doubtful: the step is not stored, and a resume measures it again.
         bench.check_errors()
         bench_time_s = ctx.bench_time_s()
-        self.store.write_step(run.name, step.step_id, ctx.rows, ctx.waveforms)
+        files = self.store.write_step(run.name, step.step_id, ctx.rows, ctx.waveforms)
         entry = {"run": run.name, "step": step.step_id, "protocol": run.protocol,
-                 "rows": len(ctx.rows), "context": ctx.updates,
+                 "rows": len(ctx.rows), "context": ctx.updates, "files": files,
                  "campaign_bench_time_s": bench_time_s,
                  "completed_utc": dt.datetime.now(dt.timezone.utc).isoformat(timespec="seconds")}
         self.store.append_journal(entry)
@@ -357,6 +427,7 @@ class _Runner:
         self.done_this_session += 1
         log.info("run %s: step %s done, %d rows, bench time %.1f s", run.name, step.step_id,
                  len(ctx.rows), bench_time_s)
+        self.watchers.step(entry)
         self.bar.update(1)
         self._show_times()
 

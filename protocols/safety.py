@@ -1,22 +1,37 @@
 """The only path from a protocol to the generator: limits, ramps and a safe exit.
 
 Every change of the generator's amplitude or frequency goes through `DriveController`.
-The piezo voltage is what the limits are about, and it is the amplifier's output:
-`piezo_voltage_vpp = amplifier_gain * generator_amplitude_vpp`. The controller refuses,
+The piezo voltage is what the limits are about, and it is the amplifier's output, computed
+through the whole chain (`BenchElectronics.piezo_vpp_per_generator_vpp`: the generator's
+load setting, its 50 ohm output into the amplifier's input impedance, the gain): with
+OUTP:LOAD 50 into a high-impedance input the 33120A puts twice its displayed Vpp on the
+amplifier. Every acquisition also compares the piezo voltage measured on CH1 with the
+limit (`check_measured`) and drops the drive above it: a bench file that misdescribes
+the chain stops at the first point, not after a sweep. The controller refuses,
 before anything is sent, a piezo voltage above the campaign limit (the paper: "we do not
 apply voltage above 100 V") or above what the amplifier can deliver; it ramps large
 changes in steps (a sudden 100 V step on a capacitive load is a current spike through
 the shunt and the piezos); and, used as a context manager, it leaves the generator at its
-minimum output whatever happens inside: an exception, Ctrl-C or a normal end.
+minimum output whatever happens inside: an exception, Ctrl-C (SIGTERM and SIGHUP are
+turned into the same KeyboardInterrupt by `stop_signals_interrupt`) or a normal end. While
+it brings the generator down, further stop signals wait; if the generator cannot be
+reached, the terminal is told in capitals that its output state is unknown and what to do
+by hand.
 """
 
 from __future__ import annotations
 
+import contextlib
 import logging
 import math
+import signal
+import sys
+import threading
 from dataclasses import dataclass
+from typing import Iterator
 
 from squeezebench.errors import UserError
+from squeezebench.instruments.bench import GENERATOR_SOURCE_OHM
 
 log = logging.getLogger(__name__)
 
@@ -24,6 +39,50 @@ log = logging.getLogger(__name__)
 PAPER_MAX_PIEZO_VOLTAGE_VPP = 100.0
 #: gain * (v / gain) may exceed v by an ulp: a limit is met "exactly" within this factor.
 _ROUNDING = 1.0 + 1e-12
+
+
+#: Signals that stop a run as Ctrl-C does (SIGINT is Ctrl-C itself).
+STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
+
+
+def _raise_interrupt(signum, frame) -> None:
+    raise KeyboardInterrupt(f"stopped by {signal.Signals(signum).name}")
+
+
+@contextlib.contextmanager
+def stop_signals_interrupt() -> Iterator[None]:
+    """Inside, SIGTERM and SIGHUP raise KeyboardInterrupt like Ctrl-C (SIGINT), so every
+    way of stopping a run takes the same safe path. Only the main thread gets signals;
+    elsewhere this does nothing."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = {sig: signal.signal(sig, _raise_interrupt) for sig in STOP_SIGNALS}
+    try:
+        yield
+    finally:
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
+
+
+@contextlib.contextmanager
+def _stop_signals_deferred() -> Iterator[None]:
+    """Stop signals wait (blocked, then delivered) while the generator is brought down."""
+    main = threading.current_thread() is threading.main_thread()
+    if main:
+        signal.pthread_sigmask(signal.SIG_BLOCK, STOP_SIGNALS)
+    try:
+        yield
+    finally:
+        if main:
+            signal.pthread_sigmask(signal.SIG_UNBLOCK, STOP_SIGNALS)
+
+
+def output_state_unknown(reason: str) -> str:
+    """What the operator must read when the generator may still be driving the plate."""
+    return ("GENERATOR OUTPUT STATE UNKNOWN: the generator could not be set to its minimum "
+            f"({reason}). THE PLATE MAY STILL BE DRIVEN. By hand: switch the amplifier off or set "
+            "the 33120A's amplitude to its minimum on the front panel, before touching the plate.")
 
 
 class SafetyLimitError(UserError):
@@ -46,6 +105,9 @@ class SafetyLimits:
     max_piezo_voltage_vpp: float = PAPER_MAX_PIEZO_VOLTAGE_VPP
     ramp_step_vpp: float = 10.0   # largest piezo-voltage change sent in one command
     ramp_dwell_s: float = 0.01    # bench time between two ramp commands
+    #: A measured CH1 peak-to-peak may exceed the limit by this fraction before the run stops:
+    #: the scope's vertical gain accuracy, the probe's and the peak-to-peak of the noise.
+    measured_tolerance: float = 0.1
 
     def __post_init__(self) -> None:
         for name in ("max_piezo_voltage_vpp", "ramp_step_vpp"):
@@ -53,6 +115,22 @@ class SafetyLimits:
                 raise ValueError(f"{name} must be positive, got {getattr(self, name)!r}")
         if self.ramp_dwell_s < 0:
             raise ValueError(f"ramp_dwell_s must not be negative, got {self.ramp_dwell_s!r}")
+        if not 0 <= self.measured_tolerance <= 0.5:
+            raise ValueError(f"measured_tolerance must be within 0..0.5, got {self.measured_tolerance!r}")
+
+
+class MeasuredVoltageError(UserError):
+    """The piezo voltage measured on CH1 is above the limit; the drive was dropped."""
+
+
+def chain_warnings(electronics) -> list[str]:
+    """What in a bench description puts more on the piezos than the generator displays."""
+    if electronics.generator_load == "50" and electronics.amplifier_input_ohm > 10 * GENERATOR_SOURCE_OHM:
+        return [f"generator_load 50 into an amplifier input of {electronics.amplifier_input_ohm:g} ohm: "
+                f"the 33120A puts about twice its displayed Vpp on the amplifier (x"
+                f"{electronics.piezo_vpp_per_generator_vpp / electronics.amplifier_gain:.3g}); the limits "
+                "count it, but set generator_load: INF unless the amplifier input really is 50 ohm"]
+    return []
 
 
 class DriveController:
@@ -68,16 +146,18 @@ class DriveController:
         self._generator = generator
         self._clock = clock
         self.limits = limits
-        self.amplifier_gain = float(electronics.amplifier_gain)
+        self.amplifier_gain = float(electronics.amplifier_gain)   # nominal, as recorded in rows
+        self.chain_gain = float(electronics.piezo_vpp_per_generator_vpp)
         self.amplifier_max_output_vpp = float(electronics.amplifier_max_output_vpp)
         self.settle_s = settle_s
         self.minimum_generator_amplitude_vpp = float(generator.min_amplitude_vpp)
         # The generator cannot go below its minimum: that much always reaches the piezos.
-        self.check(self.amplifier_gain * self.minimum_generator_amplitude_vpp)
+        self.check(self.chain_gain * self.minimum_generator_amplitude_vpp)
         # The generator may hold anything from a previous session (a square wave, an
         # offset): every drive starts from a plain sine at its minimum.
         generator.sine_at_minimum()
         self.generator_amplitude_vpp = self.minimum_generator_amplitude_vpp
+        self._setpoint_vpp: float | None = None
         self.frequency_hz = math.nan
 
     # -- limits ---------------------------------------------------------------------------
@@ -89,7 +169,8 @@ class DriveController:
     def check(self, piezo_voltage_vpp: float) -> None:
         """Raise SafetyLimitError if `piezo_voltage_vpp` is above a limit."""
         if not math.isfinite(piezo_voltage_vpp) or piezo_voltage_vpp < 0:
-            raise SafetyLimitError("valid range", self.max_piezo_voltage_vpp, piezo_voltage_vpp)
+            raise UserError(f"refused a piezo voltage of {piezo_voltage_vpp!r} Vpp: a voltage "
+                            "must be a finite number of at least 0 Vpp")
         if piezo_voltage_vpp > self.amplifier_max_output_vpp * _ROUNDING:
             raise SafetyLimitError("amplifier's maximum output", self.amplifier_max_output_vpp,
                                    piezo_voltage_vpp)
@@ -100,22 +181,42 @@ class DriveController:
     # -- drive ----------------------------------------------------------------------------
     @property
     def piezo_voltage_vpp(self) -> float:
-        return self.amplifier_gain * self.generator_amplitude_vpp
+        """The piezo voltage set: the one asked for once a ramp has reached it (the 1 µVpp
+        quantisation of the generator's amplitude is not a different setpoint)."""
+        return self._setpoint_vpp if self._setpoint_vpp is not None else \
+            self.chain_gain * self.generator_amplitude_vpp
 
     def set_piezo_voltage(self, piezo_voltage_vpp: float) -> None:
         """Ramp to `piezo_voltage_vpp` (checked first), then wait the settling time."""
         self.check(piezo_voltage_vpp)
-        target_vpp = max(piezo_voltage_vpp / self.amplifier_gain,
+        target_vpp = max(piezo_voltage_vpp / self.chain_gain,
                          self.minimum_generator_amplitude_vpp)
         start_vpp = self.generator_amplitude_vpp
-        step_vpp = self.limits.ramp_step_vpp / self.amplifier_gain
+        step_vpp = self.limits.ramp_step_vpp / self.chain_gain
         n_steps = max(1, math.ceil(abs(target_vpp - start_vpp) / step_vpp))
         for i in range(1, n_steps + 1):
             amplitude_vpp = target_vpp if i == n_steps else start_vpp + (target_vpp - start_vpp) * i / n_steps
             self._send_amplitude(amplitude_vpp)
             if i < n_steps:
                 self._clock.sleep(self.limits.ramp_dwell_s)
+        if target_vpp > self.minimum_generator_amplitude_vpp:
+            self._setpoint_vpp = float(piezo_voltage_vpp)
         self._clock.sleep(self.settle_s)
+
+    def check_measured(self, measured_piezo_vpp: float) -> None:
+        """Drop the drive and raise MeasuredVoltageError if CH1 measured more than the limit
+        (plus the measurement tolerance): the bench is not what its description says."""
+        allowed_vpp = self.max_piezo_voltage_vpp * (1.0 + self.limits.measured_tolerance)
+        if measured_piezo_vpp <= allowed_vpp:
+            return
+        setpoint_vpp = self.piezo_voltage_vpp
+        self.to_minimum(ramp=False)
+        raise MeasuredVoltageError(
+            f"measured a piezo voltage of {measured_piezo_vpp:.4g} Vpp on CH1 at a setpoint of "
+            f"{setpoint_vpp:.4g} Vpp: above the limit of {self.max_piezo_voltage_vpp:.4g} Vpp "
+            f"(+{self.limits.measured_tolerance:.0%} measurement tolerance); the generator was set to its "
+            "minimum. The bench is not what its description says: check the amplifier gain, its input "
+            "impedance and the generator load setting in the bench file")
 
     def set_frequency(self, frequency_hz: float) -> None:
         """Set the drive frequency, then wait the settling time (the plate rings up)."""
@@ -135,9 +236,10 @@ class DriveController:
         # quantised to 1 µVpp so the decimal text on the bus is exactly the checked number
         # (a 9-digit rendering of a binary float can round up past the limit).
         sent_vpp = round(generator_amplitude_vpp, 6)
-        if self.amplifier_gain * sent_vpp > self.max_piezo_voltage_vpp:
+        if self.chain_gain * sent_vpp > self.max_piezo_voltage_vpp:
             sent_vpp -= 1e-6
-        self.check(self.amplifier_gain * sent_vpp)
+        self.check(self.chain_gain * sent_vpp)
+        self._setpoint_vpp = None   # until a ramp reaches its target, what is sent is what is set
         self._generator.set_amplitude_vpp(sent_vpp)
         self.generator_amplitude_vpp = sent_vpp
 
@@ -147,10 +249,19 @@ class DriveController:
 
     def __exit__(self, exc_type, exc, tb) -> None:
         # On an error or Ctrl-C drop at once (the bench may be in any state); on a normal
-        # end ramp down like any other change.
-        try:
-            self.to_minimum(ramp=exc_type is None)
-        except Exception:
-            if exc_type is None:
-                raise
-            log.exception("could not set the generator to its minimum after %s", exc_type.__name__)
+        # end ramp down like any other change, and drop at once if the ramp fails.
+        with _stop_signals_deferred():
+            try:
+                if exc_type is None:
+                    try:
+                        self.to_minimum(ramp=True)
+                        return
+                    except Exception:
+                        log.exception("ramping the generator down failed; dropping it at once")
+                self.to_minimum(ramp=False)
+            except Exception as failure:
+                message = output_state_unknown(f"{type(failure).__name__}: {failure}")
+                log.critical(message)
+                print(message, file=sys.stderr, flush=True)
+                if exc_type is None:
+                    raise

@@ -8,28 +8,41 @@ code: a run directory is usable by anyone with pandas.
 Crash safety. A step is the unit of atomicity:
 1. its waveforms go to a hidden staging folder, renamed into place when complete;
 2. its measurement table goes to a temporary file, renamed into place (`os.replace`);
-3. its journal line is appended to `journal.jsonl` and fsynced, last.
-A step is complete if and only if its journal line exists. Opening a run directory for
-resume deletes whatever a killed step left between 1 and 3, so a partially written step
-never shows rows; a torn last journal line (killed mid-write) is ignored and truncated.
+3. its journal line, carrying the sha256 of every file of 1 and 2, is appended to
+   `journal.jsonl` and fsynced, last.
+A step is complete if and only if its journal line exists.
+
+Nothing measured is ever deleted. Before a resume, `repair` moves what it cannot trust
+into `quarantine/<time>/` (same relative paths) and says what and why: files no journal
+line covers (a killed step, or a step whose journal line was damaged), journal lines
+that are not entries (a torn last line, a corrupted byte), all kept byte for byte. A
+step file the journal names but that is missing or fails its checksum is reported by
+`verify` (by `--resume` and by `report`), never "repaired".
+
+One writer per directory: `writer()` holds an exclusive OS lock (flock) on
+`.squeezebench.lock`, which records the holder's pid for the message another process
+gets. A directory that is neither empty nor a run is never written into.
 """
 
 from __future__ import annotations
 
+import contextlib
 import datetime as dt
+import fcntl
 import hashlib
 import json
 import logging
 import os
 import shutil
 from pathlib import Path
-from typing import Any
+from typing import Any, Callable, Iterator
 
 import pandas as pd
 import pyarrow as pa
 import pyarrow.parquet as pq
 
 import squeezebench
+from squeezebench.errors import UserError
 
 log = logging.getLogger(__name__)
 
@@ -37,6 +50,23 @@ JOURNAL = "journal.jsonl"
 MANIFEST = "manifest.json"
 CAMPAIGN_COPY = "campaign.yaml"
 METADATA_KEY = b"squeezebench"
+LOCK = ".squeezebench.lock"
+QUARANTINE = "quarantine"
+#: Step folders; everything in them is a step's file or something to quarantine.
+STEP_FOLDERS = ("measurements", "waveforms")
+#: What file managers drop into folders: never ours, never moved, never a reason to refuse.
+OS_LITTER = frozenset({".DS_Store", "Thumbs.db", "desktop.ini", "._.DS_Store"})
+#: A journal line is an entry if it is a JSON object with these fields of these types.
+_ENTRY_FIELDS = {"run": str, "step": str, "rows": int, "context": dict,
+                 "campaign_bench_time_s": (int, float)}
+
+
+class StorageError(UserError):
+    """A run directory that cannot be used as asked (locked, not a run, unreadable manifest)."""
+
+
+def _sha256_bytes(data: bytes) -> str:
+    return hashlib.sha256(data).hexdigest()
 
 
 def sha256_file(path: Path) -> str:
@@ -81,16 +111,45 @@ class RunStore:
 
     def __init__(self, run_dir: Path):
         self.run_dir = Path(run_dir)
+        self._quarantine_dir: Path | None = None
 
-    # -- creation and the manifest --------------------------------------------------------
+    # -- creation, ownership and the manifest ---------------------------------------------
     def exists(self) -> bool:
         return (self.run_dir / MANIFEST).exists()
 
+    def foreign_entries(self) -> list[str]:
+        """What makes the directory neither empty nor a run (empty if it is one of those)."""
+        if not self.run_dir.exists() or self.exists():
+            return []
+        if not self.run_dir.is_dir():
+            return [self.run_dir.name]
+        return sorted(p.name for p in self.run_dir.iterdir() if p.name not in OS_LITTER | {LOCK})
+
+    @contextlib.contextmanager
+    def writer(self) -> Iterator[None]:
+        """Hold the directory's exclusive lock (StorageError naming the holder's pid)."""
+        self.run_dir.mkdir(parents=True, exist_ok=True)
+        fd = os.open(self.run_dir / LOCK, os.O_RDWR | os.O_CREAT, 0o644)
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            holder = os.pread(fd, 32, 0).decode(errors="replace").strip() or "unknown"
+            os.close(fd)
+            raise StorageError(f"{self.run_dir} is being written by another squeezebench process "
+                               f"(pid {holder}); wait for it to finish or stop it first") from None
+        try:
+            os.ftruncate(fd, 0)
+            os.pwrite(fd, f"{os.getpid()}\n".encode(), 0)
+            yield
+        finally:
+            os.close(fd)   # releases the lock; the file stays (removing it would race)
+
     def create(self, campaign_file: Path) -> None:
-        """Start a new run directory: the campaign copy and a first manifest."""
+        """Start a new run directory: a first manifest, then the campaign copy. The
+        manifest comes first so a kill in between leaves a run (resumable), never a
+        directory that is neither empty nor a run."""
         self.run_dir.mkdir(parents=True, exist_ok=True)
         campaign_file = Path(campaign_file)
-        write_atomic(self.run_dir / CAMPAIGN_COPY, campaign_file.read_bytes())
         now = _utc_now()
         self._write_manifest({
             "software": {"name": "squeezebench", "version": squeezebench.__version__},
@@ -101,10 +160,28 @@ class RunStore:
             "created_utc": now,
             "updated_utc": now,
         })
+        self.ensure_campaign_copy(campaign_file)
         (self.run_dir / JOURNAL).touch()
 
+    def ensure_campaign_copy(self, campaign_file: Path) -> None:
+        if not (self.run_dir / CAMPAIGN_COPY).exists():
+            write_atomic(self.run_dir / CAMPAIGN_COPY, Path(campaign_file).read_bytes())
+
     def manifest(self) -> dict[str, Any]:
-        return json.loads((self.run_dir / MANIFEST).read_text())
+        path = self.run_dir / MANIFEST
+        try:
+            manifest = json.loads(path.read_bytes())
+        except OSError as exc:
+            raise StorageError(f"{path}: cannot be read ({exc.strerror})") from None
+        except ValueError as exc:   # JSONDecodeError and UnicodeDecodeError
+            raise StorageError(f"{path}: not a valid manifest (not JSON: {exc})") from None
+        required = {"campaign": dict, "inputs": dict, "instruments": dict}
+        for key, kind in required.items():
+            if not isinstance(manifest, dict) or not isinstance(manifest.get(key), kind):
+                raise StorageError(f"{path}: not a valid manifest (field '{key}' missing or not an object)")
+        if not isinstance(manifest["campaign"].get("sha256"), str):
+            raise StorageError(f"{path}: not a valid manifest (field 'campaign.sha256' missing)")
+        return manifest
 
     def _write_manifest(self, manifest: dict[str, Any]) -> None:
         manifest["updated_utc"] = _utc_now()
@@ -118,8 +195,8 @@ class RunStore:
         copy = f"inputs/{path.name}"
         known = manifest["inputs"].get(path.name)
         if known and known["sha256"] != digest:
-            raise FileExistsError(f"{path}: another file named {path.name} is already an input of "
-                                  f"{self.run_dir} with different content")
+            raise StorageError(f"{path}: another file named {path.name} is already an input of "
+                               f"{self.run_dir} with different content")
         if not known:
             write_atomic(self.run_dir / copy, path.read_bytes())
             manifest["inputs"][path.name] = {"file": str(path.resolve()), "copy": copy, "sha256": digest}
@@ -137,35 +214,64 @@ class RunStore:
 
     # -- the journal ----------------------------------------------------------------------
     def journal(self) -> list[dict[str, Any]]:
-        """Completed steps in order; a torn last line (killed mid-append) is not a step."""
+        """Completed steps in order; a line that is not an entry (torn, corrupted) is not a step."""
         return self._read_journal()[0]
 
-    def _read_journal(self) -> tuple[list[dict[str, Any]], int]:
+    def _read_journal(self) -> tuple[list[dict[str, Any]], list[tuple[int, str]]]:
+        """The entries, and (line number, why) for each line that is not one."""
         path = self.run_dir / JOURNAL
         if not path.exists():
-            return [], 0
-        entries, good_bytes = [], 0
-        with open(path, "rb") as handle:
-            for line in handle:
-                if not line.endswith(b"\n"):
-                    break
-                try:
-                    entries.append(json.loads(line))
-                except json.JSONDecodeError:
-                    break
-                good_bytes += len(line)
-        return entries, good_bytes
+            return [], []
+        entries, bad = [], []
+        lines = path.read_bytes().splitlines(keepends=True)
+        for number, line in enumerate(lines, start=1):
+            reason = _entry_problem(line)
+            if reason is None:
+                entries.append(json.loads(line))
+            else:
+                bad.append((number, reason))
+        return entries, bad
 
-    def repair(self) -> list[dict[str, Any]]:
-        """Before resuming: drop a torn journal line and every file of an incomplete step."""
-        entries, good_bytes = self._read_journal()
+    def repair(self, say: Callable[[str], None]) -> list[dict[str, Any]]:
+        """Before resuming: quarantine what cannot be trusted, say what and why; return
+        the journal's entries. Nothing is deleted."""
         path = self.run_dir / JOURNAL
-        if path.exists() and good_bytes != path.stat().st_size:
-            log.warning("%s: dropping a torn last line", path)
-            with open(path, "r+b") as handle:
-                handle.truncate(good_bytes)
-        self._discard_incomplete({(e["run"], e["step"]) for e in entries})
+        entries, bad = self._read_journal()
+        if bad:
+            kept = self._quarantine(path, copy=True)
+            good = [line for line in path.read_bytes().splitlines(keepends=True) if _entry_problem(line) is None]
+            write_atomic(path, b"".join(good))
+            for number, reason in bad:
+                say(f"{path} line {number}: {reason}; the whole journal as found is kept in {kept}, "
+                    "and the step of that line, if any, will be measured again")
+        completed = {(e["run"], e["step"]) for e in entries}
+        stray = list(self._step_files_outside(completed))
+        if stray and not path.exists():
+            say(f"{path} is missing: no step counts as completed")
+        for item in stray:
+            target = self._quarantine(item)
+            say(f"{item.relative_to(self.run_dir)}: no journal entry covers it (a step that did not "
+                f"complete, or whose journal line was lost); moved to {target.relative_to(self.run_dir)}")
+        if not path.exists():
+            path.touch()
+        for problem in self.verify(entries):
+            say(problem)
         return entries
+
+    def verify(self, entries: list[dict[str, Any]] | None = None) -> list[str]:
+        """One message per step file the journal names that is missing or fails its checksum."""
+        entries = self.journal() if entries is None else entries
+        problems = []
+        for entry in entries:
+            files = entry.get("files") or {_measurement_file(entry["run"], entry["step"]): None}
+            for relative, digest in files.items():
+                file = self.run_dir / relative
+                if not file.is_file():
+                    problems.append(f"{file}: missing (step {entry['run']}/{entry['step']} is in the journal)")
+                elif digest is not None and sha256_file(file) != digest:
+                    problems.append(f"{file}: fails its checksum (step {entry['run']}/{entry['step']}; "
+                                    "the file changed after it was measured)")
+        return problems
 
     def append_journal(self, entry: dict[str, Any]) -> None:
         with open(self.run_dir / JOURNAL, "ab") as handle:
@@ -175,38 +281,82 @@ class RunStore:
 
     # -- steps ----------------------------------------------------------------------------
     def write_step(self, run_name: str, step_id: str, rows: list[dict[str, Any]],
-                   waveforms: dict[int, tuple[pd.DataFrame, dict[str, Any]]]) -> None:
-        """Waveforms, then the measurement table; the caller appends the journal line."""
+                   waveforms: dict[int, tuple[pd.DataFrame, dict[str, Any]]]) -> dict[str, str]:
+        """Waveforms, then the measurement table; return {relative path: sha256} of every
+        file written, for the journal line the caller appends."""
+        files: dict[str, str] = {}
         final_dir = self.run_dir / "waveforms" / run_name / step_id
         staging = final_dir.with_name(f".{step_id}.partial")
-        shutil.rmtree(staging, ignore_errors=True)
+        for leftover in (staging, final_dir):   # a killed earlier attempt (repair moved it already)
+            if leftover.exists():
+                self._quarantine(leftover)
         staging.mkdir(parents=True)
         for point_index, (frame, metadata) in waveforms.items():
             table = pa.Table.from_pandas(frame, preserve_index=False)
             table = table.replace_schema_metadata({**(table.schema.metadata or {}),
                                                    METADATA_KEY: json.dumps(metadata).encode()})
-            write_atomic(staging / f"{point_index:04d}.parquet", _parquet_bytes(table))
-        shutil.rmtree(final_dir, ignore_errors=True)   # a killed earlier attempt
+            data = _parquet_bytes(table)
+            write_atomic(staging / f"{point_index:04d}.parquet", data)
+            files[f"waveforms/{run_name}/{step_id}/{point_index:04d}.parquet"] = _sha256_bytes(data)
         os.replace(staging, final_dir)
         columns = list(dict.fromkeys(key for row in rows for key in row))  # union, in order
         table = pa.Table.from_pylist([{key: row.get(key) for key in columns} for row in rows])
-        write_atomic(self.run_dir / "measurements" / run_name / f"{step_id}.parquet", _parquet_bytes(table))
+        data = _parquet_bytes(table)
+        write_atomic(self.run_dir / _measurement_file(run_name, step_id), data)
+        files[_measurement_file(run_name, step_id)] = _sha256_bytes(data)
+        return files
 
-    def _discard_incomplete(self, completed: set[tuple[str, str]]) -> None:
-        """Remove every step file not covered by a journal line (what a kill left)."""
-        for folder in ("measurements", "waveforms"):
+    def _step_files_outside(self, completed: set[tuple[str, str]]) -> Iterator[Path]:
+        """Every item in the step folders no completed step owns (OS litter aside)."""
+        for folder in STEP_FOLDERS:
             root = self.run_dir / folder
-            if not root.exists():
+            if not root.is_dir():
                 continue
-            for run_dir in root.iterdir():
-                for entry in run_dir.iterdir():
-                    step_id = entry.name.removesuffix(".parquet")
-                    if entry.name.startswith(".") or (run_dir.name, step_id) not in completed:
-                        log.info("removing %s: its step did not complete", entry)
-                        if entry.is_dir():
-                            shutil.rmtree(entry)
-                        else:
-                            entry.unlink()
+            for run_dir in sorted(root.iterdir()):
+                if run_dir.name in OS_LITTER:
+                    continue
+                if not run_dir.is_dir():
+                    yield run_dir
+                    continue
+                for entry in sorted(run_dir.iterdir()):
+                    step_id = entry.name.removesuffix(".parquet") if folder == "measurements" else entry.name
+                    if entry.name not in OS_LITTER and (run_dir.name, step_id) not in completed:
+                        yield entry
+
+    def _quarantine(self, item: Path, copy: bool = False) -> Path:
+        """Move (or copy) `item` to this session's quarantine folder, same relative path."""
+        if self._quarantine_dir is None:
+            stamp = dt.datetime.now(dt.timezone.utc).strftime("%Y%m%dT%H%M%S.%fZ")
+            self._quarantine_dir = self.run_dir / QUARANTINE / stamp
+        target = self._quarantine_dir / item.relative_to(self.run_dir)
+        target.parent.mkdir(parents=True, exist_ok=True)
+        if copy:
+            shutil.copy2(item, target)
+        else:
+            os.replace(item, target)
+        _fsync_dir(target.parent)
+        log.warning("quarantined %s as %s", item, target)
+        return target
+
+
+def _measurement_file(run_name: str, step_id: str) -> str:
+    return f"measurements/{run_name}/{step_id}.parquet"
+
+
+def _entry_problem(line: bytes) -> str | None:
+    """Why a journal line is not an entry, or None if it is one."""
+    if not line.endswith(b"\n"):
+        return "torn (no end of line: the process was killed while appending it)"
+    try:
+        entry = json.loads(line)
+    except ValueError as exc:
+        return f"not a journal entry (not valid JSON: {exc})"
+    if not isinstance(entry, dict):
+        return "not a journal entry (not a JSON object)"
+    for key, kind in _ENTRY_FIELDS.items():
+        if not isinstance(entry.get(key), kind) or isinstance(entry.get(key), bool):
+            return f"not a journal entry (field '{key}' missing or of the wrong type)"
+    return None
 
 
 def read_measurements(run_dir: Path) -> pd.DataFrame:

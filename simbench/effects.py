@@ -9,6 +9,8 @@ acts at one or more stages of the simulation:
 - `signals`: edits the noise-free sensor outputs (offsets, vibrometer clipping);
 - `noise`: adds per-acquisition random noise, as an rms in screen divisions;
 - `digitizer`: sets how the scope digitises (quantisation, averaging);
+- `generator`: what the generator really puts out for its settings (frequency error);
+- `timing`: a delay of a channel against CH1 (skew, current-probe delay);
 - `bus`: faults of the instruments and their link (timeouts, garbled or truncated
   replies, error-queue entries, a disconnect), for testing what a campaign does on a
   bad day.
@@ -20,11 +22,13 @@ scene is loaded: an effect that is off is never called, and the ideal bench runs
 from __future__ import annotations
 
 import math
+import zlib
 from dataclasses import dataclass, replace
 from typing import ClassVar
 
 import numpy as np
 
+from squeezebench.analysis.specifications import SPECIFICATIONS
 from squeezebench.simbench import physics
 
 #: Screen channels: CH1 piezo voltage (V), CH2 current (A), CH3 vibrometer output (V).
@@ -336,6 +340,134 @@ class Averaging(Effect):
                         dither_threshold_lsb=self.parameters["dither_threshold_lsb"])
 
 
+# -- systematic errors (issue 15) ----------------------------------------------------------
+class SystematicEffect(Effect):
+    """An error of the bench's instruments within their specification: the same on every
+    acquisition, unknown to whoever measures, and removable only by calibration.
+
+    Each error parameter defaults to the instrument's specified limit
+    (`analysis.specifications`). With `draw: 1` the parameter is a half-width instead: the
+    error is drawn once, uniformly in +-|value|, from `bench_seed`, as a real bench has one
+    unknown set of errors within its specifications. Scenes naming the same `bench_seed`
+    share the draw (the same instruments measure every plate); the accuracy study varies
+    it to simulate many benches.
+    """
+
+    errors: ClassVar[tuple[str, ...]] = ()
+
+    def __init_subclass__(cls, errors: dict[str, float] | None = None, **kwargs) -> None:
+        """`errors`: the error parameters and their default (specified) magnitudes."""
+        super().__init_subclass__(**kwargs)
+        if errors is not None:
+            cls.errors = tuple(errors)
+            cls.defaults = {**errors, "draw": 0.0, "bench_seed": 0.0}
+            cls.limits = {"draw": (0.0, 1.0), "bench_seed": (0.0, 2.0**32 - 1)}
+
+    def __init__(self, scene, **parameters: float) -> None:
+        super().__init__(scene, **parameters)
+        p = self.parameters
+        if p["draw"]:
+            rng = np.random.default_rng([int(p["bench_seed"]), zlib.crc32(self.name.encode())])
+            self.values = {k: float(rng.uniform(-1.0, 1.0)) * abs(p[k]) for k in self.errors}
+        else:
+            self.values = {k: p[k] for k in self.errors}
+
+
+class _ChannelGains(SystematicEffect):
+    """A systematic effect that scales the channels as the scope sees them (`gains()`:
+    one factor per channel)."""
+
+    stages = frozenset({"signals"})
+
+    def signals(self, signals: np.ndarray, ctx: AcquisitionContext) -> np.ndarray:
+        return signals * self.gains()[:, None]
+
+
+class ScopeGainError(_ChannelGains, errors=dict.fromkeys(("ch1_rel", "ch2_rel", "ch3_rel"),
+                                                        SPECIFICATIONS["scope_gain"].half_width)):
+    """Vertical gain error of each scope channel: CH<n> reads (1 + ch<n>_rel) times its
+    input. Default +-2 %: TDS3000B User Manual, App. A, DC gain accuracy."""
+
+    name = "scope_gain_error"
+
+    def gains(self) -> np.ndarray:
+        v = self.values
+        return 1.0 + np.array([v["ch1_rel"], v["ch2_rel"], v["ch3_rel"]])
+
+
+class CurrentProbeGainError(_ChannelGains,
+                            errors={"gain_rel": SPECIFICATIONS["current_probe_gain"].half_width}):
+    """The TCP202 puts out (1 + gain_rel) times the current. Default +-3 %: TCP202
+    instruction manual (070-9542), Specifications, DC accuracy."""
+
+    name = "current_probe_gain_error"
+
+    def gains(self) -> np.ndarray:
+        return np.array([1.0, 1.0 + self.values["gain_rel"], 1.0])
+
+
+class VibrometerScaleError(_ChannelGains,
+                           errors={"scale_rel": SPECIFICATIONS["vibrometer_scale"].half_width}):
+    """The OFV-5000 decoder puts out (1 + scale_rel) times velocity / range. Default
+    +-1 %: Polytec velocity decoder specifications, calibration error of the analog
+    output."""
+
+    name = "vibrometer_scale_error"
+
+    def gains(self) -> np.ndarray:
+        return np.array([1.0, 1.0, 1.0 + self.values["scale_rel"]])
+
+
+class _ChannelDelay(SystematicEffect):
+    """A systematic effect that delays CH2 against CH1 (the scope triggers on CH1)."""
+
+    stages = frozenset({"timing"})
+    delay_parameter: ClassVar[str]
+
+    def delays_s(self) -> np.ndarray:
+        return np.array([0.0, self.values[self.delay_parameter], 0.0])
+
+
+class ChannelSkew(_ChannelDelay, errors={"ch2_delay_s": SPECIFICATIONS["scope_skew"].half_width}):
+    """The scope's own delay of CH2 against CH1: CH2 shows i(t - ch2_delay_s). Mean
+    power becomes 0.5 Re(V conj(I) exp(j w tau)) = P cos(w tau) - Q_r sin(w tau), with
+    Q_r = 0.5 Im(V conj I) (negative for the capacitive plate: a delay raises the power;
+    phasor algebra). Default 1 ns, assumed: the TDS3000B
+    states no channel-to-channel delay; a tenth of its +-10 ns deskew range."""
+
+    name = "channel_skew"
+    delay_parameter = "ch2_delay_s"
+
+
+class CurrentProbeDelay(_ChannelDelay,
+                        errors={"delay_s": SPECIFICATIONS["current_probe_delay"].half_width}):
+    """The TCP202's signal delay left uncorrected against the voltage probe: CH2 shows
+    i(t - delay_s); same closed form as `channel_skew`. Default 10 ns, assumed: the
+    +-10 ns CH<x>:DESKew range (programmer manual) bounds what the scope corrects. At
+    the Fig. 2c stress point (power factor 0.018) 10 ns moves the power by ~16 mW."""
+
+    name = "current_probe_delay"
+    delay_parameter = "delay_s"
+
+
+class GeneratorFrequencyError(SystematicEffect,
+                              errors={"frequency_rel": SPECIFICATIONS["generator_frequency"].half_width}):
+    """The 33120A puts out (1 + frequency_rel) times the frequency it is set to (and
+    answers FREQ? with the setting). Default +-20 ppm: 33120A User's Guide,
+    Specifications, frequency accuracy (1 year)."""
+
+    name = "generator_frequency_error"
+    stages = frozenset({"generator"})
+
+    def generator(self, settings: physics.GeneratorSettings) -> physics.GeneratorSettings:
+        return replace(settings, frequency_hz=settings.frequency_hz * (1.0 + self.values["frequency_rel"]))
+
+
+#: The systematic effects at specification magnitudes, as a scene lists them.
+SYSTEMATIC_EFFECTS = ("scope_gain_error", "current_probe_gain_error", "vibrometer_scale_error",
+                      "channel_skew", "current_probe_delay", "generator_frequency_error")
+
+
 # -- faults (issue 7) ------------------------------------------------------------------------
 class ClippedTrace(Effect):
     """A burst on CH2 (a switching spike, a probe knocked) far beyond the screen in the
@@ -465,7 +597,8 @@ EFFECTS: dict[str, type[Effect]] = {cls.name: cls for cls in (
     Shunt, DielectricLossEffect, AmplifierLimits, NeighbouringMode, HeatingDrift,
     SettlingTransient, DcOffset, VibrometerRange, ScopeNoise, VibrometerNoise,
     Quantisation, Averaging, ClippedTrace, BusTimeout, GarbledReplyFault, TruncatedReplyFault,
-    InstrumentErrorEntry, Disconnect)}
+    InstrumentErrorEntry, Disconnect, ScopeGainError, CurrentProbeGainError, VibrometerScaleError,
+    ChannelSkew, CurrentProbeDelay, GeneratorFrequencyError)}
 
 
 # -- the digitiser ----------------------------------------------------------------------
@@ -532,11 +665,13 @@ def _quantise(divisions: np.ndarray, lsb_div: float | None) -> np.ndarray:
 class EffectPipeline:
     """The effects of a scene, sorted by the stage they act at."""
 
-    STAGES = ("amplifier", "load", "motion", "signals", "noise", "digitizer", "bus")
+    STAGES = ("generator", "amplifier", "load", "motion", "timing", "signals", "noise", "digitizer", "bus")
 
     def __init__(self, effects: list[Effect]) -> None:
         self.effects = effects
         self.by_stage = {stage: [e for e in effects if stage in e.stages] for stage in self.STAGES}
+        self._generator = [e.generator for e in self.by_stage["generator"]]
+        self._delays = [e.delays_s for e in self.by_stage["timing"]]
         self._amplifier = [e.amplifier for e in self.by_stage["amplifier"]]
         self._load = [e.load for e in self.by_stage["load"]]
         self._motion = [e.motion for e in self.by_stage["motion"]]
@@ -556,6 +691,15 @@ class EffectPipeline:
 
     def get(self, name: str) -> Effect | None:
         return next((e for e in self.effects if e.name == name), None)
+
+    def generator(self, settings: physics.GeneratorSettings) -> physics.GeneratorSettings:
+        for stage in self._generator:
+            settings = stage(settings)
+        return settings
+
+    def channel_delays_s(self) -> np.ndarray | None:
+        """Delay of each channel against CH1 (delays add); None when no effect delays."""
+        return sum(stage() for stage in self._delays) if self._delays else None
 
     def amplifier(self, amplifier: physics.Amplifier) -> physics.Amplifier:
         for stage in self._amplifier:

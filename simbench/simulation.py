@@ -73,7 +73,8 @@ class SimulatedBench:
         generator = self.generator.settings()
         key = (self.state_name, generator, *(e.state_key() for e in self.effects.by_stage["load"]))
         if self._steady_cache[0] != key:
-            self._steady_cache = (key, self._solve(generator, self.effects.load(self.state.load())))
+            self._steady_cache = (key, self._solve(self.effects.generator(generator),
+                                                   self.effects.load(self.state.load())))
         return self._steady_cache[1]
 
     def _solve(self, generator: physics.GeneratorSettings, load: physics.PlateLoad) -> physics.SteadyState:

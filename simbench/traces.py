@@ -115,7 +115,12 @@ def acquire(steady: physics.SteadyState, setup: ScopeSetup, sensor_gains: np.nda
         display_gain=1.0 / probe, vibrometer_range_mps_per_v=vibrometer_range_mps_per_v)
     fundamentals = pipeline.motion(steady.branch_velocity_phasors_mps[:, :1], ctx) \
         if pipeline.has_motion else None
-    signals = synthesize(steady, times, fundamentals) * sensor_gains[:, None]
+    signals = synthesize(steady, times, fundamentals)
+    delays_s = pipeline.channel_delays_s()
+    if delays_s is not None:   # a delayed channel shows its signal from tau earlier
+        for ch in np.flatnonzero(delays_s):
+            signals[ch] = synthesize(steady, times - delays_s[ch], fundamentals)[ch]
+    signals = signals * sensor_gains[:, None]
     signals = pipeline.signals(signals, ctx)
     channel_values = _couple(signals * ctx.display_gain[:, None], setup, steady.frequency_hz)
     position = np.array([c.position_div for c in setup.channels])

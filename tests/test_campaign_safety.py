@@ -14,6 +14,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings, strategies as st
 from pyvisa.resources import MessageBasedResource
 
+from squeezebench.instruments.bench import sim_bench_config
 from squeezebench.protocols.campaign import run_campaign
 from squeezebench.protocols.safety import SafetyLimitError
 from test_protocols_support import ONE_COLUMN_PLATE, noise_free_scene, write_campaign
@@ -58,7 +59,9 @@ def test_no_amplitude_above_the_limit(tmp_path_factory, monkeypatch, scene, limi
                 run_campaign(campaign, out_dir=tmp_path / "run")
         else:
             run_campaign(campaign, out_dir=tmp_path / "run")
-    gain = 20.0   # the scene's amplifier (BenchElectronics.amplifier_gain)
+    # Piezo Vpp per generator Vpp through the scene's chain (load setting, 50 ohm into the
+    # amplifier input, gain): 20 x 1 MOhm / (1 MOhm + 50 ohm) here.
+    gain = sim_bench_config(scene).electronics.piezo_vpp_per_generator_vpp
     assert sent_vpp, "no amplitude command recorded: the recorder missed the bus"
     assert max(sent_vpp) * gain <= limit_vpp * (1 + 1e-9)
     # Rises come in ramp steps (falls may be a drop to the minimum, on error).

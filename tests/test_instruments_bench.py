@@ -40,8 +40,8 @@ GOOD_BENCH = {"visa_library": "@py", "resources": dict(SIM_RESOURCES),
 
 # -- electronics ----------------------------------------------------------------------------------
 def test_electronics_conversions():
-    electronics = BenchElectronics(amplifier_gain=20.0)
-    assert electronics.piezo_vpp_for_generator_vpp(2.5) == 50.0
+    electronics = BenchElectronics(amplifier_gain=20.0, generator_load="50", amplifier_input_ohm=50.0)
+    assert electronics.piezo_vpp_for_generator_vpp(2.5) == 50.0   # a matched 50 ohm input
     assert electronics.generator_vpp_for_piezo_vpp(100.0) == 5.0
     assert electronics.voltage_probe_gain == 0.01
 
@@ -92,12 +92,14 @@ def test_missing_bench_file(tmp_path):
 
 def test_sim_bench_config_reads_the_scene_electronics(tmp_path):
     scene = write_yaml(tmp_path, {"plate": {"name": "p"}, "electronics": {
-        "amplifier_gain": 10, "shunt_ohm": 1.5, "amplifier_input_ohm": 10000}}, "scene.yaml")
+        "amplifier_gain": 10, "shunt_ohm": 1.5, "amplifier_input_ohm": 10000,
+        "amplifier_bandwidth_hz": 4e5}}, "scene.yaml")
     config = sim_bench_config(scene)
     assert config.visa_library == f"{scene}@simbench"
     assert config.resources == SIM_RESOURCES
-    # keys it names are read, the others keep their defaults, simbench's own are ignored
-    assert config.electronics == BenchElectronics(amplifier_gain=10.0, shunt_ohm=1.5)
+    # keys it names are read (the input impedance: the safety chain counts it), the others
+    # keep their defaults, simbench's own are ignored
+    assert config.electronics == BenchElectronics(amplifier_gain=10.0, shunt_ohm=1.5, amplifier_input_ohm=10000.0)
 
 
 def test_sim_bench_config_errors(tmp_path):

@@ -39,8 +39,14 @@ class Clock:
 
 @dataclass(frozen=True)
 class Electronics:
+    """An ideal chain: the piezo gets exactly the gain times the generator's Vpp."""
+
     amplifier_gain: float = 20.0
     amplifier_max_output_vpp: float = 300.0
+
+    @property
+    def piezo_vpp_per_generator_vpp(self) -> float:
+        return self.amplifier_gain
 
 
 def drive(limit_vpp=100.0, ramp_step_vpp=10.0, max_output_vpp=300.0):

@@ -281,3 +281,102 @@ def test_clipped_trace(tmp_path):
 def test_fault_parameters_are_checked(tmp_path):
     with pytest.raises(SceneError, match=r"effects\[0\]\.disconnect\.instrument: must be in 0\.\.3"):
         load_scene(scene_file(tmp_path, effects=[{"disconnect": {"instrument": 4}}]))
+
+
+# -- systematic errors within the instruments' specifications (issue 15) ---------------------
+def systematic(tmp_path, name: str, **parameters) -> RawBench:
+    return bench_with(tmp_path, [{name: {"draw": 0, **parameters}}])
+
+
+@pytest.mark.parametrize("name", fx.SYSTEMATIC_EFFECTS)
+def test_systematic_effect_at_zero_changes_no_bit(tmp_path, name):
+    """At zero magnitude the effect's code path reproduces the ideal record exactly."""
+    zero = dict.fromkeys(fx.EFFECTS[name].errors, 0.0)
+    plain, with_effect = bench_with(tmp_path, []), systematic(tmp_path, name, **zero)
+    for bench in (plain, with_effect):
+        bench.acquire()
+    for source in ("CH1", "CH2", "CH3", "MATH"):
+        assert np.array_equal(plain.fetch(source)[2], with_effect.fetch(source)[2])
+
+
+def test_scope_gain_error(tmp_path, ideal):
+    got = readings(systematic(tmp_path, "scope_gain_error", ch1_rel=0.02, ch2_rel=-0.01, ch3_rel=0.015))
+    assert got["ch1_pp"] == pytest.approx(ideal["ch1_pp"] * 1.02, rel=1e-9)
+    assert got["ch3_pp"] == pytest.approx(ideal["ch3_pp"] * 1.015, rel=1e-9)
+    assert got["power"] == pytest.approx(ideal["power"] * 1.02 * 0.99, rel=1e-9)
+
+
+def test_current_probe_gain_error(tmp_path, ideal):
+    got = readings(systematic(tmp_path, "current_probe_gain_error", gain_rel=-0.03))
+    assert got["ch2_pp"] == pytest.approx(ideal["ch2_pp"] * 0.97, rel=1e-9)
+    assert got["power"] == pytest.approx(ideal["power"] * 0.97, rel=1e-9)
+    assert got["ch1_pp"] == ideal["ch1_pp"] and got["ch3_pp"] == ideal["ch3_pp"]
+
+
+def test_vibrometer_scale_error(tmp_path, ideal):
+    got = readings(systematic(tmp_path, "vibrometer_scale_error", scale_rel=0.01))
+    assert got["ch3_pp"] == pytest.approx(ideal["ch3_pp"] * 1.01, rel=1e-9)
+    assert got["power"] == ideal["power"]
+
+
+def _delayed_power_w(truth, delay_s: float) -> float:
+    """Mean of v(t) i(t - tau): 0.5 Re(V conj(I) exp(j w tau)) (phasors)."""
+    omega = 2.0 * math.pi * truth.frequency_hz
+    voltage = truth.output_voltage_phasors_v[0]
+    return 0.5 * (voltage * np.conj(truth.current_phasor) * np.exp(1j * omega * delay_s)).real
+
+
+@pytest.mark.parametrize("name, parameter", [("channel_skew", "ch2_delay_s"), ("current_probe_delay", "delay_s")])
+def test_channel_delay_moves_power_by_the_closed_form(tmp_path, ideal, name, parameter):
+    bench = systematic(tmp_path, name, **{parameter: 10e-9})
+    got, truth = readings(bench), bench.sim.truth()
+    # the whole-period gate's sample granularity (500 points): a few 1e-4 of P against the
+    # closed form, cancelling in the difference to the ideal bench below
+    assert got["power"] == pytest.approx(_delayed_power_w(truth, 10e-9), rel=5e-4)
+    # at resonance (power factor ~0.5 here) the shift is w tau Q_r, about 0.1 % of P
+    reactive_var = 0.5 * (truth.output_voltage_phasors_v[0] * np.conj(truth.current_phasor)).imag
+    shift = 2.0 * math.pi * F_HZ * 10e-9 * reactive_var
+    assert got["power"] - ideal["power"] == pytest.approx(-shift, rel=5e-3)
+    assert got["ch2_pp"] == pytest.approx(ideal["ch2_pp"], rel=1e-3)   # sampled peaks move a little
+
+
+def test_current_probe_delay(tmp_path):
+    """Fig. 2c stress point (power factor ~0.02): 10 ns moves the power by ~14 mW (the
+    clamped C0's reactive power times w tau)."""
+    bench = bench_with(tmp_path, [{"current_probe_delay": {"delay_s": 10e-9}}], frequency_hz=37560.0,
+                       generator_vpp=240.0 / 20.0 * 10.05 / 10.0, record_length=10000)
+    truth = bench.sim.truth()
+    shift_w = _delayed_power_w(truth, 10e-9) - truth.power_w
+    assert abs(shift_w) == pytest.approx(0.014, rel=0.1)
+    # 10k points: the whole-period gate's granularity at this power factor is below 1e-3
+    assert readings(bench)["power"] == pytest.approx(truth.power_w + shift_w, rel=1e-3)
+
+
+def test_channel_skew(tmp_path, ideal):
+    skewed = systematic(tmp_path, "channel_skew")   # the default: 1 ns
+    truth = skewed.sim.truth()
+    # against the ideal bench read through the same whole-period gate (its granularity cancels)
+    shift_w = _delayed_power_w(truth, 1e-9) - truth.power_w
+    assert readings(skewed)["power"] - ideal["power"] == pytest.approx(shift_w, rel=1e-2)
+
+
+def test_generator_frequency_error(tmp_path):
+    bench = systematic(tmp_path, "generator_frequency_error", frequency_rel=1e-3)
+    moved = bench_with(tmp_path, [], frequency_hz=F_HZ * (1 + 1e-3))
+    assert float(bench.generator.query("FREQ?")) == pytest.approx(F_HZ)   # answers the setting
+    assert bench.sim.truth().frequency_hz == pytest.approx(F_HZ * (1 + 1e-3), rel=1e-12)
+    assert bench.sim.truth().velocity_pp_mps == pytest.approx(moved.sim.truth().velocity_pp_mps, rel=1e-12)
+    bench.acquire()
+    assert bench.measure("CH1", "FREQ") == pytest.approx(F_HZ * (1 + 1e-3), rel=2e-5)   # the scope sees it
+
+
+def test_systematic_errors_are_drawn_once_per_bench(tmp_path):
+    def drawn(seed: int, scene: str = "one_column_1mm.yaml") -> dict[str, float]:
+        path = scene_file(tmp_path, scene, effects=[{"scope_gain_error": {"draw": 1, "bench_seed": seed}}])
+        return fx.build_pipeline(load_scene(path)).get("scope_gain_error").values
+
+    first = drawn(7)
+    assert first == drawn(7) == drawn(7, "large_plate.yaml")   # the same instruments on every plate
+    assert first != drawn(8)
+    draws = [v for seed in range(200) for v in drawn(seed).values()]
+    assert max(np.abs(draws)) <= 0.02 and np.std(draws) == pytest.approx(0.02 / math.sqrt(3), rel=0.1)

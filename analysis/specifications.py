@@ -1,0 +1,49 @@
+"""The bench's published accuracy specifications: the Type B inputs of every budget.
+
+One place for these numbers: the uncertainty budgets (`analysis.uncertainty`) read them
+as rectangular distributions (GUM 4.3.7: a stated limit +-a without more knowledge gives
+u = a / sqrt(3)), and the simulated bench's systematic effects (`simbench.effects`) take
+them as their default magnitudes, so a simulated bench errs exactly as far as the
+manuals allow. Where a manual gives no figure the value is marked "assumed" and says why.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+
+@dataclass(frozen=True)
+class Specification:
+    """A limit +-half_width in `unit` ("1" is relative), with where it comes from."""
+
+    half_width: float
+    unit: str
+    source: str
+
+    @property
+    def std_uncertainty(self) -> float:
+        """Rectangular distribution over +-half_width (GUM 4.3.7)."""
+        return self.half_width / math.sqrt(3.0)
+
+
+SPECIFICATIONS: dict[str, Specification] = {
+    "scope_gain": Specification(
+        0.02, "1", "TDS3000B Series User Manual, App. A (Specifications): DC gain accuracy +-2 % "
+                   "per channel, sample or average mode"),
+    "scope_skew": Specification(
+        1e-9, "s", "assumed: the TDS3000B states no channel-to-channel delay; 1 ns, a tenth of "
+                   "the +-10 ns the scope can deskew (CH<x>:DESKew range, programmer manual)"),
+    "current_probe_gain": Specification(
+        0.03, "1", "TCP202 instruction manual (070-9542), Specifications: DC accuracy +-3 %"),
+    "current_probe_delay": Specification(
+        10e-9, "s", "assumed: the TCP202's delay relative to a passive voltage probe is "
+                    "compensated with CH<x>:DESKew, whose +-10 ns range (programmer manual) bounds "
+                    "what is left uncorrected"),
+    "vibrometer_scale": Specification(
+        0.01, "1", "Polytec velocity decoder specifications: calibration error of the analog "
+                   "output +-1 % (sinusoidal vibration, 70 % of full scale)"),
+    "generator_frequency": Specification(
+        20e-6, "1", "HP/Agilent 33120A User's Guide, Specifications: frequency accuracy 10 ppm "
+                    "(90 days), 20 ppm (1 year); the one-year figure"),
+}

@@ -1,0 +1,323 @@
+"""GUM uncertainty budgets of the stored values: what limits each number, term by term.
+
+A budget lists the standard uncertainties (k = 1) of one value: Type A from the record's
+noise (the reduction's fit covariance, `analysis.waveforms`), Type B from the
+instruments' specifications (`analysis.specifications`, rectangular) and from how the
+frequency was set. Terms are independent and add in quadrature (GUM 5.1.2, sensitivity
+coefficients evaluated at the measured point); the expanded uncertainty is k = 2 times
+the combined one; the dominant term is the largest.
+
+What a stored point's value means: the reading the bench would give with ideal
+instruments at the point's recorded setting (generator frequency and voltage). The
+generator's own frequency error therefore enters through the slope of the resonance
+curve at that setting; how well the resonance search put the setting on the resonance
+enters the quantities defined at resonance (the resonance frequency, Q, tan theta').
+
+A deskew calibration (`protocols.calibration`) replaces the CH2 delay term by the
+calibration's own uncertainty and corrects the power by the delay it measured. Gain
+errors stay: a resistive load compares CH2 with CH1, and without a voltage reference the
+product of the gains that the power carries is not lowered (see `Deskew`).
+
+Q and tan theta' propagate the point uncertainties and the tolerances of the geometry
+and material constants through the paper's Eqs. 25 and 27 with the `uncertainties`
+package (linear propagation, numerical derivatives of `analysis.model`).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+
+import numpy as np
+import pandas as pd
+import uncertainties
+
+from squeezebench.analysis import model
+from squeezebench.analysis.specifications import SPECIFICATIONS, Specification
+
+COVERAGE_FACTOR = 2.0
+BUDGET_COLUMNS = ["quantity", "unit", "value", "term", "type", "std_uncertainty", "relative",
+                  "share", "source"]
+#: Specification of the scope's time base (the frequency the fit measures).
+SCOPE_TIMEBASE = Specification(
+    20e-6, "1", "TDS3000B Series User Manual, App. A: sample rate and delay time accuracy +-20 ppm")
+
+
+@dataclass(frozen=True)
+class Term:
+    name: str
+    type: str  # "A" (statistics of this record) or "B" (specification, tolerance, setting)
+    std_uncertainty: float  # in the unit of the budget's value
+    source: str
+
+
+@dataclass(frozen=True)
+class Budget:
+    """The terms of one value; combined in quadrature (independent inputs)."""
+
+    quantity: str
+    unit: str
+    value: float
+    terms: tuple[Term, ...]
+
+    @property
+    def std_uncertainty(self) -> float:
+        return math.sqrt(sum(t.std_uncertainty**2 for t in self.terms))
+
+    @property
+    def expanded_uncertainty(self) -> float:
+        """k = 2: about 95 % coverage for a combined distribution near normal."""
+        return COVERAGE_FACTOR * self.std_uncertainty
+
+    @property
+    def dominant(self) -> Term:
+        return max(self.terms, key=lambda t: t.std_uncertainty)
+
+    def as_frame(self) -> pd.DataFrame:
+        """One row per term, largest first, with its share of the combined variance."""
+        total = self.std_uncertainty**2 or 1.0
+        rows = [{"quantity": self.quantity, "unit": self.unit, "value": self.value, "term": t.name,
+                 "type": t.type, "std_uncertainty": t.std_uncertainty,
+                 "relative": t.std_uncertainty / abs(self.value) if self.value else math.nan,
+                 "share": t.std_uncertainty**2 / total, "source": t.source}
+                for t in sorted(self.terms, key=lambda t: -t.std_uncertainty)]
+        return pd.DataFrame(rows, columns=BUDGET_COLUMNS)
+
+
+@dataclass(frozen=True)
+class Deskew:
+    """The delay of CH2 against CH1 a calibration measured, to be removed from the power."""
+
+    delay_s: float
+    std_uncertainty_s: float
+    source: str
+
+
+def _spec_term(name: str, key: str, sensitivity: float) -> Term:
+    spec = SPECIFICATIONS[key]
+    return Term(name, "B", abs(sensitivity) * spec.std_uncertainty, spec.source)
+
+
+def _noise(u: float) -> Term:
+    return Term("noise (record fit)", "A", float(u), "fit covariance of the stored record")
+
+
+# -- the stored point's values -----------------------------------------------------------------
+def delay_std_uncertainty_s() -> float:
+    """CH2 delay against CH1 before any deskew: scope skew and TCP202 delay, independent."""
+    return math.hypot(SPECIFICATIONS["scope_skew"].std_uncertainty,
+                      SPECIFICATIONS["current_probe_delay"].std_uncertainty)
+
+
+def power_budget(point: dict, deskew: Deskew | None = None) -> Budget:
+    """Mean power P = <v i>: P ~ g1 g2 g_probe, P' = P - Q_r w tau for a CH2 delay tau."""
+    value = float(point["power_w"])
+    omega_q = 2.0 * math.pi * float(point["frequency_hz"]) * abs(float(point["reactive_power_var"]))
+    if deskew is None:
+        delay = Term("CH2 delay vs CH1 (skew, TCP202)", "B", omega_q * delay_std_uncertainty_s(),
+                     SPECIFICATIONS["current_probe_delay"].source + "; " + SPECIFICATIONS["scope_skew"].source)
+    else:
+        delay = Term("CH2 delay after deskew", "B", omega_q * deskew.std_uncertainty_s, deskew.source)
+    return Budget("power_w", "W", value, (
+        _noise(point["power_w_u"]),
+        _spec_term("CH1 gain", "scope_gain", value),
+        _spec_term("CH2 gain", "scope_gain", value),
+        _spec_term("current probe gain", "current_probe_gain", value),
+        delay,
+        _spec_term("generator frequency", "generator_frequency",
+                   2.0 * value * point.get("detuning_slope_per_hz", 0.0) * float(point["frequency_hz"]))))
+
+
+def velocity_budget(point: dict) -> Budget:
+    value = float(point["velocity_pp_mps"])
+    return Budget("velocity_pp_mps", "m/s", value, (
+        _noise(point["velocity_pp_mps_u"]),
+        _spec_term("CH3 gain", "scope_gain", value),
+        _spec_term("vibrometer decoder scale", "vibrometer_scale", value),
+        _spec_term("generator frequency", "generator_frequency",
+                   value * point.get("detuning_slope_per_hz", 0.0) * float(point["frequency_hz"]))))
+
+
+def voltage_budget(point: dict) -> Budget:
+    value = float(point["piezo_voltage_vpp"])
+    return Budget("piezo_voltage_vpp", "V", value, (
+        _noise(point["piezo_voltage_vpp_u"]), _spec_term("CH1 gain", "scope_gain", value)))
+
+
+def frequency_budget(point: dict) -> Budget:
+    """The drive frequency as the scope measures it (fit on CH1, scope time base)."""
+    value = float(point["frequency_hz"])
+    return Budget("frequency_hz", "Hz", value, (
+        _noise(point["frequency_hz_u"]),
+        Term("scope time base", "B", value * SCOPE_TIMEBASE.std_uncertainty, SCOPE_TIMEBASE.source)))
+
+
+def resonance_frequency_budget(frequency_hz: float, search_tolerance_hz: float,
+                               setting_u_hz: float = 0.0) -> Budget:
+    """The resonance a search reports: the generator's setting there. Its last bracket
+    (`tolerance_hz` wide) holds the maximum anywhere (rectangular, half-width half the
+    bracket); `setting_u_hz` adds what the velocity noise leaves of the peak's position."""
+    terms = [_spec_term("generator frequency", "generator_frequency", frequency_hz),
+             Term("search bracket", "B", 0.5 * search_tolerance_hz / math.sqrt(3.0),
+                  "golden-section search: the final bracket's width (protocols.resonance)")]
+    if setting_u_hz:
+        terms.append(Term("peak position under noise", "A", setting_u_hz,
+                          "velocity noise on the flat top of the resonance"))
+    return Budget("resonance_frequency_hz", "Hz", frequency_hz, tuple(terms))
+
+
+POINT_BUDGETS = {"power_w": power_budget, "velocity_pp_mps": velocity_budget,
+                 "piezo_voltage_vpp": voltage_budget, "frequency_hz": frequency_budget}
+
+
+def point_budget(quantity: str, point: dict, deskew: Deskew | None = None) -> Budget:
+    """The budget of `quantity` (a key of POINT_BUDGETS) at one reduced point."""
+    if quantity == "power_w":
+        return power_budget(point, deskew)
+    return POINT_BUDGETS[quantity](point)
+
+
+def detuning_slope_per_hz(points: pd.DataFrame) -> pd.Series:
+    """|d ln v / d f| at each point from the resonance curve of its own run and level.
+
+    A detuned point at velocity ratio r = v/v0 sits at x = 2 Q (f - f0)/f0 with
+    r^2 = 1/(1 + x^2); the Lorentzian's slope there is x^2/(1 + x^2)/|f - f0| =
+    (1 - r^2)/|f - f0|, with f0 the run's resonance at the same velocity level. Points
+    at resonance (or without a level) have slope 0 (the curve is flat at its top).
+    """
+    slope = pd.Series(0.0, index=points.index)
+    if "detuning_phase" not in points or "target_velocity_ratio" not in points:
+        return slope
+    at_resonance = points[points["detuning_phase"] == "resonance"]
+    f0 = at_resonance.groupby(["run_name", "velocity_level_pp_mps"])["generator_frequency_hz"].first()
+    for index, row in points.iterrows():
+        ratio = row.get("target_velocity_ratio")
+        key = (row.get("run_name"), row.get("velocity_level_pp_mps"))
+        if not isinstance(ratio, (int, float)) or not 0 < ratio < 1 or key not in f0.index:
+            continue
+        offset_hz = abs(float(row["generator_frequency_hz"]) - float(f0[key]))
+        if offset_hz > 0:
+            slope[index] = (1.0 - ratio**2) / offset_hz
+    return slope
+
+
+def with_expanded_uncertainties(points: pd.DataFrame, deskew: Deskew | None = None) -> pd.DataFrame:
+    """Reduced points with, per budgeted quantity q, `q_u_combined`, `q_U` (k = 2) and
+    `q_dominant`; with a deskew the power is corrected (`power_w_uncorrected` kept).
+    Rows without a stored record (no reduction) keep NaN."""
+    points = points.copy()
+    points["detuning_slope_per_hz"] = detuning_slope_per_hz(points)
+    if deskew is not None and "reactive_power_var" in points:
+        points["power_w_uncorrected"] = points["power_w"]
+        omega = 2.0 * math.pi * points["frequency_hz"]
+        points["power_w"] = points["power_w"] + points["reactive_power_var"] * omega * deskew.delay_s
+    for quantity in POINT_BUDGETS:
+        combined, dominant = [], []
+        for _, row in points.iterrows():
+            row = row.to_dict()
+            if not _has_reduction(row):
+                combined.append(math.nan)
+                dominant.append(None)
+                continue
+            budget = point_budget(quantity, row, deskew)
+            combined.append(budget.std_uncertainty)
+            dominant.append(budget.dominant.name)
+        points[f"{quantity}_u_combined"] = combined
+        points[f"{quantity}_U"] = COVERAGE_FACTOR * np.asarray(combined, dtype=float)
+        points[f"{quantity}_dominant"] = dominant
+    return points
+
+
+def _has_reduction(row: dict) -> bool:
+    value = row.get("power_w_u")
+    return isinstance(value, (int, float)) and math.isfinite(value)
+
+
+def example_budgets(points: pd.DataFrame, deskew: Deskew | None = None) -> pd.DataFrame:
+    """The budget of every quantity for the first stored point of each protocol: what
+    the report shows. Columns: protocol, run_name, step_id, point_index, BUDGET_COLUMNS."""
+    points = points.copy()
+    points["detuning_slope_per_hz"] = detuning_slope_per_hz(points)
+    frames = []
+    for protocol, rows in points.groupby("protocol", sort=False):
+        stored = [row.to_dict() for _, row in rows.iterrows() if _has_reduction(row.to_dict())]
+        if not stored:
+            continue
+        row = stored[0]
+        for quantity in POINT_BUDGETS:
+            frame = point_budget(quantity, row, deskew).as_frame()
+            frame.insert(0, "point_index", row.get("point_index"))
+            frame.insert(0, "step_id", row.get("step_id"))
+            frame.insert(0, "run_name", row.get("run_name"))
+            frame.insert(0, "protocol", protocol)
+            frames.append(frame)
+    return pd.concat(frames, ignore_index=True) if frames else pd.DataFrame()
+
+
+# -- Q and tan theta' through the paper's model ----------------------------------------------
+@dataclass(frozen=True)
+class Tolerance:
+    half_width_rel: float  # relative, rectangular
+    source: str
+
+
+#: Tolerances of the model's inputs that no measurement gives (relative, rectangular).
+TOLERANCES: dict[str, Tolerance] = {
+    "resonator_thickness_m": Tolerance(0.02, "assumed: rolled aluminium sheet, +-0.02 mm on 1 mm"),
+    "piezo_thickness_m": Tolerance(0.02, "assumed: lapped piezo plates, +-0.01 mm on 0.5 mm"),
+    "piezo_length_m": Tolerance(0.01, "assumed: diced piezo plates, +-0.1 mm on 9 mm"),
+    "half_wavelength_m": Tolerance(0.01, "assumed: plate length / antinodes, +-0.1 mm on 8.4 mm"),
+    "piezo_d31_c_per_n": Tolerance(0.10, "assumed: batch spread of PZT coefficients, +-10 %"),
+    "piezo_c11_pa": Tolerance(0.05, "assumed: batch spread of PZT stiffness, +-5 %"),
+    "resonator_young_pa": Tolerance(0.03, "assumed: aluminium alloys 67-71 GPa, +-3 %"),
+}
+_GEOMETRY_FIELDS = ("resonator_thickness_m", "piezo_thickness_m", "piezo_length_m", "half_wavelength_m")
+_MATERIAL_FIELDS = ("piezo_d31_c_per_n", "piezo_c11_pa", "resonator_young_pa")
+
+
+def model_budgets(amplitude: Budget, power: Budget, voltage: Budget, frequency_hz: float,
+                  geometry: model.PlateGeometry, convention: model.Convention,
+                  tolerances: dict[str, Tolerance] = TOLERANCES) -> tuple[Budget, Budget]:
+    """Budgets of Q (Eq. 27 inverted) and tan theta' (Eq. 25 inverted) at one point.
+
+    Amplitude, power and voltage enter with their combined uncertainties (their own
+    budgets say what is inside); each tolerance is a separate term. The frequency's
+    uncertainty (ppm) is negligible against the others and is not propagated.
+    """
+    inputs = {"amplitude": uncertainties.ufloat(amplitude.value, amplitude.std_uncertainty, "amplitude"),
+              "power": uncertainties.ufloat(power.value, power.std_uncertainty, "power"),
+              "voltage": uncertainties.ufloat(voltage.value, voltage.std_uncertainty, "voltage")}
+    nominal = {name: getattr(geometry, name) for name in _GEOMETRY_FIELDS}
+    nominal.update({name: getattr(convention.materials, name) for name in _MATERIAL_FIELDS})
+    for name, value in nominal.items():
+        tolerance = tolerances[name]
+        inputs[name] = uncertainties.ufloat(value, abs(value) * tolerance.half_width_rel / math.sqrt(3.0), name)
+
+    def build(values: dict[str, float]) -> tuple[model.PlateGeometry, model.Convention]:
+        shape = replace(geometry, **{k: values[k] for k in _GEOMETRY_FIELDS})
+        materials = replace(convention.materials, **{k: values[k] for k in _MATERIAL_FIELDS})
+        return shape, replace(convention, materials=materials)
+
+    names = list(inputs)
+
+    def q_of(*values: float) -> float:
+        v = dict(zip(names, values))
+        shape, conv = build(v)
+        return model.q_from_amplitude(v["amplitude"], v["voltage"], shape, conv)
+
+    def tan_of(*values: float) -> float:
+        v = dict(zip(names, values))
+        shape, conv = build(v)
+        q = model.q_from_amplitude(v["amplitude"], v["voltage"], shape, conv)
+        return model.tan_theta_from_power(v["power"], v["voltage"], q, frequency_hz, shape, conv)
+
+    sources = {"amplitude": "amplitude budget (combined)", "power": "power budget (combined)",
+               "voltage": "voltage budget (combined)", **{k: t.source for k, t in tolerances.items()}}
+    budgets = []
+    for quantity, function in (("q", q_of), ("tan_theta", tan_of)):
+        result = uncertainties.wrap(function)(*inputs.values())
+        components = result.error_components()
+        terms = tuple(Term(variable.tag, "B" if variable.tag in tolerances else "A+B", abs(u),
+                           sources[variable.tag]) for variable, u in components.items())
+        budgets.append(Budget(quantity, "1", result.nominal_value, terms))
+    return budgets[0], budgets[1]

@@ -1,0 +1,102 @@
+"""Limits on what reaches the piezo, through the whole chain: generator load setting, its
+50 ohm output into the amplifier's input impedance, the gain; and the measured CH1 check.
+
+The stress test's case: `generator_load: 50` into a high-impedance amplifier input put
+190 Vpp on a plate limited to 100 Vpp. The simulated bench models the 33120A's source
+(simbench.physics: open-circuit voltage doubled for LOAD 50, divided by the amplifier
+input), so the generator commands can be checked against the physics, not the driver.
+"""
+
+from __future__ import annotations
+
+import re
+
+import pytest
+import yaml
+from pyvisa.resources import MessageBasedResource
+
+from squeezebench.instruments.bench import BenchElectronics
+from squeezebench.protocols.campaign import run_campaign
+from squeezebench.protocols.safety import MeasuredVoltageError, chain_warnings
+from squeezebench.protocols.storage import read_measurements
+from squeezebench.simbench import physics
+from test_faults import _AMPLITUDE_WRITE, BusTap, _is_minimum
+from test_protocols_support import ONE_COLUMN_PLATE, noise_free_scene, write_campaign
+
+LIMIT_VPP = 100.0
+
+
+def fifty_ohm_campaign(tmp_path, voltages_vpp):
+    scene = noise_free_scene(tmp_path, "one_column_1mm.yaml")
+    data = yaml.safe_load(scene.read_text())
+    data.setdefault("electronics", {}).update(generator_load="50", amplifier_input_ohm=1e6)
+    scene.write_text(yaml.safe_dump(data, sort_keys=False))
+    search = {"start_hz": 36000, "stop_hz": 38500, "points": 11, "tolerance_hz": 2.0}
+    return write_campaign(tmp_path, [
+        {"name": "sweep", "protocol": "characterisation", "plate": ONE_COLUMN_PLATE,
+         "parameters": {"search": search, "voltages_vpp": voltages_vpp, "track_resonance": False}}],
+        bench={"scene": str(scene)}, safety={"max_piezo_voltage_vpp": LIMIT_VPP})
+
+
+def plate_vpp_per_generator_vpp() -> float:
+    """The simulator's physics of the chain (not the controller's): LOAD 50 into 1 MOhm."""
+    amplifier = physics.Amplifier(gain=20.0, input_ohm=1e6)
+    return (physics.generator_emf_vpp(1.0, 50.0)
+            * physics.divider_vpp(1.0, physics.GENERATOR_SOURCE_OHM, amplifier.input_ohm) * amplifier.gain)
+
+
+def test_fifty_ohm_setting_never_puts_more_than_the_limit_on_the_plate(tmp_path, monkeypatch):
+    campaign = fifty_ohm_campaign(tmp_path, [40, 80, LIMIT_VPP])
+    tap = BusTap(monkeypatch)
+    said = []
+    run_dir = run_campaign(campaign, out_dir=tmp_path / "run", say=said.append)
+    rows = read_measurements(run_dir)
+    sent_vpp = rows["generator_amplitude_vpp"]
+    factor = plate_vpp_per_generator_vpp()
+    assert factor == pytest.approx(40.0, rel=1e-4)   # twice the nominal gain
+    # every amplitude the generator held at a point, through the physics, is within the limit
+    assert (sent_vpp * factor).max() <= LIMIT_VPP * (1 + 1e-9)
+    # and what CH1 measured agrees: the plate got the setpoint, not twice it
+    points = rows[rows["piezo_voltage_setpoint_vpp"] == LIMIT_VPP]
+    assert len(points) == 1
+    assert points["scope_piezo_voltage_pp_v"].iloc[0] == pytest.approx(LIMIT_VPP, rel=0.02)
+    assert rows["scope_piezo_voltage_pp_v"].max() <= LIMIT_VPP * 1.02
+    assert any("twice its displayed Vpp" in message for message in said)
+    assert _is_minimum(tap.last_amplitude_vpp)
+
+
+def test_every_generator_command_through_the_physics_stays_within_the_limit(tmp_path, monkeypatch):
+    campaign = fifty_ohm_campaign(tmp_path, [30, LIMIT_VPP])
+    sent = []
+    original = MessageBasedResource.write
+
+    def write(resource, message, *args, **kwargs):
+        match = _AMPLITUDE_WRITE.match(message)
+        if match:
+            sent.append(float(match.group(1)))
+        return original(resource, message, *args, **kwargs)
+
+    monkeypatch.setattr(MessageBasedResource, "write", write)
+    run_campaign(campaign, out_dir=tmp_path / "run", say=lambda message: None)
+    assert sent and max(sent) * plate_vpp_per_generator_vpp() <= LIMIT_VPP * (1 + 1e-9)
+
+
+def test_a_misdescribed_chain_stops_at_the_first_point_above_the_limit(tmp_path, monkeypatch):
+    """The controller believes the nominal gain (the old behaviour): CH1 catches it."""
+    campaign = fifty_ohm_campaign(tmp_path, [80])
+    monkeypatch.setattr(BenchElectronics, "piezo_vpp_per_generator_vpp", property(lambda e: e.amplifier_gain))
+    tap = BusTap(monkeypatch)
+    with pytest.raises(MeasuredVoltageError, match="at a setpoint of 80 Vpp") as stop:
+        run_campaign(campaign, out_dir=tmp_path / "run", say=lambda message: None)
+    measured_vpp = float(re.search(r"piezo voltage of ([0-9.]+) Vpp on CH1", str(stop.value)).group(1))
+    assert measured_vpp > LIMIT_VPP * 1.1   # a first, possibly clipped, acquisition already tells
+    assert _is_minimum(tap.last_amplitude_vpp)
+    assert "measured a piezo voltage" in (tmp_path / "run" / "log.txt").read_text()
+
+
+@pytest.mark.parametrize("load, input_ohm, warned", [("50", 1e6, True), ("50", 50.0, False), ("INF", 1e6, False)])
+def test_a_doubling_configuration_is_warned_at_load(load, input_ohm, warned):
+    electronics = BenchElectronics(generator_load=load, amplifier_input_ohm=input_ohm)
+    assert bool(chain_warnings(electronics)) is warned
+    expected = 20.0 * (2.0 if load == "50" else 1.0) * input_ohm / (input_ohm + 50.0)
+    assert electronics.piezo_vpp_per_generator_vpp == pytest.approx(expected, rel=1e-12)

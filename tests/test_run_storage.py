@@ -1,0 +1,189 @@
+"""Nothing measured is ever deleted, and one process at a time writes a run directory.
+
+A completed small campaign is copied per test, damaged the way the stress test damaged
+runs (a corrupted middle journal line, a deleted journal, a lost step file, a stray
+.DS_Store, a second writer), then resumed or reported. Every byte measured before the
+damage must still be somewhere in the run directory (in place or in quarantine/).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+import shutil
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import pytest
+
+from squeezebench import cli
+from squeezebench.protocols.campaign import CampaignError, run_campaign
+from squeezebench.protocols.storage import RunStore, StorageError, read_measurements
+from test_campaign_resume import small_campaign
+
+
+@pytest.fixture(scope="module")
+def completed(tmp_path_factory):
+    tmp_path = tmp_path_factory.mktemp("completed")
+    campaign = small_campaign(tmp_path)
+    run_dir = run_campaign(campaign, out_dir=tmp_path / "run", say=lambda message: None)
+    return campaign, run_dir
+
+
+@pytest.fixture
+def run(completed, tmp_path):
+    campaign, run_dir = completed
+    copy = tmp_path / "run"
+    shutil.copytree(run_dir, copy)
+    return campaign, copy
+
+
+def digests(root: Path, folders=("measurements", "waveforms")) -> dict[str, str]:
+    return {str(p.relative_to(root)): hashlib.sha256(p.read_bytes()).hexdigest()
+            for folder in folders for p in (root / folder).rglob("*") if p.is_file()}
+
+
+def assert_nothing_lost(before: dict[str, str], run_dir: Path) -> None:
+    """Every file measured before is still in the run directory, byte for byte."""
+    kept = {hashlib.sha256(p.read_bytes()).hexdigest() for p in run_dir.rglob("*.parquet")}
+    assert set(before.values()) <= kept
+
+
+def sorted_rows(run_dir):
+    return read_measurements(run_dir).sort_values(["run_name", "step_id", "point_index"]).reset_index(drop=True)
+
+
+def test_journal_entries_carry_the_checksums_of_their_files(run):
+    _, run_dir = run
+    for entry in RunStore(run_dir).journal():
+        assert f"measurements/{entry['run']}/{entry['step']}.parquet" in entry["files"]
+        for relative, digest in entry["files"].items():
+            assert hashlib.sha256((run_dir / relative).read_bytes()).hexdigest() == digest
+    assert RunStore(run_dir).verify() == []
+
+
+def test_corrupted_middle_journal_line_loses_no_file(run):
+    campaign, run_dir = run
+    expected = sorted_rows(run_dir)
+    before = digests(run_dir)
+    journal = run_dir / "journal.jsonl"
+    lines = journal.read_bytes().splitlines(keepends=True)
+    middle = len(lines) // 2
+    lines[middle] = lines[middle][:10] + b"\xff" + lines[middle][11:]   # one corrupted byte
+    journal.write_bytes(b"".join(lines))
+    said = []
+    run_campaign(campaign, resume=True, out_dir=run_dir, say=said.append)
+    assert_nothing_lost(before, run_dir)
+    assert any(f"line {middle + 1}" in message for message in said)
+    quarantined = list((run_dir / "quarantine").rglob("*"))
+    assert any(p.name == "journal.jsonl" for p in quarantined)   # the journal as found
+    # The later steps stayed complete: only the damaged line's step was measured again
+    # (the same rows; its campaign bench time now counts from the end of the run).
+    assert len(RunStore(run_dir).journal()) == len(lines)
+    assert_frame_equal_rows(sorted_rows(run_dir).drop(columns="bench_time_s"),
+                            expected.drop(columns="bench_time_s"))
+    log = (run_dir / "log.txt").read_text()
+    assert "quarantine" in log and f"line {middle + 1}" in log
+
+
+def assert_frame_equal_rows(actual, expected):
+    import pandas as pd
+
+    pd.testing.assert_frame_equal(actual, expected, check_exact=True)
+
+
+def test_a_deleted_journal_quarantines_every_step_and_says_so(run):
+    campaign, run_dir = run
+    before = digests(run_dir)
+    (run_dir / "journal.jsonl").unlink()
+    said = []
+    run_campaign(campaign, resume=True, out_dir=run_dir, say=said.append)
+    assert_nothing_lost(before, run_dir)
+    assert any("journal.jsonl is missing" in message for message in said)
+    assert sum("moved to quarantine" in message for message in said) >= len(before) // 10
+
+
+def test_a_missing_step_file_is_reported_by_resume_and_report(run, capsys):
+    campaign, run_dir = run
+    lost = next((run_dir / "measurements" / "cutting").glob("*.parquet"))
+    lost.unlink()
+    said = []
+    run_campaign(campaign, resume=True, out_dir=run_dir, say=said.append)
+    assert any(str(lost) in message and "missing" in message for message in said)
+    capsys.readouterr()
+    assert cli.main(["report", str(run_dir)]) == cli.EXIT_USER_ERROR
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and str(lost) in err and "--allow-missing" in err
+    assert not (run_dir / "report").exists()
+
+
+def test_a_step_file_failing_its_checksum_is_reported(run):
+    _, run_dir = run
+    changed = next((run_dir / "waveforms" / "detuning").rglob("*.parquet"))
+    changed.write_bytes(changed.read_bytes() + b"\0")
+    (problem,) = RunStore(run_dir).verify()
+    assert str(changed) in problem and "checksum" in problem
+
+
+def test_a_stray_ds_store_is_left_alone(run):
+    campaign, run_dir = run
+    for folder in (run_dir / "measurements", run_dir / "measurements" / "cutting", run_dir / "waveforms"):
+        (folder / ".DS_Store").write_bytes(b"\0\0\0\1Bud1")
+    said = []
+    run_campaign(campaign, resume=True, out_dir=run_dir, say=said.append)
+    assert said == [] and (run_dir / "measurements" / "cutting" / ".DS_Store").exists()
+
+
+def test_a_second_writer_is_refused_naming_the_first(run):
+    campaign, run_dir = run
+    holder = subprocess.Popen([sys.executable, "-c", textwrap.dedent(f"""
+        import sys, time
+        from squeezebench.protocols.storage import RunStore
+        with RunStore({str(run_dir)!r}).writer():
+            print("locked", flush=True)
+            time.sleep(60)
+        """)], stdout=subprocess.PIPE, text=True)
+    try:
+        assert holder.stdout.readline().strip() == "locked"
+        before = digests(run_dir, ("measurements", "waveforms"))
+        journal = (run_dir / "journal.jsonl").read_bytes()
+        with pytest.raises(StorageError, match=f"pid {holder.pid}"):
+            run_campaign(campaign, resume=True, out_dir=run_dir)
+        assert digests(run_dir) == before and (run_dir / "journal.jsonl").read_bytes() == journal
+    finally:
+        holder.kill()
+        holder.wait()
+    run_campaign(campaign, resume=True, out_dir=run_dir, say=lambda m: None)   # the lock died with it
+
+
+def test_a_directory_that_is_not_a_run_is_never_written_into(completed, tmp_path):
+    campaign, _ = completed
+    users = tmp_path / "users_folder"
+    users.mkdir()
+    (users / "campaign.yaml").write_text("my own notes\n")
+    for resume in (False, True):
+        with pytest.raises(CampaignError, match="not empty and holds no run"):
+            run_campaign(campaign, resume=resume, out_dir=users)
+    assert sorted(p.name for p in users.iterdir()) == ["campaign.yaml"]
+    assert (users / "campaign.yaml").read_text() == "my own notes\n"
+
+
+def test_a_malformed_manifest_is_one_message(run):
+    campaign, run_dir = run
+    (run_dir / "manifest.json").write_text('{"campaign": 1')
+    with pytest.raises(StorageError, match="manifest.json: not a valid manifest"):
+        run_campaign(campaign, resume=True, out_dir=run_dir)
+
+
+def test_a_malformed_journal_entry_is_quarantined_not_obeyed(run):
+    campaign, run_dir = run
+    expected = sorted_rows(run_dir)
+    with open(run_dir / "journal.jsonl", "ab") as handle:
+        handle.write(b'{"run": "cutting", "step": 3}\n')
+    said = []
+    run_campaign(campaign, resume=True, out_dir=run_dir, say=said.append)
+    assert any("field 'step'" in message for message in said)
+    assert_frame_equal_rows(sorted_rows(run_dir), expected)
+    assert os.path.getsize(run_dir / "journal.jsonl") > 0

@@ -1,0 +1,135 @@
+"""Every way out ends safe: SIGTERM and SIGHUP as Ctrl-C, a lost generator said in capitals,
+and a seeded randomized kill-and-resume test with real processes (SIGKILL, SIGTERM).
+
+In-process tests send the signal to this process at the k-th instrument write, so it
+lands mid-command-sequence; the subprocess test kills a real `squeezebench run` the same
+way (a small wrapper patches the PyVISA write, below every driver) and, for SIGKILL, also
+inside the storage window between a step's files and its journal line.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import random
+import signal
+import subprocess
+import sys
+import textwrap
+
+import pandas as pd
+import pytest
+from pyvisa.resources import MessageBasedResource
+
+from squeezebench.instruments.errors import ConnectionLost
+from squeezebench.protocols.campaign import run_campaign
+from squeezebench.protocols.storage import RunStore, read_measurements
+from test_campaign_resume import reference  # noqa: F401 - the uninterrupted run, a fixture
+from test_faults import BusTap, _is_minimum
+
+
+@pytest.mark.parametrize("sig, fraction", [(signal.SIGTERM, 0.4), (signal.SIGHUP, 0.8)])
+def test_sigterm_and_sighup_leave_the_generator_at_minimum(reference, tmp_path, monkeypatch, sig, fraction):
+    campaign, expected, n_writes = reference
+    original = MessageBasedResource.write
+    count = {"n": 0}
+
+    def write(resource, message, *args, **kwargs):
+        count["n"] += 1
+        if count["n"] == int(fraction * n_writes):
+            os.kill(os.getpid(), sig)   # delivered at the next bytecode: mid-sequence
+        return original(resource, message, *args, **kwargs)
+
+    monkeypatch.setattr(MessageBasedResource, "write", write)
+    tap = BusTap(monkeypatch)   # records the amplitudes the generator received
+    with pytest.raises(KeyboardInterrupt, match=signal.Signals(sig).name):
+        run_campaign(campaign, out_dir=tmp_path / "run")
+    assert _is_minimum(tap.last_amplitude_vpp)
+    assert getattr(signal.getsignal(sig), "__name__", None) != "_raise_interrupt"   # restored
+    monkeypatch.undo()
+    run_campaign(campaign, resume=True, out_dir=tmp_path / "run")
+    pd.testing.assert_frame_equal(read_measurements(tmp_path / "run"), expected, check_exact=True)
+
+
+def test_a_lost_generator_is_said_in_capitals(reference, tmp_path, monkeypatch, capsys):
+    campaign, _, n_writes = reference
+    original = MessageBasedResource.write
+    count = {"n": 0}
+
+    def write(resource, message, *args, **kwargs):
+        count["n"] += 1
+        if count["n"] >= n_writes // 2:   # the bus is gone for good
+            raise ConnectionResetError("injected: cable pulled")
+        return original(resource, message, *args, **kwargs)
+
+    monkeypatch.setattr(MessageBasedResource, "write", write)
+    with pytest.raises(ConnectionLost):
+        run_campaign(campaign, out_dir=tmp_path / "run")
+    err = capsys.readouterr().err
+    assert "GENERATOR OUTPUT STATE UNKNOWN" in err and "BY HAND" in err.upper()
+    assert "GENERATOR OUTPUT STATE UNKNOWN" in (tmp_path / "run" / "log.txt").read_text()
+
+
+#: Runs `squeezebench run` and kills itself with SIGNAL at instrument write WRITE_AT (or,
+#: for "journal", right after the journal append number WRITE_AT, or "files", after the
+#: step files and before the journal line); prints the last generator amplitude written.
+KILLER = textwrap.dedent("""
+    import atexit, json, os, re, signal, sys
+    from pyvisa.resources import MessageBasedResource
+    from squeezebench import cli
+    from squeezebench.protocols.storage import RunStore
+
+    sig, where, at = int(sys.argv[1]), sys.argv[2], int(sys.argv[3])
+    state = {"writes": 0, "steps": 0, "amplitude": None}
+    write, write_step = MessageBasedResource.write, RunStore.write_step
+
+    def tapped(resource, message, *args, **kwargs):
+        state["writes"] += 1
+        if where == "write" and state["writes"] == at:
+            os.kill(os.getpid(), sig)
+        result = write(resource, message, *args, **kwargs)
+        match = re.match(r"^VOLT ([-+0-9.eE]+)$", message)
+        if match:
+            state["amplitude"] = float(match.group(1))
+        return result
+
+    def files_then_kill(self, *args, **kwargs):
+        result = write_step(self, *args, **kwargs)
+        state["steps"] += 1
+        if where == "files" and state["steps"] == at:
+            os.kill(os.getpid(), sig)
+        return result
+
+    MessageBasedResource.write, RunStore.write_step = tapped, files_then_kill
+    atexit.register(lambda: print(json.dumps(state), flush=True))
+    status = cli.main(["run", sys.argv[4], "--out", sys.argv[5], "--resume"])
+    print(json.dumps(state), flush=True)
+    sys.exit(status)
+    """)
+
+
+def test_randomized_real_kills_then_resume_lose_and_duplicate_nothing(reference, tmp_path):
+    campaign, expected, n_writes = reference
+    script = tmp_path / "killer.py"
+    script.write_text(KILLER)
+    rng = random.Random(18)
+    n_steps = expected.groupby(["run_name", "step_id"]).ngroups
+    trials = [(signal.SIGKILL, "write"), (signal.SIGKILL, "files"), (signal.SIGTERM, "write"),
+              (signal.SIGTERM, "write")]
+    for trial, (sig, where) in enumerate(trials):
+        run_dir = tmp_path / f"trial{trial}"
+        at = rng.randrange(1, n_steps) if where == "files" else rng.randrange(1, n_writes)
+        done = subprocess.run([sys.executable, str(script), str(int(sig)), where, str(at), str(campaign),
+                               str(run_dir)], capture_output=True, text=True, timeout=120)
+        if sig == signal.SIGKILL:
+            assert done.returncode == -signal.SIGKILL, done.stderr
+        else:
+            assert done.returncode == 130, done.stderr
+            state = json.loads(done.stdout.strip().splitlines()[-1])
+            assert _is_minimum(state["amplitude"]), state
+        run_campaign(campaign, resume=True, out_dir=run_dir, progress=False, say=lambda message: None)
+        rows = read_measurements(run_dir)
+        keys = rows[["run_name", "step_id", "point_index"]]
+        assert not keys.duplicated().any()                      # 0 duplicated
+        pd.testing.assert_frame_equal(rows, expected, check_exact=True)   # 0 lost, 0 changed
+        assert RunStore(run_dir).verify() == []

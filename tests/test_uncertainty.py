@@ -1,0 +1,133 @@
+"""GUM budgets: terms from the specifications, closed-form propagation, and coverage of
+the scene's truth on a simulated bench whose instruments err within their specifications."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from squeezebench import paths
+from squeezebench.analysis import model
+from squeezebench.analysis.rundata import load_run
+from squeezebench.analysis.specifications import SPECIFICATIONS
+from squeezebench.analysis.tables import reduced_points
+from squeezebench.analysis.uncertainty import (
+    Budget, Deskew, Term, detuning_slope_per_hz, example_budgets, model_budgets, power_budget,
+    velocity_budget, voltage_budget, with_expanded_uncertainties)
+from squeezebench.protocols.campaign import run_campaign
+from squeezebench.simbench import physics
+from squeezebench.simbench.effects import build_pipeline
+from squeezebench.simbench.scene import load_scene
+from squeezebench.simbench.variants import campaign_with_effects, systematic_effects
+
+RECT = 1.0 / math.sqrt(3.0)
+
+
+def _point(power_w=0.1, reactive_power_var=-0.1, frequency_hz=37000.0, **extra) -> dict:
+    return {"power_w": power_w, "power_w_u": 1e-5, "reactive_power_var": reactive_power_var,
+            "frequency_hz": frequency_hz, "frequency_hz_u": 1e-3, "velocity_pp_mps": 0.3,
+            "velocity_pp_mps_u": 1e-5, "piezo_voltage_vpp": 40.0, "piezo_voltage_vpp_u": 1e-3, **extra}
+
+
+def test_power_budget_combines_specifications_and_names_the_dominant_term():
+    budget = power_budget(_point())
+    terms = {t.name: t.std_uncertainty for t in budget.terms}
+    assert terms["CH1 gain"] == pytest.approx(0.1 * 0.02 * RECT)
+    assert terms["current probe gain"] == pytest.approx(0.1 * 0.03 * RECT)
+    delay_u = math.hypot(1e-9, 10e-9) * RECT
+    assert terms["CH2 delay vs CH1 (skew, TCP202)"] == pytest.approx(2 * math.pi * 37000 * 0.1 * delay_u)
+    assert budget.std_uncertainty == pytest.approx(math.sqrt(sum(u**2 for u in terms.values())))
+    assert budget.expanded_uncertainty == pytest.approx(2 * budget.std_uncertainty)
+    assert budget.dominant.name == "current probe gain"   # power factor 0.7
+    # Fig. 2c: power factor 0.018, the delay dominates; after deskew it no longer does
+    stressed = _point(power_w=0.12, reactive_power_var=-6.67)
+    assert power_budget(stressed).dominant.name.startswith("CH2 delay")
+    deskewed = power_budget(stressed, Deskew(3e-9, 0.2e-9, "calibration"))
+    assert deskewed.dominant.name == "current probe gain"
+    shares = power_budget(stressed).as_frame()["share"]
+    assert shares.sum() == pytest.approx(1.0) and shares.is_monotonic_decreasing
+
+
+def test_velocity_and_voltage_budgets():
+    velocity = velocity_budget(_point())
+    assert velocity.std_uncertainty == pytest.approx(0.3 * math.hypot(0.02 * RECT, 0.01 * RECT), rel=1e-3)
+    assert velocity.dominant.name == "CH3 gain"
+    assert voltage_budget(_point()).dominant.name == "CH1 gain"
+
+
+def test_detuning_slope_is_the_lorentzian_flank():
+    points = pd.DataFrame({
+        "run_name": ["a", "a", "a"], "velocity_level_pp_mps": [0.25] * 3,
+        "detuning_phase": ["resonance", "detuned", "regained"],
+        "target_velocity_ratio": [1.0, 0.5, 0.5],
+        "generator_frequency_hz": [37000.0, 37100.0, 37100.0]})
+    slope = detuning_slope_per_hz(points)
+    assert list(slope) == pytest.approx([0.0, 0.75 / 100.0, 0.75 / 100.0])
+    # the closed form: d ln v / d f of 1 / sqrt(1 + x^2), x = 2 Q (f - f0) / f0, at r = 0.5
+    q, f0 = 300.0, 37000.0
+    x = math.sqrt(1 / 0.25 - 1)
+    f = f0 * (1 + x / (2 * q))
+    ln_v = lambda freq: -0.5 * math.log(1 + (2 * q * (freq - f0) / f0) ** 2)  # noqa: E731
+    assert abs((ln_v(f + 1e-3) - ln_v(f - 1e-3)) / 2e-3) == pytest.approx(0.75 / (f - f0), rel=1e-6)
+
+
+def test_q_and_tan_theta_propagate_the_tolerances():
+    geometry = model.PlateGeometry(1e-3, 0.5e-3, 9e-3, 8.44e-3, 4)
+    convention = model.PHYSICAL_CONVENTION
+    amplitude = Budget("amplitude_pp_m", "m", 1.6e-6, (Term("x", "A", 1.6e-8, ""),))
+    power = Budget("power_w", "W", 0.1, (Term("x", "A", 2e-3, ""),))
+    voltage = Budget("piezo_voltage_vpp", "V", 37.6, (Term("x", "A", 0.1, ""),))
+    q, tan = model_budgets(amplitude, power, voltage, 37180.0, geometry, convention)
+    assert q.value == pytest.approx(model.q_from_amplitude(1.6e-6, 37.6, geometry, convention))
+    terms = {t.name: t.std_uncertainty for t in q.terms}
+    # Q ∝ A / (V d31): relative sensitivities 1 to amplitude, voltage and d31
+    assert terms["piezo_d31_c_per_n"] == pytest.approx(abs(q.value) * 0.10 * RECT, rel=1e-4)
+    assert terms["amplitude"] == pytest.approx(abs(q.value) * 0.01, rel=1e-4)
+    assert "power" not in terms or terms["power"] == 0
+    tan_terms = {t.name: t.std_uncertainty for t in tan.terms}
+    assert tan_terms["power"] == pytest.approx(abs(tan.value) * 0.02, rel=1e-4)   # tan ∝ P
+    assert q.dominant.name == tan.dominant.name == "piezo_d31_c_per_n"
+
+
+# -- coverage on a bench with systematic errors ---------------------------------------------
+@pytest.fixture(scope="module")
+def erring_bench_points(tmp_path_factory):
+    """The paper campaign on a bench whose errors are drawn within the specifications."""
+    tmp = tmp_path_factory.mktemp("erring")
+    campaign = campaign_with_effects(paths.paper_campaign(), tmp / "inputs", systematic_effects(bench_seed=2))
+    run_dir = run_campaign(campaign, out_dir=tmp / "run", progress=False)
+    run = load_run(run_dir)
+    points = reduced_points(run, run.measurements[run.measurements["waveform_file"].notna()])
+    truths = []
+    for point in points.to_dict("records"):
+        scene = load_scene(run_dir / "inputs" / f"{point['plate']}.yaml")
+        state = scene.state(point["scene_state"] if isinstance(point["scene_state"], str) else scene.initial_state)
+        truths.append(physics.steady_state(state, scene.electronics, point["generator_frequency_hz"],
+                                           point["generator_amplitude_vpp"], build_pipeline(scene)))
+    return with_expanded_uncertainties(points), truths
+
+
+@pytest.mark.parametrize("quantity, truth_of", [
+    ("power_w", lambda t: t.power_w), ("velocity_pp_mps", lambda t: t.velocity_pp_mps),
+    ("piezo_voltage_vpp", lambda t: t.output_voltage_pp_v)])
+def test_expanded_uncertainties_cover_the_truth_on_an_erring_bench(erring_bench_points, quantity, truth_of):
+    points, truths = erring_bench_points
+    truth = np.array([truth_of(t) for t in truths])
+    error = np.abs(points[quantity].to_numpy() - truth)
+    assert len(points) >= 100
+    assert np.mean(error <= points[f"{quantity}_U"].to_numpy()) >= 0.95
+    # the noise alone would not: the systematic errors are what the budget is for
+    assert np.mean(error <= 2 * points[f"{quantity}_u"].to_numpy()) < 0.5
+
+
+def test_example_budgets_show_one_point_per_protocol(erring_bench_points):
+    points, _ = erring_bench_points
+    table = example_budgets(points)
+    assert set(table["protocol"]) == set(points["protocol"])
+    first = table[table["protocol"] == "detuning"]
+    assert set(first["quantity"]) == {"power_w", "velocity_pp_mps", "piezo_voltage_vpp", "frequency_hz"}
+    assert list(first.groupby("quantity")["share"].sum()) == pytest.approx([1.0] * 4)
+    assert SPECIFICATIONS["current_probe_gain"].source in set(table["source"])
