@@ -148,20 +148,23 @@ class HeaderTree:
             node.path = path
         return path
 
-    def resolve(self, branch: Node, mnemonics: list[str]) -> tuple[str, tuple[int, ...], Node]:
-        """(canonical path, suffixes, branch for the next unit), or ScpiError -113."""
-        node, suffixes, parent = branch, [], branch
+    def resolve(self, branch: Node, branch_suffixes: tuple[int, ...],
+                mnemonics: list[str]) -> tuple[str, tuple[int, ...], Node, tuple[int, ...]]:
+        """(canonical path, suffixes, branch for the next unit and its suffixes), or
+        ScpiError -113. A branch keeps the suffixes of its nodes (CH2:PROBE 1;SCALE 2)."""
+        node, suffixes = branch, list(branch_suffixes)
+        parent, parent_suffixes = branch, branch_suffixes
         for mnemonic in mnemonics:
             entry = node.children.get(mnemonic)
             if entry is None:
                 raise undefined_header()
-            parent = node
+            parent, parent_suffixes = node, tuple(suffixes)
             node, x = entry
             if x is not None:
                 suffixes.append(x)
         if node.path is None:
             raise undefined_header()
-        return node.path, tuple(suffixes), parent
+        return node.path, tuple(suffixes), parent, parent_suffixes
 
 
 @dataclass(frozen=True)
@@ -200,7 +203,7 @@ class MessageParser:
 
     def units(self, message: str) -> Iterator[Unit | ScpiError]:
         """Each unit of `message`, or the ScpiError refusing it (later units still run)."""
-        branch = self.tree.root
+        branch, branch_suffixes = self.tree.root, ()
         for raw in split_outside_quotes(message, ";"):
             text = raw.strip()
             if not text:
@@ -219,11 +222,11 @@ class MessageParser:
                         raise undefined_header()
                     yield Unit(path, query, arguments, (), text)
                     continue
-                start = self.tree.root if name.startswith(":") else branch
+                start, start_suffixes = (self.tree.root, ()) if name.startswith(":") else (branch, branch_suffixes)
                 mnemonics = name.lstrip(":").upper().split(":") if name.lstrip(":") else []
                 if not mnemonics or "" in mnemonics:
                     raise syntax_error()
-                path, suffixes, branch = self.tree.resolve(start, mnemonics)
+                path, suffixes, branch, branch_suffixes = self.tree.resolve(start, start_suffixes, mnemonics)
                 yield Unit(path, query, arguments, suffixes, text)
             except ScpiError as exc:
                 exc.detail = text
