@@ -29,8 +29,8 @@ import numpy as np
 from squeezebench.instruments.base import SCPIInstrument
 from squeezebench.instruments.errors import (BenchMismatch, ClippedTraceError, GarbledReply, InstrumentError,
                                              InstrumentTimeout, NoValidMeasurement, OutOfRangeError)
-from squeezebench.instruments.properties import (checked, control, strict_boolean, strict_discrete_set, strict_integer_range, strict_range,
-                                    token_for_reply, unquote)
+from squeezebench.instruments.properties import (checked, control, strict_boolean, strict_discrete_set,
+                                                 strict_integer_range, strict_range, token_for_reply, unquote)
 
 CHANNELS = (1, 2, 3, 4)
 SOURCES = ("CH1", "CH2", "CH3", "CH4", "MATH")

@@ -25,7 +25,7 @@ from __future__ import annotations
 import math
 import re
 from collections import deque
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from typing import Callable, ClassVar
 
 import numpy as np
@@ -1036,10 +1036,13 @@ class Scope(ScpiInstrument):
                 "p. 2-79 CURSor:VBArs:POSITION<x>", suffixes=(1, 2)),
         Command("ACQuire:MODe", *_setting("acquire_mode", _tds_choice(_ACQ_MODES), str), "p. 2-45 ACQuire:MODe"),
         Command("ACQuire:NUMAVg", *_setting("num_averages", _nearest_int(_AVERAGES), str), "p. 2-47 ACQuire:NUMAVg"),
-        Command("ACQuire:STOPAfter", *_setting("stop_after", _tds_choice(_STOP_AFTER), str), "p. 2-49 ACQuire:STOPAfter"),
+        Command("ACQuire:STOPAfter", *_setting("stop_after", _tds_choice(_STOP_AFTER), str),
+                "p. 2-49 ACQuire:STOPAfter"),
         Command("ACQuire:STATE", _acquire_state_query, _acquire_state_set, "p. 2-48 ACQuire:STATE"),
-        Command("TRIGger:A:TYPe", *_setting("trigger_type", _tds_choice(_TRIGGER_TYPES), str), "p. 2-289 TRIGger:A:TYPe"),
-        Command("TRIGger:A:MODe", *_setting("trigger_mode", _tds_choice(_TRIGGER_MODES), str), "p. 2-277 TRIGger:A:MODe"),
+        Command("TRIGger:A:TYPe", *_setting("trigger_type", _tds_choice(_TRIGGER_TYPES), str),
+                "p. 2-289 TRIGger:A:TYPe"),
+        Command("TRIGger:A:MODe", *_setting("trigger_mode", _tds_choice(_TRIGGER_MODES), str),
+                "p. 2-277 TRIGger:A:MODe"),
         Command("TRIGger:A:EDGe:SOUrce", *_setting("trigger_source", _tds_choice(_TRIGGER_SOURCES), str),
                 "p. 2-269 TRIGger:A:EDGe:SOUrce"),
         Command("TRIGger:A:EDGe:SLOpe", *_setting("trigger_slope", _tds_choice(_SLOPES), str),
