@@ -44,7 +44,7 @@ import yaml
 from tqdm import tqdm
 
 from squeezebench.instruments.bench import load_bench_file, open_bench, sim_bench_config
-from squeezebench.protocols import characterisation, cutting, detuning, powered_columns, resonance
+from squeezebench.protocols import calibration, characterisation, cutting, detuning, powered_columns, resonance
 from squeezebench.protocols.acquisition import Acquisition, AcquisitionSettings
 from squeezebench.protocols.safety import (DriveController, SafetyLimits, chain_warnings,
                                               stop_signals_interrupt)
@@ -56,7 +56,7 @@ from squeezebench.errors import UserError
 log = logging.getLogger(__name__)
 
 PROTOCOLS = {module.PROTOCOL: module for module in
-             (resonance, detuning, cutting, powered_columns, characterisation)}
+             (resonance, detuning, cutting, powered_columns, characterisation, calibration)}
 _NAME = re.compile(r"^[A-Za-z0-9_.-]+$")
 #: Loggers whose records go to the run's log.txt.
 _LOGGED_PACKAGES = ("squeezebench.protocols", "squeezebench.instruments")
