@@ -26,10 +26,7 @@ from squeezebench import paths
 
 RUNS = ("table3_cutting", "table4_powered_columns")
 CALIBRATED = ("frequency_hz", "voltage_vpp", "power_w", "velocity_pp_mps")
-# |value - truth| <= k standard uncertainties for each of the ~24 (point, quantity) pairs:
-# at k = 3 one of them falls outside by chance in about 6 % of noise draws (any change in
-# how many acquisitions a point takes redraws them); k = 3.5 keeps that below 1 %.
-COVERAGE_K = 3.5
+COVERAGE_K = 3.0   # |value - truth| <= 3 standard uncertainties
 
 
 def _with_scenes(node, scenes: dict[str, str]):
