@@ -28,8 +28,8 @@ import numpy as np
 import pandas as pd
 
 import squeezebench
-from squeezebench.analysis import (audit, columns, figures, model, presentation, provenance, study, tables,
-                                   uncertainty)
+from squeezebench.analysis import (audit, columns, figures, model, presentation, provenance, readings, study,
+                                   tables, uncertainty)
 from squeezebench.analysis.paper import paper_value
 from squeezebench.analysis.rundata import RunData, load_run
 from squeezebench.errors import UserError
@@ -739,6 +739,7 @@ def readings_section(context: ReportContext) -> Section | None:
             "tan theta' from Eq. 25 under the text's own reading ('paper') and under the one reading "
             "that reproduces the paper's published numbers at once ('inferred', analysis.readings). "
             "CSV: <a href='plates_by_reading.csv'>plates_by_reading.csv</a></p>"
+            + "".join(f"<p>{html.escape(words)}</p>" for words in readings.search_words())
             + html_table(plates, f"Q and tan θ′ of every plate under each reading. {_bench_words(context)}"))
     try:
         table5 = audit.table5_under_readings(context.run)

@@ -13,7 +13,7 @@ from pathlib import Path
 
 import pytest
 
-import squeezebench.scenes_section  # noqa: F401  (the report as the command line writes it)
+import squeezebench.simulated_plates  # noqa: F401  (the report as the command line writes it)
 from squeezebench import paths
 from squeezebench.analysis import report
 from squeezebench.protocols.campaign import run_campaign
