@@ -192,7 +192,8 @@ class DriveController:
         target_vpp = max(piezo_voltage_vpp / self.chain_gain,
                          self.minimum_generator_amplitude_vpp)
         start_vpp = self.generator_amplitude_vpp
-        step_vpp = self.limits.ramp_step_vpp / self.chain_gain
+        # less one quantum: each sent amplitude is rounded to 1 µVpp (see _send_amplitude)
+        step_vpp = self.limits.ramp_step_vpp / self.chain_gain - 1e-6
         n_steps = max(1, math.ceil(abs(target_vpp - start_vpp) / step_vpp))
         for i in range(1, n_steps + 1):
             amplitude_vpp = target_vpp if i == n_steps else start_vpp + (target_vpp - start_vpp) * i / n_steps

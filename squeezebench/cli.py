@@ -36,9 +36,38 @@ def cmd_check(args: argparse.Namespace) -> int:
 def cmd_run(args: argparse.Namespace) -> int:
     from squeezebench.protocols.campaign import run_campaign
 
-    run_dir = run_campaign(Path(args.campaign), resume=args.resume, out_dir=args.out)
+    if args.accept_changed_bench and not args.resume:
+        raise UserError("--accept-changed-bench continues a stopped run: use it with --resume")
+    run_dir = run_campaign(Path(args.campaign), resume=args.resume, out_dir=args.out,
+                           accept_changed_bench=args.accept_changed_bench, progress=sys.stderr.isatty())
     print(f"run stored in {run_dir}")
     return 0
+
+
+def cmd_validate(args: argparse.Namespace) -> int:
+    """Each file checked on its own: one line per file (stdout if sound, stderr if not)."""
+    import json
+
+    from squeezebench.schemas import validate_file
+
+    results = []
+    for file in args.files:
+        try:
+            results.append({**validate_file(Path(file)), "ok": True, "error": None})
+        except UserError as exc:
+            results.append({"file": file, "ok": False, "error": str(exc), "warnings": []})
+    if args.json:
+        print(json.dumps(results, indent=2))
+    else:
+        for result in results:
+            if result["ok"]:
+                summary = f" ({result['summary']})" if result["summary"] else ""
+                print(f"{result['file']}: valid {result['kind']}{summary}")
+            else:
+                print(f"squeezebench validate: {result['error']}", file=sys.stderr)
+            for warning in result["warnings"]:
+                print(f"squeezebench validate: warning: {warning}", file=sys.stderr)
+    return 0 if all(result["ok"] for result in results) else EXIT_USER_ERROR
 
 
 def cmd_report(args: argparse.Namespace) -> int:
@@ -105,7 +134,16 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("campaign", help="campaign YAML file")
     run.add_argument("--resume", action="store_true", help="continue after the last completed step")
     run.add_argument("--out", type=Path, default=None, help="run directory (default: from the campaign)")
+    run.add_argument("--accept-changed-bench", action="store_true",
+                     help="with --resume: continue with a bench file or scene changed since (a bench fix); "
+                          "the manifest records both versions and which steps used which")
     run.set_defaults(func=cmd_run)
+
+    validate = sub.add_parser("validate", help="check campaign, bench and scene files (and every scene "
+                              "and request a campaign has) without touching a bench or a run directory")
+    validate.add_argument("files", nargs="+", metavar="FILE", help="campaign, bench or scene YAML files")
+    validate.add_argument("--json", action="store_true", help="one JSON list of results on stdout")
+    validate.set_defaults(func=cmd_validate)
 
     report = sub.add_parser("report", help="recompute tables and figures from a stored run")
     report.add_argument("run_dir", help="run directory written by 'squeezebench run'")

@@ -187,3 +187,33 @@ def test_a_malformed_journal_entry_is_quarantined_not_obeyed(run):
     assert any("field 'step'" in message for message in said)
     assert_frame_equal_rows(sorted_rows(run_dir), expected)
     assert os.path.getsize(run_dir / "journal.jsonl") > 0
+
+
+def test_a_fixed_bench_lets_a_stopped_run_continue(tmp_path, capsys):
+    """A scene fault (the scope drops off the bus) stops the run; the operator removes it
+    from the scene. Resume refuses the changed file unless told; told, it continues, the
+    manifest keeps both versions and the journal says which steps used which."""
+    from squeezebench.instruments.errors import ConnectionLost
+    from test_campaign_resume import reference_rows
+    from test_protocols_support import noise_free_scene
+
+    campaign = small_campaign(tmp_path, effects=[{"disconnect": {"at_message": 2000, "instrument": 2}}])
+    run_dir = tmp_path / "run"
+    with pytest.raises(ConnectionLost):
+        run_campaign(campaign, out_dir=run_dir, say=lambda message: None)
+    stopped_after = len(RunStore(run_dir).journal())
+    assert stopped_after >= 1
+    noise_free_scene(tmp_path, "one_column_1mm.yaml")   # the fix: the same scene without the fault
+    journal = (run_dir / "journal.jsonl").read_bytes()
+    capsys.readouterr()
+    assert cli.main(["run", str(campaign), "--out", str(run_dir), "--resume"]) == cli.EXIT_USER_ERROR
+    err = capsys.readouterr().err
+    assert "--accept-changed-bench" in err and "one_column_1mm.yaml changed" in err
+    assert (run_dir / "journal.jsonl").read_bytes() == journal
+    assert cli.main(["run", str(campaign), "--out", str(run_dir), "--resume", "--accept-changed-bench"]) == 0
+    versions = RunStore(run_dir).manifest()["inputs"]["one_column_1mm.yaml"]["versions"]
+    assert len(versions) == 2 and versions[1]["steps_before"] == stopped_after
+    assert all((run_dir / v["copy"]).is_file() for v in versions)
+    used = [entry["inputs"]["one_column_1mm.yaml"] for entry in RunStore(run_dir).journal()]
+    assert used == [versions[0]["sha256"]] * stopped_after + [versions[1]["sha256"]] * (len(used) - stopped_after)
+    assert_frame_equal_rows(read_measurements(run_dir), reference_rows(tmp_path / "reference"))
