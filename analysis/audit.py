@@ -191,3 +191,97 @@ def audit_findings() -> pd.DataFrame:
 GRID_AXES = readings.AXES
 convention_grid = readings.search_readings
 grid_summary = readings.search_summary
+
+
+# --- Table 5 and Fig. 9 of a run under the text's reading and the inferred one ---------------
+
+#: The readings Table 5 and Fig. 9 are shown under: the text's own, and the search's best.
+TABLE5_READINGS = (model.PAPER_CONVENTION, model.INFERRED_CONVENTION)
+
+
+def table5_under_readings(run, conventions=TABLE5_READINGS) -> pd.DataFrame:
+    """Table 5 (estimated and measured Q, tan theta') and Fig. 9's mean estimate-vs-measured
+    power difference, recomputed from the run's characterisation under each reading.
+
+    One row per (reading, item, quantity) with the run's value, the printed one and their
+    relative difference; `item` "fig9" / quantity "mean_power_difference" is the mean of
+    (P_estimated - P_measured) / P_measured over the large plate's voltages; its `printed`
+    is the bound the paper claims for its size (below 10 %), not a value.
+    """
+    from squeezebench.analysis import tables  # tables reads runs; the audit's findings do not
+
+    rows = []
+    for convention in conventions:
+        plates = tables.characterise_plates(run, convention)
+        for row in tables.table5(plates, convention).to_dict("records"):
+            rows.append({"reading": convention.name, "item": row["item"], "quantity": row["quantity"],
+                         "value": row["value"], "printed": row["paper_value"],
+                         "relative_difference": row["relative_difference"]})
+        power = tables.estimated_large_plate_power_w(plates, convention)
+        difference = float(np.mean(power["power_estimated_w"] / power["power_measured_w"] - 1.0))
+        rows.append({"reading": convention.name, "item": "fig9", "quantity": "mean_power_difference",
+                     "value": difference, "printed": MATCH_REL, "relative_difference": math.nan})
+    return pd.DataFrame(rows)
+
+
+def table5_verdicts(frame: pd.DataFrame) -> list[str]:
+    """In words: under each reading, which published number breaks which claim."""
+    words = []
+    for reading, group in frame.groupby("reading", sort=False):
+        value = {(r.item, r.quantity): r for r in group.itertuples(index=False)}
+        fig9 = value[("fig9", "mean_power_difference")].value
+        measured_tan = value[("measured", "tan_theta")]
+        estimated_tan = value[("estimated", "tan_theta")]
+        claim = "holds" if abs(fig9) <= MATCH_REL else "fails"
+        text = (f"Under the {reading} reading the estimate from the small plates differs from the large "
+                f"plate's measured power by {fig9:+.1%} on average: the paper's 'below 10 %' claim {claim}. ")
+        factor = measured_tan.value / measured_tan.printed
+        if abs(factor - 1.0) > MATCH_REL:
+            text += (f"The published 1.3 W at 32 Vpp with Q = {value[('measured', 'q')].value:.3g} gives "
+                     f"tan theta' = {measured_tan.value:.3g}, not the printed {measured_tan.printed:.3g} "
+                     f"(a factor {1 / factor:.3g}); ")
+        else:
+            text += (f"The published 1.3 W at 32 Vpp gives tan theta' = {measured_tan.value:.3g} against the "
+                     f"printed {measured_tan.printed:.3g} ({measured_tan.relative_difference:+.1%}); ")
+        text += (f"the small plates give {estimated_tan.value:.3g} against the printed "
+                 f"{estimated_tan.printed:.3g}.")
+        printed_reading = _PRINTED_NUMBERS_READINGS.get(reading)
+        if printed_reading is not None:
+            predicted = printed_estimate_power_w(printed_reading)
+            published = paper_value("large_plate", "large_plate", "power_w")
+            verdict = ("within" if abs(predicted / published - 1.0) <= MATCH_REL else "outside")
+            text += (f" From printed numbers alone: Table 5's estimate (Q {paper_value('table5', 'estimated', 'q'):g}, "
+                     f"tan theta' {paper_value('table5', 'estimated', 'tan_theta'):g}) through Eq. 25 under this "
+                     f"reading gives {predicted:.3g} W at 32 Vpp against the published {published:g} W, a factor "
+                     f"{predicted / published:.3g}: {verdict} the paper's 10 %.")
+        words.append(text)
+    return words
+
+
+#: The search's Reading (with its lambda and n_c) behind each convention Table 5 is shown under.
+_PRINTED_NUMBERS_READINGS = {model.PAPER_CONVENTION.name: readings.PRINTED_READING,
+                             model.INFERRED_CONVENTION.name: readings.INFERRED_READING}
+
+
+def printed_estimate_power_w(reading: readings.Reading) -> float:
+    """Eq. 25 at the published 32 Vpp and 52.4 kHz with Table 5's printed estimate of Q and
+    tan theta', on the large plate as `reading` reads it: what the paper's Fig. 9 estimate
+    is under that reading, computed from printed numbers only."""
+    return model.power_w(paper_value("table5", "estimated", "q"), paper_value("table5", "estimated", "tan_theta"),
+                         paper_value("large_plate", "large_plate", "voltage_vpp"),
+                         paper_value("large_plate", "large_plate", "frequency_hz"),
+                         reading.large_plate_geometry(), reading.convention())
+
+
+def plates_under_readings(run, conventions=TABLE5_READINGS) -> pd.DataFrame:
+    """Q and tan theta' of every characterised plate of a run (the paper's, or a user's own)
+    under each reading: one row per (plate, reading)."""
+    from squeezebench.analysis import tables
+
+    rows = []
+    for convention in conventions:
+        for name, plate in tables.characterise_plates(run, convention).items():
+            rows.append({"plate": name, "reading": convention.name, "frequency_hz": plate.frequency_hz,
+                         "q": plate.q.value, "q_u": plate.q.std_uncertainty,
+                         "tan_theta": plate.tan_theta.value, "tan_theta_u": plate.tan_theta.std_uncertainty})
+    return pd.DataFrame(rows)

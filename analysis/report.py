@@ -290,9 +290,29 @@ def _optional_folder(context: ReportContext, folder: str, title: str, how: str) 
 
 
 #: The report, in order. Another package adds a section by appending a builder.
+def readings_section(context: ReportContext) -> Section:
+    """Q and tan theta' under the text's reading and the inferred one (issue 13)"""
+    plates = audit.plates_under_readings(context.run)
+    plates.to_csv(context.out_dir / "plates_by_reading.csv", index=False)
+    body = ("<p>Every characterised plate of this run (the paper's or your own), Q from Eq. 27 and "
+            "tan theta' from Eq. 25 under the text's own reading ('paper') and under the one reading "
+            "that reproduces the paper's published numbers at once ('inferred', analysis.readings). "
+            "CSV: <a href='plates_by_reading.csv'>plates_by_reading.csv</a></p>" + _html_table(plates))
+    try:
+        table5 = audit.table5_under_readings(context.run)
+    except UserError as exc:
+        return Section("Plates under each reading", body + f"<p class='missing'>Table 5 and Fig. 9 under "
+                       f"each reading not available: {html.escape(str(exc))}</p>")
+    table5.to_csv(context.out_dir / "table5_by_reading.csv", index=False)
+    body += ("<h3>Table 5 and Fig. 9 under each reading</h3>" + _html_table(table5)
+             + "".join(f"<p>{html.escape(words)}</p>" for words in audit.table5_verdicts(table5)))
+    return Section("Plates under each reading", body)
+
+
 SECTIONS: list[SectionBuilder] = [
     provenance_section, conventions_section, table3_section, table4_section, detuning_section,
-    resonance_section, characterisation_section, audit_section, study_section, hardcases_section,
+    resonance_section, characterisation_section, readings_section, audit_section, study_section,
+    hardcases_section,
 ]
 
 

@@ -252,12 +252,18 @@ _SCENE_GEOMETRY_MM = {
 }
 
 
-def plate_geometry(run: RunData, plate: str, n_powered_piezos: int) -> model.PlateGeometry:
-    """The model geometry of one plate from its scene copy `inputs/<plate>.yaml`."""
-    scene = run.scenes.get(f"{plate}.yaml")
+def plate_geometry(run: RunData, plate: str, n_powered_piezos: int,
+                   n_powered_groups: int | None = None, scene_file: str | None = None,
+                   scene_state: str | None = None) -> model.PlateGeometry:
+    """The model geometry of one plate from its scene copy `inputs/<scene_file>` (by
+    default `inputs/<plate>.yaml`). Where the scene says how many piezos its state powers,
+    a campaign stating another count is refused: n_c enters Q and tan(theta')."""
+    scene_file = scene_file or f"{plate}.yaml"
+    scene = run.scenes.get(scene_file)
     if scene is None:
-        raise MissingDataError(f"no scene copy inputs/{plate}.yaml in {run.run_dir}: "
+        raise MissingDataError(f"no scene copy inputs/{scene_file} in {run.run_dir}: "
                                "the geometry of the plate is unknown")
+    _check_powered_piezos(scene, scene_file, scene_state, n_powered_piezos)
     lengths_m = {}
     for field, keys in _SCENE_GEOMETRY_MM.items():
         node = scene
@@ -266,7 +272,26 @@ def plate_geometry(run: RunData, plate: str, n_powered_piezos: int) -> model.Pla
         if not isinstance(node, (int, float)):
             raise MissingDataError(f"inputs/{plate}.yaml has no number at {'.'.join(keys)}")
         lengths_m[field] = float(node) * 1e-3
-    return model.PlateGeometry(**lengths_m, n_powered_piezos=int(n_powered_piezos))
+    return model.PlateGeometry(**lengths_m, n_powered_piezos=int(n_powered_piezos),
+                               n_powered_groups=n_powered_groups)
+
+
+def _text_or_none(value) -> str | None:
+    """A stored text column's value; None, NaN (a column of Nones read back) or '' give None."""
+    return value if isinstance(value, str) and value else None
+
+
+def _check_powered_piezos(scene: dict, scene_file: str, state: str | None, n_powered_piezos: int) -> None:
+    states = scene.get("states") if isinstance(scene.get("states"), dict) else {}
+    state = state or scene.get("initial_state")
+    data = states.get(state) if isinstance(states.get(state), dict) else {}
+    actuators = scene.get("actuators") if isinstance(scene.get("actuators"), dict) else {}
+    columns, per_column = data.get("powered_columns"), actuators.get("piezos_per_column")
+    if isinstance(columns, list) and isinstance(per_column, int) and len(columns) * per_column != n_powered_piezos:
+        raise MissingDataError(
+            f"the campaign says {n_powered_piezos} powered piezos, but inputs/{scene_file} state {state!r} "
+            f"powers {len(columns)} columns x {per_column} = {len(columns) * per_column}: correct the "
+            "campaign's plate.n_powered_piezos (n_c scales Q and tan theta')")
 
 
 @dataclass(frozen=True)
@@ -309,7 +334,10 @@ def characterise_plates(run: RunData, convention: model.Convention) -> dict[str,
     points = _protocol_points(run, "characterisation")
     results = {}
     for plate, group in points.groupby("plate", sort=True):
-        geometry = plate_geometry(run, str(plate), int(group["n_powered_piezos"].iloc[0]))
+        first = group.iloc[0]
+        geometry = plate_geometry(run, str(plate), int(first["n_powered_piezos"]), int(first["n_powered_columns"]),
+                                  scene_file=_text_or_none(first.get("scene_file")),
+                                  scene_state=_text_or_none(first.get("scene_state")))
         results[str(plate)] = characterise_plate(str(plate), group, geometry, convention)
     return results
 

@@ -16,7 +16,8 @@ A campaign file (see data/campaigns/paper.yaml):
         safety: {...}                  # optional, merged over the campaign's
         parameters: {...}              # the protocol's Parameters
 
-Scenes are looked up in `squeezebench.paths.scenes_dir()` (absolute paths are kept);
+Scenes are looked up next to the campaign file, then in `squeezebench.paths.scenes_dir()`
+(absolute paths are kept);
 bench files relative to the campaign file. Every error names the file, the field and
 what is allowed, as a CampaignError (a UserError: one message, exit status 2).
 
@@ -45,7 +46,7 @@ from squeezebench.instruments.agilent33120a import AMPLITUDE_RANGE_VPP, FREQUENC
 from squeezebench.instruments.bench import open_bench, sim_bench_config
 from squeezebench.instruments.errors import OutOfRangeError
 from squeezebench.protocols.acquisition import Acquisition, AcquisitionSettings
-from squeezebench.protocols.safety import (DriveController, SafetyLimits, chain_warnings,
+from squeezebench.protocols.safety import (DriveController, SafetyLimits, chain_warnings, raise_if_stopped,
                                               stop_signals_interrupt)
 from squeezebench.protocols.steps import Plate, Step, StepContext
 from squeezebench.protocols.storage import RunStore, sha256_file
@@ -177,8 +178,11 @@ class _Loader:
         return BenchChoice(file=file)
 
     def scene(self, value: str, field: str) -> Path:
+        """A relative scene path is the user's file next to the campaign first, then a shipped one."""
         scene = Path(value)
-        scene = scene if scene.is_absolute() else paths.scenes_dir() / scene
+        if not scene.is_absolute():
+            beside = self.file.parent / scene
+            scene = beside if beside.is_file() else paths.scenes_dir() / scene
         if not scene.is_file():
             known = sorted(p.name for p in paths.scenes_dir().glob("*.yaml"))
             raise CampaignError(self.file, field, f"no scene {scene}; available in {paths.scenes_dir()}: "
@@ -279,19 +283,49 @@ def _leaves(value: Any, field: str, name: str = ""):
 # -- running -----------------------------------------------------------------------------
 def run_campaign(path: Path, resume: bool = False, out_dir: Path | None = None,
                  progress: bool = True, say: Callable[[str], None] | None = None,
-                 accept_changed_bench: bool = False) -> Path:
+                 accept_changed_bench: bool = False,
+                 on_point: Callable[[dict[str, Any]], None] | None = None,
+                 on_step: Callable[[dict[str, Any]], None] | None = None) -> Path:
     """Run (or with `resume`, continue) a campaign; return its run directory. `progress`
     off hides the progress bar (a campaign run inside another tool, e.g. the planner);
     `accept_changed_bench` lets a resume use a bench file or scene changed since (a bench
     fix), recording both versions;
     `say` shows what the operator must know now (default: the terminal's stderr), and
-    everything said also goes to log.txt. SIGTERM and SIGHUP stop it as Ctrl-C does."""
+    everything said also goes to log.txt. SIGTERM and SIGHUP stop it as Ctrl-C does.
+    `on_point` and `on_step` watch the run (see Watchers)."""
     with stop_signals_interrupt():
-        return _run_campaign(path, resume, out_dir, progress, say, accept_changed_bench)
+        return _run_campaign(path, resume, out_dir, progress, say, accept_changed_bench,
+                             Watchers(on_point, on_step))
+
+
+@dataclass(frozen=True)
+class Watchers:
+    """Who watches a run (a live plot, a notebook): `on_point(row)` gets each measurement
+    row as a step records it, before the step is stored (a step that fails is measured
+    again on resume, and its points seen again); `on_step(entry)` gets each step's journal
+    entry once the step is stored. A watcher that fails is logged and never stops the run:
+    watching must not cost a measurement."""
+
+    on_point: Callable[[dict[str, Any]], None] | None = None
+    on_step: Callable[[dict[str, Any]], None] | None = None
+
+    def point(self, row: dict[str, Any]) -> None:
+        self._call(self.on_point, row)
+
+    def step(self, entry: dict[str, Any]) -> None:
+        self._call(self.on_step, entry)
+
+    @staticmethod
+    def _call(watcher: Callable[[dict[str, Any]], None] | None, record: dict[str, Any]) -> None:
+        if watcher is not None:
+            try:
+                watcher(record)
+            except Exception:
+                log.exception("a watcher of the run failed (the run goes on)")
 
 
 def _run_campaign(path: Path, resume: bool, out_dir: Path | None, progress: bool,
-                  say: Callable[[str], None] | None, accept_changed_bench: bool) -> Path:
+                  say: Callable[[str], None] | None, accept_changed_bench: bool, watchers: Watchers) -> Path:
     campaign = load_campaign(path)
     run_dir = Path(out_dir) if out_dir is not None else campaign.output_dir
     store = RunStore(run_dir)
@@ -322,7 +356,7 @@ def _run_campaign(path: Path, resume: bool, out_dir: Path | None, progress: bool
                 tell(warning)
             log.info("campaign %s (%s) in %s, %s", campaign.name, campaign.file, run_dir,
                      f"resuming after {len(journal)} steps" if journal else "new run")
-            _Runner(campaign, store, journal, progress, accept_changed_bench).run()
+            _Runner(campaign, store, journal, progress, accept_changed_bench, watchers).run()
             log.info("campaign %s complete", campaign.name)
         except BaseException as exc:
             log.error("campaign stopped by %s: %s; completed steps are stored, resume to continue",
@@ -346,11 +380,12 @@ def _teller(say: Callable[[str], None] | None) -> Callable[[str], None]:
 
 class _Runner:
     def __init__(self, campaign: Campaign, store: RunStore, journal: list[dict[str, Any]],
-                 progress: bool = True, accept_changed_bench: bool = False):
+                 progress: bool = True, accept_changed_bench: bool = False, watchers: Watchers = Watchers()):
         self.campaign = campaign
         self.accept_changed_bench = accept_changed_bench
         self.inputs: dict[str, dict[str, str]] = {}   # run: {input file name: sha256}
         self.progress = progress
+        self.watchers = watchers
         self.store = store
         self.journal = journal
         self.done = {(entry["run"], entry["step"]) for entry in journal}
@@ -405,12 +440,14 @@ class _Runner:
 
     def _step(self, run: Run, step: Step, bench, drive: DriveController, acquisition: Acquisition,
               context: dict[str, Any], mounted: _Mounted) -> None:
+        raise_if_stopped()
         log.info("run %s: step %s", run.name, step.step_id)
         mounted.prepare(bench, step.plate)
         acquisition.reset_ranges()
         ctx = StepContext(run_name=run.name, protocol=run.protocol, step=step, bench=bench,
                           drive=drive, acquisition=acquisition, context=dict(context),
-                          bench_time_base_s=self.bench_time_s, clock_start_s=bench.clock.now_s())
+                          bench_time_base_s=self.bench_time_s, clock_start_s=bench.clock.now_s(),
+                          on_point=self.watchers.point)
         step.measure(ctx)
         drive.to_minimum()   # every step ends safe: the operator may touch the plate next
         # An error an instrument queued during the step (a refused setting) makes its
@@ -430,6 +467,7 @@ class _Runner:
         self.done_this_session += 1
         log.info("run %s: step %s done, %d rows, bench time %.1f s", run.name, step.step_id,
                  len(ctx.rows), bench_time_s)
+        self.watchers.step(entry)
         self.bar.update(1)
         self._show_times()
 

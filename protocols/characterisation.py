@@ -47,7 +47,7 @@ class Parameters:
 
 def plan(params: Parameters, plate: Plate) -> list[Step]:
     plates = params.plates or (CharacterisedPlate(name=plate.name, n_powered_columns=plate.n_powered_columns,
-                                                  n_powered_piezos=plate.n_powered_piezos),)
+                                                  n_powered_piezos=plate.n_powered_piezos, scene=plate.scene),)
     return [Step(f"plate_{p.name}", p, lambda ctx, p=p: _sweep_voltage(ctx, params, p.search or params.search))
             for p in plates]
 

@@ -195,6 +195,18 @@ class Plan:
                      f"{self.planned_total_s:>10.1f} {self.baseline_total_s:>10.1f} {ratio:>6.2f}")
         return "\n".join(lines)
 
+    def as_dict(self) -> dict:
+        """The plan as plain data (`squeezebench plan --json`): the numbers of `table()`."""
+        return {"target_rel_error": self.target_rel_error, "repeats": self.repeats,
+                "runs": [{"run": name, **dataclasses.asdict(setting),
+                          "p95_rel_error": self.error_by_run[name],
+                          "planned_bench_time_s": self.planned_s.get(name, 0.0),
+                          "baseline_bench_time_s": self.baseline_s.get(name, 0.0)}
+                         for name, setting in self.settings_by_run.items()],
+                "planned_bench_time_s": self.planned_total_s,
+                "baseline_bench_time_s": self.baseline_total_s,
+                "baseline_averages": BASELINE_AVERAGES}
+
 
 def make_plan(campaign_path: Path, target_rel_error: float, repeats: int = REPEATS) -> Plan:
     if not target_rel_error > 0:
@@ -241,7 +253,12 @@ def plan_campaign(campaign_path: Path, target_rel_error: float = 0.01, write: Pa
     plan = make_plan(Path(campaign_path), target_rel_error)
     table = plan.table()
     if write is not None:
-        _campaign_with_acquisition(Path(campaign_path), {name: dataclasses.asdict(setting) for name, setting
-                                                         in plan.settings_by_run.items()}, Path(write))
+        write_planned_campaign(Path(campaign_path), plan, Path(write))
         table += f"\nplanned campaign written to {write}"
     return table
+
+
+def write_planned_campaign(campaign_path: Path, plan: Plan, out: Path) -> Path:
+    """The campaign file with the plan's acquisition settings, ready for `squeezebench run`."""
+    return _campaign_with_acquisition(campaign_path, {name: dataclasses.asdict(setting) for name, setting
+                                                      in plan.settings_by_run.items()}, out)

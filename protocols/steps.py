@@ -67,6 +67,7 @@ class StepContext:
     updates: dict[str, Any] = field(default_factory=dict)   # context this step adds
     rows: list[dict[str, Any]] = field(default_factory=list)
     waveforms: dict[int, tuple[Any, dict[str, Any]]] = field(default_factory=dict)
+    on_point: Callable[[dict[str, Any]], None] | None = None   # sees each row as it is recorded
 
     def bench_time_s(self, clock_s: float | None = None) -> float:
         """Campaign bench time at bench clock `clock_s` (default: now).
@@ -90,6 +91,7 @@ class StepContext:
             "run_name": self.run_name,
             "protocol": protocol or self.protocol,
             "plate": plate.name,
+            "scene_file": Path(plate.scene).name if plate.scene is not None else None,
             "scene_state": plate.state,
             "step_id": self.step.step_id,
             "point_index": point_index,
@@ -113,5 +115,7 @@ class StepContext:
         }
         row.update(columns)
         self.rows.append(row)
+        if self.on_point is not None:
+            self.on_point(row)
         return row
 

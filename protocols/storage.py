@@ -279,9 +279,12 @@ class RunStore:
         return entries
 
     def verify(self, entries: list[dict[str, Any]] | None = None) -> list[str]:
-        """One message per step file the journal names that is missing or fails its checksum."""
-        entries = self.journal() if entries is None else entries
+        """One message per step file the journal names that is missing or fails its checksum
+        (and, reading the journal itself, per line that is not an entry)."""
         problems = []
+        if entries is None:
+            entries, bad = self._read_journal()
+            problems += [f"{self.run_dir / JOURNAL} line {number}: {reason}" for number, reason in bad]
         for entry in entries:
             files = entry.get("files") or {_measurement_file(entry["run"], entry["step"]): None}
             for relative, digest in files.items():

@@ -121,11 +121,144 @@ def _clipped_drive(fundamental: complex, dc_v: float, limit_v: float) -> Drive:
     return Drive(orders, 2.0 * spectrum[orders], float(spectrum[0].real))
 
 
+# -- materials: what a datasheet gives ----------------------------------------------------
+@dataclass(frozen=True)
+class PiezoMaterial:
+    """Datasheet constants of a piezoceramic and their relative tolerances."""
+
+    name: str
+    relative_permittivity_free: float  # eps33^T / eps0
+    d31_c_per_n: float
+    k31: float
+    s11e_m2_per_n: float
+    tan_delta: float  # dielectric loss factor at low field
+    tan_delta_high_field: float  # at `high_field_v_per_m`
+    high_field_v_per_m: float
+    mechanical_q: float
+    density_kg_m3: float
+    tolerances: dict[str, float]  # constant name -> relative tolerance (+-)
+    source: str
+
+
+#: Noliac "Piezo ceramics" data sheet (ver. 1203), column NCE41: eps33^T/eps0 1350 and tan
+#: delta 40e-4 (200e-4 at 400 V/mm), dielectric tolerance +-10 %; k31 0.33, -d31 130 pC/N,
+#: electromechanical tolerance +-5 %; Qm 1400, density 7.90 g/cm3, s11^E 13e-12 m2/N,
+#: physical tolerance +-5 %.
+NCE41 = PiezoMaterial(
+    name="NCE 41", relative_permittivity_free=1350.0, d31_c_per_n=-130e-12, k31=0.33,
+    s11e_m2_per_n=13e-12, tan_delta=0.0040, tan_delta_high_field=0.020, high_field_v_per_m=400e3,
+    mechanical_q=1400.0, density_kg_m3=7900.0,
+    tolerances={"relative_permittivity_free": 0.10, "tan_delta": 0.10, "d31_c_per_n": 0.05, "k31": 0.05,
+                "mechanical_q": 0.05, "density_kg_m3": 0.05, "s11e_m2_per_n": 0.05},
+    source="Noliac, Piezo ceramics data sheet ver. 1203, NCE41")
+
+
+@dataclass(frozen=True)
+class ResonatorMaterial:
+    name: str
+    young_pa: float
+    poisson: float
+    density_kg_m3: float
+    source: str
+
+
+#: The paper's Table 2 aluminium, with E_i read as 67 GPa (the print lost the exponent).
+ALUMINIUM = ResonatorMaterial("aluminium", young_pa=67e9, poisson=0.34, density_kg_m3=2790.0,
+                              source="paper, Table 2 (E_i = 67 GPa; printed 67109 N/m2)")
+
+PIEZO_MATERIALS = {m.name: m for m in (NCE41,)}
+RESONATOR_MATERIALS = {m.name: m for m in (ALUMINIUM,)}
+
+
 # -- the plate ---------------------------------------------------------------------------
 def piezo_capacitance_f(n_piezos: int, area_m2: float, thickness_m: float,
                         relative_permittivity: float) -> float:
     """Parallel-plate capacitance of n identical piezos: n eps_r eps_0 A / t."""
     return n_piezos * relative_permittivity * EPSILON_0_F_PER_M * area_m2 / thickness_m
+
+
+def clamped_relative_permittivity(material: PiezoMaterial) -> float:
+    """eps33 of a patch whose length the plate holds: eps33^T (1 - k31^2).
+
+    IEEE Std 176 (the eps33 at constant strain S1): a piezo bonded to a plate many times
+    stiffer than itself cannot stretch along its length, so its permittivity falls from
+    the free (datasheet) value by the transverse coupling. With k31 = 0.33, 0.89 eps33^T.
+    """
+    return material.relative_permittivity_free * (1.0 - material.k31**2)
+
+
+def neutral_axis_from_piezo_face_m(piezo_thickness_m: float, piezo_young_pa: float,
+                                   resonator_thickness_m: float, resonator_young_pa: float) -> float:
+    """Bending neutral axis of a piezo layer bonded on a resonator (composite beam),
+    measured from the piezo's free face: the stiffness-weighted centroid of the layers."""
+    h_p, h_i = piezo_thickness_m, resonator_thickness_m
+    return ((piezo_young_pa * h_p * h_p / 2.0 + resonator_young_pa * h_i * (h_p + h_i / 2.0))
+            / (piezo_young_pa * h_p + resonator_young_pa * h_i))
+
+
+def mode_slope_per_m(x_m: float, half_wavelength_m: float) -> float:
+    """d(phi)/dx of the free plate's (n, 0) mode phi(x) = cos(pi x / (lambda/2)), unit at
+    the free ends (antinodes) and, for an odd n, at the centre."""
+    k = math.pi / half_wavelength_m
+    return -k * math.sin(k * x_m)
+
+
+def piezo_force_factor_n_per_v(material: PiezoMaterial, length_along_nodal_lines_m: float,
+                               lever_arm_m: float, x_start_m: float, x_end_m: float,
+                               half_wavelength_m: float) -> float:
+    """Force on the modal coordinate per volt of one patch (magnitude), N/V.
+
+    The patch (electrodes on its faces, field E3 = V/h_p) pulls with the stress e31 E3,
+    e31 = d31 / s11^E, on the plate at `lever_arm_m` (z_m) from the neutral axis: a bending
+    moment e31 V b z_m (b its length along the nodal lines) acting as two line moments at
+    its ends, so the generalised force on phi is e31 b z_m [phi'(x_end) - phi'(x_start)] V
+    (Crawley & de Luis, AIAA J. 25 (1987): the pin-force model of a bonded patch).
+    """
+    e31 = material.d31_c_per_n / material.s11e_m2_per_n
+    slope_change = mode_slope_per_m(x_end_m, half_wavelength_m) - mode_slope_per_m(x_start_m, half_wavelength_m)
+    return abs(e31 * length_along_nodal_lines_m * lever_arm_m * slope_change)
+
+
+def mean_square_mode(x_start_m: float, x_end_m: float, half_wavelength_m: float) -> float:
+    """Mean of phi^2 = cos^2(k x) over [x_start, x_end]: a patch's share of the modal mass."""
+    k = math.pi / half_wavelength_m
+    width = x_end_m - x_start_m
+    return 0.5 + (math.sin(2 * k * x_end_m) - math.sin(2 * k * x_start_m)) / (4.0 * k * width)
+
+
+def branch_from_physics(frequency_hz: float, q_mech: float, modal_mass_kg: float,
+                        force_factor_n_per_v: float) -> MotionalBranch:
+    """The motional branch of a mode of known modal mass: R_mech = w_r M / q_mech."""
+    resistance = 2.0 * math.pi * frequency_hz * modal_mass_kg / q_mech
+    return MotionalBranch(frequency_hz, q_mech, force_factor_n_per_v, resistance)
+
+
+def modal_mass_kg(branch: MotionalBranch) -> float:
+    """M = q_mech R_mech / w_r: the mass the calibrated branch implies (velocity at the
+    measurement point as the modal coordinate)."""
+    return branch.q_mech * branch.resistance_ns_per_m / (2.0 * math.pi * branch.frequency_hz)
+
+
+def motional_capacitance_f(branch: MotionalBranch) -> float:
+    """C_m = (n_c psi)^2 / K with K = w_r^2 M: the branch's series capacitance."""
+    omega = 2.0 * math.pi * branch.frequency_hz
+    return branch.force_factor_n_per_v**2 / (omega**2 * modal_mass_kg(branch))
+
+
+def motional_elements(branch: MotionalBranch) -> tuple[float, float, float]:
+    """The branch seen from the terminals, (R_m ohm, L_m H, C_m F) of the Butterworth-Van
+    Dyke circuit: R_mech, M and 1/K divided by (n_c psi)^2 (the force factor is the
+    electromechanical transformer's turns ratio)."""
+    turns_squared = branch.force_factor_n_per_v**2
+    return (branch.resistance_ns_per_m / turns_squared, modal_mass_kg(branch) / turns_squared,
+            motional_capacitance_f(branch))
+
+
+def effective_coupling(branch: MotionalBranch, capacitance_f: float) -> float:
+    """k_eff = sqrt(C_m / (C0 + C_m)) = sqrt((f_a^2 - f_r^2) / f_a^2) of the lossless
+    Butterworth-Van Dyke circuit (IEEE Std 176); a bonded patch stays below its k31."""
+    c_m = motional_capacitance_f(branch)
+    return math.sqrt(c_m / (capacitance_f + c_m))
 
 
 @dataclass(frozen=True)

@@ -4,7 +4,7 @@ A scene is YAML (see `data/scenes/`). Top-level sections:
 
 ```
 plate:        {name, material, length_mm, width_mm, thickness_mm}
-actuators:    {piezo: {length_mm, width_mm, thickness_mm, material, relative_permittivity},
+actuators:    {piezo: {length_mm, width_mm, thickness_mm, material},
                piezos_per_column, columns: [{name, position_mm}, ...]}
 mode:         {name, half_wavelength_mm}
 states:       {<name>: {description, resonance_frequency_hz, q_mech, powered_columns,
@@ -19,13 +19,23 @@ seed:         <int>
 provenance:   {<dotted field, or a section>: <where the number comes from>}
 ```
 
-A state's `calibration` is the measurement at resonance the state reproduces, in one of
-three forms: `{voltage_vpp, velocity_pp_mps, power_w}`, `{voltage_vpp, amplitude_pp_m,
-power_w}` or `{paper_model: {q, tan_theta, voltage_vpp, convention}}`, the last computed
-with the paper's Eqs. 25 and 27 (`analysis.model`) on the scene's geometry. It is read
-as the scope reads it: amplifier-output Vpp (CH1), CH1 x CH2 mean power and vibrometer
-velocity pp, so with the `shunt` or `dielectric_loss` effect on, the state's motional
-branch is calibrated through them (their losses are part of the published power).
+Materials are named, never typed in: `plate.material` from `physics.RESONATOR_MATERIALS`,
+`actuators.piezo.material` from `physics.PIEZO_MATERIALS` (datasheet constants with their
+tolerances). C0 is the clamped capacitance of the powered piezos (eps33^T (1 - k31^2)).
+
+A state is physical by default: without `calibration`, its motional branch follows from
+the plate, the piezos and the mode (modal mass, pin-force coupling of each powered patch,
+`physics`) and its mechanical quality factor `q_mech`. With a `calibration`, the branch
+reproduces a measurement at resonance, in one of three forms: `{voltage_vpp,
+velocity_pp_mps, power_w}`, `{voltage_vpp, amplitude_pp_m, power_w}` or `{paper_model:
+{q, tan_theta, convention}}`, the last computed with the paper's Eqs. 25 and 27
+(`analysis.model`) under a named reading; `q_mech` may then be omitted and follows from
+the plate's modal mass. A calibration is read as the scope reads it: amplifier-output Vpp
+(CH1), CH1 x CH2 mean power and vibrometer velocity pp, so with the `shunt` or
+`dielectric_loss` effect on, the state's motional branch is calibrated through them.
+
+Whatever its origin, every state must describe a plate that can exist (`BOUNDS`): a scene
+whose calibration asks for more is refused at load, naming the bound and the values.
 """
 
 from __future__ import annotations
@@ -35,6 +45,8 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+import pandas as pd
 import yaml
 
 from squeezebench.analysis import model
@@ -44,7 +56,20 @@ from squeezebench.errors import UserError
 
 #: Readings of the paper's model a `paper_model` calibration may name.
 CONVENTIONS = {c.name: c for c in (model.PAPER_CONVENTION, model.AS_PRINTED_CONVENTION,
-                                   model.PHYSICAL_CONVENTION)}
+                                   model.PHYSICAL_CONVENTION, model.INFERRED_CONVENTION)}
+#: The paper's model is linear in V: a `paper_model` calibration is evaluated here, inside
+#: the Fig. 5 sweeps, and gives the same plate at any voltage.
+PAPER_MODEL_REFERENCE_VPP = 20.0
+#: What a plate that can exist obeys (checked on every state at load).
+MAX_SHUNT_SHARE = 0.10  # Sec. 2.1: the 2 ohm shunt took at most 10 % of the power
+MAX_POWER_FACTOR = 0.99  # a piezo load is capacitive: C0 always draws reactive current
+BOUNDS = {
+    "effective_coupling": "effective coupling <= the piezo material's k31",
+    "power_factor": f"power factor at resonance < {MAX_POWER_FACTOR:g}",
+    "modal_mass_ratio": "modal mass <= the mass of the plate with its piezos",
+    "shunt_share": f"shunt share of the power at resonance <= {MAX_SHUNT_SHARE:.0%} (Sec. 2.1)",
+    "positive": "C0, R_mech, force factor and modal mass > 0",
+}
 GENERATOR_LOADS = ("INF", "50")
 #: Effects that were part of the bench the calibration values were measured on: when a
 #: scene turns them on, its states are calibrated through them, so that the scope still
@@ -61,10 +86,14 @@ class SceneError(UserError):
 @dataclass(frozen=True)
 class Plate:
     name: str
-    material: str
+    material: physics.ResonatorMaterial
     length_mm: float
     width_mm: float
     thickness_mm: float
+
+    @property
+    def mass_kg(self) -> float:
+        return self.material.density_kg_m3 * self.length_mm * self.width_mm * self.thickness_mm * 1e-9
 
 
 @dataclass(frozen=True)
@@ -72,18 +101,21 @@ class Piezo:
     length_mm: float  # b_p of Eq. 25: along the nodal lines
     width_mm: float
     thickness_mm: float
-    material: str
-    relative_permittivity: float  # eps33 at constant stress / eps0
+    material: physics.PiezoMaterial
 
     @property
     def area_m2(self) -> float:
         return self.length_mm * self.width_mm * 1e-6
 
+    @property
+    def mass_kg(self) -> float:
+        return self.material.density_kg_m3 * self.area_m2 * self.thickness_mm * 1e-3
+
 
 @dataclass(frozen=True)
 class Column:
     name: str
-    position_mm: float  # along the plate length, from one end
+    position_mm: float  # centre of the column along the plate length, from one end
 
 
 @dataclass(frozen=True)
@@ -107,6 +139,7 @@ class Calibration:
     velocity_pp_mps: float
     power_w: float
     form: str  # "velocity", "amplitude" or "paper_model"
+    reading: str = ""  # the paper_model's convention name
 
 
 @dataclass(frozen=True)
@@ -119,9 +152,10 @@ class State:
     q_mech: float
     powered_columns: tuple[str, ...]
     n_powered_piezos: int
-    calibration: Calibration
+    calibration: Calibration | None  # None: the branch follows from the physics alone
     capacitance_f: float  # clamped capacitance of the powered piezos
-    branch: physics.MotionalBranch  # the working mode, calibrated
+    branch: physics.MotionalBranch  # the working mode (calibrated, or from the physics)
+    q_mech_origin: str = "given"  # "given" or "modal mass" (derived from the plate)
 
     def load(self) -> physics.PlateLoad:
         """The plate as the amplifier sees it, with every effect off."""
@@ -180,14 +214,138 @@ class Scene:
 
     def geometry(self, state: State) -> model.PlateGeometry:
         """The half-wavelength section of the paper's Fig. 4 for `state`."""
-        return _geometry(self.plate, self.actuators.piezo, self.mode, state.n_powered_piezos)
+        return _geometry(self.plate, self.actuators.piezo, self.mode, state.n_powered_piezos,
+                         len(state.powered_columns))
 
 
-def _geometry(plate: Plate, piezo: Piezo, mode: Mode, n_powered: int) -> model.PlateGeometry:
+def _geometry(plate: Plate, piezo: Piezo, mode: Mode, n_powered: int, n_groups: int) -> model.PlateGeometry:
     return model.PlateGeometry(
         resonator_thickness_m=plate.thickness_mm * 1e-3, piezo_thickness_m=piezo.thickness_mm * 1e-3,
         piezo_length_m=piezo.length_mm * 1e-3, half_wavelength_m=mode.half_wavelength_mm * 1e-3,
-        n_powered_piezos=n_powered)
+        n_powered_piezos=n_powered, n_powered_groups=n_groups)
+
+
+# --- the plate's electromechanics from its physical parameters ---------------------------
+
+def _patch_extent_m(column: Column, piezo: Piezo) -> tuple[float, float]:
+    """Where a column's patches start and end along the plate (the piezo width lies along it)."""
+    return ((column.position_mm - piezo.width_mm / 2.0) * 1e-3, (column.position_mm + piezo.width_mm / 2.0) * 1e-3)
+
+
+def modal_mass_kg(plate: Plate, actuators: Actuators, mode: Mode) -> float:
+    """Mass of the (n, 0) mode with unit displacement at the antinodes: half the plate's
+    mass (the mean of cos^2) plus every bonded piezo weighted by the mode's mean square
+    over its patch (powered or not, a bonded patch moves with the plate)."""
+    half = mode.half_wavelength_mm * 1e-3
+    piezos = sum(actuators.piezos_per_column * actuators.piezo.mass_kg
+                 * physics.mean_square_mode(*_patch_extent_m(c, actuators.piezo), half) for c in actuators.columns)
+    return plate.mass_kg / 2.0 + piezos
+
+
+def assembly_mass_kg(plate: Plate, actuators: Actuators) -> float:
+    return plate.mass_kg + len(actuators.columns) * actuators.piezos_per_column * actuators.piezo.mass_kg
+
+
+def force_factor_n_per_v(plate: Plate, actuators: Actuators, mode: Mode, powered: tuple[str, ...]) -> float:
+    """n_c psi from the datasheet: every powered patch's pin force on the mode, each column
+    wired in phase with the mode's curvature under it (Eq. 1: A grows with n_c V)."""
+    piezo = actuators.piezo
+    piezo_young = 1.0 / piezo.material.s11e_m2_per_n
+    neutral = physics.neutral_axis_from_piezo_face_m(piezo.thickness_mm * 1e-3, piezo_young,
+                                                     plate.thickness_mm * 1e-3, plate.material.young_pa)
+    lever = neutral - piezo.thickness_mm * 1e-3 / 2.0
+    return sum(actuators.piezos_per_column * physics.piezo_force_factor_n_per_v(
+        piezo.material, piezo.length_mm * 1e-3, lever, *_patch_extent_m(c, piezo), mode.half_wavelength_mm * 1e-3)
+        for c in actuators.columns if c.name in powered)
+
+
+@dataclass(frozen=True)
+class StateFigures:
+    """What makes a state physically possible or not, at resonance."""
+
+    scene: str
+    state: str
+    origin: str  # "physical", or the calibration's form (and reading)
+    capacitance_nf: float
+    effective_coupling: float
+    material_k31: float
+    power_factor: float
+    modal_mass_g: float
+    plate_mass_g: float
+    shunt_share: float
+    loss_w_per_um2: float  # plate power / (amplitude pp in um)^2
+    force_factor_vs_datasheet: float  # calibrated n_c psi over the pin-force value
+    q_mech: float
+
+    @property
+    def modal_mass_ratio(self) -> float:
+        return self.modal_mass_g / self.plate_mass_g
+
+    def violations(self) -> list[str]:
+        """Each bound of BOUNDS this state breaks, with the values."""
+        broken = []
+        if not all(v > 0 and math.isfinite(v) for v in (self.capacitance_nf, self.modal_mass_g,
+                                                          self.force_factor_vs_datasheet, self.q_mech)):
+            broken.append(f"{BOUNDS['positive']}: C0 {self.capacitance_nf:.4g} nF, modal mass "
+                          f"{self.modal_mass_g:.4g} g, q_mech {self.q_mech:.4g}")
+        if self.effective_coupling > self.material_k31:
+            broken.append(f"{BOUNDS['effective_coupling']}: k_eff {self.effective_coupling:.3f} > "
+                          f"k31 {self.material_k31:.3f}")
+        if self.power_factor >= MAX_POWER_FACTOR:
+            broken.append(f"{BOUNDS['power_factor']}: power factor {self.power_factor:.4f}")
+        if self.modal_mass_ratio > 1.0:
+            broken.append(f"{BOUNDS['modal_mass_ratio']}: modal mass {self.modal_mass_g:.4g} g > "
+                          f"{self.plate_mass_g:.4g} g ({self.modal_mass_ratio:.3g} x)")
+        if self.shunt_share > MAX_SHUNT_SHARE:
+            broken.append(f"{BOUNDS['shunt_share']}: the shunt takes {self.shunt_share:.1%}")
+        return broken
+
+    def as_row(self) -> dict:
+        return {"scene": self.scene, "state": self.state, "origin": self.origin,
+                "c0_nf": self.capacitance_nf, "effective_coupling": self.effective_coupling,
+                "material_k31": self.material_k31, "power_factor": self.power_factor,
+                "modal_mass_g": self.modal_mass_g, "plate_mass_g": self.plate_mass_g,
+                "modal_mass_ratio": self.modal_mass_ratio, "shunt_share": self.shunt_share,
+                "loss_w_per_um2": self.loss_w_per_um2,
+                "force_factor_vs_datasheet": self.force_factor_vs_datasheet, "q_mech": self.q_mech}
+
+
+def state_figures(scene: "Scene", state: State) -> StateFigures:
+    """C0, coupling, power factor, modal mass, shunt share and loss of `state` at
+    resonance, on the scene's bench (its shunt in series, whether or not the `shunt`
+    effect is on: the paper's bench had it), at the calibration voltage (20 Vpp if none)."""
+    voltage_vpp = state.calibration.voltage_vpp if state.calibration else PAPER_MODEL_REFERENCE_VPP
+    load = physics.PlateLoad(capacitance_f=state.capacitance_f, branches=(state.branch,),
+                             series_ohm=scene.electronics.shunt_ohm)
+    drive = physics.Drive(np.array([1]), np.array([voltage_vpp / 2.0 + 0j]), 0.0)
+    steady = physics.solve_steady_state(load, drive, state.branch.frequency_hz)
+    current = abs(steady.current_phasor)
+    apparent = 0.5 * voltage_vpp / 2.0 * current
+    shunt_w = 0.5 * scene.electronics.shunt_ohm * current**2
+    amplitude_um = steady.amplitude_pp_m * 1e6
+    physical_psi = force_factor_n_per_v(scene.plate, scene.actuators, scene.mode, state.powered_columns)
+    origin = "physical" if state.calibration is None else state.calibration.form + (
+        f" ({state.calibration.reading})" if state.calibration.reading else "")
+    return StateFigures(
+        scene=scene.path.stem, state=state.name, origin=origin, capacitance_nf=state.capacitance_f * 1e9,
+        effective_coupling=physics.effective_coupling(state.branch, state.capacitance_f),
+        material_k31=scene.actuators.piezo.material.k31,
+        power_factor=steady.power_w / apparent if apparent > 0 else 0.0,
+        modal_mass_g=physics.modal_mass_kg(state.branch) * 1e3,
+        plate_mass_g=assembly_mass_kg(scene.plate, scene.actuators) * 1e3,
+        shunt_share=shunt_w / steady.power_w if steady.power_w > 0 else math.inf,
+        loss_w_per_um2=steady.plate_power_w / amplitude_um**2 if amplitude_um > 0 else math.inf,
+        force_factor_vs_datasheet=state.branch.force_factor_n_per_v / physical_psi if physical_psi > 0 else math.inf,
+        q_mech=state.q_mech)
+
+
+def scene_figures(scene: "Scene") -> list[StateFigures]:
+    return [state_figures(scene, state) for state in scene.states.values()]
+
+
+def scenes_table(paths: list[Path]) -> pd.DataFrame:
+    """One row per (scene, state) of `paths`: the figures of `StateFigures.as_row`."""
+    return pd.DataFrame([f.as_row() for path in paths for f in scene_figures(load_scene(path))])
 
 
 _MISSING = object()
@@ -274,12 +432,19 @@ def load_scene(path: str | Path) -> Scene:
         seed=reader.integer(top, "seed", "", minimum=0) if "seed" in top else 0,
         provenance=_provenance(reader, top.get("provenance", {}), raw),
     )
-    return _calibrated_through_effects(reader, scene)
+    scene = _calibrated_through_effects(reader, scene)
+    for figures in scene_figures(scene):
+        broken = figures.violations()
+        if broken:
+            raise reader.error(f"states.{figures.state}", "describes a plate that cannot exist: "
+                               + "; ".join(broken))
+    return scene
 
 
 def _calibrated_through_effects(reader: _Reader, scene: Scene) -> Scene:
     """`scene` with each state's branch calibrated through the CALIBRATED_EFFECTS it
-    turns on (unchanged when none is on: `_states` calibrated the plate alone).
+    turns on (when none is on, `_states` calibrated the plate alone), and q_mech set from
+    the modal mass where the scene leaves it out.
 
     The effects' own load stages give the shunt and the lossy C0, so the calibration
     uses the scene's parameter overrides exactly as the simulation does. They read the
@@ -287,10 +452,11 @@ def _calibrated_through_effects(reader: _Reader, scene: Scene) -> Scene:
     """
     stages = [EFFECTS[spec.name](scene, **spec.parameters).load
               for spec in scene.effects if spec.name in CALIBRATED_EFFECTS]
-    if not stages:
-        return scene
     states = {}
     for name, state in scene.states.items():
+        if state.calibration is None or not stages:
+            states[name] = _with_q_from_modal_mass(scene, state)
+            continue
         surroundings = physics.PlateLoad(capacitance_f=state.capacitance_f, branches=())
         for stage in stages:
             surroundings = stage(surroundings)
@@ -302,26 +468,37 @@ def _calibrated_through_effects(reader: _Reader, scene: Scene) -> Scene:
         except physics.CalibrationError as exc:
             on = ", ".join(s.name for s in scene.effects if s.name in CALIBRATED_EFFECTS)
             raise reader.error(f"states.{name}.calibration", f"cannot be reproduced with {on} on: {exc}") from exc
-        states[name] = replace(state, branch=branch)
+        states[name] = _with_q_from_modal_mass(scene, replace(state, branch=branch))
     return replace(scene, states=states)
+
+
+def _with_q_from_modal_mass(scene: Scene, state: State) -> State:
+    """A calibrated state without a stated q_mech: q_mech = w_r M / R_mech with M the
+    plate's modal mass (the calibration fixes R_mech, the plate its mass)."""
+    if state.q_mech_origin == "given":
+        return state
+    mass = modal_mass_kg(scene.plate, scene.actuators, scene.mode)
+    q_mech = 2.0 * math.pi * state.resonance_frequency_hz * mass / state.branch.resistance_ns_per_m
+    return replace(state, q_mech=q_mech, branch=replace(state.branch, q_mech=q_mech))
 
 
 def _plate(reader: _Reader, data: Any) -> Plate:
     data = reader.mapping(data, "plate", required=("name", "material", "length_mm", "width_mm",
                                                    "thickness_mm"))
-    return Plate(str(data["name"]), str(data["material"]),
+    material = physics.RESONATOR_MATERIALS[reader.text(data, "material", "plate",
+                                                       allowed=tuple(physics.RESONATOR_MATERIALS))]
+    return Plate(str(data["name"]), material,
                  *(reader.number(data, k, "plate") for k in ("length_mm", "width_mm", "thickness_mm")))
 
 
 def _actuators(reader: _Reader, data: Any) -> Actuators:
     data = reader.mapping(data, "actuators", required=("piezo", "piezos_per_column", "columns"))
     piezo_data = reader.mapping(data["piezo"], "actuators.piezo",
-                                required=("length_mm", "width_mm", "thickness_mm", "material",
-                                          "relative_permittivity"))
+                                required=("length_mm", "width_mm", "thickness_mm", "material"))
     piezo = Piezo(*(reader.number(piezo_data, k, "actuators.piezo")
                     for k in ("length_mm", "width_mm", "thickness_mm")),
-                  material=str(piezo_data["material"]),
-                  relative_permittivity=reader.number(piezo_data, "relative_permittivity", "actuators.piezo"))
+                  material=physics.PIEZO_MATERIALS[reader.text(piezo_data, "material", "actuators.piezo",
+                                                               allowed=tuple(physics.PIEZO_MATERIALS))])
     columns_data = data["columns"]
     if not isinstance(columns_data, list) or not columns_data:
         raise reader.error("actuators.columns", "must be a non-empty list of {name, position_mm}")
@@ -344,9 +521,8 @@ def _states(reader: _Reader, data: Any, plate: Plate, actuators: Actuators, mode
     states = {}
     for name, state in data.items():
         name, field = str(name), f"states.{name}"
-        state = reader.mapping(state, field, required=(
-            "resonance_frequency_hz", "q_mech", "powered_columns", "n_powered_piezos", "calibration"),
-            optional=("description",))
+        state = reader.mapping(state, field, required=("resonance_frequency_hz", "powered_columns"),
+                               optional=("description", "q_mech", "n_powered_piezos", "calibration"))
         powered = state["powered_columns"]
         if not isinstance(powered, list) or not powered:
             raise reader.error(f"{field}.powered_columns",
@@ -355,29 +531,45 @@ def _states(reader: _Reader, data: Any, plate: Plate, actuators: Actuators, mode
             if str(column) not in column_names:
                 raise reader.error(f"{field}.powered_columns",
                                    f"got {column!r}; allowed: {', '.join(column_names)}")
-        n_powered = reader.integer(state, "n_powered_piezos", field)
-        if n_powered != len(powered) * actuators.piezos_per_column:
+        n_powered = len(powered) * actuators.piezos_per_column
+        if "n_powered_piezos" in state and reader.integer(state, "n_powered_piezos", field) != n_powered:
             raise reader.error(f"{field}.n_powered_piezos",
-                               f"got {n_powered}; allowed: {len(powered) * actuators.piezos_per_column} "
-                               f"({len(powered)} powered columns x {actuators.piezos_per_column} piezos)")
+                               f"got {state['n_powered_piezos']}; allowed: {n_powered} ({len(powered)} powered "
+                               f"columns x {actuators.piezos_per_column} piezos; it may be left out)")
+        if "calibration" not in state and "q_mech" not in state:
+            raise reader.error(f"{field}.q_mech", "is missing (a state without a calibration needs its "
+                                                  "mechanical quality factor)")
         frequency_hz = reader.number(state, "resonance_frequency_hz", field)
-        q_mech = reader.number(state, "q_mech", field)
-        geometry = _geometry(plate, actuators.piezo, mode, n_powered)
-        calibration = _calibration(reader, state["calibration"], f"{field}.calibration", frequency_hz, geometry)
+        powered_names = tuple(str(c) for c in powered)
+        geometry = _geometry(plate, actuators.piezo, mode, n_powered, len(powered))
+        capacitance_f = physics.piezo_capacitance_f(
+            n_powered, actuators.piezo.area_m2, actuators.piezo.thickness_mm * 1e-3,
+            physics.clamped_relative_permittivity(actuators.piezo.material))
+        if "calibration" in state:
+            calibration = _calibration(reader, state["calibration"], f"{field}.calibration", frequency_hz,
+                                       geometry)
+            given = "q_mech" in state
+            # without a stated q_mech, any positive value calibrates R and psi; the plate's
+            # modal mass sets it once the effects are known (_with_q_from_modal_mass)
+            q_mech = reader.number(state, "q_mech", field) if given else 1.0
+            branch = physics.calibrate_branch(frequency_hz, q_mech, calibration.voltage_vpp,
+                                              calibration.velocity_pp_mps, calibration.power_w)
+        else:
+            calibration, given = None, True
+            q_mech = reader.number(state, "q_mech", field)
+            branch = physics.branch_from_physics(
+                frequency_hz, q_mech, modal_mass_kg(plate, actuators, mode),
+                force_factor_n_per_v(plate, actuators, mode, powered_names))
         states[name] = State(
             name=name, description=str(state.get("description", "")), resonance_frequency_hz=frequency_hz,
-            q_mech=q_mech, powered_columns=tuple(str(c) for c in powered), n_powered_piezos=n_powered,
-            calibration=calibration,
-            capacitance_f=physics.piezo_capacitance_f(
-                n_powered, actuators.piezo.area_m2, actuators.piezo.thickness_mm * 1e-3,
-                actuators.piezo.relative_permittivity),
-            branch=physics.calibrate_branch(frequency_hz, q_mech, calibration.voltage_vpp,
-                                            calibration.velocity_pp_mps, calibration.power_w))
+            q_mech=q_mech, powered_columns=powered_names, n_powered_piezos=n_powered,
+            calibration=calibration, capacitance_f=capacitance_f, branch=branch,
+            q_mech_origin="given" if given else "modal mass")
     return states
 
 
 _CALIBRATION_FORMS = ("{voltage_vpp, velocity_pp_mps, power_w}", "{voltage_vpp, amplitude_pp_m, power_w}",
-                      "{paper_model: {q, tan_theta, voltage_vpp, convention}}")
+                      "{paper_model: {q, tan_theta, convention}}")
 
 
 def _calibration(reader: _Reader, data: Any, field: str, frequency_hz: float,
@@ -387,9 +579,9 @@ def _calibration(reader: _Reader, data: Any, field: str, frequency_hz: float,
     if "paper_model" in data:
         reader.mapping(data, field, required=("paper_model",))
         sub = f"{field}.paper_model"
-        pm = reader.mapping(data["paper_model"], sub, required=("q", "tan_theta", "voltage_vpp", "convention"))
+        pm = reader.mapping(data["paper_model"], sub, required=("q", "tan_theta", "convention"))
         convention = CONVENTIONS[reader.text(pm, "convention", sub, allowed=tuple(CONVENTIONS))]
-        voltage_vpp = reader.number(pm, "voltage_vpp", sub)
+        voltage_vpp = PAPER_MODEL_REFERENCE_VPP
         q = reader.number(pm, "q", sub)
         tan_theta = pm["tan_theta"]
         if isinstance(tan_theta, bool) or not isinstance(tan_theta, (int, float)) or not math.isfinite(tan_theta):
@@ -404,7 +596,7 @@ def _calibration(reader: _Reader, data: Any, field: str, frequency_hz: float,
                                     f"convention {convention.name!r}; both must be positive "
                                     "(check the sign of tan_theta for this convention)")
         return Calibration(voltage_vpp, physics.velocity_pp_from_amplitude_pp(amplitude, frequency_hz),
-                           power, "paper_model")
+                           power, "paper_model", reading=convention.name)
     if "amplitude_pp_m" in data:
         reader.mapping(data, field, required=("voltage_vpp", "amplitude_pp_m", "power_w"))
         velocity = physics.velocity_pp_from_amplitude_pp(reader.number(data, "amplitude_pp_m", field),

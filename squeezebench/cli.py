@@ -1,12 +1,19 @@
 """The `squeezebench` command: check, run, report, reproduce, plan, study.
 
 Each subcommand is a thin call into the package that does the work; the command line
-only turns user errors into one clear message and an exit status.
+only turns user errors into one clear message and an exit status, and keeps the
+conventions of every command: exit status 0 done, 2 user or instrument error, 130
+interrupted; results on stdout (one JSON document with `--json`); the progress bar only on
+a terminal; `-q` keeps only errors and what the operator must act on, `-v` adds the log
+(every run and step, also kept in the run's log.txt) on stderr.
 """
 
 from __future__ import annotations
 
 import argparse
+import json
+import logging
+import shutil
 import sys
 from pathlib import Path
 
@@ -17,6 +24,23 @@ EXIT_USER_ERROR = 2
 EXIT_INTERRUPTED = 130
 #: protocols.accuracy_study.AccuracyStudy.EXPERIMENTS, spelled here so `--help` imports nothing heavy.
 STUDY_EXPERIMENTS = ("averages", "record", "search", "settle", "sweep", "heating")
+
+
+def say(args: argparse.Namespace, message: str) -> None:
+    """A result line for a person: on stdout, unless `-q` or `--json`."""
+    if not (args.quiet or getattr(args, "json", False)):
+        print(message)
+
+
+def emit_json(payload: dict) -> None:
+    """The one JSON document a `--json` command writes to stdout."""
+    json.dump(payload, sys.stdout, indent=2, default=str)
+    sys.stdout.write("\n")
+
+
+def show_progress(args: argparse.Namespace) -> bool:
+    """Progress bars redraw in place: only on a terminal, never into a file or a pipe."""
+    return not args.quiet and sys.stderr.isatty()
 
 
 def _bench_config(bench: str):
@@ -30,7 +54,18 @@ def _bench_config(bench: str):
 def cmd_check(args: argparse.Namespace) -> int:
     from squeezebench.instruments.bench import check_bench
 
-    return check_bench(_bench_config(args.bench), out=print)
+    lines: list[str] = []
+
+    def out(line: str) -> None:
+        lines.append(line)
+        say(args, line)
+
+    passed = check_bench(_bench_config(args.bench), out=out) == 0
+    if args.json:
+        emit_json({"command": "check", "bench": args.bench, "passed": passed, "lines": lines})
+    elif args.quiet and not passed:
+        print(f"squeezebench check: {lines[-1]}", file=sys.stderr)   # the cause, said last
+    return 0 if passed else EXIT_USER_ERROR
 
 
 def cmd_run(args: argparse.Namespace) -> int:
@@ -38,16 +73,29 @@ def cmd_run(args: argparse.Namespace) -> int:
 
     if args.accept_changed_bench and not args.resume:
         raise UserError("--accept-changed-bench continues a stopped run: use it with --resume")
-    run_dir = run_campaign(Path(args.campaign), resume=args.resume, out_dir=args.out,
-                           accept_changed_bench=args.accept_changed_bench, progress=sys.stderr.isatty())
-    print(f"run stored in {run_dir}")
+    watchers = {}
+    if args.plot:
+        from squeezebench.liveplot import LivePlot
+
+        plot = LivePlot()
+        watchers = {"on_point": plot.on_point, "on_step": plot.on_step}
+        if not plot.interactive:
+            print("squeezebench run: warning: --plot draws off-screen: matplotlib found no display "
+                  "(set MPLBACKEND to a GUI backend such as QtAgg or TkAgg)", file=sys.stderr)
+    run_dir = run_campaign(paths.campaign_file(args.campaign), resume=args.resume, out_dir=args.out,
+                           progress=show_progress(args), accept_changed_bench=args.accept_changed_bench,
+                           **watchers)
+    say(args, f"run stored in {run_dir}")
+    if args.plot and plot.interactive:
+        import matplotlib.pyplot as plt
+
+        say(args, "close the plot window to finish")
+        plt.show()
     return 0
 
 
 def cmd_validate(args: argparse.Namespace) -> int:
     """Each file checked on its own: one line per file (stdout if sound, stderr if not)."""
-    import json
-
     from squeezebench.schemas import validate_file
 
     results = []
@@ -56,25 +104,30 @@ def cmd_validate(args: argparse.Namespace) -> int:
             results.append({**validate_file(Path(file)), "ok": True, "error": None})
         except UserError as exc:
             results.append({"file": file, "ok": False, "error": str(exc), "warnings": []})
+    passed = all(result["ok"] for result in results)
     if args.json:
-        print(json.dumps(results, indent=2))
+        emit_json({"command": "validate", "passed": passed, "files": results})
     else:
         for result in results:
             if result["ok"]:
                 summary = f" ({result['summary']})" if result["summary"] else ""
-                print(f"{result['file']}: valid {result['kind']}{summary}")
+                say(args, f"{result['file']}: valid {result['kind']}{summary}")
             else:
                 print(f"squeezebench validate: {result['error']}", file=sys.stderr)
             for warning in result["warnings"]:
                 print(f"squeezebench validate: warning: {warning}", file=sys.stderr)
-    return 0 if all(result["ok"] for result in results) else EXIT_USER_ERROR
+    return 0 if passed else EXIT_USER_ERROR
 
 
 def cmd_report(args: argparse.Namespace) -> int:
+    import squeezebench.scenes_section  # noqa: F401  (adds the simulated plates' section)
     from squeezebench.analysis.report import write_report
     from squeezebench.protocols.storage import RunStore
 
-    problems = RunStore(Path(args.run_dir)).verify()
+    store = RunStore(Path(args.run_dir))
+    if store.exists():
+        store.manifest()   # a malformed manifest is one message, not a traceback in the report
+    problems = store.verify()
     if problems and not args.allow_missing:
         more = f" (and {len(problems) - 1} more)" if len(problems) > 1 else ""
         raise UserError(f"{problems[0]}{more}; the report would lack their rows: restore the "
@@ -82,21 +135,49 @@ def cmd_report(args: argparse.Namespace) -> int:
     for problem in problems:
         print(f"squeezebench report: warning: {problem}", file=sys.stderr)
     index = write_report(Path(args.run_dir))
-    print(f"report written to {index}")
+    say(args, f"report written to {index}")
     return 0
 
 
 def cmd_reproduce(args: argparse.Namespace) -> int:
+    import squeezebench.scenes_section  # noqa: F401  (adds the simulated plates' section)
     from squeezebench.analysis.report import write_report
     from squeezebench.protocols.accuracy_study import run_study
     from squeezebench.protocols.campaign import run_campaign
 
-    run_dir = run_campaign(paths.paper_campaign(), resume=args.resume, out_dir=args.out)
+    if not args.resume:
+        _clear_previous_reproduction(args, args.out)
+    run_dir = run_campaign(paths.paper_campaign(), resume=args.resume, out_dir=args.out,
+                           progress=show_progress(args))
     if not args.no_study:
-        run_study(run_dir, resume=args.resume)
+        run_study(run_dir, resume=args.resume, progress=lambda message: say(args, message))
     index = write_report(run_dir)
-    print(f"run stored in {run_dir}\nreport written to {index}")
+    say(args, f"run stored in {run_dir}\nreport written to {index}")
     return 0
+
+
+def _clear_previous_reproduction(args: argparse.Namespace, out: Path) -> None:
+    """`reproduce` again into its own earlier output starts afresh: everything in it was
+    computed from the shipped paper campaign and is computed again. Any other run, or a
+    directory that is not a run, is never removed (the campaign runner refuses it)."""
+    from squeezebench.protocols.storage import LOCK, RunStore, sha256_file
+
+    store = RunStore(out)
+    if not store.exists():
+        return
+    campaign = store.manifest().get("campaign", {})
+    paper = paths.paper_campaign()
+    if (Path(campaign.get("file", "")) != paper.resolve()
+            and campaign.get("sha256") != sha256_file(paper)):
+        raise UserError(f"{out} holds a run of {campaign.get('file')}, not a reproduction of the "
+                        "paper; choose another --out")
+    with store.writer():   # not while another process writes it
+        for entry in out.iterdir():
+            if entry.is_dir():
+                shutil.rmtree(entry)
+            elif entry.name != LOCK:
+                entry.unlink()
+    say(args, f"replacing the previous reproduction in {out} (--resume continues one instead)")
 
 
 def cmd_study(args: argparse.Namespace) -> int:
@@ -109,56 +190,78 @@ def cmd_study(args: argparse.Namespace) -> int:
     except ValueError as exc:
         raise UserError(f"--repeats: {exc}") from None
     experiments = tuple(args.experiment) if args.experiment else STUDY_EXPERIMENTS
-    study_dir = run_study(args.out, settings, experiments, resume=args.resume)
-    print(f"study stored in {study_dir}; 'squeezebench report {args.out}' shows it")
+    study_dir = run_study(args.out, settings, experiments, resume=args.resume,
+                          progress=lambda message: say(args, message))
+    say(args, f"study stored in {study_dir}; 'squeezebench report {args.out}' shows it")
     return 0
 
 
 def cmd_plan(args: argparse.Namespace) -> int:
-    from squeezebench.protocols.planning import plan_campaign
+    from squeezebench.protocols.planning import make_plan, plan_campaign, write_planned_campaign
 
-    print(plan_campaign(Path(args.campaign), target_rel_error=args.target_rel_error, write=args.write))
+    campaign = paths.campaign_file(args.campaign)
+    if not args.json:
+        say(args, plan_campaign(campaign, target_rel_error=args.target_rel_error, write=args.write))
+        return 0
+    plan = make_plan(campaign, args.target_rel_error)
+    written = write_planned_campaign(campaign, plan, args.write) if args.write else None
+    emit_json({"command": "plan", "campaign": campaign, **plan.as_dict(), "written": written})
     return 0
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="squeezebench", description=__doc__)
+    parser = argparse.ArgumentParser(prog="squeezebench", description=__doc__,
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--version", action="version", version=f"squeezebench {__version__}")
+    # Every subcommand takes -q/-v after its name (`squeezebench run X -v`).
+    common = argparse.ArgumentParser(add_help=False)
+    loudness = common.add_mutually_exclusive_group()
+    loudness.add_argument("-q", "--quiet", action="store_true",
+                          help="only errors and what the operator must act on; no progress bar")
+    loudness.add_argument("-v", "--verbose", action="store_true",
+                          help="also log every run and step on stderr (as in the run's log.txt)")
+    json_flag = argparse.ArgumentParser(add_help=False)
+    json_flag.add_argument("--json", action="store_true", help="print the result as one JSON document")
     sub = parser.add_subparsers(dest="command", required=True)
 
-    check = sub.add_parser("check", help="open every instrument and print its identification")
+    def add(name: str, json: bool = False, **kwargs) -> argparse.ArgumentParser:
+        return sub.add_parser(name, parents=[common, json_flag] if json else [common], **kwargs)
+
+    check = add("check", json=True, help="open every instrument and print its identification")
     check.add_argument("--bench", default="sim", help="'sim' or a bench YAML file (default: sim)")
     check.set_defaults(func=cmd_check)
 
-    run = sub.add_parser("run", help="run a campaign file")
-    run.add_argument("campaign", help="campaign YAML file")
+    run = add("run", help="run a campaign file")
+    run.add_argument("campaign", help="campaign YAML file, or the name of a shipped one (quick, paper)")
     run.add_argument("--resume", action="store_true", help="continue after the last completed step")
     run.add_argument("--out", type=Path, default=None, help="run directory (default: from the campaign)")
     run.add_argument("--accept-changed-bench", action="store_true",
                      help="with --resume: continue with a bench file or scene changed since (a bench fix); "
                           "the manifest records both versions and which steps used which")
+    run.add_argument("--plot", action="store_true",
+                     help="draw the resonance sweeps, the measured points and the resonance drift live")
     run.set_defaults(func=cmd_run)
 
-    validate = sub.add_parser("validate", help="check campaign, bench and scene files (and every scene "
-                              "and request a campaign has) without touching a bench or a run directory")
+    validate = add("validate", json=True, help="check campaign, bench and scene files (and every scene "
+                   "and request a campaign has) without touching a bench or a run directory")
     validate.add_argument("files", nargs="+", metavar="FILE", help="campaign, bench or scene YAML files")
-    validate.add_argument("--json", action="store_true", help="one JSON list of results on stdout")
     validate.set_defaults(func=cmd_validate)
 
-    report = sub.add_parser("report", help="recompute tables and figures from a stored run")
+    report = add("report", help="recompute tables and figures from a stored run")
     report.add_argument("run_dir", help="run directory written by 'squeezebench run'")
     report.add_argument("--allow-missing", action="store_true",
                         help="report even if step files in the journal are missing or fail their checksum")
     report.set_defaults(func=cmd_report)
 
-    reproduce = sub.add_parser("reproduce", help="the whole paper on the simulated bench, then the report")
-    reproduce.add_argument("--out", type=Path, default=Path("runs/paper"), help="run directory (default: runs/paper)")
+    reproduce = add("reproduce", help="the whole paper on the simulated bench, then the report")
+    reproduce.add_argument("--out", type=Path, default=Path("runs/paper"),
+                           help="run directory (default: runs/paper); an earlier reproduction there is replaced")
     reproduce.add_argument("--resume", action="store_true", help="continue an interrupted reproduction")
     reproduce.add_argument("--no-study", action="store_true",
                            help="skip the accuracy-vs-bench-time study (about a minute)")
     reproduce.set_defaults(func=cmd_reproduce)
 
-    study = sub.add_parser("study", help="accuracy against bench time on the simulated bench")
+    study = add("study", help="accuracy against bench time on the simulated bench")
     study.add_argument("--out", type=Path, default=Path("runs/study"),
                        help="run directory; trials go to OUT/study/ (default: runs/study)")
     study.add_argument("--repeats", type=int, default=8, help="trials per configuration (default 8)")
@@ -167,8 +270,8 @@ def build_parser() -> argparse.ArgumentParser:
     study.add_argument("--resume", action="store_true", help="keep experiments already stored")
     study.set_defaults(func=cmd_study)
 
-    plan = sub.add_parser("plan", help="cheapest acquisition settings meeting an accuracy target")
-    plan.add_argument("campaign", help="campaign YAML file")
+    plan = add("plan", json=True, help="cheapest acquisition settings meeting an accuracy target")
+    plan.add_argument("campaign", help="campaign YAML file, or the name of a shipped one (quick, paper)")
     plan.add_argument("--target-rel-error", type=float, default=0.01, help="relative error goal (default 0.01)")
     plan.add_argument("--write", type=Path, default=None, metavar="FILE",
                       help="also write the campaign with the planned settings to FILE")
@@ -176,17 +279,48 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+class _ProgressSafeHandler(logging.Handler):
+    """Log lines to stderr through tqdm, so a progress bar on the terminal stays whole."""
+
+    def emit(self, record: logging.LogRecord) -> None:
+        from tqdm import tqdm
+
+        tqdm.write(self.format(record), file=sys.stderr)
+
+
+def console_log(verbose: bool) -> logging.Handler | None:
+    """With -v, the package's log on stderr. Warnings and errors reach the terminal once,
+    from the code that meets them (the operator's messages, this module's error line),
+    so the console log carries only the running account below them."""
+    if not verbose:
+        return None
+    handler = _ProgressSafeHandler(logging.INFO)
+    handler.addFilter(lambda record: record.levelno < logging.WARNING)
+    handler.setFormatter(logging.Formatter("%(asctime)s %(name)s: %(message)s", "%H:%M:%S"))
+    logger = logging.getLogger("squeezebench")
+    logger.addHandler(handler)
+    if logger.level == logging.NOTSET or logger.level > logging.INFO:
+        logger.setLevel(logging.INFO)
+    return handler
+
+
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
+    handler = console_log(getattr(args, "verbose", False))
     try:
         return args.func(args)
     except UserError as exc:
         print(f"squeezebench {args.command}: {exc}", file=sys.stderr)
+        if getattr(args, "json", False):
+            emit_json({"command": args.command, "error": str(exc)})
         return EXIT_USER_ERROR
     except KeyboardInterrupt:
         print(f"squeezebench {args.command}: interrupted; completed steps are stored, "
               "use --resume to continue", file=sys.stderr)
         return EXIT_INTERRUPTED
+    finally:
+        if handler is not None:
+            logging.getLogger("squeezebench").removeHandler(handler)
 
 
 if __name__ == "__main__":

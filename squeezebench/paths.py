@@ -1,15 +1,23 @@
-"""Where the shipped data lives (scenes, campaigns, the paper's printed values)."""
+"""Where the shipped data lives (scenes, campaigns, bench examples, the paper's printed values).
+
+The repository's `data/` folder installs as the package `squeezebench.data` (pyproject.toml
+maps it), so a wheel carries it and `importlib.resources` finds it wherever the package
+is installed, editable or not.
+"""
 
 import os
+from importlib import resources
 from pathlib import Path
 
 
 def data_dir() -> Path:
-    """The project's `data/` folder; `SQUEEZEBENCH_DATA` overrides it."""
+    """The shipped `data/` folder; `SQUEEZEBENCH_DATA` overrides it."""
     override = os.environ.get("SQUEEZEBENCH_DATA")
     if override:
         return Path(override)
-    return Path(__file__).resolve().parents[1] / "data"
+    # A package installed from a wheel or a checkout is a folder on disk: the
+    # resource root is a real path that scenes and campaigns can name.
+    return Path(str(resources.files("squeezebench.data")))
 
 
 def scenes_dir() -> Path:
@@ -18,6 +26,23 @@ def scenes_dir() -> Path:
 
 def campaigns_dir() -> Path:
     return data_dir() / "campaigns"
+
+
+def campaign_file(name: str | Path) -> Path:
+    """A campaign path as given, else a campaign shipped with squeezebench (`quick`,
+    `paper.yaml`): an installed package has no data/ folder in the working directory."""
+    path = Path(name)
+    if path.exists():
+        return path
+    for candidate in (campaigns_dir() / path, campaigns_dir() / f"{path}.yaml"):
+        if candidate.is_file():
+            return candidate
+    return path   # the campaign loader names what is missing
+
+
+def benches_dir() -> Path:
+    """Bench file examples to copy and fill in with a lab's VISA addresses."""
+    return data_dir() / "benches"
 
 
 def paper_values_dir() -> Path:

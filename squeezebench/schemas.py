@@ -151,7 +151,7 @@ class CampaignFile(_Model):
     @classmethod
     def _inherit(cls, data: Any) -> Any:
         """Each run gets the campaign's bench, acquisition and safety under its own, and its
-        plate the bench scene's stem as default name."""
+        plate the bench scene (and its stem as name) by default."""
         if not isinstance(data, dict) or not isinstance(data.get("runs"), list):
             return data
         runs = []
@@ -165,9 +165,9 @@ class CampaignFile(_Model):
                 if run.get("bench") is None and data.get("bench") is not None:
                     run["bench"] = data["bench"]
                 bench, plate = run.get("bench"), run.get("plate")
-                if isinstance(plate, dict) and "name" not in plate and isinstance(bench, dict) \
-                        and isinstance(bench.get("scene"), str):
-                    run["plate"] = {**plate, "name": Path(bench["scene"]).stem}
+                if isinstance(plate, dict) and isinstance(bench, dict) and isinstance(bench.get("scene"), str):
+                    # a plate named otherwise keeps the bench scene's geometry
+                    run["plate"] = {"name": Path(bench["scene"]).stem, "scene": bench["scene"], **plate}
             runs.append(run)
         return {**data, "runs": runs}
 

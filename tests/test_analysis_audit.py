@@ -7,7 +7,7 @@ import math
 import pandas as pd
 import pytest
 
-from squeezebench.analysis import audit
+from squeezebench.analysis import audit, readings
 
 
 @pytest.fixture(scope="module")
@@ -64,3 +64,40 @@ def test_convention_grid_states_which_reading_matches_what():
     summary = audit.grid_summary(grid)
     assert list(summary["published"])[-1] == "all three at once"
     assert (summary["readings"] > 0).all()
+
+
+@pytest.fixture(scope="module")
+def characterisation_run(tmp_path_factory):
+    """The paper campaign's Fig. 5 and Figs. 8-9 runs on the shipped (simulated) scenes."""
+    import yaml
+
+    from squeezebench import paths
+    from squeezebench.analysis.rundata import load_run
+    from squeezebench.protocols.campaign import run_campaign
+
+    out = tmp_path_factory.mktemp("characterisation")
+    campaign = yaml.safe_load(paths.paper_campaign().read_text())
+    campaign["runs"] = [r for r in campaign["runs"] if r["protocol"] == "characterisation"]
+    campaign["name"] = "characterisation"
+    (out / "c.yaml").write_text(yaml.safe_dump(campaign))
+    return load_run(run_campaign(out / "c.yaml", out_dir=out / "run"))
+
+
+def test_table5_and_fig9_under_the_inferred_reading_meet_the_paper(characterisation_run):
+    frame = audit.table5_under_readings(characterisation_run).set_index(["reading", "item", "quantity"])
+    inferred = frame.loc["inferred"]
+    for item in ("estimated", "measured"):
+        assert abs(inferred.loc[(item, "q"), "relative_difference"]) < 0.02
+        assert abs(inferred.loc[(item, "tan_theta"), "relative_difference"]) < 0.12
+    assert abs(inferred.loc[("fig9", "mean_power_difference"), "value"]) < 0.10
+    # under the text's own reading the published 1.3 W gives a loss tangent ~12x short
+    printed = frame.loc["paper"]
+    assert printed.loc[("measured", "tan_theta"), "value"] / -1.24 < 0.1
+    assert abs(printed.loc[("fig9", "mean_power_difference"), "value"]) > 0.10
+    words = audit.table5_verdicts(frame.reset_index())
+    assert "claim fails" in words[0] and "not the printed -1.24" in words[0]
+    assert "claim holds" in words[1]
+    # from printed numbers alone: Table 5's estimate through Eq. 25 is ~12x the published 1.3 W
+    # under the text's reading, and within 10 % of it under the inferred one
+    assert "outside the paper's 10 %" in words[0] and "within the paper's 10 %" in words[1]
+    assert audit.printed_estimate_power_w(readings.PRINTED_READING) / 1.3 == pytest.approx(12.2, rel=0.01)

@@ -104,7 +104,9 @@ def test_validate_reports_each_file_and_json(files, capsys, tmp_path):
     good = write(files, "good", campaign_text())
     bad = write(files, "bad", campaign_text(output_dir=123))
     assert cli.main(["validate", str(good), str(files / "lab75.yaml"), str(bad), "--json"]) == cli.EXIT_USER_ERROR
-    results = json.loads(capsys.readouterr().out)
+    document = json.loads(capsys.readouterr().out)
+    results = document["files"]
+    assert document["command"] == "validate" and document["passed"] is False
     assert [r["ok"] for r in results] == [True, False, False]
     assert results[0]["kind"] == "campaign" and "one_column_1mm.yaml" in results[0]["summary"]
     assert "output_dir" in results[2]["error"]

@@ -41,3 +41,102 @@ def test_keyboard_interrupt_exit_code(monkeypatch):
     args.func = interrupted
     monkeypatch.setattr(cli, "build_parser", lambda: _FixedParser(args))
     assert cli.main(["report", "x"]) == cli.EXIT_INTERRUPTED
+
+
+# -- conventions shared by every command ----------------------------------------------------
+import json  # noqa: E402
+from pathlib import Path  # noqa: E402
+
+import pytest  # noqa: E402
+
+from squeezebench import paths  # noqa: E402
+from squeezebench.protocols.storage import RunStore  # noqa: E402
+
+
+def test_check_json_is_one_document_naming_each_instrument(capsys):
+    assert cli.main(["check", "--json"]) == 0
+    report = json.loads(capsys.readouterr().out)
+    assert report["passed"] is True and report["bench"] == "sim"
+    assert any("33120A" in line for line in report["lines"])
+    assert any("TDS 3054B" in line for line in report["lines"])
+
+
+def test_check_without_a_visa_library_exits_2_with_the_cause(capsys):
+    # lab_example.yaml names the system VISA library, which this machine does not have
+    bench = str(paths.benches_dir() / "lab_example.yaml")
+    assert cli.main(["check", "--bench", bench, "-q"]) == cli.EXIT_USER_ERROR
+    captured = capsys.readouterr()
+    assert captured.out == "" and "VISA" in captured.err and captured.err.count("\n") == 1
+    assert cli.main(["check", "--bench", bench, "--json"]) == cli.EXIT_USER_ERROR
+    assert json.loads(capsys.readouterr().out)["passed"] is False
+
+
+def test_a_user_error_under_json_is_also_json(capsys):
+    assert cli.main(["check", "--bench", "no_such_bench.yaml", "--json"]) == cli.EXIT_USER_ERROR
+    captured = capsys.readouterr()
+    assert "no_such_bench.yaml" in json.loads(captured.out)["error"]
+    assert captured.err.startswith("squeezebench check: no_such_bench.yaml")
+
+
+def test_progress_bar_only_on_a_terminal_and_quiet_silences_results(monkeypatch, capsys):
+    from squeezebench.protocols import campaign
+
+    seen = []
+    monkeypatch.setattr(campaign, "run_campaign", lambda path, **kwargs: seen.append((path, kwargs)) or Path("r"))
+    assert cli.main(["run", "quick"]) == 0   # stderr is captured here: not a terminal
+    assert seen[-1][0] == paths.campaigns_dir() / "quick.yaml" and seen[-1][1]["progress"] is False
+    assert capsys.readouterr().out == "run stored in r\n"
+    monkeypatch.setattr(cli.sys.stderr, "isatty", lambda: True, raising=False)
+    assert cli.main(["run", "quick"]) == 0 and seen[-1][1]["progress"] is True
+    assert cli.main(["run", "quick", "-q"]) == 0 and seen[-1][1]["progress"] is False
+    assert capsys.readouterr().out == "run stored in r\n"   # the -q run printed nothing
+
+
+def test_verbose_logs_each_step_on_stderr_and_removes_its_handler(tmp_path, capsys):
+    import logging
+
+    before = list(logging.getLogger("squeezebench").handlers)
+    assert cli.main(["run", "quick", "--out", str(tmp_path / "run"), "-v"]) == 0
+    err = capsys.readouterr().err
+    assert "squeezebench.protocols.campaign: run detuning: step resonance" in err
+    assert logging.getLogger("squeezebench").handlers == before
+    with pytest.raises(SystemExit) as usage:
+        cli.main(["check", "-v", "-q"])
+    assert usage.value.code == cli.EXIT_USER_ERROR   # argparse's usage errors exit 2 as well
+
+
+def test_plan_json_has_the_numbers_of_the_table(monkeypatch, capsys, tmp_path):
+    from squeezebench.protocols import planning
+
+    fake = planning.Plan(0.01, {}, {"detuning": planning.Setting(500, 4), "cutting": planning.Setting(10000, 1)},
+                         {"detuning": 0.005, "cutting": 0.004}, {"detuning": 2.0, "cutting": 1.0},
+                         {"detuning": 8.0, "cutting": 1.0})
+    monkeypatch.setattr(planning, "make_plan", lambda path, target: fake)
+    out = tmp_path / "planned.yaml"
+    assert cli.main(["plan", "quick", "--json", "--write", str(out)]) == 0
+    plan = json.loads(capsys.readouterr().out)
+    assert plan["runs"][0] == {"run": "detuning", "record_length": 500, "averages": 4, "p95_rel_error": 0.005,
+                               "planned_bench_time_s": 2.0, "baseline_bench_time_s": 8.0}
+    assert plan["planned_bench_time_s"] == 3.0 and plan["written"] == str(out) and out.is_file()
+
+
+def _reproduction_like(run_dir: Path, campaign: Path) -> None:
+    RunStore(run_dir).create(campaign)
+    (run_dir / "study").mkdir()
+    (run_dir / "study" / "trials.parquet").write_bytes(b"x")
+
+
+def test_reproduce_replaces_its_own_earlier_output(tmp_path, capsys):
+    out = tmp_path / "paper"
+    _reproduction_like(out, paths.paper_campaign())
+    cli._clear_previous_reproduction(cli.build_parser().parse_args(["reproduce"]), out)
+    assert [p.name for p in out.iterdir() if p.name != ".squeezebench.lock"] == []
+    assert "replacing the previous reproduction" in capsys.readouterr().out
+
+
+def test_reproduce_never_removes_another_run(tmp_path):
+    out = tmp_path / "mine"
+    _reproduction_like(out, paths.campaigns_dir() / "quick.yaml")
+    with pytest.raises(UserError, match="not a reproduction"):
+        cli._clear_previous_reproduction(cli.build_parser().parse_args(["reproduce"]), out)
+    assert (out / "study" / "trials.parquet").is_file()

@@ -132,3 +132,54 @@ def test_calibration_through_losses_larger_than_the_power_is_refused():
     with pytest.raises(physics.CalibrationError, match="did not converge"):
         physics.calibrate_branch_as_measured(_lossy_surroundings(), 44720.0, 250.0, 12.0, 0.27, 0.100,
                                              max_iterations=1)
+
+
+# -- the electromechanical branch from datasheet constants ---------------------------------
+
+def test_clamped_permittivity_is_the_free_one_reduced_by_k31():
+    assert physics.clamped_relative_permittivity(physics.NCE41) == pytest.approx(1350 * (1 - 0.33**2))
+
+
+def test_neutral_axis_of_equal_layers_is_their_interface():
+    assert physics.neutral_axis_from_piezo_face_m(1e-3, 70e9, 1e-3, 70e9) == pytest.approx(1e-3)
+    # a resonator with no stiffness leaves it at the piezo's mid-plane
+    assert physics.neutral_axis_from_piezo_face_m(0.5e-3, 77e9, 2e-3, 1e-3) == pytest.approx(0.25e-3, rel=1e-6)
+
+
+def test_a_patch_across_a_whole_half_wavelength_from_an_antinode_pushes_nothing():
+    """phi' vanishes at both antinodes: the two end moments cancel (pin-force model)."""
+    half = 8.44e-3
+    assert physics.piezo_force_factor_n_per_v(physics.NCE41, 9e-3, 0.5e-3, 0.0, half, half) == pytest.approx(
+        0.0, abs=1e-15)
+    quarter = physics.piezo_force_factor_n_per_v(physics.NCE41, 9e-3, 0.5e-3, 0.0, half / 2, half)
+    e31 = 130e-12 / 13e-12
+    assert quarter == pytest.approx(e31 * 9e-3 * 0.5e-3 * math.pi / half, rel=1e-12)
+
+
+def test_mean_square_of_the_mode_over_whole_half_wavelengths_is_one_half():
+    assert physics.mean_square_mode(0.0, 3 * 8.44e-3, 8.44e-3) == pytest.approx(0.5, rel=1e-12)
+    assert physics.mean_square_mode(0.0, 1e-9, 8.44e-3) == pytest.approx(1.0, rel=1e-9)
+
+
+def test_branch_from_physics_has_the_modal_mass_it_was_given():
+    branch = physics.branch_from_physics(F_HZ, 250.0, 4.6e-3, 0.06)
+    assert physics.modal_mass_kg(branch) == pytest.approx(4.6e-3, rel=1e-12)
+
+
+def test_effective_coupling_is_the_resonance_antiresonance_spacing():
+    """k_eff^2 = (f_a^2 - f_r^2) / f_a^2: with little loss, the |Y| maximum and minimum."""
+    branch = physics.branch_from_physics(F_HZ, 1e6, 4.6e-3, 0.2)
+    capacitance = 4e-9
+    frequency = np.linspace(0.99 * F_HZ, 1.05 * F_HZ, 400_001)
+    omega = 2 * np.pi * frequency
+    admittance = np.abs(1j * omega * capacitance + branch.force_factor_n_per_v**2 / branch.impedance(omega))
+    f_r, f_a = frequency[np.argmax(admittance)], frequency[np.argmin(admittance)]
+    assert physics.effective_coupling(branch, capacitance) == pytest.approx(
+        math.sqrt((f_a**2 - f_r**2) / f_a**2), rel=1e-3)
+
+
+def test_motional_elements_resonate_at_the_branch_frequency_with_its_q():
+    branch = physics.branch_from_physics(F_HZ, 250.0, 4.6e-3, 0.06)
+    r_ohm, l_h, c_f = physics.motional_elements(branch)
+    assert 1 / (2 * math.pi * math.sqrt(l_h * c_f)) == pytest.approx(F_HZ, rel=1e-12)
+    assert 2 * math.pi * F_HZ * l_h / r_ohm == pytest.approx(250.0, rel=1e-12)

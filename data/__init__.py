@@ -1,0 +1,1 @@
+"""Shipped data, installed as `squeezebench.data`: read through `squeezebench.paths`."""

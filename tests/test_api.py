@@ -1,0 +1,74 @@
+"""The Python API and its worked example (docs/notebook_example.py), executed."""
+
+import runpy
+from pathlib import Path
+
+import matplotlib
+import pytest
+
+matplotlib.use("Agg")
+
+import squeezebench  # noqa: E402
+from squeezebench import api  # noqa: E402
+from squeezebench.errors import UserError  # noqa: E402
+
+EXAMPLE = Path(__file__).resolve().parents[1] / "docs" / "notebook_example.py"
+
+
+@pytest.fixture(scope="module")
+def notebook(tmp_path_factory):
+    """The example's namespace after running all its cells in a fresh directory."""
+    where = tmp_path_factory.mktemp("notebook")
+    with pytest.MonkeyPatch.context() as patch:
+        patch.chdir(where)
+        return runpy.run_path(str(EXAMPLE)), where
+
+
+def test_the_example_finds_the_resonance_inside_its_search(notebook):
+    namespace, _ = notebook
+    sweep, row = namespace["sweep"], namespace["at_resonance"]
+    assert len(sweep) >= 26 and sweep["sweep"].all()
+    assert 36000 < row.resonance_frequency_hz < 38500
+    assert row.velocity_pp_mps == pytest.approx(sweep["velocity_pp_mps"].max(), rel=0.05)
+    assert namespace["plot"].points_seen == len(namespace["points"])
+
+
+def test_the_example_characterises_velocity_linear_and_power_quadratic(notebook):
+    namespace, _ = notebook
+    table = namespace["table"]
+    assert list(table.piezo_voltage_setpoint_vpp) == [20, 40, 60]
+    assert namespace["velocity_per_volt"] > 0
+    assert namespace["power_exponent"] == pytest.approx(2.0, abs=0.15)
+
+
+def test_run_data_as_frames_and_the_report(notebook):
+    namespace, where = notebook
+    waveforms, settings = namespace["waveforms"], namespace["settings"]
+    assert {"run_name", "step_id", "point_index", "time_s", "piezo_voltage_v", "current_a",
+            "vibrometer_output_v"} <= set(waveforms.columns)
+    assert waveforms.groupby("point_index").size().eq(500).all()   # FAST's record length
+    assert settings.set_index("setting").loc["acquisition.averages", "value"] == 4
+    assert (where / "runs/notebook/characterisation/report/index.html").is_file()
+
+
+def test_resume_of_an_api_run_uses_the_same_campaign(notebook):
+    _, where = notebook
+    namespace, _ = notebook
+    again = api.resonance_search(where / "runs/notebook/search", plate=namespace["PLATE"],
+                                 search=namespace["SEARCH"], scene="one_column_1mm.yaml",
+                                 acquisition=namespace["FAST"], resume=True)
+    assert len(again.points()) == len(namespace["points"])
+
+
+def test_open_bench_talks_to_the_instruments():
+    with api.open_bench(scene="one_column_1mm.yaml") as bench:
+        assert "33120A" in bench.identify()["generator"]
+    with pytest.raises(UserError, match="exactly one of"):
+        api.open_bench()
+
+
+def test_the_package_root_offers_the_api():
+    assert squeezebench.resonance_search is api.resonance_search
+    assert squeezebench.load_run is api.load_run
+    with pytest.raises(AttributeError):
+        squeezebench.no_such_name
