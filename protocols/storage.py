@@ -379,6 +379,11 @@ def _entry_problem(line: bytes) -> str | None:
     for key, kind in _ENTRY_FIELDS.items():
         if not isinstance(entry.get(key), kind) or isinstance(entry.get(key), bool):
             return f"not a journal entry (field '{key}' missing or of the wrong type)"
+    for key in ("files", "inputs"):   # {name: sha256}; absent in runs from before checksums
+        value = entry.get(key, {})
+        if not isinstance(value, dict) or not all(isinstance(k, str) and isinstance(v, str)
+                                                  for k, v in value.items()):
+            return f"not a journal entry (field '{key}' is not a mapping of file to sha256)"
     return None
 
 

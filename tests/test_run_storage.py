@@ -9,6 +9,7 @@ damage must still be somewhere in the run directory (in place or in quarantine/)
 from __future__ import annotations
 
 import hashlib
+import json
 import os
 import shutil
 import subprocess
@@ -180,11 +181,15 @@ def test_a_malformed_manifest_is_one_message(run):
 def test_a_malformed_journal_entry_is_quarantined_not_obeyed(run):
     campaign, run_dir = run
     expected = sorted_rows(run_dir)
+    entry = json.loads((run_dir / "journal.jsonl").read_bytes().splitlines()[-1])
     with open(run_dir / "journal.jsonl", "ab") as handle:
         handle.write(b'{"run": "cutting", "step": 3}\n')
+        handle.write(json.dumps({**entry, "files": ["not", "a", "mapping"]}).encode() + b"\n")
+    assert cli.main(["report", str(run_dir)]) == cli.EXIT_USER_ERROR   # one message, no traceback
     said = []
     run_campaign(campaign, resume=True, out_dir=run_dir, say=said.append)
     assert any("field 'step'" in message for message in said)
+    assert any("field 'files'" in message for message in said)
     assert_frame_equal_rows(sorted_rows(run_dir), expected)
     assert os.path.getsize(run_dir / "journal.jsonl") > 0
 
