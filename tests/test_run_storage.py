@@ -12,6 +12,7 @@ import hashlib
 import json
 import os
 import shutil
+import signal
 import subprocess
 import sys
 import textwrap
@@ -137,26 +138,41 @@ def test_a_stray_ds_store_is_left_alone(run):
     assert said == [] and (run_dir / "measurements" / "cutting" / ".DS_Store").exists()
 
 
-def test_a_second_writer_is_refused_naming_the_first(run):
-    campaign, run_dir = run
-    holder = subprocess.Popen([sys.executable, "-c", textwrap.dedent(f"""
+def test_a_second_resume_is_refused_naming_the_first(completed, tmp_path):
+    """Two `run --resume` on one directory: the first (a real process, paused while it
+    drives the bench) holds the lock; the second is refused with its pid and changes
+    nothing; SIGTERM ends the first cleanly, and a later resume completes the run."""
+    campaign, reference_dir = completed
+    run_dir = tmp_path / "run"
+    first = subprocess.Popen([sys.executable, "-c", textwrap.dedent(f"""
         import sys, time
-        from squeezebench.protocols.storage import RunStore
-        with RunStore({str(run_dir)!r}).writer():
-            print("locked", flush=True)
-            time.sleep(60)
-        """)], stdout=subprocess.PIPE, text=True)
+        from pyvisa.resources import MessageBasedResource
+        from squeezebench import cli
+        write, count = MessageBasedResource.write, [0]
+        def paused(resource, message, *args, **kwargs):
+            count[0] += 1
+            if count[0] == 200:
+                print("driving", flush=True)
+                time.sleep(60)
+            return write(resource, message, *args, **kwargs)
+        MessageBasedResource.write = paused
+        sys.exit(cli.main(["run", {str(campaign)!r}, "--out", {str(run_dir)!r}, "--resume"]))
+        """)], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:
-        assert holder.stdout.readline().strip() == "locked"
-        before = digests(run_dir, ("measurements", "waveforms"))
+        assert first.stdout.readline().strip() == "driving"
+        before = digests(run_dir) if (run_dir / "measurements").exists() else {}
         journal = (run_dir / "journal.jsonl").read_bytes()
-        with pytest.raises(StorageError, match=f"pid {holder.pid}"):
+        with pytest.raises(StorageError, match=f"pid {first.pid}"):
             run_campaign(campaign, resume=True, out_dir=run_dir)
-        assert digests(run_dir) == before and (run_dir / "journal.jsonl").read_bytes() == journal
+        assert (run_dir / "journal.jsonl").read_bytes() == journal
+        assert (digests(run_dir) if (run_dir / "measurements").exists() else {}) == before
+        first.send_signal(signal.SIGTERM)
+        assert first.wait(timeout=60) == 130
     finally:
-        holder.kill()
-        holder.wait()
-    run_campaign(campaign, resume=True, out_dir=run_dir, say=lambda m: None)   # the lock died with it
+        first.kill()
+        first.wait()
+    run_campaign(campaign, resume=True, out_dir=run_dir, say=lambda m: None)
+    assert_frame_equal_rows(read_measurements(run_dir), read_measurements(reference_dir))
 
 
 def test_a_directory_that_is_not_a_run_is_never_written_into(completed, tmp_path):
