@@ -21,7 +21,7 @@ import numpy as np
 import pandas as pd
 
 import squeezebench
-from squeezebench.analysis import audit, figures, model, study, tables
+from squeezebench.analysis import audit, figures, model, study, tables, uncertainty
 from squeezebench.analysis.rundata import RunData, load_run
 from squeezebench.errors import UserError
 
@@ -289,6 +289,57 @@ def _optional_folder(context: ReportContext, folder: str, title: str, how: str) 
     return Section(title, body or f"<p class='missing'>{folder}/ is empty.</p>")
 
 
+def uncertainty_section(context: ReportContext) -> Section:
+    """Uncertainty budgets (GUM, k = 2)"""
+    found = uncertainty.run_uncertainties(context.run)
+    if found.points.empty:
+        raise UserError("no stored records to budget")
+    quantities = list(uncertainty.POINT_BUDGETS)
+    summary = pd.DataFrame([
+        {"protocol": protocol, "quantity": q, "points": int(rows[f"{q}_U"].notna().sum()),
+         "median_expanded_relative": float((rows[f"{q}_U"] / rows[q].abs()).median()),
+         "dominant_term": rows[f"{q}_dominant"].mode().iat[0]}
+        for protocol, rows in found.points.groupby("protocol", sort=False) for q in quantities])
+    context.tables["uncertainty_summary"] = summary
+    context.tables["uncertainty_budgets"] = found.budgets
+    columns = ["run_name", "step_id", "point_index", "protocol"] + [
+        f"{q}{suffix}" for q in quantities for suffix in ("", "_U", "_dominant")]
+    context.tables["uncertainty_points"] = found.points[[c for c in columns if c in found.points]]
+    context.tables["uncertainty_resonances"] = found.searches
+    plates = []
+    if not context.run.protocol("characterisation").empty:
+        for name, plate in context.plates().items():
+            budgets = uncertainty.characterisation_budgets(plate, context.convention, found.deskew)
+            floors = uncertainty.characterisation_budgets(plate, context.convention, found.deskew, with_fit=False)
+            for budget, floor in zip(budgets, floors):
+                plates.append({"plate": name, "quantity": budget.quantity, "value": budget.value,
+                               "expanded_uncertainty": budget.expanded_uncertainty,
+                               "dominant_term": budget.dominant.name,
+                               "floor_p95_rel": uncertainty.P95_FACTOR * floor.std_uncertainty / abs(floor.value)})
+    context.tables["uncertainty_q_tan_theta"] = pd.DataFrame(plates)
+    deskew_u_s = None if found.deskew is None else found.deskew.std_uncertainty_s
+    context.tables["uncertainty_floors"] = uncertainty.systematic_floor(found.points, deskew_u_s)
+    deskew = ("<p>No deskew calibration in this run: the CH2 delay enters at its specified limit.</p>"
+              if found.deskew is None else
+              f"<p>Power corrected by the deskew calibration: CH2 delay {found.deskew.delay_s * 1e9:.2f} ns "
+              f"(u = {found.deskew.std_uncertainty_s * 1e9:.2f} ns).</p>")
+    return Section("Uncertainty budgets (GUM, k = 2)",
+                   "<p>Expanded uncertainties (k = 2) of every stored point: noise of the record (Type A) "
+                   "and the instruments' specifications (Type B). Median relative U and the most frequent "
+                   "dominant term per protocol; then the whole budget of one point of each protocol.</p>"
+                   + deskew + _html_table(summary) + _html_table(found.budgets)
+                   + "<p>Resonance frequencies found by the searches (the generator's setting there), "
+                     "expanded (k = 2):</p>" + _html_table(found.searches)
+                   + "<p>Q and tan(theta') per plate with the geometry and material tolerances "
+                     "(expanded, k = 2; floor: p95 relative error with the fits' noise gone):</p>"
+                   + _html_table(context.tables["uncertainty_q_tan_theta"])
+                   + "<p>Floor per run: the p95 relative error of power and velocity the instruments' "
+                     "specified errors leave at the run's worst point, whatever the averaging:</p>"
+                   + _html_table(context.tables["uncertainty_floors"])
+                   + "<p>CSV: <a href='uncertainty_points.csv'>uncertainty_points.csv</a>, "
+                     "<a href='uncertainty_budgets.csv'>uncertainty_budgets.csv</a></p>")
+
+
 #: The report, in order. Another package adds a section by appending a builder.
 def readings_section(context: ReportContext) -> Section:
     """Q and tan theta' under the text's reading and the inferred one (issue 13)"""
@@ -312,7 +363,7 @@ def readings_section(context: ReportContext) -> Section:
 SECTIONS: list[SectionBuilder] = [
     provenance_section, conventions_section, table3_section, table4_section, detuning_section,
     resonance_section, characterisation_section, readings_section, audit_section, study_section,
-    hardcases_section,
+    hardcases_section, uncertainty_section,
 ]
 
 

@@ -43,6 +43,9 @@ SPECIFICATIONS: dict[str, Specification] = {
     "vibrometer_scale": Specification(
         0.01, "1", "Polytec velocity decoder specifications: calibration error of the analog "
                    "output +-1 % (sinusoidal vibration, 70 % of full scale)"),
+    "scope_timebase": Specification(
+        20e-6, "1", "TDS3000B Series User Manual, App. A: sample rate and delay time accuracy +-20 ppm "
+                    "(the frequency a record's fit measures; not simulated)"),
     "generator_frequency": Specification(
         20e-6, "1", "HP/Agilent 33120A User's Guide, Specifications: frequency accuracy 10 ppm "
                     "(90 days), 20 ppm (1 year); the one-year figure"),

@@ -25,6 +25,7 @@ package (linear propagation, numerical derivatives of `analysis.model`).
 
 from __future__ import annotations
 
+import json
 import math
 from dataclasses import dataclass, replace
 
@@ -33,14 +34,14 @@ import pandas as pd
 import uncertainties
 
 from squeezebench.analysis import model
-from squeezebench.analysis.specifications import SPECIFICATIONS, Specification
+from squeezebench.analysis.calibration import Deskew, deskew_of_run
+from squeezebench.analysis.rundata import RunData
+from squeezebench.analysis.specifications import SPECIFICATIONS
+from squeezebench.analysis.tables import reduced_points, with_scope_fallback
 
 COVERAGE_FACTOR = 2.0
 BUDGET_COLUMNS = ["quantity", "unit", "value", "term", "type", "std_uncertainty", "relative",
                   "share", "source"]
-#: Specification of the scope's time base (the frequency the fit measures).
-SCOPE_TIMEBASE = Specification(
-    20e-6, "1", "TDS3000B Series User Manual, App. A: sample rate and delay time accuracy +-20 ppm")
 
 
 @dataclass(frozen=True)
@@ -82,15 +83,6 @@ class Budget:
                  "share": t.std_uncertainty**2 / total, "source": t.source}
                 for t in sorted(self.terms, key=lambda t: -t.std_uncertainty)]
         return pd.DataFrame(rows, columns=BUDGET_COLUMNS)
-
-
-@dataclass(frozen=True)
-class Deskew:
-    """The delay of CH2 against CH1 a calibration measured, to be removed from the power."""
-
-    delay_s: float
-    std_uncertainty_s: float
-    source: str
 
 
 def _spec_term(name: str, key: str, sensitivity: float) -> Term:
@@ -149,21 +141,81 @@ def frequency_budget(point: dict) -> Budget:
     value = float(point["frequency_hz"])
     return Budget("frequency_hz", "Hz", value, (
         _noise(point["frequency_hz_u"]),
-        Term("scope time base", "B", value * SCOPE_TIMEBASE.std_uncertainty, SCOPE_TIMEBASE.source)))
+        _spec_term("scope time base", "scope_timebase", value)))
 
 
-def resonance_frequency_budget(frequency_hz: float, search_tolerance_hz: float,
-                               setting_u_hz: float = 0.0) -> Budget:
-    """The resonance a search reports: the generator's setting there. Its last bracket
-    (`tolerance_hz` wide) holds the maximum anywhere (rectangular, half-width half the
-    bracket); `setting_u_hz` adds what the velocity noise leaves of the peak's position."""
-    terms = [_spec_term("generator frequency", "generator_frequency", frequency_hz),
-             Term("search bracket", "B", 0.5 * search_tolerance_hz / math.sqrt(3.0),
-                  "golden-section search: the final bracket's width (protocols.resonance)")]
-    if setting_u_hz:
-        terms.append(Term("peak position under noise", "A", setting_u_hz,
-                          "velocity noise on the flat top of the resonance"))
-    return Budget("resonance_frequency_hz", "Hz", frequency_hz, tuple(terms))
+def mechanical_q_from_sweep(frequency_hz: float, sweep: pd.DataFrame) -> float | None:
+    """The resonance's sharpness from the search's points around it (sweep and refinement).
+
+    On v = v0 / sqrt(1 + k^2 d^2) (d = f - f0, k = 2 Q / f0), 1/v^2 is a straight line
+    in d^2 with slope/intercept k^2: fitted on the points above a third of the peak
+    (where one mode dominates). None with fewer than three such points or no rise."""
+    near = sweep[sweep["velocity_pp_mps"] > sweep["velocity_pp_mps"].max() / 3.0]
+    if len(near) < 3:
+        return None
+    d2 = (near["generator_frequency_hz"].to_numpy() - frequency_hz) ** 2
+    slope, intercept = np.polyfit(d2, near["velocity_pp_mps"].to_numpy() ** -2.0, 1)
+    if not (slope > 0 and intercept > 0):
+        return None
+    return math.sqrt(slope / intercept) * frequency_hz / 2.0
+
+
+@dataclass(frozen=True)
+class SearchSetup:
+    """What a run's resonance search was set to (RUN_DIR/settings/<run>.json)."""
+
+    tolerance_hz: float
+    samples_per_period: float   # of the records the search read the velocity from
+
+
+def search_setups(run: RunData) -> dict[str, SearchSetup]:
+    """The search settings of every run of `run` that searched a resonance."""
+    setups = {}
+    for path in sorted((run.run_dir / "settings").glob("*.json")):
+        settings = json.loads(path.read_text(encoding="utf-8"))
+        search = settings.get("parameters", {}).get("search")
+        if search:
+            acquisition = settings["acquisition"]
+            setups[settings["run"]] = SearchSetup(float(search["tolerance_hz"]),
+                                                  acquisition["record_length"] / acquisition["periods_per_record"])
+    return setups
+
+
+def search_budgets(rows: pd.DataFrame, setups: dict[str, SearchSetup]) -> list[tuple[str, str, Budget]]:
+    """(run, step, budget) of the resonance frequency of every search in `rows`
+    (resonance_search rows, reduced).
+
+    Near the top v/v0 = 1 - x^2/2 (x = 2 Q (f - f0) / f0, Q from the sweep). The search
+    compares the scope's sampled peak-to-peak, which lies up to 1 - cos(pi/N) below the
+    true one for N samples per period depending on where the samples fall on the sine
+    (which moves with the velocity's phase, i.e. with f): the top is found only to
+    |x| < pi/N, a half-width f0 pi / (2 Q N) (rectangular). Noise of the velocity
+    (u_rel) adds |x| < 2 sqrt(u_rel).
+    """
+    budgets = []
+    rows = with_scope_fallback(rows)   # the sweep kept the scope's velocities only
+    for (run_name, step_id), step in rows.groupby(["run_name", "step_id"], sort=False):
+        setup = setups.get(run_name)
+        sweep = step[step["sweep"].astype(bool)]
+        for _, found in step[~step["sweep"].astype(bool)].iterrows():
+            if setup is None or not _has_reduction(found.to_dict()):
+                continue
+            frequency_hz = float(found["resonance_frequency_hz"])
+            q = mechanical_q_from_sweep(frequency_hz, sweep) if len(sweep) else None
+            terms = [_spec_term("generator frequency", "generator_frequency", frequency_hz),
+                     Term("search bracket", "B", 0.5 * setup.tolerance_hz / math.sqrt(3.0),
+                          "golden-section search: the final bracket's width (protocols.resonance)")]
+            if q:
+                half_width = frequency_hz / (2.0 * q)
+                noise_rel = float(found["velocity_pp_mps_u"]) / float(found["velocity_pp_mps"])
+                terms += [Term("sampled peak-to-peak on the flat top", "B",
+                               half_width * math.pi / setup.samples_per_period / math.sqrt(3.0),
+                               f"max - min of {setup.samples_per_period:g} samples per period; Q {q:.0f} "
+                               "from the sweep"),
+                          Term("velocity noise on the flat top", "A", half_width * 2.0 * math.sqrt(noise_rel),
+                               "fit uncertainty of the velocity at the resonance found")]
+            budgets.append((run_name, step_id, Budget("resonance_frequency_hz", "Hz", frequency_hz, tuple(terms))))
+    return budgets
 
 
 POINT_BUDGETS = {"power_w": power_budget, "velocity_pp_mps": velocity_budget,
@@ -254,6 +306,80 @@ def example_budgets(points: pd.DataFrame, deskew: Deskew | None = None) -> pd.Da
     return pd.concat(frames, ignore_index=True) if frames else pd.DataFrame()
 
 
+@dataclass(frozen=True)
+class RunUncertainties:
+    """What the report shows: every stored point with its expanded uncertainties, the
+    budgets of one point per protocol, and the deskew applied (None: no calibration)."""
+
+    points: pd.DataFrame
+    budgets: pd.DataFrame
+    deskew: Deskew | None
+    searches: pd.DataFrame   # one row per resonance search: value, expanded U, dominant term
+
+
+def run_uncertainties(run: RunData) -> RunUncertainties:
+    """Budgets of a run's stored points, corrected by its own deskew calibration if any."""
+    deskew = deskew_of_run(run)
+    rows = run.measurements
+    if rows.empty or "waveform_file" not in rows:
+        return RunUncertainties(pd.DataFrame(), pd.DataFrame(), deskew, pd.DataFrame())
+    points = reduced_points(run, rows[rows["waveform_file"].notna()])
+    points = points[points["protocol"] != "deskew_calibration"]
+    searches = pd.DataFrame([
+        {"run_name": run_name, "step_id": step_id, "resonance_frequency_hz": budget.value,
+         "resonance_frequency_hz_U": budget.expanded_uncertainty, "dominant_term": budget.dominant.name}
+        for run_name, step_id, budget in search_budgets(reduced_points(run, run.protocol("resonance_search")),
+                                                        search_setups(run))])
+    return RunUncertainties(with_expanded_uncertainties(points, deskew), example_budgets(points, deskew), deskew,
+                            searches)
+
+
+# -- the floor: what no averaging removes --------------------------------------------------------
+#: |error| at the 95th percentile of a near-normal combined distribution, in standard uncertainties.
+P95_FACTOR = 1.96
+#: Budget terms a calibration protocol of this bench replaces by its own uncertainty.
+LIFTED_BY = {"CH2 delay vs CH1 (skew, TCP202)": "deskew_calibration"}
+#: What would lift the terms no protocol of this bench calibrates.
+REFERENCE_FOR = {
+    "current probe gain": "a current reference: a precision DMM reading the calibration resistor's voltage",
+    "CH1 gain": "a voltage reference: a precision DMM on the same signal",
+    "CH2 gain": "a voltage reference: a precision DMM on the same signal",
+    "CH3 gain": "a voltage reference: a precision DMM on the same signal",
+    "vibrometer decoder scale": "a reference vibration: a calibrated shaker under the laser",
+}
+
+
+def systematic_floor(points: pd.DataFrame, deskew_std_uncertainty_s: float | None = None) -> pd.DataFrame:
+    """Per (run, quantity): the p95 relative error the instruments' specified errors leave
+    when the noise is averaged away (Type A set to zero), at the run's worst point, with
+    the term that dominates there and the calibration that would lift it (if any).
+
+    `deskew_std_uncertainty_s`: the floor after a deskew calibration of that uncertainty.
+    """
+    points = points.copy()
+    points["detuning_slope_per_hz"] = detuning_slope_per_hz(points)
+    deskew = None if deskew_std_uncertainty_s is None else Deskew(0.0, deskew_std_uncertainty_s, "planned")
+    rows = []
+    for run_name, run_points in points.groupby("run_name", sort=False):
+        for quantity in ("power_w", "velocity_pp_mps"):
+            worst = None
+            for _, row in run_points.iterrows():
+                row = row.to_dict()
+                if not _has_reduction(row):
+                    continue
+                budget = point_budget(quantity, {**row, f"{quantity}_u": 0.0}, deskew)
+                relative = budget.std_uncertainty / abs(budget.value)
+                if worst is None or relative > worst[0]:
+                    worst = (relative, budget)
+            if worst is None:
+                continue
+            relative, budget = worst
+            dominant = budget.dominant.name
+            rows.append({"run_name": run_name, "quantity": quantity, "floor_p95_rel": P95_FACTOR * relative,
+                         "dominant_term": dominant, "lifted_by": LIFTED_BY.get(dominant, "")})
+    return pd.DataFrame(rows, columns=["run_name", "quantity", "floor_p95_rel", "dominant_term", "lifted_by"])
+
+
 # -- Q and tan theta' through the paper's model ----------------------------------------------
 @dataclass(frozen=True)
 class Tolerance:
@@ -267,8 +393,8 @@ TOLERANCES: dict[str, Tolerance] = {
     "piezo_thickness_m": Tolerance(0.02, "assumed: lapped piezo plates, +-0.01 mm on 0.5 mm"),
     "piezo_length_m": Tolerance(0.01, "assumed: diced piezo plates, +-0.1 mm on 9 mm"),
     "half_wavelength_m": Tolerance(0.01, "assumed: plate length / antinodes, +-0.1 mm on 8.4 mm"),
-    "piezo_d31_c_per_n": Tolerance(0.10, "assumed: batch spread of PZT coefficients, +-10 %"),
-    "piezo_c11_pa": Tolerance(0.05, "assumed: batch spread of PZT stiffness, +-5 %"),
+    "piezo_d31_c_per_n": Tolerance(0.05, "Noliac NCE41 data sheet (ver. 1203): electromechanical tolerance +-5 %"),
+    "piezo_c11_pa": Tolerance(0.05, "Noliac NCE41 data sheet (ver. 1203): physical tolerance +-5 % (s11^E)"),
     "resonator_young_pa": Tolerance(0.03, "assumed: aluminium alloys 67-71 GPa, +-3 %"),
 }
 _GEOMETRY_FIELDS = ("resonator_thickness_m", "piezo_thickness_m", "piezo_length_m", "half_wavelength_m")
@@ -284,9 +410,9 @@ def model_budgets(amplitude: Budget, power: Budget, voltage: Budget, frequency_h
     budgets say what is inside); each tolerance is a separate term. The frequency's
     uncertainty (ppm) is negligible against the others and is not propagated.
     """
-    inputs = {"amplitude": uncertainties.ufloat(amplitude.value, amplitude.std_uncertainty, "amplitude"),
-              "power": uncertainties.ufloat(power.value, power.std_uncertainty, "power"),
-              "voltage": uncertainties.ufloat(voltage.value, voltage.std_uncertainty, "voltage")}
+    # an exactly known input (the slopes' V = 1 Vpp) stays a plain number
+    inputs = {name: uncertainties.ufloat(b.value, b.std_uncertainty, name) if b.std_uncertainty > 0 else b.value
+              for name, b in (("amplitude", amplitude), ("power", power), ("voltage", voltage))}
     nominal = {name: getattr(geometry, name) for name in _GEOMETRY_FIELDS}
     nominal.update({name: getattr(convention.materials, name) for name in _MATERIAL_FIELDS})
     for name, value in nominal.items():
@@ -321,3 +447,37 @@ def model_budgets(amplitude: Budget, power: Budget, voltage: Budget, frequency_h
                            sources[variable.tag]) for variable, u in components.items())
         budgets.append(Budget(quantity, "1", result.nominal_value, terms))
     return budgets[0], budgets[1]
+
+
+def characterisation_budgets(plate, convention: model.Convention, deskew: Deskew | None = None,
+                             tolerances: dict[str, Tolerance] = TOLERANCES,
+                             with_fit: bool = True) -> tuple[Budget, Budget]:
+    """Budgets of a plate's Q and tan theta' (`analysis.tables.PlateCharacterisation`).
+
+    The slopes carry V = 1 Vpp (Eqs. 25 and 27 are linear in V and V^2): the amplitude
+    slope reads g_CH3 g_decoder / g_CH1, the power slope g_CH2 g_probe / g_CH1 (P carries
+    g_CH1 once, V^2 twice), each with its fit's uncertainty and, for the power, the CH2
+    delay at the points' mean ratio of reactive to real power. Without `with_fit` the
+    line fits' own (Type A) terms are left out: the floor no number of points lowers.
+    """
+    points = plate.points
+    slope_a, slope_p = plate.amplitude_slope.slope, plate.power_slope.slope
+    fit = 1.0 if with_fit else 0.0
+    amplitude = Budget("amplitude_pp_m_per_vpp", "m/V", slope_a.value, (
+        Term("line fit", "A", fit * slope_a.std_uncertainty, "weighted fit of amplitude against voltage"),
+        _spec_term("CH3 gain", "scope_gain", slope_a.value),
+        _spec_term("vibrometer decoder scale", "vibrometer_scale", slope_a.value),
+        _spec_term("CH1 gain", "scope_gain", slope_a.value)))
+    omega_ratio = float((2.0 * math.pi * points["frequency_hz"] * points["reactive_power_var"].abs()
+                         / points["power_w"].abs()).mean())
+    delay = (Term("CH2 delay vs CH1 (skew, TCP202)", "B", abs(slope_p.value) * omega_ratio * delay_std_uncertainty_s(),
+                  SPECIFICATIONS["current_probe_delay"].source) if deskew is None else
+             Term("CH2 delay after deskew", "B", abs(slope_p.value) * omega_ratio * deskew.std_uncertainty_s,
+                  deskew.source))
+    power = Budget("power_w_per_vpp2", "W/V^2", slope_p.value, (
+        Term("line fit", "A", fit * slope_p.std_uncertainty, "weighted fit of power against voltage squared"),
+        _spec_term("CH2 gain", "scope_gain", slope_p.value),
+        _spec_term("current probe gain", "current_probe_gain", slope_p.value),
+        _spec_term("CH1 gain", "scope_gain", slope_p.value), delay))
+    at_one_volt = Budget("piezo_voltage_vpp", "V", 1.0, ())
+    return model_budgets(amplitude, power, at_one_volt, plate.frequency_hz, plate.geometry, convention, tolerances)

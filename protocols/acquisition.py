@@ -192,8 +192,9 @@ class Acquisition:
             rerange = {}   # channel: (expected pp, why)
             for channel, scale in scales.items():
                 edge = 0.98 * SCREEN_DIVISIONS / 2 * scale   # channels sit at position 0
-                if max(peaks[channel][0], -peaks[channel][1]) >= edge:   # at the ADC limit
-                    rerange[channel] = (CLIP_GROWTH * pp[channel], "clipped")
+                peak = max(peaks[channel][0], -peaks[channel][1])
+                if peak >= edge:   # at the ADC limit; an offset trace (nothing moving) needs its peak
+                    rerange[channel] = (CLIP_GROWTH * max(pp[channel], 2.0 * peak), "clipped")
                 elif channel not in refined and pp[channel] < settings.min_fill_divisions * scale:
                     refined.add(channel)
                     rerange[channel] = (pp[channel], "too faint")

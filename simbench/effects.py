@@ -463,11 +463,6 @@ class GeneratorFrequencyError(SystematicEffect,
         return replace(settings, frequency_hz=settings.frequency_hz * (1.0 + self.values["frequency_rel"]))
 
 
-#: The systematic effects at specification magnitudes, as a scene lists them.
-SYSTEMATIC_EFFECTS = ("scope_gain_error", "current_probe_gain_error", "vibrometer_scale_error",
-                      "channel_skew", "current_probe_delay", "generator_frequency_error")
-
-
 # -- faults (issue 7) ------------------------------------------------------------------------
 class ClippedTrace(Effect):
     """A burst on CH2 (a switching spike, a probe knocked) far beyond the screen in the

@@ -387,6 +387,14 @@ class PlateLoad:
             replace(b, frequency_hz=b.frequency_hz * factor) for b in self.branches))
 
 
+def resistor_load(resistance_ohm: float) -> PlateLoad:
+    """A calibration resistor in the plate's place: no C0, one branch whose admittance is
+    1/R at every frequency (q_mech ~ 0 leaves no reactance; nothing moves, visibility 0)."""
+    return PlateLoad(capacitance_f=0.0, branches=(MotionalBranch(
+        frequency_hz=1.0, q_mech=1e-12, force_factor_n_per_v=1.0, resistance_ns_per_m=resistance_ohm,
+        visibility=0.0),))
+
+
 @dataclass(frozen=True)
 class SteadyState:
     """The plate and bench in sinusoidal steady state at one drive (all phasors are

@@ -7,6 +7,7 @@ the plate, the scope's acquisitions see it, the vibrometer's range scales CH3.
 
 from __future__ import annotations
 
+import re
 from dataclasses import replace
 from pathlib import Path
 
@@ -16,6 +17,16 @@ from squeezebench.simbench import effects as fx
 from squeezebench.simbench import physics, traces
 from squeezebench.simbench.clock import VirtualClock
 from squeezebench.simbench.scene import Scene, load_scene
+
+
+#: The state an operator is asked for when the calibration resistor replaces the plate
+#: (`protocols.calibration`): `calibration_resistor_<ohms>ohm`.
+_RESISTOR_STATE = re.compile(r"^calibration_resistor_([0-9.]+)ohm$")
+
+
+def calibration_resistor_ohm(state_name: str) -> float | None:
+    match = _RESISTOR_STATE.match(state_name)
+    return float(match.group(1)) if match else None
 
 
 class SimulatedBench:
@@ -38,7 +49,8 @@ class SimulatedBench:
 
     def set_state(self, name: str) -> None:
         """Switch the plate to another state of its scene (a cut, other powered columns)."""
-        self._scene.state(name)  # a SceneError naming the allowed states
+        if calibration_resistor_ohm(name) is None:
+            self._scene.state(name)  # a SceneError naming the allowed states
         self.state_name = name
         for effect in self.effects.by_stage["motion"]:  # the operator took minutes
             effect.settle(self.steady_state())
@@ -74,7 +86,7 @@ class SimulatedBench:
         key = (self.state_name, generator, *(e.state_key() for e in self.effects.by_stage["load"]))
         if self._steady_cache[0] != key:
             self._steady_cache = (key, self._solve(self.effects.generator(generator),
-                                                   self.effects.load(self.state.load())))
+                                                   self.effects.load(self.plate_load())))
         return self._steady_cache[1]
 
     def _solve(self, generator: physics.GeneratorSettings, load: physics.PlateLoad) -> physics.SteadyState:
@@ -90,9 +102,15 @@ class SimulatedBench:
         """The closed-form steady state at the present voltage, driven at the main mode's
         resonance as it is now (heating may have moved it): what "at resonance" means
         when the accuracy study scores a measurement. The drive is not changed."""
-        load = self.effects.load(self.state.load())
+        load = self.effects.load(self.plate_load())
         generator = replace(self.generator.settings(), frequency_hz=load.branches[0].frequency_hz)
         return self._solve(generator, load)
+
+    def plate_load(self) -> physics.PlateLoad:
+        """What the amplifier drives with every effect off: the plate in its state, or the
+        calibration resistor in its place."""
+        resistor_ohm = calibration_resistor_ohm(self.state_name)
+        return self.state.load() if resistor_ohm is None else physics.resistor_load(resistor_ohm)
 
     def plate_power_w(self) -> float:
         return self.steady_state().plate_power_w

@@ -167,7 +167,9 @@ class RunResults:
         return json.loads((self.run_dir / "manifest.json").read_text())
 
     def report(self) -> Path:
-        """Regenerate RUN_DIR/report/ from the stored data; the index.html path."""
+        """Regenerate RUN_DIR/report/ from the stored data; the index.html path (the same
+        report as `squeezebench report`, the simulated plates' section included)."""
+        import squeezebench.scenes_section  # noqa: F401  (adds the simulated plates' section)
         from squeezebench.analysis.report import write_report
 
         return write_report(self.run_dir)

@@ -306,6 +306,8 @@ def console_log(verbose: bool) -> logging.Handler | None:
 
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
+    logger = logging.getLogger("squeezebench")
+    level = logger.level
     handler = console_log(getattr(args, "verbose", False))
     try:
         return args.func(args)
@@ -319,8 +321,9 @@ def main(argv: list[str] | None = None) -> int:
               "use --resume to continue", file=sys.stderr)
         return EXIT_INTERRUPTED
     finally:
-        if handler is not None:
-            logging.getLogger("squeezebench").removeHandler(handler)
+        if handler is not None:   # main() called from Python leaves logging as it found it
+            logger.removeHandler(handler)
+            logger.setLevel(level)
 
 
 if __name__ == "__main__":

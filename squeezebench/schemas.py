@@ -28,13 +28,13 @@ from pydantic import AfterValidator, BaseModel, ConfigDict, Field, ValidationErr
 from squeezebench.errors import UserError
 from squeezebench.instruments.bench import ROLES, BenchConfig, BenchElectronics
 from squeezebench.instruments.errors import BenchFileError
-from squeezebench.protocols import characterisation, cutting, detuning, powered_columns, resonance
+from squeezebench.protocols import calibration, characterisation, cutting, detuning, powered_columns, resonance
 from squeezebench.protocols.acquisition import AcquisitionSettings
 from squeezebench.protocols.safety import SafetyLimits
 from squeezebench.protocols.steps import Plate
 
 PROTOCOLS = {module.PROTOCOL: module for module in
-             (resonance, detuning, cutting, powered_columns, characterisation)}
+             (resonance, detuning, cutting, powered_columns, characterisation, calibration)}
 SCHEMAS_DIR = Path(__file__).resolve().parents[1] / "docs" / "schemas"
 
 

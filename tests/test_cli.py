@@ -92,14 +92,25 @@ def test_progress_bar_only_on_a_terminal_and_quiet_silences_results(monkeypatch,
     assert capsys.readouterr().out == "run stored in r\n"   # the -q run printed nothing
 
 
-def test_verbose_logs_each_step_on_stderr_and_removes_its_handler(tmp_path, capsys):
+def test_verbose_logs_each_step_on_stderr_and_removes_its_handler(monkeypatch, capsys):
     import logging
 
-    before = list(logging.getLogger("squeezebench").handlers)
-    assert cli.main(["run", "quick", "--out", str(tmp_path / "run"), "-v"]) == 0
+    from squeezebench.protocols import campaign
+
+    def logging_run(path, **kwargs):
+        campaign.log.info("run detuning: step resonance")
+        campaign.log.warning("said to the operator already")   # warnings reach the terminal once, elsewhere
+        return Path("r")
+
+    monkeypatch.setattr(campaign, "run_campaign", logging_run)
+    logger = logging.getLogger("squeezebench")
+    before = (list(logger.handlers), logger.level)
+    assert cli.main(["run", "quick", "-v"]) == 0
     err = capsys.readouterr().err
     assert "squeezebench.protocols.campaign: run detuning: step resonance" in err
-    assert logging.getLogger("squeezebench").handlers == before
+    assert "said to the operator" not in err
+    assert (logger.handlers, logger.level) == before
+    assert cli.main(["run", "quick"]) == 0 and "step resonance" not in capsys.readouterr().err
     with pytest.raises(SystemExit) as usage:
         cli.main(["check", "-v", "-q"])
     assert usage.value.code == cli.EXIT_USER_ERROR   # argparse's usage errors exit 2 as well

@@ -9,6 +9,7 @@ import pytest
 
 from squeezebench.instruments.bench import open_bench, sim_bench_config
 from squeezebench.instruments.errors import ConnectionLost, GarbledReply, InstrumentError, InstrumentTimeout
+from squeezebench.protocols.variants import SYSTEMATIC_EFFECTS
 from squeezebench.simbench import effects as fx
 from squeezebench.simbench.scene import SceneError, load_scene
 from test_sim_support import RawBench, sampled_truth, scene_file
@@ -285,7 +286,12 @@ def systematic(tmp_path, name: str, **parameters) -> RawBench:
     return bench_with(tmp_path, [{name: {"draw": 0, **parameters}}])
 
 
-@pytest.mark.parametrize("name", fx.SYSTEMATIC_EFFECTS)
+def test_the_systematic_effects_protocols_name_are_the_simulators():
+    systematic = {name for name, cls in fx.EFFECTS.items() if issubclass(cls, fx.SystematicEffect)}
+    assert set(SYSTEMATIC_EFFECTS) == systematic
+
+
+@pytest.mark.parametrize("name", SYSTEMATIC_EFFECTS)
 def test_systematic_effect_at_zero_changes_no_bit(tmp_path, name):
     """At zero magnitude the effect's code path reproduces the ideal record exactly."""
     zero = dict.fromkeys(fx.EFFECTS[name].errors, 0.0)

@@ -15,7 +15,11 @@ from typing import Any
 import yaml
 
 from squeezebench import paths
-from squeezebench.simbench.effects import SYSTEMATIC_EFFECTS
+
+#: The systematic effects of `simbench.effects` (scene vocabulary: names, not imports, as
+#: protocols never import the simulator): the instruments' errors within specification.
+SYSTEMATIC_EFFECTS = ("scope_gain_error", "current_probe_gain_error", "vibrometer_scale_error",
+                      "channel_skew", "current_probe_delay", "generator_frequency_error")
 
 
 def systematic_effects(bench_seed: int, draw: bool = True, only: tuple[str, ...] = SYSTEMATIC_EFFECTS) -> list[dict]:
@@ -37,13 +41,7 @@ def campaign_with_effects(campaign_file: Path, out_dir: Path, effects: list) -> 
 
     def copy_scene(value: str) -> str:
         if value not in copies:
-            source = Path(value) if Path(value).is_absolute() else paths.scenes_dir() / value
-            scene = yaml.safe_load(source.read_text())
-            listed = {_effect_name(e) for e in scene.get("effects", [])}
-            scene["effects"] = list(scene.get("effects", [])) + [e for e in effects if _effect_name(e) not in listed]
-            target = out_dir / source.name
-            target.write_text(yaml.safe_dump(scene, sort_keys=False))
-            copies[value] = str(target.resolve())
+            copies[value] = str(scene_with_effects(value, out_dir, effects).resolve())
         return copies[value]
 
     def walk(node: Any) -> Any:
@@ -57,6 +55,19 @@ def campaign_with_effects(campaign_file: Path, out_dir: Path, effects: list) -> 
     campaign.pop("output_dir", None)
     target = out_dir / Path(campaign_file).name
     target.write_text(yaml.safe_dump(campaign, sort_keys=False))
+    return target
+
+
+def scene_with_effects(scene: str | Path, out_dir: Path, effects: list) -> Path:
+    """A copy of `scene` (a name in `paths.scenes_dir()` or a path) in `out_dir` that also
+    lists `effects`; effects it already lists keep its own parameters."""
+    source = Path(scene) if Path(scene).is_absolute() else paths.scenes_dir() / scene
+    data = yaml.safe_load(source.read_text())
+    listed = {_effect_name(e) for e in data.get("effects", [])}
+    data["effects"] = list(data.get("effects", [])) + [e for e in effects if _effect_name(e) not in listed]
+    Path(out_dir).mkdir(parents=True, exist_ok=True)
+    target = Path(out_dir) / source.name
+    target.write_text(yaml.safe_dump(data, sort_keys=False))
     return target
 
 

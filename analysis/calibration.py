@@ -1,0 +1,86 @@
+"""What a deskew calibration run measured (`protocols.calibration`), as corrections.
+
+Through a resistor the current is in phase with the voltage, so the phase the scope
+shows between CH1 and CH2 is the delay of CH2: with the fitted power P' and reactive
+power Q' of the record, w tau = atan2(Q', P') (`analysis.waveforms`). Its uncertainty
+combines the records' fit covariance and scatter (Type A) with the resistor's own time
+constant L/R (Type B).
+
+The same records compare the current path with the voltage path:
+k = 8 P' (R + R_shunt) / V'pp^2 = g_CH2 g_probe / g_CH1. That is a check, not a
+correction: the power carries g_CH1 g_CH2 g_probe, and dividing by k leaves g_CH1^2,
+no smaller an error without a voltage reference. The report shows k against what the
+specifications allow.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import pandas as pd
+
+from squeezebench.analysis.rundata import RunData
+from squeezebench.analysis.specifications import SPECIFICATIONS, Specification
+from squeezebench.analysis.tables import reduced_points
+from squeezebench.analysis.waveforms import Estimate
+
+PROTOCOL = "deskew_calibration"
+RESISTOR_TIME_CONSTANT = Specification(
+    0.5e-9, "s", "assumed: a low-inductance precision resistor, L/R within 0.5 ns (50 nH in 100 ohm)")
+SHUNT_TOLERANCE_REL = 0.01   # assumed: the 2 ohm shunt within 1 %
+
+
+@dataclass(frozen=True)
+class Deskew:
+    """The delay of CH2 against CH1 a calibration measured, to be removed from the power."""
+
+    delay_s: float
+    std_uncertainty_s: float
+    source: str
+
+
+def _mean(values: np.ndarray, stated_u: np.ndarray) -> Estimate:
+    """Mean of repeated records: stated uncertainties and their scatter, whichever larger."""
+    n = values.size
+    stated = math.sqrt(float(np.sum(stated_u**2))) / n
+    scatter = float(np.std(values, ddof=1)) / math.sqrt(n) if n > 1 else 0.0
+    return Estimate(float(values.mean()), max(stated, scatter))
+
+
+def deskew_from_points(points: pd.DataFrame) -> Deskew:
+    """The CH2 delay from reduced calibration records (columns of `PointReduction`)."""
+    omega = 2.0 * math.pi * points["frequency_hz"].to_numpy()
+    power = points["power_fit_w"].to_numpy()
+    reactive = points["reactive_power_var"].to_numpy()
+    delay_s = np.arctan2(reactive, power) / omega
+    # d(atan2(Q, P)) = (P dQ - Q dP) / (P^2 + Q^2); fit errors of P and Q independent enough
+    u_s = np.hypot(power * points["reactive_power_var_u"], reactive * points["power_fit_w_u"]) \
+        / (power**2 + reactive**2) / omega
+    measured = _mean(delay_s, np.asarray(u_s, dtype=float))
+    runs = ", ".join(sorted(set(points["run_name"].astype(str))))
+    return Deskew(measured.value, math.hypot(measured.std_uncertainty, RESISTOR_TIME_CONSTANT.std_uncertainty),
+                  f"deskew calibration ({runs}: {len(points)} records through a resistor); "
+                  + RESISTOR_TIME_CONSTANT.source)
+
+
+def current_gain_ratio(points: pd.DataFrame) -> tuple[Estimate, float]:
+    """(k = g_CH2 g_probe / g_CH1 measured, the half-width the specifications allow for it)."""
+    total_ohm = points["calibration_load_ohm"] + points["shunt_ohm"]
+    ratio = 8.0 * points["power_fit_w"] * total_ohm / points["piezo_voltage_vpp"] ** 2
+    u_rel = np.hypot(np.hypot(points["power_fit_w_u"] / points["power_fit_w"],
+                              2.0 * points["piezo_voltage_vpp_u"] / points["piezo_voltage_vpp"]),
+                     np.hypot(points["calibration_load_ohm"] * points["calibration_load_tolerance_rel"],
+                              points["shunt_ohm"] * SHUNT_TOLERANCE_REL) / total_ohm / math.sqrt(3.0))
+    measured = _mean(ratio.to_numpy(), (ratio * u_rel).to_numpy())
+    allowed = 2.0 * SPECIFICATIONS["scope_gain"].half_width + SPECIFICATIONS["current_probe_gain"].half_width
+    return measured, allowed
+
+
+def deskew_of_run(run: RunData) -> Deskew | None:
+    """The deskew a run's calibration steps measured, or None when it has none."""
+    rows = run.protocol(PROTOCOL)
+    if rows.empty:
+        return None
+    return deskew_from_points(reduced_points(run, rows[rows["waveform_file"].notna()]))

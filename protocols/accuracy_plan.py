@@ -1,0 +1,119 @@
+"""The floor a bench's specified errors put under a campaign, and what lifts it.
+
+Averaging, longer records and finer searches only shrink the noise. What stays is the
+instruments' specified errors (`analysis.specifications`): per run, the p95 relative
+error they leave at its worst stored point is the run's floor
+(`analysis.uncertainty.systematic_floor`). A target below the floor cannot be planned
+with scope settings; a calibration protocol may lift the dominant term (the deskew
+calibration replaces the CH2 delay by what it measured), at the bench time it costs.
+
+Everything is measured on the simulated bench: the campaign is run once as written,
+preceded by the deskew calibration, and its stored points give the floors, the
+calibration's own uncertainty and cost, and the campaign's own bench time per run.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import tempfile
+from pathlib import Path
+
+from squeezebench.analysis.rundata import load_run
+from squeezebench.analysis.uncertainty import REFERENCE_FOR, run_uncertainties, systematic_floor
+from squeezebench.protocols.bench_errors import bench_time_by_run_s, with_calibration
+from squeezebench.protocols.campaign import run_campaign
+
+CALIBRATION_RUN = "deskew_calibration"
+CALIBRATION_FREQUENCY_HZ = 37000.0   # a pure delay is the same at every frequency; near the plates'
+QUANTITIES = ("power_w", "velocity_pp_mps")
+
+
+@dataclasses.dataclass(frozen=True)
+class RunFloor:
+    run_name: str
+    quantity: str
+    floor_p95_rel: float            # as the bench is
+    dominant_term: str
+    calibrated_floor_p95_rel: float  # after the deskew calibration
+    calibrated_dominant_term: str
+
+
+@dataclasses.dataclass
+class AccuracyFloors:
+    target_rel_error: float
+    floors: list[RunFloor]
+    own_bench_time_s: dict[str, float]   # the campaign as written, per run
+    calibration_bench_time_s: float
+    deskew_std_uncertainty_s: float
+
+    def floor(self, run_name: str, calibrated: bool) -> float:
+        """The run's floor over its quantities."""
+        return max(f.calibrated_floor_p95_rel if calibrated else f.floor_p95_rel
+                   for f in self.floors if f.run_name == run_name)
+
+    def calibrated_runs(self) -> list[str]:
+        """Runs the target needs the calibration for (and that it lets reach the target)."""
+        return [run for run in self.own_bench_time_s
+                if self.floor(run, False) > self.target_rel_error >= self.floor(run, True)]
+
+    def below_floor(self) -> list[RunFloor]:
+        """(run, quantity) whose floor, even calibrated, is above the target."""
+        return [f for f in self.floors if f.calibrated_floor_p95_rel > self.target_rel_error]
+
+    def noise_allowance(self, run_name: str) -> float:
+        """The p95 noise error left to the scope settings: errors add in quadrature."""
+        floor = self.floor(run_name, run_name in self.calibrated_runs())
+        return math.sqrt(max(self.target_rel_error**2 - floor**2, 0.0))
+
+    def lines(self) -> list[str]:
+        out = ["accuracy floor: p95 |relative error| the instruments' specified errors leave (noise averaged away)",
+               f"{'run':<24} {'quantity':<16} {'floor':>7} {'dominant term':<32} {'deskewed':>8} dominant term"]
+        for f in self.floors:
+            out.append(f"{f.run_name:<24} {f.quantity:<16} {f.floor_p95_rel:>7.2%} {f.dominant_term:<32} "
+                       f"{f.calibrated_floor_p95_rel:>8.2%} {f.calibrated_dominant_term}")
+        calibrated = self.calibrated_runs()
+        if calibrated:
+            out.append(f"calibration plan: one deskew_calibration step first ({self.calibration_bench_time_s:.1f} s of "
+                       f"bench time; CH2 delay then known to {self.deskew_std_uncertainty_s * 1e9:.2f} ns) for "
+                       + ", ".join(calibrated))
+        below = self.below_floor()
+        if below:
+            worst = max(below, key=lambda f: f.calibrated_floor_p95_rel)
+            out.append(f"target {self.target_rel_error:g} is below the reachable floor of {len(below)} "
+                       f"(run, quantity) pairs; the lowest floor there is "
+                       f"{min(f.calibrated_floor_p95_rel for f in below):.2%}, the highest {worst.calibrated_floor_p95_rel:.2%} "
+                       f"({worst.run_name} {worst.quantity}), limited by {worst.calibrated_dominant_term}")
+            for term in sorted({f.calibrated_dominant_term for f in below}):
+                out.append(f"  {term}: no calibration protocol of this bench lifts it; it needs "
+                           f"{REFERENCE_FOR.get(term, 'a reference for this term')}")
+        return out
+
+    def as_dict(self) -> dict:
+        return {"target_rel_error": self.target_rel_error,
+                "floors": [dataclasses.asdict(f) for f in self.floors],
+                "calibration": {"protocol": CALIBRATION_RUN, "bench_time_s": self.calibration_bench_time_s,
+                                "deskew_std_uncertainty_s": self.deskew_std_uncertainty_s,
+                                "runs": self.calibrated_runs()},
+                "below_floor": [dataclasses.asdict(f) for f in self.below_floor()],
+                "reference_needed": {f.calibrated_dominant_term: REFERENCE_FOR.get(f.calibrated_dominant_term, "")
+                                     for f in self.below_floor()}}
+
+
+def accuracy_floors(campaign_path: Path, target_rel_error: float) -> AccuracyFloors:
+    """Run the campaign once (simulated, calibration first) and read its floors."""
+    with tempfile.TemporaryDirectory(prefix="squeezebench-floor-") as tmp:
+        variant = with_calibration(Path(campaign_path), Path(tmp) / Path(campaign_path).name,
+                                   CALIBRATION_FREQUENCY_HZ)
+        run_dir = run_campaign(variant, out_dir=Path(tmp) / "run", progress=False)
+        found = run_uncertainties(load_run(run_dir))
+        times_s = bench_time_by_run_s(run_dir)
+    deskew_u_s = found.deskew.std_uncertainty_s
+    plain = systematic_floor(found.points).set_index(["run_name", "quantity"])
+    deskewed = systematic_floor(found.points, deskew_u_s).set_index(["run_name", "quantity"])
+    floors = [RunFloor(run, quantity, float(row["floor_p95_rel"]), row["dominant_term"],
+                       float(deskewed.loc[(run, quantity), "floor_p95_rel"]),
+                       deskewed.loc[(run, quantity), "dominant_term"])
+              for (run, quantity), row in plain.iterrows() if quantity in QUANTITIES]
+    calibration_s = times_s.pop(CALIBRATION_RUN)
+    return AccuracyFloors(target_rel_error, floors, times_s, calibration_s, deskew_u_s)

@@ -1,0 +1,123 @@
+"""Total error of a campaign across simulated benches whose instruments err within spec.
+
+One simulated bench has one unknown set of systematic errors (`variants.systematic_effects`,
+drawn from its `bench_seed`). Running the campaign on several such benches and scoring
+every stored point against the scene's closed-form truth shows what a real bench can
+promise: noise averages away, the specified errors do not. With `calibrate`, each bench
+first runs the deskew calibration (`protocols.calibration`), whose bench time counts and
+whose correction the analysis applies, as a real campaign would.
+
+The truth of a point is the reading ideal instruments give at its recorded setting
+(`analysis.uncertainty`): the scene without the systematic effects, driven at the
+point's generator frequency and amplitude, read through the open bench's simulator.
+"""
+
+from __future__ import annotations
+
+import json
+import tempfile
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import yaml
+
+from squeezebench.analysis.rundata import load_run
+from squeezebench.analysis.uncertainty import run_uncertainties
+from squeezebench.instruments.bench import open_bench, sim_bench_config
+from squeezebench.protocols.campaign import run_campaign
+from squeezebench.protocols.variants import campaign_with_effects, systematic_effects
+
+QUANTITIES = ("power_w", "velocity_pp_mps")
+ERROR_PERCENTILE = 95.0
+
+
+def calibration_run(frequency_hz: float, scene: str) -> dict:
+    """The campaign entry of a deskew calibration at the plates' working frequency, with
+    its own averaging: its records set the delay for every later point."""
+    return {"name": "deskew_calibration", "protocol": "deskew_calibration", "bench": {"scene": scene},
+            "plate": {"n_powered_columns": 1, "n_powered_piezos": 1},
+            "acquisition": {"averages": 64, "record_length": 10000},
+            "parameters": {"frequency_hz": float(frequency_hz)}}
+
+
+def with_calibration(campaign_file: Path, out: Path, frequency_hz: float) -> Path:
+    """A copy of the campaign whose first run is a deskew calibration."""
+    data = yaml.safe_load(Path(campaign_file).read_text(encoding="utf-8"))
+    scene = data.get("bench", {}).get("scene") or data["runs"][0]["bench"]["scene"]
+    data["runs"] = [calibration_run(frequency_hz, scene), *data["runs"]]
+    out.write_text(yaml.safe_dump(data, sort_keys=False), encoding="utf-8")
+    return out
+
+
+def errors_on_bench(campaign_file: Path, bench_seed: int, work_dir: Path) -> pd.DataFrame:
+    """Every stored point of the campaign run on bench `bench_seed`: relative error of
+    each quantity against the truth, with its expanded uncertainty; and the bench time."""
+    erring = campaign_with_effects(campaign_file, work_dir / "erring", systematic_effects(bench_seed))
+    campaign_with_effects(campaign_file, work_dir / "plain", [])   # the same plates without the errors
+    run_dir = run_campaign(erring, out_dir=work_dir / "run", progress=False)
+    run = load_run(run_dir)
+    found = run_uncertainties(run)
+    points = found.points
+    truths = _truths(points, work_dir / "plain")
+    rows = []
+    for index, point in points.iterrows():
+        truth = truths[index]
+        for quantity in QUANTITIES:
+            rows.append({"bench_seed": bench_seed, "run_name": point["run_name"], "step_id": point["step_id"],
+                         "point_index": point["point_index"], "quantity": quantity,
+                         "rel_error": point[quantity] / truth[quantity] - 1.0,
+                         "rel_expanded_u": point[f"{quantity}_U"] / abs(truth[quantity]),
+                         "covered": abs(point[quantity] - truth[quantity]) <= point[f"{quantity}_U"]})
+    frame = pd.DataFrame(rows)
+    frame.attrs["bench_time_s"] = sum(bench_time_by_run_s(run_dir).values())
+    return frame
+
+
+def _truths(points: pd.DataFrame, plain_dir: Path) -> dict:
+    """Point index -> the closed-form reading at its setting, on the plate without the errors."""
+    truths: dict = {}
+    for (plate, state), group in points.groupby(["plate", "scene_state"], dropna=False, sort=False):
+        scene = plain_dir / f"{plate}.yaml"
+        with open_bench(sim_bench_config(scene)) as bench:
+            simulated = bench.resource_manager.visalib.bench
+            if isinstance(state, str):
+                simulated.set_state(state)
+            for index, point in group.iterrows():
+                bench.generator.set_frequency(float(point["generator_frequency_hz"]))
+                bench.generator.set_amplitude_vpp(float(point["generator_amplitude_vpp"]))
+                truth = simulated.truth()
+                truths[index] = {"power_w": truth.power_w, "velocity_pp_mps": truth.velocity_pp_mps}
+    return truths
+
+
+def bench_time_by_run_s(run_dir: Path) -> dict[str, float]:
+    """Virtual bench time of each run, from the journal's cumulative campaign time."""
+    times_s: dict[str, float] = {}
+    previous_s = 0.0
+    for line in (run_dir / "journal.jsonl").read_text(encoding="utf-8").splitlines():
+        entry = json.loads(line)
+        total_s = entry["campaign_bench_time_s"]
+        times_s[entry["run"]] = times_s.get(entry["run"], 0.0) + total_s - previous_s
+        previous_s = total_s
+    return times_s
+
+
+def errors_on_benches(campaign_file: Path, bench_seeds: range = range(1, 9)) -> pd.DataFrame:
+    """`errors_on_bench` over several benches; `attrs["bench_time_s"]` per seed."""
+    frames, times = [], {}
+    with tempfile.TemporaryDirectory(prefix="squeezebench-benches-") as tmp:
+        for seed in bench_seeds:
+            frame = errors_on_bench(Path(campaign_file), seed, Path(tmp) / f"bench_{seed}")
+            times[seed] = frame.attrs["bench_time_s"]
+            frames.append(frame)
+    errors = pd.concat(frames, ignore_index=True)
+    errors.attrs["bench_time_s"] = times
+    return errors
+
+
+def p95_by_run(errors: pd.DataFrame) -> pd.DataFrame:
+    """p95 over benches and points of |relative error|, per run and quantity."""
+    return (errors.assign(abs_rel_error=errors["rel_error"].abs())
+            .groupby(["run_name", "quantity"], sort=False)["abs_rel_error"]
+            .agg(lambda e: float(np.percentile(e, ERROR_PERCENTILE))).rename("p95_abs_rel_error").reset_index())

@@ -1,0 +1,99 @@
+"""The deskew calibration protocol: a resistor through the plate's channels measures the
+CH2 delay the bench really has, and the corrected Fig. 2c stress power comes back to the truth."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+import yaml
+
+from squeezebench import paths
+from squeezebench.analysis.calibration import current_gain_ratio, deskew_of_run
+from squeezebench.analysis.rundata import load_run
+from squeezebench.analysis.tables import reduced_points
+from squeezebench.analysis.uncertainty import with_expanded_uncertainties
+from squeezebench.protocols.campaign import run_campaign
+from squeezebench.simbench import physics
+from squeezebench.simbench.effects import build_pipeline
+from squeezebench.simbench.scene import load_scene
+from squeezebench.protocols.variants import campaign_with_effects
+
+PROBE_DELAY_S, SKEW_S = 8e-9, 1e-9
+GAINS = {"ch1_rel": 0.01, "ch2_rel": -0.01, "ch3_rel": 0.0}
+PROBE_GAIN = 0.02
+ERRORS = [{"current_probe_delay": {"delay_s": PROBE_DELAY_S}}, {"channel_skew": {"ch2_delay_s": SKEW_S}},
+          {"scope_gain_error": GAINS}, {"current_probe_gain_error": {"gain_rel": PROBE_GAIN}}]
+
+
+@pytest.fixture(scope="module")
+def calibrated_run(tmp_path_factory):
+    tmp = tmp_path_factory.mktemp("calibration")
+    paper = yaml.safe_load(paths.paper_campaign().read_text())
+    stress = next(run for run in paper["runs"] if run["name"] == "fig2c_stress")
+    campaign = {key: paper[key] for key in ("acquisition", "safety")}
+    campaign["runs"] = [
+        {"name": "deskew", "protocol": "deskew_calibration", "bench": {"scene": "one_column_1mm.yaml"},
+         "plate": {"n_powered_columns": 1, "n_powered_piezos": 4},
+         "parameters": {"load_ohm": 100, "frequency_hz": 37560}},
+        stress]
+    (tmp / "campaign.yaml").write_text(yaml.safe_dump(campaign, sort_keys=False))
+    erring = campaign_with_effects(tmp / "campaign.yaml", tmp / "inputs", ERRORS)
+    return run_campaign(erring, out_dir=tmp / "run", progress=False)
+
+
+def test_the_resistor_measures_the_bench_delay_and_gain_ratio(calibrated_run):
+    run = load_run(calibrated_run)
+    deskew = deskew_of_run(run)
+    assert deskew.delay_s == pytest.approx(PROBE_DELAY_S + SKEW_S, abs=2 * deskew.std_uncertainty_s)
+    assert deskew.std_uncertainty_s < 1e-9   # ten times better than the uncorrected +-10 ns
+    rows = run.protocol("deskew_calibration")
+    ratio, allowed = current_gain_ratio(reduced_points(run, rows))
+    expected = (1 + GAINS["ch2_rel"]) * (1 + PROBE_GAIN) / (1 + GAINS["ch1_rel"])
+    assert ratio.value == pytest.approx(expected, abs=3 * ratio.std_uncertainty + 1e-4)
+    assert abs(ratio.value - 1) < allowed
+
+
+def test_the_calibration_costs_bench_time(calibrated_run):
+    journal = [json.loads(line) for line in (calibrated_run / "journal.jsonl").read_text().splitlines()]
+    calibration = next(entry for entry in journal if entry["protocol"] == "deskew_calibration")
+    assert calibration["campaign_bench_time_s"] > 1.0   # four averaged records, ranging, drive ramps
+    assert journal[-1]["campaign_bench_time_s"] > calibration["campaign_bench_time_s"]
+
+
+def test_deskew_corrects_the_fig2c_stress_power(calibrated_run):
+    run = load_run(calibrated_run)
+    rows = run.protocol("detuning")
+    stress = reduced_points(run, rows[rows["detuning_phase"] == "stress"])
+    plain, corrected = with_expanded_uncertainties(stress), with_expanded_uncertainties(stress, deskew_of_run(run))
+    point = stress.iloc[0]
+    scene = load_scene(calibrated_run / "inputs" / "one_column_1mm.yaml")
+    truth = physics.steady_state(scene.state(scene.initial_state), scene.electronics, point.generator_frequency_hz,
+                                 point.generator_amplitude_vpp, build_pipeline(scene)).power_w
+    gain = (1 + GAINS["ch1_rel"]) * (1 + GAINS["ch2_rel"]) * (1 + PROBE_GAIN)
+    before = plain["power_w"].iloc[0] / gain - truth
+    after = corrected["power_w"].iloc[0] / gain - truth
+    assert abs(before) > 0.1 * truth   # 9 ns at power factor 0.018: the delay dominates
+    assert abs(after) < 0.1 * abs(before)
+    assert abs(corrected["power_w"].iloc[0] - truth) <= corrected["power_w_U"].iloc[0]
+    assert corrected["power_w_U"].iloc[0] < 0.5 * plain["power_w_U"].iloc[0]
+    assert plain["power_w_dominant"].iloc[0].startswith("CH2 delay")
+    assert np.isfinite(corrected["power_w_uncorrected"]).all()
+
+
+def test_errors_on_erring_benches_with_and_without_calibration(tmp_path):
+    """The quick campaign on two erring benches: expanded uncertainties cover the truth,
+    and the calibration's bench time is part of the campaign's."""
+    from squeezebench.protocols.bench_errors import errors_on_benches, p95_by_run, with_calibration
+
+    quick = paths.campaigns_dir() / "quick.yaml"
+    plain = errors_on_benches(quick, range(1, 3))
+    calibrated = errors_on_benches(with_calibration(quick, tmp_path / "quick.yaml", 37000.0), range(1, 3))
+    for errors in (plain, calibrated):
+        assert errors["covered"].mean() >= 0.95
+        assert set(errors["bench_seed"]) == {1, 2}
+    assert all(calibrated.attrs["bench_time_s"][s] > plain.attrs["bench_time_s"][s] + 1.0 for s in (1, 2))
+    summary = p95_by_run(plain)
+    assert set(summary["quantity"]) == {"power_w", "velocity_pp_mps"}
+    assert (summary["p95_abs_rel_error"] > 1e-3).all()   # the instruments' errors, not noise
