@@ -182,7 +182,7 @@ class _Loader:
         scene = Path(value)
         if not scene.is_absolute():
             beside = self.file.parent / scene
-            scene = beside if beside.is_file() else paths.scenes_dir() / scene
+            scene = beside.resolve() if beside.is_file() else paths.scenes_dir() / scene
         if not scene.is_file():
             known = sorted(p.name for p in paths.scenes_dir().glob("*.yaml"))
             raise CampaignError(self.file, field, f"no scene {scene}; available in {paths.scenes_dir()}: "

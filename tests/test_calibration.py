@@ -74,8 +74,10 @@ def test_deskew_corrects_the_fig2c_stress_power(calibrated_run):
     gain = (1 + GAINS["ch1_rel"]) * (1 + GAINS["ch2_rel"]) * (1 + PROBE_GAIN)
     before = plain["power_w"].iloc[0] / gain - truth
     after = corrected["power_w"].iloc[0] / gain - truth
-    assert abs(before) > 0.1 * truth   # 9 ns at power factor 0.018: the delay dominates
-    assert abs(after) < 0.1 * abs(before)
+    # 9 ns at power factor 0.018: the delay dominates (~10 % of the power); one 16-average
+    # point of 500 samples also carries ~1 % of noise, which the bounds leave room for
+    assert abs(before) > 0.08 * truth
+    assert abs(after) < 0.2 * abs(before)
     assert abs(corrected["power_w"].iloc[0] - truth) <= corrected["power_w_U"].iloc[0]
     assert corrected["power_w_U"].iloc[0] < 0.5 * plain["power_w_U"].iloc[0]
     assert plain["power_w_dominant"].iloc[0].startswith("CH2 delay")
