@@ -75,7 +75,8 @@ class AccuracyFloors:
         calibrated = self.calibrated_runs()
         if calibrated:
             out.append(f"calibration plan: one deskew_calibration step first ({self.calibration_bench_time_s:.1f} s of "
-                       f"bench time; CH2 delay then known to {self.deskew_std_uncertainty_s * 1e9:.2f} ns) for "
+                       f"bench time; CH2 delay then known to {self.deskew_std_uncertainty_s * 1e9:.2f} ns, the "
+                       f"current path's gain checked against the voltage path's) for "
                        + ", ".join(calibrated))
         below = self.below_floor()
         if below:
@@ -110,7 +111,7 @@ def accuracy_floors(campaign_path: Path, target_rel_error: float) -> AccuracyFlo
         times_s = bench_time_by_run_s(run_dir)
     deskew_u_s = found.deskew.std_uncertainty_s
     plain = systematic_floor(found.points).set_index(["run_name", "quantity"])
-    deskewed = systematic_floor(found.points, deskew_u_s).set_index(["run_name", "quantity"])
+    deskewed = systematic_floor(found.points, found.deskew).set_index(["run_name", "quantity"])
     floors = [RunFloor(run, quantity, float(row["floor_p95_rel"]), row["dominant_term"],
                        float(deskewed.loc[(run, quantity), "floor_p95_rel"]),
                        deskewed.loc[(run, quantity), "dominant_term"])
