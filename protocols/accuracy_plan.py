@@ -61,10 +61,17 @@ class AccuracyFloors:
         """(run, quantity) whose floor, even calibrated, is above the target."""
         return [f for f in self.floors if f.calibrated_floor_p95_rel > self.target_rel_error]
 
+    @property
+    def calibrate(self) -> bool:
+        """Whether the plan calibrates: once, first, and its correction serves every run."""
+        return bool(self.calibrated_runs())
+
+    def planned_floor(self, run_name: str) -> float:
+        return self.floor(run_name, self.calibrate)
+
     def noise_allowance(self, run_name: str) -> float:
         """The p95 noise error left to the scope settings: errors add in quadrature."""
-        floor = self.floor(run_name, run_name in self.calibrated_runs())
-        return math.sqrt(max(self.target_rel_error**2 - floor**2, 0.0))
+        return math.sqrt(max(self.target_rel_error**2 - self.planned_floor(run_name)**2, 0.0))
 
     def lines(self) -> list[str]:
         out = ["accuracy floor: p95 |relative error| the instruments' specified errors leave (noise averaged away)",
@@ -76,8 +83,8 @@ class AccuracyFloors:
         if calibrated:
             out.append(f"calibration plan: one deskew_calibration step first ({self.calibration_bench_time_s:.1f} s of "
                        f"bench time; CH2 delay then known to {self.deskew_std_uncertainty_s * 1e9:.2f} ns, the "
-                       f"current path's gain checked against the voltage path's) for "
-                       + ", ".join(calibrated))
+                       f"current path's gain checked against the voltage path's), needed by "
+                       + ", ".join(calibrated) + "; its correction serves every run")
         below = self.below_floor()
         if below:
             worst = max(below, key=lambda f: f.calibrated_floor_p95_rel)
