@@ -15,22 +15,30 @@ Experiments (the scene, state and voltage of each are in `StudySettings`):
 - `heating`: a series of points at a high voltage with `heating_drift` on, at the
   frequency found cold or re-centred before each point (tracking), per averaging.
 
-Every configuration is repeated (`repeats`) on one seeded bench: the repeats draw
-successive noise streams, so the trials give error distributions, not single points.
-The trials go to RUN_DIR/study/<experiment>.parquet, one row per (trial, quantity), each
-experiment written atomically when it completes; the scenes as run (effects added) are
-copied to RUN_DIR/study/inputs/. `analysis.study` turns them into Pareto fronts.
+Every configuration is repeated (`repeats`): the trials give error distributions, not
+single points. A task is one configuration of one experiment on its own fresh simulated
+bench; each trial draws its noise from its own seed (study seed, experiment,
+configuration, repeat) and starts from the same bench state, so the trials are the same
+whatever the order, the partition or the number of workers (`protocols.parallel`: local
+processes or a Dask cluster). Each task's trials go to its own file; an experiment's
+trials are then stored as RUN_DIR/study/<experiment>.parquet, one row per (trial,
+quantity); the scenes as run (effects added) are in RUN_DIR/study/inputs/.
+`analysis.study` turns them into Pareto fronts.
 """
 
 from __future__ import annotations
 
 import contextlib
-import itertools
+import copy
 import dataclasses
+import itertools
 import json
 import os
+import shutil
+import tempfile
+import zlib
 from pathlib import Path
-from typing import Callable, Iterator
+from typing import Any, Callable, Iterator
 
 import numpy as np
 import pandas as pd
@@ -43,10 +51,10 @@ from squeezebench.analysis.tables import characterise_plate
 from squeezebench.analysis.waveforms import PointReduction, reduce_record
 from squeezebench.instruments.bench import open_bench, sim_bench_config
 from squeezebench.protocols.acquisition import Acquisition, AcquisitionSettings, Point
+from squeezebench.protocols.parallel import map_unordered
 from squeezebench.protocols.resonance import SearchSettings, find_resonance, track_resonance
 from squeezebench.protocols.safety import DriveController, SafetyLimits
 from squeezebench import paths
-
 
 
 @dataclasses.dataclass(frozen=True)
@@ -90,26 +98,6 @@ class StudySettings:
     def __post_init__(self) -> None:
         if self.repeats < 2:
             raise ValueError(f"repeats must be at least 2 (a distribution), got {self.repeats!r}")
-
-
-class Trials:
-    """Rows of one experiment: each trial's full settings, its cost and its errors."""
-
-    def __init__(self, experiment: str, base: dict) -> None:
-        self.experiment = experiment
-        self.base = base
-        self.rows: list[dict] = []
-
-    def add(self, knobs: dict, repeat: int, bench_time_s: float, values: dict[str, tuple[float, float]]) -> None:
-        """`values` maps a quantity name (with its unit) to (measured, true)."""
-        for quantity, (measured, true) in values.items():
-            self.rows.append({"experiment": self.experiment, **self.base, **knobs, "repeat": repeat,
-                              "bench_time_s": bench_time_s, "quantity": quantity,
-                              "measured_value": measured, "true_value": true,
-                              "rel_error": measured / true - 1.0})
-
-    def frame(self) -> pd.DataFrame:
-        return pd.DataFrame(self.rows)
 
 
 @dataclasses.dataclass
@@ -159,245 +147,380 @@ def _point_values(reduction: PointReduction, truth) -> dict[str, tuple[float, fl
             "amplitude_pp_m": (reduction.amplitude_pp_m.value, truth.amplitude_pp_m)}
 
 
-class AccuracyStudy:
-    """Runs the experiments of one study into a run directory's study/ folder."""
 
-    def __init__(self, settings: StudySettings, scenes_dir: Path, out_dir: Path,
-                 progress: Callable[[str], None] = lambda message: None) -> None:
-        self.settings = settings
-        self.scenes_dir = Path(scenes_dir)
-        self.out_dir = Path(out_dir) / STUDY_DIR
-        self.progress = progress
-        base = settings.base
-        self.defaults = {"averages": base.averages, "record_length": base.record_length,
-                         "periods_per_record": base.periods_per_record, "search_points": 0,
-                         "search_tolerance_hz": 0.0, "settle_s": base.settle_s, "n_voltages": 1,
-                         "tracking": False}
+def _settings_values(settings: AcquisitionSettings) -> dict:
+    return {"averages": settings.averages, "record_length": settings.record_length,
+            "periods_per_record": settings.periods_per_record, "settle_s": settings.settle_s}
 
-    # -- scenes -------------------------------------------------------------------------------
-    def _scene(self, name: str, extra_effects: tuple[str, ...] = (),
-               q_mech: tuple[str, float] | None = None) -> Path:
-        """The scene as run, copied into study/inputs/ (with the effects the study adds,
-        and `q_mech` = (state, value) overriding one state's mechanical Q) and seeded by
-        the study, so the trials can be redone from the run directory."""
-        data = yaml.safe_load((self.scenes_dir / name).read_text(encoding="utf-8"))
+
+# -- the experiments ------------------------------------------------------------------------------
+@dataclasses.dataclass(frozen=True)
+class SceneSpec:
+    """A shipped scene as the study runs it: with the effects the study adds, and
+    `q_mech` = (state, value) overriding one state's mechanical Q."""
+
+    name: str
+    extra_effects: tuple[str, ...] = ()
+    q_mech: tuple[str, float] | None = None
+
+    @property
+    def file_name(self) -> str:
+        stem = Path(self.name).stem + "".join(f"+{e}" for e in self.extra_effects)
+        if self.q_mech is not None:
+            stem += f"+q{self.q_mech[1]:g}"
+        return f"{stem}.yaml"
+
+    def render(self, scenes_dir: Path, seed: int) -> str:
+        """The scene file's text, seeded by the study (each trial reseeds it on top)."""
+        data = yaml.safe_load((Path(scenes_dir) / self.name).read_text(encoding="utf-8"))
         present = {e if isinstance(e, str) else next(iter(e)) for e in data.get("effects", [])}
-        data["effects"] = [*data.get("effects", []), *(e for e in extra_effects if e not in present)]
-        data["seed"] = self.settings.seed
-        stem = Path(name).stem + "".join(f"+{e}" for e in extra_effects)
-        if q_mech is not None:
+        data["effects"] = [*data.get("effects", []), *(e for e in self.extra_effects if e not in present)]
+        data["seed"] = seed
+        if self.q_mech is not None:
             # A sharper resonance of the same plate (same modal mass, R_mech / (q/q_old))
             # reaching the same velocity at the same voltage needs a weaker coupling and
             # takes q_old/q of the power: scaling the calibrated power keeps the plate
             # physical (the scene refuses a modal mass q/q_old times the plate's).
-            state = data["states"][q_mech[0]]
-            state["calibration"]["power_w"] *= state["q_mech"] / q_mech[1]
-            state["q_mech"] = q_mech[1]
-            stem += f"+q{q_mech[1]:g}"
-        path = self.out_dir / "inputs" / f"{stem}.yaml"
-        path.parent.mkdir(parents=True, exist_ok=True)
-        path.write_text(yaml.safe_dump(data, sort_keys=False), encoding="utf-8")
-        return path
+            state = data["states"][self.q_mech[0]]
+            state["calibration"]["power_w"] *= state["q_mech"] / self.q_mech[1]
+            state["q_mech"] = self.q_mech[1]
+        return yaml.safe_dump(data, sort_keys=False)
 
-    def _trials(self, experiment: str, scene: Path, state: str | None) -> Trials:
-        return Trials(experiment, {"scene": scene.name, "state": state or ""})
 
-    # -- experiments ----------------------------------------------------------------------------
-    def averages(self) -> Trials:
-        base = self.settings.base
-        return self._at_the_point("averages", [dataclasses.replace(base, averages=n) for n in self.settings.averages])
+@dataclasses.dataclass(frozen=True)
+class Experiment:
+    """What an experiment varies and how one configuration's trials run.
 
-    def record(self) -> Trials:
-        s = self.settings
-        return self._at_the_point("record", [
-            dataclasses.replace(s.base, record_length=length, periods_per_record=periods)
-            for length in s.record_lengths for periods in s.periods_per_record])
+    `configurations` lists the knob values of each configuration (columns of
+    `analysis.study.KNOBS`; the others keep `StudySettings.base`'s); `run` measures every
+    trial of one configuration into a `TaskRun`. Adding an experiment is one function
+    pair and one entry in `EXPERIMENTS`.
+    """
 
-    def _at_the_point(self, experiment: str, variants: list[AcquisitionSettings]) -> Trials:
-        """Repeated points at the Table 3 point, once per acquisition settings variant."""
-        s = self.settings
-        scene = self._scene(s.point_scene)
-        trials = self._trials(experiment, scene, s.point_state)
-        with open_simulated(scene, s.point_state, s.base.settle_s) as bench:
-            bench.drive.set_piezo_voltage(s.point_voltage_vpp)
-            bench.go_to_resonance()
-            for settings in variants:
-                self._repeat_points(bench, trials, settings)
-        return trials
+    scene: Callable[[StudySettings], SceneSpec]
+    state: Callable[[StudySettings], str | None]
+    configurations: Callable[[StudySettings], list[dict]]
+    run: Callable[["TaskRun"], None]
 
-    def _repeat_points(self, bench: SimulatedSession, trials: Trials, settings: AcquisitionSettings) -> None:
-        """`repeats` points at the present drive; ranging first, as a step's earlier points do."""
-        acquisition = bench.acquisition(settings)
-        acquisition.measure(keep_waveforms=False)
+
+def _at_the_point(run: "TaskRun") -> None:
+    """Repeated points at the Table 3 point, ranged first as a step's earlier points do."""
+    s = run.settings
+    settings = run.acquisition_settings()
+    with run.bench() as bench:
+        bench.drive.set_piezo_voltage(s.point_voltage_vpp)
+        bench.go_to_resonance()
+        ranged = bench.acquisition(settings)
+        ranged.measure(keep_waveforms=False)
         truth = bench.simulated.resonance_truth()
-        knobs = {"averages": settings.averages, "record_length": settings.record_length,
-                 "periods_per_record": settings.periods_per_record}
-        for repeat in range(self.settings.repeats):
+        for repeat in run.trials(bench):
+            acquisition = copy.copy(ranged)   # every trial starts from the ranged expectations
             start_s = bench.now_s()
             point = acquisition.measure()
-            trials.add({**self.defaults, **knobs}, repeat, bench.now_s() - start_s,
-                       _point_values(_reduce(point), truth))
+            run.add(repeat, bench.now_s() - start_s, _point_values(_reduce(point), truth))
 
-    def search(self) -> Trials:
-        s = self.settings
-        scene = self._scene(s.point_scene)
-        trials = self._trials("search", scene, s.point_state)
-        with open_simulated(scene, s.point_state, s.base.settle_s) as bench:
-            bench.drive.set_piezo_voltage(s.search_voltage_vpp)
-            true_hz = bench.simulated.resonance_truth().frequency_hz
-            # Where the resonance falls in the range is luck: a seeded random offset per
-            # trial, else a grid point could sit exactly on it.
-            offsets_hz = np.random.default_rng(s.seed).uniform(-0.5, 0.5, size=s.repeats) * s.search_half_span_hz
-            for n_averages, points, tolerance_hz in itertools.product(
-                    s.search_averages, s.search_points, s.search_tolerances_hz):
-                # A search reads only the velocity's peak-to-peak: the short record does.
-                settings = dataclasses.replace(s.base, averages=n_averages, record_length=500)
-                acquisition = bench.acquisition(settings)
-                for repeat, offset_hz in enumerate(offsets_hz):
-                    bench.simulated.reseed(s.seed + repeat)
-                    search = SearchSettings(true_hz + offset_hz - s.search_half_span_hz,
-                                            true_hz + offset_hz + s.search_half_span_hz,
-                                            points=points, tolerance_hz=tolerance_hz)
-                    acquisition.reset_ranges()   # each search starts as a step does
-                    start_s = bench.now_s()
-                    found = find_resonance(acquisition.measure_at, search)
-                    knobs = {"averages": n_averages, "record_length": settings.record_length,
-                             "search_points": points, "search_tolerance_hz": tolerance_hz}
-                    trials.add({**self.defaults, **knobs}, repeat, bench.now_s() - start_s,
-                               {"resonance_frequency_hz": (found.frequency_hz, true_hz)})
-        return trials
 
-    def settle(self) -> Trials:
-        s = self.settings
-        scene = self._scene(s.point_scene, ("settling_transient",), q_mech=(s.point_state, s.settle_q_mech))
-        trials = self._trials("settle", scene, s.point_state)
-        with open_simulated(scene, s.point_state, s.base.settle_s) as bench:
+def _search(run: "TaskRun") -> None:
+    s = run.settings
+    with run.bench() as bench:
+        bench.drive.set_piezo_voltage(s.search_voltage_vpp)
+        true_hz = bench.simulated.resonance_truth().frequency_hz
+        # Where the resonance falls in the range is luck: a seeded random offset per
+        # repeat (the same for every configuration), else a grid point could sit on it.
+        offsets_hz = np.random.default_rng(s.seed).uniform(-0.5, 0.5, size=s.repeats) * s.search_half_span_hz
+        acquisition = bench.acquisition(run.acquisition_settings())
+        for repeat in run.trials(bench):
+            search = SearchSettings(true_hz + offsets_hz[repeat] - s.search_half_span_hz,
+                                    true_hz + offsets_hz[repeat] + s.search_half_span_hz,
+                                    points=run.knobs["search_points"], tolerance_hz=run.knobs["search_tolerance_hz"])
+            acquisition.reset_ranges()   # each search starts as a step does
+            start_s = bench.now_s()
+            found = find_resonance(acquisition.measure_at, search)
+            run.add(repeat, bench.now_s() - start_s, {"resonance_frequency_hz": (found.frequency_hz, true_hz)})
+
+
+def _settle(run: "TaskRun") -> None:
+    s = run.settings
+    with run.bench() as bench:
+        bench.drive.set_piezo_voltage(s.settle_from_vpp)
+        bench.go_to_resonance()
+        ranged = bench.acquisition(s.base)
+        ranged.measure(keep_waveforms=False)
+        for repeat in run.trials(bench):
+            acquisition = copy.copy(ranged)
+            # Back to the lower level and fully rung down: each trial sees the same step.
+            bench.drive.settle_s = 1.0
             bench.drive.set_piezo_voltage(s.settle_from_vpp)
-            bench.go_to_resonance()
-            acquisition = bench.acquisition(s.base)
-            for settle_s in s.settle_s:
-                for repeat in range(s.repeats):
-                    bench.simulated.reseed(s.seed + repeat)
-                    # Back to the lower level and fully rung down: each trial sees the same step.
-                    bench.drive.settle_s = 1.0
-                    bench.drive.set_piezo_voltage(s.settle_from_vpp)
-                    acquisition.measure(keep_waveforms=False)
-                    bench.drive.settle_s = settle_s
-                    start_s = bench.now_s()
-                    bench.drive.set_piezo_voltage(s.point_voltage_vpp)
-                    point = acquisition.measure()
-                    values = _point_values(_reduce(point), bench.simulated.resonance_truth())
-                    del values["amplitude_pp_m"]   # velocity's error over a frequency known to 1e-6
-                    trials.add({**self.defaults, "settle_s": settle_s}, repeat, bench.now_s() - start_s, values)
-        return trials
+            acquisition.measure(keep_waveforms=False)
+            bench.drive.settle_s = run.knobs["settle_s"]
+            start_s = bench.now_s()
+            bench.drive.set_piezo_voltage(s.point_voltage_vpp)
+            point = acquisition.measure()
+            values = _point_values(_reduce(point), bench.simulated.resonance_truth())
+            del values["amplitude_pp_m"]   # velocity's error over a frequency known to 1e-6
+            run.add(repeat, bench.now_s() - start_s, values)
 
-    def sweep(self) -> Trials:
+
+def _sweep(run: "TaskRun") -> None:
+    s = run.settings
+    with run.bench() as bench:
+        geometry = bench.simulated.scene.geometry(bench.simulated.state)
+        voltages_vpp = np.linspace(*s.sweep_voltage_range_vpp, run.knobs["n_voltages"])
+        truth = _characterise(s, bench, voltages_vpp, geometry, measure=None)
+        acquisition = bench.acquisition(run.acquisition_settings())
+        for repeat in run.trials(bench):
+            bench.drive.set_piezo_voltage(float(voltages_vpp[0]))
+            acquisition.reset_ranges()
+            start_s = bench.now_s()
+            measured = _characterise(s, bench, voltages_vpp, geometry, measure=acquisition)
+            run.add(repeat, bench.now_s() - start_s,
+                    {"q": (measured.q.value, truth.q.value),
+                     "tan_theta": (measured.tan_theta.value, truth.tan_theta.value)})
+
+
+def _characterise(s: StudySettings, bench: SimulatedSession, voltages_vpp, geometry,
+                  measure: Acquisition | None):
+    """Q and tan(theta') from points at resonance (measured, or the closed-form truth
+    at the same voltages when `measure` is None), by the report's own reduction."""
+    rows = []
+    for voltage_vpp in voltages_vpp:
+        bench.drive.set_piezo_voltage(float(voltage_vpp))
+        bench.go_to_resonance()
+        if measure is None:
+            truth = bench.simulated.resonance_truth()
+            rows.append({"piezo_voltage_vpp": truth.output_voltage_pp_v, "amplitude_pp_m": truth.amplitude_pp_m,
+                         "amplitude_pp_m_u": 0.0, "power_w": truth.power_w, "power_w_u": 0.0,
+                         "frequency_hz": truth.frequency_hz})
+        else:
+            rows.append(_reduce(measure.measure()).as_row())   # the columns the report's points carry
+    return characterise_plate(s.sweep_scene, pd.DataFrame(rows), geometry, model.PAPER_CONVENTION)
+
+
+def _heating(run: "TaskRun") -> None:
+    """A series of points on a fresh, cold plate (the resonance is found cold): the
+    repeat is the point's place in the series."""
+    s = run.settings
+    tracking = SearchSettings(1.0, 2.0, tracking_step_hz=s.tracking_step_hz, tolerance_hz=s.tracking_tolerance_hz)
+    with run.bench() as bench:
+        tracker = bench.acquisition(dataclasses.replace(s.base, averages=s.tracking_averages))
+        acquisition = bench.acquisition(run.acquisition_settings())
+        bench.drive.set_piezo_voltage(s.heating_voltage_vpp)
+        bench.go_to_resonance()
+        frequency_hz = bench.drive.frequency_hz
+        acquisition.measure(keep_waveforms=False)
+        for index in run.trials(bench, s.heating_points):
+            start_s = bench.now_s()
+            if run.knobs["tracking"]:
+                tracker.configure()
+                frequency_hz = track_resonance(tracker.measure_at, frequency_hz, tracking).frequency_hz
+                bench.drive.set_frequency(frequency_hz)
+                acquisition.configure()
+            truth = bench.simulated.resonance_truth()
+            point = acquisition.measure()
+            run.add(index, bench.now_s() - start_s, {"power_w": (_reduce(point).power_w.value, truth.power_w)})
+
+
+#: The experiments, in the order they are listed and stored.
+EXPERIMENTS: dict[str, Experiment] = {
+    "averages": Experiment(lambda s: SceneSpec(s.point_scene), lambda s: s.point_state,
+                           lambda s: [{"averages": n} for n in s.averages], _at_the_point),
+    "record": Experiment(lambda s: SceneSpec(s.point_scene), lambda s: s.point_state,
+                         lambda s: [{"record_length": length, "periods_per_record": periods}
+                                    for length in s.record_lengths for periods in s.periods_per_record],
+                         _at_the_point),
+    # A search reads only the velocity's peak-to-peak: the short record does.
+    "search": Experiment(lambda s: SceneSpec(s.point_scene), lambda s: s.point_state,
+                         lambda s: [{"averages": n, "record_length": 500, "search_points": points,
+                                     "search_tolerance_hz": tolerance_hz}
+                                    for n, points, tolerance_hz in itertools.product(
+                                        s.search_averages, s.search_points, s.search_tolerances_hz)],
+                         _search),
+    "settle": Experiment(lambda s: SceneSpec(s.point_scene, ("settling_transient",),
+                                             q_mech=(s.point_state, s.settle_q_mech)),
+                         lambda s: s.point_state, lambda s: [{"settle_s": t} for t in s.settle_s], _settle),
+    "sweep": Experiment(lambda s: SceneSpec(s.sweep_scene), lambda s: None,
+                        lambda s: [{"n_voltages": n, "averages": a}
+                                   for n in s.sweep_voltage_counts for a in s.sweep_averages], _sweep),
+    "heating": Experiment(lambda s: SceneSpec(s.heating_scene, ("heating_drift",)), lambda s: s.heating_state,
+                          lambda s: [{"tracking": track, "averages": n}
+                                     for track in (False, True) for n in s.heating_averages], _heating),
+}
+
+
+# -- tasks: one configuration of one experiment ---------------------------------------------------
+@dataclasses.dataclass(frozen=True)
+class Task:
+    """Everything one configuration's trials need, picklable for a worker: the scene as
+    text (a worker needs no shared file system), the knobs, and the seeds."""
+
+    settings: StudySettings
+    experiment: str
+    knobs: tuple[tuple[str, Any], ...]
+    scene_file: str
+    scene_text: str
+    state: str | None
+
+    @property
+    def key(self) -> str:
+        return json.dumps(dict(self.knobs), sort_keys=True)
+
+    @property
+    def file_name(self) -> str:
+        """The task's own trial file under study/trials/<experiment>/."""
+        return "_".join(f"{knob}={value}" for knob, value in self.knobs) + ".parquet"
+
+    def seed(self, trial: int | str) -> int:
+        """The noise of one trial (or of the configuration's setup): from what defines it,
+        never from what ran before, so any order, partition or worker count draws the same."""
+        entropy = [self.settings.seed, *(zlib.crc32(str(part).encode()) for part in (self.experiment, self.key, trial))]
+        return int(np.random.SeedSequence(entropy).generate_state(1)[0])
+
+
+class TaskRun:
+    """One task's bench, trials and rows (one row per trial and quantity)."""
+
+    def __init__(self, task: Task, scene: Path) -> None:
+        self.task = task
+        self.settings = task.settings
+        self.scene = scene
+        self.knobs = {**_settings_values(self.settings.base), "search_points": 0, "search_tolerance_hz": 0.0,
+                      "n_voltages": 1, "tracking": False, **dict(task.knobs)}
+        self.rows: list[dict] = []
+
+    def acquisition_settings(self) -> AcquisitionSettings:
+        return dataclasses.replace(self.settings.base, **{k: v for k, v in self.knobs.items()
+                                                          if k in _settings_values(self.settings.base)})
+
+    @contextlib.contextmanager
+    def bench(self) -> Iterator[SimulatedSession]:
+        """A fresh simulated bench of the task's scene, its noise seeded by the task."""
+        with open_simulated(self.scene, self.task.state, self.settings.base.settle_s) as session:
+            session.simulated.reseed(self.task.seed("setup"))
+            yield session
+
+    def trials(self, session: SimulatedSession, count: int | None = None) -> Iterator[int]:
+        """Trial indices; each trial's noise restarts from its own seed."""
+        for repeat in range(self.settings.repeats if count is None else count):
+            session.simulated.reseed(self.task.seed(repeat))
+            yield repeat
+
+    def add(self, repeat: int, bench_time_s: float, values: dict[str, tuple[float, float]]) -> None:
+        """`values` maps a quantity name (with its unit) to (measured, true)."""
+        for quantity, (measured, true) in values.items():
+            self.rows.append({"experiment": self.task.experiment, "scene": self.task.scene_file,
+                              "state": self.task.state or "", **self.knobs, "repeat": repeat,
+                              "bench_time_s": bench_time_s, "quantity": quantity, "measured_value": measured,
+                              "true_value": true, "rel_error": measured / true - 1.0})
+
+
+def run_task(task: Task) -> pd.DataFrame:
+    """The trials of one task (in a worker: the scene goes to a private temporary file)."""
+    with tempfile.TemporaryDirectory(prefix="squeezebench-study-") as tmp:
+        scene = Path(tmp) / task.scene_file
+        scene.write_text(task.scene_text, encoding="utf-8")
+        run = TaskRun(task, scene)
+        EXPERIMENTS[task.experiment].run(run)
+        return pd.DataFrame(run.rows)
+
+
+# -- running ----------------------------------------------------------------------------------------
+class AccuracyStudy:
+    """Runs the experiments of one study into a run directory's study/ folder.
+
+    Each task (one configuration of one experiment) writes its own file,
+    study/trials/<experiment>/<knobs>.parquet, atomically when it completes; an
+    experiment's file study/<experiment>.parquet is assembled from its tasks' files in
+    configuration order once they are all stored. A resumed study runs only the missing tasks.
+    """
+
+    EXPERIMENTS = tuple(EXPERIMENTS)
+
+    def __init__(self, settings: StudySettings, scenes_dir: Path, out_dir: Path,
+                 progress: Callable[[str], None] = lambda message: None,
+                 workers: int = 1, scheduler: Any = None) -> None:
+        self.settings = settings
+        self.scenes_dir = Path(scenes_dir)
+        self.out_dir = Path(out_dir) / STUDY_DIR
+        self.trials_dir = self.out_dir / "trials"
+        self.progress = progress
+        self.workers = workers
+        self.scheduler = scheduler
+
+    def tasks(self, experiments: tuple[str, ...]) -> list[Task]:
         s = self.settings
-        scene = self._scene(s.sweep_scene)
-        trials = self._trials("sweep", scene, None)
-        with open_simulated(scene, None, s.base.settle_s) as bench:
-            state = bench.simulated.state
-            geometry = bench.simulated.scene.geometry(state)
-            for n_voltages in s.sweep_voltage_counts:
-                voltages_vpp = np.linspace(*s.sweep_voltage_range_vpp, n_voltages)
-                truth = self._characterise(bench, voltages_vpp, geometry, measure=None)
-                for n_averages in s.sweep_averages:
-                    acquisition = bench.acquisition(dataclasses.replace(s.base, averages=n_averages))
-                    for repeat in range(s.repeats):
-                        bench.simulated.reseed(s.seed + repeat)
-                        bench.drive.set_piezo_voltage(float(voltages_vpp[0]))
-                        acquisition.reset_ranges()
-                        start_s = bench.now_s()
-                        measured = self._characterise(bench, voltages_vpp, geometry, measure=acquisition)
-                        knobs = {"averages": n_averages, "n_voltages": n_voltages}
-                        trials.add({**self.defaults, **knobs}, repeat, bench.now_s() - start_s,
-                                   {"q": (measured.q.value, truth.q.value),
-                                    "tan_theta": (measured.tan_theta.value, truth.tan_theta.value)})
-        return trials
-
-    def _characterise(self, bench: SimulatedSession, voltages_vpp, geometry, measure: Acquisition | None):
-        """Q and tan(theta') from points at resonance (measured, or the closed-form truth
-        at the same voltages when `measure` is None), by the report's own reduction."""
-        rows = []
-        for voltage_vpp in voltages_vpp:
-            bench.drive.set_piezo_voltage(float(voltage_vpp))
-            bench.go_to_resonance()
-            if measure is None:
-                truth = bench.simulated.resonance_truth()
-                rows.append({"piezo_voltage_vpp": truth.output_voltage_pp_v, "amplitude_pp_m": truth.amplitude_pp_m,
-                             "amplitude_pp_m_u": 0.0, "power_w": truth.power_w, "power_w_u": 0.0,
-                             "frequency_hz": truth.frequency_hz})
-            else:
-                rows.append(_reduce(measure.measure()).as_row())   # the columns the report's points carry
-        return characterise_plate(self.settings.sweep_scene, pd.DataFrame(rows), geometry, model.PAPER_CONVENTION)
-
-    def heating(self) -> Trials:
-        s = self.settings
-        scene = self._scene(s.heating_scene, ("heating_drift",))
-        trials = self._trials("heating", scene, s.heating_state)
-        tracking = SearchSettings(1.0, 2.0, tracking_step_hz=s.tracking_step_hz,
-                                  tolerance_hz=s.tracking_tolerance_hz)
-        for track in (False, True):
-            for n_averages in s.heating_averages:
-                # A fresh, cold plate per configuration: the resonance is found cold.
-                with open_simulated(scene, s.heating_state, s.base.settle_s) as bench:
-                    tracker = bench.acquisition(dataclasses.replace(s.base, averages=s.tracking_averages))
-                    acquisition = bench.acquisition(dataclasses.replace(s.base, averages=n_averages))
-                    bench.drive.set_piezo_voltage(s.heating_voltage_vpp)
-                    bench.go_to_resonance()
-                    frequency_hz = bench.drive.frequency_hz
-                    acquisition.measure(keep_waveforms=False)
-                    for index in range(s.heating_points):
-                        start_s = bench.now_s()
-                        if track:
-                            tracker.configure()
-                            frequency_hz = track_resonance(tracker.measure_at, frequency_hz,
-                                                           tracking).frequency_hz
-                            bench.drive.set_frequency(frequency_hz)
-                            acquisition.configure()
-                        truth = bench.simulated.resonance_truth()
-                        point = acquisition.measure()
-                        knobs = {"averages": n_averages, "tracking": track}
-                        trials.add({**self.defaults, **knobs}, index, bench.now_s() - start_s,
-                                   {"power_w": (_reduce(point).power_w.value, truth.power_w)})
-        return trials
-
-    # -- running ----------------------------------------------------------------------------------
-    EXPERIMENTS = ("averages", "record", "search", "settle", "sweep", "heating")
+        tasks = []
+        for name in experiments:
+            experiment = EXPERIMENTS[name]
+            scene = experiment.scene(s)
+            text = scene.render(self.scenes_dir, s.seed)
+            tasks += [Task(s, name, tuple(knobs.items()), scene.file_name, text, experiment.state(s))
+                      for knobs in experiment.configurations(s)]
+        return tasks
 
     def run(self, experiments: tuple[str, ...] = EXPERIMENTS, resume: bool = False) -> Path:
-        """Run the experiments; with `resume`, keep those already stored under the same settings."""
-        unknown = set(experiments) - set(self.EXPERIMENTS)
+        """Run the experiments; with `resume`, keep what is already stored under the same settings."""
+        unknown = set(experiments) - set(EXPERIMENTS)
         if unknown:
-            raise ValueError(f"unknown experiments {sorted(unknown)}; allowed: {', '.join(self.EXPERIMENTS)}")
+            raise ValueError(f"unknown experiments {sorted(unknown)}; allowed: {', '.join(EXPERIMENTS)}")
         self.out_dir.mkdir(parents=True, exist_ok=True)
         manifest_path = self.out_dir / "manifest.json"
         manifest = {"software_version": squeezebench.__version__,
                     "settings": json.loads(json.dumps(dataclasses.asdict(self.settings), default=str))}
         stored = json.loads(manifest_path.read_text(encoding="utf-8")) if manifest_path.exists() else None
         keep = resume and stored is not None and stored.get("settings") == manifest["settings"]
-        if not keep:
-            for old in self.out_dir.glob("*.parquet"):   # trials of other settings would mix in
+        if not keep:   # trials of other settings would mix in
+            for old in self.out_dir.glob("*.parquet"):
                 old.unlink()
-        manifest_path.write_text(json.dumps(manifest, indent=2), encoding="utf-8")
+            shutil.rmtree(self.trials_dir, ignore_errors=True)
+        _write_file_atomically(lambda path: path.write_text(json.dumps(manifest, indent=2), encoding="utf-8"),
+                               manifest_path)
+        tasks = self.tasks(experiments)
+        for task in {task.scene_file: task for task in tasks}.values():   # the scenes as run
+            _write_file_atomically(lambda path: path.write_text(task.scene_text, encoding="utf-8"),
+                                   self.out_dir / "inputs" / task.scene_file)
+        stored_experiments = {name for name in experiments if (self.out_dir / f"{name}.parquet").exists()}
+        for name in sorted(stored_experiments, key=experiments.index):
+            self.progress(f"accuracy study: {name} already stored")
+        pending = [task for task in tasks if task.experiment not in stored_experiments
+                   and not self._task_path(task).exists()]
+        if pending:
+            where = f"the Dask cluster at {self.scheduler}" if self.scheduler is not None else \
+                f"{self.workers} worker{'s' if self.workers > 1 else ''}"
+            self.progress(f"accuracy study: {len(pending)} tasks of {len(tasks)} on {where}")
+        for task, frame in map_unordered(run_task, pending, self.workers, self.scheduler, "accuracy study"):
+            _write_atomically(frame, self._task_path(task))
         for name in experiments:
-            path = self.out_dir / f"{name}.parquet"
-            if keep and path.exists():
-                self.progress(f"accuracy study: {name} already stored")
-                continue
-            self.progress(f"accuracy study: {name}")
-            _write_atomically(getattr(self, name)().frame(), path)
+            if name not in stored_experiments:
+                self._assemble(name, [task for task in tasks if task.experiment == name])
         return self.out_dir
+
+    def _task_path(self, task: Task) -> Path:
+        return self.trials_dir / task.experiment / task.file_name
+
+    def _assemble(self, name: str, tasks: list[Task]) -> None:
+        """The experiment's file from its tasks' files, in configuration order."""
+        frame = pd.concat([pd.read_parquet(self._task_path(task)) for task in tasks], ignore_index=True)
+        _write_atomically(frame, self.out_dir / f"{name}.parquet")
+        shutil.rmtree(self.trials_dir / name)
+        self.progress(f"accuracy study: {name} stored")
 
 
 def _write_atomically(frame: pd.DataFrame, path: Path) -> None:
-    temporary = path.with_name(f".{path.name}.tmp")
-    frame.to_parquet(temporary, index=False)
+    """A table to `path`, atomically."""
+    _write_file_atomically(lambda temporary: frame.to_parquet(temporary, index=False), path)
+
+
+def _write_file_atomically(write: Callable[[Path], None], path: Path) -> None:
+    """`write` to a temporary name beside `path`, then rename: readers see all or nothing."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    temporary = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    write(temporary)
     os.replace(temporary, path)
 
 
 def run_study(out_dir: Path, settings: StudySettings = StudySettings(),
               experiments: tuple[str, ...] = AccuracyStudy.EXPERIMENTS, resume: bool = False,
-              progress: Callable[[str], None] = print) -> Path:
-    """The study on the shipped scenes into OUT_DIR/study/."""
-    return AccuracyStudy(settings, paths.scenes_dir(), out_dir, progress).run(experiments, resume)
+              progress: Callable[[str], None] = print, workers: int = 1, scheduler: Any = None) -> Path:
+    """The study on the shipped scenes into OUT_DIR/study/, on `workers` local processes
+    or the Dask cluster at `scheduler` (the trials are the same either way)."""
+    return AccuracyStudy(settings, paths.scenes_dir(), out_dir, progress, workers, scheduler).run(experiments, resume)

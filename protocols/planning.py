@@ -5,8 +5,9 @@ bench at its resonance and the run's (smallest) voltage, the relative error of t
 power reduced from the stored waveforms (analysis.waveforms.integer_period_mean_power_w,
 as the analysis does) against the scene's closed-form truth (`truth().power_w`) is
 measured for each setting: record length 500 or 10000 points x averaging 1 (sample
-mode), 2, 4, ..., 512, over several acquisitions (their random streams are seeded by the
-scene, so the plan is reproducible); the 95th percentile of |error| is compared with the
+mode), 2, 4, ..., 512, over several acquisitions (each acquisition's noise is seeded by
+the scene's seed and what defines it, so the plan is reproducible and the same on any
+number of workers, `protocols.parallel`); the 95th percentile of |error| is compared with the
 target. A run gets the setting meeting the target on all its plates at the least bench
 time per point (the baseline's when none does: every step of a run shares its
 acquisition settings). The campaign is then run twice on the simulated bench into
@@ -19,13 +20,14 @@ Only simulated benches (`bench: {scene: ...}`) can be planned: the truth is need
 
 from __future__ import annotations
 
+import copy
 import dataclasses
+import functools
 import math
-import multiprocessing
 import tempfile
-from concurrent.futures import ProcessPoolExecutor
+import zlib
 from pathlib import Path
-from typing import Any
+from typing import Any, Callable
 
 import numpy as np
 import pandas as pd
@@ -36,8 +38,10 @@ from squeezebench.protocols.accuracy_plan import CALIBRATION_FREQUENCY_HZ, Accur
 from squeezebench.protocols.accuracy_study import open_simulated
 from squeezebench.protocols.bench_errors import (
     bench_time_by_run_s, errors_on_benches, p95_by_run, with_calibration)
+from squeezebench.protocols.acquisition import AcquisitionSettings
 from squeezebench.protocols.campaign import Run, load_campaign, run_campaign
-from squeezebench.protocols.storage import RunStore
+from squeezebench.protocols.parallel import map_unordered
+from squeezebench.protocols.safety import SafetyLimits
 from squeezebench.errors import UserError
 
 AVERAGES = tuple(2 ** k for k in range(10))   # 1 (sample mode), 2..512: what the TDS3000 offers
@@ -115,28 +119,37 @@ def _run_voltage_vpp(run: Run, plate: Any) -> float:
     return float(min(voltages)) if voltages else DEFAULT_VOLTAGE_VPP
 
 
-def study_plate(run: Run, scene: Path, state: str | None, plate: Any, repeats: int = REPEATS) -> PlateStudy:
-    """Error and bench cost of each setting on one plate, at resonance."""
-    voltage_vpp = _run_voltage_vpp(run, plate)
-    with open_simulated(scene, state, run.acquisition.settle_s, run.safety) as session:
-        bench, drive = session.bench, session.drive
-        drive.set_piezo_voltage(voltage_vpp)
+def _trial_seed(scene_seed: int, state: str | None, voltage_vpp: float, setting: Setting, trial: int | str) -> int:
+    """The noise of one acquisition of the plan: from what defines it, never from what ran
+    before, so any order, partition or number of workers draws the same."""
+    parts = (state, f"{voltage_vpp:.9g}", setting.record_length, setting.averages, trial)
+    entropy = [scene_seed, *(zlib.crc32(str(part).encode()) for part in parts)]
+    return int(np.random.SeedSequence(entropy).generate_state(1)[0])
+
+
+def measure_setting(scene: Path, state: str | None, voltage_vpp: float, acquisition: AcquisitionSettings,
+                    limits: SafetyLimits, setting: Setting, repeats: int = REPEATS) -> tuple[SettingResult, float]:
+    """Error and bench cost of one setting on one plate at resonance (a fresh bench),
+    and the resonance frequency driven."""
+    with open_simulated(scene, state, acquisition.settle_s, limits) as session:
+        simulated, clock = session.simulated, session.bench.clock
+        scene_seed = simulated.scene.seed
+        simulated.reseed(_trial_seed(scene_seed, state, voltage_vpp, setting, "setup"))
+        session.drive.set_piezo_voltage(voltage_vpp)
         session.go_to_resonance()   # the closed-form resonance, not a measured search
-        truth_power_w = session.simulated.truth().power_w
-        results = []
-        for setting in (Setting(r, n) for r in RECORD_LENGTHS for n in AVERAGES):
-            acquisition = session.acquisition(dataclasses.replace(
-                run.acquisition, record_length=setting.record_length, averages=setting.averages))
-            acquisition.measure(keep_waveforms=False)   # ranges the channels once
-            errors, costs_s = [], []
-            for _ in range(repeats):
-                start_s = bench.clock.now_s()
-                point = acquisition.measure(keep_waveforms=True)
-                costs_s.append(bench.clock.now_s() - start_s)
-                errors.append(abs(_waveform_power_w(point) / truth_power_w - 1.0))
-            results.append(SettingResult(setting, float(np.percentile(errors, ERROR_PERCENTILE)),
-                                         float(np.mean(costs_s))))
-    return PlateStudy(scene, state, voltage_vpp, drive.frequency_hz, results)
+        truth_power_w = simulated.truth().power_w
+        ranged = session.acquisition(dataclasses.replace(
+            acquisition, record_length=setting.record_length, averages=setting.averages))
+        ranged.measure(keep_waveforms=False)   # ranges the channels once
+        errors, costs_s = [], []
+        for repeat in range(repeats):
+            simulated.reseed(_trial_seed(scene_seed, state, voltage_vpp, setting, repeat))
+            start_s = clock.now_s()
+            point = copy.copy(ranged).measure(keep_waveforms=True)   # each from the ranged state
+            costs_s.append(clock.now_s() - start_s)
+            errors.append(abs(_waveform_power_w(point) / truth_power_w - 1.0))
+        result = SettingResult(setting, float(np.percentile(errors, ERROR_PERCENTILE)), float(np.mean(costs_s)))
+        return result, session.drive.frequency_hz
 
 
 def _campaign_with_acquisition(campaign_path: Path, acquisition_by_run: dict[str, dict], out: Path) -> Path:
@@ -246,33 +259,76 @@ class Plan:
                     "p95_abs_rel_error": self.check.to_dict(orient="records")}}
 
 
+SETTINGS = tuple(Setting(r, n) for r in RECORD_LENGTHS for n in AVERAGES)
+
+
+def _call(job: Callable[[], Any]) -> Any:
+    return job()
+
+
 def make_plan(campaign_path: Path, target_rel_error: float, repeats: int = REPEATS,
-              check_benches: int = CHECK_BENCHES) -> Plan:
-    """The plan; `check_benches` simulated benches with drawn errors then run it and
-    report its p95 error (0: no check; none when the target is below the floor)."""
+              workers: int = 1, scheduler: Any = None, check_benches: int = CHECK_BENCHES) -> Plan:
+    """Measure every setting on every plate, pick each run's, and time the campaign with
+    the plan and with the baseline, on `workers` local processes or the Dask cluster at
+    `scheduler` (the plan is the same either way). The floors the instruments' specified
+    errors leave decide what the noise may take and whether to calibrate; the plan is then
+    checked on `check_benches` simulated benches with drawn errors (0: no check; none when
+    the target is below the floor)."""
     if not target_rel_error > 0:
         raise UserError(f"target relative error must be positive, got {target_rel_error!r}")
-    campaign = load_campaign(Path(campaign_path))
+    campaign_path = Path(campaign_path)
+    campaign = load_campaign(campaign_path)
     if any(run.bench.scene is None for run in campaign.runs):
         raise UserError("only simulated benches (bench: {scene: ...}) can be planned")
-    # The 512-average baseline does not depend on the study and is the slowest part in
-    # wall time (the simulator computes every averaged acquisition): run it in another
-    # process meanwhile. Both runs are seeded by the scenes, so the result is the same.
-    with ProcessPoolExecutor(max_workers=1, mp_context=multiprocessing.get_context("spawn")) as pool:
-        baseline_future = pool.submit(simulate_bench_time_s, Path(campaign_path),
-                                      {run.name: {"averages": BASELINE_AVERAGES} for run in campaign.runs})
-        floors = accuracy_floors(Path(campaign_path), target_rel_error)
-        plan = _study_and_plan(campaign, Path(campaign_path), target_rel_error, repeats, floors)
-        plan.baseline_s = baseline_future.result()
+    plates = {}   # one study per plate, voltage and acquisition, shared by the runs measuring it
+    plates_by_run: dict[str, list[tuple]] = {}
+    for run in campaign.runs:
+        keys = [(scene, state, _run_voltage_vpp(run, plate), run.acquisition, run.safety)
+                for scene, state, plate in _run_plates(run)]
+        plates.update(dict.fromkeys(keys))
+        plates_by_run[run.name] = keys
+    # The 512-average baseline does not depend on the study: it runs beside the settings.
+    baseline = functools.partial(simulate_bench_time_s, campaign_path,
+                                 {run.name: {"averages": BASELINE_AVERAGES} for run in campaign.runs})
+    jobs = {functools.partial(measure_setting, *key, setting, repeats): (key, setting)
+            for key in plates for setting in SETTINGS}
+    done = dict(map_unordered(_call, [baseline, *jobs], workers, scheduler, "plan"))
+    results = {jobs[job]: result for job, result in done.items() if job in jobs}
+    studies = {key: PlateStudy(key[0], key[1], key[2], results[key, SETTINGS[0]][1],
+                               [results[key, setting][0] for setting in SETTINGS]) for key in plates}
+    studies_by_run = {run.name: [studies[key] for key in plates_by_run[run.name]] for run in campaign.runs}
+    floors = accuracy_floors(campaign_path, target_rel_error)
+    plan = _choose(campaign, campaign_path, target_rel_error, repeats, studies_by_run, floors, done[baseline])
     if check_benches and not floors.below_floor():
-        plan.check, plan.check_benches = check_plan(Path(campaign_path), plan, check_benches), check_benches
+        plan.check, plan.check_benches = check_plan(campaign_path, plan, check_benches), check_benches
         if not plan.meets_check and not floors.calibrate:
             # the floors are normal approximations: a bench in their tail may miss; calibrate and check again
             floors.calibration_forced_by = f"the check on {check_benches} benches without it"
-            plan = _study_and_plan(campaign, Path(campaign_path), target_rel_error, repeats, floors,
-                                   baseline_s=plan.baseline_s)
-            plan.check, plan.check_benches = check_plan(Path(campaign_path), plan, check_benches), check_benches
+            plan = _choose(campaign, campaign_path, target_rel_error, repeats, studies_by_run, floors, done[baseline])
+            plan.check, plan.check_benches = check_plan(campaign_path, plan, check_benches), check_benches
     return plan
+
+
+def _choose(campaign, campaign_path: Path, target_rel_error: float, repeats: int,
+            studies_by_run: dict[str, list[PlateStudy]], floors: AccuracyFloors, baseline_s: dict[str, float]) -> Plan:
+    """Per run the cheapest setting whose noise fits in what the floor leaves of the
+    target (errors add in quadrature); where the floor is above the target, the cheapest
+    whose noise stays a third of the floor (it then adds under 6 %)."""
+    unreachable = {f.run_name for f in floors.below_floor()}
+    settings_by_run, error_by_run = {}, {}
+    for run in campaign.runs:
+        run_studies = studies_by_run[run.name]
+        noise_target = (floors.floor(run.name, calibrated=True) / 3.0 if run.name in unreachable
+                        else floors.noise_allowance(run.name))
+        setting = cheapest_setting(run_studies, noise_target,
+                                   fallback=Setting(run.acquisition.record_length, BASELINE_AVERAGES))
+        settings_by_run[run.name] = setting
+        error_by_run[run.name] = max(s.result(setting).p95_rel_error for s in run_studies)
+    planned_s = simulate_bench_time_s(campaign_path, {name: dataclasses.asdict(setting)
+                                                      for name, setting in settings_by_run.items()},
+                                      calibrate=floors.calibrate)
+    return Plan(target_rel_error, studies_by_run, settings_by_run, error_by_run, planned_s, baseline_s,
+                repeats=repeats, floors=floors, own_s=floors.own_bench_time_s)
 
 
 def check_plan(campaign_path: Path, plan: Plan, benches: int) -> pd.DataFrame:
@@ -287,41 +343,11 @@ def _settings(plan: Plan) -> dict[str, dict]:
     return {name: dataclasses.asdict(setting) for name, setting in plan.settings_by_run.items()}
 
 
-def _study_and_plan(campaign, campaign_path: Path, target_rel_error: float, repeats: int,
-                    floors: AccuracyFloors, baseline_s: dict[str, float] | None = None) -> Plan:
-    """Per run the cheapest setting whose noise fits in what the floor leaves of the
-    target (errors add in quadrature); where the floor is above the target, the cheapest
-    whose noise stays a third of the floor (it then adds under 6 %)."""
-    unreachable = {f.run_name for f in floors.below_floor()}
-    cache: dict[tuple, PlateStudy] = {}
-    studies: dict[str, list[PlateStudy]] = {}
-    settings_by_run: dict[str, Setting] = {}
-    error_by_run: dict[str, float] = {}
-    for run in campaign.runs:
-        run_studies = []
-        for scene, state, plate in _run_plates(run):
-            key = (scene, state, _run_voltage_vpp(run, plate), run.acquisition, run.safety)
-            if key not in cache:
-                cache[key] = study_plate(run, scene, state, plate, repeats=repeats)
-            run_studies.append(cache[key])
-        noise_target = (floors.floor(run.name, calibrated=True) / 3.0 if run.name in unreachable
-                        else floors.noise_allowance(run.name))
-        setting = cheapest_setting(run_studies, noise_target,
-                                   fallback=Setting(run.acquisition.record_length, BASELINE_AVERAGES))
-        studies[run.name] = run_studies
-        settings_by_run[run.name] = setting
-        error_by_run[run.name] = max(s.result(setting).p95_rel_error for s in run_studies)
-    planned_s = simulate_bench_time_s(campaign_path, {name: dataclasses.asdict(setting)
-                                                      for name, setting in settings_by_run.items()},
-                                      calibrate=floors.calibrate)
-    return Plan(target_rel_error, studies, settings_by_run, error_by_run, planned_s, baseline_s=baseline_s or {},
-                repeats=repeats, floors=floors, own_s=floors.own_bench_time_s)
-
-
-def plan_campaign(campaign_path: Path, target_rel_error: float = 0.01, write: Path | None = None) -> str:
+def plan_campaign(campaign_path: Path, target_rel_error: float = 0.01, write: Path | None = None,
+                  workers: int = 1, scheduler: Any = None) -> str:
     """The `squeezebench plan` table: per run the setting, error and bench times; with
     `write`, also the campaign file with the planned settings, ready to run."""
-    plan = make_plan(Path(campaign_path), target_rel_error)
+    plan = make_plan(Path(campaign_path), target_rel_error, workers=workers, scheduler=scheduler)
     table = plan.table()
     if write is not None:
         write_planned_campaign(Path(campaign_path), plan, Path(write))

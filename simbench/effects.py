@@ -324,11 +324,11 @@ class Averaging(Effect):
     """ACQ:MOD AVE averages N acquisitions: random noise falls as 1/sqrt(N) and noise
     dithers the quantisation. Off, an averaged acquisition is one sample-mode record.
 
-    Drawing N records of 10k points is costly, so when the noise is at least
-    `dither_threshold_lsb` sample steps, quantisation errors are independent and nearly
-    uniform (bias below exp(-2 pi^2) of a step) and the average is drawn directly as
-    signal + N(0, (sigma^2 + lsb^2/12) / N); below it, quantisation is deterministic
-    (averaging cannot remove it) and the N records are simulated.
+    The average is drawn without drawing its N records where the statistics allow
+    (`simbench.traces.average_of_records` states when): at or above
+    `dither_threshold_lsb` sample steps of noise, quantisation errors are independent and
+    nearly uniform (bias below exp(-2 pi^2) of a step), so one record has the signal's
+    mean and variance sigma^2 + lsb^2/12.
     """
 
     name = "averaging"
@@ -570,7 +570,7 @@ class InstrumentErrorEntry(BusFault):
     needs_reply = False
 
     def act(self, instrument) -> None:
-        instrument.device.error_response("command_error")
+        instrument.inject_error()
 
 
 class Disconnect(BusFault):
@@ -610,50 +610,6 @@ class DigitizerSettings:
     average_lsb_div: float | None = None
     averaging: bool = False
     dither_threshold_lsb: float = 1.0
-
-
-def digitize(screen_div: np.ndarray, noise_div_rms: np.ndarray, averages: int,
-             settings: DigitizerSettings, rng: np.random.Generator | None) -> np.ndarray:
-    """Screen positions (divisions) of the record the scope keeps, per channel."""
-    out = np.empty_like(screen_div)
-    n = screen_div.shape[1]
-    averaged = settings.averaging and averages > 1
-    for ch, (signal, sigma) in enumerate(zip(screen_div, noise_div_rms)):
-        lsb = settings.sample_lsb_div
-        if not averaged:
-            noisy = signal + sigma * rng.standard_normal(n) if sigma > 0 else signal
-            out[ch] = _quantise(_clip(noisy), lsb)
-        elif lsb is None:
-            out[ch] = _clip(signal) + (sigma / math.sqrt(averages)) * rng.standard_normal(n) \
-                if sigma > 0 else _clip(signal)
-        elif sigma >= settings.dither_threshold_lsb * lsb:
-            spread = math.sqrt((sigma**2 + lsb**2 / 12.0) / averages)
-            out[ch] = _quantise(_clip(signal) + spread * rng.standard_normal(n), settings.average_lsb_div)
-        else:
-            out[ch] = _quantise(_mean_of_records(signal, sigma, averages, lsb, rng), settings.average_lsb_div)
-    return _clip(out)
-
-
-def _mean_of_records(signal: np.ndarray, sigma: float, averages: int, lsb: float,
-                     rng: np.random.Generator | None) -> np.ndarray:
-    """Average of `averages` quantised records, drawn in blocks to bound memory."""
-    if sigma == 0:  # every record is the same
-        return _quantise(_clip(signal), lsb)
-    total = np.zeros_like(signal)
-    block = max(1, 2_000_000 // signal.size)
-    for first in range(0, averages, block):
-        count = min(block, averages - first)
-        records = signal[None, :] + sigma * rng.standard_normal((count, signal.size))
-        total += _quantise(_clip(records), lsb).sum(axis=0)
-    return total / averages
-
-
-def _clip(divisions: np.ndarray) -> np.ndarray:
-    return np.clip(divisions, ADC_MIN_DIV, ADC_MAX_DIV)
-
-
-def _quantise(divisions: np.ndarray, lsb_div: float | None) -> np.ndarray:
-    return divisions if lsb_div is None else np.round(divisions / lsb_div) * lsb_div
 
 
 # -- the pipeline -----------------------------------------------------------------------

@@ -56,9 +56,10 @@ class SimulatedBench:
             effect.settle(self.steady_state())
 
     def reseed(self, seed: int) -> None:
-        """Another noise realisation of the same bench (the accuracy study's repeats: the
-        streams restart at every generator command, so re-driving alone repeats them)."""
+        """Another noise realisation of the same bench, its streams restarting here (the
+        accuracy study's trials: each draws from its own seed, whatever ran before)."""
         self._scene = replace(self._scene, seed=int(seed))
+        self.acquisitions_since_generator_write = 0
 
     def mount(self, scene_path: str | Path) -> None:
         """Put another plate on the bench (the instruments keep their settings)."""

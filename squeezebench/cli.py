@@ -69,7 +69,10 @@ def cmd_check(args: argparse.Namespace) -> int:
 
 
 def cmd_run(args: argparse.Namespace) -> int:
-    from squeezebench.protocols.campaign import run_campaign
+    from squeezebench.protocols.campaign import load_campaign, run_campaign
+    from squeezebench.simulated_plates import check_powered_piezos
+
+    check_powered_piezos(load_campaign(paths.campaign_file(args.campaign)))
 
     watchers = {}
     if args.plot:
@@ -92,7 +95,7 @@ def cmd_run(args: argparse.Namespace) -> int:
 
 
 def cmd_report(args: argparse.Namespace) -> int:
-    import squeezebench.scenes_section  # noqa: F401  (adds the simulated plates' section)
+    import squeezebench.simulated_plates  # noqa: F401  (adds the simulated plates' section)
     from squeezebench.analysis.report import write_report
     from squeezebench.protocols.storage import RunStore
 
@@ -109,7 +112,7 @@ def cmd_report(args: argparse.Namespace) -> int:
 
 
 def cmd_reproduce(args: argparse.Namespace) -> int:
-    import squeezebench.scenes_section  # noqa: F401  (adds the simulated plates' section)
+    import squeezebench.simulated_plates  # noqa: F401  (adds the simulated plates' section)
     from squeezebench.analysis.report import write_report
     from squeezebench.protocols.accuracy_study import run_study
     from squeezebench.protocols.campaign import run_campaign
@@ -119,7 +122,8 @@ def cmd_reproduce(args: argparse.Namespace) -> int:
     run_dir = run_campaign(paths.paper_campaign(), resume=args.resume, out_dir=args.out,
                            progress=show_progress(args))
     if not args.no_study:
-        run_study(run_dir, resume=args.resume, progress=lambda message: say(args, message))
+        run_study(run_dir, resume=args.resume, progress=lambda message: say(args, message),
+                  workers=args.workers, scheduler=args.scheduler)
     index = write_report(run_dir)
     say(args, f"run stored in {run_dir}\nreport written to {index}")
     return 0
@@ -160,7 +164,8 @@ def cmd_study(args: argparse.Namespace) -> int:
         raise UserError(f"--repeats: {exc}") from None
     experiments = tuple(args.experiment) if args.experiment else STUDY_EXPERIMENTS
     study_dir = run_study(args.out, settings, experiments, resume=args.resume,
-                          progress=lambda message: say(args, message))
+                          progress=lambda message: say(args, message),
+                          workers=args.workers, scheduler=args.scheduler)
     say(args, f"study stored in {study_dir}; 'squeezebench report {args.out}' shows it")
     return 0
 
@@ -169,13 +174,28 @@ def cmd_plan(args: argparse.Namespace) -> int:
     from squeezebench.protocols.planning import make_plan, plan_campaign, write_planned_campaign
 
     campaign = paths.campaign_file(args.campaign)
+    parallel = {"workers": args.workers, "scheduler": args.scheduler}
     if not args.json:
-        say(args, plan_campaign(campaign, target_rel_error=args.target_rel_error, write=args.write))
+        say(args, plan_campaign(campaign, target_rel_error=args.target_rel_error, write=args.write, **parallel))
         return 0
-    plan = make_plan(campaign, args.target_rel_error)
+    plan = make_plan(campaign, args.target_rel_error, **parallel)
     written = write_planned_campaign(campaign, plan, args.write) if args.write else None
     emit_json({"command": "plan", "campaign": campaign, **plan.as_dict(), "written": written})
     return 0
+
+
+def _workers(text: str) -> int:
+    count = int(text)
+    if count < 1:
+        raise argparse.ArgumentTypeError(f"must be at least 1, got {count}")
+    return count
+
+
+def _add_parallel_options(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--workers", type=_workers, default=1, metavar="N",
+                        help="run independent trials on N local processes (default 1)")
+    parser.add_argument("--scheduler", default=None, metavar="ADDRESS",
+                        help="run the trials on the Dask cluster at ADDRESS (e.g. tcp://head:8786) instead")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -220,6 +240,7 @@ def build_parser() -> argparse.ArgumentParser:
     reproduce.add_argument("--resume", action="store_true", help="continue an interrupted reproduction")
     reproduce.add_argument("--no-study", action="store_true",
                            help="skip the accuracy-vs-bench-time study (about a minute)")
+    _add_parallel_options(reproduce)
     reproduce.set_defaults(func=cmd_reproduce)
 
     study = add("study", help="accuracy against bench time on the simulated bench")
@@ -229,6 +250,7 @@ def build_parser() -> argparse.ArgumentParser:
     study.add_argument("--experiment", action="append", choices=STUDY_EXPERIMENTS,
                        help="run only this experiment (repeatable; default: all)")
     study.add_argument("--resume", action="store_true", help="keep experiments already stored")
+    _add_parallel_options(study)
     study.set_defaults(func=cmd_study)
 
     plan = add("plan", json=True, help="cheapest acquisition settings meeting an accuracy target")
@@ -236,6 +258,7 @@ def build_parser() -> argparse.ArgumentParser:
     plan.add_argument("--target-rel-error", type=float, default=0.01, help="relative error goal (default 0.01)")
     plan.add_argument("--write", type=Path, default=None, metavar="FILE",
                       help="also write the campaign with the planned settings to FILE")
+    _add_parallel_options(plan)
     plan.set_defaults(func=cmd_plan)
     return parser
 

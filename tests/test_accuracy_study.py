@@ -11,12 +11,14 @@ from hypothesis import strategies as st
 
 from squeezebench.analysis import study
 from squeezebench.analysis.report import write_report
+from squeezebench import paths
+from squeezebench.protocols import accuracy_study
 from squeezebench.protocols.accuracy_study import AccuracyStudy, StudySettings, run_study
 from squeezebench.cli import STUDY_EXPERIMENTS, main
 from test_analysis_synthetic import build_run
 
 SMALL = StudySettings(
-    repeats=2, averages=(1, 512), periods_per_record=(2.0, 20.0), record_lengths=(500,),
+    repeats=4, averages=(1, 512), periods_per_record=(2.0, 20.0), record_lengths=(500,),
     search_points=(11,), search_tolerances_hz=(1.0,), search_averages=(16,), settle_s=(0.0, 0.2),
     sweep_voltage_counts=(3,), sweep_averages=(16,), heating_averages=(2, 512), heating_points=4)
 
@@ -98,7 +100,7 @@ def test_resume_keeps_stored_experiments_and_other_settings_start_over(tmp_path)
     run_study(tmp_path, tiny, experiments=("averages", "record"), resume=True, progress=lambda message: None)
     assert stored.stat().st_mtime_ns == before
     assert (tmp_path / "study" / "record.parquet").is_file()
-    run_study(tmp_path, dataclasses.replace(tiny, repeats=3), experiments=("settle",), resume=True,
+    run_study(tmp_path, dataclasses.replace(tiny, repeats=tiny.repeats + 1), experiments=("settle",), resume=True,
               progress=lambda message: None)
     assert sorted(p.name for p in (tmp_path / "study").glob("*.parquet")) == ["settle.parquet"]
 
@@ -129,3 +131,66 @@ def test_front_holds_exactly_the_undominated_configurations(points):
                              and group.loc[i, "p95_abs_rel_error"] == row["p95_abs_rel_error"]
                              for i in front - {label})
         assert (label in front) == (not dominated and not duplicate_kept)
+
+
+PARALLEL = dataclasses.replace(SMALL, repeats=2, averages=(1, 16), settle_s=(0.0, 0.05))
+PARALLEL_EXPERIMENTS = ("averages", "settle")
+
+
+def stored(out):
+    return {path.name: pd.read_parquet(path) for path in sorted((out / "study").glob("*.parquet"))}
+
+
+@pytest.fixture(scope="module")
+def serial(tmp_path_factory):
+    out = tmp_path_factory.mktemp("serial")
+    run_study(out, PARALLEL, PARALLEL_EXPERIMENTS, progress=lambda message: None)
+    return stored(out)
+
+
+def test_trials_do_not_depend_on_order_or_workers(serial, tmp_path):
+    run_study(tmp_path / "loky", PARALLEL, PARALLEL_EXPERIMENTS, progress=lambda message: None, workers=2)
+    parallel = stored(tmp_path / "loky")
+    assert list(parallel) == ["averages.parquet", "settle.parquet"]
+    for name, frame in serial.items():
+        pd.testing.assert_frame_equal(parallel[name], frame)
+    # One experiment alone, its configurations in reverse: the same trials.
+    study_run = AccuracyStudy(dataclasses.replace(PARALLEL, averages=PARALLEL.averages[::-1]),
+                              paths.scenes_dir(), tmp_path / "reversed")
+    study_run.run(("averages",))
+    reversed_frame = pd.read_parquet(tmp_path / "reversed" / "study" / "averages.parquet")
+    pd.testing.assert_frame_equal(reversed_frame.sort_values(["averages", "repeat", "quantity"], ignore_index=True),
+                                  serial["averages.parquet"].sort_values(["averages", "repeat", "quantity"],
+                                                                          ignore_index=True))
+
+
+def test_trials_on_a_dask_cluster_match_the_serial_run(serial, tmp_path):
+    distributed = pytest.importorskip("distributed")
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=False,
+                                  dashboard_address=None) as cluster:
+        run_study(tmp_path, PARALLEL, PARALLEL_EXPERIMENTS, progress=lambda message: None, scheduler=cluster)
+    for name, frame in stored(tmp_path).items():
+        pd.testing.assert_frame_equal(frame, serial[name])
+
+
+def test_an_interrupted_study_resumes_with_the_tasks_it_lacks(serial, tmp_path, monkeypatch):
+    original = accuracy_study.EXPERIMENTS["settle"]
+
+    def interrupted(run):
+        if run.knobs["settle_s"] == PARALLEL.settle_s[-1]:
+            raise KeyboardInterrupt
+        original.run(run)
+
+    monkeypatch.setitem(accuracy_study.EXPERIMENTS, "settle", dataclasses.replace(original, run=interrupted))
+    with pytest.raises(KeyboardInterrupt):
+        run_study(tmp_path, PARALLEL, PARALLEL_EXPERIMENTS, progress=lambda message: None)
+    task_files = sorted(p.name for p in (tmp_path / "study" / "trials" / "settle").glob("*.parquet"))
+    assert task_files == ["settle_s=0.0.parquet"]   # the finished task kept, nothing half-written
+    monkeypatch.setitem(accuracy_study.EXPERIMENTS, "settle", original)
+    ran = []
+    original_run_task = accuracy_study.run_task
+    monkeypatch.setattr(accuracy_study, "run_task", lambda task: ran.append(task.key) or original_run_task(task))
+    run_study(tmp_path, PARALLEL, PARALLEL_EXPERIMENTS, resume=True, progress=lambda message: None)
+    assert ran == ['{"settle_s": 0.05}']
+    for name, frame in stored(tmp_path).items():
+        pd.testing.assert_frame_equal(frame, serial[name])

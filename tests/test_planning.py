@@ -57,7 +57,7 @@ def test_the_planned_campaign_is_written_with_the_planned_settings(tmp_path, mon
     fake = planning.Plan(TARGET_REL_ERROR, {}, {"detuning": Setting(500, 4), "cutting": Setting(10000, 1)},
                          {"detuning": 0.005, "cutting": 0.004}, {"detuning": 1.0, "cutting": 1.0},
                          {"detuning": 9.0, "cutting": 9.0})
-    monkeypatch.setattr(planning, "make_plan", lambda path, target: fake)
+    monkeypatch.setattr(planning, "make_plan", lambda path, target, **parallel: fake)
     out = tmp_path / "planned.yaml"
     text = planning.plan_campaign(QUICK, TARGET_REL_ERROR, write=out)
     assert f"written to {out}" in text

@@ -1,0 +1,128 @@
+"""Fast on a laptop, spread over a cluster (issue 17): every figure in one run (not a test).
+
+1. `squeezebench reproduce` wall time with 1 and 2 workers (goal on 2 cores: <= 40 s);
+2. the accuracy study's speed-up with 2 workers, from the same two runs (goal >= 1.7x);
+3. a 512-average 10,000-point simulated acquisition and fetch against a single one
+   (goal <= 4x);
+4. the per-point reduction (analysis.waveforms.reduce_point) of 10,000 samples (goal <= 1 ms);
+5. a simulated command (`*IDN?` through the scene backend) against a bare pyvisa-sim
+   query (goal <= 2x);
+6. `squeezebench plan` on the paper campaign, 2 workers (goal <= 20 s).
+
+Wall times of the commands are single runs (they are long); the short operations take
+the best of several. The machine the figures come from may be shared: read them with its load.
+
+Run: python benchmarks/bench_scaling.py [--repeat N] [--skip-reproduce] [--skip-plan]
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+import pyvisa
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(ROOT / "benchmarks"))
+
+from bench_simulator import TERMINATIONS, SCOPE, acquire_and_fetch, best_of, idn_queries, prepared_scope  # noqa: E402
+from squeezebench import cli, paths  # noqa: E402
+from squeezebench.analysis.waveforms import reduce_point  # noqa: E402
+from squeezebench.protocols import accuracy_study  # noqa: E402
+from squeezebench.protocols.planning import make_plan  # noqa: E402
+from squeezebench.simbench.backend import DEFINITIONS  # noqa: E402
+
+FREQUENCY_HZ = 37180.0
+
+
+def reproduce_s(workers: int) -> tuple[float, float]:
+    """Wall seconds of `squeezebench reproduce --workers N` and of its study phase."""
+    study_s = []
+    original = accuracy_study.run_study
+
+    def timed_study(*args, **kwargs):
+        start_s = time.perf_counter()
+        try:
+            return original(*args, **kwargs)
+        finally:
+            study_s.append(time.perf_counter() - start_s)
+
+    accuracy_study.run_study = timed_study   # reproduce imports it when it runs
+    try:
+        with tempfile.TemporaryDirectory(prefix="squeezebench-bench-") as tmp:
+            start_s = time.perf_counter()
+            status = cli.main(["reproduce", "--out", str(Path(tmp) / "paper"), "--workers", str(workers)])
+            total_s = time.perf_counter() - start_s
+    finally:
+        accuracy_study.run_study = original
+    if status != 0:
+        raise SystemExit(f"reproduce --workers {workers} exited with {status}")
+    return total_s, study_s[0]
+
+
+def acquisition_ratio(repeat: int) -> tuple[float, float]:
+    """Acquire + fetch of 3 x 10k points in sample mode and with 512 averages (noise and
+    quantisation on: the default scene)."""
+    _, single = prepared_scope(paths.default_scene())
+    single.write("ACQ:MOD SAM")
+    _, averaged = prepared_scope(paths.default_scene())
+    averaged.write("ACQ:NUMAV 512")
+    return best_of(repeat, acquire_and_fetch, single), best_of(repeat, acquire_and_fetch, averaged)
+
+
+def reduction_s(repeat: int) -> float:
+    """One point's reduction: frequency, three sine fits, power, on a noisy 10k record."""
+    n = 10_000
+    time_s = (np.arange(n) - n / 2) * (20.0 / FREQUENCY_HZ / n)
+    phase = 2 * math.pi * FREQUENCY_HZ * time_s
+    rng = np.random.default_rng(0)
+    voltage = 18.8 * np.sin(phase + 0.2) + 0.01 + rng.normal(0, 0.02, n)
+    current = 0.05 * np.sin(phase + 0.9) + rng.normal(0, 1e-4, n)
+    vibrometer = 1.2 * np.sin(phase + 1.3) + rng.normal(0, 1e-3, n)
+    return best_of(repeat, lambda: reduce_point(time_s, voltage, current, vibrometer, 0.125, averages=16,
+                                                frequency_hint_hz=FREQUENCY_HZ))
+
+
+def command_ratio(repeat: int) -> tuple[float, float]:
+    bare = pyvisa.ResourceManager(f"{DEFINITIONS}@sim").open_resource(SCOPE, **TERMINATIONS)
+    _, scene_scope = prepared_scope(paths.default_scene())
+    return best_of(repeat, idn_queries, bare) / 200, best_of(repeat, idn_queries, scene_scope) / 200
+
+
+def plan_s(workers: int) -> float:
+    start_s = time.perf_counter()
+    make_plan(paths.paper_campaign(), 0.01, workers=workers)
+    return time.perf_counter() - start_s
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--repeat", type=int, default=7)
+    parser.add_argument("--skip-reproduce", action="store_true")
+    parser.add_argument("--skip-plan", action="store_true")
+    args = parser.parse_args()
+    if not args.skip_reproduce:
+        one_s, study_one_s = reproduce_s(1)
+        two_s, study_two_s = reproduce_s(2)
+        print(f"reproduce wall time: 1 worker {one_s:6.1f} s   2 workers {two_s:6.1f} s (goal <= 40 s)")
+        print(f"accuracy study: 1 worker {study_one_s:6.1f} s   2 workers {study_two_s:6.1f} s   "
+              f"speed-up {study_one_s / study_two_s:4.2f}x (goal >= 1.7x)")
+    single_s, averaged_s = acquisition_ratio(args.repeat)
+    print(f"acquire + fetch 3 x 10k points: sample mode {single_s * 1e3:6.2f} ms   512 averages "
+          f"{averaged_s * 1e3:6.2f} ms   ratio {averaged_s / single_s:4.2f} (goal <= 4)")
+    print(f"reduction of one 10k-sample point: {reduction_s(args.repeat) * 1e3:6.2f} ms (goal <= 1 ms)")
+    bare_s, scene_s = command_ratio(args.repeat)
+    print(f"*IDN? query: pyvisa-sim {bare_s * 1e6:7.1f} us   scene backend {scene_s * 1e6:7.1f} us   "
+          f"ratio {scene_s / bare_s:4.2f} (goal <= 2)")
+    if not args.skip_plan:
+        print(f"plan on the paper campaign, 2 workers: {plan_s(2):6.1f} s (goal <= 20 s)")
+
+
+if __name__ == "__main__":
+    main()

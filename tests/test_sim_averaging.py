@@ -1,0 +1,100 @@
+"""The lean averaged acquisition (simbench.traces.average_of_records) against drawing
+every record: the reduced power and velocity have the same mean and spread over seeds,
+with quantisation, noise (above and below a step) and the clip in play."""
+
+import math
+
+import numpy as np
+import pytest
+
+from squeezebench.analysis.waveforms import fit_sine, integer_period_mean_power_w
+from squeezebench.simbench import effects as fx
+from squeezebench.simbench import traces
+
+SETTINGS = fx.DigitizerSettings(sample_lsb_div=fx.ADC_SPAN_DIV / 2**9, average_lsb_div=fx.ADC_SPAN_DIV / 2**14,
+                                averaging=True)
+STEP_DIV = SETTINGS.sample_lsb_div
+FREQUENCY_HZ = 1000.0
+DT_S = 1e-5
+
+
+def screen(n_samples: int, voltage_amplitude_div: float) -> np.ndarray:
+    """CH1 voltage, CH2 current (leading by 60 degrees, with an offset), CH3 velocity (small:
+    a few steps, where quantisation's bias shows), in divisions."""
+    phase = 2 * math.pi * FREQUENCY_HZ * DT_S * np.arange(n_samples)
+    return np.stack([voltage_amplitude_div * np.sin(phase), 2.5 * np.sin(phase + math.pi / 3) + 0.3,
+                     3.3 * STEP_DIV * np.sin(phase + 0.4)])
+
+
+# Noise: CH1 half a step (below the dithering threshold), CH2 1.5 steps (dithered), CH3 a
+# quarter step (quantisation biases the average; averaging cannot remove it).
+NOISE_DIV = np.array([0.5, 1.5, 0.25]) * STEP_DIV
+
+
+def every_record(signals: np.ndarray, averages: int, rng: np.random.Generator) -> np.ndarray:
+    return traces._clip(np.stack([
+        traces._kept_average(traces._sum_of_records(s, sigma, averages, STEP_DIV, rng), averages, SETTINGS, rng)
+        for s, sigma in zip(signals, NOISE_DIV)]))
+
+
+def lean(signals: np.ndarray, averages: int, rng: np.random.Generator) -> np.ndarray:
+    return traces.digitize(signals, NOISE_DIV, averages, SETTINGS, rng)
+
+
+def unquantised(signals: np.ndarray, averages: int, rng: np.random.Generator) -> np.ndarray:
+    """What ignoring the sample quantisation would draw: the control the test must reject."""
+    return signals + (NOISE_DIV / math.sqrt(averages))[:, None] * rng.standard_normal(signals.shape)
+
+
+def reduced(records: np.ndarray) -> tuple[float, float]:
+    """Power (the paper's integer-period mean of v i) and velocity peak-to-peak (sine fit)."""
+    time_s = DT_S * np.arange(records.shape[1])
+    power = integer_period_mean_power_w(records[0], records[1], DT_S, FREQUENCY_HZ)
+    velocity = fit_sine(time_s, records[2], FREQUENCY_HZ, frequency_is_estimated_here=False).pp.value
+    return power, velocity
+
+
+def over_seeds(draw, signals, averages, seeds):
+    return np.array([reduced(draw(signals, averages, np.random.default_rng(seed))) for seed in seeds])
+
+
+def same_distribution(a: np.ndarray, b: np.ndarray) -> bool:
+    """Means within 4.5 standard errors and spreads within the F-test's 99.9 % band, per column."""
+    se = np.sqrt(a.var(axis=0, ddof=1) / len(a) + b.var(axis=0, ddof=1) / len(b))
+    means_agree = np.abs(a.mean(axis=0) - b.mean(axis=0)) <= 4.5 * se
+    ratio = a.std(axis=0, ddof=1) / b.std(axis=0, ddof=1)
+    band = math.exp(3.3 * math.sqrt(2.0 / (len(a) - 1)))   # log of an sd ratio ~ N(0, 1/(2(n-1))) x 2
+    spreads_agree = (ratio > 1 / band) & (ratio < band)
+    return bool(means_agree.all() and spreads_agree.all())
+
+
+@pytest.mark.parametrize("averages, n_samples, n_seeds, amplitude_div", [
+    (16, 2000, 150, 3.5),      # a few records: the sums' lattice decides record by record
+    (64, 2000, 150, 5.11),     # the voltage's peaks within noise of the clip
+    (512, 1000, 60, 3.5),
+])
+def test_lean_average_matches_drawing_every_record(averages, n_samples, n_seeds, amplitude_div):
+    signals = screen(n_samples, amplitude_div)
+    drawn = over_seeds(every_record, signals, averages, range(n_seeds))
+    leaned = over_seeds(lean, signals, averages, range(1000, 1000 + n_seeds))
+    assert same_distribution(leaned, drawn)
+    # the comparison can fail: ignoring the quantisation misses the velocity's bias
+    assert not same_distribution(over_seeds(unquantised, signals, averages, range(2000, 2000 + n_seeds)), drawn)
+
+
+def test_moments_of_a_quantised_record_are_exact():
+    rng = np.random.default_rng(5)
+    steps = np.array([0.0, 0.3, 0.5, 255.8, 300.0])   # on a level, between, on a threshold, at / past the clip
+    mean, variance = traces._level_moments(steps, 0.4, -256, 256)
+    draws = np.clip(np.round(steps[:, None] + 0.4 * rng.standard_normal((steps.size, 400_000))), -256, 256)
+    np.testing.assert_allclose(mean, draws.mean(axis=1), atol=5e-3)
+    np.testing.assert_allclose(variance, draws.var(axis=1), atol=5e-3)
+    assert variance[-1] == 0.0 and mean[-1] == 256.0   # held at the clip
+
+
+def test_an_effect_that_is_off_costs_nothing_and_no_noise_is_exact():
+    signals = screen(500, 3.5)
+    quiet = traces.digitize(signals, np.zeros(3), 512, SETTINGS, rng=None)   # no random draw at all
+    expected = traces._clip(traces._quantise(traces._quantise(traces._clip(signals), STEP_DIV),
+                                             SETTINGS.average_lsb_div))
+    np.testing.assert_array_equal(quiet, expected)
