@@ -239,3 +239,19 @@ def best_reading(grid: pd.DataFrame | None = None, *, eq25_as_printed: bool = Fa
     candidates = candidates.sort_values(["all_within", "log_misfit"], kind="stable")
     row = candidates.iloc[0]
     return _reading(row), float(row["all_within"])
+
+
+def search_words(grid: pd.DataFrame | None = None) -> list[str]:
+    """The search's result in words: how isolated the inferred reading is, and how close
+    a reading keeping Eq. 25 as printed (with pi and 3/4) comes."""
+    grid = search_readings() if grid is None else grid
+    summary = search_summary(grid).set_index("published").loc["all three at once"]
+    best, worst = best_reading(grid)
+    printed, printed_worst = best_reading(grid, eq25_as_printed=True)
+    return [
+        f"Of {int(summary['readings'])} readings, {int(summary['within_10%'])} reproduce all three published "
+        f"numbers within 10 % ({int(summary['within_15%'])} within 15 %, {int(summary['within_25%'])} within "
+        f"25 %). The best, worst number off by {worst:.1%}: {best.label}.",
+        f"Keeping Eq. 25 as printed (with pi and 3/4), the best reading is off by {printed_worst:.1%}: "
+        f"{printed.label}.",
+    ]

@@ -21,7 +21,7 @@ import numpy as np
 import pandas as pd
 
 import squeezebench
-from squeezebench.analysis import audit, figures, model, study, tables, uncertainty
+from squeezebench.analysis import audit, figures, model, readings, study, tables, uncertainty
 from squeezebench.analysis.rundata import RunData, load_run
 from squeezebench.errors import UserError
 
@@ -348,7 +348,9 @@ def readings_section(context: ReportContext) -> Section:
     body = ("<p>Every characterised plate of this run (the paper's or your own), Q from Eq. 27 and "
             "tan theta' from Eq. 25 under the text's own reading ('paper') and under the one reading "
             "that reproduces the paper's published numbers at once ('inferred', analysis.readings). "
-            "CSV: <a href='plates_by_reading.csv'>plates_by_reading.csv</a></p>" + _html_table(plates))
+            "CSV: <a href='plates_by_reading.csv'>plates_by_reading.csv</a></p>"
+            + "".join(f"<p>{html.escape(words)}</p>" for words in readings.search_words())
+            + _html_table(plates))
     try:
         table5 = audit.table5_under_readings(context.run)
     except UserError as exc:

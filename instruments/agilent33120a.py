@@ -11,6 +11,9 @@ Limits of the sine (user's guide): 100 uHz - 15 MHz; 50 mVpp - 10 Vpp into 50 oh
 100 mVpp - 20 Vpp into high impedance; |offset| + Vpp/2 <= 5 V (50 ohm) or 10 V (high-Z).
 They are checked before anything is sent, against the load setting read from the
 generator. Amplitudes are peak-to-peak: the driver sets `VOLT:UNIT VPP` on connect.
+
+Commands are the SCPI short forms of the HP 33120A User's Guide (Chapter 4, "Remote
+Interface Reference"; errors in Chapter 5); the section is cited beside each.
 """
 
 from __future__ import annotations
@@ -63,23 +66,26 @@ class Agilent33120A(SCPIInstrument):
 
     shape = control("FUNC:SHAP?", "FUNC:SHAP {}", "Output function.",
                     values={"SIN": "SIN", "SQU": "SQU", "TRI": "TRI", "RAMP": "RAMP",
-                            "NOIS": "NOIS", "DC": "DC", "USER": "USER"})
+                            "NOIS": "NOIS", "DC": "DC", "USER": "USER"}, manual="UG Ch. 4 FUNCtion:SHAPe")
     frequency_hz = control("FREQ?", "FREQ {:.9g}", "Output frequency (Hz), sine limits.",
-                           validator=strict_range(*FREQUENCY_RANGE_HZ, "Hz"))
+                           validator=strict_range(*FREQUENCY_RANGE_HZ, "Hz"), manual="UG Ch. 4 FREQuency")
     voltage_unit = control("VOLT:UNIT?", None, "Unit of VOLT numbers: VPP, set on connect and "
-                           "by apply_sine (amplitude_vpp relies on it).", values={"VPP": "VPP", "VRMS": "VRMS"})
+                           "by apply_sine (amplitude_vpp relies on it).",
+                           values={"VPP": "VPP", "VRMS": "VRMS", "DBM": "DBM"}, manual="UG Ch. 4 VOLTage:UNIT")
     amplitude_vpp = control("VOLT?", "VOLT {:.9g}", "Sine amplitude, peak-to-peak (V), "
                             "within the limits of the present load setting.",
-                            validator=lambda generator: amplitude_range(generator.output_load, generator.offset_v))
+                            validator=lambda generator: amplitude_range(generator.output_load, generator.offset_v),
+                            manual="UG Ch. 4 VOLTage")
     offset_v = control("VOLT:OFFS?", "VOLT:OFFS {:.9g}", "DC offset (V).",
-                       validator=lambda generator: offset_range(generator.output_load, generator.amplitude_vpp))
+                       validator=lambda generator: offset_range(generator.output_load, generator.amplitude_vpp),
+                       manual="UG Ch. 4 VOLTage:OFFSet")
     output_load = control("OUTP:LOAD?", "OUTP:LOAD {}", 'Expected load: "50" (ohm) or "INF" (high impedance).',
-                          values={"50": "50", "INF": "INF"}, parse=_load_setting)
+                          values={"50": "50", "INF": "INF"}, parse=_load_setting, manual="UG Ch. 4 OUTPut:LOAD")
 
     def __init__(self, resource: Any, role: str = "generator") -> None:
         super().__init__(resource, role)
         # Only how VOLT numbers are read and written; the output does not change.
-        self.write("VOLT:UNIT VPP")
+        self.write("VOLT:UNIT VPP")  # UG Ch. 4 VOLTage:UNIT
 
     # -- limits of the present load setting ------------------------------------------------------
     @property
@@ -98,14 +104,14 @@ class Agilent33120A(SCPIInstrument):
         amplitude_vpp = checked(f"{self.role}.amplitude_vpp", amplitude_range(load, 0.0), amplitude_vpp)
         offset_v = checked(f"{self.role}.offset_v", offset_range(load, amplitude_vpp), offset_v)
         present_offset_v = self.offset_v
-        self.write("FUNC:SHAP SIN")
-        self.write("VOLT:UNIT VPP")
-        self.write(f"FREQ {frequency_hz:.9g}")
+        self.write("FUNC:SHAP SIN")  # UG Ch. 4 FUNCtion:SHAPe
+        self.write("VOLT:UNIT VPP")  # UG Ch. 4 VOLTage:UNIT
+        self.write(f"FREQ {frequency_hz:.9g}")  # UG Ch. 4 FREQuency
         # The 33120A refuses (and clips) a combination beyond the peak limit, even for a
         # moment: lower the offset before raising the amplitude, raise it after.
         if abs(offset_v) <= abs(present_offset_v):
-            self.write(f"VOLT:OFFS {offset_v:.9g}")
-            self.write(f"VOLT {amplitude_vpp:.9g}")
+            self.write(f"VOLT:OFFS {offset_v:.9g}")  # UG Ch. 4 VOLTage:OFFSet
+            self.write(f"VOLT {amplitude_vpp:.9g}")  # UG Ch. 4 VOLTage
         else:
             self.write(f"VOLT {amplitude_vpp:.9g}")
             self.write(f"VOLT:OFFS {offset_v:.9g}")
@@ -127,24 +133,27 @@ class Agilent33120A(SCPIInstrument):
     def set_amplitude_vpp(self, amplitude_vpp: float) -> None:
         self.amplitude_vpp = amplitude_vpp
 
-    def check_errors(self) -> None:
-        """Drain SYST:ERR?; raise InstrumentError with the first error's own code and message
-        (later ones are appended to the message)."""
+    def read_errors(self) -> list[tuple[int, str]]:
+        """Drain SYSTem:ERRor? (UG Ch. 5: oldest first, +0,"No error" when empty)."""
         errors: list[tuple[int, str]] = []
         for _ in range(_ERROR_QUEUE_DEPTH + 1):
-            reply = self.query("SYST:ERR?")
+            reply = self.query("SYST:ERR?")  # UG Ch. 4 SYSTem:ERRor?
             code, message = self.parse_reply("SYST:ERR?", reply, _error)
             if code == 0:
-                break
+                return errors
             errors.append((code, message))
-        else:
-            errors.append((0, f"error queue not empty after {_ERROR_QUEUE_DEPTH + 1} reads"))
+        errors.append((0, f"error queue not empty after {_ERROR_QUEUE_DEPTH + 1} reads"))
+        return errors
+
+    def check_errors(self) -> None:
+        """InstrumentError with the first queued error's own code and message (later ones
+        appended to the message)."""
+        errors = self.read_errors()
         if errors:
             (code, message), later = errors[0], errors[1:]
             if later:
                 message += " (then: " + "; ".join(f"{c},{m!r}" for c, m in later) + ")"
             raise InstrumentError(self.role, self.resource_name, message, code)
-
 
 
 def _error(reply: str) -> tuple[int, str]:

@@ -90,6 +90,14 @@ class Instrument:
         except OSError as exc:   # socket-based VISA backends (pyvisa-py TCPIP) lose links this way
             raise ConnectionLost(self.role, self.resource_name, operation, str(exc)) from None
 
+    def device_clear(self) -> None:
+        """IEEE 488.1 device clear (viClear): the instrument drops unread replies and
+        half-received input, so a session starts in step whatever the last one left."""
+        try:
+            self.resource.clear()
+        except (NotImplementedError, VisaIOError):   # a link without device clear has nothing to drop
+            pass
+
     @contextmanager
     def timeout(self, timeout_s: float) -> Iterator[None]:
         """Raise the VISA timeout for one long operation, then restore it."""
@@ -133,11 +141,11 @@ class SCPIInstrument(Instrument):
 
     @property
     def identification(self) -> str:
-        return self.query("*IDN?")
+        return self.query("*IDN?")  # IEEE 488.2 10.14
 
     def reset(self) -> None:
-        self.write("*RST")
+        self.write("*RST")  # IEEE 488.2 10.32
 
     def clear_status(self) -> None:
         """Empty the error/event queue and the status registers."""
-        self.write("*CLS")
+        self.write("*CLS")  # IEEE 488.2 10.3

@@ -5,8 +5,6 @@ PyVISA ResourceManager over the library the configuration names:
 
 - `"<scene.yaml>@simbench"`: simbench's simulated bench; the clock and the operator come
   from it (a request for a plate state switches the scene, no prompt);
-- `"<definitions.yaml>@sim"`: plain pyvisa-sim (static answers; driver tests), with wall
-  time and an operator that only records what it is asked;
 - anything else (`""`, `"@py"`, a VISA library path): the real bench, with wall time and
   an operator prompted on the terminal.
 
@@ -20,6 +18,7 @@ through it.
 from __future__ import annotations
 
 import dataclasses
+import math
 import time
 import uuid
 from dataclasses import dataclass, field
@@ -34,15 +33,14 @@ from squeezebench.instruments.agilent33120a import Agilent33120A
 from squeezebench.instruments.base import Instrument
 from squeezebench.instruments.errors import BenchFileError, InstrumentConnectionError, InstrumentError, InstrumentTimeout
 from squeezebench.instruments.ofv5000 import OFV5000
-from squeezebench.instruments.tds3054b import TDS3054B
+from squeezebench.instruments.tds3054b import CHANNELS, TDS3054B
 
 ROLES = ("generator", "scope", "vibrometer")
 DRIVERS: dict[str, type[Instrument]] = {"generator": Agilent33120A, "scope": TDS3054B, "vibrometer": OFV5000}
-#: Addresses of the simulated bench (simbench/definitions/bench.yaml).
+#: Addresses of the simulated bench (simbench.backend.RESOURCES).
 SIM_RESOURCES = {"generator": "GPIB0::10::INSTR", "scope": "TCPIP0::192.168.0.20::INSTR",
                  "vibrometer": "ASRL1::INSTR"}
 SIMBENCH = "@simbench"
-PLAIN_SIM = "@sim"
 GENERATOR_LOADS = ("50", "INF")
 #: The 33120A's output impedance (User's Guide, specifications: 50 ohm, fixed).
 GENERATOR_SOURCE_OHM = 50.0
@@ -240,19 +238,6 @@ class SimulatedOperator:
         self._bench.mount(scene_or_plate)
 
 
-class NullOperator:
-    """No plate behind the instruments (plain pyvisa-sim): remembers what it was asked."""
-
-    def __init__(self) -> None:
-        self.requests: list[tuple[str, str | None]] = []
-
-    def request(self, instruction: str, state: str | None = None) -> None:
-        self.requests.append((instruction, state))
-
-    def mount(self, scene_or_plate: str | Path) -> None:
-        self.requests.append((f"mount {scene_or_plate}", None))
-
-
 # -- opening ---------------------------------------------------------------------------------------
 class Bench:
     """The opened bench; close it (or use it as a context manager) to release the instruments."""
@@ -336,14 +321,14 @@ def open_bench(config: BenchConfig) -> Bench:
     resource_manager = _resource_manager(library)
     try:
         drivers = {role: _open_role(resource_manager, role, config.resources[role]) for role in ROLES}
+        for role in ("generator", "scope"):   # status a previous session left is not this run's
+            drivers[role].clear_status()
         # The load setting belongs to what the generator drives (the amplifier input), not
         # to a protocol: with the wrong one every programmed amplitude is off by two.
         drivers["generator"].output_load = config.electronics.generator_load
         if library.endswith(SIMBENCH):
             simulated = resource_manager.visalib.bench
             clock, operator = simulated.clock, SimulatedOperator(simulated)
-        elif library.endswith(PLAIN_SIM):
-            clock, operator = WallClock(), NullOperator()
         else:
             clock, operator = WallClock(), TerminalOperator()
     except BaseException:
@@ -356,44 +341,72 @@ def open_bench(config: BenchConfig) -> Bench:
 #: What `check_bench` shows of each instrument.
 MAIN_SETTINGS = {
     "generator": ("shape", "frequency_hz", "amplitude_vpp", "offset_v", "output_load"),
-    "scope": ("horizontal_scale_s_per_div", "record_length", "acquire_mode", "num_averages"),
-    "vibrometer": ("velocity_range", "low_pass_filter"),
+    "scope": ("horizontal_scale_s_per_div", "record_length", "acquire_mode", "num_averages", "trigger_source",
+              "math_type", "math_definition"),
+    "vibrometer": ("decoder", "velocity_range", "low_pass_filter"),
 }
 
 
-def _settings_lines(role: str, driver: Instrument) -> list[str]:
-    lines = [f"    {name} = {getattr(driver, name)!r}" for name in MAIN_SETTINGS[role]]
+def _stale_errors(driver: Instrument) -> list[tuple[int, str]]:
+    """Read and clear what the instrument has queued (the vibrometer keeps no queue)."""
+    if isinstance(driver, Agilent33120A):
+        return driver.read_errors()
     if isinstance(driver, TDS3054B):
-        for number in (1, 2, 3, 4):
+        return [event for event in driver.read_events() if event[0] not in (0, 1)]
+    return []
+
+
+def _report_lines(role: str, driver: Instrument, electronics: BenchElectronics) -> tuple[list[str], list[str]]:
+    """(lines to show, disagreements between the bench description and the hardware)."""
+    stale = _stale_errors(driver)
+    lines = [f"    cleared {len(stale)} queued event(s): " + "; ".join(f"{c},{m!r}" for c, m in stale)] if stale \
+        else ["    no queued errors"]
+    lines += [f"    {name} = {getattr(driver, name)!r}" for name in MAIN_SETTINGS[role]]
+    problems = []
+    if isinstance(driver, TDS3054B):
+        expected = {1: electronics.voltage_probe_gain, 2: electronics.current_probe_a_per_a}
+        for number in CHANNELS:
             ch = driver.channel(number)
-            lines.append(f"    ch{number}: probe_gain = {ch.probe_gain!r}, "
+            lines.append(f"    ch{number}: displayed = {ch.displayed!r}, probe_gain = {ch.probe_gain!r}, "
                          f"scale_v_per_div = {ch.scale_v_per_div!r}, coupling = {ch.coupling!r}")
-    return lines
+        for number, (model, gain, unit) in driver.detected_probes().items():
+            lines.append(f"    ch{number}: detected probe {model}, gain {gain:g}, unit {unit}")
+            if number in expected and not math.isclose(gain, expected[number], rel_tol=1e-6):
+                problems.append(f"scope CH{number} has a detected {model} probe of gain {gain:g}, but the bench "
+                                f"description says {expected[number]:g} (electronics."
+                                f"{'voltage_probe_attenuation' if number == 1 else 'current_probe_a_per_a'})")
+    if isinstance(driver, OFV5000):
+        lines.append("    decoder ranges: " + ", ".join(driver.ranges_mps_per_v))
+    return lines, problems
 
 
 def check_bench(config: BenchConfig, out: Callable[[str], None] = print) -> int:
-    """Open every instrument and print its role, address, identification and main
-    settings. Returns 0, or 1 after naming each role and address that did not answer."""
+    """Open every instrument; print its role, address, identification, the errors it had
+    queued (read and cleared), main settings, detected probes and the vibrometer decoder
+    with its ranges. Returns 0, or 2 after naming each role that did not answer and each
+    disagreement between the bench description and the hardware."""
     library = _library_path(config.visa_library)
     out(f"VISA library: {config.visa_library or '(system default)'}")
     try:
         resource_manager = _resource_manager(library)
     except InstrumentConnectionError as exc:
         out(str(exc))
-        return 1
-    failed = []
+        return 2
+    failed, problems = [], []
     try:
         for role in ROLES:
             address = config.resources[role]
             try:
                 driver = _open_role(resource_manager, role, address)
-                lines = [f"{role} at {address}: {driver.identification}", *_settings_lines(role, driver)]
+                lines, disagreements = _report_lines(role, driver, config.electronics)
             except InstrumentError as exc:
                 failed.append(role)
                 out(f"{role} at {address} did not answer as expected: {exc.message}")
                 continue
+            out(f"{role} at {address}: {driver.identification}")
             for line in lines:
                 out(line)
+            problems += disagreements
     finally:
         resource_manager.close()
     e = config.electronics
@@ -401,8 +414,12 @@ def check_bench(config: BenchConfig, out: Callable[[str], None] = print) -> int:
         f"(max {e.amplifier_max_output_vpp:g} Vpp out), voltage probe {e.voltage_probe_attenuation:g}:1, "
         f"current probe {e.current_probe_a_per_a:g} A/A, shunt {e.shunt_ohm:g} ohm, "
         f"generator load setting {e.generator_load}")
-    if failed:
-        out(f"bench check FAILED: {', '.join(failed)} did not answer")
-        return 1
+    for problem in problems:
+        out(f"bench description disagrees with the hardware: {problem}")
+    if failed or problems:
+        causes = ([f"{', '.join(failed)} did not answer"] if failed else []) + \
+            (["the bench description disagrees with the hardware"] if problems else [])
+        out(f"bench check FAILED: {'; '.join(causes)}")
+        return 2
     out("bench check passed")
     return 0

@@ -54,18 +54,24 @@ class NoValidMeasurement(InstrumentError):
 
 
 class ClippedTraceError(InstrumentError):
-    """A fetched trace has samples at the ADC limits: the vertical scale is too fine.
+    """A trace reaches the ADC limits: the vertical scale is too fine.
 
     `source` is the scope's name (`CH1`, `MATH`), `channel` its number (None for MATH).
+    `clipped_fraction` is the fraction of a fetched record's samples at the limits, or
+    None when the scope itself refused a measurement for clipping (`reason` is its event).
     """
 
-    def __init__(self, role: str, resource: str, source: str, clipped_fraction: float):
+    def __init__(self, role: str, resource: str, source: str, clipped_fraction: float | None, reason: str = ""):
         self.source = source
         self.channel = int(source[2:]) if source.startswith("CH") else None
         self.clipped_fraction = clipped_fraction
-        super().__init__(role, resource,
-                         f"{source} trace clipped: {100 * clipped_fraction:.3g} % of its samples are at "
-                         "the ADC limits (use a coarser vertical scale)")
+        how = (f"{100 * clipped_fraction:.3g} % of its samples are at the ADC limits" if clipped_fraction is not None
+               else f"the scope reports {reason}")
+        super().__init__(role, resource, f"{source} trace clipped: {how} (use a coarser vertical scale)")
+
+
+class BenchMismatch(InstrumentError):
+    """The hardware says otherwise than the bench description (e.g. a detected probe's gain)."""
 
 
 class InstrumentConnectionError(InstrumentError):

@@ -87,6 +87,17 @@ def strict_discrete_set(values: Iterable[Any], unit: str = "") -> Validator:
     return Validator(check, f"{shown}{' ' + unit if unit else ''}")
 
 
+def strict_boolean() -> Validator:
+    """True or False (a switch such as a displayed waveform)."""
+
+    def check(value: Any) -> bool:
+        if not isinstance(value, bool):
+            raise ValueError("not a boolean")
+        return value
+
+    return Validator(check, "True, False")
+
+
 def unquote(text: str) -> str:
     """A quoted string reply without its quotes."""
     text = text.strip()
@@ -117,15 +128,17 @@ class control:  # noqa: N801 - named like PyMeasure's Instrument.control, used l
     `set_command` is formatted with the (validated, mapped) value as its one positional
     field. `parse` turns a reply into a value (default: float, or the `values` map).
     `check_set` reads the setting back after writing it, for instruments that neither
-    acknowledge commands nor keep an error queue (the OFV-5000).
+    acknowledge commands nor keep an error queue (the OFV-5000). `manual` cites where
+    the manual defines the command (docs/instrument-commands.md lists them all).
     """
 
     def __init__(self, get_command: str | None, set_command: str | None, doc: str, *,
                  validator: Validator | Callable[[Any], Validator] | None = None,
                  values: dict[Any, str] | None = None,
                  parse: Callable[[str], Any] | None = None,
-                 check_set: bool = False) -> None:
+                 check_set: bool = False, manual: str = "") -> None:
         self.get_command = get_command
+        self.manual = manual
         self.set_command = set_command
         self.__doc__ = doc
         self.values = values

@@ -1,28 +1,36 @@
 """Tektronix TDS 3054B oscilloscope (TDS3000B series): acquisitions, measurements, records.
 
-Commands are the short forms of the TDS3000/B/C programmer manual. The driver sends
-`HEAD OFF` on connect so replies carry no command headers. On our bench CH1 is the piezo
-voltage (through a 100:1 probe, `CH1:PRO 0.01`), CH2 the current probe, CH3 the
-vibrometer output, MATH = CH1*CH2 the instantaneous power.
+Every command is spelled in full, as the TDS3000/B/C programmer manual (071-0381-03,
+"Abbreviating Commands", p. 2-4) advises: abbreviations differ between its own summary
+tables and command entries (`HORizontal:RECOrdlength` vs `HORizontal:RECORDLength`), the
+full spelling is accepted by every reading. Page numbers beside each command are the
+manual's. The driver sends `HEADER OFF` on connect so replies carry no headers.
 
-Records are fetched as signed big-endian 16-bit binary (`DAT:ENC RIB`, `DAT:WID 2`): an
-IEEE 488.2 definite-length block parsed by PyVISA, scaled with the `WFMP?` preamble:
-t = XZEro + XINcr * (n - PT_Off), y = YZEro + YMUlt * (raw - YOFf).
+On our bench CH1 is the piezo voltage (through a 100:1 probe, gain 0.01), CH2 the TCP202
+current probe (detected by the scope through its TekProbe interface, which fixes the
+channel's gain and units), CH3 the vibrometer output, MATH = CH1*CH2 (dual waveform
+math) the instantaneous power. A measurement or a transfer needs its source displayed
+(`SELECT:<wfm> ON`); averaging needs the edge trigger on a driven channel.
+
+Records are fetched as signed big-endian 16-bit binary (`DATA:ENCDG RIBINARY`,
+`DATA:WIDTH 2`): an IEEE 488.2 definite-length block parsed by PyVISA, scaled with the
+`WFMPRE?` preamble: t = XZEro + XINcr * (n - PT_Off), y = YZEro + YMUlt * (raw - YOFf).
 """
 
 from __future__ import annotations
 
 import csv
+import math
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
 from squeezebench.instruments.base import SCPIInstrument
-from squeezebench.instruments.errors import (ClippedTraceError, GarbledReply, InstrumentError, InstrumentTimeout,
-                                NoValidMeasurement, OutOfRangeError)
-from squeezebench.instruments.properties import (checked, control, strict_discrete_set, strict_integer_range, strict_range,
-                                    token_for_reply, unquote)
+from squeezebench.instruments.errors import (BenchMismatch, ClippedTraceError, GarbledReply, InstrumentError,
+                                             InstrumentTimeout, NoValidMeasurement, OutOfRangeError)
+from squeezebench.instruments.properties import (checked, control, strict_boolean, strict_discrete_set,
+                                                 strict_integer_range, strict_range, token_for_reply, unquote)
 
 CHANNELS = (1, 2, 3, 4)
 SOURCES = ("CH1", "CH2", "CH3", "CH4", "MATH")
@@ -39,25 +47,28 @@ SCALE_RANGE_AT_1X = (1e-3, 10.0)
 #: The manual gives no range for CH<x>:PRO; this covers 1000:1 voltage probes to 10 V/A
 #: current probes.
 PROBE_GAIN_RANGE = (1e-3, 10.0)
-#: 9.9E37 is the scope's "no value" (9.91E37 on some firmware).
+#: 9.9E37 is the scope's "no value" (9.91E37 on some firmware); the event queue says why.
 NO_VALUE = 9.9e37
+#: Event codes (p. 3-15, Table 3-5) of a measurement refused for clipping.
+CLIPPING_EVENTS = (2227, 2228, 2229)
+#: Events that report no error: none to report (0, 1), power on (401), operation complete (402).
+_NOT_ERRORS = (0, 1, 401, 402)
 #: ADC limits of 16-bit samples. Sample mode digitises 9 bits, left-justified (the low 7
 #: bits are zero), so its top code is 255 * 128 = 32640; averaged records carry more bits
 #: but cannot exceed the codes they average. At or beyond these a sample was clipped.
 CLIP_LOW_COUNTS, CLIP_HIGH_COUNTS = -32768, 32640
-#: SESR bits that report an error: CME (5), EXE (4), DDE (3), QYE (2).
-_ESR_ERROR_BITS = 0b0011_1100
 #: Acquisition time allowed for trigger re-arm and processing of each averaged waveform
 #: beyond the record itself (an allowance, not a specification), and a fixed margin.
 _REARM_ALLOWANCE_S = 0.1
 _ACQUISITION_MARGIN_S = 5.0
 
-#: Measurement kinds (MEASUrement:IMMed:TYPe), long form -> short form sent.
+#: Measurement kinds (MEASUrement:IMMed:TYPe, p. 2-211), long form sent -> its short form.
 MEASUREMENTS = {"AMPLITUDE": "AMP", "AREA": "ARE", "BURST": "BUR", "CAREA": "CAR", "CMEAN": "CME",
                 "CRMS": "CRM", "DELAY": "DELAY", "FALL": "FALL", "FREQUENCY": "FREQ", "HIGH": "HIGH",
                 "LOW": "LOW", "MAXIMUM": "MAX", "MEAN": "MEAN", "MINIMUM": "MINI", "NDUTY": "NDU",
                 "NOVERSHOOT": "NOV", "NWIDTH": "NWI", "PDUTY": "PDU", "PERIOD": "PERI", "PHASE": "PHASE",
                 "PK2PK": "PK2", "POVERSHOOT": "POV", "PWIDTH": "PWI", "RISE": "RIS", "RMS": "RMS"}
+_FULL = {name: name for name in MEASUREMENTS}
 
 
 def source_name(source: int | str) -> str:
@@ -69,13 +80,18 @@ def source_name(source: int | str) -> str:
 
 
 def _running(reply: str) -> bool:
-    """ACQ:STATE? answers 0 or 1 (accept the set forms too)."""
+    """ACQUIRE:STATE? and BUSY? answer 0 or 1 (accept the set forms too)."""
     text = reply.strip().upper()
     if text in ("1", "ON", "RUN"):
         return True
     if text in ("0", "OFF", "STOP"):
         return False
     raise ValueError("expected 0 or 1")
+
+
+def _on(reply: str) -> bool:
+    """SELECT:<wfm>? answers 0 or 1."""
+    return _running(reply)
 
 
 @dataclass(frozen=True)
@@ -102,7 +118,7 @@ class Waveform:
 
 @dataclass(frozen=True)
 class Preamble:
-    """The WFMP? fields the driver uses (HEAD OFF form)."""
+    """The WFMPRE? fields the driver uses (HEADER OFF form)."""
 
     bytes_per_point: int
     bits: int
@@ -122,7 +138,7 @@ class Preamble:
 
 
 def parse_preamble(reply: str) -> Preamble:
-    """WFMP? -> Preamble; ValueError if it is not the 16 fields of a displayed waveform."""
+    """WFMPRE? -> Preamble; ValueError if it is not the 16 fields of a displayed waveform."""
     fields = next(csv.reader([reply], delimiter=";", quotechar='"'))
     if len(fields) != 16:
         raise ValueError(f"{len(fields)} fields instead of 16")
@@ -164,19 +180,28 @@ class Channel:
     def query(self, command: str) -> str:
         return self.scope.query(command)
 
-    probe_gain = control("CH{ch}:PRO?", "CH{ch}:PRO {:.9g}",
-                         "Probe gain, output/input (a 100:1 probe is 0.01).",
-                         validator=strict_range(*PROBE_GAIN_RANGE))
-    scale_v_per_div = control("CH{ch}:SCA?", "CH{ch}:SCA {:.9g}",
+    probe_gain = control("CH{ch}:PROBE?", "CH{ch}:PROBE {:.9g}",
+                         "Probe gain, output/input (a 100:1 probe is 0.01); fixed by a detected probe.",
+                         validator=strict_range(*PROBE_GAIN_RANGE), manual="p. 2-68 CH<x>:PRObe")
+    scale_v_per_div = control("CH{ch}:SCALE?", "CH{ch}:SCALE {:.9g}",
                               "Vertical scale in the channel's units (V, or A for a current probe) per division.",
                               validator=lambda ch: strict_range(*ch.scale_range_per_div(),
-                                                                "units/div at the present probe gain"))
-    position_div = control("CH{ch}:POS?", "CH{ch}:POS {:.9g}", "Vertical position (divisions from centre).",
-                           validator=strict_range(-5.0, 5.0, "div"))
-    coupling = control("CH{ch}:COUP?", "CH{ch}:COUP {}", "Input coupling.",
-                       values={"DC": "DC", "AC": "AC", "GND": "GND"})
-    bandwidth = control("CH{ch}:BAN?", "CH{ch}:BAN {}", "Bandwidth limit.",
-                        values={"FULL": "FUL", "20MHz": "TWE", "150MHz": "ONEF"})
+                                                                "units/div at the present probe gain"),
+                              manual="p. 2-69 CH<x>:SCAle")
+    position_div = control("CH{ch}:POSITION?", "CH{ch}:POSITION {:.9g}", "Vertical position (divisions from centre).",
+                           validator=strict_range(-5.0, 5.0, "div"), manual="p. 2-68 CH<x>:POSition")
+    coupling = control("CH{ch}:COUPLING?", "CH{ch}:COUPLING {}", "Input coupling.",
+                       values={"DC": "DC", "AC": "AC", "GND": "GND"}, manual="p. 2-64 CH<x>:COUPling")
+    bandwidth = control("CH{ch}:BANDWIDTH?", "CH{ch}:BANDWIDTH {}", "Bandwidth limit.",
+                        values={"FULL": "FULL", "20MHz": "TWENTY", "150MHz": "ONEFIFTY"},
+                        manual="p. 2-63 CH<x>:BANdwidth")
+    displayed = control("SELECT:CH{ch}?", "SELECT:CH{ch} {}", "Whether the channel is displayed (measurable).",
+                        values={True: "ON", False: "OFF"}, validator=strict_boolean(), parse=_on,
+                        manual="p. 2-260 SELect:<wfm>")
+    probe_model = control("CH{ch}:ID?", None, "Model of a probe detected through TekProbe level II, or ''.",
+                          parse=unquote, manual="p. 2-65 CH<x>:ID?")
+    unit = control("CH{ch}:YUNIT?", None, 'Units of the channel: "V", or "A" for a current probe.', parse=unquote,
+                   manual="p. 2-70 CH<x>:YUNit")
 
     def scale_range_per_div(self) -> tuple[float, float]:
         """(finest, coarsest) vertical scale at the present probe gain, in channel units/div."""
@@ -184,8 +209,21 @@ class Channel:
         return SCALE_RANGE_AT_1X[0] / gain, SCALE_RANGE_AT_1X[1] / gain
 
     def settings_snapshot(self) -> dict[str, Any]:
-        return {"probe_gain": self.probe_gain, "scale_v_per_div": self.scale_v_per_div,
-                "position_div": self.position_div, "coupling": self.coupling, "bandwidth": self.bandwidth}
+        return {name: getattr(self, name) for name in ("probe_gain", "scale_v_per_div", "position_div", "coupling",
+                                                       "bandwidth", "displayed", "probe_model", "unit")}
+
+    def use_probe(self, probe_gain: float) -> None:
+        """The bench's probe on this channel: set its gain, unless the scope detected a probe
+        (then its gain is the hardware's, and a bench file saying otherwise is wrong)."""
+        model = self.probe_model
+        if not model:
+            self.probe_gain = probe_gain
+            return
+        detected = self.probe_gain
+        if not math.isclose(detected, probe_gain, rel_tol=1e-6):
+            raise BenchMismatch(self.role, self.resource_name,
+                                f"CH{self.number} has a {model} probe the scope detected with gain {detected:g}, "
+                                f"but the bench description says {probe_gain:g}")
 
 
 class TDS3054B(SCPIInstrument):
@@ -193,39 +231,85 @@ class TDS3054B(SCPIInstrument):
 
     MODEL = "TDS 3054"
 
-    horizontal_scale_s_per_div = control("HOR:MAI:SCA?", "HOR:MAI:SCA {:.9g}",
+    horizontal_scale_s_per_div = control("HORIZONTAL:MAIN:SCALE?", "HORIZONTAL:MAIN:SCALE {:.9g}",
                                          "Time base (s/div), 1-2-4 sequence; see set_horizontal_scale.",
-                                         validator=strict_discrete_set(HORIZONTAL_SCALES_S_PER_DIV, "s/div"))
-    record_length = control("HOR:RECO?", "HOR:RECO {:d}", "Points per record.",
-                            validator=strict_discrete_set(RECORD_LENGTHS), parse=int)
-    acquire_mode = control("ACQ:MOD?", "ACQ:MOD {}", "Acquisition mode.",
-                           values={"SAMPLE": "SAM", "AVERAGE": "AVE", "PEAKDETECT": "PEAK", "ENVELOPE": "ENV"})
-    num_averages = control("ACQ:NUMAV?", "ACQ:NUMAV {:d}", "Waveforms averaged in AVERAGE mode.",
-                           validator=strict_discrete_set(AVERAGE_COUNTS), parse=int)
-    stop_after = control("ACQ:STOPA?", "ACQ:STOPA {}", "SEQUENCE: stop after one (averaged) acquisition.",
-                         values={"SEQUENCE": "SEQ", "RUNSTOP": "RUNST"})
-    acquisition_running = control("ACQ:STATE?", None, "Whether the scope is acquiring.", parse=_running)
-    math_definition = control("MATH:DEFI?", 'MATH:DEFI "{}"', "The MATH waveform's expression, e.g. CH1*CH2.",
-                              parse=unquote)
-    measurement_source = control("MEASU:IMM:SOU?", "MEASU:IMM:SOU {}", "Source of the immediate measurement.",
-                                 values={name: name for name in SOURCES})
-    measurement_type = control("MEASU:IMM:TYP?", "MEASU:IMM:TYP {}", "Kind of the immediate measurement.",
-                               values=MEASUREMENTS)
-    data_source = control("DAT:SOU?", "DAT:SOU {}", "Waveform CURV? transfers.",
-                          values={name: name for name in SOURCES})
-    data_encoding = control("DAT:ENC?", "DAT:ENC {}", "Transfer encoding (the driver uses RIBINARY).",
-                            values={"RIBINARY": "RIB", "RPBINARY": "RPB", "SRIBINARY": "SRI",
-                                    "SRPBINARY": "SRP", "ASCII": "ASCI"})
-    data_width = control("DAT:WID?", "DAT:WID {:d}", "Bytes per transferred point.",
-                         validator=strict_discrete_set((1, 2)), parse=int)
-    data_start = control("DAT:STAR?", "DAT:STAR {:d}", "First transferred point (1-based).",
-                         validator=strict_integer_range(1, max(RECORD_LENGTHS)), parse=int)
-    data_stop = control("DAT:STOP?", "DAT:STOP {:d}", "Last transferred point.",
-                        validator=strict_integer_range(1, max(RECORD_LENGTHS)), parse=int)
+                                         validator=strict_discrete_set(HORIZONTAL_SCALES_S_PER_DIV, "s/div"),
+                                         manual="p. 2-146 HORizontal:MAIn:SCAle")
+    record_length = control("HORIZONTAL:RECORDLENGTH?", "HORIZONTAL:RECORDLENGTH {:d}", "Points per record.",
+                            validator=strict_discrete_set(RECORD_LENGTHS), parse=int,
+                            manual="p. 2-147 HORizontal:RECORDLength")
+    delay_on = control("HORIZONTAL:DELAY:STATE?", "HORIZONTAL:DELAY:STATE {}",
+                       "Delay mode: the screen centre is delay_time_s after the trigger.",
+                       values={True: "ON", False: "OFF"}, validator=strict_boolean(), parse=_on,
+                       manual="p. 2-144 HORizontal:DELay:STATE")
+    delay_time_s = control("HORIZONTAL:DELAY:TIME?", "HORIZONTAL:DELAY:TIME {:.9g}", "Delay time (s).",
+                           manual="p. 2-145 HORizontal:DELay:TIMe")
+    measurement_gating = control("MEASUREMENT:GATING?", "MEASUREMENT:GATING {}",
+                                 "Which part of the record measurements use.",
+                                 values={"OFF": "OFF", "SCREEN": "SCREEN", "CURSOR": "CURSOR"},
+                                 manual="p. 2-207 MEASUrement:GATing")
+    cursor_function = control("CURSOR:FUNCTION?", "CURSOR:FUNCTION {}", "Cursor type (VBARS gate measurements).",
+                              values={"OFF": "OFF", "VBARS": "VBARS", "HBARS": "HBARS"},
+                              manual="p. 2-72 CURSor:FUNCtion")
+    cursor1_s = control("CURSOR:VBARS:POSITION1?", "CURSOR:VBARS:POSITION1 {:.9g}",
+                        "First vertical bar cursor, s from the trigger.", manual="p. 2-79 CURSor:VBArs:POSITION<x>")
+    cursor2_s = control("CURSOR:VBARS:POSITION2?", "CURSOR:VBARS:POSITION2 {:.9g}",
+                        "Second vertical bar cursor, s from the trigger.", manual="p. 2-79 CURSor:VBArs:POSITION<x>")
+    acquire_mode = control("ACQUIRE:MODE?", "ACQUIRE:MODE {}", "Acquisition mode.",
+                           values={"SAMPLE": "SAMPLE", "AVERAGE": "AVERAGE", "PEAKDETECT": "PEAKDETECT",
+                                   "ENVELOPE": "ENVELOPE"}, manual="p. 2-45 ACQuire:MODe")
+    num_averages = control("ACQUIRE:NUMAVG?", "ACQUIRE:NUMAVG {:d}", "Waveforms averaged in AVERAGE mode.",
+                           validator=strict_discrete_set(AVERAGE_COUNTS), parse=int, manual="p. 2-47 ACQuire:NUMAVg")
+    stop_after = control("ACQUIRE:STOPAFTER?", "ACQUIRE:STOPAFTER {}",
+                         "SEQUENCE: stop after one (averaged) acquisition.",
+                         values={"SEQUENCE": "SEQUENCE", "RUNSTOP": "RUNSTOP"}, manual="p. 2-49 ACQuire:STOPAfter")
+    acquisition_running = control("ACQUIRE:STATE?", None, "Whether the scope is acquiring.", parse=_running,
+                                  manual="p. 2-48 ACQuire:STATE")
+    trigger_type = control("TRIGGER:A:TYPE?", "TRIGGER:A:TYPE {}", "A trigger type (the bench uses EDGE).",
+                           values={"EDGE": "EDGE", "VIDEO": "VIDEO", "LOGIC": "LOGIC", "PULSE": "PULSE"},
+                           manual="p. 2-289 TRIGger:A:TYPe")
+    trigger_mode = control("TRIGGER:A:MODE?", "TRIGGER:A:MODE {}", "AUTO, or NORMAL (waits for a trigger).",
+                           values={"AUTO": "AUTO", "NORMAL": "NORMAL"}, manual="p. 2-277 TRIGger:A:MODe")
+    trigger_source = control("TRIGGER:A:EDGE:SOURCE?", "TRIGGER:A:EDGE:SOURCE {}", "Edge trigger source.",
+                             values={name: name for name in SOURCES if name != "MATH"},
+                             manual="p. 2-269 TRIGger:A:EDGe:SOUrce")
+    trigger_slope = control("TRIGGER:A:EDGE:SLOPE?", "TRIGGER:A:EDGE:SLOPE {}", "Edge trigger slope.",
+                            values={"RISE": "RISE", "FALL": "FALL"}, manual="p. 2-269 TRIGger:A:EDGe:SLOpe")
+    trigger_coupling = control("TRIGGER:A:EDGE:COUPLING?", "TRIGGER:A:EDGE:COUPLING {}", "Edge trigger coupling.",
+                               values={"DC": "DC", "HFREJ": "HFREJ", "LFREJ": "LFREJ", "NOISEREJ": "NOISEREJ"},
+                               manual="p. 2-268 TRIGger:A:EDGe:COUPling")
+    trigger_level = control("TRIGGER:A:LEVEL?", "TRIGGER:A:LEVEL {:.9g}", "A trigger level, in the source's units.",
+                            manual="p. 2-271 TRIGger:A:LEVel")
+    math_type = control("MATH:TYPE?", "MATH:TYPE {}", "Math mode: DUAL (waveform math) or FFT.",
+                        values={"DUAL": "DUAL", "FFT": "FFT", "ADVANCED": "ADVANCED", "DPO": "DPO"},
+                        manual="p. 2-202 MATH:TYPe")
+    math_definition = control("MATH:DEFINE?", 'MATH:DEFINE "{}"', "The MATH waveform's expression, e.g. CH1*CH2.",
+                              parse=unquote, manual="p. 2-198 MATH:DEFINE")
+    math_displayed = control("SELECT:MATH?", "SELECT:MATH {}", "Whether MATH is displayed (measurable).",
+                             values={True: "ON", False: "OFF"}, validator=strict_boolean(), parse=_on,
+                             manual="p. 2-260 SELect:<wfm>")
+    measurement_source = control("MEASUREMENT:IMMED:SOURCE?", "MEASUREMENT:IMMED:SOURCE {}",
+                                 "Source of the immediate measurement.", values={name: name for name in SOURCES},
+                                 manual="p. 2-210 MEASUrement:IMMed:SOUrce")
+    measurement_type = control("MEASUREMENT:IMMED:TYPE?", "MEASUREMENT:IMMED:TYPE {}",
+                               "Kind of the immediate measurement.", values=_FULL,
+                               parse=lambda reply: token_for_reply(MEASUREMENTS, reply),
+                               manual="p. 2-211 MEASUrement:IMMed:TYPe")
+    data_source = control("DATA:SOURCE?", "DATA:SOURCE {}", "Waveform CURVE? transfers.",
+                          values={name: name for name in SOURCES}, manual="p. 2-94 DATa:SOUrce")
+    data_encoding = control("DATA:ENCDG?", "DATA:ENCDG {}", "Transfer encoding (the driver uses RIBINARY).",
+                            values={"RIBINARY": "RIBINARY", "RPBINARY": "RPBINARY", "SRIBINARY": "SRIBINARY",
+                                    "SRPBINARY": "SRPBINARY", "ASCII": "ASCII"}, manual="p. 2-93 DATa:ENCdg")
+    data_width = control("DATA:WIDTH?", "DATA:WIDTH {:d}", "Bytes per transferred point.",
+                         validator=strict_discrete_set((1, 2)), parse=int, manual="p. 2-97 DATa:WIDth")
+    data_start = control("DATA:START?", "DATA:START {:d}", "First transferred point (1-based).",
+                         validator=strict_integer_range(1, max(RECORD_LENGTHS)), parse=int, manual="p. 2-95 DATa:STARt")
+    data_stop = control("DATA:STOP?", "DATA:STOP {:d}", "Last transferred point.",
+                        validator=strict_integer_range(1, max(RECORD_LENGTHS)), parse=int, manual="p. 2-96 DATa:STOP")
 
     def __init__(self, resource: Any, role: str = "scope") -> None:
         super().__init__(resource, role)
-        self.write("HEAD OFF")  # replies without command headers
+        self.write("HEADER OFF")  # p. 2-143 HEADer: replies without command headers
         self._channels = {n: Channel(self, n) for n in CHANNELS}
 
     def channel(self, number: int) -> Channel:
@@ -236,12 +320,47 @@ class TDS3054B(SCPIInstrument):
     # -- set-up ----------------------------------------------------------------------------------
     def configure_channel(self, channel: int, *, probe_gain: float, coupling: str = "DC",
                           position_div: float = 0.0, bandwidth: str = "FULL") -> None:
-        """Probe first: it sets the range the vertical scale is checked against."""
+        """Display the channel (a measurement needs it) and set it up. Probe first: it sets
+        the range the vertical scale is checked against; a detected probe is only checked."""
         ch = self.channel(channel)
-        ch.probe_gain = probe_gain
+        ch.displayed = True
+        ch.use_probe(probe_gain)
         ch.coupling = coupling
         ch.position_div = position_div
         ch.bandwidth = bandwidth
+
+    def trigger_on(self, channel: int, level: float = 0.0, slope: str = "RISE") -> None:
+        """Edge trigger on a driven channel at `level` (its units). An average of waveforms
+        that are not triggered on the signal averages it away."""
+        source = source_name(channel)
+        self.trigger_type = "EDGE"
+        self.trigger_source = source
+        self.trigger_coupling = "DC"
+        self.trigger_slope = slope
+        self.trigger_level = level
+        self.trigger_mode = "AUTO"
+
+    def center_record_on_trigger(self) -> None:
+        """Delay mode on at 0 s: the record is centred on the trigger (what
+        gate_whole_periods relies on; Appendix D has it so, a previous user may not)."""
+        self.delay_on = True
+        self.delay_time_s = 0.0
+
+    def gate_whole_periods(self, frequency_hz: float, scale_s_per_div: float, record_length: int) -> None:
+        """Measurements over the largest whole number of periods of `frequency_hz` in the
+        record: the time base is a 1-2-4 value, so the record itself rarely holds whole
+        periods, and a mean over a part-period of the power's ripple is biased. The gate
+        ends half a sample early so its last sample is not the next period's first."""
+        record_s = HORIZONTAL_DIVISIONS * scale_s_per_div
+        start_s = -record_s / 2.0
+        periods = math.floor(record_s * frequency_hz + 1e-9)
+        if periods < 1:
+            raise OutOfRangeError(f"{self.role}.gate_whole_periods", frequency_hz,
+                                  f"at least one period in a {record_s:g} s record")
+        self.cursor_function = "VBARS"
+        self.cursor1_s = start_s
+        self.cursor2_s = start_s + periods / frequency_hz - 0.5 * record_s / record_length
+        self.measurement_gating = "CURSOR"
 
     def set_horizontal_scale(self, s_per_div: float) -> float:
         """The smallest 1-2-4 time base of at least `s_per_div` (the record then holds at
@@ -264,23 +383,27 @@ class TDS3054B(SCPIInstrument):
         self.num_averages = averages
 
     def define_math_product(self, first: str = "CH1", second: str = "CH2") -> None:
-        """MATH = first * second (CH1*CH2: the instantaneous power on our bench)."""
+        """MATH = first * second as dual waveform math, displayed (CH1*CH2: the
+        instantaneous power on our bench). The definition's syntax depends on the math
+        type (p. 2-198), so the type is set first."""
+        self.math_type = "DUAL"
         self.math_definition = f"{source_name(first)}*{source_name(second)}"
+        self.math_displayed = True
 
     # -- acquisition -----------------------------------------------------------------------------
     def acquire_single(self, timeout_s: float) -> None:
-        """One single-sequence acquisition (all NUMAVg waveforms in AVERAGE mode), waited for
-        with `*OPC?`, which answers only once it is complete."""
+        """One single-sequence acquisition (all NUMAVG waveforms in AVERAGE mode), waited for
+        with `*OPC?`, which answers only once it is complete (p. 3-10)."""
         self.stop_after = "SEQUENCE"
-        self.write("ACQ:STATE RUN")
+        self.write("ACQUIRE:STATE RUN")  # p. 2-48 ACQuire:STATE
         with self.timeout(timeout_s):
             try:
-                reply = self.query("*OPC?")
+                reply = self.query("*OPC?")  # p. 2-240 *OPC
             except InstrumentTimeout:
                 # The late "1" would otherwise be read as the answer to the next query.
-                self._device_clear()
+                self.device_clear()
                 raise InstrumentTimeout(self.role, self.resource_name,
-                                        "the acquisition (ACQ:STATE RUN, then *OPC?)", timeout_s) from None
+                                        "the acquisition (ACQUIRE:STATE RUN, then *OPC?)", timeout_s) from None
         if reply != "1":
             raise GarbledReply(self.role, self.resource_name, "*OPC?", reply, "expected 1")
 
@@ -291,18 +414,15 @@ class TDS3054B(SCPIInstrument):
         return _ACQUISITION_MARGIN_S + averages * (record_s + _REARM_ALLOWANCE_S)
 
     def busy(self) -> bool:
-        return self.parse_reply("BUSY?", self.query("BUSY?"), _running)
-
-    def _device_clear(self) -> None:
-        try:
-            self.resource.clear()
-        except NotImplementedError:  # a VISA library without device clear has nothing pending
-            pass
+        return self.parse_reply("BUSY?", self.query("BUSY?"), _running)  # p. 2-55 BUSY?
 
     # -- measurements ----------------------------------------------------------------------------
     def measure(self, source: int | str, kind: str) -> float:
         """One immediate measurement of the last acquisition: `kind` is a MEASUrement:IMMed:TYPe
-        long form (MEAN, CMEAN, PK2PK, FREQUENCY, RMS, AMPLITUDE, ...) or its short form."""
+        long form (MEAN, CMEAN, PK2PK, FREQUENCY, RMS, AMPLITUDE, ...) or its short form.
+
+        Without a value the scope answers 9.9E37 and queues the reason: clipping raises
+        ClippedTraceError, anything else NoValidMeasurement with the scope's own message."""
         name = source_name(source)
         kind_key = kind.upper()
         if kind_key not in MEASUREMENTS:
@@ -312,13 +432,19 @@ class TDS3054B(SCPIInstrument):
                 raise OutOfRangeError(f"{self.role}.measurement_type", kind, ", ".join(MEASUREMENTS)) from None
         self.measurement_source = name
         self.measurement_type = kind_key
-        reply = self.query("MEASU:IMM:VAL?")
-        value = self.parse_reply("MEASU:IMM:VAL?", reply)
-        if not abs(value) < NO_VALUE:
-            raise NoValidMeasurement(self.role, self.resource_name,
-                                     f"no valid {kind_key} measurement of {name} (the scope answered {reply}: "
-                                     "no signal it can measure, or the source is not displayed)")
-        return value
+        command = "MEASUREMENT:IMMED:VALUE?"  # p. 2-213
+        reply = self.query(command)
+        value = self.parse_reply(command, reply)
+        if abs(value) < NO_VALUE:
+            return value
+        events = [event for event in self.read_events() if event[0] not in _NOT_ERRORS]
+        clipping = next((message for code, message in events if code in CLIPPING_EVENTS), None)
+        if clipping is not None:
+            raise ClippedTraceError(self.role, self.resource_name, name, None, clipping)
+        why = "; ".join(f"{code}, {message}" for code, message in events) or \
+            "no signal it can measure, or the source is not displayed"
+        raise NoValidMeasurement(self.role, self.resource_name,
+                                 f"no valid {kind_key} measurement of {name} (the scope answered {reply}: {why})")
 
     def fetch_waveform(self, source: int | str, *, allow_clipped: bool = False) -> Waveform:
         """The whole record of `source` from the last acquisition, scaled to its units.
@@ -333,18 +459,18 @@ class TDS3054B(SCPIInstrument):
         self.data_width = 2
         self.data_start = 1
         self.data_stop = points
-        reply = self.query("WFMP?")
+        reply = self.query("WFMPRE?")  # p. 2-314
         if len(reply.split(";")) == 5:
             raise InstrumentError(self.role, self.resource_name,
                                   f"{name} is not displayed: the scope has no record of it")
-        preamble = self.parse_reply("WFMP?", reply, parse_preamble)
+        preamble = self.parse_reply("WFMPRE?", reply, parse_preamble)
         if (preamble.bytes_per_point, preamble.encoding, preamble.binary_format, preamble.byte_order) != \
                 (2, "BIN", "RI", "MSB"):
-            raise GarbledReply(self.role, self.resource_name, "WFMP?", reply,
-                               "expected 2-byte signed big-endian binary (DAT:ENC RIB, DAT:WID 2)")
-        raw = self.query_block("CURV?")
+            raise GarbledReply(self.role, self.resource_name, "WFMPRE?", reply,
+                               "expected 2-byte signed big-endian binary (DATA:ENCDG RIBINARY, DATA:WIDTH 2)")
+        raw = self.query_block("CURVE?")  # p. 2-90
         if raw.size != preamble.points:
-            raise GarbledReply(self.role, self.resource_name, "CURV?", f"<block of {raw.size} points>",
+            raise GarbledReply(self.role, self.resource_name, "CURVE?", f"<block of {raw.size} points>",
                                f"the preamble announces {preamble.points} points")
         clipped = (raw <= CLIP_LOW_COUNTS) | (raw >= CLIP_HIGH_COUNTS)
         clipped_fraction = float(np.count_nonzero(clipped)) / raw.size if raw.size else 0.0
@@ -359,26 +485,30 @@ class TDS3054B(SCPIInstrument):
             y_offset_counts=preamble.y_offset_counts, y_zero=preamble.y_zero, bits=preamble.bits,
             source=name, clipped_fraction=clipped_fraction, averages=averages)
 
-    # -- status ----------------------------------------------------------------------------------
+    # -- status (Section 3: *ESR? makes the events it summarises readable) -----------------------
+    def read_events(self) -> list[tuple[int, str]]:
+        """*ESR? (read and cleared), then every event it made readable (ALLEV?), in order;
+        the queue is empty afterwards."""
+        self.parse_reply("*ESR?", self.query("*ESR?"), int)  # p. 2-116
+        return self.parse_reply("ALLEV?", self.query("ALLEV?"), _events)  # p. 2-54
+
     def check_errors(self) -> None:
-        """*ESR? (read and cleared), then the event queue: InstrumentError with the first
-        event's code and message when an error bit is set."""
-        esr = self.parse_reply("*ESR?", self.query("*ESR?"), int)
-        if not esr & _ESR_ERROR_BITS:
-            return
-        events: list[tuple[int, str]] = []
-        for _ in range(32):  # the queue is finite; stop on a scope that never empties it
-            code, message = self.parse_reply("EVMSG?", self.query("EVMSG?"), _event)
-            if code in (0, 1):  # "no events to report"
-                break
-            events.append((code, message))
-        if not events:
-            raise InstrumentError(self.role, self.resource_name,
-                                  f"*ESR? reports an error ({esr}) but the event queue is empty")
-        (code, message), later = events[0], events[1:]
-        if later:
-            message += " (then: " + "; ".join(f"{c},{m!r}" for c, m in later) + ")"
-        raise InstrumentError(self.role, self.resource_name, message, code)
+        """InstrumentError with the first error event's code and message (later ones appended)."""
+        errors = [event for event in self.read_events() if event[0] not in _NOT_ERRORS]
+        if errors:
+            (code, message), later = errors[0], errors[1:]
+            if later:
+                message += " (then: " + "; ".join(f"{c},{m!r}" for c, m in later) + ")"
+            raise InstrumentError(self.role, self.resource_name, message, code)
+
+    def detected_probes(self) -> dict[int, tuple[str, float, str]]:
+        """{channel: (probe model, gain, unit)} for each probe the scope detected."""
+        probes = {}
+        for number, ch in self._channels.items():
+            model = ch.probe_model
+            if model:
+                probes[number] = (model, ch.probe_gain, ch.unit)
+        return probes
 
     def settings_snapshot(self) -> dict[str, Any]:
         snapshot = super().settings_snapshot()
@@ -400,7 +530,9 @@ class TDS3054B(SCPIInstrument):
         self.acquire_single(self.acquisition_timeout_s())
 
 
-def _event(reply: str) -> tuple[int, str]:
-    code, _, message = reply.partition(",")
-    return int(code), unquote(message)
-
+def _events(reply: str) -> list[tuple[int, str]]:
+    """ALLEV? -> [(code, message)]: <code>,<QString>[,<code>,<QString>...] (p. 2-54)."""
+    fields = next(csv.reader([reply], delimiter=",", quotechar='"', skipinitialspace=True))
+    if len(fields) % 2:
+        raise ValueError("expected code,\"message\" pairs")
+    return [(int(fields[i]), fields[i + 1]) for i in range(0, len(fields), 2)]

@@ -35,11 +35,8 @@ SCREEN_DIVISIONS = 8.0
 HORIZONTAL_DIVISIONS = 10.0
 PIEZO_CHANNEL, CURRENT_CHANNEL, VELOCITY_CHANNEL = 1, 2, 3
 
-#: OFV-5000 velocity decoder ranges, most sensitive first (m/s per V of output).
 #: A clipped trace is re-acquired with this much more range (its true size is unknown).
 CLIP_GROWTH = 4.0
-VIBROMETER_RANGES_MPS_PER_V = {"5mm/s/V": 0.005, "25mm/s/V": 0.025,
-                               "125mm/s/V": 0.125, "1000mm/s/V": 1.0}
 
 
 class RangingError(UserError):
@@ -50,8 +47,8 @@ class RangingError(UserError):
 class AcquisitionSettings:
     """Campaign `acquisition:` section."""
 
-    averages: int = 16               # 1: sample mode; else ACQ:NUMAV, a power of two 2..512
-    record_length: int = 500         # HOR:RECO, 500 or 10000 points
+    averages: int = 16               # 1: sample mode; else ACQUIRE:NUMAVG, a power of two 2..512
+    record_length: int = 500         # HORIZONTAL:RECORDLENGTH, 500 or 10000 points
     periods_per_record: float = 20.0  # periods of the drive the record holds
     settle_s: float = 0.5            # bench time after each generator change (ring-up)
     fill_divisions: float = 6.0      # expected pp on screen, of 8 divisions
@@ -103,7 +100,9 @@ class Acquisition:
         self.bench = bench
         self.drive = drive
         self.settings = settings
-        self._vibrometer_scale = max(VIBROMETER_RANGES_MPS_PER_V.values())
+        # The installed decoder's ranges, as the controller lists them (they differ between models).
+        self._vibrometer_ranges = dict(bench.vibrometer.ranges_mps_per_v)
+        self._vibrometer_scale = max(self._vibrometer_ranges.values())
         self.reset_ranges()
 
     def reset_ranges(self) -> None:
@@ -111,10 +110,13 @@ class Acquisition:
         # Per-volt expectations from the last point: current pp (A) and velocity pp (m/s).
         self._current_pp_a_per_vpp: float | None = None
         self._velocity_pp_mps_per_vpp: float | None = None
-        self._horizontal_scale_s: float | None = None
+        self._horizontal_scale_s: float | None = None   # asked for
+        self._horizontal_set_s: float | None = None     # the 1-2-4 value set
 
     def configure(self) -> None:
-        """Fixed settings of the scope: probes, coupling, averaging, MATH, record length.
+        """Fixed settings of the scope and the vibrometer: displayed channels, probes,
+        coupling, trigger, averaging, MATH, record length, output filter; everything a
+        measurement relies on, whatever state the instruments were left in.
 
         Called once when a run opens its bench, before any step: a resumed step finds the
         scope exactly as an uninterrupted one does.
@@ -123,7 +125,12 @@ class Acquisition:
         scope.configure_channel(PIEZO_CHANNEL, probe_gain=1.0 / electronics.voltage_probe_attenuation)
         scope.configure_channel(CURRENT_CHANNEL, probe_gain=electronics.current_probe_a_per_a)
         scope.configure_channel(VELOCITY_CHANNEL, probe_gain=1.0)
+        # The piezo voltage is the drive itself, centred on 0 V: every waveform of an
+        # average starts at the same phase of it.
+        scope.trigger_on(PIEZO_CHANNEL, level=0.0)
+        scope.center_record_on_trigger()
         scope.set_math_product()
+        self.bench.vibrometer.prepare_for_measurement()
         scope.set_record_length(self.settings.record_length)
         scope.set_averaging(self.settings.averages)
         # The finest/coarsest scale depends on the probe gain just set; ranging stays inside it.
@@ -185,12 +192,19 @@ class Acquisition:
                 self._range(scales, VELOCITY_CHANNEL, CLIP_GROWTH * SCREEN_DIVISIONS * scales[VELOCITY_CHANNEL])
                 continue
             # Maximum and minimum, not PK2: a spike clips one side only, within the PK2 limit.
-            peaks = {channel: (scope.measure(channel, "MAXIMUM"), scope.measure(channel, "MINIMUM"))
-                     for channel in scales}
-            pp = {channel: high - low for channel, (high, low) in peaks.items()}
-            self.drive.check_measured(pp[PIEZO_CHANNEL])   # clipped or not, never above the limit
-            rerange = {}   # channel: (expected pp, why)
+            # The scope refuses to measure a clipped channel (ClippedTraceError).
+            peaks, rerange = {}, {}   # rerange: {channel: (expected pp, why)}
             for channel, scale in scales.items():
+                try:
+                    peaks[channel] = (scope.measure(channel, "MAXIMUM"), scope.measure(channel, "MINIMUM"))
+                except ClippedTraceError:
+                    rerange[channel] = (CLIP_GROWTH * SCREEN_DIVISIONS * scale, "clipped")
+            pp = {channel: high - low for channel, (high, low) in peaks.items()}
+            # Clipped or not, never above the limit (a clipped CH1 spans at least the screen).
+            self.drive.check_measured(pp.get(PIEZO_CHANNEL, SCREEN_DIVISIONS * scales[PIEZO_CHANNEL]))
+            for channel, scale in scales.items():
+                if channel in rerange:
+                    continue
                 edge = 0.98 * SCREEN_DIVISIONS / 2 * scale   # channels sit at position 0
                 peak = max(peaks[channel][0], -peaks[channel][1])
                 if peak >= edge:   # at the ADC limit; an offset trace (nothing moving) needs its peak
@@ -239,20 +253,22 @@ class Acquisition:
     def _set_vibrometer_range(self, expected_velocity_pp_mps: float | None) -> float:
         """The most sensitive decoder range keeping the output within its limit."""
         limit_v = self.settings.vibrometer_max_output_pp_v
-        chosen = max(VIBROMETER_RANGES_MPS_PER_V.values())   # unknown velocity: coarsest
+        ranges = self._vibrometer_ranges
+        chosen = max(ranges.values())   # unknown velocity: coarsest
         if expected_velocity_pp_mps is not None:
-            fitting = [s for s in VIBROMETER_RANGES_MPS_PER_V.values()
-                       if expected_velocity_pp_mps / s <= limit_v]
+            fitting = [s for s in ranges.values() if expected_velocity_pp_mps / s <= limit_v]
             chosen = min(fitting) if fitting else chosen
-        name = next(n for n, s in VIBROMETER_RANGES_MPS_PER_V.items() if s == chosen)
+        name = next(n for n, s in ranges.items() if s == chosen)
         self.bench.vibrometer.set_range(name)
         return chosen
 
     def _set_horizontal(self, frequency_hz: float) -> None:
+        """Time base for the requested periods; measurements gated on whole periods."""
         scale_s = self.settings.periods_per_record / frequency_hz / HORIZONTAL_DIVISIONS
         if scale_s != self._horizontal_scale_s:
-            self.bench.scope.set_horizontal_scale(scale_s)
+            self._horizontal_set_s = self.bench.scope.set_horizontal_scale(scale_s)
             self._horizontal_scale_s = scale_s
+        self.bench.scope.gate_whole_periods(frequency_hz, self._horizontal_set_s, self.settings.record_length)
 
     def _fetch_waveforms(self) -> tuple[pd.DataFrame, dict[str, Any]]:
         scope = self.bench.scope

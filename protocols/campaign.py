@@ -211,7 +211,7 @@ class _Reader:
         scene = Path(str(value))
         if not scene.is_absolute():
             beside = self.file.parent / scene
-            scene = beside if beside.is_file() else paths.scenes_dir() / scene
+            scene = beside.resolve() if beside.is_file() else paths.scenes_dir() / scene
         if not scene.is_file():
             known = sorted(p.name for p in paths.scenes_dir().glob("*.yaml"))
             raise self.error(field, f"no scene {scene}; available in {paths.scenes_dir()}: {', '.join(known)}")

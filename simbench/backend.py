@@ -1,9 +1,12 @@
 """PyVISA backend of the simulated bench: `ResourceManager("<scene.yaml>@simbench")`.
 
-The library path is the scene file, optionally followed by `#<anything>`: PyVISA keeps
-one library object per path, so `instruments.bench.open_bench` appends a unique token
-to get a fresh bench each time. `visa_lib.bench` is the `SimulatedBench` (clock, plate
-state, mount, closed-form truth).
+The library path is the scene file, optionally followed by `#<fragment>` parts: PyVISA
+keeps one library object per path, so `instruments.bench.open_bench` appends a unique
+token to get a fresh bench each time; a fragment `key=value` is a bench option:
+`start=power_on|hostile` (the instruments' state when the bench opens, see
+`simbench.devices.START_STATES`) and `decoder=VD-09|VD-02` (the vibrometer's velocity
+decoder). `visa_lib.bench` is the `SimulatedBench` (clock, plate state, mount,
+closed-form truth).
 """
 
 from __future__ import annotations
@@ -11,22 +14,18 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any, Tuple
 
-from pyvisa import constants
+from pyvisa import constants, rname
 from pyvisa.util import LibraryPath
-from pyvisa_sim import parser
 from pyvisa_sim.highlevel import SimVisaLibrary
 
+from squeezebench import paths
 from squeezebench.simbench.clock import BUS_TIMINGS
-from squeezebench.simbench.devices import INSTRUMENTS, SimulatedInstrument
+from squeezebench.simbench.devices import INSTRUMENTS, START_STATES, SimulatedInstrument
 from squeezebench.simbench.scene import load_scene
 from squeezebench.simbench.simulation import SimulatedBench
-from squeezebench import paths
 
-DEFINITIONS = Path(__file__).resolve().parent / "definitions" / "bench.yaml"
-
-#: Which instrument a pyvisa-sim device of bench.yaml is, from words in its name.
-_ROLE_WORDS = {"generator": ("33120", "generator"), "scope": ("tds", "3054", "scope"),
-               "vibrometer": ("ofv", "vibrometer", "polytec")}
+#: The simulated bench's instruments at their addresses (docs/design.md).
+RESOURCES = {"GPIB0::10::INSTR": "generator", "TCPIP0::192.168.0.20::INSTR": "scope", "ASRL1::INSTR": "vibrometer"}
 
 
 class SimulatedDevices:
@@ -43,9 +42,15 @@ class SimulatedDevices:
 
 
 def scene_path_of(library_path: str) -> Path:
-    """`<scene>[#token]` -> the scene file; no path: the default scene."""
+    """`<scene>[#fragment...]` -> the scene file; no path: the default scene."""
     path = str(library_path).split("#", 1)[0]
     return Path(path) if path and path != "unset" else paths.default_scene()
+
+
+def options_of(library_path: str) -> dict[str, str]:
+    """The `#key=value` fragments of a library path."""
+    fragments = str(library_path).split("#")[1:]
+    return dict(f.split("=", 1) for f in fragments if "=" in f)
 
 
 class SceneVisaLibrary(SimVisaLibrary):
@@ -59,19 +64,18 @@ class SceneVisaLibrary(SimVisaLibrary):
 
     def _init(self) -> None:
         self.sessions = {}
+        options = options_of(self.library_path)
+        start = options.pop("start", "power_on")
+        if start not in START_STATES:
+            raise ValueError(f"unknown simulated bench start state {start!r} (known: {', '.join(START_STATES)})")
         self.bench = SimulatedBench(load_scene(scene_path_of(self.library_path)))
-        static = parser.get_devices(str(DEFINITIONS), False)
         instruments = {}
-        for resource_name in static.list_resources():
-            device = static[resource_name]
-            role = _role(device.name)
+        for resource_name, role in RESOURCES.items():
             bus = BUS_TIMINGS[resource_name.split("::", 1)[0].rstrip("0123456789").lower()]
-            instruments[resource_name] = INSTRUMENTS[role](device, self.bench, bus)
-            setattr(self.bench, role, instruments[resource_name])
-        missing = [role for role in INSTRUMENTS if getattr(self.bench, role) is None]
-        if missing:
-            raise ValueError(f"{DEFINITIONS}: no device for {', '.join(missing)}")
+            setattr(self.bench, role, INSTRUMENTS[role](self.bench, bus, options))
+            instruments[rname.to_canonical_name(resource_name)] = getattr(self.bench, role)
         self.devices = SimulatedDevices(instruments)
+        START_STATES[start](self.bench)
         self.bench.start()
 
     def read(self, session, count: int) -> Tuple[bytes, constants.StatusCode]:
@@ -100,15 +104,6 @@ class SceneVisaLibrary(SimVisaLibrary):
         if self.sessions.get(session) is self:  # the resource manager's own session
             self.bench.close()
         return super().close(session)
-
-
-def _role(device_name: str) -> str:
-    name = device_name.lower()
-    for role, words in _ROLE_WORDS.items():
-        if any(word in name for word in words):
-            return role
-    raise ValueError(f"{DEFINITIONS}: cannot tell which instrument device {device_name!r} is "
-                     f"(expected a name containing one of {_ROLE_WORDS})")
 
 
 def _timeout_s(session) -> float:

@@ -1,21 +1,27 @@
-"""The simulated instruments: pyvisa-sim devices whose dynamic replies come from physics.
+"""The simulated instruments: models of what the three manuals say, with physics behind.
 
-Each wrapper keeps pyvisa-sim's grammar and state (dialogues, properties with their
-specs, error queues): a message that is not one of the few dynamic queries goes to the
-wrapped `pyvisa_sim.devices.Device` exactly as it would in pyvisa-sim. The wrapper adds:
+Each instrument parses what it receives with its manual's grammar (`simbench.scpi` for
+the two IEEE 488.2 instruments, the controller's line protocol for the OFV-5000), keeps
+its settings in a state that starts as the manual's power-on state, and reports what it
+refuses the way its manual says: the 33120A in its SCPI error queue (`SYST:ERR?`), the
+TDS 3054B in its Standard Event Status Register and event queue (`*ESR?`, `EVMsg?`,
+`ALLEv?`), the OFV-5000 with an `Error` line. A refused query returns nothing: the
+reader waits out its VISA timeout, as on the real bus.
 
-- whole-reply reads (pyvisa-sim hands out one byte per call, far too slow for 20 kB
-  records), and an immediate VISA timeout, with the bench clock advanced by the
-  session timeout, when the instrument has nothing to say;
-- bench time for every message (bus latency and transfer) and for what the instrument
-  does (generator settling, scope acquisitions);
-- the dynamic queries: scope `*OPC?`, `BUSY?`, `MEASU:IMM:VAL?`, `WFMP?`, `CURV?`, and
-  vibrometer `Get,OverRange,0,Value`, `Get,SignalLevel,0,Value`.
+The simulator never looks at which driver talks to it. What it adds beyond the manuals:
+bench time for every message (bus latency and transfer), for what the instrument does
+(generator settling, scope acquisitions), the bus faults a scene names, and the physics
+(the generator drives the plate, the scope acquires its signals, the vibrometer's
+decoder range scales CH3).
+
+Manual references: "33120A UG" = HP 33120A User's Guide (Chapter 4 remote interface
+reference, Chapter 5 error messages), "TDS PM" = TDS3000/B/C Series Programmer Manual
+071-0381-03 (page numbers), "OFV" = Polytec OFV-5000 user manual, RS-232 interface
+commands. What could not be verified against a manual is said where it is modelled.
 """
 
 from __future__ import annotations
 
-import copy
 import math
 import re
 from collections import deque
@@ -24,12 +30,11 @@ from typing import Callable, ClassVar
 
 import numpy as np
 from pyvisa import constants, errors
-from pyvisa_sim.component import NoResponse
-from pyvisa_sim.devices import Device
 
 from squeezebench.simbench import effects as fx
-from squeezebench.simbench import physics, traces
+from squeezebench.simbench import physics, scpi, traces
 from squeezebench.simbench.clock import BusTiming
+from squeezebench.simbench.scpi import PREFIX, SCPI, ScpiError, Unit
 
 #: Bench time the 33120A takes to apply a change (assumed: a new frequency settles in
 #: about 10 ms; an amplitude, offset or load change may switch attenuator relays).
@@ -38,6 +43,7 @@ GENERATOR_LEVEL_SETTLE_S = 0.030
 #: Time between two averaged acquisitions of the TDS3054B beyond the record itself
 #: (assumed: trigger re-arm plus processing and display of each waveform).
 SCOPE_REARM_S = 0.010
+EOM = b"\n"
 
 
 @dataclass
@@ -49,41 +55,50 @@ class Deferred:
 
 
 class SimulatedInstrument:
-    """A pyvisa-sim device with whole-message reads, bench time and dynamic replies."""
+    """Message transport, bench time and faults common to the three instruments."""
 
     role: ClassVar[str]
 
-    def __init__(self, device: Device, bench, bus: BusTiming) -> None:
-        self.device = device
+    def __init__(self, bench, bus: BusTiming, options: dict[str, str]) -> None:
         self.bench = bench
         self.bus = bus
+        self.options = options
         self._input = bytearray()
         self._replies: deque = deque()
         self.disconnected = False   # set by the `disconnect` fault, for good
-        self._defaults = self._property_values()
-        self._dynamic: dict[bytes, Callable[[], bytes | Deferred]] = self.dynamic_queries()
+        self.power_on()
 
-    def dynamic_queries(self) -> dict[bytes, Callable[[], bytes | Deferred]]:
-        return {}
+    def power_on(self) -> None:
+        """The state the manual gives for power-on."""
+        raise NotImplementedError
+
+    def handle(self, message: bytes) -> list:
+        """Replies (bytes or Deferred, without terminator) to one received message."""
+        raise NotImplementedError
+
+    def inject_error(self) -> None:
+        """The `instrument_error` fault: an error the instrument reports on its own."""
+
+    def is_query(self, message: bytes) -> bool:
+        return message.rstrip().endswith(b"?")
 
     # -- what the VISA library calls ------------------------------------------------------
     def write(self, data: bytes) -> None:
         self.bench.clock.advance(self.bus.message_s(len(data)))
         self._input += data
-        eom = self.device._query_eom
-        if not self._input.endswith(eom):
-            return
-        message = bytes(self._input[:-len(eom)])
-        self._input.clear()
-        for query in message.split(self.device.delimiter) if self.device.delimiter else [message]:
-            faults = self._faults(query) if self.bench.effects.bus else ()
-            reply = self.handle(query)
+        while EOM in self._input:
+            end = self._input.index(EOM)
+            message = bytes(self._input[:end]).rstrip(b"\r")
+            del self._input[:end + 1]
+            self._receive(message)
+
+    def _receive(self, message: bytes) -> None:
+        faults = self._faults(message) if self.bench.effects.bus else ()
+        for reply in self.handle(message):
             if isinstance(reply, Deferred):
-                reply.payload += self.device._response_eom
-            elif reply is not None and reply is not NoResponse:
-                reply = bytearray(reply + self.device._response_eom)
+                reply.payload += EOM
             else:
-                continue
+                reply = bytearray(reply + EOM)
             for fault in faults:
                 reply = self._faulty_reply(fault, reply)
                 if reply is None:   # lost: later faults have nothing to act on
@@ -91,31 +106,26 @@ class SimulatedInstrument:
             else:
                 self._replies.append(reply)
 
-    def is_query(self, message: bytes) -> bool:
-        """Whether `message` asks for a reply (IEEE 488.2: it ends with '?')."""
-        return message.endswith(b"?")
-
-    # -- faults (the scene's `bus` effects) ----------------------------------------------------
-    def _faults(self, query: bytes) -> list:
+    def _faults(self, message: bytes) -> list:
         """The bus faults hitting this message, after they acted; a disconnect fails it."""
         bench = self.bench
         bench.messages_received += 1
-        faults = [f for f in bench.effects.bus if f.hits(self.role, bench.messages_received, self.is_query(query))]
+        faults = [f for f in bench.effects.bus if f.hits(self.role, bench.messages_received, self.is_query(message))]
         for fault in faults:
             fault.act(self)
         if self.disconnected:
             raise errors.VisaIOError(constants.VI_ERROR_CONN_LOST)
         return faults
 
-    def _faulty_reply(self, fault, reply: bytearray | Deferred) -> bytearray | Deferred | None:
-        eom = self.device._response_eom
+    @staticmethod
+    def _faulty_reply(fault, reply):
         if isinstance(reply, Deferred):
-            payload = fault.reply(reply.payload, eom)
+            payload = fault.reply(reply.payload, EOM)
             if payload is None:
                 return None
             reply.payload = payload
             return reply
-        return fault.reply(reply, eom)
+        return fault.reply(reply, EOM)
 
     def read(self, count: int, timeout_s: float) -> tuple[bytes, constants.StatusCode]:
         clock = self.bench.clock
@@ -142,260 +152,1021 @@ class SimulatedInstrument:
 
     def _time_out(self, timeout_s: float) -> None:
         """Nothing to read: the session waits its whole timeout (bench time, not wall)."""
+        self.read_without_reply()
         self.bench.clock.advance(timeout_s)
         raise errors.VisaIOError(constants.VI_ERROR_TMO)
 
+    def read_without_reply(self) -> None:
+        """Hook: the controller tried to read with nothing in the output queue."""
+
     def clear(self) -> None:
-        """Device clear: drop pending input and replies."""
+        """Device clear (IEEE 488.1 DCL/SDC): drop pending input and replies."""
         self._input.clear()
         self._replies.clear()
 
-    # -- one message --------------------------------------------------------------------------
-    def handle(self, query: bytes):
-        dynamic = self._dynamic.get(query)
-        if dynamic is not None:
-            return dynamic()
-        reply = self.device._match(query)
-        if reply is None:
-            return self.device.error_response("command_error")
-        if query == b"*RST":
-            self._restore(self._defaults)
-        self.after_command(query)
-        return reply
 
-    def after_command(self, query: bytes) -> None:
-        """Hook: react to a command pyvisa-sim accepted."""
+# == IEEE 488.2 instruments ===========================================================================
+@dataclass(frozen=True)
+class Command:
+    """One header of a manual: its spelling, what its set and query forms do, where it is."""
 
-    # -- pyvisa-sim state -----------------------------------------------------------------
-    def value(self, name: str):
-        return self.device._properties[name].get_value()
+    spec: str
+    query: Callable | None
+    set: Callable | None
+    section: str
+    suffixes: tuple[int, ...] = (1, 2, 3, 4)   # the <x> a header allows
 
-    def channel_value(self, name: str, channel: int):
-        """A per-channel property: pyvisa-sim channels, or flat `ch<n>_<name>` properties."""
-        flat = self.device._properties.get(f"ch{channel}_{name}")
-        if flat is not None:
-            return flat.get_value()
-        for component in self.device._channels.values():
-            prop = component._properties.get(name)
-            if prop is not None:
-                return prop._value[_channel_id(prop._value, channel)]
-        raise KeyError(f"{self.role}: no per-channel property {name!r} in the definitions")
 
-    def _property_values(self) -> list:
-        props = list(self.device._properties.values())
-        for component in self.device._channels.values():
-            props += component._properties.values()
-        return [(p, copy.copy(p._value)) for p in props]
+class ScpiInstrument(SimulatedInstrument):
+    """Dispatch on the canonical header path; errors through `report`."""
+
+    STYLE: ClassVar[str]
+    COMMANDS: ClassVar[tuple[Command, ...]]
+    _parser: ClassVar[scpi.MessageParser]
+    _handlers: ClassVar[dict[tuple[str, bool], Callable]]
+
+    def __init_subclass__(cls, **kwargs) -> None:
+        super().__init_subclass__(**kwargs)
+        if "COMMANDS" not in cls.__dict__:
+            return
+        tree = scpi.HeaderTree(cls.STYLE)
+        cls._handlers = {}
+        for command in cls.COMMANDS:
+            path = tree.add(command.spec, command.suffixes)
+            for query, handler in ((True, command.query), (False, command.set)):
+                if handler is not None:
+                    cls._handlers[path, query] = handler
+        cls._parser = scpi.MessageParser(tree)
+
+    def handle(self, message: bytes) -> list:
+        if self._replies:   # IEEE 488.2 6.3.2.3: a new message discards unread replies
+            self._replies.clear()
+            self.report(ScpiError(-410, "Query INTERRUPTED"))
+        try:
+            text = message.decode("ascii")
+        except UnicodeDecodeError:
+            self.report(ScpiError(-101, "Invalid character"))
+            return []
+        replies = []
+        for unit in self._parser.units(text):
+            if isinstance(unit, ScpiError):
+                self.report(unit)
+                continue
+            handler = self._handlers.get((unit.path, unit.query))
+            try:
+                if handler is None:
+                    raise scpi.undefined_header()
+                reply = handler(self, unit)
+            except ScpiError as exc:
+                exc.detail = unit.text
+                self.report(exc)
+                continue
+            if reply is not None:
+                replies.append(self.with_header(unit, reply))
+        return self.combine(replies)
 
     @staticmethod
-    def _restore(values: list) -> None:
-        """*RST: every property back to its power-on default."""
-        for prop, value in values:
-            prop._value = copy.copy(value)
+    def combine(replies: list) -> list:
+        """Replies to the queries of one message go out as one, `;`-separated."""
+        if len(replies) <= 1:
+            return replies
+        ready_s = max((r.ready_s for r in replies if isinstance(r, Deferred)), default=None)
+        payload = b";".join(r.payload if isinstance(r, Deferred) else r for r in replies)
+        return [payload if ready_s is None else Deferred(ready_s, payload)]
 
-
-def _channel_id(values: dict, channel: int):
-    """pyvisa-sim keys channel values by the id as written in the YAML (str or int)."""
-    return channel if channel in values else str(channel)
-
-
-def _load_ohm(value) -> float:
-    """OUTP:LOAD as a resistance: 50, or infinite for INF (the 33120A reports 9.9E+37)."""
-    text = str(value).strip().upper()
-    if text.startswith("INF") or text == "MAX":
-        return math.inf
-    ohm = float(text)
-    return math.inf if ohm >= 9.9e37 else ohm
-
-
-_SHAPES = {"SINUSOID": "SIN"}  # long form of the one shape that drives the plate
-
-
-class Generator(SimulatedInstrument):
-    """Agilent 33120A: its settings drive the plate."""
-
-    role = "generator"
-
-    def settings(self) -> physics.GeneratorSettings:
-        return physics.GeneratorSettings(
-            frequency_hz=float(self.value("frequency")),
-            amplitude=float(self.value("amplitude")),
-            voltage_unit=str(self.value("voltage_unit")).upper(),
-            offset_v=float(self.value("offset")),
-            load_ohm=_load_ohm(self.value("load")),
-            shape=_SHAPES.get(str(self.value("shape")).upper(), str(self.value("shape")).upper()))
-
-    def handle(self, query: bytes):
-        if query.endswith(b"?"):
-            return super().handle(query)
-        before = self.settings()
-        reply = super().handle(query)
-        after = self.settings()
-        # The 33120A reprograms its synthesiser (or attenuator) on every setting command, even
-        # one repeating the present value, so the busy time depends on the command alone: a
-        # resumed campaign then spends the same bench time as an uninterrupted one.
-        settle_s = 0.0
-        if query.startswith(b"FREQ"):
-            settle_s = GENERATOR_FREQUENCY_SETTLE_S
-        elif query.startswith((b"VOLT", b"OUTP:LOAD", b"FUNC", b"APPL")):
-            settle_s = GENERATOR_LEVEL_SETTLE_S
-        # the plate sees the new drive from the command on; the generator is busy after
-        self.bench.generator_written(drive_changed=after != before)
-        self.bench.clock.advance(settle_s)
+    def with_header(self, unit: Unit, reply):
         return reply
 
+    def report(self, error: ScpiError) -> None:
+        raise NotImplementedError
 
-class Vibrometer(SimulatedInstrument):
-    """Polytec OFV-5000: the decoder range scales CH3; OverRange and SignalLevel live."""
-
-    role = "vibrometer"
-    _RANGE = re.compile(r"^\s*([0-9.]+)\s*(mm|m)/s/V\s*$")
-
-    def is_query(self, message: bytes) -> bool:
-        return message.startswith(b"Get")   # its protocol: Get,<item>,<channel>,<field>
-
-    def dynamic_queries(self):
-        return {b"Get,OverRange,0,Value": lambda: b"1" if self.bench.vibrometer_over_range() else b"0",
-                b"Get,SignalLevel,0,Value":
-                    lambda: b"%d" % round(self.bench.scene.measurement_point.signal_level_percent)}
-
-    def range_mps_per_v(self) -> float:
-        text = str(self.value("velocity_range"))
-        match = self._RANGE.match(text)
-        if match is None:
-            raise ValueError(f"vibrometer: cannot read the decoder range {text!r}")
-        return float(match.group(1)) * (1e-3 if match.group(2) == "mm" else 1.0)
+    def read_without_reply(self) -> None:
+        self.report(ScpiError(-420, "Query UNTERMINATED"))
 
 
-#: DAT:ENC -> (numpy dtype for a 2-byte sample, BN_Fmt, BYT_Or)
-_ENCODINGS = {"RIB": (">i2", "RI", "MSB"), "RPB": (">u2", "RP", "MSB"),
-              "SRI": ("<i2", "RI", "LSB"), "SRP": ("<u2", "RP", "LSB")}
-#: Long forms of the measurement types the simulator computes.
-_MEASUREMENTS = {"CMEAN": "CME", "PK2PK": "PK2", "FREQUENCY": "FREQ", "AMPLITUDE": "AMP",
-                 "MAXIMUM": "MAX", "MINIMUM": "MINI"}
-_UNITS = {"CH1": "V", "CH2": "A", "CH3": "V", "MATH": "VA"}
+def _setting(key: str, parse: Callable, fmt: Callable[[object], str], *, per_channel: bool = False):
+    """(query, set) handlers of a plain setting stored under `key`."""
+
+    def state_key(unit: Unit):
+        return (key, unit.suffixes[0]) if per_channel else key
+
+    def query(instrument, unit: Unit) -> bytes:
+        scpi.no_arguments(unit.arguments)
+        return fmt(instrument.state[state_key(unit)]).encode()
+
+    def set_(instrument, unit: Unit) -> None:
+        value = parse(instrument, scpi.only_argument(unit.arguments), unit)
+        instrument.state[state_key(unit)] = value
+        instrument.changed(key, unit)
+
+    return query, set_
 
 
-class Scope(SimulatedInstrument):
-    """Tektronix TDS 3054B: acquisitions of the plate's signals, measurements, records."""
+def _choices(options: dict[str, str], style: str) -> Callable:
+    return lambda instrument, text, unit: scpi.choice(text, options, style)
+
+
+# == HP/Agilent 33120A ================================================================================
+#: Sine limits (33120A UG, Chapter 4 "Output Configuration Commands" and Chapter 8
+#: specifications): frequency; Vpp and |offset| + Vpp/2 per output termination setting.
+GEN_FREQUENCY_HZ = (100e-6, 15e6)
+GEN_AMPLITUDE_VPP = {50.0: (0.050, 10.0), math.inf: (0.100, 20.0)}
+GEN_PEAK_V = {50.0: 5.0, math.inf: 10.0}
+GEN_INFINITE = 9.9e37
+GEN_ERROR_QUEUE_DEPTH = 20
+_GEN_SHAPES = {"SINusoid": "SIN", "SQUare": "SQU", "TRIangle": "TRI", "RAMP": "RAMP", "NOISe": "NOIS",
+               "DC": "DC", "USER": "USER"}
+_GEN_UNITS = {"VPP": "VPP", "VRMS": "VRMS", "DBM": "DBM"}
+_FREQUENCY_SUFFIXES = {"HZ": 1.0, "KHZ": 1e3, "MHZ": 1e6}   # SCPI: MHZ is megahertz for Hz
+_VOLT_SUFFIXES = {"V": 1.0, "MV": 1e-3}
+
+
+def _vpp_from(value: float, unit: str) -> float:
+    """An amplitude in the 33120A's VOLT:UNIT (sine) -> Vpp (UG Ch. 4, VOLTage:UNIT)."""
+    if unit == "VRMS":
+        return value * 2.0 * math.sqrt(2.0)
+    if unit == "DBM":
+        return math.sqrt(50.0 * 1e-3 * 10.0 ** (value / 10.0)) * 2.0 * math.sqrt(2.0)
+    return value
+
+
+def _vpp_to(vpp: float, unit: str) -> float:
+    if unit == "VRMS":
+        return vpp / (2.0 * math.sqrt(2.0))
+    if unit == "DBM":
+        return 10.0 * math.log10((vpp / (2.0 * math.sqrt(2.0))) ** 2 / 50.0 / 1e-3)
+    return vpp
+
+
+class Generator(ScpiInstrument):
+    """HP/Agilent 33120A: SCPI, short or long forms, its error queue, its sine limits."""
+
+    role = "generator"
+    STYLE = SCPI
+    IDENTITY = b"HEWLETT-PACKARD,33120A,0,7.0-5.0-1.0"
+
+    def power_on(self) -> None:
+        self.errors: deque = deque()
+        self.factory_settings()
+
+    def factory_settings(self) -> None:
+        """UG Ch. 4 *RST (also the power-on state): sine, 1 kHz, 100 mVpp, 0 V offset,
+        50 ohm output termination, amplitudes in Vpp."""
+        self.state = {"shape": "SIN", "frequency": 1e3, "amplitude_vpp": 0.1, "offset": 0.0,
+                      "load": 50.0, "unit": "VPP"}
+
+    # -- errors (UG Ch. 5: SYSTem:ERRor? reads the oldest, +0,"No error" when empty) -------------
+    def report(self, error: ScpiError) -> None:
+        if len(self.errors) >= GEN_ERROR_QUEUE_DEPTH:
+            self.errors[-1] = (-350, "Too many errors")
+            return
+        self.errors.append((error.code, error.message))
+
+    def inject_error(self) -> None:
+        self.report(ScpiError(-222, "Data out of range"))
+
+    def _error_query(self, unit: Unit) -> bytes:
+        scpi.no_arguments(unit.arguments)
+        code, message = self.errors.popleft() if self.errors else (0, "No error")
+        return b'%+d,"%s"' % (code, message.encode())
+
+    # -- physics --------------------------------------------------------------------------------
+    def settings(self) -> physics.GeneratorSettings:
+        s = self.state
+        return physics.GeneratorSettings(frequency_hz=s["frequency"], amplitude=s["amplitude_vpp"],
+                                         voltage_unit="VPP", offset_v=s["offset"], load_ohm=s["load"],
+                                         shape=s["shape"])
+
+    def changed(self, key: str, unit: Unit) -> None:
+        """Every setting command reprograms the synthesiser or the attenuators, even one
+        repeating the present value: the busy time depends on the command alone (so a
+        resumed campaign spends the bench time an uninterrupted one does)."""
+        self.bench.generator_written(drive_changed=self.settings() != self._before)
+        self.bench.clock.advance(GENERATOR_FREQUENCY_SETTLE_S if key == "frequency" else GENERATOR_LEVEL_SETTLE_S)
+
+    def handle(self, message: bytes) -> list:
+        self._before = self.settings()
+        return super().handle(message)
+
+    # -- limits ---------------------------------------------------------------------------------
+    def _limited(self, value: float, low: float, high: float) -> float:
+        """UG Ch. 5: an out-of-range number is clipped to the limit and reported as -222."""
+        if value > high:
+            self.report(ScpiError(-222, "Data out of range;value clipped to upper limit"))
+            return high
+        if value < low:
+            self.report(ScpiError(-222, "Data out of range;value clipped to lower limit"))
+            return low
+        return value
+
+    def _amplitude_limits_vpp(self) -> tuple[float, float]:
+        low, high = GEN_AMPLITUDE_VPP[self.state["load"]]
+        return low, min(high, 2.0 * (GEN_PEAK_V[self.state["load"]] - abs(self.state["offset"])))
+
+    def _offset_limit_v(self) -> float:
+        return GEN_PEAK_V[self.state["load"]] - self.state["amplitude_vpp"] / 2.0
+
+    @staticmethod
+    def _min_max(text: str, low: float, high: float) -> float | None:
+        word = text.strip().upper()
+        if word in ("MIN", "MINIMUM"):
+            return low
+        if word in ("MAX", "MAXIMUM"):
+            return high
+        return None
+
+    def _limit_query(self, unit: Unit, value: float, low: float, high: float, fmt: str) -> bytes:
+        if unit.arguments:
+            limit = self._min_max(scpi.only_argument(unit.arguments), low, high)
+            if limit is None:
+                raise scpi.illegal_parameter()
+            value = limit
+        return (fmt % value).encode()
+
+    # -- handlers -------------------------------------------------------------------------------
+    def _frequency_query(self, unit: Unit) -> bytes:
+        return self._limit_query(unit, self.state["frequency"], *GEN_FREQUENCY_HZ, "%+.12E")
+
+    def _frequency_set(self, unit: Unit) -> None:
+        text = scpi.only_argument(unit.arguments)
+        value = self._min_max(text, *GEN_FREQUENCY_HZ)
+        value = scpi.number(text, _FREQUENCY_SUFFIXES) if value is None else value
+        self.state["frequency"] = self._limited(value, *GEN_FREQUENCY_HZ)
+        self.changed("frequency", unit)
+
+    def _amplitude_query(self, unit: Unit) -> bytes:
+        low, high = self._amplitude_limits_vpp()
+        unit_name = self.state["unit"]
+        return self._limit_query(unit, _vpp_to(self.state["amplitude_vpp"], unit_name),
+                                 _vpp_to(low, unit_name), _vpp_to(high, unit_name), "%+.6E")
+
+    def _amplitude_set(self, unit: Unit) -> None:
+        text = scpi.only_argument(unit.arguments)
+        low, high = self._amplitude_limits_vpp()
+        vpp = self._min_max(text, low, high)
+        if vpp is None:
+            match = re.match(r"^(.*?)\s*(M?)(VPP|VRMS|DBM)$", text.strip().upper())
+            if match:   # a unit suffix overrides VOLT:UNIT for this number
+                vpp = _vpp_from(scpi.number(match.group(1)) * (1e-3 if match.group(2) else 1.0), match.group(3))
+            else:
+                vpp = _vpp_from(scpi.number(text, _VOLT_SUFFIXES), self.state["unit"])
+        self.state["amplitude_vpp"] = self._limited(vpp, low, high)
+        self.changed("amplitude", unit)
+
+    def _offset_query(self, unit: Unit) -> bytes:
+        limit = self._offset_limit_v()
+        return self._limit_query(unit, self.state["offset"], -limit, limit, "%+.6E")
+
+    def _offset_set(self, unit: Unit) -> None:
+        text = scpi.only_argument(unit.arguments)
+        limit = self._offset_limit_v()
+        value = self._min_max(text, -limit, limit)
+        self.state["offset"] = self._limited(scpi.number(text, _VOLT_SUFFIXES) if value is None else value,
+                                             -limit, limit)
+        self.changed("offset", unit)
+
+    def _load_query(self, unit: Unit) -> bytes:
+        scpi.no_arguments(unit.arguments)
+        return b"%+.6E" % (GEN_INFINITE if math.isinf(self.state["load"]) else self.state["load"])
+
+    def _load_set(self, unit: Unit) -> None:
+        """OUTPut:LOAD {50|INFinity|MINimum|MAXimum}: only 50 ohm or INF (UG Ch. 4). The
+        output stays the same: what is programmed and displayed is rescaled."""
+        text = scpi.only_argument(unit.arguments).upper()
+        if text in ("INF", "INFINITY", "MAX", "MAXIMUM"):
+            load = math.inf
+        elif text in ("MIN", "MINIMUM"):
+            load = 50.0
+        else:
+            value = scpi.number(text, {"OHM": 1.0})
+            if value != 50.0:
+                raise ScpiError(-224, "Illegal parameter value")
+            load = 50.0
+        if load != self.state["load"]:
+            factor = 2.0 if math.isinf(load) else 0.5
+            self.state["amplitude_vpp"] *= factor
+            self.state["offset"] *= factor
+            self.state["load"] = load
+        self.changed("load", unit)
+
+    def _reset(self, unit: Unit) -> None:
+        scpi.no_arguments(unit.arguments)
+        self.factory_settings()
+        self.changed("reset", unit)
+
+    def _clear_status(self, unit: Unit) -> None:
+        scpi.no_arguments(unit.arguments)
+        self.errors.clear()
+
+    COMMANDS = (
+        Command("*IDN", lambda g, u: g.IDENTITY, None, "UG Ch. 4 *IDN?"),
+        Command("*RST", None, _reset, "UG Ch. 4 *RST"),
+        Command("*CLS", None, _clear_status, "UG Ch. 4 *CLS"),
+        Command("*OPC", lambda g, u: b"1", lambda g, u: None, "UG Ch. 4 *OPC"),
+        Command("SYSTem:ERRor", _error_query, None, "UG Ch. 4 SYSTem:ERRor?; Ch. 5"),
+        Command("FUNCtion:SHAPe", *_setting("shape", _choices(_GEN_SHAPES, SCPI), str), "UG Ch. 4 FUNCtion:SHAPe"),
+        Command("FREQuency", _frequency_query, _frequency_set, "UG Ch. 4 FREQuency"),
+        Command("VOLTage", _amplitude_query, _amplitude_set, "UG Ch. 4 VOLTage"),
+        Command("VOLTage:OFFSet", _offset_query, _offset_set, "UG Ch. 4 VOLTage:OFFSet"),
+        Command("VOLTage:UNIT", *_setting("unit", _choices(_GEN_UNITS, SCPI), str), "UG Ch. 4 VOLTage:UNIT"),
+        Command("OUTPut:LOAD", _load_query, _load_set, "UG Ch. 4 OUTPut:LOAD"),
+    )
+
+
+# == Tektronix TDS 3054B ==============================================================================
+CHANNELS = (1, 2, 3, 4)
+#: TDS PM p. 3-13 to 3-18: which SESR bit an event sets.
+_PON, _URQ, _CME, _EXE, _DDE, _QYE, _OPC = 128, 64, 32, 16, 8, 4, 1
+EVENT_QUEUE_DEPTH = 40   # TDS PM p. 3-9
+NO_VALUE = b"9.91E37"    # what the scope answers for a measurement without a value
+#: HORizontal:MAIn:SCAle values (1-2-4 sequence; the TDS 3054B's fastest is 1 ns/div).
+SCOPE_TIME_BASES_S = tuple(float(f"{m}e{e}") for e in range(-9, 1) for m in (1, 2, 4)) + (10.0,)
+_RECORD_LENGTHS = (500, 10000)
+_AVERAGES = tuple(2 ** k for k in range(1, 10))
+_ACQ_MODES = {"SAMple": "SAMPLE", "PEAKdetect": "PEAKDETECT", "AVErage": "AVERAGE", "ENVelope": "ENVELOPE"}
+_STOP_AFTER = {"RUNSTop": "RUNSTOP", "SEQuence": "SEQUENCE"}
+_COUPLINGS = {"AC": "AC", "DC": "DC", "GND": "GND"}
+_BANDWIDTHS = {"TWEnty": "TWENTY", "ONEFifty": "ONEFIFTY", "FULl": "FULL"}
+_IMPEDANCES = {"FIFty": "FIFTY", "MEG": "MEG"}
+_TRIGGER_TYPES = {"EDGe": "EDGE", "VIDeo": "VIDEO", "LOGIc": "LOGIC", "PULse": "PULSE"}
+_TRIGGER_MODES = {"AUTO": "AUTO", "NORMal": "NORMAL"}
+_TRIGGER_SOURCES = {**{f"CH{n}": f"CH{n}" for n in CHANNELS}, "LINE": "LINE", "VERTical": "VERTICAL",
+                    "ALTernating": "ALTERNATING"}
+_SLOPES = {"RISe": "RISE", "FALL": "FALL"}
+_TRIGGER_COUPLINGS = {"DC": "DC", "HFRej": "HFREJ", "LFRej": "LFREJ", "NOISErej": "NOISEREJ", "AC": "LFREJ"}
+_MATH_TYPES = {"DUAL": "DUAL", "FFT": "FFT"}   # ADVanced and DPO need the TDS3AAM module
+_SOURCES = {**{f"CH{n}": f"CH{n}" for n in CHANNELS}, "MATH": "MATH", "MATH1": "MATH"}
+_GATINGS = {"SCREen": "SCREEN", "CURSor": "CURSOR", "OFF": "OFF"}
+_CURSORS = {"HBArs": "HBARS", "OFF": "OFF", "WAVEform": "WAVEFORM", "VBArs": "VBARS", "GRATicule": "GRATICULE"}
+_MEASUREMENTS = {"AMPlitude": "AMPLITUDE", "AREa": "AREA", "BURst": "BURST", "CARea": "CAREA", "CMEan": "CMEAN",
+                 "CRMs": "CRMS", "DELAY": "DELAY", "FALL": "FALL", "FREQuency": "FREQUENCY", "HIGH": "HIGH",
+                 "LOW": "LOW", "MAXimum": "MAXIMUM", "MEAN": "MEAN", "MINImum": "MINIMUM", "NDUty": "NDUTY",
+                 "NOVershoot": "NOVERSHOOT", "NWIdth": "NWIDTH", "PDUty": "PDUTY", "PERIod": "PERIOD",
+                 "PHASE": "PHASE", "PK2pk": "PK2PK", "POVershoot": "POVERSHOOT", "PWIdth": "PWIDTH",
+                 "RISe": "RISE", "RMS": "RMS"}
+#: The measurements traces.measure computes (long form -> its name there).
+_SIMULATED_MEASUREMENTS = {"MEAN": "MEAN", "CMEAN": "CME", "PK2PK": "PK2", "AMPLITUDE": "AMP", "MAXIMUM": "MAX",
+                           "MINIMUM": "MINI", "RMS": "RMS", "FREQUENCY": "FREQ"}
+_ENCODINGS = {"ASCIi": "ASCII", "RIBinary": "RIBINARY", "RPBinary": "RPBINARY", "SRIbinary": "SRIBINARY",
+              "SRPbinary": "SRPBINARY"}
+#: DATa:ENCdg -> (BN_Fmt, BYT_Or) of the preamble.
+_FORMATS = {"ASCII": ("RP", "MSB"), "RIBINARY": ("RI", "MSB"), "RPBINARY": ("RP", "MSB"),
+            "SRIBINARY": ("RI", "LSB"), "SRPBINARY": ("RP", "LSB")}
+_UNITS = {"CH1": "V", "CH2": "A", "CH3": "V", "CH4": "V"}
+_MATH_DEFINITION = re.compile(r"^\s*(CH[1-4]|REF[1-4])\s*([-+*/])\s*(CH[1-4]|REF[1-4])\s*$", re.IGNORECASE)
+_PREAMBLE_FIELDS = ("BYT_NR", "BIT_NR", "ENCDG", "BN_FMT", "BYT_OR", "NR_PT", "WFID", "PT_FMT", "XINCR", "PT_OFF",
+                    "XZERO", "XUNIT", "YMULT", "YZERO", "YOFF", "YUNIT")
+#: TDS PM p. 2-68 (CH<x>:SCAle): 1 mV to 10 V per division with a 1x probe.
+_SCALE_AT_1X = (1e-3, 10.0)
+
+
+@dataclass(frozen=True)
+class _Setup(traces.ScopeSetup):
+    """The acquisition settings with where the record starts relative to the trigger
+    (HORizontal:DELay and HORizontal:TRIGger:POSition, p. 2-144 to 2-148)."""
+
+    record_start_s: float = 0.0
+
+    @property
+    def first_sample_s(self) -> float:
+        return self.record_start_s
+
+
+def _nr3(value: float) -> str:
+    return f"{value:.4E}".replace("E+0", "E+").replace("E-0", "E-")
+
+
+def _quoted(text: str) -> str:
+    return '"' + text.replace('"', '""') + '"'
+
+
+@dataclass(frozen=True)
+class Probe:
+    """A probe the scope detects through its TekProbe interface: the channel's gain and
+    units are then fixed (TDS PM p. 2-68, CH<x>:PRObe; p. 2-65, CH<x>:ID?)."""
+
+    model: str
+    gain: float
+    unit: str
+
+
+def _tds_choice(options: dict[str, str]) -> Callable:
+    return _choices(options, PREFIX)
+
+
+def _int(low: int, high: int) -> Callable:
+    return lambda scope, text, unit: int(round(scope._forced(scpi.number(text), low, high)))
+
+
+def _nearest_int(allowed: tuple) -> Callable:
+    return lambda scope, text, unit: int(scope._nearest(scpi.number(text), allowed))
+
+
+def _flag(value: bool) -> str:
+    return "1" if value else "0"
+
+
+class Scope(ScpiInstrument):
+    """Tektronix TDS 3054B: the programmer manual's grammar, status system and state rules,
+    acquiring the plate's signals."""
 
     role = "scope"
+    STYLE = PREFIX
+    IDENTITY = b"TEKTRONIX,TDS 3054B,0,CF:91.1CT FV:v3.41 TDS3GM:v1.00 TDS3FFT:v1.00 TDS3TRG:v1.00"
 
-    def __init__(self, device: Device, bench, bus: BusTiming) -> None:
-        super().__init__(device, bench, bus)
+    def power_on(self) -> None:
+        """TDS PM Appendix D (factory initialization), which *RST also applies, plus the
+        power-on status: PON set and event 401 waiting (p. 3-1, Table 3-7)."""
+        electronics = self.bench.scene.electronics
+        # CH2 carries the TCP202 current probe: the scope detects it (TekProbe level II) and
+        # fixes its gain; the other inputs have no coded probe.
+        self.probes = {2: Probe("TCP202", electronics.current_probe_a_per_a, "A")}
+        self.sesr = _PON
+        self.pending: list[tuple[int, str]] = [(401, "Power on")]
+        self.available: list[tuple[int, str]] = []
+        self.header = True   # not in Appendix D: the power-on default of the HEADer state
+        self.factory_settings()
+
+    def factory_settings(self) -> None:
+        self.state = {"record_length": 10000, "horizontal_scale": 4e-4, "acquire_mode": "SAMPLE",
+                      "num_averages": 16, "stop_after": "RUNSTOP", "trigger_type": "EDGE", "trigger_mode": "AUTO",
+                      "trigger_source": "CH1", "trigger_slope": "RISE", "trigger_coupling": "DC",
+                      "trigger_level": 0.0, "math_type": "DUAL", "math_define": "CH1+CH2",
+                      "measurement_source": "CH1", "measurement_type": "PERIOD", "data_source": "CH1",
+                      "data_encoding": "RIBINARY", "data_width": 1, "data_start": 1, "data_stop": 10000,
+                      "select_math": False, "delay_state": True, "delay_time": 0.0, "trigger_position": 10,
+                      "gating": "OFF", "cursor_function": "OFF", ("vbar", 1): -1.6e-3, ("vbar", 2): 1.6e-3}
+        for n in CHANNELS:
+            probe = self.probes.get(n)
+            self.state.update({("select", n): n == 1, ("scale", n): 0.1, ("position", n): 0.0,
+                               ("offset", n): 0.0, ("coupling", n): "DC", ("bandwidth", n): "FULL",
+                               ("impedance", n): "MEG", ("probe", n): probe.gain if probe else 0.1,
+                               ("yunit", n): probe.unit if probe else "V"})
+        self.running = True
         self._record: traces.Record | None = None
         self._ready_s = 0.0
         self._scaled: tuple = (None, None, None, None)
 
-    def dynamic_queries(self):
-        return {b"*OPC?": lambda: Deferred(self._ready_s, b"1"),
-                b"BUSY?": lambda: b"1" if self.bench.clock.now_s() < self._ready_s else b"0",
-                b"MEASU:IMM:VAL?": self._measurement,
-                b"WFMP?": self._preamble,
-                b"CURV?": self._curve}
+    # -- status and events (TDS PM Section 3) ------------------------------------------------
+    def report(self, error: ScpiError) -> None:
+        code = abs(error.code)
+        self.event(code, error.message, error.detail)
 
-    def after_command(self, query: bytes) -> None:
-        if query in (b"ACQ:STATE RUN", b"ACQ:STATE ON", b"ACQ:STATE 1"):
+    def event(self, code: int, message: str, command: str = "") -> None:
+        bit = (_CME if 100 <= code < 200 else _DDE if 300 <= code < 400 and code != 350
+               else _QYE if code in (410, 420, 430, 440) else _PON if code == 401 else _EXE)
+        self.sesr |= bit
+        if command:   # <Message>;<Command>, at most 60 characters, the command right-justified
+            message = f"{message}; {command[-max(0, 58 - len(message)):]}"
+        if len(self.pending) >= EVENT_QUEUE_DEPTH:
+            self.pending[-1] = (350, "Queue overflow")
+        else:
+            self.pending.append((code, message))
+
+    def inject_error(self) -> None:
+        self.event(222, "Data out of range")
+
+    def _esr(self, unit: Unit) -> bytes:
+        """*ESR? reads and clears the SESR and makes the events it summarises readable;
+        events not read since the last *ESR? are dropped (TDS PM p. 3-9)."""
+        scpi.no_arguments(unit.arguments)
+        value, self.sesr = self.sesr, 0
+        self.available, self.pending = self.pending, []
+        return b"%d" % value
+
+    def _no_events(self) -> tuple[int, str]:
+        return (1, "No events to report - new events pending *ESR?") if self.pending \
+            else (0, "No events to report - queue empty")
+
+    def _evmsg(self, unit: Unit) -> bytes:
+        scpi.no_arguments(unit.arguments)
+        code, message = self.available.pop(0) if self.available else self._no_events()
+        return f"{code},{_quoted(message)}".encode()
+
+    def _allev(self, unit: Unit) -> bytes:
+        scpi.no_arguments(unit.arguments)
+        events, self.available = self.available or [self._no_events()], []
+        return ",".join(f"{code},{_quoted(message)}" for code, message in events).encode()
+
+    def _event_code(self, unit: Unit) -> bytes:
+        scpi.no_arguments(unit.arguments)
+        return b"%d" % (self.available.pop(0) if self.available else self._no_events())[0]
+
+    def _clear_status(self, unit: Unit) -> None:
+        scpi.no_arguments(unit.arguments)
+        self.sesr, self.pending, self.available = 0, [], []
+
+    def _reset(self, unit: Unit) -> None:
+        scpi.no_arguments(unit.arguments)
+        self.factory_settings()
+
+    def with_header(self, unit: Unit, reply):
+        """HEADer ON: a query's reply starts with its long header (VERBose is on)."""
+        if not self.header or unit.path.startswith("*") or isinstance(reply, Deferred):
+            return reply
+        path = unit.path
+        for x in unit.suffixes:
+            path = path.replace("<X>", str(x), 1).replace("<x>", str(x), 1)
+        return b":" + path.encode() + b" " + reply
+
+    def _header_set(self, unit: Unit) -> None:
+        self.header = scpi.boolean(scpi.only_argument(unit.arguments))
+
+    # -- settings with rules -----------------------------------------------------------------
+    def _forced(self, value: float, low: float, high: float) -> float:
+        """TDS PM p. 2-9: most numbers are forced to a valid setting; the scope warns
+        with 525/526 (Table 3-8)."""
+        if value > high:
+            self.event(526, "Parameter overrange")
+            return high
+        if value < low:
+            self.event(525, "Parameter underrange")
+            return low
+        return value
+
+    @staticmethod
+    def _nearest(value: float, allowed: tuple) -> float:
+        """A value with a fixed set of settings is rounded to the nearest (e.g.
+        HORizontal:MAIn:SCAle, p. 2-145: "rounded to a valid scale setting")."""
+        return min(allowed, key=lambda a: abs(math.log(a / value)) if value > 0 else a)
+
+    def _scale_limits(self, channel: int) -> tuple[float, float]:
+        gain = self.state["probe", channel]
+        return _SCALE_AT_1X[0] / gain, _SCALE_AT_1X[1] / gain
+
+    def _scale_set(self, unit: Unit) -> None:
+        channel = unit.suffixes[0]
+        value = scpi.number(scpi.only_argument(unit.arguments))
+        self.state["scale", channel] = self._forced(value, *self._scale_limits(channel))
+
+    def _probe_set(self, unit: Unit) -> None:
+        """A detected probe has one legal gain: another is a hardware configuration
+        error (TDS PM p. 2-68). The volts per division at the input stay: the scale in
+        user units follows the gain."""
+        channel = unit.suffixes[0]
+        gain = scpi.number(scpi.only_argument(unit.arguments))
+        probe = self.probes.get(channel)
+        if probe is not None:
+            if not math.isclose(gain, probe.gain, rel_tol=1e-6):
+                raise ScpiError(242, "Hardware configuration error")
+            return
+        if not 1e-4 <= gain <= 1e4 or gain <= 0:
+            raise ScpiError(222, "Data out of range")
+        self.state["scale", channel] *= self.state["probe", channel] / gain
+        self.state["probe", channel] = gain
+
+    def _coupling_set(self, unit: Unit) -> None:
+        channel = unit.suffixes[0]
+        coupling = scpi.choice(scpi.only_argument(unit.arguments), _COUPLINGS, PREFIX)
+        if coupling == "AC" and channel in self.probes:   # TDS PM p. 2-66: not with a level II probe
+            raise ScpiError(242, "Hardware configuration error")
+        self.state["coupling", channel] = coupling
+
+    def _probe_id(self, unit: Unit) -> bytes:
+        scpi.no_arguments(unit.arguments)
+        probe = self.probes.get(unit.suffixes[0])
+        return _quoted(probe.model if probe else "").encode()
+
+    def _yunit_set(self, unit: Unit) -> None:
+        channel = unit.suffixes[0]
+        text = scpi.quoted_string(scpi.only_argument(unit.arguments)).upper()
+        if text not in ("V", "A"):
+            raise scpi.illegal_parameter()
+        if channel in self.probes and text != self.probes[channel].unit:
+            raise ScpiError(242, "Hardware configuration error")
+        self.state["yunit", channel] = text
+
+    def _math_define_set(self, unit: Unit) -> None:
+        """MATH:DEFINE <QString> (TDS PM p. 2-198): in DUAL mode "<source><op><source>"."""
+        definition = scpi.quoted_string(scpi.only_argument(unit.arguments))
+        if self.state["math_type"] == "DUAL" and _MATH_DEFINITION.match(definition) is None:
+            raise ScpiError(2235, "Math error, Invalid math description")
+        self.state["math_define"] = definition.upper().replace(" ", "")
+
+    def _horizontal_set(self, unit: Unit) -> None:
+        value = scpi.number(scpi.only_argument(unit.arguments))
+        self.state["horizontal_scale"] = self._nearest(self._forced(value, SCOPE_TIME_BASES_S[0],
+                                                                    SCOPE_TIME_BASES_S[-1]), SCOPE_TIME_BASES_S)
+
+    def _select_set(self, unit: Unit, key) -> None:
+        self.state[key] = scpi.boolean(scpi.only_argument(unit.arguments))
+
+    def _acquire_state_set(self, unit: Unit) -> None:
+        text = scpi.only_argument(unit.arguments).upper()
+        run = text in ("RUN", "ON") or (text not in ("STOP", "OFF") and scpi.boolean(text))
+        self.running = run
+        if run:
             self._start_acquisition()
 
+    def _acquire_state_query(self, unit: Unit) -> bytes:
+        scpi.no_arguments(unit.arguments)
+        if self.state["stop_after"] == "SEQUENCE" and self.bench.clock.now_s() >= self._ready_s:
+            self.running = False
+        return b"1" if self.running else b"0"
+
+    # -- acquisitions --------------------------------------------------------------------------
     def setup(self) -> traces.ScopeSetup:
-        averaging = str(self.value("acquire_mode")).upper().startswith("AVE")
-        return traces.ScopeSetup(
-            channels=tuple(traces.ChannelSetup(
-                scale_per_div=float(self.channel_value("scale", ch)),
-                position_div=float(self.channel_value("position", ch)),
-                coupling=str(self.channel_value("coupling", ch)).upper()[:3],
-                probe_gain=float(self.channel_value("probe", ch))) for ch in (1, 2, 3)),
-            horizontal_scale_s=float(self.value("horizontal_scale")),
-            record_length=int(self.value("record_length")),
-            averages=int(self.value("acquire_averages")) if averaging else 1)
+        s = self.state
+        averaging = s["acquire_mode"] == "AVERAGE"
+        record_s = traces.HORIZONTAL_DIVISIONS * s["horizontal_scale"]
+        # Delay on: the screen centre is delay_time after the trigger; off: the trigger
+        # sits trigger_position % into the record (Appendix D: delay on, 0 s).
+        start_s = s["delay_time"] - record_s / 2.0 if s["delay_state"] else -s["trigger_position"] / 100.0 * record_s
+        return _Setup(
+            channels=tuple(traces.ChannelSetup(scale_per_div=s["scale", ch], position_div=s["position", ch],
+                                               coupling=s["coupling", ch], probe_gain=s["probe", ch])
+                           for ch in (1, 2, 3)),
+            horizontal_scale_s=s["horizontal_scale"], record_length=s["record_length"],
+            averages=s["num_averages"] if averaging else 1, record_start_s=start_s)
 
     def _start_acquisition(self) -> None:
         setup = self.setup()
         period_s = setup.record_time_s + SCOPE_REARM_S
-        self._record = self.bench.acquire(setup, period_s)
+        record = self.bench.acquire(setup, period_s)
+        triggered = self._triggered(record)
+        if not triggered and self.state["trigger_mode"] == "NORMAL":
+            self._record, self._ready_s = record, math.inf   # waits for a trigger that never comes
+            return
+        self._record = record if triggered else self._untriggered(record)
         self._ready_s = self.bench.clock.now_s() + setup.averages * period_s
+
+    def _triggered(self, record: traces.Record) -> bool:
+        """An edge trigger fires when its source crosses the level: a driven channel
+        (CH1-CH3 carry the plate's signals, CH4 is idle) whose trace spans the level."""
+        s = self.state
+        source = s["trigger_source"]
+        if s["trigger_type"] != "EDGE" or source not in ("CH1", "CH2", "CH3"):
+            return False
+        trace = record.trace(source)
+        return float(trace.min()) < s["trigger_level"] < float(trace.max())
+
+    def _untriggered(self, record: traces.Record) -> traces.Record:
+        """AUTO mode without a trigger: each waveform starts at a random phase of the
+        drive, so averaging N of them shrinks the alternating part by |mean(exp(i phi))|
+        (about 1/sqrt(N)); a single waveform keeps its amplitude."""
+        n = record.setup.averages
+        if n == 1:
+            return record
+        rng = np.random.default_rng([self.bench.scene.seed, round(self.bench.clock.now_s() * 1e9)])
+        shrink = abs(np.mean(np.exp(1j * rng.uniform(0.0, 2.0 * math.pi, n))))
+        mean = record.values.mean(axis=1, keepdims=True)
+        return traces.Record(record.setup, mean + shrink * (record.values - mean), record.frequency_hz)
 
     def record(self) -> traces.Record:
         """The last acquisition; a scope never started shows what it free-runs on."""
-        if self._record is None:
+        if self._record is None or (self.running and self.state["stop_after"] == "RUNSTOP"):
             self._start_acquisition()
         return self._record
 
-    # -- dynamic replies ----------------------------------------------------------------------
-    def _measurement(self) -> bytes:
-        kind = str(self.value("measurement_type")).upper()
-        value = traces.measure(self.record(), str(self.value("measurement_source")).upper(),
-                               _MEASUREMENTS.get(kind, kind))
-        # 9.9E37 is what the scope answers when a measurement has no value
-        return b"9.9E37" if not math.isfinite(value) else b"%.12E" % value
+    def _opc_query(self, unit: Unit):
+        scpi.no_arguments(unit.arguments)
+        return Deferred(self._ready_s, b"1")
 
+    def _busy(self, unit: Unit) -> bytes:
+        scpi.no_arguments(unit.arguments)
+        return b"1" if self.bench.clock.now_s() < self._ready_s else b"0"
+
+    # -- what a source shows -------------------------------------------------------------------
+    def displayed(self, source: str) -> bool:
+        return self.state["select_math"] if source == "MATH" else self.state["select", int(source[2:])]
+
+    def _channel_trace(self, record: traces.Record, source: str) -> np.ndarray:
+        channel = int(source[2:])
+        return record.trace(source) if channel <= 3 else np.zeros(record.setup.record_length)
+
+    def trace(self, source: str) -> np.ndarray | None:
+        """`source` in its units, or None when the scope has no waveform for it: not
+        displayed, or MATH in another mode than the DUAL waveform math simulated here."""
+        if not self.displayed(source):
+            return None
+        record = self.record()
+        if source != "MATH":
+            return self._channel_trace(record, source)
+        match = _MATH_DEFINITION.match(self.state["math_define"])
+        if self.state["math_type"] != "DUAL" or match is None or "REF" in match.group(0):
+            return None
+        first, operator, second = (self._channel_trace(record, match.group(1)), match.group(2),
+                                   self._channel_trace(record, match.group(3)))
+        if operator == "*" and (match.group(1), match.group(3)) == ("CH1", "CH2"):
+            return record.trace("MATH")
+        with np.errstate(divide="ignore", invalid="ignore"):
+            return {"+": np.add, "-": np.subtract, "*": np.multiply, "/": np.divide}[operator](first, second)
+
+    def _clipping(self, source: str) -> tuple[int, str] | None:
+        """Measurement error 2227-2229 (TDS PM Table 3-5) when a channel the source
+        shows reaches the ADC limits."""
+        if source == "MATH":
+            match = _MATH_DEFINITION.match(self.state["math_define"])
+            channels = [int(match.group(i)[2:]) for i in (1, 3)] if match else []
+        else:
+            channels = [int(source[2:])]
+        record = self.record()
+        high = low = False
+        for channel in (c for c in channels if c <= 3):
+            screen = record.trace(f"CH{channel}") / self.state["scale", channel] + self.state["position", channel]
+            high |= bool(np.any(screen >= fx.ADC_MAX_DIV - 1e-9))
+            low |= bool(np.any(screen <= fx.ADC_MIN_DIV + 1e-9))
+        if high and low:
+            return 2227, "Positive and Negative Clipping"
+        if high or low:
+            return (2228, "Measurement error, Positive Clipping") if high else \
+                (2229, "Measurement error, Negative Clipping")
+        return None
+
+    def _measurement(self, unit: Unit) -> bytes:
+        """MEASUrement:IMMed:VALue? (TDS PM p. 2-213): 9.91E37 and the reason in the
+        event queue when there is no value."""
+        scpi.no_arguments(unit.arguments)
+        source, kind = self.state["measurement_source"], self.state["measurement_type"]
+        trace = self.trace(source)
+        if trace is None:
+            self.event(2225, "Measurement error, No waveform to measure")
+            return NO_VALUE
+        clipping = self._clipping(source)
+        if clipping is not None:
+            self.event(*clipping)
+            return NO_VALUE
+        if kind not in _SIMULATED_MEASUREMENTS:
+            raise ValueError(f"the simulated scope does not compute {kind} measurements")
+        record = self.record()
+        gate = self._gate(record.setup)
+        if gate is None:
+            self.event(2206, "Measurement error, Invalid gate")
+            return NO_VALUE
+        value = traces.measure(traces.Record(record.setup, trace[None, gate], record.frequency_hz), "CH1",
+                               _SIMULATED_MEASUREMENTS[kind])
+        if not math.isfinite(value):
+            self.event(2202, "Measurement error, No period found")
+            return NO_VALUE
+        return b"%.12E" % value
+
+    def _gate(self, setup: traces.ScopeSetup) -> slice | None:
+        """The samples a measurement uses: the whole record, or with MEASUrement:GATing
+        CURSor those between the vertical bar cursors (p. 2-207); None if none are."""
+        if self.state["gating"] != "CURSOR":
+            return slice(None)
+        low, high = sorted((self.state["vbar", 1], self.state["vbar", 2]))
+        inside = np.flatnonzero((setup.times_s() >= low) & (setup.times_s() <= high))
+        return slice(int(inside[0]), int(inside[-1]) + 1) if inside.size else None
+
+    def _measurement_units(self, unit: Unit) -> bytes:
+        scpi.no_arguments(unit.arguments)
+        source = self.state["measurement_source"]
+        return _quoted("VA" if source == "MATH" else self.state["yunit", int(source[2:])]).encode()
+
+    # -- waveform transfer (TDS PM p. 2-39 to 2-43, CURVe p. 2-90, WFMPre? p. 2-314) -------------
     def _selection(self) -> tuple[str, int, int, int, str]:
-        source = str(self.value("data_source")).upper()
-        n = self.record().setup.record_length
-        start = min(max(1, int(self.value("data_start"))), n)
-        stop = min(max(start, int(self.value("data_stop"))), n)
-        return source, start, stop, int(self.value("data_width")), str(self.value("data_encoding")).upper()[:3]
+        s = self.state
+        n = s["record_length"]
+        start = min(max(1, s["data_start"]), n)
+        stop = min(max(start, s["data_stop"]), n)
+        return s["data_source"], start, stop, s["data_width"], s["data_encoding"]
 
     def _scaling(self, source: str, width: int) -> tuple[float, float, np.ndarray]:
-        """(YMUlt, YOFf, raw counts) of `source` in the last record (WFMP? then CURV?
+        """(YMUlt, YOFf, raw counts) of `source` in the last record (WFMPre? then CURVe?
         ask for the same, so the last answer is kept)."""
         record, (kept, kept_source, kept_width, scaled) = self.record(), self._scaled
         if not (kept is record and kept_source == source and kept_width == width):
-            scaled = self._scale(source, width)
+            scaled = self._scale(source, width, self.trace(source))
             self._scaled = (record, source, width, scaled)
         return scaled
 
-    def _scale(self, source: str, width: int) -> tuple[float, float, np.ndarray]:
-        record = self.record()
+    def _scale(self, source: str, width: int, trace: np.ndarray) -> tuple[float, float, np.ndarray]:
         if source == "MATH":
-            trace = record.trace("MATH")
             peak = float(np.max(np.abs(trace)))
             y_mult, y_off = (peak / 32000.0 if peak > 0 else 1.0), 0.0
             counts = np.round(trace / y_mult)
         else:
-            channel = record.setup.channels[int(source[2:]) - 1]
-            y_mult = channel.scale_per_div / fx.COUNTS_PER_DIV
-            y_off = channel.position_div * fx.COUNTS_PER_DIV
-            counts = np.round(record.trace(source) / y_mult + y_off)
+            channel = int(source[2:])
+            y_mult = self.state["scale", channel] / fx.COUNTS_PER_DIV
+            y_off = self.state["position", channel] * fx.COUNTS_PER_DIV
+            counts = np.round(trace / y_mult + y_off)
         counts = np.clip(counts, -32768, 32767)
         if width == 1:  # the high byte of the left-justified 16-bit sample
             return y_mult * 256.0, y_off / 256.0, np.floor(counts / 256.0)
         return y_mult, y_off, counts
 
-    def _preamble(self) -> bytes:
+    def _preamble(self, unit: Unit) -> bytes:
+        """WFMPre?: the 16 fields, or only the five transmission fields when the source is
+        not displayed (TDS PM p. 2-314)."""
+        scpi.no_arguments(unit.arguments)
         source, start, stop, width, encoding = self._selection()
-        record = self.record()
-        y_mult, y_off, _ = self._scaling(source, width)
-        setup = record.setup
-        _, fmt, order = _ENCODINGS.get(encoding, ("", "RI", "MSB"))
-        mode = f"Average mode ({setup.averages})" if setup.averages > 1 else "Sample mode"
-        if source == "MATH":
-            wfid = f"Math, {setup.horizontal_scale_s:.1E} s/div, {setup.record_length} points, {mode}"
-        else:
-            channel = setup.channels[int(source[2:]) - 1]
-            wfid = (f"{source[0]}{source[1:].lower()}, {channel.coupling} coupling, "
-                    f"{channel.scale_per_div:.1E} {_UNITS[source]}/div, {setup.horizontal_scale_s:.1E} s/div, "
-                    f"{setup.record_length} points, {mode}")
-        x_zero = setup.first_sample_s + (start - 1) * setup.sample_interval_s
-        encoding_field = "ASC" if encoding.startswith("ASC") else "BIN"
-        return (f'{width};{8 * width};{encoding_field};{fmt};{order};{stop - start + 1};"{wfid}";Y;'
-                f'{setup.sample_interval_s:.12E};0;{x_zero:.12E};"s";{y_mult:.12E};0.0E0;{y_off:.12E};'
-                f'"{_UNITS[source]}"').encode()
+        fmt, order = _FORMATS[encoding]
+        fields = [str(width), str(8 * width), "ASC" if encoding == "ASCII" else "BIN", fmt, order]
+        if self.trace(source) is not None:
+            setup = self.record().setup
+            y_mult, y_off, _ = self._scaling(source, width)
+            mode = f"Average mode ({setup.averages})" if setup.averages > 1 else "Sample mode"
+            if source == "MATH":
+                unit_name = "VA"
+                wfid = f"Math, {setup.horizontal_scale_s:.1E} s/div, {setup.record_length} points, {mode}"
+            else:
+                channel = int(source[2:])
+                unit_name = self.state["yunit", channel]
+                wfid = (f"Ch{channel}, {self.state['coupling', channel]} coupling, "
+                        f"{self.state['scale', channel]:.1E} {unit_name}/div, {setup.horizontal_scale_s:.1E} s/div, "
+                        f"{setup.record_length} points, {mode}")
+            x_zero = setup.first_sample_s + (start - 1) * setup.sample_interval_s
+            fields += [str(stop - start + 1), _quoted(wfid), "Y", f"{setup.sample_interval_s:.12E}", "0",
+                       f"{x_zero:.12E}", '"s"', f"{y_mult:.12E}", "0.0E0", f"{y_off:.12E}", _quoted(unit_name)]
+        if self.header:
+            return (":WFMPRE:" + ";".join(f"{name} {value}" for name, value in zip(_PREAMBLE_FIELDS, fields))).encode()
+        return ";".join(fields).encode()
 
-    def _curve(self) -> bytes:
+    def _curve(self, unit: Unit) -> bytes:
+        """CURVe?: the record as a block; a source not displayed is refused (Table 2-31)."""
+        scpi.no_arguments(unit.arguments)
         source, start, stop, width, encoding = self._selection()
+        if self.trace(source) is None:
+            raise ScpiError(2244, "Waveform requested is not turned on")
         _, _, counts = self._scaling(source, width)
         counts = counts[start - 1:stop].astype(np.int64)
-        if encoding.startswith("ASC"):
+        if encoding == "ASCII":
             return b",".join(b"%d" % c for c in counts)
-        dtype, fmt, order = _ENCODINGS.get(encoding, _ENCODINGS["RIB"])
+        fmt, order = _FORMATS[encoding]
         if fmt == "RP":  # unsigned binary: offset by half the range
             counts = counts + (128 if width == 1 else 32768)
-        dtype = dtype if width == 2 else dtype[0] + dtype[1] + "1"
+        dtype = ("<" if order == "LSB" else ">") + ("u" if fmt == "RP" else "i") + str(width)
         data = counts.astype(dtype).tobytes()
         length = b"%d" % len(data)
         return b"#%d%s%s" % (len(length), length, data)
 
+    COMMANDS = (
+        Command("*IDN", lambda s, u: s.IDENTITY, None, "p. 2-149 *IDN?"),
+        Command("*RST", None, _reset, "p. 2-252 *RST"),
+        Command("*CLS", None, _clear_status, "p. 2-71 *CLS"),
+        Command("*ESR", _esr, None, "p. 2-116 *ESR?"),
+        Command("*OPC", _opc_query, lambda s, u: None, "p. 2-240 *OPC"),
+        Command("EVMsg", _evmsg, None, "p. 2-126 EVMsg?"),
+        Command("ALLEv", _allev, None, "p. 2-54 ALLEv?"),
+        Command("EVENT", _event_code, None, "p. 2-125 EVENT?"),
+        Command("BUSY", _busy, None, "p. 2-55 BUSY?"),
+        Command("HEADer", lambda s, u: b"1" if s.header else b"0", _header_set, "p. 2-143 HEADer"),
+        Command("CH<x>:SCAle", _setting("scale", None, _nr3, per_channel=True)[0], _scale_set, "p. 2-69 CH<x>:SCAle"),
+        Command("CH<x>:VOLts", _setting("scale", None, _nr3, per_channel=True)[0], _scale_set, "p. 2-70 CH<x>:VOLts"),
+        Command("CH<x>:POSition", *_setting("position", lambda s, t, u: s._forced(scpi.number(t), -5.0, 5.0), _nr3,
+                                            per_channel=True), "p. 2-68 CH<x>:POSition"),
+        Command("CH<x>:COUPling", _setting("coupling", None, str, per_channel=True)[0], _coupling_set,
+                "p. 2-64 CH<x>:COUPling"),
+        Command("CH<x>:BANdwidth", *_setting("bandwidth", _tds_choice(_BANDWIDTHS), str, per_channel=True),
+                "p. 2-63 CH<x>:BANdwidth"),
+        Command("CH<x>:IMPedance", *_setting("impedance", _tds_choice(_IMPEDANCES), str, per_channel=True),
+                "p. 2-66 CH<x>:IMPedance"),
+        Command("CH<x>:PRObe", _setting("probe", None, _nr3, per_channel=True)[0], _probe_set, "p. 2-68 CH<x>:PRObe"),
+        Command("CH<x>:ID", _probe_id, None, "p. 2-65 CH<x>:ID?"),
+        Command("CH<x>:YUNit", _setting("yunit", None, _quoted, per_channel=True)[0], _yunit_set,
+                "p. 2-70 CH<x>:YUNit"),
+        Command("SELect:CH<x>", _setting("select", None, _flag, per_channel=True)[0],
+                lambda s, u: s._select_set(u, ("select", u.suffixes[0])), "p. 2-260 SELect:<wfm>"),
+        Command("SELect:MATH", _setting("select_math", None, _flag)[0],
+                lambda s, u: s._select_set(u, "select_math"), "p. 2-260 SELect:<wfm>"),
+        Command("HORizontal:MAIn:SCAle", _setting("horizontal_scale", None, _nr3)[0], _horizontal_set,
+                "p. 2-146 HORizontal:MAIn:SCAle"),
+        Command("HORizontal:RECORDLength", *_setting("record_length", _nearest_int(_RECORD_LENGTHS), str),
+                "p. 2-147 HORizontal:RECORDLength"),
+        Command("HORizontal:DELay:STATE", *_setting("delay_state", lambda s, t, u: scpi.boolean(t), _flag),
+                "p. 2-144 HORizontal:DELay:STATE"),
+        Command("HORizontal:DELay:TIMe", *_setting("delay_time", lambda s, t, u: scpi.number(t), _nr3),
+                "p. 2-145 HORizontal:DELay:TIMe"),
+        Command("HORizontal:TRIGger:POSition", *_setting("trigger_position", _int(0, 100), str),
+                "p. 2-148 HORizontal:TRIGger:POSition"),
+        Command("MEASUrement:GATing", *_setting("gating", _tds_choice(_GATINGS), str), "p. 2-207 MEASUrement:GATing"),
+        Command("CURSor:FUNCtion", *_setting("cursor_function", _tds_choice(_CURSORS), str), "p. 2-72 CURSor:FUNCtion"),
+        Command("CURSor:VBArs:POSITION<x>", *_setting("vbar", lambda s, t, u: scpi.number(t), _nr3, per_channel=True),
+                "p. 2-79 CURSor:VBArs:POSITION<x>", suffixes=(1, 2)),
+        Command("ACQuire:MODe", *_setting("acquire_mode", _tds_choice(_ACQ_MODES), str), "p. 2-45 ACQuire:MODe"),
+        Command("ACQuire:NUMAVg", *_setting("num_averages", _nearest_int(_AVERAGES), str), "p. 2-47 ACQuire:NUMAVg"),
+        Command("ACQuire:STOPAfter", *_setting("stop_after", _tds_choice(_STOP_AFTER), str),
+                "p. 2-49 ACQuire:STOPAfter"),
+        Command("ACQuire:STATE", _acquire_state_query, _acquire_state_set, "p. 2-48 ACQuire:STATE"),
+        Command("TRIGger:A:TYPe", *_setting("trigger_type", _tds_choice(_TRIGGER_TYPES), str),
+                "p. 2-289 TRIGger:A:TYPe"),
+        Command("TRIGger:A:MODe", *_setting("trigger_mode", _tds_choice(_TRIGGER_MODES), str),
+                "p. 2-277 TRIGger:A:MODe"),
+        Command("TRIGger:A:EDGe:SOUrce", *_setting("trigger_source", _tds_choice(_TRIGGER_SOURCES), str),
+                "p. 2-269 TRIGger:A:EDGe:SOUrce"),
+        Command("TRIGger:A:EDGe:SLOpe", *_setting("trigger_slope", _tds_choice(_SLOPES), str),
+                "p. 2-269 TRIGger:A:EDGe:SLOpe"),
+        Command("TRIGger:A:EDGe:COUPling", *_setting("trigger_coupling", _tds_choice(_TRIGGER_COUPLINGS), str),
+                "p. 2-268 TRIGger:A:EDGe:COUPling"),
+        Command("TRIGger:A:LEVel", *_setting("trigger_level", lambda s, t, u: scpi.number(t), _nr3),
+                "p. 2-271 TRIGger:A:LEVel"),
+        Command("MATH:TYPe", *_setting("math_type", _tds_choice(_MATH_TYPES), str), "p. 2-202 MATH:TYPe"),
+        Command("MATH:DEFINE", _setting("math_define", None, _quoted)[0], _math_define_set, "p. 2-198 MATH:DEFINE"),
+        Command("MEASUrement:IMMed:SOUrce", *_setting("measurement_source", _tds_choice(_SOURCES), str),
+                "p. 2-210 MEASUrement:IMMed:SOUrce"),
+        Command("MEASUrement:IMMed:SOURCE1", *_setting("measurement_source", _tds_choice(_SOURCES), str),
+                "p. 2-210 MEASUrement:IMMed:SOURCE<x>"),
+        Command("MEASUrement:IMMed:TYPe", *_setting("measurement_type", _tds_choice(_MEASUREMENTS), str),
+                "p. 2-211 MEASUrement:IMMed:TYPe"),
+        Command("MEASUrement:IMMed:VALue", _measurement, None, "p. 2-213 MEASUrement:IMMed:VALue?"),
+        Command("MEASUrement:IMMed:UNIts", _measurement_units, None, "p. 2-213 MEASUrement:IMMed:UNIts?"),
+        Command("DATa:SOUrce", *_setting("data_source", _tds_choice(_SOURCES), str), "p. 2-94 DATa:SOUrce"),
+        Command("DATa:ENCdg", *_setting("data_encoding", _tds_choice(_ENCODINGS), str), "p. 2-93 DATa:ENCdg"),
+        Command("DATa:WIDth", *_setting("data_width", _nearest_int((1, 2)), str), "p. 2-97 DATa:WIDth"),
+        Command("DATa:STARt", *_setting("data_start", _int(1, 10000), str), "p. 2-95 DATa:STARt"),
+        Command("DATa:STOP", *_setting("data_stop", _int(1, 10000), str), "p. 2-96 DATa:STOP"),
+        Command("WFMPre", _preamble, None, "p. 2-314 WFMPre?"),
+        Command("CURVe", _curve, None, "p. 2-90 CURVe"),
+    )
+
+    def changed(self, key: str, unit: Unit) -> None:
+        """Nothing happens at once: settings act on the next acquisition."""
+
+
+# == Polytec OFV-5000 =================================================================================
+#: Velocity decoders and their ranges as the controller spells them (unverified against
+#: Polytec's documentation: the VD-09 and VD-02 range sets are from Polytec data sheets as
+#: remembered; the controller lists the installed decoder's with GetDevInfo,VeloDec,0,Range).
+DECODERS = {
+    "VD-09": ("5mm/s/V", "10mm/s/V", "20mm/s/V", "50mm/s/V", "100mm/s/V", "200mm/s/V", "500mm/s/V", "1000mm/s/V"),
+    "VD-02": ("5mm/s/V", "25mm/s/V", "125mm/s/V", "1000mm/s/V"),
+}
+#: The output low-pass filter settings as the controller spells them.
+LOW_PASS_FILTERS = ("Off", "5 kHz", "20 kHz", "100 kHz")
+_RANGE = re.compile(r"^\s*([0-9.]+)\s*(mm|m)/s/V\s*$")
+
+
+class Vibrometer(SimulatedInstrument):
+    """Polytec OFV-5000 controller: ASCII lines `<Verb>,<Device>,<index>,<Attribute>[,<value>]`,
+    echo on at power-on, `Error` for a line it refuses; the decoder range scales CH3."""
+
+    role = "vibrometer"
+
+    def power_on(self) -> None:
+        self.decoder = self.options.get("decoder", "VD-09")
+        if self.decoder not in DECODERS:
+            raise ValueError(f"vibrometer: unknown decoder {self.decoder!r} (known: {', '.join(DECODERS)})")
+        self.state = {"echo": "On", "range": DECODERS[self.decoder][-1], "low_pass": "100 kHz"}
+        self._lines: dict[tuple[str, str, str, str], Callable[[str | None], bytes | None]] = {
+            ("GetDevInfo", "Controller", "0", "Name"): lambda value: b"OFV-5000",
+            ("Get", "Interface", "0", "Echo"): lambda value: self.state["echo"].encode(),
+            ("Set", "Interface", "0", "Echo"): self._setter("echo", ("On", "Off")),
+            ("Get", "VeloDec", "0", "Name"): lambda value: self.decoder.encode(),
+            ("GetDevInfo", "VeloDec", "0", "Name"): lambda value: self.decoder.encode(),
+            ("GetDevInfo", "VeloDec", "0", "Range"): lambda value: ",".join(DECODERS[self.decoder]).encode(),
+            ("Get", "VeloDec", "0", "Range"): lambda value: self.state["range"].encode(),
+            ("Set", "VeloDec", "0", "Range"): self._setter("range", DECODERS[self.decoder]),
+            ("GetDevInfo", "VeloFilter", "0", "LowPassRange"): lambda value: ",".join(LOW_PASS_FILTERS).encode(),
+            ("Get", "VeloFilter", "0", "LowPassRange"): lambda value: self.state["low_pass"].encode(),
+            ("Set", "VeloFilter", "0", "LowPassRange"): self._setter("low_pass", LOW_PASS_FILTERS),
+            ("Get", "OverRange", "0", "Value"): lambda value: b"1" if self.bench.vibrometer_over_range() else b"0",
+            ("Get", "SignalLevel", "0", "Value"):
+                lambda value: b"%d" % round(self.bench.scene.measurement_point.signal_level_percent),
+        }
+
+    def _setter(self, key: str, allowed: tuple[str, ...]):
+        def set_(value: str | None) -> bytes | None:
+            if value not in allowed:
+                return b"Error"
+            self.state[key] = value
+            return None
+        return set_
+
+    def is_query(self, message: bytes) -> bool:
+        return message.startswith(b"Get")
+
+    def handle(self, message: bytes) -> list:
+        replies = [message] if self.state["echo"] == "On" else []
+        text = message.decode("ascii", errors="replace").strip()
+        fields = text.split(",")
+        key = tuple(fields[:4])
+        action = self._lines.get(key) if len(key) == 4 else None
+        value = fields[4] if len(fields) == 5 else None
+        if action is None or (key[0] == "Set") != (value is not None) or len(fields) > 5:
+            replies.append(b"Error")
+        else:
+            reply = action(value)
+            if reply is not None:
+                replies.append(reply)
+        return replies
+
+    def range_mps_per_v(self) -> float:
+        match = _RANGE.match(self.state["range"])
+        return float(match.group(1)) * (1e-3 if match.group(2) == "mm" else 1.0)
+
 
 INSTRUMENTS = {cls.role: cls for cls in (Generator, Scope, Vibrometer)}
+
+
+# == start states ======================================================================================
+def hostile_start(bench) -> None:
+    """Instruments as a previous user may leave them: scope math in FFT mode, trigger on
+    the idle CH4, every channel off, headers on, envelope single sequence, stale events;
+    generator with a square wave, Vrms units, 50 ohm and a stale error; vibrometer echo
+    on with the decoder on its most sensitive range and the 5 kHz filter."""
+    scope, generator, vibrometer = bench.scope, bench.generator, bench.vibrometer
+    scope.state.update({"math_type": "FFT", "math_define": "FFT(CH1,HANNING,LOGRMS)", "trigger_source": "CH4",
+                        "trigger_mode": "NORMAL", "acquire_mode": "ENVELOPE", "stop_after": "SEQUENCE",
+                        "data_encoding": "ASCII", "data_width": 1, "record_length": 500, "select_math": False,
+                        ("probe", 3): 0.1, ("coupling", 1): "AC"})
+    for channel in CHANNELS:
+        scope.state["select", channel] = False
+    scope.event(113, "Undefined header", "MATH:DEFI \"CH1*CH2\"")
+    scope.header = True
+    generator.state.update({"shape": "SQU", "unit": "VRMS", "offset": 0.5})
+    generator.report(ScpiError(-113, "Undefined header"))
+    vibrometer.state.update({"echo": "On", "range": DECODERS[vibrometer.decoder][0], "low_pass": "5 kHz"})
+
+
+START_STATES: dict[str, Callable] = {"power_on": lambda bench: None, "hostile": hostile_start}

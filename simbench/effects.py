@@ -570,7 +570,7 @@ class InstrumentErrorEntry(BusFault):
     needs_reply = False
 
     def act(self, instrument) -> None:
-        instrument.device.error_response("command_error")
+        instrument.inject_error()
 
 
 class Disconnect(BusFault):

@@ -156,6 +156,7 @@ class State:
     capacitance_f: float  # clamped capacitance of the powered piezos
     branch: physics.MotionalBranch  # the working mode (calibrated, or from the physics)
     q_mech_origin: str = "given"  # "given" or "modal mass" (derived from the plate)
+    plate_length_mm: float | None = None  # the plate's length in this state (a cut); None: uncut
 
     def load(self) -> physics.PlateLoad:
         """The plate as the amplifier sees it, with every effect off."""
@@ -211,6 +212,10 @@ class Scene:
         except KeyError:
             raise SceneError(f"{self.path}: states: no state {name!r}; "
                              f"allowed: {', '.join(self.states)}") from None
+
+    def plate_in(self, state: State) -> Plate:
+        """The resonator as `state` has it (a cut state is shorter)."""
+        return replace(self.plate, length_mm=state.plate_length_mm or self.plate.length_mm)
 
     def geometry(self, state: State) -> model.PlateGeometry:
         """The half-wavelength section of the paper's Fig. 4 for `state`."""
@@ -273,6 +278,7 @@ class StateFigures:
     modal_mass_g: float
     plate_mass_g: float
     shunt_share: float
+    shunt_share_detuned: float  # at the Fig. 2 50 % detuning, voltage doubled to regain v0
     loss_w_per_um2: float  # plate power / (amplitude pp in um)^2
     force_factor_vs_datasheet: float  # calibrated n_c psi over the pin-force value
     q_mech: float
@@ -306,6 +312,7 @@ class StateFigures:
                 "material_k31": self.material_k31, "power_factor": self.power_factor,
                 "modal_mass_g": self.modal_mass_g, "plate_mass_g": self.plate_mass_g,
                 "modal_mass_ratio": self.modal_mass_ratio, "shunt_share": self.shunt_share,
+                "shunt_share_detuned": self.shunt_share_detuned,
                 "loss_w_per_um2": self.loss_w_per_um2,
                 "force_factor_vs_datasheet": self.force_factor_vs_datasheet, "q_mech": self.q_mech}
 
@@ -317,13 +324,25 @@ def state_figures(scene: "Scene", state: State) -> StateFigures:
     voltage_vpp = state.calibration.voltage_vpp if state.calibration else PAPER_MODEL_REFERENCE_VPP
     load = physics.PlateLoad(capacitance_f=state.capacitance_f, branches=(state.branch,),
                              series_ohm=scene.electronics.shunt_ohm)
-    drive = physics.Drive(np.array([1]), np.array([voltage_vpp / 2.0 + 0j]), 0.0)
-    steady = physics.solve_steady_state(load, drive, state.branch.frequency_hz)
+
+    def at(frequency_hz: float, amplitude_v: float) -> physics.SteadyState:
+        drive = physics.Drive(np.array([1]), np.array([amplitude_v + 0j]), 0.0)
+        return physics.solve_steady_state(load, drive, frequency_hz)
+
+    def shunt_share(steady: physics.SteadyState) -> float:
+        shunt_w = 0.5 * scene.electronics.shunt_ohm * abs(steady.current_phasor) ** 2
+        return shunt_w / steady.power_w if steady.power_w > 0 else math.inf
+
+    steady = at(state.branch.frequency_hz, voltage_vpp / 2.0)
     current = abs(steady.current_phasor)
     apparent = 0.5 * voltage_vpp / 2.0 * current
-    shunt_w = 0.5 * scene.electronics.shunt_ohm * current**2
+    # Fig. 2: above resonance where |Z_mech| = 2 R_mech (q (r - 1/r) = sqrt(3)) the velocity
+    # halves, and twice the voltage regains it
+    x = math.sqrt(3.0) / state.q_mech
+    detuned = at(state.branch.frequency_hz * (x + math.sqrt(x * x + 4.0)) / 2.0, voltage_vpp)
     amplitude_um = steady.amplitude_pp_m * 1e6
-    physical_psi = force_factor_n_per_v(scene.plate, scene.actuators, scene.mode, state.powered_columns)
+    plate = scene.plate_in(state)
+    physical_psi = force_factor_n_per_v(plate, scene.actuators, scene.mode, state.powered_columns)
     origin = "physical" if state.calibration is None else state.calibration.form + (
         f" ({state.calibration.reading})" if state.calibration.reading else "")
     return StateFigures(
@@ -332,8 +351,8 @@ def state_figures(scene: "Scene", state: State) -> StateFigures:
         material_k31=scene.actuators.piezo.material.k31,
         power_factor=steady.power_w / apparent if apparent > 0 else 0.0,
         modal_mass_g=physics.modal_mass_kg(state.branch) * 1e3,
-        plate_mass_g=assembly_mass_kg(scene.plate, scene.actuators) * 1e3,
-        shunt_share=shunt_w / steady.power_w if steady.power_w > 0 else math.inf,
+        plate_mass_g=assembly_mass_kg(plate, scene.actuators) * 1e3,
+        shunt_share=shunt_share(steady), shunt_share_detuned=shunt_share(detuned),
         loss_w_per_um2=steady.plate_power_w / amplitude_um**2 if amplitude_um > 0 else math.inf,
         force_factor_vs_datasheet=state.branch.force_factor_n_per_v / physical_psi if physical_psi > 0 else math.inf,
         q_mech=state.q_mech)
@@ -477,7 +496,7 @@ def _with_q_from_modal_mass(scene: Scene, state: State) -> State:
     plate's modal mass (the calibration fixes R_mech, the plate its mass)."""
     if state.q_mech_origin == "given":
         return state
-    mass = modal_mass_kg(scene.plate, scene.actuators, scene.mode)
+    mass = modal_mass_kg(scene.plate_in(state), scene.actuators, scene.mode)
     q_mech = 2.0 * math.pi * state.resonance_frequency_hz * mass / state.branch.resistance_ns_per_m
     return replace(state, q_mech=q_mech, branch=replace(state.branch, q_mech=q_mech))
 
@@ -522,7 +541,8 @@ def _states(reader: _Reader, data: Any, plate: Plate, actuators: Actuators, mode
     for name, state in data.items():
         name, field = str(name), f"states.{name}"
         state = reader.mapping(state, field, required=("resonance_frequency_hz", "powered_columns"),
-                               optional=("description", "q_mech", "n_powered_piezos", "calibration"))
+                               optional=("description", "q_mech", "n_powered_piezos", "calibration",
+                                         "plate_length_mm"))
         powered = state["powered_columns"]
         if not isinstance(powered, list) or not powered:
             raise reader.error(f"{field}.powered_columns",
@@ -540,6 +560,10 @@ def _states(reader: _Reader, data: Any, plate: Plate, actuators: Actuators, mode
             raise reader.error(f"{field}.q_mech", "is missing (a state without a calibration needs its "
                                                   "mechanical quality factor)")
         frequency_hz = reader.number(state, "resonance_frequency_hz", field)
+        length_mm = reader.number(state, "plate_length_mm", field) if "plate_length_mm" in state else None
+        if length_mm is not None and length_mm > plate.length_mm:
+            raise reader.error(f"{field}.plate_length_mm", f"got {length_mm:g}; allowed: up to plate.length_mm "
+                                                           f"({plate.length_mm:g}): a state can only cut the plate")
         powered_names = tuple(str(c) for c in powered)
         geometry = _geometry(plate, actuators.piezo, mode, n_powered, len(powered))
         capacitance_f = physics.piezo_capacitance_f(
@@ -558,13 +582,14 @@ def _states(reader: _Reader, data: Any, plate: Plate, actuators: Actuators, mode
             calibration, given = None, True
             q_mech = reader.number(state, "q_mech", field)
             branch = physics.branch_from_physics(
-                frequency_hz, q_mech, modal_mass_kg(plate, actuators, mode),
+                frequency_hz, q_mech, modal_mass_kg(replace(plate, length_mm=length_mm or plate.length_mm),
+                                                    actuators, mode),
                 force_factor_n_per_v(plate, actuators, mode, powered_names))
         states[name] = State(
             name=name, description=str(state.get("description", "")), resonance_frequency_hz=frequency_hz,
             q_mech=q_mech, powered_columns=powered_names, n_powered_piezos=n_powered,
             calibration=calibration, capacitance_f=capacitance_f, branch=branch,
-            q_mech_origin="given" if given else "modal mass")
+            q_mech_origin="given" if given else "modal mass", plate_length_mm=length_mm)
     return states
 
 

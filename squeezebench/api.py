@@ -169,7 +169,7 @@ class RunResults:
     def report(self) -> Path:
         """Regenerate RUN_DIR/report/ from the stored data; the index.html path (the same
         report as `squeezebench report`, the simulated plates' section included)."""
-        import squeezebench.scenes_section  # noqa: F401  (adds the simulated plates' section)
+        import squeezebench.simulated_plates  # noqa: F401  (adds the simulated plates' section)
         from squeezebench.analysis.report import write_report
 
         return write_report(self.run_dir)

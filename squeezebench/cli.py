@@ -69,7 +69,10 @@ def cmd_check(args: argparse.Namespace) -> int:
 
 
 def cmd_run(args: argparse.Namespace) -> int:
-    from squeezebench.protocols.campaign import run_campaign
+    from squeezebench.protocols.campaign import load_campaign, run_campaign
+    from squeezebench.simulated_plates import check_powered_piezos
+
+    check_powered_piezos(load_campaign(paths.campaign_file(args.campaign)))
 
     watchers = {}
     if args.plot:
@@ -92,7 +95,7 @@ def cmd_run(args: argparse.Namespace) -> int:
 
 
 def cmd_report(args: argparse.Namespace) -> int:
-    import squeezebench.scenes_section  # noqa: F401  (adds the simulated plates' section)
+    import squeezebench.simulated_plates  # noqa: F401  (adds the simulated plates' section)
     from squeezebench.analysis.report import write_report
     from squeezebench.protocols.storage import RunStore
 
@@ -109,7 +112,7 @@ def cmd_report(args: argparse.Namespace) -> int:
 
 
 def cmd_reproduce(args: argparse.Namespace) -> int:
-    import squeezebench.scenes_section  # noqa: F401  (adds the simulated plates' section)
+    import squeezebench.simulated_plates  # noqa: F401  (adds the simulated plates' section)
     from squeezebench.analysis.report import write_report
     from squeezebench.protocols.accuracy_study import run_study
     from squeezebench.protocols.campaign import run_campaign

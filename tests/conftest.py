@@ -1,35 +1,81 @@
-"""Fixtures shared by the driver tests: a fresh plain pyvisa-sim bench and a bus recorder."""
+"""Byte-exact protocol fixture for the driver tests, in the manner of PyMeasure's
+`expected_protocol`: a stand-in for a PyVISA resource that holds the exact sequence of
+messages a driver must send and the replies the instrument gives, written from the
+manuals and independent of the simulator.
+
+    with expected_protocol(TDS3054B, [("HEADER OFF", None), ("*IDN?", "TEKTRONIX,...")]) as scope:
+        scope.identify()
+
+A reply of `None` means the instrument says nothing; `TIMEOUT` that the read times out
+(a refused query); `CLEAR` as the message is a device clear. Leaving the block with
+messages unsent fails the test, as does any message out of order.
+"""
 
 from __future__ import annotations
 
-import shutil
-from pathlib import Path
+from contextlib import contextmanager
+from typing import Any, Iterator
 
+import numpy as np
 import pytest
-import pyvisa
+from pyvisa import constants
+from pyvisa.errors import VisaIOError
+from pyvisa.util import from_ieee_block
 
-DEFINITIONS = Path(__file__).resolve().parents[1] / "simbench" / "definitions"
+TIMEOUT = object()
+CLEAR = "<device clear>"
+
+
+class ProtocolResource:
+    """The PyVISA resource calls the drivers use, checked against a script."""
+
+    def __init__(self, exchanges: list[tuple[str, Any]], resource_name: str) -> None:
+        self.exchanges = list(exchanges)
+        self.resource_name = resource_name
+        self.read_termination = self.write_termination = None
+        self.timeout = 2000.0
+        self._pending: list[Any] = []
+
+    def _next(self, message: str) -> None:
+        assert self.exchanges, f"unexpected message {message!r}: the script has ended"
+        expected, reply = self.exchanges.pop(0)
+        assert message == expected, f"sent {message!r}, the manual-derived script expects {expected!r}"
+        if reply is not None:
+            self._pending.append(reply)
+
+    def write(self, message: str) -> None:
+        self._next(message)
+
+    def read(self) -> str:
+        if not self._pending or self._pending[0] is TIMEOUT:
+            if self._pending:
+                self._pending.pop(0)
+            raise VisaIOError(constants.StatusCode.error_timeout)
+        reply = self._pending.pop(0)
+        return reply.decode("latin-1") if isinstance(reply, bytes) else reply
+
+    def query(self, message: str) -> str:
+        self.write(message)
+        return self.read()
+
+    def query_binary_values(self, message: str, datatype: str, is_big_endian: bool, container=np.array):
+        self.write(message)
+        reply = self._pending.pop(0)
+        return container(from_ieee_block(reply, datatype, is_big_endian))
+
+    def clear(self) -> None:
+        self._next(CLEAR)
+
+
+@contextmanager
+def expected_protocol(driver_class, exchanges: list[tuple[str, Any]], resource_name: str = "FAKE::INSTR",
+                      **kwargs) -> Iterator[Any]:
+    resource = ProtocolResource(exchanges, resource_name)
+    yield driver_class(resource, **kwargs)
+    assert not resource.exchanges, f"messages the driver never sent: {resource.exchanges}"
+    assert not resource._pending, f"replies the driver never read: {resource._pending}"
 
 
 @pytest.fixture
-def rm(tmp_path):
-    """Plain pyvisa-sim over the shipped definitions, each test with its own copy: no shared state."""
-    for path in DEFINITIONS.glob("*.yaml"):
-        shutil.copy(path, tmp_path)
-    manager = pyvisa.ResourceManager(f"{tmp_path / 'bench.yaml'}@sim")
-    yield manager
-    manager.close()
-
-
-@pytest.fixture
-def sent(resource, monkeypatch):
-    """Every message written to the module's `resource` fixture (queries included)."""
-    messages: list[str] = []
-    write = resource.write
-
-    def recording_write(message, *args, **kwargs):
-        messages.append(message)
-        return write(message, *args, **kwargs)
-
-    monkeypatch.setattr(resource, "write", recording_write)
-    return messages
+def protocol():
+    return expected_protocol

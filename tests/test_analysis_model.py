@@ -78,3 +78,38 @@ def test_bending_neutral_plane_with_printed_modulus_sits_in_the_piezo():
     assert model.neutral_plane_m(geometry, convention) == pytest.approx(0.25e-3, rel=1e-4)
     physical = replace(model.PHYSICAL_CONVENTION, neutral_plane="bending_neutral")
     assert 0.5e-3 < model.neutral_plane_m(geometry, physical) < 2.5e-3
+
+
+@settings(max_examples=80, deadline=None, derandomize=True)
+@given(geometry=geometries, groups=st.integers(1, 4), q=st.floats(0.5, 5.0), tan=st.floats(-2.0, -0.01),
+       voltage=st.floats(1.0, 100.0), frequency=st.floats(2e4, 8e4),
+       reading=st.builds(lambda values: values, st.fixed_dictionaries({
+           "voltage": st.sampled_from(["pp", "amplitude", "rms"]),
+           "amplitude": st.sampled_from(["pp", "amplitude"]),
+           "n_c": st.sampled_from(["piezos", "groups"]),
+           "eq25_with_pi": st.booleans(), "c11_reduced": st.booleans(),
+           "eq25_coefficient": st.sampled_from([0.75, 0.375])})))
+def test_every_reading_inverts_its_own_eqs_25_and_27(geometry, groups, q, tan, voltage, frequency, reading):
+    """Whatever the reading, Q and tan theta' come back from the amplitude and power it gives."""
+    geometry = replace(geometry, n_powered_groups=min(groups, geometry.n_powered_piezos))
+    convention = replace(model.PAPER_CONVENTION, name="any", **reading)
+    amplitude = model.amplitude_pp_m(q, voltage, geometry, convention)
+    power = model.power_w(q, tan, voltage, frequency, geometry, convention)
+    q_back = model.q_from_amplitude(amplitude, voltage, geometry, convention)
+    assert q_back == pytest.approx(q, rel=1e-9)
+    assert model.tan_theta_from_power(power, voltage, q_back, frequency, geometry, convention) == pytest.approx(
+        tan, rel=1e-9)
+
+
+def test_the_reading_axes_scale_eq25_as_stated():
+    geometry = model.PlateGeometry(2e-3, 0.5e-3, 14e-3, 9e-3, 8, 4)
+    base = model.power_w(1.48, -1.24, 32.0, 52400.0, geometry, model.PAPER_CONVENTION)
+
+    def ratio(**change):
+        return model.power_w(1.48, -1.24, 32.0, 52400.0, geometry, replace(model.PAPER_CONVENTION, **change)) / base
+
+    assert ratio(eq25_with_pi=False) == pytest.approx(1 / math.pi, rel=1e-12)
+    assert ratio(eq25_coefficient=0.375) == pytest.approx(0.5, rel=1e-12)
+    assert ratio(n_c="groups") == pytest.approx(0.25, rel=1e-12)
+    assert ratio(voltage="rms") == pytest.approx(1 / 8, rel=1e-12)
+    assert ratio(c11_reduced=False) == pytest.approx(1 - 0.33**2, rel=1e-12)

@@ -45,3 +45,10 @@ def test_a_reading_counting_groups_needs_the_geometry_to_say_how_many():
     geometry = model.PlateGeometry(2e-3, 0.5e-3, 14e-3, 9e-3, 8)
     with pytest.raises(model.ModelGeometryError, match="n_powered_groups"):
         model.amplitude_pp_m(1.0, 1.0, geometry, model.INFERRED_CONVENTION)
+
+
+def test_the_search_says_in_words_how_isolated_the_inferred_reading_is(grid):
+    first, second = readings.search_words(grid)
+    assert "13824 readings, 1 reproduce all three published numbers within 10 %" in first
+    assert readings.INFERRED_READING.label in first
+    assert second.startswith("Keeping Eq. 25 as printed (with pi and 3/4), the best reading is off by 18.2%")

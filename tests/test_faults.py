@@ -94,11 +94,11 @@ def connection_reset():
 
 @pytest.fixture(scope="module")
 def reference(tmp_path_factory):
-    """An uninterrupted run: its rows, and how many writes / MEASU:IMM:VAL? queries it made."""
+    """An uninterrupted run: its rows, and how many writes / MEASUREMENT:IMMED:VALUE? queries it made."""
     tmp_path = tmp_path_factory.mktemp("faults_reference")
     campaign = small_campaign(tmp_path)
     with pytest.MonkeyPatch.context() as monkeypatch:
-        tap = BusTap(monkeypatch, garble_command="MEASU:IMM:VAL?")
+        tap = BusTap(monkeypatch, garble_command="MEASUREMENT:IMMED:VALUE?")
         run_dir = run_campaign(campaign, out_dir=tmp_path / "run")
     return campaign, read_measurements(run_dir), tap.writes, tap.queries
 
@@ -153,11 +153,11 @@ def test_garbled_measurement_reply_names_the_command(reference, tmp_path, monkey
     campaign, expected, _, n_queries = reference
     run_dir = tmp_path / "run"
     with monkeypatch.context() as patch:
-        tap = BusTap(patch, garble_command="MEASU:IMM:VAL?", garble_at=n_queries // 2)
+        tap = BusTap(patch, garble_command="MEASUREMENT:IMMED:VALUE?", garble_at=n_queries // 2)
         with pytest.raises(GarbledReply) as caught:
             run_campaign(campaign, out_dir=run_dir)
-    assert caught.value.command == "MEASU:IMM:VAL?"
-    assert "MEASU:IMM:VAL?" in str(caught.value) and "#@!" in str(caught.value)
+    assert caught.value.command == "MEASUREMENT:IMMED:VALUE?"
+    assert "MEASUREMENT:IMMED:VALUE?" in str(caught.value) and "#@!" in str(caught.value)
     assert tap.last_amplitude_vpp is not None and _is_minimum(tap.last_amplitude_vpp)
     journal = RunStore(run_dir).journal()
     assert journal, "half-way through, some steps must be complete"
@@ -187,7 +187,7 @@ def test_repeated_faults_then_resume_leave_only_finite_values(reference, tmp_pat
     campaign, expected, n_writes, n_queries = reference
     run_dir = tmp_path / "run"
     faults = [dict(fail_at=n_writes // 5, fault=visa_timeout),
-              dict(garble_command="MEASU:IMM:VAL?", garble_at=max(1, n_queries // 5)),
+              dict(garble_command="MEASUREMENT:IMMED:VALUE?", garble_at=max(1, n_queries // 5)),
               dict(fail_at=n_writes // 5, fault=connection_reset)]
     for fault in faults:
         with monkeypatch.context() as patch:

@@ -1,33 +1,31 @@
-"""Bench description, opening and checking, on plain pyvisa-sim and on simbench."""
+"""Bench description, opening and checking (on the simulated bench, from its power-on
+state and from a hostile one)."""
 
 from __future__ import annotations
 
-import shutil
 from pathlib import Path
 
 import pytest
 import yaml
 
 from squeezebench.instruments.agilent33120a import Agilent33120A
-from squeezebench.instruments.bench import (SIM_RESOURCES, Bench, BenchConfig, BenchElectronics, NullOperator,
-                               SimulatedOperator, TerminalOperator, WallClock, check_bench, load_bench_file,
-                               open_bench, sim_bench_config)
+from squeezebench.instruments.bench import (SIM_RESOURCES, Bench, BenchConfig, BenchElectronics, SimulatedOperator,
+                                            TerminalOperator, WallClock, check_bench, load_bench_file, open_bench,
+                                            sim_bench_config)
 from squeezebench.instruments.errors import BenchFileError, InstrumentConnectionError
 from squeezebench.instruments.ofv5000 import OFV5000
 from squeezebench.instruments.tds3054b import TDS3054B
 from squeezebench.errors import UserError
 
 ROOT = Path(__file__).resolve().parents[1]
-DEFINITIONS = ROOT / "simbench" / "definitions"
 SCENE = ROOT / "data" / "scenes" / "one_column_1mm.yaml"
 
 
-@pytest.fixture
-def sim_library(tmp_path) -> str:
-    """A plain pyvisa-sim bench of its own (PyVISA keeps one library per path)."""
-    for path in DEFINITIONS.glob("*.yaml"):
-        shutil.copy(path, tmp_path)
-    return f"{tmp_path / 'bench.yaml'}@sim"
+@pytest.fixture(params=["power_on", "hostile"])
+def sim_library(request) -> str:
+    """The simulated bench, its instruments starting as the manuals power them on or as a
+    previous user may have left them (simbench.devices.hostile_start)."""
+    return f"{SCENE}#start={request.param}@simbench"
 
 
 def write_yaml(tmp_path: Path, data, name: str = "bench.yaml") -> Path:
@@ -113,30 +111,27 @@ def test_sim_bench_config_errors(tmp_path):
 
 
 # -- opening --------------------------------------------------------------------------------------
-def test_open_bench_on_plain_pyvisa_sim(sim_library):
+def test_open_bench(sim_library):
     config = BenchConfig(sim_library, dict(SIM_RESOURCES))
     with open_bench(config) as bench:
         assert isinstance(bench, Bench)
         assert (type(bench.generator), type(bench.scope), type(bench.vibrometer)) == \
             (Agilent33120A, TDS3054B, OFV5000)
-        assert isinstance(bench.clock, WallClock) and isinstance(bench.operator, NullOperator)
+        assert isinstance(bench.operator, SimulatedOperator)
         assert bench.electronics is config.electronics
         assert bench.generator.output_load == "INF"      # what the amplifier input needs
+        bench.check_errors()                             # stale status was cleared
         identifications = bench.identify()
         assert "33120A" in identifications["generator"] and "TDS 3054" in identifications["scope"]
         assert identifications["vibrometer"] == "OFV-5000"
+        assert bench.vibrometer.echo == "Off"
         snapshot = bench.settings_snapshot()
-        assert snapshot["generator"]["output_load"] == "INF" and snapshot["scope"]["ch1"]["coupling"] == "DC"
-        bench.operator.request("Cut the plate to 59 mm", state="59x41")
-        assert bench.operator.requests == [("Cut the plate to 59 mm", "59x41")]
+        assert snapshot["generator"]["output_load"] == "INF" and snapshot["scope"]["ch2"]["probe_model"] == "TCP202"
         resource = bench.generator.resource
     with pytest.raises(Exception):   # closed with the bench
         resource.query("*IDN?")
 
 
-# pyvisa-sim opens an unknown address without complaint (a VISA library refuses it) and
-# then reads nothing from it: the identification is empty.
-@pytest.mark.filterwarnings("ignore:read string doesn't end with termination characters")
 def test_open_bench_names_the_role_that_does_not_answer(sim_library):
     config = BenchConfig(sim_library, {**SIM_RESOURCES, "scope": "TCPIP0::192.168.0.99::INSTR"})
     with pytest.raises(InstrumentConnectionError) as info:
@@ -147,38 +142,55 @@ def test_open_bench_names_the_role_that_does_not_answer(sim_library):
 
 
 def test_open_bench_refuses_another_instrument_at_an_address(sim_library, monkeypatch):
-    monkeypatch.setattr("squeezebench.instruments.base.DEFAULT_TIMEOUT_S", 0.1)   # the OFV-5000 will not answer *IDN?
     config = BenchConfig(sim_library, {**SIM_RESOURCES, "generator": SIM_RESOURCES["scope"]})
     with pytest.raises(InstrumentConnectionError,
                        match=r"generator \(TCPIP0::192.168.0.20::INSTR\).*'TEKTRONIX,TDS 3054B.*not a 33120A"):
         open_bench(config)
     config = BenchConfig(sim_library, {**SIM_RESOURCES, "generator": SIM_RESOURCES["vibrometer"]})
-    with pytest.raises(InstrumentConnectionError, match=r"generator \(ASRL1::INSTR\).*no answer to \*IDN\?"):
-        open_bench(config)   # the OFV-5000 does not speak SCPI
+    with pytest.raises(InstrumentConnectionError, match=r"generator \(ASRL1::INSTR\).*not a 33120A"):
+        open_bench(config)   # the OFV-5000 does not speak SCPI (it echoes, then answers Error)
 
 
 def test_unloadable_visa_library(tmp_path):
     with pytest.raises(InstrumentConnectionError, match="cannot load the VISA library"):
-        open_bench(BenchConfig(f"{tmp_path / 'missing.yaml'}@sim", dict(SIM_RESOURCES)))
+        open_bench(BenchConfig("@no_such_backend", dict(SIM_RESOURCES)))
 
 
 # -- checking -------------------------------------------------------------------------------------
-def test_check_bench_on_plain_pyvisa_sim(sim_library):
+def test_check_bench(sim_library):
     lines: list[str] = []
     assert check_bench(BenchConfig(sim_library, dict(SIM_RESOURCES)), out=lines.append) == 0
     text = "\n".join(lines)
     assert "generator at GPIB0::10::INSTR: HEWLETT-PACKARD,33120A" in text
     assert "scope at TCPIP0::192.168.0.20::INSTR: TEKTRONIX,TDS 3054B" in text
     assert "vibrometer at ASRL1::INSTR: OFV-5000" in text
-    assert "frequency_hz = 1000.0" in text and "velocity_range = '1000mm/s/V'" in text
+    assert "ch2: detected probe TCP202, gain 1, unit A" in text
+    assert "decoder = 'VD-09'" in text and "decoder ranges: 5mm/s/V, 10mm/s/V" in text
+    assert "401,'Power on'" in text    # read and cleared
     assert text.endswith("bench check passed")
 
 
-@pytest.mark.filterwarnings("ignore:read string doesn't end with termination characters")
+def test_check_bench_reads_and_clears_stale_errors():
+    lines: list[str] = []
+    assert check_bench(BenchConfig(f"{SCENE}#start=hostile@simbench", dict(SIM_RESOURCES)), out=lines.append) == 0
+    text = "\n".join(lines)
+    assert "cleared 1 queued event(s): -113,'Undefined header'" in text
+    assert "113,'Undefined header; MATH:DEFI \"CH1*CH2\"'" in text
+
+
+def test_check_bench_exits_2_when_the_bench_file_disagrees_with_a_detected_probe():
+    lines: list[str] = []
+    config = BenchConfig(f"{SCENE}@simbench", dict(SIM_RESOURCES), BenchElectronics(current_probe_a_per_a=0.1))
+    assert check_bench(config, out=lines.append) == 2
+    text = "\n".join(lines)
+    assert "scope CH2 has a detected TCP202 probe of gain 1, but the bench description says 0.1" in text
+    assert text.endswith("bench check FAILED: the bench description disagrees with the hardware")
+
+
 def test_check_bench_with_a_missing_address(sim_library):
     lines: list[str] = []
     config = BenchConfig(sim_library, {**SIM_RESOURCES, "vibrometer": "ASRL7::INSTR"})
-    assert check_bench(config, out=lines.append) == 1
+    assert check_bench(config, out=lines.append) == 2
     text = "\n".join(lines)
     assert "vibrometer at ASRL7::INSTR did not answer as expected" in text
     assert "generator at GPIB0::10::INSTR: HEWLETT-PACKARD,33120A" in text   # the others are still shown

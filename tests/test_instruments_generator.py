@@ -1,192 +1,105 @@
-"""Agilent 33120A driver against plain pyvisa-sim (simbench/definitions/agilent33120a.yaml)."""
+"""Agilent 33120A driver, byte for byte against the HP 33120A User's Guide (Chapter 4
+command reference, Chapter 5 error messages): the exact messages sent and the replies
+the instrument gives, independent of the simulator."""
 
 from __future__ import annotations
 
-import math
-
 import pytest
 
+from conftest import TIMEOUT, expected_protocol
 from squeezebench.instruments.agilent33120a import Agilent33120A
 from squeezebench.instruments.errors import GarbledReply, InstrumentError, InstrumentTimeout, OutOfRangeError
-from squeezebench.errors import UserError
 
-ADDRESS = "GPIB0::10::INSTR"
-
-
-@pytest.fixture
-def resource(rm):
-    return rm.open_resource(ADDRESS)
+CONNECT = [("VOLT:UNIT VPP", None)]
+IDN = "HEWLETT-PACKARD,33120A,0,7.0-5.0-1.0"
+LOAD_INF = ("OUTP:LOAD?", "+9.900000E+37")
+LOAD_50 = ("OUTP:LOAD?", "+5.000000E+01")
 
 
-@pytest.fixture
-def generator(resource, sent):
-    return Agilent33120A(resource)
+def test_connect_and_identify():
+    with expected_protocol(Agilent33120A, CONNECT + [("*IDN?", IDN)]) as generator:
+        assert generator.identify() == IDN
 
 
-def settings(messages: list[str]) -> list[str]:
-    """The messages that change a setting (not queries)."""
-    return [m for m in messages if not m.endswith("?")]
+def test_frequency_round_trip():
+    with expected_protocol(Agilent33120A, CONNECT + [("FREQ 37180.25", None),
+                                                     ("FREQ?", "+3.718025000000E+04")]) as generator:
+        generator.frequency_hz = 37180.25
+        assert generator.frequency_hz == 37180.25
 
 
-def test_identification_and_connect(generator, sent):
-    assert "33120A" in generator.identify()
-    assert sent[0] == "VOLT:UNIT VPP"   # amplitudes are peak-to-peak from the start
-    assert generator.voltage_unit == "VPP"
+@pytest.mark.parametrize("load, reply", [("50", "+5.000000E+01"), ("INF", "+9.900000E+37")])
+def test_output_load_as_the_instrument_answers_it(load, reply):
+    with expected_protocol(Agilent33120A, CONNECT + [(f"OUTP:LOAD {load}", None), ("OUTP:LOAD?", reply)]) as g:
+        g.output_load = load
+        assert g.output_load == load
 
 
-@pytest.mark.parametrize("frequency_hz", [100e-6, 1.0, 37180.25, 15e6])
-def test_frequency_round_trip(generator, sent, frequency_hz):
-    generator.frequency_hz = frequency_hz
-    assert sent[-1] == f"FREQ {frequency_hz:.9g}"
-    assert generator.frequency_hz == pytest.approx(frequency_hz, rel=1e-9)
+def test_amplitude_is_checked_against_the_load_and_offset_it_reads():
+    # into high impedance 20 Vpp is allowed with no offset; with 4 V of offset only 12 Vpp
+    with expected_protocol(Agilent33120A, CONNECT + [LOAD_INF, ("VOLT:OFFS?", "+0.000000E+00"), ("VOLT 20", None),
+                                                     LOAD_INF, ("VOLT:OFFS?", "+4.000000E+00")]) as generator:
+        generator.amplitude_vpp = 20.0
+        with pytest.raises(OutOfRangeError, match=r"generator.amplitude_vpp: 13.*0.1 to 12 Vpp"):
+            generator.amplitude_vpp = 13.0
 
 
-@pytest.mark.parametrize("load, amplitudes", [("50", (0.05, 3.3, 10.0)), ("INF", (0.1, 12.5, 20.0))])
-def test_load_and_amplitude_round_trip(generator, sent, load, amplitudes):
-    generator.output_load = load
-    assert sent[-1] == f"OUTP:LOAD {load}"
-    assert generator.output_load == load
-    for amplitude_vpp in amplitudes:
-        generator.amplitude_vpp = amplitude_vpp
-        assert sent[-1] == f"VOLT {amplitude_vpp:.9g}"
-        assert generator.amplitude_vpp == pytest.approx(amplitude_vpp, rel=1e-6)
+def test_apply_sine_sends_the_documented_commands():
+    with expected_protocol(Agilent33120A, CONNECT + [
+            LOAD_INF, ("VOLT:OFFS?", "+0.000000E+00"),
+            ("FUNC:SHAP SIN", None), ("VOLT:UNIT VPP", None), ("FREQ 37180", None),
+            ("VOLT:OFFS 0", None), ("VOLT 1.88", None)]) as generator:
+        generator.apply_sine(37180.0, 1.88)
 
 
-def test_offset_and_shape_round_trip(generator, sent):
-    generator.output_load = "INF"
-    generator.amplitude_vpp = 4.0
-    generator.offset_v = -7.5
-    assert sent[-1] == "VOLT:OFFS -7.5"
-    assert generator.offset_v == -7.5
-    generator.shape = "SQU"
-    assert sent[-1] == "FUNC:SHAP SQU"
-    assert generator.shape == "SQU"
+def test_apply_sine_raises_the_amplitude_before_a_larger_offset():
+    with expected_protocol(Agilent33120A, CONNECT + [
+            LOAD_50, ("VOLT:OFFS?", "+0.000000E+00"),
+            ("FUNC:SHAP SIN", None), ("VOLT:UNIT VPP", None), ("FREQ 1000", None),
+            ("VOLT 2", None), ("VOLT:OFFS 1", None)]) as generator:
+        generator.apply_sine(1000.0, 2.0, offset_v=1.0)
 
 
-def test_load_reply_of_the_instrument_is_understood(generator, monkeypatch):
-    # The 33120A answers 9.9E+37 for INF (pyvisa-sim answers +INF): both are high impedance.
-    monkeypatch.setattr(generator, "query", lambda command: "+9.900000E+37")
-    assert generator.output_load == "INF"
-    monkeypatch.setattr(generator, "query", lambda command: "+5.000000E+01")
-    assert generator.output_load == "50"
-
-
-def test_apply_sine_sends_the_documented_commands(generator, sent):
-    generator.output_load = "INF"
-    del sent[:]
-    generator.apply_sine(40000.5, 2.5, 1.0)
-    assert settings(sent) == ["FUNC:SHAP SIN", "VOLT:UNIT VPP", "FREQ 40000.5", "VOLT 2.5", "VOLT:OFFS 1"]
-    assert (generator.shape, generator.frequency_hz, generator.amplitude_vpp, generator.offset_v) == \
-        ("SIN", 40000.5, 2.5, 1.0)
-    # Lowering the offset goes first, so the 33120A never sees a combination beyond its limit.
-    del sent[:]
-    generator.apply_sine(40000.5, 19.0, 0.0)
-    assert settings(sent)[-2:] == ["VOLT:OFFS 0", "VOLT 19"]
-
-
-@pytest.mark.parametrize("name, value, allowed", [
-    ("frequency_hz", 20e6, "0.0001 to 1.5e+07 Hz"),
-    ("frequency_hz", 50e-6, "0.0001 to 1.5e+07 Hz"),
-    ("frequency_hz", math.nan, "0.0001 to 1.5e+07 Hz"),
-    ("amplitude_vpp", 12.0, "0.05 to 10 Vpp into OUTP:LOAD 50"),
-    ("amplitude_vpp", 0.01, "0.05 to 10 Vpp into OUTP:LOAD 50"),
-    ("output_load", "1000", "50, INF"),
-    ("shape", "SINE", "SIN, SQU"),
+@pytest.mark.parametrize("call, allowed", [
+    (lambda g: setattr(g, "frequency_hz", 20e6), "0.0001 to 1.5e+07 Hz"),
+    (lambda g: g.apply_sine(1000.0, 25.0), "0.1 to 20 Vpp"),
 ])
-def test_out_of_range_refused_before_sending(generator, sent, name, value, allowed):
-    del sent[:]
-    with pytest.raises(OutOfRangeError) as info:
-        setattr(generator, name, value)
-    assert f"generator.{name}" in str(info.value)
-    assert allowed in str(info.value)
-    assert settings(sent) == []
+def test_out_of_range_is_refused_before_anything_is_sent(call, allowed):
+    script = CONNECT + ([LOAD_INF] if "Vpp" in allowed else [])
+    with expected_protocol(Agilent33120A, script) as generator:
+        with pytest.raises(OutOfRangeError, match=allowed.replace("+", r"\+")):
+            call(generator)
 
 
-def test_amplitude_limits_follow_the_load_and_offset(generator, sent):
-    generator.output_load = "INF"
-    generator.amplitude_vpp = 15.0            # fine into high impedance
-    generator.output_load = "50"
-    assert generator.min_amplitude_vpp == 0.05 and generator.max_amplitude_vpp == 10.0
-    generator.output_load = "INF"
-    generator.amplitude_vpp = 10.0
-    generator.offset_v = 4.0
-    del sent[:]
-    with pytest.raises(OutOfRangeError, match=r"offset_v.*-5 to 5 V"):
-        generator.offset_v = 5.5              # 5.5 + 10/2 > 10 V
-    with pytest.raises(OutOfRangeError, match=r"amplitude_vpp.*0.1 to 12 Vpp"):
-        generator.amplitude_vpp = 14.0        # 4 + 14/2 > 10 V
-    assert settings(sent) == []
+def test_output_to_minimum_is_the_loads_minimum():
+    with expected_protocol(Agilent33120A, CONNECT + [LOAD_50, LOAD_50, ("VOLT:OFFS?", "+0.000000E+00"),
+                                                     ("VOLT 0.05", None)]) as generator:
+        generator.output_to_minimum()
 
 
-def test_apply_sine_checks_everything_before_sending(generator, sent):
-    generator.output_load = "50"
-    del sent[:]
-    with pytest.raises(OutOfRangeError, match="generator.amplitude_vpp"):
-        generator.apply_sine(40e3, 15.0)
-    with pytest.raises(OutOfRangeError, match="generator.offset_v"):
-        generator.apply_sine(40e3, 8.0, 1.5)   # 1.5 + 4 > 5 V into 50 ohm
-    with pytest.raises(OutOfRangeError, match="generator.frequency_hz"):
-        generator.apply_sine(16e6, 1.0)
-    assert settings(sent) == []
+def test_error_queue_is_drained_with_the_manuals_codes():
+    with expected_protocol(Agilent33120A, CONNECT + [
+            ("SYST:ERR?", '-113,"Undefined header"'), ("SYST:ERR?", '-222,"Data out of range;value clipped to '
+                                                                     'upper limit"'),
+            ("SYST:ERR?", '+0,"No error"')]) as generator:
+        with pytest.raises(InstrumentError) as caught:
+            generator.check_errors()
+    assert caught.value.code == -113 and "Undefined header" in caught.value.message
+    assert "-222" in caught.value.message
 
 
-@pytest.mark.parametrize("load, minimum_vpp", [("50", 0.05), ("INF", 0.1)])
-def test_output_to_minimum(generator, sent, load, minimum_vpp):
-    generator.output_load = load
-    generator.amplitude_vpp = 5.0
-    generator.output_to_minimum()
-    assert sent[-1] == f"VOLT {minimum_vpp:g}"
-    assert generator.amplitude_vpp == minimum_vpp
+def test_empty_error_queue_is_no_error():
+    with expected_protocol(Agilent33120A, CONNECT + [("SYST:ERR?", '+0,"No error"')]) as generator:
+        assert generator.read_errors() == []
 
 
-def test_error_queue_reports_the_instruments_own_message(generator):
-    generator.check_errors()                  # empty queue: +0,"No error"
-    generator.write("FREQ 2e7")               # bypassing the driver's check
-    with pytest.raises(InstrumentError) as info:
-        generator.check_errors()
-    assert info.value.code == -222
-    assert info.value.message == "Data out of range"
-    assert isinstance(info.value, UserError)
-    generator.check_errors()                  # drained
+def test_garbled_reply_names_command_and_reply():
+    with expected_protocol(Agilent33120A, CONNECT + [("FREQ?", "+3.7#@!")]) as generator:
+        with pytest.raises(GarbledReply, match=r"FREQ\?"):
+            generator.frequency_hz
 
 
-def test_several_errors_are_all_reported(generator):
-    generator.write("VOLT 99")
-    generator.write("VOLT:OFFS 99")
-    with pytest.raises(InstrumentError, match=r"Data out of range \(then: -222,'Data out of range'\)"):
-        generator.check_errors()
-
-
-def test_garbled_reply_names_command_and_reply(generator, monkeypatch):
-    monkeypatch.setattr(generator.resource, "query", lambda command: "ERROR")
-    with pytest.raises(GarbledReply) as info:
-        generator.frequency_hz
-    assert info.value.command == "FREQ?" and info.value.reply == "ERROR"
-    assert "'FREQ?'" in str(info.value) and "'ERROR'" in str(info.value)
-
-
-def test_visa_timeout_becomes_instrument_timeout(generator):
-    generator.resource.timeout = 50           # ms; an unknown query gets no answer
-    with pytest.raises(InstrumentTimeout) as info:
-        generator.query("APPL?")
-    assert info.value.operation == "APPL?"
-    assert "generator" in str(info.value) and ADDRESS in str(info.value)
-
-
-def test_settings_snapshot(generator):
-    generator.output_load = "INF"
-    generator.apply_sine(37180.0, 1.5)
-    assert generator.settings_snapshot() == {"shape": "SIN", "frequency_hz": 37180.0, "voltage_unit": "VPP",
-                                             "amplitude_vpp": 1.5, "offset_v": 0.0, "output_load": "INF"}
-
-
-def test_sine_at_minimum_lowers_first_then_reshapes(generator, sent):
-    generator.output_load = "INF"
-    generator.shape = "SQU"
-    generator.amplitude_vpp = 5.0
-    generator.offset_v = 1.0
-    del sent[:]
-    generator.sine_at_minimum()
-    changes = settings(sent)
-    assert changes[0] == "VOLT 0.1"   # the amplitude comes down before anything else changes
-    assert (generator.shape, generator.offset_v, generator.amplitude_vpp) == ("SIN", 0.0, 0.1)
+def test_a_refused_query_is_a_timeout_naming_it():
+    with expected_protocol(Agilent33120A, CONNECT + [("FREQ?", TIMEOUT)]) as generator:
+        with pytest.raises(InstrumentTimeout, match=r"FREQ\?"):
+            generator.frequency_hz

@@ -45,8 +45,17 @@ def test_own_plate_runs_and_reports_its_q_and_tan_theta(tmp_path):
     assert "Simulated plates: could they exist?" in html
 
 
-def test_a_campaign_miscounting_the_powered_piezos_is_refused_by_the_analysis(tmp_path):
-    assert cli.main(["run", str(_campaign(tmp_path, n_powered_piezos=12))]) == 0
+def test_a_campaign_miscounting_the_powered_piezos_is_refused_before_it_runs(tmp_path, capsys):
+    assert cli.main(["run", str(_campaign(tmp_path, n_powered_piezos=12))]) == cli.EXIT_USER_ERROR
+    assert "plate 'my_plate' says 12 powered piezos, but own_plate.yaml state 'both' powers 2 columns x 3 = 6" \
+        in capsys.readouterr().err
+    assert not (tmp_path / "run").exists()
+
+
+def test_a_run_miscounting_the_powered_piezos_is_refused_by_the_analysis(tmp_path):
+    from squeezebench.protocols.campaign import run_campaign
+
+    run_campaign(_campaign(tmp_path, n_powered_piezos=12), progress=False)   # past the command line's check
     assert cli.main(["report", str(tmp_path / "run")]) == 0
     html = (tmp_path / "run" / "report" / "index.html").read_text()
     assert "the campaign says 12 powered piezos" in html and "powers 2 columns x 3 = 6" in html

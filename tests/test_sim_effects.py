@@ -50,7 +50,8 @@ def test_shunt(tmp_path, ideal):
     # the scope sees the shunt's loss; the plate sees a little less voltage
     shunt_loss_w = 0.5 * abs(truth.current_phasor) ** 2 * 2.0
     assert truth.power_w - truth.plate_power_w == pytest.approx(shunt_loss_w, rel=1e-9)
-    assert got["power"] == pytest.approx(truth.power_w, rel=1e-9)
+    # gated on whole periods, to within the gate's one-sample granularity
+    assert got["power"] == pytest.approx(truth.power_w, rel=1e-3)
     assert got["ch1_pp"] == pytest.approx(ideal["ch1_pp"], rel=1e-12)  # CH1 is the amplifier output
     assert truth.piezo_voltage_pp_v < 0.9999 * truth.output_voltage_pp_v
     # ...and the scene's calibration, made through the shunt, keeps the published reading
@@ -128,8 +129,10 @@ def test_settling_transient(tmp_path):
     assert bench.measure("CH1", "PK2") == pytest.approx(np.ptp(expected["CH1"]), rel=1e-9)  # the drive: no transient
 
 
-def test_dc_offset(tmp_path, ideal):
-    got = readings(bench_with(tmp_path, ["dc_offset"]))
+def test_dc_offset(tmp_path):
+    # 10k points: the whole-period gate is fine enough for the offsets' product
+    ideal = readings(bench_with(tmp_path, [], record_length=10000))
+    got = readings(bench_with(tmp_path, ["dc_offset"], record_length=10000))
     offsets = fx.DcOffset.defaults
     assert got["ch1_mean"] == pytest.approx(ideal["ch1_mean"] + offsets["ch1_v"] * 100, rel=1e-6)
     assert got["ch2_mean"] == pytest.approx(ideal["ch2_mean"] + offsets["ch2_a"], rel=1e-6)
@@ -137,7 +140,7 @@ def test_dc_offset(tmp_path, ideal):
     for key in ("ch1_pp", "ch2_pp", "ch3_pp"):
         assert got[key] == pytest.approx(ideal[key], rel=1e-9)
     # whole periods: the MATH mean is off by the product of the offsets only
-    assert got["power"] - ideal["power"] == pytest.approx(offsets["ch1_v"] * 100 * offsets["ch2_a"], rel=1e-6)
+    assert got["power"] - ideal["power"] == pytest.approx(offsets["ch1_v"] * 100 * offsets["ch2_a"], rel=0.01)
 
 
 def _residual_rms(bench: RawBench, source: str) -> float:
@@ -149,7 +152,7 @@ def _residual_rms(bench: RawBench, source: str) -> float:
 def test_scope_noise(tmp_path, ideal):
     bench = bench_with(tmp_path, ["scope_noise"], averages=None, record_length=10000)
     got = readings(bench)
-    scales = {ch: float(bench.scope.query(f"CH{ch}:SCA?")) for ch in (1, 2, 3)}
+    scales = {ch: float(bench.scope.query(f"CH{ch}:SCALE?")) for ch in (1, 2, 3)}
     for ch, div_rms in ((1, 0.01), (2, 0.03), (3, 0.01)):
         assert _residual_rms(bench, f"CH{ch}") == pytest.approx(div_rms * scales[ch], rel=0.05)
     assert got["power"] == pytest.approx(ideal["power"], rel=2e-3)  # noise averages out of the mean
@@ -333,11 +336,13 @@ def _delayed_power_w(truth, delay_s: float) -> float:
 def test_channel_delay_moves_power_by_the_closed_form(tmp_path, ideal, name, parameter):
     bench = systematic(tmp_path, name, **{parameter: 10e-9})
     got, truth = readings(bench), bench.sim.truth()
-    assert got["power"] == pytest.approx(_delayed_power_w(truth, 10e-9), rel=1e-6)
+    # the whole-period gate's sample granularity (500 points): a few 1e-4 of P against the
+    # closed form, cancelling in the difference to the ideal bench below
+    assert got["power"] == pytest.approx(_delayed_power_w(truth, 10e-9), rel=5e-4)
     # at resonance (power factor ~0.5 here) the shift is w tau Q_r, about 0.1 % of P
     reactive_var = 0.5 * (truth.output_voltage_phasors_v[0] * np.conj(truth.current_phasor)).imag
     shift = 2.0 * math.pi * F_HZ * 10e-9 * reactive_var
-    assert got["power"] - ideal["power"] == pytest.approx(-shift, rel=1e-3)
+    assert got["power"] - ideal["power"] == pytest.approx(-shift, rel=5e-3)
     assert got["ch2_pp"] == pytest.approx(ideal["ch2_pp"], rel=1e-3)   # sampled peaks move a little
 
 
@@ -345,17 +350,20 @@ def test_current_probe_delay(tmp_path):
     """Fig. 2c stress point (power factor ~0.02): 10 ns moves the power by ~14 mW (the
     clamped C0's reactive power times w tau)."""
     bench = bench_with(tmp_path, [{"current_probe_delay": {"delay_s": 10e-9}}], frequency_hz=37560.0,
-                       generator_vpp=240.0 / 20.0 * 10.05 / 10.0)
+                       generator_vpp=240.0 / 20.0 * 10.05 / 10.0, record_length=10000)
     truth = bench.sim.truth()
     shift_w = _delayed_power_w(truth, 10e-9) - truth.power_w
     assert abs(shift_w) == pytest.approx(0.014, rel=0.1)
-    assert readings(bench)["power"] == pytest.approx(truth.power_w + shift_w, rel=1e-5)
+    # 10k points: the whole-period gate's granularity at this power factor is below 1e-3
+    assert readings(bench)["power"] == pytest.approx(truth.power_w + shift_w, rel=1e-3)
 
 
-def test_channel_skew(tmp_path):
+def test_channel_skew(tmp_path, ideal):
     skewed = systematic(tmp_path, "channel_skew")   # the default: 1 ns
     truth = skewed.sim.truth()
-    assert readings(skewed)["power"] == pytest.approx(_delayed_power_w(truth, 1e-9), rel=1e-6)
+    # against the ideal bench read through the same whole-period gate (its granularity cancels)
+    shift_w = _delayed_power_w(truth, 1e-9) - truth.power_w
+    assert readings(skewed)["power"] - ideal["power"] == pytest.approx(shift_w, rel=1e-2)
 
 
 def test_generator_frequency_error(tmp_path):

@@ -112,7 +112,9 @@ def test_noise_free_dry_run_reproduces_the_calibration(tmp_path, name, state):
     divider = 1e6 / (1e6 + 50.0)
     power_w = bench.measure("MATH", "MEAN")
     velocity_pp_mps = bench.measure("CH3", "PK2") * bench.range_mps_per_v
-    assert power_w == pytest.approx(calibration.power_w * divider**2, rel=1e-9)
+    # measured over whole periods gated at sample granularity: up to half a sample of
+    # the product's ripple, which the reactive current makes large (RawBench.gate_whole_periods)
+    assert power_w == pytest.approx(calibration.power_w * divider**2, rel=2e-3)
     assert velocity_pp_mps == pytest.approx(calibration.velocity_pp_mps * divider, rel=1e-4)  # 200 samples/period
     assert power_w == pytest.approx(calibration.power_w, rel=0.011)
     assert bench.measure("CH1", "PK2") == pytest.approx(calibration.voltage_vpp, rel=0.006)
@@ -181,7 +183,7 @@ def test_calibration_uses_the_scenes_effect_parameters(tmp_path):
     assert truth.power_w - truth.plate_power_w > 1e-3  # the shunt takes over 1 % of it
     bench.configure(truth.frequency_hz, record_length=10000)
     bench.acquire()
-    assert bench.measure("MATH", "MEAN") == pytest.approx(calibration.power_w, rel=1e-9)
+    assert bench.measure("MATH", "MEAN") == pytest.approx(calibration.power_w, rel=2e-3)  # whole-period gate
     default = load_scene(scene_file(tmp_path, "two_column_1p2mm.yaml", effects=["shunt", "dielectric_loss"]))
     assert default.states["two_powered"].branch != bench.sim.state.branch
 
@@ -242,3 +244,15 @@ def test_the_schema_refuses_what_the_loader_refuses():
     raw["plate"]["material"] = "unobtainium"
     with pytest.raises(pydantic.ValidationError, match="plate.material"):
         SceneFile.model_validate(raw)
+
+
+def test_shipped_one_column_plate_reads_the_fig2c_stress_point():
+    """Fitted, not a material value: with the shunt and the clamped C0, 240 Vpp at 37560 Hz
+    regains v0 and reads Pt = 120 mW (Sec. 2.2)."""
+    from squeezebench.simbench.effects import build_pipeline
+
+    scene = load_scene(paths.scenes_dir() / "one_column_1mm.yaml")
+    stressed = physics.steady_state(scene.states["76x41"], scene.electronics, 37560.0, 240.0 / 20.0 * (1 + 50e-6),
+                                    build_pipeline(scene))
+    assert stressed.power_w == pytest.approx(0.120, rel=2e-3)
+    assert stressed.velocity_pp_mps == pytest.approx(0.375, rel=0.01)

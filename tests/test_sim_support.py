@@ -1,5 +1,6 @@
 """Helpers of the simulated-bench tests (no tests here): scenes in tmp_path and a raw
-PyVISA view of the bench that uses exactly the command strings of docs/design.md."""
+PyVISA view of the bench that sends commands as the manuals spell them
+(docs/instrument-commands.md), independent of the drivers."""
 
 from __future__ import annotations
 
@@ -16,7 +17,6 @@ from squeezebench import paths
 
 _TOKENS = itertools.count()
 TERMINATIONS = {"read_termination": "\n", "write_termination": "\n"}
-RANGES_MPS_PER_V = {"5mm/s/V": 0.005, "25mm/s/V": 0.025, "125mm/s/V": 0.125, "1000mm/s/V": 1.0}
 
 
 def scene_file(tmp_path: Path, name: str = "one_column_1mm.yaml", **changes) -> Path:
@@ -38,8 +38,13 @@ class RawBench:
         self.scope = self.rm.open_resource("TCPIP0::192.168.0.20::INSTR", **TERMINATIONS)
         self.vibrometer = self.rm.open_resource("ASRL1::INSTR", **TERMINATIONS)
         self.scope.timeout = 60_000
-        self.range_mps_per_v = 1.0
-        self.scope.write("HEAD OFF")
+        self.scope.write("HEADER OFF")
+        # The controller echoes lines at power-on: turn it off and read that line's echo.
+        self.vibrometer.write("Set,Interface,0,Echo,Off")
+        assert self.vibrometer.read() == "Set,Interface,0,Echo,Off"
+        names = self.vibrometer.query("GetDevInfo,VeloDec,0,Range").split(",")
+        self.ranges_mps_per_v = {name: float(name.split("mm")[0]) * 1e-3 for name in names}
+        self.range_mps_per_v = self.ranges_mps_per_v[self.vibrometer.query("Get,VeloDec,0,Range")]
 
     def close(self) -> None:
         self.rm.close()
@@ -52,51 +57,67 @@ class RawBench:
 
     def set_range(self, name: str) -> None:
         self.vibrometer.write(f"Set,VeloDec,0,Range,{name}")
-        self.range_mps_per_v = RANGES_MPS_PER_V[name]
+        self.range_mps_per_v = self.ranges_mps_per_v[name]
 
     def configure(self, frequency_hz: float, *, averages: int | None = 16, record_length: int = 500,
                   periods: int = 20, fill_div: float = 6.0, range_name: str | None = None) -> None:
         """Probes, record, averaging; vertical scales fitted to the closed-form truth."""
         truth = self.sim.truth()
         if range_name is None:  # the most sensitive range keeping the output within 8 Vpp
-            range_name = next(n for n, r in RANGES_MPS_PER_V.items() if truth.velocity_pp_mps / r <= 8.0)
+            range_name = next(n for n, r in self.ranges_mps_per_v.items() if truth.velocity_pp_mps / r <= 8.0)
         self.set_range(range_name)
         electronics = self.sim.scene.electronics
         expected_pp = (truth.output_voltage_pp_v, truth.current_pp_a, truth.velocity_pp_mps / self.range_mps_per_v)
         probes = (1.0 / electronics.voltage_probe_attenuation, electronics.current_probe_a_per_a, 1.0)
         for channel, (pp, probe) in enumerate(zip(expected_pp, probes), start=1):
-            self.scope.write(f"CH{channel}:PRO {probe!r}")
-            self.scope.write(f"CH{channel}:COUP DC")
-            self.scope.write(f"CH{channel}:POS 0")
-            self.scope.write(f"CH{channel}:SCA {pp / fill_div!r}")
-        self.scope.write(f"HOR:MAI:SCA {periods / frequency_hz / 10.0!r}")
-        self.scope.write(f"HOR:RECO {record_length}")
-        self.scope.write('MATH:DEFI "CH1*CH2"')
+            self.scope.write(f"SELECT:CH{channel} ON")
+            if channel != 2:   # CH2's TCP202 is detected: the scope fixes its gain
+                self.scope.write(f"CH{channel}:PROBE {probe!r}")
+            self.scope.write(f"CH{channel}:COUPLING DC")
+            self.scope.write(f"CH{channel}:POSITION 0")
+            self.scope.write(f"CH{channel}:SCALE {pp / fill_div!r}")
+        self.scope.write(f"HORIZONTAL:MAIN:SCALE {periods / frequency_hz / 10.0!r}")
+        self.scope.write(f"HORIZONTAL:RECORDLENGTH {record_length}")
+        self.gate_whole_periods(frequency_hz)
+        self.scope.write('SELECT:MATH ON;:MATH:TYPE DUAL;DEFINE "CH1*CH2"')
+        self.scope.write("TRIGGER:A:TYPE EDGE;EDGE:SOURCE CH1;SLOPE RISE;:TRIGGER:A:LEVEL 0")
         if averages is None:
-            self.scope.write("ACQ:MOD SAM")
+            self.scope.write("ACQUIRE:MODE SAMPLE")
         else:
-            self.scope.write("ACQ:MOD AVE")
-            self.scope.write(f"ACQ:NUMAV {averages}")
-        self.scope.write("ACQ:STOPA SEQ")
+            self.scope.write("ACQUIRE:MODE AVERAGE")
+            self.scope.write(f"ACQUIRE:NUMAVG {averages}")
+        self.scope.write("ACQUIRE:STOPAFTER SEQUENCE")
+
+    def gate_whole_periods(self, frequency_hz: float) -> None:
+        """Measurements over the largest whole number of periods the record holds: the
+        scope rounds its time base to 1-2-4, so the record itself rarely does."""
+        record_s = 10.0 * float(self.scope.query("HORIZONTAL:MAIN:SCALE?"))
+        dt_s = record_s / int(self.scope.query("HORIZONTAL:RECORDLENGTH?"))
+        self.scope.write("HORIZONTAL:DELAY:STATE ON;TIME 0")   # the record is centred on the trigger
+        start_s = -record_s / 2.0
+        stop_s = start_s + math.floor(record_s * frequency_hz + 1e-9) / frequency_hz - dt_s / 2.0
+        self.scope.write(f"CURSOR:FUNCTION VBARS;VBARS:POSITION1 {start_s!r};POSITION2 {stop_s!r}")
+        self.scope.write("MEASUREMENT:GATING CURSOR")
 
     def acquire(self) -> None:
-        self.scope.write("ACQ:STATE RUN")
+        self.scope.write("ACQUIRE:STATE RUN")
         assert self.scope.query("*OPC?") == "1"
 
     def measure(self, source: str, kind: str) -> float:
-        self.scope.write(f"MEASU:IMM:SOU {source}")
-        self.scope.write(f"MEASU:IMM:TYP {kind}")
-        return float(self.scope.query("MEASU:IMM:VAL?"))
+        self.scope.write(f"MEASUREMENT:IMMED:SOURCE {source}")
+        self.scope.write(f"MEASUREMENT:IMMED:TYPE {kind}")
+        return float(self.scope.query("MEASUREMENT:IMMED:VALUE?"))
 
     def fetch(self, source: str) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict]:
         """(time_s, values, raw counts, preamble) of `source` over the whole record."""
-        n = int(self.scope.query("HOR:RECO?"))
-        for command in (f"DAT:SOU {source}", "DAT:ENC RIB", "DAT:WID 2", "DAT:STAR 1", f"DAT:STOP {n}"):
+        n = int(self.scope.query("HORIZONTAL:RECORDLENGTH?"))
+        for command in (f"DATA:SOURCE {source}", "DATA:ENCDG RIBINARY", "DATA:WIDTH 2", "DATA:START 1",
+                        f"DATA:STOP {n}"):
             self.scope.write(command)
-        fields = self.scope.query("WFMP?").split(";")
+        fields = self.scope.query("WFMPRE?").split(";")
         preamble = {"n": int(fields[5]), "x_incr": float(fields[8]), "x_zero": float(fields[10]),
                     "y_mult": float(fields[12]), "y_zero": float(fields[13]), "y_off": float(fields[14])}
-        raw = np.asarray(self.scope.query_binary_values("CURV?", datatype="h", is_big_endian=True,
+        raw = np.asarray(self.scope.query_binary_values("CURVE?", datatype="h", is_big_endian=True,
                                                         container=np.array), dtype=float)
         time_s = preamble["x_zero"] + np.arange(preamble["n"]) * preamble["x_incr"]
         values = preamble["y_zero"] + preamble["y_mult"] * (raw - preamble["y_off"])

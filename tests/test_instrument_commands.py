@@ -1,0 +1,126 @@
+"""The shipped quick campaign and `check` on the simulated bench, from the instruments'
+power-on state and from a hostile one: both pass and measure the same, and every message
+the drivers send is one docs/instrument-commands.md lists with its manual section."""
+
+from __future__ import annotations
+
+import re
+from dataclasses import replace
+from pathlib import Path
+
+import pandas as pd
+import pytest
+
+from squeezebench import paths
+from squeezebench.instruments import base
+from squeezebench.instruments.agilent33120a import Agilent33120A
+from squeezebench.instruments.bench import check_bench, sim_bench_config
+from squeezebench.instruments.ofv5000 import OFV5000
+from squeezebench.instruments.properties import control
+from squeezebench.instruments.tds3054b import TDS3054B, Channel
+from squeezebench.protocols import campaign
+
+DOC = Path(__file__).resolve().parents[1] / "docs" / "instrument-commands.md"
+SECTIONS = {"Agilent 33120A": "generator", "Tektronix TDS 3054B": "scope", "Polytec OFV-5000": "vibrometer"}
+_NUMBER = r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?"
+PLACEHOLDERS = {"<n>": "[1-4]", "<x>": "[12]", "<NR1>": r"[-+]?\d+", "<NR3>": _NUMBER,
+                "<range>": r"\d+(?:\.\d+)?(?:mm|m)/s/V"}
+
+
+def documented() -> dict[str, list[tuple[re.Pattern, str, str]]]:
+    """{role: [(pattern of the message form, the form, its manual section)]} from the doc's tables."""
+    forms: dict[str, list] = {role: [] for role in SECTIONS.values()}
+    role = None
+    for line in DOC.read_text(encoding="utf-8").splitlines():
+        if line.startswith("## "):
+            role = next((r for title, r in SECTIONS.items() if line[3:].startswith(title)), None)
+        match = re.match(r"^\| `(.+?)` \| (.*?) \|", line)
+        if role and match:
+            form, manual = match.group(1).replace("\\|", "|"), match.group(2).strip()
+            forms[role].append((re.compile(_pattern(form)), form, manual))
+    return forms
+
+
+def _pattern(form: str) -> str:
+    return f"^{_body(form)}$"
+
+
+def _body(form: str) -> str:
+    out, i = "", 0
+    while i < len(form):
+        token = next((t for t in PLACEHOLDERS if form.startswith(t, i)), None)
+        if token:
+            out, i = out + PLACEHOLDERS[token], i + len(token)
+        elif form[i] == "{":
+            end = form.index("}", i)
+            out, i = out + "(?:" + "|".join(_body(a) for a in form[i + 1:end].split("|")) + ")", end + 1
+        else:
+            out, i = out + re.escape(form[i]), i + 1
+    return out
+
+
+def _scene_config(start: str):
+    def config(scene):
+        plain = sim_bench_config(scene)
+        return replace(plain, visa_library=plain.visa_library.replace("@simbench", f"#start={start}@simbench"))
+    return config
+
+
+@pytest.fixture(scope="module")
+def runs(tmp_path_factory):
+    """{start: (traffic {role: messages}, measurements)} of the quick campaign and `check`."""
+    results = {}
+    with pytest.MonkeyPatch.context() as patch:
+        traffic: dict[str, list[str]] = {}
+        for name in ("write", "query", "query_block"):
+            original = getattr(base.Instrument, name)
+
+            def recording(self, command, _original=original):
+                traffic.setdefault(self.role, []).append(command)
+                return _original(self, command)
+            patch.setattr(base.Instrument, name, recording)
+        for start in ("power_on", "hostile"):
+            traffic.clear()
+            patch.setattr(campaign, "sim_bench_config", _scene_config(start))
+            run_dir = campaign.run_campaign(paths.campaigns_dir() / "quick.yaml",
+                                            out_dir=tmp_path_factory.mktemp(start) / "run")
+            lines: list[str] = []
+            config = _scene_config(start)(paths.default_scene())
+            assert check_bench(config, out=lines.append) == 0, "\n".join(lines)
+            rows = pd.concat([pd.read_parquet(p) for p in sorted((run_dir / "measurements").rglob("*.parquet"))])
+            results[start] = ({role: list(messages) for role, messages in traffic.items()}, rows, lines)
+    return results
+
+
+def test_every_message_sent_is_documented_with_its_manual_section(runs):
+    forms = documented()
+    for role, rows in forms.items():
+        assert rows, f"no table for the {role} in {DOC.name}"
+        assert all(manual for _, _, manual in rows), f"a {role} command without its manual section"
+    for start, (traffic, _, _) in runs.items():
+        for role, messages in traffic.items():
+            undocumented = sorted({m for m in messages if not any(p.match(m) for p, _, _ in forms[role])})
+            assert not undocumented, f"{role} ({start}) sent messages not in {DOC.name}: {undocumented}"
+    distinct = {role: len(set(messages)) for role, messages in runs["power_on"][0].items()}
+    assert set(distinct) == set(SECTIONS.values()) and all(n > 5 for n in distinct.values())
+
+
+def test_every_driver_command_cites_its_manual_beside_it():
+    for cls in (Agilent33120A, TDS3054B, Channel, OFV5000):
+        for name, attribute in vars(cls).items():
+            if isinstance(attribute, control):
+                assert attribute.manual, f"{cls.__name__}.{name} does not cite its manual section"
+
+
+def test_the_quick_campaign_measures_the_same_from_a_hostile_start(runs):
+    columns = ["step_id", "point_index", "generator_frequency_hz", "scope_power_w", "scope_velocity_pp_v",
+               "vibrometer_scale_mps_per_v"]
+    power_on, hostile = (runs[start][1][columns].reset_index(drop=True) for start in ("power_on", "hostile"))
+    assert len(power_on) > 50
+    pd.testing.assert_frame_equal(power_on, hostile)
+
+
+def test_check_shows_and_clears_what_a_previous_user_left(runs):
+    text = "\n".join(runs["hostile"][2])
+    assert "-113,'Undefined header'" in text and "ch2: detected probe TCP202" in text
+    assert "decoder = 'VD-09'" in text and text.endswith("bench check passed")
