@@ -700,12 +700,12 @@ def uncertainty_section(context: ReportContext) -> Section | None:
                                "dominant_term": budget.dominant.name,
                                "floor_p95_rel": uncertainty.P95_FACTOR * floor.std_uncertainty / abs(floor.value)})
     context.tables["uncertainty_q_tan_theta"] = pd.DataFrame(plates)
-    deskew_u_s = None if found.deskew is None else found.deskew.std_uncertainty_s
-    context.tables["uncertainty_floors"] = uncertainty.systematic_floor(found.points, deskew_u_s)
+    context.tables["uncertainty_floors"] = uncertainty.systematic_floor(found.points, found.deskew)
     deskew = ("<p>No deskew calibration in this run: the CH2 delay enters at its specified limit.</p>"
               if found.deskew is None else
               f"<p>Power corrected by the deskew calibration: CH2 delay {found.deskew.delay_s * 1e9:.2f} ns "
-              f"(u = {found.deskew.std_uncertainty_s * 1e9:.2f} ns).</p>")
+              f"(u = {found.deskew.std_uncertainty_s * 1e9:.2f} ns), current-to-voltage gain ratio "
+              f"{found.deskew.gain_ratio:.4f} (u = {found.deskew.gain_ratio_u:.4f}).</p>")
     return Section("Uncertainty budgets (GUM, k = 2)",
                    "<p>Expanded uncertainties (k = 2) of every stored point: noise of the record (Type A) "
                    "and the instruments' specifications (Type B). Median relative U and the most frequent "

@@ -34,7 +34,7 @@ import pandas as pd
 import uncertainties
 
 from squeezebench.analysis import model
-from squeezebench.analysis.calibration import Deskew, deskew_of_run
+from squeezebench.analysis.calibration import Deskew, deskew_of_run, gain_weight
 from squeezebench.analysis.rundata import RunData
 from squeezebench.analysis.specifications import SPECIFICATIONS
 from squeezebench.analysis.tables import reduced_points, with_scope_fallback
@@ -110,12 +110,19 @@ def power_budget(point: dict, deskew: Deskew | None = None) -> Budget:
                      SPECIFICATIONS["current_probe_delay"].source + "; " + SPECIFICATIONS["scope_skew"].source)
     else:
         delay = Term("CH2 delay after deskew", "B", omega_q * deskew.std_uncertainty_s, deskew.source)
+    if deskew is None or deskew.gain_ratio is None:
+        gains = (_spec_term("CH1 gain", "scope_gain", value), _spec_term("CH2 gain", "scope_gain", value),
+                 _spec_term("current probe gain", "current_probe_gain", value))
+    else:   # P k^-alpha carries g1^(1+alpha) (g2 g_probe)^(1-alpha) and k's own uncertainty
+        alpha = gain_weight()
+        current_u = math.hypot(SPECIFICATIONS["scope_gain"].std_uncertainty,
+                               SPECIFICATIONS["current_probe_gain"].std_uncertainty)
+        gains = (_spec_term("CH1 gain (gain-checked)", "scope_gain", (1.0 + alpha) * value),
+                 Term("current path gain (gain-checked)", "B", (1.0 - alpha) * abs(value) * current_u,
+                      SPECIFICATIONS["current_probe_gain"].source + "; " + SPECIFICATIONS["scope_gain"].source),
+                 Term("gain check", "A", alpha * abs(value) * deskew.gain_ratio_u / deskew.gain_ratio, deskew.source))
     return Budget("power_w", "W", value, (
-        _noise(point["power_w_u"]),
-        _spec_term("CH1 gain", "scope_gain", value),
-        _spec_term("CH2 gain", "scope_gain", value),
-        _spec_term("current probe gain", "current_probe_gain", value),
-        delay,
+        _noise(point["power_w_u"]), *gains, delay,
         _spec_term("generator frequency", "generator_frequency",
                    2.0 * value * point.get("detuning_slope_per_hz", 0.0) * float(point["frequency_hz"]))))
 
@@ -261,8 +268,8 @@ def with_expanded_uncertainties(points: pd.DataFrame, deskew: Deskew | None = No
     points["detuning_slope_per_hz"] = detuning_slope_per_hz(points)
     if deskew is not None and "reactive_power_var" in points:
         points["power_w_uncorrected"] = points["power_w"]
-        omega = 2.0 * math.pi * points["frequency_hz"]
-        points["power_w"] = points["power_w"] + points["reactive_power_var"] * omega * deskew.delay_s
+        points["power_w"] = deskew.corrected_power_w(points["power_w"], points["reactive_power_var"],
+                                                     points["frequency_hz"])
     for quantity in POINT_BUDGETS:
         combined, dominant = [], []
         for _, row in points.iterrows():
@@ -346,19 +353,22 @@ REFERENCE_FOR = {
     "CH2 gain": "a voltage reference: a precision DMM on the same signal",
     "CH3 gain": "a voltage reference: a precision DMM on the same signal",
     "vibrometer decoder scale": "a reference vibration: a calibrated shaker under the laser",
+    "CH1 gain (gain-checked)": "a voltage reference: a precision DMM reading the calibration resistor's voltage",
+    "current path gain (gain-checked)": "a current reference: a precision DMM reading the calibration "
+                                        "resistor's voltage",
 }
 
 
-def systematic_floor(points: pd.DataFrame, deskew_std_uncertainty_s: float | None = None) -> pd.DataFrame:
+def systematic_floor(points: pd.DataFrame, calibration: Deskew | None = None) -> pd.DataFrame:
     """Per (run, quantity): the p95 relative error the instruments' specified errors leave
     when the noise is averaged away (Type A set to zero), at the run's worst point, with
     the term that dominates there and the calibration that would lift it (if any).
 
-    `deskew_std_uncertainty_s`: the floor after a deskew calibration of that uncertainty.
+    `calibration`: the floor after that calibration (its uncertainties; its values do not matter).
     """
     points = points.copy()
     points["detuning_slope_per_hz"] = detuning_slope_per_hz(points)
-    deskew = None if deskew_std_uncertainty_s is None else Deskew(0.0, deskew_std_uncertainty_s, "planned")
+    deskew = calibration
     rows = []
     for run_name, run_points in points.groupby("run_name", sort=False):
         for quantity in ("power_w", "velocity_pp_mps"):

@@ -34,29 +34,27 @@ import datetime as dt
 import logging
 import re
 import sys
-import types
-import typing
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Callable
 
-import yaml
+from pydantic import ValidationError
 from tqdm import tqdm
 
-from squeezebench.instruments.bench import load_bench_file, open_bench, sim_bench_config
-from squeezebench.protocols import calibration, characterisation, cutting, detuning, powered_columns, resonance
+from squeezebench import paths, schemas
+from squeezebench.instruments.agilent33120a import AMPLITUDE_RANGE_VPP, FREQUENCY_RANGE_HZ
+from squeezebench.instruments.bench import open_bench, sim_bench_config
+from squeezebench.instruments.errors import OutOfRangeError
 from squeezebench.protocols.acquisition import Acquisition, AcquisitionSettings
-from squeezebench.protocols.safety import (DriveController, SafetyLimits, chain_warnings,
+from squeezebench.protocols.safety import (DriveController, SafetyLimits, chain_warnings, raise_if_stopped,
                                               stop_signals_interrupt)
 from squeezebench.protocols.steps import Plate, Step, StepContext
 from squeezebench.protocols.storage import RunStore, bench_provenance, sha256_file
-from squeezebench import paths
 from squeezebench.errors import UserError
+from squeezebench.schemas import PROTOCOLS
 
 log = logging.getLogger(__name__)
 
-PROTOCOLS = {module.PROTOCOL: module for module in
-             (resonance, detuning, cutting, powered_columns, characterisation, calibration)}
 _NAME = re.compile(r"^[A-Za-z0-9_.-]+$")
 #: Loggers whose records go to the run's log.txt.
 _LOGGED_PACKAGES = ("squeezebench.protocols", "squeezebench.instruments")
@@ -70,6 +68,10 @@ class CampaignError(UserError):
         super().__init__(f"{where}: {message}")
 
 
+class SettingRefused(UserError):
+    """A step asked an instrument for a setting outside its range (nothing was sent)."""
+
+
 # -- the campaign as loaded --------------------------------------------------------------
 @dataclass(frozen=True)
 class BenchChoice:
@@ -77,7 +79,7 @@ class BenchChoice:
     file: Path | None = None    # a bench file with real addresses
 
     def config(self):
-        return sim_bench_config(self.scene) if self.scene else load_bench_file(self.file)
+        return sim_bench_config(self.scene) if self.scene else schemas.load_bench_file(self.file)
 
     @property
     def input_file(self) -> Path:
@@ -121,153 +123,179 @@ def _scenes_in(value: Any) -> list[Path]:
 
 
 def load_campaign(path: Path) -> Campaign:
-    """Read and validate a campaign file; every problem is a CampaignError."""
+    """Read and validate a campaign file, every scene and bench file it uses, and every
+    voltage, frequency and count it will request (before any bench opens); every
+    problem is one CampaignError (or the scene's or bench file's own error)."""
     path = Path(path)
     try:
-        data = yaml.safe_load(path.read_text())
-    except OSError as exc:
-        raise CampaignError(path, None, f"cannot read: {exc.strerror}") from exc
-    except yaml.YAMLError as exc:
-        raise CampaignError(path, None, f"not valid YAML: {exc}") from exc
-    reader = _Reader(path)
-    top = reader.mapping(data, None, required={"runs"},
-                         allowed={"name", "output_dir", "bench", "acquisition", "safety", "runs"})
-    name = reader.name(top.get("name", path.stem), "name")
-    output_dir = Path(top.get("output_dir", f"runs/{name}"))
-    if not isinstance(top["runs"], list) or not top["runs"]:
-        raise CampaignError(path, "runs", "must be a non-empty list of protocol runs")
-    runs = tuple(reader.run(item, f"runs[{i}]", top) for i, item in enumerate(top["runs"]))
+        model = schemas.CampaignFile.model_validate(schemas.read_yaml(path))
+    except schemas.FileFormatError as exc:
+        raise CampaignError(path, None, str(exc).removeprefix(f"{path}: ")) from None
+    except ValidationError as exc:
+        raise CampaignError(path, *schemas.describe(exc, schemas.CampaignFile)) from None
+    loader = _Loader(path)
+    name = model.name or path.stem
+    if not _NAME.match(name):
+        raise CampaignError(path, "name", f"{name!r} (the file's stem) must be letters, digits, '_', '-' "
+                            "or '.'; give the campaign a 'name'")
+    runs = tuple(loader.run(item, f"runs[{i}]") for i, item in enumerate(model.runs))
     names = [run.name for run in runs]
     duplicates = sorted({n for n in names if names.count(n) > 1})
     if duplicates:
         raise CampaignError(path, "runs", f"run names must be unique; repeated: {', '.join(duplicates)}")
-    return Campaign(path, name, output_dir, runs)
+    for i, run in enumerate(runs):
+        check_requests(path, run, f"runs[{i}]")
+    return Campaign(path, name, Path(model.output_dir or f"runs/{name}"), runs)
 
 
-class _Reader:
-    """Turns YAML values into the protocols' dataclasses, naming the field on error."""
+class _Loader:
+    """Turns a validated run into a Run: scenes and bench files found and validated."""
 
     def __init__(self, file: Path):
         self.file = file
+        self.scenes: dict[Path, None] = {}
 
-    def error(self, field: str | None, message: str) -> CampaignError:
-        return CampaignError(self.file, field, message)
+    def run(self, item: Any, field: str) -> Run:
+        if item.bench is None:
+            raise CampaignError(self.file, f"{field}.bench", "is missing (and the campaign has no default bench)")
+        bench = self.bench(item.bench, f"{field}.bench")
+        return Run(name=item.name, protocol=item.protocol, bench=bench,
+                   plate=self.with_scenes(item.plate, f"{field}.plate"),
+                   acquisition=item.acquisition, safety=item.safety,
+                   parameters=self.with_scenes(item.parameters, f"{field}.parameters"))
 
-    def mapping(self, value: Any, field: str | None, required: set[str], allowed: set[str]) -> dict:
-        if not isinstance(value, dict):
-            raise self.error(field, f"must be a mapping with keys {', '.join(sorted(allowed))}")
-        for key in value:
-            if key not in allowed:
-                raise self.error(_join(field, key), f"unknown; allowed: {', '.join(sorted(allowed))}")
-        for key in sorted(required - set(value)):
-            raise self.error(_join(field, key), "is missing")
-        return value
-
-    def name(self, value: Any, field: str) -> str:
-        if not isinstance(value, str) or not _NAME.match(value):
-            raise self.error(field, f"{value!r} must be letters, digits, '_', '-' or '.' (it names files)")
-        return value
-
-    def run(self, item: Any, field: str, top: dict) -> Run:
-        run = self.mapping(item, field, required={"name", "protocol", "plate"},
-                           allowed={"name", "protocol", "bench", "plate", "acquisition", "safety",
-                                    "parameters"})
-        name = self.name(run["name"], f"{field}.name")
-        protocol = run["protocol"]
-        if protocol not in PROTOCOLS:
-            raise self.error(f"{field}.protocol", f"{protocol!r} is not one of: {', '.join(sorted(PROTOCOLS))}")
-        if "bench" not in run and "bench" not in top:
-            raise self.error(f"{field}.bench", "is missing (and the campaign has no default bench)")
-        bench = self.bench(run.get("bench", top.get("bench")), f"{field}.bench")
-        plate_data = dict(run["plate"]) if isinstance(run["plate"], dict) else run["plate"]
-        if isinstance(plate_data, dict) and "name" not in plate_data and bench.scene is not None:
-            plate_data["name"] = bench.scene.stem
-        if isinstance(plate_data, dict) and "scene" not in plate_data and bench.scene is not None:
-            plate_data["scene"] = str(bench.scene)   # a plate named otherwise keeps its geometry
-        merged = lambda key: {**(top.get(key) or {}), **(run.get(key) or {})}  # noqa: E731
-        return Run(
-            name=name, protocol=protocol, bench=bench,
-            plate=self.build(Plate, plate_data, f"{field}.plate"),
-            acquisition=self.build(AcquisitionSettings, merged("acquisition"), f"{field}.acquisition"),
-            safety=self.build(SafetyLimits, merged("safety"), f"{field}.safety"),
-            parameters=self.build(PROTOCOLS[protocol].Parameters, run.get("parameters") or {},
-                                  f"{field}.parameters"),
-        )
-
-    def bench(self, value: Any, field: str) -> BenchChoice:
-        bench = self.mapping(value, field, required=set(), allowed={"scene", "file"})
-        if len(bench) != 1:
-            raise self.error(field, "needs exactly one of 'scene' (simulated bench) or 'file' (real bench)")
-        if "scene" in bench:
-            return BenchChoice(scene=self.scene(bench["scene"], f"{field}.scene"))
-        file = Path(str(bench["file"]))
+    def bench(self, choice: Any, field: str) -> BenchChoice:
+        if choice.scene is not None:
+            return BenchChoice(scene=self.scene(choice.scene, f"{field}.scene"))
+        file = Path(choice.file)
         file = file if file.is_absolute() else self.file.parent / file
         if not file.is_file():
-            raise self.error(f"{field}.file", f"{file} does not exist")
+            raise CampaignError(self.file, f"{field}.file", f"{file} does not exist")
+        try:
+            schemas.load_bench_file(file)
+        except UserError as exc:   # the bench file's own error, and where the campaign names it
+            raise CampaignError(self.file, f"{field}.file", str(exc)) from None
         return BenchChoice(file=file)
 
-    def scene(self, value: Any, field: str) -> Path:
+    def scene(self, value: str, field: str) -> Path:
         """A relative scene path is the user's file next to the campaign first, then a shipped one."""
-        scene = Path(str(value))
+        scene = Path(value)
         if not scene.is_absolute():
             beside = self.file.parent / scene
             scene = beside.resolve() if beside.is_file() else paths.scenes_dir() / scene
         if not scene.is_file():
             known = sorted(p.name for p in paths.scenes_dir().glob("*.yaml"))
-            raise self.error(field, f"no scene {scene}; available in {paths.scenes_dir()}: {', '.join(known)}")
+            raise CampaignError(self.file, field, f"no scene {scene}; available in {paths.scenes_dir()}: "
+                                f"{', '.join(known)}")
+        if scene not in self.scenes:
+            try:
+                schemas.check_scene(scene)
+            except UserError as exc:   # the scene's own error, and where the campaign names it
+                raise CampaignError(self.file, field, str(exc)) from None
+            self.scenes[scene] = None
         return scene
 
-    def build(self, cls: type, value: Any, field: str):
-        """A dataclass from a mapping: unknown, missing and mistyped fields are errors."""
-        hints = typing.get_type_hints(cls)
-        fields = {f.name: f for f in dataclasses.fields(cls) if f.init}
-        required = {name for name, f in fields.items()
-                    if f.default is dataclasses.MISSING and f.default_factory is dataclasses.MISSING}
-        data = self.mapping(value, field, required=required, allowed=set(fields))
-        kwargs = {key: self.convert(hints[key], item, _join(field, key)) for key, item in data.items()}
-        try:
-            return cls(**kwargs)
-        except (ValueError, TypeError) as exc:
-            raise self.error(field, str(exc)) from exc
-
-    def convert(self, hint: Any, value: Any, field: str) -> Any:
-        origin, args = typing.get_origin(hint), typing.get_args(hint)
-        if origin in (typing.Union, types.UnionType):
-            if value is None and type(None) in args:
-                return None
-            (hint,) = [a for a in args if a is not type(None)]
-            return self.convert(hint, value, field)
-        if dataclasses.is_dataclass(hint):
-            return self.build(hint, value, field)
-        if origin is tuple:
-            if not isinstance(value, list):
-                raise self.error(field, "must be a list")
-            return tuple(self.convert(args[0], item, f"{field}[{i}]") for i, item in enumerate(value))
-        if hint is Path:   # the only paths in parameters are scenes a step mounts
-            return self.scene(value, field)
-        if hint is float and isinstance(value, (int, float)) and not isinstance(value, bool):
-            return float(value)
-        if isinstance(value, hint) and not (hint is int and isinstance(value, bool)):
-            return value
-        raise self.error(field, f"{value!r} is not a {hint.__name__}")
+    def with_scenes(self, value: Any, field: str) -> Any:
+        """`value` with every scene path (a plate a step mounts) found and validated."""
+        if isinstance(value, Path):
+            return self.scene(str(value), field)
+        if dataclasses.is_dataclass(value):
+            changed = {}
+            for f in dataclasses.fields(value):
+                old = getattr(value, f.name)
+                new = self.with_scenes(old, f"{field}.{f.name}")
+                if new is not old and f.init:
+                    changed[f.name] = new
+            return dataclasses.replace(value, **changed) if changed else value
+        if isinstance(value, tuple):
+            items = tuple(self.with_scenes(item, f"{field}[{i}]") for i, item in enumerate(value))
+            return items if any(a is not b for a, b in zip(items, value)) else value
+        return value
 
 
-def _join(field: str | None, key: str) -> str:
-    return f"{field}.{key}" if field else key
+#: Upper bounds on counts a campaign may request (beyond them a typo, not a plan).
+MAX_COUNTS = {"points": 2001, "max_iterations": 100, "max_ranging_attempts": 32}
+#: Lower bounds on steps: below them a ramp or a search never ends in bench time.
+MIN_STEP_HZ = 0.01
+MIN_RAMP_STEP_VPP = 0.1
+#: Frequency fields that are steps or widths, not frequencies the generator is set to.
+_FREQUENCY_STEPS = ("tolerance_hz", "tracking_step_hz", "first_detuning_hz")
+#: Longest wait a campaign may ask for in one setting (s).
+MAX_WAIT_S = 600.0
+
+
+def check_requests(file: Path, run: Run, field: str) -> None:
+    """Every voltage, frequency, count, step and wait the run will request, against the
+    run's limits and the instruments' ranges, before any bench opens. Voltages a protocol
+    derives while running (a detuning's regain) stay checked by the DriveController."""
+    electronics = run.bench.config().electronics
+    generator_max_vpp = AMPLITUDE_RANGE_VPP[electronics.generator_load][1]
+    limits = [(run.safety.max_piezo_voltage_vpp, f"the run's limit ({field}.safety.max_piezo_voltage_vpp)"),
+              (electronics.amplifier_max_output_vpp, "the amplifier's maximum output"),
+              (electronics.piezo_vpp_for_generator_vpp(generator_max_vpp),
+               f"what the generator's {generator_max_vpp:g} Vpp maximum gives through the amplifier")]
+    if run.safety.ramp_step_vpp < MIN_RAMP_STEP_VPP:
+        raise CampaignError(file, f"{field}.safety.ramp_step_vpp",
+                            f"{run.safety.ramp_step_vpp!r} Vpp is below the smallest ramp step, {MIN_RAMP_STEP_VPP} Vpp")
+    waits = {"safety.ramp_dwell_s": run.safety.ramp_dwell_s, "acquisition.settle_s": run.acquisition.settle_s}
+    counts = {"acquisition.max_ranging_attempts": run.acquisition.max_ranging_attempts}
+    for name, value in [*waits.items(), *counts.items()]:
+        _check_value(file, f"{field}.{name}", name.split(".")[-1], value, limits)
+    for where, name, value in _leaves(run.parameters, f"{field}.parameters"):
+        _check_value(file, where, name, value, limits)
+
+
+def _check_value(file: Path, where: str, name: str, value: Any, limits) -> None:
+    if value is None or isinstance(value, (bool, str, Path)):
+        return
+    if name.endswith("_vpp"):   # a piezo voltage
+        if not value > 0:
+            raise CampaignError(file, where, f"{value!r} Vpp: a piezo voltage must be positive")
+        for limit_vpp, what in limits:
+            if value > limit_vpp:
+                raise CampaignError(file, where, f"{value:g} Vpp is above {what}, {limit_vpp:.4g} Vpp")
+    elif name.endswith("_hz") and name in _FREQUENCY_STEPS:
+        if not value >= MIN_STEP_HZ:
+            raise CampaignError(file, where, f"{value!r} Hz is below the smallest step, {MIN_STEP_HZ} Hz")
+    elif name.endswith("_hz"):
+        low_hz, high_hz = FREQUENCY_RANGE_HZ
+        if not low_hz <= value <= high_hz:
+            raise CampaignError(file, where, f"{value!r} Hz is outside the generator's range, "
+                                f"{low_hz:g} to {high_hz:g} Hz")
+    elif name.endswith("_s") and not 0 <= value <= MAX_WAIT_S:
+        raise CampaignError(file, where, f"{value!r} s is outside 0 to {MAX_WAIT_S:g} s")
+    elif name in MAX_COUNTS and not 1 <= value <= MAX_COUNTS[name]:
+        raise CampaignError(file, where, f"{value!r} is outside 1 to {MAX_COUNTS[name]}")
+
+
+def _leaves(value: Any, field: str, name: str = ""):
+    """(field path, field name, value) of every number in a protocol's parameters."""
+    if dataclasses.is_dataclass(value):
+        for f in dataclasses.fields(value):
+            yield from _leaves(getattr(value, f.name), f"{field}.{f.name}", f.name)
+    elif isinstance(value, tuple):
+        for i, item in enumerate(value):
+            yield from _leaves(item, f"{field}[{i}]", name)
+    else:
+        yield field, name, value
 
 
 # -- running -----------------------------------------------------------------------------
 def run_campaign(path: Path, resume: bool = False, out_dir: Path | None = None,
                  progress: bool = True, say: Callable[[str], None] | None = None,
+                 accept_changed_bench: bool = False,
                  on_point: Callable[[dict[str, Any]], None] | None = None,
                  on_step: Callable[[dict[str, Any]], None] | None = None) -> Path:
     """Run (or with `resume`, continue) a campaign; return its run directory. `progress`
     off hides the progress bar (a campaign run inside another tool, e.g. the planner);
+    `accept_changed_bench` lets a resume use a bench file or scene changed since (a bench
+    fix), recording both versions;
     `say` shows what the operator must know now (default: the terminal's stderr), and
     everything said also goes to log.txt. SIGTERM and SIGHUP stop it as Ctrl-C does.
     `on_point` and `on_step` watch the run (see Watchers)."""
     with stop_signals_interrupt():
-        return _run_campaign(path, resume, out_dir, progress, say, Watchers(on_point, on_step))
+        return _run_campaign(path, resume, out_dir, progress, say, accept_changed_bench,
+                             Watchers(on_point, on_step))
 
 
 @dataclass(frozen=True)
@@ -297,7 +325,7 @@ class Watchers:
 
 
 def _run_campaign(path: Path, resume: bool, out_dir: Path | None, progress: bool,
-                  say: Callable[[str], None] | None, watchers: Watchers) -> Path:
+                  say: Callable[[str], None] | None, accept_changed_bench: bool, watchers: Watchers) -> Path:
     campaign = load_campaign(path)
     run_dir = Path(out_dir) if out_dir is not None else campaign.output_dir
     store = RunStore(run_dir)
@@ -328,7 +356,7 @@ def _run_campaign(path: Path, resume: bool, out_dir: Path | None, progress: bool
                 tell(warning)
             log.info("campaign %s (%s) in %s, %s", campaign.name, campaign.file, run_dir,
                      f"resuming after {len(journal)} steps" if journal else "new run")
-            _Runner(campaign, store, journal, progress, watchers).run()
+            _Runner(campaign, store, journal, progress, accept_changed_bench, watchers).run()
             log.info("campaign %s complete", campaign.name)
         except BaseException as exc:
             log.error("campaign stopped by %s: %s; completed steps are stored, resume to continue",
@@ -352,8 +380,10 @@ def _teller(say: Callable[[str], None] | None) -> Callable[[str], None]:
 
 class _Runner:
     def __init__(self, campaign: Campaign, store: RunStore, journal: list[dict[str, Any]],
-                 progress: bool = True, watchers: Watchers = Watchers()):
+                 progress: bool = True, accept_changed_bench: bool = False, watchers: Watchers = Watchers()):
         self.campaign = campaign
+        self.accept_changed_bench = accept_changed_bench
+        self.inputs: dict[str, dict[str, str]] = {}   # run: {input file name: sha256}
         self.progress = progress
         self.watchers = watchers
         self.store = store
@@ -379,8 +409,16 @@ class _Runner:
             if entry["run"] == run.name:
                 context.update(entry["context"])
         for file in run.input_files():
-            self.store.add_input(file)
+            self.store.add_input(file, accept_changed=self.accept_changed_bench)
+        self.inputs[run.name] = {file.name: sha256_file(file) for file in run.input_files()}
         log.info("run %s (%s): %d steps to do", run.name, run.protocol, len(pending))
+        try:
+            self._run_on_bench(run, pending, context)
+        except OutOfRangeError as exc:   # a driver's refusal is a ValueError, not a bug here
+            raise SettingRefused(f"run {run.name}: {exc}; the generator was set to its minimum; "
+                                 "completed steps are stored") from None
+
+    def _run_on_bench(self, run: Run, pending: list[Step], context: dict[str, Any]) -> None:
         with open_bench(run.bench.config()) as bench:
             identifications = bench.identify()
             self.store.record_instruments(run.name, identifications, bench=bench_provenance(
@@ -404,6 +442,7 @@ class _Runner:
 
     def _step(self, run: Run, step: Step, bench, drive: DriveController, acquisition: Acquisition,
               context: dict[str, Any], mounted: _Mounted, identifications: dict[str, str]) -> None:
+        raise_if_stopped()
         log.info("run %s: step %s", run.name, step.step_id)
         mounted.prepare(bench, step.plate)
         acquisition.reset_ranges()
@@ -423,6 +462,7 @@ class _Runner:
         files = self.store.write_step(run.name, step.step_id, ctx.rows, ctx.waveforms, provenance)
         entry = {"run": run.name, "step": step.step_id, "protocol": run.protocol,
                  "rows": len(ctx.rows), "context": ctx.updates, "files": files,
+                 "inputs": self.inputs[run.name],
                  "campaign_bench_time_s": bench_time_s,
                  "completed_utc": dt.datetime.now(dt.timezone.utc).isoformat(timespec="seconds")}
         self.store.append_journal(entry)

@@ -30,20 +30,24 @@ from pathlib import Path
 from typing import Any, Callable
 
 import numpy as np
+import pandas as pd
 import yaml
 
 from squeezebench.analysis.waveforms import integer_period_mean_power_w, sample_interval_s
+from squeezebench.protocols.accuracy_plan import CALIBRATION_FREQUENCY_HZ, AccuracyFloors, accuracy_floors
 from squeezebench.protocols.accuracy_study import open_simulated
+from squeezebench.protocols.bench_errors import (
+    bench_time_by_run_s, errors_on_benches, p95_by_run, with_calibration)
 from squeezebench.protocols.acquisition import AcquisitionSettings
 from squeezebench.protocols.campaign import Run, load_campaign, run_campaign
 from squeezebench.protocols.parallel import map_unordered
 from squeezebench.protocols.safety import SafetyLimits
-from squeezebench.protocols.storage import RunStore
 from squeezebench.errors import UserError
 
 AVERAGES = tuple(2 ** k for k in range(10))   # 1 (sample mode), 2..512: what the TDS3000 offers
 RECORD_LENGTHS = (500, 10000)                   # HOR:RECO: what the TDS3000 offers
 BASELINE_AVERAGES = 512
+CHECK_BENCHES = 20             # simulated benches with drawn errors the plan is checked on (p95 needs >> 8)
 REPEATS = 8                    # acquisitions per setting; p95 of 8 is near the max
 ERROR_PERCENTILE = 95.0
 DEFAULT_VOLTAGE_VPP = 20.0     # detuning runs set voltage from a velocity level; ~20 Vpp is typical
@@ -157,24 +161,19 @@ def _campaign_with_acquisition(campaign_path: Path, acquisition_by_run: dict[str
     return out
 
 
-def _bench_time_by_run_s(run_dir: Path) -> dict[str, float]:
-    """Virtual bench time of each run, from the journal's cumulative campaign time."""
-    times_s: dict[str, float] = {}
-    previous_s = 0.0
-    for entry in RunStore(run_dir).journal():
-        total_s = entry["campaign_bench_time_s"]
-        times_s[entry["run"]] = times_s.get(entry["run"], 0.0) + total_s - previous_s
-        previous_s = total_s
-    return times_s
-
-
-def simulate_bench_time_s(campaign_path: Path, acquisition_by_run: dict[str, dict]) -> dict[str, float]:
-    """Run the campaign on the simulated bench with these acquisition settings; bench time per run."""
+def simulate_bench_time_s(campaign_path: Path, acquisition_by_run: dict[str, dict],
+                          calibrate: bool = False) -> dict[str, float]:
+    """Run the campaign on the simulated bench with these acquisition settings (with
+    `calibrate`, after a deskew calibration, which appears as its own run); bench time per run."""
     with tempfile.TemporaryDirectory(prefix="squeezebench-plan-") as tmp:
-        tmp_dir = Path(tmp)
-        variant = _campaign_with_acquisition(campaign_path, acquisition_by_run, tmp_dir / campaign_path.name)
-        run_dir = run_campaign(variant, out_dir=tmp_dir / "run", progress=False)
-        return _bench_time_by_run_s(run_dir)
+        variant = planned_campaign(campaign_path, acquisition_by_run, calibrate, Path(tmp) / campaign_path.name)
+        return bench_time_by_run_s(run_campaign(variant, out_dir=Path(tmp) / "run", progress=False))
+
+
+def planned_campaign(campaign_path: Path, acquisition_by_run: dict[str, dict], calibrate: bool, out: Path) -> Path:
+    """The campaign file with these settings, preceded by the deskew calibration if `calibrate`."""
+    variant = _campaign_with_acquisition(campaign_path, acquisition_by_run, out)
+    return with_calibration(variant, out, CALIBRATION_FREQUENCY_HZ) if calibrate else variant
 
 
 @dataclasses.dataclass
@@ -186,6 +185,14 @@ class Plan:
     planned_s: dict[str, float]
     baseline_s: dict[str, float]
     repeats: int = REPEATS   # acquisitions per setting in the study
+    floors: AccuracyFloors | None = None   # what the instruments' specified errors leave
+    own_s: dict[str, float] = dataclasses.field(default_factory=dict)   # the campaign as written
+    check: pd.DataFrame | None = None   # p95 |error| per run over simulated benches with errors
+    check_benches: int = 0
+
+    @property
+    def calibrate(self) -> bool:
+        return bool(self.floors and self.floors.calibrate)
 
     @property
     def planned_total_s(self) -> float:
@@ -195,18 +202,41 @@ class Plan:
     def baseline_total_s(self) -> float:
         return sum(self.baseline_s.values())
 
+    @property
+    def meets_check(self) -> bool:
+        return self.check is not None and bool((self.check["p95_abs_rel_error"] <= self.target_rel_error).all())
+
+    @property
+    def own_total_s(self) -> float:
+        return sum(self.own_s.values())
+
     def table(self) -> str:
-        lines = [f"target relative power error (p95 of {self.repeats} acquisitions): {self.target_rel_error:g}",
-                 f"{'run':<24} {'record':>6} {'averages':>8} {'p95 error':>10} {'planned s':>10} "
-                 f"{'512-avg s':>10} {'ratio':>6}"]
+        lines = [f"target relative error (p95, power and velocity): {self.target_rel_error:g}; noise p95 of "
+                 f"{self.repeats} acquisitions per setting; floor: the instruments' specified errors",
+                 f"{'run':<24} {'record':>6} {'averages':>8} {'noise p95':>10} {'floor':>7} {'planned s':>10} "
+                 f"{'own s':>8} {'ratio':>6} {'512-avg s':>10}"]
         for name, setting in self.settings_by_run.items():
-            planned_s, baseline_s = self.planned_s.get(name, 0.0), self.baseline_s.get(name, 0.0)
-            ratio = planned_s / baseline_s if baseline_s else math.nan
+            planned_s, own_s = self.planned_s.get(name, 0.0), self.own_s.get(name, math.nan)
+            floor = self.floors.planned_floor(name) if self.floors else math.nan
             lines.append(f"{name:<24} {setting.record_length:>6d} {setting.averages:>8d} "
-                         f"{self.error_by_run[name]:>10.2e} {planned_s:>10.1f} {baseline_s:>10.1f} {ratio:>6.2f}")
-        ratio = self.planned_total_s / self.baseline_total_s if self.baseline_total_s else math.nan
-        lines.append(f"{'total':<24} {'':>6} {'':>8} {max(self.error_by_run.values()):>10.2e} "
-                     f"{self.planned_total_s:>10.1f} {self.baseline_total_s:>10.1f} {ratio:>6.2f}")
+                         f"{self.error_by_run[name]:>10.2e} {floor:>7.2%} {planned_s:>10.1f} {own_s:>8.1f} "
+                         f"{planned_s / own_s:>6.2f} {self.baseline_s.get(name, 0.0):>10.1f}")
+        for name in set(self.planned_s) - set(self.settings_by_run):   # the calibration the plan adds
+            lines.append(f"{name:<24} {'':>6} {'':>8} {'':>10} {'':>7} {self.planned_s[name]:>10.1f} {0.0:>8.1f} "
+                         f"{'':>6} {'':>10}")
+        ratio = self.planned_total_s / self.own_total_s if self.own_total_s else math.nan
+        lines.append(f"{'total':<24} {'':>6} {'':>8} {max(self.error_by_run.values()):>10.2e} {'':>7} "
+                     f"{self.planned_total_s:>10.1f} {self.own_total_s:>8.1f} {ratio:>6.2f} "
+                     f"{self.baseline_total_s:>10.1f}")
+        if self.floors:
+            lines += self.floors.lines()
+        if self.check is not None:
+            worst = self.check.groupby("quantity")["p95_abs_rel_error"].max()
+            meets = self.meets_check
+            lines.append(f"check on {self.check_benches} simulated benches with errors drawn within specification"
+                         f"{' (deskew calibration first)' if self.calibrate else ''}: worst run p95 |error| "
+                         + ", ".join(f"{q} {v:.2%}" for q, v in worst.items())
+                         + f" -> {'meets' if meets else 'misses'} the target {self.target_rel_error:g}")
         return "\n".join(lines)
 
     def as_dict(self) -> dict:
@@ -218,8 +248,15 @@ class Plan:
                           "baseline_bench_time_s": self.baseline_s.get(name, 0.0)}
                          for name, setting in self.settings_by_run.items()],
                 "planned_bench_time_s": self.planned_total_s,
+                "own_bench_time_s": self.own_total_s,
+                "own_bench_time_by_run_s": self.own_s,
                 "baseline_bench_time_s": self.baseline_total_s,
-                "baseline_averages": BASELINE_AVERAGES}
+                "baseline_averages": BASELINE_AVERAGES,
+                "calibration_bench_time_s": {k: v for k, v in self.planned_s.items() if k not in self.settings_by_run},
+                "floors": self.floors.as_dict() if self.floors else None,
+                "check": None if self.check is None else {
+                    "benches": self.check_benches,
+                    "p95_abs_rel_error": self.check.to_dict(orient="records")}}
 
 
 SETTINGS = tuple(Setting(r, n) for r in RECORD_LENGTHS for n in AVERAGES)
@@ -230,10 +267,13 @@ def _call(job: Callable[[], Any]) -> Any:
 
 
 def make_plan(campaign_path: Path, target_rel_error: float, repeats: int = REPEATS,
-              workers: int = 1, scheduler: Any = None) -> Plan:
+              workers: int = 1, scheduler: Any = None, check_benches: int = CHECK_BENCHES) -> Plan:
     """Measure every setting on every plate, pick each run's, and time the campaign with
     the plan and with the baseline, on `workers` local processes or the Dask cluster at
-    `scheduler` (the plan is the same either way)."""
+    `scheduler` (the plan is the same either way). The floors the instruments' specified
+    errors leave decide what the noise may take and whether to calibrate; the plan is then
+    checked on `check_benches` simulated benches with drawn errors (0: no check; none when
+    the target is below the floor)."""
     if not target_rel_error > 0:
         raise UserError(f"target relative error must be positive, got {target_rel_error!r}")
     campaign_path = Path(campaign_path)
@@ -256,18 +296,51 @@ def make_plan(campaign_path: Path, target_rel_error: float, repeats: int = REPEA
     results = {jobs[job]: result for job, result in done.items() if job in jobs}
     studies = {key: PlateStudy(key[0], key[1], key[2], results[key, SETTINGS[0]][1],
                                [results[key, setting][0] for setting in SETTINGS]) for key in plates}
+    studies_by_run = {run.name: [studies[key] for key in plates_by_run[run.name]] for run in campaign.runs}
+    floors = accuracy_floors(campaign_path, target_rel_error)
+    plan = _choose(campaign, campaign_path, target_rel_error, repeats, studies_by_run, floors, done[baseline])
+    if check_benches and not floors.below_floor():
+        plan.check, plan.check_benches = check_plan(campaign_path, plan, check_benches), check_benches
+        if not plan.meets_check and not floors.calibrate:
+            # the floors are normal approximations: a bench in their tail may miss; calibrate and check again
+            floors.calibration_forced_by = f"the check on {check_benches} benches without it"
+            plan = _choose(campaign, campaign_path, target_rel_error, repeats, studies_by_run, floors, done[baseline])
+            plan.check, plan.check_benches = check_plan(campaign_path, plan, check_benches), check_benches
+    return plan
+
+
+def _choose(campaign, campaign_path: Path, target_rel_error: float, repeats: int,
+            studies_by_run: dict[str, list[PlateStudy]], floors: AccuracyFloors, baseline_s: dict[str, float]) -> Plan:
+    """Per run the cheapest setting whose noise fits in what the floor leaves of the
+    target (errors add in quadrature); where the floor is above the target, the cheapest
+    whose noise stays a third of the floor (it then adds under 6 %)."""
+    unreachable = {f.run_name for f in floors.below_floor()}
     settings_by_run, error_by_run = {}, {}
     for run in campaign.runs:
-        run_studies = [studies[key] for key in plates_by_run[run.name]]
-        setting = cheapest_setting(run_studies, target_rel_error,
+        run_studies = studies_by_run[run.name]
+        noise_target = (floors.floor(run.name, calibrated=True) / 3.0 if run.name in unreachable
+                        else floors.noise_allowance(run.name))
+        setting = cheapest_setting(run_studies, noise_target,
                                    fallback=Setting(run.acquisition.record_length, BASELINE_AVERAGES))
         settings_by_run[run.name] = setting
         error_by_run[run.name] = max(s.result(setting).p95_rel_error for s in run_studies)
     planned_s = simulate_bench_time_s(campaign_path, {name: dataclasses.asdict(setting)
-                                                      for name, setting in settings_by_run.items()})
-    return Plan(target_rel_error, {run.name: [studies[key] for key in plates_by_run[run.name]]
-                                   for run in campaign.runs},
-                settings_by_run, error_by_run, planned_s, done[baseline], repeats=repeats)
+                                                      for name, setting in settings_by_run.items()},
+                                      calibrate=floors.calibrate)
+    return Plan(target_rel_error, studies_by_run, settings_by_run, error_by_run, planned_s, baseline_s,
+                repeats=repeats, floors=floors, own_s=floors.own_bench_time_s)
+
+
+def check_plan(campaign_path: Path, plan: Plan, benches: int) -> pd.DataFrame:
+    """p95 |relative error| per run and quantity of the planned campaign over `benches`
+    simulated benches whose instruments err within specification (`bench_errors`)."""
+    with tempfile.TemporaryDirectory(prefix="squeezebench-check-") as tmp:
+        planned = planned_campaign(campaign_path, _settings(plan), plan.calibrate, Path(tmp) / campaign_path.name)
+        return p95_by_run(errors_on_benches(planned, range(1, benches + 1)))
+
+
+def _settings(plan: Plan) -> dict[str, dict]:
+    return {name: dataclasses.asdict(setting) for name, setting in plan.settings_by_run.items()}
 
 
 def plan_campaign(campaign_path: Path, target_rel_error: float = 0.01, write: Path | None = None,
@@ -284,5 +357,4 @@ def plan_campaign(campaign_path: Path, target_rel_error: float = 0.01, write: Pa
 
 def write_planned_campaign(campaign_path: Path, plan: Plan, out: Path) -> Path:
     """The campaign file with the plan's acquisition settings, ready for `squeezebench run`."""
-    return _campaign_with_acquisition(campaign_path, {name: dataclasses.asdict(setting) for name, setting
-                                                      in plan.settings_by_run.items()}, out)
+    return planned_campaign(campaign_path, _settings(plan), plan.calibrate, out)

@@ -45,8 +45,21 @@ _ROUNDING = 1.0 + 1e-12
 STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
 
 
+#: Stop signals received while a run is on (their names), honoured by `raise_if_stopped`.
+_stops_received: list[str] = []
+
+
 def _raise_interrupt(signum, frame) -> None:
-    raise KeyboardInterrupt(f"stopped by {signal.Signals(signum).name}")
+    _stops_received.append(signal.Signals(signum).name)
+    raise KeyboardInterrupt(f"stopped by {_stops_received[-1]}")
+
+
+def raise_if_stopped() -> None:
+    """Raise KeyboardInterrupt again if a stop signal came: its first KeyboardInterrupt may
+    have been swallowed (raised inside a `__del__` or a library's catch-all), and a stop
+    must still stop the run before the drive goes up again or the next step starts."""
+    if _stops_received:
+        raise KeyboardInterrupt(f"stopped by {_stops_received[0]}")
 
 
 @contextlib.contextmanager
@@ -57,12 +70,14 @@ def stop_signals_interrupt() -> Iterator[None]:
     if threading.current_thread() is not threading.main_thread():
         yield
         return
+    _stops_received.clear()
     previous = {sig: signal.signal(sig, _raise_interrupt) for sig in STOP_SIGNALS}
     try:
         yield
     finally:
         for sig, handler in previous.items():
             signal.signal(sig, handler)
+        _stops_received.clear()
 
 
 @contextlib.contextmanager
@@ -188,11 +203,14 @@ class DriveController:
 
     def set_piezo_voltage(self, piezo_voltage_vpp: float) -> None:
         """Ramp to `piezo_voltage_vpp` (checked first), then wait the settling time."""
+        if piezo_voltage_vpp > 0:   # going down to the minimum is never refused
+            raise_if_stopped()
         self.check(piezo_voltage_vpp)
         target_vpp = max(piezo_voltage_vpp / self.chain_gain,
                          self.minimum_generator_amplitude_vpp)
         start_vpp = self.generator_amplitude_vpp
-        step_vpp = self.limits.ramp_step_vpp / self.chain_gain
+        # less one quantum: each sent amplitude is rounded to 1 µVpp (see _send_amplitude)
+        step_vpp = self.limits.ramp_step_vpp / self.chain_gain - 1e-6
         n_steps = max(1, math.ceil(abs(target_vpp - start_vpp) / step_vpp))
         for i in range(1, n_steps + 1):
             amplitude_vpp = target_vpp if i == n_steps else start_vpp + (target_vpp - start_vpp) * i / n_steps
@@ -220,6 +238,7 @@ class DriveController:
 
     def set_frequency(self, frequency_hz: float) -> None:
         """Set the drive frequency, then wait the settling time (the plate rings up)."""
+        raise_if_stopped()
         self._generator.set_frequency(frequency_hz)
         self.frequency_hz = float(frequency_hz)
         self._clock.sleep(self.settle_s)

@@ -128,8 +128,12 @@ class RunStore:
     @contextlib.contextmanager
     def writer(self) -> Iterator[None]:
         """Hold the directory's exclusive lock (StorageError naming the holder's pid)."""
-        self.run_dir.mkdir(parents=True, exist_ok=True)
-        fd = os.open(self.run_dir / LOCK, os.O_RDWR | os.O_CREAT, 0o644)
+        try:
+            self.run_dir.mkdir(parents=True, exist_ok=True)
+            fd = os.open(self.run_dir / LOCK, os.O_RDWR | os.O_CREAT, 0o644)
+        except OSError as exc:
+            raise StorageError(f"{self.run_dir}: cannot be written ({exc.strerror or exc}); "
+                               "choose an output directory you can write to") from None
         try:
             fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
         except BlockingIOError:
@@ -187,20 +191,36 @@ class RunStore:
         manifest["updated_utc"] = _utc_now()
         write_atomic(self.run_dir / MANIFEST, json.dumps(manifest, indent=2, sort_keys=True).encode())
 
-    def add_input(self, path: Path) -> str:
-        """Copy a scene or bench file into inputs/ and record its sha256; return the copy."""
+    def add_input(self, path: Path, accept_changed: bool = False) -> str:
+        """Copy a scene or bench file into inputs/ and record its sha256; return the copy.
+
+        A file that changed since the run used it (a bench fix: an address, a fault
+        removed) is refused unless `accept_changed`; then the manifest keeps every
+        version (`versions`, oldest first, each with its copy and the number of steps
+        completed before it) and the journal entries name the version each step used."""
         path = Path(path)
         digest = sha256_file(path)
         manifest = self.manifest()
-        copy = f"inputs/{path.name}"
         known = manifest["inputs"].get(path.name)
-        if known and known["sha256"] != digest:
-            raise StorageError(f"{path}: another file named {path.name} is already an input of "
-                               f"{self.run_dir} with different content")
-        if not known:
-            write_atomic(self.run_dir / copy, path.read_bytes())
-            manifest["inputs"][path.name] = {"file": str(path.resolve()), "copy": copy, "sha256": digest}
-            self._write_manifest(manifest)
+        if known and known["sha256"] == digest:
+            return known["copy"]
+        if known and not accept_changed:
+            raise StorageError(f"{path} changed since {self.run_dir} was measured with it (sha256 "
+                               f"{known['sha256'][:12]}... now {digest[:12]}...); if the change is a bench fix "
+                               "(an address, a fault removed), resume with --accept-changed-bench: the "
+                               "manifest keeps both versions and which steps used which")
+        copy = f"inputs/{path.name}" if not known else f"inputs/{path.stem}.{digest[:12]}{path.suffix}"
+        write_atomic(self.run_dir / copy, path.read_bytes())
+        versions = known.get("versions", [{"sha256": known["sha256"], "copy": known["copy"],
+                                           "steps_before": 0}]) if known else []
+        steps_before = len(self.journal())
+        record = {"sha256": digest, "copy": copy, "steps_before": steps_before, "recorded_utc": _utc_now()}
+        manifest["inputs"][path.name] = {"file": str(path.resolve()), "copy": copy, "sha256": digest,
+                                         "versions": [*versions, record]}
+        self._write_manifest(manifest)
+        if known:
+            log.warning("%s changed since the run used it; accepted as a new version after %d completed "
+                        "steps (copy %s, the old one stays in %s)", path, steps_before, copy, known["copy"])
         return copy
 
     def record_instruments(self, run_name: str, identifications: dict[str, str],
@@ -264,9 +284,12 @@ class RunStore:
         return entries
 
     def verify(self, entries: list[dict[str, Any]] | None = None) -> list[str]:
-        """One message per step file the journal names that is missing or fails its checksum."""
-        entries = self.journal() if entries is None else entries
+        """One message per step file the journal names that is missing or fails its checksum
+        (and, reading the journal itself, per line that is not an entry)."""
         problems = []
+        if entries is None:
+            entries, bad = self._read_journal()
+            problems += [f"{self.run_dir / JOURNAL} line {number}: {reason}" for number, reason in bad]
         for entry in entries:
             files = entry.get("files") or {_measurement_file(entry["run"], entry["step"]): None}
             for relative, digest in files.items():
@@ -364,6 +387,11 @@ def _entry_problem(line: bytes) -> str | None:
     for key, kind in _ENTRY_FIELDS.items():
         if not isinstance(entry.get(key), kind) or isinstance(entry.get(key), bool):
             return f"not a journal entry (field '{key}' missing or of the wrong type)"
+    for key in ("files", "inputs"):   # {name: sha256}; absent in runs from before checksums
+        value = entry.get(key, {})
+        if not isinstance(value, dict) or not all(isinstance(k, str) and isinstance(v, str)
+                                                  for k, v in value.items()):
+            return f"not a journal entry (field '{key}' is not a mapping of file to sha256)"
     return None
 
 

@@ -6,7 +6,8 @@ measured and reduced as the report reduces it, and scored against the truth at i
 setting (the same plate without the errors). Two points: the Table 3 point (gains
 dominate) and the Fig. 2c stress point (power factor 0.018: the CH2 delay dominates).
 Each configuration is scored twice: as the bench is (`systematics_<point>`) and with the
-power corrected by a deskew calibration run on that bench first (`..._deskewed`), whose
+power corrected by the calibration (deskew and gain check) run on that bench first
+(`..._calibrated`), whose
 bench time is charged to the trial (one calibration per point: the worst case; a
 campaign pays it once). The rows follow the study's trial schema (`analysis.study`), one
 bench per `repeat`, so the p95 over benches and the fronts come out as for the other
@@ -16,13 +17,12 @@ experiments: averaging lowers the noise until the bench's errors are all that is
 from __future__ import annotations
 
 import dataclasses
-import math
 import tempfile
 from pathlib import Path
 
 import pandas as pd
 
-from squeezebench.analysis.calibration import deskew_from_points
+from squeezebench.analysis.calibration import calibration_from_points
 from squeezebench.analysis.study import STUDY_DIR
 from squeezebench.instruments.bench import open_bench, sim_bench_config
 from squeezebench.protocols import calibration
@@ -62,10 +62,12 @@ def _deskew(session: SimulatedSession, state: str, settings: SystematicsSettings
     acquisition = session.acquisition(settings.calibration_acquisition)
     session.drive.set_frequency(params.frequency_hz)
     session.drive.set_piezo_voltage(params.piezo_voltage_vpp)
-    rows = [{**_reduce(acquisition.measure()).as_row(), "run_name": "deskew"} for _ in range(params.repeats)]
+    columns = {"run_name": "deskew", "calibration_load_ohm": params.load_ohm, "shunt_ohm": session.bench.electronics.shunt_ohm,
+               "calibration_load_tolerance_rel": params.load_tolerance_rel}
+    rows = [{**_reduce(acquisition.measure()).as_row(), **columns} for _ in range(params.repeats)]
     session.drive.to_minimum()
     session.simulated.set_state(state)
-    return deskew_from_points(pd.DataFrame(rows))
+    return calibration_from_points(pd.DataFrame(rows))
 
 
 def _truth(plain_scene: Path, state: str, frequency_hz: float, generator_vpp: float):
@@ -104,15 +106,15 @@ def systematics_trials(settings: SystematicsSettings, work_dir: Path) -> pd.Data
                     start_s = session.now_s()
                     reduction = _reduce(acquisition.measure())
                     point_s = session.now_s() - start_s
-                    omega = 2.0 * math.pi * reduction.frequency_hz.value
-                    corrected_w = reduction.power_w.value + reduction.reactive_power_var.value * omega * deskew.delay_s
+                    corrected_w = deskew.corrected_power_w(reduction.power_w.value, reduction.reactive_power_var.value,
+                                                           reduction.frequency_hz.value)
                     base = {"scene": Path(point.scene).name, "state": point.state,
                             **defaults, "averages": averages, "repeat": seed}
                     velocity = (reduction.velocity_pp_mps.value, truth.velocity_pp_mps)
                     experiment = f"systematics_{point.name}"
                     for experiment, power_w, cost_s in (
                             (experiment, reduction.power_w.value, point_s),
-                            (f"{experiment}_deskewed", corrected_w, point_s + calibration_s)):
+                            (f"{experiment}_calibrated", corrected_w, point_s + calibration_s)):
                         for quantity, (measured, true) in (("power_w", (power_w, truth.power_w)),
                                                            ("velocity_pp_mps", velocity)):
                             rows.append({"experiment": experiment, **base, "bench_time_s": cost_s,

@@ -193,9 +193,13 @@ def average_of_records(signal: np.ndarray, sigma: float, averages: int, settings
         if sigma >= settings.dither_threshold_lsb * lsb and far.all():
             mean, variance = steps, np.full_like(steps, (sigma / lsb) ** 2 + 1.0 / 12.0)
         else:
-            grid, mean_offset, step_variance = _step_moments(sigma / lsb)
-            phase = steps - np.floor(steps)
-            mean, variance = steps + np.interp(phase, grid, mean_offset), np.interp(phase, grid, step_variance)
+            mean_offset, step_variance = _step_moments(sigma / lsb)
+            # Linear interpolation on the uniform phase grid, by index (np.interp searches).
+            position = (steps - np.floor(steps)) * STEP_PHASES
+            index = np.minimum(position.astype(np.intp), STEP_PHASES - 1)
+            weight = position - index
+            mean = steps + mean_offset[index] * (1.0 - weight) + mean_offset[index + 1] * weight
+            variance = step_variance[index] * (1.0 - weight) + step_variance[index + 1] * weight
             near = ~far
             if near.any():
                 lowest, highest = round(fx.ADC_MIN_DIV / lsb), round(fx.ADC_MAX_DIV / lsb)   # the clip's levels
@@ -238,12 +242,13 @@ STEP_PHASES = 4096
 
 
 @functools.lru_cache(maxsize=64)
-def _step_moments(sigma_steps: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _step_moments(sigma_steps: float) -> tuple[np.ndarray, np.ndarray]:
     """Away from the clip, one quantised record's mean minus the signal, and its variance
-    (in steps), against the signal's phase within a step (0..1): both have period one step."""
+    (in steps), at STEP_PHASES + 1 evenly spaced phases of the signal within a step
+    (0..1): both have period one step."""
     grid = np.linspace(0.0, 1.0, STEP_PHASES + 1)
     mean, variance = _level_moments(grid, sigma_steps)
-    return grid, mean - grid, variance
+    return mean - grid, variance
 
 
 def _level_moments(steps: np.ndarray, sigma_steps: float, lowest: int | None = None,

@@ -74,6 +74,8 @@ def cmd_run(args: argparse.Namespace) -> int:
 
     check_powered_piezos(load_campaign(paths.campaign_file(args.campaign)))
 
+    if args.accept_changed_bench and not args.resume:
+        raise UserError("--accept-changed-bench continues a stopped run: use it with --resume")
     watchers = {}
     if args.plot:
         from squeezebench.liveplot import LivePlot
@@ -84,7 +86,8 @@ def cmd_run(args: argparse.Namespace) -> int:
             print("squeezebench run: warning: --plot draws off-screen: matplotlib found no display "
                   "(set MPLBACKEND to a GUI backend such as QtAgg or TkAgg)", file=sys.stderr)
     run_dir = run_campaign(paths.campaign_file(args.campaign), resume=args.resume, out_dir=args.out,
-                           progress=show_progress(args), **watchers)
+                           progress=show_progress(args), accept_changed_bench=args.accept_changed_bench,
+                           **watchers)
     say(args, f"run stored in {run_dir}")
     if args.plot and plot.interactive:
         import matplotlib.pyplot as plt
@@ -94,12 +97,40 @@ def cmd_run(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_validate(args: argparse.Namespace) -> int:
+    """Each file checked on its own: one line per file (stdout if sound, stderr if not)."""
+    from squeezebench.schemas import validate_file
+
+    results = []
+    for file in args.files:
+        try:
+            results.append({**validate_file(Path(file)), "ok": True, "error": None})
+        except UserError as exc:
+            results.append({"file": file, "ok": False, "error": str(exc), "warnings": []})
+    passed = all(result["ok"] for result in results)
+    if args.json:
+        emit_json({"command": "validate", "passed": passed, "files": results})
+    else:
+        for result in results:
+            if result["ok"]:
+                summary = f" ({result['summary']})" if result["summary"] else ""
+                say(args, f"{result['file']}: valid {result['kind']}{summary}")
+            else:
+                print(f"squeezebench validate: {result['error']}", file=sys.stderr)
+            for warning in result["warnings"]:
+                print(f"squeezebench validate: warning: {warning}", file=sys.stderr)
+    return 0 if passed else EXIT_USER_ERROR
+
+
 def cmd_report(args: argparse.Namespace) -> int:
     import squeezebench.simulated_plates  # noqa: F401  (adds the simulated plates' section)
     from squeezebench.analysis.report import write_report
     from squeezebench.protocols.storage import RunStore
 
-    problems = RunStore(Path(args.run_dir)).verify()
+    store = RunStore(Path(args.run_dir))
+    if store.exists():
+        store.manifest()   # a malformed manifest is one message, not a traceback in the report
+    problems = store.verify()
     if problems and not args.allow_missing:
         more = f" (and {len(problems) - 1} more)" if len(problems) > 1 else ""
         raise UserError(f"{problems[0]}{more}; the report would lack their rows: restore the "
@@ -224,9 +255,17 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("campaign", help="campaign YAML file, or the name of a shipped one (quick, paper)")
     run.add_argument("--resume", action="store_true", help="continue after the last completed step")
     run.add_argument("--out", type=Path, default=None, help="run directory (default: from the campaign)")
+    run.add_argument("--accept-changed-bench", action="store_true",
+                     help="with --resume: continue with a bench file or scene changed since (a bench fix); "
+                          "the manifest records both versions and which steps used which")
     run.add_argument("--plot", action="store_true",
                      help="draw the resonance sweeps, the measured points and the resonance drift live")
     run.set_defaults(func=cmd_run)
+
+    validate = add("validate", json=True, help="check campaign, bench and scene files (and every scene "
+                   "and request a campaign has) without touching a bench or a run directory")
+    validate.add_argument("files", nargs="+", metavar="FILE", help="campaign, bench or scene YAML files")
+    validate.set_defaults(func=cmd_validate)
 
     report = add("report", help="recompute tables and figures from a stored run")
     report.add_argument("run_dir", help="run directory written by 'squeezebench run'")

@@ -7,6 +7,7 @@ import math
 import pytest
 
 from squeezebench import paths
+from squeezebench.analysis.calibration import gain_weight
 from squeezebench.analysis.specifications import SPECIFICATIONS
 from squeezebench.protocols.accuracy_plan import accuracy_floors
 
@@ -23,11 +24,18 @@ def test_a_one_percent_target_is_below_the_gain_floor(floors):
     gains = math.sqrt(2 * SPECIFICATIONS["scope_gain"].std_uncertainty**2
                       + SPECIFICATIONS["current_probe_gain"].std_uncertainty**2)
     power = [f for f in floors.floors if f.quantity == "power_w"]
-    assert all(f.calibrated_floor_p95_rel >= 1.96 * gains * 0.999 for f in power)
-    assert {f.calibrated_dominant_term for f in power} == {"current probe gain"}
+    assert all(f.floor_p95_rel >= 1.96 * gains * 0.999 for f in power)
+    # the gain check trades the current path's errors for the voltage path's: g1^(1+a) (g2 gp)^(1-a)
+    alpha = gain_weight()
+    checked = math.hypot((1 + alpha) * SPECIFICATIONS["scope_gain"].std_uncertainty,
+                         (1 - alpha) * math.hypot(SPECIFICATIONS["scope_gain"].std_uncertainty,
+                                                  SPECIFICATIONS["current_probe_gain"].std_uncertainty))
+    assert checked < 0.9 * gains
+    assert all(f.calibrated_floor_p95_rel >= 1.96 * checked * 0.999 for f in power)
+    assert {f.calibrated_dominant_term for f in power} == {"CH1 gain (gain-checked)"}
     assert len(floors.below_floor()) == len(floors.floors)
     text = "\n".join(floors.lines())
-    assert "below the reachable floor" in text and "current reference" in text
+    assert "below the reachable floor" in text and "voltage reference" in text
 
 
 def test_the_deskew_calibration_lifts_the_delay_term_at_its_cost(floors):
@@ -42,3 +50,34 @@ def test_the_deskew_calibration_lifts_the_delay_term_at_its_cost(floors):
         assert relaxed.floor(run, calibrated=False) > 0.05 >= relaxed.floor(run, calibrated=True)
     assert all(0 < relaxed.noise_allowance(run) < 0.05 for run in relaxed.own_bench_time_s)
     assert relaxed.as_dict()["calibration"]["runs"] == relaxed.calibrated_runs()
+
+
+# -- the planner with the floor (protocols.planning) -------------------------------------------
+@pytest.fixture(scope="module")
+def relaxed_plan():
+    from squeezebench.protocols.planning import make_plan
+    return make_plan(QUICK, 0.08, repeats=2, check_benches=8)
+
+
+def test_a_reachable_target_is_planned_and_checked_on_eight_erring_benches(relaxed_plan):
+    plan = relaxed_plan
+    assert plan.check_benches == 8 and plan.meets_check
+    assert (plan.check["p95_abs_rel_error"] <= 0.08).all()
+    assert (plan.check["p95_abs_rel_error"] > 0.005).all()   # the benches' errors, not noise
+    assert not plan.calibrate   # every floor is well below 8 %: no calibration bought
+    assert set(plan.own_s) == set(plan.settings_by_run)
+    table = plan.table()
+    assert "own s" in table and "512-avg s" in table and "meets the target" in table
+    data = plan.as_dict()
+    assert data["own_bench_time_s"] == pytest.approx(sum(plan.own_s.values()))
+    assert data["check"]["benches"] == 8 and data["floors"]["below_floor"] == []
+
+
+def test_a_target_below_the_floor_is_said_with_its_dominant_term():
+    from squeezebench.protocols.planning import make_plan
+    plan = make_plan(QUICK, 0.01, repeats=2, check_benches=8)
+    assert plan.check is None   # nothing to check: no setting reaches it
+    table = plan.table()
+    assert "below the reachable floor" in table and "current probe gain" in table
+    for name, setting in plan.settings_by_run.items():   # noise kept well below the floor, not chased
+        assert plan.error_by_run[name] <= plan.floors.floor(name, calibrated=True) / 3.0 or setting.averages == 512

@@ -67,6 +67,13 @@ def reference(tmp_path_factory):
     return campaign, read_measurements(run_dir), counter.count
 
 
+def reference_rows(folder):
+    """The rows of an uninterrupted, fault-free run of the small campaign, made in `folder`."""
+    folder.mkdir()
+    return read_measurements(run_campaign(small_campaign(folder), out_dir=folder / "run",
+                                          progress=False, say=lambda message: None))
+
+
 def assert_same_rows(actual: pd.DataFrame, expected: pd.DataFrame) -> None:
     assert len(actual) == len(expected)
     pd.testing.assert_frame_equal(actual, expected, check_exact=True)

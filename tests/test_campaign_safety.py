@@ -2,8 +2,9 @@
 
 Every amplitude reaching the instrument bus (PyVISA writes, below the drivers) is recorded
 across randomized campaign settings: limits, ramp steps, velocity targets beyond reach,
-voltage sweeps partly above the limit. A request above the limit must stop the campaign
-with a SafetyLimitError before the command is sent.
+voltage sweeps partly above the limit. A requested voltage above the limit is refused when
+the campaign is loaded (CampaignError naming the field), before any bench opens; voltages
+a protocol derives while running (a detuning's regain) are held by the DriveController.
 """
 
 from __future__ import annotations
@@ -15,8 +16,7 @@ from hypothesis import HealthCheck, given, settings, strategies as st
 from pyvisa.resources import MessageBasedResource
 
 from squeezebench.instruments.bench import sim_bench_config
-from squeezebench.protocols.campaign import run_campaign
-from squeezebench.protocols.safety import SafetyLimitError
+from squeezebench.protocols.campaign import CampaignError, run_campaign
 from test_protocols_support import ONE_COLUMN_PLATE, noise_free_scene, write_campaign
 
 AMPLITUDE_COMMAND = re.compile(r"^VOLT\s+([-+0-9.eE]+)\s*$")
@@ -55,10 +55,12 @@ def test_no_amplitude_above_the_limit(tmp_path_factory, monkeypatch, scene, limi
     with monkeypatch.context() as patch:
         patch.setattr(MessageBasedResource, "write", recording_write)
         if max(voltages_vpp) > limit_vpp:
-            with pytest.raises(SafetyLimitError):
+            # refused when the campaign is loaded, naming the field: nothing is sent at all
+            with pytest.raises(CampaignError, match=r"voltages_vpp\[\d\]'.*above the run's limit"):
                 run_campaign(campaign, out_dir=tmp_path / "run")
-        else:
-            run_campaign(campaign, out_dir=tmp_path / "run")
+            assert sent_vpp == [] and not (tmp_path / "run").exists()
+            return
+        run_campaign(campaign, out_dir=tmp_path / "run")
     # Piezo Vpp per generator Vpp through the scene's chain (load setting, 50 ohm into the
     # amplifier input, gain): 20 x 1 MOhm / (1 MOhm + 50 ohm) here.
     gain = sim_bench_config(scene).electronics.piezo_vpp_per_generator_vpp

@@ -44,7 +44,7 @@ def test_the_good_campaign_loads(tmp_path):
     ({"runs": [edited_run(parameters={"search": {"start_hz": 36000, "stop_hz": 38500}})]},
      "runs[0].parameters.lengths", "missing"),
     ({"runs": [edited_run(parameters={**GOOD_RUN["parameters"], "piezo_voltage_vpp": "20 V"})]},
-     "runs[0].parameters.piezo_voltage_vpp", "is not a float"),
+     "runs[0].parameters.piezo_voltage_vpp", "should be a valid number"),
     ({"runs": [edited_run(name="a b")]}, "runs[0].name", "letters, digits"),
     ({"runs": [GOOD_RUN, GOOD_RUN]}, "runs", "repeated: cut"),
     ({"runs": []}, "runs", "non-empty list"),
@@ -64,7 +64,7 @@ def test_not_yaml_and_missing_file(tmp_path):
     bad.write_text("runs: [unclosed")
     with pytest.raises(CampaignError, match="not valid YAML"):
         load_campaign(bad)
-    with pytest.raises(CampaignError, match="cannot read"):
+    with pytest.raises(CampaignError, match="cannot be read"):
         load_campaign(tmp_path / "absent.yaml")
 
 

@@ -227,7 +227,7 @@ SEARCH = {"start_hz": 36000, "stop_hz": 38500, "points": 11, "tolerance_hz": 1.0
     ({"runs": [{"name": "a", "protocol": "detuning", "plate": ONE_COLUMN_PLATE}], "colour": 1}, "colour"),
     ({"runs": [{"name": "a", "protocol": "detuning", "plate": ONE_COLUMN_PLATE}],
       "acquisition": {"averages": "many"}}, "averages"),
-    ({"runs": [{"name": "a", "protocol": "detuning", "plate": ONE_COLUMN_PLATE,
+    ({"runs": [{"name": "a", "protocol": "detuning", "plate": ONE_COLUMN_PLATE, "parameters": {"search": SEARCH},
                 "bench": {"scene": "no_such_scene.yaml"}}]}, "runs[0].bench.scene"),
 ])
 def test_malformed_campaign_file(tmp_path, capsys, broken, field):

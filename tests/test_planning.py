@@ -64,3 +64,17 @@ def test_the_planned_campaign_is_written_with_the_planned_settings(tmp_path, mon
     runs = {run.name: run.acquisition for run in load_campaign(out).runs}
     assert (runs["detuning"].record_length, runs["detuning"].averages) == (500, 4)
     assert (runs["cutting"].record_length, runs["cutting"].averages) == (10000, 1)
+
+
+def test_a_setting_measures_the_same_whatever_ran_before():
+    from squeezebench.protocols.campaign import load_campaign
+    from squeezebench.protocols.planning import _run_plates, _run_voltage_vpp, measure_setting
+
+    run = load_campaign(QUICK).runs[0]
+    scene, state, plate = _run_plates(run)[0]
+    args = (scene, state, _run_voltage_vpp(run, plate), run.acquisition, run.safety)
+    settings = [Setting(500, 4), Setting(500, 64)]
+    forward = [measure_setting(*args, setting, repeats=2) for setting in settings]
+    backward = [measure_setting(*args, setting, repeats=2) for setting in reversed(settings)][::-1]
+    assert forward == backward
+    assert forward[0][0].p95_rel_error != forward[1][0].p95_rel_error   # the settings do differ

@@ -9,8 +9,10 @@ damage must still be somewhere in the run directory (in place or in quarantine/)
 from __future__ import annotations
 
 import hashlib
+import json
 import os
 import shutil
+import signal
 import subprocess
 import sys
 import textwrap
@@ -136,26 +138,41 @@ def test_a_stray_ds_store_is_left_alone(run):
     assert said == [] and (run_dir / "measurements" / "cutting" / ".DS_Store").exists()
 
 
-def test_a_second_writer_is_refused_naming_the_first(run):
-    campaign, run_dir = run
-    holder = subprocess.Popen([sys.executable, "-c", textwrap.dedent(f"""
+def test_a_second_resume_is_refused_naming_the_first(completed, tmp_path):
+    """Two `run --resume` on one directory: the first (a real process, paused while it
+    drives the bench) holds the lock; the second is refused with its pid and changes
+    nothing; SIGTERM ends the first cleanly, and a later resume completes the run."""
+    campaign, reference_dir = completed
+    run_dir = tmp_path / "run"
+    first = subprocess.Popen([sys.executable, "-c", textwrap.dedent(f"""
         import sys, time
-        from squeezebench.protocols.storage import RunStore
-        with RunStore({str(run_dir)!r}).writer():
-            print("locked", flush=True)
-            time.sleep(60)
-        """)], stdout=subprocess.PIPE, text=True)
+        from pyvisa.resources import MessageBasedResource
+        from squeezebench import cli
+        write, count = MessageBasedResource.write, [0]
+        def paused(resource, message, *args, **kwargs):
+            count[0] += 1
+            if count[0] == 200:
+                print("driving", flush=True)
+                time.sleep(60)
+            return write(resource, message, *args, **kwargs)
+        MessageBasedResource.write = paused
+        sys.exit(cli.main(["run", {str(campaign)!r}, "--out", {str(run_dir)!r}, "--resume"]))
+        """)], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:
-        assert holder.stdout.readline().strip() == "locked"
-        before = digests(run_dir, ("measurements", "waveforms"))
+        assert first.stdout.readline().strip() == "driving"
+        before = digests(run_dir) if (run_dir / "measurements").exists() else {}
         journal = (run_dir / "journal.jsonl").read_bytes()
-        with pytest.raises(StorageError, match=f"pid {holder.pid}"):
+        with pytest.raises(StorageError, match=f"pid {first.pid}"):
             run_campaign(campaign, resume=True, out_dir=run_dir)
-        assert digests(run_dir) == before and (run_dir / "journal.jsonl").read_bytes() == journal
+        assert (run_dir / "journal.jsonl").read_bytes() == journal
+        assert (digests(run_dir) if (run_dir / "measurements").exists() else {}) == before
+        first.send_signal(signal.SIGTERM)
+        assert first.wait(timeout=60) == 130
     finally:
-        holder.kill()
-        holder.wait()
-    run_campaign(campaign, resume=True, out_dir=run_dir, say=lambda m: None)   # the lock died with it
+        first.kill()
+        first.wait()
+    run_campaign(campaign, resume=True, out_dir=run_dir, say=lambda m: None)
+    assert_frame_equal_rows(read_measurements(run_dir), read_measurements(reference_dir))
 
 
 def test_a_directory_that_is_not_a_run_is_never_written_into(completed, tmp_path):
@@ -180,10 +197,47 @@ def test_a_malformed_manifest_is_one_message(run):
 def test_a_malformed_journal_entry_is_quarantined_not_obeyed(run):
     campaign, run_dir = run
     expected = sorted_rows(run_dir)
+    entry = json.loads((run_dir / "journal.jsonl").read_bytes().splitlines()[-1])
     with open(run_dir / "journal.jsonl", "ab") as handle:
         handle.write(b'{"run": "cutting", "step": 3}\n')
+        handle.write(json.dumps({**entry, "files": ["not", "a", "mapping"]}).encode() + b"\n")
+    assert cli.main(["report", str(run_dir)]) == cli.EXIT_USER_ERROR   # one message, no traceback
     said = []
     run_campaign(campaign, resume=True, out_dir=run_dir, say=said.append)
     assert any("field 'step'" in message for message in said)
+    assert any("field 'files'" in message for message in said)
     assert_frame_equal_rows(sorted_rows(run_dir), expected)
     assert os.path.getsize(run_dir / "journal.jsonl") > 0
+
+
+def test_a_fixed_bench_lets_a_stopped_run_continue(tmp_path, capsys):
+    """A scene fault (the scope drops off the bus) stops the run; the operator removes it
+    from the scene. Resume refuses the changed file unless told; told, it continues, the
+    manifest keeps both versions and the journal says which steps used which."""
+    from squeezebench.instruments.errors import ConnectionLost
+    from test_campaign_resume import reference_rows
+    from test_protocols_support import noise_free_scene
+
+    campaign = small_campaign(tmp_path, effects=[{"disconnect": {"at_message": 2000, "instrument": 2}}])
+    run_dir = tmp_path / "run"
+    with pytest.raises(ConnectionLost):
+        run_campaign(campaign, out_dir=run_dir, say=lambda message: None)
+    stopped_after = len(RunStore(run_dir).journal())
+    assert stopped_after >= 1
+    noise_free_scene(tmp_path, "one_column_1mm.yaml")   # the fix: the same scene without the fault
+    journal = (run_dir / "journal.jsonl").read_bytes()
+    capsys.readouterr()
+    assert cli.main(["run", str(campaign), "--out", str(run_dir), "--resume"]) == cli.EXIT_USER_ERROR
+    err = capsys.readouterr().err
+    assert "--accept-changed-bench" in err and "one_column_1mm.yaml changed" in err
+    assert (run_dir / "journal.jsonl").read_bytes() == journal
+    assert cli.main(["run", str(campaign), "--out", str(run_dir), "--resume", "--accept-changed-bench"]) == 0
+    versions = RunStore(run_dir).manifest()["inputs"]["one_column_1mm.yaml"]["versions"]
+    assert len(versions) == 2 and versions[1]["steps_before"] == stopped_after
+    assert all((run_dir / v["copy"]).is_file() for v in versions)
+    used = [entry["inputs"]["one_column_1mm.yaml"] for entry in RunStore(run_dir).journal()]
+    assert used == [versions[0]["sha256"]] * stopped_after + [versions[1]["sha256"]] * (len(used) - stopped_after)
+    rows = read_measurements(run_dir)   # each row names the scene version that produced it
+    assert set(rows["bench_input_sha256"]) == {v["sha256"] for v in versions}
+    assert_frame_equal_rows(rows.drop(columns="bench_input_sha256"),
+                            reference_rows(tmp_path / "reference").drop(columns="bench_input_sha256"))

@@ -51,6 +51,32 @@ def test_sigterm_and_sighup_leave_the_generator_at_minimum(reference, tmp_path, 
     pd.testing.assert_frame_equal(read_measurements(tmp_path / "run"), expected, check_exact=True)
 
 
+def test_a_swallowed_interrupt_still_stops_the_run(reference, tmp_path, monkeypatch):
+    """The stress test saw Ctrl-C during start-up swallowed: a KeyboardInterrupt raised
+    inside code that catches everything (a __del__, a library's catch-all) is lost, but the
+    signal was received, and the run stops before the drive goes up or a step starts."""
+    campaign, _, n_writes = reference
+    original = MessageBasedResource.write
+    count = {"n": 0}
+
+    def write(resource, message, *args, **kwargs):
+        count["n"] += 1
+        if count["n"] == 30:   # while the bench is set up
+            try:
+                os.kill(os.getpid(), signal.SIGINT)
+                sum(range(1000))   # the handler runs here...
+            except BaseException:
+                pass               # ...and its KeyboardInterrupt is swallowed
+        return original(resource, message, *args, **kwargs)
+
+    monkeypatch.setattr(MessageBasedResource, "write", write)
+    tap = BusTap(monkeypatch)
+    with pytest.raises(KeyboardInterrupt, match="SIGINT"):
+        run_campaign(campaign, out_dir=tmp_path / "run")
+    assert count["n"] < n_writes // 2 and _is_minimum(tap.last_amplitude_vpp)
+    assert RunStore(tmp_path / "run").journal() == []
+
+
 def test_a_lost_generator_is_said_in_capitals(reference, tmp_path, monkeypatch, capsys):
     campaign, _, n_writes = reference
     original = MessageBasedResource.write

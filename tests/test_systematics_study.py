@@ -1,9 +1,9 @@
-"""Total error on erring benches: averaging stops paying at the gains' floor; the deskew
-calibration lowers the floor where the CH2 delay dominates, at its bench time."""
+"""Total error on erring benches: averaging stops paying at the gains' floor; the
+calibration (deskew and gain check) lowers the floor, most where the CH2 delay dominates,
+at its bench time."""
 
 from __future__ import annotations
 
-import numpy as np
 import pytest
 
 from squeezebench.analysis.study import load_trials, summarise
@@ -27,9 +27,10 @@ def test_averaging_stops_paying_at_the_floor(summary):
 def test_the_deskew_calibration_buys_accuracy_where_the_delay_dominates(summary):
     for averages in (1, 64):
         plain = summary.loc[("systematics_stress", "power_w", averages)]
-        deskewed = summary.loc[("systematics_stress_deskewed", "power_w", averages)]
+        deskewed = summary.loc[("systematics_stress_calibrated", "power_w", averages)]
         assert deskewed["p95_abs_rel_error"] < 0.7 * plain["p95_abs_rel_error"]
         assert deskewed["bench_time_s"] > plain["bench_time_s"] + 1.0   # the calibration's cost
-    table3 = [summary.loc[(e, "power_w", 64), "p95_abs_rel_error"]
-              for e in ("systematics_table3", "systematics_table3_deskewed")]
-    assert np.isclose(*table3, rtol=0.2)   # at power factor ~0.5 the delay hardly matters
+    # at power factor ~0.5 the delay hardly matters; the gain check still trims the gains' error
+    plain, calibrated = (summary.loc[(e, "power_w", 64), "p95_abs_rel_error"]
+                         for e in ("systematics_table3", "systematics_table3_calibrated"))
+    assert calibrated < plain

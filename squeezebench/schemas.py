@@ -1,0 +1,358 @@
+"""Campaign and bench files, described once as pydantic models.
+
+The models give the error messages (one line: the file, the field as written in the file,
+what is wrong and what is allowed) and the JSON Schemas editors use (docs/schemas/;
+`python -m squeezebench.schemas` rewrites them, a test checks they are current). The
+protocols' own dataclasses (their `Parameters`, `AcquisitionSettings`, `SafetyLimits`,
+`Plate`) are the models of their sections: pydantic validates them as they are, so
+their checks (`__post_init__`) are the schema's.
+
+Files are read by `read_yaml`, which refuses what PyYAML would silently accept: a key
+given twice (the second would win), `.nan` and `.inf`, and text that is not UTF-8.
+Scenes are simbench's (`simbench.scene.load_scene` validates them).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import re
+import sys
+from pathlib import Path
+from typing import Annotated, Any, Literal, Optional, Union
+
+import pyvisa.rname
+import yaml
+from pydantic import AfterValidator, BaseModel, ConfigDict, Field, ValidationError, create_model, model_validator
+
+from squeezebench.errors import UserError
+from squeezebench.instruments.bench import ROLES, BenchConfig, BenchElectronics
+from squeezebench.instruments.errors import BenchFileError
+from squeezebench.protocols import calibration, characterisation, cutting, detuning, powered_columns, resonance
+from squeezebench.protocols.acquisition import AcquisitionSettings
+from squeezebench.protocols.safety import SafetyLimits
+from squeezebench.protocols.steps import Plate
+
+PROTOCOLS = {module.PROTOCOL: module for module in
+             (resonance, detuning, cutting, powered_columns, characterisation, calibration)}
+SCHEMAS_DIR = Path(__file__).resolve().parents[1] / "docs" / "schemas"
+
+
+class FileFormatError(UserError):
+    """A file that is not the UTF-8 YAML it should be (or repeats a key, or holds NaN/inf)."""
+
+
+# -- reading YAML strictly ---------------------------------------------------------------
+class _StrictLoader(yaml.SafeLoader):
+    """SafeLoader refusing duplicate keys and non-finite numbers."""
+
+
+def _mapping(loader: _StrictLoader, node: yaml.MappingNode) -> dict:
+    loader.flatten_mapping(node)
+    seen: dict[Any, int] = {}
+    for key_node, _ in node.value:
+        key = loader.construct_object(key_node, deep=True)
+        if key in seen:
+            raise yaml.constructor.ConstructorError(
+                None, None, f"key '{key}' is given twice (lines {seen[key] + 1} and "
+                f"{key_node.start_mark.line + 1}); give it once", key_node.start_mark)
+        seen[key] = key_node.start_mark.line
+    return loader.construct_mapping(node, deep=True)
+
+
+def _float(loader: _StrictLoader, node: yaml.ScalarNode) -> float:
+    value = yaml.SafeLoader.construct_yaml_float(loader, node)
+    if not math.isfinite(value):
+        raise yaml.constructor.ConstructorError(
+            None, None, f"'{node.value}' is not allowed: every number must be finite", node.start_mark)
+    return value
+
+
+_StrictLoader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG, _mapping)
+_StrictLoader.add_constructor("tag:yaml.org,2002:float", _float)
+
+
+def read_yaml(path: Path) -> Any:
+    """The file's YAML, or FileFormatError naming the file and the cause (line, column)."""
+    path = Path(path)
+    try:
+        data = path.read_bytes()
+    except OSError as exc:
+        raise FileFormatError(f"{path}: cannot be read ({exc.strerror or exc})") from None
+    try:
+        text = data.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise FileFormatError(f"{path}: not UTF-8 text (byte 0x{data[exc.start]:02x} at offset "
+                              f"{exc.start}); save it as UTF-8") from None
+    try:
+        return yaml.load(text, Loader=_StrictLoader)
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None)
+        where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark is not None else ""
+        raise FileFormatError(f"{path}: not valid YAML{where}: {getattr(exc, 'problem', None) or exc}") from None
+
+
+# -- the models ---------------------------------------------------------------------------
+_NAME_PATTERN = r"^[A-Za-z0-9_.-]+$"
+
+
+def _file_name(value: str) -> str:
+    if not re.match(_NAME_PATTERN, value):
+        raise ValueError(f"{value!r} must be letters, digits, '_', '-' or '.' (it names files)")
+    return value
+
+
+Name = Annotated[str, AfterValidator(_file_name), Field(json_schema_extra={"pattern": _NAME_PATTERN})]
+
+
+class _Model(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+
+class BenchChoice(_Model):
+    """Exactly one: `scene` (the simulated bench, a file in data/scenes/ or a path) or
+    `file` (a bench file with real VISA addresses, relative to the campaign file)."""
+
+    scene: Optional[str] = None
+    file: Optional[str] = None
+
+    @model_validator(mode="after")
+    def _exactly_one(self) -> BenchChoice:
+        if (self.scene is None) == (self.file is None):
+            raise ValueError("needs exactly one of 'scene' (simulated bench) or 'file' (real bench)")
+        return self
+
+
+class _RunBase(_Model):
+    name: Name
+    bench: Optional[BenchChoice] = None   # default: the campaign's
+    plate: Plate
+    acquisition: AcquisitionSettings = AcquisitionSettings()   # merged over the campaign's
+    safety: SafetyLimits = SafetyLimits()                      # merged over the campaign's
+
+
+RUN_MODELS = {protocol: create_model(f"{protocol}_run", __base__=_RunBase, protocol=(Literal[protocol], ...),
+                                     parameters=(module.Parameters, ...))
+              for protocol, module in PROTOCOLS.items()}
+AnyRun = Annotated[Union[tuple(RUN_MODELS.values())], Field(discriminator="protocol")]
+
+
+class CampaignFile(_Model):
+    """A campaign: protocol runs, run step by step (see protocols.campaign)."""
+
+    name: Optional[Name] = None            # default: the file's stem
+    output_dir: Optional[str] = None       # default: runs/<name>
+    bench: Optional[BenchChoice] = None
+    acquisition: AcquisitionSettings = AcquisitionSettings()
+    safety: SafetyLimits = SafetyLimits()
+    runs: list[AnyRun] = Field(min_length=1)
+
+    @model_validator(mode="before")
+    @classmethod
+    def _inherit(cls, data: Any) -> Any:
+        """Each run gets the campaign's bench, acquisition and safety under its own, and its
+        plate the bench scene (and its stem as name) by default."""
+        if not isinstance(data, dict) or not isinstance(data.get("runs"), list):
+            return data
+        runs = []
+        for run in data["runs"]:
+            if isinstance(run, dict):
+                run = dict(run)
+                for key in ("acquisition", "safety"):
+                    top, own = data.get(key) or {}, run.get(key) or {}
+                    if isinstance(top, dict) and isinstance(own, dict):
+                        run[key] = {**top, **own}
+                if run.get("bench") is None and data.get("bench") is not None:
+                    run["bench"] = data["bench"]
+                bench, plate = run.get("bench"), run.get("plate")
+                if isinstance(plate, dict) and isinstance(bench, dict) and isinstance(bench.get("scene"), str):
+                    # a plate named otherwise keeps the bench scene's geometry
+                    run["plate"] = {"name": Path(bench["scene"]).stem, "scene": bench["scene"], **plate}
+            runs.append(run)
+        return {**data, "runs": runs}
+
+
+def _visa_address(value: str) -> str:
+    try:
+        pyvisa.rname.parse_resource_name(value.strip())
+    except pyvisa.rname.InvalidResourceName:
+        raise ValueError(f"{value!r} is not a VISA resource address (e.g. GPIB0::10::INSTR, "
+                         "TCPIP0::192.168.0.20::INSTR, ASRL1::INSTR)") from None
+    return value.strip()
+
+
+VisaAddress = Annotated[str, AfterValidator(_visa_address)]
+
+
+class Resources(_Model):
+    generator: VisaAddress
+    scope: VisaAddress
+    vibrometer: VisaAddress
+
+
+class BenchFile(_Model):
+    """A real bench: the VISA library, an address per instrument, the electronics."""
+
+    visa_library: Optional[str] = ""   # "" or null: the system VISA library; "@py": pyvisa-py
+    resources: Resources
+    electronics: BenchElectronics = BenchElectronics()
+
+    @model_validator(mode="before")
+    @classmethod
+    def _load_setting_as_text(cls, data: Any) -> Any:
+        """`generator_load: 50` is a number in YAML; the setting is the text 50 or INF."""
+        electronics = data.get("electronics") if isinstance(data, dict) else None
+        if isinstance(electronics, dict) and isinstance(electronics.get("generator_load"), (int, str)) \
+                and not isinstance(electronics["generator_load"], bool):
+            data = {**data, "electronics": {**electronics,
+                                            "generator_load": str(electronics["generator_load"]).upper()}}
+        return data
+
+
+# -- errors -------------------------------------------------------------------------------
+def _field_path(loc: tuple) -> str:
+    """runs[0].parameters.search.points, without pydantic's union tags."""
+    parts: list[str] = []
+    for i, item in enumerate(loc):
+        if isinstance(item, int):
+            parts.append(f"[{item}]")
+        elif i > 0 and isinstance(loc[i - 1], int) and item in RUN_MODELS:
+            continue   # the discriminator's branch name
+        else:
+            parts.append(f".{item}" if parts else str(item))
+    return "".join(parts)
+
+
+def _allowed(model: type[BaseModel], loc: tuple) -> list[str]:
+    """The field names allowed where `loc` points (for 'unknown field' messages)."""
+    schema = model.model_json_schema()
+    node: dict = schema
+    for item in loc[:-1]:
+        node = _resolve(schema, node)
+        if isinstance(item, int):
+            node = node.get("items", {})
+        elif item in RUN_MODELS and "oneOf" in node:
+            node = next((_resolve(schema, n) for n in node["oneOf"]
+                         if _resolve(schema, n).get("properties", {}).get("protocol", {}).get("const") == item), {})
+        else:
+            node = node.get("properties", {}).get(item, {})
+    return sorted(_resolve(schema, node).get("properties", {}))
+
+
+def _resolve(schema: dict, node: dict) -> dict:
+    while True:
+        if "$ref" in node:
+            node = schema["$defs"][node["$ref"].split("/")[-1]]
+        elif "anyOf" in node:
+            node = next((n for n in node["anyOf"] if n.get("type") != "null"), {})
+        else:
+            return node
+
+
+def describe(error: ValidationError, model: type[BaseModel]) -> tuple[str, str]:
+    """(field, message) of a validation error's first problem, in the file's words."""
+    errors = error.errors(include_url=False)
+    # An unknown key first: a misspelt key also makes the right one "missing".
+    first = min(errors, key=lambda e: e["type"] not in ("extra_forbidden", "unexpected_keyword_argument"))
+    loc, kind = first["loc"], first["type"]
+    field = _field_path(loc) or "top level"
+    if kind in ("extra_forbidden", "unexpected_keyword_argument"):
+        message = f"unknown field (allowed: {', '.join(_allowed(model, loc))})"
+    elif kind == "missing":
+        message = "is missing"
+    elif kind == "value_error":
+        message = str(first["ctx"]["error"])
+    elif kind == "union_tag_invalid":
+        message = f"{first['input'].get('protocol')!r} is not one of: {', '.join(sorted(RUN_MODELS))}" \
+            if isinstance(first.get("input"), dict) else first["msg"]
+        field = f"{field}.protocol"
+    elif kind == "union_tag_not_found":
+        message, field = f"is missing (one of: {', '.join(sorted(RUN_MODELS))})", f"{field}.protocol"
+    elif kind == "too_short" and loc == ("runs",):
+        message = "must be a non-empty list of protocol runs"
+    elif kind in ("model_type", "dataclass_type", "dict_type"):
+        allowed = _allowed(model, (*loc, "_"))
+        message = f"{first['input']!r} must be a mapping" + (f" of {', '.join(allowed)}" if allowed else "")
+    else:
+        message = f"{first['input']!r}: {first['msg'][0].lower()}{first['msg'][1:]}"
+    more = len(errors) - 1
+    return field, message + (f" ({more} more problem{'s' if more > 1 else ''} after this one)" if more else "")
+
+
+# -- bench files --------------------------------------------------------------------------
+def load_bench_file(path: str | Path) -> BenchConfig:
+    """A real bench from its YAML file; BenchFileError names file, field and what is allowed."""
+    path = Path(path)
+    try:
+        data = read_yaml(path)
+    except FileFormatError as exc:
+        raise BenchFileError(path, "file", str(exc).removeprefix(f"{path}: ")) from None
+    try:
+        bench = BenchFile.model_validate(data)
+    except ValidationError as exc:
+        raise BenchFileError(path, *describe(exc, BenchFile)) from None
+    return BenchConfig(visa_library=bench.visa_library or "",
+                       resources={role: getattr(bench.resources, role) for role in ROLES},
+                       electronics=bench.electronics, source=str(path))
+
+
+# -- scenes -------------------------------------------------------------------------------
+def check_scene(path: Path) -> None:
+    """Validate a scene with simbench's own loader (SceneError names file and field)."""
+    from squeezebench.simbench.scene import load_scene
+
+    load_scene(path)
+
+
+# -- checking any file -------------------------------------------------------------------
+def validate_file(path: Path) -> dict[str, Any]:
+    """Check a campaign (with every scene and bench file it uses and every request it
+    will make), bench or scene file. Returns {file, kind, summary, warnings}; a problem
+    is the UserError of the file it is in."""
+    from squeezebench.protocols.campaign import load_campaign
+    from squeezebench.protocols.safety import chain_warnings
+
+    path = Path(path)
+    data = read_yaml(path)
+    if isinstance(data, dict) and "runs" in data:
+        campaign = load_campaign(path)
+        configs = {run.bench.input_file: run.bench.config() for run in campaign.runs}
+        scenes = sorted({p.name for run in campaign.runs for p in run.input_files() if p.suffix == ".yaml"})
+        n_steps = sum(len(run.steps()) for run in campaign.runs)
+        return {"file": str(path), "kind": "campaign",
+                "summary": f"{len(campaign.runs)} runs, {n_steps} steps, inputs {', '.join(scenes)}",
+                "warnings": [f"{source}: {w}" for source, config in configs.items()
+                             for w in chain_warnings(config.electronics)]}
+    if isinstance(data, dict) and ("resources" in data or "visa_library" in data):
+        config = load_bench_file(path)
+        return {"file": str(path), "kind": "bench", "summary": ", ".join(config.resources.values()),
+                "warnings": chain_warnings(config.electronics)}
+    if isinstance(data, dict) and "plate" in data:
+        check_scene(path)
+        return {"file": str(path), "kind": "scene", "summary": "", "warnings": []}
+    raise UserError(f"{path}: top level: not a campaign (with 'runs'), bench (with 'resources') "
+                    "or scene (with 'plate') file")
+
+
+# -- JSON Schemas -------------------------------------------------------------------------
+def json_schemas() -> dict[str, dict]:
+    return {"campaign.schema.json": CampaignFile.model_json_schema(),
+            "bench.schema.json": BenchFile.model_json_schema()}
+
+
+def schema_text(schema: dict) -> str:
+    return json.dumps(schema, indent=2, sort_keys=True) + "\n"
+
+
+def write_json_schemas(folder: Path = SCHEMAS_DIR) -> list[Path]:
+    folder.mkdir(parents=True, exist_ok=True)
+    written = []
+    for name, schema in json_schemas().items():
+        (folder / name).write_text(schema_text(schema), encoding="utf-8")
+        written.append(folder / name)
+    return written
+
+
+if __name__ == "__main__":
+    for written_path in write_json_schemas(Path(sys.argv[1]) if len(sys.argv) > 1 else SCHEMAS_DIR):
+        print(written_path)
