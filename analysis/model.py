@@ -274,7 +274,6 @@ def power_from_amplitude_w(amplitude_pp: float, q: float, tan_theta: float, freq
     Eq. 27 substituted into Eq. 25 carries a factor pi that the print lacks;
     `convention.eq28_with_pi` decides. Note n_c has dropped out.
     """
-    m = convention.materials
     amp = convention.amplitude_in_equation(amplitude_pp)
     h_p = geometry.piezo_thickness_m
     z0 = neutral_plane_m(geometry, convention)

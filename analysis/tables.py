@@ -314,13 +314,13 @@ def plate_geometry(run: RunData, plate: str, n_powered_piezos: int,
                                "the geometry of the plate is unknown")
     _check_powered_piezos(scene, scene_file, scene_state, n_powered_piezos)
     lengths_m = {}
-    for field, keys in _SCENE_GEOMETRY_MM.items():
+    for name, keys in _SCENE_GEOMETRY_MM.items():
         node = scene
         for key in keys:
             node = node.get(key) if isinstance(node, dict) else None
         if not isinstance(node, (int, float)):
             raise MissingDataError(f"inputs/{plate}.yaml has no number at {'.'.join(keys)}")
-        lengths_m[field] = float(node) * 1e-3
+        lengths_m[name] = float(node) * 1e-3
     return model.PlateGeometry(**lengths_m, n_powered_piezos=int(n_powered_piezos),
                                n_powered_groups=n_powered_groups)
 

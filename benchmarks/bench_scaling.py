@@ -25,18 +25,16 @@ import time
 from pathlib import Path
 
 import numpy as np
-import pyvisa
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "benchmarks"))
 
-from bench_simulator import TERMINATIONS, SCOPE, acquire_and_fetch, best_of, idn_queries, prepared_scope  # noqa: E402
+from bench_simulator import acquire_and_fetch, best_of, idn_queries, open_bare_scope, prepared_scope  # noqa: E402
 from squeezebench import cli, paths  # noqa: E402
 from squeezebench.analysis.waveforms import reduce_point  # noqa: E402
 from squeezebench.protocols import accuracy_study  # noqa: E402
 from squeezebench.protocols.planning import make_plan  # noqa: E402
-from squeezebench.simbench.backend import DEFINITIONS  # noqa: E402
 
 FREQUENCY_HZ = 37180.0
 
@@ -90,9 +88,10 @@ def reduction_s(repeat: int) -> float:
 
 
 def command_ratio(repeat: int) -> tuple[float, float]:
-    bare = pyvisa.ResourceManager(f"{DEFINITIONS}@sim").open_resource(SCOPE, **TERMINATIONS)
-    _, scene_scope = prepared_scope(paths.default_scene())
-    return best_of(repeat, idn_queries, bare) / 200, best_of(repeat, idn_queries, scene_scope) / 200
+    with tempfile.TemporaryDirectory() as tmp:
+        bare = open_bare_scope(Path(tmp))
+        _, scene_scope = prepared_scope(paths.default_scene())
+        return best_of(repeat, idn_queries, bare) / 200, best_of(repeat, idn_queries, scene_scope) / 200
 
 
 def plan_s(workers: int) -> float:

@@ -46,6 +46,13 @@ BARE_DEFINITION = {"spec": "1.1", "devices": {"scope": {
     "resources": {SCOPE: {"device": "scope"}}}
 
 
+def open_bare_scope(directory: Path):
+    """The bare pyvisa-sim reference resource, its definition written into `directory`."""
+    definition = directory / "bare.yaml"
+    definition.write_text(yaml.safe_dump(BARE_DEFINITION))
+    return pyvisa.ResourceManager(f"{definition}@sim").open_resource(SCOPE, **TERMINATIONS)
+
+
 def idn_queries(resource, count: int = 200) -> None:
     for _ in range(count):
         resource.query("*IDN?")
@@ -105,9 +112,7 @@ def main() -> None:
     repeat = parser.parse_args().repeat
 
     with tempfile.TemporaryDirectory() as tmp:
-        definition = Path(tmp) / "bare.yaml"
-        definition.write_text(yaml.safe_dump(BARE_DEFINITION))
-        bare = pyvisa.ResourceManager(f"{definition}@sim").open_resource(SCOPE, **TERMINATIONS)
+        bare = open_bare_scope(Path(tmp))
         ideal_scene = scene_with(Path(tmp), [])
         # every effect of a healthy bench: faults would stop the acquisitions being timed
         every_scene = scene_with(Path(tmp), [name for name, effect in EFFECTS.items() if not effect.fault])

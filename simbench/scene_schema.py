@@ -17,7 +17,7 @@ import sys
 from pathlib import Path
 from typing import Any, Literal, Union
 
-from pydantic import BaseModel, ConfigDict, Field, RootModel
+from pydantic import BaseModel, ConfigDict, Field
 
 from squeezebench.simbench import physics
 from squeezebench.simbench.effects import EFFECTS
