@@ -16,6 +16,7 @@ from matplotlib.ticker import NullFormatter  # noqa: E402
 import pandas as pd  # noqa: E402
 
 from squeezebench.analysis.paper import paper_table, paper_value  # noqa: E402
+from squeezebench.analysis.study import systematics_point  # noqa: E402
 from squeezebench.analysis.tables import LineFit, PlateCharacterisation  # noqa: E402
 
 #: Fixed metadata so that re-running the report gives byte-identical PNG files.
@@ -227,6 +228,31 @@ def study_fronts(summary: pd.DataFrame, path: Path) -> Path:
         ax.legend(fontsize=7)
     for ax in list(axes.flat)[len(quantities):]:
         ax.set_visible(False)
+    return _save(fig, path)
+
+
+def systematics_fronts(summary: pd.DataFrame, path: Path) -> Path:
+    """Total error on benches erring within spec against bench time per trial, one panel
+    per quantity: each point's averaging series as the bench is (solid) and after the
+    deskew calibration (dashed, its bench time included). Rows: the systematics
+    experiments of analysis.study.summarise."""
+    data = summary.assign(point=[systematics_point(e)[0] for e in summary["experiment"]],
+                          calibrated=[systematics_point(e)[1] for e in summary["experiment"]])
+    quantities = [q for q in ("power_w", "velocity_pp_mps", "q", "tan_theta") if q in set(data["quantity"])]
+    fig, axes = plt.subplots(1, len(quantities), figsize=(min(MAX_WIDTH_IN, 3.3 * len(quantities)), 3.4),
+                             squeeze=False)
+    colours = dict(zip(sorted(data["point"].unique()), plt.rcParams["axes.prop_cycle"].by_key()["color"]))
+    for ax, quantity in zip(axes.flat, quantities):
+        for (point, calibrated), group in data[data["quantity"] == quantity].groupby(["point", "calibrated"]):
+            group = group.sort_values("bench_time_s")
+            ax.loglog(group["bench_time_s"], group["p95_abs_rel_error"], "o--" if calibrated else "o-",
+                      color=colours[point], markersize=3,
+                      label=f"{point}{' calibrated' if calibrated else ''}")
+        ax.set_title(quantity, fontsize=9)
+        ax.xaxis.set_minor_formatter(NullFormatter())
+        ax.set_xlabel("bench time per trial (s)")
+        ax.set_ylabel("p95 |relative error| over benches")
+        ax.legend(fontsize=7)
     return _save(fig, path)
 
 

@@ -13,10 +13,15 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
+from scipy import stats
 
 from squeezebench.analysis.tables import MissingDataError
 
 STUDY_DIR = "study"
+#: The coverage of the reported uncertainties over simulated benches (protocols.bench_errors):
+#: RUN_DIR/study/coverage/points.parquet, one row per (bench, stored point, quantity).
+COVERAGE_DIR = "coverage"
+COVERAGE_FILE = "points.parquet"
 #: The settings every trial row carries, varied or not (protocols.accuracy_study writes them).
 KNOBS = ("averages", "record_length", "periods_per_record", "search_points", "search_tolerance_hz",
          "settle_s", "n_voltages", "tracking")
@@ -86,6 +91,67 @@ def heating_table(summary: pd.DataFrame) -> pd.DataFrame:
                                 values=["p95_abs_rel_error", "bench_time_s"])
     table.columns = [f"{value}_{'tracked' if tracked else 'fixed_frequency'}" for value, tracked in table.columns]
     return table.reset_index()
+
+
+#: Experiments on benches whose instruments err within spec (protocols.systematics_study):
+#: `systematics_<point>` as the bench is, `systematics_<point>_calibrated` after the deskew.
+SYSTEMATICS = "systematics_"
+CALIBRATED = "_calibrated"
+
+
+def is_systematics(experiment: str) -> bool:
+    return experiment.startswith(SYSTEMATICS)
+
+
+def systematics_point(experiment: str) -> tuple[str, bool]:
+    """(point, calibrated) of a systematics experiment's name."""
+    name = experiment.removeprefix(SYSTEMATICS)
+    return name.removesuffix(CALIBRATED), name.endswith(CALIBRATED)
+
+
+def floors_table(summary: pd.DataFrame) -> pd.DataFrame:
+    """Per point and quantity of the systematics experiments: the floor (the lowest p95
+    |relative error| any averaging reaches over the benches) as the bench is and after the
+    deskew calibration, each with the bench time per trial it takes there."""
+    rows: dict[tuple[str, str], dict] = {}
+    for (experiment, quantity), group in summary[summary["experiment"].map(is_systematics)].groupby(
+            ["experiment", "quantity"], sort=False):
+        point, calibrated = systematics_point(experiment)
+        best = group.loc[group["p95_abs_rel_error"].idxmin()]
+        prefix = "calibrated_" if calibrated else ""
+        rows.setdefault((point, quantity), {"point": point, "quantity": quantity}).update({
+            f"{prefix}floor_p95_rel": float(best["p95_abs_rel_error"]),
+            f"{prefix}bench_time_s": float(best["bench_time_s"]),
+            f"{prefix}averages": int(best["averages"]), "benches": int(best["n_trials"])})
+    columns = ["point", "quantity", "benches", "floor_p95_rel", "averages", "bench_time_s",
+               "calibrated_floor_p95_rel", "calibrated_averages", "calibrated_bench_time_s"]
+    return pd.DataFrame(list(rows.values())).reindex(columns=columns)
+
+
+def load_coverage(run_dir: Path) -> pd.DataFrame | None:
+    """The coverage study's rows, or None when none was run."""
+    path = Path(run_dir) / STUDY_DIR / COVERAGE_DIR / COVERAGE_FILE
+    return pd.read_parquet(path) if path.is_file() else None
+
+
+def coverage_table(points: pd.DataFrame) -> pd.DataFrame:
+    """Per quantity: how many of the stored points' expanded uncertainties (k = 2) cover
+    the truth, pooled over the benches, and how the benches split. Every point of a bench
+    shares that bench's errors, so a bench is covered nearly wholly or hardly at all: the
+    pooled fraction is about the fraction of benches covered, and few benches leave it
+    uncertain: the Wilson 95 % interval of the fraction of benches mostly covered says how much."""
+    rows = []
+    for quantity, group in points.groupby("quantity", sort=False):
+        by_bench = group.groupby("bench_seed")["covered"].mean()
+        mostly = int((by_bench >= 0.5).sum())
+        interval = stats.binomtest(mostly, len(by_bench)).proportion_ci(method="wilson")
+        rows.append({"quantity": quantity, "benches": len(by_bench), "points": len(group),
+                     "covered_fraction": float(group["covered"].mean()),
+                     "benches_fully_covered": int((by_bench == 1.0).sum()),
+                     "benches_mostly_covered": mostly,
+                     "benches_interval_low": float(interval.low), "benches_interval_high": float(interval.high),
+                     "median_rel_expanded_u": float(group["rel_expanded_u"].median())})
+    return pd.DataFrame(rows)
 
 
 def _setting(value) -> str:

@@ -13,7 +13,11 @@ Experiments (the scene, state and voltage of each are in `StudySettings`):
 - `settle`: wait after a voltage step (ring-up, `settling_transient` on) -> power, velocity;
 - `sweep`: voltages in a characterisation sweep x averaging -> Q, tan(theta');
 - `heating`: a series of points at a high voltage with `heating_drift` on, at the
-  frequency found cold or re-centred before each point (tracking), per averaging.
+  frequency found cold or re-centred before each point (tracking), per averaging;
+- `systematics_table3`, `systematics_stress`, `systematics_sweep`, each also `..._calibrated`:
+  points of the paper campaign on benches whose instruments err within specification, one
+  bench per repeat, per averaging (`protocols.systematics_study`) -> total error and the
+  floor no averaging lowers, as the bench is and after the deskew calibration.
 
 Every configuration is repeated (`repeats`): the trials give error distributions, not
 single points. A task is one configuration of one experiment on its own fresh simulated
@@ -31,9 +35,9 @@ from __future__ import annotations
 import contextlib
 import copy
 import dataclasses
+import functools
 import itertools
 import json
-import os
 import shutil
 import tempfile
 import zlib
@@ -45,15 +49,15 @@ import pandas as pd
 import yaml
 
 import squeezebench
-from squeezebench.analysis import model
 from squeezebench.analysis.study import STUDY_DIR
-from squeezebench.analysis.tables import characterise_plate
-from squeezebench.analysis.waveforms import PointReduction, reduce_record
-from squeezebench.instruments.bench import open_bench, sim_bench_config
-from squeezebench.protocols.acquisition import Acquisition, AcquisitionSettings, Point
+from squeezebench.analysis.waveforms import PointReduction
+from squeezebench.protocols import systematics_study
+from squeezebench.protocols.acquisition import AcquisitionSettings
 from squeezebench.protocols.parallel import map_unordered
 from squeezebench.protocols.resonance import SearchSettings, find_resonance, track_resonance
-from squeezebench.protocols.safety import DriveController, SafetyLimits
+from squeezebench.protocols.storage import write_atomic, write_frame_atomic
+from squeezebench.protocols.simulated_session import (
+    SimulatedSession, characterise_at_resonance, open_simulated, reduce_point)
 from squeezebench import paths
 
 
@@ -94,51 +98,12 @@ class StudySettings:
     tracking_step_hz: float = 5.0
     tracking_tolerance_hz: float = 0.5
     tracking_averages: int = 8   # velocity is clean: tracking need not wait for the power's averaging
+    # Total error on benches whose instruments err within spec (one bench per repeat).
+    systematics: systematics_study.SystematicsSettings = systematics_study.SystematicsSettings()
 
     def __post_init__(self) -> None:
         if self.repeats < 2:
             raise ValueError(f"repeats must be at least 2 (a distribution), got {self.repeats!r}")
-
-
-@dataclasses.dataclass
-class SimulatedSession:
-    """An open simulated bench with its drive: the tools that need the scene's truth."""
-
-    bench: object
-    simulated: object
-    drive: DriveController
-
-    def now_s(self) -> float:
-        return self.bench.clock.now_s()
-
-    def acquisition(self, settings: AcquisitionSettings) -> Acquisition:
-        acquisition = Acquisition(self.bench, self.drive, settings)
-        acquisition.configure()
-        return acquisition
-
-    def go_to_resonance(self) -> None:
-        self.drive.set_frequency(self.simulated.resonance_truth().frequency_hz)
-
-
-@contextlib.contextmanager
-def open_simulated(scene: Path, state: str | None, settle_s: float,
-                   limits: SafetyLimits = SafetyLimits()) -> Iterator[SimulatedSession]:
-    """The simulated bench of `scene` in `state`, driven within `limits`."""
-    with open_bench(sim_bench_config(scene)) as bench:
-        simulated = bench.resource_manager.visalib.bench
-        if state is not None:
-            simulated.set_state(state)
-        with DriveController(bench.generator, bench.electronics, bench.clock, limits,
-                             settle_s=settle_s) as drive:
-            yield SimulatedSession(bench, simulated, drive)
-
-
-def _reduce(point: Point) -> PointReduction:
-    """The report's reduction of the point's waveforms."""
-    preamble = point.waveform_metadata["preamble"]
-    return reduce_record(point.waveforms, point.vibrometer_scale_mps_per_v,
-                         y_increments={name: p["y_increment"] for name, p in preamble.items()},
-                         averages=point.averages, frequency_hint_hz=point.generator_frequency_hz)
 
 
 def _point_values(reduction: PointReduction, truth) -> dict[str, tuple[float, float]]:
@@ -217,7 +182,7 @@ def _at_the_point(run: "TaskRun") -> None:
             acquisition = copy.copy(ranged)   # every trial starts from the ranged expectations
             start_s = bench.now_s()
             point = acquisition.measure()
-            run.add(repeat, bench.now_s() - start_s, _point_values(_reduce(point), truth))
+            run.add(repeat, bench.now_s() - start_s, _point_values(reduce_point(point), truth))
 
 
 def _search(run: "TaskRun") -> None:
@@ -256,7 +221,7 @@ def _settle(run: "TaskRun") -> None:
             start_s = bench.now_s()
             bench.drive.set_piezo_voltage(s.point_voltage_vpp)
             point = acquisition.measure()
-            values = _point_values(_reduce(point), bench.simulated.resonance_truth())
+            values = _point_values(reduce_point(point), bench.simulated.resonance_truth())
             del values["amplitude_pp_m"]   # velocity's error over a frequency known to 1e-6
             run.add(repeat, bench.now_s() - start_s, values)
 
@@ -266,34 +231,16 @@ def _sweep(run: "TaskRun") -> None:
     with run.bench() as bench:
         geometry = bench.simulated.scene.geometry(bench.simulated.state)
         voltages_vpp = np.linspace(*s.sweep_voltage_range_vpp, run.knobs["n_voltages"])
-        truth = _characterise(s, bench, voltages_vpp, geometry, measure=None)
+        truth = characterise_at_resonance(bench, s.sweep_scene, voltages_vpp, geometry, measure=None)
         acquisition = bench.acquisition(run.acquisition_settings())
         for repeat in run.trials(bench):
             bench.drive.set_piezo_voltage(float(voltages_vpp[0]))
             acquisition.reset_ranges()
             start_s = bench.now_s()
-            measured = _characterise(s, bench, voltages_vpp, geometry, measure=acquisition)
+            measured = characterise_at_resonance(bench, s.sweep_scene, voltages_vpp, geometry, measure=acquisition)
             run.add(repeat, bench.now_s() - start_s,
                     {"q": (measured.q.value, truth.q.value),
                      "tan_theta": (measured.tan_theta.value, truth.tan_theta.value)})
-
-
-def _characterise(s: StudySettings, bench: SimulatedSession, voltages_vpp, geometry,
-                  measure: Acquisition | None):
-    """Q and tan(theta') from points at resonance (measured, or the closed-form truth
-    at the same voltages when `measure` is None), by the report's own reduction."""
-    rows = []
-    for voltage_vpp in voltages_vpp:
-        bench.drive.set_piezo_voltage(float(voltage_vpp))
-        bench.go_to_resonance()
-        if measure is None:
-            truth = bench.simulated.resonance_truth()
-            rows.append({"piezo_voltage_vpp": truth.output_voltage_pp_v, "amplitude_pp_m": truth.amplitude_pp_m,
-                         "amplitude_pp_m_u": 0.0, "power_w": truth.power_w, "power_w_u": 0.0,
-                         "frequency_hz": truth.frequency_hz})
-        else:
-            rows.append(_reduce(measure.measure()).as_row())   # the columns the report's points carry
-    return characterise_plate(s.sweep_scene, pd.DataFrame(rows), geometry, model.PAPER_CONVENTION)
 
 
 def _heating(run: "TaskRun") -> None:
@@ -317,7 +264,7 @@ def _heating(run: "TaskRun") -> None:
                 acquisition.configure()
             truth = bench.simulated.resonance_truth()
             point = acquisition.measure()
-            run.add(index, bench.now_s() - start_s, {"power_w": (_reduce(point).power_w.value, truth.power_w)})
+            run.add(index, bench.now_s() - start_s, {"power_w": (reduce_point(point).power_w.value, truth.power_w)})
 
 
 #: The experiments, in the order they are listed and stored.
@@ -344,6 +291,17 @@ EXPERIMENTS: dict[str, Experiment] = {
     "heating": Experiment(lambda s: SceneSpec(s.heating_scene, ("heating_drift",)), lambda s: s.heating_state,
                           lambda s: [{"tracking": track, "averages": n}
                                      for track in (False, True) for n in s.heating_averages], _heating),
+    **{f"systematics_{point}{'_calibrated' if calibrated else ''}": Experiment(
+        lambda s: SceneSpec(s.point_scene),
+        (lambda s: s.point_state) if point == "table3" else (lambda s: s.systematics.stress_state),
+        lambda s: [{"averages": n} for n in s.systematics.averages],
+        functools.partial(systematics_study.point_trials, point, calibrated))
+       for point in ("table3", "stress") for calibrated in (False, True)},
+    **{f"systematics_sweep{'_calibrated' if calibrated else ''}": Experiment(
+        lambda s: SceneSpec(s.sweep_scene), lambda s: None,
+        lambda s: [{"n_voltages": s.systematics.sweep_voltages, "averages": n} for n in s.systematics.sweep_averages],
+        functools.partial(systematics_study.sweep_trials, calibrated))
+       for calibrated in (False, True)},
 }
 
 
@@ -472,12 +430,10 @@ class AccuracyStudy:
             for old in self.out_dir.glob("*.parquet"):
                 old.unlink()
             shutil.rmtree(self.trials_dir, ignore_errors=True)
-        _write_file_atomically(lambda path: path.write_text(json.dumps(manifest, indent=2), encoding="utf-8"),
-                               manifest_path)
+        write_atomic(manifest_path, json.dumps(manifest, indent=2).encode("utf-8"))
         tasks = self.tasks(experiments)
         for task in {task.scene_file: task for task in tasks}.values():   # the scenes as run
-            _write_file_atomically(lambda path: path.write_text(task.scene_text, encoding="utf-8"),
-                                   self.out_dir / "inputs" / task.scene_file)
+            write_atomic(self.out_dir / "inputs" / task.scene_file, task.scene_text.encode("utf-8"))
         stored_experiments = {name for name in experiments if (self.out_dir / f"{name}.parquet").exists()}
         for name in sorted(stored_experiments, key=experiments.index):
             self.progress(f"accuracy study: {name} already stored")
@@ -488,7 +444,7 @@ class AccuracyStudy:
                 f"{self.workers} worker{'s' if self.workers > 1 else ''}"
             self.progress(f"accuracy study: {len(pending)} tasks of {len(tasks)} on {where}")
         for task, frame in map_unordered(run_task, pending, self.workers, self.scheduler, "accuracy study"):
-            _write_atomically(frame, self._task_path(task))
+            write_frame_atomic(self._task_path(task), frame)
         for name in experiments:
             if name not in stored_experiments:
                 self._assemble(name, [task for task in tasks if task.experiment == name])
@@ -500,22 +456,9 @@ class AccuracyStudy:
     def _assemble(self, name: str, tasks: list[Task]) -> None:
         """The experiment's file from its tasks' files, in configuration order."""
         frame = pd.concat([pd.read_parquet(self._task_path(task)) for task in tasks], ignore_index=True)
-        _write_atomically(frame, self.out_dir / f"{name}.parquet")
+        write_frame_atomic(self.out_dir / f"{name}.parquet", frame)
         shutil.rmtree(self.trials_dir / name)
         self.progress(f"accuracy study: {name} stored")
-
-
-def _write_atomically(frame: pd.DataFrame, path: Path) -> None:
-    """A table to `path`, atomically."""
-    _write_file_atomically(lambda temporary: frame.to_parquet(temporary, index=False), path)
-
-
-def _write_file_atomically(write: Callable[[Path], None], path: Path) -> None:
-    """`write` to a temporary name beside `path`, then rename: readers see all or nothing."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    temporary = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    write(temporary)
-    os.replace(temporary, path)
 
 
 def run_study(out_dir: Path, settings: StudySettings = StudySettings(),

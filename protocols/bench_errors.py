@@ -14,18 +14,25 @@ point's generator frequency and amplitude, read through the open bench's simulat
 
 from __future__ import annotations
 
+import functools
 import json
+import shutil
 import tempfile
 from pathlib import Path
+from typing import Any, Callable
 
 import numpy as np
 import pandas as pd
 import yaml
 
+from squeezebench import paths
 from squeezebench.analysis.rundata import load_run
+from squeezebench.analysis.study import COVERAGE_DIR, COVERAGE_FILE, STUDY_DIR
 from squeezebench.analysis.uncertainty import run_uncertainties
 from squeezebench.instruments.bench import open_bench, sim_bench_config
 from squeezebench.protocols.campaign import run_campaign
+from squeezebench.protocols.parallel import map_unordered
+from squeezebench.protocols.storage import write_frame_atomic
 from squeezebench.protocols.variants import campaign_with_effects, systematic_effects
 
 QUANTITIES = ("power_w", "velocity_pp_mps")
@@ -103,17 +110,47 @@ def bench_time_by_run_s(run_dir: Path) -> dict[str, float]:
     return times_s
 
 
-def errors_on_benches(campaign_file: Path, bench_seeds: range = range(1, 9)) -> pd.DataFrame:
-    """`errors_on_bench` over several benches; `attrs["bench_time_s"]` per seed."""
-    frames, times = [], {}
-    with tempfile.TemporaryDirectory(prefix="squeezebench-benches-") as tmp:
-        for seed in bench_seeds:
-            frame = errors_on_bench(Path(campaign_file), seed, Path(tmp) / f"bench_{seed}")
-            times[seed] = frame.attrs["bench_time_s"]
-            frames.append(frame)
-    errors = pd.concat(frames, ignore_index=True)
-    errors.attrs["bench_time_s"] = times
+def _errors_on_fresh_bench(campaign_file: Path, bench_seed: int) -> tuple[pd.DataFrame, float]:
+    """`errors_on_bench` in a temporary directory of its own (a worker shares no files)."""
+    with tempfile.TemporaryDirectory(prefix=f"squeezebench-bench-{bench_seed}-") as tmp:
+        frame = errors_on_bench(Path(campaign_file), bench_seed, Path(tmp))
+        return frame, frame.attrs["bench_time_s"]
+
+
+def errors_on_benches(campaign_file: Path, bench_seeds: range = range(1, 9), workers: int = 1,
+                      scheduler: Any = None) -> pd.DataFrame:
+    """`errors_on_bench` over several benches, on `workers` local processes or the Dask
+    cluster at `scheduler`; rows in bench order; `attrs["bench_time_s"]` per seed."""
+    done = dict(map_unordered(functools.partial(_errors_on_fresh_bench, Path(campaign_file)), bench_seeds,
+                              workers, scheduler, "simulated benches"))
+    errors = pd.concat([done[seed][0] for seed in bench_seeds], ignore_index=True)
+    errors.attrs["bench_time_s"] = {seed: done[seed][1] for seed in bench_seeds}
     return errors
+
+
+def run_coverage_study(out_dir: Path, benches: int, campaign_file: Path | None = None, resume: bool = False,
+                       workers: int = 1, scheduler: Any = None,
+                       progress: Callable[[str], None] = lambda message: None) -> Path:
+    """Whether the reported expanded uncertainties cover the truth: the campaign (the
+    paper's by default) on benches 1..`benches` with errors drawn within specification,
+    every stored point scored. Each bench's rows go to OUT_DIR/study/coverage/bench_<k>.parquet
+    as it completes (`resume` keeps those already there); all of them to
+    OUT_DIR/study/coverage/points.parquet. Returns that path."""
+    campaign_file = Path(campaign_file or paths.paper_campaign())
+    directory = Path(out_dir) / STUDY_DIR / COVERAGE_DIR
+    if not resume:
+        shutil.rmtree(directory, ignore_errors=True)
+    directory.mkdir(parents=True, exist_ok=True)
+    seeds = range(1, benches + 1)
+    pending = [seed for seed in seeds if not (directory / f"bench_{seed}.parquet").exists()]
+    progress(f"coverage: {campaign_file.name} on {len(pending)} of {benches} simulated benches")
+    job = functools.partial(_errors_on_fresh_bench, campaign_file)
+    for seed, (frame, bench_time_s) in map_unordered(job, pending, workers, scheduler, "coverage"):
+        write_frame_atomic(directory / f"bench_{seed}.parquet", frame.assign(bench_time_s=bench_time_s))
+    points = pd.concat([pd.read_parquet(directory / f"bench_{seed}.parquet") for seed in seeds], ignore_index=True)
+    write_frame_atomic(directory / COVERAGE_FILE, points.assign(campaign=campaign_file.name))
+    progress(f"coverage: stored in {directory / COVERAGE_FILE}")
+    return directory / COVERAGE_FILE
 
 
 def p95_by_run(errors: pd.DataFrame) -> pd.DataFrame:

@@ -35,7 +35,7 @@ import yaml
 
 from squeezebench.analysis.waveforms import integer_period_mean_power_w, sample_interval_s
 from squeezebench.protocols.accuracy_plan import CALIBRATION_FREQUENCY_HZ, AccuracyFloors, accuracy_floors
-from squeezebench.protocols.accuracy_study import open_simulated
+from squeezebench.protocols.simulated_session import open_simulated
 from squeezebench.protocols.bench_errors import (
     bench_time_by_run_s, errors_on_benches, p95_by_run, with_calibration)
 from squeezebench.protocols.acquisition import AcquisitionSettings
@@ -300,12 +300,12 @@ def make_plan(campaign_path: Path, target_rel_error: float, repeats: int = REPEA
     floors = accuracy_floors(campaign_path, target_rel_error)
     plan = _choose(campaign, campaign_path, target_rel_error, repeats, studies_by_run, floors, done[baseline])
     if check_benches and not floors.below_floor():
-        plan.check, plan.check_benches = check_plan(campaign_path, plan, check_benches), check_benches
+        plan.check, plan.check_benches = check_plan(campaign_path, plan, check_benches, workers, scheduler), check_benches
         if not plan.meets_check and not floors.calibrate:
             # the floors are normal approximations: a bench in their tail may miss; calibrate and check again
             floors.calibration_forced_by = f"the check on {check_benches} benches without it"
             plan = _choose(campaign, campaign_path, target_rel_error, repeats, studies_by_run, floors, done[baseline])
-            plan.check, plan.check_benches = check_plan(campaign_path, plan, check_benches), check_benches
+            plan.check, plan.check_benches = check_plan(campaign_path, plan, check_benches, workers, scheduler), check_benches
     return plan
 
 
@@ -331,12 +331,13 @@ def _choose(campaign, campaign_path: Path, target_rel_error: float, repeats: int
                 repeats=repeats, floors=floors, own_s=floors.own_bench_time_s)
 
 
-def check_plan(campaign_path: Path, plan: Plan, benches: int) -> pd.DataFrame:
+def check_plan(campaign_path: Path, plan: Plan, benches: int, workers: int = 1,
+               scheduler: Any = None) -> pd.DataFrame:
     """p95 |relative error| per run and quantity of the planned campaign over `benches`
     simulated benches whose instruments err within specification (`bench_errors`)."""
     with tempfile.TemporaryDirectory(prefix="squeezebench-check-") as tmp:
         planned = planned_campaign(campaign_path, _settings(plan), plan.calibrate, Path(tmp) / campaign_path.name)
-        return p95_by_run(errors_on_benches(planned, range(1, benches + 1)))
+        return p95_by_run(errors_on_benches(planned, range(1, benches + 1), workers, scheduler))
 
 
 def _settings(plan: Plan) -> dict[str, dict]:

@@ -100,6 +100,11 @@ def write_atomic(path: Path, data: bytes) -> None:
     _fsync_dir(path.parent)
 
 
+def write_frame_atomic(path: Path, frame: pd.DataFrame) -> None:
+    """A table to `path` as parquet, atomically (`write_atomic`)."""
+    write_atomic(path, _parquet_bytes(pa.Table.from_pandas(frame, preserve_index=False)))
+
+
 def _parquet_bytes(table: pa.Table) -> bytes:
     sink = pa.BufferOutputStream()
     pq.write_table(table, sink)

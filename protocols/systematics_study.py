@@ -1,133 +1,148 @@
 """Where averaging stops paying: total error on benches whose instruments err within spec.
 
-For each of `benches` simulated benches (systematic errors drawn once from its
-`bench_seed`, `variants.systematic_effects`) and each averaging count, one point is
-measured and reduced as the report reduces it, and scored against the truth at its
-setting (the same plate without the errors). Two points: the Table 3 point (gains
-dominate) and the Fig. 2c stress point (power factor 0.018: the CH2 delay dominates).
-Each configuration is scored twice: as the bench is (`systematics_<point>`) and with the
-power corrected by the calibration (deskew and gain check) run on that bench first
-(`..._calibrated`), whose
-bench time is charged to the trial (one calibration per point: the worst case; a
-campaign pays it once). The rows follow the study's trial schema (`analysis.study`), one
-bench per `repeat`, so the p95 over benches and the fronts come out as for the other
-experiments: averaging lowers the noise until the bench's errors are all that is left.
+The accuracy study's `systematics_*` experiments (`protocols.accuracy_study`). A trial is
+one simulated bench: its systematic errors are drawn once from its `bench_seed`
+(`variants.systematic_effects`; trial k is bench k + 1 in every experiment, the same
+benches `plan` checks and the coverage runs on), its noise from the trial's own seed.
+On that bench a point is measured and reduced as the report reduces it and scored
+against the truth at its setting: the same plate without the errors, driven at the same
+generator frequency and amplitude (what `analysis.uncertainty` calls the point's value).
+
+Three points of the paper campaign: the Table 3 point (the gains dominate), the Fig. 2c
+stress point (power factor 0.018: the CH2 delay dominates) and the characterisation of
+a Fig. 5 plate (Q and tan theta'). Each is run as the bench is and, in the experiment
+`..._calibrated`, after the deskew and gain check (`protocols.calibration`) on the same
+bench, whose correction the power takes and whose bench time the trial is charged (one
+calibration per point: the worst case; a campaign pays it once). Averaging lowers the
+noise until the bench's errors are all that is left: the floor.
 """
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
-import tempfile
-from pathlib import Path
+from typing import TYPE_CHECKING, Iterator
 
+import numpy as np
 import pandas as pd
 
-from squeezebench.analysis.calibration import calibration_from_points
-from squeezebench.analysis.study import STUDY_DIR
-from squeezebench.instruments.bench import open_bench, sim_bench_config
+from squeezebench.analysis.calibration import Deskew, calibration_from_points
 from squeezebench.protocols import calibration
-from squeezebench.protocols.accuracy_study import SimulatedSession, _reduce, _write_atomically, open_simulated
 from squeezebench.protocols.acquisition import AcquisitionSettings
 from squeezebench.protocols.safety import SafetyLimits
+from squeezebench.protocols.simulated_session import (
+    SimulatedSession, characterise_at_resonance, open_simulated, reduce_point)
 from squeezebench.protocols.variants import scene_with_effects, systematic_effects
 
-
-@dataclasses.dataclass(frozen=True)
-class StudyPoint:
-    name: str
-    scene: str
-    state: str
-    voltage_vpp: float
-    frequency_hz: float | None   # None: at the resonance
+if TYPE_CHECKING:
+    from squeezebench.protocols.accuracy_study import TaskRun
 
 
 @dataclasses.dataclass(frozen=True)
 class SystematicsSettings:
-    benches: int = 8
+    """What the systematics experiments measure (a field of `StudySettings`)."""
+
     averages: tuple[int, ...] = (1, 4, 16, 64, 256)
-    base: AcquisitionSettings = AcquisitionSettings(averages=16, record_length=10000,
-                                                    periods_per_record=20.0, settle_s=0.05)
-    points: tuple[StudyPoint, ...] = (
-        StudyPoint("table3", "one_column_1mm.yaml", "75x41", 20.0, None),
-        StudyPoint("stress", "one_column_1mm.yaml", "76x41", 240.0, 37560.0))
-    calibration: calibration.Parameters = calibration.Parameters(frequency_hz=37000.0)
+    sweep_averages: tuple[int, ...] = (4, 32, 256)
+    sweep_voltages: int = 5
+    # The Fig. 2c stress point: the uncut plate far above its resonance, power factor 0.018.
+    stress_state: str = "76x41"
+    stress_voltage_vpp: float = 240.0
+    stress_frequency_hz: float = 37560.0
+    calibration: calibration.Parameters = calibration.Parameters()
     calibration_acquisition: AcquisitionSettings = AcquisitionSettings(averages=64, record_length=10000,
                                                                        periods_per_record=20.0, settle_s=0.05)
 
 
-def _deskew(session: SimulatedSession, state: str, settings: SystematicsSettings):
-    """Run the calibration on this bench (resistor in the plate's place), then put the plate back."""
+@contextlib.contextmanager
+def erring_bench(run: "TaskRun", repeat: int, limits: SafetyLimits) -> Iterator[SimulatedSession]:
+    """Bench `repeat + 1`: the task's plate, the instruments' errors drawn from that seed."""
+    scene = scene_with_effects(run.scene, run.scene.parent / f"bench_{repeat + 1}", systematic_effects(repeat + 1))
+    with open_simulated(scene, run.task.state, run.settings.base.settle_s, limits) as session:
+        session.simulated.reseed(run.task.seed(repeat))
+        yield session
+
+
+def measure_calibration(session: SimulatedSession, settings: SystematicsSettings) -> Deskew:
+    """The deskew and gain check on this bench (the resistor in the plate's place, as
+    `protocols.calibration` has the operator do), then the plate back."""
     params = settings.calibration
+    plate_state = session.simulated.state_name
     session.simulated.set_state(calibration.resistor_state(params.load_ohm))
     acquisition = session.acquisition(settings.calibration_acquisition)
     session.drive.set_frequency(params.frequency_hz)
     session.drive.set_piezo_voltage(params.piezo_voltage_vpp)
-    columns = {"run_name": "deskew", "calibration_load_ohm": params.load_ohm, "shunt_ohm": session.bench.electronics.shunt_ohm,
+    columns = {"run_name": "deskew", "calibration_load_ohm": params.load_ohm,
+               "shunt_ohm": session.bench.electronics.shunt_ohm,
                "calibration_load_tolerance_rel": params.load_tolerance_rel}
-    rows = [{**_reduce(acquisition.measure()).as_row(), **columns} for _ in range(params.repeats)]
+    rows = [{**reduce_point(acquisition.measure()).as_row(), **columns} for _ in range(params.repeats)]
     session.drive.to_minimum()
-    session.simulated.set_state(state)
+    session.simulated.set_state(plate_state)
     return calibration_from_points(pd.DataFrame(rows))
 
 
-def _truth(plain_scene: Path, state: str, frequency_hz: float, generator_vpp: float):
-    with open_bench(sim_bench_config(plain_scene)) as bench:
-        simulated = bench.resource_manager.visalib.bench
-        simulated.set_state(state)
-        bench.generator.set_frequency(frequency_hz)
-        bench.generator.set_amplitude_vpp(generator_vpp)
-        return simulated.truth()
+def _truth_at_setting(run: "TaskRun", frequency_hz: float, generator_vpp: float, limits: SafetyLimits):
+    """The plate without the errors at the same generator setting."""
+    with open_simulated(run.scene, run.task.state, run.settings.base.settle_s, limits) as plain:
+        plain.bench.generator.set_frequency(frequency_hz)
+        plain.bench.generator.set_amplitude_vpp(generator_vpp)
+        return plain.simulated.truth()
 
 
-def systematics_trials(settings: SystematicsSettings, work_dir: Path) -> pd.DataFrame:
-    """The trial rows of both experiments, all points, all benches."""
-    rows: list[dict] = []
-    defaults = {"record_length": settings.base.record_length, "periods_per_record": settings.base.periods_per_record,
-                "search_points": 0, "search_tolerance_hz": 0.0, "settle_s": settings.base.settle_s,
-                "n_voltages": 1, "tracking": False}
-    for point in settings.points:
-        limits = SafetyLimits(max_piezo_voltage_vpp=max(point.voltage_vpp, SafetyLimits().max_piezo_voltage_vpp))
-        plain = scene_with_effects(point.scene, work_dir / "plain", [])
-        for seed in range(1, settings.benches + 1):
-            erring = scene_with_effects(point.scene, work_dir / f"bench_{seed}", systematic_effects(seed))
-            with open_simulated(erring, point.state, settings.base.settle_s, limits) as session:
-                start_s = session.now_s()
-                deskew = _deskew(session, point.state, settings)
-                calibration_s = session.now_s() - start_s
-                session.drive.set_piezo_voltage(point.voltage_vpp)
-                if point.frequency_hz is None:
-                    session.go_to_resonance()
-                else:
-                    session.drive.set_frequency(point.frequency_hz)
-                truth = _truth(plain, point.state, session.drive.frequency_hz, session.drive.generator_amplitude_vpp)
-                for averages in settings.averages:
-                    acquisition = session.acquisition(dataclasses.replace(settings.base, averages=averages))
-                    acquisition.measure(keep_waveforms=False)   # ranging, as a step's earlier points do
-                    start_s = session.now_s()
-                    reduction = _reduce(acquisition.measure())
-                    point_s = session.now_s() - start_s
-                    corrected_w = deskew.corrected_power_w(reduction.power_w.value, reduction.reactive_power_var.value,
-                                                           reduction.frequency_hz.value)
-                    base = {"scene": Path(point.scene).name, "state": point.state,
-                            **defaults, "averages": averages, "repeat": seed}
-                    velocity = (reduction.velocity_pp_mps.value, truth.velocity_pp_mps)
-                    experiment = f"systematics_{point.name}"
-                    for experiment, power_w, cost_s in (
-                            (experiment, reduction.power_w.value, point_s),
-                            (f"{experiment}_calibrated", corrected_w, point_s + calibration_s)):
-                        for quantity, (measured, true) in (("power_w", (power_w, truth.power_w)),
-                                                           ("velocity_pp_mps", velocity)):
-                            rows.append({"experiment": experiment, **base, "bench_time_s": cost_s,
-                                         "quantity": quantity, "measured_value": measured, "true_value": true,
-                                         "rel_error": measured / true - 1.0})
-    return pd.DataFrame(rows)
+def point_trials(point: str, calibrated: bool, run: "TaskRun") -> None:
+    """Power and velocity at the Table 3 point (`point="table3"`, at resonance) or the
+    stress point (`"stress"`, at its fixed frequency), one trial per bench."""
+    s, x = run.settings, run.settings.systematics
+    voltage_vpp = s.point_voltage_vpp if point == "table3" else x.stress_voltage_vpp
+    limits = SafetyLimits(max_piezo_voltage_vpp=max(voltage_vpp, SafetyLimits().max_piezo_voltage_vpp))
+    for repeat in range(s.repeats):
+        with erring_bench(run, repeat, limits) as session:
+            start_s = session.now_s()
+            correction = measure_calibration(session, x) if calibrated else None
+            calibration_s = session.now_s() - start_s
+            session.drive.set_piezo_voltage(voltage_vpp)
+            if point == "table3":
+                session.go_to_resonance()
+            else:
+                session.drive.set_frequency(x.stress_frequency_hz)
+            truth = _truth_at_setting(run, session.drive.frequency_hz, session.drive.generator_amplitude_vpp, limits)
+            acquisition = session.acquisition(run.acquisition_settings())
+            acquisition.measure(keep_waveforms=False)   # ranging, as a step's earlier points do
+            start_s = session.now_s()
+            reduction = reduce_point(acquisition.measure())
+            power_w = reduction.power_w.value
+            if correction is not None:
+                power_w = correction.corrected_power_w(power_w, reduction.reactive_power_var.value,
+                                                       reduction.frequency_hz.value)
+            run.add(repeat, session.now_s() - start_s + calibration_s,
+                    {"power_w": (power_w, truth.power_w),
+                     "velocity_pp_mps": (reduction.velocity_pp_mps.value, truth.velocity_pp_mps)})
 
 
-def run_systematics_study(out_dir: Path, settings: SystematicsSettings = SystematicsSettings()) -> Path:
-    """Write OUT_DIR/study/systematics.parquet (both experiments); return its path."""
-    path = Path(out_dir) / STUDY_DIR / "systematics.parquet"
-    path.parent.mkdir(parents=True, exist_ok=True)
-    with tempfile.TemporaryDirectory(prefix="squeezebench-systematics-") as tmp:
-        frame = systematics_trials(settings, Path(tmp))
-    _write_atomically(frame, path)
-    return path
+def sweep_trials(calibrated: bool, run: "TaskRun") -> None:
+    """Q and tan theta' of a Fig. 5 plate, characterised at resonance over the sweep's
+    voltages, one trial per bench; the truth is the same characterisation of the plate
+    without the errors, from its closed-form points."""
+    s = run.settings
+    voltages_vpp = np.linspace(*s.sweep_voltage_range_vpp, run.knobs["n_voltages"])
+    limits = SafetyLimits()
+    with open_simulated(run.scene, run.task.state, s.base.settle_s, limits) as plain:
+        geometry = plain.simulated.scene.geometry(plain.simulated.state)
+        truth = characterise_at_resonance(plain, s.sweep_scene, voltages_vpp, geometry, measure=None)
+    for repeat in range(s.repeats):
+        with erring_bench(run, repeat, limits) as session:
+            start_s = session.now_s()
+            correct = None
+            if calibrated:
+                correction = measure_calibration(session, s.systematics)
+
+                def correct(points: pd.DataFrame, correction: Deskew = correction) -> pd.Series:
+                    return correction.corrected_power_w(points["power_w"], points["reactive_power_var"],
+                                                        points["frequency_hz"])
+            acquisition = session.acquisition(run.acquisition_settings())
+            measured = characterise_at_resonance(session, s.sweep_scene, voltages_vpp, geometry, acquisition,
+                                                 correct)
+            run.add(repeat, session.now_s() - start_s,
+                    {"q": (measured.q.value, truth.q.value),
+                     "tan_theta": (measured.tan_theta.value, truth.tan_theta.value)})
+

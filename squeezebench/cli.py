@@ -23,7 +23,9 @@ from squeezebench.errors import UserError
 EXIT_USER_ERROR = 2
 EXIT_INTERRUPTED = 130
 #: protocols.accuracy_study.AccuracyStudy.EXPERIMENTS, spelled here so `--help` imports nothing heavy.
-STUDY_EXPERIMENTS = ("averages", "record", "search", "settle", "sweep", "heating")
+STUDY_EXPERIMENTS = ("averages", "record", "search", "settle", "sweep", "heating",
+                     *(f"systematics_{point}{suffix}" for point in ("table3", "stress", "sweep")
+                       for suffix in ("", "_calibrated")))
 
 
 def say(args: argparse.Namespace, message: str) -> None:
@@ -155,6 +157,7 @@ def cmd_reproduce(args: argparse.Namespace) -> int:
     if not args.no_study:
         run_study(run_dir, resume=args.resume, progress=lambda message: say(args, message),
                   workers=args.workers, scheduler=args.scheduler)
+    _run_coverage(args, run_dir, args.coverage_benches)
     index = write_report(run_dir)
     say(args, f"run stored in {run_dir}\nreport written to {index}")
     return 0
@@ -184,6 +187,17 @@ def _clear_previous_reproduction(args: argparse.Namespace, out: Path) -> None:
     say(args, f"replacing the previous reproduction in {out} (--resume continues one instead)")
 
 
+def _run_coverage(args: argparse.Namespace, out: Path, benches: int) -> None:
+    """The coverage study (protocols.bench_errors) into OUT/study/coverage/, when benches > 0."""
+    if benches < 0:
+        raise UserError(f"--coverage-benches must be 0 or more, got {benches}")
+    if benches:
+        from squeezebench.protocols.bench_errors import run_coverage_study
+
+        run_coverage_study(out, benches, resume=args.resume, workers=args.workers, scheduler=args.scheduler,
+                           progress=lambda message: say(args, message))
+
+
 def cmd_study(args: argparse.Namespace) -> int:
     from dataclasses import replace
 
@@ -197,6 +211,8 @@ def cmd_study(args: argparse.Namespace) -> int:
     study_dir = run_study(args.out, settings, experiments, resume=args.resume,
                           progress=lambda message: say(args, message),
                           workers=args.workers, scheduler=args.scheduler)
+    _run_coverage(args, args.out, (0 if args.experiment else 40) if args.coverage_benches is None
+                  else args.coverage_benches)
     say(args, f"study stored in {study_dir}; 'squeezebench report {args.out}' shows it")
     return 0
 
@@ -279,6 +295,10 @@ def build_parser() -> argparse.ArgumentParser:
     reproduce.add_argument("--resume", action="store_true", help="continue an interrupted reproduction")
     reproduce.add_argument("--no-study", action="store_true",
                            help="skip the accuracy-vs-bench-time study (about a minute)")
+    reproduce.add_argument("--coverage-benches", type=int, default=0, metavar="N",
+                           help="also run the paper campaign on N simulated benches with errors drawn within "
+                                "specification and check the uncertainties' coverage (default 0: not run; "
+                                "about 6 s of one core per bench)")
     _add_parallel_options(reproduce)
     reproduce.set_defaults(func=cmd_reproduce)
 
@@ -288,7 +308,11 @@ def build_parser() -> argparse.ArgumentParser:
     study.add_argument("--repeats", type=int, default=8, help="trials per configuration (default 8)")
     study.add_argument("--experiment", action="append", choices=STUDY_EXPERIMENTS,
                        help="run only this experiment (repeatable; default: all)")
-    study.add_argument("--resume", action="store_true", help="keep experiments already stored")
+    study.add_argument("--resume", action="store_true", help="keep experiments and benches already stored")
+    study.add_argument("--coverage-benches", type=int, default=None, metavar="N",
+                       help="run the paper campaign on N simulated benches with errors drawn within specification "
+                            "and check the uncertainties' coverage (default 40, or 0 with --experiment; "
+                            "about 6 s of one core per bench)")
     _add_parallel_options(study)
     study.set_defaults(func=cmd_study)
 

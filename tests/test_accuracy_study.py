@@ -14,13 +14,15 @@ from squeezebench.analysis.report import write_report
 from squeezebench import paths
 from squeezebench.protocols import accuracy_study
 from squeezebench.protocols.accuracy_study import AccuracyStudy, StudySettings, run_study
+from squeezebench.protocols.systematics_study import SystematicsSettings
 from squeezebench.cli import STUDY_EXPERIMENTS, main
 from test_analysis_synthetic import build_run
 
 SMALL = StudySettings(
     repeats=4, averages=(1, 512), periods_per_record=(2.0, 20.0), record_lengths=(500,),
     search_points=(11,), search_tolerances_hz=(1.0,), search_averages=(16,), settle_s=(0.0, 0.2),
-    sweep_voltage_counts=(3,), sweep_averages=(16,), heating_averages=(2, 512), heating_points=4)
+    sweep_voltage_counts=(3,), sweep_averages=(16,), heating_averages=(2, 512), heating_points=4,
+    systematics=SystematicsSettings(averages=(4,), sweep_averages=(4,), sweep_voltages=3))
 
 
 @pytest.fixture(scope="module")
@@ -45,7 +47,7 @@ def p95(summary, experiment, quantity, **knobs):
 
 def test_trials_are_tidy_and_complete(run_dir):
     trials = study.load_trials(run_dir)
-    assert set(trials["experiment"]) == {"averages", "record", "search", "settle", "sweep", "heating"}
+    assert set(trials["experiment"]) == set(STUDY_EXPERIMENTS)
     assert {*study.KNOBS, "repeat", "bench_time_s", "quantity", "measured_value", "true_value", "rel_error"} <= set(trials)
     numbers = trials.select_dtypes("number")
     assert np.isfinite(numbers.to_numpy()).all()

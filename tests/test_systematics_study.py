@@ -4,33 +4,81 @@ at its bench time."""
 
 from __future__ import annotations
 
+import dataclasses
+
 import pytest
 
-from squeezebench.analysis.study import load_trials, summarise
-from squeezebench.protocols.systematics_study import SystematicsSettings, run_systematics_study
+from squeezebench.analysis.study import floors_table, load_trials, summarise
+from squeezebench.protocols.accuracy_study import StudySettings, run_study
+from squeezebench.protocols.systematics_study import SystematicsSettings
+
+EXPERIMENTS = tuple(f"systematics_{point}{suffix}" for point in ("table3", "stress", "sweep")
+                    for suffix in ("", "_calibrated"))
 
 
 @pytest.fixture(scope="module")
 def summary(tmp_path_factory):
     out = tmp_path_factory.mktemp("systematics")
-    run_systematics_study(out, SystematicsSettings(benches=3, averages=(1, 64)))
-    return summarise(load_trials(out)).set_index(["experiment", "quantity", "averages"])
+    settings = StudySettings(repeats=3, systematics=SystematicsSettings(averages=(1, 64), sweep_averages=(4,),
+                                                                        sweep_voltages=3))
+    run_study(out, settings, EXPERIMENTS, progress=lambda message: None)
+    return summarise(load_trials(out))
+
+
+def _at(summary, experiment, quantity, averages):
+    rows = summary[(summary["experiment"] == experiment) & (summary["quantity"] == quantity)
+                   & (summary["averages"] == averages)]
+    assert len(rows) == 1
+    return rows.iloc[0]
 
 
 def test_averaging_stops_paying_at_the_floor(summary):
-    few, many = (summary.loc[("systematics_table3", "power_w", n)] for n in (1, 64))
+    few, many = (_at(summary, "systematics_table3", "power_w", n) for n in (1, 64))
     assert many["bench_time_s"] > 2 * few["bench_time_s"]
     assert many["p95_abs_rel_error"] > 0.8 * few["p95_abs_rel_error"]   # no gain: the bench's errors remain
     assert few["p95_abs_rel_error"] > 0.005
+    assert few["n_trials"] == 3   # one trial per bench
 
 
 def test_the_deskew_calibration_buys_accuracy_where_the_delay_dominates(summary):
     for averages in (1, 64):
-        plain = summary.loc[("systematics_stress", "power_w", averages)]
-        deskewed = summary.loc[("systematics_stress_calibrated", "power_w", averages)]
+        plain = _at(summary, "systematics_stress", "power_w", averages)
+        deskewed = _at(summary, "systematics_stress_calibrated", "power_w", averages)
         assert deskewed["p95_abs_rel_error"] < 0.7 * plain["p95_abs_rel_error"]
         assert deskewed["bench_time_s"] > plain["bench_time_s"] + 1.0   # the calibration's cost
     # at power factor ~0.5 the delay hardly matters; the gain check still trims the gains' error
-    plain, calibrated = (summary.loc[(e, "power_w", 64), "p95_abs_rel_error"]
+    plain, calibrated = (_at(summary, e, "power_w", 64)["p95_abs_rel_error"]
                          for e in ("systematics_table3", "systematics_table3_calibrated"))
     assert calibrated < plain
+
+
+def test_q_and_tan_theta_have_floors_and_only_tan_theta_is_lifted(summary):
+    q, q_calibrated = (_at(summary, e, "q", 4)["p95_abs_rel_error"]
+                       for e in ("systematics_sweep", "systematics_sweep_calibrated"))
+    assert q > 0.005 and q_calibrated == pytest.approx(q, rel=0.05)   # amplitude and voltage gains: no lift
+    tan, tan_calibrated = (_at(summary, e, "tan_theta", 4)["p95_abs_rel_error"]
+                           for e in ("systematics_sweep", "systematics_sweep_calibrated"))
+    assert tan > 0.005 and tan_calibrated < tan
+
+
+def test_the_floors_table_names_every_point_and_quantity(summary):
+    floors = floors_table(summary).set_index(["point", "quantity"])
+    assert set(floors.index) == {("table3", "power_w"), ("table3", "velocity_pp_mps"), ("stress", "power_w"),
+                                 ("stress", "velocity_pp_mps"), ("sweep", "q"), ("sweep", "tan_theta")}
+    assert (floors["benches"] == 3).all()
+    assert floors.loc[("stress", "power_w"), "calibrated_floor_p95_rel"] < floors.loc[("stress", "power_w"),
+                                                                                      "floor_p95_rel"]
+    assert (floors["calibrated_bench_time_s"] > floors["bench_time_s"]).all()
+
+
+def test_bench_k_is_the_same_bench_in_every_experiment(summary, tmp_path):
+    """Trial k runs on bench k + 1 whatever the experiment: the same draw of errors."""
+    settings = StudySettings(repeats=2, systematics=SystematicsSettings(averages=(4,)))
+    run_study(tmp_path, settings, ("systematics_table3",), progress=lambda message: None)
+    again = load_trials(tmp_path)
+    other = dataclasses.replace(settings, seed=7)   # other noise, same benches
+    run_study(tmp_path / "other", other, ("systematics_table3",), progress=lambda message: None)
+    moved = load_trials(tmp_path / "other")
+    power = [frame[frame["quantity"] == "power_w"].sort_values("repeat")["rel_error"].to_numpy()
+             for frame in (again, moved)]
+    assert power[0] == pytest.approx(power[1], abs=2e-3)   # the bench's errors dominate; noise differs
