@@ -354,7 +354,8 @@ def _plates_table(context: ReportContext, plates: dict[str, tables.PlateCharacte
             "<tr><th>slope (nm pp/Vpp)</th><th>intercept (nm pp)</th><th>χ²/dof</th>"
             "<th>slope (µW/Vpp²)</th><th>intercept (mW)</th><th>χ²/dof</th></tr>")
     caption = (f"Characterisation of every plate in this run. {_bench_words(context)} U is k = 2 of the "
-               "fits' uncertainty; intercepts ± their standard uncertainty.")
+               "whole budget (the fits, the instruments' specifications, the geometry's and NCE 41's "
+               "tolerances); intercepts ± their standard uncertainty.")
     return (f"<table class='plates'><caption>{caption}</caption><thead>{head}</thead>"
             f"<tbody>{''.join(rows)}</tbody></table>")
 
@@ -698,7 +699,8 @@ def conventions_section(context: ReportContext) -> Section:
         "Amplitude pp = velocity pp / (2 pi f).",
         "Uncertainties: U is the expanded uncertainty (k = 2) of the whole budget of each point "
         "(record noise and the instruments' specifications, analysis.uncertainty); Q and tan theta' "
-        "carry k = 2 of their fits' uncertainty. A cell agrees with the paper when the difference is "
+        "add their fits' uncertainty and the geometry's and NCE 41's tolerances (the systematic parts are "
+        "shared by the plates of one bench and do not average down in a mean over plates). A cell agrees with the paper when the difference is "
         "within U plus half the printed value's last digit.",
         "Q: Eq. 27 with the fitted slope of amplitude pp vs voltage pp. tan theta': Eq. 25 with the "
         "fitted slope of power vs Vpp^2, divided by Q. Table 5 estimate: Q of small_plate_4 through "

@@ -358,6 +358,22 @@ class PlateCharacterisation:
     points: pd.DataFrame
     origin: str = provenance.NOT_RECORDED   # of the points (simulated / measured)
     calibrated_on: dict[str, str] = field(default_factory=dict)   # provenance.calibrated_on
+    #: The part of q's and tan_theta's standard uncertainty the instruments' specifications
+    #: and the geometry's and materials' tolerances give (shared by every plate on the same
+    #: bench and from the same stock; 0 until `with_whole_budget`).
+    systematic_u: dict[str, float] = field(default_factory=dict)
+
+    def with_whole_budget(self, q_systematic_u: float, tan_theta_systematic_u: float) -> "PlateCharacterisation":
+        """Q and tan(theta') with the systematic part added to the fits' uncertainty."""
+        return replace(self, q=Estimate(self.q.value, math.hypot(self.q.std_uncertainty, q_systematic_u)),
+                       tan_theta=Estimate(self.tan_theta.value,
+                                          math.hypot(self.tan_theta.std_uncertainty, tan_theta_systematic_u)),
+                       systematic_u={"q": q_systematic_u, "tan_theta": tan_theta_systematic_u})
+
+    def fit_u(self, quantity: str) -> float:
+        """The fits' own (independent) part of the quantity's standard uncertainty."""
+        whole = getattr(self, quantity).std_uncertainty
+        return math.sqrt(max(whole**2 - self.systematic_u.get(quantity, 0.0) ** 2, 0.0))
 
 
 def characterise_plate(plate: str, points: pd.DataFrame, geometry: model.PlateGeometry,
@@ -381,7 +397,13 @@ def characterise_plate(plate: str, points: pd.DataFrame, geometry: model.PlateGe
 
 
 def characterise_plates(run: RunData, convention: model.Convention) -> dict[str, PlateCharacterisation]:
-    """Fig. 5 for every plate of the characterisation protocol (small plates and the large one)."""
+    """Fig. 5 for every plate of the characterisation protocol (small plates and the large
+    one), Q and tan(theta') with their whole budgets (`analysis.uncertainty`: the fits, the
+    instruments' specifications, the geometry's and materials' tolerances)."""
+    from squeezebench.analysis import uncertainty   # see _expanded
+    from squeezebench.analysis.calibration import deskew_of_run
+
+    deskew = deskew_of_run(run)
     points = _protocol_points(run, "characterisation")
     results = {}
     for plate, group in points.groupby("plate", sort=True):
@@ -389,10 +411,21 @@ def characterise_plates(run: RunData, convention: model.Convention) -> dict[str,
         geometry = plate_geometry(run, str(plate), int(first["n_powered_piezos"]), int(first["n_powered_columns"]),
                                   scene_file=_text_or_none(first.get("scene_file")),
                                   scene_state=_text_or_none(first.get("scene_state")))
-        results[str(plate)] = replace(characterise_plate(str(plate), group, geometry, convention),
-                                      origin=provenance.point_origin(group, run.manifest),
-                                      calibrated_on=provenance.calibrated_on(run, group))
+        result = replace(characterise_plate(str(plate), group, geometry, convention),
+                         origin=provenance.point_origin(group, run.manifest),
+                         calibrated_on=provenance.calibrated_on(run, group))
+        q, tan = uncertainty.characterisation_budgets(result, convention, deskew, with_fit=False)
+        results[str(plate)] = result.with_whole_budget(q.std_uncertainty, tan.std_uncertainty)
     return results
+
+
+def mean_over_plates(plates: list[PlateCharacterisation], quantity: str) -> Estimate:
+    """Mean of a quantity over plates: the fits' parts are independent (and the scatter
+    says as much), the systematic parts are shared (same bench, same stock) and do not
+    average down."""
+    fitted = mean_estimate([getattr(p, quantity).value for p in plates], [p.fit_u(quantity) for p in plates])
+    shared = float(np.mean([p.systematic_u.get(quantity, 0.0) for p in plates]))
+    return Estimate(fitted.value, math.hypot(fitted.std_uncertainty, shared))
 
 
 def fig5_table(plates: dict[str, PlateCharacterisation]) -> pd.DataFrame:
@@ -417,8 +450,7 @@ def fig5_table(plates: dict[str, PlateCharacterisation]) -> pd.DataFrame:
     for thickness_mm in sorted({round(p.geometry.resonator_thickness_m * 1e3, 6) for p in small.values()}):
         same = {n: p for n, p in small.items()
                 if math.isclose(p.geometry.resonator_thickness_m * 1e3, thickness_mm, rel_tol=1e-6)}
-        mean = mean_estimate([p.tan_theta.value for p in same.values()],
-                             [p.tan_theta.std_uncertainty for p in same.values()])
+        mean = mean_over_plates(list(same.values()), "tan_theta")
         calibrated = "; ".join(f"{n}: {p.calibrated_on['tan_theta']}" for n, p in same.items()
                                if "tan_theta" in p.calibrated_on)
         rows.append(row(f"small plates {thickness_mm:g} mm", "tan_theta_mean", mean, thickness_mm,
@@ -448,11 +480,11 @@ def estimate_large_from_small(plates: dict[str, PlateCharacterisation],
     large, template = plates[LARGE_PLATE], plates[TEMPLATE_SMALL_PLATE]
     ratio = model.q_large_from_small(1.0, large.geometry.piezo_length_m, template.geometry.piezo_length_m,
                                      as_printed=convention.eq29_as_printed)
-    same_thickness = [p.tan_theta for name, p in plates.items() if name != LARGE_PLATE and math.isclose(
+    same_thickness = [p for name, p in plates.items() if name != LARGE_PLATE and math.isclose(
         p.geometry.resonator_thickness_m, large.geometry.resonator_thickness_m, rel_tol=1e-6)]
     if not same_thickness:
         raise MissingDataError("Table 5 needs small plates as thick as the large plate")
-    tan = mean_estimate([e.value for e in same_thickness], [e.std_uncertainty for e in same_thickness])
+    tan = mean_over_plates(same_thickness, "tan_theta")
     calibrated = {}
     if "q" in template.calibrated_on:
         calibrated["q"] = f"{TEMPLATE_SMALL_PLATE}: {template.calibrated_on['q']}"
@@ -480,7 +512,8 @@ def table5(plates: dict[str, PlateCharacterisation], convention: model.Conventio
 
 
 def _derived_row(table: str, item: str, quantity: str, value: Estimate, calibrated: dict[str, str]) -> dict:
-    """A derived value (Q, tan theta'): its expanded uncertainty is k times the fit's."""
+    """A derived value (Q, tan theta'): its expanded uncertainty is k times its standard
+    uncertainty (the whole budget when the plates were characterised from a run)."""
     from squeezebench.analysis.uncertainty import COVERAGE_FACTOR   # see _expanded
 
     return {"table": table, "item": item, "quantity": quantity, "unit": UNITS[quantity],

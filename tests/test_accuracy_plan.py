@@ -81,3 +81,29 @@ def test_a_target_below_the_floor_is_said_with_its_dominant_term():
     assert "below the reachable floor" in table and "current probe gain" in table
     for name, setting in plan.settings_by_run.items():   # noise kept well below the floor, not chased
         assert plan.error_by_run[name] <= plan.floors.floor(name, calibrated=True) / 3.0 or setting.averages == 512
+
+
+def test_a_missed_check_calibrates_then_tightens_the_missing_runs(monkeypatch):
+    """The check on erring benches is the arbiter: a miss first buys the calibration, then
+    halves the noise the missing run may take, until the check meets the target."""
+    import pandas as pd
+
+    from squeezebench.protocols import planning
+
+    verdicts = iter([0.09, 0.09, 0.02])   # the detuning run's p95 in successive checks
+    seen = []
+
+    def check(campaign_path, plan, benches, workers=1, scheduler=None):
+        seen.append((plan.calibrate, dict(plan.noise_scale), plan.settings_by_run["detuning"]))
+        return pd.DataFrame([{"run_name": "detuning", "quantity": "power_w", "p95_abs_rel_error": next(verdicts)},
+                             {"run_name": "cutting", "quantity": "power_w", "p95_abs_rel_error": 0.02}])
+
+    monkeypatch.setattr(planning, "check_plan", check)
+    plan = planning.make_plan(QUICK, 0.08, repeats=2, check_benches=8)
+    assert [calibrated for calibrated, _, _ in seen] == [False, True, True]
+    assert [scale for _, scale, _ in seen] == [{}, {}, {"detuning": 0.5}]
+    assert plan.meets_check and plan.noise_scale == {"detuning": 0.5}
+    assert plan.floors.calibration_forced_by.startswith("the check on 8 benches")
+    assert seen[2][2].averages >= seen[1][2].averages   # less noise allowed: never cheaper
+    assert "its noise may take 0.5" in plan.table()
+    assert plan.as_dict()["check"]["noise_scale"] == {"detuning": 0.5}

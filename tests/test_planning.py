@@ -68,11 +68,11 @@ def test_the_planned_campaign_is_written_with_the_planned_settings(tmp_path, mon
 
 def test_a_setting_measures_the_same_whatever_ran_before():
     from squeezebench.protocols.campaign import load_campaign
-    from squeezebench.protocols.planning import _run_plates, _run_voltage_vpp, measure_setting
+    from squeezebench.protocols.planning import _run_plates, _run_points, measure_setting
 
     run = load_campaign(QUICK).runs[0]
     scene, state, plate = _run_plates(run)[0]
-    args = (scene, state, _run_voltage_vpp(run, plate), run.acquisition, run.safety)
+    args = (scene, state, _run_points(run, plate)[0], run.acquisition, run.safety)
     settings = [Setting(500, 4), Setting(500, 64)]
     forward = [measure_setting(*args, setting, repeats=2) for setting in settings]
     backward = [measure_setting(*args, setting, repeats=2) for setting in reversed(settings)][::-1]
