@@ -636,8 +636,8 @@ def _coverage_part(context: ReportContext) -> str:
     the paper campaign over simulated benches erring within specification."""
     points = study.load_coverage(context.run.run_dir)
     if points is None:
-        context.absent.append("Coverage of the uncertainties: not run ('squeezebench study --out RUN_DIR "
-                              "--coverage-benches 40' writes it)")
+        context.absent.append("Coverage of the uncertainties on erring benches: not run ('squeezebench study "
+                              "--out RUN_DIR --resume' adds it: the paper campaign on 40 benches, a few minutes)")
         return ""
     table = study.coverage_table(points)
     context.tables["study_coverage"] = table

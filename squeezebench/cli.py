@@ -150,6 +150,7 @@ def cmd_reproduce(args: argparse.Namespace) -> int:
     from squeezebench.protocols.accuracy_study import run_study
     from squeezebench.protocols.campaign import run_campaign
 
+    coverage_benches = _coverage_benches(args)
     if not args.resume:
         _clear_previous_reproduction(args, args.out)
     run_dir = run_campaign(paths.paper_campaign(), resume=args.resume, out_dir=args.out,
@@ -157,7 +158,7 @@ def cmd_reproduce(args: argparse.Namespace) -> int:
     if not args.no_study:
         run_study(run_dir, resume=args.resume, progress=lambda message: say(args, message),
                   workers=args.workers, scheduler=args.scheduler)
-    _run_coverage(args, run_dir, args.coverage_benches)
+    _run_coverage(args, run_dir, coverage_benches)
     index = write_report(run_dir)
     say(args, f"run stored in {run_dir}\nreport written to {index}")
     return 0
@@ -187,10 +188,18 @@ def _clear_previous_reproduction(args: argparse.Namespace, out: Path) -> None:
     say(args, f"replacing the previous reproduction in {out} (--resume continues one instead)")
 
 
-def _run_coverage(args: argparse.Namespace, out: Path, benches: int) -> None:
-    """The coverage study (protocols.bench_errors) into OUT/study/coverage/, when benches > 0."""
+def _coverage_benches(args: argparse.Namespace) -> int:
+    """How many benches the coverage study runs on (checked before anything runs)."""
+    benches = args.coverage_benches
+    if benches is None:   # study: all of it by default, only what was asked for with --experiment
+        benches = 0 if getattr(args, "experiment", None) else 40
     if benches < 0:
         raise UserError(f"--coverage-benches must be 0 or more, got {benches}")
+    return benches
+
+
+def _run_coverage(args: argparse.Namespace, out: Path, benches: int) -> None:
+    """The coverage study (protocols.bench_errors) into OUT/study/coverage/, when benches > 0."""
     if benches:
         from squeezebench.protocols.bench_errors import run_coverage_study
 
@@ -207,12 +216,12 @@ def cmd_study(args: argparse.Namespace) -> int:
         settings = replace(StudySettings(), repeats=args.repeats)
     except ValueError as exc:
         raise UserError(f"--repeats: {exc}") from None
+    coverage_benches = _coverage_benches(args)
     experiments = tuple(args.experiment) if args.experiment else STUDY_EXPERIMENTS
     study_dir = run_study(args.out, settings, experiments, resume=args.resume,
                           progress=lambda message: say(args, message),
                           workers=args.workers, scheduler=args.scheduler)
-    _run_coverage(args, args.out, (0 if args.experiment else 40) if args.coverage_benches is None
-                  else args.coverage_benches)
+    _run_coverage(args, args.out, coverage_benches)
     say(args, f"study stored in {study_dir}; 'squeezebench report {args.out}' shows it")
     return 0
 

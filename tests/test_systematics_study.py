@@ -82,3 +82,33 @@ def test_bench_k_is_the_same_bench_in_every_experiment(summary, tmp_path):
     power = [frame[frame["quantity"] == "power_w"].sort_values("repeat")["rel_error"].to_numpy()
              for frame in (again, moved)]
     assert power[0] == pytest.approx(power[1], abs=2e-3)   # the bench's errors dominate; noise differs
+
+
+def test_the_coverage_study_scores_every_stored_point_and_resumes_by_bench(tmp_path):
+    from squeezebench import paths
+    from squeezebench.analysis.study import coverage_table, load_coverage
+    from squeezebench.protocols.bench_errors import run_coverage_study
+
+    quick = paths.campaigns_dir() / "quick.yaml"
+    path = run_coverage_study(tmp_path, 2, quick)
+    points = load_coverage(tmp_path)
+    assert path.is_file() and set(points["bench_seed"]) == {1, 2}
+    assert set(points["quantity"]) == {"power_w", "velocity_pp_mps"}
+    assert (points["rel_expanded_u"] > 0.01).all()   # the specifications, not the noise alone
+    table = coverage_table(points).set_index("quantity")
+    assert table.loc["power_w", "benches"] == 2
+    assert table.loc["power_w", "covered_fraction"] == pytest.approx(points[points["quantity"] == "power_w"]
+                                                                     ["covered"].mean())
+    first = (path.parent / "bench_1.parquet").stat().st_mtime_ns
+    run_coverage_study(tmp_path, 3, quick, resume=True)   # one more bench; the first two kept
+    assert (path.parent / "bench_1.parquet").stat().st_mtime_ns == first
+    assert set(load_coverage(tmp_path)["bench_seed"]) == {1, 2, 3}
+
+
+def test_a_negative_number_of_benches_is_refused(tmp_path, capsys):
+    from squeezebench.cli import main
+
+    assert main(["study", "--out", str(tmp_path), "--experiment", "systematics_table3",
+                 "--coverage-benches", "-1", "--repeats", "2"]) == 2
+    assert "--coverage-benches" in capsys.readouterr().err
+    assert not (tmp_path / "study").exists()   # refused before anything ran
