@@ -32,14 +32,17 @@ SPECIFICATIONS: dict[str, Specification] = {
         0.02, "1", "TDS3000B Series User Manual, App. A (Specifications): DC gain accuracy +-2 % "
                    "per channel, sample or average mode"),
     "scope_skew": Specification(
-        1e-9, "s", "assumed: the TDS3000B states no channel-to-channel delay; 1 ns, a tenth of "
-                   "the +-10 ns the scope can deskew (CH<x>:DESKew range, programmer manual)"),
+        1e-9, "s", "assumed: no delay-between-channels figure of the TDS3000B was found; Tektronix "
+                   "verifies +-50 to +-100 ps on its TDS 500B/600B/700A (performance verification, delay "
+                   "between channels); 1 ns bounds an entry-level scope, a tenth of the +-10 ns "
+                   "CH<x>:DESKew range (programmer manual)"),
     "current_probe_gain": Specification(
         0.03, "1", "TCP202 instruction manual (070-9542), Specifications: DC accuracy +-3 %"),
     "current_probe_delay": Specification(
-        10e-9, "s", "assumed: the TCP202's delay relative to a passive voltage probe is "
-                    "compensated with CH<x>:DESKew, whose +-10 ns range (programmer manual) bounds "
-                    "what is left uncorrected"),
+        10e-9, "s", "assumed: no propagation-delay figure of the TCP202 was found; Tektronix's deskew note for "
+                    "power measurements gives nominal delays of 6.5 ns (TDP1000 voltage probe) and 14.5 ns "
+                    "(TCP0030 current probe), 8 ns apart; +-10 ns is also the most CH<x>:DESKew can "
+                    "correct (programmer manual)"),
     "vibrometer_scale": Specification(
         0.01, "1", "Polytec velocity decoder specifications: calibration error of the analog "
                    "output +-1 % (sinusoidal vibration, 70 % of full scale)"),

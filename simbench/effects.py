@@ -432,8 +432,9 @@ class ChannelSkew(_ChannelDelay, errors={"ch2_delay_s": SPECIFICATIONS["scope_sk
     """The scope's own delay of CH2 against CH1: CH2 shows i(t - ch2_delay_s). Mean
     power becomes 0.5 Re(V conj(I) exp(j w tau)) = P cos(w tau) - Q_r sin(w tau), with
     Q_r = 0.5 Im(V conj I) (negative for the capacitive plate: a delay raises the power;
-    phasor algebra). Default 1 ns, assumed: the TDS3000B
-    states no channel-to-channel delay; a tenth of its +-10 ns deskew range."""
+    phasor algebra). Default 1 ns, assumed: no TDS3000B figure was found (Tektronix
+    verifies +-50 to +-100 ps on its TDS 500B/600B/700A); `analysis.specifications`
+    says why 1 ns."""
 
     name = "channel_skew"
     delay_parameter = "ch2_delay_s"
@@ -442,8 +443,10 @@ class ChannelSkew(_ChannelDelay, errors={"ch2_delay_s": SPECIFICATIONS["scope_sk
 class CurrentProbeDelay(_ChannelDelay,
                         errors={"delay_s": SPECIFICATIONS["current_probe_delay"].half_width}):
     """The TCP202's signal delay left uncorrected against the voltage probe: CH2 shows
-    i(t - delay_s); same closed form as `channel_skew`. Default 10 ns, assumed: the
-    +-10 ns CH<x>:DESKew range (programmer manual) bounds what the scope corrects. At
+    i(t - delay_s); same closed form as `channel_skew`. Default 10 ns, assumed: a current
+    probe's propagation delay exceeds a voltage probe's by ~8 ns in Tektronix's own
+    deskew example (TCP0030 against TDP1000), and +-10 ns is what CH<x>:DESKew can
+    correct (programmer manual). At
     the Fig. 2c stress point (power factor 0.018) 10 ns moves the power by ~16 mW."""
 
     name = "current_probe_delay"
