@@ -86,7 +86,8 @@ COLUMNS: dict[str, tuple[str, str]] = {
     "source": ("", "where the term's size comes from (manual, datasheet, assumption)"),
     "floor_p95_rel": ("1", "p95 relative error the instruments' specified errors leave, whatever the averaging"),
     "dominant_term": ("", "largest term of the budget"),
-    "point": ("", "the systematics study's point: table3 (Table 3), stress (Fig. 2c), sweep (a Fig. 5 plate)"),
+    "point": ("", "the systematics study's point: table3 (Table 3), stress (Fig. 2c), sweep (a Fig. 5 "
+                  "plate), search (the resonance search)"),
     "benches": ("1", "simulated benches, each with its own draw of the instruments' errors"),
     "calibrated_floor_p95_rel": ("1", "floor_p95_rel after the deskew calibration"),
     "calibrated_averages": ("1", "scope averages where the calibrated floor is reached"),

@@ -238,9 +238,13 @@ def systematics_fronts(summary: pd.DataFrame, path: Path) -> Path:
     experiments of analysis.study.summarise."""
     data = summary.assign(point=[systematics_point(e)[0] for e in summary["experiment"]],
                           calibrated=[systematics_point(e)[1] for e in summary["experiment"]])
-    quantities = [q for q in ("power_w", "velocity_pp_mps", "q", "tan_theta") if q in set(data["quantity"])]
-    fig, axes = plt.subplots(1, len(quantities), figsize=(min(MAX_WIDTH_IN, 3.3 * len(quantities)), 3.4),
-                             squeeze=False)
+    quantities = [q for q in ("power_w", "velocity_pp_mps", "q", "tan_theta", "resonance_frequency_hz")
+                  if q in set(data["quantity"])]
+    columns = min(3, len(quantities))
+    rows = -(-len(quantities) // columns)
+    fig, axes = plt.subplots(rows, columns, figsize=(min(MAX_WIDTH_IN, 3.8 * columns), 3.2 * rows), squeeze=False)
+    for ax in list(axes.flat)[len(quantities):]:
+        ax.set_visible(False)
     colours = dict(zip(sorted(data["point"].unique()), plt.rcParams["axes.prop_cycle"].by_key()["color"]))
     for ax, quantity in zip(axes.flat, quantities):
         for (point, calibrated), group in data[data["quantity"] == quantity].groupby(["point", "calibrated"]):

@@ -611,20 +611,23 @@ def _systematics_part(context: ReportContext, summary: pd.DataFrame) -> str:
     floors = study.floors_table(summary)
     context.tables["study_floors"] = floors
     words = "; ".join(
-        f"{row.quantity} {row.floor_p95_rel:.1%} ({row.point}){_calibrated_words(row)}"
+        f"{row.quantity} {100 * row.floor_p95_rel:.2g} % ({row.point}){_calibrated_words(row)}"
         for row in floors.itertuples())
     return ("<h3>Floors on benches whose instruments err within specification</h3>"
             f"<p>Each trial is another simulated bench: scope gains, current-probe gain and delay, "
             "channel skew, vibrometer scale and generator frequency drawn once within their "
-            "specifications (analysis.specifications), the noise drawn anew. Averaging lowers the "
-            "noise until the bench's own errors are all that is left. Floor reached (lowest p95 "
-            f"|relative error| over the benches at any averaging): {html.escape(words)}.</p>"
+            "specifications (analysis.specifications), the noise drawn anew. Averaging (and, for the "
+            "search, a finer tolerance) lowers the noise until the bench's own errors, or what the "
+            "search cannot resolve on the flat top of the peak, are all that is left. Floor reached "
+            f"(lowest p95 |relative error| over the benches at any setting): {html.escape(words)}.</p>"
             + context.figure(figures.systematics_fronts(summary, context.out_dir / "study_systematics.png"),
                              "Total error against bench time per trial over simulated benches erring "
-                             "within specification, one panel per quantity: each point's averaging series "
-                             "as the bench is (solid) and after the deskew calibration (dashed; its bench "
+                             "within specification, one panel per quantity: each point's series (averaging; "
+                             "the search's tolerance) as the bench is (solid) and after the deskew "
+                             "calibration (dashed; its bench "
                              "time included). Points: table3 = Table 3's point, stress = Fig. 2c's stress "
-                             "point (power factor 0.018), sweep = a Fig. 5 plate's characterisation. "
+                             "point (power factor 0.018), sweep = a Fig. 5 plate's characterisation, search = the "
+                             "resonance search on the Table 3 plate. "
                              "Simulated bench.")
             + html_table(floors, "Floor per point and quantity, as the bench is and after the deskew "
                                  "calibration, with the averaging and bench time per trial where it is "
@@ -660,7 +663,7 @@ def _coverage_part(context: ReportContext) -> str:
 def _calibrated_words(row) -> str:
     if pd.isna(row.calibrated_floor_p95_rel):
         return ""
-    return (f", {row.calibrated_floor_p95_rel:.1%} calibrated for "
+    return (f", {100 * row.calibrated_floor_p95_rel:.2g} % calibrated for "
             f"{row.calibrated_bench_time_s - row.bench_time_s:+.1f} s per trial")
 
 
@@ -700,7 +703,8 @@ def conventions_section(context: ReportContext) -> Section:
         "Uncertainties: U is the expanded uncertainty (k = 2) of the whole budget of each point "
         "(record noise and the instruments' specifications, analysis.uncertainty); Q and tan theta' "
         "add their fits' uncertainty and the geometry's and NCE 41's tolerances (the systematic parts are "
-        "shared by the plates of one bench and do not average down in a mean over plates). A cell agrees with the paper when the difference is "
+        "shared by the plates of one bench and do not average down in a mean over plates). A cell agrees "
+        "with the paper when the difference is "
         "within U plus half the printed value's last digit.",
         "Q: Eq. 27 with the fitted slope of amplitude pp vs voltage pp. tan theta': Eq. 25 with the "
         "fitted slope of power vs Vpp^2, divided by Q. Table 5 estimate: Q of small_plate_4 through "

@@ -125,7 +125,7 @@ def floors_table(summary: pd.DataFrame) -> pd.DataFrame:
             f"{prefix}averages": int(best["averages"]), "benches": int(best["n_trials"])})
     columns = ["point", "quantity", "benches", "floor_p95_rel", "averages", "bench_time_s",
                "calibrated_floor_p95_rel", "calibrated_averages", "calibrated_bench_time_s"]
-    order = {q: i for i, q in enumerate(("power_w", "velocity_pp_mps", "q", "tan_theta"))}
+    order = {q: i for i, q in enumerate(("power_w", "velocity_pp_mps", "q", "tan_theta", "resonance_frequency_hz"))}
     frame = pd.DataFrame(list(rows.values())).reindex(columns=columns)
     return frame.sort_values(["quantity", "point"], key=lambda c: c.map(order) if c.name == "quantity" else c,
                              ignore_index=True)

@@ -17,7 +17,8 @@ Experiments (the scene, state and voltage of each are in `StudySettings`):
 - `systematics_table3`, `systematics_stress`, `systematics_sweep`, each also `..._calibrated`:
   points of the paper campaign on benches whose instruments err within specification, one
   bench per repeat, per averaging (`protocols.systematics_study`) -> total error and the
-  floor no averaging lowers, as the bench is and after the deskew calibration.
+  floor no averaging lowers, as the bench is and after the deskew calibration;
+  `systematics_search`: the resonance search's tolerance on such benches.
 
 Every configuration is repeated (`repeats`): the trials give error distributions, not
 single points. A task is one configuration of one experiment on its own fresh simulated
@@ -297,6 +298,12 @@ EXPERIMENTS: dict[str, Experiment] = {
         lambda s: [{"averages": n} for n in s.systematics.averages],
         functools.partial(systematics_study.point_trials, point, calibrated))
        for point in ("table3", "stress") for calibrated in (False, True)},
+    "systematics_search": Experiment(
+        lambda s: SceneSpec(s.point_scene), lambda s: s.point_state,
+        lambda s: [{"averages": s.systematics.search_averages, "record_length": 500,
+                    "search_points": s.systematics.search_points, "search_tolerance_hz": tolerance_hz}
+                   for tolerance_hz in s.systematics.search_tolerances_hz],
+        systematics_study.search_trials),
     **{f"systematics_sweep{'_calibrated' if calibrated else ''}": Experiment(
         lambda s: SceneSpec(s.sweep_scene), lambda s: None,
         lambda s: [{"n_voltages": s.systematics.sweep_voltages, "averages": n} for n in s.systematics.sweep_averages],

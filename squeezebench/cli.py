@@ -24,8 +24,9 @@ EXIT_USER_ERROR = 2
 EXIT_INTERRUPTED = 130
 #: protocols.accuracy_study.AccuracyStudy.EXPERIMENTS, spelled here so `--help` imports nothing heavy.
 STUDY_EXPERIMENTS = ("averages", "record", "search", "settle", "sweep", "heating",
-                     *(f"systematics_{point}{suffix}" for point in ("table3", "stress", "sweep")
-                       for suffix in ("", "_calibrated")))
+                     *(f"systematics_{point}{suffix}" for point in ("table3", "stress")
+                       for suffix in ("", "_calibrated")),
+                     "systematics_search", "systematics_sweep", "systematics_sweep_calibrated")
 
 
 def say(args: argparse.Namespace, message: str) -> None:

@@ -6,21 +6,22 @@ from __future__ import annotations
 
 import dataclasses
 
+import pandas as pd
 import pytest
 
 from squeezebench.analysis.study import floors_table, load_trials, summarise
 from squeezebench.protocols.accuracy_study import StudySettings, run_study
 from squeezebench.protocols.systematics_study import SystematicsSettings
 
-EXPERIMENTS = tuple(f"systematics_{point}{suffix}" for point in ("table3", "stress", "sweep")
-                    for suffix in ("", "_calibrated"))
+EXPERIMENTS = (*(f"systematics_{point}{suffix}" for point in ("table3", "stress", "sweep")
+                  for suffix in ("", "_calibrated")), "systematics_search")
 
 
 @pytest.fixture(scope="module")
 def summary(tmp_path_factory):
     out = tmp_path_factory.mktemp("systematics")
-    settings = StudySettings(repeats=3, systematics=SystematicsSettings(averages=(1, 64), sweep_averages=(4,),
-                                                                        sweep_voltages=3))
+    settings = StudySettings(repeats=3, systematics=SystematicsSettings(
+        averages=(1, 64), sweep_averages=(4,), sweep_voltages=3, search_tolerances_hz=(10.0, 0.1)))
     run_study(out, settings, EXPERIMENTS, progress=lambda message: None)
     return summarise(load_trials(out))
 
@@ -61,14 +62,25 @@ def test_q_and_tan_theta_have_floors_and_only_tan_theta_is_lifted(summary):
     assert tan > 0.005 and tan_calibrated < tan
 
 
+def test_the_search_on_an_erring_bench_stops_at_what_it_cannot_resolve(summary):
+    """The generator's 20 ppm is inside the search's own p95 error on the flat top: the
+    bench's errors do not limit the search, the peak's flatness does."""
+    rows = summary[summary["experiment"] == "systematics_search"].set_index("search_tolerance_hz")
+    assert rows.loc[0.1, "bench_time_s"] > rows.loc[10.0, "bench_time_s"]
+    assert 2e-5 < rows.loc[0.1, "p95_abs_rel_error"] < 5e-4
+
+
 def test_the_floors_table_names_every_point_and_quantity(summary):
     floors = floors_table(summary).set_index(["point", "quantity"])
     assert set(floors.index) == {("table3", "power_w"), ("table3", "velocity_pp_mps"), ("stress", "power_w"),
-                                 ("stress", "velocity_pp_mps"), ("sweep", "q"), ("sweep", "tan_theta")}
+                                 ("stress", "velocity_pp_mps"), ("sweep", "q"), ("sweep", "tan_theta"),
+                                 ("search", "resonance_frequency_hz")}
     assert (floors["benches"] == 3).all()
     assert floors.loc[("stress", "power_w"), "calibrated_floor_p95_rel"] < floors.loc[("stress", "power_w"),
                                                                                       "floor_p95_rel"]
-    assert (floors["calibrated_bench_time_s"] > floors["bench_time_s"]).all()
+    calibrated = floors.drop(("search", "resonance_frequency_hz"))
+    assert (calibrated["calibrated_bench_time_s"] > calibrated["bench_time_s"]).all()
+    assert pd.isna(floors.loc[("search", "resonance_frequency_hz"), "calibrated_floor_p95_rel"])   # none lifts it
 
 
 def test_bench_k_is_the_same_bench_in_every_experiment(summary, tmp_path):
