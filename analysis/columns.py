@@ -55,7 +55,8 @@ COLUMNS: dict[str, tuple[str, str]] = {
     "unit": ("", "SI unit of value, uncertainties and paper_value"),
     "value": ("unit", "this run's value"),
     "std_uncertainty": ("unit", "standard uncertainty (k = 1) of value from the record fits"),
-    "expanded_uncertainty": ("unit", "expanded uncertainty (k = 2) of value: noise and instrument specifications"),
+    "expanded_uncertainty": ("unit", "expanded uncertainty (k = 2) of value: its whole budget (noise, instrument "
+                                     "specifications; for Q and tan theta' also the geometry and NCE 41 tolerances)"),
     "scope_value": ("unit", "the scope's on-line number for the same quantity (cross-check)"),
     "paper_value": ("unit", "value printed in the paper"),
     "paper_source": ("", "where the paper prints it"),

@@ -254,7 +254,9 @@ def systematics_fronts(summary: pd.DataFrame, path: Path) -> Path:
                         label=f"{point}{' calibrated' if calibrated else ''}")
         ax.set_ylim(bottom=0.0)   # a floor is a level, not a slope: linear in %
         ax.set_title(quantity, fontsize=9)
-        ax.xaxis.set_minor_formatter(NullFormatter())
+        low, high = ax.get_xlim()
+        if high / low > 10:   # a decade's label is in view; within one, the minor labels are all there is
+            ax.xaxis.set_minor_formatter(NullFormatter())
         ax.set_xlabel("bench time per trial (s)")
         ax.set_ylabel("p95 |relative error| over benches (%)")
         ax.legend(fontsize=7, loc="lower left")

@@ -278,8 +278,10 @@ def _paper_table_section(context: ReportContext, name: str, title: str, protocol
 def _paper_table_html(context: ReportContext, name: str, title: str, frame: pd.DataFrame,
                       item_label: Callable[[str], str], intro: str) -> str:
     explain = _flag(context, title, name, frame)
-    caption = (f"{html.escape(title)}. {_bench_words(context)} Each cell: this run ± U (k = 2, noise "
-               "and instrument specifications), the printed value and the deviation; ✓ within, ✗ outside "
+    budget = ("the fits, instrument specifications, geometry and NCE 41 tolerances" if name == "table5"
+              else "noise and instrument specifications")
+    caption = (f"{html.escape(title)}. {_bench_words(context)} Each cell: this run ± U (k = 2, {budget}), "
+               "the printed value and the deviation; ✓ within, ✗ outside "
                "U plus half the printed last digit; beneath, the origin of the number.")
     return (f"<p>{intro}</p>" + presentation.paper_layout(frame, name, item_label, explain, caption)
             + presentation.calibration_notes(frame, item_label)

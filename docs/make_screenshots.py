@@ -5,7 +5,7 @@
 Renders RUN_DIR/report/index.html in headless Chromium (/usr/bin/chromium or $CHROMIUM),
 measures where each part of the page is (a small script writes the measurements into
 the DOM, read back with --dump-dom), takes one screenshot of the whole page and cuts
-it into: the top, Tables 3-5, Fig. 9 and the audit. `measure` is also what the browser
+it into: the top, Tables 3-5, Fig. 9, the audit and the floors of the systematics study. `measure` is also what the browser
 test (tests/test_report_browser.py) asserts on.
 """
 
@@ -81,7 +81,7 @@ def measure(index: Path, width_px: int = WIDTH_PX) -> dict:
 
 
 def screenshots(index: Path, out_dir: Path = SCREENSHOTS) -> list[Path]:
-    """The four views a reader checks first, as PNGs under `out_dir`."""
+    """The views a reader checks first, as PNGs under `out_dir`."""
     from PIL import Image   # Pillow comes with matplotlib
 
     boxes = measure(index)
@@ -96,12 +96,16 @@ def screenshots(index: Path, out_dir: Path = SCREENSHOTS) -> list[Path]:
     fig9 = next(img for img in boxes["images"] if img["src"] == "fig9.png")
     fig9_figure = max((s for s in sections.values() if s["top"] <= fig9["top"] <= s["top"] + s["height"]
                        and s["height"] < 2000), key=lambda s: s["top"])
+    systematics = next(img for img in boxes["images"] if img["src"] == "study_systematics.png")
+    floors = next(t for t in boxes["tables"] if t["caption"].startswith("Floor per point and quantity"))
     views = {
         "report_top.png": (0, 1100),
         "report_tables_3_5.png": (sections["table3"]["top"] - 10,
                                   sections["table5"]["top"] + min(sections["table5"]["height"], 1100)),
         "report_fig9.png": (fig9_figure["top"] - 10, fig9_figure["top"] + fig9_figure["height"] + 190),   # and the sentence beneath
         "report_audit.png": (sections["audit"]["top"] - 10, sections["audit"]["top"] + 1300),
+        # the floors the instruments' errors leave, with and without calibration (issue 15)
+        "report_systematics.png": (systematics["top"] - 250, floors["top"] + floors["height"] + 10),
     }
     out_dir.mkdir(parents=True, exist_ok=True)
     written = []
