@@ -32,7 +32,7 @@ from squeezebench.analysis.uncertainty import run_uncertainties
 from squeezebench.instruments.bench import open_bench, sim_bench_config
 from squeezebench.protocols.campaign import run_campaign
 from squeezebench.protocols.parallel import map_unordered
-from squeezebench.protocols.storage import write_frame_atomic
+from squeezebench.protocols.storage import sha256_file, write_frame_atomic
 from squeezebench.protocols.variants import campaign_with_effects, systematic_effects
 
 QUANTITIES = ("power_w", "velocity_pp_mps")
@@ -134,7 +134,7 @@ def run_coverage_study(out_dir: Path, benches: int, campaign_file: Path | None =
     """Whether the reported expanded uncertainties cover the truth: the campaign (the
     paper's by default) on benches 1..`benches` with errors drawn within specification,
     every stored point scored. Each bench's rows go to OUT_DIR/study/coverage/bench_<k>.parquet
-    as it completes (`resume` keeps those already there); all of them to
+    as it completes (`resume` keeps those already there of the same campaign file); all of them to
     OUT_DIR/study/coverage/points.parquet. Returns that path."""
     campaign_file = Path(campaign_file or paths.paper_campaign())
     directory = Path(out_dir) / STUDY_DIR / COVERAGE_DIR
@@ -142,13 +142,20 @@ def run_coverage_study(out_dir: Path, benches: int, campaign_file: Path | None =
         shutil.rmtree(directory, ignore_errors=True)
     directory.mkdir(parents=True, exist_ok=True)
     seeds = range(1, benches + 1)
-    pending = [seed for seed in seeds if not (directory / f"bench_{seed}.parquet").exists()]
+    digest = sha256_file(campaign_file)
+
+    def stored(seed: int) -> bool:   # a bench of this very campaign file (another's is redone)
+        path = directory / f"bench_{seed}.parquet"
+        return path.exists() and set(pd.read_parquet(path, columns=["campaign_sha256"])["campaign_sha256"]) == {digest}
+
+    pending = [seed for seed in seeds if not stored(seed)]
     progress(f"coverage: {campaign_file.name} on {len(pending)} of {benches} simulated benches")
     job = functools.partial(_errors_on_fresh_bench, campaign_file)
     for seed, (frame, bench_time_s) in map_unordered(job, pending, workers, scheduler, "coverage"):
-        write_frame_atomic(directory / f"bench_{seed}.parquet", frame.assign(bench_time_s=bench_time_s))
+        write_frame_atomic(directory / f"bench_{seed}.parquet",
+                           frame.assign(bench_time_s=bench_time_s, campaign=campaign_file.name, campaign_sha256=digest))
     points = pd.concat([pd.read_parquet(directory / f"bench_{seed}.parquet") for seed in seeds], ignore_index=True)
-    write_frame_atomic(directory / COVERAGE_FILE, points.assign(campaign=campaign_file.name))
+    write_frame_atomic(directory / COVERAGE_FILE, points)
     progress(f"coverage: stored in {directory / COVERAGE_FILE}")
     return directory / COVERAGE_FILE
 

@@ -343,11 +343,11 @@ def make_plan(campaign_path: Path, target_rel_error: float, repeats: int = REPEA
                    noise_scale)
     if not check_benches or floors.below_floor():
         return plan
-    for _ in range(MAX_TIGHTENINGS + 1):
+    for tightenings in range(MAX_TIGHTENINGS + 1):
         plan.check, plan.check_benches = check_plan(campaign_path, plan, check_benches, workers,
                                                     scheduler), check_benches
         missed = plan.missed_runs()
-        if not missed:
+        if not missed or tightenings == MAX_TIGHTENINGS:   # the plan returned is always the one checked
             break
         # The floors and noise add as normal approximations; the check on erring benches is
         # the arbiter. Calibrate first (a bench in the floor's tail may miss), then halve the

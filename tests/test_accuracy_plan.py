@@ -107,3 +107,22 @@ def test_a_missed_check_calibrates_then_tightens_the_missing_runs(monkeypatch):
     assert seen[2][2].averages >= seen[1][2].averages   # less noise allowed: never cheaper
     assert "its noise may take 0.5" in plan.table()
     assert plan.as_dict()["check"]["noise_scale"] == {"detuning": 0.5}
+
+
+def test_a_plan_that_keeps_missing_is_returned_checked_and_says_so(monkeypatch):
+    import pandas as pd
+
+    from squeezebench.protocols import planning
+
+    calls = []
+
+    def check(campaign_path, plan, benches, workers=1, scheduler=None):
+        calls.append(plan)
+        return pd.DataFrame([{"run_name": "detuning", "quantity": "power_w", "p95_abs_rel_error": 0.5}])
+
+    monkeypatch.setattr(planning, "check_plan", check)
+    plan = planning.make_plan(QUICK, 0.08, repeats=2, check_benches=8)
+    assert len(calls) == planning.MAX_TIGHTENINGS + 1 and calls[-1] is plan   # the last plan is the checked one
+    assert not plan.meets_check and plan.missed_runs() == ["detuning"]
+    assert f"missed by detuning after {planning.MAX_TIGHTENINGS} tightenings" in plan.table()
+    assert plan.as_dict()["check"]["meets_target"] is False
