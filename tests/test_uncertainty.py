@@ -256,3 +256,23 @@ def test_resonance_frequencies_are_covered_by_the_search_budget(erring_bench_poi
     assert np.mean(covered) >= 0.95
     # the sampled peak-to-peak the search compares, not the generator, limits it
     assert (searches["dominant_term"] == "sampled peak-to-peak on the flat top").mean() > 0.5
+
+
+def test_a_mean_over_plates_keeps_their_shared_uncertainty(erring_bench_points):
+    """Averaging plates measured on one bench lowers their fits' scatter, not the bench's
+    errors nor the stock's tolerances: the mean's u is at least their mean systematic u."""
+    from squeezebench.analysis.tables import mean_over_plates
+
+    _, _, run_dir = erring_bench_points
+    plates = [p for name, p in characterise_plates(load_run(run_dir), model.PAPER_CONVENTION).items()
+              if name.startswith("small_plate")]
+    assert len(plates) >= 3
+    for quantity in ("q", "tan_theta"):
+        mean = mean_over_plates(plates, quantity)
+        shared = np.mean([p.systematic_u[quantity] for p in plates])
+        assert mean.std_uncertainty >= shared > 0
+        fits = [p.fit_u(quantity) for p in plates]
+        assert all(0 < f < getattr(p, quantity).std_uncertainty for f, p in zip(fits, plates))
+        # independent errors would have averaged down by sqrt(n): the shared part does not
+        assert mean.std_uncertainty > np.sqrt(np.mean([getattr(p, quantity).std_uncertainty**2
+                                                       for p in plates]) / len(plates))
