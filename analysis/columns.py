@@ -88,7 +88,7 @@ COLUMNS: dict[str, tuple[str, str]] = {
     "floor_p95_rel": ("1", "p95 relative error the instruments' specified errors leave, whatever the averaging"),
     "dominant_term": ("", "largest term of the budget"),
     "point": ("", "the systematics study's point: table3 (Table 3), stress (Fig. 2c), sweep (a Fig. 5 "
-                  "plate), search (the resonance search)"),
+                  "plate), search (the resonance search), campaign (the whole paper campaign)"),
     "benches": ("1", "simulated benches, each with its own draw of the instruments' errors"),
     "calibrated_floor_p95_rel": ("1", "floor_p95_rel after the deskew calibration"),
     "calibrated_averages": ("1", "scope averages where the calibrated floor is reached"),
@@ -123,6 +123,7 @@ COLUMNS: dict[str, tuple[str, str]] = {
     "tracking": ("", "resonance re-found before each point"),
     "settings": ("", "the settings of a configuration, as text"),
     "n_trials": ("1", "repeats of a configuration on fresh noise"),
+    "n_repeats": ("1", "distinct repeats (for the systematics experiments: benches) behind the row"),
     "median_rel_error": ("1", "median relative error against the scene's truth"),
     "p95_abs_rel_error": ("1", "95th percentile of |relative error| against the scene's truth"),
     "on_front": ("", "configuration on its experiment's Pareto front (error vs bench time)"),

@@ -612,6 +612,9 @@ def _systematics_part(context: ReportContext, summary: pd.DataFrame) -> str:
     deskew calibration buys for its bench time."""
     floors = study.floors_table(summary)
     context.tables["study_floors"] = floors
+    if "campaign" not in set(floors["point"]):
+        context.absent.append("The whole paper campaign on erring benches, per averaging: not run ('squeezebench "
+                              "study --out RUN_DIR --resume' adds it, a few minutes)")
     words = "; ".join(
         f"{row.quantity} {100 * row.floor_p95_rel:.2g} % ({row.point}){_calibrated_words(row)}"
         for row in floors.itertuples())
@@ -629,7 +632,8 @@ def _systematics_part(context: ReportContext, summary: pd.DataFrame) -> str:
                              "calibration (dashed; its bench "
                              "time included). Points: table3 = Table 3's point, stress = Fig. 2c's stress "
                              "point (power factor 0.018), sweep = a Fig. 5 plate's characterisation, search = the "
-                             "resonance search on the Table 3 plate. "
+                             "resonance search on the Table 3 plate, campaign = the whole paper campaign at "
+                             "one averaging for all its runs (every stored point; its bench time). "
                              "Simulated bench.")
             + html_table(floors, "Floor per point and quantity, as the bench is and after the deskew "
                                  "calibration, with the averaging and bench time per trial where it is "

@@ -46,7 +46,7 @@ def summarise(trials: pd.DataFrame) -> pd.DataFrame:
     keys = ["experiment", "scene", "state", *KNOBS, "quantity"]
     summary = (trials.assign(abs_rel_error=trials["rel_error"].abs())
                .groupby(keys, sort=True)
-               .agg(n_trials=("rel_error", "size"),
+               .agg(n_trials=("rel_error", "size"), n_repeats=("repeat", "nunique"),
                     median_rel_error=("rel_error", "median"),
                     p95_abs_rel_error=("abs_rel_error", lambda e: float(np.percentile(e, ERROR_PERCENTILE))),
                     bench_time_s=("bench_time_s", "mean"))
@@ -122,7 +122,7 @@ def floors_table(summary: pd.DataFrame) -> pd.DataFrame:
         rows.setdefault((point, quantity), {"point": point, "quantity": quantity}).update({
             f"{prefix}floor_p95_rel": float(best["p95_abs_rel_error"]),
             f"{prefix}bench_time_s": float(best["bench_time_s"]),
-            f"{prefix}averages": int(best["averages"]), "benches": int(best["n_trials"])})
+            f"{prefix}averages": int(best["averages"]), "benches": int(best["n_repeats"])})
     columns = ["point", "quantity", "benches", "floor_p95_rel", "averages", "bench_time_s",
                "calibrated_floor_p95_rel", "calibrated_averages", "calibrated_bench_time_s"]
     order = {q: i for i, q in enumerate(("power_w", "velocity_pp_mps", "q", "tan_theta", "resonance_frequency_hz"))}

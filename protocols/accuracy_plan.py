@@ -21,11 +21,11 @@ from pathlib import Path
 
 from squeezebench.analysis.rundata import load_run
 from squeezebench.analysis.uncertainty import REFERENCE_FOR, run_uncertainties, systematic_floor
-from squeezebench.protocols.bench_errors import bench_time_by_run_s, with_calibration
+from squeezebench.protocols.bench_errors import bench_time_by_run_s
+from squeezebench.protocols.variants import with_calibration
 from squeezebench.protocols.campaign import run_campaign
 
 CALIBRATION_RUN = "deskew_calibration"
-CALIBRATION_FREQUENCY_HZ = 37000.0   # a pure delay is the same at every frequency; near the plates'
 QUANTITIES = ("power_w", "velocity_pp_mps")
 
 
@@ -115,8 +115,7 @@ class AccuracyFloors:
 def accuracy_floors(campaign_path: Path, target_rel_error: float) -> AccuracyFloors:
     """Run the campaign once (simulated, calibration first) and read its floors."""
     with tempfile.TemporaryDirectory(prefix="squeezebench-floor-") as tmp:
-        variant = with_calibration(Path(campaign_path), Path(tmp) / Path(campaign_path).name,
-                                   CALIBRATION_FREQUENCY_HZ)
+        variant = with_calibration(Path(campaign_path), Path(tmp) / Path(campaign_path).name)
         run_dir = run_campaign(variant, out_dir=Path(tmp) / "run", progress=False)
         found = run_uncertainties(load_run(run_dir))
         times_s = bench_time_by_run_s(run_dir)

@@ -18,7 +18,9 @@ Experiments (the scene, state and voltage of each are in `StudySettings`):
   points of the paper campaign on benches whose instruments err within specification, one
   bench per repeat, per averaging (`protocols.systematics_study`) -> total error and the
   floor no averaging lowers, as the bench is and after the deskew calibration;
-  `systematics_search`: the resonance search's tolerance on such benches.
+  `systematics_search`: the resonance search's tolerance on such benches;
+  `systematics_campaign` (also `..._calibrated`): the whole paper campaign per averaging,
+  every stored point scored, its bench time the cost (minutes: `reproduce` leaves it out).
 
 Every configuration is repeated (`repeats`): the trials give error distributions, not
 single points. A task is one configuration of one experiment on its own fresh simulated
@@ -163,7 +165,7 @@ class Experiment:
     pair and one entry in `EXPERIMENTS`.
     """
 
-    scene: Callable[[StudySettings], SceneSpec]
+    scene: Callable[[StudySettings], SceneSpec]   # or a systematics_study.CampaignSpec
     state: Callable[[StudySettings], str | None]
     configurations: Callable[[StudySettings], list[dict]]
     run: Callable[["TaskRun"], None]
@@ -304,6 +306,11 @@ EXPERIMENTS: dict[str, Experiment] = {
                     "search_points": s.systematics.search_points, "search_tolerance_hz": tolerance_hz}
                    for tolerance_hz in s.systematics.search_tolerances_hz],
         systematics_study.search_trials),
+    **{f"systematics_campaign{'_calibrated' if calibrated else ''}": Experiment(
+        lambda s: systematics_study.CampaignSpec(s.systematics.campaign), lambda s: None,
+        lambda s: [{"averages": n} for n in s.systematics.campaign_averages],
+        functools.partial(systematics_study.campaign_trials, calibrated))
+       for calibrated in (False, True)},
     **{f"systematics_sweep{'_calibrated' if calibrated else ''}": Experiment(
         lambda s: SceneSpec(s.sweep_scene), lambda s: None,
         lambda s: [{"n_voltages": s.systematics.sweep_voltages, "averages": n} for n in s.systematics.sweep_averages],

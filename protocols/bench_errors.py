@@ -3,9 +3,9 @@
 One simulated bench has one unknown set of systematic errors (`variants.systematic_effects`,
 drawn from its `bench_seed`). Running the campaign on several such benches and scoring
 every stored point against the scene's closed-form truth shows what a real bench can
-promise: noise averages away, the specified errors do not. With `calibrate`, each bench
-first runs the deskew calibration (`protocols.calibration`), whose bench time counts and
-whose correction the analysis applies, as a real campaign would.
+promise: noise averages away, the specified errors do not. A campaign that starts with
+the deskew calibration (`variants.with_calibration`) has its correction applied by the
+analysis and its bench time counted, as a real campaign would.
 
 The truth of a point is the reading ideal instruments give at its recorded setting
 (`analysis.uncertainty`): the scene without the systematic effects, driven at the
@@ -23,7 +23,6 @@ from typing import Any, Callable
 
 import numpy as np
 import pandas as pd
-import yaml
 
 from squeezebench import paths
 from squeezebench.analysis.rundata import load_run
@@ -37,24 +36,6 @@ from squeezebench.protocols.variants import campaign_with_effects, systematic_ef
 
 QUANTITIES = ("power_w", "velocity_pp_mps")
 ERROR_PERCENTILE = 95.0
-
-
-def calibration_run(frequency_hz: float, scene: str) -> dict:
-    """The campaign entry of a deskew calibration at the plates' working frequency, with
-    its own averaging: its records set the delay for every later point."""
-    return {"name": "deskew_calibration", "protocol": "deskew_calibration", "bench": {"scene": scene},
-            "plate": {"n_powered_columns": 1, "n_powered_piezos": 1},
-            "acquisition": {"averages": 64, "record_length": 10000},
-            "parameters": {"frequency_hz": float(frequency_hz)}}
-
-
-def with_calibration(campaign_file: Path, out: Path, frequency_hz: float) -> Path:
-    """A copy of the campaign whose first run is a deskew calibration."""
-    data = yaml.safe_load(Path(campaign_file).read_text(encoding="utf-8"))
-    scene = data.get("bench", {}).get("scene") or data["runs"][0]["bench"]["scene"]
-    data["runs"] = [calibration_run(frequency_hz, scene), *data["runs"]]
-    out.write_text(yaml.safe_dump(data, sort_keys=False), encoding="utf-8")
-    return out
 
 
 def errors_on_bench(campaign_file: Path, bench_seed: int, work_dir: Path) -> pd.DataFrame:
@@ -73,6 +54,7 @@ def errors_on_bench(campaign_file: Path, bench_seed: int, work_dir: Path) -> pd.
         for quantity in QUANTITIES:
             rows.append({"bench_seed": bench_seed, "run_name": point["run_name"], "step_id": point["step_id"],
                          "point_index": point["point_index"], "quantity": quantity,
+                         "measured_value": point[quantity], "true_value": truth[quantity],
                          "rel_error": point[quantity] / truth[quantity] - 1.0,
                          "rel_expanded_u": point[f"{quantity}_U"] / abs(truth[quantity]),
                          "covered": abs(point[quantity] - truth[quantity]) <= point[f"{quantity}_U"]})

@@ -31,13 +31,13 @@ from typing import Any, Callable
 
 import numpy as np
 import pandas as pd
-import yaml
 
 from squeezebench.analysis.waveforms import integer_period_mean_power_w, sample_interval_s
-from squeezebench.protocols.accuracy_plan import CALIBRATION_FREQUENCY_HZ, AccuracyFloors, accuracy_floors
+from squeezebench.protocols.accuracy_plan import AccuracyFloors, accuracy_floors
 from squeezebench.protocols.simulated_session import open_simulated
+from squeezebench.protocols.variants import planned_campaign
 from squeezebench.protocols.bench_errors import (
-    bench_time_by_run_s, errors_on_benches, p95_by_run, with_calibration)
+    bench_time_by_run_s, errors_on_benches, p95_by_run)
 from squeezebench.protocols.acquisition import AcquisitionSettings
 from squeezebench.protocols.campaign import Run, load_campaign, run_campaign
 from squeezebench.protocols.parallel import map_unordered
@@ -178,15 +178,6 @@ def measure_setting(scene: Path, state: str | None, point: OperatingPoint, acqui
         return result, session.drive.frequency_hz
 
 
-def _campaign_with_acquisition(campaign_path: Path, acquisition_by_run: dict[str, dict], out: Path) -> Path:
-    """A copy of the campaign file with keys of each run's `acquisition:` overridden."""
-    data = yaml.safe_load(campaign_path.read_text(encoding="utf-8"))
-    for run in data["runs"]:
-        run.setdefault("acquisition", {}).update(acquisition_by_run[run["name"]])
-    out.write_text(yaml.safe_dump(data, sort_keys=False), encoding="utf-8")
-    return out
-
-
 def simulate_bench_time_s(campaign_path: Path, acquisition_by_run: dict[str, dict],
                           calibrate: bool = False) -> dict[str, float]:
     """Run the campaign on the simulated bench with these acquisition settings (with
@@ -194,12 +185,6 @@ def simulate_bench_time_s(campaign_path: Path, acquisition_by_run: dict[str, dic
     with tempfile.TemporaryDirectory(prefix="squeezebench-plan-") as tmp:
         variant = planned_campaign(campaign_path, acquisition_by_run, calibrate, Path(tmp) / campaign_path.name)
         return bench_time_by_run_s(run_campaign(variant, out_dir=Path(tmp) / "run", progress=False))
-
-
-def planned_campaign(campaign_path: Path, acquisition_by_run: dict[str, dict], calibrate: bool, out: Path) -> Path:
-    """The campaign file with these settings, preceded by the deskew calibration if `calibrate`."""
-    variant = _campaign_with_acquisition(campaign_path, acquisition_by_run, out)
-    return with_calibration(variant, out, CALIBRATION_FREQUENCY_HZ) if calibrate else variant
 
 
 @dataclasses.dataclass

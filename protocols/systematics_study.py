@@ -10,9 +10,11 @@ generator frequency and amplitude (what `analysis.uncertainty` calls the point's
 
 Three points of the paper campaign: the Table 3 point (the gains dominate), the Fig. 2c
 stress point (power factor 0.018: the CH2 delay dominates) and the characterisation of
-a Fig. 5 plate (Q and tan theta'); and the resonance search, whose finer tolerances stop
+a Fig. 5 plate (Q and tan theta'); the resonance search, whose finer tolerances stop
 paying at the generator's frequency error (no calibration of this bench lifts that: it
-needs a frequency reference). Each point is run as the bench is and, in the experiment
+needs a frequency reference); and the whole paper campaign at one averaging for all its
+runs, every stored point scored and the campaign's bench time the cost (`campaign`:
+minutes of computing, so `reproduce` leaves it to `study`). Each is run as the bench is and, in the experiment
 `..._calibrated`, after the deskew and gain check (`protocols.calibration`) on the same
 bench, whose correction the power takes and whose bench time the trial is charged (one
 calibration per point: the worst case; a campaign pays it once). Averaging lowers the
@@ -23,19 +25,25 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
+import tempfile
+from pathlib import Path
 from typing import TYPE_CHECKING, Iterator
 
 import numpy as np
 import pandas as pd
+import yaml
+
+from squeezebench import paths
 
 from squeezebench.analysis.calibration import Deskew, calibration_from_points
 from squeezebench.protocols import calibration
 from squeezebench.protocols.acquisition import AcquisitionSettings
+from squeezebench.protocols.bench_errors import errors_on_bench
 from squeezebench.protocols.resonance import SearchSettings, find_resonance
 from squeezebench.protocols.safety import SafetyLimits
 from squeezebench.protocols.simulated_session import (
     SimulatedSession, characterise_at_resonance, open_simulated, reduce_point)
-from squeezebench.protocols.variants import scene_with_effects, systematic_effects
+from squeezebench.protocols.variants import planned_campaign, scene_with_effects, systematic_effects
 
 if TYPE_CHECKING:
     from squeezebench.protocols.accuracy_study import TaskRun
@@ -51,6 +59,8 @@ class SystematicsSettings:
     search_tolerances_hz: tuple[float, ...] = (10.0, 1.0, 0.1)
     search_points: int = 11
     search_averages: int = 16   # the flat top of the peak is found in the noise
+    campaign: str = "paper.yaml"   # a shipped campaign (squeezebench.paths.campaigns_dir())
+    campaign_averages: tuple[int, ...] = (1, 16, 256)
     # The Fig. 2c stress point: the uncut plate far above its resonance, power factor 0.018.
     stress_state: str = "76x41"
     stress_voltage_vpp: float = 240.0
@@ -171,3 +181,34 @@ def search_trials(run: "TaskRun") -> None:
             start_s = session.now_s()
             found = find_resonance(acquisition.measure_at, search)
             run.add(repeat, session.now_s() - start_s, {"resonance_frequency_hz": (found.frequency_hz, true_hz)})
+
+
+@dataclasses.dataclass(frozen=True)
+class CampaignSpec:
+    """What a `systematics_campaign` task carries in a scene's place: a shipped campaign's
+    text (its scenes are found in the shipped scenes, `protocols.campaign`)."""
+
+    name: str
+
+    @property
+    def file_name(self) -> str:
+        return self.name
+
+    def render(self, scenes_dir: Path, seed: int) -> str:
+        return (paths.campaigns_dir() / self.name).read_text(encoding="utf-8")
+
+
+def campaign_trials(calibrated: bool, run: "TaskRun") -> None:
+    """The whole campaign (`run.scene` is its file) with every run at the task's
+    averaging, after the deskew calibration when `calibrated`, one trial per bench: every
+    stored point's power and velocity against the truth at its setting; the cost is the
+    campaign's bench time (the calibration's included)."""
+    names = [entry["name"] for entry in yaml.safe_load(run.scene.read_text(encoding="utf-8"))["runs"]]
+    settings = {name: {"averages": run.knobs["averages"]} for name in names}
+    for repeat in range(run.settings.repeats):
+        with tempfile.TemporaryDirectory(prefix="squeezebench-campaign-") as tmp:
+            variant = planned_campaign(run.scene, settings, calibrated, Path(tmp) / run.scene.name)
+            errors = errors_on_bench(variant, repeat + 1, Path(tmp) / "bench")
+        for _, point in errors.groupby(["run_name", "step_id", "point_index"], sort=False):
+            run.add(repeat, errors.attrs["bench_time_s"],
+                    {row.quantity: (row.measured_value, row.true_value) for row in point.itertuples()})

@@ -1,10 +1,12 @@
-"""A campaign's simulated bench with more effects on: the same plates on another bench.
+"""Variants of a campaign file: the same plates on another bench, with other scope
+settings, or after a deskew calibration.
 
-The accuracy study, the planner and the coverage tests need the paper campaign on a
-bench whose instruments err within their specifications. This writes copies of the
-scenes a campaign names with extra effects appended (e.g. the systematic effects drawn
-from one `bench_seed`) and a copy of the campaign pointing at them; nothing shipped is
-changed, and the copies are ordinary scene and campaign files a user can run.
+The accuracy study, the planner and the coverage study need the paper campaign on a
+bench whose instruments err within their specifications, at other settings, calibrated
+or not. This writes copies of the scenes a campaign names with extra effects appended
+(e.g. the systematic effects drawn from one `bench_seed`) and copies of the campaign;
+nothing shipped is changed, and the copies are ordinary scene and campaign files a user
+can run.
 """
 
 from __future__ import annotations
@@ -15,6 +17,10 @@ from typing import Any
 import yaml
 
 from squeezebench import paths
+
+#: Where the deskew calibration drives its resistor: a pure delay is the same at every
+#: frequency; near the plates' so the resistor's own L/R matters as it will.
+CALIBRATION_FREQUENCY_HZ = 37000.0
 
 #: The systematic effects of `simbench.effects` (scene vocabulary: names, not imports, as
 #: protocols never import the simulator): the instruments' errors within specification.
@@ -73,3 +79,36 @@ def scene_with_effects(scene: str | Path, out_dir: Path, effects: list) -> Path:
 
 def _effect_name(entry) -> str:
     return entry if isinstance(entry, str) else next(iter(entry))
+
+
+def calibration_run(frequency_hz: float, scene: str) -> dict:
+    """The campaign entry of a deskew calibration at the plates' working frequency, with
+    its own averaging: its records set the delay for every later point."""
+    return {"name": "deskew_calibration", "protocol": "deskew_calibration", "bench": {"scene": scene},
+            "plate": {"n_powered_columns": 1, "n_powered_piezos": 1},
+            "acquisition": {"averages": 64, "record_length": 10000},
+            "parameters": {"frequency_hz": float(frequency_hz)}}
+
+
+def with_calibration(campaign_file: Path, out: Path, frequency_hz: float = CALIBRATION_FREQUENCY_HZ) -> Path:
+    """A copy of the campaign whose first run is a deskew calibration."""
+    data = yaml.safe_load(Path(campaign_file).read_text(encoding="utf-8"))
+    scene = data.get("bench", {}).get("scene") or data["runs"][0]["bench"]["scene"]
+    data["runs"] = [calibration_run(frequency_hz, scene), *data["runs"]]
+    Path(out).write_text(yaml.safe_dump(data, sort_keys=False), encoding="utf-8")
+    return Path(out)
+
+
+def with_acquisition(campaign_file: Path, acquisition_by_run: dict[str, dict], out: Path) -> Path:
+    """A copy of the campaign file with keys of each run's `acquisition:` overridden."""
+    data = yaml.safe_load(Path(campaign_file).read_text(encoding="utf-8"))
+    for run in data["runs"]:
+        run.setdefault("acquisition", {}).update(acquisition_by_run[run["name"]])
+    Path(out).write_text(yaml.safe_dump(data, sort_keys=False), encoding="utf-8")
+    return Path(out)
+
+
+def planned_campaign(campaign_file: Path, acquisition_by_run: dict[str, dict], calibrate: bool, out: Path) -> Path:
+    """The campaign file with these settings, preceded by the deskew calibration if `calibrate`."""
+    variant = with_acquisition(campaign_file, acquisition_by_run, out)
+    return with_calibration(variant, out) if calibrate else variant

@@ -26,7 +26,11 @@ EXIT_INTERRUPTED = 130
 STUDY_EXPERIMENTS = ("averages", "record", "search", "settle", "sweep", "heating",
                      *(f"systematics_{point}{suffix}" for point in ("table3", "stress")
                        for suffix in ("", "_calibrated")),
-                     "systematics_search", "systematics_sweep", "systematics_sweep_calibrated")
+                     "systematics_search", "systematics_campaign", "systematics_campaign_calibrated",
+                     "systematics_sweep", "systematics_sweep_calibrated")
+#: `reproduce` leaves out the study's slowest experiments (the whole campaign per bench, a
+#: few minutes): `study --out RUN_DIR --resume` adds them to a reproduction.
+REPRODUCE_EXPERIMENTS = tuple(e for e in STUDY_EXPERIMENTS if not e.startswith("systematics_campaign"))
 
 
 def say(args: argparse.Namespace, message: str) -> None:
@@ -157,8 +161,8 @@ def cmd_reproduce(args: argparse.Namespace) -> int:
     run_dir = run_campaign(paths.paper_campaign(), resume=args.resume, out_dir=args.out,
                            progress=show_progress(args))
     if not args.no_study:
-        run_study(run_dir, resume=args.resume, progress=lambda message: say(args, message),
-                  workers=args.workers, scheduler=args.scheduler)
+        run_study(run_dir, experiments=REPRODUCE_EXPERIMENTS, resume=args.resume,
+                  progress=lambda message: say(args, message), workers=args.workers, scheduler=args.scheduler)
     _run_coverage(args, run_dir, coverage_benches)
     index = write_report(run_dir)
     say(args, f"run stored in {run_dir}\nreport written to {index}")

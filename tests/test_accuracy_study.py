@@ -22,7 +22,8 @@ SMALL = StudySettings(
     repeats=4, averages=(1, 512), periods_per_record=(2.0, 20.0), record_lengths=(500,),
     search_points=(11,), search_tolerances_hz=(1.0,), search_averages=(16,), settle_s=(0.0, 0.2),
     sweep_voltage_counts=(3,), sweep_averages=(16,), heating_averages=(2, 512), heating_points=4,
-    systematics=SystematicsSettings(averages=(4,), sweep_averages=(4,), sweep_voltages=3))
+    systematics=SystematicsSettings(averages=(4,), sweep_averages=(4,), sweep_voltages=3, search_tolerances_hz=(1.0,),
+                                    campaign="quick.yaml", campaign_averages=(4,)))
 
 
 @pytest.fixture(scope="module")

@@ -88,7 +88,8 @@ def test_deskew_corrects_the_fig2c_stress_power(calibrated_run):
 def test_errors_on_erring_benches_with_and_without_calibration(tmp_path):
     """The quick campaign on two erring benches: expanded uncertainties cover the truth,
     and the calibration's bench time is part of the campaign's."""
-    from squeezebench.protocols.bench_errors import errors_on_benches, p95_by_run, with_calibration
+    from squeezebench.protocols.bench_errors import errors_on_benches, p95_by_run
+    from squeezebench.protocols.variants import with_calibration
 
     quick = paths.campaigns_dir() / "quick.yaml"
     plain = errors_on_benches(quick, range(1, 3))

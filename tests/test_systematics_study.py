@@ -124,3 +124,22 @@ def test_a_negative_number_of_benches_is_refused(tmp_path, capsys):
                  "--coverage-benches", "-1", "--repeats", "2"]) == 2
     assert "--coverage-benches" in capsys.readouterr().err
     assert not (tmp_path / "study").exists()   # refused before anything ran
+
+
+def test_the_whole_campaign_on_erring_benches_scores_every_stored_point(tmp_path):
+    """`systematics_campaign`: every stored point of the campaign per averaging, with and
+    without the calibration, whose bench time the campaign then pays."""
+    settings = StudySettings(repeats=2, systematics=SystematicsSettings(campaign="quick.yaml",
+                                                                        campaign_averages=(1, 16)))
+    run_study(tmp_path, settings, ("systematics_campaign", "systematics_campaign_calibrated"),
+              progress=lambda message: None)
+    summary = summarise(load_trials(tmp_path))
+    plain = _at(summary, "systematics_campaign", "power_w", 16)
+    calibrated = _at(summary, "systematics_campaign_calibrated", "power_w", 16)
+    assert plain["n_repeats"] == 2 and plain["n_trials"] >= 2 * 10   # every stored point (10 each) of two benches
+    assert calibrated["bench_time_s"] > plain["bench_time_s"] + 5.0   # the calibration's cost
+    assert _at(summary, "systematics_campaign", "power_w", 16)["bench_time_s"] > \
+        _at(summary, "systematics_campaign", "power_w", 1)["bench_time_s"]
+    assert plain["p95_abs_rel_error"] > 0.005   # the benches' errors
+    floors = floors_table(summary).set_index(["point", "quantity"])
+    assert floors.loc[("campaign", "power_w"), "benches"] == 2
