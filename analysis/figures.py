@@ -12,7 +12,7 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402  (the backend must be chosen first)
 import numpy as np  # noqa: E402
-from matplotlib.ticker import NullFormatter  # noqa: E402
+from matplotlib.ticker import FormatStrFormatter, NullFormatter  # noqa: E402
 import pandas as pd  # noqa: E402
 
 from squeezebench.analysis.paper import paper_table, paper_value  # noqa: E402
@@ -255,8 +255,8 @@ def systematics_fronts(summary: pd.DataFrame, path: Path) -> Path:
         ax.set_ylim(bottom=0.0)   # a floor is a level, not a slope: linear in %
         ax.set_title(quantity, fontsize=9)
         low, high = ax.get_xlim()
-        if high / low > 10:   # a decade's label is in view; within one, the minor labels are all there is
-            ax.xaxis.set_minor_formatter(NullFormatter())
+        # a decade's label in view is enough; within one decade, plain minor labels are all there is
+        ax.xaxis.set_minor_formatter(NullFormatter() if high / low > 10 else FormatStrFormatter("%g"))
         ax.set_xlabel("bench time per trial (s)")
         ax.set_ylabel("p95 |relative error| over benches (%)")
         ax.legend(fontsize=7, loc="lower left")

@@ -616,15 +616,16 @@ def _systematics_part(context: ReportContext, summary: pd.DataFrame) -> str:
         context.absent.append("The whole paper campaign on erring benches, per averaging: not run ('squeezebench "
                               "study --out RUN_DIR --resume' adds it, a few minutes)")
     words = "; ".join(
-        f"{row.quantity} {100 * row.floor_p95_rel:.2g} % ({row.point}){_calibrated_words(row)}"
-        for row in floors.itertuples())
+        f"{row.quantity} {100 * row.floor_p95_rel:.2g} % ({row.point}, from {_format(row.bench_time_s)} s per trial)"
+        f"{_calibrated_words(row)}" for row in floors.itertuples())
     return ("<h3>Floors on benches whose instruments err within specification</h3>"
             f"<p>Each trial is another simulated bench: scope gains, current-probe gain and delay, "
             "channel skew, vibrometer scale and generator frequency drawn once within their "
             "specifications (analysis.specifications), the noise drawn anew. Averaging (and, for the "
             "search, a finer tolerance) lowers the noise until the bench's own errors, or what the "
-            "search cannot resolve on the flat top of the peak, are all that is left. Floor reached "
-            f"(lowest p95 |relative error| over the benches at any setting): {html.escape(words)}.</p>"
+            "search cannot resolve on the flat top of the peak, are all that is left. Floor (lowest p95 "
+            "|relative error| over the benches at any setting), and the bench time per trial of the cheapest "
+            f"setting within {study.AT_FLOOR - 1:.0%} of it: {html.escape(words)}.</p>"
             + context.figure(figures.systematics_fronts(summary, context.out_dir / "study_systematics.png"),
                              "Total error against bench time per trial over simulated benches erring "
                              "within specification, one panel per quantity: each point's series (averaging; "
@@ -636,8 +637,8 @@ def _systematics_part(context: ReportContext, summary: pd.DataFrame) -> str:
                              "one averaging for all its runs (every stored point; its bench time). "
                              "Simulated bench.")
             + html_table(floors, "Floor per point and quantity, as the bench is and after the deskew "
-                                 "calibration, with the averaging and bench time per trial where it is "
-                                 "reached (study_floors.csv). Simulated bench."))
+                                 "calibration, with the averaging and bench time per trial of the cheapest "
+                                 f"setting within {study.AT_FLOOR - 1:.0%} of it (study_floors.csv). Simulated bench."))
 
 
 def _coverage_part(context: ReportContext) -> str:
@@ -669,8 +670,7 @@ def _coverage_part(context: ReportContext) -> str:
 def _calibrated_words(row) -> str:
     if pd.isna(row.calibrated_floor_p95_rel):
         return ""
-    return (f", {100 * row.calibrated_floor_p95_rel:.2g} % calibrated for "
-            f"{row.calibrated_bench_time_s - row.bench_time_s:+.1f} s per trial")
+    return f", {100 * row.calibrated_floor_p95_rel:.2g} % calibrated (from {_format(row.calibrated_bench_time_s)} s)"
 
 
 def hardcases_section(context: ReportContext) -> Section | None:
@@ -847,6 +847,8 @@ SECTIONS: list[SectionBuilder] = [
 # --- HTML --------------------------------------------------------------------------------
 
 def _format(value) -> str:
+    if value is pd.NA:   # a missing entry of an integer column
+        return "not available"
     if isinstance(value, (bool, np.bool_)):
         return str(bool(value))
     if isinstance(value, (int, np.integer)):

@@ -105,7 +105,7 @@ def screenshots(index: Path, out_dir: Path = SCREENSHOTS) -> list[Path]:
         "report_fig9.png": (fig9_figure["top"] - 10, fig9_figure["top"] + fig9_figure["height"] + 190),   # and the sentence beneath
         "report_audit.png": (sections["audit"]["top"] - 10, sections["audit"]["top"] + 1300),
         # the floors the instruments' errors leave, with and without calibration (issue 15)
-        "report_systematics.png": (systematics["top"] - 250, floors["top"] + floors["height"] + 10),
+        "report_systematics.png": (systematics["top"] - 330, floors["top"] + floors["height"] + 10),
     }
     out_dir.mkdir(parents=True, exist_ok=True)
     written = []
