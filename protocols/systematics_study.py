@@ -8,17 +8,17 @@ On that bench a point is measured and reduced as the report reduces it and score
 against the truth at its setting: the same plate without the errors, driven at the same
 generator frequency and amplitude (what `analysis.uncertainty` calls the point's value).
 
-Three points of the paper campaign: the Table 3 point (the gains dominate), the Fig. 2c
-stress point (power factor 0.018: the CH2 delay dominates) and the characterisation of
-a Fig. 5 plate (Q and tan theta'); the resonance search, whose finer tolerances stop
-paying at the generator's frequency error (no calibration of this bench lifts that: it
-needs a frequency reference); and the whole paper campaign at one averaging for all its
-runs, every stored point scored and the campaign's bench time the cost (`campaign`:
-minutes of computing, so `reproduce` leaves it to `study`). Each is run as the bench is and, in the experiment
+Points of the paper campaign: the Table 3 point (the gains dominate), the Fig. 2c stress
+point (power factor 0.018: the CH2 delay dominates), the characterisation of a Fig. 5
+plate (Q and tan theta'), the resonance search (its tolerance against the generator's
+frequency error, which no calibration of this bench lifts: that needs a frequency
+reference), and the whole campaign at one averaging for all its runs, every stored
+point scored and the campaign's bench time the cost (minutes of computing: `reproduce`
+leaves it to `study`). Each but the search is also run, in the experiment
 `..._calibrated`, after the deskew and gain check (`protocols.calibration`) on the same
-bench, whose correction the power takes and whose bench time the trial is charged (one
-calibration per point: the worst case; a campaign pays it once). Averaging lowers the
-noise until the bench's errors are all that is left: the floor.
+bench, whose correction the power takes and whose bench time the trial is charged (per
+point: the worst case; a campaign pays it once). Averaging lowers the noise until the
+bench's errors are all that is left: the floor.
 """
 
 from __future__ import annotations
@@ -34,7 +34,6 @@ import pandas as pd
 import yaml
 
 from squeezebench import paths
-
 from squeezebench.analysis.calibration import Deskew, calibration_from_points
 from squeezebench.protocols import calibration
 from squeezebench.protocols.acquisition import AcquisitionSettings
