@@ -319,9 +319,10 @@ def build_parser() -> argparse.ArgumentParser:
     study = add("study", help="accuracy against bench time on the simulated bench")
     study.add_argument("--out", type=Path, default=Path("runs/study"),
                        help="run directory; trials go to OUT/study/ (default: runs/study)")
-    study.add_argument("--repeats", type=int, default=8, help="trials per configuration (default 8)")
-    study.add_argument("--experiment", action="append", choices=STUDY_EXPERIMENTS,
-                       help="run only this experiment (repeatable; default: all)")
+    study.add_argument("--repeats", type=int, default=8,
+                       help="trials per configuration; for the systematics_* experiments, benches (default 8)")
+    study.add_argument("--experiment", action="append", choices=STUDY_EXPERIMENTS, metavar="NAME",
+                       help="run only this experiment (repeatable; default: all): " + ", ".join(STUDY_EXPERIMENTS))
     study.add_argument("--resume", action="store_true", help="keep experiments and benches already stored")
     study.add_argument("--coverage-benches", type=int, default=None, metavar="N",
                        help="run the paper campaign on N simulated benches with errors drawn within specification "
