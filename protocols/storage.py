@@ -16,8 +16,9 @@ Nothing measured is ever deleted. Before a resume, `repair` moves what it cannot
 into `quarantine/<time>/` (same relative paths) and says what and why: files no journal
 line covers (a killed step, or a step whose journal line was damaged), journal lines
 that are not entries (a torn last line, a corrupted byte), all kept byte for byte. A
-step file the journal names but that is missing or fails its checksum is reported by
-`verify` (by `--resume` and by `report`), never "repaired".
+step whose journal line names a file that is missing or fails its checksum loses its
+line (the journal as found is kept) and its other files go to quarantine: the resume
+measures it again. `report` refuses such a run (`verify`) unless told to go on.
 
 One writer per directory: `writer()` holds an exclusive OS lock (flock) on
 `.squeezebench.lock`, which records the holder's pid for the message another process
@@ -264,16 +265,22 @@ class RunStore:
 
     def repair(self, say: Callable[[str], None]) -> list[dict[str, Any]]:
         """Before resuming: quarantine what cannot be trusted, say what and why; return
-        the journal's entries. Nothing is deleted."""
+        the journal's entries of the steps that stay complete. Nothing is deleted."""
         path = self.run_dir / JOURNAL
         entries, bad = self._read_journal()
-        if bad:
+        damaged = {(e["run"], e["step"]): problems for e in entries if (problems := self._entry_problems(e))}
+        if bad or damaged:
             kept = self._quarantine(path, copy=True)
-            good = [line for line in path.read_bytes().splitlines(keepends=True) if _entry_problem(line) is None]
+            good = [line for line in path.read_bytes().splitlines(keepends=True)
+                    if _entry_problem(line) is None and _step_of(line) not in damaged]
             write_atomic(path, b"".join(good))
             for number, reason in bad:
                 say(f"{path} line {number}: {reason}; the whole journal as found is kept in {kept}, "
                     "and the step of that line, if any, will be measured again")
+            for (run_name, step_id), problems in damaged.items():
+                say(f"{'; '.join(problems)}: step {run_name}/{step_id} will be measured again (its journal "
+                    f"line is kept in {kept}, its other files in quarantine)")
+            entries = [e for e in entries if (e["run"], e["step"]) not in damaged]
         completed = {(e["run"], e["step"]) for e in entries}
         stray = list(self._step_files_outside(completed))
         if stray and not path.exists():
@@ -281,11 +288,10 @@ class RunStore:
         for item in stray:
             target = self._quarantine(item)
             say(f"{item.relative_to(self.run_dir)}: no journal entry covers it (a step that did not "
-                f"complete, or whose journal line was lost); moved to {target.relative_to(self.run_dir)}")
+                f"complete, whose journal line was lost, or whose files were damaged); moved to "
+                f"{target.relative_to(self.run_dir)}")
         if not path.exists():
             path.touch()
-        for problem in self.verify(entries):
-            say(problem)
         return entries
 
     def verify(self, entries: list[dict[str, Any]] | None = None) -> list[str]:
@@ -296,14 +302,20 @@ class RunStore:
             entries, bad = self._read_journal()
             problems += [f"{self.run_dir / JOURNAL} line {number}: {reason}" for number, reason in bad]
         for entry in entries:
-            files = entry.get("files") or {_measurement_file(entry["run"], entry["step"]): None}
-            for relative, digest in files.items():
-                file = self.run_dir / relative
-                if not file.is_file():
-                    problems.append(f"{file}: missing (step {entry['run']}/{entry['step']} is in the journal)")
-                elif digest is not None and sha256_file(file) != digest:
-                    problems.append(f"{file}: fails its checksum (step {entry['run']}/{entry['step']}; "
-                                    "the file changed after it was measured)")
+            problems += self._entry_problems(entry)
+        return problems
+
+    def _entry_problems(self, entry: dict[str, Any]) -> list[str]:
+        """What is wrong with the files one journal entry names (nothing: [])."""
+        problems = []
+        files = entry.get("files") or {_measurement_file(entry["run"], entry["step"]): None}
+        for relative, digest in files.items():
+            file = self.run_dir / relative
+            if not file.is_file():
+                problems.append(f"{file}: missing (step {entry['run']}/{entry['step']} is in the journal)")
+            elif digest is not None and sha256_file(file) != digest:
+                problems.append(f"{file}: fails its checksum (step {entry['run']}/{entry['step']}; "
+                                "the file changed after it was measured)")
         return problems
 
     def append_journal(self, entry: dict[str, Any]) -> None:
@@ -377,6 +389,12 @@ class RunStore:
 
 def _measurement_file(run_name: str, step_id: str) -> str:
     return f"measurements/{run_name}/{step_id}.parquet"
+
+
+def _step_of(line: bytes) -> tuple[str, str]:
+    """(run, step) of a journal line that is an entry."""
+    entry = json.loads(line)
+    return entry["run"], entry["step"]
 
 
 def _entry_problem(line: bytes) -> str | None:

@@ -107,18 +107,37 @@ def test_a_deleted_journal_quarantines_every_step_and_says_so(run):
     assert sum("moved to quarantine" in message for message in said) >= len(before) // 10
 
 
-def test_a_missing_step_file_is_reported_by_resume_and_report(run, capsys):
-    campaign, run_dir = run
+def test_a_missing_step_file_stops_the_report(run, capsys):
+    _, run_dir = run
     lost = next((run_dir / "measurements" / "cutting").glob("*.parquet"))
     lost.unlink()
-    said = []
-    run_campaign(campaign, resume=True, out_dir=run_dir, say=said.append)
-    assert any(str(lost) in message and "missing" in message for message in said)
-    capsys.readouterr()
     assert cli.main(["report", str(run_dir)]) == cli.EXIT_USER_ERROR
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and str(lost) in err and "--allow-missing" in err
     assert not (run_dir / "report").exists()
+
+
+@pytest.mark.parametrize("damage", ["missing", "checksum"])
+def test_a_damaged_step_is_measured_again_on_resume(run, completed, damage, capsys):
+    """A step whose file is lost or changed counts as not done: resume measures it again,
+    keeps what was left of it in quarantine, and the run reports again."""
+    campaign, run_dir = run
+    before = digests(run_dir)
+    step_dir = next((run_dir / "waveforms" / "detuning").iterdir())
+    damaged = next(step_dir.glob("*.parquet"))
+    if damage == "missing":
+        damaged.unlink()
+    else:
+        damaged.write_bytes(damaged.read_bytes() + b"\0")
+    said = []
+    run_campaign(campaign, resume=True, out_dir=run_dir, say=said.append)
+    assert any(str(damaged) in message and "measured again" in message for message in said)
+    assert damaged.is_file() and RunStore(run_dir).verify() == []
+    intact = {name: digest for name, digest in before.items() if Path(name) != damaged.relative_to(run_dir)}
+    assert_nothing_lost(intact, run_dir)   # the step's other files, as measured, are in quarantine
+    assert len(sorted_rows(run_dir)) == len(sorted_rows(completed[1]))   # the step's rows are back
+    capsys.readouterr()
+    assert cli.main(["report", str(run_dir), "-q"]) == 0
 
 
 def test_a_step_file_failing_its_checksum_is_reported(run):
