@@ -380,19 +380,51 @@ def _report_lines(role: str, driver: Instrument, electronics: BenchElectronics) 
     return lines, problems
 
 
-def check_bench(config: BenchConfig, out: Callable[[str], None] = print) -> int:
-    """Open every instrument; print its role, address, identification, the errors it had
+@dataclass
+class InstrumentCheck:
+    """What `inspect_bench` found of one instrument."""
+
+    role: str
+    address: str
+    answered: bool
+    identification: str = ""
+    details: list[str] = field(default_factory=list)   # queued errors, settings, probes, ranges
+    error: str = ""                                     # why it did not answer
+
+
+@dataclass
+class BenchCheck:
+    """What `inspect_bench` found of the whole bench (`check --json` prints `as_dict`)."""
+
+    visa_library: str
+    instruments: list[InstrumentCheck] = field(default_factory=list)
+    electronics: dict[str, Any] = field(default_factory=dict)
+    disagreements: list[str] = field(default_factory=list)   # bench description vs hardware
+    visa_error: str = ""                                      # the VISA library did not load
+
+    @property
+    def passed(self) -> bool:
+        return not self.visa_error and not self.disagreements and all(i.answered for i in self.instruments)
+
+    def as_dict(self) -> dict[str, Any]:
+        return {**dataclasses.asdict(self), "passed": self.passed}
+
+
+def inspect_bench(config: BenchConfig, out: Callable[[str], None] = print) -> BenchCheck:
+    """Open every instrument; say its role, address, identification, the errors it had
     queued (read and cleared), main settings, detected probes and the vibrometer decoder
-    with its ranges. Returns 0, or 2 after naming each role that did not answer and each
-    disagreement between the bench description and the hardware."""
+    with its ranges, line by line through `out`; return all of it as a `BenchCheck`, which
+    names each role that did not answer and each disagreement between the bench
+    description and the hardware."""
+    result = BenchCheck(config.visa_library or "(system default)")
+    out(f"VISA library: {result.visa_library}")
     library = _library_path(config.visa_library)
-    out(f"VISA library: {config.visa_library or '(system default)'}")
     try:
         resource_manager = _resource_manager(library)
     except InstrumentConnectionError as exc:
-        out(str(exc))
-        return 2
-    failed, problems = [], []
+        result.visa_error = str(exc)
+        out(result.visa_error)
+        return result
     try:
         for role in ROLES:
             address = config.resources[role]
@@ -400,26 +432,35 @@ def check_bench(config: BenchConfig, out: Callable[[str], None] = print) -> int:
                 driver = _open_role(resource_manager, role, address)
                 lines, disagreements = _report_lines(role, driver, config.electronics)
             except InstrumentError as exc:
-                failed.append(role)
+                result.instruments.append(InstrumentCheck(role, address, False, error=exc.message))
                 out(f"{role} at {address} did not answer as expected: {exc.message}")
                 continue
+            result.instruments.append(InstrumentCheck(role, address, True, driver.identification,
+                                                      [line.strip() for line in lines]))
             out(f"{role} at {address}: {driver.identification}")
             for line in lines:
                 out(line)
-            problems += disagreements
+            result.disagreements += disagreements
     finally:
         resource_manager.close()
     e = config.electronics
+    result.electronics = dataclasses.asdict(e)
     out(f"electronics (not remote-controlled): amplifier gain {e.amplifier_gain:g} "
         f"(max {e.amplifier_max_output_vpp:g} Vpp out), voltage probe {e.voltage_probe_attenuation:g}:1, "
         f"current probe {e.current_probe_a_per_a:g} A/A, shunt {e.shunt_ohm:g} ohm, "
         f"generator load setting {e.generator_load}")
-    for problem in problems:
+    for problem in result.disagreements:
         out(f"bench description disagrees with the hardware: {problem}")
-    if failed or problems:
+    failed = [i.role for i in result.instruments if not i.answered]
+    if not result.passed:
         causes = ([f"{', '.join(failed)} did not answer"] if failed else []) + \
-            (["the bench description disagrees with the hardware"] if problems else [])
+            (["the bench description disagrees with the hardware"] if result.disagreements else [])
         out(f"bench check FAILED: {'; '.join(causes)}")
-        return 2
-    out("bench check passed")
-    return 0
+    else:
+        out("bench check passed")
+    return result
+
+
+def check_bench(config: BenchConfig, out: Callable[[str], None] = print) -> int:
+    """`inspect_bench`'s verdict as an exit code: 0, or 2 when anything failed."""
+    return 0 if inspect_bench(config, out).passed else 2

@@ -59,7 +59,7 @@ def _bench_config(bench: str):
 
 
 def cmd_check(args: argparse.Namespace) -> int:
-    from squeezebench.instruments.bench import check_bench
+    from squeezebench.instruments.bench import inspect_bench
 
     lines: list[str] = []
 
@@ -67,9 +67,10 @@ def cmd_check(args: argparse.Namespace) -> int:
         lines.append(line)
         say(args, line)
 
-    passed = check_bench(_bench_config(args.bench), out=out) == 0
-    if args.json:
-        emit_json({"command": "check", "bench": args.bench, "passed": passed, "lines": lines})
+    found = inspect_bench(_bench_config(args.bench), out=out)
+    passed = found.passed
+    if args.json:   # per instrument for scripts; `lines` as a person reads them
+        emit_json({"command": "check", "bench": args.bench, **found.as_dict(), "lines": lines})
     elif args.quiet and not passed:
         print(f"squeezebench check: {lines[-1]}", file=sys.stderr)   # the cause, said last
     return 0 if passed else EXIT_USER_ERROR

@@ -59,6 +59,12 @@ def test_check_json_is_one_document_naming_each_instrument(capsys):
     assert report["passed"] is True and report["bench"] == "sim"
     assert any("33120A" in line for line in report["lines"])
     assert any("TDS 3054B" in line for line in report["lines"])
+    # and per instrument, for scripts: role, address, identification, what it showed
+    roles = {i["role"]: i for i in report["instruments"]}
+    assert set(roles) == {"generator", "scope", "vibrometer"}
+    assert all(i["answered"] and i["address"] and i["details"] for i in roles.values())
+    assert "33120A" in roles["generator"]["identification"] and "3054B" in roles["scope"]["identification"]
+    assert report["disagreements"] == [] and report["electronics"]["shunt_ohm"] > 0
 
 
 def test_check_without_a_visa_library_exits_2_with_the_cause(capsys):
@@ -68,7 +74,8 @@ def test_check_without_a_visa_library_exits_2_with_the_cause(capsys):
     captured = capsys.readouterr()
     assert captured.out == "" and "VISA" in captured.err and captured.err.count("\n") == 1
     assert cli.main(["check", "--bench", bench, "--json"]) == cli.EXIT_USER_ERROR
-    assert json.loads(capsys.readouterr().out)["passed"] is False
+    report = json.loads(capsys.readouterr().out)
+    assert report["passed"] is False and "VISA" in report["visa_error"] and report["instruments"] == []
 
 
 def test_a_user_error_under_json_is_also_json(capsys):
