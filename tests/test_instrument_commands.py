@@ -1,6 +1,7 @@
-"""The shipped quick campaign and `check` on the simulated bench, from the instruments'
-power-on state and from a hostile one: both pass and measure the same, and every message
-the drivers send is one docs/instrument-commands.md lists with its manual section."""
+"""The shipped quick and paper campaigns and `check` on the simulated bench, from the
+instruments' power-on state and from a hostile one: both pass and measure the same, and
+every message the drivers send is one docs/instrument-commands.md lists with its manual
+section."""
 
 from __future__ import annotations
 
@@ -66,9 +67,13 @@ def _scene_config(start: str):
     return config
 
 
+CAMPAIGNS = ("quick.yaml", "paper.yaml")
+
+
 @pytest.fixture(scope="module")
 def runs(tmp_path_factory):
-    """{start: (traffic {role: messages}, measurements)} of the quick campaign and `check`."""
+    """{start: (traffic {role: messages}, {campaign: measurements}, check's lines)} of the
+    quick and the paper campaign and `check`."""
     results = {}
     with pytest.MonkeyPatch.context() as patch:
         traffic: dict[str, list[str]] = {}
@@ -82,12 +87,15 @@ def runs(tmp_path_factory):
         for start in ("power_on", "hostile"):
             traffic.clear()
             patch.setattr(campaign, "sim_bench_config", _scene_config(start))
-            run_dir = campaign.run_campaign(paths.campaigns_dir() / "quick.yaml",
-                                            out_dir=tmp_path_factory.mktemp(start) / "run")
+            rows = {}
+            for name in CAMPAIGNS:
+                run_dir = campaign.run_campaign(paths.campaigns_dir() / name,
+                                                out_dir=tmp_path_factory.mktemp(start) / name, progress=False)
+                rows[name] = pd.concat([pd.read_parquet(p)
+                                        for p in sorted((run_dir / "measurements").rglob("*.parquet"))])
             lines: list[str] = []
             config = _scene_config(start)(paths.default_scene())
             assert check_bench(config, out=lines.append) == 0, "\n".join(lines)
-            rows = pd.concat([pd.read_parquet(p) for p in sorted((run_dir / "measurements").rglob("*.parquet"))])
             results[start] = ({role: list(messages) for role, messages in traffic.items()}, rows, lines)
     return results
 
@@ -112,11 +120,12 @@ def test_every_driver_command_cites_its_manual_beside_it():
                 assert attribute.manual, f"{cls.__name__}.{name} does not cite its manual section"
 
 
-def test_the_quick_campaign_measures_the_same_from_a_hostile_start(runs):
-    columns = ["step_id", "point_index", "generator_frequency_hz", "scope_power_w", "scope_velocity_pp_v",
-               "vibrometer_scale_mps_per_v"]
-    power_on, hostile = (runs[start][1][columns].reset_index(drop=True) for start in ("power_on", "hostile"))
-    assert len(power_on) > 50
+@pytest.mark.parametrize("name, at_least", [("quick.yaml", 50), ("paper.yaml", 1000)])
+def test_a_campaign_measures_the_same_from_a_hostile_start(runs, name, at_least):
+    columns = ["run_name", "step_id", "point_index", "generator_frequency_hz", "scope_power_w",
+               "scope_velocity_pp_v", "vibrometer_scale_mps_per_v"]
+    power_on, hostile = (runs[start][1][name][columns].reset_index(drop=True) for start in ("power_on", "hostile"))
+    assert len(power_on) > at_least
     pd.testing.assert_frame_equal(power_on, hostile)
 
 
