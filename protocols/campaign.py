@@ -29,6 +29,7 @@ journal and rebuilds each run's context from their journal lines.
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import datetime as dt
 import logging
@@ -46,10 +47,10 @@ from squeezebench.instruments.agilent33120a import AMPLITUDE_RANGE_VPP, FREQUENC
 from squeezebench.instruments.bench import open_bench, sim_bench_config
 from squeezebench.instruments.errors import OutOfRangeError
 from squeezebench.protocols.acquisition import Acquisition, AcquisitionSettings
-from squeezebench.protocols.safety import (DriveController, SafetyLimits, chain_warnings, raise_if_stopped,
-                                              stop_signals_interrupt)
+from squeezebench.protocols.safety import DriveController, SafetyLimits, chain_warnings
 from squeezebench.protocols.steps import Plate, Step, StepContext
 from squeezebench.protocols.storage import RunStore, bench_provenance, sha256_file
+from squeezebench.stops import deferred, generator_state, handled, raise_if_stopped
 from squeezebench.errors import UserError
 from squeezebench.schemas import PROTOCOLS
 
@@ -293,7 +294,7 @@ def run_campaign(path: Path, resume: bool = False, out_dir: Path | None = None,
     `say` shows what the operator must know now (default: the terminal's stderr), and
     everything said also goes to log.txt. SIGTERM and SIGHUP stop it as Ctrl-C does.
     `on_point` and `on_step` watch the run (see Watchers)."""
-    with stop_signals_interrupt():
+    with handled():
         return _run_campaign(path, resume, out_dir, progress, say, accept_changed_bench,
                              Watchers(on_point, on_step))
 
@@ -359,8 +360,8 @@ def _run_campaign(path: Path, resume: bool, out_dir: Path | None, progress: bool
             _Runner(campaign, store, journal, progress, accept_changed_bench, watchers).run()
             log.info("campaign %s complete", campaign.name)
         except BaseException as exc:
-            log.error("campaign stopped by %s: %s; completed steps are stored, resume to continue",
-                      type(exc).__name__, exc)
+            log.error("campaign stopped by %s: %s; %scompleted steps are stored, resume to continue",
+                      type(exc).__name__, exc, f"{generator_state()}; " if generator_state() else "")
             raise
         finally:
             _detach_log(handler)
@@ -419,26 +420,29 @@ class _Runner:
                                  "completed steps are stored") from None
 
     def _run_on_bench(self, run: Run, pending: list[Step], context: dict[str, Any]) -> None:
-        with open_bench(run.bench.config()) as bench:
-            identifications = bench.identify()
-            self.store.record_instruments(run.name, identifications, bench=bench_provenance(
-                run.bench.scene, run.bench.file, identifications))
-            self.store.write_settings(run.name, {
-                "run": run.name, "protocol": run.protocol,
-                "acquisition": dataclasses.asdict(run.acquisition),
-                "safety": dataclasses.asdict(run.safety),
-                "electronics": dataclasses.asdict(bench.electronics),
-                "parameters": dataclasses.asdict(run.parameters),
-                "instruments": bench.settings_snapshot()})
-            drive = DriveController(bench.generator, bench.electronics, bench.clock, run.safety,
-                                    settle_s=run.acquisition.settle_s)
+        with contextlib.ExitStack() as stack:
+            # A stop while the bench opens waits until the DriveController holds the
+            # generator at its minimum; it is honoured on leaving `deferred()`.
+            with deferred():
+                bench = stack.enter_context(open_bench(run.bench.config()))
+                identifications = bench.identify()
+                self.store.record_instruments(run.name, identifications, bench=bench_provenance(
+                    run.bench.scene, run.bench.file, identifications))
+                self.store.write_settings(run.name, {
+                    "run": run.name, "protocol": run.protocol,
+                    "acquisition": dataclasses.asdict(run.acquisition),
+                    "safety": dataclasses.asdict(run.safety),
+                    "electronics": dataclasses.asdict(bench.electronics),
+                    "parameters": dataclasses.asdict(run.parameters),
+                    "instruments": bench.settings_snapshot()})
+                drive = stack.enter_context(DriveController(bench.generator, bench.electronics, bench.clock,
+                                                            run.safety, settle_s=run.acquisition.settle_s))
             acquisition = Acquisition(bench, drive, run.acquisition)
             acquisition.configure()
             bench.check_errors()   # a setting the instruments refused would void every step
             mounted = _Mounted(scene=run.bench.scene, state=None)
-            with drive:
-                for step in pending:
-                    self._step(run, step, bench, drive, acquisition, context, mounted, identifications)
+            for step in pending:
+                self._step(run, step, bench, drive, acquisition, context, mounted, identifications)
 
     def _step(self, run: Run, step: Step, bench, drive: DriveController, acquisition: Acquisition,
               context: dict[str, Any], mounted: _Mounted, identifications: dict[str, str]) -> None:

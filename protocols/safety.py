@@ -13,24 +13,22 @@ apply voltage above 100 V") or above what the amplifier can deliver; it ramps la
 changes in steps (a sudden 100 V step on a capacitive load is a current spike through
 the shunt and the piezos); and, used as a context manager, it leaves the generator at its
 minimum output whatever happens inside: an exception, Ctrl-C (SIGTERM and SIGHUP are
-turned into the same KeyboardInterrupt by `stop_signals_interrupt`) or a normal end. While
-it brings the generator down, further stop signals wait; if the generator cannot be
-reached, the terminal is told in capitals that its output state is unknown and what to do
-by hand.
+turned into the same KeyboardInterrupt by `squeezebench.stops`) or a normal end. While
+it brings the generator down, stop signals are only recorded (`stops.protect`) and the
+run stops once the generator is at its minimum; the amplitude it was last commanded is
+recorded for the final message, and if the generator cannot be reached, the terminal is
+told in capitals that its output state is unknown and what to do by hand.
 """
 
 from __future__ import annotations
 
-import contextlib
 import logging
 import math
-import signal
 import sys
-import threading
 from dataclasses import dataclass
-from typing import Iterator
 
 from squeezebench.errors import UserError
+from squeezebench.stops import protect, raise_if_stopped, record_generator
 from squeezebench.instruments.bench import GENERATOR_SOURCE_OHM
 
 log = logging.getLogger(__name__)
@@ -39,58 +37,6 @@ log = logging.getLogger(__name__)
 PAPER_MAX_PIEZO_VOLTAGE_VPP = 100.0
 #: gain * (v / gain) may exceed v by an ulp: a limit is met "exactly" within this factor.
 _ROUNDING = 1.0 + 1e-12
-
-
-#: Signals that stop a run as Ctrl-C does (SIGINT is Ctrl-C itself).
-STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
-
-
-#: Stop signals received while a run is on (their names), honoured by `raise_if_stopped`.
-_stops_received: list[str] = []
-
-
-def _raise_interrupt(signum, frame) -> None:
-    _stops_received.append(signal.Signals(signum).name)
-    raise KeyboardInterrupt(f"stopped by {_stops_received[-1]}")
-
-
-def raise_if_stopped() -> None:
-    """Raise KeyboardInterrupt again if a stop signal came: its first KeyboardInterrupt may
-    have been swallowed (raised inside a `__del__` or a library's catch-all), and a stop
-    must still stop the run before the drive goes up again or the next step starts."""
-    if _stops_received:
-        raise KeyboardInterrupt(f"stopped by {_stops_received[0]}")
-
-
-@contextlib.contextmanager
-def stop_signals_interrupt() -> Iterator[None]:
-    """Inside, SIGTERM and SIGHUP raise KeyboardInterrupt like Ctrl-C (SIGINT), so every
-    way of stopping a run takes the same safe path. Only the main thread gets signals;
-    elsewhere this does nothing."""
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
-    _stops_received.clear()
-    previous = {sig: signal.signal(sig, _raise_interrupt) for sig in STOP_SIGNALS}
-    try:
-        yield
-    finally:
-        for sig, handler in previous.items():
-            signal.signal(sig, handler)
-        _stops_received.clear()
-
-
-@contextlib.contextmanager
-def _stop_signals_deferred() -> Iterator[None]:
-    """Stop signals wait (blocked, then delivered) while the generator is brought down."""
-    main = threading.current_thread() is threading.main_thread()
-    if main:
-        signal.pthread_sigmask(signal.SIG_BLOCK, STOP_SIGNALS)
-    try:
-        yield
-    finally:
-        if main:
-            signal.pthread_sigmask(signal.SIG_UNBLOCK, STOP_SIGNALS)
 
 
 def output_state_unknown(reason: str) -> str:
@@ -266,21 +212,30 @@ class DriveController:
     def __enter__(self) -> DriveController:
         return self
 
+    @protect
     def __exit__(self, exc_type, exc, tb) -> None:
         # On an error or Ctrl-C drop at once (the bench may be in any state); on a normal
-        # end ramp down like any other change, and drop at once if the ramp fails.
-        with _stop_signals_deferred():
-            try:
-                if exc_type is None:
-                    try:
-                        self.to_minimum(ramp=True)
-                        return
-                    except Exception:
-                        log.exception("ramping the generator down failed; dropping it at once")
+        # end ramp down like any other change, and drop at once if the ramp fails. A stop
+        # signal in here is recorded, never raised (see squeezebench.stops): the bring-down
+        # always runs to its end.
+        try:
+            if exc_type is None:
+                try:
+                    self.to_minimum(ramp=True)
+                except Exception:
+                    log.exception("ramping the generator down failed; dropping it at once")
+                    self.to_minimum(ramp=False)
+            else:
                 self.to_minimum(ramp=False)
-            except Exception as failure:
-                message = output_state_unknown(f"{type(failure).__name__}: {failure}")
-                log.critical(message)
-                print(message, file=sys.stderr, flush=True)
-                if exc_type is None:
-                    raise
+        except Exception as failure:
+            message = output_state_unknown(f"{type(failure).__name__}: {failure}")
+            record_generator(message)
+            log.critical(message)
+            print(message, file=sys.stderr, flush=True)
+            if exc_type is None:
+                raise
+            return
+        record_generator(f"the generator's last commanded amplitude is {self.generator_amplitude_vpp:g} Vpp, "
+                         "its minimum")
+        if exc_type is None:
+            raise_if_stopped()   # a stop that came during the ramp down

@@ -3,18 +3,20 @@
 The Python API (squeezebench.api) is also here: `squeezebench.resonance_search(...)`.
 """
 
-from importlib.metadata import PackageNotFoundError, version
-
-try:
-    __version__ = version("squeezebench")
-except PackageNotFoundError:  # running from a checkout without installation
-    __version__ = "0+unknown"
-
 #: squeezebench.api's functions, imported on first use: the command line stays light.
 _API = ("open_bench", "run_protocol", "resonance_search", "characterisation", "run_campaign", "load_run")
 
 
 def __getattr__(name: str):
+    # Looked up on first use: the command's entry point takes its stop signals over right
+    # after this module loads, and the metadata lookup would leave tens of ms unguarded.
+    if name == "__version__":
+        from importlib.metadata import PackageNotFoundError, version
+
+        try:
+            return version("squeezebench")
+        except PackageNotFoundError:  # running from a checkout without installation
+            return "0+unknown"
     if name in _API:
         from squeezebench import api
 

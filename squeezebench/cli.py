@@ -379,9 +379,13 @@ def main(argv: list[str] | None = None) -> int:
         if getattr(args, "json", False):
             emit_json({"command": args.command, "error": str(exc)})
         return EXIT_USER_ERROR
-    except KeyboardInterrupt:
-        print(f"squeezebench {args.command}: interrupted; completed steps are stored, "
-              "use --resume to continue", file=sys.stderr)
+    except KeyboardInterrupt as exc:
+        from squeezebench.stops import generator_state
+
+        state = generator_state()
+        print(f"squeezebench {args.command}: interrupted ({exc or 'KeyboardInterrupt'}); "
+              f"{state + '; ' if state else ''}completed steps are stored, use --resume to continue",
+              file=sys.stderr)
         return EXIT_INTERRUPTED
     finally:
         if handler is not None:   # main() called from Python leaves logging as it found it

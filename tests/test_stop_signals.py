@@ -16,6 +16,7 @@ import signal
 import subprocess
 import sys
 import textwrap
+import time
 
 import pandas as pd
 import pytest
@@ -45,7 +46,7 @@ def test_sigterm_and_sighup_leave_the_generator_at_minimum(reference, tmp_path, 
     with pytest.raises(KeyboardInterrupt, match=signal.Signals(sig).name):
         run_campaign(campaign, out_dir=tmp_path / "run")
     assert _is_minimum(tap.last_amplitude_vpp)
-    assert getattr(signal.getsignal(sig), "__name__", None) != "_raise_interrupt"   # restored
+    assert getattr(signal.getsignal(sig), "__name__", None) != "_on_stop"   # restored
     monkeypatch.undo()
     run_campaign(campaign, resume=True, out_dir=tmp_path / "run")
     pd.testing.assert_frame_equal(read_measurements(tmp_path / "run"), expected, check_exact=True)
@@ -159,3 +160,46 @@ def test_randomized_real_kills_then_resume_lose_and_duplicate_nothing(reference,
         assert not keys.duplicated().any()                      # 0 duplicated
         pd.testing.assert_frame_equal(rows, expected, check_exact=True)   # 0 lost, 0 changed
         assert RunStore(run_dir).verify() == []
+
+
+def _command(*args: str) -> list[str]:
+    return [os.path.join(os.path.dirname(sys.executable), "squeezebench"), *args]
+
+
+def _python_started(pid: int) -> bool:
+    """The interpreter has installed its own SIGINT handler (/proc's mask of caught
+    signals): before that, no Python code of any program can catch a signal."""
+    with open(f"/proc/{pid}/status") as status:
+        caught = next(int(line.split()[1], 16) for line in status if line.startswith("SigCgt:"))
+    return bool(caught >> (signal.SIGINT - 1) & 1)
+
+
+@pytest.mark.skipif(not os.path.exists("/proc/self/status"), reason="reads /proc")
+def test_a_stop_signal_at_any_moment_of_start_up_exits_130_without_a_traceback(tmp_path):
+    """From the moment the entry point runs (while the command imports its modules, parses
+    its arguments, opens the bench), any stop signal gives 130 and one line."""
+    rng = random.Random(29)
+    for trial in range(6):
+        sig = rng.choice([signal.SIGINT, signal.SIGTERM, signal.SIGHUP])
+        process = subprocess.Popen(_command("run", "quick.yaml", "--out", str(tmp_path / f"run{trial}"), "-q"),
+                                   stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        while not _python_started(process.pid):
+            pass
+        time.sleep(rng.uniform(0.02, 0.4))
+        process.send_signal(sig)
+        out, err = process.communicate(timeout=60)
+        assert process.returncode == 130, (sig, err)
+        assert "Traceback" not in err and "interrupted" in err
+
+
+def test_nohup_ignored_sighup_does_not_stop_the_run(tmp_path):
+    """A parent that ignores SIGHUP (nohup, a scheduler) keeps it ignored: the run completes."""
+    process = subprocess.Popen(["nohup", *_command("run", "quick.yaml", "--out", str(tmp_path / "run"), "-q")],
+                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    for delay_s in (0.2, 0.8, 1.5, 2.5):   # start-up, bench open, steps
+        time.sleep(delay_s)
+        if process.poll() is None:
+            process.send_signal(signal.SIGHUP)
+    out, err = process.communicate(timeout=120)
+    assert process.returncode == 0, err
+    assert len(RunStore(tmp_path / "run").journal()) == 6   # every step of quick

@@ -1,0 +1,39 @@
+"""The `squeezebench` command's entry point (also `python -m squeezebench`).
+
+Stop signals are taken over before anything heavy is imported, so Ctrl-C, SIGTERM or
+SIGHUP at any moment (during import, a run, its bring-down, the final message) ends the
+command the same way: exit status 130 and one line, never a traceback or a death by the
+signal. A signal the parent ignores (`nohup`, a scheduler) stays ignored.
+"""
+
+from __future__ import annotations
+
+import sys
+
+from squeezebench import stops
+
+EXIT_INTERRUPTED = 130
+
+
+def command(argv: list[str] | None = None) -> int:
+    """The command's exit status, 130 if a stop signal came at any moment of it; the
+    caller has installed `stops.handled()`."""
+    try:
+        from squeezebench import cli
+
+        status = cli.main(argv)
+    except KeyboardInterrupt:   # before the command's own handler could take it
+        print("squeezebench: interrupted before the command started", file=sys.stderr)
+        status = EXIT_INTERRUPTED
+    return EXIT_INTERRUPTED if stops.received() else status
+
+
+def main(argv: list[str] | None = None) -> int:
+    stops.take_over()
+    status = command(argv)
+    stops.hold()   # a signal from here on cannot raise where nothing would catch it
+    return EXIT_INTERRUPTED if stops.received() else status
+
+
+if __name__ == "__main__":
+    sys.exit(main())

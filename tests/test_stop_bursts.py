@@ -1,0 +1,117 @@
+"""Bursts of stop signals at random moments of `quick` never leave the plate driven.
+
+One subprocess (signals must not reach pytest) runs the trials back to back with the
+command's own code path (`squeezebench.__main__.command` under `stops.handled()`, as the
+entry point does): each trial resumes a run of `quick`, and at a random instrument write
+sends itself a burst of 2-10 stop signals (SIGINT, SIGTERM, SIGHUP drawn at random) 0-50 ms
+apart, the first from inside the write (mid-command), the rest from a thread. Kept fast
+by staying in one warm process, and by stopping each trial within the first quarter of
+a run's writes: a trial costs the bench's opening and a few steps, and the run it
+interrupts goes on in the next trial, so every trial's resume is checked by the chain it
+belongs to reaching exactly the rows of an uninterrupted run.
+"""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+import textwrap
+
+from squeezebench import paths
+
+HARNESS = textwrap.dedent("""
+    import contextlib, io, json, math, os, random, re, signal, sys, threading, time
+    from pathlib import Path
+    from pyvisa.resources import MessageBasedResource
+    from squeezebench import stops
+    from squeezebench.__main__ import command
+    from squeezebench.instruments.agilent33120a import AMPLITUDE_RANGE_VPP
+    from squeezebench.protocols.storage import read_measurements
+
+    campaign, out, n_trials, seed = sys.argv[1], Path(sys.argv[2]), int(sys.argv[3]), int(sys.argv[4])
+    for sig in stops.STOP_SIGNALS:   # a signal between two trials is harmless
+        signal.signal(sig, lambda *args: None)
+    minimums = [low for low, _ in AMPLITUDE_RANGE_VPP.values()]
+    state = {"writes": 0, "at": None, "volts": [], "first": None, "burst": None}
+    write = MessageBasedResource.write
+
+    def burst(signals, gaps):
+        for sig, gap in zip(signals, gaps):
+            time.sleep(gap)
+            os.kill(os.getpid(), sig)
+
+    def tapped(resource, message, *args, **kwargs):
+        state["writes"] += 1
+        if state["writes"] == state["at"]:
+            signals, gaps = state["plan"]
+            state["first"] = len(state["volts"])
+            os.kill(os.getpid(), signals[0])
+            state["burst"] = threading.Thread(target=burst, args=(signals[1:], gaps))
+            state["burst"].start()
+        match = re.match(r"^VOLT ([-+0-9.eE]+)$", message)
+        if match:
+            state["volts"].append(float(match.group(1)))
+        return write(resource, message, *args, **kwargs)
+
+    MessageBasedResource.write = tapped
+
+    def one_run(run_dir, at=None, plan=None):
+        state.update(writes=0, at=at, plan=plan, volts=[], first=None, burst=None)
+        err = io.StringIO()
+        with stops.handled(), contextlib.redirect_stderr(err), contextlib.redirect_stdout(io.StringIO()):
+            status = command(["run", campaign, "--out", str(run_dir), "--resume", "-q"])
+            if state["burst"] is not None:
+                state["burst"].join()   # inside: the burst's last signals are this trial's
+        return status, err.getvalue()
+
+    status, _ = one_run(out / "reference")
+    n_writes = state["writes"]
+    expected = read_measurements(out / "reference")
+    rng = random.Random(seed)
+    trials, chains, problems, chain = 0, 0, [], 0
+    while trials < n_trials:
+        run_dir = out / f"chain{chain}"
+        n = rng.randint(2, 10)
+        plan = ([rng.choice(stops.STOP_SIGNALS) for _ in range(n)], [rng.uniform(0, 0.05) for _ in range(n - 1)])
+        status, err = one_run(run_dir, rng.randrange(1, n_writes // 4), plan)
+        if state["first"] is None:   # the run ended before the burst's moment: compare
+            assert status == 0, err
+            if not read_measurements(run_dir).equals(expected):
+                problems.append(f"chain {chain}: rows differ from the uninterrupted run")
+            chains += 1
+            chain += 1
+            continue
+        trials += 1
+        volts, first = state["volts"], state["first"]
+        before = volts[first - 1] if first else math.inf
+        log = (run_dir / "log.txt").read_text() if (run_dir / "log.txt").exists() else ""
+        if status != 130:
+            problems.append(f"trial {trials}: exit {status}")
+        if "Traceback" in err:
+            problems.append(f"trial {trials}: traceback {err}")
+        if volts and not any(math.isclose(volts[-1], low) for low in minimums):
+            problems.append(f"trial {trials}: generator left at {volts[-1]} Vpp")
+        if any(v > before for v in volts[first:]):
+            problems.append(f"trial {trials}: drive raised after the first signal {volts[first - 1:]}")
+        if volts and "last commanded amplitude" not in err:
+            problems.append(f"trial {trials}: final message says no amplitude: {err!r}")
+        if volts and "last commanded amplitude" not in log:
+            problems.append(f"trial {trials}: log.txt says no amplitude")
+    # The last chain finishes uninterrupted and is compared too.
+    status, err = one_run(out / f"chain{chain}")
+    if status != 0 or not read_measurements(out / f"chain{chain}").equals(expected):
+        problems.append(f"last chain: exit {status}, rows differ or {err}")
+    print(json.dumps({"trials": trials, "chains": chains + 1, "problems": problems}))
+    """)
+
+
+def test_bursts_of_stop_signals_leave_the_generator_at_minimum_and_resume_exact(tmp_path):
+    script = tmp_path / "harness.py"
+    script.write_text(HARNESS)
+    done = subprocess.run([sys.executable, str(script), str(paths.campaign_file("quick.yaml")),
+                           str(tmp_path), "200", "29"], capture_output=True, text=True, timeout=900)
+    assert done.returncode == 0, done.stderr[-3000:]
+    result = json.loads(done.stdout.strip().splitlines()[-1])
+    assert result["trials"] >= 200 and result["chains"] >= 1
+    assert result["problems"] == []
