@@ -86,8 +86,10 @@ def load_run(run_dir: Path | str) -> RunData:
 
 def completed_step_files(run_dir: Path) -> list[Path]:
     """measurements/<run>/<step>.parquet of the completed steps: with a journal, only the
-    steps it lists (a step killed between its rename and its journal line is not
-    complete; a torn last line is not a step), otherwise every step file."""
+    steps it lists whose file matches the checksum it records (a step killed between its
+    rename and its journal line is not complete; a torn or damaged line is not a step,
+    the lines after it still are), otherwise every step file (unverified: `report`
+    refuses such a run unless told, see RunStore.unverifiable)."""
     measurements_dir = run_dir / "measurements"
     if not measurements_dir.is_dir():
         return []
@@ -96,14 +98,17 @@ def completed_step_files(run_dir: Path) -> list[Path]:
     journal = run_dir / "journal.jsonl"
     if not journal.is_file():
         return files
-    completed = set()
+    digests = {}
     for line in journal.read_bytes().split(b"\n")[:-1]:  # the text after the last LF is torn
         try:
             entry = json.loads(line)
-            completed.add((str(entry["run"]), str(entry["step"])))
-        except (json.JSONDecodeError, KeyError, TypeError):
-            break
-    return [p for p in files if (p.parent.name, p.stem) in completed]
+            step = (str(entry["run"]), str(entry["step"]))
+            digests[step] = (entry.get("files") or {}).get(f"measurements/{step[0]}/{step[1]}.parquet")
+        except (json.JSONDecodeError, KeyError, TypeError, AttributeError):
+            continue   # a damaged line costs its own step, never the steps after it
+    # A step file that fails its checksum is not what was measured: it is left out.
+    return [p for p in files if (p.parent.name, p.stem) in digests
+            and digests[p.parent.name, p.stem] in (None, hashlib.sha256(p.read_bytes()).hexdigest())]
 
 
 def read_measurements(files: list[Path]) -> pd.DataFrame:

@@ -179,18 +179,87 @@ class RunStore:
 
     def manifest(self) -> dict[str, Any]:
         path = self.run_dir / MANIFEST
+        rebuild = "; 'squeezebench report --rebuild-manifest' makes it again from the journal"
         try:
             manifest = json.loads(path.read_bytes())
         except OSError as exc:
             raise StorageError(f"{path}: cannot be read ({exc.strerror})") from None
         except ValueError as exc:   # JSONDecodeError and UnicodeDecodeError
-            raise StorageError(f"{path}: not a valid manifest (not JSON: {exc})") from None
+            raise StorageError(f"{path}: not a valid manifest (not JSON: {exc}){rebuild}") from None
         required = {"campaign": dict, "inputs": dict, "instruments": dict}
         for key, kind in required.items():
             if not isinstance(manifest, dict) or not isinstance(manifest.get(key), kind):
-                raise StorageError(f"{path}: not a valid manifest (field '{key}' missing or not an object)")
+                raise StorageError(f"{path}: not a valid manifest (field '{key}' missing or not an object)"
+                                   f"{rebuild}")
         if not isinstance(manifest["campaign"].get("sha256"), str):
-            raise StorageError(f"{path}: not a valid manifest (field 'campaign.sha256' missing)")
+            raise StorageError(f"{path}: not a valid manifest (field 'campaign.sha256' missing){rebuild}")
+        return manifest
+
+    def unverifiable(self) -> list[str]:
+        """Why the step files of this run cannot be trusted as measured (empty when they
+        can): the journal holds their checksums and the manifest says what made them, so
+        a run with step files and without either is refused by `report`."""
+        n_files = len(list((self.run_dir / "measurements").glob("*/*.parquet")))
+        if not n_files:
+            return []
+        reasons = []
+        if not (self.run_dir / JOURNAL).is_file():
+            reasons.append(f"{self.run_dir / JOURNAL}: missing, so none of the {n_files} step files can be "
+                           "checked against its checksum (resume the run to measure them again)")
+        if not (self.run_dir / MANIFEST).is_file():
+            reasons.append(f"{self.run_dir / MANIFEST}: missing, so what campaign, inputs and instruments made "
+                           "these rows is unknown (rebuild it with 'report --rebuild-manifest')")
+        return reasons
+
+    def rebuild_manifest(self) -> dict[str, Any]:
+        """A manifest made again from the journal and the files whose checksums it
+        verifies (the campaign copy, the inputs each entry names, the rows' provenance);
+        a damaged one is moved to quarantine first. StorageError if the journal cannot
+        vouch for every file (repair the run by resuming it first)."""
+        journal = self.run_dir / JOURNAL
+        if not journal.is_file():
+            raise StorageError(f"{journal}: missing; a manifest is rebuilt only from the journal's checksums")
+        problems = self.verify()
+        if problems:
+            raise StorageError(f"{problems[0]}; a manifest is rebuilt only from files the journal vouches for "
+                               "(resume the run first: it measures damaged steps again)")
+        entries = self.journal()
+        campaign_copy = self.run_dir / CAMPAIGN_COPY
+        if not campaign_copy.is_file():
+            raise StorageError(f"{campaign_copy}: missing; the manifest cannot say which campaign made the run")
+        inputs: dict[str, dict[str, Any]] = {}
+        for entry in entries:
+            for name, digest in entry.get("inputs", {}).items():
+                name_path = Path(name)
+                candidates = [f"inputs/{name}", f"inputs/{name_path.stem}.{digest[:12]}{name_path.suffix}"]
+                copy = next((c for c in candidates if (self.run_dir / c).is_file()
+                             and sha256_file(self.run_dir / c) == digest), None)
+                if copy is None:
+                    raise StorageError(f"{self.run_dir / candidates[0]}: missing or not the file step "
+                                       f"{entry['run']}/{entry['step']} used (sha256 {digest[:12]}...)")
+                versions = inputs.setdefault(name, {"versions": []})["versions"]
+                if not versions or versions[-1]["sha256"] != digest:
+                    versions.append({"sha256": digest, "copy": copy, "steps_before": entries.index(entry)})
+        for name, record in inputs.items():
+            record.update(file=record["versions"][-1]["copy"], copy=record["versions"][-1]["copy"],
+                          sha256=record["versions"][-1]["sha256"])
+        instruments, benches = {}, {}
+        for entry in entries:
+            if entry["run"] in instruments or not entry["rows"]:
+                continue
+            row = pd.read_parquet(self.run_dir / _measurement_file(entry["run"], entry["step"])).iloc[0]
+            instruments[entry["run"]] = json.loads(row["instrument_ids"])
+            benches[entry["run"]] = {key: row[key] for key in ("bench", "bench_input", "bench_input_sha256")}
+        if (self.run_dir / MANIFEST).exists():
+            self._quarantine(self.run_dir / MANIFEST)
+        now = _utc_now()
+        manifest = {"software": {"name": "squeezebench", "version": squeezebench.__version__},
+                    "campaign": {"file": str(campaign_copy), "copy": CAMPAIGN_COPY,
+                                 "sha256": sha256_file(campaign_copy)},
+                    "inputs": inputs, "instruments": instruments, "benches": benches,
+                    "created_utc": entries[0]["completed_utc"] if entries else now,
+                    "rebuilt_utc": now, "rebuilt_from": f"{JOURNAL} and the checksums of the files it names"}
+        self._write_manifest(manifest)
         return manifest
 
     def _write_manifest(self, manifest: dict[str, Any]) -> None:

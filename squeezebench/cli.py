@@ -136,6 +136,16 @@ def cmd_report(args: argparse.Namespace) -> int:
     from squeezebench.protocols.storage import RunStore
 
     store = RunStore(Path(args.run_dir))
+    if args.rebuild_manifest:
+        with store.writer():
+            store.rebuild_manifest()
+        say(args, f"{store.run_dir / 'manifest.json'} rebuilt from the journal and the files' checksums")
+    unverified = store.unverifiable()
+    if unverified and not args.allow_unverified:
+        raise UserError(f"{'; '.join(unverified)}; the report would trust unchecked data: pass "
+                        "--allow-unverified to report it anyway")
+    for reason in unverified:
+        print(f"squeezebench report: warning: UNVERIFIED: {reason}", file=sys.stderr)
     if store.exists():
         store.manifest()   # a malformed manifest is one message, not a traceback in the report
     problems = store.verify()
@@ -301,7 +311,12 @@ def build_parser() -> argparse.ArgumentParser:
     report = add("report", help="recompute tables and figures from a stored run")
     report.add_argument("run_dir", help="run directory written by 'squeezebench run'")
     report.add_argument("--allow-missing", action="store_true",
-                        help="report even if step files in the journal are missing or fail their checksum")
+                        help="report without the steps whose journal line is damaged or whose files are "
+                        "missing or fail their checksum (each one named)")
+    report.add_argument("--allow-unverified", action="store_true",
+                        help="report a run whose journal or manifest is missing (its files cannot be checked)")
+    report.add_argument("--rebuild-manifest", action="store_true",
+                        help="first write manifest.json again from the journal and the files' checksums")
     report.set_defaults(func=cmd_report)
 
     reproduce = add("reproduce", help="the whole paper on the simulated bench, then the report")
