@@ -34,6 +34,7 @@ from squeezebench.instruments.base import Instrument
 from squeezebench.instruments.errors import BenchFileError, InstrumentConnectionError, InstrumentError, InstrumentTimeout
 from squeezebench.instruments.ofv5000 import OFV5000
 from squeezebench.instruments.tds3054b import CHANNELS, TDS3054B
+from squeezebench.yamlfiles import load_strict
 
 ROLES = ("generator", "scope", "vibrometer")
 DRIVERS: dict[str, type[Instrument]] = {"generator": Agilent33120A, "scope": TDS3054B, "vibrometer": OFV5000}
@@ -112,7 +113,7 @@ def _read_yaml(path: Path) -> Any:
     except OSError as exc:
         raise BenchFileError(path, "file", f"cannot be read ({exc.strerror or exc})") from None
     try:
-        return yaml.safe_load(text)
+        return load_strict(text)   # the campaigns' loader: a key given twice is refused
     except yaml.YAMLError as exc:
         mark = getattr(exc, "problem_mark", None)
         where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark is not None else ""

@@ -33,7 +33,6 @@ import contextlib
 import dataclasses
 import datetime as dt
 import logging
-import re
 import sys
 from dataclasses import dataclass
 from pathlib import Path
@@ -46,6 +45,7 @@ from squeezebench import paths, schemas
 from squeezebench.instruments.agilent33120a import AMPLITUDE_RANGE_VPP, FREQUENCY_RANGE_HZ
 from squeezebench.instruments.bench import open_bench, sim_bench_config
 from squeezebench.instruments.errors import OutOfRangeError
+from squeezebench.instruments.tds3054b import HORIZONTAL_DIVISIONS, HORIZONTAL_SCALES_S_PER_DIV
 from squeezebench.protocols.acquisition import Acquisition, AcquisitionSettings
 from squeezebench.protocols.safety import DriveController, SafetyLimits, chain_warnings
 from squeezebench.protocols.steps import Plate, Step, StepContext
@@ -56,7 +56,6 @@ from squeezebench.schemas import PROTOCOLS
 
 log = logging.getLogger(__name__)
 
-_NAME = re.compile(r"^[A-Za-z0-9_.-]+$")
 #: Loggers whose records go to the run's log.txt.
 _LOGGED_PACKAGES = ("squeezebench.protocols", "squeezebench.instruments")
 
@@ -136,10 +135,20 @@ def load_campaign(path: Path) -> Campaign:
         raise CampaignError(path, *schemas.describe(exc, schemas.CampaignFile)) from None
     loader = _Loader(path)
     name = model.name or path.stem
-    if not _NAME.match(name):
-        raise CampaignError(path, "name", f"{name!r} (the file's stem) must be letters, digits, '_', '-' "
-                            "or '.'; give the campaign a 'name'")
+    problem = schemas.file_name_problem(name)
+    if problem:
+        raise CampaignError(path, "name", f"{problem} (the file's stem by default); give the campaign a 'name'")
     runs = tuple(loader.run(item, f"runs[{i}]") for i, item in enumerate(model.runs))
+    for i, run in enumerate(runs):   # every name that becomes a file, before any bench opens
+        steps = run.steps()
+        if not steps:
+            raise CampaignError(path, f"runs[{i}]", "has no step to measure (an empty list?); give it "
+                                "at least one or remove the run")
+        for step in steps:
+            problem = schemas.file_name_problem(step.step_id) or (
+                schemas.file_name_problem(step.plate.name) if step.plate.name else None)
+            if problem:
+                raise CampaignError(path, f"runs[{i}]", f"step or plate name {problem}")
     names = [run.name for run in runs]
     duplicates = sorted({n for n in names if names.count(n) > 1})
     if duplicates:
@@ -244,6 +253,15 @@ def check_requests(file: Path, run: Run, field: str) -> None:
         _check_value(file, f"{field}.{name}", name.split(".")[-1], value, limits)
     for where, name, value in _leaves(run.parameters, f"{field}.parameters"):
         _check_value(file, where, name, value, limits)
+    # The record must fit on the scope's slowest time base at the lowest frequency asked.
+    frequencies_hz = [value for _, name, value in _leaves(run.parameters, "")
+                      if name.endswith("_hz") and name not in _FREQUENCY_STEPS and isinstance(value, (int, float))]
+    longest_record_s = HORIZONTAL_SCALES_S_PER_DIV[-1] * HORIZONTAL_DIVISIONS
+    lowest_hz = min(frequencies_hz, default=FREQUENCY_RANGE_HZ[0])
+    if run.acquisition.periods_per_record / lowest_hz > longest_record_s:
+        raise CampaignError(file, f"{field}.acquisition.periods_per_record",
+                            f"{run.acquisition.periods_per_record!r} periods at {lowest_hz:g} Hz do not fit in the "
+                            f"scope's longest record, {longest_record_s:g} s")
 
 
 def _check_value(file: Path, where: str, name: str, value: Any, limits) -> None:
@@ -352,6 +370,7 @@ def _run_campaign(path: Path, resume: bool, out_dir: Path | None, progress: bool
             else:
                 store.create(campaign.file)
                 journal = []
+            store.check_writable([run.name for run in campaign.runs])
             for warning in dict.fromkeys(f"{run.bench.input_file}: {w}" for run in campaign.runs
                                          for w in chain_warnings(run.bench.config().electronics)):
                 tell(warning)
@@ -503,8 +522,16 @@ class _Mounted:
             self.state = plate.state
 
 
+class _RunLog(logging.FileHandler):
+    """log.txt; a line it cannot write (the folder made read-only) is not a traceback on
+    the terminal: the storage error that follows says what happened, once."""
+
+    def handleError(self, record: logging.LogRecord) -> None:
+        pass
+
+
 def _attach_log(path: Path) -> logging.Handler:
-    handler = logging.FileHandler(path, encoding="utf-8")
+    handler = _RunLog(path, encoding="utf-8")
     handler.setFormatter(logging.Formatter("%(asctime)s %(levelname)s %(name)s: %(message)s"))
     for name in _LOGGED_PACKAGES:
         logger = logging.getLogger(name)

@@ -89,16 +89,29 @@ def _fsync_dir(path: Path) -> None:
         os.close(fd)
 
 
+@contextlib.contextmanager
+def _writing(path: Path) -> Iterator[None]:
+    """The OS refusing a write (a read-only folder, a full disk, a name too long) is one
+    message naming the path; what is stored already stays (a step is complete only with
+    its journal line, written last)."""
+    try:
+        yield
+    except OSError as exc:
+        raise StorageError(f"{path}: cannot be written ({exc.strerror or exc}); everything stored before is "
+                           "kept: make the folder writable (or free space), then resume with --resume") from None
+
+
 def write_atomic(path: Path, data: bytes) -> None:
     """Write `data` to `path` so that a reader sees the old file or the new, never half."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.name}.tmp")
-    with open(tmp, "wb") as handle:
-        handle.write(data)
-        handle.flush()
-        os.fsync(handle.fileno())
-    os.replace(tmp, path)
-    _fsync_dir(path.parent)
+    with _writing(path):
+        path.parent.mkdir(parents=True, exist_ok=True)
+        tmp = path.with_name(f".{path.name}.tmp")
+        with open(tmp, "wb") as handle:
+            handle.write(data)
+            handle.flush()
+            os.fsync(handle.fileno())
+        os.replace(tmp, path)
+        _fsync_dir(path.parent)
 
 
 def write_frame_atomic(path: Path, frame: pd.DataFrame) -> None:
@@ -387,8 +400,20 @@ class RunStore:
                                 "the file changed after it was measured)")
         return problems
 
+    def check_writable(self, run_names: list[str]) -> None:
+        """Make every folder the run writes into and write a file in each (removed), so a
+        folder that cannot be written stops the run before its first drive."""
+        folders = [self.run_dir, self.run_dir / "settings", self.run_dir / "inputs",
+                   *(self.run_dir / folder / name for folder in STEP_FOLDERS for name in run_names)]
+        for folder in folders:
+            probe = folder / ".squeezebench.probe"
+            with _writing(probe):
+                folder.mkdir(parents=True, exist_ok=True)
+                probe.write_bytes(b"")
+                probe.unlink()
+
     def append_journal(self, entry: dict[str, Any]) -> None:
-        with open(self.run_dir / JOURNAL, "ab") as handle:
+        with _writing(self.run_dir / JOURNAL), open(self.run_dir / JOURNAL, "ab") as handle:
             handle.write(json.dumps(entry, sort_keys=True).encode() + b"\n")
             handle.flush()
             os.fsync(handle.fileno())
@@ -400,6 +425,12 @@ class RunStore:
         """Waveforms, then the measurement table (each row with the `provenance` columns,
         so a row alone says which bench produced it); return {relative path: sha256} of
         every file written, for the journal line the caller appends."""
+        with _writing(self.run_dir / "waveforms" / run_name / step_id):
+            return self._write_step(run_name, step_id, rows, waveforms, provenance)
+
+    def _write_step(self, run_name: str, step_id: str, rows: list[dict[str, Any]],
+                    waveforms: dict[int, tuple[pd.DataFrame, dict[str, Any]]],
+                    provenance: dict[str, Any] | None) -> dict[str, str]:
         rows = [{**row, **(provenance or {})} for row in rows]
         files: dict[str, str] = {}
         final_dir = self.run_dir / "waveforms" / run_name / step_id

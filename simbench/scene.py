@@ -53,6 +53,7 @@ from squeezebench.analysis import model
 from squeezebench.simbench import physics
 from squeezebench.simbench.effects import EFFECTS
 from squeezebench.errors import UserError
+from squeezebench.yamlfiles import load_strict, yaml_problem
 
 #: Readings of the paper's model a `paper_model` calibration may name.
 CONVENTIONS = {c.name: c for c in (model.PAPER_CONVENTION, model.AS_PRINTED_CONVENTION,
@@ -429,11 +430,11 @@ def load_scene(path: str | Path) -> Scene:
     path = Path(path)
     reader = _Reader(path)
     try:
-        raw = yaml.safe_load(path.read_text(encoding="utf-8"))
+        raw = load_strict(path.read_text(encoding="utf-8"))   # a key given twice is refused
     except OSError as exc:
         raise SceneError(f"{path}: cannot read the scene file ({exc.strerror})") from exc
     except yaml.YAMLError as exc:
-        raise SceneError(f"{path}: not valid YAML ({exc})") from exc
+        raise SceneError(f"{path}: {yaml_problem(exc)}") from None
     top = reader.mapping(raw, "scene", required=("plate", "actuators", "mode", "states", "initial_state"),
                          optional=("electronics", "measurement_point", "effects", "seed", "provenance",
                                    "description"))

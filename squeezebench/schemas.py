@@ -7,7 +7,7 @@ protocols' own dataclasses (their `Parameters`, `AcquisitionSettings`, `SafetyLi
 `Plate`) are the models of their sections: pydantic validates them as they are, so
 their checks (`__post_init__`) are the schema's.
 
-Files are read by `read_yaml`, which refuses what PyYAML would silently accept: a key
+Files are read by `yamlfiles.read_yaml` (also used for scenes and bench files), which refuses what PyYAML would silently accept: a key
 given twice (the second would win), `.nan` and `.inf`, and text that is not UTF-8.
 Scenes are simbench's (`simbench.scene.load_scene` validates them).
 """
@@ -15,14 +15,12 @@ Scenes are simbench's (`simbench.scene.load_scene` validates them).
 from __future__ import annotations
 
 import json
-import math
 import re
 import sys
 from pathlib import Path
 from typing import Annotated, Any, Literal, Optional, Union
 
 import pyvisa.rname
-import yaml
 from pydantic import AfterValidator, BaseModel, ConfigDict, Field, ValidationError, create_model, model_validator
 
 from squeezebench.errors import UserError
@@ -32,73 +30,39 @@ from squeezebench.protocols import calibration, characterisation, cutting, detun
 from squeezebench.protocols.acquisition import AcquisitionSettings
 from squeezebench.protocols.safety import SafetyLimits
 from squeezebench.protocols.steps import Plate
+from squeezebench.yamlfiles import FileFormatError, read_yaml  # noqa: F401 - the readers of every file
 
 PROTOCOLS = {module.PROTOCOL: module for module in
              (resonance, detuning, cutting, powered_columns, characterisation, calibration)}
 SCHEMAS_DIR = Path(__file__).resolve().parents[1] / "docs" / "schemas"
 
 
-class FileFormatError(UserError):
-    """A file that is not the UTF-8 YAML it should be (or repeats a key, or holds NaN/inf)."""
-
-
-# -- reading YAML strictly ---------------------------------------------------------------
-class _StrictLoader(yaml.SafeLoader):
-    """SafeLoader refusing duplicate keys and non-finite numbers."""
-
-
-def _mapping(loader: _StrictLoader, node: yaml.MappingNode) -> dict:
-    loader.flatten_mapping(node)
-    seen: dict[Any, int] = {}
-    for key_node, _ in node.value:
-        key = loader.construct_object(key_node, deep=True)
-        if key in seen:
-            raise yaml.constructor.ConstructorError(
-                None, None, f"key '{key}' is given twice (lines {seen[key] + 1} and "
-                f"{key_node.start_mark.line + 1}); give it once", key_node.start_mark)
-        seen[key] = key_node.start_mark.line
-    return loader.construct_mapping(node, deep=True)
-
-
-def _float(loader: _StrictLoader, node: yaml.ScalarNode) -> float:
-    value = yaml.SafeLoader.construct_yaml_float(loader, node)
-    if not math.isfinite(value):
-        raise yaml.constructor.ConstructorError(
-            None, None, f"'{node.value}' is not allowed: every number must be finite", node.start_mark)
-    return value
-
-
-_StrictLoader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG, _mapping)
-_StrictLoader.add_constructor("tag:yaml.org,2002:float", _float)
-
-
-def read_yaml(path: Path) -> Any:
-    """The file's YAML, or FileFormatError naming the file and the cause (line, column)."""
-    path = Path(path)
-    try:
-        data = path.read_bytes()
-    except OSError as exc:
-        raise FileFormatError(f"{path}: cannot be read ({exc.strerror or exc})") from None
-    try:
-        text = data.decode("utf-8")
-    except UnicodeDecodeError as exc:
-        raise FileFormatError(f"{path}: not UTF-8 text (byte 0x{data[exc.start]:02x} at offset "
-                              f"{exc.start}); save it as UTF-8") from None
-    try:
-        return yaml.load(text, Loader=_StrictLoader)
-    except yaml.YAMLError as exc:
-        mark = getattr(exc, "problem_mark", None)
-        where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark is not None else ""
-        raise FileFormatError(f"{path}: not valid YAML{where}: {getattr(exc, 'problem', None) or exc}") from None
-
-
 # -- the models ---------------------------------------------------------------------------
 _NAME_PATTERN = r"^[A-Za-z0-9_.-]+$"
 
 
-def _file_name(value: str) -> str:
+#: A name becomes a file or folder name with a suffix (".partial", ".parquet"): well under
+#: the 255 bytes a file-system name may have.
+MAX_NAME_LENGTH = 100
+
+
+def file_name_problem(value: str) -> str | None:
+    """Why `value` cannot name a file or folder inside a run directory (None if it can):
+    letters, digits, '_', '-' or '.', not '.' or '..' (they name a folder already, the
+    second one outside the run), at most MAX_NAME_LENGTH characters."""
     if not re.match(_NAME_PATTERN, value):
-        raise ValueError(f"{value!r} must be letters, digits, '_', '-' or '.' (it names files)")
+        return f"{value!r} must be letters, digits, '_', '-' or '.' (it names files)"
+    if value in (".", ".."):
+        return f"{value!r} is not a name: it names a folder that exists already (it names files)"
+    if len(value) > MAX_NAME_LENGTH:
+        return f"{value[:20]!r}... is {len(value)} characters long; at most {MAX_NAME_LENGTH} (it names files)"
+    return None
+
+
+def _file_name(value: str) -> str:
+    problem = file_name_problem(value)
+    if problem:
+        raise ValueError(problem)
     return value
 
 

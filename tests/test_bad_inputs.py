@@ -11,7 +11,7 @@ import json
 import pytest
 import yaml
 
-from squeezebench import cli, schemas
+from squeezebench import cli, paths, schemas
 from squeezebench.instruments.agilent33120a import Agilent33120A
 from squeezebench.instruments.errors import OutOfRangeError
 from test_protocols_support import FAST_ACQUISITION, ONE_COLUMN_PLATE
@@ -60,6 +60,18 @@ CAMPAIGNS = {
     "bad_visa_address": (campaign_text(bench={"file": "lab.yaml"}, runs=NAMED_PLATE), ["lab.yaml", "resources.scope", "VISA resource"]),
     "bench_load_75": (campaign_text(bench={"file": "lab75.yaml"}, runs=NAMED_PLATE), ["lab75.yaml", "generator_load", "50, INF"]),
     "not_a_mapping": ("- a\n- list\n", ["top level", "campaign"]),
+    "name_dot": (campaign_text(name="."), ["field 'name'", "'.'", "names files"]),
+    "name_dotdot": (campaign_text(name=".."), ["field 'name'", "'..'", "names files"]),
+    "name_300_chars": (campaign_text(name="n" * 300), ["field 'name'", "300 characters", "at most 100"]),
+    "run_name_dotdot": (campaign_text(runs=[{**CUT, "name": ".."}]), ["field 'runs[0].name'", "'..'"]),
+    "plate_name_dotdot": (campaign_text(runs=[{**CUT, "plate": {**ONE_COLUMN_PLATE, "name": ".."}}]),
+                          ["runs[0]", "'..'", "names files"]),
+    "no_lengths": (campaign_text(runs=with_params(lengths=[])), ["field 'runs[0]'", "no step"]),
+    "periods_1e9": (campaign_text(acquisition={**FAST_ACQUISITION, "periods_per_record": 1e9}),
+                    ["periods_per_record", "longest record"]),
+    "scene_duplicate_key": (campaign_text(bench={"scene": "twice.yaml"}), ["twice.yaml", "amplifier_gain", "given twice"]),
+    "bench_duplicate_key": (campaign_text(bench={"file": "twice_bench.yaml"}, runs=NAMED_PLATE),
+                            ["twice_bench.yaml", "generator_load", "given twice"]),
 }
 
 
@@ -67,6 +79,11 @@ CAMPAIGNS = {
 def files(tmp_path):
     (tmp_path / "lab.yaml").write_text(BENCH % ("192.168.0.20", "INF"))
     (tmp_path / "lab75.yaml").write_text(BENCH % ("TCPIP0::192.168.0.20::INSTR", "75"))
+    (tmp_path / "twice_bench.yaml").write_text((BENCH % ("TCPIP0::192.168.0.20::INSTR", "INF")).replace(
+        "electronics: {generator_load: INF}", "electronics:\n  generator_load: INF\n  generator_load: '50'"))
+    scene = paths.default_scene().with_name("one_column_1mm.yaml")
+    text = scene.read_text()
+    (tmp_path / "twice.yaml").write_text(text.replace("amplifier_gain:", "amplifier_gain: 20\n  amplifier_gain:", 1))
     return tmp_path
 
 
@@ -157,3 +174,56 @@ def test_shipped_files_validate(capsys):
     files = [*paths.campaigns_dir().glob("*.yaml"), *(paths.data_dir() / "benches").glob("*.yaml")]
     assert cli.main(["validate", *map(str, files)]) == 0
     assert capsys.readouterr().out.count(": valid ") == len(files)
+
+
+def test_output_made_read_only_mid_run_is_one_message_and_loses_nothing(files, capsys, monkeypatch):
+    """The folder refuses writes after the first step is stored (as chmod a-w would, which
+    root ignores, so the refusal is injected): one line, exit 2, the stored step intact
+    and the run completes on resume."""
+    import os
+
+    from squeezebench.protocols.storage import RunStore
+
+    path = write(files, "good", campaign_text(runs=with_params(lengths=[
+        {"plate_length_mm": 75, "state": "75x41", "n_antinodes": 9},
+        {"plate_length_mm": 59, "state": "59x41", "n_antinodes": 7}])))
+    run_dir = files / "run"
+    original = os.replace
+
+    def read_only_after_first_step(source, target, *args, **kwargs):
+        if (run_dir / "journal.jsonl").exists() and (run_dir / "journal.jsonl").stat().st_size > 0:
+            raise PermissionError(13, "Permission denied", str(target))
+        return original(source, target, *args, **kwargs)
+
+    monkeypatch.setattr(os, "replace", read_only_after_first_step)
+    assert cli.main(["run", str(path), "--out", str(run_dir), "-q"]) == cli.EXIT_USER_ERROR
+    line = one_line(capsys)
+    assert "cannot be written" in line and "Permission denied" in line and "--resume" in line
+    monkeypatch.undo()
+    store = RunStore(run_dir)
+    assert len(store.journal()) >= 1 and store.verify() == []
+    assert not list(files.glob("*.parquet")) and not (files / "measurements").exists()   # nothing outside
+    assert cli.main(["run", str(path), "--out", str(run_dir), "--resume", "-q"]) == 0
+    assert len(store.journal()) == 2
+
+
+def test_a_folder_that_cannot_be_written_stops_the_run_before_the_bench_opens(files, capsys, monkeypatch):
+    from pathlib import Path
+
+    from pyvisa.resources import MessageBasedResource
+
+    path = write(files, "good", campaign_text())
+    original = Path.write_bytes
+    sent = []
+
+    def refusing(self, data):
+        if self.name == ".squeezebench.probe" and "waveforms" in self.parts:
+            raise PermissionError(13, "Permission denied", str(self))
+        return original(self, data)
+
+    monkeypatch.setattr(Path, "write_bytes", refusing)
+    monkeypatch.setattr(MessageBasedResource, "write", lambda *args, **kwargs: sent.append(args))
+    assert cli.main(["run", str(path), "--out", str(files / "run"), "-q"]) == cli.EXIT_USER_ERROR
+    line = one_line(capsys)
+    assert "waveforms" in line and "cannot be written" in line
+    assert sent == []   # not one message to an instrument

@@ -1,0 +1,79 @@
+"""Reading YAML strictly: one loader for every file the project reads (campaigns, bench
+files, scenes). PyYAML's SafeLoader silently keeps the last of a key given twice (a scene
+with `amplifier_gain: 20` then `40` runs at 40) and accepts `.nan` and `.inf`; this one
+refuses both, naming the line.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+from squeezebench.errors import UserError
+
+
+class FileFormatError(UserError):
+    """A file that is not the UTF-8 YAML it should be (or repeats a key, or holds NaN/inf)."""
+
+
+# -- reading YAML strictly ---------------------------------------------------------------
+class _StrictLoader(yaml.SafeLoader):
+    """SafeLoader refusing duplicate keys and non-finite numbers."""
+
+
+def _mapping(loader: _StrictLoader, node: yaml.MappingNode) -> dict:
+    loader.flatten_mapping(node)
+    seen: dict[Any, int] = {}
+    for key_node, _ in node.value:
+        key = loader.construct_object(key_node, deep=True)
+        if key in seen:
+            raise yaml.constructor.ConstructorError(
+                None, None, f"key '{key}' is given twice (lines {seen[key] + 1} and "
+                f"{key_node.start_mark.line + 1}); give it once", key_node.start_mark)
+        seen[key] = key_node.start_mark.line
+    return loader.construct_mapping(node, deep=True)
+
+
+def _float(loader: _StrictLoader, node: yaml.ScalarNode) -> float:
+    value = yaml.SafeLoader.construct_yaml_float(loader, node)
+    if not math.isfinite(value):
+        raise yaml.constructor.ConstructorError(
+            None, None, f"'{node.value}' is not allowed: every number must be finite", node.start_mark)
+    return value
+
+
+_StrictLoader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG, _mapping)
+_StrictLoader.add_constructor("tag:yaml.org,2002:float", _float)
+
+
+def read_yaml(path: Path) -> Any:
+    """The file's YAML, or FileFormatError naming the file and the cause (line, column)."""
+    path = Path(path)
+    try:
+        data = path.read_bytes()
+    except OSError as exc:
+        raise FileFormatError(f"{path}: cannot be read ({exc.strerror or exc})") from None
+    try:
+        text = data.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise FileFormatError(f"{path}: not UTF-8 text (byte 0x{data[exc.start]:02x} at offset "
+                              f"{exc.start}); save it as UTF-8") from None
+    try:
+        return load_strict(text)
+    except yaml.YAMLError as exc:
+        raise FileFormatError(f"{path}: {yaml_problem(exc)}") from None
+
+
+def yaml_problem(exc: yaml.YAMLError) -> str:
+    """One line: where the YAML is wrong and why (PyYAML's own text spans several)."""
+    mark = getattr(exc, "problem_mark", None)
+    where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark is not None else ""
+    return f"not valid YAML{where}: {getattr(exc, 'problem', None) or exc}"
+
+
+def load_strict(text: str) -> Any:
+    """YAML text through the strict loader (yaml.YAMLError on a repeated key or NaN/inf)."""
+    return yaml.load(text, Loader=_StrictLoader)
