@@ -89,16 +89,28 @@ def _fsync_dir(path: Path) -> None:
         os.close(fd)
 
 
+_RESUME = "everything stored before is kept: make the folder writable (or free space), then resume with --resume"
+
+
 @contextlib.contextmanager
-def _writing(path: Path) -> Iterator[None]:
+def _writing(path: Path, then: str = _RESUME) -> Iterator[None]:
     """The OS refusing a write (a read-only folder, a full disk, a name too long) is one
-    message naming the path; what is stored already stays (a step is complete only with
-    its journal line, written last)."""
+    message naming the path and what to do `then`; what is stored already stays (a step
+    is complete only with its journal line, written last)."""
     try:
         yield
     except OSError as exc:
-        raise StorageError(f"{path}: cannot be written ({exc.strerror or exc}); everything stored before is "
-                           "kept: make the folder writable (or free space), then resume with --resume") from None
+        raise StorageError(f"{path}: cannot be written ({exc.strerror or exc}); {then}") from None
+
+
+def check_writable_file(path: Path) -> None:
+    """StorageError now if `path` could not be written later (its folder missing or
+    read-only, not a folder): a file is created beside it and removed."""
+    path = Path(path)
+    probe = path.with_name(f".{path.name}.probe")
+    with _writing(path, "choose a file in a folder you can write to"):
+        probe.write_bytes(b"")
+        probe.unlink()
 
 
 def write_atomic(path: Path, data: bytes) -> None:

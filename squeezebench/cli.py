@@ -51,7 +51,8 @@ def show_progress(args: argparse.Namespace) -> bool:
 
 
 def _bench_config(bench: str):
-    from squeezebench.instruments.bench import load_bench_file, sim_bench_config
+    from squeezebench.instruments.bench import sim_bench_config
+    from squeezebench.schemas import load_bench_file   # the validator `run` uses
 
     if bench == "sim":
         return sim_bench_config(paths.default_scene())
@@ -246,6 +247,10 @@ def cmd_plan(args: argparse.Namespace) -> int:
     from squeezebench.protocols.planning import make_plan, plan_campaign, write_planned_campaign
 
     campaign = paths.campaign_file(args.campaign)
+    if args.write is not None:   # refused before minutes of planning, not after
+        from squeezebench.protocols.storage import check_writable_file
+
+        check_writable_file(args.write)
     parallel = {"workers": args.workers, "scheduler": args.scheduler}
     if not args.json:
         say(args, plan_campaign(campaign, target_rel_error=args.target_rel_error, write=args.write, **parallel))
@@ -254,6 +259,13 @@ def cmd_plan(args: argparse.Namespace) -> int:
     written = write_planned_campaign(campaign, plan, args.write) if args.write else None
     emit_json({"command": "plan", "campaign": campaign, **plan.as_dict(), "written": written})
     return 0
+
+
+def _relative_error(text: str) -> float:
+    value = float(text)
+    if not 0 < value < 1:   # inf, nan, 0 or 100 % cannot be planned for
+        raise argparse.ArgumentTypeError(f"must be a number between 0 and 1 (0.01 is 1 %), got {text}")
+    return value
 
 
 def _workers(text: str) -> int:
@@ -349,7 +361,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     plan = add("plan", json=True, help="cheapest acquisition settings meeting an accuracy target")
     plan.add_argument("campaign", help="campaign YAML file, or the name of a shipped one (quick, paper)")
-    plan.add_argument("--target-rel-error", type=float, default=0.01, help="relative error goal (default 0.01)")
+    plan.add_argument("--target-rel-error", type=_relative_error, default=0.01, help="relative error goal (default 0.01)")
     plan.add_argument("--write", type=Path, default=None, metavar="FILE",
                       help="also write the campaign with the planned settings to FILE")
     _add_parallel_options(plan)

@@ -227,3 +227,31 @@ def test_a_folder_that_cannot_be_written_stops_the_run_before_the_bench_opens(fi
     line = one_line(capsys)
     assert "waveforms" in line and "cannot be written" in line
     assert sent == []   # not one message to an instrument
+
+
+def test_check_reads_the_bench_file_through_runs_validator(files, capsys):
+    """A scope 'address' that is not a VISA address: one line naming it (was an
+    AttributeError from the driver layer)."""
+    assert cli.main(["check", "--bench", str(files / "lab.yaml")]) == cli.EXIT_USER_ERROR
+    line = one_line(capsys)
+    assert "lab.yaml" in line and "resources.scope" in line and "VISA resource" in line
+    assert cli.main(["check", "--bench", str(files / "twice_bench.yaml")]) == cli.EXIT_USER_ERROR
+    assert "given twice" in one_line(capsys)
+
+
+def test_plan_refuses_an_infinite_target_and_an_unwritable_output_before_planning(files, capsys, monkeypatch):
+    from squeezebench.protocols import planning
+
+    def no_planning(*args, **kwargs):
+        raise AssertionError("planned before refusing")
+
+    monkeypatch.setattr(planning, "plan_campaign", no_planning)
+    monkeypatch.setattr(planning, "make_plan", no_planning)
+    with pytest.raises(SystemExit) as refused:
+        cli.main(["plan", "quick.yaml", "--target-rel-error", "inf"])
+    assert refused.value.code == cli.EXIT_USER_ERROR and "--target-rel-error" in capsys.readouterr().err
+    blocker = files / "a_file"
+    blocker.write_text("not a folder\n")
+    assert cli.main(["plan", "quick.yaml", "--write", str(blocker / "planned.yaml")]) == cli.EXIT_USER_ERROR
+    assert "cannot be written" in one_line(capsys)
+    assert blocker.read_text() == "not a folder\n"
