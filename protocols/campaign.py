@@ -244,6 +244,16 @@ def check_requests(file: Path, run: Run, field: str) -> None:
               (electronics.amplifier_max_output_vpp, "the amplifier's maximum output"),
               (electronics.piezo_vpp_for_generator_vpp(generator_max_vpp),
                f"what the generator's {generator_max_vpp:g} Vpp maximum gives through the amplifier")]
+    # Sanity bounds: a limit above what the amplifier can deliver protects nothing (1e9 Vpp
+    # was accepted), and a step of half its swing or more is no ramp (397 Vpp was accepted).
+    if run.safety.max_piezo_voltage_vpp > electronics.amplifier_max_output_vpp:
+        raise CampaignError(file, f"{field}.safety.max_piezo_voltage_vpp",
+                            f"{run.safety.max_piezo_voltage_vpp:g} Vpp is above the amplifier's maximum output, "
+                            f"{electronics.amplifier_max_output_vpp:g} Vpp: a limit must be one the bench can reach")
+    if run.safety.ramp_step_vpp >= electronics.amplifier_max_output_vpp / 2:
+        raise CampaignError(file, f"{field}.safety.ramp_step_vpp",
+                            f"{run.safety.ramp_step_vpp:g} Vpp is half the amplifier's maximum output "
+                            f"({electronics.amplifier_max_output_vpp:g} Vpp) or more: that is no ramp")
     if run.safety.ramp_step_vpp < MIN_RAMP_STEP_VPP:
         raise CampaignError(file, f"{field}.safety.ramp_step_vpp",
                             f"{run.safety.ramp_step_vpp!r} Vpp is below the smallest ramp step, {MIN_RAMP_STEP_VPP} Vpp")
