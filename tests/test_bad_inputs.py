@@ -69,6 +69,8 @@ CAMPAIGNS = {
     "limit_1e9": (campaign_text(safety={"max_piezo_voltage_vpp": 1e9}),
                   ["field 'runs[0].safety.max_piezo_voltage_vpp'", "amplifier's maximum output"]),
     "ramp_397": (campaign_text(safety={"ramp_step_vpp": 397}), ["field 'runs[0].safety.ramp_step_vpp'", "no ramp"]),
+    "five_columns_on_one": (campaign_text(runs=[{**CUT, "plate": {**ONE_COLUMN_PLATE, "n_powered_columns": 5}}]),
+                            ["runs[0].plate", "n_powered_columns 5", "1 column(s)"]),
     "no_lengths": (campaign_text(runs=with_params(lengths=[])), ["field 'runs[0]'", "no step"]),
     "periods_1e9": (campaign_text(acquisition={**FAST_ACQUISITION, "periods_per_record": 1e9}),
                     ["periods_per_record", "longest record"]),
