@@ -32,7 +32,6 @@ from __future__ import annotations
 import contextlib
 import dataclasses
 import datetime as dt
-import functools
 import logging
 import sys
 from dataclasses import dataclass
@@ -243,19 +242,13 @@ def _check_plate_against_scene(file: Path, plate: Plate, scene: Path | None, fie
     import the simulator."""
     if scene is None:
         return
-    actuators = _scene_actuators(Path(scene))
+    actuators = schemas.read_yaml(scene).get("actuators", {})
     n_columns = len(actuators.get("columns", ()))
     n_piezos = n_columns * actuators.get("piezos_per_column", 0)
     if plate.n_powered_columns > n_columns or plate.n_powered_piezos > n_piezos:
         raise CampaignError(file, field, f"n_powered_columns {plate.n_powered_columns} and n_powered_piezos "
                             f"{plate.n_powered_piezos} on {Path(scene).name}, a plate of {n_columns} "
                             f"column(s) and {n_piezos} piezos")
-
-
-@functools.lru_cache(maxsize=64)
-def _scene_actuators(scene: Path) -> dict:
-    """A scene's `actuators` section (read once per scene: a campaign's steps share a few)."""
-    return schemas.read_yaml(scene).get("actuators", {})
 
 
 def check_requests(file: Path, run: Run, field: str) -> None:
