@@ -149,7 +149,6 @@ def load_campaign(path: Path) -> Campaign:
                 schemas.file_name_problem(step.plate.name) if step.plate.name else None)
             if problem:
                 raise CampaignError(path, f"runs[{i}]", f"step or plate name {problem}")
-            _check_plate_against_scene(path, step.plate, step.plate.scene or run.bench.scene, f"runs[{i}].plate")
     names = [run.name for run in runs]
     duplicates = sorted({n for n in names if names.count(n) > 1})
     if duplicates:
@@ -233,22 +232,6 @@ MIN_RAMP_STEP_VPP = 0.1
 _FREQUENCY_STEPS = ("tolerance_hz", "tracking_step_hz", "first_detuning_hz")
 #: Longest wait a campaign may ask for in one setting (s).
 MAX_WAIT_S = 600.0
-
-
-def _check_plate_against_scene(file: Path, plate: Plate, scene: Path | None, field: str) -> None:
-    """The plate's powered columns and piezos exist on the simulated plate (5 columns on a
-    one-column plate was stored in every row); a real bench has no scene to check against.
-    Read from the scene file as written (its `actuators` section): a protocol does not
-    import the simulator."""
-    if scene is None:
-        return
-    actuators = schemas.read_yaml(scene).get("actuators", {})
-    n_columns = len(actuators.get("columns", ()))
-    n_piezos = n_columns * actuators.get("piezos_per_column", 0)
-    if plate.n_powered_columns > n_columns or plate.n_powered_piezos > n_piezos:
-        raise CampaignError(file, field, f"n_powered_columns {plate.n_powered_columns} and n_powered_piezos "
-                            f"{plate.n_powered_piezos} on {Path(scene).name}, a plate of {n_columns} "
-                            f"column(s) and {n_piezos} piezos")
 
 
 def check_requests(file: Path, run: Run, field: str) -> None:

@@ -28,8 +28,8 @@ import sys
 from dataclasses import dataclass
 
 from squeezebench.errors import UserError
-from squeezebench.stops import protect, raise_if_stopped, record_generator
 from squeezebench.instruments.bench import GENERATOR_SOURCE_OHM
+from squeezebench.stops import protect, raise_if_stopped, record_generator
 
 log = logging.getLogger(__name__)
 

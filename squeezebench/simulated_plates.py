@@ -54,6 +54,11 @@ def check_powered_piezos(campaign) -> None:
                     f"{step.plate.n_powered_piezos} powered piezos, but {scene_path.name} state {state.name!r} "
                     f"powers {len(state.powered_columns)} columns x {scene.actuators.piezos_per_column} = "
                     f"{state.n_powered_piezos} (n_c scales Q and tan theta'): correct n_powered_piezos")
+            if len(state.powered_columns) != step.plate.n_powered_columns:   # stored in every row
+                raise UserError(
+                    f"{campaign.file}: run {run.name!r}, step {step.step_id!r}: plate {step.plate.name!r} says "
+                    f"{step.plate.n_powered_columns} powered columns, but {scene_path.name} state {state.name!r} "
+                    f"powers {len(state.powered_columns)}: correct n_powered_columns")
 
 
 if scenes_section not in report.SECTIONS:

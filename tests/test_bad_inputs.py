@@ -69,8 +69,6 @@ CAMPAIGNS = {
     "limit_1e9": (campaign_text(safety={"max_piezo_voltage_vpp": 1e9}),
                   ["field 'runs[0].safety.max_piezo_voltage_vpp'", "amplifier's maximum output"]),
     "ramp_397": (campaign_text(safety={"ramp_step_vpp": 397}), ["field 'runs[0].safety.ramp_step_vpp'", "no ramp"]),
-    "five_columns_on_one": (campaign_text(runs=[{**CUT, "plate": {**ONE_COLUMN_PLATE, "n_powered_columns": 5}}]),
-                            ["runs[0].plate", "n_powered_columns 5", "1 column(s)"]),
     "no_lengths": (campaign_text(runs=with_params(lengths=[])), ["field 'runs[0]'", "no step"]),
     "periods_1e9": (campaign_text(acquisition={**FAST_ACQUISITION, "periods_per_record": 1e9}),
                     ["periods_per_record", "longest record"]),
@@ -260,3 +258,11 @@ def test_plan_refuses_an_infinite_target_and_an_unwritable_output_before_plannin
     assert cli.main(["plan", "quick.yaml", "--write", str(blocker / "planned.yaml")]) == cli.EXIT_USER_ERROR
     assert "cannot be written" in one_line(capsys)
     assert blocker.read_text() == "not a folder\n"
+
+
+def test_run_refuses_more_powered_columns_than_the_scene_powers(files, capsys):
+    path = write(files, "five", campaign_text(runs=[{**CUT, "plate": {**ONE_COLUMN_PLATE, "n_powered_columns": 5}}]))
+    assert cli.main(["run", str(path), "--out", str(files / "run")]) == cli.EXIT_USER_ERROR
+    line = one_line(capsys)
+    assert "5 powered columns" in line and "powers 1" in line and "n_powered_columns" in line
+    assert not (files / "run").exists()

@@ -270,7 +270,7 @@ def test_malformed_scene_file(tmp_path, capsys):
 @pytest.mark.parametrize("text, field", [
     ("generator: {resource: GPIB0::10::INSTR}\n", "generator"),   # roles belong under resources
     ("- just\n- a list\n", "top level"),
-    ("{unclosed", "YAML"),
+    ("{unclosed", "not valid YAML"),   # check reads bench files as run does
     ("resources: {generator: 5}\n", "resources"),
 ])
 def test_malformed_bench_file(tmp_path, capsys, text, field):
