@@ -155,6 +155,18 @@ class PlateModes:
     powered: np.ndarray
     plate_mass_kg: float
     uniformity: np.ndarray = field(repr=False)
+    _probe: object = field(repr=False, default=None)  # points (2, N) -> mass-normalised deflections (N, modes)
+    _modal_force: np.ndarray = field(repr=False, default=None)  # Theta (modes, patches), mass-normalised
+
+    def deflection_at(self, k: int, x_m: float, y_m: float) -> float:
+        """Mode k's mass-normalised deflection (1/sqrt(kg)) at (x, y), from the elements."""
+        return float(self._probe(np.array([[x_m], [y_m]]))[0, k])
+
+    def referred_to(self, k: int, x_m: float, y_m: float) -> tuple[float, np.ndarray]:
+        """Modal mass (kg) and per-piezo force factors (N/V) of mode k referred to the point
+        (x, y): M = 1 / phi(p)^2, A_i = Theta_i / phi(p), so M x'' + K x = sum A_i V_i there."""
+        phi = self.deflection_at(k, x_m, y_m)
+        return 1.0 / phi**2, self._modal_force[k] / phi
 
     @property
     def modal_stiffness_n_per_m(self) -> np.ndarray:
@@ -287,7 +299,9 @@ def _solve(geometry, resonator, piezo, near_hz, n_modes, elements_per_half_wave)
     m_mat = asm(mass, basis, m=per_element(m_e))
     sigma = (2 * np.pi * near_hz) ** 2
     n = min(n_modes, k_mat.shape[0] - 2)
-    eigenvalues, vectors = eigsh(k_mat, k=n, M=m_mat, sigma=sigma, which="LM", tol=1e-9)
+    # a fixed start vector: ARPACK's random one would flip mode signs from run to run
+    eigenvalues, vectors = eigsh(k_mat, k=n, M=m_mat, sigma=sigma, which="LM", tol=1e-9,
+                                 v0=np.ones(k_mat.shape[0]))
     order = np.argsort(eigenvalues)
     eigenvalues, vectors = eigenvalues[order], vectors[:, order]
 
@@ -296,29 +310,31 @@ def _solve(geometry, resonator, piezo, near_hz, n_modes, elements_per_half_wave)
     gy = np.linspace(0, geometry.width_m, int(np.ceil(4 * geometry.width_m / half_wave)) + 1)
     points = np.array(np.meshgrid(gx, gy, indexing="ij")).reshape(2, -1)
     shapes = (basis.probes(points) @ vectors).T.reshape(n, len(gx), len(gy))
-    peak = np.abs(shapes).reshape(n, -1).max(axis=1)
+    flat = shapes.reshape(n, -1)
+    peak = flat[np.arange(n), np.abs(flat).argmax(axis=1)]  # signed: the peak reads +1
     scaled = shapes / peak[:, None, None]
     column_mean = scaled.mean(axis=2, keepdims=True)
     uniformity = (np.broadcast_to(column_mean, scaled.shape) ** 2).sum(axis=(1, 2)) / (
         scaled**2).sum(axis=(1, 2))
 
-    force = np.zeros((n, len(geometry.patches)))
+    theta = np.zeros((n, len(geometry.patches)))
     capacitance = np.zeros(len(geometry.patches))
     for i, (p, mask) in enumerate(zip(geometry.patches, inside)):
         _, _, z_m = laminate(resonator, geometry.thickness_m, piezo, p.thickness_m)
         b = asm(laplacian, basis, ind=per_element(mask.astype(float)))
         # Theta per mass-normalised mode, referred to the peak point: A = Theta / phi_peak.
-        force[:, i] = piezo.plate_e31_c_per_m2 * z_m * (b @ vectors) / peak
+        theta[:, i] = piezo.plate_e31_c_per_m2 * z_m * (b @ vectors)
         capacitance[i] = (EPSILON_0_F_PER_M * piezo.relative_permittivity_t * (1 - piezo.k31**2)
                           * p.length_x_m * p.width_y_m / p.thickness_m)
     plate_mass = (resonator.density_kg_m3 * geometry.thickness_m * geometry.length_m
                   * geometry.width_m)
     return PlateModes(
         frequencies_hz=np.sqrt(np.maximum(eigenvalues, 0.0)) / (2 * np.pi), x_m=gx, y_m=gy,
-        shapes=scaled, modal_mass_kg=1.0 / peak**2, force_factor_n_per_v=force,
+        shapes=scaled, modal_mass_kg=1.0 / peak**2, force_factor_n_per_v=theta / peak[:, None],
         clamped_capacitance_f=capacitance,
         powered=np.array([p.powered for p in geometry.patches], dtype=bool),
-        plate_mass_kg=plate_mass, uniformity=uniformity)
+        plate_mass_kg=plate_mass, uniformity=uniformity,
+        _probe=lambda p: basis.probes(p) @ vectors, _modal_force=theta)
 
 
 @functools.lru_cache(maxsize=None)

@@ -9,7 +9,7 @@ ratio, and the working mode found.
 """
 import time
 
-from analysis.plate_modes import Patch, PlateGeometry, solve_plate
+from squeezebench.analysis.plate_modes import Patch, PlateGeometry, solve_plate
 
 MM = 1e-3
 

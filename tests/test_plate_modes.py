@@ -9,7 +9,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from analysis.plate_modes import (ALUMINIUM_TABLE2, NCE41, Isotropic, PlateGeometry, column,
+from squeezebench.analysis.plate_modes import (ALUMINIUM_TABLE2, NCE41, Isotropic, PlateGeometry, column,
                                   flexural_half_wavelength_m, free_free_beam_roots, laminate,
                                   solve_plate)
 from squeezebench.paths import paper_values_dir
