@@ -345,3 +345,43 @@ def free_free_beam_roots(count: int) -> tuple[float, ...]:
     f = lambda b: np.cos(b) * np.cosh(b) - 1.0  # noqa: E731
     return tuple(brentq(f, (k + 0.5) * np.pi - 0.6, (k + 0.5) * np.pi + 0.6)
                  for k in range(1, count + 1))
+
+
+def beam_frequencies_hz(geometry: PlateGeometry, resonator: Isotropic = ALUMINIUM_TABLE2,
+                        piezo: Piezo = NCE41, f_min_hz: float = 1e3, f_max_hz: float = 80e3,
+                        step_hz: float = 50.0) -> np.ndarray:
+    """Fast cross-check (in the spirit of the paper's ref. 001): the free-free (n, 0)
+    frequencies of the plate as an Euler-Bernoulli beam along its length, each section's
+    stiffness and mass per length summed across the width (plate moduli: a wide plate bends
+    cylindrically), patches included. Transfer matrices expm(A L) of EI w'''' = m w^2 w per
+    uniform segment; roots of the free-end determinant (M = V = 0 at both ends)."""
+    from scipy.linalg import expm
+    from scipy.optimize import brentq
+
+    cuts = sorted({0.0, geometry.length_m, *[min(max(b, 0.0), geometry.length_m)
+                                             for p in geometry.patches for b in p.bounds[:2]]})
+    d_bare, m_bare, _ = laminate(resonator, geometry.thickness_m, piezo, 0.0)
+    segments = []
+    for a, b in zip(cuts[:-1], cuts[1:]):
+        mid = (a + b) / 2
+        ei, m = d_bare * geometry.width_m, m_bare * geometry.width_m
+        for p in geometry.patches:
+            if p.bounds[0] < mid < p.bounds[1]:
+                d_lam, m_lam, _ = laminate(resonator, geometry.thickness_m, piezo, p.thickness_m)
+                ei += (d_lam - d_bare) * p.width_y_m
+                m += (m_lam - m_bare) * p.width_y_m
+        segments.append((b - a, ei, m))
+
+    def determinant(f: float) -> float:
+        w2 = (2 * np.pi * f) ** 2
+        total = np.eye(4)
+        for length, ei, m in segments:
+            a = np.array([[0, 1, 0, 0], [0, 0, 1 / ei, 0], [0, 0, 0, 1], [m * w2, 0, 0, 0]])
+            total = expm(a * length) @ total
+        block = total[2:, :2]
+        return float(np.linalg.det(block / np.abs(block).max()))
+
+    grid = np.arange(f_min_hz, f_max_hz, step_hz)
+    values = np.array([determinant(f) for f in grid])
+    brackets = np.nonzero(np.sign(values[:-1]) * np.sign(values[1:]) < 0)[0]
+    return np.array([brentq(determinant, grid[i], grid[i + 1]) for i in brackets])

@@ -9,7 +9,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from squeezebench.analysis.plate_modes import (ALUMINIUM_TABLE2, NCE41, Isotropic, PlateGeometry, column,
+from squeezebench.analysis.plate_modes import (ALUMINIUM_TABLE2, NCE41, Isotropic, PlateGeometry, beam_frequencies_hz, column,
                                   flexural_half_wavelength_m, free_free_beam_roots, laminate,
                                   solve_plate)
 from squeezebench.paths import paper_values_dir
@@ -131,3 +131,23 @@ def test_the_coupling_of_a_powered_column_is_physical():
         modes.x_m[-1] * modes.y_m[-1])
     bare = modes.plate_mass_kg * mean_square
     assert bare < modes.modal_mass_kg[k] < 1.3 * bare
+
+
+def test_the_beam_cross_check_reproduces_the_free_free_closed_form():
+    metal = Isotropic(70e9, 0.0, 2700.0)
+    length, h = 100 * MM, 1 * MM
+    closed = [r**2 / (2 * np.pi * length**2) * np.sqrt(70e9 * h**2 / (12 * 2700.0))
+              for r in free_free_beam_roots(6)]
+    found = beam_frequencies_hz(PlateGeometry(length, 6 * MM, h), metal, f_min_hz=500, f_max_hz=closed[-1] * 1.01)
+    assert found == pytest.approx(closed, rel=1e-6)
+
+
+@pytest.mark.parametrize("n_columns", [1, 2])
+def test_the_beam_and_the_plate_agree_on_table4s_plates(n_columns):
+    """Two independent models of the same plate: the 2-D one's (9, 0) mode within 2 % of the
+    beam's nearest mode (the free long edges' anticlastic relief is the difference)."""
+    plate = _table4_plate(n_columns)
+    modes = solve_plate(plate, near_hz=44e3)
+    f_plate = modes.frequencies_hz[modes.working_mode(44e3)]
+    beam = beam_frequencies_hz(plate, f_min_hz=35e3, f_max_hz=55e3)
+    assert np.min(abs(beam - f_plate)) / f_plate < 0.02
