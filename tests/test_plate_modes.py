@@ -12,6 +12,7 @@ import pytest
 from squeezebench.analysis.plate_modes import (ALUMINIUM_TABLE2, NCE41, Isotropic, PlateGeometry, beam_frequencies_hz, column,
                                   flexural_half_wavelength_m, free_free_beam_roots, laminate,
                                   solve_plate)
+from squeezebench.analysis import predicted_plates
 from squeezebench.paths import paper_values_dir
 
 MM = 1e-3
@@ -71,18 +72,11 @@ def _printed(name):
 
 
 def _one_column_1mm(length_mm):
-    """Table 3's plate: 76 x 41 x 1 mm, one column of four 5 x 9 x 0.5 mm piezos. The column
-    sits in the middle (assumed: the plate was cut symmetrically to 28 mm and still driven)."""
-    plate = PlateGeometry(76 * MM, 41 * MM, 1 * MM, column(38 * MM, 41 * MM, 5 * MM, 9 * MM, 0.5 * MM, 4))
-    return plate.cut_to(length_mm * MM)
+    return predicted_plates.table3_plate(f"{length_mm:g}")
 
 
 def _table4_plate(n_columns):
-    """Table 4's plates: 76 x 41 x 1.2 mm with columns at the edges (Fig. 3)."""
-    patches = ()
-    for x_mm in (2.5, 73.5)[:n_columns]:
-        patches += column(x_mm * MM, 41 * MM, 5 * MM, 9 * MM, 0.5 * MM, 4)
-    return PlateGeometry(76 * MM, 41 * MM, 1.2 * MM, patches)
+    return predicted_plates.table4_plate(("1-column", "2-columns 2 powered")[n_columns - 1])
 
 
 TABLE3_KNOWN_MISSES = {
@@ -151,3 +145,10 @@ def test_the_beam_and_the_plate_agree_on_table4s_plates(n_columns):
     f_plate = modes.frequencies_hz[modes.working_mode(44e3)]
     beam = beam_frequencies_hz(plate, f_min_hz=35e3, f_max_hz=55e3)
     assert np.min(abs(beam - f_plate)) / f_plate < 0.02
+
+
+def test_the_report_table_states_every_plate_and_the_large_plates_nodal_spacing():
+    frame = predicted_plates.predictions()
+    assert (frame["predicted_antinodes"] == frame["printed_antinodes"]).all()
+    large = frame[frame["table"] == "Sec. 5"].iloc[0]
+    assert large["predicted_half_wavelength_mm"] == pytest.approx(large["printed_half_wavelength_mm"], rel=0.05)
