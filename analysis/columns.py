@@ -150,6 +150,15 @@ COLUMNS: dict[str, tuple[str, str]] = {
     "matches_table4_tan": ("", "Table 4 tan theta' reproduced within 10 %"),
     "log_misfit": ("1", "RMS of log10(computed / published) over the published numbers"),
     "all_within": ("1", "largest |ratio - 1| over the published numbers"),
+    # what the plate model predicts (analysis.predicted_plates)
+    "predicted_frequency_hz": ("Hz", "working (n, 0) mode's frequency predicted by the plate model from geometry and materials"),
+    "predicted_frequency_u_hz": ("Hz", "expanded uncertainty (k = 2) of the prediction from material and thickness tolerances"),
+    "printed_frequency_hz": ("Hz", "resonance frequency printed in the paper"),
+    "frequency_deviation": ("1", "predicted / printed - 1"),
+    "predicted_antinodes": ("1", "interior antinodes of the predicted working mode"),
+    "printed_antinodes": ("1", "antinodes printed in the paper"),
+    "predicted_half_wavelength_mm": ("mm", "mean spacing of the predicted mode's interior nodal lines"),
+    "printed_half_wavelength_mm": ("mm", "half-wavelength stated in the paper (empty: not stated)"),
 }
 
 

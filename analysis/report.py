@@ -28,8 +28,8 @@ import numpy as np
 import pandas as pd
 
 import squeezebench
-from squeezebench.analysis import (audit, columns, figures, model, presentation, provenance, readings, study,
-                                   tables, uncertainty)
+from squeezebench.analysis import (audit, columns, figures, model, predicted_plates, presentation, provenance,
+                                   readings, study, tables, uncertainty)
 from squeezebench.analysis.tables import MissingDataError
 from squeezebench.analysis.paper import paper_value
 from squeezebench.analysis.rundata import RunData, load_run
@@ -837,8 +837,29 @@ def readings_section(context: ReportContext) -> Section | None:
 
 #: The report, in order (the summary goes first, built last). Another package adds a
 #: section by appending a builder.
+def predicted_section(context: ReportContext) -> Section:
+    """What physics predicts (analysis.predicted_plates): no run data, no printed result in."""
+    frame = predicted_plates.predictions()
+    context.tables["predicted"] = frame
+    shown = frame.assign(frequency_deviation=frame["frequency_deviation"].map(lambda d: f"{d:+.1%}"))
+    body = ("<p>Predicted from geometry and materials only (free Kirchhoff plate on Argyris elements, "
+            "the piezos as laminate patches; the paper's Table 2 aluminium and NCE 41 for every plate, "
+            "no parameter fitted), beside the printed values. U (k = 2) from the material and thickness "
+            "tolerances. Column layouts: " + "; ".join(html.escape(why) for _, why in
+                                                       predicted_plates.LAYOUTS.values()) + ".</p>")
+    body += html_table(shown, "predicted (plate model) and printed (paper)")
+    figure = predicted_plates.large_plate_mode_figure(context.out_dir / "predicted_mode_large_plate.png")
+    body += context.figure(
+        context.out_dir / "predicted_mode_large_plate.png",
+        f"Predicted working mode of the large plate (Sec. 5): {figure['interior_antinodes']} interior "
+        f"antinodes, nodal-line spacing {figure['half_wavelength_mm']:.2f} mm against the designed 9 mm "
+        f"({figure['half_wavelength_mm'] / 9 - 1:+.1%}); rectangles: the piezos. Predicted, not measured.")
+    body += "<p class='csv'>Machine-readable: <a href='predicted.csv'>predicted.csv</a>.</p>"
+    return Section("What physics predicts (plate model)", body, "predicted")
+
+
 SECTIONS: list[SectionBuilder] = [
-    table3_section, table4_section, table5_section, detuning_section, characterisation_section,
+    table3_section, table4_section, predicted_section, table5_section, detuning_section, characterisation_section,
     readings_section, resonance_section, uncertainty_section, audit_section, study_section,
     hardcases_section, conventions_section, provenance_section,
 ]

@@ -22,7 +22,8 @@ from pydantic import BaseModel, ConfigDict, Field
 from squeezebench.simbench import physics
 from squeezebench.simbench.effects import EFFECTS
 from squeezebench.simbench.scene import (BOUNDS, CONVENTIONS, GENERATOR_LOADS, PAPER_MODEL_REFERENCE_VPP,
-                                         Electronics, scenes_table)
+                                         Electronics, load_scene, scenes_table)
+from squeezebench.simbench.predicted import FORCE_FACTOR_TOLERANCE, FREQUENCY_TOLERANCE, predictions_table
 
 PiezoMaterialName = Literal[tuple(physics.PIEZO_MATERIALS)]  # type: ignore[valid-type]
 ResonatorMaterialName = Literal[tuple(physics.RESONATOR_MATERIALS)]  # type: ignore[valid-type]
@@ -267,7 +268,39 @@ def scenes_markdown(scene_paths: list[Path]) -> str:
     for row in table.to_dict("records"):
         lines.append("| " + " | ".join(f"{row[c]:.3g}" if isinstance(row[c], float) else str(row[c])
                                        for c in columns) + " |")
-    return "\n".join(lines) + "\n"
+    return "\n".join(lines + _predicted_beside_replay(scene_paths)) + "\n"
+
+
+def _predicted_beside_replay(scene_paths: list[Path]) -> list[str]:
+    """The plate model's prediction for every state beside what the scene replays."""
+    table = predictions_table([load_scene(p) for p in scene_paths])
+    columns = {"scene": "scene", "state": "state", "predicted_frequency_hz": "predicted f (Hz)",
+               "replay_frequency_hz": "replay f (Hz)", "frequency_departure": "replay / predicted - 1",
+               "interior_antinodes": "antinodes (predicted)", "half_wavelength_mm": "lambda/2 (mm, predicted)",
+               "k_eff": "k_eff (predicted)", "predicted_force_factor_n_per_v": "force factor (N/V, predicted)",
+               "replay_force_factor_n_per_v": "force factor (N/V, replay)",
+               "predicted_modal_mass_g": "modal mass (g, predicted)", "replay_modal_mass_g": "modal mass (g, replay)",
+               "departures": "replay departs"}
+    lines = ["", "## Predicted beside replay", "",
+             "Predicted: `simbench.predicted` puts each state's geometry and materials (never its "
+             "resonance, calibration or q_mech) through the plate model `analysis.plate_modes` "
+             "(free Kirchhoff plate, Argyris elements, piezos as laminate patches); the working "
+             "(n, 0) mode is searched near the replayed resonance. Force factor (powered piezos, "
+             "plate constant d31/(s11(1-nu))) and modal mass are referred to the scene's "
+             "measurement point. Replay: the scene's calibrated branch. Flagged when the "
+             f"resonance departs by more than {FREQUENCY_TOLERANCE:.0%} or the force factor by "
+             f"more than {FORCE_FACTOR_TOLERANCE:.0%}, or when a cut removes every piezo.", "",
+             "| " + " | ".join(columns.values()) + " |", "|" + "---|" * len(columns)]
+    def cell(column: str, value: Any) -> str:
+        if not isinstance(value, float):
+            return str(value)
+        if column == "frequency_departure":
+            return f"{value:+.1%}"
+        return f"{value:.0f}" if column.endswith("frequency_hz") else f"{value:.3g}"
+
+    for row in table.to_dict("records"):
+        lines.append("| " + " | ".join(cell(c, row[c]) for c in columns) + " |")
+    return lines
 
 
 def write_docs(docs_dir: Path, scene_paths: list[Path]) -> list[Path]:

@@ -1,0 +1,387 @@
+"""Modal model of a resonator plate with bonded piezo patches, from geometry and datasheets.
+
+Pure physics (no instrument, no run data): the simulator builds predicted scenes from it and
+the report prints what it predicts beside the paper's values, so it lives in `analysis`
+like `analysis.model` (docs/design.md, "The plate model").
+
+The plate is a Kirchhoff plate (scikit-fem's Argyris triangle, C1-conforming quintic: 1.5
+elements per flexural half-wave give the frequency to 0.1 %), free on all edges as the
+paper's plates lay on a cushion (Sec. 2.1). Where a piezo is bonded the section is a
+two-layer laminate: bending stiffness about the shifted neutral axis and mass per area of
+both layers (classical laminate theory, each layer's plate modulus E/(1-nu^2)); the bond
+layer is neglected (tens of micrometres against 0.5 mm of ceramic). The eigenproblem
+K phi = w^2 M phi is solved by SciPy's ARPACK in shift-invert mode near the drive.
+
+Electromechanical coupling of a piezo (thin patch, field through its thickness, both faces
+electroded): the piezo's in-plane stress per volt is e_eff / h_p with the plate constant
+e_eff = d31 / (s11^E (1 - nu_p)) (biaxial clamping by a plate; the beam constant d31/s11^E
+holds only for a narrow strip). Its bending moment per volt is e_eff z_m, z_m the distance
+of the piezo mid-plane from the laminate's neutral axis, and by virtual work the modal force
+per volt of a mass-normalised mode phi is
+
+    Theta = e_eff z_m \\int_patch (phi_xx + phi_yy) dA          (N/V per unit modal mass^0.5)
+
+Clamped capacitance C0 = eps33^T (1 - k31^2) A / h_p; k_eff^2 = Theta^2 / (w^2 C0) for the
+powered set. All SI units.
+"""
+from __future__ import annotations
+
+import functools
+import hashlib
+import json
+from dataclasses import asdict, dataclass, field
+
+import numpy as np
+from scipy.sparse.linalg import eigsh
+
+EPSILON_0_F_PER_M = 8.8541878128e-12
+
+
+@dataclass(frozen=True)
+class Isotropic:
+    """An isotropic elastic material: Young's modulus, Poisson's ratio, density."""
+
+    young_pa: float
+    poisson: float
+    density_kg_m3: float
+
+    @property
+    def plate_modulus_pa(self) -> float:
+        """E / (1 - nu^2): the modulus of a layer in cylindrical (plane-strain) bending."""
+        return self.young_pa / (1.0 - self.poisson**2)
+
+
+@dataclass(frozen=True)
+class Piezo(Isotropic):
+    """A piezoceramic's constants (NCE 41 datasheet values in `NCE41`)."""
+
+    d31_c_per_n: float = -130e-12
+    relative_permittivity_t: float = 1350.0
+    k31: float = 0.33
+    tan_delta: float = 0.004
+
+    @property
+    def plate_e31_c_per_m2(self) -> float:
+        """d31 / (s11^E (1 - nu_p)): the stress per field of a patch bonded to a plate."""
+        return self.d31_c_per_n * self.young_pa / (1.0 - self.poisson)
+
+
+# The paper's Table 2 (Young's modulus printed 67109 N/m^2, read as 67.109 GPa: the printed
+# value would make the resonator stiffless) and the NCE 41 datasheet (Noliac): eps33^T/eps0
+# 1350, k31 0.33, tan delta 0.004 at low field; tolerances +-5 % on d31 and k, +-10 % on eps.
+ALUMINIUM_TABLE2 = Isotropic(young_pa=67.109e9, poisson=0.34, density_kg_m3=2790.0)
+NCE41 = Piezo(young_pa=80e9, poisson=0.33, density_kg_m3=7900.0)
+RELATIVE_TOLERANCES = {"young_pa": 0.02, "density_kg_m3": 0.01, "thickness_m": 0.02,
+                       "d31_c_per_n": 0.05, "relative_permittivity_t": 0.10}
+
+
+@dataclass(frozen=True)
+class Patch:
+    """One bonded piezo: centre and sides (x along the plate's length), and whether powered."""
+
+    x_center_m: float
+    y_center_m: float
+    length_x_m: float
+    width_y_m: float
+    thickness_m: float
+    powered: bool = True
+    name: str = ""
+
+    @property
+    def bounds(self) -> tuple[float, float, float, float]:
+        return (self.x_center_m - self.length_x_m / 2, self.x_center_m + self.length_x_m / 2,
+                self.y_center_m - self.width_y_m / 2, self.y_center_m + self.width_y_m / 2)
+
+
+@dataclass(frozen=True)
+class PlateGeometry:
+    """A rectangular resonator [0, length] x [0, width], free edges, with its piezo patches."""
+
+    length_m: float
+    width_m: float
+    thickness_m: float
+    patches: tuple[Patch, ...] = ()
+
+    def cut_to(self, length_m: float) -> "PlateGeometry":
+        """The plate cut symmetrically to `length_m`: patches keep their place on the metal,
+        and a patch cut through is removed (a cut is a new geometry, solved again)."""
+        offset = (self.length_m - length_m) / 2
+        kept = tuple(
+            Patch(p.x_center_m - offset, p.y_center_m, p.length_x_m, p.width_y_m, p.thickness_m,
+                  p.powered, p.name)
+            for p in self.patches
+            if p.bounds[0] >= offset - 1e-12 and p.bounds[1] <= offset + length_m + 1e-12)
+        return PlateGeometry(length_m, self.width_m, self.thickness_m, kept)
+
+
+def column(x_center_m: float, plate_width_m: float, piezo_length_x_m: float,
+           piezo_width_y_m: float, piezo_thickness_m: float, count: int,
+           powered: bool = True, name: str = "") -> tuple[Patch, ...]:
+    """`count` piezos side by side along y, centred on the plate's width (a paper column)."""
+    first = plate_width_m / 2 - count * piezo_width_y_m / 2 + piezo_width_y_m / 2
+    return tuple(Patch(x_center_m, first + i * piezo_width_y_m, piezo_length_x_m,
+                       piezo_width_y_m, piezo_thickness_m, powered, name) for i in range(count))
+
+
+def laminate(resonator: Isotropic, h_r: float, piezo: Isotropic, h_p: float):
+    """Bending stiffness D (N m), mass per area (kg/m^2) and the piezo mid-plane's distance from
+    the neutral axis (m) of a resonator of thickness h_r with a piezo layer h_p on one face
+    (classical laminate theory; h_p = 0 gives the bare plate, D = E h^3 / 12(1 - nu^2))."""
+    q_r, q_p = resonator.plate_modulus_pa, piezo.plate_modulus_pa
+    z_r, z_p = h_r / 2, h_r + h_p / 2
+    z_n = (q_r * h_r * z_r + q_p * h_p * z_p) / (q_r * h_r + q_p * h_p)
+    d = (q_r * (h_r**3 / 12 + h_r * (z_r - z_n) ** 2)
+         + q_p * (h_p**3 / 12 + h_p * (z_p - z_n) ** 2))
+    return d, resonator.density_kg_m3 * h_r + piezo.density_kg_m3 * h_p, z_p - z_n
+
+
+@dataclass
+class PlateModes:
+    """The modes of one plate near a drive frequency (mass-normalised, M = identity).
+
+    `shapes[k]` is mode k's deflection on the grid `x_m` x `y_m` (shape (nx, ny)), scaled so
+    that its largest |w| is 1; `modal_mass_kg[k]` is the mass referred to that point of
+    largest deflection, `modal_stiffness_n_per_m` = w^2 M likewise. `force_factor_n_per_v[k, i]`
+    is piezo i's modal force per volt referred to the same point (sign kept: piezos at
+    opposite-sign curvature pull against each other)."""
+
+    frequencies_hz: np.ndarray
+    x_m: np.ndarray
+    y_m: np.ndarray
+    shapes: np.ndarray
+    modal_mass_kg: np.ndarray
+    force_factor_n_per_v: np.ndarray
+    clamped_capacitance_f: np.ndarray
+    powered: np.ndarray
+    plate_mass_kg: float
+    uniformity: np.ndarray = field(repr=False)
+    _probe: object = field(repr=False, default=None)  # points (2, N) -> mass-normalised deflections (N, modes)
+    _modal_force: np.ndarray = field(repr=False, default=None)  # Theta (modes, patches), mass-normalised
+
+    def deflection_at(self, k: int, x_m: float, y_m: float) -> float:
+        """Mode k's mass-normalised deflection (1/sqrt(kg)) at (x, y), from the elements."""
+        return float(self._probe(np.array([[x_m], [y_m]]))[0, k])
+
+    def referred_to(self, k: int, x_m: float, y_m: float) -> tuple[float, np.ndarray]:
+        """Modal mass (kg) and per-piezo force factors (N/V) of mode k referred to the point
+        (x, y): M = 1 / phi(p)^2, A_i = Theta_i / phi(p), so M x'' + K x = sum A_i V_i there."""
+        phi = self.deflection_at(k, x_m, y_m)
+        return 1.0 / phi**2, self._modal_force[k] / phi
+
+    @property
+    def modal_stiffness_n_per_m(self) -> np.ndarray:
+        return self.modal_mass_kg * (2 * np.pi * self.frequencies_hz) ** 2
+
+    def interior_antinodes(self, k: int) -> int:
+        """Antinodes between the nodal lines across the length (the paper's 'nb of antinodes':
+        a free-free (n, 0) mode with n nodal lines has n - 1 between them)."""
+        return len(self.nodal_lines_m(k)) - 1
+
+    def nodal_lines_m(self, k: int) -> np.ndarray:
+        """x positions where the width-averaged deflection of mode k changes sign."""
+        m = self.shapes[k].mean(axis=1)
+        i = np.nonzero(np.sign(m[:-1]) * np.sign(m[1:]) < 0)[0]
+        return self.x_m[i] - m[i] * (self.x_m[i + 1] - self.x_m[i]) / (m[i + 1] - m[i])
+
+    def half_wavelength_m(self, k: int) -> float:
+        """Mean spacing of the interior nodal lines (the first and last sit near free edges,
+        where the spacing is shorter, so they are left out when there are enough lines)."""
+        lines = self.nodal_lines_m(k)
+        inner = lines[1:-1] if len(lines) >= 5 else lines
+        return float(np.diff(inner).mean())
+
+    def working_mode(self, near_hz: float, min_uniformity: float = 0.8) -> int:
+        """Index of the (n, 0) mode (deflection nearly uniform across the width, nodal lines
+        parallel to it) closest to `near_hz`; the paper drives every plate in such a mode."""
+        candidates = np.nonzero(self.uniformity >= min_uniformity)[0]
+        if candidates.size == 0:
+            raise ValueError(f"no (n, 0) mode among {len(self.frequencies_hz)} modes near "
+                             f"{near_hz:.0f} Hz; widen the band")
+        return int(candidates[np.argmin(abs(self.frequencies_hz[candidates] - near_hz))])
+
+    def coupling(self, k: int) -> dict:
+        """The powered piezos' lumped electromechanics for mode k, referred to the point of
+        largest deflection: force factor (N/V), clamped C0 (F), k_eff and the BVD motional
+        branch per unit mechanical loss (L_m = M / A^2, C_m = A^2 / K; R_m = w M / (q A^2))."""
+        on = self.powered
+        a = float(self.force_factor_n_per_v[k, on].sum())
+        c0 = float(self.clamped_capacitance_f[on].sum())
+        m, kk = float(self.modal_mass_kg[k]), float(self.modal_stiffness_n_per_m[k])
+        return {"force_factor_n_per_v": a, "clamped_capacitance_f": c0,
+                "k_eff": float(np.sqrt(a**2 / (kk * c0 + a**2))) if c0 else 0.0,
+                "motional_inductance_h": m / a**2 if a else np.inf,
+                "motional_capacitance_f": a**2 / kk}
+
+
+def _grid(length: float, extra: list[float], target: float) -> np.ndarray:
+    """Grid lines 0..length about `target` apart that include every patch edge in `extra`."""
+    knots = np.unique(np.clip([0.0, length, *extra], 0.0, length))
+    points = [np.linspace(a, b, max(1, int(np.ceil((b - a) / target))) + 1)[:-1]
+              for a, b in zip(knots[:-1], knots[1:]) if b - a > 1e-9]
+    return np.append(np.concatenate(points), length)
+
+
+def _key(geometry: PlateGeometry, resonator: Isotropic, piezo: Piezo, near_hz: float,
+         n_modes: int, elements_per_half_wave: float) -> str:
+    text = json.dumps([asdict(geometry), asdict(resonator), asdict(piezo), near_hz, n_modes,
+                       elements_per_half_wave], sort_keys=True, default=float)
+    return hashlib.sha256(text.encode()).hexdigest()
+
+
+_CACHE: dict[str, PlateModes] = {}
+
+
+def solve_plate(geometry: PlateGeometry, resonator: Isotropic = ALUMINIUM_TABLE2,
+                piezo: Piezo = NCE41, near_hz: float = 40e3, n_modes: int | None = None,
+                elements_per_half_wave: float = 1.5) -> PlateModes:
+    """The `n_modes` modes nearest `near_hz` of `geometry` (cached by geometry, materials and
+    mesh: a campaign solves each plate once). The mesh size follows the bare plate's flexural
+    half-wavelength at `near_hz`, pi / (w^2 rho h / D)^(1/4). By default the modes cover
+    about +-8 % of `near_hz` (a plate's modal density is S/2 sqrt(rho h / D) per hertz), so
+    the (n, 0) neighbours, about 2/n apart in frequency, are in view."""
+    if n_modes is None:
+        d, mass, _ = laminate(resonator, geometry.thickness_m, piezo, 0.0)
+        density_per_hz = geometry.length_m * geometry.width_m / 2 * np.sqrt(mass / d)
+        n_modes = max(12, int(np.ceil(0.16 * near_hz * density_per_hz)))
+    key = _key(geometry, resonator, piezo, near_hz, n_modes, elements_per_half_wave)
+    if key not in _CACHE:
+        _CACHE[key] = _solve(geometry, resonator, piezo, near_hz, n_modes, elements_per_half_wave)
+    return _CACHE[key]
+
+
+def flexural_half_wavelength_m(material: Isotropic, thickness_m: float, frequency_hz: float) -> float:
+    """Half-wavelength pi/k of bending waves in a thin plate, k^4 = w^2 rho h / D."""
+    d, mass, _ = laminate(material, thickness_m, material, 0.0)
+    return float(np.pi / ((2 * np.pi * frequency_hz) ** 2 * mass / d) ** 0.25)
+
+
+def _solve(geometry, resonator, piezo, near_hz, n_modes, elements_per_half_wave) -> PlateModes:
+    from skfem import Basis, BilinearForm, ElementTriArgyris, LinearForm, MeshTri, asm
+    from skfem.helpers import dd, ddot, trace
+
+    half_wave = flexural_half_wavelength_m(resonator, geometry.thickness_m, near_hz)
+    target = half_wave / elements_per_half_wave
+    x = _grid(geometry.length_m, [b for p in geometry.patches for b in p.bounds[:2]], target)
+    y = _grid(geometry.width_m, [b for p in geometry.patches for b in p.bounds[2:]], target)
+    mesh = MeshTri.init_tensor(x, y)
+    basis = Basis(mesh, ElementTriArgyris(), intorder=8)
+    centres = mesh.p[:, mesh.t].mean(axis=1)
+
+    d_bare, mass_bare, _ = laminate(resonator, geometry.thickness_m, piezo, 0.0)
+    d_e = np.full(mesh.nelements, d_bare)
+    m_e = np.full(mesh.nelements, mass_bare)
+    inside = []
+    for p in geometry.patches:
+        x0, x1, y0, y1 = p.bounds
+        mask = ((centres[0] > x0) & (centres[0] < x1) & (centres[1] > y0) & (centres[1] < y1))
+        d_lam, m_lam, _ = laminate(resonator, geometry.thickness_m, piezo, p.thickness_m)
+        d_e[mask], m_e[mask] = d_lam, m_lam
+        inside.append(mask)
+    nqp = basis.X.shape[1]
+    nu = resonator.poisson
+
+    @BilinearForm
+    def stiffness(u, v, w):
+        return w.d * ((1 - nu) * ddot(dd(u), dd(v)) + nu * trace(dd(u)) * trace(dd(v)))
+
+    @BilinearForm
+    def mass(u, v, w):
+        return w.m * u * v
+
+    @LinearForm
+    def laplacian(v, w):
+        return w.ind * trace(dd(v))
+
+    def per_element(values):
+        return np.repeat(values[:, None], nqp, axis=1)
+
+    k_mat = asm(stiffness, basis, d=per_element(d_e))
+    m_mat = asm(mass, basis, m=per_element(m_e))
+    sigma = (2 * np.pi * near_hz) ** 2
+    n = min(n_modes, k_mat.shape[0] - 2)
+    # a fixed start vector: ARPACK's random one would flip mode signs from run to run
+    eigenvalues, vectors = eigsh(k_mat, k=n, M=m_mat, sigma=sigma, which="LM", tol=1e-9,
+                                 v0=np.ones(k_mat.shape[0]))
+    order = np.argsort(eigenvalues)
+    eigenvalues, vectors = eigenvalues[order], vectors[:, order]
+
+    # Shapes on a grid fine enough to place nodal lines (4 points per half-wave: zero crossings interpolate to ~1 % of it).
+    gx = np.linspace(0, geometry.length_m, int(np.ceil(4 * geometry.length_m / half_wave)) + 1)
+    gy = np.linspace(0, geometry.width_m, int(np.ceil(4 * geometry.width_m / half_wave)) + 1)
+    points = np.array(np.meshgrid(gx, gy, indexing="ij")).reshape(2, -1)
+    shapes = (basis.probes(points) @ vectors).T.reshape(n, len(gx), len(gy))
+    flat = shapes.reshape(n, -1)
+    peak = flat[np.arange(n), np.abs(flat).argmax(axis=1)]  # signed: the peak reads +1
+    scaled = shapes / peak[:, None, None]
+    column_mean = scaled.mean(axis=2, keepdims=True)
+    uniformity = (np.broadcast_to(column_mean, scaled.shape) ** 2).sum(axis=(1, 2)) / (
+        scaled**2).sum(axis=(1, 2))
+
+    theta = np.zeros((n, len(geometry.patches)))
+    capacitance = np.zeros(len(geometry.patches))
+    for i, (p, mask) in enumerate(zip(geometry.patches, inside)):
+        _, _, z_m = laminate(resonator, geometry.thickness_m, piezo, p.thickness_m)
+        b = asm(laplacian, basis, ind=per_element(mask.astype(float)))
+        # Theta per mass-normalised mode, referred to the peak point: A = Theta / phi_peak.
+        theta[:, i] = piezo.plate_e31_c_per_m2 * z_m * (b @ vectors)
+        capacitance[i] = (EPSILON_0_F_PER_M * piezo.relative_permittivity_t * (1 - piezo.k31**2)
+                          * p.length_x_m * p.width_y_m / p.thickness_m)
+    plate_mass = (resonator.density_kg_m3 * geometry.thickness_m * geometry.length_m
+                  * geometry.width_m)
+    return PlateModes(
+        frequencies_hz=np.sqrt(np.maximum(eigenvalues, 0.0)) / (2 * np.pi), x_m=gx, y_m=gy,
+        shapes=scaled, modal_mass_kg=1.0 / peak**2, force_factor_n_per_v=theta / peak[:, None],
+        clamped_capacitance_f=capacitance,
+        powered=np.array([p.powered for p in geometry.patches], dtype=bool),
+        plate_mass_kg=plate_mass, uniformity=uniformity,
+        _probe=lambda p: basis.probes(p) @ vectors, _modal_force=theta)
+
+
+@functools.lru_cache(maxsize=None)
+def free_free_beam_roots(count: int) -> tuple[float, ...]:
+    """The first `count` roots beta L of cos(bL) cosh(bL) = 1 (free-free beam, elastic modes)."""
+    from scipy.optimize import brentq
+
+    f = lambda b: np.cos(b) * np.cosh(b) - 1.0  # noqa: E731
+    return tuple(brentq(f, (k + 0.5) * np.pi - 0.6, (k + 0.5) * np.pi + 0.6)
+                 for k in range(1, count + 1))
+
+
+def beam_frequencies_hz(geometry: PlateGeometry, resonator: Isotropic = ALUMINIUM_TABLE2,
+                        piezo: Piezo = NCE41, f_min_hz: float = 1e3, f_max_hz: float = 80e3,
+                        step_hz: float = 50.0) -> np.ndarray:
+    """Fast cross-check (in the spirit of the paper's ref. 001): the free-free (n, 0)
+    frequencies of the plate as an Euler-Bernoulli beam along its length, each section's
+    stiffness and mass per length summed across the width (plate moduli: a wide plate bends
+    cylindrically), patches included. Transfer matrices expm(A L) of EI w'''' = m w^2 w per
+    uniform segment; roots of the free-end determinant (M = V = 0 at both ends)."""
+    from scipy.linalg import expm
+    from scipy.optimize import brentq
+
+    cuts = sorted({0.0, geometry.length_m, *[min(max(b, 0.0), geometry.length_m)
+                                             for p in geometry.patches for b in p.bounds[:2]]})
+    d_bare, m_bare, _ = laminate(resonator, geometry.thickness_m, piezo, 0.0)
+    segments = []
+    for a, b in zip(cuts[:-1], cuts[1:]):
+        mid = (a + b) / 2
+        ei, m = d_bare * geometry.width_m, m_bare * geometry.width_m
+        for p in geometry.patches:
+            if p.bounds[0] < mid < p.bounds[1]:
+                d_lam, m_lam, _ = laminate(resonator, geometry.thickness_m, piezo, p.thickness_m)
+                ei += (d_lam - d_bare) * p.width_y_m
+                m += (m_lam - m_bare) * p.width_y_m
+        segments.append((b - a, ei, m))
+
+    def determinant(f: float) -> float:
+        w2 = (2 * np.pi * f) ** 2
+        total = np.eye(4)
+        for length, ei, m in segments:
+            a = np.array([[0, 1, 0, 0], [0, 0, 1 / ei, 0], [0, 0, 0, 1], [m * w2, 0, 0, 0]])
+            total = expm(a * length) @ total
+        block = total[2:, :2]
+        return float(np.linalg.det(block / np.abs(block).max()))
+
+    grid = np.arange(f_min_hz, f_max_hz, step_hz)
+    values = np.array([determinant(f) for f in grid])
+    brackets = np.nonzero(np.sign(values[:-1]) * np.sign(values[1:]) < 0)[0]
+    return np.array([brentq(determinant, grid[i], grid[i + 1]) for i in brackets])

@@ -1,0 +1,139 @@
+"""The paper's plates as the plate model sees them, and what it predicts beside the print.
+
+Geometry from the paper's stated dimensions (data/paper/*.csv); materials the one shared
+set of `analysis.plate_modes` (Table 2 aluminium, NCE 41); no per-plate parameter. Where the
+text does not say where a column sits, the assumption is stated beside it (`LAYOUTS`).
+"""
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from squeezebench.analysis import plate_modes
+from squeezebench.analysis.paper import paper_value
+
+MM = 1e-3
+
+#: Column layouts (x of each column's centre, mm) and why.
+LAYOUTS = {
+    "table3": ((38.0,), "assumed: the one column sits mid-length, since the plate was cut "
+                        "symmetrically to 28 mm and still driven (Sec. 2.3.1)"),
+    "table4": ((2.5, 73.5), "Fig. 3 caption: piezos glued at the edges"),
+    "large": ((3.0, 195.0), "Sec. 5.2: two piezos at each corner (along the short edges)"),
+}
+
+
+def _columns(x_mm: tuple[float, ...], width_mm: float, per: int, powered: int) -> tuple:
+    patches = ()
+    for i, x in enumerate(x_mm):
+        patches += plate_modes.column(x * MM, width_mm * MM, 5 * MM, 9 * MM, 0.5 * MM, per,
+                                      powered=i < powered, name=f"column {i + 1}")
+    return patches
+
+
+def table3_plate(label: str) -> plate_modes.PlateGeometry:
+    length = paper_value("table3", "plate", "resonator_length_mm")
+    width = paper_value("table3", "plate", "resonator_width_mm")
+    plate = plate_modes.PlateGeometry(length * MM, width * MM,
+                                      paper_value("table3", "plate", "resonator_thickness_mm") * MM,
+                                      _columns(LAYOUTS["table3"][0], width, 4, 1))
+    return plate.cut_to(float(label) * MM)
+
+
+def table4_plate(label: str) -> plate_modes.PlateGeometry:
+    width = paper_value("table4", "plate", "resonator_width_mm")
+    n_columns = int(paper_value("table4", label, "n_columns"))
+    return plate_modes.PlateGeometry(
+        paper_value("table4", "plate", "resonator_length_mm") * MM, width * MM,
+        paper_value("table4", "plate", "resonator_thickness_mm") * MM,
+        _columns(LAYOUTS["table4"][0][:n_columns], width, 4,
+                 int(paper_value("table4", label, "n_powered_columns"))))
+
+
+def large_plate() -> plate_modes.PlateGeometry:
+    q = lambda name: paper_value("large_plate", "large_plate", name)  # noqa: E731
+    width = q("resonator_width_mm")
+    patches = tuple(plate_modes.Patch(x * MM, y * MM, q("piezo_width_mm") * MM,
+                                      q("piezo_length_mm") * MM, q("piezo_thickness_mm") * MM, True, "corner")
+                    for x in LAYOUTS["large"][0]
+                    for y in (7.0, 21.0, width - 21.0, width - 7.0))
+    return plate_modes.PlateGeometry(q("resonator_length_mm") * MM, width * MM,
+                                     q("resonator_thickness_mm") * MM, patches)
+
+
+def frequency_relative_u() -> float:
+    """Expanded (k = 2) relative uncertainty of a predicted frequency from the material and
+    geometry tolerances (f ~ h sqrt(E / rho); each tolerance a rectangular half-width)."""
+    t = plate_modes.RELATIVE_TOLERANCES
+    return 2 * math.sqrt(t["thickness_m"] ** 2 + (t["young_pa"] / 2) ** 2
+                         + (t["density_kg_m3"] / 2) ** 2) / math.sqrt(3)
+
+
+def _rows():
+    for label in ("75", "59", "28"):
+        yield ("Table 3", f"{label} x 41 x 1 mm", table3_plate(label),
+               paper_value("table3", label, "frequency_hz"), paper_value("table3", label, "n_antinodes"), None)
+    for label in ("1-column", "2-columns 1 powered", "2-columns 2 powered"):
+        yield ("Table 4", label, table4_plate(label), paper_value("table4", label, "frequency_hz"),
+               paper_value("table4", "plate", "n_antinodes"), None)
+    yield ("Sec. 5", "large plate 198 x 138 x 2 mm", large_plate(),
+           paper_value("large_plate", "large_plate", "frequency_hz"), 21.0,
+           paper_value("large_plate", "large_plate", "half_wavelength_mm"))
+
+
+def predictions() -> pd.DataFrame:
+    """Predicted beside printed for Tables 3-4 and the large plate: frequency (and its U),
+    deviation, interior antinodes, nodal-line spacing. The printed frequency only centres the
+    (n, 0) mode search (the family's neighbours lie >= 2/n away)."""
+    u_rel = frequency_relative_u()
+    out = []
+    for table, plate_label, geometry, printed_hz, printed_antinodes, printed_half_mm in _rows():
+        modes = plate_modes.solve_plate(geometry, near_hz=printed_hz)
+        k = modes.working_mode(printed_hz)
+        f = float(modes.frequencies_hz[k])
+        half_mm = modes.half_wavelength_m(k) * 1e3
+        out.append({"table": table, "plate": plate_label, "predicted_frequency_hz": f,
+                    "predicted_frequency_u_hz": f * u_rel, "printed_frequency_hz": printed_hz,
+                    "frequency_deviation": f / printed_hz - 1,
+                    "predicted_antinodes": modes.interior_antinodes(k),
+                    "printed_antinodes": int(printed_antinodes),
+                    "predicted_half_wavelength_mm": half_mm,
+                    "printed_half_wavelength_mm": printed_half_mm if printed_half_mm else np.nan})
+    return pd.DataFrame(out)
+
+
+def large_plate_mode_figure(path: Path) -> dict:
+    """The large plate's predicted working mode, drawn to `path`; returns its figures."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    printed_hz = paper_value("large_plate", "large_plate", "frequency_hz")
+    modes = plate_modes.solve_plate(large_plate(), near_hz=printed_hz)
+    k = modes.working_mode(printed_hz)
+    fig, ax = plt.subplots(figsize=(7, 4.2))
+    image = ax.pcolormesh(modes.x_m * 1e3, modes.y_m * 1e3, modes.shapes[k].T, cmap="RdBu_r",
+                          vmin=-1, vmax=1, shading="gouraud")
+    for patch in modes_patches(large_plate()):
+        ax.add_patch(plt.Rectangle(*patch, fill=False, edgecolor="k", linewidth=0.8))
+    ax.set_aspect("equal")
+    ax.set_xlabel("x (mm)")
+    ax.set_ylabel("y (mm)")
+    ax.set_title(f"predicted mode at {modes.frequencies_hz[k]:.0f} Hz "
+                 f"({modes.interior_antinodes(k)} interior antinodes)")
+    fig.colorbar(image, ax=ax, label="deflection / largest")
+    fig.savefig(path, dpi=100, bbox_inches="tight")
+    plt.close(fig)
+    return {"frequency_hz": float(modes.frequencies_hz[k]),
+            "interior_antinodes": modes.interior_antinodes(k),
+            "half_wavelength_mm": modes.half_wavelength_m(k) * 1e3}
+
+
+def modes_patches(geometry: plate_modes.PlateGeometry) -> list[tuple[tuple[float, float], float, float]]:
+    """Each patch as matplotlib's ((x0, y0), width, height) in mm."""
+    return [((p.bounds[0] * 1e3, p.bounds[2] * 1e3), p.length_x_m * 1e3, p.width_y_m * 1e3)
+            for p in geometry.patches]
