@@ -159,6 +159,10 @@ COLUMNS: dict[str, tuple[str, str]] = {
     "printed_antinodes": ("1", "antinodes printed in the paper"),
     "predicted_half_wavelength_mm": ("mm", "mean spacing of the predicted mode's interior nodal lines"),
     "printed_half_wavelength_mm": ("mm", "half-wavelength stated in the paper (empty: not stated)"),
+    "predicted_velocity_pp_mps": ("m/s pp", "velocity at the plate centre at resonance at the printed voltage, predicted (shared q_mech)"),
+    "printed_velocity_pp_mps": ("m/s pp", "velocity printed in the paper (empty: not printed)"),
+    "predicted_power_w": ("W", "power at resonance at the printed voltage, predicted (mechanical loss only)"),
+    "printed_power_w": ("W", "power printed in the paper"),
 }
 
 

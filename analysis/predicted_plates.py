@@ -26,6 +26,13 @@ LAYOUTS = {
 }
 
 
+#: The one damping figure, shared by every aluminium plate on its cushion: the paper's only
+#: damping measurement that is not itself a compared result, the Fig. 2c stress case (37.6 V
+#: at 37180 Hz and 240 V at 37560 Hz give the same velocity, so |Z(37560)|/R = 240/37.6 ->
+#: q_mech = 310; Sec. 2.2). Within the plausible range for aluminium in air (hundreds to ~2000).
+MECHANICAL_Q = 310.0
+
+
 def _columns(x_mm: tuple[float, ...], width_mm: float, per: int, powered: int) -> tuple:
     patches = ()
     for i, x in enumerate(x_mm):
@@ -75,25 +82,35 @@ def frequency_relative_u() -> float:
 def _rows():
     for label in ("75", "59", "28"):
         yield ("Table 3", f"{label} x 41 x 1 mm", table3_plate(label),
-               paper_value("table3", label, "frequency_hz"), paper_value("table3", label, "n_antinodes"), None)
+               paper_value("table3", label, "frequency_hz"), paper_value("table3", label, "n_antinodes"), None,
+               *(paper_value("table3", label, q) for q in ("voltage_vpp", "velocity_pp_mps", "power_w")))
     for label in ("1-column", "2-columns 1 powered", "2-columns 2 powered"):
         yield ("Table 4", label, table4_plate(label), paper_value("table4", label, "frequency_hz"),
-               paper_value("table4", "plate", "n_antinodes"), None)
-    yield ("Sec. 5", "large plate 198 x 138 x 2 mm", large_plate(),
-           paper_value("large_plate", "large_plate", "frequency_hz"), 21.0,
-           paper_value("large_plate", "large_plate", "half_wavelength_mm"))
+               paper_value("table4", "plate", "n_antinodes"), None,
+               *(paper_value("table4", label, q) for q in ("voltage_vpp", "velocity_pp_mps", "power_w")))
+    q = lambda name: paper_value("large_plate", "large_plate", name)  # noqa: E731
+    yield ("Sec. 5", "large plate 198 x 138 x 2 mm", large_plate(), q("frequency_hz"), 21.0,
+           q("half_wavelength_mm"), q("voltage_vpp"), np.nan, q("power_w"))
 
 
 def predictions() -> pd.DataFrame:
     """Predicted beside printed for Tables 3-4 and the large plate: frequency (and its U),
-    deviation, interior antinodes, nodal-line spacing. The printed frequency only centres the
+    deviation, interior antinodes, nodal-line spacing, and velocity and power at resonance at
+    the printed voltage with the one shared `MECHANICAL_Q`. The printed frequency only centres the
     (n, 0) mode search (the family's neighbours lie >= 2/n away)."""
     u_rel = frequency_relative_u()
     out = []
-    for table, plate_label, geometry, printed_hz, printed_antinodes, printed_half_mm in _rows():
+    for (table, plate_label, geometry, printed_hz, printed_antinodes, printed_half_mm,
+         voltage_vpp, printed_velocity, printed_power) in _rows():
         modes = plate_modes.solve_plate(geometry, near_hz=printed_hz)
         k = modes.working_mode(printed_hz)
         f = float(modes.frequencies_hz[k])
+        # at resonance, at the plate centre (where the paper measured, Sec. 2.3.1):
+        # R = w M / q, v = A V / R (pp for pp), P = R v0^2 / 2 with v0 the velocity amplitude
+        mass_kg, forces = modes.referred_to(k, geometry.length_m / 2, geometry.width_m / 2)
+        force = abs(float(forces[modes.powered].sum()))
+        resistance = 2 * math.pi * f * mass_kg / MECHANICAL_Q
+        velocity_pp = force * voltage_vpp / resistance
         half_mm = modes.half_wavelength_m(k) * 1e3
         out.append({"table": table, "plate": plate_label, "predicted_frequency_hz": f,
                     "predicted_frequency_u_hz": f * u_rel, "printed_frequency_hz": printed_hz,
@@ -101,7 +118,11 @@ def predictions() -> pd.DataFrame:
                     "predicted_antinodes": modes.interior_antinodes(k),
                     "printed_antinodes": int(printed_antinodes),
                     "predicted_half_wavelength_mm": half_mm,
-                    "printed_half_wavelength_mm": printed_half_mm if printed_half_mm else np.nan})
+                    "printed_half_wavelength_mm": printed_half_mm if printed_half_mm else np.nan,
+                    "voltage_vpp": voltage_vpp, "predicted_velocity_pp_mps": velocity_pp,
+                    "printed_velocity_pp_mps": printed_velocity,
+                    "predicted_power_w": 0.5 * resistance * (velocity_pp / 2) ** 2,
+                    "printed_power_w": printed_power})
     return pd.DataFrame(out)
 
 
