@@ -276,8 +276,9 @@ def _workers(text: str) -> int:
 
 
 def _add_parallel_options(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--workers", type=_workers, default=1, metavar="N",
-                        help="run independent trials on N local processes (default 1)")
+    parser.add_argument("--workers", type=_workers, default=None, metavar="N",
+                        help="run independent trials on N local processes (default: the cores this "
+                             "process may use, or $SQUEEZEBENCH_WORKERS); results do not depend on N")
     parser.add_argument("--scheduler", default=None, metavar="ADDRESS",
                         help="run the trials on the Dask cluster at ADDRESS (e.g. tcp://head:8786) instead")
 
@@ -400,6 +401,10 @@ def main(argv: list[str] | None = None) -> int:
     level = logger.level
     handler = console_log(getattr(args, "verbose", False))
     try:
+        if getattr(args, "workers", 0) is None:   # only commands that run trials have the option
+            from squeezebench.protocols.parallel import default_workers
+
+            args.workers = default_workers()
         return args.func(args)
     except UserError as exc:
         print(f"squeezebench {args.command}: {exc}", file=sys.stderr)
