@@ -28,7 +28,7 @@ Positions are in millimetres on the wire (the stage's unit), so every name here 
 from __future__ import annotations
 
 import time
-from typing import Any
+from typing import Any, Callable
 
 from pyvisa import constants
 from pyvisa.resources import SerialInstrument
@@ -102,7 +102,7 @@ class SMC100Stage(Instrument):
     MODEL = "SMC_"
 
     def __init__(self, resource: Any, role: str = "stage", poll_interval_s: float = 0.05,
-                 motion_timeout_s: float = 60.0) -> None:
+                 motion_timeout_s: float = 60.0, sleep: Callable[[float], None] = time.sleep) -> None:
         super().__init__(resource, role)
         resource.read_termination = LINE_END
         resource.write_termination = LINE_END
@@ -114,6 +114,7 @@ class SMC100Stage(Instrument):
             resource.flow_control = constants.ControlFlow.xon_xoff
         self.poll_interval_s = poll_interval_s
         self.motion_timeout_s = motion_timeout_s
+        self.sleep = sleep   # the bench's own wait: bench time on the simulated bench
         self.travel_mm = {axis: self._travel_mm(axis) for axis in AXES}
 
     # -- the line protocol ------------------------------------------------------------------------
@@ -235,4 +236,4 @@ class SMC100Stage(Instrument):
             if time.monotonic() > deadline:
                 raise InstrumentError(self.role, self.resource_name,
                                       f"{axis} axis still moving {self.motion_timeout_s:g} s after {after!r}")
-            time.sleep(self.poll_interval_s)
+            self.sleep(self.poll_interval_s)
