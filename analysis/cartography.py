@@ -6,11 +6,13 @@ phase against the drive. The phase turns the amplitude into the real mode's sign
 changes; the homogeneity numbers are over the touch area's amplitudes; the modal
 assurance criterion compares the measured shape with the predicted one (Allemang,
 "The modal assurance criterion - twenty years of use and abuse", Sound and Vibration
-37(8), 2003, Eq. 1).
+37(8), 2003, Eq. 1). The stage's move time is the kinematics both the simulated stage and
+the map's bench-time estimate use.
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -60,3 +62,12 @@ def modal_assurance(measured: np.ndarray, predicted: np.ndarray) -> float:
     if norm == 0:
         raise ValueError("a shape that is zero everywhere has no modal assurance")
     return float(abs(np.vdot(m, p)) ** 2 / norm)
+
+
+def move_time_s(distance_mm: float, velocity_mm_per_s: float, acceleration_mm_per_s2: float) -> float:
+    """Duration of a point-to-point move with a trapezoidal (or, if short, triangular)
+    velocity profile: d/v + v/a when the axis reaches v, else 2 sqrt(d/a)."""
+    d = abs(distance_mm)
+    if d >= velocity_mm_per_s**2 / acceleration_mm_per_s2:
+        return d / velocity_mm_per_s + velocity_mm_per_s / acceleration_mm_per_s2
+    return 2.0 * math.sqrt(d / acceleration_mm_per_s2)

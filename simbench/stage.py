@@ -12,10 +12,10 @@ for a parameter missing or beyond the software limits `SL`/`SR`.
 
 from __future__ import annotations
 
-import math
 import re
 from dataclasses import dataclass
 
+from squeezebench.analysis.cartography import move_time_s
 from squeezebench.simbench.devices import SimulatedInstrument
 
 #: Assumed figures of a typical SMC100 stage (no datasheet survives for this bench).
@@ -26,15 +26,6 @@ REVISION = "SMC_CC - Controller-driver version 2.0.0"
 #: Parameters read with `?`; the other queries (TS, TP, VE) take no argument.
 _PARAMETERS = ("SL", "SR", "VA", "AC")
 _LINE = re.compile(r"^(\d{1,2})([A-Z]{2})(.*)$")
-
-
-def move_time_s(distance_mm: float, velocity_mm_per_s: float, acceleration_mm_per_s2: float) -> float:
-    """Duration of a point-to-point move with a trapezoidal (or, if short, triangular)
-    velocity profile: d/v + v/a when the axis reaches v, else 2 sqrt(d/a)."""
-    d = abs(distance_mm)
-    if d >= velocity_mm_per_s**2 / acceleration_mm_per_s2:
-        return d / velocity_mm_per_s + velocity_mm_per_s / acceleration_mm_per_s2
-    return 2.0 * math.sqrt(d / acceleration_mm_per_s2)
 
 
 @dataclass

@@ -10,7 +10,8 @@ import pytest
 from squeezebench.instruments.errors import InstrumentError, OutOfRangeError
 from squeezebench.instruments.smc100 import SMC100Stage
 from squeezebench.simbench.clock import BUS_TIMINGS, VirtualClock
-from squeezebench.simbench.stage import Stage, move_time_s
+from squeezebench.analysis.cartography import move_time_s
+from squeezebench.simbench.stage import Stage
 
 
 class Link:
@@ -106,3 +107,17 @@ def test_stop_leaves_the_axis_where_it_was_on_its_way(bench):
     x_mm = stage.position_mm("x")
     assert 0.0 < x_mm < 200.0
     assert link.query("1TS") == "1TS000033"
+
+
+def test_the_maps_bench_time_estimate_is_what_the_simulated_stage_takes(bench):
+    from squeezebench.protocols.cartography import Grid, map_bench_time_s
+    stage, link = driver(bench)
+    stage.home()
+    points = Grid((10.0, 30.0), (10.0, 20.0), step_mm=5.0).points_mm()
+    before = bench.clock.now_s()
+    for x_mm, y_mm in points:
+        stage.move_to_mm(x_mm, y_mm)
+    elapsed = bench.clock.now_s() - before
+    estimate = map_bench_time_s(points, (0.0, 0.0), 20.0, 80.0, settle_s=0.0, acquisition_s=0.0)
+    # the estimate has the moves; the bench also spends the messages and the polling granularity
+    assert estimate <= elapsed < estimate + 0.1 * len(points)
