@@ -17,6 +17,7 @@ from dataclasses import dataclass
 
 from squeezebench.analysis.cartography import move_time_s
 from squeezebench.simbench.devices import SimulatedInstrument
+from squeezebench.simbench.modeshape import mode_shape
 
 #: Assumed figures of a typical SMC100 stage (no datasheet survives for this bench).
 TRAVEL_MM = {"1": (0.0, 300.0), "2": (0.0, 200.0)}
@@ -50,6 +51,17 @@ class Stage(SimulatedInstrument):
 
     def power_on(self) -> None:
         self.axes = {address: Axis(*travel) for address, travel in TRAVEL_MM.items()}
+        self.used = False   # a bench whose stage never moved measures where the scene says
+
+    def spot_gain(self) -> float:
+        """Velocity under the laser spot / velocity of the scene's mode at its free end
+        (where the scene's modal velocity is given: `mode_shape` is 1 there). The stage
+        frame is the plate's frame (its corner at the stage's zero); 0 off the plate.
+        A stage that never moved costs nothing: 1, the scene's own measurement."""
+        if not self.used:
+            return 1.0
+        x_mm, y_mm = self.point_mm()
+        return float(mode_shape(self.bench.scene, x_mm, y_mm))
 
     def is_query(self, message: bytes) -> bool:
         text = message.decode("ascii", errors="replace").strip()
@@ -121,6 +133,7 @@ class Stage(SimulatedInstrument):
 
     def _start(self, axis: Axis, state: str, target_mm: float) -> None:
         now = self.bench.clock.now_s()
+        self.used = True
         axis.state, axis.start_mm, axis.target_mm, axis.start_s = state, axis.position_mm, target_mm, now
         axis.end_s = now + move_time_s(target_mm - axis.position_mm, axis.velocity_mm_per_s,
                                        axis.acceleration_mm_per_s2)

@@ -121,3 +121,29 @@ def test_the_maps_bench_time_estimate_is_what_the_simulated_stage_takes(bench):
     estimate = map_bench_time_s(points, (0.0, 0.0), 20.0, 80.0, settle_s=0.0, acquisition_s=0.0)
     # the estimate has the moves; the bench also spends the messages and the polling granularity
     assert estimate <= elapsed < estimate + 0.1 * len(points)
+
+
+def test_on_the_simulated_bench_the_stage_moves_the_laser_spot_over_the_mode():
+    import numpy as np
+    import pyvisa
+
+    from squeezebench.paths import scenes_dir
+    from squeezebench.simbench.modeshape import mode_shape
+
+    rm = pyvisa.ResourceManager(f"{scenes_dir() / 'large_plate.yaml'}@simbench")
+    try:
+        bench = rm.visalib.bench
+        untouched = bench.sensor_gains()[2] * bench.vibrometer.range_mps_per_v()
+        assert untouched == 1.0                     # a stage that never moved costs nothing
+        stage = SMC100Stage(rm.open_resource("ASRL2::INSTR"), poll_interval_s=0.01, sleep=bench.clock.sleep)
+        stage.home()
+        gains = []
+        for x_mm in np.arange(1.0, 198.0, 1.0):
+            stage.move_to_mm(x_mm, 69.0)
+            gains.append(bench.sensor_gains()[2] * bench.vibrometer.range_mps_per_v())
+        assert np.allclose(gains, mode_shape(bench.scene, np.arange(1.0, 198.0, 1.0), 69.0))
+        assert np.count_nonzero(np.diff(np.sign(gains)) != 0) == 21   # the large plate's 21 nodal lines
+        stage.move_to_mm(250.0, 69.0)               # within travel, beyond the plate's 198 mm
+        assert bench.sensor_gains()[2] == 0.0
+    finally:
+        rm.close()
