@@ -221,6 +221,14 @@ class SMC100Stage(Instrument):
         for address in AXES.values():
             self.write(f"{address}ST")
 
+    def park(self) -> None:
+        """Stop any motion (`ST`), then, if both axes are homed, move to the park corner
+        (both negative software limits), out of the laser's way; an axis not homed stays
+        where it stopped, since `PA` is refused NOT REFERENCED (SMC100 UM TE, H)."""
+        self.stop()
+        if self.homed():
+            self.move_to_mm(self.travel_mm["x"][0], self.travel_mm["y"][0])
+
     def _wait_ready(self, axis: str, after: str) -> None:
         deadline = time.monotonic() + self.motion_timeout_s
         while True:

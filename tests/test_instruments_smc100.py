@@ -79,6 +79,16 @@ def test_stop_is_sent_to_both_controllers():
         smc.stop()
 
 
+def test_parking_stops_then_moves_to_the_negative_limits_only_when_homed():
+    homed = [("1ST", None), ("2ST", None), ("1TS", "1TS000033"), ("2TS", "2TS000033"),
+             ("1PA0", None), ("1TE", "1TE@"), ("2PA0", None), ("2TE", "2TE@"),
+             ("1TS", "1TS000033"), ("2TS", "2TS000033"), ("1TP", "1TP0"), ("2TP", "2TP0")]
+    with stage(homed) as smc:
+        smc.park()
+    with stage([("1ST", None), ("2ST", None), ("1TS", "1TS00000A")]) as smc:
+        smc.park()
+
+
 def test_velocity_and_acceleration_are_read_and_set_with_the_te_check():
     script = [("1VA?", "1VA5"), ("2AC?", "2AC20"), ("1VA10", None), ("1TE", "1TE@")]
     with stage(script) as smc:
