@@ -77,3 +77,20 @@ def test_mac_of_orthogonal_shapes_and_of_a_noisy_map():
     assert modal_assurance(noisy, mode) > 0.99
     with pytest.raises(ValueError, match="different points"):
         modal_assurance(mode, mode[:-1])
+
+
+def test_the_papers_uniform_mode_claim_as_a_number_for_the_simulated_large_plate():
+    """"The mode shape is uniform across the plate", restated: over the touch area (20 mm
+    in from the free ends), the antinodes' amplitudes have a coefficient of variation
+    under 1 %, and across the width none (to rounding)."""
+    from scipy.signal import find_peaks
+    scene = load_scene(scenes_dir() / "large_plate.yaml")
+    x = np.arange(20.0, 178.0, 0.05)
+    row = np.abs(mode_shape(scene, x, 69.0))
+    peaks, _ = find_peaks(row)
+    antinodes = homogeneity(row[peaks])
+    assert antinodes.n_points >= 15
+    assert antinodes.coefficient_of_variation < 0.01
+    assert antinodes.mean == pytest.approx(1 / np.sqrt(2), rel=0.01)   # interior sqrt(1 + sigma^2) / 2
+    across = mode_shape(scene, np.full(50, x[peaks[3]]), np.linspace(0.0, 138.0, 50))
+    assert homogeneity(across).coefficient_of_variation < 1e-12
