@@ -23,9 +23,13 @@ from squeezebench.simbench.clock import BUS_TIMINGS
 from squeezebench.simbench.devices import INSTRUMENTS, START_STATES, SimulatedInstrument
 from squeezebench.simbench.scene import load_scene
 from squeezebench.simbench.simulation import SimulatedBench
+from squeezebench.simbench.stage import Stage
 
 #: The simulated bench's instruments at their addresses (docs/design.md).
-RESOURCES = {"GPIB0::10::INSTR": "generator", "TCPIP0::192.168.0.20::INSTR": "scope", "ASRL1::INSTR": "vibrometer"}
+RESOURCES = {"GPIB0::10::INSTR": "generator", "TCPIP0::192.168.0.20::INSTR": "scope", "ASRL1::INSTR": "vibrometer",
+             "ASRL2::INSTR": "stage"}
+#: The instruments by role: the three of devices.py and the x-y stage of stage.py.
+DEVICES = {**INSTRUMENTS, "stage": Stage}
 
 
 class SimulatedDevices:
@@ -72,7 +76,7 @@ class SceneVisaLibrary(SimVisaLibrary):
         instruments = {}
         for resource_name, role in RESOURCES.items():
             bus = BUS_TIMINGS[resource_name.split("::", 1)[0].rstrip("0123456789").lower()]
-            setattr(self.bench, role, INSTRUMENTS[role](self.bench, bus, options))
+            setattr(self.bench, role, DEVICES[role](self.bench, bus, options))
             instruments[rname.to_canonical_name(resource_name)] = getattr(self.bench, role)
         self.devices = SimulatedDevices(instruments)
         START_STATES[start](self.bench)

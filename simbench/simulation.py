@@ -34,7 +34,7 @@ class SimulatedBench:
 
     def __init__(self, scene: Scene) -> None:
         self.clock = VirtualClock()
-        self.generator = self.scope = self.vibrometer = None  # bound by the backend
+        self.generator = self.scope = self.vibrometer = self.stage = None  # bound by the backend
         self._closed = False
         self._install(scene)
 
@@ -120,7 +120,7 @@ class SimulatedBench:
         """Physical signal -> scope input: voltage probe, current probe, decoder range."""
         e = self._scene.electronics
         return np.array([1.0 / e.voltage_probe_attenuation, e.current_probe_a_per_a,
-                         1.0 / self.vibrometer.range_mps_per_v()])
+                         self.stage.spot_gain() / self.vibrometer.range_mps_per_v()])
 
     def vibrometer_over_range(self) -> bool:
         """Live OverRange flag: the decoder output peak beyond its limit."""

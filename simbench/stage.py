@@ -1,0 +1,156 @@
+"""Simulated Newport SMC100 x-y stage: two controllers (x at address 1, y at 2) on one
+serial line, answering the grammar and keeping the state of the SMC100 user's manual
+(cited as in `instruments/smc100.py`: "SMC100 UM" and the command's two letters).
+
+State per axis: NOT REFERENCED at power-on (`TS` ...0A), HOMING (1E) during `OR`, MOVING
+(28) during `PA`, READY from HOMING (32) or from MOVING (33). A move takes the bench time
+of a trapezoidal velocity profile at the axis's `VA` and `AC`, on the simulated clock; `TS`
+reads MOVING until that time has passed. A command the controller refuses is silent and
+leaves its letter for `TE` (SMC100 UM TE): H for a move NOT REFERENCED, M while MOVING, C
+for a parameter missing or beyond the software limits `SL`/`SR`.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+
+from squeezebench.analysis.cartography import move_time_s
+from squeezebench.simbench.devices import SimulatedInstrument
+from squeezebench.simbench.modeshape import mode_shape
+
+#: Assumed figures of a typical SMC100 stage (no datasheet survives for this bench).
+TRAVEL_MM = {"1": (0.0, 300.0), "2": (0.0, 200.0)}
+VELOCITY_MM_PER_S = 20.0
+ACCELERATION_MM_PER_S2 = 80.0
+REVISION = "SMC_CC - Controller-driver version 2.0.0"
+#: Parameters read with `?`; the other queries (TS, TP, VE) take no argument.
+_PARAMETERS = ("SL", "SR", "VA", "AC")
+_LINE = re.compile(r"^(\d{1,2})([A-Z]{2})(.*)$")
+
+
+@dataclass
+class Axis:
+    low_mm: float
+    high_mm: float
+    position_mm: float = 0.0
+    state: str = "0A"
+    start_mm: float = 0.0
+    target_mm: float = 0.0
+    start_s: float = 0.0
+    end_s: float = 0.0
+    velocity_mm_per_s: float = VELOCITY_MM_PER_S
+    acceleration_mm_per_s2: float = ACCELERATION_MM_PER_S2
+    error: str = "@"
+
+
+class Stage(SimulatedInstrument):
+    """SMC100 pair; `point_mm()` is where the stage holds the plate under the laser spot."""
+
+    role = "stage"
+
+    def power_on(self) -> None:
+        self.axes = {address: Axis(*travel) for address, travel in TRAVEL_MM.items()}
+        self.used = False   # a bench whose stage never moved measures where the scene says
+
+    def spot_gain(self) -> float:
+        """Velocity under the laser spot / velocity of the scene's mode at its free end
+        (where the scene's modal velocity is given: `mode_shape` is 1 there). The stage
+        frame is the plate's frame (its corner at the stage's zero); 0 off the plate.
+        A stage that never moved costs nothing: 1, the scene's own measurement."""
+        if not self.used:
+            return 1.0
+        x_mm, y_mm = self.point_mm()
+        return float(mode_shape(self.bench.scene, x_mm, y_mm))
+
+    def is_query(self, message: bytes) -> bool:
+        text = message.decode("ascii", errors="replace").strip()
+        return text.endswith("?") or text[-2:] in ("TS", "TP", "TE", "VE")
+
+    def point_mm(self) -> tuple[float, float]:
+        self._settle_all()
+        return self.axes["1"].position_mm, self.axes["2"].position_mm
+
+    def _settle_all(self) -> None:
+        for axis in self.axes.values():
+            self._settle(axis)
+
+    def _settle(self, axis: Axis) -> None:
+        """A move whose bench time has passed has ended: READY at the target."""
+        if axis.state in ("1E", "28") and self.bench.clock.now_s() >= axis.end_s:
+            axis.position_mm = axis.target_mm
+            axis.state = "32" if axis.state == "1E" else "33"
+
+    def handle(self, message: bytes) -> list:
+        match = _LINE.match(message.decode("ascii", errors="replace").strip())
+        if match is None or match.group(1) not in self.axes:
+            return []   # another address or line noise: no controller answers
+        address, command, argument = match.groups()
+        axis = self.axes[address]
+        self._settle(axis)
+        reply = self._command(axis, command, argument)
+        return [] if reply is None else [f"{address}{command}{reply}".encode() + b"\r"]
+
+    def _command(self, axis: Axis, command: str, argument: str) -> str | None:
+        queries = {"TS": lambda: f"{0:04X}{axis.state}", "TP": lambda: f"{axis.position_mm:.6g}",
+                   "VE": lambda: f" {REVISION}", "SL": lambda: f"{axis.low_mm:g}", "SR": lambda: f"{axis.high_mm:g}",
+                   "VA": lambda: f"{axis.velocity_mm_per_s:g}", "AC": lambda: f"{axis.acceleration_mm_per_s2:g}"}
+        if command == "TE":
+            letter, axis.error = axis.error, "@"
+            return letter
+        if command in queries and argument in ("", "?") and (argument == "?") == (command in _PARAMETERS):
+            return queries[command]()
+        if command == "OR" and argument == "":
+            self._home(axis)
+        elif command == "PA":
+            self._move(axis, argument)
+        elif command == "VA" and argument:
+            self._velocity(axis, argument)
+        elif command == "ST" and argument == "":
+            self._stop(axis)
+        else:
+            axis.error = "A"   # SMC100 UM TE: unknown message code
+        return None
+
+    def _home(self, axis: Axis) -> None:
+        if axis.state not in ("0A", "0B", "0C", "0D", "0E", "0F", "10"):
+            axis.error = "K" if axis.state.startswith("3") else "D"
+            return
+        self._start(axis, "1E", axis.low_mm)
+
+    def _move(self, axis: Axis, argument: str) -> None:
+        try:
+            target = float(argument)
+        except ValueError:
+            axis.error = "C"
+            return
+        if axis.state not in ("32", "33", "34", "35"):
+            axis.error = {"28": "M", "1E": "L"}.get(axis.state, "H")
+        elif not axis.low_mm <= target <= axis.high_mm:
+            axis.error = "C"
+        else:
+            self._start(axis, "28", target)
+
+    def _start(self, axis: Axis, state: str, target_mm: float) -> None:
+        now = self.bench.clock.now_s()
+        self.used = True
+        axis.state, axis.start_mm, axis.target_mm, axis.start_s = state, axis.position_mm, target_mm, now
+        axis.end_s = now + move_time_s(target_mm - axis.position_mm, axis.velocity_mm_per_s,
+                                       axis.acceleration_mm_per_s2)
+
+    def _velocity(self, axis: Axis, argument: str) -> None:
+        try:
+            value = float(argument)
+        except ValueError:
+            value = -1.0
+        if value <= 0:
+            axis.error = "C"
+        else:
+            axis.velocity_mm_per_s = value
+
+    def _stop(self, axis: Axis) -> None:
+        if axis.state in ("1E", "28"):
+            span = max(axis.end_s - axis.start_s, 1e-12)
+            done = min(1.0, (self.bench.clock.now_s() - axis.start_s) / span)
+            axis.position_mm = axis.start_mm + done * (axis.target_mm - axis.start_mm)
+            axis.state = "0E" if axis.state == "1E" else "33"   # a stopped homing leaves it NOT REFERENCED
