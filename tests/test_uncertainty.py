@@ -318,3 +318,23 @@ def test_a_mean_over_plates_keeps_their_shared_uncertainty(erring_bench_points):
         # independent errors would have averaged down by sqrt(n): the shared part does not
         assert mean.std_uncertainty > np.sqrt(np.mean([getattr(p, quantity).std_uncertainty**2
                                                        for p in plates]) / len(plates))
+
+
+def test_a_mean_of_repeats_of_one_point_keeps_its_shared_type_b_part():
+    """The same instruments measured every repeat: their specifications' part is common to
+    all and does not average down; only the record noise does (issue 28: 1, 2, 4 copies
+    gave U = 4.78, 3.38, 2.39 %)."""
+    from squeezebench.analysis.tables import _expanded, mean_estimate
+
+    point = _point(power_w_u=2e-4)
+    budget = power_budget(point)
+    type_b = math.sqrt(budget.std_uncertainty**2 - 2e-4**2)
+    expanded = []
+    for n in (1, 2, 4):
+        points = pd.DataFrame([point] * n)
+        U = _expanded(points, "power_w", mean_estimate(points["power_w"], points["power_w_u"]))
+        assert U == pytest.approx(2 * math.hypot(2e-4 / math.sqrt(n), type_b), rel=1e-9)
+        assert U > 2 * type_b
+        expanded.append(U)
+    assert expanded[0] == pytest.approx(budget.expanded_uncertainty, rel=1e-9)
+    assert expanded[2] > 0.9 * expanded[0]   # not halved
