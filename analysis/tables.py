@@ -92,14 +92,18 @@ def fit_line(x, y, y_std=None, *, what: str) -> LineFit:
                    n_points=int(x.size), chi2_per_dof=chi2_per_dof)
 
 
-def mean_estimate(values, uncertainties) -> Estimate:
-    """Mean of repeated points; uncertainty combines the stated ones and the scatter."""
+def mean_estimate(values, uncertainties, shared=None) -> Estimate:
+    """Mean of repeated points; uncertainty combines the stated ones (independent between
+    points: they average down), the scatter, and `shared`, each point's part that is common
+    to all of them (the same instruments' Type B errors: fully correlated, so the mean
+    keeps their mean, GUM 5.2.2 with r = 1)."""
     values = np.asarray(values, dtype=float)
     uncertainties = np.asarray(uncertainties, dtype=float)
     n = values.size
     stated = math.sqrt(float(np.sum(uncertainties**2))) / n
     scatter = float(np.std(values, ddof=1)) / math.sqrt(n) if n > 1 else 0.0
-    return Estimate(float(values.mean()), math.hypot(stated, scatter))
+    common = float(np.mean(np.asarray(shared, dtype=float))) if shared is not None else 0.0
+    return Estimate(float(values.mean()), math.sqrt(stated**2 + scatter**2 + common**2))
 
 
 def flag(column: pd.Series, default: bool) -> pd.Series:
@@ -237,7 +241,9 @@ def _quantity_value(points: pd.DataFrame, quantity: str, constant_columns: dict[
 def _expanded(points: pd.DataFrame, column: str, estimate: Estimate) -> float:
     """Expanded (k = 2) uncertainty of a mean of points from their whole budgets
     (analysis.uncertainty: noise and the instruments' specifications); the amplitude
-    takes the velocity's relative budget. Without a budget, k times the noise alone."""
+    takes the velocity's relative budget. The noise averages down over the points, the
+    specifications' part (the same instruments for every point) does not. Without a
+    budget, k times the noise alone."""
     # analysis.uncertainty reads reduced points through analysis.calibration, which imports
     # this module: imported here, once both are loaded.
     from squeezebench.analysis import uncertainty
@@ -245,9 +251,11 @@ def _expanded(points: pd.DataFrame, column: str, estimate: Estimate) -> float:
     budgeted = "velocity_pp_mps" if column == "amplitude_pp_m" else column
     if budgeted in uncertainty.POINT_BUDGETS and points["power_w_u"].notna().all():
         combined = uncertainty.with_expanded_uncertainties(points)[f"{budgeted}_u_combined"]
+        noise = points[f"{budgeted}_u"]
         if column == "amplitude_pp_m":
-            combined = combined / points["velocity_pp_mps"] * points["amplitude_pp_m"]
-        return uncertainty.COVERAGE_FACTOR * mean_estimate(points[column], combined).std_uncertainty
+            combined, noise = (u / points["velocity_pp_mps"] * points["amplitude_pp_m"] for u in (combined, noise))
+        shared = np.sqrt(np.clip(combined**2 - noise**2, 0.0, None))
+        return uncertainty.COVERAGE_FACTOR * mean_estimate(points[column], noise, shared).std_uncertainty
     return uncertainty.COVERAGE_FACTOR * estimate.std_uncertainty
 
 

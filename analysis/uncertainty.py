@@ -18,7 +18,8 @@ calibration's own uncertainty and corrects the power by the delay it measured. G
 errors stay: a resistive load compares CH2 with CH1, and without a voltage reference the
 product of the gains that the power carries is not lowered (see `Deskew`).
 
-Q and tan theta' propagate the point uncertainties and the tolerances of the geometry
+Q and tan theta' propagate the budgets' terms (a shared Type B input such as CH1's gain once,
+so it cancels where it divides out) and the tolerances of the geometry
 and material constants through the paper's Eqs. 25 and 27 with the `uncertainties`
 package (linear propagation, numerical derivatives of `analysis.model`).
 """
@@ -416,13 +417,28 @@ def model_budgets(amplitude: Budget, power: Budget, voltage: Budget, frequency_h
                   tolerances: dict[str, Tolerance] = TOLERANCES) -> tuple[Budget, Budget]:
     """Budgets of Q (Eq. 27 inverted) and tan theta' (Eq. 25 inverted) at one point.
 
-    Amplitude, power and voltage enter with their combined uncertainties (their own
-    budgets say what is inside); each tolerance is a separate term. The frequency's
+    Amplitude, power and voltage enter through their budgets' terms, not their combined
+    uncertainties: a Type B term of one name is one input shared by every budget that lists
+    it (CH1's gain is in both slopes as 1/g_CH1 and cancels in tan theta' ~ slope_P /
+    slope_A; it is in a point's power and voltage as g_CH1), with the same sign of
+    sensitivity in each (true of every shared term here); a Type A term belongs to its
+    budget alone ("power: line fit"). Each tolerance is a separate term. The frequency's
     uncertainty (ppm) is negligible against the others and is not propagated.
     """
-    # an exactly known input (the slopes' V = 1 Vpp) stays a plain number
-    inputs = {name: uncertainties.ufloat(b.value, b.std_uncertainty, name) if b.std_uncertainty > 0 else b.value
-              for name, b in (("amplitude", amplitude), ("power", power), ("voltage", voltage))}
+    shared: dict[str, uncertainties.UFloat] = {}   # one unit variable per underlying input
+    sources: dict[str, str] = {}
+
+    def reading(role: str, budget: Budget):
+        value = budget.value   # an exactly known input (the slopes' V = 1 Vpp) stays a plain number
+        for term in budget.terms:
+            if term.std_uncertainty > 0:
+                key = term.name if term.type == "B" else f"{role}: {term.name}"
+                unit = shared.setdefault(key, uncertainties.ufloat(0.0, 1.0, key))
+                sources[key] = term.source
+                value = value + term.std_uncertainty * unit
+        return value
+
+    inputs = {role: reading(role, b) for role, b in (("amplitude", amplitude), ("power", power), ("voltage", voltage))}
     nominal = {name: getattr(geometry, name) for name in _GEOMETRY_FIELDS}
     nominal.update({name: getattr(convention.materials, name) for name in _MATERIAL_FIELDS})
     for name, value in nominal.items():
@@ -447,14 +463,13 @@ def model_budgets(amplitude: Budget, power: Budget, voltage: Budget, frequency_h
         q = model.q_from_amplitude(v["amplitude"], v["voltage"], shape, conv)
         return model.tan_theta_from_power(v["power"], v["voltage"], q, frequency_hz, shape, conv)
 
-    sources = {"amplitude": "amplitude budget (combined)", "power": "power budget (combined)",
-               "voltage": "voltage budget (combined)", **{k: t.source for k, t in tolerances.items()}}
+    sources.update({k: t.source for k, t in tolerances.items()})
     budgets = []
     for quantity, function in (("q", q_of), ("tan_theta", tan_of)):
         result = uncertainties.wrap(function)(*inputs.values())
         components = result.error_components()
-        terms = tuple(Term(variable.tag, "B" if variable.tag in tolerances else "A+B", abs(u),
-                           sources[variable.tag]) for variable, u in components.items())
+        terms = tuple(Term(variable.tag, "A" if ": " in variable.tag else "B", abs(u), sources[variable.tag])
+                      for variable, u in components.items())
         budgets.append(Budget(quantity, "1", result.nominal_value, terms))
     return budgets[0], budgets[1]
 

@@ -56,9 +56,12 @@ class AccuracyFloors:
                    for f in self.floors if f.run_name == run_name)
 
     def calibrated_runs(self) -> list[str]:
-        """Runs the target needs the calibration for (and that it lets reach the target)."""
+        """Runs whose floor is above the target and that the calibration lowers: to the
+        target, or, where the target is below even the calibrated floor, as far as it goes
+        (the plan's noise allowance there assumes the calibrated floor, so the plan must
+        carry the calibration)."""
         return [run for run in self.own_bench_time_s
-                if self.floor(run, False) > self.target_rel_error >= self.floor(run, True)]
+                if self.floor(run, False) > self.target_rel_error and self.floor(run, True) < self.floor(run, False)]
 
     def below_floor(self) -> list[RunFloor]:
         """(run, quantity) whose floor, even calibrated, is above the target."""

@@ -33,7 +33,7 @@ import numpy as np
 import pandas as pd
 
 from squeezebench.analysis.waveforms import integer_period_mean_power_w, sample_interval_s
-from squeezebench.protocols.accuracy_plan import AccuracyFloors, accuracy_floors
+from squeezebench.protocols.accuracy_plan import CALIBRATION_RUN, AccuracyFloors, accuracy_floors
 from squeezebench.protocols.simulated_session import open_simulated
 from squeezebench.protocols.variants import planned_campaign
 from squeezebench.protocols.bench_errors import (
@@ -208,6 +208,17 @@ class Plan:
         return bool(self.floors and self.floors.calibrate)
 
     @property
+    def reachable(self) -> bool:
+        """Whether every run's planned floor is at or below the target."""
+        return not (self.floors and self.floors.below_floor())
+
+    def expected_p95_rel_error(self, run_name: str) -> float:
+        """The run's total expected p95 error: its planned floor and its noise in quadrature
+        (the convention of `AccuracyFloors.noise_allowance`)."""
+        floor = self.floors.planned_floor(run_name) if self.floors else 0.0
+        return math.hypot(floor, self.error_by_run[run_name])
+
+    @property
     def planned_total_s(self) -> float:
         return sum(self.planned_s.values())
 
@@ -267,10 +278,12 @@ class Plan:
         """The plan as plain data (`squeezebench plan --json`): the numbers of `table()`."""
         return {"target_rel_error": self.target_rel_error, "repeats": self.repeats,
                 "runs": [{"run": name, **dataclasses.asdict(setting),
-                          "p95_rel_error": self.error_by_run[name],
+                          "p95_rel_error": self.expected_p95_rel_error(name),
+                          "noise_p95_rel_error": self.error_by_run[name],
                           "planned_bench_time_s": self.planned_s.get(name, 0.0),
                           "baseline_bench_time_s": self.baseline_s.get(name, 0.0)}
                          for name, setting in self.settings_by_run.items()],
+                "reachable": self.reachable,
                 "planned_bench_time_s": self.planned_total_s,
                 "own_bench_time_s": self.own_total_s,
                 "own_bench_time_by_run_s": self.own_s,
@@ -389,11 +402,15 @@ def plan_campaign(campaign_path: Path, target_rel_error: float = 0.01, write: Pa
     """The `squeezebench plan` table: per run the setting, error and bench times; with
     `write`, also the campaign file with the planned settings, ready to run."""
     plan = make_plan(Path(campaign_path), target_rel_error, workers=workers, scheduler=scheduler)
-    table = plan.table()
-    if write is not None:
-        write_planned_campaign(Path(campaign_path), plan, Path(write))
-        table += f"\nplanned campaign written to {write}"
-    return table
+    return plan_text(plan, write_planned_campaign(Path(campaign_path), plan, Path(write)) if write else None)
+
+
+def plan_text(plan: Plan, written: Path | None) -> str:
+    """The plan's table, and where its campaign file was written (with the calibration it carries)."""
+    if written is None:
+        return plan.table()
+    carries = f" (with the {CALIBRATION_RUN} it assumes first)" if plan.calibrate else ""
+    return plan.table() + f"\nplanned campaign written to {written}{carries}"
 
 
 def write_planned_campaign(campaign_path: Path, plan: Plan, out: Path) -> Path:

@@ -244,20 +244,25 @@ def cmd_study(args: argparse.Namespace) -> int:
 
 
 def cmd_plan(args: argparse.Namespace) -> int:
-    from squeezebench.protocols.planning import make_plan, plan_campaign, write_planned_campaign
+    from squeezebench.protocols.planning import make_plan, plan_text, write_planned_campaign
 
     campaign = paths.campaign_file(args.campaign)
     if args.write is not None:   # refused before minutes of planning, not after
         from squeezebench.protocols.storage import check_writable_file
 
         check_writable_file(args.write)
-    parallel = {"workers": args.workers, "scheduler": args.scheduler}
-    if not args.json:
-        say(args, plan_campaign(campaign, target_rel_error=args.target_rel_error, write=args.write, **parallel))
-        return 0
-    plan = make_plan(campaign, args.target_rel_error, **parallel)
+    if campaign != Path(args.campaign):
+        say(args, f"campaign: {campaign} (shipped; no file named {args.campaign} here)")
+    plan = make_plan(campaign, args.target_rel_error, workers=args.workers, scheduler=args.scheduler)
     written = write_planned_campaign(campaign, plan, args.write) if args.write else None
-    emit_json({"command": "plan", "campaign": campaign, **plan.as_dict(), "written": written})
+    if args.json:
+        emit_json({"command": "plan", "campaign": campaign, **plan.as_dict(), "written": written})
+    else:
+        say(args, plan_text(plan, written))
+    if not plan.reachable:   # the table says why; a script must not take the plan for one that meets it
+        print(f"squeezebench plan: target {args.target_rel_error:g} is below the floor the instruments' "
+              "specified errors leave; no setting meets it", file=sys.stderr)
+        return EXIT_USER_ERROR
     return 0
 
 

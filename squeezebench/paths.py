@@ -29,10 +29,11 @@ def campaigns_dir() -> Path:
 
 
 def campaign_file(name: str | Path) -> Path:
-    """A campaign path as given, else a campaign shipped with squeezebench (`quick`,
-    `paper.yaml`): an installed package has no data/ folder in the working directory."""
+    """A campaign file as given, else a campaign shipped with squeezebench (`quick`,
+    `paper.yaml`): an installed package has no data/ folder in the working directory. A
+    folder of the same name (a run directory called `quick`) does not hide a shipped one."""
     path = Path(name)
-    if path.exists():
+    if path.is_file():
         return path
     for candidate in (campaigns_dir() / path, campaigns_dir() / f"{path}.yaml"):
         if candidate.is_file():

@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import json
 import math
+from pathlib import Path
 
 import pytest
 
@@ -126,3 +128,35 @@ def test_a_plan_that_keeps_missing_is_returned_checked_and_says_so(monkeypatch):
     assert not plan.meets_check and plan.missed_runs() == ["detuning"]
     assert f"missed by detuning after {planning.MAX_TIGHTENINGS} tightenings" in plan.table()
     assert plan.as_dict()["check"]["meets_target"] is False
+
+
+def test_plan_write_below_the_floor_exits_non_zero_and_the_written_plan_carries_the_calibration(
+        tmp_path, monkeypatch, capsys):
+    """The plan's noise allowance there assumes the calibrated floor: the file a person runs
+    must carry the calibration, and a script must not read the exit code as success."""
+    from squeezebench import cli
+    from squeezebench.protocols import planning
+    from squeezebench.protocols.accuracy_plan import CALIBRATION_RUN
+    from squeezebench.protocols.campaign import load_campaign
+
+    real = planning.make_plan
+    monkeypatch.setattr(planning, "make_plan", lambda path, target, **kw: real(path, target, repeats=2, **kw))
+    out = tmp_path / "planned.yaml"
+    assert cli.main(["plan", str(QUICK), "--target-rel-error", "0.01", "--write", str(out), "--json"]) == 2
+    captured = capsys.readouterr()
+    assert "below the floor" in captured.err
+    data = json.loads(captured.out)
+    assert data["reachable"] is False and data["floors"]["calibration"]["planned"] is True
+    for run in data["runs"]:   # the per-run figure is the total; the noise part is named as such
+        floor = max(f["calibrated_floor_p95_rel"] for f in data["floors"]["floors"] if f["run_name"] == run["run"])
+        assert run["p95_rel_error"] == pytest.approx(math.hypot(floor, run["noise_p95_rel_error"]))
+        assert run["p95_rel_error"] > 0.01 > run["noise_p95_rel_error"]
+    assert [r.name for r in load_campaign(out).runs][0] == CALIBRATION_RUN
+
+
+def test_a_folder_named_like_a_shipped_campaign_does_not_hide_it(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "quick").mkdir()
+    assert paths.campaign_file("quick") == QUICK
+    (tmp_path / "mine.yaml").write_text("runs: []\n")
+    assert paths.campaign_file("mine.yaml") == Path("mine.yaml")

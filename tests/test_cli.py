@@ -134,6 +134,7 @@ def test_plan_json_has_the_numbers_of_the_table(monkeypatch, capsys, tmp_path):
     assert cli.main(["plan", "quick", "--json", "--write", str(out)]) == 0
     plan = json.loads(capsys.readouterr().out)
     assert plan["runs"][0] == {"run": "detuning", "record_length": 500, "averages": 4, "p95_rel_error": 0.005,
+                               "noise_p95_rel_error": 0.005,   # no floors: the noise is the whole error
                                "planned_bench_time_s": 2.0, "baseline_bench_time_s": 8.0}
     assert plan["planned_bench_time_s"] == 3.0 and plan["written"] == str(out) and out.is_file()
 

@@ -4,6 +4,7 @@ the scene's truth on a simulated bench whose instruments err within their specif
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import pandas as pd
@@ -88,11 +89,51 @@ def test_q_and_tan_theta_propagate_the_tolerances():
     terms = {t.name: t.std_uncertainty for t in q.terms}
     # Q ∝ A / (V d31): relative sensitivities 1 to amplitude, voltage and d31
     assert terms["piezo_d31_c_per_n"] == pytest.approx(abs(q.value) * 0.05 * RECT, rel=1e-4)
-    assert terms["amplitude"] == pytest.approx(abs(q.value) * 0.01, rel=1e-4)
-    assert "power" not in terms or terms["power"] == 0
+    assert terms["amplitude: x"] == pytest.approx(abs(q.value) * 0.01, rel=1e-4)
+    assert "power: x" not in terms or terms["power: x"] == 0   # Type A terms of one name stay apart
     tan_terms = {t.name: t.std_uncertainty for t in tan.terms}
-    assert tan_terms["power"] == pytest.approx(abs(tan.value) * 0.02, rel=1e-4)   # tan ∝ P
+    assert tan_terms["power: x"] == pytest.approx(abs(tan.value) * 0.02, rel=1e-4)   # tan ∝ P
     assert q.dominant.name in TOLERANCES and tan.dominant.name in TOLERANCES   # the constants, not the readings
+
+
+def test_q_and_tan_theta_uncertainties_equal_a_monte_carlo_over_the_shared_inputs():
+    """GUM-S1 check of the linear propagation: draw each underlying input once per trial
+    (rectangular specifications and tolerances, normal fits), CH1's gain the same draw in
+    both slopes, and evaluate the model; u(Q) and u(tan theta') agree within 5 %."""
+    geometry = model.PlateGeometry(1e-3, 0.5e-3, 9e-3, 8.44e-3, 4)
+    convention, frequency_hz = model.PHYSICAL_CONVENTION, 37180.0
+    slope_a, slope_p = 1.6e-6 / 37.6, 0.1 / 37.6**2
+    gain_u = 0.02 * RECT
+    amplitude = Budget("amplitude_pp_m_per_vpp", "m/V", slope_a, (
+        Term("line fit", "A", 0.004 * slope_a, ""), Term("CH3 gain", "B", gain_u * slope_a, ""),
+        Term("CH1 gain", "B", gain_u * slope_a, "")))
+    power = Budget("power_w_per_vpp2", "W/V^2", slope_p, (
+        Term("line fit", "A", 0.006 * slope_p, ""), Term("current probe gain", "B", 0.03 * RECT * slope_p, ""),
+        Term("CH1 gain", "B", gain_u * slope_p, "")))
+    q, tan = model_budgets(amplitude, power, Budget("piezo_voltage_vpp", "V", 1.0, ()), frequency_hz,
+                           geometry, convention)
+
+    rng = np.random.default_rng(28)
+    trials = 20000
+    rect = lambda half_width: rng.uniform(-half_width, half_width, trials)  # noqa: E731
+    g1 = rect(0.02)   # one draw, both slopes
+    a = slope_a * (1 + rng.normal(0, 0.004, trials) + rect(0.02) + g1)
+    p = slope_p * (1 + rng.normal(0, 0.006, trials) + rect(0.03) + g1)
+    fields = {name: 1 + rect(TOLERANCES[name].half_width_rel) for name in TOLERANCES}
+    qs, tans = np.empty(trials), np.empty(trials)
+    for i in range(trials):
+        shape = replace(geometry, **{k: getattr(geometry, k) * fields[k][i] for k in
+                                     ("resonator_thickness_m", "piezo_thickness_m", "piezo_length_m",
+                                      "half_wavelength_m")})
+        materials = replace(convention.materials, **{k: getattr(convention.materials, k) * fields[k][i] for k in
+                                                    ("piezo_d31_c_per_n", "piezo_c11_pa", "resonator_young_pa")})
+        conv = replace(convention, materials=materials)
+        qs[i] = model.q_from_amplitude(a[i], 1.0, shape, conv)
+        tans[i] = model.tan_theta_from_power(p[i], 1.0, qs[i], frequency_hz, shape, conv)
+    assert q.std_uncertainty == pytest.approx(qs.std(), rel=0.05)
+    assert tan.std_uncertainty == pytest.approx(tans.std(), rel=0.05)
+    # treated as two independent inputs, CH1's gain would add 5 % to u(tan theta') here
+    assert {t.name: t.std_uncertainty for t in tan.terms}["CH1 gain"] < 1e-6 * tan.std_uncertainty
 
 
 # -- coverage on a bench with systematic errors ---------------------------------------------
@@ -237,8 +278,9 @@ def test_q_and_tan_theta_budgets_of_the_characterised_plates(erring_bench_points
         assert plate.q.std_uncertainty == pytest.approx(q.std_uncertainty, rel=1e-6)
         assert plate.tan_theta.std_uncertainty == pytest.approx(tan.std_uncertainty, rel=1e-6)
         assert q.std_uncertainty > 10 * plate.fit_u("q")
-        terms = {t.name for t in tan.terms}
-        assert {"amplitude", "power", "piezo_d31_c_per_n", "resonator_thickness_m"} <= terms
+        terms = {t.name: t.std_uncertainty for t in tan.terms}
+        assert {"power: line fit", "current probe gain", "piezo_d31_c_per_n", "resonator_thickness_m"} <= set(terms)
+        assert terms["CH1 gain"] < 1e-6 * tan.std_uncertainty   # in both slopes as 1/g_CH1: it cancels
 
 
 def test_resonance_frequencies_are_covered_by_the_search_budget(erring_bench_points):
@@ -276,3 +318,23 @@ def test_a_mean_over_plates_keeps_their_shared_uncertainty(erring_bench_points):
         # independent errors would have averaged down by sqrt(n): the shared part does not
         assert mean.std_uncertainty > np.sqrt(np.mean([getattr(p, quantity).std_uncertainty**2
                                                        for p in plates]) / len(plates))
+
+
+def test_a_mean_of_repeats_of_one_point_keeps_its_shared_type_b_part():
+    """The same instruments measured every repeat: their specifications' part is common to
+    all and does not average down; only the record noise does (issue 28: 1, 2, 4 copies
+    gave U = 4.78, 3.38, 2.39 %)."""
+    from squeezebench.analysis.tables import _expanded, mean_estimate
+
+    point = _point(power_w_u=2e-4)
+    budget = power_budget(point)
+    type_b = math.sqrt(budget.std_uncertainty**2 - 2e-4**2)
+    expanded = []
+    for n in (1, 2, 4):
+        points = pd.DataFrame([point] * n)
+        U = _expanded(points, "power_w", mean_estimate(points["power_w"], points["power_w_u"]))
+        assert U == pytest.approx(2 * math.hypot(2e-4 / math.sqrt(n), type_b), rel=1e-9)
+        assert U > 2 * type_b
+        expanded.append(U)
+    assert expanded[0] == pytest.approx(budget.expanded_uncertainty, rel=1e-9)
+    assert expanded[2] > 0.9 * expanded[0]   # not halved
