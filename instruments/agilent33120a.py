@@ -84,8 +84,13 @@ class Agilent33120A(SCPIInstrument):
 
     def __init__(self, resource: Any, role: str = "generator") -> None:
         super().__init__(resource, role)
-        # Only how VOLT numbers are read and written; the output does not change.
-        self.write("VOLT:UNIT VPP")  # UG Ch. 4 VOLTage:UNIT
+        # Safe from the first message: before anything is read, whatever a previous user
+        # left is brought to rest. Through the amplifier a 2 V offset is some 40 V DC on the
+        # piezos, and an amplitude is multiplied by the gain; MIN is the present load
+        # setting's minimum, so this needs no reading first.
+        self.write("VOLT:UNIT VPP")  # UG Ch. 4 VOLTage:UNIT (how VOLT numbers are read and written)
+        self.write("VOLT MIN")  # UG Ch. 4 VOLTage {<amplitude>|MINimum|MAXimum}
+        self.write("VOLT:OFFS 0")  # UG Ch. 4 VOLTage:OFFSet
 
     # -- limits of the present load setting ------------------------------------------------------
     @property
