@@ -438,11 +438,20 @@ class TDS3054B(SCPIInstrument):
         if abs(value) < NO_VALUE:
             return value
         events = [event for event in self.read_events() if event[0] not in _NOT_ERRORS]
-        clipping = next((message for code, message in events if code in CLIPPING_EVENTS), None)
-        if clipping is not None:
-            raise ClippedTraceError(self.role, self.resource_name, name, None, clipping)
         why = "; ".join(f"{code}, {message}" for code, message in events) or \
             "no signal it can measure, or the source is not displayed"
+        # Reading the queue to explain the missing value drains every other event with it:
+        # a refused command (command, execution or device error: Tables 3-4 to 3-6, codes 1xx-3xx) is
+        # reported whatever came with it, never hidden behind a clipping the runner re-ranges.
+        refused = next((code for code, _ in events if 100 <= code < 400), None)
+        if refused is not None:
+            raise InstrumentError(self.role, self.resource_name,
+                                  f"no {kind_key} measurement of {name}; the scope reports {why}", refused)
+        clipping = [message for code, message in events if code in CLIPPING_EVENTS]
+        if clipping:
+            others = "; ".join(f"{code}, {message}" for code, message in events if code not in CLIPPING_EVENTS)
+            raise ClippedTraceError(self.role, self.resource_name, name, None,
+                                    clipping[0] + (f" (also: {others})" if others else ""))
         raise NoValidMeasurement(self.role, self.resource_name,
                                  f"no valid {kind_key} measurement of {name} (the scope answered {reply}: {why})")
 

@@ -125,6 +125,25 @@ def test_a_measurement_refused_for_clipping_is_a_clipped_trace():
     assert caught.value.channel == 2 and caught.value.clipped_fraction is None
 
 
+def test_a_refused_command_is_never_hidden_behind_a_clipping():
+    """ALLEV? drains every event: the refused CH3:SCALE is the error, with the clipping beside it."""
+    with expected_protocol(TDS3054B, CONNECT + measure_script("CH3", "PK2PK", "9.9E37") + [
+            ("*ESR?", "52"),
+            ("ALLEV?", '222,"Data out of range; CH3:SCALE 1.33333333",2227,"Positive and Negative Clipping"')]) as scope:
+        with pytest.raises(InstrumentError) as caught:
+            scope.measure(3, "PK2PK")
+    assert not isinstance(caught.value, ClippedTraceError) and caught.value.code == 222
+    assert "CH3:SCALE" in str(caught.value) and "Clipping" in str(caught.value)
+
+
+def test_other_events_drained_with_a_clipping_are_reported_with_it():
+    with expected_protocol(TDS3054B, CONNECT + measure_script("CH2", "MAXIMUM", "9.91E37") + [
+            ("*ESR?", "16"), ("ALLEV?", '2228,"Positive Clipping",2244,"Source waveform is not active"')]) as scope:
+        with pytest.raises(ClippedTraceError) as caught:
+            scope.measure(2, "MAXIMUM")
+    assert "2244" in str(caught.value)
+
+
 def fetch_script(points: int, reply_preamble: str, curve: bytes | None) -> list:
     script = [("HORIZONTAL:RECORDLENGTH?", str(points)), ("DATA:SOURCE CH2", None), ("DATA:ENCDG RIBINARY", None),
               ("DATA:WIDTH 2", None), ("DATA:START 1", None), (f"DATA:STOP {points}", None),
