@@ -201,7 +201,8 @@ class Acquisition:
                     rerange[channel] = (CLIP_GROWTH * SCREEN_DIVISIONS * scale, "clipped")
             pp = {channel: high - low for channel, (high, low) in peaks.items()}
             # Clipped or not, never above the limit (a clipped CH1 spans at least the screen).
-            self.drive.check_measured(pp.get(PIEZO_CHANNEL, SCREEN_DIVISIONS * scales[PIEZO_CHANNEL]))
+            self.drive.check_measured(pp.get(PIEZO_CHANNEL, SCREEN_DIVISIONS * scales[PIEZO_CHANNEL]),
+                                      clipped=PIEZO_CHANNEL not in pp)
             for channel, scale in scales.items():
                 if channel in rerange:
                     continue

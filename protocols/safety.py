@@ -69,6 +69,11 @@ class SafetyLimits:
     #: A measured CH1 peak-to-peak may exceed the limit by this fraction before the run stops:
     #: the scope's vertical gain accuracy, the probe's and the peak-to-peak of the noise.
     measured_tolerance: float = 0.1
+    #: The measured CH1 peak-to-peak may differ from the voltage the chain was told to produce
+    #: by this fraction before the run stops: the probe's attenuation and the scope's vertical
+    #: gain (a few % together), the amplifier's gain tolerance and its droop into a capacitive
+    #: load. A misdescribed gain or load setting is a factor of 2, far outside it.
+    commanded_tolerance: float = 0.2
 
     def __post_init__(self) -> None:
         for name in ("max_piezo_voltage_vpp", "ramp_step_vpp"):
@@ -76,8 +81,9 @@ class SafetyLimits:
                 raise ValueError(f"{name} must be positive, got {getattr(self, name)!r}")
         if self.ramp_dwell_s < 0:
             raise ValueError(f"ramp_dwell_s must not be negative, got {self.ramp_dwell_s!r}")
-        if not 0 <= self.measured_tolerance <= 0.5:
-            raise ValueError(f"measured_tolerance must be within 0..0.5, got {self.measured_tolerance!r}")
+        for name in ("measured_tolerance", "commanded_tolerance"):
+            if not 0 <= getattr(self, name) <= 0.5:
+                raise ValueError(f"{name} must be within 0..0.5, got {getattr(self, name)!r}")
 
 
 class MeasuredVoltageError(UserError):
@@ -92,6 +98,16 @@ def chain_warnings(electronics) -> list[str]:
                 f"{electronics.piezo_vpp_per_generator_vpp / electronics.amplifier_gain:.3g}); the limits "
                 "count it, but set generator_load: INF unless the amplifier input really is 50 ohm"]
     return []
+
+
+def _likely_cause(ratio: float) -> str:
+    """What a measured-to-commanded ratio points to, for the operator's first look."""
+    if 1.8 <= ratio <= 2.2 or 0.45 <= ratio <= 0.55:
+        return ("a factor of 2: the amplifier gain in the bench file, or the generator load setting "
+                "(50 ohm against a high-impedance amplifier input doubles the output)")
+    if 8 <= ratio <= 12 or 0.08 <= ratio <= 0.12:
+        return "a factor of 10: the voltage probe's attenuation (10:1 against 100:1)"
+    return "check the amplifier gain, the generator load setting and the voltage probe's attenuation"
 
 
 class DriveController:
@@ -167,14 +183,24 @@ class DriveController:
             self._setpoint_vpp = float(piezo_voltage_vpp)
         self._clock.sleep(self.settle_s)
 
-    def check_measured(self, measured_piezo_vpp: float) -> None:
+    def check_measured(self, measured_piezo_vpp: float, clipped: bool = False) -> None:
         """Drop the drive and raise MeasuredVoltageError if CH1 measured more than the limit
-        (plus the measurement tolerance): the bench is not what its description says."""
+        (plus the measurement tolerance), or other than the voltage the chain was told to
+        produce (beyond `commanded_tolerance`): the bench is not what its description says.
+        A `clipped` CH1 gives only a lower bound, so only "too high" can be told from it."""
         allowed_vpp = self.max_piezo_voltage_vpp * (1.0 + self.limits.measured_tolerance)
-        if measured_piezo_vpp <= allowed_vpp:
-            return
         setpoint_vpp = self.piezo_voltage_vpp
+        ratio = measured_piezo_vpp / setpoint_vpp
+        band = 1.0 + self.limits.commanded_tolerance
+        if measured_piezo_vpp <= allowed_vpp and ratio <= band and (clipped or ratio >= 1.0 / band):
+            return
         self.to_minimum(ramp=False)
+        if measured_piezo_vpp <= allowed_vpp:
+            raise MeasuredVoltageError(
+                f"measured {'at least ' if clipped else ''}{measured_piezo_vpp:.4g} Vpp on CH1 where the chain "
+                f"was told to produce {setpoint_vpp:.4g} Vpp ({ratio:.3g} times, beyond the "
+                f"{self.limits.commanded_tolerance:.0%} tolerance); the generator was set to its minimum. "
+                "The bench is not what its description says: " + _likely_cause(ratio))
         raise MeasuredVoltageError(
             f"measured a piezo voltage of {measured_piezo_vpp:.4g} Vpp on CH1 at a setpoint of "
             f"{setpoint_vpp:.4g} Vpp: above the limit of {self.max_piezo_voltage_vpp:.4g} Vpp "

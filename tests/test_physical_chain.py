@@ -81,22 +81,26 @@ def test_every_generator_command_through_the_physics_stays_within_the_limit(tmp_
     assert sent and max(sent) * plate_vpp_per_generator_vpp() <= LIMIT_VPP * (1 + 1e-9)
 
 
-def test_a_misdescribed_chain_stops_at_the_first_point_above_the_limit(tmp_path, monkeypatch):
-    """The controller believes the nominal gain (the old behaviour): CH1 catches it."""
-    campaign = fifty_ohm_campaign(tmp_path, [80])
-    monkeypatch.setattr(BenchElectronics, "piezo_vpp_per_generator_vpp", property(lambda e: e.amplifier_gain))
-    tap = BusTap(monkeypatch)
-    with pytest.raises(MeasuredVoltageError, match="at a setpoint of 80 Vpp") as stop:
-        run_campaign(campaign, out_dir=tmp_path / "run", say=lambda message: None)
-    measured_vpp = float(re.search(r"piezo voltage of ([0-9.]+) Vpp on CH1", str(stop.value)).group(1))
-    assert measured_vpp > LIMIT_VPP * 1.1   # a first, possibly clipped, acquisition already tells
-    assert _is_minimum(tap.last_amplitude_vpp)
-    assert "measured a piezo voltage" in (tmp_path / "run" / "log.txt").read_text()
-
-
 @pytest.mark.parametrize("load, input_ohm, warned", [("50", 1e6, True), ("50", 50.0, False), ("INF", 1e6, False)])
 def test_a_doubling_configuration_is_warned_at_load(load, input_ohm, warned):
     electronics = BenchElectronics(generator_load=load, amplifier_input_ohm=input_ohm)
     assert bool(chain_warnings(electronics)) is warned
     expected = 20.0 * (2.0 if load == "50" else 1.0) * input_ohm / (input_ohm + 50.0)
     assert electronics.piezo_vpp_per_generator_vpp == pytest.approx(expected, rel=1e-12)
+
+
+def test_a_misdescribed_gain_stops_at_the_first_point_even_under_the_limit(tmp_path, monkeypatch):
+    """Bench file x20 believed, the chain giving twice that (the controller trusts the nominal
+    gain): the resonance search's first acquisition, at 10 Vpp and far under the 100 Vpp limit,
+    already measures more than the chain was told to produce. The run stops there, naming both
+    voltages, with the generator at its minimum; before, it went on storing twice the setpoint."""
+    campaign = fifty_ohm_campaign(tmp_path, [20, 40, 54])
+    monkeypatch.setattr(BenchElectronics, "piezo_vpp_per_generator_vpp", property(lambda e: e.amplifier_gain))
+    tap = BusTap(monkeypatch)
+    with pytest.raises(MeasuredVoltageError, match="where the chain was told to produce 10 Vpp") as stop:
+        run_campaign(campaign, out_dir=tmp_path / "run", say=lambda message: None)
+    measured_vpp = float(re.search(r"measured (?:at least )?([0-9.]+) Vpp on CH1", str(stop.value)).group(1))
+    assert measured_vpp > 10 * 1.2   # a first, possibly clipped, acquisition already tells
+    assert measured_vpp < LIMIT_VPP  # no limit was reached: only the comparison with the setpoint stops it
+    assert _is_minimum(tap.last_amplitude_vpp)
+    assert "told to produce" in (tmp_path / "run" / "log.txt").read_text()
