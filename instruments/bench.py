@@ -31,7 +31,8 @@ from pyvisa.errors import VisaIOError
 
 from squeezebench.instruments.agilent33120a import Agilent33120A
 from squeezebench.instruments.base import Instrument
-from squeezebench.instruments.errors import BenchFileError, InstrumentConnectionError, InstrumentError, InstrumentTimeout
+from squeezebench.instruments.errors import (BenchFileError, InstrumentConnectionError, InstrumentError, InstrumentTimeout,
+                                             OperatorUnavailable)
 from squeezebench.instruments.ofv5000 import OFV5000
 from squeezebench.instruments.tds3054b import CHANNELS, TDS3054B
 from squeezebench.yamlfiles import load_strict
@@ -219,7 +220,10 @@ class TerminalOperator:
 
     def request(self, instruction: str, state: str | None = None) -> None:
         self._out(instruction if state is None else f"{instruction} (plate state: {state})")
-        self._wait("Press Enter when done. ")
+        try:
+            self._wait("Press Enter when done. ")
+        except EOFError:   # nobody can press Enter: stop cleanly, resumable, instead of a traceback
+            raise OperatorUnavailable(instruction) from None
 
     def mount(self, scene_or_plate: str | Path) -> None:
         self.request(f"Mount plate {Path(str(scene_or_plate)).stem} on the bench.")

@@ -108,3 +108,14 @@ class BenchFileError(UserError):
         self.field = field
         self.problem = problem
         super().__init__(f"{path}: {field}: {problem}")
+
+
+class OperatorUnavailable(UserError):
+    """A step needs the person at the bench, and there is no terminal to ask (standard input
+    closed or at its end, as under a scheduler or with `< /dev/null`)."""
+
+    def __init__(self, instruction: str):
+        self.instruction = instruction
+        super().__init__(f"this step needs the operator ({instruction}) and there is no terminal to confirm it on "
+                         "(standard input is closed); the drive was set to its minimum and the steps done so far "
+                         "are stored: do it, then run the same command with --resume from a terminal")

@@ -12,7 +12,7 @@ from squeezebench.instruments.agilent33120a import Agilent33120A
 from squeezebench.instruments.bench import (SIM_RESOURCES, Bench, BenchConfig, BenchElectronics, SimulatedOperator,
                                             TerminalOperator, WallClock, check_bench, load_bench_file, open_bench,
                                             sim_bench_config)
-from squeezebench.instruments.errors import BenchFileError, InstrumentConnectionError
+from squeezebench.instruments.errors import BenchFileError, InstrumentConnectionError, OperatorUnavailable
 from squeezebench.instruments.ofv5000 import OFV5000
 from squeezebench.instruments.tds3054b import TDS3054B
 from squeezebench.errors import UserError
@@ -205,6 +205,17 @@ def test_terminal_operator_prompts_and_waits():
     operator.mount("data/scenes/small_plate_2.yaml")
     assert shown == ["Cut the plate to 59 mm (plate state: 59x41)", "Mount plate small_plate_2 on the bench."]
     assert len(prompts) == 2
+
+
+def test_terminal_operator_without_a_terminal_is_one_clear_stop():
+    """Standard input closed (a scheduler, `< /dev/null`): the cut prompt's EOFError becomes a
+    UserError (exit 2) that says what to do and how to resume."""
+    def closed(prompt):
+        raise EOFError
+
+    operator = TerminalOperator(out=lambda text: None, wait=closed)
+    with pytest.raises(OperatorUnavailable, match="Cut the plate to 59 mm.*--resume"):
+        operator.request("Cut the plate to 59 mm", state="59x41")
 
 
 def test_wall_clock():
