@@ -176,6 +176,8 @@ def test_check_bench_reads_and_clears_stale_errors():
     text = "\n".join(lines)
     assert "cleared 1 queued event(s): -113,'Undefined header'" in text
     assert "113,'Undefined header; MATH:DEFI \"CH1*CH2\"'" in text
+    # the 50 ohm setting the previous user left is named against the bench file's INF
+    assert "output_load '50' differs from the bench description's generator_load 'INF'" in text
 
 
 def test_check_bench_exits_2_when_the_bench_file_disagrees_with_a_detected_probe():
