@@ -28,8 +28,8 @@ import numpy as np
 import pandas as pd
 
 import squeezebench
-from squeezebench.analysis import (audit, columns, figures, model, predicted_plates, presentation, provenance,
-                                   readings, study, tables, uncertainty)
+from squeezebench.analysis import (audit, columns, figures, headline, model, predicted_plates, presentation,
+                                   provenance, readings, study, tables, uncertainty)
 from squeezebench.analysis.tables import MissingDataError
 from squeezebench.analysis.paper import paper_value
 from squeezebench.analysis.rundata import RunData, load_run
@@ -78,6 +78,10 @@ class Section:
 SectionBuilder = Callable[[ReportContext], "Section | None"]
 
 
+#: The report's first lines as plain text, which the commands print when they finish.
+HEADLINE_FILE = "headline.txt"
+
+
 def write_report(run_dir: Path | str) -> Path:
     """Recompute everything from the stored run; return the path of index.html."""
     run = load_run(run_dir)
@@ -90,6 +94,7 @@ def write_report(run_dir: Path | str) -> Path:
     builders = [b for b in SECTIONS if b is not provenance_section] + [provenance_section]   # appendix last
     sections = [section for builder in builders if (section := _guarded(builder, context)) is not None]
     sections.insert(0, summary_section(context))   # last: it sums up what the others found
+    (out_dir / HEADLINE_FILE).write_text("\n".join(context.cache["headline"]) + "\n")
     for name, table in context.tables.items():
         table.to_csv(out_dir / f"{name}.csv", index=False)
     written = [_header(p) for p in sorted(out_dir.glob("*.csv")) if p.name != "columns.csv"]
@@ -149,8 +154,11 @@ def summary_section(context: ReportContext) -> Section:
     else:
         lead = (f"<p class='banner'><b>Bench {html.escape(kind)}</b>: this run predates provenance "
                 "columns; its values are not labelled measured or simulated.</p>")
-    body = lead
     measurements = run.measurements
+    context.cache["headline"] = headline.headline(
+        kind, len(measurements), measurements["run_name"].nunique() if not measurements.empty else 0,
+        context.tables)
+    body = "<p class='headline'>" + "<br>".join(map(html.escape, context.cache["headline"])) + "</p>" + lead
     if not measurements.empty:
         plates = sorted(measurements["plate"].dropna().unique())
         protocols = measurements.groupby("protocol")["run_name"].nunique()
@@ -163,8 +171,6 @@ def summary_section(context: ReportContext) -> Section:
                  "half the printed last digit):</p><ul class='flagged'>"
                  + "".join(f"<li><a href='#{html.escape(where_anchor)}'>{html.escape(where)}</a>: {sentence}</li>"
                            for where, sentence, where_anchor in context.flagged) + "</ul>")
-    elif any(name in context.tables for name in ("table3", "table4", "table5")):
-        body += "<p>Every value compared with the paper is within its tolerance.</p>"
     if context.absent:
         body += ("<p>Not in this run (sections left out):</p><ul>"
                  + "".join(f"<li>{html.escape(a)}</li>" for a in context.absent) + "</ul>")

@@ -157,7 +157,7 @@ def cmd_report(args: argparse.Namespace) -> int:
     for problem in problems:
         print(f"squeezebench report: warning: {problem}", file=sys.stderr)
     index = write_report(Path(args.run_dir))
-    say(args, f"report written to {index}")
+    say(args, _finished(index))
     return 0
 
 
@@ -177,8 +177,15 @@ def cmd_reproduce(args: argparse.Namespace) -> int:
                   progress=lambda message: say(args, message), workers=args.workers, scheduler=args.scheduler)
     _run_coverage(args, run_dir, coverage_benches)
     index = write_report(run_dir)
-    say(args, f"run stored in {run_dir}\nreport written to {index}")
+    say(args, f"run stored in {run_dir}\n" + _finished(index))
     return 0
+
+
+def _finished(index: Path) -> str:
+    """What a person reads last: the report's headline, then where the report is."""
+    from squeezebench.analysis.report import HEADLINE_FILE
+
+    return (index.parent / HEADLINE_FILE).read_text() + f"report written to {index}"
 
 
 def _clear_previous_reproduction(args: argparse.Namespace, out: Path) -> None:

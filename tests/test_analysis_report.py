@@ -148,3 +148,16 @@ def test_a_run_without_the_papers_plates_is_reported_whole(tmp_path):
     assert q == pytest.approx(3.1, rel=1e-3)
     assert "class='missing'" not in text and "Not available" not in text
     assert "Table 5 and Figs. 8-9: the run has no characterisation of large_plate, small_plate_4" in text
+
+
+def test_the_headline_opens_the_report_and_ends_the_command(reported):
+    """The same lines atop the page (before any table) and printed by `report`, last before the path."""
+    from squeezebench import cli
+
+    run_dir, index = reported
+    lines = (run_dir / "report" / report.HEADLINE_FILE).read_text().splitlines()
+    assert 2 <= len(lines) <= 4 and "stored points" in lines[0] and "compared values in Tables 3-5" in lines[1]
+    page = index.read_text()
+    assert page.index("class='headline'") < page.index("<table")
+    printed = cli._finished(index).splitlines()   # what report and reproduce print last
+    assert printed[-len(lines) - 1:-1] == lines and printed[-1].startswith("report written to")

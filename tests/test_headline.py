@@ -1,0 +1,50 @@
+"""The lines a person reads first: a value the run was given never counts as agreement."""
+
+from __future__ import annotations
+
+import pandas as pd
+
+from squeezebench.analysis.headline import headline, verdicts
+
+
+def _table(rows):
+    columns = ["table", "item", "quantity", "paper_value", "relative_difference", "agrees", "origin", "calibrated_on"]
+    return pd.DataFrame(rows, columns=columns)
+
+
+TABLES = {
+    "table3": _table([
+        ("table3", 75, "n_antinodes", 9.0, 0.0, True, "campaign setting", None),
+        ("table3", 75, "frequency_hz", 37160.0, -4e-5, True, "calibration input", "scene: f = 37160"),
+        ("table3", 59, "power_w", 0.023, 0.01, True, "measured", None),
+        ("table3", 28, "power_w", None, None, None, "measured", None),   # nothing printed: not compared
+    ]),
+    "table5": _table([
+        ("table5", "measured", "q", 1.48, -3e-4, True, "derived", "large.yaml: power_w = 1.3"),
+        ("table5", "estimated", "tan_theta", -1.3, 0.96, False, "derived", "small.yaml: tan_theta = -1.25"),
+        ("table5", "estimated", "q", 1.51, -0.50, False, "derived", "small.yaml: q = 2.34"),
+    ]),
+}
+
+
+def test_inputs_and_what_is_derived_from_them_are_round_trips_when_they_come_back():
+    found = verdicts(TABLES).set_index(["table", "item", "quantity"])["verdict"]
+    assert found[("Table 3", 75, "n_antinodes")] == "round trip"
+    assert found[("Table 3", 75, "frequency_hz")] == "round trip"
+    assert found[("Table 3", 59, "power_w")] == "agrees"
+    assert found[("Table 5", "measured", "q")] == "round trip"
+    assert found[("Table 5", "estimated", "tan_theta")] == "disagrees"   # derived, and it misses
+    assert len(found) == 6
+
+
+def test_headline_counts_and_names_the_largest_miss():
+    predicted = pd.DataFrame({"frequency_deviation": [0.002, -0.023, 0.096, 0.034]})
+    lines = headline("simulated", 1111, 8, {**TABLES, "predicted": predicted})
+    assert lines[0] == "Dry run on the simulated bench: 1111 stored points from 8 campaign runs."
+    assert "of 6 compared values" in lines[1] and "1 agree; 2 disagree" in lines[1]
+    assert "Table 5 estimated tan_theta, +96 %" in lines[1] and "3 are round trips" in lines[1]
+    assert "2 of 4 printed resonance frequencies within 3 % (worst +9.6 %)" in lines[2]
+
+
+def test_a_run_without_paper_tables_says_only_what_ran():
+    assert headline("real", 12, 1, {}) == ["Measured on a real bench: 12 stored points from 1 campaign runs."]
