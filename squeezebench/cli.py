@@ -301,6 +301,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--version", action="version", version=f"squeezebench {__version__}")
     # Every subcommand takes -q/-v after its name (`squeezebench run X -v`).
     common = argparse.ArgumentParser(add_help=False)
+    common.add_argument("--version", action="version", version=f"squeezebench {__version__}")
     loudness = common.add_mutually_exclusive_group()
     loudness.add_argument("-q", "--quiet", action="store_true",
                           help="only errors and what the operator must act on; no progress bar")

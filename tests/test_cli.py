@@ -1,5 +1,9 @@
 """The command line keeps the names users script against."""
 
+import sys
+
+import pytest
+
 from squeezebench import cli
 from squeezebench.errors import UserError
 
@@ -47,7 +51,6 @@ def test_keyboard_interrupt_exit_code(monkeypatch):
 import json  # noqa: E402
 from pathlib import Path  # noqa: E402
 
-import pytest  # noqa: E402
 
 from squeezebench import paths  # noqa: E402
 from squeezebench.protocols.storage import RunStore  # noqa: E402
@@ -159,3 +162,12 @@ def test_reproduce_never_removes_another_run(tmp_path):
     with pytest.raises(UserError, match="not a reproduction"):
         cli._clear_previous_reproduction(cli.build_parser().parse_args(["reproduce"]), out)
     assert (out / "study" / "trials.parquet").is_file()
+
+
+@pytest.mark.parametrize("command", ["check", "run", "report", "reproduce", "plan", "study", "validate"])
+def test_version_after_any_subcommand(command, capsys):
+    with pytest.raises(SystemExit) as done:
+        cli.main([command, "--version"])
+    assert done.value.code == 0
+    assert capsys.readouterr().out.startswith("squeezebench ")
+
