@@ -380,9 +380,9 @@ def _report_lines(role: str, driver: Instrument, electronics: BenchElectronics) 
                 problems.append(f"scope CH{number} has a detected {model} probe of gain {gain:g}, but the bench "
                                 f"description says {expected[number]:g} (electronics."
                                 f"{'voltage_probe_attenuation' if number == 1 else 'current_probe_a_per_a'})")
-    if isinstance(driver, Agilent33120A) and driver.output_load != electronics.generator_load:
+    if isinstance(driver, Agilent33120A) and (load := driver.output_load) != electronics.generator_load:
         # A setting, not hardware: a previous user's, which every run's open replaces.
-        lines.append(f"    output_load {driver.output_load!r} differs from the bench description's generator_load "
+        lines.append(f"    output_load {load!r} differs from the bench description's generator_load "
                      f"{electronics.generator_load!r}: a run sets {electronics.generator_load!r} when it opens")
     if isinstance(driver, OFV5000):
         lines.append("    decoder ranges: " + ", ".join(driver.ranges_mps_per_v))
