@@ -8,6 +8,10 @@ assurance criterion compares the measured shape with the predicted one (Allemang
 "The modal assurance criterion - twenty years of use and abuse", Sound and Vibration
 37(8), 2003, Eq. 1). The stage's move time is the kinematics both the simulated stage and
 the map's bench-time estimate use.
+
+A map whose plate the model knows is compared with the model's working mode at the same
+points: the prediction comes from geometry and datasheets (`predicted_plates`), never
+from the simulated bench.
 """
 
 from __future__ import annotations
@@ -16,6 +20,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+import pandas as pd
 
 
 @dataclass(frozen=True)
@@ -71,3 +76,95 @@ def move_time_s(distance_mm: float, velocity_mm_per_s: float, acceleration_mm_pe
     if d >= velocity_mm_per_s**2 / acceleration_mm_per_s2:
         return d / velocity_mm_per_s + velocity_mm_per_s / acceleration_mm_per_s2
     return 2.0 * math.sqrt(d / acceleration_mm_per_s2)
+
+
+# -- a stored map ----------------------------------------------------------------------------------
+#: The columns of a reduced map (report/map_points.csv), one row per grid point.
+MAP_COLUMNS = ["run_name", "plate", "grid_row", "x_m", "y_m", "in_touch_area", "generator_frequency_hz",
+               "piezo_voltage_setpoint_vpp", "velocity_pp_mps", "velocity_pp_mps_u", "velocity_phase_rad",
+               "velocity_phase_rad_u", "signed_velocity_pp_mps"]
+#: Draws of the points' noise behind the homogeneity figures' uncertainty (seeded).
+NOISE_DRAWS = 400
+
+
+def map_points(run) -> pd.DataFrame:
+    """Every mapped point of the run, reduced from its stored record: velocity amplitude
+    (sine fit) and its phase against the piezo voltage, and the signed velocity."""
+    from squeezebench.analysis import tables
+
+    rows = run.protocol("cartography")
+    if rows.empty:
+        raise tables.MissingDataError("no map in this run (protocol 'cartography')")
+    points = tables.reduced_points(run, rows)
+    points["signed_velocity_pp_mps"] = signed_amplitude(points["velocity_pp_mps"], points["velocity_phase_rad"])
+    points["in_touch_area"] = points["in_touch_area"].astype(bool)
+    return points[MAP_COLUMNS].reset_index(drop=True)
+
+
+def width_uniformity(x_m: np.ndarray, signed: np.ndarray) -> float:
+    """Share of the map's mean square in its width-averaged part, sum over x of the mean
+    across y squared (times the points per x) over the sum of squares: 1 for an (n, 0)
+    mode whose deflection does not vary across the width (the paper's "uniform across the
+    plate"), the measure `plate_modes` uses to call a mode (n, 0)."""
+    frame = pd.DataFrame({"x": np.round(np.asarray(x_m, dtype=float), 9), "w": np.asarray(signed, dtype=float)})
+    by_x = frame.groupby("x")["w"]
+    total = float((frame["w"] ** 2).sum())
+    return float((by_x.mean() ** 2 * by_x.size()).sum() / total) if total > 0 else float("nan")
+
+
+def nodal_lines_m(x_m: np.ndarray, signed: np.ndarray) -> np.ndarray:
+    """x of the sign changes of the width-averaged signed map (linear interpolation)."""
+    profile = pd.Series(np.asarray(signed, dtype=float)).groupby(np.round(np.asarray(x_m, dtype=float), 9)).mean()
+    x, m = profile.index.to_numpy(), profile.to_numpy()
+    i = np.nonzero(np.sign(m[:-1]) * np.sign(m[1:]) < 0)[0]
+    return x[i] - m[i] * (x[i + 1] - x[i]) / (m[i + 1] - m[i])
+
+
+def velocity_scale_rel_u() -> float:
+    """Relative standard uncertainty of the factor every velocity of a map shares (the Type
+    B terms of a point's velocity budget: CH3 gain and the decoder's scale). One bench, one
+    factor: it scales the map's mean and peak, never its shape or homogeneity."""
+    from squeezebench.analysis.uncertainty import velocity_budget
+
+    unit = velocity_budget({"velocity_pp_mps": 1.0, "velocity_pp_mps_u": 0.0, "frequency_hz": 0.0})
+    return math.sqrt(sum(t.std_uncertainty**2 for t in unit.terms if t.type == "B"))
+
+
+def summarise_map(points: pd.DataFrame, predicted: np.ndarray | None = None, share_of_peak: float = 0.5,
+                  seed: int = 0) -> dict:
+    """The numbers a designer reads off one map, each with its expanded uncertainty (k = 2):
+    the points' own noise (their fits' standard uncertainties, drawn NOISE_DRAWS times,
+    seeded), and for the velocities (mean, peak) the scale all points share
+    (`velocity_scale_rel_u`), which does not average away. With `predicted` (the model's
+    shape at the same points) the modal assurance criterion of the signed map against it."""
+    touch = points[points["in_touch_area"]]
+    amplitude = touch["velocity_pp_mps"].to_numpy()
+    h = homogeneity(amplitude, share_of_peak)
+    rng = np.random.default_rng(seed)
+    drawn = amplitude + rng.normal(size=(NOISE_DRAWS, amplitude.size)) * touch["velocity_pp_mps_u"].to_numpy()
+    spread = [homogeneity(d, share_of_peak) for d in drawn]
+
+    def expanded(attribute: str, scale_rel_u: float = 0.0) -> float:
+        noise_u = float(np.std([getattr(s, attribute) for s in spread], ddof=1))
+        return 2 * math.hypot(noise_u, scale_rel_u * getattr(h, attribute))
+
+    scale_rel_u = velocity_scale_rel_u()
+
+    lines = nodal_lines_m(points["x_m"].to_numpy(), points["signed_velocity_pp_mps"].to_numpy())
+    summary = {
+        "n_points": len(points), "n_touch_points": h.n_points,
+        "mean_velocity_pp_mps": h.mean, "mean_velocity_pp_mps_U": expanded("mean", scale_rel_u),
+        "min_velocity_pp_mps": h.minimum, "max_velocity_pp_mps": h.maximum,
+        "max_velocity_pp_mps_U": expanded("maximum", scale_rel_u),
+        "coefficient_of_variation": h.coefficient_of_variation,
+        "coefficient_of_variation_U": expanded("coefficient_of_variation"),
+        "share_of_peak": share_of_peak, "fraction_above_share": h.fraction_above_share,
+        "fraction_above_share_U": expanded("fraction_above_share"),
+        "width_uniformity": width_uniformity(touch["x_m"].to_numpy(), touch["signed_velocity_pp_mps"].to_numpy()),
+        "n_nodal_lines": len(lines),
+        "nodal_line_spacing_m": float(np.diff(lines).mean()) if len(lines) >= 2 else float("nan"),
+        "mac_with_predicted": float("nan"),
+    }
+    if predicted is not None:
+        summary["mac_with_predicted"] = modal_assurance(points["signed_velocity_pp_mps"].to_numpy(), predicted)
+    return summary

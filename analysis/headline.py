@@ -13,7 +13,10 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 
+import numpy as np
 import pandas as pd
+
+from squeezebench.analysis.presentation import with_uncertainty
 
 #: The paper's tables a headline counts, in the order it names them.
 PAPER_TABLES = {"table3": "Table 3", "table4": "Table 4", "table5": "Table 5"}
@@ -31,7 +34,8 @@ def verdicts(tables: Mapping[str, pd.DataFrame]) -> pd.DataFrame:
         frame = tables.get(name)
         if frame is None or frame.empty or "agrees" not in frame:
             continue
-        compared = frame[frame["paper_value"].notna() & frame["agrees"].notna()]
+        # a table the run does not hold says "not compared" in `agrees`: only a verdict counts
+        compared = frame[frame["paper_value"].notna() & frame["agrees"].map(lambda v: isinstance(v, (bool, np.bool_)))]
         for row in compared.itertuples(index=False):
             put_in = row.origin in INPUT_ORIGINS or (isinstance(row.calibrated_on, str) and row.calibrated_on)
             verdict = "disagrees" if not bool(row.agrees) else "round trip" if put_in else "agrees"
@@ -41,8 +45,8 @@ def verdicts(tables: Mapping[str, pd.DataFrame]) -> pd.DataFrame:
 
 
 def headline(bench_kind: str, n_points: int, n_runs: int, tables: Mapping[str, pd.DataFrame]) -> list[str]:
-    """Two to four lines: what ran, what Tables 3-5 show against the paper, what physics
-    predicts (when the report holds the prediction)."""
+    """Two to five lines: what ran, what Tables 3-5 show against the paper, what physics
+    predicts (when the report holds the prediction), what a vibration map found."""
     bench = {"simulated": "Dry run on the simulated bench", "real": "Measured on a real bench"}.get(
         bench_kind, f"Bench {bench_kind}")
     lines = [f"{bench}: {n_points} stored points from {n_runs} campaign runs."]
@@ -66,4 +70,12 @@ def headline(bench_kind: str, n_points: int, n_runs: int, tables: Mapping[str, p
                      f"{int((deviation <= PREDICTED_FREQUENCY_REL).sum())} of {len(predicted)} printed "
                      f"resonance frequencies within {100 * PREDICTED_FREQUENCY_REL:.0f} % (worst "
                      f"{100 * predicted.loc[deviation.idxmax(), 'frequency_deviation']:+.1f} %).")
+    maps = tables.get("map_summary")
+    if maps is not None and not maps.empty:
+        row = maps.iloc[0]
+        more = f" ({len(maps) - 1} more maps in the report)" if len(maps) > 1 else ""
+        lines.append(f"Vibration map {row['run_name']}: {row['n_touch_points']} points over the touch area, velocity "
+                     f"{with_uncertainty(row['mean_velocity_pp_mps'], row['mean_velocity_pp_mps_U'])} m/s pp on "
+                     f"average, coefficient of variation {row['coefficient_of_variation']:.0%}, "
+                     f"{row['width_uniformity']:.0%} uniform across the width{more}.")
     return lines

@@ -157,6 +157,17 @@ class PlateModes:
     uniformity: np.ndarray = field(repr=False)
     _probe: object = field(repr=False, default=None)  # points (2, N) -> mass-normalised deflections (N, modes)
     _modal_force: np.ndarray = field(repr=False, default=None)  # Theta (modes, patches), mass-normalised
+    _peak: np.ndarray = field(repr=False, default=None)  # mass-normalised deflection at each mode's peak
+
+    def shape_at(self, k: int, x_m, y_m) -> np.ndarray:
+        """Mode k's deflection at the points (x, y), scaled as `shapes` (+1 at its largest),
+        from the elements (not interpolated on the grid); 0 off the plate."""
+        x_m, y_m = np.broadcast_arrays(np.asarray(x_m, dtype=float), np.asarray(y_m, dtype=float))
+        on = (x_m >= 0) & (x_m <= self.x_m[-1]) & (y_m >= 0) & (y_m <= self.y_m[-1])
+        values = np.zeros(x_m.shape)
+        if on.any():
+            values[on] = self._probe(np.vstack([x_m[on], y_m[on]]))[:, k] / self._peak[k]
+        return values
 
     def deflection_at(self, k: int, x_m: float, y_m: float) -> float:
         """Mode k's mass-normalised deflection (1/sqrt(kg)) at (x, y), from the elements."""
@@ -334,7 +345,7 @@ def _solve(geometry, resonator, piezo, near_hz, n_modes, elements_per_half_wave)
         clamped_capacitance_f=capacitance,
         powered=np.array([p.powered for p in geometry.patches], dtype=bool),
         plate_mass_kg=plate_mass, uniformity=uniformity,
-        _probe=lambda p: basis.probes(p) @ vectors, _modal_force=theta)
+        _probe=lambda p: basis.probes(p) @ vectors, _modal_force=theta, _peak=peak)
 
 
 @functools.lru_cache(maxsize=None)

@@ -158,3 +158,18 @@ def modes_patches(geometry: plate_modes.PlateGeometry) -> list[tuple[tuple[float
     """Each patch as matplotlib's ((x0, y0), width, height) in mm."""
     return [((p.bounds[0] * 1e3, p.bounds[2] * 1e3), p.length_x_m * 1e3, p.width_y_m * 1e3)
             for p in geometry.patches]
+
+
+#: The paper's plates the model knows, by the name a run stores them under (the scene's stem).
+GEOMETRIES = {"large_plate": large_plate}
+
+
+def working_shape(plate: str, near_hz: float, x_m, y_m) -> tuple[np.ndarray, float] | None:
+    """The model's working mode of `plate` (the (n, 0) mode nearest `near_hz`) at the
+    points (x, y), scaled +1 at its largest, and that mode's frequency; None for a plate
+    the model does not know."""
+    if plate not in GEOMETRIES:
+        return None
+    modes = plate_modes.solve_plate(GEOMETRIES[plate](), near_hz=near_hz)
+    k = modes.working_mode(near_hz)
+    return modes.shape_at(k, x_m, y_m), float(modes.frequencies_hz[k])

@@ -28,8 +28,8 @@ import numpy as np
 import pandas as pd
 
 import squeezebench
-from squeezebench.analysis import (audit, columns, figures, headline, model, predicted_plates, presentation,
-                                   provenance, readings, study, tables, uncertainty)
+from squeezebench.analysis import (audit, cartography_report, columns, figures, headline, model, predicted_plates,
+                                   presentation, provenance, readings, study, tables, uncertainty)
 from squeezebench.analysis.tables import MissingDataError
 from squeezebench.analysis.paper import paper_value
 from squeezebench.analysis.rundata import RunData, load_run
@@ -864,8 +864,24 @@ def predicted_section(context: ReportContext) -> Section:
     return Section("What physics predicts (plate model)", body, "predicted")
 
 
+def cartography_section(context: ReportContext) -> Section | None:
+    """Vibration map (Fig. 7)"""
+    if context.run.protocol("cartography").empty:
+        return None
+    body, summary, points = cartography_report.section_html(context.run, context.out_dir, context.figure, html_table)
+    if context.bench() == "simulated":
+        body = ("<p class='banner'>On the simulated bench the map is drawn from the same plate model it is "
+                "compared with: a modal assurance criterion near 1 shows the chain (stage, acquisition, phase) "
+                "keeps the shape, not that the model is right. A real plate's map is the test.</p>") + body
+    context.tables["map_summary"], context.tables["map_points"] = summary, points
+    body += ("<p class='csv'>Machine-readable: <a href='map_summary.csv'>map_summary.csv</a>, "
+             "<a href='map_points.csv'>map_points.csv</a> (every point, reduced from its record).</p>")
+    return Section("Vibration map (Fig. 7)", body, "map")
+
+
 SECTIONS: list[SectionBuilder] = [
-    table3_section, table4_section, predicted_section, table5_section, detuning_section, characterisation_section,
+    table3_section, table4_section, predicted_section, table5_section, detuning_section, cartography_section,
+    characterisation_section,
     readings_section, resonance_section, uncertainty_section, audit_section, study_section,
     hardcases_section, conventions_section, provenance_section,
 ]

@@ -72,6 +72,7 @@ class PointReduction:
     velocity_pp_mps: Estimate  # 2 x fitted amplitude
     velocity_raw_pp_mps: float  # max - min, biased upwards by noise; kept for comparison
     amplitude_pp_m: Estimate  # velocity_pp / (2 pi f)
+    velocity_phase_rad: Estimate  # velocity's phase against the piezo voltage, (-pi, pi]
 
     def as_row(self) -> dict[str, float]:
         """Flat columns `<name>` and `<name>_u` for a tidy table."""
@@ -500,7 +501,17 @@ def reduce_point(time_s, piezo_voltage_v, current_a, vibrometer_output_v,
         velocity_pp_mps=velocity,
         velocity_raw_pp_mps=float((vib.max() - vib.min()) * scale),
         amplitude_pp_m=amplitude_pp_from_velocity_pp(velocity, frequency_estimate),
+        velocity_phase_rad=phase_difference_rad(fits["vibrometer_output_v"], fits["piezo_voltage_v"]),
     )
+
+
+def phase_difference_rad(signal: SineFit, reference: SineFit) -> Estimate:
+    """Phase of `signal` against `reference` (fitted on one time origin), wrapped to
+    (-pi, pi]; the two fits' phase uncertainties added in quadrature (their noise is
+    independent: different channels)."""
+    difference = signal.phase_rad.value - reference.phase_rad.value
+    wrapped = math.pi - (math.pi - difference) % (2 * math.pi)
+    return Estimate(wrapped, math.hypot(signal.phase_rad.std_uncertainty, reference.phase_rad.std_uncertainty))
 
 
 def reduce_record(samples, vibrometer_scale_mps_per_v: float, *, y_increments: dict[str, float] | None = None,

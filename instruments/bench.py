@@ -34,14 +34,18 @@ from squeezebench.instruments.base import Instrument
 from squeezebench.instruments.errors import (BenchFileError, InstrumentConnectionError, InstrumentError, InstrumentTimeout,
                                              OperatorUnavailable)
 from squeezebench.instruments.ofv5000 import OFV5000
+from squeezebench.instruments.smc100 import SMC100Stage
 from squeezebench.instruments.tds3054b import CHANNELS, TDS3054B
 from squeezebench.yamlfiles import load_strict
 
 ROLES = ("generator", "scope", "vibrometer")
-DRIVERS: dict[str, type[Instrument]] = {"generator": Agilent33120A, "scope": TDS3054B, "vibrometer": OFV5000}
+#: Instruments only some protocols need (the x-y stage of a map): opened on first use.
+OPTIONAL_ROLES = ("stage",)
+DRIVERS: dict[str, type[Instrument]] = {"generator": Agilent33120A, "scope": TDS3054B, "vibrometer": OFV5000,
+                                        "stage": SMC100Stage}
 #: Addresses of the simulated bench (simbench.backend.RESOURCES).
 SIM_RESOURCES = {"generator": "GPIB0::10::INSTR", "scope": "TCPIP0::192.168.0.20::INSTR",
-                 "vibrometer": "ASRL1::INSTR"}
+                 "vibrometer": "ASRL1::INSTR", "stage": "ASRL2::INSTR"}
 SIMBENCH = "@simbench"
 GENERATOR_LOADS = ("50", "INF")
 #: The 33120A's output impedance (User's Guide, specifications: 50 ohm, fixed).
@@ -174,14 +178,19 @@ def load_bench_file(path: str | Path) -> BenchConfig:
     if not isinstance(resources, dict):
         raise BenchFileError(path, "resources", f"must be a mapping of {', '.join(ROLES)} to VISA addresses")
     for role in resources:
-        if role not in ROLES:
-            raise BenchFileError(path, f"resources.{role}", f"unknown role (allowed: {', '.join(ROLES)})")
+        if role not in ROLES + OPTIONAL_ROLES:
+            raise BenchFileError(path, f"resources.{role}",
+                                 f"unknown role (allowed: {', '.join(ROLES + OPTIONAL_ROLES)})")
     for role in ROLES:
         address = resources.get(role)
         if not isinstance(address, str) or not address.strip():
             raise BenchFileError(path, f"resources.{role}",
                                  f"missing or not a VISA address (e.g. {SIM_RESOURCES[role]})")
-    return BenchConfig(visa_library=library, resources={role: resources[role].strip() for role in ROLES},
+    for role in OPTIONAL_ROLES:
+        if role in resources and (not isinstance(resources[role], str) or not resources[role].strip()):
+            raise BenchFileError(path, f"resources.{role}", f"not a VISA address (e.g. {SIM_RESOURCES[role]})")
+    return BenchConfig(visa_library=library,
+                       resources={role: resources[role].strip() for role in ROLES + OPTIONAL_ROLES if role in resources},
                        electronics=_electronics(path, data.get("electronics"), "electronics", strict=True),
                        source=str(path))
 
@@ -261,6 +270,21 @@ class Bench:
 
     def identify(self) -> dict[str, str]:
         return {role: driver.identification for role, driver in self.drivers.items()}
+
+    @property
+    def stage(self) -> SMC100Stage:
+        """The x-y stage, opened when a protocol first asks for it: a bench without one
+        runs every protocol but a map. Its waits are the bench's (bench time when simulated)."""
+        if "stage" not in self.drivers:
+            address = self.config.resources.get("stage")
+            if address is None:
+                raise InstrumentConnectionError("stage", "(none)", "this protocol needs an x-y stage; add "
+                                                f"resources.stage to the bench file (e.g. {SIM_RESOURCES['stage']})")
+            driver = _open_role(self.resource_manager, "stage", address)
+            driver.clear_status()
+            driver.sleep = self.clock.sleep
+            self.drivers["stage"] = driver
+        return self.drivers["stage"]
 
     def check_errors(self) -> None:
         """Drain the generator's and the scope's error queues (the vibrometer keeps none):
@@ -349,6 +373,7 @@ MAIN_SETTINGS = {
     "scope": ("horizontal_scale_s_per_div", "record_length", "acquire_mode", "num_averages", "trigger_source",
               "math_type", "math_definition"),
     "vibrometer": ("decoder", "velocity_range", "low_pass_filter"),
+    "stage": (),
 }
 
 
@@ -358,6 +383,8 @@ def _stale_errors(driver: Instrument) -> list[tuple[int, str]]:
         return driver.read_errors()
     if isinstance(driver, TDS3054B):
         return [event for event in driver.read_events() if event[0] not in (0, 1)]
+    if isinstance(driver, SMC100Stage):
+        return [("TE", letter) for letter in driver.clear_status()]
     return []
 
 
@@ -386,6 +413,8 @@ def _report_lines(role: str, driver: Instrument, electronics: BenchElectronics) 
                      f"{electronics.generator_load!r}: a run sets {electronics.generator_load!r} when it opens")
     if isinstance(driver, OFV5000):
         lines.append("    decoder ranges: " + ", ".join(driver.ranges_mps_per_v))
+    if isinstance(driver, SMC100Stage):
+        lines += [f"    {driver.describe_axis(axis)}" for axis in ("x", "y")]
     return lines, problems
 
 
@@ -420,9 +449,10 @@ class BenchCheck:
 
 
 def inspect_bench(config: BenchConfig, out: Callable[[str], None] = print) -> BenchCheck:
-    """Open every instrument; say its role, address, identification, the errors it had
-    queued (read and cleared), main settings, detected probes and the vibrometer decoder
-    with its ranges, line by line through `out`; return all of it as a `BenchCheck`, which
+    """Open every instrument (the stage too when the bench names one); say its role,
+    address, identification, the errors it had queued (read and cleared), main settings,
+    detected probes, the vibrometer decoder with its ranges and the stage's axes (state,
+    position, travel; nothing moves), line by line through `out`; return all of it as a `BenchCheck`, which
     names each role that did not answer and each disagreement between the bench
     description and the hardware."""
     result = BenchCheck(config.visa_library or "(system default)")
@@ -435,7 +465,7 @@ def inspect_bench(config: BenchConfig, out: Callable[[str], None] = print) -> Be
         out(result.visa_error)
         return result
     try:
-        for role in ROLES:
+        for role in (*ROLES, *(r for r in OPTIONAL_ROLES if config.resources.get(r))):
             address = config.resources[role]
             try:
                 driver = _open_role(resource_manager, role, address)

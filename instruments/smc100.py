@@ -134,6 +134,17 @@ class SMC100Stage(Instrument):
         message = f"{AXES[axis]}{command}{suffix}"
         return self.parse_reply(message, self.ask(axis, command, suffix), float)
 
+    def clear_status(self) -> list[str]:
+        """Read `TE` on both axes (SMC100 UM TE: reading the error code clears it), so a
+        letter a previous user left is not taken for this session's; returns those letters
+        in the manual's words."""
+        stale = []
+        for axis in AXES:
+            letter = self.ask(axis, "TE")
+            if letter != "@":
+                stale.append(f"{axis}: {letter}, {COMMAND_ERRORS.get(letter, 'error code not in the manual')}")
+        return stale
+
     def check_command_error(self, axis: str, after: str) -> None:
         """`TE` (SMC100 UM TE): the letter of the last command's error, raised in the
         manual's words; `@` means the command `after` was accepted."""
@@ -181,6 +192,19 @@ class SMC100Stage(Instrument):
     def position_mm(self, axis: str) -> float:
         return self._number(axis, "TP")   # SMC100 UM TP: current (encoder) position
 
+    def describe_axis(self, axis: str) -> str:
+        """One line of what `check` shows of an axis, read only (nothing moves)."""
+        bits, state = self.state(axis)
+        named = ("NOT REFERENCED" if state in NOT_REFERENCED else "HOMING" if state in HOMING
+                 else "MOVING" if state in MOVING else "READY" if state in READY
+                 else "DISABLE" if state in DISABLE else f"state {state}")
+        low, high = self.travel_mm[axis]
+        errors = describe_errors(bits)
+        return (f"{axis} (address {AXES[axis]}): {named}, position {self.position_mm(axis):.3f} mm, travel "
+                f"{low:g} to {high:g} mm, velocity {self.velocity_mm_per_s(axis):g} mm/s, acceleration "
+                f"{self.acceleration_mm_per_s2(axis):g} mm/s2" + (f"; positioner errors: {', '.join(errors)}"
+                                                                  if errors else ""))
+
     # -- motion -----------------------------------------------------------------------------------
     def homed(self) -> bool:
         return all(self.state(axis)[1] in READY for axis in AXES)
@@ -200,7 +224,7 @@ class SMC100Stage(Instrument):
         for axis, value in (("x", x_mm), ("y", y_mm)):
             low, high = self.travel_mm[axis]
             if not low <= value <= high:
-                raise OutOfRangeError(f"{self.role} point (x = {x_mm:.3f} mm, y = {y_mm:.3f} mm)", value,
+                raise OutOfRangeError(f"{self.role} point (x = {x_mm:.3f} mm, y = {y_mm:.3f} mm)", float(value),
                                       f"{axis} within the travel {low:g} to {high:g} mm")
 
     def move_to_mm(self, x_mm: float, y_mm: float) -> tuple[float, float]:

@@ -22,7 +22,7 @@ from pathlib import Path
 from squeezebench.analysis.rundata import load_run
 from squeezebench.analysis.uncertainty import REFERENCE_FOR, run_uncertainties, systematic_floor
 from squeezebench.protocols.bench_errors import bench_time_by_run_s
-from squeezebench.protocols.variants import with_calibration
+from squeezebench.protocols.variants import with_calibration, without_maps
 from squeezebench.protocols.campaign import run_campaign
 
 CALIBRATION_RUN = "deskew_calibration"
@@ -118,7 +118,7 @@ class AccuracyFloors:
 def accuracy_floors(campaign_path: Path, target_rel_error: float) -> AccuracyFloors:
     """Run the campaign once (simulated, calibration first) and read its floors."""
     with tempfile.TemporaryDirectory(prefix="squeezebench-floor-") as tmp:
-        variant = with_calibration(Path(campaign_path), Path(tmp) / Path(campaign_path).name)
+        variant = without_maps(with_calibration(Path(campaign_path), Path(tmp) / Path(campaign_path).name))
         run_dir = run_campaign(variant, out_dir=Path(tmp) / "run", progress=False)
         found = run_uncertainties(load_run(run_dir))
         times_s = bench_time_by_run_s(run_dir)

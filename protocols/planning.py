@@ -35,7 +35,7 @@ import pandas as pd
 from squeezebench.analysis.waveforms import integer_period_mean_power_w, sample_interval_s
 from squeezebench.protocols.accuracy_plan import CALIBRATION_RUN, AccuracyFloors, accuracy_floors
 from squeezebench.protocols.simulated_session import open_simulated
-from squeezebench.protocols.variants import planned_campaign
+from squeezebench.protocols.variants import MAP_PROTOCOLS, planned_campaign, without_maps
 from squeezebench.protocols.bench_errors import (
     bench_time_by_run_s, errors_on_benches, p95_by_run)
 from squeezebench.protocols.acquisition import AcquisitionSettings
@@ -183,7 +183,8 @@ def simulate_bench_time_s(campaign_path: Path, acquisition_by_run: dict[str, dic
     """Run the campaign on the simulated bench with these acquisition settings (with
     `calibrate`, after a deskew calibration, which appears as its own run); bench time per run."""
     with tempfile.TemporaryDirectory(prefix="squeezebench-plan-") as tmp:
-        variant = planned_campaign(campaign_path, acquisition_by_run, calibrate, Path(tmp) / campaign_path.name)
+        variant = without_maps(planned_campaign(campaign_path, acquisition_by_run, calibrate,
+                                                Path(tmp) / campaign_path.name))
         return bench_time_by_run_s(run_campaign(variant, out_dir=Path(tmp) / "run", progress=False))
 
 
@@ -318,6 +319,10 @@ def make_plan(campaign_path: Path, target_rel_error: float, repeats: int = REPEA
     campaign = load_campaign(campaign_path)
     if any(run.bench.scene is None for run in campaign.runs):
         raise UserError("only simulated benches (bench: {scene: ...}) can be planned")
+    # a map's settings answer to its homogeneity figures: `map_planning` plans those runs
+    campaign = dataclasses.replace(campaign, runs=tuple(r for r in campaign.runs if r.protocol not in MAP_PROTOCOLS))
+    if not campaign.runs:
+        raise UserError(f"{campaign_path.name} has only maps: nothing for the point planner")
     plates = {}   # one study per plate, voltage and acquisition, shared by the runs measuring it
     plates_by_run: dict[str, list[tuple]] = {}
     for run in campaign.runs:

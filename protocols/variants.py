@@ -28,6 +28,20 @@ SYSTEMATIC_EFFECTS = ("scope_gain_error", "current_probe_gain_error", "vibromete
                       "channel_skew", "current_probe_delay", "generator_frequency_error")
 
 
+#: Protocols whose points are read away from the scene's measurement point (the stage
+#: moves the spot): the truth a bench is scored against does not describe them, and their
+#: accuracy is a map's own figures (`map_planning`), so point studies leave them out.
+MAP_PROTOCOLS = ("cartography",)
+
+
+def without_maps(campaign_file: Path) -> Path:
+    """Rewrite the campaign file without its map runs (a variant the studies run)."""
+    data = yaml.safe_load(Path(campaign_file).read_text(encoding="utf-8"))
+    data["runs"] = [run for run in data["runs"] if run.get("protocol") not in MAP_PROTOCOLS]
+    Path(campaign_file).write_text(yaml.safe_dump(data, sort_keys=False), encoding="utf-8")
+    return Path(campaign_file)
+
+
 def systematic_effects(bench_seed: int, draw: bool = True, only: tuple[str, ...] = SYSTEMATIC_EFFECTS) -> list[dict]:
     """Scene `effects:` entries of one bench's systematic errors at specification
     magnitudes (drawn once from `bench_seed` when `draw`; the limits themselves otherwise)."""
@@ -35,7 +49,8 @@ def systematic_effects(bench_seed: int, draw: bool = True, only: tuple[str, ...]
 
 
 def campaign_with_effects(campaign_file: Path, out_dir: Path, effects: list) -> Path:
-    """Write `out_dir/<campaign>` whose every scene also lists `effects`; return its path.
+    """Write `out_dir/<campaign>` whose every scene also lists `effects`, without its map
+    runs (`MAP_PROTOCOLS`); return its path.
 
     Scenes are found where the campaign runner finds them (`paths.scenes_dir()`, or an
     absolute path); effects a scene already lists keep its own parameters.
@@ -61,7 +76,7 @@ def campaign_with_effects(campaign_file: Path, out_dir: Path, effects: list) -> 
     campaign.pop("output_dir", None)
     target = out_dir / Path(campaign_file).name
     target.write_text(yaml.safe_dump(campaign, sort_keys=False))
-    return target
+    return without_maps(target)
 
 
 def scene_with_effects(scene: str | Path, out_dir: Path, effects: list) -> Path:
@@ -103,7 +118,7 @@ def with_acquisition(campaign_file: Path, acquisition_by_run: dict[str, dict], o
     """A copy of the campaign file with keys of each run's `acquisition:` overridden."""
     data = yaml.safe_load(Path(campaign_file).read_text(encoding="utf-8"))
     for run in data["runs"]:
-        run.setdefault("acquisition", {}).update(acquisition_by_run[run["name"]])
+        run.setdefault("acquisition", {}).update(acquisition_by_run.get(run["name"], {}))   # maps: as written
     Path(out).write_text(yaml.safe_dump(data, sort_keys=False), encoding="utf-8")
     return Path(out)
 

@@ -1154,7 +1154,8 @@ def hostile_start(bench) -> None:
     """Instruments as a previous user may leave them: scope math in FFT mode, trigger on
     the idle CH4, every channel off, headers on, envelope single sequence, stale events;
     generator with a square wave, Vrms units, 50 ohm and a stale error; vibrometer echo
-    on with the decoder on its most sensitive range and the 5 kHz filter."""
+    on with the decoder on its most sensitive range and the 5 kHz filter; the stage homed
+    but left far from zero, slowed to 5 mm/s, with a refused command's letter pending."""
     scope, generator, vibrometer = bench.scope, bench.generator, bench.vibrometer
     scope.state.update({"math_type": "FFT", "math_define": "FFT(CH1,HANNING,LOGRMS)", "trigger_source": "CH4",
                         "trigger_mode": "NORMAL", "acquire_mode": "ENVELOPE", "stop_after": "SEQUENCE",
@@ -1167,6 +1168,8 @@ def hostile_start(bench) -> None:
     generator.state.update({"shape": "SQU", "unit": "VRMS", "offset": 0.5})
     generator.report(ScpiError(-113, "Undefined header"))
     vibrometer.state.update({"echo": "On", "range": DECODERS[vibrometer.decoder][0], "low_pass": "5 kHz"})
+    if bench.stage is not None:
+        bench.stage.leave(x_mm=150.0, y_mm=20.0, velocity_mm_per_s=5.0, error="C")
 
 
 START_STATES: dict[str, Callable] = {"power_on": lambda bench: None, "hostile": hostile_start}

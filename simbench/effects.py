@@ -11,6 +11,8 @@ acts at one or more stages of the simulation:
 - `digitizer`: sets how the scope digitises (quantisation, averaging);
 - `generator`: what the generator really puts out for its settings (frequency error);
 - `timing`: a delay of a channel against CH1 (skew, current-probe delay);
+- `spot`: where the vibrometer's laser meets the plate when the x-y stage moves it
+  (backlash, a plate off the stage's zero or rotated, a tilted plate);
 - `bus`: faults of the instruments and their link (timeouts, garbled or truncated
   replies, error-queue entries, a disconnect), for testing what a campaign does on a
   bad day.
@@ -591,12 +593,77 @@ class Disconnect(BusFault):
         instrument.disconnected = True
 
 
+# -- the laser spot on a plate the stage moves ---------------------------------------------------
+@dataclass(frozen=True)
+class Spot:
+    """Where the laser meets the plate, mm from the plate's corner in its own frame, and
+    the share of the plate's normal velocity that lies along the beam."""
+
+    x_mm: float
+    y_mm: float
+    beam_share: float = 1.0
+
+
+class StageBacklash(Effect):
+    """Lost motion in each axis's drive: the carriage lags the motor by half the backlash
+    behind its last direction of travel, so a point approached from the other side sits
+    one backlash away. The SMC100's `TP` reads the motor's encoder, so the driver never
+    sees it (SMC100 UM TP). Default 20 um per axis, assumed: a typical lead-screw stage
+    without backlash compensation (`BA` not set)."""
+
+    name = "stage_backlash"
+    defaults = {"x_mm": 0.02, "y_mm": 0.02}
+    limits = {"x_mm": (0.0, 1.0), "y_mm": (0.0, 1.0)}
+    stages = frozenset({"spot"})
+
+    def spot(self, spot: Spot, directions: tuple[int, int]) -> Spot:
+        p = self.parameters
+        return replace(spot, x_mm=spot.x_mm - 0.5 * p["x_mm"] * directions[0],
+                       y_mm=spot.y_mm - 0.5 * p["y_mm"] * directions[1])
+
+
+class PlateOffset(Effect):
+    """The plate not where the map thinks: its corner at (x_mm, y_mm) in the stage's frame
+    and its edges turned by rotation_deg (counter-clockwise). A grid laid out for the
+    plate then drifts across it, and its last points may miss the plate (velocity 0:
+    the laser lands on the mount)."""
+
+    name = "plate_offset"
+    defaults = {"x_mm": 1.0, "y_mm": 1.0, "rotation_deg": 0.5}
+    limits = {"x_mm": (-50.0, 50.0), "y_mm": (-50.0, 50.0), "rotation_deg": (-10.0, 10.0)}
+    stages = frozenset({"spot"})
+
+    def spot(self, spot: Spot, directions: tuple[int, int]) -> Spot:
+        p = self.parameters
+        angle = math.radians(p["rotation_deg"])
+        dx, dy = spot.x_mm - p["x_mm"], spot.y_mm - p["y_mm"]
+        return replace(spot, x_mm=math.cos(angle) * dx + math.sin(angle) * dy,
+                       y_mm=-math.sin(angle) * dx + math.cos(angle) * dy)
+
+
+class PlateTilt(Effect):
+    """A plate not level under a vertical beam: tilted by tilt_x_deg along its length and
+    tilt_y_deg across. A horizontal step of the stage covers 1/cos(tilt) of the plate's
+    surface, so the spot drifts ahead of the grid as the map goes on, and the beam sees
+    the normal velocity times cos(tilt_x) cos(tilt_y). Default 1 degree along, assumed:
+    a plate resting on foam (the paper's mounting is not described)."""
+
+    name = "plate_tilt"
+    defaults = {"tilt_x_deg": 1.0, "tilt_y_deg": 0.0}
+    limits = {"tilt_x_deg": (-20.0, 20.0), "tilt_y_deg": (-20.0, 20.0)}
+    stages = frozenset({"spot"})
+
+    def spot(self, spot: Spot, directions: tuple[int, int]) -> Spot:
+        cx, cy = math.cos(math.radians(self.parameters["tilt_x_deg"])), math.cos(math.radians(self.parameters["tilt_y_deg"]))
+        return Spot(spot.x_mm / cx, spot.y_mm / cy, spot.beam_share * cx * cy)
+
+
 EFFECTS: dict[str, type[Effect]] = {cls.name: cls for cls in (
     Shunt, DielectricLossEffect, AmplifierLimits, NeighbouringMode, HeatingDrift,
     SettlingTransient, DcOffset, VibrometerRange, ScopeNoise, VibrometerNoise,
     Quantisation, Averaging, ClippedTrace, BusTimeout, GarbledReplyFault, TruncatedReplyFault,
     InstrumentErrorEntry, Disconnect, ScopeGainError, CurrentProbeGainError, VibrometerScaleError,
-    ChannelSkew, CurrentProbeDelay, GeneratorFrequencyError)}
+    ChannelSkew, CurrentProbeDelay, GeneratorFrequencyError, StageBacklash, PlateOffset, PlateTilt)}
 
 
 # -- the digitiser ----------------------------------------------------------------------
@@ -619,7 +686,7 @@ class DigitizerSettings:
 class EffectPipeline:
     """The effects of a scene, sorted by the stage they act at."""
 
-    STAGES = ("generator", "amplifier", "load", "motion", "timing", "signals", "noise", "digitizer", "bus")
+    STAGES = ("generator", "amplifier", "load", "motion", "timing", "signals", "noise", "digitizer", "spot", "bus")
 
     def __init__(self, effects: list[Effect]) -> None:
         self.effects = effects
@@ -631,6 +698,9 @@ class EffectPipeline:
         self._motion = [e.motion for e in self.by_stage["motion"]]
         self._signals = [e.signals for e in self.by_stage["signals"]]
         self._noise = [e.noise_div_rms for e in self.by_stage["noise"]]
+        # carriage (backlash), then stage frame to plate frame, then the tilted surface
+        order = {"stage_backlash": 0, "plate_offset": 1, "plate_tilt": 2}
+        self._spot = [e.spot for e in sorted(self.by_stage["spot"], key=lambda e: order[e.name])]
         self.digitizer_settings = DigitizerSettings()
         for effect in self.by_stage["digitizer"]:
             self.digitizer_settings = effect.digitizer(self.digitizer_settings)
@@ -669,6 +739,14 @@ class EffectPipeline:
         for stage in self._motion:
             fundamentals = stage(fundamentals, ctx)
         return fundamentals
+
+    def spot(self, stage_mm: tuple[float, float], directions: tuple[int, int]) -> Spot:
+        """Where the laser meets the plate for the stage's encoder position `stage_mm` and
+        each axis's last direction of travel (+1, -1, 0 never moved)."""
+        spot = Spot(*stage_mm)
+        for stage in self._spot:
+            spot = stage(spot, directions)
+        return spot
 
     @property
     def has_motion(self) -> bool:

@@ -1,60 +1,71 @@
-"""The plate's working mode as a 2-D shape the simulated stage can be scanned over.
+"""The plate's working mode as a 2-D shape the simulated stage is scanned over.
 
-One interface, `mode_shape(scene, x_mm, y_mm)`: the normalised out-of-plane displacement
-of the working mode at points of the plate (1 at the x = 0 free end, 0 off the plate).
-Until the finite-element modal model (issue 22) lands, the shape is a stated analytic
-standing wave: the plate's (n, 0) flexural mode taken as a free-free Euler-Bernoulli beam
-along the length, uniform across the width (nodal lines along the width, as the scene's
-`Mode` says). The number of nodal lines n is that of the scene's own mode shape
-cos(pi x / (lambda/2)) over the plate's length, n = round(L / (lambda/2)); the beam
-function with n nodes keeps the free-edge hyperbolic terms
+The shape is the finite-element modal model's (`analysis.plate_modes`, Kirchhoff plate
+with its bonded piezos): the scene's plate in its present state (a cut plate is solved
+again) as `simbench.predicted` describes it to the model, and of its modes the (n, 0)
+mode nearest the state's resonance frequency, the one the scene says it is driven in.
+The solution is cached by geometry and materials, so a map solves its plate once.
 
-    phi(x) = cosh(beta x) + cos(beta x) - sigma (sinh(beta x) + sin(beta x)),
-    sigma = (cosh(beta L) - cos(beta L)) / (sinh(beta L) - sin(beta L)),
-    cos(beta L) cosh(beta L) = 1   (free-free frequency equation),
+A spot is read from the working mode tabulated once per plate on a 1 mm grid and
+interpolated cubically (the elements' own evaluation costs ~50 ms a point, most of a
+1,300-point map; the table's departure from it is below 1e-4 of the peak, tested).
 
-(Blevins, Formulas for Natural Frequency and Mode Shape, Table 8-1, free-free beam), whose
-root is close to beta L = (n - 1/2) pi (4.730 for n = 2). Its interior half-wavelength
-pi / beta = L / (n - 1/2) is slightly longer than the scene's lambda/2: the free ends
-carry the difference. The finite-element model replaces this function, not its callers.
+Scale: 1 at the scene's measurement point (where its states' velocities are given, as
+`simbench.predicted` refers the modal mass and force there too), 0 off the plate: a spot
+anywhere reads the scene's velocity times the mode's share there, with its sign. A cut
+plate keeps its centre, so the measurement point moves by half the cut in its frame.
 """
 
 from __future__ import annotations
 
 import numpy as np
-from scipy.optimize import brentq
+
+from scipy.interpolate import RegularGridInterpolator
+
+from squeezebench.analysis import plate_modes
+from squeezebench.simbench import predicted
+from squeezebench.simbench.scene import SceneError
 
 
-def free_free_root(nodes: int) -> float:
-    """beta L of the free-free beam mode with `nodes` nodal points (>= 2), the root of
-    cos(z) cosh(z) = 1 next to (nodes - 1/2) pi (4.730 for 2 nodes), written as cos(z) - 1/cosh(z) = 0
-    so it does not overflow."""
-    if nodes < 2:
-        raise ValueError("a free-free flexural mode has at least 2 nodes")
-    guess = (nodes - 0.5) * np.pi
-    return brentq(lambda z: np.cos(z) - 1.0 / np.cosh(z), guess - 0.5, guess + 0.5, xtol=1e-14)
+def working_mode(scene, state) -> tuple[plate_modes.PlateModes, int]:
+    """The model's modes of the state's plate and the index of its working mode."""
+    resonator, piezo = predicted.materials(scene)
+    modes = plate_modes.solve_plate(predicted.geometry(scene, state), resonator, piezo,
+                                    near_hz=state.resonance_frequency_hz)
+    return modes, modes.working_mode(state.resonance_frequency_hz)
 
 
-def beam_mode(x_m: np.ndarray, length_m: float, nodes: int) -> np.ndarray:
-    """phi(x) / phi(0) of the free-free beam mode with `nodes` nodes (module docstring).
-
-    cosh(u) - sigma sinh(u) is evaluated as exp(-u) + (1 - sigma) sinh(u) with 1 - sigma
-    in closed form: the difference of two numbers of size exp(beta L) would lose every digit."""
-    beta_l = free_free_root(nodes)
-    u = beta_l * np.asarray(x_m, dtype=float) / length_m
-    denominator = np.sinh(beta_l) - np.sin(beta_l)
-    one_minus_sigma = (np.cos(beta_l) - np.sin(beta_l) - np.exp(-beta_l)) / denominator
-    sigma = 1.0 - one_minus_sigma
-    phi = np.exp(-u) + one_minus_sigma * np.sinh(u) + np.cos(u) - sigma * np.sin(u)
-    return phi / 2.0
+TABLE_STEP_M = 1e-3
+_TABLES: dict[tuple[int, int], tuple[plate_modes.PlateModes, RegularGridInterpolator]] = {}
 
 
-def mode_shape(scene, x_mm: np.ndarray, y_mm: np.ndarray) -> np.ndarray:
-    """Normalised displacement of the scene's working mode at (x, y) in mm from the plate's
-    corner (x along the length); 0 where the point is off the plate."""
-    plate = scene.plate
-    x_mm, y_mm = np.broadcast_arrays(np.asarray(x_mm, dtype=float), np.asarray(y_mm, dtype=float))
-    nodes = max(2, round(plate.length_mm / scene.mode.half_wavelength_mm))
-    on_plate = (x_mm >= 0) & (x_mm <= plate.length_mm) & (y_mm >= 0) & (y_mm <= plate.width_mm)
-    shape = beam_mode(np.clip(x_mm, 0.0, plate.length_mm) * 1e-3, plate.length_mm * 1e-3, nodes)
-    return np.where(on_plate, shape, 0.0)
+def _table(modes: plate_modes.PlateModes, k: int) -> RegularGridInterpolator:
+    """Mode k on the grid, 0 off the plate; kept with its (cached, never freed) solution."""
+    key = (id(modes), k)
+    if key not in _TABLES:
+        x_m = np.linspace(0.0, modes.x_m[-1], int(np.ceil(modes.x_m[-1] / TABLE_STEP_M)) + 1)
+        y_m = np.linspace(0.0, modes.y_m[-1], int(np.ceil(modes.y_m[-1] / TABLE_STEP_M)) + 1)
+        values = modes.shape_at(k, *np.meshgrid(x_m, y_m, indexing="ij"))
+        _TABLES[key] = modes, RegularGridInterpolator((x_m, y_m), values, method="cubic",
+                                                      bounds_error=False, fill_value=0.0)
+    return _TABLES[key][1]
+
+
+#: Below this share of the mode's largest deflection the scene's measurement point is too
+#: near a nodal line to refer a map to: the scene's velocities would be mostly noise there.
+MIN_REFERENCE_SHARE = 0.1
+
+
+def mode_shape(scene, state, x_mm, y_mm) -> np.ndarray:
+    """The working mode's deflection at (x, y) in mm from the plate's corner (x along its
+    length) over its deflection at the scene's measurement point; 0 off the plate."""
+    table = _table(*working_mode(scene, state))
+    offset_mm = (scene.plate.length_mm - (state.plate_length_mm or scene.plate.length_mm)) / 2
+    point = scene.measurement_point
+    reference = float(table([(point.x_mm - offset_mm) * 1e-3, point.y_mm * 1e-3])[0])
+    if abs(reference) < MIN_REFERENCE_SHARE:
+        raise SceneError(f"{scene.path}: measurement_point ({point.x_mm}, {point.y_mm}) mm is at "
+                         f"{abs(reference):.0%} of the working mode's largest deflection in state "
+                         f"{state.name!r}, near a nodal line: move it to an antinode to map this plate")
+    x_m, y_m = np.broadcast_arrays(np.asarray(x_mm, dtype=float) * 1e-3, np.asarray(y_mm, dtype=float) * 1e-3)
+    return table(np.stack([x_m.ravel(), y_m.ravel()], axis=-1)).reshape(x_m.shape) / reference

@@ -39,6 +39,7 @@ class Axis:
     target_mm: float = 0.0
     start_s: float = 0.0
     end_s: float = 0.0
+    direction: int = 0   # of the last move: +1, -1 (0: never moved); backlash acts against it
     velocity_mm_per_s: float = VELOCITY_MM_PER_S
     acceleration_mm_per_s2: float = ACCELERATION_MM_PER_S2
     error: str = "@"
@@ -52,16 +53,31 @@ class Stage(SimulatedInstrument):
     def power_on(self) -> None:
         self.axes = {address: Axis(*travel) for address, travel in TRAVEL_MM.items()}
         self.used = False   # a bench whose stage never moved measures where the scene says
+        self._gain_key: tuple | None = None
+        self._gain = 1.0
+
+    def leave(self, x_mm: float, y_mm: float, velocity_mm_per_s: float, error: str) -> None:
+        """As a previous session may leave the pair (no power cycle): both axes READY at
+        (x, y), x slowed, a refused command's letter unread. The plate is still mounted with
+        its measurement point under the spot (`used` stays False)."""
+        for axis, position in zip(self.axes.values(), (x_mm, y_mm)):
+            axis.state, axis.position_mm = "32", position
+        self.axes["1"].velocity_mm_per_s, self.axes["1"].error = velocity_mm_per_s, error
 
     def spot_gain(self) -> float:
-        """Velocity under the laser spot / velocity of the scene's mode at its free end
-        (where the scene's modal velocity is given: `mode_shape` is 1 there). The stage
-        frame is the plate's frame (its corner at the stage's zero); 0 off the plate.
-        A stage that never moved costs nothing: 1, the scene's own measurement."""
+        """Velocity along the beam under the laser spot / the scene's velocity, which is the
+        working mode's at the scene's measurement point (`modeshape`); 0 off the plate. The
+        stage frame is the plate's frame (its corner at the stage's zero) unless the scene
+        names spot effects (`effects.EffectPipeline.spot`: backlash, offset, tilt). A stage
+        that never moved costs nothing: 1, the scene's own measurement point."""
         if not self.used:
             return 1.0
-        x_mm, y_mm = self.point_mm()
-        return float(mode_shape(self.bench.scene, x_mm, y_mm))
+        key = (self.point_mm(), tuple(axis.direction for axis in self.axes.values()), self.bench.state_name)
+        if key != self._gain_key:   # a point is acquired many times (ranging, averaging)
+            self._gain_key = key
+            spot = self.bench.effects.spot(*key[:2])
+            self._gain = spot.beam_share * float(mode_shape(self.bench.scene, self.bench.state, spot.x_mm, spot.y_mm))
+        return self._gain
 
     def is_query(self, message: bytes) -> bool:
         text = message.decode("ascii", errors="replace").strip()
@@ -135,6 +151,8 @@ class Stage(SimulatedInstrument):
         now = self.bench.clock.now_s()
         self.used = True
         axis.state, axis.start_mm, axis.target_mm, axis.start_s = state, axis.position_mm, target_mm, now
+        if target_mm != axis.position_mm:
+            axis.direction = 1 if target_mm > axis.position_mm else -1
         axis.end_s = now + move_time_s(target_mm - axis.position_mm, axis.velocity_mm_per_s,
                                        axis.acceleration_mm_per_s2)
 

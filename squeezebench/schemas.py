@@ -26,14 +26,15 @@ from pydantic import AfterValidator, BaseModel, ConfigDict, Field, ValidationErr
 from squeezebench.errors import UserError
 from squeezebench.instruments.bench import ROLES, BenchConfig, BenchElectronics
 from squeezebench.instruments.errors import BenchFileError
-from squeezebench.protocols import calibration, characterisation, cutting, detuning, powered_columns, resonance
+from squeezebench.protocols import (calibration, cartography, characterisation, cutting, detuning, powered_columns,
+                                   resonance)
 from squeezebench.protocols.acquisition import AcquisitionSettings
 from squeezebench.protocols.safety import SafetyLimits
 from squeezebench.protocols.steps import Plate
 from squeezebench.yamlfiles import FileFormatError, read_yaml  # noqa: F401 - the readers of every file
 
 PROTOCOLS = {module.PROTOCOL: module for module in
-             (resonance, detuning, cutting, powered_columns, characterisation, calibration)}
+             (resonance, detuning, cutting, powered_columns, characterisation, calibration, cartography)}
 SCHEMAS_DIR = Path(__file__).resolve().parents[1] / "docs" / "schemas"
 
 
@@ -152,6 +153,7 @@ class Resources(_Model):
     generator: VisaAddress
     scope: VisaAddress
     vibrometer: VisaAddress
+    stage: Optional[VisaAddress] = None   # the x-y stage a map (cartography) needs; SMC100 pair
 
 
 class BenchFile(_Model):

@@ -64,7 +64,8 @@ def test_check_json_is_one_document_naming_each_instrument(capsys):
     assert any("TDS 3054B" in line for line in report["lines"])
     # and per instrument, for scripts: role, address, identification, what it showed
     roles = {i["role"]: i for i in report["instruments"]}
-    assert set(roles) == {"generator", "scope", "vibrometer"}
+    assert set(roles) == {"generator", "scope", "vibrometer", "stage"}   # the simulated bench has a stage
+    assert any("NOT REFERENCED" in line for line in roles["stage"]["details"])
     assert all(i["answered"] and i["address"] and i["details"] for i in roles.values())
     assert "33120A" in roles["generator"]["identification"] and "3054B" in roles["scope"]["identification"]
     assert report["disagreements"] == [] and report["electronics"]["shunt_ohm"] > 0

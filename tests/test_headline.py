@@ -37,6 +37,14 @@ def test_inputs_and_what_is_derived_from_them_are_round_trips_when_they_come_bac
     assert len(found) == 6
 
 
+def test_a_table_the_run_does_not_hold_counts_nothing():
+    """The report writes Tables 3-5 with the printed values and "not compared" in `agrees`
+    when the run has no such campaign (a map alone): nothing there agrees."""
+    absent = {"table3": _table([("table3", 75, "power_w", 0.027, "not measured", "not compared", None, None)])}
+    assert verdicts(absent).empty
+    assert not any("compared values" in line for line in headline("simulated", 10, 1, absent))
+
+
 def test_headline_counts_and_names_the_largest_miss():
     predicted = pd.DataFrame({"frequency_deviation": [0.002, -0.023, 0.096, 0.034]})
     lines = headline("simulated", 1111, 8, {**TABLES, "predicted": predicted})

@@ -22,7 +22,8 @@ from squeezebench.instruments.tds3054b import TDS3054B, Channel
 from squeezebench.protocols import campaign
 
 DOC = Path(__file__).resolve().parents[1] / "docs" / "instrument-commands.md"
-SECTIONS = {"Agilent 33120A": "generator", "Tektronix TDS 3054B": "scope", "Polytec OFV-5000": "vibrometer"}
+SECTIONS = {"Agilent 33120A": "generator", "Tektronix TDS 3054B": "scope", "Polytec OFV-5000": "vibrometer",
+            "Newport SMC100": "stage"}
 _NUMBER = r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?"
 PLACEHOLDERS = {"<n>": "[1-4]", "<x>": "[12]", "<NR1>": r"[-+]?\d+", "<NR3>": _NUMBER,
                 "<range>": r"\d+(?:\.\d+)?(?:mm|m)/s/V"}

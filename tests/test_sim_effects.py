@@ -386,3 +386,73 @@ def test_systematic_errors_are_drawn_once_per_bench(tmp_path):
     assert first != drawn(8)
     draws = [v for seed in range(200) for v in drawn(seed).values()]
     assert max(np.abs(draws)) <= 0.02 and np.std(draws) == pytest.approx(0.02 / math.sqrt(3), rel=0.1)
+
+
+# -- the laser spot on a plate the stage moves ----------------------------------------------
+
+def _spot_bench(tmp_path, effects):
+    """The large plate with only the spot effects `effects`, and the stage homed."""
+    import pyvisa
+
+    from test_protocols_support import noise_free_scene
+
+    scene = noise_free_scene(tmp_path, "large_plate.yaml", effects)
+    rm = pyvisa.ResourceManager(f"{scene}@simbench")
+    from squeezebench.instruments.smc100 import SMC100Stage
+    bench = rm.visalib.bench
+    stage = SMC100Stage(rm.open_resource("ASRL2::INSTR"), poll_interval_s=0.01, sleep=bench.clock.sleep)
+    stage.home()
+    return rm, bench, stage
+
+
+def _gain(bench):
+    return bench.sensor_gains()[2] * bench.vibrometer.range_mps_per_v()
+
+
+def _shape(bench, x_mm, y_mm):
+    from squeezebench.simbench.modeshape import mode_shape
+    return float(mode_shape(bench.scene, bench.state, x_mm, y_mm))
+
+
+def test_stage_backlash(tmp_path):
+    """A point approached from each side lands one backlash apart; the encoder sees none of it."""
+    rm, bench, stage = _spot_bench(tmp_path, [{"stage_backlash": {"x_mm": 0.5, "y_mm": 0.0}}])
+    try:
+        stage.move_to_mm(95.0, 69.0)
+        stage.move_to_mm(97.0, 69.0)            # from the left: the carriage lags 0.25 mm behind
+        from_left = _gain(bench)
+        stage.move_to_mm(99.0, 69.0)
+        stage.move_to_mm(97.0, 69.0)            # from the right: 0.25 mm ahead
+        from_right = _gain(bench)
+        assert stage.position_mm("x") == 97.0   # the encoder (TP) sees none of it
+        assert from_left == pytest.approx(_shape(bench, 96.75, 69.0), rel=1e-9)
+        assert from_right == pytest.approx(_shape(bench, 97.25, 69.0), rel=1e-9)
+        assert from_left != pytest.approx(from_right, rel=1e-3)
+    finally:
+        rm.close()
+
+
+def test_plate_offset(tmp_path):
+    """An offset, rotated plate moves under the grid, and its edge misses the spot."""
+    rm, bench, stage = _spot_bench(tmp_path, [{"plate_offset": {"x_mm": 5.0, "y_mm": -3.0, "rotation_deg": 2.0}}])
+    try:
+        stage.move_to_mm(120.0, 40.0)
+        a = math.radians(2.0)
+        dx, dy = 115.0, 43.0
+        expected = _shape(bench, math.cos(a) * dx + math.sin(a) * dy, -math.sin(a) * dx + math.cos(a) * dy)
+        assert _gain(bench) == pytest.approx(expected, rel=1e-9)
+        stage.move_to_mm(2.0, 20.0)             # inside the plate's own 0-198 mm, left of its shifted edge
+        assert _gain(bench) == 0.0
+    finally:
+        rm.close()
+
+
+def test_plate_tilt(tmp_path):
+    """A tilted plate drifts the spot ahead of the grid and shows the velocity along the beam."""
+    rm, bench, stage = _spot_bench(tmp_path, [{"plate_tilt": {"tilt_x_deg": 8.0, "tilt_y_deg": 0.0}}])
+    try:
+        stage.move_to_mm(150.0, 69.0)
+        c = math.cos(math.radians(8.0))
+        assert _gain(bench) == pytest.approx(c * _shape(bench, 150.0 / c, 69.0), rel=1e-9)
+    finally:
+        rm.close()

@@ -1,0 +1,106 @@
+"""The map section of the report (Fig. 7): the vibration map drawn, its homogeneity
+numbers, and the map against the plate model's working mode."""
+
+from __future__ import annotations
+
+import html
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from squeezebench.analysis import cartography, predicted_plates
+from squeezebench.analysis.presentation import with_uncertainty
+
+
+def map_figure(points: pd.DataFrame, path: Path, plate: str) -> None:
+    """Velocity amplitude and signed velocity (m/s pp) over the plate, axes in mm, with the
+    plate's outline and piezos when the model knows the plate."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    grid = points.pivot_table(index="y_m", columns="x_m", values=["velocity_pp_mps", "signed_velocity_pp_mps"])
+    x_mm, y_mm = grid.columns.levels[1].to_numpy() * 1e3, grid.index.to_numpy() * 1e3
+    geometry = predicted_plates.GEOMETRIES[plate]() if plate in predicted_plates.GEOMETRIES else None
+    fig, axes = plt.subplots(1, 2, figsize=(12, 4.2), constrained_layout=True)
+    signed = grid["signed_velocity_pp_mps"].to_numpy()
+    limit = float(np.nanmax(np.abs(signed)))
+    for ax, values, cmap, label, lows in (
+            (axes[0], grid["velocity_pp_mps"].to_numpy(), "viridis", "velocity amplitude (m/s pp)", 0.0),
+            (axes[1], signed, "RdBu_r", "signed velocity (m/s pp, sign: phase against the drive)", -limit)):
+        image = ax.pcolormesh(x_mm, y_mm, values, cmap=cmap, vmin=lows, vmax=limit, shading="nearest")
+        fig.colorbar(image, ax=ax, label=label, shrink=0.9)
+        if geometry is not None:
+            ax.add_patch(plt.Rectangle((0, 0), geometry.length_m * 1e3, geometry.width_m * 1e3, fill=False,
+                                       edgecolor="k", linewidth=1.0))
+            for patch in predicted_plates.modes_patches(geometry):
+                ax.add_patch(plt.Rectangle(*patch, fill=False, edgecolor="k", linewidth=0.6))
+            ax.set_xlim(-2, geometry.length_m * 1e3 + 2)
+            ax.set_ylim(-2, geometry.width_m * 1e3 + 2)
+        ax.set_aspect("equal")
+        ax.set_xlabel("x (mm)")
+        ax.set_ylabel("y (mm)")
+    fig.savefig(path, dpi=90)
+    plt.close(fig)
+
+
+def map_summaries(run) -> tuple[pd.DataFrame, dict[str, pd.DataFrame]]:
+    """One summary row per mapped run (cartography.summarise_map, with the model's
+    prediction where it knows the plate), and each run's reduced points."""
+    points = cartography.map_points(run)
+    rows, maps = [], {}
+    for (run_name, plate), one in points.groupby(["run_name", "plate"], sort=False):
+        one = one.reset_index(drop=True)
+        frequency_hz = float(one["generator_frequency_hz"].median())
+        predicted = predicted_plates.working_shape(plate, frequency_hz, one["x_m"].to_numpy(), one["y_m"].to_numpy())
+        summary = cartography.summarise_map(one, None if predicted is None else predicted[0])
+        rows.append({"run_name": run_name, "plate": plate, "drive_frequency_hz": frequency_hz,
+                     "piezo_voltage_vpp": float(one["piezo_voltage_setpoint_vpp"].median()),
+                     "predicted_mode_frequency_hz": np.nan if predicted is None else predicted[1], **summary})
+        maps[run_name] = one
+    return pd.DataFrame(rows), maps
+
+
+def section_html(run, out_dir: Path, figure, html_table) -> tuple[str, pd.DataFrame, pd.DataFrame]:
+    """The section's body (per map, a sentence with the answer, the figure; then the numbers
+    of every map), the summaries and the reduced points."""
+    summaries, maps = map_summaries(run)
+    body = ""
+    for row in summaries.itertuples(index=False):
+        path = out_dir / f"map_{row.run_name}.png"
+        map_figure(maps[row.run_name], path, row.plate)
+        mac = (f"; against the plate model's working mode ({row.predicted_mode_frequency_hz / 1e3:.2f} kHz, "
+               f"predicted from geometry and datasheets) the modal assurance criterion is {row.mac_with_predicted:.3f}"
+               if np.isfinite(row.mac_with_predicted) else "; the plate model does not know this plate")
+        body += (f"<p><b>{html.escape(row.run_name)}</b> ({html.escape(row.plate)}): {row.n_points} points at "
+                 f"{row.drive_frequency_hz / 1e3:.3f} kHz and {row.piezo_voltage_vpp:g} V pp. Over the touch area "
+                 f"the velocity is {with_uncertainty(row.mean_velocity_pp_mps, row.mean_velocity_pp_mps_U)} m/s pp on "
+                 f"average (coefficient of variation {row.coefficient_of_variation:.0%}, "
+                 f"{row.fraction_above_share:.0%} of the area above {row.share_of_peak:.0%} of the peak), with "
+                 f"{row.n_nodal_lines} nodal lines {row.nodal_line_spacing_m * 1e3:.2f} mm apart; "
+                 f"{row.width_uniformity:.1%} of the map's mean square is uniform across the width "
+                 f"(the paper's \"uniform across the plate\", Sec. 5.2){mac}.</p>")
+        body += figure(path, f"Vibration map of {html.escape(row.plate)} (run {html.escape(row.run_name)}): velocity "
+                             "amplitude (left) and signed velocity (right: the phase against the piezo voltage "
+                             "gives the sign, so nodal lines are where the colour changes); outline and "
+                             "rectangles: the plate and its piezos. Measured; the paper's Fig. 7.")
+    shown = summaries.assign(**{
+        "mean velocity (m/s pp)": [with_uncertainty(m, u) for m, u in zip(summaries["mean_velocity_pp_mps"],
+                                                                           summaries["mean_velocity_pp_mps_U"])],
+        "coefficient of variation (%)": [with_uncertainty(100 * c, 100 * u) for c, u in zip(
+            summaries["coefficient_of_variation"], summaries["coefficient_of_variation_U"])],
+        "area above share of peak (%)": [with_uncertainty(100 * f, 100 * u) for f, u in zip(
+            summaries["fraction_above_share"], summaries["fraction_above_share_U"])],
+        "min / max (m/s pp)": [f"{a:.3f} / {b:.3f}" for a, b in zip(summaries["min_velocity_pp_mps"],
+                                                                    summaries["max_velocity_pp_mps"])],
+        "width uniformity": [f"{w:.1%}" for w in summaries["width_uniformity"]],
+        "nodal-line spacing (mm)": [f"{s * 1e3:.2f}" for s in summaries["nodal_line_spacing_m"]],
+        "MAC with model": [f"{m:.3f}" if np.isfinite(m) else "no model" for m in summaries["mac_with_predicted"]],
+    })[["run_name", "n_points", "mean velocity (m/s pp)", "min / max (m/s pp)", "coefficient of variation (%)",
+        "area above share of peak (%)", "width uniformity", "nodal-line spacing (mm)", "MAC with model"]]
+    body += html_table(shown.rename(columns={"run_name": "map", "n_points": "points"}),
+                       "homogeneity of each map's touch area, ± U (k = 2): the points' noise, and for velocities the "
+                       "scale all points share (CH3 gain, decoder)")
+    return body, summaries, pd.concat(maps.values(), ignore_index=True)
