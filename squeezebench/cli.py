@@ -251,7 +251,11 @@ def cmd_study(args: argparse.Namespace) -> int:
 
 
 def cmd_plan(args: argparse.Namespace) -> int:
+    import yaml
+
+    from squeezebench.protocols.map_planning import map_runs, plan_map, write_planned_maps
     from squeezebench.protocols.planning import make_plan, plan_text, write_planned_campaign
+    from squeezebench.protocols.variants import MAP_PROTOCOLS
 
     campaign = paths.campaign_file(args.campaign)
     if args.write is not None:   # refused before minutes of planning, not after
@@ -260,15 +264,28 @@ def cmd_plan(args: argparse.Namespace) -> int:
         check_writable_file(args.write)
     if campaign != Path(args.campaign):
         say(args, f"campaign: {campaign} (shipped; no file named {args.campaign} here)")
-    plan = make_plan(campaign, args.target_rel_error, workers=args.workers, scheduler=args.scheduler)
-    written = write_planned_campaign(campaign, plan, args.write) if args.write else None
+    maps = [plan_map(run, args.target_rel_error) for run in map_runs(campaign)]
+    only_maps = bool(maps) and all(entry.get("protocol") in MAP_PROTOCOLS
+                                   for entry in yaml.safe_load(campaign.read_text(encoding="utf-8"))["runs"])
+    plan = None if only_maps else make_plan(campaign, args.target_rel_error, workers=args.workers,
+                                            scheduler=args.scheduler)
+    written = None
+    if args.write:
+        written = write_planned_campaign(campaign, plan, args.write) if plan else Path(shutil.copyfile(campaign, args.write))
+        write_planned_maps(campaign, maps, written)
     if args.json:
-        emit_json({"command": "plan", "campaign": campaign, **plan.as_dict(), "written": written})
+        emit_json({"command": "plan", "campaign": campaign, **(plan.as_dict() if plan else {}),
+                   "maps": [m.as_dict() for m in maps], "written": written})
     else:
-        say(args, plan_text(plan, written))
-    if not plan.reachable:   # the table says why; a script must not take the plan for one that meets it
+        texts = [m.table() for m in maps] + [plan_text(plan, written) if plan else
+                                             (f"planned campaign written to {written}" if written else "")]
+        say(args, "\n\n".join(t for t in texts if t))
+    if plan is not None and not plan.reachable:   # the table says why; a script must not take the plan for one that meets it
         print(f"squeezebench plan: target {args.target_rel_error:g} is below the floor the instruments' "
               "specified errors leave; no setting meets it", file=sys.stderr)
+        return EXIT_USER_ERROR
+    if any(m.chosen is None for m in maps):
+        print(f"squeezebench plan: no grid step meets the map target {args.target_rel_error:g}", file=sys.stderr)
         return EXIT_USER_ERROR
     return 0
 
