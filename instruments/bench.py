@@ -388,17 +388,22 @@ def _stale_errors(driver: Instrument) -> list[tuple[int, str]]:
     return []
 
 
-def _report_lines(role: str, driver: Instrument, electronics: BenchElectronics) -> tuple[list[str], list[str]]:
-    """(lines to show, disagreements between the bench description and the hardware)."""
+def _report_lines(role: str, driver: Instrument, electronics: BenchElectronics
+                  ) -> tuple[list[str], list[str], dict[str, Any]]:
+    """(lines to show, disagreements between the bench description and the hardware, the
+    settings read as typed values, names with their units as everywhere in squeezebench)."""
     stale = _stale_errors(driver)
     lines = [f"    cleared {len(stale)} queued event(s): " + "; ".join(f"{c},{m!r}" for c, m in stale)] if stale \
         else ["    no queued errors"]
-    lines += [f"    {name} = {getattr(driver, name)!r}" for name in MAIN_SETTINGS[role]]
+    settings: dict[str, Any] = {name: getattr(driver, name) for name in MAIN_SETTINGS[role]}
+    lines += [f"    {name} = {value!r}" for name, value in settings.items()]
     problems = []
     if isinstance(driver, TDS3054B):
         expected = {1: electronics.voltage_probe_gain, 2: electronics.current_probe_a_per_a}
         for number in CHANNELS:
             ch = driver.channel(number)
+            settings[f"ch{number}"] = {"displayed": ch.displayed, "probe_gain": ch.probe_gain,
+                                       "scale_v_per_div": ch.scale_v_per_div, "coupling": ch.coupling}
             lines.append(f"    ch{number}: displayed = {ch.displayed!r}, probe_gain = {ch.probe_gain!r}, "
                          f"scale_v_per_div = {ch.scale_v_per_div!r}, coupling = {ch.coupling!r}")
         for number, (model, gain, unit) in driver.detected_probes().items():
@@ -412,10 +417,14 @@ def _report_lines(role: str, driver: Instrument, electronics: BenchElectronics) 
         lines.append(f"    output_load {load!r} differs from the bench description's generator_load "
                      f"{electronics.generator_load!r}: a run sets {electronics.generator_load!r} when it opens")
     if isinstance(driver, OFV5000):
+        settings["velocity_range_mps_per_v"] = driver.velocity_range_mps_per_v
+        settings["decoder_ranges_mps_per_v"] = dict(driver.ranges_mps_per_v)
         lines.append("    decoder ranges: " + ", ".join(driver.ranges_mps_per_v))
     if isinstance(driver, SMC100Stage):
-        lines += [f"    {driver.describe_axis(axis)}" for axis in ("x", "y")]
-    return lines, problems
+        for axis in ("x", "y"):
+            settings[axis] = driver.axis_settings(axis)
+            lines.append(f"    {driver.describe_axis(axis)}")
+    return lines, problems, settings
 
 
 @dataclass
@@ -427,6 +436,7 @@ class InstrumentCheck:
     answered: bool
     identification: str = ""
     details: list[str] = field(default_factory=list)   # queued errors, settings, probes, ranges
+    settings: dict[str, Any] = field(default_factory=dict)   # typed, units in the names
     error: str = ""                                     # why it did not answer
 
 
@@ -469,13 +479,13 @@ def inspect_bench(config: BenchConfig, out: Callable[[str], None] = print) -> Be
             address = config.resources[role]
             try:
                 driver = _open_role(resource_manager, role, address)
-                lines, disagreements = _report_lines(role, driver, config.electronics)
+                lines, disagreements, settings = _report_lines(role, driver, config.electronics)
             except InstrumentError as exc:
                 result.instruments.append(InstrumentCheck(role, address, False, error=exc.message))
                 out(f"{role} at {address} did not answer as expected: {exc.message}")
                 continue
             result.instruments.append(InstrumentCheck(role, address, True, driver.identification,
-                                                      [line.strip() for line in lines]))
+                                                      [line.strip() for line in lines], settings))
             out(f"{role} at {address}: {driver.identification}")
             for line in lines:
                 out(line)

@@ -192,18 +192,27 @@ class SMC100Stage(Instrument):
     def position_mm(self, axis: str) -> float:
         return self._number(axis, "TP")   # SMC100 UM TP: current (encoder) position
 
-    def describe_axis(self, axis: str) -> str:
-        """One line of what `check` shows of an axis, read only (nothing moves)."""
+    def axis_settings(self, axis: str) -> dict[str, Any]:
+        """What `check` reads of an axis (nothing moves): controller state in the manual's
+        words, position, travel, speed, and any positioner error (SMC100 UM TS, TP, SL, SR,
+        VA, AC)."""
         bits, state = self.state(axis)
         named = ("NOT REFERENCED" if state in NOT_REFERENCED else "HOMING" if state in HOMING
                  else "MOVING" if state in MOVING else "READY" if state in READY
                  else "DISABLE" if state in DISABLE else f"state {state}")
         low, high = self.travel_mm[axis]
-        errors = describe_errors(bits)
-        return (f"{axis} (address {AXES[axis]}): {named}, position {self.position_mm(axis):.3f} mm, travel "
-                f"{low:g} to {high:g} mm, velocity {self.velocity_mm_per_s(axis):g} mm/s, acceleration "
-                f"{self.acceleration_mm_per_s2(axis):g} mm/s2" + (f"; positioner errors: {', '.join(errors)}"
-                                                                  if errors else ""))
+        return {"address": AXES[axis], "state": named, "position_mm": self.position_mm(axis),
+                "travel_low_mm": low, "travel_high_mm": high, "velocity_mm_per_s": self.velocity_mm_per_s(axis),
+                "acceleration_mm_per_s2": self.acceleration_mm_per_s2(axis), "positioner_errors": describe_errors(bits)}
+
+    def describe_axis(self, axis: str) -> str:
+        """`axis_settings` as the line `check` shows."""
+        a = self.axis_settings(axis)
+        errors = a["positioner_errors"]
+        return (f"{axis} (address {a['address']}): {a['state']}, position {a['position_mm']:.3f} mm, travel "
+                f"{a['travel_low_mm']:g} to {a['travel_high_mm']:g} mm, velocity {a['velocity_mm_per_s']:g} mm/s, "
+                f"acceleration {a['acceleration_mm_per_s2']:g} mm/s2"
+                + (f"; positioner errors: {', '.join(errors)}" if errors else ""))
 
     # -- motion -----------------------------------------------------------------------------------
     def homed(self) -> bool:

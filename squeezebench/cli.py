@@ -16,6 +16,7 @@ import logging
 import shutil
 import sys
 from pathlib import Path
+from typing import NoReturn
 
 from squeezebench import __version__, paths
 from squeezebench.errors import UserError
@@ -113,7 +114,7 @@ def cmd_validate(args: argparse.Namespace) -> int:
     results = []
     for file in args.files:
         try:
-            results.append({**validate_file(Path(file)), "ok": True, "error": None})
+            results.append({**validate_file(paths.input_file(file)), "ok": True, "error": None})
         except UserError as exc:
             results.append({"file": file, "ok": False, "error": str(exc), "warnings": []})
     passed = all(result["ok"] for result in results)
@@ -313,18 +314,18 @@ def _add_parallel_options(parser: argparse.ArgumentParser) -> None:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="squeezebench", description=__doc__,
+    parser = _Parser(prog="squeezebench", description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--version", action="version", version=f"squeezebench {__version__}")
     # Every subcommand takes -q/-v after its name (`squeezebench run X -v`).
-    common = argparse.ArgumentParser(add_help=False)
+    common = _Parser(add_help=False)
     common.add_argument("--version", action="version", version=f"squeezebench {__version__}")
     loudness = common.add_mutually_exclusive_group()
     loudness.add_argument("-q", "--quiet", action="store_true",
                           help="only errors and what the operator must act on; no progress bar")
     loudness.add_argument("-v", "--verbose", action="store_true",
                           help="also log every run and step on stderr (as in the run's log.txt)")
-    json_flag = argparse.ArgumentParser(add_help=False)
+    json_flag = _Parser(add_help=False)
     json_flag.add_argument("--json", action="store_true", help="print the result as one JSON document")
     sub = parser.add_subparsers(dest="command", required=True)
 
@@ -425,7 +426,26 @@ def console_log(verbose: bool) -> logging.Handler | None:
     return handler
 
 
+class _Parser(argparse.ArgumentParser):
+    """Usage errors as every other error: one line on stderr, exit 2, and with `--json`
+    anywhere on the line also one JSON document on stdout (a script reads no usage text)."""
+
+    def error(self, message: str) -> NoReturn:
+        argv = sys.argv[1:] if _Parser.argv is None else _Parser.argv
+        print(f"{self.prog}: {message} (see {self.prog} --help)", file=sys.stderr)
+        if "--json" in argv:
+            emit_json({"command": next((a for a in argv if not a.startswith("-")), None), "error": message})
+        raise SystemExit(EXIT_USER_ERROR)
+
+    argv: list[str] | None = None
+
+
 def main(argv: list[str] | None = None) -> int:
+    # Piped (a log file, `tee`, a CI job) Python buffers stdout by blocks: a long reproduce
+    # would print nothing for minutes. A person reads lines as they come.
+    if hasattr(sys.stdout, "reconfigure"):
+        sys.stdout.reconfigure(line_buffering=True)
+    _Parser.argv = argv
     args = build_parser().parse_args(argv)
     logger = logging.getLogger("squeezebench")
     level = logger.level

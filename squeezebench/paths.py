@@ -41,6 +41,19 @@ def campaign_file(name: str | Path) -> Path:
     return path   # the campaign loader names what is missing
 
 
+def input_file(name: str | Path) -> Path:
+    """A file as given, else a shipped campaign, scene or bench file of that name (with or
+    without `.yaml`): what `validate` accepts, as `run` accepts a shipped campaign's name."""
+    path = Path(name)
+    if path.is_file():
+        return path
+    for folder in (campaigns_dir(), scenes_dir(), benches_dir()):
+        for candidate in (folder / path, folder / f"{path}.yaml"):
+            if candidate.is_file():
+                return candidate
+    return path   # the validator names what is missing
+
+
 def benches_dir() -> Path:
     """Bench file examples to copy and fill in with a lab's VISA addresses."""
     return data_dir() / "benches"

@@ -69,6 +69,11 @@ def test_check_json_is_one_document_naming_each_instrument(capsys):
     assert all(i["answered"] and i["address"] and i["details"] for i in roles.values())
     assert "33120A" in roles["generator"]["identification"] and "3054B" in roles["scope"]["identification"]
     assert report["disagreements"] == [] and report["electronics"]["shunt_ohm"] > 0
+    # settings as typed values, units in the names, for a script to compare
+    assert roles["generator"]["settings"]["frequency_hz"] == 1000.0
+    assert roles["scope"]["settings"]["ch1"]["probe_gain"] == 0.1
+    assert roles["vibrometer"]["settings"]["velocity_range_mps_per_v"] == 1.0
+    assert roles["stage"]["settings"]["x"]["travel_high_mm"] > 0
 
 
 def test_check_without_a_visa_library_exits_2_with_the_cause(capsys):
@@ -172,3 +177,37 @@ def test_version_after_any_subcommand(command, capsys):
     assert done.value.code == 0
     assert capsys.readouterr().out.startswith("squeezebench ")
 
+
+
+def test_validate_accepts_shipped_names_as_run_does(capsys, tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)   # nothing called quick here: the shipped files answer
+    assert cli.main(["validate", "quick", "paper.yaml", "large_plate", "lab_example"]) == 0
+    out = capsys.readouterr().out
+    assert "valid campaign" in out and "valid scene" in out and "valid bench" in out
+    assert cli.main(["validate", "no_such_thing"]) == 2
+
+
+@pytest.mark.parametrize("argv", [["plan", "--json"], ["check", "--json", "--no-such-flag"]])
+def test_usage_errors_with_json_are_one_json_document(argv, capsys):
+    with pytest.raises(SystemExit) as stopped:
+        cli.main(argv)
+    assert stopped.value.code == 2
+    captured = capsys.readouterr()
+    answer = json.loads(captured.out)
+    assert answer["command"] == argv[0] and answer["error"] and "--help" in captured.err
+
+
+def test_piped_output_arrives_line_by_line(tmp_path):
+    """A pipe gets each line when it is printed, not a block at exit: the first line is
+    read while the run is still going."""
+    import subprocess
+
+    process = subprocess.Popen([sys.executable, "-m", "squeezebench", "run", "quick", "--out", str(tmp_path / "run")],
+                               stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
+    try:
+        first = process.stdout.readline()
+        still_running = process.poll() is None
+        process.stdout.read()
+    finally:
+        process.wait(timeout=300)
+    assert first.strip() and still_running and process.returncode == 0
