@@ -93,12 +93,15 @@ def cmd_run(args: argparse.Namespace) -> int:
         plot = LivePlot()
         watchers = {"on_point": plot.on_point, "on_step": plot.on_step}
         if not plot.interactive:
-            print("squeezebench run: warning: --plot draws off-screen: matplotlib found no display "
-                  "(set MPLBACKEND to a GUI backend such as QtAgg or TkAgg)", file=sys.stderr)
+            print("squeezebench run: --plot found no display (matplotlib draws off-screen): the plot is "
+                  "written as RUN_DIR/live_plot.png at the end (set MPLBACKEND to QtAgg or TkAgg for a "
+                  "window)", file=sys.stderr)
     run_dir = run_campaign(paths.campaign_file(args.campaign), resume=args.resume, out_dir=args.out,
                            progress=show_progress(args), accept_changed_bench=args.accept_changed_bench,
                            **watchers)
     say(args, f"run stored in {run_dir}")
+    if args.plot:
+        say(args, f"plot written to {plot.save(Path(run_dir) / 'live_plot.png')}")
     if args.plot and plot.interactive:
         import matplotlib.pyplot as plt
 

@@ -9,11 +9,19 @@ widget`) or is shown once the run ends.
 
 A resonance search records its sweep when it has found the peak, so a sweep appears at
 once, at the end of each search.
+
+Drawing costs more than a simulated point: on a screen the figure is repainted at most
+every `REDRAW_INTERVAL_S` of wall time (a person sees no difference), and off-screen
+(no display: Agg) it is drawn once, when `save` writes it as a PNG at the end.
 """
 
 from __future__ import annotations
 
+import time
+from pathlib import Path
 from typing import Any
+
+REDRAW_INTERVAL_S = 0.5
 
 
 class LivePlot:
@@ -38,6 +46,9 @@ class LivePlot:
         self._sweep_of: tuple[str, str] | None = None
         self.points_seen = 0
         self.steps_seen = 0
+        self.redraws = 0
+        self._drawn_at_s = -float("inf")
+        self._status = ""
 
     def on_point(self, row: dict[str, Any]) -> None:
         self.points_seen += 1
@@ -85,12 +96,27 @@ class LivePlot:
         self._drift.set_data([*times, row["bench_time_s"]], [*frequencies, row["resonance_frequency_hz"]])
 
     def _redraw(self, status: str) -> None:
+        self._status = status
+        now_s = time.monotonic()
+        if not self.interactive or now_s - self._drawn_at_s < REDRAW_INTERVAL_S:
+            return
+        self._drawn_at_s = now_s
+        self._draw()
+        self.figure.canvas.flush_events()   # an interactive window repaints now
+
+    def _draw(self) -> None:
         for ax in (self.sweep_ax, self.points_ax, self.drift_ax):
             ax.relim()
             ax.autoscale_view()
-        self.figure.suptitle(status, fontsize="medium")
+        self.figure.suptitle(self._status, fontsize="medium")
         self.figure.canvas.draw_idle()
-        self.figure.canvas.flush_events()   # an interactive window repaints now
+        self.redraws += 1
+
+    def save(self, path: Path | str) -> Path:
+        """The figure as it stands (every point seen so far) written as a PNG."""
+        self._draw()
+        self.figure.savefig(path, dpi=100)
+        return Path(path)
 
     @property
     def interactive(self) -> bool:
