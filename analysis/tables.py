@@ -4,8 +4,9 @@ Every number comes from the stored waveforms reduced by `analysis.waveforms` (th
 scope's on-line numbers are shown beside them as a cross-check) and is set side by side
 with the paper's printed value (data/paper/) and the relative difference.
 
-Tables are tidy: one row per (item, quantity). A value that could not be obtained is
-never NaN in a finished table: `finish_table` writes "not measured" / "not reachable".
+Tables are tidy: one row per (item, quantity). A finished table (`finish_table`) keeps
+one dtype per column: a value that could not be obtained is NaN, with the row's `status`
+("not measured" / "not reachable") saying why.
 """
 
 from __future__ import annotations
@@ -546,29 +547,20 @@ def estimated_large_plate_power_w(plates: dict[str, PlateCharacterisation],
 def finish_table(frame: pd.DataFrame, value_columns=("value", "std_uncertainty", "expanded_uncertainty",
                                                      "scope_value", "paper_value", "relative_difference",
                                                      "tolerance")) -> pd.DataFrame:
-    """Replace every non-finite number by words, so no NaN/inf is shown or written:
-    a missing printed value is 'not printed', a missing scope number 'not recorded',
-    anything else takes the row's status ('not measured', 'not reachable')."""
-    out = frame.astype(object)
+    """The table as written and read back: one dtype per column whatever the run holds.
+    Number columns are floats, a missing number NaN (an empty CSV cell) with the row's
+    `status` saying why ('not measured', 'not reachable'); `agrees` is a nullable boolean,
+    empty where nothing was compared; a missing printed value has `paper_source` 'not
+    printed'. Words never stand in a number column, so `pd.read_csv` gives floats back."""
+    out = frame.copy()
     if "agrees" in out:   # compared only where both numbers exist
-        out["agrees"] = out["agrees"].map(lambda a: "not compared" if a is None or pd.isna(a) else bool(a))
+        out["agrees"] = out["agrees"].map(lambda a: pd.NA if a is None or pd.isna(a) else bool(a)).astype("boolean")
     if "paper_source" in out:
-        out["paper_source"] = out["paper_source"].where(out["paper_source"] != "", "not printed")
-    for column in (c for c in value_columns if c in frame):
-        for index, number in frame[column].items():
-            if isinstance(number, (int, float, np.integer, np.floating)) and math.isfinite(number):
-                continue
-            row = frame.loc[index]
-            status = row.get("status", NOT_MEASURED)
-            paper_missing = "paper_value" in row and not _finite(row["paper_value"])
-            out.at[index, column] = ("not printed" if column == "paper_value" or (
-                column in ("relative_difference", "tolerance") and paper_missing)
-                else "not recorded" if column == "scope_value" and status == "measured" else status)
+        out["paper_source"] = out["paper_source"].where(out["paper_source"].fillna("") != "", "not printed")
+    for column in (c for c in value_columns if c in out):
+        out[column] = pd.to_numeric(out[column], errors="coerce").astype(float)
+        out.loc[~np.isfinite(out[column]), column] = np.nan   # inf is as missing as NaN
     return out
-
-
-def _finite(value) -> bool:
-    return isinstance(value, (int, float, np.integer, np.floating)) and math.isfinite(value)
 
 
 # --- Fig. 2 and the resonance sweeps -----------------------------------------------------

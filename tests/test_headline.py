@@ -38,9 +38,10 @@ def test_inputs_and_what_is_derived_from_them_are_round_trips_when_they_come_bac
 
 
 def test_a_table_the_run_does_not_hold_counts_nothing():
-    """The report writes Tables 3-5 with the printed values and "not compared" in `agrees`
-    when the run has no such campaign (a map alone): nothing there agrees."""
-    absent = {"table3": _table([("table3", 75, "power_w", 0.027, "not measured", "not compared", None, None)])}
+    """The report writes Tables 3-5 with the printed values and nothing compared (`agrees`
+    empty) when the run has no such campaign (a map alone): nothing there agrees."""
+    absent = {"table3": _table([("table3", 75, "power_w", 0.027, float("nan"), pd.NA, None, None)])}
+    absent["table3"]["agrees"] = absent["table3"]["agrees"].astype("boolean")
     assert verdicts(absent).empty
     assert not any("compared values" in line for line in headline("simulated", 10, 1, absent))
 
