@@ -16,7 +16,7 @@ from collections.abc import Mapping
 import numpy as np
 import pandas as pd
 
-from squeezebench.analysis.presentation import with_uncertainty
+from squeezebench.analysis.presentation import header, with_uncertainty
 
 #: The paper's tables a headline counts, in the order it names them.
 PAPER_TABLES = {"table3": "Table 3", "table4": "Table 4", "table5": "Table 5"}
@@ -60,7 +60,7 @@ def headline(bench_kind: str, n_points: int, n_runs: int, tables: Mapping[str, p
         worst = cells[cells["verdict"] == "disagrees"]
         if not worst.empty:
             row = worst.loc[worst["relative_difference"].abs().idxmax()]
-            said[1] += f" (largest: {row['table']} {row['item']} {row['quantity']}, " \
+            said[1] += f" (largest: {row['table']} {row['item']} {header(row['quantity'])}, " \
                        f"{100 * row['relative_difference']:+.0f} %)"
         lines.append(f"Against the paper, of {len(cells)} compared values in Tables 3-5: " + "; ".join(said) + ".")
     predicted = tables.get("predicted")

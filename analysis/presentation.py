@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import html
 import math
+import re
 from dataclasses import dataclass
 
 import pandas as pd
@@ -146,8 +147,9 @@ def calibration_notes(frame: pd.DataFrame, item_label=str) -> str:
                     by_state[state].append(value)
         text = "; ".join(f"{state}: {', '.join(values)}" for state, values in by_state.items())
         lines.append(f"<li>{html.escape(item_label(str(item)))}: {html.escape(text)}</li>")
-    return ("<div class='notes'>Shaded cells return a printed value: the simulated scene was calibrated "
-            f"on it or on the values it is computed from.<ul>{''.join(lines)}</ul></div>")
+    return ("<div class='notes'>" + fold("Shaded cells return a printed value: the simulated scene was "
+                                         "calibrated on it or on the values it is computed from (which, per column)",
+                                         f"<ul>{''.join(lines)}</ul>") + "</div>")
 
 
 def with_uncertainty(value: float, u: float, digits: int = 2) -> str:
@@ -163,3 +165,41 @@ def percent(fraction: float) -> str:
     value = 100 * fraction
     text = f"{value:+.1f}" if abs(value) >= 1 or value == 0 else f"{value:+.2g}"
     return f"{text} %".replace("-", "−")
+
+
+def fold(summary: str, inner_html: str) -> str:
+    """Detail one click away: `summary` (plain text) shows, `inner_html` opens beneath it."""
+    return f"<details><summary>{html.escape(summary)}</summary>{inner_html}</details>"
+
+
+#: Unit suffixes of squeezebench's column names, longest first, and how a person reads them.
+_UNIT_SUFFIXES = (("_pp_mps", "m/s pp"), ("_mps_per_v", "m/s per V"), ("_w_per_um2", "W per µm pp²"),
+                  ("_rel", "relative"),
+                  ("_mps", "m/s"), ("_vpp", "V pp"), ("_hz", "Hz"), ("_var", "var"), ("_nf", "nF"),
+                  ("_mm", "mm"), ("_rad", "rad"), ("_w", "W"), ("_m", "m"), ("_s", "s"), ("_g", "g"),
+                  ("_v", "V"), ("_a", "A"))
+
+
+def label(name: str) -> str:
+    """A column's code name as a table header a person reads: words, and the unit its
+    suffix carries in parentheses (`power_w_U` -> "power U, k = 2 (W)"). A header that is
+    already words (spaces, symbols) is kept."""
+    if not re.fullmatch(r"[a-z0-9_]+(_U|_u)?", name):
+        return name
+    text, spread = name, ""
+    if text.endswith("_dominant"):
+        return label(text[:-len("_dominant")]).split(" (")[0] + ": dominant term"
+    if text.endswith("_U"):
+        text, spread = text[:-2], " U, k = 2"
+    elif text.endswith("_u"):
+        text, spread = text[:-2], " u"
+    if text.startswith("n_") and len(text) > 2:
+        text = "number of " + text[2:]
+    for suffix, unit in _UNIT_SUFFIXES:
+        if text.endswith(suffix) and len(text) > len(suffix):
+            return _words(text[:-len(suffix)]) + f"{spread} ({unit})"
+    return _words(text) + spread
+
+
+def _words(text: str) -> str:
+    return text.replace("_", " ").replace("tan theta", "tan θ′")

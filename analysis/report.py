@@ -63,8 +63,8 @@ class ReportContext:
         """A numbered, captioned figure (caption: what is drawn, from which runs, what the
         paper shows)."""
         self.figure_count += 1
-        return (f"<figure id='figure-{self.figure_count}'><img src='{html.escape(path.name)}' "
-                f"alt='{html.escape(path.stem)}'><figcaption><b>Report figure {self.figure_count}.</b> "
+        return (f"<figure id='figure-{self.figure_count}'><a href='{html.escape(path.name)}'>"
+                f"<img src='{html.escape(path.name)}' alt='{html.escape(path.stem)}'></a><figcaption><b>Report figure {self.figure_count}.</b> "
                 f"{caption}</figcaption></figure>")
 
 
@@ -73,6 +73,7 @@ class Section:
     title: str
     body_html: str
     anchor: str = ""
+    appendix: bool = False   # reference material: after every result, titled "Appendix: ..."
 
 
 SectionBuilder = Callable[[ReportContext], "Section | None"]
@@ -143,8 +144,8 @@ def summary_section(context: ReportContext) -> Section:
               else sorted({b.get("bench_input", "") for b in benches.values()} - {""}))
     if kind == "simulated":
         lead = ("<p class='banner'><b>Dry run on the simulated bench.</b> No plate was measured: the "
-                "instruments answered from the physics of the scenes " + html.escape(", ".join(inputs)) +
-                ". A cell whose scene was calibrated on the printed value it is compared with is "
+                f"instruments answered from the physics of {len(inputs)} scene{'s' if len(inputs) != 1 else ''} "
+                "(<a href='#provenance'>listed in the appendix</a>). A cell whose scene was calibrated on the printed value it is compared with is "
                 "shaded and labelled <i>calibration input</i>: it shows that the chain from instrument "
                 "to table returns what went in, not that the paper is confirmed.</p>")
     elif kind == "real":
@@ -159,22 +160,47 @@ def summary_section(context: ReportContext) -> Section:
         kind, len(measurements), measurements["run_name"].nunique() if not measurements.empty else 0,
         context.tables)
     body = "<p class='headline'>" + "<br>".join(map(html.escape, context.cache["headline"])) + "</p>" + lead
+    body += _verdict_table(context)
     if not measurements.empty:
         plates = sorted(measurements["plate"].dropna().unique())
         protocols = measurements.groupby("protocol")["run_name"].nunique()
-        body += ("<p>The run holds " + f"{len(measurements)} stored points from "
-                 f"{measurements['run_name'].nunique()} campaign runs ("
-                 + html.escape(", ".join(f"{p}: {n}" for p, n in protocols.items()))
-                 + f") on {len(plates)} plates: " + html.escape(", ".join(plates)) + ".</p>")
-    if context.flagged:
-        body += ("<p><b>Results outside the paper's tolerance</b> (this run's expanded uncertainty plus "
-                 "half the printed last digit):</p><ul class='flagged'>"
-                 + "".join(f"<li><a href='#{html.escape(where_anchor)}'>{html.escape(where)}</a>: {sentence}</li>"
-                           for where, sentence, where_anchor in context.flagged) + "</ul>")
+        body += presentation.fold(
+            f"What ran: {measurements['run_name'].nunique()} campaign runs on {len(plates)} plates",
+            "<p>" + f"{len(measurements)} stored points from {measurements['run_name'].nunique()} campaign runs ("
+            + html.escape(", ".join(f"{p}: {n}" for p, n in protocols.items()))
+            + f") on {len(plates)} plates: " + html.escape(", ".join(plates)) + ".</p>")
     if context.absent:
         body += ("<p>Not in this run (sections left out):</p><ul>"
                  + "".join(f"<li>{html.escape(a)}</li>" for a in context.absent) + "</ul>")
     return Section("Summary", body, "summary")
+
+
+def _verdict_table(context: ReportContext) -> str:
+    """Per paper table (and Fig. 9): how many compared values agree, come back as round
+    trips of what the run was given, or disagree, and why each disagreement, linked."""
+    cells = headline.verdicts(context.tables)
+    rows = []
+    for title, anchor in (("Table 3", "table3"), ("Table 4", "table4"), ("Table 5", "table5")):
+        mine = cells[cells["table"] == title]
+        if mine.empty:
+            continue
+        counts = mine["verdict"].value_counts()
+        why = [sentence for where, sentence, _ in context.flagged if where.startswith(title)]
+        rows.append((f"<a href='#{anchor}'>{title}</a>", str(counts.get("agrees", 0)),
+                     str(counts.get("round trip", 0)), str(counts.get("disagrees", 0)),
+                     "<br>".join(why) or "–"))
+    fig9 = [sentence for where, sentence, _ in context.flagged if where == "Fig. 9"]
+    if "table5" in context.tables and not context.tables["table5"]["value"].isna().all():
+        rows.append(("<a href='#table5'>Fig. 9</a>", "0" if fig9 else "1", "0", "1" if fig9 else "0",
+                     "<br>".join(fig9) or "–"))
+    if not rows:
+        return ""
+    head = "".join(f"<th>{h}</th>" for h in ("", "agree", "round trip", "disagree", "why it disagrees"))
+    body = "".join("<tr>" + "".join(f"<td>{cell}</td>" for cell in row) + "</tr>" for row in rows)
+    return ("<table class='verdicts'><caption>Against the paper: a round trip is a printed value the run "
+            "was given or calibrated on coming back (it shows the chain, not the paper); a disagreement is "
+            "outside this run's expanded uncertainty plus half the printed last digit. "
+            f"{_bench_words(context)}</caption><thead><tr>{head}</tr></thead><tbody>{body}</tbody></table>")
 
 
 def _explanation(context: ReportContext, table: str, item: str, quantity: str,
@@ -324,14 +350,16 @@ def characterisation_section(context: ReportContext) -> Section | None:
             "voltage pp (Eq. 27), tan θ′ from the slope of power against voltage pp squared (Eq. 25) "
             "divided by Q. Both lines are fitted with an intercept, which a plate obeying the model "
             "leaves at zero within its uncertainty; χ²/dof near 1 says the points scatter as their "
-            "uncertainties state.</p>" + _plates_table(context, plates))
+            "uncertainties state.</p>"
+            + presentation.fold(f"Q, tan θ′ and both fits of each of the {len(plates)} plates, as numbers",
+                                _plates_table(context, plates)))
     runs = ", ".join(sorted(context.run.protocol("characterisation")["run_name"].unique()))
-    body += context.figure(
+    body += presentation.fold("The voltage sweeps of every plate, their fitted lines and residuals", context.figure(
         figures.plate_fits(plates, context.out_dir / "plate_fits.png"),
         f"Voltage sweeps of every characterised plate (campaign runs {html.escape(runs)}): amplitude pp "
         "against voltage pp (Eq. 27, top of each pair) and power against voltage pp squared (Eq. 25, "
         "bottom), with the fitted lines; the small panels show the residuals in units of each point's "
-        "standard uncertainty. " + _bench_words(context))
+        "standard uncertainty. " + _bench_words(context)))
     body += context.figure(
         figures.fig5_q_tan(plates, context.out_dir / "fig5.png"),
         "Fig. 5 of the paper recomputed: Q and tan θ′ per plate with expanded uncertainties (k = 2). "
@@ -390,15 +418,14 @@ def table5_section(context: ReportContext) -> Section | None:
         context, "table5", title, table5, lambda item: f"{item} ({'Eq. 29 from small_plate_4' if item == 'estimated' else 'large_plate'})",
         "Estimated: Q of small_plate_4 carried to the large plate by Eq. 29, tan θ′ the mean of "
         "the small plates as thick as the large one. Measured: the large plate's own voltage sweep.")
-    body += "<h3>Table 5 under each reading of Table 2's E_i</h3>" + html_table(
-        _table5_by_materials(context), "Table 5 recomputed from the same fits under both readings of E_i "
-        "(only a of Eqs. 25/27 changes). " + _bench_words(context))
     large = plates[tables.LARGE_PLATE]
-    body += context.figure(
+    body += presentation.fold("Table 5 under each reading of Table 2's E_i, and Fig. 8", html_table(
+        _table5_by_materials(context), "Table 5 recomputed from the same fits under both readings of E_i "
+        "(only a of Eqs. 25/27 changes). " + _bench_words(context)) + context.figure(
         figures.fig8_amplitude(large, context.out_dir / "fig8.png"),
         "Fig. 8 recomputed: amplitude pp of the large plate against voltage pp, with the fitted line "
         f"(intercept kept) and residuals. The paper reports about {paper_value('large_plate', 'large_plate', 'amplitude_m') * 1e6:g} µm "
-        f"at {paper_value('large_plate', 'large_plate', 'voltage_vpp'):g} Vpp (★). " + _bench_words(context))
+        f"at {paper_value('large_plate', 'large_plate', 'voltage_vpp'):g} Vpp (★). " + _bench_words(context)))
     power = tables.estimated_large_plate_power_w(plates, context.convention)
     error = float(np.mean(np.abs(power["power_estimated_w"] / power["power_measured_w"] - 1.0)))
     body += context.figure(
@@ -460,7 +487,7 @@ def detuning_section(context: ReportContext) -> Section | None:
             f"line per velocity level, one panel per campaign run ({html.escape(runs)}). The paper's "
             "Fig. 2c stress point, 100 mW at resonance rising to 120 mW once v0 is regained at 37560 Hz "
             "(Pt/P0 = 1.2), is drawn as ★ at the printed voltage ratio 37.6/240. " + _bench_words(context))
-    body += _detuning_grid(summary, _bench_words(context))
+    body += presentation.fold("Fig. 2 as numbers: Pt/P0 of every series", _detuning_grid(summary, _bench_words(context)))
     body += "<p class='csv'>Machine-readable: <a href='fig2.csv'>fig2.csv</a>.</p>"
     return Section("Fig. 2: frequency detuning (Sec. 2.2)", body, "fig2")
 
@@ -497,12 +524,13 @@ def resonance_section(context: ReportContext) -> Section | None:
     if rows.empty or "sweep" not in rows:
         return None
     sweeps = tables.resonance_sweeps(context.run)
-    body = context.figure(
+    n_searches = sweeps.groupby(["run_name", "step_id"]).ngroups if not sweeps.empty else 0
+    body = presentation.fold(f"The frequency sweeps of the {n_searches} resonance searches", context.figure(
         figures.resonance_curves(sweeps, context.out_dir / "resonance.png"),
         "Velocity pp against frequency during every resonance search, one panel per plate; each line "
         "is one search (campaign run / step, in the legend), before the golden-section refinement. "
         "The paper shows no such curve; it reports the resonance frequencies found (Tables 3, 4). "
-        + _bench_words(context))
+        + _bench_words(context)))
     return Section("Resonance searches (Sec. 2.1, 5.3)", body, "resonance")
 
 
@@ -515,9 +543,9 @@ def audit_section(context: ReportContext) -> Section:
     for topic, group in findings.groupby("topic", sort=False):
         compared = group[group["printed"].notna()]
         worst = compared.loc[compared["relative_difference"].abs().idxmax()] if len(compared) else group.iloc[0]
-        numbers = (f" (worst: {html.escape(worst['quantity'])}, computed {worst['computed']:.4g} vs printed "
-                   f"{worst['printed']:.4g}, {100 * worst['relative_difference']:+.1f} %)"
-                   if pd.notna(worst["printed"]) else f" ({html.escape(worst['quantity'])} = {worst['computed']:.4g})")
+        numbers = (f" (worst: {html.escape(worst['quantity'])}, computed {_format(worst['computed'])} vs printed "
+                   f"{_format(worst['printed'])}, {100 * worst['relative_difference']:+.1f} %)"
+                   if pd.notna(worst["printed"]) else f" ({html.escape(worst['quantity'])} = {_format(worst['computed'])})")
         conclusions.append(f"<li><a href='#audit-{_slug(topic)}'><b>{html.escape(topic)}</b></a>: "
                            f"{html.escape(str(worst['comment']))}{numbers}.</li>")
     explained = [f"{html.escape(where)}, {why}" for where, why, _ in context.flagged if "</a>." in why]
@@ -528,17 +556,19 @@ def audit_section(context: ReportContext) -> Section:
     body += ("<p>What the paper's printed numbers and equations say about each other, computed from "
              "its printed values alone (data/paper/), independently of any run. Conclusions, one per "
              "finding (its largest difference from a printed value):</p>"
-             f"<ul class='conclusions'>{''.join(conclusions)}</ul>"
-            "<h3>The findings</h3><p>Relative difference = (computed − printed) / |printed|.</p>"
-            + _findings_table(findings))
-    body += ("<h3>Which reading reproduces which published number</h3>"
-             f"<p>{len(grid)} readings: {html.escape('; '.join(f'{k} in {v}' for k, v in audit.GRID_AXES.items()))}. "
-             f"A number is reproduced within {audit.MATCH_REL:.0%}. Full grid: "
-             "<a href='conventions_grid.csv'>conventions_grid.csv</a>.</p>"
-             + html_table(audit.grid_summary(grid), "Readings that reproduce each published number.")
-             + "<p>The ten best readings overall (RMS of log10 ratios):</p>"
-             + html_table(_best_readings(grid), "The ten best readings: computed / printed for each "
-                           "published number (1 = reproduced)."))
+             f"<ul class='conclusions'>{''.join(conclusions)}</ul>")
+    body += presentation.fold(
+        "Every finding, and which reading of the paper reproduces which published number",
+        "<h3>The findings</h3><p>Relative difference = (computed − printed) / |printed|.</p>"
+        + _findings_table(findings)
+        + "<h3>Which reading reproduces which published number</h3>"
+        f"<p>{len(grid)} readings: {html.escape('; '.join(f'{k} in {v}' for k, v in audit.GRID_AXES.items()))}. "
+        f"A number is reproduced within {audit.MATCH_REL:.0%}. Full grid: "
+        "<a href='conventions_grid.csv'>conventions_grid.csv</a>.</p>"
+        + html_table(audit.grid_summary(grid), "Readings that reproduce each published number.")
+        + "<p>The ten best readings overall (RMS of log10 ratios):</p>"
+        + html_table(_best_readings(grid), "The ten best readings: computed / printed for each "
+                     "published number (1 = reproduced)."))
     return Section("Audit of the paper", body, "audit")
 
 
@@ -559,10 +589,10 @@ def _findings_table(findings: pd.DataFrame) -> str:
     for row in findings.itertuples(index=False):
         anchor = "" if row.topic in seen else f" id='audit-{_slug(row.topic)}'"
         seen.add(row.topic)
-        printed = f"{row.printed:.4g}" if pd.notna(row.printed) else "–"
+        printed = _format(row.printed) if pd.notna(row.printed) else "–"
         rel = f"{100 * row.relative_difference:+.1f}" if pd.notna(row.relative_difference) else "–"
         rows.append(f"<tr{anchor}>" + "".join(f"<td>{html.escape(str(c))}</td>" for c in (
-            row.topic, row.quantity, f"{row.computed:.4g}", printed, rel, row.source, row.comment)) + "</tr>")
+            row.topic, row.quantity, _format(row.computed), printed, rel, row.source, row.comment)) + "</tr>")
     head = "".join(f"<th>{h}</th>" for h in ("topic", "quantity", "computed", "printed", "difference (%)",
                                               "source", "comment"))
     return (f"<table class='audit'><caption>The audit's findings (printed values only; no run).</caption>"
@@ -590,26 +620,29 @@ def study_section(context: ReportContext) -> Section | None:
     if not noise.empty:
         fronts = study.fronts_table(noise)
         fronts.to_csv(context.out_dir / "study_fronts.csv", index=False)
-        body += (context.figure(figures.study_fronts(noise, context.out_dir / "study_fronts.png"),
-                                "Error against bench time per trial on an ideal bench (noise, settling, "
-                                "search and heating only), one panel per quantity: every configuration as a "
-                                "dot, each experiment's Pareto front as a line. Simulated bench; the paper "
-                                "has no such study.")
-                 + "<h3>Settings on each Pareto front (cheapest first)</h3>"
-                 + html_table(fronts, "Settings on each Pareto front. Simulated bench."))
+        body += presentation.fold(
+            "Error against bench time on an ideal bench, and the settings on each Pareto front",
+            context.figure(figures.study_fronts(noise, context.out_dir / "study_fronts.png"),
+                           "Error against bench time per trial on an ideal bench (noise, settling, "
+                           "search and heating only), one panel per quantity: every configuration as a "
+                           "dot, each experiment's Pareto front as a line. Simulated bench; the paper "
+                           "has no such study.")
+            + "<h3>Settings on each Pareto front (cheapest first)</h3>"
+            + html_table(fronts, "Settings on each Pareto front. Simulated bench."))
     if not systematics.empty:
         body += _systematics_part(context, systematics)
     heating = study.heating_table(summary)
     if not heating.empty:
-        body += ("<h3>Heating drift: longer averaging at a fixed frequency, and tracking</h3>"
-                 "<p>The plate warms while it is measured and its resonance falls; a point held at the "
-                 "frequency found cold loses power as the averaging (and so the series) lasts longer. "
-                 "Re-centring on the resonance before each point removes that error at the cost of "
-                 "the tracking's bench time.</p>"
-                 + context.figure(figures.heating_drift(heating, context.out_dir / "study_heating.png"),
-                                  "Power error against scope averaging on a heating plate, at the "
-                                  "frequency found cold and with the resonance tracked. Simulated bench.")
-                 + html_table(heating, "Heating drift. Simulated bench."))
+        body += presentation.fold(
+            "Heating drift: longer averaging at a fixed frequency, and tracking",
+            "<p>The plate warms while it is measured and its resonance falls; a point held at the "
+            "frequency found cold loses power as the averaging (and so the series) lasts longer. "
+            "Re-centring on the resonance before each point removes that error at the cost of "
+            "the tracking's bench time.</p>"
+            + context.figure(figures.heating_drift(heating, context.out_dir / "study_heating.png"),
+                             "Power error against scope averaging on a heating plate, at the "
+                             "frequency found cold and with the resonance tracked. Simulated bench.")
+            + html_table(heating, "Heating drift. Simulated bench."))
     return Section("Accuracy vs bench time", body, "study")
 
 
@@ -622,7 +655,7 @@ def _systematics_part(context: ReportContext, summary: pd.DataFrame) -> str:
         context.absent.append("The whole paper campaign on erring benches, per averaging: not run ('squeezebench "
                               "study --out RUN_DIR --resume' adds it, a few minutes)")
     words = "; ".join(
-        f"{row.quantity} {100 * row.floor_p95_rel:.2g} % ({row.point}, from {_format(row.bench_time_s)} s per trial)"
+        f"{_words_of(row.quantity)} {100 * row.floor_p95_rel:.2g} % ({row.point}, from {_format(row.bench_time_s)} s per trial)"
         f"{_calibrated_words(row)}" for row in floors.itertuples())
     return ("<h3>Floors on benches whose instruments err within specification</h3>"
             f"<p>Each trial is another simulated bench: scope gains, current-probe gain and delay, "
@@ -632,7 +665,8 @@ def _systematics_part(context: ReportContext, summary: pd.DataFrame) -> str:
             "search cannot resolve on the flat top of the peak, are all that is left. Floor (lowest p95 "
             "|relative error| over the benches at any setting), and the bench time per trial of the cheapest "
             f"setting within {study.AT_FLOOR - 1:.0%} of it: {html.escape(words)}.</p>"
-            + context.figure(figures.systematics_fronts(summary, context.out_dir / "study_systematics.png"),
+            + presentation.fold("The floors drawn against bench time, and as a table", context.figure(
+                figures.systematics_fronts(summary, context.out_dir / "study_systematics.png"),
                              "Total error against bench time per trial over simulated benches erring "
                              "within specification, one panel per quantity: each point's series (averaging; "
                              "the search's tolerance) as the bench is (solid) and after the deskew "
@@ -644,7 +678,7 @@ def _systematics_part(context: ReportContext, summary: pd.DataFrame) -> str:
                              "Simulated bench.")
             + html_table(floors, "Floor per point and quantity, as the bench is and after the deskew "
                                  "calibration, with the averaging and bench time per trial of the cheapest "
-                                 f"setting within {study.AT_FLOOR - 1:.0%} of it (study_floors.csv). Simulated bench."))
+                                 f"setting within {study.AT_FLOOR - 1:.0%} of it (study_floors.csv). Simulated bench.")))
 
 
 def _coverage_part(context: ReportContext) -> str:
@@ -658,7 +692,7 @@ def _coverage_part(context: ReportContext) -> str:
     table = study.coverage_table(points)
     context.tables["study_coverage"] = table
     campaign = str(points["campaign"].iat[0]) if "campaign" in points else "the campaign"
-    words = "; ".join(f"{row.quantity}: {row.covered_fraction:.1%} of {row.points} points, "
+    words = "; ".join(f"{_words_of(row.quantity)}: {row.covered_fraction:.1%} of {row.points} points, "
                       f"{row.benches_mostly_covered} of {row.benches} benches mostly covered "
                       f"(95 % interval {row.benches_interval_low:.0%} to {row.benches_interval_high:.0%})"
                       for row in table.itertuples())
@@ -669,8 +703,14 @@ def _coverage_part(context: ReportContext) -> str:
             f"setting: {html.escape(words)}. A bench's errors are shared by all its points, so a bench "
             "is covered almost wholly or hardly at all; the fraction of points covered is close to "
             "the fraction of benches, and a handful of benches decides it.</p>"
-            + html_table(table, "Coverage of the expanded uncertainties (k = 2) over simulated benches "
-                                "(study_coverage.csv). Simulated bench."))
+            + presentation.fold("Coverage per quantity, as a table", html_table(
+                table, "Coverage of the expanded uncertainties (k = 2) over simulated benches "
+                       "(study_coverage.csv). Simulated bench.")))
+
+
+def _words_of(quantity: str) -> str:
+    """A quantity's code name as words, without its unit (`power_w` -> "power")."""
+    return presentation.label(quantity).split(" (")[0]
 
 
 def _calibrated_words(row) -> str:
@@ -705,8 +745,8 @@ def conventions_section(context: ReportContext) -> Section:
         f"neutral plane z0 at the {c.neutral_plane.replace('_', ' ')}; Eq. 28 "
         f"{'with' if c.eq28_with_pi else 'without'} its factor pi; Eq. 29 "
         f"{'as printed (b_large/b_small)' if c.eq29_as_printed else 'with b_small/b_large, as the text describes'}.",
-        f"Materials: E_i = {m.resonator_young_pa:.6g} Pa, nu_i = {m.resonator_poisson}, c11 = {m.piezo_c11_pa:.3g} Pa, "
-        f"nu_p = {m.piezo_poisson}, d31 = {m.piezo_d31_c_per_n:.3g} C/N.",
+        f"Materials: E_i = {np.format_float_positional(m.resonator_young_pa, trim='-')} Pa, nu_i = {m.resonator_poisson}, "
+        f"c11 = {_format(m.piezo_c11_pa / 1e9)} GPa, nu_p = {m.piezo_poisson}, d31 = {_format(m.piezo_d31_c_per_n * 1e12)} pC/N.",
         "n_c = powered piezos of the plate (measurement column n_powered_piezos); b_p, h_i, h_p and "
         "lambda/2 from the plate's scene copy in inputs/; lambda = 2 (lambda/2).",
         "Power: mean of v i over the largest integer number of periods after DC removal (the paper's "
@@ -726,11 +766,11 @@ def conventions_section(context: ReportContext) -> Section:
         "other values), campaign setting (typed into the campaign).",
     ]
     return Section("Conventions used", "<ul>" + "".join(f"<li>{html.escape(i)}</li>" for i in items) + "</ul>",
-                   "conventions")
+                   "conventions", appendix=True)
 
 
 def provenance_section(context: ReportContext) -> Section:
-    """Appendix: provenance"""
+    """Provenance"""
     run = context.run
     manifest = run.manifest
     rows = [("run directory", run.run_dir.name),
@@ -757,7 +797,7 @@ def provenance_section(context: ReportContext) -> Section:
             + "".join(f"<tr><th>{html.escape(k)}</th><td>{html.escape(v)}</td></tr>" for k, v in rows)
             + "</table><p>Column dictionary of the measurements and CSVs: "
               "<a href='columns.csv'>columns.csv</a> (name, unit, meaning).</p>")
-    return Section("Appendix: provenance", body, "provenance")
+    return Section("Provenance", body, "provenance", appendix=True)
 
 
 def uncertainty_section(context: ReportContext) -> Section | None:
@@ -794,24 +834,29 @@ def uncertainty_section(context: ReportContext) -> Section | None:
               f"<p>Power corrected by the deskew calibration: CH2 delay {found.deskew.delay_s * 1e9:.2f} ns "
               f"(u = {found.deskew.std_uncertainty_s * 1e9:.2f} ns), current-to-voltage gain ratio "
               f"{found.deskew.gain_ratio:.4f} (u = {found.deskew.gain_ratio_u:.4f}).</p>")
+    detail = (html_table(found.budgets[[c for c in ("protocol", "quantity", "term", "type", "relative", "share",
+                                                    "source") if c in found.budgets]],
+                         "The whole budget of one point of each protocol (relative: the term's standard "
+                         "uncertainty over the value; the point: uncertainty_budgets.csv). " + _bench_words(context))
+              + "<p>Resonance frequencies found by the searches (the generator's setting there), "
+                "expanded (k = 2):</p>" + html_table(found.searches, "Resonance frequencies found, expanded (k = 2). " + _bench_words(context))
+              + "<p>Q and tan(theta') per plate with the geometry and material tolerances "
+                "(expanded, k = 2; floor: p95 relative error with the fits' noise gone):</p>"
+              + html_table(context.tables["uncertainty_q_tan_theta"], "Q and tan θ′ with tolerances. " + _bench_words(context))
+              + "<p>Floor per run: the p95 relative error of power and velocity the instruments' "
+                "specified errors leave at the run's worst point, whatever the averaging:</p>"
+              + html_table(context.tables["uncertainty_floors"], "Floor per run. " + _bench_words(context)))
+    overall = "; ".join(
+        f"{_words_of(q)} {100 * float((found.points[f'{q}_U'] / found.points[q].abs()).median()):.2g} % "
+        f"(mostly {found.points[f'{q}_dominant'].mode().iat[0]})" for q in quantities if f"{q}_U" in found.points)
     return Section("Uncertainty budgets (GUM, k = 2)",
                    "<p>Expanded uncertainties (k = 2) of every stored point: noise of the record (Type A) "
-                   "and the instruments' specifications (Type B). Median relative U and the most frequent "
-                   "dominant term per protocol; then the whole budget of one point of each protocol.</p>"
-                   + deskew + html_table(summary, "Median relative U and dominant term per protocol. " + _bench_words(context))
-                   + html_table(found.budgets[[c for c in ("protocol", "quantity", "term", "type", "relative", "share",
-                                                     "source") if c in found.budgets]],
-                                "The whole budget of one point of each protocol (relative: the term's "
-                                "standard uncertainty over the value; the point: uncertainty_budgets.csv). "
-                                + _bench_words(context))
-                   + "<p>Resonance frequencies found by the searches (the generator's setting there), "
-                     "expanded (k = 2):</p>" + html_table(found.searches, "Resonance frequencies found, expanded (k = 2). " + _bench_words(context))
-                   + "<p>Q and tan(theta') per plate with the geometry and material tolerances "
-                     "(expanded, k = 2; floor: p95 relative error with the fits' noise gone):</p>"
-                   + html_table(context.tables["uncertainty_q_tan_theta"], "Q and tan θ′ with tolerances. " + _bench_words(context))
-                   + "<p>Floor per run: the p95 relative error of power and velocity the instruments' "
-                     "specified errors leave at the run's worst point, whatever the averaging:</p>"
-                   + html_table(context.tables["uncertainty_floors"], "Floor per run. " + _bench_words(context))
+                   f"and the instruments' specifications (Type B). Median relative U over the run: {html.escape(overall)}.</p>"
+                   + deskew
+                   + presentation.fold("Median relative U and dominant term per protocol",
+                                       html_table(summary, "Median relative U and dominant term per protocol. " + _bench_words(context)))
+                   + presentation.fold("Every term of one point's budget per protocol, the resonance frequencies, "
+                                       "Q and tan θ′ with their tolerances, and the floor per run", detail)
                    + "<p>CSV: <a href='uncertainty_points.csv'>uncertainty_points.csv</a>, "
                      "<a href='uncertainty_budgets.csv'>uncertainty_budgets.csv</a></p>")
 
@@ -827,8 +872,9 @@ def readings_section(context: ReportContext) -> Section | None:
             "tan theta' from Eq. 25 under the text's own reading ('paper') and under the one reading "
             "that reproduces the paper's published numbers at once ('inferred', analysis.readings). "
             "CSV: <a href='plates_by_reading.csv'>plates_by_reading.csv</a></p>"
-            + "".join(f"<p>{html.escape(words)}</p>" for words in readings.search_words())
-            + html_table(plates, f"Q and tan θ′ of every plate under each reading. {_bench_words(context)}"))
+            + presentation.fold("How the readings were searched, and Q and tan θ′ of every plate under each",
+                                "".join(f"<p>{html.escape(words)}</p>" for words in readings.search_words())
+                                + html_table(plates, f"Q and tan θ′ of every plate under each reading. {_bench_words(context)}")))
     try:
         table5 = audit.table5_under_readings(context.run)
     except UserError as exc:
@@ -837,7 +883,8 @@ def readings_section(context: ReportContext) -> Section | None:
     table5.to_csv(context.out_dir / "table5_by_reading.csv", index=False)
     body += ("<h3>Table 5 and Fig. 9 under each reading</h3>"
              + "".join(f"<p>{html.escape(words)}</p>" for words in audit.table5_verdicts(table5))
-             + html_table(table5, f"Table 5 and Fig. 9 under each reading. {_bench_words(context)}"))
+             + presentation.fold("Table 5 and Fig. 9 under each reading, as numbers",
+                                 html_table(table5, f"Table 5 and Fig. 9 under each reading. {_bench_words(context)}")))
     return Section("Plates under each reading", body, "readings")
 
 
@@ -855,11 +902,11 @@ def predicted_section(context: ReportContext) -> Section:
                                                        predicted_plates.LAYOUTS.values()) + ".</p>")
     body += html_table(shown, "predicted (plate model) and printed (paper)")
     figure = predicted_plates.large_plate_mode_figure(context.out_dir / "predicted_mode_large_plate.png")
-    body += context.figure(
+    body += presentation.fold("The large plate's predicted working mode", context.figure(
         context.out_dir / "predicted_mode_large_plate.png",
         f"Predicted working mode of the large plate (Sec. 5): {figure['interior_antinodes']} interior "
         f"antinodes, nodal-line spacing {figure['half_wavelength_mm']:.2f} mm against the designed 9 mm "
-        f"({figure['half_wavelength_mm'] / 9 - 1:+.1%}); rectangles: the piezos. Predicted, not measured.")
+        f"({figure['half_wavelength_mm'] / 9 - 1:+.1%}); rectangles: the piezos. Predicted, not measured."))
     body += "<p class='csv'>Machine-readable: <a href='predicted.csv'>predicted.csv</a>.</p>"
     return Section("What physics predicts (plate model)", body, "predicted")
 
@@ -899,16 +946,17 @@ def _format(value) -> str:
     if isinstance(value, (float, np.floating)):
         if not math.isfinite(value):
             return "not available"
-        if value == 0 or 1e-3 <= abs(value) < 1e6:   # 4 significant digits, never 5.24e+04
-            return np.format_float_positional(value, precision=4, unique=False, fractional=False, trim="-")
-        return f"{value:.3e}"
+        # 4 significant digits, positional (0.0001234, 52400): a person reads no 1.234e-04
+        return np.format_float_positional(value, precision=4, unique=False, fractional=False, trim="-")
     return str(value)
 
 
 def html_table(frame: pd.DataFrame, caption: str = "") -> str:
-    """A plain table for a section builder: headers from the column names, numbers at four
-    significant digits, an optional caption (the browser test wants one on every table)."""
-    head = "".join(f"<th>{html.escape(str(c).replace('_', ' '))}</th>" for c in frame.columns)
+    """A plain table for a section builder: headers a person reads (`presentation.label`),
+    numbers at four significant digits and never in scientific notation, an optional caption
+    (the browser test wants one on every table); a table wider than the page scrolls inside
+    its own box."""
+    head = "".join(f"<th>{html.escape(presentation.label(str(c)))}</th>" for c in frame.columns)
     body = "".join("<tr>" + "".join(f"<td>{html.escape(_format(v))}</td>" for v in row) + "</tr>"
                    for row in frame.itertuples(index=False))
     caption_html = f"<caption>{html.escape(caption)}</caption>" if caption else ""
@@ -938,14 +986,22 @@ td.ok .mark{color:#070}td.na{color:#888;font-style:italic}
 .explain{background:#fde2e2;padding:6px 10px}
 ul.flagged li{margin-bottom:.4em}
 .missing{color:#a33}
-figure{margin:1em 0;max-width:100%}figure img{max-width:100%;height:auto;display:block}
+figure{margin:1em 0;max-width:100%}figure img{max-width:100%;max-height:440px;width:auto;height:auto;display:block}
 figcaption{font-size:13px;color:#333;max-width:1000px}
 table.audit td:last-child{max-width:360px}
 .wide{overflow-x:auto;max-width:100%}
+details{margin:.8em 0}summary{cursor:pointer;color:#0645ad}details[open]>summary{margin-bottom:.4em}
+@media (max-width:600px){body{padding:0 8px}table{font-size:12px}table.paper td{min-width:0;padding:2px 3px}table.paper .paper,table.paper .origin{font-size:10px}nav a{display:inline-block}}
 @media print{body{max-width:none;font-size:10pt}nav{display:none}a{color:inherit;text-decoration:none}
  h2{page-break-before:always}section:first-of-type h2{page-break-before:avoid}
  figure,table.paper,tr{page-break-inside:avoid}td.cal,td.off,.banner{-webkit-print-color-adjust:exact;print-color-adjust:exact}}
 """
+
+
+def _scrolling_tables(body_html: str) -> str:
+    """Every table in a box of the page's width that scrolls sideways on its own: on a
+    phone a wide table scrolls, the page does not."""
+    return re.sub(r"<table\b", "<div class='wide'><table", body_html).replace("</table>", "</table></div>")
 
 
 def _page(context: ReportContext, sections: list[Section]) -> str:
@@ -954,9 +1010,11 @@ def _page(context: ReportContext, sections: list[Section]) -> str:
     what = {"simulated": "dry run on the simulated bench", "real": "measured on a real bench"}.get(
         kind, f"bench {kind}")
     title = f"squeezebench report: {run.run_dir.name} ({what})"
+    sections = [s for s in sections if not s.appendix] + [s for s in sections if s.appendix]
     nav = "<nav>" + "".join(f"<a href='#{s.anchor or _slug(s.title)}'>{html.escape(s.title.split(':')[0])}</a>"
                             for s in sections) + "</nav>"
-    parts = [f"<section id='{s.anchor or _slug(s.title)}'><h2>{html.escape(s.title)}</h2>{s.body_html}</section>"
+    parts = [f"<section id='{s.anchor or _slug(s.title)}' class='{'appendix' if s.appendix else 'result'}'>"
+             f"<h2>{'Appendix: ' if s.appendix else ''}{html.escape(s.title)}</h2>{_scrolling_tables(s.body_html)}</section>"
              for s in sections]
     return ("<!DOCTYPE html><html lang='en'><head><meta charset='utf-8'>"
             "<meta name='viewport' content='width=device-width, initial-scale=1'>"

@@ -1,12 +1,15 @@
-"""Screenshots of the report of `squeezebench reproduce` at 1280 px, for docs/screenshots/.
+"""Screenshots of the report of `squeezebench reproduce` at 1280 and 390 px, for docs/screenshots/.
 
     python docs/make_screenshots.py [--run RUN_DIR]    # default: reproduce into a temporary folder
 
-Renders RUN_DIR/report/index.html in headless Chromium (/usr/bin/chromium or $CHROMIUM),
-measures where each part of the page is (a small script writes the measurements into
-the DOM, read back with --dump-dom), takes one screenshot of the whole page and cuts
-it into: the top, Tables 3-5, Fig. 9, the audit and the floors of the systematics study. `measure` is also what the browser
-test (tests/test_report_browser.py) asserts on.
+Renders RUN_DIR/report/index.html in headless Chromium (/usr/bin/chromium or $CHROMIUM)
+inside an iframe exactly as wide as the screen it stands for (Chromium's own window is
+never narrower than 500 px, a phone is 390), measures where each part of the page is (a
+small script writes the measurements into the outer page, read back with --dump-dom),
+takes one screenshot of the whole page per width and cuts it into: the top, Tables 3-5,
+Fig. 9, the audit and the accuracy study at 1280 px, and the top and
+Tables 3-4 at 390 px. `measure` is also what the browser test
+(tests/test_report_browser.py) asserts on.
 """
 
 from __future__ import annotations
@@ -20,6 +23,7 @@ import tempfile
 from pathlib import Path
 
 WIDTH_PX = 1280
+PHONE_WIDTH_PX = 390
 SCREENSHOTS = Path(__file__).resolve().parent / "screenshots"
 
 #: Writes, once the page and its images have loaded, every image's, table's and
@@ -29,19 +33,23 @@ _MEASURE_JS = """
 window.addEventListener('load', () => {
   const box = el => { const r = el.getBoundingClientRect();
     return {left: r.left, right: r.right, width: r.width, top: r.top + window.scrollY, height: r.height}; };
+  const appendix = document.querySelector('section.appendix');
   const out = {viewport: document.documentElement.clientWidth,
                scroll_width: document.documentElement.scrollWidth,
                page_height: document.documentElement.scrollHeight,
+               appendix_top: appendix ? box(appendix).top : document.documentElement.scrollHeight,
                images: [...document.images].map(img => ({src: img.getAttribute('src'), loaded: img.complete && img.naturalWidth > 0,
                         caption: (img.closest('figure') && img.closest('figure').querySelector('figcaption')
                                   ? img.closest('figure').querySelector('figcaption').textContent.trim() : ''), ...box(img)})),
+               // a wide table scrolls inside its own box: that box is what must fit the page
                tables: [...document.querySelectorAll('table')].map(t => ({caption: t.caption ? t.caption.textContent.trim() : '',
-                        ...box(t)})),
+                        text: t.textContent, ...box(t.closest('.wide') || t)})),
                sections: Object.fromEntries([...document.querySelectorAll('section[id], figure[id]')].map(s => [s.id, box(s)]))};
-  const pre = document.createElement('pre');
+  const target = window.parent !== window ? window.parent.document : document;
+  const pre = target.createElement('pre');
   pre.id = 'measurements';
   pre.textContent = JSON.stringify(out);
-  document.body.appendChild(pre);
+  target.body.appendChild(pre);
 });
 </script>
 """
@@ -60,59 +68,86 @@ def _run_chromium(arguments: list[str], timeout_s: float = 120.0) -> str:
     with tempfile.TemporaryDirectory() as profile:
         command = [chromium(), "--headless", "--no-sandbox", "--disable-gpu", "--disable-quic",
                    "--no-first-run", "--disable-background-networking", "--disable-component-update",
-                   "--disable-sync", "--hide-scrollbars", f"--user-data-dir={profile}", *arguments]
+                   "--disable-sync", "--hide-scrollbars", "--allow-file-access-from-files",
+                   f"--user-data-dir={profile}", *arguments]
         done = subprocess.run(command, capture_output=True, text=True, timeout=timeout_s, check=True)
     return done.stdout
 
 
+def _framed(page: Path, width_px: int, height_px: int) -> Path:
+    """An outer page holding `page` in an iframe `width_px` wide: the report's own viewport."""
+    frame = page.with_name(f".frame{width_px}.html")
+    frame.write_text(f"<!DOCTYPE html><html><body style='margin:0'><iframe src='{page.name}' "
+                     f"style='width:{width_px}px;height:{height_px}px;border:0;display:block'></iframe></body></html>")
+    return frame
+
+
 def measure(index: Path, width_px: int = WIDTH_PX) -> dict:
-    """Boxes of the rendered report at `width_px` (see _MEASURE_JS)."""
+    """Boxes of the rendered report in a `width_px` viewport (see _MEASURE_JS)."""
     index = Path(index)
     probe = index.with_name(".measure.html")   # beside index.html, so its images resolve
     probe.write_text(index.read_text().replace("</body>", _MEASURE_JS + "</body>"))
+    frame = _framed(probe, width_px, 1000)
     try:
-        dom = _run_chromium([f"--window-size={width_px},1000", "--virtual-time-budget=10000", "--dump-dom",
-                             probe.as_uri()])
+        dom = _run_chromium([f"--window-size={max(width_px, 500) + 20},1100", "--virtual-time-budget=10000",
+                             "--dump-dom", frame.as_uri()])
     finally:
         probe.unlink()
+        frame.unlink()
     start = dom.index("<pre id=\"measurements\">") + len("<pre id=\"measurements\">")
     text = dom[start:dom.index("</pre>", start)]
     return json.loads(text.replace("&amp;", "&").replace("&lt;", "<").replace("&gt;", ">").replace("&quot;", '"'))
 
 
-def screenshots(index: Path, out_dir: Path = SCREENSHOTS) -> list[Path]:
-    """The views a reader checks first, as PNGs under `out_dir`."""
+def _page_image(index: Path, width_px: int, height_px: int):
+    """The whole report at `width_px` as one image."""
     from PIL import Image   # Pillow comes with matplotlib
 
+    frame = _framed(Path(index), width_px, height_px)
+    try:
+        with tempfile.TemporaryDirectory() as tmp:
+            page = Path(tmp) / "page.png"
+            _run_chromium([f"--window-size={max(width_px, 500)},{height_px}", "--virtual-time-budget=10000",
+                           f"--screenshot={page}", frame.as_uri()])
+            image = Image.open(page)
+            image.load()
+    finally:
+        frame.unlink()
+    return image.crop((0, 0, width_px, image.height))
+
+
+def screenshots(index: Path, out_dir: Path = SCREENSHOTS) -> list[Path]:
+    """The views a reader checks first, as PNGs under `out_dir`."""
     boxes = measure(index)
-    height = int(boxes["page_height"])
-    with tempfile.TemporaryDirectory() as tmp:
-        page = Path(tmp) / "page.png"
-        _run_chromium([f"--window-size={WIDTH_PX},{height}", "--virtual-time-budget=10000",
-                       f"--screenshot={page}", Path(index).as_uri()])
-        image = Image.open(page)
-        image.load()
+    image = _page_image(index, WIDTH_PX, int(boxes["page_height"]))
     sections = boxes["sections"]
     fig9 = next(img for img in boxes["images"] if img["src"] == "fig9.png")
     fig9_figure = max((s for s in sections.values() if s["top"] <= fig9["top"] <= s["top"] + s["height"]
                        and s["height"] < 2000), key=lambda s: s["top"])
-    systematics = next(img for img in boxes["images"] if img["src"] == "study_systematics.png")
-    floors = next(t for t in boxes["tables"] if t["caption"].startswith("Floor per point and quantity"))
+    study = sections["study"]
     views = {
         "report_top.png": (0, 1100),
         "report_tables_3_5.png": (sections["table3"]["top"] - 10,
                                   sections["table5"]["top"] + min(sections["table5"]["height"], 1100)),
         "report_fig9.png": (fig9_figure["top"] - 10, fig9_figure["top"] + fig9_figure["height"] + 190),   # and the sentence beneath
         "report_audit.png": (sections["audit"]["top"] - 10, sections["audit"]["top"] + 1300),
-        # the floors the instruments' errors leave, with and without calibration (issue 15)
-        "report_systematics.png": (systematics["top"] - 330, floors["top"] + floors["height"] + 10),
+        # coverage and the floors the instruments' errors leave, with and without calibration
+        "report_study.png": (study["top"] - 10, study["top"] + study["height"] + 10),
+    }
+    phone = measure(index, PHONE_WIDTH_PX)
+    phone_image = _page_image(index, PHONE_WIDTH_PX, int(phone["page_height"]))
+    phone_views = {
+        "report_top_390.png": (0, 1800),
+        "report_tables_3_4_390.png": (phone["sections"]["table3"]["top"] - 10,
+                                      phone["sections"]["table4"]["top"] + phone["sections"]["table4"]["height"]),
     }
     out_dir.mkdir(parents=True, exist_ok=True)
     written = []
-    for name, (top, bottom) in views.items():
-        crop = image.crop((0, max(0, int(top)), WIDTH_PX, min(image.height, int(bottom))))
-        crop.save(out_dir / name, optimize=True)
-        written.append(out_dir / name)
+    for picture, cuts in ((image, views), (phone_image, phone_views)):
+        for name, (top, bottom) in cuts.items():
+            crop = picture.crop((0, max(0, int(top)), picture.width, min(picture.height, int(bottom))))
+            crop.save(out_dir / name, optimize=True)
+            written.append(out_dir / name)
     return written
 
 

@@ -35,7 +35,7 @@ def scenes_section(context: report.ReportContext) -> report.Section | None:
             "these scenes), at resonance on the scene's bench. Each state was checked at load against: "
             + html.escape("; ".join(BOUNDS.values())) + ". CSV: <a href='scenes.csv'>scenes.csv</a></p>"
             + report.html_table(table, "The run's simulated plates at resonance. Dry run: simulated bench."))
-    return report.Section("Simulated plates: could they exist?", body)
+    return report.Section("Simulated plates: could they exist?", body, appendix=True)
 
 
 def check_powered_piezos(campaign) -> None:

@@ -27,7 +27,7 @@ def test_report_files(reported):
                  "resonance.png", "plate_fits.png", "conventions_grid.csv", "columns.csv"):
         assert (run_dir / "report" / name).is_file(), name
     text = index.read_text()
-    for needle in ("Appendix: provenance", "Conventions used", "Audit of the paper", "sha256", "E_i = 67109 Pa"):
+    for needle in ("Appendix: Provenance", "Appendix: Conventions used", "Audit of the paper", "sha256", "E_i = 67109 Pa"):
         assert needle in text
 
 

@@ -51,7 +51,7 @@ def test_headline_counts_and_names_the_largest_miss():
     lines = headline("simulated", 1111, 8, {**TABLES, "predicted": predicted})
     assert lines[0] == "Dry run on the simulated bench: 1111 stored points from 8 campaign runs."
     assert "of 6 compared values" in lines[1] and "1 agree; 2 disagree" in lines[1]
-    assert "Table 5 estimated tan_theta, +96 %" in lines[1] and "3 are round trips" in lines[1]
+    assert "Table 5 estimated tan θ′, +96 %" in lines[1] and "3 are round trips" in lines[1]
     assert "2 of 4 printed resonance frequencies within 3 % (worst +9.6 %)" in lines[2]
 
 

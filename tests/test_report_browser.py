@@ -1,6 +1,8 @@
-"""The report of the quick campaign, rendered by headless Chromium at 1280 px: nothing
-wider than the page, every image loaded and captioned, every table captioned, the
-dry run said on every table of results.
+"""The report of the quick campaign, rendered by headless Chromium at 1280 px (a laptop)
+and 390 px (a phone): nothing wider than the page at either width (a wide table scrolls in
+its own box), every image loaded and captioned, every table captioned, the dry run said
+on every table of results, no number in scientific notation, and the results above the
+appendix within about eight screens at 1280 px.
 
 Chromium is required: without it the test fails (CI installs it; `apt-get install -y
 chromium`), because a skipped layout test would pass a report nobody looked at.
@@ -22,24 +24,51 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "docs"))
 import make_screenshots  # noqa: E402  (docs/ is not a package)
 
 
+#: About eight screens of results at 1280 px before the appendix.
+MAX_RESULTS_HEIGHT_PX = 9000
+WIDTHS = (make_screenshots.WIDTH_PX, make_screenshots.PHONE_WIDTH_PX)
+
+
 @pytest.fixture(scope="module")
-def rendered(tmp_path_factory):
+def index(tmp_path_factory):
     make_screenshots.chromium()   # FileNotFoundError (a failure, not a skip) without a browser
     run_dir = run_campaign(paths.campaigns_dir() / "quick.yaml", out_dir=tmp_path_factory.mktemp("quick") / "run",
                            progress=False)
-    index = report.write_report(run_dir)
-    return make_screenshots.measure(index)
+    return report.write_report(run_dir)
 
 
-def test_nothing_is_wider_than_the_page(rendered):
-    width = rendered["viewport"]
-    assert width == make_screenshots.WIDTH_PX
+@pytest.fixture(scope="module")
+def widths(index):
+    return {width: make_screenshots.measure(index, width) for width in WIDTHS}
+
+
+@pytest.fixture(scope="module")
+def rendered(widths):
+    return widths[make_screenshots.WIDTH_PX]
+
+
+@pytest.mark.parametrize("width", WIDTHS)
+def test_nothing_is_wider_than_the_page(widths, width):
+    rendered = widths[width]
+    assert rendered["viewport"] == width
     assert rendered["scroll_width"] <= width, "the page scrolls sideways"
     for image in rendered["images"]:
         assert image["loaded"], image["src"]
         assert image["right"] <= width and image["left"] >= 0, image
     for table in rendered["tables"]:
         assert table["right"] <= width, table["caption"]
+
+
+def test_the_results_fit_about_eight_laptop_screens(rendered):
+    assert rendered["appendix_top"] < rendered["page_height"], "the report has an appendix"
+    assert rendered["appendix_top"] <= MAX_RESULTS_HEIGHT_PX
+
+
+def test_no_table_prints_scientific_notation(rendered):
+    import re
+
+    for table in rendered["tables"]:
+        assert not re.search(r"\d[eE][-+]\d", table["text"]), table["caption"]
 
 
 def test_every_figure_and_table_has_a_caption(rendered):
