@@ -31,7 +31,7 @@ from pyvisa.errors import VisaIOError
 
 from squeezebench.instruments.agilent33120a import Agilent33120A
 from squeezebench.instruments.base import Instrument
-from squeezebench.instruments.errors import (BenchFileError, InstrumentConnectionError, InstrumentError, InstrumentTimeout,
+from squeezebench.instruments.errors import (BenchFileError, BenchMismatch, InstrumentConnectionError, InstrumentError, InstrumentTimeout,
                                              OperatorUnavailable)
 from squeezebench.instruments.ofv5000 import OFV5000
 from squeezebench.instruments.smc100 import SMC100Stage
@@ -408,9 +408,13 @@ def _report_lines(role: str, driver: Instrument, electronics: BenchElectronics
                          f"scale_v_per_div = {ch.scale_v_per_div!r}, coupling = {ch.coupling!r}")
         for number, (model, gain, unit) in driver.detected_probes().items():
             lines.append(f"    ch{number}: detected probe {model}, gain {gain:g}, unit {unit}")
-            if number in expected and not math.isclose(gain, expected[number], rel_tol=1e-6):
-                problems.append(f"scope CH{number} has a detected {model} probe of gain {gain:g}, but the bench "
-                                f"description says {expected[number]:g} (electronics."
+        # Each probe the bench file names, offered to the scope as a run's open does: a
+        # detected or coded probe with another gain is refused there, so here too.
+        for number, gain in expected.items():
+            try:
+                driver.channel(number).use_probe(gain)
+            except BenchMismatch as exc:
+                problems.append(f"scope {exc.message} (electronics."
                                 f"{'voltage_probe_attenuation' if number == 1 else 'current_probe_a_per_a'})")
     if isinstance(driver, Agilent33120A) and (load := driver.output_load) != electronics.generator_load:
         # A setting, not hardware: a previous user's, which every run's open replaces.

@@ -214,16 +214,26 @@ class Channel:
 
     def use_probe(self, probe_gain: float) -> None:
         """The bench's probe on this channel: set its gain, unless the scope detected a probe
-        (then its gain is the hardware's, and a bench file saying otherwise is wrong)."""
+        (then its gain is the hardware's, and a bench file saying otherwise is wrong). A
+        coded probe without a model (TekProbe level I: `ID?` reads "") is found the way
+        the manual offers: it refuses any gain but its one legal value (error 242, Hardware
+        Configuration, p. 2-68 CH<x>:PRObe), so the gain read back is still its own. That
+        queued event is this mismatch, said here in the bench's words, not left for later."""
         model = self.probe_model
         if not model:
             self.probe_gain = probe_gain
-            return
-        detected = self.probe_gain
+            detected = self.probe_gain
+            if math.isclose(detected, probe_gain, rel_tol=1e-6):
+                return
+            self.scope.read_events()
+            model = "coded (TekProbe level I)"
+        else:
+            detected = self.probe_gain
         if not math.isclose(detected, probe_gain, rel_tol=1e-6):
             raise BenchMismatch(self.role, self.resource_name,
-                                f"CH{self.number} has a {model} probe the scope detected with gain {detected:g}, "
-                                f"but the bench description says {probe_gain:g}")
+                                f"CH{self.number} has a {model} probe the scope detected with gain {detected:g} "
+                                f"({1 / detected:g}:1), but the bench description says {probe_gain:g} "
+                                f"({1 / probe_gain:g}:1)")
 
 
 class TDS3054B(SCPIInstrument):

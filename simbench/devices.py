@@ -579,8 +579,11 @@ class Scope(ScpiInstrument):
         power-on status: PON set and event 401 waiting (p. 3-1, Table 3-7)."""
         electronics = self.bench.scene.electronics
         # CH2 carries the TCP202 current probe: the scope detects it (TekProbe level II) and
-        # fixes its gain; the other inputs have no coded probe.
+        # fixes its gain. A coded CH1 probe (level I) fixes its gain too, but has no model
+        # to name. The other inputs have no coded probe.
         self.probes = {2: Probe("TCP202", electronics.current_probe_a_per_a, "A")}
+        if electronics.voltage_probe_coded:
+            self.probes[1] = Probe("", 1.0 / electronics.voltage_probe_attenuation, "V")
         self.sesr = _PON
         self.pending: list[tuple[int, str]] = [(401, "Power on")]
         self.available: list[tuple[int, str]] = []

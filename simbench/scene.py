@@ -12,7 +12,7 @@ states:       {<name>: {description, resonance_frequency_hz, q_mech, powered_col
 initial_state: <a state name>
 electronics:  {amplifier_gain, amplifier_max_output_vpp, amplifier_bandwidth_hz,
                amplifier_input_ohm, shunt_ohm, voltage_probe_attenuation,
-               current_probe_a_per_a, generator_load}
+               current_probe_a_per_a, generator_load, voltage_probe_coded}
 measurement_point: {x_mm, y_mm, signal_level_percent}
 effects:      [<name> | {<name>: {<parameter>: <number>}}, ...]
 seed:         <int>
@@ -174,6 +174,9 @@ class Electronics:
     voltage_probe_attenuation: float = 100.0
     current_probe_a_per_a: float = 1.0
     generator_load: str = "INF"
+    #: The CH1 probe carries a coding resistor (TekProbe level I): the scope fixes its gain
+    #: at 1/voltage_probe_attenuation and names no model (CH<x>:ID? reads "").
+    voltage_probe_coded: bool = False
 
     def amplifier(self) -> physics.Amplifier:
         """The amplifier with every effect off (limits are the amplifier_limits effect)."""
@@ -642,12 +645,16 @@ def _electronics(reader: _Reader, data: Any) -> Electronics:
     defaults = Electronics()
     numbers = ("amplifier_gain", "amplifier_max_output_vpp", "amplifier_bandwidth_hz", "amplifier_input_ohm",
                "shunt_ohm", "voltage_probe_attenuation", "current_probe_a_per_a")
-    data = reader.mapping(data, "electronics", required=(), optional=numbers + ("generator_load",))
+    data = reader.mapping(data, "electronics", required=(),
+                          optional=numbers + ("generator_load", "voltage_probe_coded"))
     values = {k: reader.number(data, k, "electronics", default=getattr(defaults, k), strict=k != "shunt_ohm")
               for k in numbers}
     load = reader.text(data, "generator_load", "electronics", default=defaults.generator_load,
                        allowed=GENERATOR_LOADS)
-    return Electronics(**values, generator_load=load)
+    coded = data.get("voltage_probe_coded", defaults.voltage_probe_coded)
+    if not isinstance(coded, bool):
+        raise reader.error("electronics.voltage_probe_coded", f"must be true or false, got {coded!r}")
+    return Electronics(**values, generator_load=load, voltage_probe_coded=coded)
 
 
 def _measurement_point(reader: _Reader, data: Any) -> MeasurementPoint:

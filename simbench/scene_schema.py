@@ -126,6 +126,8 @@ class ElectronicsModel(_Strict):
     voltage_probe_attenuation: float = Field(default=_DEFAULT_ELECTRONICS.voltage_probe_attenuation, gt=0)
     current_probe_a_per_a: float = Field(default=_DEFAULT_ELECTRONICS.current_probe_a_per_a, gt=0)
     generator_load: Literal[GENERATOR_LOADS] = Field(default=_DEFAULT_ELECTRONICS.generator_load)  # type: ignore[valid-type]
+    voltage_probe_coded: bool = Field(default=_DEFAULT_ELECTRONICS.voltage_probe_coded,
+                                      description="the CH1 probe is coded (TekProbe level I): the scope fixes its gain")
 
 
 class MeasurementPointModel(_Strict):

@@ -166,6 +166,24 @@ class RunResults:
         """Software version, input files with their sha256, instrument identifications."""
         return json.loads((self.run_dir / "manifest.json").read_text())
 
+    def uncertainties(self) -> pd.DataFrame:
+        """One row per stored point that kept its record (a sweep's points keep none):
+        each quantity (power_w, velocity_pp_mps, piezo_voltage_vpp, frequency_hz) reduced
+        from the record, with its expanded uncertainty (`<quantity>_U`, k = 2, the whole
+        budget) and the budget's dominant term (`<quantity>_dominant`)."""
+        from squeezebench.analysis.rundata import load_run as load_stored_run
+        from squeezebench.analysis.uncertainty import run_uncertainties
+
+        return run_uncertainties(load_stored_run(self.run_dir)).points
+
+    def tables(self) -> dict[str, pd.DataFrame]:
+        """The report's tables (Tables 3-5, Figs. 2 and 5, the map's summary, the budgets...)
+        by name, recomputed from the stored data: `report()` is run, its CSVs read back
+        (one dtype per column: missing numbers are NaN, the `status` column says why)."""
+        folder = self.report().parent
+        return {path.stem: pd.read_csv(path) for path in sorted(folder.glob("*.csv"))
+                if path.name != "columns.csv" and path.stat().st_size > 1}
+
     def report(self) -> Path:
         """Regenerate RUN_DIR/report/ from the stored data; the index.html path (the same
         report as `squeezebench report`, the simulated plates' section included)."""

@@ -59,6 +59,18 @@ def test_run_data_as_frames_and_the_report(notebook):
     assert (report / "index.html").is_file() and (report / "scenes.csv").is_file()   # as the CLI's
 
 
+def test_uncertainties_and_tables_as_frames(notebook):
+    namespace, where = notebook
+    run = api.load_run(where / "runs/notebook/characterisation")
+    budgets = run.uncertainties()
+    assert len(budgets) == run.points()["waveform_file"].notna().sum() > 0 and (budgets["power_w_U"] > 0).all()
+    assert (budgets["power_w_U"] / budgets["power_w"]).median() < 0.2
+    tables = run.tables()
+    assert {"fig5", "table3"} <= set(tables)
+    assert tables["table3"]["value"].dtype == float   # the run has no Table 3: NaN, not words
+    assert set(tables["table3"]["status"]) == {"not measured"}
+
+
 def test_resume_of_an_api_run_uses_the_same_campaign(notebook):
     _, where = notebook
     namespace, _ = notebook

@@ -185,7 +185,8 @@ def test_check_bench_exits_2_when_the_bench_file_disagrees_with_a_detected_probe
     config = BenchConfig(f"{SCENE}@simbench", dict(SIM_RESOURCES), BenchElectronics(current_probe_a_per_a=0.1))
     assert check_bench(config, out=lines.append) == 2
     text = "\n".join(lines)
-    assert "scope CH2 has a detected TCP202 probe of gain 1, but the bench description says 0.1" in text
+    assert ("scope CH2 has a TCP202 probe the scope detected with gain 1 (1:1), but the bench description "
+            "says 0.1 (10:1) (electronics.current_probe_a_per_a)") in text
     assert text.endswith("bench check FAILED: the bench description disagrees with the hardware")
 
 

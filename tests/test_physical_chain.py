@@ -65,8 +65,8 @@ def test_fifty_ohm_setting_never_puts_more_than_the_limit_on_the_plate(tmp_path,
     assert _is_minimum(tap.last_amplitude_vpp)
 
 
-def test_every_generator_command_through_the_physics_stays_within_the_limit(tmp_path, monkeypatch):
-    campaign = fifty_ohm_campaign(tmp_path, [30, LIMIT_VPP])
+def amplitudes_sent(monkeypatch) -> list[float]:
+    """Every generator amplitude (Vpp) written from now on, in order."""
     sent = []
     original = MessageBasedResource.write
 
@@ -77,6 +77,12 @@ def test_every_generator_command_through_the_physics_stays_within_the_limit(tmp_
         return original(resource, message, *args, **kwargs)
 
     monkeypatch.setattr(MessageBasedResource, "write", write)
+    return sent
+
+
+def test_every_generator_command_through_the_physics_stays_within_the_limit(tmp_path, monkeypatch):
+    campaign = fifty_ohm_campaign(tmp_path, [30, LIMIT_VPP])
+    sent = amplitudes_sent(monkeypatch)
     run_campaign(campaign, out_dir=tmp_path / "run", say=lambda message: None)
     assert sent and max(sent) * plate_vpp_per_generator_vpp() <= LIMIT_VPP * (1 + 1e-9)
 
@@ -104,3 +110,38 @@ def test_a_misdescribed_gain_stops_at_the_first_point_even_under_the_limit(tmp_p
     assert measured_vpp < LIMIT_VPP  # no limit was reached: only the comparison with the setpoint stops it
     assert _is_minimum(tap.last_amplitude_vpp)
     assert "told to produce" in (tmp_path / "run" / "log.txt").read_text()
+
+
+def test_a_coded_probe_other_than_the_bench_file_is_refused_by_check_and_before_the_first_drive(tmp_path, monkeypatch):
+    """CH1 carries a coded 10:1 probe (TekProbe level I: the scope fixes its gain and names
+    no model); the bench file says 100:1. `check` fails naming both, and a run stops at open,
+    before any amplitude above the generator's minimum is sent; before, `check` passed and
+    the run died on error 242 of its first CH1:PROBE."""
+    from dataclasses import replace
+
+    from squeezebench.instruments.bench import check_bench, sim_bench_config
+    from squeezebench.instruments.errors import BenchMismatch
+    from squeezebench.protocols import campaign as campaign_module
+
+    scene = noise_free_scene(tmp_path, "one_column_1mm.yaml")
+    data = yaml.safe_load(scene.read_text())
+    data.setdefault("electronics", {}).update({"voltage_probe_attenuation": 10.0, "voltage_probe_coded": True})
+    scene.write_text(yaml.safe_dump(data, sort_keys=False))
+
+    def misdescribed(path):
+        config = sim_bench_config(path)
+        return replace(config, electronics=replace(config.electronics, voltage_probe_attenuation=100.0))
+
+    lines = []
+    assert check_bench(sim_bench_config(scene), out=lines.append) == 0
+    assert check_bench(misdescribed(scene), out=lines.append) == 2
+    assert any("CH1 has a coded" in line and "10:1" in line and "100:1" in line for line in lines)
+    monkeypatch.setattr(campaign_module, "sim_bench_config", misdescribed)
+    sent = amplitudes_sent(monkeypatch)
+    campaign = write_campaign(tmp_path, [{"name": "search", "protocol": "resonance_search", "plate": ONE_COLUMN_PLATE,
+                                          "parameters": {"search": {"start_hz": 36000, "stop_hz": 38500, "points": 5}}}],
+                              bench={"scene": str(scene)})
+    with pytest.raises(BenchMismatch, match="CH1 has a coded"):
+        run_campaign(campaign, out_dir=tmp_path / "run", say=lambda message: None)
+    assert sent and all(_is_minimum(v) for v in sent)
+    assert read_measurements(tmp_path / "run").empty
