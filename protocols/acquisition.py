@@ -26,7 +26,7 @@ from typing import Any
 import pandas as pd
 
 from squeezebench.instruments.errors import ClippedTraceError
-from squeezebench.protocols.safety import DriveController
+from squeezebench.protocols.safety import DriveController, MeasuredVoltageError
 from squeezebench.errors import UserError
 
 log = logging.getLogger(__name__)
@@ -201,8 +201,14 @@ class Acquisition:
                     rerange[channel] = (CLIP_GROWTH * SCREEN_DIVISIONS * scale, "clipped")
             pp = {channel: high - low for channel, (high, low) in peaks.items()}
             # Clipped or not, never above the limit (a clipped CH1 spans at least the screen).
-            self.drive.check_measured(pp.get(PIEZO_CHANNEL, SCREEN_DIVISIONS * scales[PIEZO_CHANNEL]),
-                                      clipped=PIEZO_CHANNEL not in pp)
+            try:
+                self.drive.check_measured(pp.get(PIEZO_CHANNEL, SCREEN_DIVISIONS * scales[PIEZO_CHANNEL]),
+                                          clipped=PIEZO_CHANNEL not in pp)
+            except MeasuredVoltageError as stop:   # the scope's view of that acquisition, as evidence
+                stop.evidence.update({"channel_pp": {f"CH{c}": v for c, v in pp.items()},
+                                      "channel_scale_per_div": {f"CH{c}": v for c, v in scales.items()},
+                                      "clipped_channels": [f"CH{c}" for c in rerange]})
+                raise
             for channel, scale in scales.items():
                 if channel in rerange:
                     continue

@@ -47,7 +47,7 @@ from squeezebench.instruments.bench import open_bench, sim_bench_config
 from squeezebench.instruments.errors import OutOfRangeError
 from squeezebench.instruments.tds3054b import HORIZONTAL_DIVISIONS, HORIZONTAL_SCALES_S_PER_DIV
 from squeezebench.protocols.acquisition import Acquisition, AcquisitionSettings
-from squeezebench.protocols.safety import DriveController, SafetyLimits, chain_warnings
+from squeezebench.protocols.safety import DriveController, MeasuredVoltageError, SafetyLimits, chain_warnings
 from squeezebench.protocols.steps import Plate, Step, StepContext
 from squeezebench.protocols.storage import RunStore, bench_provenance, sha256_file
 from squeezebench.stops import deferred, generator_state, handled, raise_if_stopped
@@ -483,7 +483,18 @@ class _Runner:
                           drive=drive, acquisition=acquisition, context=dict(context),
                           bench_time_base_s=self.bench_time_s, clock_start_s=bench.clock.now_s(),
                           on_point=self.watchers.point)
-        step.measure(ctx)
+        try:
+            step.measure(ctx)
+        except MeasuredVoltageError as stop:
+            path = self.store.write_evidence(run.name, step.step_id, {
+                **stop.evidence, "run": run.name, "step": step.step_id, "protocol": run.protocol,
+                "points_of_the_step_before": ctx.rows,
+                "stopped_utc": dt.datetime.now(dt.timezone.utc).isoformat(timespec="seconds")})
+            where = path.relative_to(self.store.run_dir)
+            log.error("run %s: step %s stopped by the safety check; what it measured is kept in %s",
+                      run.name, step.step_id, where)
+            raise MeasuredVoltageError(f"{stop}; what that acquisition measured is kept in {where}",
+                                       stop.evidence) from None
         drive.to_minimum()   # every step ends safe: the operator may touch the plate next
         # An error an instrument queued during the step (a refused setting) makes its
         # points doubtful: the step is not stored, and a resume measures it again.

@@ -87,7 +87,13 @@ class SafetyLimits:
 
 
 class MeasuredVoltageError(UserError):
-    """The piezo voltage measured on CH1 is above the limit; the drive was dropped."""
+    """The piezo voltage measured on CH1 is above the limit, or not what the chain was told
+    to produce; the drive was dropped. `evidence` holds what that acquisition showed (the
+    campaign keeps it in the run directory: it is why the run stopped, not a measurement)."""
+
+    def __init__(self, message: str, evidence: dict | None = None):
+        super().__init__(message)
+        self.evidence = dict(evidence or {})
 
 
 def chain_warnings(electronics) -> list[str]:
@@ -194,19 +200,24 @@ class DriveController:
         band = 1.0 + self.limits.commanded_tolerance
         if measured_piezo_vpp <= allowed_vpp and ratio <= band and (clipped or ratio >= 1.0 / band):
             return
+        evidence = {"measured_piezo_vpp": measured_piezo_vpp, "ch1_clipped": clipped,
+                    "commanded_piezo_vpp": setpoint_vpp, "measured_to_commanded": ratio,
+                    "max_piezo_voltage_vpp": self.max_piezo_voltage_vpp,
+                    "commanded_tolerance": self.limits.commanded_tolerance,
+                    "generator_frequency_hz": self.frequency_hz, "bench_clock_s": self._clock.now_s()}
         self.to_minimum(ramp=False)
         if measured_piezo_vpp <= allowed_vpp:
             raise MeasuredVoltageError(
                 f"measured {'at least ' if clipped else ''}{measured_piezo_vpp:.4g} Vpp on CH1 where the chain "
                 f"was told to produce {setpoint_vpp:.4g} Vpp ({ratio:.3g} times, beyond the "
                 f"{self.limits.commanded_tolerance:.0%} tolerance); the generator was set to its minimum. "
-                "The bench is not what its description says: " + _likely_cause(ratio))
+                "The bench is not what its description says: " + _likely_cause(ratio), evidence)
         raise MeasuredVoltageError(
             f"measured a piezo voltage of {measured_piezo_vpp:.4g} Vpp on CH1 at a setpoint of "
             f"{setpoint_vpp:.4g} Vpp: above the limit of {self.max_piezo_voltage_vpp:.4g} Vpp "
             f"(+{self.limits.measured_tolerance:.0%} measurement tolerance); the generator was set to its "
             "minimum. The bench is not what its description says: check the amplifier gain, its input "
-            "impedance and the generator load setting in the bench file")
+            "impedance and the generator load setting in the bench file", evidence)
 
     def set_frequency(self, frequency_hz: float) -> None:
         """Set the drive frequency, then wait the settling time (the plate rings up)."""

@@ -337,6 +337,15 @@ class RunStore:
         write_atomic(self.run_dir / "settings" / f"{run_name}.json",
                      json.dumps(settings, indent=2, sort_keys=True, default=str).encode())
 
+    def write_evidence(self, run_name: str, step_id: str, evidence: dict[str, Any]) -> Path:
+        """What made a step stop (an acquisition the safety check refused), kept beside the
+        run's data but never among its measurements: evidence/<run>/<step>-<n>.json."""
+        folder = self.run_dir / "evidence" / run_name
+        n = len(list(folder.glob(f"{step_id}-*.json"))) if folder.is_dir() else 0
+        path = folder / f"{step_id}-{n + 1}.json"
+        write_atomic(path, json.dumps(evidence, indent=2, sort_keys=True, default=str).encode())
+        return path
+
     # -- the journal ----------------------------------------------------------------------
     def journal(self) -> list[dict[str, Any]]:
         """Completed steps in order; a line that is not an entry (torn, corrupted) is not a step."""

@@ -9,6 +9,7 @@ input), so the generator commands can be checked against the physics, not the dr
 
 from __future__ import annotations
 
+import json
 import re
 
 import pytest
@@ -110,6 +111,15 @@ def test_a_misdescribed_gain_stops_at_the_first_point_even_under_the_limit(tmp_p
     assert measured_vpp < LIMIT_VPP  # no limit was reached: only the comparison with the setpoint stops it
     assert _is_minimum(tap.last_amplitude_vpp)
     assert "told to produce" in (tmp_path / "run" / "log.txt").read_text()
+    # the acquisition that stopped it is kept, beside the data and never among it
+    (evidence_file,) = (tmp_path / "run" / "evidence").rglob("*.json")
+    assert str(evidence_file.relative_to(tmp_path / "run")) in str(stop.value)
+    evidence = json.loads(evidence_file.read_text())
+    assert evidence["measured_piezo_vpp"] == pytest.approx(measured_vpp, rel=1e-3)
+    assert evidence["commanded_piezo_vpp"] == pytest.approx(10.0) and evidence["measured_to_commanded"] > 1.2
+    assert set(evidence["channel_scale_per_div"]) >= {"CH1", "CH2", "CH3"}
+    assert read_measurements(tmp_path / "run").empty or \
+        (read_measurements(tmp_path / "run")["scope_piezo_voltage_pp_v"] <= 10 * 1.2).all()
 
 
 def test_a_coded_probe_other_than_the_bench_file_is_refused_by_check_and_before_the_first_drive(tmp_path, monkeypatch):
