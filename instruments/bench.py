@@ -232,10 +232,14 @@ class TerminalOperator:
         try:
             self._wait("Press Enter when done. ")
         except EOFError:   # nobody can press Enter: stop cleanly, resumable, instead of a traceback
-            raise OperatorUnavailable(instruction) from None
+            raise OperatorUnavailable(instruction, state) from None
 
     def mount(self, scene_or_plate: str | Path) -> None:
         self.request(f"Mount plate {Path(str(scene_or_plate)).stem} on the bench.")
+
+    def already_done(self, instruction: str, state: str | None = None) -> None:
+        """The person did it before the run resumed (`run --resume --operator-done`)."""
+        self._out(f"{instruction}: done before this resume (--operator-done)")
 
 
 class SimulatedOperator:
@@ -250,6 +254,32 @@ class SimulatedOperator:
 
     def mount(self, scene_or_plate: str | Path) -> None:
         self._bench.mount(scene_or_plate)
+
+    def already_done(self, instruction: str, state: str | None = None) -> None:
+        self.request(instruction, state)
+
+
+class ConfirmedOperator:
+    """The bench's operator, with the one request a run stopped on (no terminal to confirm
+    it) answered beforehand: asked again for exactly that, it is taken as done, once; any
+    other request goes to the operator as always."""
+
+    def __init__(self, operator: Any, instruction: str, state: str | None) -> None:
+        self._operator, self._pending = operator, (instruction, state)
+
+    def request(self, instruction: str, state: str | None = None) -> None:
+        if (instruction, state) == self._pending:
+            self._pending = None
+            self._operator.already_done(instruction, state)
+        else:
+            self._operator.request(instruction, state)
+
+    def mount(self, scene_or_plate: str | Path) -> None:
+        self._operator.mount(scene_or_plate)
+
+    @property
+    def answered(self) -> bool:
+        return self._pending is None
 
 
 # -- opening ---------------------------------------------------------------------------------------

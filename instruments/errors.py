@@ -114,8 +114,10 @@ class OperatorUnavailable(UserError):
     """A step needs the person at the bench, and there is no terminal to ask (standard input
     closed or at its end, as under a scheduler or with `< /dev/null`)."""
 
-    def __init__(self, instruction: str):
+    def __init__(self, instruction: str, state: str | None = None):
         self.instruction = instruction
+        self.state = state
         super().__init__(f"this step needs the operator ({instruction}) and there is no terminal to confirm it on "
                          "(standard input is closed); the drive was set to its minimum and the steps done so far "
-                         "are stored: do it, then run the same command with --resume from a terminal")
+                         "are stored: do it, then run the same command with --resume from a terminal, or "
+                         "with --resume --operator-done where there is none")

@@ -43,8 +43,8 @@ from tqdm import tqdm
 
 from squeezebench import paths, schemas
 from squeezebench.instruments.agilent33120a import AMPLITUDE_RANGE_VPP, FREQUENCY_RANGE_HZ
-from squeezebench.instruments.bench import open_bench, sim_bench_config
-from squeezebench.instruments.errors import OutOfRangeError
+from squeezebench.instruments.bench import ConfirmedOperator, open_bench, sim_bench_config
+from squeezebench.instruments.errors import OperatorUnavailable, OutOfRangeError
 from squeezebench.instruments.tds3054b import HORIZONTAL_DIVISIONS, HORIZONTAL_SCALES_S_PER_DIV
 from squeezebench.protocols.acquisition import Acquisition, AcquisitionSettings
 from squeezebench.protocols.safety import DriveController, MeasuredVoltageError, SafetyLimits, chain_warnings
@@ -314,17 +314,19 @@ def run_campaign(path: Path, resume: bool = False, out_dir: Path | None = None,
                  progress: bool = True, say: Callable[[str], None] | None = None,
                  accept_changed_bench: bool = False,
                  on_point: Callable[[dict[str, Any]], None] | None = None,
-                 on_step: Callable[[dict[str, Any]], None] | None = None) -> Path:
+                 on_step: Callable[[dict[str, Any]], None] | None = None,
+                 operator_done: bool = False) -> Path:
     """Run (or with `resume`, continue) a campaign; return its run directory. `progress`
     off hides the progress bar (a campaign run inside another tool, e.g. the planner);
     `accept_changed_bench` lets a resume use a bench file or scene changed since (a bench
     fix), recording both versions;
     `say` shows what the operator must know now (default: the terminal's stderr), and
     everything said also goes to log.txt. SIGTERM and SIGHUP stop it as Ctrl-C does.
-    `on_point` and `on_step` watch the run (see Watchers)."""
+    `on_point` and `on_step` watch the run (see Watchers). `operator_done` (with `resume`)
+    says the operator's action the run stopped on for want of a terminal has been done."""
     with handled():
         return _run_campaign(path, resume, out_dir, progress, say, accept_changed_bench,
-                             Watchers(on_point, on_step))
+                             Watchers(on_point, on_step), operator_done)
 
 
 @dataclass(frozen=True)
@@ -354,7 +356,8 @@ class Watchers:
 
 
 def _run_campaign(path: Path, resume: bool, out_dir: Path | None, progress: bool,
-                  say: Callable[[str], None] | None, accept_changed_bench: bool, watchers: Watchers) -> Path:
+                  say: Callable[[str], None] | None, accept_changed_bench: bool, watchers: Watchers,
+                  operator_done: bool = False) -> Path:
     campaign = load_campaign(path)
     run_dir = Path(out_dir) if out_dir is not None else campaign.output_dir
     store = RunStore(run_dir)
@@ -386,7 +389,7 @@ def _run_campaign(path: Path, resume: bool, out_dir: Path | None, progress: bool
                 tell(warning)
             log.info("campaign %s (%s) in %s, %s", campaign.name, campaign.file, run_dir,
                      f"resuming after {len(journal)} steps" if journal else "new run")
-            _Runner(campaign, store, journal, progress, accept_changed_bench, watchers).run()
+            _Runner(campaign, store, journal, progress, accept_changed_bench, watchers, operator_done).run()
             log.info("campaign %s complete", campaign.name)
         except BaseException as exc:
             log.error("campaign stopped by %s: %s; %scompleted steps are stored, resume to continue",
@@ -410,8 +413,13 @@ def _teller(say: Callable[[str], None] | None) -> Callable[[str], None]:
 
 class _Runner:
     def __init__(self, campaign: Campaign, store: RunStore, journal: list[dict[str, Any]],
-                 progress: bool = True, accept_changed_bench: bool = False, watchers: Watchers = Watchers()):
+                 progress: bool = True, accept_changed_bench: bool = False, watchers: Watchers = Watchers(),
+                 operator_done: bool = False):
         self.campaign = campaign
+        self.operator_request = store.operator_request() if operator_done else None
+        if operator_done and self.operator_request is None:
+            raise CampaignError(campaign.file, "--operator-done",
+                                f"{store.run_dir} is not waiting for the operator: nothing to take as done")
         self.accept_changed_bench = accept_changed_bench
         self.inputs: dict[str, dict[str, str]] = {}   # run: {input file name: sha256}
         self.progress = progress
@@ -454,6 +462,9 @@ class _Runner:
             # generator at its minimum; it is honoured on leaving `deferred()`.
             with deferred():
                 bench = stack.enter_context(open_bench(run.bench.config()))
+                if self.operator_request is not None and self.operator_request["run"] == run.name:
+                    bench.operator = ConfirmedOperator(bench.operator, self.operator_request["instruction"],
+                                                       self.operator_request["state"])
                 identifications = bench.identify()
                 self.store.record_instruments(run.name, identifications, bench=bench_provenance(
                     run.bench.scene, run.bench.file, identifications))
@@ -477,7 +488,15 @@ class _Runner:
               context: dict[str, Any], mounted: _Mounted, identifications: dict[str, str]) -> None:
         raise_if_stopped()
         log.info("run %s: step %s", run.name, step.step_id)
-        mounted.prepare(bench, step.plate)
+        try:
+            mounted.prepare(bench, step.plate)
+        except OperatorUnavailable as stop:   # kept, so a resume without a terminal can say it is done
+            self.store.write_operator_request({"run": run.name, "step": step.step_id,
+                                               "instruction": stop.instruction, "state": stop.state})
+            raise
+        if isinstance(bench.operator, ConfirmedOperator) and bench.operator.answered and self.operator_request:
+            self.store.clear_operator_request()
+            self.operator_request = None
         acquisition.reset_ranges()
         ctx = StepContext(run_name=run.name, protocol=run.protocol, step=step, bench=bench,
                           drive=drive, acquisition=acquisition, context=dict(context),

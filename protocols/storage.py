@@ -137,6 +137,10 @@ def _parquet_bytes(table: pa.Table) -> bytes:
     return sink.getvalue().to_pybytes()
 
 
+#: The operator's action a run stopped on when there was no terminal to confirm it.
+OPERATOR_REQUEST = "operator_request.json"
+
+
 class RunStore:
     """Reads and writes one run directory."""
 
@@ -345,6 +349,17 @@ class RunStore:
         path = folder / f"{step_id}-{n + 1}.json"
         write_atomic(path, json.dumps(evidence, indent=2, sort_keys=True, default=str).encode())
         return path
+
+    def write_operator_request(self, request: dict[str, Any]) -> None:
+        """What the run stopped waiting for (no terminal to confirm it on)."""
+        write_atomic(self.run_dir / OPERATOR_REQUEST, json.dumps(request, indent=2, sort_keys=True).encode())
+
+    def operator_request(self) -> dict[str, Any] | None:
+        path = self.run_dir / OPERATOR_REQUEST
+        return json.loads(path.read_text()) if path.is_file() else None
+
+    def clear_operator_request(self) -> None:
+        (self.run_dir / OPERATOR_REQUEST).unlink(missing_ok=True)
 
     # -- the journal ----------------------------------------------------------------------
     def journal(self) -> list[dict[str, Any]]:

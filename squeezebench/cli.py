@@ -86,6 +86,8 @@ def cmd_run(args: argparse.Namespace) -> int:
 
     if args.accept_changed_bench and not args.resume:
         raise UserError("--accept-changed-bench continues a stopped run: use it with --resume")
+    if args.operator_done and not args.resume:
+        raise UserError("--operator-done continues a run stopped at an operator's action: use it with --resume")
     watchers = {}
     if args.plot:
         from squeezebench.liveplot import LivePlot
@@ -98,7 +100,7 @@ def cmd_run(args: argparse.Namespace) -> int:
                   "window)", file=sys.stderr)
     run_dir = run_campaign(paths.campaign_file(args.campaign), resume=args.resume, out_dir=args.out,
                            progress=show_progress(args), accept_changed_bench=args.accept_changed_bench,
-                           **watchers)
+                           operator_done=args.operator_done, **watchers)
     say(args, f"run stored in {run_dir}")
     if args.plot:
         say(args, f"plot written to {plot.save(Path(run_dir) / 'live_plot.png')}")
@@ -346,6 +348,9 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("--accept-changed-bench", action="store_true",
                      help="with --resume: continue with a bench file or scene changed since (a bench fix); "
                           "the manifest records both versions and which steps used which")
+    run.add_argument("--operator-done", action="store_true",
+                     help="with --resume: the operator's action the run stopped on for want of a terminal "
+                          "(a cut, a plate change; it named it) has been done")
     run.add_argument("--plot", action="store_true",
                      help="draw the resonance sweeps, the measured points and the resonance drift live")
     run.set_defaults(func=cmd_run)

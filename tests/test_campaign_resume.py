@@ -152,3 +152,39 @@ def test_a_new_run_refuses_an_existing_directory(reference, tmp_path):
     run_campaign(campaign, out_dir=tmp_path / "once")
     with pytest.raises(CampaignError, match="--resume"):
         run_campaign(campaign, out_dir=tmp_path / "once")
+
+
+def test_a_cut_prompt_without_a_terminal_stops_cleanly_and_resumes_with_operator_done(tmp_path, monkeypatch, capsys):
+    """An unattended run (standard input closed) reaches the resonator cut: exit 2 with the
+    action named, the drive at minimum, the steps before stored; once the plate is cut,
+    `run --resume --operator-done` continues where no terminal is, and stores exactly the
+    rows of an uninterrupted run."""
+    from squeezebench import cli
+    from squeezebench.instruments import bench as bench_module
+    from squeezebench.instruments.errors import OperatorUnavailable
+
+    expected = reference_rows(tmp_path / "reference")
+    folder = tmp_path / "unattended"
+    folder.mkdir()
+    campaign = small_campaign(folder)
+
+    def no_terminal(operator, instruction, state=None):   # what TerminalOperator does on EOF
+        if state is not None:
+            raise OperatorUnavailable(instruction, state)
+
+    monkeypatch.setattr(bench_module.SimulatedOperator, "request", no_terminal)
+    monkeypatch.setattr(bench_module.SimulatedOperator, "already_done",
+                        lambda operator, instruction, state=None: operator._bench.set_state(state))
+    run_dir = tmp_path / "run"
+    assert cli.main(["run", str(campaign), "--out", str(run_dir), "-q"]) == 2
+    message = capsys.readouterr().err
+    assert "needs the operator" in message and "--operator-done" in message
+    stored = read_measurements(run_dir)
+    assert 0 < len(stored) < len(expected)
+    assert cli.main(["run", str(campaign), "--out", str(run_dir), "-q", "--resume"]) == 2   # still no terminal
+    assert cli.main(["run", str(campaign), "--out", str(run_dir), "-q", "--resume", "--operator-done"]) == 2
+    assert "needs the operator" in capsys.readouterr().err   # the next cut needs the person again
+    assert cli.main(["run", str(campaign), "--out", str(run_dir), "-q", "--resume", "--operator-done"]) == 0
+    assert_same_rows(read_measurements(run_dir), expected)
+    assert not (run_dir / "operator_request.json").exists()
+    assert cli.main(["run", str(campaign), "--out", str(run_dir), "-q", "--resume", "--operator-done"]) == 2
