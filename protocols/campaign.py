@@ -433,7 +433,11 @@ class _Runner:
 
     def run(self) -> None:
         total = sum(len(steps) for _, steps in self.plans)
+        # Two clocks, each named: the wall time the command has taken and may take, and the
+        # bench time (virtual on a simulated bench) the campaign has used and will use.
         with tqdm(total=total, initial=len(self.done), unit="step", desc=self.campaign.name,
+                  bar_format="{desc}: {percentage:3.0f}%|{bar}| {n_fmt}/{total_fmt} steps "
+                             "[wall {elapsed}, ~{remaining} to go]{postfix}",
                   dynamic_ncols=True, disable=not self.progress) as self.bar:
             self._show_times()
             for run, steps in self.plans:
@@ -541,8 +545,8 @@ class _Runner:
 
     def _show_times(self) -> None:
         done, total = self.bar.n, self.bar.total
-        remaining = f"{self.bench_time_s / done * (total - done):.0f}s" if done else "?"
-        self.bar.set_postfix_str(f"bench time {self.bench_time_s:.0f}s, ~{remaining} to go")
+        remaining = f"{self.bench_time_s / done * (total - done):.0f} s" if done else "?"
+        self.bar.set_postfix_str(f"bench {self.bench_time_s:.0f} s, ~{remaining} to go")
 
 
 @dataclass

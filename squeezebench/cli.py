@@ -318,6 +318,30 @@ def _add_parallel_options(parser: argparse.ArgumentParser) -> None:
                         help="run the trials on the Dask cluster at ADDRESS (e.g. tcp://head:8786) instead")
 
 
+#: What `squeezebench <command> --help` shows last: commands a lab types, with the comment
+#: saying what each does.
+EXAMPLES = {
+    "check": ["squeezebench check                        # the simulated bench",
+              "squeezebench check --bench my_bench.yaml  # a real one (copy data/benches/lab_example.yaml)",
+              "squeezebench check --bench my_bench.yaml --json"],
+    "run": ["squeezebench run quick                    # a short campaign on the simulated bench",
+            "squeezebench run paper --out runs/paper   # the paper's measurements",
+            "squeezebench run my_campaign.yaml --resume  # continue after the last stored step",
+            "squeezebench run cartography --plot       # a vibration map, watched live"],
+    "validate": ["squeezebench validate my_campaign.yaml my_bench.yaml",
+                 "squeezebench validate quick large_plate --json"],
+    "report": ["squeezebench report runs/paper           # writes runs/paper/report/index.html",
+               "squeezebench report runs/paper --allow-missing"],
+    "reproduce": ["squeezebench reproduce                  # the paper, the study and the report",
+                  "squeezebench reproduce --out /tmp/paper --no-study"],
+    "study": ["squeezebench study --out runs/study",
+              "squeezebench study --out runs/study --resume --coverage-benches 40"],
+    "plan": ["squeezebench plan quick --target-rel-error 0.05",
+             "squeezebench plan paper --target-rel-error 0.03 --write planned.yaml",
+             "squeezebench plan cartography --target-rel-error 0.03 --json"],
+}
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(prog="squeezebench", description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -335,7 +359,10 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", required=True)
 
     def add(name: str, json: bool = False, **kwargs) -> argparse.ArgumentParser:
-        return sub.add_parser(name, parents=[common, json_flag] if json else [common], **kwargs)
+        lines = EXAMPLES[name]
+        return sub.add_parser(name, parents=[common, json_flag] if json else [common],
+                              epilog="examples:\n" + "\n".join(f"  {line}" for line in lines),
+                              formatter_class=argparse.RawDescriptionHelpFormatter, **kwargs)
 
     check = add("check", json=True, help="open every instrument and print its identification")
     check.add_argument("--bench", default="sim", help="'sim' or a bench YAML file (default: sim)")

@@ -211,3 +211,16 @@ def test_piped_output_arrives_line_by_line(tmp_path):
     finally:
         process.wait(timeout=300)
     assert first.strip() and still_running and process.returncode == 0
+
+
+@pytest.mark.parametrize("command", sorted(cli.EXAMPLES))
+def test_every_help_ends_with_examples_that_parse(command, capsys):
+    with pytest.raises(SystemExit) as shown:
+        cli.main([command, "--help"])
+    assert shown.value.code == 0
+    assert "examples:\n  squeezebench " + command in capsys.readouterr().out
+    parser = cli.build_parser()
+    for line in cli.EXAMPLES[command]:
+        words = line.split("#")[0].split()
+        assert words[0] == "squeezebench" and words[1] == command
+        parser.parse_args(words[1:])   # an example that does not parse exits 2 here
