@@ -47,7 +47,6 @@ STEPS_MM = (1.0, 2.0, 3.0, 4.0, 6.0, 8.0)
 CONTINUUM_STEP_MM = 0.5
 NOISE_REPEATS = 4          # acquisitions per averaging: the fit's own u is averaged over them
 NOISE_DRAWS = 200          # Monte Carlo draws of the points' noise
-STAGE_ACCELERATION_MM_PER_S2 = 80.0   # read from the simulated stage when the plan measures
 
 
 @dataclasses.dataclass(frozen=True)
@@ -118,7 +117,7 @@ def plan_map(run: Run, target_rel_error: float, seed: int = 0) -> MapPlan:
     if run.bench.scene is None:
         raise UserError("only simulated benches (bench: {scene: ...}) can be planned")
     params = run.parameters
-    noise_rel, acquisition_s, frequency_hz = _point_noise(run)
+    noise_rel, acquisition_s, frequency_hz, acceleration_mm_per_s2 = _point_noise(run)
     continuum = _touch_shape(run, CONTINUUM_STEP_MM, frequency_hz)
     continuum_cv = homogeneity(np.abs(continuum[0])).coefficient_of_variation if continuum else np.nan
     steps = STEPS_MM if continuum else (params.grid.step_mm,)
@@ -148,7 +147,7 @@ def plan_map(run: Run, target_rel_error: float, seed: int = 0) -> MapPlan:
         cvs = [homogeneity(d).coefficient_of_variation for d in draws]
         reference = continuum_cv if np.isfinite(continuum_cv) else max(float(np.mean(cvs)), 1e-12)
         noise = 2.0 * float(np.std(cvs, ddof=1)) / reference
-        bench_s = map_bench_time_s(points, (0.0, 0.0), params.stage_velocity_mm_per_s, STAGE_ACCELERATION_MM_PER_S2,
+        bench_s = map_bench_time_s(points, (0.0, 0.0), params.stage_velocity_mm_per_s, acceleration_mm_per_s2,
                                    settle_s=params.settle_s, acquisition_s=acquisition_s[averages])
         return MapCandidate(step_mm, averages, len(points), float(cv), float(sampling), noise, bench_s)
 
@@ -174,10 +173,10 @@ def _touch_shape(run: Run, step_mm: float, frequency_hz: float,
     return working_shape(run.plate.name, frequency_hz, points[inside, 0] * 1e-3, points[inside, 1] * 1e-3)
 
 
-def _point_noise(run: Run) -> tuple[dict[int, float], dict[int, float], float]:
+def _point_noise(run: Run) -> tuple[dict[int, float], dict[int, float], float, float]:
     """Per averaging: the fit's relative u of one point's velocity and the bench time of
-    its acquisition, at the run's resonance and voltage on the simulated bench; and that
-    resonance frequency."""
+    its acquisition, at the run's resonance and voltage on the simulated bench; that
+    resonance frequency, and the stage's acceleration (SMC100 UM AC) there."""
     noise, cost = {}, {}
     with open_simulated(run.bench.scene, run.plate.state, run.acquisition.settle_s, run.safety) as session:
         simulated, clock = session.simulated, session.bench.clock
@@ -194,7 +193,7 @@ def _point_noise(run: Run) -> tuple[dict[int, float], dict[int, float], float]:
                 spent.append(clock.now_s() - start_s)
                 relative.append(reduced.velocity_pp_mps.std_uncertainty / reduced.velocity_pp_mps.value)
             noise[averages], cost[averages] = float(np.mean(relative)), float(np.mean(spent))
-        return noise, cost, session.drive.frequency_hz
+        return noise, cost, session.drive.frequency_hz, session.bench.stage.acceleration_mm_per_s2("x")
 
 
 def write_planned_maps(campaign_path: Path, plans: list[MapPlan], out: Path) -> None:
