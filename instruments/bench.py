@@ -18,7 +18,6 @@ through it.
 from __future__ import annotations
 
 import dataclasses
-import math
 import time
 import uuid
 from dataclasses import dataclass, field

@@ -39,7 +39,7 @@ from squeezebench.analysis.cartography import homogeneity
 from squeezebench.analysis.predicted_plates import working_shape
 from squeezebench.errors import UserError
 from squeezebench.protocols.campaign import Run, load_campaign
-from squeezebench.protocols.cartography import Grid, map_bench_time_s
+from squeezebench.protocols.cartography import map_bench_time_s
 from squeezebench.protocols.simulated_session import open_simulated, reduce_point
 
 AVERAGES = (1, 2, 4, 8, 16, 32)
