@@ -11,8 +11,8 @@ error has two parts, each computed:
   coefficients of variation is the sampling error, the largest over four placements of
   the grid along the length (shifted by quarters of its step): where the nodal lines
   fall between grid points is not the lab's to choose, and a coarse grid that meets the
-  target at one placement by luck misses it at another. A plate the model does not know has
-  no sampling figure: only the campaign's own step is then offered.
+  target at one placement by luck misses it at another. A plate the model does not know
+  is refused with that said: its map's sampling error cannot be planned.
 - noise: one point's velocity, acquired on the simulated bench at the run's resonance and
   voltage, gives the record fit's relative standard uncertainty at each averaging (seeded
   acquisitions). The scope re-ranges at every point, so the relative noise is taken the
@@ -36,7 +36,7 @@ import numpy as np
 import yaml
 
 from squeezebench.analysis.cartography import homogeneity
-from squeezebench.analysis.predicted_plates import working_shape
+from squeezebench.analysis import predicted_plates
 from squeezebench.errors import UserError
 from squeezebench.protocols.campaign import Run, load_campaign
 from squeezebench.protocols.cartography import map_bench_time_s
@@ -55,7 +55,7 @@ class MapCandidate:
     averages: int
     n_points: int
     coefficient_of_variation: float
-    sampling_error_rel: float      # worst (grid CV - continuum CV) / continuum CV over placements; nan: no model
+    sampling_error_rel: float      # worst (grid CV - continuum CV) / continuum CV over the placements
     noise_expanded_rel: float      # U (k = 2) of the CV from the points' noise, relative
     bench_time_s: float
 
@@ -94,7 +94,7 @@ class MapPlan:
                  f"{'total':>7} {'bench min':>9}"]
         for c in [self.as_written, *([chosen] if chosen else [])]:
             mark = "as written" if c is self.as_written else "planned"
-            sampling = "n/a" if np.isnan(c.sampling_error_rel) else f"{100 * c.sampling_error_rel:+.2f} %"
+            sampling = f"{100 * c.sampling_error_rel:+.2f} %"
             lines.append(f"{c.step_mm:8g} {c.averages:8d} {c.n_points:7d} {100 * c.coefficient_of_variation:6.1f}% "
                          f"{sampling:>9} {100 * c.noise_expanded_rel:7.3f}% {100 * c.error_rel:6.2f}% "
                          f"{c.bench_time_s / 60:9.1f}  {mark}")
@@ -117,10 +117,12 @@ def plan_map(run: Run, target_rel_error: float, seed: int = 0) -> MapPlan:
     if run.bench.scene is None:
         raise UserError("only simulated benches (bench: {scene: ...}) can be planned")
     params = run.parameters
+    if run.plate.name not in predicted_plates.GEOMETRIES:
+        raise UserError(f"run {run.name}: no plate model for {run.plate.name!r} (known: "
+                        f"{', '.join(predicted_plates.GEOMETRIES)}): a map's sampling error cannot be planned "
+                        "without the mode it samples")
     noise_rel, acquisition_s, frequency_hz, acceleration_mm_per_s2 = _point_noise(run)
-    continuum = _touch_shape(run, CONTINUUM_STEP_MM, frequency_hz)
-    continuum_cv = homogeneity(np.abs(continuum[0])).coefficient_of_variation if continuum else np.nan
-    steps = STEPS_MM if continuum else (params.grid.step_mm,)
+    continuum_cv = homogeneity(np.abs(_touch_shape(run, CONTINUUM_STEP_MM, frequency_hz))).coefficient_of_variation
     rng = np.random.default_rng(seed)
 
     placements: dict[float, tuple[np.ndarray, float, float]] = {}
@@ -128,16 +130,10 @@ def plan_map(run: Run, target_rel_error: float, seed: int = 0) -> MapPlan:
     def sampled(step_mm: float) -> tuple[np.ndarray, float, float]:
         """The grid as written at `step_mm`: its amplitudes, CV, and the worst sampling error."""
         if step_mm not in placements:
-            shapes = [_touch_shape(run, step_mm, frequency_hz, shift_mm=step_mm * q / 4) for q in range(4)]
-            if shapes[0] is None:   # no model: the noise on a flat map of the right size
-                n = int(sum(params.in_touch_area(x, y) for x, y in
-                            dataclasses.replace(params.grid, step_mm=step_mm).points_mm()))
-                placements[step_mm] = np.ones(n), np.nan, np.nan
-            else:
-                errors = [homogeneity(np.abs(s[0])).coefficient_of_variation / continuum_cv - 1.0 for s in shapes]
-                worst = errors[int(np.argmax(np.abs(errors)))]
-                amplitude = np.abs(shapes[0][0])
-                placements[step_mm] = amplitude, homogeneity(amplitude).coefficient_of_variation, worst
+            shapes = [np.abs(_touch_shape(run, step_mm, frequency_hz, shift_mm=step_mm * q / 4)) for q in range(4)]
+            errors = [homogeneity(shape).coefficient_of_variation / continuum_cv - 1.0 for shape in shapes]
+            worst = errors[int(np.argmax(np.abs(errors)))]
+            placements[step_mm] = shapes[0], homogeneity(shapes[0]).coefficient_of_variation, worst
         return placements[step_mm]
 
     def candidate(step_mm: float, averages: int) -> MapCandidate:
@@ -145,13 +141,12 @@ def plan_map(run: Run, target_rel_error: float, seed: int = 0) -> MapPlan:
         amplitude, cv, sampling = sampled(step_mm)
         draws = amplitude * (1.0 + noise_rel[averages] * rng.normal(size=(NOISE_DRAWS, amplitude.size)))
         cvs = [homogeneity(d).coefficient_of_variation for d in draws]
-        reference = continuum_cv if np.isfinite(continuum_cv) else max(float(np.mean(cvs)), 1e-12)
-        noise = 2.0 * float(np.std(cvs, ddof=1)) / reference
+        noise = 2.0 * float(np.std(cvs, ddof=1)) / continuum_cv
         bench_s = map_bench_time_s(points, (0.0, 0.0), params.stage_velocity_mm_per_s, acceleration_mm_per_s2,
                                    settle_s=params.settle_s, acquisition_s=acquisition_s[averages])
         return MapCandidate(step_mm, averages, len(points), float(cv), float(sampling), noise, bench_s)
 
-    candidates = [candidate(step, averages) for step in steps for averages in AVERAGES]
+    candidates = [candidate(step, averages) for step in STEPS_MM for averages in AVERAGES]
     as_written = next((c for c in candidates if c.step_mm == params.grid.step_mm
                        and c.averages == run.acquisition.averages), None) \
         or candidate(params.grid.step_mm, _nearest(run.acquisition.averages))
@@ -162,15 +157,16 @@ def _nearest(averages: int) -> int:
     return min(AVERAGES, key=lambda a: abs(np.log2(a) - np.log2(max(averages, 1))))
 
 
-def _touch_shape(run: Run, step_mm: float, frequency_hz: float,
-                 shift_mm: float = 0.0) -> tuple[np.ndarray, float] | None:
+def _touch_shape(run: Run, step_mm: float, frequency_hz: float, shift_mm: float = 0.0) -> np.ndarray:
     """The model's shape at the touch-area points of the run's grid at `step_mm`, its
-    first column moved `shift_mm` along the length; None for a plate the model does not know."""
+    first column moved `shift_mm` along the length."""
     params = run.parameters
     (x0, x1) = params.grid.x_range_mm
     points = dataclasses.replace(params.grid, step_mm=step_mm, x_range_mm=(x0 + shift_mm, x1)).points_mm()
     inside = np.array([params.in_touch_area(x, y) for x, y in points])
-    return working_shape(run.plate.name, frequency_hz, points[inside, 0] * 1e-3, points[inside, 1] * 1e-3)
+    shape, _ = predicted_plates.working_shape(run.plate.name, frequency_hz, points[inside, 0] * 1e-3,
+                                              points[inside, 1] * 1e-3)
+    return shape
 
 
 def _point_noise(run: Run) -> tuple[dict[int, float], dict[int, float], float, float]:

@@ -63,3 +63,16 @@ def test_plan_cli_answers_for_a_map_and_exits_2_when_no_grid_meets_the_target(pl
     answer = json.loads(capsys.readouterr().out)
     assert answer["maps"][0]["chosen"] is None and answer["maps"][0]["as_written"]["step_mm"] == 2
     assert np.isfinite(answer["maps"][0]["continuum_coefficient_of_variation"])
+
+
+def test_a_plate_without_a_model_is_refused_with_the_reason(tmp_path):
+    import yaml
+
+    from squeezebench.errors import UserError
+
+    campaign = map_campaign(tmp_path)
+    data = yaml.safe_load(campaign.read_text())
+    data["runs"][0]["plate"]["name"] = "my_plate"
+    campaign.write_text(yaml.safe_dump(data))
+    with pytest.raises(UserError, match="no plate model for 'my_plate'.*cannot be planned"):
+        plan_map(map_runs(campaign)[0], 0.05)
