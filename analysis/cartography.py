@@ -114,10 +114,10 @@ def width_uniformity(x_m: np.ndarray, signed: np.ndarray) -> float:
 
 def nodal_lines_m(x_m: np.ndarray, signed: np.ndarray) -> np.ndarray:
     """x of the sign changes of the width-averaged signed map (linear interpolation)."""
+    from squeezebench.analysis.plate_modes import sign_changes
+
     profile = pd.Series(np.asarray(signed, dtype=float)).groupby(np.round(np.asarray(x_m, dtype=float), 9)).mean()
-    x, m = profile.index.to_numpy(), profile.to_numpy()
-    i = np.nonzero(np.sign(m[:-1]) * np.sign(m[1:]) < 0)[0]
-    return x[i] - m[i] * (x[i + 1] - x[i]) / (m[i + 1] - m[i])
+    return sign_changes(profile.index.to_numpy(), profile.to_numpy())
 
 
 def velocity_scale_rel_u() -> float:

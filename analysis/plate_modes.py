@@ -190,9 +190,7 @@ class PlateModes:
 
     def nodal_lines_m(self, k: int) -> np.ndarray:
         """x positions where the width-averaged deflection of mode k changes sign."""
-        m = self.shapes[k].mean(axis=1)
-        i = np.nonzero(np.sign(m[:-1]) * np.sign(m[1:]) < 0)[0]
-        return self.x_m[i] - m[i] * (self.x_m[i + 1] - self.x_m[i]) / (m[i + 1] - m[i])
+        return sign_changes(self.x_m, self.shapes[k].mean(axis=1))
 
     def half_wavelength_m(self, k: int) -> float:
         """Mean spacing of the interior nodal lines (the first and last sit near free edges,
@@ -346,6 +344,14 @@ def _solve(geometry, resonator, piezo, near_hz, n_modes, elements_per_half_wave)
         powered=np.array([p.powered for p in geometry.patches], dtype=bool),
         plate_mass_kg=plate_mass, uniformity=uniformity,
         _probe=lambda p: basis.probes(p) @ vectors, _modal_force=theta, _peak=peak)
+
+
+def sign_changes(x: np.ndarray, values: np.ndarray) -> np.ndarray:
+    """Where `values` sampled at increasing `x` changes sign, by linear interpolation
+    between the two samples either side (a nodal line of a profile along the length)."""
+    x, m = np.asarray(x, dtype=float), np.asarray(values, dtype=float)
+    i = np.nonzero(np.sign(m[:-1]) * np.sign(m[1:]) < 0)[0]
+    return x[i] - m[i] * (x[i + 1] - x[i]) / (m[i + 1] - m[i])
 
 
 @functools.lru_cache(maxsize=None)

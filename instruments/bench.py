@@ -454,9 +454,9 @@ def _report_lines(role: str, driver: Instrument, electronics: BenchElectronics
         settings["decoder_ranges_mps_per_v"] = dict(driver.ranges_mps_per_v)
         lines.append("    decoder ranges: " + ", ".join(driver.ranges_mps_per_v))
     if isinstance(driver, SMC100Stage):
-        for axis in ("x", "y"):
+        for axis in ("x", "y"):   # read once, shown and returned
             settings[axis] = driver.axis_settings(axis)
-            lines.append(f"    {driver.describe_axis(axis)}")
+            lines.append(f"    {driver.describe_axis(axis, settings[axis])}")
     return lines, problems, settings
 
 

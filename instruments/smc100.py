@@ -205,13 +205,14 @@ class SMC100Stage(Instrument):
                 "travel_low_mm": low, "travel_high_mm": high, "velocity_mm_per_s": self.velocity_mm_per_s(axis),
                 "acceleration_mm_per_s2": self.acceleration_mm_per_s2(axis), "positioner_errors": describe_errors(bits)}
 
-    def describe_axis(self, axis: str) -> str:
-        """`axis_settings` as the line `check` shows."""
-        a = self.axis_settings(axis)
-        errors = a["positioner_errors"]
-        return (f"{axis} (address {a['address']}): {a['state']}, position {a['position_mm']:.3f} mm, travel "
-                f"{a['travel_low_mm']:g} to {a['travel_high_mm']:g} mm, velocity {a['velocity_mm_per_s']:g} mm/s, "
-                f"acceleration {a['acceleration_mm_per_s2']:g} mm/s2"
+    @staticmethod
+    def describe_axis(axis: str, settings: dict[str, Any]) -> str:
+        """An axis's `axis_settings` as the line `check` shows."""
+        errors = settings["positioner_errors"]
+        return (f"{axis} (address {settings['address']}): {settings['state']}, position "
+                f"{settings['position_mm']:.3f} mm, travel {settings['travel_low_mm']:g} to "
+                f"{settings['travel_high_mm']:g} mm, velocity {settings['velocity_mm_per_s']:g} mm/s, "
+                f"acceleration {settings['acceleration_mm_per_s2']:g} mm/s2"
                 + (f"; positioner errors: {', '.join(errors)}" if errors else ""))
 
     # -- motion -----------------------------------------------------------------------------------

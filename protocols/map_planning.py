@@ -41,6 +41,7 @@ from squeezebench.errors import UserError
 from squeezebench.protocols.campaign import Run, load_campaign
 from squeezebench.protocols.cartography import map_bench_time_s
 from squeezebench.protocols.simulated_session import open_simulated, reduce_point
+from squeezebench.protocols.variants import MAP_PROTOCOLS
 
 AVERAGES = (1, 2, 4, 8, 16, 32)
 STEPS_MM = (1.0, 2.0, 3.0, 4.0, 6.0, 8.0)
@@ -107,7 +108,7 @@ class MapPlan:
 
 
 def map_runs(campaign_path: Path) -> list[Run]:
-    return [run for run in load_campaign(Path(campaign_path)).runs if run.protocol == "cartography"]
+    return [run for run in load_campaign(Path(campaign_path)).runs if run.protocol in MAP_PROTOCOLS]
 
 
 def plan_map(run: Run, target_rel_error: float, seed: int = 0) -> MapPlan:

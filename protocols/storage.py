@@ -126,6 +126,12 @@ def write_atomic(path: Path, data: bytes) -> None:
         _fsync_dir(path.parent)
 
 
+def write_json_atomic(path: Path, value: Any) -> None:
+    """A JSON document to `path`, indented and sorted, atomically (`write_atomic`); what
+    JSON has no type for (a path, a timestamp) is written as its text."""
+    write_atomic(path, json.dumps(value, indent=2, sort_keys=True, default=str).encode())
+
+
 def write_frame_atomic(path: Path, frame: pd.DataFrame) -> None:
     """A table to `path` as parquet, atomically (`write_atomic`)."""
     write_atomic(path, _parquet_bytes(pa.Table.from_pandas(frame, preserve_index=False)))
@@ -338,8 +344,7 @@ class RunStore:
         self._write_manifest(manifest)
 
     def write_settings(self, run_name: str, settings: dict[str, Any]) -> None:
-        write_atomic(self.run_dir / "settings" / f"{run_name}.json",
-                     json.dumps(settings, indent=2, sort_keys=True, default=str).encode())
+        write_json_atomic(self.run_dir / "settings" / f"{run_name}.json", settings)
 
     def write_evidence(self, run_name: str, step_id: str, evidence: dict[str, Any]) -> Path:
         """What made a step stop (an acquisition the safety check refused), kept beside the
@@ -347,12 +352,12 @@ class RunStore:
         folder = self.run_dir / "evidence" / run_name
         n = len(list(folder.glob(f"{step_id}-*.json"))) if folder.is_dir() else 0
         path = folder / f"{step_id}-{n + 1}.json"
-        write_atomic(path, json.dumps(evidence, indent=2, sort_keys=True, default=str).encode())
+        write_json_atomic(path, evidence)
         return path
 
     def write_operator_request(self, request: dict[str, Any]) -> None:
         """What the run stopped waiting for (no terminal to confirm it on)."""
-        write_atomic(self.run_dir / OPERATOR_REQUEST, json.dumps(request, indent=2, sort_keys=True).encode())
+        write_json_atomic(self.run_dir / OPERATOR_REQUEST, request)
 
     def operator_request(self) -> dict[str, Any] | None:
         path = self.run_dir / OPERATOR_REQUEST

@@ -257,9 +257,8 @@ def cmd_study(args: argparse.Namespace) -> int:
 
 
 def cmd_plan(args: argparse.Namespace) -> int:
-    import yaml
-
-    from squeezebench.protocols.map_planning import map_runs, plan_map, write_planned_maps
+    from squeezebench.protocols.campaign import load_campaign
+    from squeezebench.protocols.map_planning import plan_map, write_planned_maps
     from squeezebench.protocols.planning import make_plan, plan_text, write_planned_campaign
     from squeezebench.protocols.variants import MAP_PROTOCOLS
 
@@ -270,9 +269,9 @@ def cmd_plan(args: argparse.Namespace) -> int:
         check_writable_file(args.write)
     if campaign != Path(args.campaign):
         say(args, f"campaign: {campaign} (shipped; no file named {args.campaign} here)")
-    maps = [plan_map(run, args.target_rel_error) for run in map_runs(campaign)]
-    only_maps = bool(maps) and all(entry.get("protocol") in MAP_PROTOCOLS
-                                   for entry in yaml.safe_load(campaign.read_text(encoding="utf-8"))["runs"])
+    runs = load_campaign(campaign).runs
+    maps = [plan_map(run, args.target_rel_error) for run in runs if run.protocol in MAP_PROTOCOLS]
+    only_maps = len(maps) == len(runs)
     plan = None if only_maps else make_plan(campaign, args.target_rel_error, workers=args.workers,
                                             scheduler=args.scheduler)
     written = None
