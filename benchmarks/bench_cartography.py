@@ -15,6 +15,7 @@ Run: python benchmarks/bench_cartography.py
 
 from __future__ import annotations
 
+import os
 import sys
 import tempfile
 import time
@@ -44,6 +45,7 @@ def main() -> int:
         write_report(run_dir)
         report_s = time.perf_counter() - start
     moves_s = map_bench_time_s(grid.points_mm(), (0.0, 0.0), 20.0, 80.0, settle_s=0.0, acquisition_s=0.0)
+    print(f"load average (1 min) at the end: {os.getloadavg()[0]:.2f} on {os.cpu_count()} cores")
     print(f"{len(mapped)} points at {grid.step_mm:g} mm: {wall_s:.1f} s wall for the whole map "
           f"(goal <= {GOAL_S:.0f} s, ratio {wall_s / GOAL_S:.2f}), {1e3 * wall_s / len(mapped):.1f} ms a point")
     print(f"bench time {bench_s / 60:.1f} min, of which the stage's moves {moves_s / 60:.1f} min "

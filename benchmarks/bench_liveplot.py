@@ -45,6 +45,7 @@ def main() -> int:
             plain.append(timed_run(Path(folder) / f"plain{i}", plot=False))
             plotted.append(timed_run(Path(folder) / f"plot{i}", plot=True))
     ratio = statistics.median(plotted) / statistics.median(plain)
+    print(f"load average (1 min) at the end: {os.getloadavg()[0]:.2f} on {os.cpu_count()} cores")
     print(f"run quick: {statistics.median(plain):.2f} s, with --plot {statistics.median(plotted):.2f} s "
           f"(medians of {args.repeat}); ratio {ratio:.2f} (goal <= {GOAL_RATIO})")
     return 0 if ratio <= GOAL_RATIO else 1
