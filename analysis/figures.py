@@ -23,7 +23,7 @@ from squeezebench.analysis.tables import LineFit, PlateCharacterisation  # noqa:
 _PNG_METADATA = {"Software": None}
 
 
-def _save(fig, path: Path) -> Path:
+def save_figure(fig, path: Path) -> Path:
     fig.tight_layout()
     fig.savefig(path, dpi=100, metadata=_PNG_METADATA)
     plt.close(fig)
@@ -72,7 +72,7 @@ def fig2_power_ratio(detuning: pd.DataFrame, path: Path) -> Path:
         ax.grid(alpha=0.3)
         ax.legend(fontsize=8)
     axes[0].set_ylabel("Pt / P0")
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
 def resonance_curves(sweeps: pd.DataFrame, path: Path) -> Path:
@@ -96,7 +96,7 @@ def resonance_curves(sweeps: pd.DataFrame, path: Path) -> Path:
             ax.legend(fontsize=7)
         else:
             ax.text(0.02, 0.97, f"{len(searches)} searches", transform=ax.transAxes, va="top", fontsize=8)
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
 def _fit_panel(ax, res_ax, x, y, y_u, fit: LineFit, scale: float, xlabel: str, ylabel: str,
@@ -168,7 +168,7 @@ def fig5_q_tan(plates: dict[str, PlateCharacterisation], path: Path) -> Path:
         ax_t.axhline(row.value, ls="--", color="crimson", lw=1, label=f"paper: mean, {row.item} plates")
     ax_q.legend(fontsize=7)
     ax_t.legend(fontsize=7)
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
 def fig8_amplitude(large: PlateCharacterisation, path: Path) -> Path:
@@ -182,7 +182,7 @@ def fig8_amplitude(large: PlateCharacterisation, path: Path) -> Path:
             [paper_value("large_plate", "large_plate", "amplitude_m") * 1e6], label="paper, Sec. 5.3.2", **PAPER_STYLE)
     ax.legend(fontsize=8, loc="lower right")
     ax.grid(alpha=0.3)
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
 def fig9_power(power: pd.DataFrame, path: Path) -> Path:
@@ -199,7 +199,7 @@ def fig9_power(power: pd.DataFrame, path: Path) -> Path:
     ax.set_ylabel("power (W)")
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8)
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
 def study_fronts(summary: pd.DataFrame, path: Path) -> Path:
@@ -228,7 +228,7 @@ def study_fronts(summary: pd.DataFrame, path: Path) -> Path:
         ax.legend(fontsize=7)
     for ax in list(axes.flat)[len(quantities):]:
         ax.set_visible(False)
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
 def systematics_fronts(summary: pd.DataFrame, path: Path) -> Path:
@@ -260,7 +260,7 @@ def systematics_fronts(summary: pd.DataFrame, path: Path) -> Path:
         ax.set_xlabel("bench time per trial (s)")
         ax.set_ylabel("p95 |relative error| over benches (%)")
         ax.legend(fontsize=7, loc="lower left")
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
 def heating_drift(heating: pd.DataFrame, path: Path) -> Path:
@@ -274,4 +274,4 @@ def heating_drift(heating: pd.DataFrame, path: Path) -> Path:
     ax.set_xlabel("scope averages per point")
     ax.set_ylabel("p95 |relative error| of power")
     ax.legend(fontsize=8)
-    return _save(fig, path)
+    return save_figure(fig, path)

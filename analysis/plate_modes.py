@@ -26,6 +26,7 @@ powered set. All SI units.
 """
 from __future__ import annotations
 
+import collections
 import functools
 import hashlib
 import json
@@ -231,30 +232,40 @@ def _grid(length: float, extra: list[float], target: float) -> np.ndarray:
 
 
 def _key(geometry: PlateGeometry, resonator: Isotropic, piezo: Piezo, near_hz: float,
-         n_modes: int, elements_per_half_wave: float) -> str:
+         n_modes: int, elements_per_half_wave: float, mesh_half_wave_m: float | None) -> str:
     text = json.dumps([asdict(geometry), asdict(resonator), asdict(piezo), near_hz, n_modes,
-                       elements_per_half_wave], sort_keys=True, default=float)
+                       elements_per_half_wave, mesh_half_wave_m], sort_keys=True, default=float)
     return hashlib.sha256(text.encode()).hexdigest()
 
 
-_CACHE: dict[str, PlateModes] = {}
+#: Solved plates, most recently used last: a campaign's few plates stay, a layout sweep's
+#: hundreds (each solved once) do not pile up in a worker's memory.
+_CACHE: "collections.OrderedDict[str, PlateModes]" = collections.OrderedDict()
+_CACHE_SIZE = 16
 
 
 def solve_plate(geometry: PlateGeometry, resonator: Isotropic = ALUMINIUM_TABLE2,
                 piezo: Piezo = NCE41, near_hz: float = 40e3, n_modes: int | None = None,
-                elements_per_half_wave: float = 1.5) -> PlateModes:
+                elements_per_half_wave: float = 1.5, mesh_half_wave_m: float | None = None,
+                band_rel: float = 0.16) -> PlateModes:
     """The `n_modes` modes nearest `near_hz` of `geometry` (cached by geometry, materials and
     mesh: a campaign solves each plate once). The mesh size follows the bare plate's flexural
     half-wavelength at `near_hz`, pi / (w^2 rho h / D)^(1/4). By default the modes cover
     about +-8 % of `near_hz` (a plate's modal density is S/2 sqrt(rho h / D) per hertz), so
-    the (n, 0) neighbours, about 2/n apart in frequency, are in view."""
+    the (n, 0) neighbours, about 2/n apart in frequency, are in view (`band_rel` is that
+    band's whole width, relative). `mesh_half_wave_m`
+    fixes that mesh size instead: solves of one plate whose materials move by their
+    tolerances then share one mesh, so their differences are physics, not remeshing."""
     if n_modes is None:
         d, mass, _ = laminate(resonator, geometry.thickness_m, piezo, 0.0)
         density_per_hz = geometry.length_m * geometry.width_m / 2 * np.sqrt(mass / d)
-        n_modes = max(12, int(np.ceil(0.16 * near_hz * density_per_hz)))
-    key = _key(geometry, resonator, piezo, near_hz, n_modes, elements_per_half_wave)
+        n_modes = max(12, int(np.ceil(band_rel * near_hz * density_per_hz)))
+    key = _key(geometry, resonator, piezo, near_hz, n_modes, elements_per_half_wave, mesh_half_wave_m)
     if key not in _CACHE:
-        _CACHE[key] = _solve(geometry, resonator, piezo, near_hz, n_modes, elements_per_half_wave)
+        _CACHE[key] = _solve(geometry, resonator, piezo, near_hz, n_modes, elements_per_half_wave, mesh_half_wave_m)
+        while len(_CACHE) > _CACHE_SIZE:
+            _CACHE.popitem(last=False)
+    _CACHE.move_to_end(key)
     return _CACHE[key]
 
 
@@ -264,16 +275,43 @@ def flexural_half_wavelength_m(material: Isotropic, thickness_m: float, frequenc
     return float(np.pi / ((2 * np.pi * frequency_hz) ** 2 * mass / d) ** 0.25)
 
 
-def _solve(geometry, resonator, piezo, near_hz, n_modes, elements_per_half_wave) -> PlateModes:
-    from skfem import Basis, BilinearForm, ElementTriArgyris, LinearForm, MeshTri, asm
+@functools.lru_cache(maxsize=4)
+def _discretisation(x: tuple[float, ...], y: tuple[float, ...], gx: tuple[float, ...], gy: tuple[float, ...]):
+    """Mesh, Argyris basis and the probe of the shape grid (gx x gy) for mesh lines x, y:
+    most of a solve's time, and the same for plates that differ only in materials or
+    thicknesses (a layout sweep's thickness variants, a tolerance's nearby solve)."""
+    from skfem import Basis, ElementTriArgyris, MeshTri
+
+    mesh = MeshTri.init_tensor(np.array(x), np.array(y))
+    basis = Basis(mesh, ElementTriArgyris(), intorder=8)
+    points = np.array(np.meshgrid(np.array(gx), np.array(gy), indexing="ij")).reshape(2, -1)
+    probes: dict[bytes, object] = {}
+
+    def probe(p: np.ndarray):
+        """The basis evaluated at points p (2, N), kept: a sweep asks for the same touch grid
+        on every plate that shares this mesh."""
+        key = np.ascontiguousarray(p, dtype=float).tobytes()
+        if key not in probes:
+            if len(probes) > 32:
+                probes.clear()
+            probes[key] = basis.probes(p)
+        return probes[key]
+
+    return mesh, basis, basis.probes(points), probe
+
+
+def _solve(geometry, resonator, piezo, near_hz, n_modes, elements_per_half_wave, mesh_half_wave_m=None) -> PlateModes:
+    from skfem import BilinearForm, LinearForm, asm
     from skfem.helpers import dd, ddot, trace
 
-    half_wave = flexural_half_wavelength_m(resonator, geometry.thickness_m, near_hz)
+    half_wave = mesh_half_wave_m or flexural_half_wavelength_m(resonator, geometry.thickness_m, near_hz)
     target = half_wave / elements_per_half_wave
     x = _grid(geometry.length_m, [b for p in geometry.patches for b in p.bounds[:2]], target)
     y = _grid(geometry.width_m, [b for p in geometry.patches for b in p.bounds[2:]], target)
-    mesh = MeshTri.init_tensor(x, y)
-    basis = Basis(mesh, ElementTriArgyris(), intorder=8)
+    # Shapes on a grid fine enough to place nodal lines (4 points per half-wave: zero crossings interpolate to ~1 % of it).
+    gx = np.linspace(0, geometry.length_m, int(np.ceil(4 * geometry.length_m / half_wave)) + 1)
+    gy = np.linspace(0, geometry.width_m, int(np.ceil(4 * geometry.width_m / half_wave)) + 1)
+    mesh, basis, grid_probe, probe = _discretisation(*(tuple(a.tolist()) for a in (x, y, gx, gy)))
     centres = mesh.p[:, mesh.t].mean(axis=1)
 
     d_bare, mass_bare, _ = laminate(resonator, geometry.thickness_m, piezo, 0.0)
@@ -314,11 +352,7 @@ def _solve(geometry, resonator, piezo, near_hz, n_modes, elements_per_half_wave)
     order = np.argsort(eigenvalues)
     eigenvalues, vectors = eigenvalues[order], vectors[:, order]
 
-    # Shapes on a grid fine enough to place nodal lines (4 points per half-wave: zero crossings interpolate to ~1 % of it).
-    gx = np.linspace(0, geometry.length_m, int(np.ceil(4 * geometry.length_m / half_wave)) + 1)
-    gy = np.linspace(0, geometry.width_m, int(np.ceil(4 * geometry.width_m / half_wave)) + 1)
-    points = np.array(np.meshgrid(gx, gy, indexing="ij")).reshape(2, -1)
-    shapes = (basis.probes(points) @ vectors).T.reshape(n, len(gx), len(gy))
+    shapes = (grid_probe @ vectors).T.reshape(n, len(gx), len(gy))
     flat = shapes.reshape(n, -1)
     peak = flat[np.arange(n), np.abs(flat).argmax(axis=1)]  # signed: the peak reads +1
     scaled = shapes / peak[:, None, None]
@@ -343,7 +377,7 @@ def _solve(geometry, resonator, piezo, near_hz, n_modes, elements_per_half_wave)
         clamped_capacitance_f=capacitance,
         powered=np.array([p.powered for p in geometry.patches], dtype=bool),
         plate_mass_kg=plate_mass, uniformity=uniformity,
-        _probe=lambda p: basis.probes(p) @ vectors, _modal_force=theta, _peak=peak)
+        _probe=lambda p: probe(p) @ vectors, _modal_force=theta, _peak=peak)
 
 
 def sign_changes(x: np.ndarray, values: np.ndarray) -> np.ndarray:

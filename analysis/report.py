@@ -968,7 +968,7 @@ def _words_for_missing(frame: pd.DataFrame, word: str) -> pd.DataFrame:
     return frame.where(frame.notna(), word)
 
 
-_CSS = """
+CSS = """
 body{font-family:system-ui,sans-serif;max-width:1200px;margin:0 auto;padding:0 16px;color:#222;line-height:1.4}
 h1{font-size:1.6em}h2{border-bottom:1px solid #bbb;margin-top:2em}
 nav{font-size:.9em;margin-bottom:1em}nav a{margin-right:.8em}
@@ -998,7 +998,7 @@ details{margin:.8em 0}summary{cursor:pointer;color:#0645ad}details[open]>summary
 """
 
 
-def _scrolling_tables(body_html: str) -> str:
+def scrolling_tables(body_html: str) -> str:
     """Every table in a box of the page's width that scrolls sideways on its own: on a
     phone a wide table scrolls, the page does not."""
     return re.sub(r"<table\b", "<div class='wide'><table", body_html).replace("</table>", "</table></div>")
@@ -1014,9 +1014,9 @@ def _page(context: ReportContext, sections: list[Section]) -> str:
     nav = "<nav>" + "".join(f"<a href='#{s.anchor or _slug(s.title)}'>{html.escape(s.title.split(':')[0])}</a>"
                             for s in sections) + "</nav>"
     parts = [f"<section id='{s.anchor or _slug(s.title)}' class='{'appendix' if s.appendix else 'result'}'>"
-             f"<h2>{'Appendix: ' if s.appendix else ''}{html.escape(s.title)}</h2>{_scrolling_tables(s.body_html)}</section>"
+             f"<h2>{'Appendix: ' if s.appendix else ''}{html.escape(s.title)}</h2>{scrolling_tables(s.body_html)}</section>"
              for s in sections]
     return ("<!DOCTYPE html><html lang='en'><head><meta charset='utf-8'>"
             "<meta name='viewport' content='width=device-width, initial-scale=1'>"
-            f"<title>{html.escape(title)}</title><style>{_CSS}</style></head><body>"
+            f"<title>{html.escape(title)}</title><style>{CSS}</style></head><body>"
             f"<h1>{html.escape(title)}</h1>{nav}" + "".join(parts) + "</body></html>")

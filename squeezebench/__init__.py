@@ -4,7 +4,7 @@ The Python API (squeezebench.api) is also here: `squeezebench.resonance_search(.
 """
 
 #: squeezebench.api's functions, imported on first use: the command line stays light.
-_API = ("open_bench", "run_protocol", "resonance_search", "characterisation", "run_campaign", "load_run")
+_API = ("open_bench", "run_protocol", "resonance_search", "characterisation", "run_campaign", "load_run", "design")
 
 
 def __getattr__(name: str):

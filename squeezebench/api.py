@@ -19,6 +19,9 @@
 - `run_campaign(campaign, ...)`: a campaign file, or a shipped one by name (`"quick"`).
 - `load_run(run_dir)`: a stored run as DataFrames: `points()`, `waveforms()`, `settings()`;
   `report()` regenerates its report.
+- `design(plate, ...)`: what a plate will need before it is built (`squeezebench design`):
+  `answer.physics.nominal.values`, `answer.physics.expanded` (U, k = 2), `answer.physics.budget`,
+  `answer.comparison()`, `answer.layouts`; `out_dir` also writes the page.
 
 Every run takes `on_point` / `on_step` watchers (protocols.campaign.Watchers);
 `squeezebench.liveplot.LivePlot` is one. Errors a user can fix are `UserError`s naming the
@@ -109,6 +112,21 @@ def characterisation(out_dir: str | Path, *, plate: Mapping[str, Any], search: M
     re-found before each voltage, one point per piezo voltage (peak-to-peak)."""
     return run_protocol("characterisation", out_dir, plate=plate,
                         parameters={"search": search, "voltages_vpp": list(voltages_vpp)}, **run)
+
+
+def design(plate: str | Path, *, from_runs: Sequence[str | Path] = (), measured: str | Path | None = None,
+           measured_plate: str | None = None, layouts: bool = False, out_dir: str | Path | None = None,
+           workers: int | None = None):
+    """A plate design's prediction (`analysis.design.DesignAnswer`), as `squeezebench design`
+    (the layout sweep only when `layouts`, a few minutes for a large plate); with `out_dir`,
+    its page, design.json and tables are written there too."""
+    from squeezebench.designing import run_design, write_design
+
+    answer = run_design(plate, from_runs=from_runs, measured=measured, measured_plate=measured_plate,
+                        sweep=layouts, workers=workers)
+    if out_dir is not None:
+        write_design(answer, out_dir)
+    return answer
 
 
 def load_run(run_dir: str | Path) -> RunResults:

@@ -1,4 +1,4 @@
-"""The `squeezebench` command: check, run, report, reproduce, plan, study.
+"""The `squeezebench` command: check, run, report, reproduce, plan, study, validate, design.
 
 Each subcommand is a thin call into the package that does the work; the command line
 only turns user errors into one clear message and an exit status, and keeps the
@@ -295,6 +295,24 @@ def cmd_plan(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_design(args: argparse.Namespace) -> int:
+    from squeezebench.analysis.design_report import headline
+    from squeezebench.designing import run_design, write_design
+
+    answer = run_design(args.plate, from_runs=args.from_runs or (), measured=args.measured,
+                        measured_plate=args.measured_plate, sweep=not args.no_layouts,
+                        workers=args.workers, scheduler=args.scheduler)
+    folder, files = write_design(answer, args.out)
+    if args.json:
+        import json as json_module
+
+        emit_json(json_module.loads((folder / files["json"]).read_text(encoding="utf-8")) | {"out": str(folder)})
+    else:
+        say(args, "\n".join(headline(answer)))
+        say(args, f"design page written to {folder / files['page']}")
+    return 0
+
+
 def _relative_error(text: str) -> float:
     value = float(text)
     if not 0 < value < 1:   # inf, nan, 0 or 100 % cannot be planned for
@@ -338,6 +356,9 @@ EXAMPLES = {
     "plan": ["squeezebench plan quick --target-rel-error 0.05",
              "squeezebench plan paper --target-rel-error 0.03 --write planned.yaml",
              "squeezebench plan cartography --target-rel-error 0.03 --json"],
+    "design": ["squeezebench design large_plate --no-layouts   # the paper's large plate, from physics",
+               "squeezebench design large_plate --from runs/paper  # and by the paper's method from its small plates",
+               "squeezebench design my_plate.yaml --measured runs/built --json"],
 }
 
 
@@ -432,6 +453,23 @@ def build_parser() -> argparse.ArgumentParser:
                       help="also write the campaign with the planned settings to FILE")
     _add_parallel_options(plan)
     plan.set_defaults(func=cmd_plan)
+
+    design = add("design", json=True, help="predict what a plate will need before it is built (voltage, "
+                 "power, mode, layouts), from physics and from characterised small plates")
+    design.add_argument("plate", help="design YAML file, or the name of a shipped one (large_plate)")
+    design.add_argument("--from", dest="from_runs", nargs="+", type=Path, default=None, metavar="RUN_DIR",
+                        help="characterisation runs of small plates of the same build: also predict by the "
+                             "paper's method (Eqs. 25-29)")
+    design.add_argument("--measured", type=Path, default=None, metavar="RUN_DIR",
+                        help="a characterisation run of the built plate: set the measurement beside the predictions")
+    design.add_argument("--measured-plate", default=None, metavar="NAME",
+                        help="which plate of --measured is the built one (default: the design's name, or the only one)")
+    design.add_argument("--out", type=Path, default=None, help="folder for the page and its files "
+                        "(default: designs/<name>)")
+    design.add_argument("--no-layouts", action="store_true",
+                        help="skip the sweep of 300 piezo layouts (about 4 minutes on 2 cores for the large plate)")
+    _add_parallel_options(design)
+    design.set_defaults(func=cmd_design)
     return parser
 
 

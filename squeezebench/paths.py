@@ -32,26 +32,36 @@ def campaign_file(name: str | Path) -> Path:
     """A campaign file as given, else a campaign shipped with squeezebench (`quick`,
     `paper.yaml`): an installed package has no data/ folder in the working directory. A
     folder of the same name (a run directory called `quick`) does not hide a shipped one."""
-    path = Path(name)
-    if path.is_file():
-        return path
-    for candidate in (campaigns_dir() / path, campaigns_dir() / f"{path}.yaml"):
-        if candidate.is_file():
-            return candidate
-    return path   # the campaign loader names what is missing
+    return _given_or_shipped(name, campaigns_dir())   # the campaign loader names what is missing
 
 
 def input_file(name: str | Path) -> Path:
-    """A file as given, else a shipped campaign, scene or bench file of that name (with or
+    """A file as given, else a shipped campaign, scene, bench or design file of that name (with or
     without `.yaml`): what `validate` accepts, as `run` accepts a shipped campaign's name."""
+    return _given_or_shipped(name, campaigns_dir(), scenes_dir(), benches_dir(), designs_dir())
+
+
+def designs_dir() -> Path:
+    """Plates to design (`squeezebench design NAME`): the paper's large plate as drawn."""
+    return data_dir() / "designs"
+
+
+def design_file(name: str | Path) -> Path:
+    """A design file as given, else a shipped design of that name (with or without `.yaml`)."""
+    return _given_or_shipped(name, designs_dir())
+
+
+def _given_or_shipped(name: str | Path, *folders: Path) -> Path:
+    """`name` if it is a file, else the first of folders/name or folders/name.yaml that is
+    one, else `name` as given (its reader names what is missing)."""
     path = Path(name)
     if path.is_file():
         return path
-    for folder in (campaigns_dir(), scenes_dir(), benches_dir()):
+    for folder in folders:
         for candidate in (folder / path, folder / f"{path}.yaml"):
             if candidate.is_file():
                 return candidate
-    return path   # the validator names what is missing
+    return path
 
 
 def benches_dir() -> Path:

@@ -23,6 +23,7 @@ from typing import Annotated, Any, Literal, Optional, Union
 import pyvisa.rname
 from pydantic import AfterValidator, BaseModel, ConfigDict, Field, ValidationError, create_model, model_validator
 
+from squeezebench.analysis.design_file import DesignFile
 from squeezebench.errors import UserError
 from squeezebench.instruments.bench import ROLES, BenchConfig, BenchElectronics
 from squeezebench.instruments.errors import BenchFileError
@@ -262,6 +263,19 @@ def load_bench_file(path: str | Path) -> BenchConfig:
                        electronics=bench.electronics, source=str(path))
 
 
+# -- design files -------------------------------------------------------------------------
+def load_design_file(path: str | Path):
+    """A plate to design (`analysis.design_file.DesignFile`); a problem is one line naming
+    the file, the field and what is wrong."""
+    path = Path(path)
+    data = read_yaml(path)
+    try:
+        return DesignFile.model_validate(data)
+    except ValidationError as exc:
+        field, message = describe(exc, DesignFile)
+        raise UserError(f"{path}: {field}: {message}") from None
+
+
 # -- scenes -------------------------------------------------------------------------------
 def check_scene(path: Path) -> None:
     """Validate a scene with simbench's own loader (SceneError names file and field)."""
@@ -296,14 +310,20 @@ def validate_file(path: Path) -> dict[str, Any]:
     if isinstance(data, dict) and "plate" in data:
         check_scene(path)
         return {"file": str(path), "kind": "scene", "summary": "", "warnings": []}
-    raise UserError(f"{path}: top level: not a campaign (with 'runs'), bench (with 'resources') "
-                    "or scene (with 'plate') file")
+    if isinstance(data, dict) and "resonator" in data:
+        design = load_design_file(path)
+        return {"file": str(path), "kind": "design",
+                "summary": f"{design.n_powered_piezos} powered piezos in {design.n_powered_groups} groups",
+                "warnings": []}
+    raise UserError(f"{path}: top level: not a campaign (with 'runs'), bench (with 'resources'), "
+                    "scene (with 'plate') or design (with 'resonator') file")
 
 
 # -- JSON Schemas -------------------------------------------------------------------------
 def json_schemas() -> dict[str, dict]:
     return {"campaign.schema.json": CampaignFile.model_json_schema(),
-            "bench.schema.json": BenchFile.model_json_schema()}
+            "bench.schema.json": BenchFile.model_json_schema(),
+            "design.schema.json": DesignFile.model_json_schema()}
 
 
 def schema_text(schema: dict) -> str:

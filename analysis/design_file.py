@@ -1,0 +1,221 @@
+"""A plate to design, as a user draws it: the model of `squeezebench design PLATE.yaml`.
+
+Resonator (material, dimensions), piezos (type, size, where each group sits and whether it
+is powered), the working mode sought, the target (amplitude or velocity, peak-to-peak, at
+the centre or over the touch area), the damping figure of the build, the amplifier's limits
+and the tolerances the uncertainty comes from. Lengths in mm as a drawing gives them; every
+other quantity in SI with its unit in its name. `squeezebench.schemas.load_design_file`
+reads and validates a file with one-line messages (file, field, what is allowed).
+"""
+from __future__ import annotations
+
+import math
+
+from typing import Literal, Optional, Union
+
+from pydantic import BaseModel, ConfigDict, Field, model_validator
+
+from squeezebench.analysis import plate_modes
+
+#: Materials a design may name instead of giving constants.
+RESONATOR_MATERIALS = {"aluminium_table2": plate_modes.ALUMINIUM_TABLE2}
+PIEZO_MATERIALS = {"NCE41": plate_modes.NCE41}
+
+
+class _Model(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+
+class IsotropicMaterial(_Model):
+    young_pa: float = Field(gt=0)
+    poisson: float = Field(gt=-1, lt=0.5)
+    density_kg_m3: float = Field(gt=0)
+
+
+class Resonator(_Model):
+    material: Union[Literal["aluminium_table2"], IsotropicMaterial] = "aluminium_table2"
+    length_mm: float = Field(gt=0, le=2000)
+    width_mm: float = Field(gt=0, le=2000)
+    thickness_mm: float = Field(gt=0, le=50)
+
+
+class PiezoSpec(_Model):
+    material: Literal["NCE41"] = "NCE41"
+    length_x_mm: float = Field(gt=0, description="across the nodal lines (along the plate's length)")
+    width_y_mm: float = Field(gt=0, description="along the nodal lines: the paper's b_p")
+    thickness_mm: float = Field(gt=0, le=10)
+    #: The field amplitude the design must stay under. Default: the highest field at which the
+    #: NCE 41 datasheet states a loss (tan delta 0.020 at 400 V/mm); above it nothing is known.
+    max_field_v_per_mm: float = Field(400.0, gt=0)
+    #: tan delta at low field and at `max_field_v_per_mm` (NCE 41 datasheet): the dielectric
+    #: loss is interpolated linearly in the field between them.
+    tan_delta_low_field: float = Field(0.004, ge=0, lt=1)
+    tan_delta_at_max_field: float = Field(0.020, ge=0, lt=1)
+
+
+class Group(_Model):
+    """Piezos bonded side by side across the width at one place along the length."""
+
+    name: str = Field(min_length=1)
+    x_mm: float = Field(ge=0, description="centre of the group's piezos along the length")
+    y_mm: list[float] = Field(min_length=1, description="centre of each piezo across the width")
+    powered: bool = True
+
+
+class Mode(_Model):
+    """The working (n, 0) mode: by its count of antinodes between the nodal lines (what a
+    designer draws: lambda/2 = length / count), or the one nearest a frequency."""
+
+    interior_antinodes: Optional[int] = Field(None, ge=1, le=200)
+    near_hz: Optional[float] = Field(None, gt=1e3, lt=1e6)
+
+    @model_validator(mode="after")
+    def _one_way(self) -> "Mode":
+        if (self.interior_antinodes is None) == (self.near_hz is None):
+            raise ValueError("give exactly one of interior_antinodes or near_hz")
+        return self
+
+
+class Target(_Model):
+    amplitude_pp_m: Optional[float] = Field(None, gt=0, lt=1e-3)
+    velocity_pp_mps: Optional[float] = Field(None, gt=0, lt=100)
+    at: Literal["centre", "touch_area"] = "centre"
+
+    @model_validator(mode="after")
+    def _one_quantity(self) -> "Target":
+        if (self.amplitude_pp_m is None) == (self.velocity_pp_mps is None):
+            raise ValueError("give exactly one of amplitude_pp_m or velocity_pp_mps")
+        return self
+
+
+class Damping(_Model):
+    """The one fitted physics: the build's mechanical loss (shared by every plate of it)."""
+
+    mechanical_q: float = Field(gt=1, lt=1e5)
+    tolerance_rel: float = Field(0.3, ge=0, lt=1, description="half-width of a rectangular spread")
+    origin: str = Field(min_length=1)
+
+
+class Amplifier(_Model):
+    max_output_vpp: float = Field(gt=0)
+    max_current_app: Optional[float] = Field(None, gt=0)
+    max_power_w: Optional[float] = Field(None, gt=0)
+
+
+class TouchArea(_Model):
+    x_mm: tuple[float, float]
+    y_mm: tuple[float, float]
+
+
+class Tolerances(_Model):
+    """Half-widths of rectangular spreads, relative (datasheet and stock tolerances)."""
+
+    young_pa: float = Field(plate_modes.RELATIVE_TOLERANCES["young_pa"], ge=0, lt=1)
+    density_kg_m3: float = Field(plate_modes.RELATIVE_TOLERANCES["density_kg_m3"], ge=0, lt=1)
+    thickness_m: float = Field(plate_modes.RELATIVE_TOLERANCES["thickness_m"], ge=0, lt=1)
+    d31_c_per_n: float = Field(plate_modes.RELATIVE_TOLERANCES["d31_c_per_n"], ge=0, lt=1)
+    relative_permittivity_t: float = Field(plate_modes.RELATIVE_TOLERANCES["relative_permittivity_t"], ge=0, lt=1)
+    tan_delta: float = Field(0.3, ge=0, lt=1)
+
+
+class FromSmallPlates(_Model):
+    """Route (b), the paper's method: which characterised small plate's Q Eq. 29 scales."""
+
+    template_plate: Optional[str] = Field(None, description="default: the mean over the small plates "
+                                                            "as thick as the resonator")
+    origin: str = ""
+
+
+class DesignFile(_Model):
+    name: str = Field(min_length=1, pattern=r"^[A-Za-z0-9_.-]+$")
+    description: str = ""
+    resonator: Resonator
+    piezo: PiezoSpec
+    groups: list[Group] = Field(min_length=1)
+    mode: Mode
+    target: Target
+    damping: Damping
+    amplifier: Amplifier
+    touch_area: Optional[TouchArea] = None
+    tolerances: Tolerances = Tolerances()
+    from_small_plates: FromSmallPlates = FromSmallPlates()
+    #: One of the paper's plates (a name in data/paper/large_plate.csv) whose printed
+    #: frequency, voltage and power the prediction is set beside.
+    paper_plate: Optional[Literal["large_plate"]] = None
+    #: Where each value comes from, by field (shown in the design report beside the assumptions).
+    provenance: dict[str, str] = {}
+
+    @model_validator(mode="after")
+    def _fits_on_plate(self) -> "DesignFile":
+        r, p = self.resonator, self.piezo
+        if not any(g.powered for g in self.groups):
+            raise ValueError("no group is powered: set powered: true on at least one")
+        names = [g.name for g in self.groups]
+        if len(set(names)) != len(names):
+            raise ValueError(f"group names must differ: {names}")
+        for g in self.groups:
+            if g.x_mm - p.length_x_mm / 2 < -1e-9 or g.x_mm + p.length_x_mm / 2 > r.length_mm + 1e-9:
+                raise ValueError(f"group {g.name!r}: a piezo {p.length_x_mm:g} mm long centred at x = {g.x_mm:g} mm "
+                                 f"overhangs the plate (0 to {r.length_mm:g} mm)")
+            for y in g.y_mm:
+                if y - p.width_y_mm / 2 < -1e-9 or y + p.width_y_mm / 2 > r.width_mm + 1e-9:
+                    raise ValueError(f"group {g.name!r}: a piezo {p.width_y_mm:g} mm wide centred at y = {y:g} mm "
+                                     f"overhangs the plate (0 to {r.width_mm:g} mm)")
+            ys = sorted(g.y_mm)
+            if any(b - a < p.width_y_mm - 1e-9 for a, b in zip(ys, ys[1:])):
+                raise ValueError(f"group {g.name!r}: piezos {p.width_y_mm:g} mm wide overlap at y = {ys} mm")
+        if self.touch_area is not None:
+            (x0, x1), (y0, y1) = self.touch_area.x_mm, self.touch_area.y_mm
+            if not (0 <= x0 < x1 <= r.length_mm and 0 <= y0 < y1 <= r.width_mm):
+                raise ValueError(f"touch_area {self.touch_area.x_mm} x {self.touch_area.y_mm} mm must lie on the "
+                                 f"plate (0 to {r.length_mm:g} x 0 to {r.width_mm:g} mm), lower bound first")
+        return self
+
+    # -- what the plate model reads ----------------------------------------------------
+    @property
+    def resonator_material(self) -> plate_modes.Isotropic:
+        m = self.resonator.material
+        return RESONATOR_MATERIALS[m] if isinstance(m, str) else plate_modes.Isotropic(
+            m.young_pa, m.poisson, m.density_kg_m3)
+
+    @property
+    def piezo_material(self) -> plate_modes.Piezo:
+        return PIEZO_MATERIALS[self.piezo.material]
+
+    def geometry(self, thickness_factor: float = 1.0) -> plate_modes.PlateGeometry:
+        """The plate model's geometry (SI), the resonator's thickness scaled by `thickness_factor`."""
+        mm, p = 1e-3, self.piezo
+        patches = tuple(plate_modes.Patch(g.x_mm * mm, y * mm, p.length_x_mm * mm, p.width_y_mm * mm,
+                                          p.thickness_mm * mm, g.powered, g.name)
+                        for g in self.groups for y in g.y_mm)
+        return plate_modes.PlateGeometry(self.resonator.length_mm * mm, self.resonator.width_mm * mm,
+                                         self.resonator.thickness_mm * mm * thickness_factor, patches)
+
+    @property
+    def touch_area_mm(self) -> tuple[tuple[float, float], tuple[float, float]]:
+        """The touch area; by default the plate less a tenth of its length and width at each edge."""
+        if self.touch_area is not None:
+            return tuple(self.touch_area.x_mm), tuple(self.touch_area.y_mm)
+        r = self.resonator
+        return (r.length_mm / 10, r.length_mm * 0.9), (r.width_mm / 10, r.width_mm * 0.9)
+
+    @property
+    def search_hz(self) -> float:
+        """Where the mode solver looks: `mode.near_hz`, or for a count of antinodes the bare
+        plate's free-free beam estimate, f = (beta L)^2 / (2 pi L^2) sqrt(D / rho h) with
+        beta L = (n + 1/2) pi (n antinodes between n + 1 nodal lines); the bonded piezos move
+        it a few per cent, well inside the solver's band."""
+        if self.mode.near_hz is not None:
+            return self.mode.near_hz
+        m, h, length = self.resonator_material, self.resonator.thickness_mm * 1e-3, self.resonator.length_mm * 1e-3
+        d, mass, _ = plate_modes.laminate(m, h, m, 0.0)
+        beta_l = (self.mode.interior_antinodes + 0.5) * math.pi
+        return beta_l**2 / (2 * math.pi * length**2) * math.sqrt(d / mass)
+
+    @property
+    def n_powered_piezos(self) -> int:
+        return sum(len(g.y_mm) for g in self.groups if g.powered)
+
+    @property
+    def n_powered_groups(self) -> int:
+        return sum(1 for g in self.groups if g.powered)

@@ -1,0 +1,336 @@
+"""The design page: the answer first, then the mode, the power curve, the layouts, the budget.
+
+Written by `squeezebench design` as DIR/index.html beside design.json and the CSV tables;
+the same style as the run report (`report.CSS`), readable on a laptop and a phone.
+"""
+from __future__ import annotations
+
+import html
+import json
+import math
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+import pandas as pd  # noqa: E402
+
+from squeezebench.analysis import presentation  # noqa: E402
+from squeezebench.analysis.design import COVERAGE_FACTOR, INPUTS, DesignAnswer  # noqa: E402
+from squeezebench.analysis.figures import PAPER_STYLE, save_figure  # noqa: E402
+from squeezebench.analysis.report import CSS, html_table, scrolling_tables  # noqa: E402
+
+FILES = {"page": "index.html", "json": "design.json", "budget": "budget.csv", "comparison": "comparison.csv",
+         "layouts": "layouts.csv", "mode": "mode.png", "power": "power_voltage.png", "pareto": "layouts.png"}
+#: The outputs the budget section shows, in the order a designer asks for them.
+BUDGET_OUTPUTS = ("voltage_vpp", "power_w", "frequency_hz", "current_pp_a", "weakest_antinode_ratio")
+
+
+def _target_words(answer: DesignAnswer) -> str:
+    t = answer.design.target
+    where = "at the centre" if t.at == "centre" else "averaged over the touch area"
+    if t.amplitude_pp_m is not None:
+        return f"{t.amplitude_pp_m * 1e6:.3g} µm pp {where}"
+    return f"{t.velocity_pp_mps:.3g} m/s pp {where}"
+
+
+def _pm(answer: DesignAnswer, quantity: str, digits: int = 2) -> str:
+    return presentation.with_uncertainty(answer.physics.nominal.values[quantity], answer.physics.expanded[quantity],
+                                         digits)
+
+
+def headline(answer: DesignAnswer) -> list[str]:
+    """What a person reads first: a few sentences, every number with its U (k = 2)."""
+    v, d = answer.physics.nominal.values, answer.design
+    lines = [f"{d.name} needs {_pm(answer, 'voltage_vpp')} Vpp and {_pm(answer, 'power_w')} W for "
+             f"{_target_words(answer)}, from physics (working mode {_pm(answer, 'frequency_hz', 2)} Hz, "
+             f"{v['interior_antinodes']} antinodes; mechanical Q {d.damping.mechanical_q:g} ± "
+             f"{d.damping.tolerance_rel:.0%}, the build's one fitted figure)."]
+    limits = [f"amplifier {v['voltage_vpp'] / d.amplifier.max_output_vpp:.0%} of its {d.amplifier.max_output_vpp:g} Vpp",
+              f"piezo field {v['piezo_field_v_per_mm']:.0f} of {d.piezo.max_field_v_per_mm:g} V/mm"]
+    if d.amplifier.max_current_app:
+        limits.append(f"current {v['current_pp_a'] / d.amplifier.max_current_app:.0%} of its {d.amplifier.max_current_app:g} A pp")
+    if d.amplifier.max_power_w:
+        limits.append(f"power {v['power_w'] / d.amplifier.max_power_w:.0%} of its {d.amplifier.max_power_w:g} W")
+    lines.append("Limits: " + "; ".join(limits) + f". Touch area: weakest antinode {v['weakest_antinode_ratio']:.0%} "
+                 "of the strongest.")
+    route = answer.paper_route
+    if route is not None:
+        lines.append(f"The paper's method from {len(route.small_plates)} characterised small plates: "
+                     f"{presentation.with_uncertainty(route.voltage_vpp.nominal_value, COVERAGE_FACTOR * route.voltage_vpp.std_dev)} Vpp "
+                     f"and {presentation.with_uncertainty(route.power_w.nominal_value, COVERAGE_FACTOR * route.power_w.std_dev)} W.")
+    elif answer.paper_route_problem:
+        lines.append(f"The paper's method: no answer ({answer.paper_route_problem}).")
+    comparison = answer.comparison()
+    against = comparison[comparison["reference"] != ""]
+    if not against.empty:
+        reference = against["reference"].iloc[0]
+        parts = [f"{_source_short(r.source)} {presentation.label(r.quantity).split(' (')[0]} "
+                 f"{presentation.percent(r.deviation)} ({'within' if r.within_u else 'outside'} U)"
+                 for r in against.itertuples() if r.quantity != "frequency_hz" or r.source.startswith("physics")]
+        lines.append(f"Against {reference}: " + "; ".join(parts) + ".")
+    if answer.layouts is not None and not answer.layouts.empty:
+        lines.append(_layouts_sentence(answer))
+    return lines
+
+
+def _source_short(source: str) -> str:
+    return "physics" if source.startswith("physics") else "small plates"
+
+
+def _layouts_sentence(answer: DesignAnswer) -> str:
+    frame = answer.layouts
+    feasible = frame[frame["feasible"].astype(bool)]
+    if feasible.empty:
+        return f"None of {len(frame)} layouts meets the target within the limits."
+    best = feasible.loc[feasible["power_w"].idxmin()]
+    return (f"Of {len(frame)} layouts, {len(feasible)} meet the target within the limits; the least power: "
+            f"{best['power_w']:.2g} W at {best['voltage_vpp']:.0f} Vpp, weakest antinode {best['weakest_antinode_ratio']:.0%} "
+            f"(layout {int(best['layout'])}: {_layout_words(best)}).")
+
+
+def _layout_words(row) -> str:
+    columns = "columns at both ends" if row["columns"] == "ends" else "columns at both ends and the centre"
+    spread = "at the corners" if row["arrangement"] == "corners" else "across the middle"
+    return (f"{columns} {row['edge_offset_mm']:.1f} mm in, {int(row['piezos_per_column'])} piezos per column "
+            f"{spread}, {row['piezo_thickness_mm']:g} mm thick")
+
+
+# --- figures --------------------------------------------------------------------------------
+
+def mode_figure(answer: DesignAnswer, path: Path) -> Path:
+    point = answer.physics.nominal
+    modes, k = point.modes, point.mode_index
+    fig, ax = plt.subplots(figsize=(7, 4.4))
+    image = ax.pcolormesh(modes.x_m * 1e3, modes.y_m * 1e3, modes.shapes[k].T, cmap="RdBu_r", vmin=-1, vmax=1,
+                          shading="gouraud")
+    for p in point.geometry.patches:
+        x0, x1, y0, y1 = (b * 1e3 for b in p.bounds)
+        ax.add_patch(plt.Rectangle((x0, y0), x1 - x0, y1 - y0, fill=p.powered, facecolor="0.3",
+                                   edgecolor="k", linewidth=0.8))
+    (tx0, tx1), (ty0, ty1) = answer.design.touch_area_mm
+    ax.add_patch(plt.Rectangle((tx0, ty0), tx1 - tx0, ty1 - ty0, fill=False, edgecolor="k", linestyle="--"))
+    ax.set_aspect("equal")
+    ax.set(xlabel="x (mm)", ylabel="y (mm)",
+           title=f"predicted working mode, {modes.frequencies_hz[k]:.0f} Hz ({modes.interior_antinodes(k)} antinodes)")
+    fig.colorbar(image, ax=ax, label="deflection / largest", shrink=0.8)
+    return save_figure(fig, path)
+
+
+def power_figure(answer: DesignAnswer, path: Path) -> Path:
+    v = answer.physics.nominal.values
+    top = max(2.0 * v["voltage_vpp"], (answer.printed or {}).get("voltage_vpp", 0) * 1.2)
+    voltage = np.linspace(0, top, 81)
+    fig, ax = plt.subplots(figsize=(7, 4.4))
+    power, band = answer.physics.band(voltage, "power_w")
+    ax.plot(voltage, power, color="C0", label="physics (a)")
+    ax.fill_between(voltage, power - band, power + band, color="C0", alpha=0.2, label="physics U (k = 2)")
+    if answer.paper_route is not None:
+        p_b, u_b = answer.paper_route.power_at(voltage, v["frequency_hz"])
+        ax.plot(voltage, p_b, color="C1", label="small plates (b)")
+        ax.fill_between(voltage, p_b - u_b, p_b + u_b, color="C1", alpha=0.2)
+    ax.axvline(v["voltage_vpp"], color="C0", linestyle=":", label=f"target: {_target_words(answer)}")
+    if answer.measured is not None:
+        m = answer.measured
+        ax.errorbar([m.voltage_vpp.nominal_value], [m.power_w.nominal_value], xerr=[2 * m.voltage_vpp.std_dev],
+                    yerr=[2 * m.power_w.std_dev], fmt="s", color="k", label=f"measured ({m.plate})")
+    if answer.printed:
+        ax.plot([answer.printed["voltage_vpp"]], [answer.printed["power_w"]], **PAPER_STYLE, label="printed in the paper")
+    ax.set(xlabel="piezo voltage (V pp)", ylabel="electrical power (W)", title="power against voltage at resonance")
+    ax.set_ylim(0, None)
+    ax.legend(fontsize=8)
+    return save_figure(fig, path)
+
+
+def pareto_figure(answer: DesignAnswer, path: Path) -> Path:
+    frame, v = answer.layouts, answer.physics.nominal.values
+    fig, ax = plt.subplots(figsize=(7, 4.4))
+    ok = frame["feasible"].astype(bool)
+    ax.scatter(frame.loc[~ok, "weakest_antinode_ratio"] * 100, frame.loc[~ok, "power_w"], s=10, color="0.75",
+               label="beyond a limit")
+    sc = ax.scatter(frame.loc[ok, "weakest_antinode_ratio"] * 100, frame.loc[ok, "power_w"], s=14,
+                    c=frame.loc[ok, "piezo_thickness_mm"], cmap="viridis", label="within the limits")
+    front = frame[frame["pareto"]].sort_values("weakest_antinode_ratio")
+    ax.plot(front["weakest_antinode_ratio"] * 100, front["power_w"], color="crimson", marker="o", markerfacecolor="none",
+            label="best trade-offs (Pareto)")
+    ax.plot([v["weakest_antinode_ratio"] * 100], [v["power_w"]], marker="D", color="k", linestyle="none",
+            label=f"{answer.design.name} as drawn")
+    fig.colorbar(sc, ax=ax, label="piezo thickness (mm)", shrink=0.8)
+    ax.set(xlabel="weakest antinode in the touch area (% of the strongest)", ylabel="power for the target (W)",
+           title="where the piezos go: power against homogeneity")
+    ax.set_yscale("log")
+    ax.legend(fontsize=8)
+    return save_figure(fig, path)
+
+
+# --- tables -------------------------------------------------------------------------------
+
+_VALUE_ROWS = (("frequency_hz", "working mode frequency", "Hz"), ("half_wavelength_mm", "nodal-line spacing λ/2", "mm"),
+               ("modal_mass_g", "modal mass at the centre", "g"), ("force_factor_n_per_v", "force factor at the centre", "N/V"),
+               ("clamped_capacitance_nf", "clamped capacitance C0 (powered)", "nF"),
+               ("k_eff", "effective coupling k_eff", "1"), ("voltage_vpp", "piezo voltage", "V pp"),
+               ("piezo_field_v_per_mm", "field amplitude in the piezo", "V/mm"),
+               ("mechanical_power_w", "mechanical power", "W"), ("dielectric_power_w", "dielectric power", "W"),
+               ("power_w", "electrical power", "W"), ("current_pp_a", "current", "A pp"),
+               ("apparent_power_va", "apparent power", "VA"),
+               ("weakest_antinode_ratio", "weakest antinode / strongest (touch area)", "1"),
+               ("width_uniformity", "width uniformity (touch area)", "1"))
+
+
+def values_table(answer: DesignAnswer) -> pd.DataFrame:
+    v, u = answer.physics.nominal.values, answer.physics.expanded
+    return pd.DataFrame([{"quantity": words, "unit": unit, "predicted": presentation.with_uncertainty(v[key], u[key]),
+                          "dominant input": answer.physics.dominant(key) if u[key] > 0 else "none"}
+                         for key, words, unit in _VALUE_ROWS])
+
+
+def budget_table(answer: DesignAnswer, output: str) -> pd.DataFrame:
+    rows = answer.physics.budget[answer.physics.budget["output"] == output]
+    total = float(np.sqrt((rows["contribution"] ** 2).sum()))
+    return pd.DataFrame({
+        "input": rows["input_label"], "tolerance (±, rectangular)": [presentation.percent(t).lstrip("+") for t in rows["tolerance_rel"]],
+        "u of the input": [f"{x:.2%}" for x in rows["input_u_rel"]],
+        "contribution to u": [np.format_float_positional(c, precision=3, unique=False, fractional=False, trim="-",
+                                                         sign=True) for c in rows["contribution"]],
+        "share of u²": [f"{(c / total) ** 2:.0%}" if total else "0%" for c in rows["contribution"]]})
+
+
+def comparison_table(answer: DesignAnswer) -> pd.DataFrame:
+    frame = answer.comparison()
+    return pd.DataFrame({
+        "quantity": [presentation.label(q) for q in frame["quantity"]], "route": frame["source"],
+        "predicted ± U": [presentation.with_uncertainty(a, b) for a, b in zip(frame["value"], frame["expanded_uncertainty"])],
+        "reference": [f"{_plain(a, b)} ({r})" if r else "none"
+                      for a, b, r in zip(frame["reference_value"], frame["reference_expanded_uncertainty"], frame["reference"])],
+        "deviation": [presentation.percent(d) if math.isfinite(d) else "" for d in frame["deviation"]],
+        "within U": ["" if w is None else ("yes" if w else "no") for w in frame["within_u"]]})
+
+
+def _plain(value: float, u: float) -> str:
+    """A reference value: with its U when it has one, else positional at 4 significant digits."""
+    if u > 0:
+        return presentation.with_uncertainty(value, u)
+    return np.format_float_positional(value, precision=4, unique=False, fractional=False, trim="-")
+
+
+def assumptions(answer: DesignAnswer) -> str:
+    d = answer.design
+    items = [f"<li><b>{html.escape(k)}</b>: {html.escape(v)}</li>" for k, v in d.provenance.items()]
+    items.append(f"<li><b>damping</b>: mechanical Q {d.damping.mechanical_q:g} ± {d.damping.tolerance_rel:.0%} "
+                 f"(rectangular): {html.escape(d.damping.origin)} — the one fitted figure of the prediction</li>")
+    tol = d.tolerances
+    items.append("<li><b>tolerances</b> (rectangular half-widths): " + ", ".join(
+        f"{label} ±{getattr(tol, name):.0%}" for name, label, _ in INPUTS if name != "mechanical_q") + "</li>")
+    items.append(f"<li><b>piezo loss</b>: tan δ {d.piezo.tan_delta_low_field:g} at low field to "
+                 f"{d.piezo.tan_delta_at_max_field:g} at {d.piezo.max_field_v_per_mm:g} V/mm (field amplitude), linear "
+                 "between them (NCE 41 datasheet); the field limit is that highest stated point</li>")
+    items.append("<li><b>model</b>: Kirchhoff plate with bonded piezo laminate, free edges, scikit-fem Argyris elements "
+                 "(analysis/plate_modes.py); voltage, power and current from the mode's modal mass and force factor at the "
+                 "plate's centre (analysis/design.py)</li>")
+    if answer.paper_route is not None:
+        r = answer.paper_route
+        items.append(f"<li><b>route (b)</b>: Q from {html.escape(r.template)} scaled by Eq. 29 to the design's "
+                     f"{d.piezo.width_y_mm:g} mm piezo; tan θ′ the mean of {', '.join(r.small_plates)}; Eqs. 27 and 25 "
+                     f"under the report's reading '{r.convention}', at the frequency and λ/2 physics predicts. "
+                     f"{html.escape(d.from_small_plates.origin)}</li>")
+    return "<ul>" + "".join(items) + "</ul>"
+
+
+# --- the page and its files ------------------------------------------------------------------
+
+def payload(answer: DesignAnswer, files: dict[str, str]) -> dict:
+    """design.json: what the page says, for scripts (every number with its U, k = 2)."""
+    v, u = answer.physics.nominal.values, answer.physics.expanded
+    physics = {k: {"value": float(x), "expanded_uncertainty": u.get(k)} for k, x in v.items()}
+    route = answer.paper_route
+    return {
+        "command": "design", "design": answer.design.name, "headline": headline(answer),
+        "target": answer.design.target.model_dump(), "coverage_factor": COVERAGE_FACTOR,
+        "physics": physics,
+        "dominant_inputs": {k: answer.physics.dominant(k) for k in BUDGET_OUTPUTS},
+        "small_plates": None if route is None else {
+            "q": _uf(route.q), "tan_theta": _uf(route.tan_theta), "voltage_vpp": _uf(route.voltage_vpp),
+            "power_w": _uf(route.power_w), "template": route.template, "plates": list(route.small_plates),
+            "reading": route.convention},
+        "small_plates_problem": answer.paper_route_problem or None,
+        "comparison": json.loads(answer.comparison().to_json(orient="records")),
+        "layouts": None if answer.layouts is None else {
+            "count": int(len(answer.layouts)), "feasible": int(answer.layouts["feasible"].sum()),
+            "pareto": json.loads(answer.layouts[answer.layouts["pareto"]].to_json(orient="records"))},
+        "files": files,
+    }
+
+
+def _uf(value) -> dict:
+    return {"value": value.nominal_value, "expanded_uncertainty": COVERAGE_FACTOR * value.std_dev}
+
+
+def write(answer: DesignAnswer, out_dir: Path) -> dict[str, str]:
+    """The page, its figures and tables, and design.json in `out_dir`; returns the files."""
+    out_dir.mkdir(parents=True, exist_ok=True)
+    files = {}
+    answer.physics.budget.drop(columns="contribution_abs").to_csv(out_dir / FILES["budget"], index=False)
+    answer.comparison().to_csv(out_dir / FILES["comparison"], index=False)
+    files["budget"], files["comparison"] = FILES["budget"], FILES["comparison"]
+    mode_figure(answer, out_dir / FILES["mode"])
+    power_figure(answer, out_dir / FILES["power"])
+    files["mode"], files["power"] = FILES["mode"], FILES["power"]
+    if answer.layouts is not None:
+        answer.layouts.to_csv(out_dir / FILES["layouts"], index=False)
+        pareto_figure(answer, out_dir / FILES["pareto"])
+        files["layouts"], files["pareto"] = FILES["layouts"], FILES["pareto"]
+    files["page"], files["json"] = FILES["page"], FILES["json"]
+    (out_dir / FILES["page"]).write_text(page(answer), encoding="utf-8")
+    (out_dir / FILES["json"]).write_text(json.dumps(payload(answer, files), indent=2, default=str), encoding="utf-8")
+    return files
+
+
+def _figure(file: str, alt: str, caption: str) -> str:
+    return (f"<figure><img src='{file}' alt='{html.escape(alt)}'>"
+            f"<figcaption>{html.escape(caption)}</figcaption></figure>")
+
+
+def page(answer: DesignAnswer) -> str:
+    d = answer.design
+    sections = []
+    answer_html = ("<div class='banner real'>" + "".join(f"<p>{html.escape(line)}</p>" for line in headline(answer))
+                   + "</div>" + html_table(comparison_table(answer), "Each route's prediction ± U (k = 2) beside the "
+                                           "reference: a measurement of the built plate when given, else the paper's "
+                                           "printed value"))
+    sections.append(("Answer", answer_html))
+    sections.append(("Working mode and what it needs", _figure(
+        FILES["mode"], "predicted mode shape", "The working mode as the plate model predicts it: piezos (filled: "
+        "powered) and the touch area (dashed).") + html_table(values_table(answer), "Physics route: each value ± U "
+                                                              "(k = 2) and the input that dominates its U")))
+    sections.append(("Power against voltage", _figure(
+        FILES["power"], "power against voltage", "Electrical power at resonance against the piezo voltage: physics "
+        "with its band, the paper's method with its band when small plates were given, the target's voltage.")))
+    if answer.layouts is not None:
+        frame = answer.layouts
+        front = frame[frame["pareto"]].sort_values("power_w")
+        shown = front[["layout", "columns", "edge_offset_mm", "piezos_per_column", "arrangement", "piezo_thickness_mm",
+                       "voltage_vpp", "power_w", "weakest_antinode_ratio"]]
+        sections.append(("Where the piezos go", f"<p>{html.escape(_layouts_sentence(answer))}</p>" + _figure(
+            FILES["pareto"], "power against homogeneity of the layouts",
+            "Each layout's power for the target against its weakest antinode; grey: beyond the amplifier or the "
+            "piezo's field limit, or no clean working mode.") + html_table(
+            shown, "The best trade-offs (no other layout needs less power and is more even)") + presentation.fold(
+            f"All {len(frame)} layouts", f"<p>In <a href='{FILES['layouts']}'>{FILES['layouts']}</a>, with the reason "
+            "each infeasible layout fails.</p>")))
+    budget_html = "".join(presentation.fold(
+        f"{presentation.label(o)}: {_pm(answer, o)}", html_table(budget_table(answer, o), f"Budget of {o}"))
+        for o in BUDGET_OUTPUTS)
+    sections.append(("Uncertainty budget", "<p>Each input moved by its standard uncertainty, the plate solved "
+                     "again where it must be; U = 2 √(Σ contribution²).</p>" + budget_html))
+    sections.append(("Assumptions and their origins", assumptions(answer)))
+    title = f"squeezebench design: {d.name}"
+    nav = "<nav>" + "".join(f"<a href='#s{i}'>{html.escape(t)}</a>" for i, (t, _) in enumerate(sections)) + "</nav>"
+    body = "".join(f"<section id='s{i}'><h2>{html.escape(t)}</h2>{scrolling_tables(b)}</section>"
+                   for i, (t, b) in enumerate(sections))
+    description = f"<p>{html.escape(d.description)}</p>" if d.description else ""
+    return ("<!DOCTYPE html><html lang='en'><head><meta charset='utf-8'>"
+            "<meta name='viewport' content='width=device-width, initial-scale=1'>"
+            f"<title>{html.escape(title)}</title><style>{CSS}</style></head><body>"
+            f"<h1>{html.escape(title)}</h1>{description}{nav}{body}</body></html>")

@@ -1,0 +1,268 @@
+"""`squeezebench design`: the physics route against closed forms, its budget, the design
+file's refusals, the layout sweep's Pareto front and the command's outputs."""
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pandas as pd
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from squeezebench import cli
+from squeezebench.analysis import design, layouts, plate_modes, predicted_plates
+from squeezebench.analysis.design_file import DesignFile
+from squeezebench.errors import UserError
+from squeezebench.schemas import load_design_file
+
+#: Table 3's plate (75 x 41 x 1 mm, one column of four piezos mid-length) as a design.
+STRIP = {
+    "name": "strip", "resonator": {"length_mm": 75, "width_mm": 41, "thickness_mm": 1},
+    "piezo": {"length_x_mm": 5, "width_y_mm": 9, "thickness_mm": 0.5},
+    "groups": [{"name": "middle", "x_mm": 38, "y_mm": [7, 16, 25, 34]}],
+    "mode": {"interior_antinodes": 9}, "target": {"amplitude_pp_m": 1e-6},
+    "damping": {"mechanical_q": 310, "origin": "test"}, "amplifier": {"max_output_vpp": 200},
+}
+
+
+def strip(**changes) -> DesignFile:
+    data = json.loads(json.dumps(STRIP))
+    for key, value in changes.items():
+        data[key] = {**data[key], **value} if isinstance(value, dict) else value
+    return DesignFile.model_validate(data)
+
+
+@pytest.fixture(scope="module")
+def strip_prediction() -> design.PhysicsPrediction:
+    return design.predict_physics(strip())
+
+
+# --- the lumped branch against its closed forms ---------------------------------------------
+
+lumped_values = st.builds(
+    design.Lumped, frequency_hz=st.floats(1e4, 1e5), modal_mass_kg=st.floats(1e-3, 1.0),
+    force_factor_n_per_v=st.floats(1e-3, 1.0), mechanical_q=st.floats(10, 3000),
+    clamped_capacitance_f=st.floats(1e-10, 1e-7), piezo_thickness_m=st.floats(2e-4, 2e-3),
+    tan_delta_low_field=st.floats(0, 0.01), tan_delta_at_max_field=st.floats(0.01, 0.05),
+    max_field_v_per_m=st.floats(1e5, 1e6))
+
+
+@settings(max_examples=60, deadline=None)
+@given(lumped=lumped_values, voltage_vpp=st.floats(0.1, 500))
+def test_active_power_is_what_the_admittance_takes(lumped, voltage_vpp):
+    """P = (V/2)^2 G / 2 with G the branch's conductance: the power the design reports is the
+    power the current it reports carries in phase."""
+    r = lumped.resistance_ns_per_m
+    g = lumped.force_factor_n_per_v**2 / r + lumped.omega * lumped.clamped_capacitance_f * lumped.tan_delta(voltage_vpp)
+    total = lumped.mechanical_power_w(voltage_vpp) + lumped.dielectric_power_w(voltage_vpp)
+    assert total == pytest.approx(0.5 * (voltage_vpp / 2) ** 2 * g, rel=1e-12)
+    # and the current is never below the capacitive part alone
+    assert lumped.current_pp_a(voltage_vpp) >= voltage_vpp * lumped.omega * lumped.clamped_capacitance_f * (1 - 1e-12)
+
+
+@settings(max_examples=40, deadline=None)
+@given(lumped=lumped_values, velocity_pp=st.floats(1e-3, 2.0), scale=st.floats(0.2, 5.0))
+def test_mechanical_power_at_a_velocity_does_not_depend_on_the_coupling(lumped, velocity_pp, scale):
+    """P_mech = R (v/2)^2 / 2 whatever the force factor: coupling sets the voltage, not the power."""
+    stronger = design.Lumped(**{**lumped.__dict__, "force_factor_n_per_v": lumped.force_factor_n_per_v * scale})
+    v1, v2 = lumped.voltage_vpp_for(velocity_pp), stronger.voltage_vpp_for(velocity_pp)
+    assert v2 == pytest.approx(v1 / scale, rel=1e-12)
+    expected = 0.5 * lumped.resistance_ns_per_m * (velocity_pp / 2) ** 2
+    assert lumped.mechanical_power_w(v1) == pytest.approx(expected, rel=1e-12)
+    assert stronger.mechanical_power_w(v2) == pytest.approx(expected, rel=1e-12)
+
+
+def test_tan_delta_follows_the_datasheet_between_its_two_points():
+    lumped = design.Lumped(40e3, 0.01, 0.1, 300, 1e-8, 5e-4, 0.004, 0.020, 400e3)
+    assert lumped.tan_delta(0.0) == pytest.approx(0.004)
+    assert lumped.tan_delta(400.0) == pytest.approx(0.020)   # 200 V amplitude over 0.5 mm = 400 V/mm
+    assert lumped.tan_delta(200.0) == pytest.approx(0.012)
+
+
+def test_antinode_ratio_of_an_even_and_an_uneven_profile():
+    x = np.linspace(0, 10 * math.pi, 2001)
+    assert design.antinode_ratio(x, np.sin(x)) == pytest.approx(1.0, abs=1e-4)
+    assert design.antinode_ratio(x, np.sin(x) * (1 + x / x[-1])) == pytest.approx(1.15 / 1.85, rel=1e-3)   # whole half-waves only: peaks at 1.5 pi .. 8.5 pi
+
+
+# --- the physics route on a plate the paper measured ------------------------------------------
+
+def test_strip_is_the_plate_model_of_table3(strip_prediction):
+    """The design of Table 3's plate gives what the report's predicted column gives for it
+    (same model, same shared damping), and the paper's 9 antinodes from geometry alone."""
+    v = strip_prediction.nominal.values
+    row = predicted_plates.predictions().iloc[0]
+    assert v["interior_antinodes"] == 9 == row["printed_antinodes"]
+    assert v["frequency_hz"] == pytest.approx(row["predicted_frequency_hz"], rel=2e-3)
+
+
+def test_frequency_budget_matches_the_scaling_law(strip_prediction):
+    """A thin plate's f ~ h sqrt(E / rho): the budget's U equals that law's (the piezo layer
+    changes the exponents by a few per cent)."""
+    expected = predicted_plates.frequency_relative_u()
+    got = strip_prediction.expanded["frequency_hz"] / strip_prediction.nominal.values["frequency_hz"]
+    assert got == pytest.approx(expected, rel=0.1)
+    assert strip_prediction.dominant("frequency_hz") == "resonator thickness"
+
+
+def test_power_and_voltage_scale_with_damping(strip_prediction):
+    """At a fixed amplitude R = w M / Q: doubling Q halves the mechanical power and the voltage."""
+    base = strip_prediction.nominal.values
+    lossless = design.operating_point(strip(damping={"mechanical_q": 620}), modal=None).values
+    assert lossless["mechanical_power_w"] == pytest.approx(base["mechanical_power_w"] / 2, rel=1e-9)
+    assert lossless["voltage_vpp"] == pytest.approx(base["voltage_vpp"] / 2, rel=1e-9)
+
+
+def test_power_at_the_target_is_the_closed_form(strip_prediction):
+    """P_mech = (w M / Q) (w A / 2)^2 / 2 with M the modal mass at the centre and A the target."""
+    v = strip_prediction.nominal.values
+    omega = 2 * math.pi * v["frequency_hz"]
+    expected = 0.5 * omega * v["modal_mass_g"] * 1e-3 / 310 * (omega * 1e-6 / 2) ** 2
+    assert v["mechanical_power_w"] == pytest.approx(expected, rel=1e-9)
+    assert v["amplitude_pp_m"] == pytest.approx(1e-6)
+
+
+def test_a_touch_area_target_is_met_on_average():
+    at_area = design.operating_point(strip(target={"amplitude_pp_m": 1e-6, "at": "touch_area"})).values
+    assert at_area["touch_mean_amplitude_pp_m"] == pytest.approx(1e-6, rel=1e-9)
+
+
+def test_budget_rows_name_every_input(strip_prediction):
+    budget = strip_prediction.budget
+    assert set(budget["input"]) == {name for name, _, _ in design.INPUTS}
+    # inputs that do not enter a quantity contribute exactly nothing to it
+    frequency = budget[budget["output"] == "frequency_hz"].set_index("input")["contribution"]
+    assert (frequency[["d31_c_per_n", "relative_permittivity_t", "tan_delta", "mechanical_q"]] == 0).all()
+    assert strip_prediction.dominant("voltage_vpp") == "mechanical Q of the build"
+
+
+def test_centre_on_a_nodal_line_is_refused():
+    """An even count of antinodes (an odd count of nodal lines) puts a nodal line at the
+    centre: a target there is refused, one over the touch area is answered."""
+    with pytest.raises(design.DesignError, match="nodal line.*touch_area"):
+        design.operating_point(strip(mode={"interior_antinodes": 10}))
+    over_area = design.operating_point(strip(mode={"interior_antinodes": 10},
+                                             target={"amplitude_pp_m": 1e-6, "at": "touch_area"})).values
+    assert over_area["touch_mean_amplitude_pp_m"] == pytest.approx(1e-6)
+
+
+# --- the design file ---------------------------------------------------------------------------
+
+@pytest.mark.parametrize("change, words", [
+    ({"groups": [{"name": "a", "x_mm": 1, "y_mm": [7]}]}, "overhangs the plate"),
+    ({"groups": [{"name": "a", "x_mm": 38, "y_mm": [7, 10]}]}, "overlap"),
+    ({"groups": [{"name": "a", "x_mm": 38, "y_mm": [7], "powered": False}]}, "no group is powered"),
+    ({"target": {"amplitude_pp_m": 1e-6, "velocity_pp_mps": 0.2}}, "exactly one of amplitude_pp_m"),
+    ({"mode": {"interior_antinodes": 9, "near_hz": 38000}}, "exactly one of interior_antinodes"),
+    ({"touch_area": {"x_mm": [50, 10], "y_mm": [0, 41]}}, "lower bound first"),
+    ({"piezo": {"length_x_mm": 5, "width_y_mm": 9, "thickness_mm": 0.5, "colour": "blue"}}, "unknown field"),
+])
+def test_a_bad_design_file_is_one_line_naming_the_field(tmp_path, change, words):
+    import yaml
+
+    data = {**STRIP, **change}
+    path = tmp_path / "plate.yaml"
+    path.write_text(yaml.safe_dump(data))
+    with pytest.raises(UserError, match=words) as caught:
+        load_design_file(path)
+    assert str(caught.value).startswith(str(path)) and "\n" not in str(caught.value)
+
+
+def test_shipped_large_plate_reads_nothing_measured():
+    """The shipped design of the paper's large plate: geometry, datasheets and the build's damping;
+    its mode is asked for by antinode count, never by the printed frequency."""
+    from squeezebench import paths
+
+    spec = load_design_file(paths.design_file("large_plate"))
+    assert spec.mode.near_hz is None and spec.mode.interior_antinodes == 21
+    assert spec.damping.mechanical_q == predicted_plates.MECHANICAL_Q
+    assert spec.n_powered_piezos == 8 and spec.n_powered_groups == 4
+
+
+# --- layouts -----------------------------------------------------------------------------------
+
+points = st.lists(st.tuples(st.floats(0.01, 10), st.floats(0, 1), st.booleans()), min_size=1, max_size=40)
+
+
+@settings(max_examples=80, deadline=None)
+@given(points)
+def test_pareto_front_is_exactly_the_undominated_feasible_layouts(rows):
+    frame = pd.DataFrame(rows, columns=["power_w", "weakest_antinode_ratio", "feasible"])
+    front = layouts.pareto_front(frame)
+    feasible = frame[frame["feasible"]]
+    for i, row in frame.iterrows():
+        dominated = ((feasible["power_w"] <= row.power_w) & (feasible["weakest_antinode_ratio"] >= row.weakest_antinode_ratio)
+                     & ((feasible["power_w"] < row.power_w) | (feasible["weakest_antinode_ratio"] > row.weakest_antinode_ratio))).any()
+        assert front[i] == (bool(row.feasible) and not dominated)
+
+
+def test_layout_grid_has_300_layouts_and_one_mesh_per_thickness_family():
+    grid = layouts.grid(half_wavelength_mm=8.0, piezo_length_x_mm=5.0)
+    assert len(grid) == 300 and len(set(grid)) == 300
+    assert len(layouts.tasks(grid, strip(), 9)) == 300 // len(layouts.PIEZO_THICKNESSES_MM)
+
+
+def test_a_layout_family_on_the_strip():
+    """Piezo thickness has an optimum (a thick patch stiffens the section it bends, so the
+    curvature under it falls); a column flush with a free edge, where the curvature vanishes,
+    couples less than one a quarter wavelength in; a layout beyond the amplifier says so."""
+    spec = strip(amplifier={"max_output_vpp": 30})
+    family = [layouts.Layout("ends", 2.5 + 4.0, 4, "centred", t) for t in (0.3, 0.5, 1.0)]
+    rows = pd.DataFrame(layouts.evaluate_mesh_group((tuple(family), spec, 9)))
+    assert rows["voltage_vpp"].notna().all() and rows["voltage_vpp"].nunique() == 3
+    flush = layouts.evaluate(layouts.Layout("ends", 2.5, 4, "centred", 0.5), spec, 9)
+    quarter = layouts.evaluate(layouts.Layout("ends", 2.5 + 2.0, 4, "centred", 0.5), spec, 9)
+    assert flush["voltage_vpp"] > quarter["voltage_vpp"]
+    weak = layouts.evaluate(layouts.Layout("ends", 2.5, 2, "centred", 1.0), spec, 9)
+    assert not weak["feasible"] and "amplifier" in weak["why_not"]
+
+
+# --- the command ---------------------------------------------------------------------------------
+
+def test_design_command_writes_page_json_and_tables(tmp_path, capsys):
+    import yaml
+
+    path = tmp_path / "strip.yaml"
+    path.write_text(yaml.safe_dump(STRIP))
+    assert cli.main(["design", str(path), "--no-layouts", "--out", str(tmp_path / "out"), "--json"]) == 0
+    payload = json.loads(capsys.readouterr().out)
+    assert payload["command"] == "design" and payload["design"] == "strip"
+    voltage = payload["physics"]["voltage_vpp"]
+    assert voltage["value"] > 0 and voltage["expanded_uncertainty"] > 0
+    assert payload["headline"][0].startswith("strip needs ")
+    for name in ("index.html", "design.json", "budget.csv", "comparison.csv", "mode.png", "power_voltage.png"):
+        assert (tmp_path / "out" / name).is_file()
+    page = (tmp_path / "out" / "index.html").read_text()
+    assert "e+0" not in page and "e-0" not in page   # no scientific notation for a person
+
+
+def test_design_command_names_a_missing_file(tmp_path, capsys):
+    assert cli.main(["design", str(tmp_path / "nope.yaml"), "--no-layouts"]) == cli.EXIT_USER_ERROR
+    err = capsys.readouterr().err
+    assert "nope.yaml" in err and "Traceback" not in err
+
+
+def test_plate_modes_share_one_mesh_between_tolerance_solves():
+    """A tolerance solve reuses the nominal mesh: the frequency's sensitivity to E is the
+    physics' exponent 1/2 (a remesh would add its own discretisation change)."""
+    spec = strip()
+    nominal = design.modal_part(spec)
+    stiffer = design.modal_part(spec, {"young_pa": 1.01})
+    ratio = stiffer.modes.frequencies_hz[stiffer.mode_index] / nominal.modes.frequencies_hz[nominal.mode_index]
+    assert math.log(ratio) / math.log(1.01) == pytest.approx(0.5, abs=0.02)
+    assert plate_modes._discretisation.cache_info().hits >= 1
+
+
+def test_design_from_python(tmp_path):
+    import yaml
+
+    import squeezebench
+
+    path = tmp_path / "strip.yaml"
+    path.write_text(yaml.safe_dump(STRIP))
+    answer = squeezebench.design(path, out_dir=tmp_path / "page")
+    assert answer.layouts is None and answer.paper_route is None
+    assert answer.physics.nominal.values["interior_antinodes"] == 9
+    assert (tmp_path / "page" / "index.html").is_file()
