@@ -424,6 +424,7 @@ class Measured:
     frequency_hz: float
     voltage_vpp: object   # ufloat: the voltage the measured slope needs for the target amplitude
     power_w: object
+    origin: str = ""   # provenance of the points: "measured" on a real bench, "simulated" on the simulated one
 
 
 def measured_point(physics: PhysicsPrediction, built) -> Measured:
@@ -433,7 +434,7 @@ def measured_point(physics: PhysicsPrediction, built) -> Measured:
     amplitude_slope = ufloat(built.amplitude_slope.slope.value, built.amplitude_slope.slope.std_uncertainty)
     power_slope = ufloat(built.power_slope.slope.value, built.power_slope.slope.std_uncertainty)
     voltage = physics.nominal.values["amplitude_pp_m"] / amplitude_slope
-    return Measured(built.plate, built.frequency_hz, voltage, power_slope * voltage**2)
+    return Measured(built.plate, built.frequency_hz, voltage, power_slope * voltage**2, built.origin)
 
 
 def comparison(physics: PhysicsPrediction, paper: PaperRoute | None, measured: Measured | None,

@@ -71,6 +71,9 @@ def headline(answer: DesignAnswer) -> list[str]:
                  f"{presentation.percent(r.deviation)} ({'within' if r.within_u else 'outside'} U)"
                  for r in against.itertuples() if r.quantity != "frequency_hz" or r.source.startswith("physics")]
         lines.append(f"Against {reference}: " + "; ".join(parts) + ".")
+        if answer.measured is not None and answer.measured.origin == "simulated":
+            lines.append("That plate was simulated: a simulated build of a predicted scene follows the same plate "
+                         "model, so this checks the chain (scene, instruments, analysis), not the physics.")
     if answer.layouts is not None and not answer.layouts.empty:
         lines.append(_layouts_sentence(answer))
     return lines

@@ -23,7 +23,11 @@ Materials are named, never typed in: `plate.material` from `physics.RESONATOR_MA
 `actuators.piezo.material` from `physics.PIEZO_MATERIALS` (datasheet constants with their
 tolerances). C0 is the clamped capacitance of the powered piezos (eps33^T (1 - k31^2)).
 
-A state is physical by default: without `calibration`, its motional branch follows from
+A state may be predicted: `resonance_frequency_hz: predicted` (no calibration, a `q_mech`)
+takes the resonance, modal mass and force factor at the measurement point from the plate
+model (`simbench.predicted`, the finite-element plate with its piezos), near the free
+plate's flexural frequency for `mode.half_wavelength_mm`; nothing measured is read.
+Otherwise a state is physical by default: without `calibration`, its motional branch follows from
 the plate, the piezos and the mode (modal mass, pin-force coupling of each powered patch,
 `physics`) and its mechanical quality factor `q_mech`. With a `calibration`, the branch
 reproduces a measurement at resonance, in one of three forms: `{voltage_vpp,
@@ -55,6 +59,8 @@ from squeezebench.simbench.effects import EFFECTS
 from squeezebench.errors import UserError
 from squeezebench.yamlfiles import load_strict, yaml_problem
 
+#: A state's `resonance_frequency_hz` when the plate model gives it (and the branch).
+PREDICTED = "predicted"
 #: Readings of the paper's model a `paper_model` calibration may name.
 CONVENTIONS = {c.name: c for c in (model.PAPER_CONVENTION, model.AS_PRINTED_CONVENTION,
                                    model.PHYSICAL_CONVENTION, model.INFERRED_CONVENTION)}
@@ -67,7 +73,8 @@ MAX_POWER_FACTOR = 0.99  # a piezo load is capacitive: C0 always draws reactive 
 BOUNDS = {
     "effective_coupling": "effective coupling <= the piezo material's k31",
     "power_factor": f"power factor at resonance < {MAX_POWER_FACTOR:g}",
-    "modal_mass_ratio": "modal mass <= the mass of the plate with its piezos",
+    "modal_mass_ratio": "modal mass <= the mass of the plate with its piezos (not for a predicted state: the "
+                        "model's own mass, at a point that may move less than the peak)",
     "shunt_share": f"shunt share of the power at resonance <= {MAX_SHUNT_SHARE:.0%} (Sec. 2.1)",
     "positive": "C0, R_mech, force factor and modal mass > 0",
 }
@@ -158,6 +165,8 @@ class State:
     branch: physics.MotionalBranch  # the working mode (calibrated, or from the physics)
     q_mech_origin: str = "given"  # "given" or "modal mass" (derived from the plate)
     plate_length_mm: float | None = None  # the plate's length in this state (a cut); None: uncut
+    #: resonance, modal mass and force factor from the plate model (simbench.predicted), not given
+    predicted: bool = False
 
     def load(self) -> physics.PlateLoad:
         """The plate as the amplifier sees it, with every effect off."""
@@ -303,7 +312,9 @@ class StateFigures:
                           f"k31 {self.material_k31:.3f}")
         if self.power_factor >= MAX_POWER_FACTOR:
             broken.append(f"{BOUNDS['power_factor']}: power factor {self.power_factor:.4f}")
-        if self.modal_mass_ratio > 1.0:
+        # a predicted mass is the plate model's own, referred to the measurement point: above
+        # the plate's mass where the point moves less than the mode's peak, which is physics
+        if self.modal_mass_ratio > 1.0 and self.origin != "predicted":
             broken.append(f"{BOUNDS['modal_mass_ratio']}: modal mass {self.modal_mass_g:.4g} g > "
                           f"{self.plate_mass_g:.4g} g ({self.modal_mass_ratio:.3g} x)")
         if self.shunt_share > MAX_SHUNT_SHARE:
@@ -347,8 +358,8 @@ def state_figures(scene: "Scene", state: State) -> StateFigures:
     amplitude_um = steady.amplitude_pp_m * 1e6
     plate = scene.plate_in(state)
     physical_psi = force_factor_n_per_v(plate, scene.actuators, scene.mode, state.powered_columns)
-    origin = "physical" if state.calibration is None else state.calibration.form + (
-        f" ({state.calibration.reading})" if state.calibration.reading else "")
+    origin = "predicted" if state.predicted else "physical" if state.calibration is None else (
+        state.calibration.form + (f" ({state.calibration.reading})" if state.calibration.reading else ""))
     return StateFigures(
         scene=scene.path.stem, state=state.name, origin=origin, capacitance_nf=state.capacitance_f * 1e9,
         effective_coupling=physics.effective_coupling(state.branch, state.capacitance_f),
@@ -455,13 +466,47 @@ def load_scene(path: str | Path) -> Scene:
         seed=reader.integer(top, "seed", "", minimum=0) if "seed" in top else 0,
         provenance=_provenance(reader, top.get("provenance", {}), raw),
     )
-    scene = _calibrated_through_effects(reader, scene)
+    scene = _calibrated_through_effects(reader, _predicted_states(reader, scene))
     for figures in scene_figures(scene):
         broken = figures.violations()
         if broken:
             raise reader.error(f"states.{figures.state}", "describes a plate that cannot exist: "
                                + "; ".join(broken))
     return scene
+
+
+def flexural_frequency_hz(plate: Plate, mode: Mode) -> float:
+    """The bare plate's frequency for flexural waves of half-wavelength mode.half_wavelength_mm,
+    w = k^2 sqrt(D / rho h) with k = pi / (lambda / 2): where a predicted state's mode is sought."""
+    m = plate.material
+    h = plate.thickness_mm * 1e-3
+    stiffness = m.young_pa * h**3 / (12.0 * (1.0 - m.poisson**2))
+    k = math.pi / (mode.half_wavelength_mm * 1e-3)
+    return k**2 * math.sqrt(stiffness / (m.density_kg_m3 * h)) / (2.0 * math.pi)
+
+
+def _predicted_states(reader: _Reader, scene: Scene) -> Scene:
+    """Each predicted state's branch from the plate model: the (n, 0) mode nearest the
+    flexural estimate, its modal mass and the powered piezos' force factor referred to the
+    measurement point, and the state's q_mech (the build's loss figure)."""
+    if not any(state.predicted for state in scene.states.values()):
+        return scene
+    from squeezebench.simbench.predicted import predict   # it reads scenes: imported when one is predicted
+
+    states = dict(scene.states)
+    for name, state in scene.states.items():
+        if not state.predicted:
+            continue
+        try:
+            found = predict(scene, state)
+        except ValueError as exc:
+            raise reader.error(f"states.{name}", f"the plate model finds no working mode: {exc}") from None
+        if found.n_piezos_left == 0 or found.force_factor_n_per_v == 0:
+            raise reader.error(f"states.{name}", "the plate model finds no powered piezo driving the working mode")
+        branch = physics.branch_from_physics(found.frequency_hz, state.q_mech, found.modal_mass_g * 1e-3,
+                                             found.force_factor_n_per_v)
+        states[name] = replace(state, resonance_frequency_hz=found.frequency_hz, branch=branch)
+    return replace(scene, states=states)
 
 
 def _calibrated_through_effects(reader: _Reader, scene: Scene) -> Scene:
@@ -563,7 +608,14 @@ def _states(reader: _Reader, data: Any, plate: Plate, actuators: Actuators, mode
         if "calibration" not in state and "q_mech" not in state:
             raise reader.error(f"{field}.q_mech", "is missing (a state without a calibration needs its "
                                                   "mechanical quality factor)")
-        frequency_hz = reader.number(state, "resonance_frequency_hz", field)
+        predicted = state["resonance_frequency_hz"] == PREDICTED
+        if predicted and "calibration" in state:
+            raise reader.error(f"{field}.resonance_frequency_hz", "is 'predicted', but the state has a calibration: "
+                                                                  "a state is predicted or calibrated, not both")
+        # a predicted state's resonance comes from the plate model once the scene is built
+        # (_predicted_states); until then, the free plate's flexural estimate for mode.half_wavelength_mm
+        frequency_hz = (flexural_frequency_hz(plate, mode) if predicted
+                        else reader.number(state, "resonance_frequency_hz", field))
         length_mm = reader.number(state, "plate_length_mm", field) if "plate_length_mm" in state else None
         if length_mm is not None and length_mm > plate.length_mm:
             raise reader.error(f"{field}.plate_length_mm", f"got {length_mm:g}; allowed: up to plate.length_mm "
@@ -593,7 +645,8 @@ def _states(reader: _Reader, data: Any, plate: Plate, actuators: Actuators, mode
             name=name, description=str(state.get("description", "")), resonance_frequency_hz=frequency_hz,
             q_mech=q_mech, powered_columns=powered_names, n_powered_piezos=n_powered,
             calibration=calibration, capacitance_f=capacitance_f, branch=branch,
-            q_mech_origin="given" if given else "modal mass", plate_length_mm=length_mm)
+            q_mech_origin="given" if given else "modal mass", plate_length_mm=length_mm,
+            predicted=predicted)
     return states
 
 

@@ -15,7 +15,7 @@ from __future__ import annotations
 import json
 import sys
 from pathlib import Path
-from typing import Any, Literal, Union
+from typing import Annotated, Any, Literal, Union
 
 from pydantic import BaseModel, ConfigDict, Field
 
@@ -102,7 +102,8 @@ class StateModel(_Strict):
     """One condition of the plate (a cut, a set of powered columns)."""
 
     description: str = ""
-    resonance_frequency_hz: float = Field(gt=0)
+    resonance_frequency_hz: Union[Annotated[float, Field(gt=0)], Literal["predicted"]] = Field(
+        description="Hz; or 'predicted': the plate model's working mode (no calibration, q_mech required)")
     q_mech: float | None = Field(default=None, gt=0, description="mechanical quality factor (sharpness of "
                                  "the resonance); required without calibration; with one, left out: "
                                  "w_r M / R_mech from the plate's modal mass")

@@ -303,13 +303,21 @@ def cmd_design(args: argparse.Namespace) -> int:
                         measured_plate=args.measured_plate, sweep=not args.no_layouts,
                         workers=args.workers, scheduler=args.scheduler)
     folder, files = write_design(answer, args.out)
+    if args.write_build is not None:
+        from squeezebench.designing import write_build
+
+        scene, campaign = write_build(answer, args.write_build)
+        files = {**files, "scene": str(scene), "campaign": str(campaign)}
     if args.json:
         import json as json_module
 
-        emit_json(json_module.loads((folder / files["json"]).read_text(encoding="utf-8")) | {"out": str(folder)})
+        emit_json(json_module.loads((folder / files["json"]).read_text(encoding="utf-8"))
+                  | {"out": str(folder), "build": {k: files[k] for k in ("scene", "campaign") if k in files}})
     else:
         say(args, "\n".join(headline(answer)))
         say(args, f"design page written to {folder / files['page']}")
+        if "campaign" in files:
+            say(args, f"predicted scene {files['scene']}; characterise it with: squeezebench run {files['campaign']}")
     return 0
 
 
@@ -358,7 +366,8 @@ EXAMPLES = {
              "squeezebench plan cartography --target-rel-error 0.03 --json"],
     "design": ["squeezebench design large_plate --no-layouts   # the paper's large plate, from physics",
                "squeezebench design large_plate --from runs/paper  # and by the paper's method from its small plates",
-               "squeezebench design my_plate.yaml --measured runs/built --json"],
+               "squeezebench design my_plate.yaml --write-build build/   # + its predicted scene and campaign",
+               "squeezebench design my_plate.yaml --measured runs/my_plate_characterisation --json"],
 }
 
 
@@ -466,6 +475,10 @@ def build_parser() -> argparse.ArgumentParser:
                         help="which plate of --measured is the built one (default: the design's name, or the only one)")
     design.add_argument("--out", type=Path, default=None, help="folder for the page and its files "
                         "(default: designs/<name>)")
+    design.add_argument("--write-build", type=Path, default=None, metavar="DIR",
+                        help="also write DIR/<name>.yaml, the design as a predicted scene of the simulated bench, "
+                             "and DIR/<name>_characterisation.yaml, the campaign that characterises it (a dry run "
+                             "of the built plate; on a real bench, name a bench file instead of the scene)")
     design.add_argument("--no-layouts", action="store_true",
                         help="skip the sweep of 300 piezo layouts (about 4 minutes on 2 cores for the large plate)")
     _add_parallel_options(design)

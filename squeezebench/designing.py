@@ -45,6 +45,121 @@ def printed_values(plate: str | None) -> dict[str, float] | None:
     return {q: paper_value("large_plate", plate, q) for q in ("frequency_hz", "voltage_vpp", "power_w")}
 
 
+#: The simulated bench's name for each resonator a design may name (both the paper's Table 2).
+SCENE_MATERIALS = {"aluminium_table2": "aluminium"}
+#: What a predicted build sees on the simulated bench: the shunt and the scope's own limits.
+SCENE_EFFECTS = ["shunt", "scope_noise", "quantisation", "averaging", "dc_offset"]
+
+
+def scene_from_design(spec, seed: int = 1) -> dict:
+    """A predicted scene of the designed plate for the simulated bench: its geometry and
+    materials, the build's q_mech, and a state whose resonance and branch the plate model
+    gives (`resonance_frequency_hz: predicted`); measured at the plate's centre. A design
+    the scene format cannot place (piezos a column does not centre, or a position's two
+    groups not at the width's ends) is refused, naming the group."""
+    import math
+
+    from squeezebench.simbench import predicted
+    from squeezebench.simbench.scene import Scene   # noqa: F401  (the format this builds)
+
+    material = spec.resonator.material
+    if not isinstance(material, str) or material not in SCENE_MATERIALS:
+        raise UserError(f"design {spec.name!r}: the simulated bench knows the resonator materials "
+                        f"{', '.join(SCENE_MATERIALS)} by name; this design gives its own constants")
+    counts = {len(g.y_mm) for g in spec.groups}
+    if len(counts) != 1:
+        raise UserError(f"design {spec.name!r}: a scene's columns all hold the same number of piezos; "
+                        f"the groups hold {sorted(counts)}")
+    antinodes = int(predicted_antinodes(spec))
+    # a free plate's n antinodes lie between n + 1 nodal lines, the end ones about a quarter
+    # wave from the edges: lambda/2 ~ L / (n + 1/2), where the scene's search then centres
+    half_wave_mm = spec.resonator.length_mm / (antinodes + 0.5)
+    data = {
+        "description": f"predicted from design {spec.name}",
+        "plate": {"name": spec.name, "material": SCENE_MATERIALS[material], "length_mm": spec.resonator.length_mm,
+                  "width_mm": spec.resonator.width_mm, "thickness_mm": spec.resonator.thickness_mm},
+        "actuators": {"piezo": {"length_mm": spec.piezo.width_y_mm, "width_mm": spec.piezo.length_x_mm,
+                                "thickness_mm": spec.piezo.thickness_mm, "material": "NCE 41"},
+                      "piezos_per_column": counts.pop(),
+                      "columns": [{"name": g.name, "position_mm": g.x_mm} for g in spec.groups]},
+        "mode": {"name": f"{antinodes} antinodes", "half_wavelength_mm": round(half_wave_mm, 6)},
+        "states": {"built": {"description": "as designed, every powered group driven",
+                             "resonance_frequency_hz": "predicted", "q_mech": spec.damping.mechanical_q,
+                             "powered_columns": [g.name for g in spec.groups if g.powered]}},
+        "initial_state": "built",
+        "measurement_point": {"x_mm": spec.resonator.length_mm / 2, "y_mm": spec.resonator.width_mm / 2,
+                              "signal_level_percent": 80},
+        "effects": list(SCENE_EFFECTS), "seed": seed,
+        "provenance": {"states.built.resonance_frequency_hz": "predicted by the plate model from the design file",
+                       "states.built.q_mech": spec.damping.origin},
+    }
+    # the scene's placement rule must put every piezo where the design does
+    import tempfile
+
+    import yaml
+
+    from squeezebench.simbench.scene import load_scene
+
+    with tempfile.TemporaryDirectory() as folder:
+        path = Path(folder) / f"{spec.name}.yaml"
+        path.write_text(yaml.safe_dump(data, sort_keys=False), encoding="utf-8")
+        scene = load_scene(path)
+    placed = sorted((round(p.x_center_m, 9), round(p.y_center_m, 9))
+                    for p in predicted.geometry(scene, scene.state("built")).patches)
+    wanted = sorted((round(p.x_center_m, 9), round(p.y_center_m, 9)) for p in spec.geometry().patches)
+    if len(placed) != len(wanted) or not all(math.isclose(a, b, abs_tol=1e-6) for pa, pb in zip(placed, wanted)
+                                                for a, b in zip(pa, pb)):
+        raise UserError(f"design {spec.name!r}: the simulated bench centres a column's piezos on the width, or puts "
+                        "two columns at one place at the width's two ends; this design's piezos sit elsewhere")
+    return data
+
+
+def characterisation_campaign(spec, answer: design_model.DesignAnswer, scene_file: str) -> dict:
+    """The campaign that characterises the built plate (Sec. 5.3's protocol on the designed
+    plate): a resonance search over +-3 % of the predicted frequency, fine enough for the
+    build's Q, then 25 to 100 % of the voltage the target needs (within the amplifier and a
+    100 Vpp safety limit). On a real bench, `bench: {file: ...}` replaces the scene."""
+    import math
+
+    values = answer.physics.nominal.values
+    frequency = values["frequency_hz"]
+    top = min(values["voltage_vpp"], spec.amplifier.max_output_vpp, 100.0)
+    points = max(31, math.ceil(0.12 * spec.damping.mechanical_q) + 1)   # steps <= half the bandwidth f/Q
+    return {
+        "name": f"{spec.name}_characterisation", "output_dir": f"runs/{spec.name}_characterisation",
+        "safety": {"max_piezo_voltage_vpp": 100},
+        "runs": [{
+            "name": "built_plate", "protocol": "characterisation", "bench": {"scene": scene_file},
+            "plate": {"n_powered_columns": spec.n_powered_groups, "n_powered_piezos": spec.n_powered_piezos},
+            "parameters": {"search": {"start_hz": round(0.97 * frequency), "stop_hz": round(1.03 * frequency),
+                                      "points": points},
+                           "voltages_vpp": [round(top * share, 1) for share in (0.25, 0.5, 0.75, 1.0)]}}],
+    }
+
+
+def write_build(answer: design_model.DesignAnswer, folder: str | Path) -> tuple[Path, Path]:
+    """The predicted scene of the design and the campaign characterising it, in `folder`."""
+    import yaml
+
+    spec = answer.design
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    scene = folder / f"{spec.name}.yaml"
+    scene.write_text("# Predicted by `squeezebench design` from the design file: nothing measured is read.\n"
+                     + yaml.safe_dump(scene_from_design(spec), sort_keys=False), encoding="utf-8")
+    campaign = folder / f"{spec.name}_characterisation.yaml"
+    campaign.write_text(yaml.safe_dump(characterisation_campaign(spec, answer, scene.name), sort_keys=False),
+                        encoding="utf-8")
+    return scene, campaign
+
+
+def predicted_antinodes(spec) -> int:
+    """The design's working mode's antinode count (asked for, or found by the plate model)."""
+    if spec.mode.interior_antinodes is not None:
+        return spec.mode.interior_antinodes
+    return int(design_model.operating_point(spec).values["interior_antinodes"])
+
+
 def run_design(plate: str | Path, from_runs: Iterable[str | Path] = (), measured: str | Path | None = None,
                measured_plate: str | None = None, sweep: bool = True, workers: int | None = None,
                scheduler: Any = None) -> design_model.DesignAnswer:

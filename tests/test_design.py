@@ -266,3 +266,51 @@ def test_design_from_python(tmp_path):
     assert answer.layouts is None and answer.paper_route is None
     assert answer.physics.nominal.values["interior_antinodes"] == 9
     assert (tmp_path / "page" / "index.html").is_file()
+
+
+# --- closing the loop: the design built on the simulated bench ----------------------------------
+
+def test_design_built_on_the_simulated_bench_meets_its_prediction(tmp_path, capsys):
+    """design -> predicted scene and campaign -> run -> design --measured: the simulated build
+    lands within the prediction's U (a chain check: the scene follows the same plate model),
+    and the page says the plate was simulated."""
+    import yaml
+
+    from squeezebench.protocols.campaign import run_campaign
+    from squeezebench.simbench.scene import load_scene
+
+    path = tmp_path / "strip.yaml"
+    path.write_text(yaml.safe_dump(STRIP))
+    assert cli.main(["design", str(path), "--no-layouts", "--out", str(tmp_path / "page"),
+                     "--write-build", str(tmp_path / "build"), "-q"]) == 0
+    scene = load_scene(tmp_path / "build" / "strip.yaml")
+    state = scene.state("built")
+    assert state.predicted and "resonance_frequency_hz: predicted" in (
+        tmp_path / "build" / "strip.yaml").read_text()
+    predicted_hz = design.predict_physics(strip()).nominal.values["frequency_hz"]
+    assert state.resonance_frequency_hz == pytest.approx(predicted_hz, rel=3e-3)   # E 67.0 vs 67.109 GPa, meshes
+    run_dir = run_campaign(tmp_path / "build" / "strip_characterisation.yaml", out_dir=tmp_path / "run",
+                           progress=False)
+    assert cli.main(["design", str(path), "--no-layouts", "--out", str(tmp_path / "page2"),
+                     "--measured", str(run_dir), "--json"]) == 0
+    payload = json.loads(capsys.readouterr().out)
+    rows = {(r["quantity"], r["source"]): r for r in payload["comparison"]}
+    for quantity in ("voltage_vpp", "power_w"):
+        row = rows[(quantity, "physics (a)")]
+        assert row["reference"] == "measured (strip)" and row["within_u"], row
+        assert abs(row["deviation"]) < 0.05, row
+    assert any("simulated" in line for line in payload["headline"])
+
+
+def test_a_predicted_state_cannot_also_be_calibrated(tmp_path):
+    import yaml
+
+    from squeezebench.designing import scene_from_design
+    from squeezebench.simbench.scene import SceneError, load_scene
+
+    data = scene_from_design(strip())
+    data["states"]["built"]["calibration"] = {"voltage_vpp": 20, "velocity_pp_mps": 0.2, "power_w": 0.03}
+    path = tmp_path / "both.yaml"
+    path.write_text(yaml.safe_dump(data))
+    with pytest.raises(SceneError, match="predicted or calibrated, not both"):
+        load_scene(path)
