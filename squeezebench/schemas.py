@@ -284,6 +284,23 @@ def check_scene(path: Path) -> None:
     load_scene(path)
 
 
+def replay_departures(path: Path) -> list[str]:
+    """What of each replayed (given or calibrated) state of a scene departs from the plate
+    model's prediction beyond its tolerances (`simbench.predicted`), one line per state:
+    `validate` says it (a few seconds of solving per plate, so not at every campaign load)."""
+    from squeezebench.simbench.predicted import predict
+    from squeezebench.simbench.scene import load_scene
+
+    scene = load_scene(path)
+    lines = []
+    for state in scene.states.values():
+        departures = [] if state.predicted else predict(scene, state).departures()
+        if departures:
+            lines.append(f"{path.name}: state {state.name!r} replays a plate the model does not predict: "
+                         + "; ".join(departures))
+    return lines
+
+
 # -- checking any file -------------------------------------------------------------------
 def validate_file(path: Path) -> dict[str, Any]:
     """Check a campaign (with every scene and bench file it uses and every request it
@@ -308,8 +325,7 @@ def validate_file(path: Path) -> dict[str, Any]:
         return {"file": str(path), "kind": "bench", "summary": ", ".join(config.resources.values()),
                 "warnings": chain_warnings(config.electronics)}
     if isinstance(data, dict) and "plate" in data:
-        check_scene(path)
-        return {"file": str(path), "kind": "scene", "summary": "", "warnings": []}
+        return {"file": str(path), "kind": "scene", "summary": "", "warnings": replay_departures(path)}
     if isinstance(data, dict) and "resonator" in data:
         design = load_design_file(path)
         return {"file": str(path), "kind": "design",

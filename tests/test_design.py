@@ -314,3 +314,19 @@ def test_a_predicted_state_cannot_also_be_calibrated(tmp_path):
     path.write_text(yaml.safe_dump(data))
     with pytest.raises(SceneError, match="predicted or calibrated, not both"):
         load_scene(path)
+
+
+def test_validate_says_where_a_replay_departs_from_the_model(capsys, tmp_path):
+    """The shipped large plate replays the paper's numbers: its force factor and resonance
+    depart from the plate model beyond the tolerances, and `validate` says so per state; a
+    design's predicted scene has nothing to depart from."""
+    import yaml
+
+    from squeezebench.designing import scene_from_design
+
+    path = tmp_path / "strip.yaml"
+    path.write_text(yaml.safe_dump(scene_from_design(strip())))
+    assert cli.main(["validate", "large_plate", str(path)]) == 0
+    err = capsys.readouterr().err
+    assert "large_plate.yaml: state 'large' replays a plate the model does not predict" in err
+    assert "force factor" in err and "strip.yaml" not in err
