@@ -355,29 +355,26 @@ class PaperRoute:
     amplitude_pp_m: float
     template: str
     small_plates: tuple[str, ...]
-    convention: str
+    convention: model.Convention   # the reading the small plates were characterised and carried under
     geometry: model.PlateGeometry
 
     def power_at(self, voltage_vpp: np.ndarray, frequency_hz: float) -> tuple[np.ndarray, np.ndarray]:
         """Eq. 25 against voltage: nominal and U (k = 2) from Q and tan(theta')."""
-        per_v2 = self.q * self.tan_theta * model.power_w(1.0, 1.0, 1.0, frequency_hz, self.geometry, _convention())
+        per_v2 = self.q * self.tan_theta * model.power_w(1.0, 1.0, 1.0, frequency_hz, self.geometry, self.convention)
         return (per_v2.nominal_value * np.asarray(voltage_vpp) ** 2,
                 COVERAGE_FACTOR * per_v2.std_dev * np.asarray(voltage_vpp) ** 2)
 
 
-def _convention() -> model.Convention:
-    from squeezebench.analysis.report import REPORT_CONVENTION
-
-    return REPORT_CONVENTION
-
-
-def predict_from_small_plates(physics: PhysicsPrediction, plates: dict) -> PaperRoute:
+def predict_from_small_plates(physics: PhysicsPrediction, plates: dict,
+                              convention: model.Convention | None = None) -> PaperRoute:
     """Route (b) from `plates` (name -> `tables.PlateCharacterisation`, the small plates of
-    one or more characterisation runs; a plate as thick as the design is needed)."""
+    one or more characterisation runs, characterised under `convention`: by default the
+    report's reading; a plate as thick as the design is needed)."""
+    from squeezebench.analysis.report import REPORT_CONVENTION
     from squeezebench.analysis.tables import LARGE_PLATE, mean_over_plates
 
     design, values = physics.design, physics.nominal.values
-    convention = _convention()
+    convention = convention or REPORT_CONVENTION
     thickness_m = design.resonator.thickness_mm * 1e-3
     small = {n: p for n, p in plates.items() if n != LARGE_PLATE}
     same = {n: p for n, p in small.items()
@@ -412,7 +409,7 @@ def predict_from_small_plates(physics: PhysicsPrediction, plates: dict) -> Paper
     voltage = amplitude / (q * model.amplitude_pp_m(1.0, 1.0, geometry, convention))
     power = q * tan_theta * voltage**2 * frequency * model.power_w(1.0, 1.0, 1.0, 1.0, geometry, convention)
     return PaperRoute(q=q, tan_theta=tan_theta, voltage_vpp=voltage, power_w=power, amplitude_pp_m=amplitude,
-                      template=template_name, small_plates=tuple(sorted(same)), convention=convention.name,
+                      template=template_name, small_plates=tuple(sorted(same)), convention=convention,
                       geometry=geometry)
 
 

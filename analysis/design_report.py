@@ -236,7 +236,7 @@ def assumptions(answer: DesignAnswer) -> str:
         r = answer.paper_route
         items.append(f"<li><b>route (b)</b>: Q from {html.escape(r.template)} scaled by Eq. 29 to the design's "
                      f"{d.piezo.width_y_mm:g} mm piezo; tan θ′ the mean of {', '.join(r.small_plates)}; Eqs. 27 and 25 "
-                     f"under the report's reading '{r.convention}', at the frequency and λ/2 physics predicts. "
+                     f"under the report's reading '{r.convention.name}', at the frequency and λ/2 physics predicts. "
                      f"{html.escape(d.from_small_plates.origin)}</li>")
     return "<ul>" + "".join(items) + "</ul>"
 
@@ -256,7 +256,7 @@ def payload(answer: DesignAnswer, files: dict[str, str]) -> dict:
         "small_plates": None if route is None else {
             "q": _uf(route.q), "tan_theta": _uf(route.tan_theta), "voltage_vpp": _uf(route.voltage_vpp),
             "power_w": _uf(route.power_w), "template": route.template, "plates": list(route.small_plates),
-            "reading": route.convention},
+            "reading": route.convention.name},
         "small_plates_problem": answer.paper_route_problem or None,
         "comparison": json.loads(answer.comparison().to_json(orient="records")),
         "layouts": None if answer.layouts is None else {

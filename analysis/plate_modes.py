@@ -275,7 +275,7 @@ def flexural_half_wavelength_m(material: Isotropic, thickness_m: float, frequenc
     return float(np.pi / ((2 * np.pi * frequency_hz) ** 2 * mass / d) ** 0.25)
 
 
-@functools.lru_cache(maxsize=4)
+@functools.lru_cache(maxsize=2)   # a basis of a large plate holds tens of MB: the current mesh and one more
 def _discretisation(x: tuple[float, ...], y: tuple[float, ...], gx: tuple[float, ...], gy: tuple[float, ...]):
     """Mesh, Argyris basis and the probe of the shape grid (gx x gy) for mesh lines x, y:
     most of a solve's time, and the same for plates that differ only in materials or

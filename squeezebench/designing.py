@@ -18,16 +18,17 @@ from squeezebench.analysis import design_report, layouts
 from squeezebench.errors import UserError
 
 
-def characterised_plates(run_dirs: Iterable[str | Path]) -> dict:
+def characterised_plates(run_dirs: Iterable[str | Path], convention=None) -> dict:
     """Every plate the runs' characterisation protocol measured (name -> characterisation,
-    under the report's reading); a plate name in two runs is refused, not silently merged."""
+    under `convention`, by default the report's reading); a plate name in two runs is
+    refused, not silently merged."""
     from squeezebench.analysis.report import REPORT_CONVENTION
     from squeezebench.analysis.rundata import load_run
     from squeezebench.analysis.tables import characterise_plates
 
     plates: dict = {}
     for run_dir in run_dirs:
-        found = characterise_plates(load_run(run_dir), REPORT_CONVENTION)
+        found = characterise_plates(load_run(run_dir), convention or REPORT_CONVENTION)
         if not found:
             raise UserError(f"{run_dir}: no characterisation points (the 'characterisation' protocol) to design from")
         twice = sorted(set(found) & set(plates))
@@ -60,7 +61,6 @@ def scene_from_design(spec, seed: int = 1) -> dict:
     import math
 
     from squeezebench.simbench import predicted
-    from squeezebench.simbench.scene import Scene   # noqa: F401  (the format this builds)
 
     material = spec.resonator.material
     if not isinstance(material, str) or material not in SCENE_MATERIALS:

@@ -330,3 +330,18 @@ def test_validate_says_where_a_replay_departs_from_the_model(capsys, tmp_path):
     err = capsys.readouterr().err
     assert "large_plate.yaml: state 'large' replays a plate the model does not predict" in err
     assert "force factor" in err and "strip.yaml" not in err
+
+
+def test_transfer_study_on_one_drawn_build():
+    """One build of `squeezebench.design_transfer`: every plate drawn from geometry and
+    datasheets, built as a predicted scene and characterised on the simulated bench. The
+    physics route lands within its U (a chain check); the paper's route is computed under
+    both readings and its ratio to the measurement recorded, whatever it is."""
+    from squeezebench import design_transfer
+
+    rows = pd.DataFrame(design_transfer.study_build(2))
+    assert set(rows["route"]) == {"physics (a)", "small plates (b), paper reading",
+                                  "small plates (b), physical reading"}
+    physics = rows[rows["route"] == "physics (a)"].iloc[0]
+    assert physics["covered"] and abs(physics["ratio"] - 1) < 0.05
+    assert (rows["measured_power_w"] > 0).all() and rows["ratio"].notna().all()
