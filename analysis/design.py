@@ -478,6 +478,8 @@ class DesignAnswer:
     measured: Measured | None = None
     printed: dict[str, float] | None = None   # the paper's values for this plate, when it is one of its plates
     layouts: pd.DataFrame | None = None
+    #: every design this lab checked against its built plate (`designing.HISTORY_FILE`)
+    history: pd.DataFrame | None = None
 
     @property
     def design(self) -> DesignFile:

@@ -290,6 +290,22 @@ def write(answer: DesignAnswer, out_dir: Path) -> dict[str, str]:
     return files
 
 
+def _history_html(history: pd.DataFrame) -> str:
+    """Each design checked against its built plate: the physics route's deviation per
+    quantity and whether the measurement fell within U, newest last."""
+    rows = history[history["quantity"].isin(["voltage_vpp", "power_w"])]
+    table = pd.DataFrame({
+        "design": rows["design"], "checked (UTC)": rows["checked_utc"], "route": rows["source"],
+        "quantity": [presentation.label(q) for q in rows["quantity"]],
+        "deviation": [presentation.percent(d) for d in rows["deviation"]],
+        "within U": ["yes" if str(w).lower() == "true" else "no" for w in rows["within_u"]]})
+    share = (table["within U"] == "yes").mean()
+    return (f"<p>{len(rows['design'].unique())} design(s) checked against the plate built from them; "
+            f"{share:.0%} of these predictions held within their U.</p>"
+            + html_table(table, "Prediction against the built plate's measurement, from history.csv beside the "
+                                "designs' folders"))
+
+
 def _figure(file: str, alt: str, caption: str) -> str:
     return (f"<figure><img src='{file}' alt='{html.escape(alt)}'>"
             f"<figcaption>{html.escape(caption)}</figcaption></figure>")
@@ -322,6 +338,8 @@ def page(answer: DesignAnswer) -> str:
             shown, "The best trade-offs (no other layout needs less power and is more even)") + presentation.fold(
             f"All {len(frame)} layouts", f"<p>In <a href='{FILES['layouts']}'>{FILES['layouts']}</a>, with the reason "
             "each infeasible layout fails.</p>")))
+    if answer.history is not None and not answer.history.empty:
+        sections.append(("How the designs fare", _history_html(answer.history)))
     budget_html = "".join(presentation.fold(
         f"{presentation.label(o)}: {_pm(answer, o)}", html_table(budget_table(answer, o), f"Budget of {o}"))
         for o in BUDGET_OUTPUTS)

@@ -125,7 +125,7 @@ def design(plate: str | Path, *, from_runs: Sequence[str | Path] = (), measured:
     answer = run_design(plate, from_runs=from_runs, measured=measured, measured_plate=measured_plate,
                         sweep=layouts, workers=workers)
     if out_dir is not None:
-        write_design(answer, out_dir)
+        write_design(answer, out_dir, measured_run=measured)
     return answer
 
 

@@ -302,7 +302,7 @@ def cmd_design(args: argparse.Namespace) -> int:
     answer = run_design(args.plate, from_runs=args.from_runs or (), measured=args.measured,
                         measured_plate=args.measured_plate, sweep=not args.no_layouts,
                         workers=args.workers, scheduler=args.scheduler)
-    folder, files = write_design(answer, args.out)
+    folder, files = write_design(answer, args.out, measured_run=args.measured)
     if args.write_build is not None:
         from squeezebench.designing import write_build
 

@@ -12,6 +12,8 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Any, Iterable
 
+import pandas as pd
+
 from squeezebench import paths
 from squeezebench.analysis import design as design_model
 from squeezebench.analysis import design_report, layouts
@@ -198,7 +200,36 @@ def run_design(plate: str | Path, from_runs: Iterable[str | Path] = (), measured
     return answer
 
 
-def write_design(answer: design_model.DesignAnswer, out_dir: str | Path | None = None) -> tuple[Path, dict[str, str]]:
-    """The page and its files in `out_dir` (default designs/<name>); returns the folder and the files."""
+#: Beside the designs' folders: every design checked against its built plate, one row per
+#: design, measured run, route and quantity (a later check of the same run replaces its rows).
+HISTORY_FILE = "history.csv"
+
+
+def record_measurement(answer: design_model.DesignAnswer, history: Path, measured_run: str | Path) -> pd.DataFrame:
+    """Append this design's prediction-against-measurement rows to `history` (CSV) and
+    return the whole history: how a lab's designs fare against what it then built."""
+    from datetime import datetime, timezone
+
+    rows = answer.comparison()
+    rows = rows[rows["reference"].str.startswith("measured")].drop(columns=["reference"])
+    rows.insert(0, "design", answer.design.name)
+    rows.insert(1, "measured_run", str(Path(measured_run).resolve()))
+    rows.insert(2, "checked_utc", datetime.now(timezone.utc).isoformat(timespec="seconds"))
+    old = pd.read_csv(history) if history.is_file() else pd.DataFrame(columns=rows.columns)
+    keep = ~(old["design"].eq(answer.design.name) & old["measured_run"].eq(rows["measured_run"].iloc[0]))
+    frame = pd.concat([old[keep], rows], ignore_index=True) if len(old[keep]) else rows.reset_index(drop=True)
+    history.parent.mkdir(parents=True, exist_ok=True)
+    frame.to_csv(history, index=False)
+    return frame
+
+
+def write_design(answer: design_model.DesignAnswer, out_dir: str | Path | None = None,
+                 measured_run: str | Path | None = None) -> tuple[Path, dict[str, str]]:
+    """The page and its files in `out_dir` (default designs/<name>); returns the folder and
+    the files. With the built plate's run, its comparison joins the history beside the
+    designs' folders (`HISTORY_FILE`), which the page shows."""
     folder = Path(out_dir) if out_dir is not None else Path("designs") / answer.design.name
+    if measured_run is not None and answer.measured is not None:
+        history = record_measurement(answer, folder.parent / HISTORY_FILE, measured_run)
+        answer = replace(answer, history=history)
     return folder, design_report.write(answer, folder)

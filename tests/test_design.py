@@ -300,6 +300,12 @@ def test_design_built_on_the_simulated_bench_meets_its_prediction(tmp_path, caps
         assert row["reference"] == "measured (strip)" and row["within_u"], row
         assert abs(row["deviation"]) < 0.05, row
     assert any("simulated" in line for line in payload["headline"])
+    # the check joins the history beside the designs' folders, once per measured run
+    assert cli.main(["design", str(path), "--no-layouts", "--out", str(tmp_path / "page2"),
+                     "--measured", str(run_dir), "-q"]) == 0
+    history = pd.read_csv(tmp_path / "history.csv")
+    assert set(history["design"]) == {"strip"} and len(history) == 3   # frequency, voltage, power of physics
+    assert "How the designs fare" in (tmp_path / "page2" / "index.html").read_text()
 
 
 def test_a_predicted_state_cannot_also_be_calibrated(tmp_path):
