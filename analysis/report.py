@@ -351,6 +351,7 @@ def characterisation_section(context: ReportContext) -> Section | None:
             "divided by Q. Both lines are fitted with an intercept, which a plate obeying the model "
             "leaves at zero within its uncertainty; χ²/dof near 1 says the points scatter as their "
             "uncertainties state.</p>"
+            + _surprises(context, plates)
             + presentation.fold(f"Q, tan θ′ and both fits of each of the {len(plates)} plates, as numbers",
                                 _plates_table(context, plates)))
     runs = ", ".join(sorted(context.run.protocol("characterisation")["run_name"].unique()))
@@ -369,6 +370,55 @@ def characterisation_section(context: ReportContext) -> Section | None:
     body += ("<p class='csv'>Per plate: <a href='fig5.csv'>fig5.csv</a>.</p>"
              + presentation.calibration_notes(context.tables["fig5"]))
     return Section("Every plate: Q, tan θ′ and their fits (Sec. 4, Fig. 5)", body, "plates")
+
+
+#: A fit's χ²/dof above this is explained in words beside the plates' table.
+SURPRISING_CHI2 = 3.0
+
+
+def _surprises(context: ReportContext, plates: dict[str, tables.PlateCharacterisation]) -> str:
+    """The numbers of the plates' table a reader would stop at, explained from the run:
+    negative tan θ′ (d31's sign, and Q's sign through Eq. 12's a under the reading) and a
+    χ²/dof well above 1 (what the points scatter by, against what each point states)."""
+    lines = []
+    negative = [n for n, p in plates.items() if p.tan_theta.value < 0]
+    if negative:
+        example = plates[negative[0]]
+        a_here = model.a_factor(example.geometry, context.convention)
+        a_physical = model.a_factor(example.geometry, replace(context.convention, materials=model.MATERIALS_PHYSICAL))
+        q_sign = "" if (a_here > 0) == (a_physical > 0) else (
+            f" Q comes out positive here because Eq. 12's a is {_signed(a_here)} for {html.escape(negative[0])} with "
+            f"Table 2's E_i as printed ({context.convention.materials.resonator_young_pa:g} Pa); with E_i = 67 GPa, "
+            f"a = {_signed(a_physical)} and Q changes sign (Table 5 under each reading, in its section).")
+        lines.append(
+            f"tan θ′ is negative for {len(negative)} of {len(plates)} plates: Eqs. 25 and 27 carry NCE 41's d31 with "
+            f"its sign ({_signed(context.convention.materials.piezo_d31_c_per_n * 1e12)} pC/N); the amplitude is odd in "
+            "d31 and the power even, so tan θ′ = power / (Q × Eq. 25's factor) takes d31's sign under any reading. "
+            f"The paper prints negative values too ({_signed(paper_value('small_plates', '2mm', 'tan_theta_mean'))} "
+            "at 2 mm), as if it computed so; the loss tangent's size is |tan θ′|." + q_sign)
+    fits = [(fit.chi2_per_dof, name, kind, fit) for name, p in plates.items()
+            for kind, fit in (("amplitude", p.amplitude_slope), ("power", p.power_slope))
+            if math.isfinite(fit.chi2_per_dof)]
+    if fits and max(fits)[0] > SURPRISING_CHI2:
+        chi2, name, kind, fit = max(fits, key=lambda f: f[0])
+        points = plates[name].points
+        column = "amplitude_pp_m" if kind == "amplitude" else "power_w"
+        x = points["piezo_voltage_vpp"] if kind == "amplitude" else points["piezo_voltage_vpp"] ** 2
+        line = fit.slope.value * x + fit.intercept.value
+        off = float((abs(points[column] - line) / line).max())
+        stated = float((points[f"{column}_u"] / points[column]).median())
+        moved = float((points["frequency_hz"] - points["frequency_hz"].mean()).abs().max())
+        lines.append(
+            f"χ²/dof reaches {chi2:.1f} ({html.escape(name)}, {kind} against voltage): its points lie up to "
+            f"{presentation.percent(off).lstrip('+')} off the line, against {presentation.percent(stated).lstrip('+')} "
+            f"stated per point (a record's noise). The resonance, found again before each voltage, moved by up to "
+            f"{moved:.1f} Hz between points, and a point read off the peak reads low: scatter a point's own "
+            f"uncertainty leaves out. The fit widens the slope's uncertainty by √(χ²/dof), so Q and tan θ′ carry it.")
+    return "".join(f"<p>{line}</p>" for line in lines)
+
+
+def _signed(value: float) -> str:
+    return f"{value:.3g}".replace("-", "−")
 
 
 def _plates_table(context: ReportContext, plates: dict[str, tables.PlateCharacterisation]) -> str:

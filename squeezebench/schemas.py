@@ -23,7 +23,6 @@ from typing import Annotated, Any, Literal, Optional, Union
 import pyvisa.rname
 from pydantic import AfterValidator, BaseModel, ConfigDict, Field, ValidationError, create_model, model_validator
 
-from squeezebench.analysis.design_file import DesignFile
 from squeezebench.errors import UserError
 from squeezebench.instruments.bench import ROLES, BenchConfig, BenchElectronics
 from squeezebench.instruments.errors import BenchFileError
@@ -267,6 +266,8 @@ def load_bench_file(path: str | Path) -> BenchConfig:
 def load_design_file(path: str | Path):
     """A plate to design (`analysis.design_file.DesignFile`); a problem is one line naming
     the file, the field and what is wrong."""
+    from squeezebench.analysis.design_file import DesignFile   # the plate model's imports: only for a design
+
     path = Path(path)
     data = read_yaml(path)
     try:
@@ -337,6 +338,8 @@ def validate_file(path: Path) -> dict[str, Any]:
 
 # -- JSON Schemas -------------------------------------------------------------------------
 def json_schemas() -> dict[str, dict]:
+    from squeezebench.analysis.design_file import DesignFile
+
     return {"campaign.schema.json": CampaignFile.model_json_schema(),
             "bench.schema.json": BenchFile.model_json_schema(),
             "design.schema.json": DesignFile.model_json_schema()}
