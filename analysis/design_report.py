@@ -70,7 +70,9 @@ def headline(answer: DesignAnswer) -> list[str]:
         parts = [f"{_source_short(r.source)} {presentation.label(r.quantity).split(' (')[0]} "
                  f"{presentation.percent(r.deviation)} ({'within' if r.within_u else 'outside'} U)"
                  for r in against.itertuples() if r.quantity != "frequency_hz" or r.source.startswith("physics")]
-        lines.append(f"Against {reference}: " + "; ".join(parts) + ".")
+        against_words = ("the paper's printed values" if reference.startswith("printed")
+                         else f"the built plate, {reference}")
+        lines.append(f"Against {against_words}: " + "; ".join(parts) + ".")
         if answer.measured is not None and answer.measured.origin == "simulated":
             lines.append("That plate was simulated: a simulated build of a predicted scene follows the same plate "
                          "model, so this checks the chain (scene, instruments, analysis), not the physics.")

@@ -8,11 +8,15 @@ study uses (`protocols.parallel`), and writes the page, design.json and the tabl
 """
 from __future__ import annotations
 
+import math
+import tempfile
 from dataclasses import replace
+from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any, Iterable
 
 import pandas as pd
+import yaml
 
 from squeezebench import paths
 from squeezebench.analysis import design as design_model
@@ -59,10 +63,9 @@ def scene_from_design(spec, seed: int = 1) -> dict:
     materials, the build's q_mech, and a state whose resonance and branch the plate model
     gives (`resonance_frequency_hz: predicted`); measured at the plate's centre. A design
     the scene format cannot place (piezos a column does not centre, or a position's two
-    groups not at the width's ends) is refused, naming the group."""
-    import math
-
+    groups not at the width's ends) is refused, saying how the scene places them."""
     from squeezebench.simbench import predicted
+    from squeezebench.simbench.scene import load_scene
 
     material = spec.resonator.material
     if not isinstance(material, str) or material not in SCENE_MATERIALS:
@@ -96,12 +99,6 @@ def scene_from_design(spec, seed: int = 1) -> dict:
                        "states.built.q_mech": spec.damping.origin},
     }
     # the scene's placement rule must put every piezo where the design does
-    import tempfile
-
-    import yaml
-
-    from squeezebench.simbench.scene import load_scene
-
     with tempfile.TemporaryDirectory() as folder:
         path = Path(folder) / f"{spec.name}.yaml"
         path.write_text(yaml.safe_dump(data, sort_keys=False), encoding="utf-8")
@@ -121,8 +118,6 @@ def characterisation_campaign(spec, answer: design_model.DesignAnswer, scene_fil
     plate): a resonance search over +-3 % of the predicted frequency, fine enough for the
     build's Q, then 25 to 100 % of the voltage the target needs (within the amplifier and a
     100 Vpp safety limit). On a real bench, `bench: {file: ...}` replaces the scene."""
-    import math
-
     values = answer.physics.nominal.values
     frequency = values["frequency_hz"]
     top = min(values["voltage_vpp"], spec.amplifier.max_output_vpp, 100.0)
@@ -141,8 +136,6 @@ def characterisation_campaign(spec, answer: design_model.DesignAnswer, scene_fil
 
 def write_build(answer: design_model.DesignAnswer, folder: str | Path) -> tuple[Path, Path]:
     """The predicted scene of the design and the campaign characterising it, in `folder`."""
-    import yaml
-
     spec = answer.design
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
@@ -208,8 +201,6 @@ HISTORY_FILE = "history.csv"
 def record_measurement(answer: design_model.DesignAnswer, history: Path, measured_run: str | Path) -> pd.DataFrame:
     """Append this design's prediction-against-measurement rows to `history` (CSV) and
     return the whole history: how a lab's designs fare against what it then built."""
-    from datetime import datetime, timezone
-
     rows = answer.comparison()
     rows = rows[rows["reference"].str.startswith("measured")].drop(columns=["reference"])
     rows.insert(0, "design", answer.design.name)
