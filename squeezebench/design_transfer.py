@@ -24,12 +24,11 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
-import yaml
 
 from squeezebench.analysis import design as design_model
 from squeezebench.analysis import model
 from squeezebench.analysis.design_file import DesignFile
-from squeezebench.designing import characterisation_campaign, characterised_plates, scene_from_design
+from squeezebench.designing import characterised_plates, write_build
 
 READINGS = {"paper": model.PAPER_CONVENTION, "physical": model.PHYSICAL_CONVENTION}
 TARGET_AMPLITUDE_PP_M = 1e-6
@@ -98,12 +97,7 @@ def _characterise(spec: DesignFile, folder: Path, seed: int) -> Path:
     """The spec built as a predicted scene and characterised on the simulated bench."""
     from squeezebench.protocols.campaign import run_campaign
 
-    answer = design_model.DesignAnswer(design_model.predict_physics(spec))
-    scene = folder / f"{spec.name}.yaml"
-    scene.write_text(yaml.safe_dump(scene_from_design(spec, seed=seed), sort_keys=False), encoding="utf-8")
-    campaign = folder / f"{spec.name}_characterisation.yaml"
-    campaign.write_text(yaml.safe_dump(characterisation_campaign(spec, answer, scene.name), sort_keys=False),
-                        encoding="utf-8")
+    _, campaign = write_build(design_model.DesignAnswer(design_model.predict_physics(spec)), folder, seed=seed)
     return run_campaign(campaign, out_dir=folder / f"run_{spec.name}", progress=False, say=lambda m: None)
 
 

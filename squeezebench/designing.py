@@ -134,14 +134,15 @@ def characterisation_campaign(spec, answer: design_model.DesignAnswer, scene_fil
     }
 
 
-def write_build(answer: design_model.DesignAnswer, folder: str | Path) -> tuple[Path, Path]:
-    """The predicted scene of the design and the campaign characterising it, in `folder`."""
+def write_build(answer: design_model.DesignAnswer, folder: str | Path, seed: int = 1) -> tuple[Path, Path]:
+    """The predicted scene of the design (its noise drawn from `seed`) and the campaign
+    characterising it, in `folder`."""
     spec = answer.design
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
     scene = folder / f"{spec.name}.yaml"
     scene.write_text("# Predicted by `squeezebench design` from the design file: nothing measured is read.\n"
-                     + yaml.safe_dump(scene_from_design(spec), sort_keys=False), encoding="utf-8")
+                     + yaml.safe_dump(scene_from_design(spec, seed=seed), sort_keys=False), encoding="utf-8")
     campaign = folder / f"{spec.name}_characterisation.yaml"
     campaign.write_text(yaml.safe_dump(characterisation_campaign(spec, answer, scene.name), sort_keys=False),
                         encoding="utf-8")
