@@ -360,9 +360,14 @@ class PaperRoute:
 
     def power_at(self, voltage_vpp: np.ndarray, frequency_hz: float) -> tuple[np.ndarray, np.ndarray]:
         """Eq. 25 against voltage: nominal and U (k = 2) from Q and tan(theta')."""
-        per_v2 = self.q * self.tan_theta * model.power_w(1.0, 1.0, 1.0, frequency_hz, self.geometry, self.convention)
+        per_v2 = _eq25_per_v2(self.q, self.tan_theta, frequency_hz, self.geometry, self.convention)
         return (per_v2.nominal_value * np.asarray(voltage_vpp) ** 2,
                 COVERAGE_FACTOR * per_v2.std_dev * np.asarray(voltage_vpp) ** 2)
+
+
+def _eq25_per_v2(q, tan_theta, frequency_hz, geometry: model.PlateGeometry, convention: model.Convention):
+    """Eq. 25's power per Vpp^2; linear in Q, tan(theta') and f, so ufloats pass through."""
+    return q * tan_theta * frequency_hz * model.power_w(1.0, 1.0, 1.0, 1.0, geometry, convention)
 
 
 def predict_from_small_plates(physics: PhysicsPrediction, plates: dict,
@@ -407,7 +412,7 @@ def predict_from_small_plates(physics: PhysicsPrediction, plates: dict,
     amplitude = values["amplitude_pp_m"]   # at the centre, where the paper's amplitudes are read
     tan_theta = ufloat(tan.value, tan.std_uncertainty)
     voltage = amplitude / (q * model.amplitude_pp_m(1.0, 1.0, geometry, convention))
-    power = q * tan_theta * voltage**2 * frequency * model.power_w(1.0, 1.0, 1.0, 1.0, geometry, convention)
+    power = _eq25_per_v2(q, tan_theta, frequency, geometry, convention) * voltage**2
     return PaperRoute(q=q, tan_theta=tan_theta, voltage_vpp=voltage, power_w=power, amplitude_pp_m=amplitude,
                       template=template_name, small_plates=tuple(sorted(same)), convention=convention,
                       geometry=geometry)
