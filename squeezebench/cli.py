@@ -296,28 +296,24 @@ def cmd_plan(args: argparse.Namespace) -> int:
 
 
 def cmd_design(args: argparse.Namespace) -> int:
-    from squeezebench.analysis.design_report import headline
-    from squeezebench.designing import run_design, write_design
+    from squeezebench.analysis.design_report import headline, payload
+    from squeezebench.designing import run_design, write_build, write_design
 
     answer = run_design(args.plate, from_runs=args.from_runs or (), measured=args.measured,
                         measured_plate=args.measured_plate, sweep=not args.no_layouts,
                         workers=args.workers, scheduler=args.scheduler)
     folder, files = write_design(answer, args.out, measured_run=args.measured)
+    build = {}
     if args.write_build is not None:
-        from squeezebench.designing import write_build
-
         scene, campaign = write_build(answer, args.write_build)
-        files = {**files, "scene": str(scene), "campaign": str(campaign)}
-    if args.json:
-        import json as json_module
-
-        emit_json(json_module.loads((folder / files["json"]).read_text(encoding="utf-8"))
-                  | {"out": str(folder), "build": {k: files[k] for k in ("scene", "campaign") if k in files}})
+        build = {"scene": str(scene), "campaign": str(campaign)}
+    if args.json:   # design.json's document, as written beside the page
+        emit_json(payload(answer, files) | {"out": str(folder), "build": build})
     else:
         say(args, "\n".join(headline(answer)))
         say(args, f"design page written to {folder / files['page']}")
-        if "campaign" in files:
-            say(args, f"predicted scene {files['scene']}; characterise it with: squeezebench run {files['campaign']}")
+        if build:
+            say(args, f"predicted scene {build['scene']}; characterise it with: squeezebench run {build['campaign']}")
     return 0
 
 
