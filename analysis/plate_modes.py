@@ -300,6 +300,13 @@ def _discretisation(x: tuple[float, ...], y: tuple[float, ...], gx: tuple[float,
     return mesh, basis, basis.probes(points), probe
 
 
+def flexural_frequency_hz(material: Isotropic, thickness_m: float, half_wavelength_m: float) -> float:
+    """The frequency of bending waves of half-wavelength `half_wavelength_m` in a thin plate:
+    the inverse of `flexural_half_wavelength_m`, w = (pi / (lambda/2))^2 sqrt(D / rho h)."""
+    d, mass, _ = laminate(material, thickness_m, material, 0.0)
+    return float((np.pi / half_wavelength_m) ** 2 * np.sqrt(d / mass) / (2 * np.pi))
+
+
 def _solve(geometry, resonator, piezo, near_hz, n_modes, elements_per_half_wave, mesh_half_wave_m=None) -> PlateModes:
     from skfem import BilinearForm, LinearForm, asm
     from skfem.helpers import dd, ddot, trace

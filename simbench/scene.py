@@ -476,13 +476,13 @@ def load_scene(path: str | Path) -> Scene:
 
 
 def flexural_frequency_hz(plate: Plate, mode: Mode) -> float:
-    """The bare plate's frequency for flexural waves of half-wavelength mode.half_wavelength_mm,
-    w = k^2 sqrt(D / rho h) with k = pi / (lambda / 2): where a predicted state's mode is sought."""
+    """The bare plate's frequency for bending waves of half-wavelength mode.half_wavelength_mm
+    (`plate_modes.flexural_frequency_hz`): where a predicted state's mode is sought."""
+    from squeezebench.analysis import plate_modes   # its solver's imports: only for a predicted state
+
     m = plate.material
-    h = plate.thickness_mm * 1e-3
-    stiffness = m.young_pa * h**3 / (12.0 * (1.0 - m.poisson**2))
-    k = math.pi / (mode.half_wavelength_mm * 1e-3)
-    return k**2 * math.sqrt(stiffness / (m.density_kg_m3 * h)) / (2.0 * math.pi)
+    return plate_modes.flexural_frequency_hz(plate_modes.Isotropic(m.young_pa, m.poisson, m.density_kg_m3),
+                                             plate.thickness_mm * 1e-3, mode.half_wavelength_mm * 1e-3)
 
 
 def _predicted_states(reader: _Reader, scene: Scene) -> Scene:

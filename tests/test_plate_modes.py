@@ -152,3 +152,12 @@ def test_the_report_table_states_every_plate_and_the_large_plates_nodal_spacing(
     assert (frame["predicted_antinodes"] == frame["printed_antinodes"]).all()
     large = frame[frame["table"] == "Sec. 5"].iloc[0]
     assert large["predicted_half_wavelength_mm"] == pytest.approx(large["printed_half_wavelength_mm"], rel=0.05)
+
+
+def test_flexural_frequency_and_half_wavelength_are_inverse():
+    from squeezebench.analysis.plate_modes import (ALUMINIUM_TABLE2, flexural_frequency_hz,
+                                                   flexural_half_wavelength_m)
+
+    for thickness_m, half_m in ((1e-3, 8e-3), (2e-3, 9.2e-3), (1.2e-3, 8.44e-3)):
+        frequency = flexural_frequency_hz(ALUMINIUM_TABLE2, thickness_m, half_m)
+        assert flexural_half_wavelength_m(ALUMINIUM_TABLE2, thickness_m, frequency) == pytest.approx(half_m, rel=1e-12)
