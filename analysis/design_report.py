@@ -20,7 +20,7 @@ import pandas as pd  # noqa: E402
 from squeezebench.analysis import presentation  # noqa: E402
 from squeezebench.analysis.design import COVERAGE_FACTOR, INPUTS, DesignAnswer  # noqa: E402
 from squeezebench.analysis.figures import PAPER_STYLE, save_figure  # noqa: E402
-from squeezebench.analysis.report import CSS, html_table, scrolling_tables  # noqa: E402
+from squeezebench.analysis.report import CSS, cell_text, html_table, scrolling_tables  # noqa: E402
 
 FILES = {"page": "index.html", "json": "design.json", "budget": "budget.csv", "comparison": "comparison.csv",
          "layouts": "layouts.csv", "mode": "mode.png", "power": "power_voltage.png", "pareto": "layouts.png"}
@@ -215,9 +215,7 @@ def comparison_table(answer: DesignAnswer) -> pd.DataFrame:
 
 def _plain(value: float, u: float) -> str:
     """A reference value: with its U when it has one, else positional at 4 significant digits."""
-    if u > 0:
-        return presentation.with_uncertainty(value, u)
-    return np.format_float_positional(value, precision=4, unique=False, fractional=False, trim="-")
+    return presentation.with_uncertainty(value, u) if u > 0 else cell_text(value)
 
 
 def assumptions(answer: DesignAnswer) -> str:

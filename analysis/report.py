@@ -593,9 +593,9 @@ def audit_section(context: ReportContext) -> Section:
     for topic, group in findings.groupby("topic", sort=False):
         compared = group[group["printed"].notna()]
         worst = compared.loc[compared["relative_difference"].abs().idxmax()] if len(compared) else group.iloc[0]
-        numbers = (f" (worst: {html.escape(worst['quantity'])}, computed {_format(worst['computed'])} vs printed "
-                   f"{_format(worst['printed'])}, {100 * worst['relative_difference']:+.1f} %)"
-                   if pd.notna(worst["printed"]) else f" ({html.escape(worst['quantity'])} = {_format(worst['computed'])})")
+        numbers = (f" (worst: {html.escape(worst['quantity'])}, computed {cell_text(worst['computed'])} vs printed "
+                   f"{cell_text(worst['printed'])}, {100 * worst['relative_difference']:+.1f} %)"
+                   if pd.notna(worst["printed"]) else f" ({html.escape(worst['quantity'])} = {cell_text(worst['computed'])})")
         conclusions.append(f"<li><a href='#audit-{_slug(topic)}'><b>{html.escape(topic)}</b></a>: "
                            f"{html.escape(str(worst['comment']))}{numbers}.</li>")
     explained = [f"{html.escape(where)}, {why}" for where, why, _ in context.flagged if "</a>." in why]
@@ -639,10 +639,10 @@ def _findings_table(findings: pd.DataFrame) -> str:
     for row in findings.itertuples(index=False):
         anchor = "" if row.topic in seen else f" id='audit-{_slug(row.topic)}'"
         seen.add(row.topic)
-        printed = _format(row.printed) if pd.notna(row.printed) else "–"
+        printed = cell_text(row.printed) if pd.notna(row.printed) else "–"
         rel = f"{100 * row.relative_difference:+.1f}" if pd.notna(row.relative_difference) else "–"
         rows.append(f"<tr{anchor}>" + "".join(f"<td>{html.escape(str(c))}</td>" for c in (
-            row.topic, row.quantity, _format(row.computed), printed, rel, row.source, row.comment)) + "</tr>")
+            row.topic, row.quantity, cell_text(row.computed), printed, rel, row.source, row.comment)) + "</tr>")
     head = "".join(f"<th>{h}</th>" for h in ("topic", "quantity", "computed", "printed", "difference (%)",
                                               "source", "comment"))
     return (f"<table class='audit'><caption>The audit's findings (printed values only; no run).</caption>"
@@ -705,7 +705,7 @@ def _systematics_part(context: ReportContext, summary: pd.DataFrame) -> str:
         context.absent.append("The whole paper campaign on erring benches, per averaging: not run ('squeezebench "
                               "study --out RUN_DIR --resume' adds it, a few minutes)")
     words = "; ".join(
-        f"{_words_of(row.quantity)} {100 * row.floor_p95_rel:.2g} % ({row.point}, from {_format(row.bench_time_s)} s per trial)"
+        f"{_words_of(row.quantity)} {100 * row.floor_p95_rel:.2g} % ({row.point}, from {cell_text(row.bench_time_s)} s per trial)"
         f"{_calibrated_words(row)}" for row in floors.itertuples())
     return ("<h3>Floors on benches whose instruments err within specification</h3>"
             f"<p>Each trial is another simulated bench: scope gains, current-probe gain and delay, "
@@ -766,7 +766,7 @@ def _words_of(quantity: str) -> str:
 def _calibrated_words(row) -> str:
     if pd.isna(row.calibrated_floor_p95_rel):
         return ""
-    return f", {100 * row.calibrated_floor_p95_rel:.2g} % calibrated (from {_format(row.calibrated_bench_time_s)} s)"
+    return f", {100 * row.calibrated_floor_p95_rel:.2g} % calibrated (from {cell_text(row.calibrated_bench_time_s)} s)"
 
 
 def hardcases_section(context: ReportContext) -> Section | None:
@@ -796,7 +796,7 @@ def conventions_section(context: ReportContext) -> Section:
         f"{'with' if c.eq28_with_pi else 'without'} its factor pi; Eq. 29 "
         f"{'as printed (b_large/b_small)' if c.eq29_as_printed else 'with b_small/b_large, as the text describes'}.",
         f"Materials: E_i = {np.format_float_positional(m.resonator_young_pa, trim='-')} Pa, nu_i = {m.resonator_poisson}, "
-        f"c11 = {_format(m.piezo_c11_pa / 1e9)} GPa, nu_p = {m.piezo_poisson}, d31 = {_format(m.piezo_d31_c_per_n * 1e12)} pC/N.",
+        f"c11 = {cell_text(m.piezo_c11_pa / 1e9)} GPa, nu_p = {m.piezo_poisson}, d31 = {cell_text(m.piezo_d31_c_per_n * 1e12)} pC/N.",
         "n_c = powered piezos of the plate (measurement column n_powered_piezos); b_p, h_i, h_p and "
         "lambda/2 from the plate's scene copy in inputs/; lambda = 2 (lambda/2).",
         "Power: mean of v i over the largest integer number of periods after DC removal (the paper's "
@@ -986,7 +986,7 @@ SECTIONS: list[SectionBuilder] = [
 
 # --- HTML --------------------------------------------------------------------------------
 
-def _format(value) -> str:
+def cell_text(value) -> str:
     if value is pd.NA:   # a missing entry of an integer column
         return "not available"
     if isinstance(value, (bool, np.bool_)):
@@ -1007,7 +1007,7 @@ def html_table(frame: pd.DataFrame, caption: str = "") -> str:
     (the browser test wants one on every table); a table wider than the page scrolls inside
     its own box."""
     head = "".join(f"<th>{html.escape(presentation.label(str(c)))}</th>" for c in frame.columns)
-    body = "".join("<tr>" + "".join(f"<td>{html.escape(_format(v))}</td>" for v in row) + "</tr>"
+    body = "".join("<tr>" + "".join(f"<td>{html.escape(cell_text(v))}</td>" for v in row) + "</tr>"
                    for row in frame.itertuples(index=False))
     caption_html = f"<caption>{html.escape(caption)}</caption>" if caption else ""
     return f"<table>{caption_html}<thead><tr>{head}</tr></thead><tbody>{body}</tbody></table>"
