@@ -37,6 +37,13 @@ _ERROR_QUEUE_DEPTH = 20
 _ERROR = re.compile(r'^\s*([+-]?\d+)\s*,\s*"(.*)"\s*$')
 
 
+def _state(reply: str) -> bool:
+    """<mod>:STATe? answers 0 or 1."""
+    if reply.strip() not in ("0", "1"):
+        raise ValueError("expected 0 or 1")
+    return reply.strip() == "1"
+
+
 def _load_setting(reply: str) -> str:
     """OUTP:LOAD? -> "50" or "INF" (the instrument answers +5.000000E+01 or +9.900000E+37)."""
     ohm = float(reply)
@@ -91,6 +98,18 @@ class Agilent33120A(SCPIInstrument):
         self.write("VOLT:UNIT VPP")  # UG Ch. 4 VOLTage:UNIT (how VOLT numbers are read and written)
         self.write("VOLT MIN")  # UG Ch. 4 VOLTage {<amplitude>|MINimum|MAXimum}
         self.write("VOLT:OFFS 0")  # UG Ch. 4 VOLTage:OFFSet
+        # A modulation left on makes the drive something else than the sine every point
+        # assumes (AM halves it on average, a burst or a sweep barely reaches the plate).
+        self.write("AM:STAT OFF")  # UG Ch. 4 AM:STATe
+        self.write("FM:STAT OFF")  # UG Ch. 4 FM:STATe
+        self.write("FSK:STAT OFF")  # UG Ch. 4 FSKey:STATe
+        self.write("BM:STAT OFF")  # UG Ch. 4 BM:STATe (burst modulation)
+        self.write("SWE:STAT OFF")  # UG Ch. 4 SWEep:STATe
+
+    def modulations_on(self) -> list[str]:
+        """The modulations reported on (normally none: the connection turns them off)."""
+        return [name for name in ("AM", "FM", "FSK", "BM", "SWE")
+                if self.parse_reply(f"{name}:STAT?", self.query(f"{name}:STAT?"), _state)]  # UG Ch. 4 <mod>:STATe?
 
     # -- limits of the present load setting ------------------------------------------------------
     @property

@@ -139,6 +139,12 @@ class Instrument:
 class SCPIInstrument(Instrument):
     """An IEEE 488.2 instrument: `*IDN?`, `*RST`, `*CLS`."""
 
+    def __init__(self, resource: Any, role: str) -> None:
+        super().__init__(resource, role)
+        # A reply a previous session left unread would answer our first query, and a
+        # half-sent command would swallow it (IEEE 488.2 6.3: Query INTERRUPTED).
+        self.device_clear()
+
     @property
     def identification(self) -> str:
         return self.query("*IDN?")  # IEEE 488.2 10.14

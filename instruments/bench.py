@@ -401,7 +401,7 @@ MAIN_SETTINGS = {
     "generator": ("shape", "frequency_hz", "amplitude_vpp", "offset_v", "output_load"),
     "scope": ("horizontal_scale_s_per_div", "record_length", "acquire_mode", "num_averages", "trigger_source",
               "math_type", "math_definition"),
-    "vibrometer": ("decoder", "velocity_range", "low_pass_filter"),
+    "vibrometer": ("decoder", "velocity_range", "low_pass_filter", "high_pass_filter", "tracking_filter"),
     "stage": (),
 }
 
@@ -432,9 +432,10 @@ def _report_lines(role: str, driver: Instrument, electronics: BenchElectronics
         for number in CHANNELS:
             ch = driver.channel(number)
             settings[f"ch{number}"] = {"displayed": ch.displayed, "probe_gain": ch.probe_gain,
-                                       "scale_v_per_div": ch.scale_v_per_div, "coupling": ch.coupling}
-            lines.append(f"    ch{number}: displayed = {ch.displayed!r}, probe_gain = {ch.probe_gain!r}, "
-                         f"scale_v_per_div = {ch.scale_v_per_div!r}, coupling = {ch.coupling!r}")
+                                       "scale_v_per_div": ch.scale_v_per_div, "coupling": ch.coupling,
+                                       "impedance": ch.impedance, "offset": ch.offset}
+            lines.append(f"    ch{number}: " + ", ".join(f"{name} = {value!r}"
+                                                          for name, value in settings[f"ch{number}"].items()))
         for number, (model, gain, unit) in driver.detected_probes().items():
             lines.append(f"    ch{number}: detected probe {model}, gain {gain:g}, unit {unit}")
         # Each probe the bench file names, offered to the scope as a run's open does: a
@@ -449,6 +450,14 @@ def _report_lines(role: str, driver: Instrument, electronics: BenchElectronics
         # A setting, not hardware: a previous user's, which every run's open replaces.
         lines.append(f"    output_load {load!r} differs from the bench description's generator_load "
                      f"{electronics.generator_load!r}: a run sets {electronics.generator_load!r} when it opens")
+    if isinstance(driver, Agilent33120A):
+        # The connection turned every modulation off; one still on is a generator that
+        # does not do what it is told, and a run would drive the plate with it.
+        settings["modulations_on"] = driver.modulations_on()
+        lines.append(f"    modulations on: {', '.join(settings['modulations_on']) or 'none'}")
+        if settings["modulations_on"]:
+            problems.append(f"generator modulation {', '.join(settings['modulations_on'])} still on after "
+                            f"the connection turned it off")
     if isinstance(driver, OFV5000):
         settings["velocity_range_mps_per_v"] = driver.velocity_range_mps_per_v
         settings["decoder_ranges_mps_per_v"] = dict(driver.ranges_mps_per_v)

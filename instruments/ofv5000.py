@@ -34,6 +34,9 @@ from squeezebench.instruments.properties import checked, control, strict_discret
 #: would cut the signal.
 MEASUREMENT_FILTER = "100 kHz"
 LOW_PASS_FILTERS = ("Off", "5 kHz", "20 kHz", "100 kHz")
+#: Tracking filter settings: it bridges signal dropouts by limiting how fast the decoded
+#: velocity may change, which a clean 25-60 kHz signal does not need.
+TRACKING_FILTERS = ("Off", "Slow", "Fast")
 BAUD_RATE = 115200
 #: How long to wait for the reply that follows an `Error` line (the controller answers
 #: within milliseconds; a refused Get has nothing more to send).
@@ -86,6 +89,14 @@ class OFV5000(Instrument):
     low_pass_filter = control("Get,VeloFilter,0,LowPassRange", "Set,VeloFilter,0,LowPassRange,{}",
                               "Output low-pass filter.", values={name: name for name in LOW_PASS_FILTERS},
                               check_set=True, manual="OFV RS-232 VeloFilter LowPassRange")
+
+    high_pass_filter = control("Get,VeloFilter,0,HighPassRange", "Set,VeloFilter,0,HighPassRange,{}",
+                               "Output high-pass filter: Off, or a corner the controller lists.",
+                               parse=str.strip, validator=strict_discrete_set(("Off",)), check_set=True,
+                               manual="OFV RS-232 VeloFilter HighPassRange")
+    tracking_filter = control("Get,TrackingFilter,0,Range", "Set,TrackingFilter,0,Range,{}", "Tracking filter.",
+                              values={name: name for name in TRACKING_FILTERS}, check_set=True,
+                              manual="OFV RS-232 TrackingFilter Range")
 
     def __init__(self, resource: Any, role: str = "vibrometer") -> None:
         super().__init__(resource, role)
@@ -185,5 +196,8 @@ class OFV5000(Instrument):
         self.velocity_range = name
 
     def prepare_for_measurement(self) -> None:
-        """The output filter a measurement of the plate needs."""
+        """The output filters a measurement of the plate needs, whatever a previous user
+        chose: the low-pass above the plate's band, no high-pass, no tracking filter."""
         self.low_pass_filter = MEASUREMENT_FILTER
+        self.high_pass_filter = "Off"
+        self.tracking_filter = "Off"

@@ -108,7 +108,9 @@ def unquote(text: str) -> str:
 
 def token_for_reply(values: dict[Any, str], reply: str) -> Any:
     """The key of `values` whose token the reply is (the token, its SCPI long form, or the
-    key itself); of tokens that are prefixes of one another the longest wins."""
+    key itself); of tokens that are prefixes of one another the longest wins. A reply in
+    short form (an instrument answering with minimum-length keywords, `AVE` for AVERAGE)
+    is the one token it begins."""
     text = unquote(reply).upper()
     best, best_length = None, -1
     for key, token in values.items():
@@ -117,6 +119,9 @@ def token_for_reply(values: dict[Any, str], reply: str) -> Any:
             return key
         if text.startswith(token_upper) and len(token_upper) > best_length:
             best, best_length = key, len(token_upper)
+    if best is None and text:
+        begun = [key for key, token in values.items() if str(token).upper().startswith(text)]
+        best = begun[0] if len(begun) == 1 else None
     if best is None:
         raise ValueError(f"not one of {', '.join(map(str, values.values()))}")
     return best

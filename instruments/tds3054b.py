@@ -190,6 +190,11 @@ class Channel:
                               manual="p. 2-69 CH<x>:SCAle")
     position_div = control("CH{ch}:POSITION?", "CH{ch}:POSITION {:.9g}", "Vertical position (divisions from centre).",
                            validator=strict_range(-5.0, 5.0, "div"), manual="p. 2-68 CH<x>:POSition")
+    offset = control("CH{ch}:OFFSET?", "CH{ch}:OFFSET {:.9g}",
+                     "Offset subtracted from the input before the ADC, in the channel's units.",
+                     manual="p. 2-67 CH<x>:OFFSet")
+    impedance = control("CH{ch}:IMPEDANCE?", "CH{ch}:IMPEDANCE {}", "Input impedance: 1 MOhm, or 50 Ohm.",
+                        values={"1MOhm": "MEG", "50Ohm": "FIFTY"}, manual="p. 2-66 CH<x>:IMPedance")
     coupling = control("CH{ch}:COUPLING?", "CH{ch}:COUPLING {}", "Input coupling.",
                        values={"DC": "DC", "AC": "AC", "GND": "GND"}, manual="p. 2-64 CH<x>:COUPling")
     bandwidth = control("CH{ch}:BANDWIDTH?", "CH{ch}:BANDWIDTH {}", "Bandwidth limit.",
@@ -209,8 +214,9 @@ class Channel:
         return SCALE_RANGE_AT_1X[0] / gain, SCALE_RANGE_AT_1X[1] / gain
 
     def settings_snapshot(self) -> dict[str, Any]:
-        return {name: getattr(self, name) for name in ("probe_gain", "scale_v_per_div", "position_div", "coupling",
-                                                       "bandwidth", "displayed", "probe_model", "unit")}
+        return {name: getattr(self, name) for name in ("probe_gain", "scale_v_per_div", "position_div", "offset",
+                                                       "impedance", "coupling", "bandwidth", "displayed",
+                                                       "probe_model", "unit")}
 
     def use_probe(self, probe_gain: float) -> None:
         """The bench's probe on this channel: set its gain, unless the scope detected a probe
@@ -259,7 +265,8 @@ class TDS3054B(SCPIInstrument):
                                  values={"OFF": "OFF", "SCREEN": "SCREEN", "CURSOR": "CURSOR"},
                                  manual="p. 2-207 MEASUrement:GATing")
     cursor_function = control("CURSOR:FUNCTION?", "CURSOR:FUNCTION {}", "Cursor type (VBARS gate measurements).",
-                              values={"OFF": "OFF", "VBARS": "VBARS", "HBARS": "HBARS"},
+                              values={"OFF": "OFF", "VBARS": "VBARS", "HBARS": "HBARS", "WAVEFORM": "WAVEFORM",
+                                      "GRATICULE": "GRATICULE"},
                               manual="p. 2-72 CURSor:FUNCtion")
     cursor1_s = control("CURSOR:VBARS:POSITION1?", "CURSOR:VBARS:POSITION1 {:.9g}",
                         "First vertical bar cursor, s from the trigger.", manual="p. 2-79 CURSor:VBArs:POSITION<x>")
@@ -276,12 +283,14 @@ class TDS3054B(SCPIInstrument):
     acquisition_running = control("ACQUIRE:STATE?", None, "Whether the scope is acquiring.", parse=_running,
                                   manual="p. 2-48 ACQuire:STATE")
     trigger_type = control("TRIGGER:A:TYPE?", "TRIGGER:A:TYPE {}", "A trigger type (the bench uses EDGE).",
-                           values={"EDGE": "EDGE", "VIDEO": "VIDEO", "LOGIC": "LOGIC", "PULSE": "PULSE"},
+                           values={"EDGE": "EDGE", "VIDEO": "VIDEO", "COMMUNICATION": "COMMUNICATION",
+                                   "LOGIC": "LOGIC", "PULSE": "PULSE"},
                            manual="p. 2-289 TRIGger:A:TYPe")
     trigger_mode = control("TRIGGER:A:MODE?", "TRIGGER:A:MODE {}", "AUTO, or NORMAL (waits for a trigger).",
                            values={"AUTO": "AUTO", "NORMAL": "NORMAL"}, manual="p. 2-277 TRIGger:A:MODe")
     trigger_source = control("TRIGGER:A:EDGE:SOURCE?", "TRIGGER:A:EDGE:SOURCE {}", "Edge trigger source.",
-                             values={name: name for name in SOURCES if name != "MATH"},
+                             values={name: name for name in (*(s for s in SOURCES if s != "MATH"), "EXT10", "EXT",
+                                                             "VERTICAL", "LINE", "ALTERNATING")},
                              manual="p. 2-269 TRIGger:A:EDGe:SOUrce")
     trigger_slope = control("TRIGGER:A:EDGE:SLOPE?", "TRIGGER:A:EDGE:SLOPE {}", "Edge trigger slope.",
                             values={"RISE": "RISE", "FALL": "FALL"}, manual="p. 2-269 TRIGger:A:EDGe:SLOpe")
@@ -320,6 +329,7 @@ class TDS3054B(SCPIInstrument):
     def __init__(self, resource: Any, role: str = "scope") -> None:
         super().__init__(resource, role)
         self.write("HEADER OFF")  # p. 2-143 HEADer: replies without command headers
+        self.write("VERBOSE ON")  # p. 2-308 VERBose: keywords in replies in their long form
         self._channels = {n: Channel(self, n) for n in CHANNELS}
 
     def channel(self, number: int) -> Channel:
@@ -331,10 +341,14 @@ class TDS3054B(SCPIInstrument):
     def configure_channel(self, channel: int, *, probe_gain: float, coupling: str = "DC",
                           position_div: float = 0.0, bandwidth: str = "FULL") -> None:
         """Display the channel (a measurement needs it) and set it up. Probe first: it sets
-        the range the vertical scale is checked against; a detected probe is only checked."""
+        the range the vertical scale is checked against; a detected probe is only checked.
+        The input is the 1 MOhm the probes are made for, with no offset: a previous user's
+        50 Ohm or offset would scale or shift every reading without an error."""
         ch = self.channel(channel)
         ch.displayed = True
+        ch.impedance = "1MOhm"
         ch.use_probe(probe_gain)
+        ch.offset = 0.0
         ch.coupling = coupling
         ch.position_div = position_div
         ch.bandwidth = bandwidth

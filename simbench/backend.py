@@ -3,8 +3,8 @@
 The library path is the scene file, optionally followed by `#<fragment>` parts: PyVISA
 keeps one library object per path, so `instruments.bench.open_bench` appends a unique
 token to get a fresh bench each time; a fragment `key=value` is a bench option:
-`start=power_on|hostile` (the instruments' state when the bench opens, see
-`simbench.devices.START_STATES`) and `decoder=VD-09|VD-02` (the vibrometer's velocity
+`start=power_on|hostile|previous-<seed>` (the instruments' state when the bench opens,
+see `simbench.devices.start_state`) and `decoder=VD-09|VD-02` (the vibrometer's velocity
 decoder). `visa_lib.bench` is the `SimulatedBench` (clock, plate state, mount,
 closed-form truth).
 """
@@ -20,7 +20,7 @@ from pyvisa_sim.highlevel import SimVisaLibrary
 
 from squeezebench import paths
 from squeezebench.simbench.clock import BUS_TIMINGS
-from squeezebench.simbench.devices import INSTRUMENTS, START_STATES, SimulatedInstrument
+from squeezebench.simbench.devices import INSTRUMENTS, SimulatedInstrument, start_state
 from squeezebench.simbench.scene import load_scene
 from squeezebench.simbench.simulation import SimulatedBench
 from squeezebench.simbench.stage import Stage
@@ -69,9 +69,7 @@ class SceneVisaLibrary(SimVisaLibrary):
     def _init(self) -> None:
         self.sessions = {}
         options = options_of(self.library_path)
-        start = options.pop("start", "power_on")
-        if start not in START_STATES:
-            raise ValueError(f"unknown simulated bench start state {start!r} (known: {', '.join(START_STATES)})")
+        start = start_state(options.pop("start", "power_on"))
         self.bench = SimulatedBench(load_scene(scene_path_of(self.library_path)))
         instruments = {}
         for resource_name, role in RESOURCES.items():
@@ -79,7 +77,7 @@ class SceneVisaLibrary(SimVisaLibrary):
             setattr(self.bench, role, DEVICES[role](self.bench, bus, options))
             instruments[rname.to_canonical_name(resource_name)] = getattr(self.bench, role)
         self.devices = SimulatedDevices(instruments)
-        START_STATES[start](self.bench)
+        start(self.bench)
         self.bench.start()
 
     def read(self, session, count: int) -> Tuple[bytes, constants.StatusCode]:

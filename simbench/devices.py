@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import math
 import re
+import zlib
 from collections import deque
 from dataclasses import dataclass
 from typing import Callable, ClassVar
@@ -184,15 +185,17 @@ class ScpiInstrument(SimulatedInstrument):
     COMMANDS: ClassVar[tuple[Command, ...]]
     _parser: ClassVar[scpi.MessageParser]
     _handlers: ClassVar[dict[tuple[str, bool], Callable]]
+    _short_paths: ClassVar[dict[str, str]]
 
     def __init_subclass__(cls, **kwargs) -> None:
         super().__init_subclass__(**kwargs)
         if "COMMANDS" not in cls.__dict__:
             return
         tree = scpi.HeaderTree(cls.STYLE)
-        cls._handlers = {}
+        cls._handlers, cls._short_paths = {}, {}
         for command in cls.COMMANDS:
             path = tree.add(command.spec, command.suffixes)
+            cls._short_paths[path] = scpi.short_path(command.spec)
             for query, handler in ((True, command.query), (False, command.set)):
                 if handler is not None:
                     cls._handlers[path, query] = handler
@@ -273,6 +276,8 @@ GEN_FREQUENCY_HZ = (100e-6, 15e6)
 GEN_AMPLITUDE_VPP = {50.0: (0.050, 10.0), math.inf: (0.100, 20.0)}
 GEN_PEAK_V = {50.0: 5.0, math.inf: 10.0}
 GEN_INFINITE = 9.9e37
+#: Modulations (UG Ch. 4 "Modulation Commands"): the state key and the header's spelling.
+GEN_MODULATIONS = {"AM": "AM", "FM": "FM", "FSK": "FSKey", "BM": "BM", "SWE": "SWEep"}
 GEN_ERROR_QUEUE_DEPTH = 20
 _GEN_SHAPES = {"SINusoid": "SIN", "SQUare": "SQU", "TRIangle": "TRI", "RAMP": "RAMP", "NOISe": "NOIS",
                "DC": "DC", "USER": "USER"}
@@ -313,7 +318,7 @@ class Generator(ScpiInstrument):
         """UG Ch. 4 *RST (also the power-on state): sine, 1 kHz, 100 mVpp, 0 V offset,
         50 ohm output termination, amplitudes in Vpp."""
         self.state = {"shape": "SIN", "frequency": 1e3, "amplitude_vpp": 0.1, "offset": 0.0,
-                      "load": 50.0, "unit": "VPP"}
+                      "load": 50.0, "unit": "VPP", "modulation": None}
 
     # -- errors (UG Ch. 5: SYSTem:ERRor? reads the oldest, +0,"No error" when empty) -------------
     def report(self, error: ScpiError) -> None:
@@ -333,7 +338,11 @@ class Generator(ScpiInstrument):
     # -- physics --------------------------------------------------------------------------------
     def settings(self) -> physics.GeneratorSettings:
         s = self.state
-        return physics.GeneratorSettings(frequency_hz=s["frequency"], amplitude=s["amplitude_vpp"],
+        frequency_hz, amplitude_vpp = s["frequency"], s["amplitude_vpp"]
+        if s["modulation"] is not None:
+            frequency_hz, amplitude_vpp = modulated(s["modulation"], frequency_hz, amplitude_vpp,
+                                                    self.bench.clock.now_s())
+        return physics.GeneratorSettings(frequency_hz=frequency_hz, amplitude=amplitude_vpp,
                                          voltage_unit="VPP", offset_v=s["offset"], load_ohm=s["load"],
                                          shape=s["shape"])
 
@@ -449,6 +458,15 @@ class Generator(ScpiInstrument):
             self.state["load"] = load
         self.changed("load", unit)
 
+    def _modulation_set(self, unit: Unit, kind: str) -> None:
+        """One modulation at a time: turning one on turns the one on before off."""
+        on = scpi.boolean(scpi.only_argument(unit.arguments))
+        if on:
+            self.state["modulation"] = kind
+        elif self.state["modulation"] == kind:
+            self.state["modulation"] = None
+        self.changed("modulation", unit)
+
     def _reset(self, unit: Unit) -> None:
         scpi.no_arguments(unit.arguments)
         self.factory_settings()
@@ -470,7 +488,28 @@ class Generator(ScpiInstrument):
         Command("VOLTage:OFFSet", _offset_query, _offset_set, "UG Ch. 4 VOLTage:OFFSet"),
         Command("VOLTage:UNIT", *_setting("unit", _choices(_GEN_UNITS, SCPI), str), "UG Ch. 4 VOLTage:UNIT"),
         Command("OUTPut:LOAD", _load_query, _load_set, "UG Ch. 4 OUTPut:LOAD"),
+        *(Command(f"{spelling}:STATe", lambda g, u, kind=kind: _flag(g.state["modulation"] == kind).encode(),
+                  lambda g, u, kind=kind: g._modulation_set(u, kind), f"UG Ch. 4 {spelling}:STATe")
+          for kind, spelling in GEN_MODULATIONS.items()),
     )
+
+
+def modulated(kind: str, frequency_hz: float, amplitude_vpp: float, time_s: float) -> tuple[float, float]:
+    """(frequency, amplitude pp) a modulation left on makes of the programmed sine at
+    `time_s`, with the modulation parameters at their *RST values (UG Ch. 4). Quasi-static:
+    an acquisition lasts well under a millisecond, the modulations run at 10-100 Hz. AM:
+    100 % depth at 100 Hz, the peak at the programmed amplitude; FM: 100 Hz deviation at
+    10 Hz; FSK: hops to 100 Hz at a 10 Hz rate; bursts of one cycle at 100 Hz drive the
+    plate (Q of hundreds) with their average only; sweep: 100 Hz to 1 kHz in 1 s."""
+    if kind == "AM":
+        return frequency_hz, amplitude_vpp * 0.5 * (1.0 + math.sin(2.0 * math.pi * 100.0 * time_s))
+    if kind == "FM":
+        return frequency_hz + 100.0 * math.sin(2.0 * math.pi * 10.0 * time_s), amplitude_vpp
+    if kind == "FSK":
+        return (frequency_hz if (time_s * 10.0) % 1.0 < 0.5 else 100.0), amplitude_vpp
+    if kind == "BM":
+        return frequency_hz, amplitude_vpp * min(1.0, 100.0 / frequency_hz)
+    return 100.0 + 900.0 * (time_s % 1.0), amplitude_vpp
 
 
 # == Tektronix TDS 3054B ==============================================================================
@@ -516,6 +555,14 @@ _UNITS = {"CH1": "V", "CH2": "A", "CH3": "V", "CH4": "V"}
 _MATH_DEFINITION = re.compile(r"^\s*(CH[1-4]|REF[1-4])\s*([-+*/])\s*(CH[1-4]|REF[1-4])\s*$", re.IGNORECASE)
 _PREAMBLE_FIELDS = ("BYT_NR", "BIT_NR", "ENCDG", "BN_FMT", "BYT_OR", "NR_PT", "WFID", "PT_FMT", "XINCR", "PT_OFF",
                     "XZERO", "XUNIT", "YMULT", "YZERO", "YOFF", "YUNIT")
+#: TDS PM Table 2-30 (CH<x>:OFFSet): (input scale it applies below, V/div; offset limit, V) at 1x.
+_OFFSET_RANGE_AT_1X = ((10e-3, 0.1), (100e-3, 1.0), (1.0, 10.0), (math.inf, 100.0))
+#: Replies with VERBose OFF: every keyword a setting query answers, in its short form.
+_SHORT_KEYWORDS = {long.encode(): scpi.short_form(spelling).encode()
+                   for table in (_ACQ_MODES, _STOP_AFTER, _COUPLINGS, _BANDWIDTHS, _IMPEDANCES, _TRIGGER_TYPES,
+                                 _TRIGGER_MODES, _TRIGGER_SOURCES, _SLOPES, _TRIGGER_COUPLINGS, _MATH_TYPES, _SOURCES,
+                                 _GATINGS, _CURSORS, _MEASUREMENTS, _ENCODINGS)
+                   for spelling, long in table.items() if spelling.upper() == long}
 #: TDS PM p. 2-68 (CH<x>:SCAle): 1 mV to 10 V per division with a 1x probe.
 _SCALE_AT_1X = (1e-3, 10.0)
 
@@ -587,7 +634,8 @@ class Scope(ScpiInstrument):
         self.sesr = _PON
         self.pending: list[tuple[int, str]] = [(401, "Power on")]
         self.available: list[tuple[int, str]] = []
-        self.header = True   # not in Appendix D: the power-on default of the HEADer state
+        self.header = True   # not in Appendix D: the power-on defaults of the HEADer and
+        self.verbose = True  # VERBose states
         self.factory_settings()
 
     def factory_settings(self) -> None:
@@ -664,16 +712,24 @@ class Scope(ScpiInstrument):
         self.factory_settings()
 
     def with_header(self, unit: Unit, reply):
-        """HEADer ON: a query's reply starts with its long header (VERBose is on)."""
-        if not self.header or unit.path.startswith("*") or isinstance(reply, Deferred):
+        """HEADer ON: a query's reply starts with its header. VERBose OFF: keywords, in the
+        header and as the value, come in short form (p. 2-308: `AVERAGE` is `AVE`)."""
+        if unit.path.startswith("*") or isinstance(reply, Deferred):
             return reply
-        path = unit.path
+        if not self.verbose:
+            reply = _SHORT_KEYWORDS.get(reply, reply)
+        if not self.header:
+            return reply
+        path = unit.path if self.verbose else self._short_paths[unit.path]
         for x in unit.suffixes:
             path = path.replace("<X>", str(x), 1).replace("<x>", str(x), 1)
         return b":" + path.encode() + b" " + reply
 
     def _header_set(self, unit: Unit) -> None:
         self.header = scpi.boolean(scpi.only_argument(unit.arguments))
+
+    def _verbose_set(self, unit: Unit) -> None:
+        self.verbose = scpi.boolean(scpi.only_argument(unit.arguments))
 
     # -- settings with rules -----------------------------------------------------------------
     def _forced(self, value: float, low: float, high: float) -> float:
@@ -717,6 +773,26 @@ class Scope(ScpiInstrument):
             raise ScpiError(222, "Data out of range")
         self.state["scale", channel] *= self.state["probe", channel] / gain
         self.state["probe", channel] = gain
+
+    def _offset_set(self, unit: Unit) -> None:
+        """CH<x>:OFFSet (p. 2-67): the range follows the scale at the probe's input (Table
+        2-30, for a 1x probe; in the channel's units with another), forced like any number."""
+        channel = unit.suffixes[0]
+        gain = self.state["probe", channel]
+        input_scale = self.state["scale", channel] * gain
+        limit = next(limit for below, limit in _OFFSET_RANGE_AT_1X if input_scale < below) / gain
+        value = scpi.number(scpi.only_argument(unit.arguments))
+        self.state["offset", channel] = self._forced(value, -limit, limit)
+
+    def _input_gain(self, channel: int) -> float:
+        """What CH<x>:IMPedance leaves of the signal: CH1 comes through the passive voltage
+        probe's tip resistor, CH2 and CH3 from 50 Ohm outputs (current probe amplifier,
+        vibrometer decoder)."""
+        if self.state["impedance", channel] == "MEG":
+            return 1.0
+        attenuation = self.bench.scene.electronics.voltage_probe_attenuation
+        source_ohm = (attenuation - 1.0) * 1e6 if channel == 1 else 50.0
+        return traces.input_gain(50.0, source_ohm)
 
     def _coupling_set(self, unit: Unit) -> None:
         channel = unit.suffixes[0]
@@ -777,7 +853,8 @@ class Scope(ScpiInstrument):
         start_s = s["delay_time"] - record_s / 2.0 if s["delay_state"] else -s["trigger_position"] / 100.0 * record_s
         return _Setup(
             channels=tuple(traces.ChannelSetup(scale_per_div=s["scale", ch], position_div=s["position", ch],
-                                               coupling=s["coupling", ch], probe_gain=s["probe", ch])
+                                               coupling=s["coupling", ch], probe_gain=s["probe", ch],
+                                               offset=s["offset", ch], input_gain=self._input_gain(ch))
                            for ch in (1, 2, 3)),
             horizontal_scale_s=s["horizontal_scale"], record_length=s["record_length"],
             averages=s["num_averages"] if averaging else 1, record_start_s=start_s)
@@ -866,7 +943,8 @@ class Scope(ScpiInstrument):
         record = self.record()
         high = low = False
         for channel in (c for c in channels if c <= 3):
-            screen = record.trace(f"CH{channel}") / self.state["scale", channel] + self.state["position", channel]
+            screen = (record.trace(f"CH{channel}") - self.state["offset", channel]) / self.state["scale", channel] \
+                + self.state["position", channel]
             high |= bool(np.any(screen >= fx.ADC_MAX_DIV - 1e-9))
             low |= bool(np.any(screen <= fx.ADC_MIN_DIV + 1e-9))
         if high and low:
@@ -925,8 +1003,8 @@ class Scope(ScpiInstrument):
         stop = min(max(start, s["data_stop"]), n)
         return s["data_source"], start, stop, s["data_width"], s["data_encoding"]
 
-    def _scaling(self, source: str, width: int) -> tuple[float, float, np.ndarray]:
-        """(YMUlt, YOFf, raw counts) of `source` in the last record (WFMPre? then CURVe?
+    def _scaling(self, source: str, width: int) -> tuple[float, float, float, np.ndarray]:
+        """(YMUlt, YOFf, YZEro, raw counts) of `source` in the last record (WFMPre? then CURVe?
         ask for the same, so the last answer is kept)."""
         record, (kept, kept_source, kept_width, scaled) = self.record(), self._scaled
         if not (kept is record and kept_source == source and kept_width == width):
@@ -934,20 +1012,20 @@ class Scope(ScpiInstrument):
             self._scaled = (record, source, width, scaled)
         return scaled
 
-    def _scale(self, source: str, width: int, trace: np.ndarray) -> tuple[float, float, np.ndarray]:
+    def _scale(self, source: str, width: int, trace: np.ndarray) -> tuple[float, float, float, np.ndarray]:
+        """(YMUlt, YOFf, YZEro, counts): YZEro carries the channel's offset (p. 2-314)."""
         if source == "MATH":
             peak = float(np.max(np.abs(trace)))
-            y_mult, y_off = (peak / 32000.0 if peak > 0 else 1.0), 0.0
-            counts = np.round(trace / y_mult)
+            y_mult, y_off, y_zero = (peak / 32000.0 if peak > 0 else 1.0), 0.0, 0.0
         else:
             channel = int(source[2:])
             y_mult = self.state["scale", channel] / fx.COUNTS_PER_DIV
             y_off = self.state["position", channel] * fx.COUNTS_PER_DIV
-            counts = np.round(trace / y_mult + y_off)
-        counts = np.clip(counts, -32768, 32767)
+            y_zero = self.state["offset", channel]
+        counts = np.clip(np.round((trace - y_zero) / y_mult + y_off), -32768, 32767)
         if width == 1:  # the high byte of the left-justified 16-bit sample
-            return y_mult * 256.0, y_off / 256.0, np.floor(counts / 256.0)
-        return y_mult, y_off, counts
+            return y_mult * 256.0, y_off / 256.0, y_zero, np.floor(counts / 256.0)
+        return y_mult, y_off, y_zero, counts
 
     def _preamble(self, unit: Unit) -> bytes:
         """WFMPre?: the 16 fields, or only the five transmission fields when the source is
@@ -958,7 +1036,7 @@ class Scope(ScpiInstrument):
         fields = [str(width), str(8 * width), "ASC" if encoding == "ASCII" else "BIN", fmt, order]
         if self.trace(source) is not None:
             setup = self.record().setup
-            y_mult, y_off, _ = self._scaling(source, width)
+            y_mult, y_off, y_zero, _ = self._scaling(source, width)
             mode = f"Average mode ({setup.averages})" if setup.averages > 1 else "Sample mode"
             if source == "MATH":
                 unit_name = "VA"
@@ -971,7 +1049,7 @@ class Scope(ScpiInstrument):
                         f"{setup.record_length} points, {mode}")
             x_zero = setup.first_sample_s + (start - 1) * setup.sample_interval_s
             fields += [str(stop - start + 1), _quoted(wfid), "Y", f"{setup.sample_interval_s:.12E}", "0",
-                       f"{x_zero:.12E}", '"s"', f"{y_mult:.12E}", "0.0E0", f"{y_off:.12E}", _quoted(unit_name)]
+                       f"{x_zero:.12E}", '"s"', f"{y_mult:.12E}", f"{y_zero:.12E}", f"{y_off:.12E}", _quoted(unit_name)]
         if self.header:
             return (":WFMPRE:" + ";".join(f"{name} {value}" for name, value in zip(_PREAMBLE_FIELDS, fields))).encode()
         return ";".join(fields).encode()
@@ -982,7 +1060,7 @@ class Scope(ScpiInstrument):
         source, start, stop, width, encoding = self._selection()
         if self.trace(source) is None:
             raise ScpiError(2244, "Waveform requested is not turned on")
-        _, _, counts = self._scaling(source, width)
+        *_, counts = self._scaling(source, width)
         counts = counts[start - 1:stop].astype(np.int64)
         if encoding == "ASCII":
             return b",".join(b"%d" % c for c in counts)
@@ -1005,6 +1083,7 @@ class Scope(ScpiInstrument):
         Command("EVENT", _event_code, None, "p. 2-125 EVENT?"),
         Command("BUSY", _busy, None, "p. 2-55 BUSY?"),
         Command("HEADer", lambda s, u: b"1" if s.header else b"0", _header_set, "p. 2-143 HEADer"),
+        Command("VERBose", lambda s, u: b"1" if s.verbose else b"0", _verbose_set, "p. 2-308 VERBose"),
         Command("CH<x>:SCAle", _setting("scale", None, _nr3, per_channel=True)[0], _scale_set, "p. 2-69 CH<x>:SCAle"),
         Command("CH<x>:VOLts", _setting("scale", None, _nr3, per_channel=True)[0], _scale_set, "p. 2-70 CH<x>:VOLts"),
         Command("CH<x>:POSition", *_setting("position", lambda s, t, u: s._forced(scpi.number(t), -5.0, 5.0), _nr3,
@@ -1015,6 +1094,8 @@ class Scope(ScpiInstrument):
                 "p. 2-63 CH<x>:BANdwidth"),
         Command("CH<x>:IMPedance", *_setting("impedance", _tds_choice(_IMPEDANCES), str, per_channel=True),
                 "p. 2-66 CH<x>:IMPedance"),
+        Command("CH<x>:OFFSet", _setting("offset", None, _nr3, per_channel=True)[0], _offset_set,
+                "p. 2-67 CH<x>:OFFSet"),
         Command("CH<x>:PRObe", _setting("probe", None, _nr3, per_channel=True)[0], _probe_set, "p. 2-68 CH<x>:PRObe"),
         Command("CH<x>:ID", _probe_id, None, "p. 2-65 CH<x>:ID?"),
         Command("CH<x>:YUNit", _setting("yunit", None, _quoted, per_channel=True)[0], _yunit_set,
@@ -1085,8 +1166,11 @@ DECODERS = {
     "VD-09": ("5mm/s/V", "10mm/s/V", "20mm/s/V", "50mm/s/V", "100mm/s/V", "200mm/s/V", "500mm/s/V", "1000mm/s/V"),
     "VD-02": ("5mm/s/V", "25mm/s/V", "125mm/s/V", "1000mm/s/V"),
 }
-#: The output low-pass filter settings as the controller spells them.
+#: The output filter settings as the controller spells them (high-pass corners unverified).
+#: Kept as state: the simulated decoder output does not pass through them.
 LOW_PASS_FILTERS = ("Off", "5 kHz", "20 kHz", "100 kHz")
+HIGH_PASS_FILTERS = ("Off", "100 Hz")
+TRACKING_FILTERS = ("Off", "Slow", "Fast")
 _RANGE = re.compile(r"^\s*([0-9.]+)\s*(mm|m)/s/V\s*$")
 
 
@@ -1100,7 +1184,8 @@ class Vibrometer(SimulatedInstrument):
         self.decoder = self.options.get("decoder", "VD-09")
         if self.decoder not in DECODERS:
             raise ValueError(f"vibrometer: unknown decoder {self.decoder!r} (known: {', '.join(DECODERS)})")
-        self.state = {"echo": "On", "range": DECODERS[self.decoder][-1], "low_pass": "100 kHz"}
+        self.state = {"echo": "On", "range": DECODERS[self.decoder][-1], "low_pass": "100 kHz", "high_pass": "Off",
+                      "tracking": "Off"}
         self._lines: dict[tuple[str, str, str, str], Callable[[str | None], bytes | None]] = {
             ("GetDevInfo", "Controller", "0", "Name"): lambda value: b"OFV-5000",
             ("Get", "Interface", "0", "Echo"): lambda value: self.state["echo"].encode(),
@@ -1113,6 +1198,11 @@ class Vibrometer(SimulatedInstrument):
             ("GetDevInfo", "VeloFilter", "0", "LowPassRange"): lambda value: ",".join(LOW_PASS_FILTERS).encode(),
             ("Get", "VeloFilter", "0", "LowPassRange"): lambda value: self.state["low_pass"].encode(),
             ("Set", "VeloFilter", "0", "LowPassRange"): self._setter("low_pass", LOW_PASS_FILTERS),
+            ("GetDevInfo", "VeloFilter", "0", "HighPassRange"): lambda value: ",".join(HIGH_PASS_FILTERS).encode(),
+            ("Get", "VeloFilter", "0", "HighPassRange"): lambda value: self.state["high_pass"].encode(),
+            ("Set", "VeloFilter", "0", "HighPassRange"): self._setter("high_pass", HIGH_PASS_FILTERS),
+            ("Get", "TrackingFilter", "0", "Range"): lambda value: self.state["tracking"].encode(),
+            ("Set", "TrackingFilter", "0", "Range"): self._setter("tracking", TRACKING_FILTERS),
             ("Get", "OverRange", "0", "Value"): lambda value: b"1" if self.bench.vibrometer_over_range() else b"0",
             ("Get", "SignalLevel", "0", "Value"):
                 lambda value: b"%d" % round(self.bench.scene.measurement_point.signal_level_percent),
@@ -1175,4 +1265,75 @@ def hostile_start(bench) -> None:
         bench.stage.leave(x_mm=150.0, y_mm=20.0, velocity_mm_per_s=5.0, error="C")
 
 
+def previous_user_start(bench, seed: int) -> None:
+    """Instruments as one previous user, drawn from `seed`, may have left them: every
+    setting the simulated instruments have, each drawn among the values its manual allows
+    (a coded probe's gain and a level II probe's coupling stay what the hardware allows),
+    plus a stale event on the scope and an error on the generator. Nothing is power-cycled."""
+    rng = np.random.default_rng([seed, zlib.crc32(b"previous user")])
+
+    def pick(options):
+        options = list(options)
+        return options[int(rng.integers(len(options)))]
+
+    scope, generator, vibrometer = bench.scope, bench.generator, bench.vibrometer
+    s = scope.state
+    for n in CHANNELS:
+        if n not in scope.probes:
+            s["probe", n] = pick((1.0, 0.1, 0.01, 0.001))
+        s["scale", n] = pick(v for v in (1e-3, 1e-2, 0.1, 1.0, 10.0, 100.0) if scope._scale_limits(n)[0] <= v
+                             <= scope._scale_limits(n)[1])
+        input_scale = s["scale", n] * s["probe", n]
+        limit = next(lim for below, lim in _OFFSET_RANGE_AT_1X if input_scale < below) / s["probe", n]
+        s.update({("select", n): bool(rng.integers(2)), ("position", n): float(rng.uniform(-5.0, 5.0)),
+                  ("offset", n): pick((0.0, float(rng.uniform(-limit, limit)))),
+                  ("coupling", n): pick(("DC", "GND") if n in scope.probes else _COUPLINGS.values()),
+                  ("bandwidth", n): pick(_BANDWIDTHS.values()), ("impedance", n): pick(_IMPEDANCES.values())})
+    math_type = pick(_MATH_TYPES.values())
+    s.update({"record_length": pick(_RECORD_LENGTHS), "horizontal_scale": pick(SCOPE_TIME_BASES_S[6:24]),
+              "acquire_mode": pick(_ACQ_MODES.values()), "num_averages": pick(_AVERAGES),
+              "stop_after": pick(_STOP_AFTER.values()), "trigger_type": pick(_TRIGGER_TYPES.values()),
+              "trigger_mode": pick(_TRIGGER_MODES.values()), "trigger_source": pick(_TRIGGER_SOURCES.values()),
+              "trigger_slope": pick(_SLOPES.values()), "trigger_coupling": pick(_TRIGGER_COUPLINGS.values()),
+              "trigger_level": float(rng.uniform(-2.0, 2.0)), "math_type": math_type,
+              "math_define": pick(("CH1+CH2", "CH2-CH3", "CH1*CH3")) if math_type == "DUAL"
+              else "FFT(CH1,HANNING,LOGRMS)",
+              "measurement_source": pick(_SOURCES.values()), "measurement_type": pick(_SIMULATED_MEASUREMENTS),
+              "data_source": pick(_SOURCES.values()), "data_encoding": pick(_ENCODINGS.values()),
+              "data_width": pick((1, 2)), "data_start": int(rng.integers(1, 500)), "data_stop": int(rng.integers(1, 10001)),
+              "select_math": bool(rng.integers(2)), "delay_state": bool(rng.integers(2)),
+              "delay_time": float(rng.uniform(-1e-3, 1e-3)), "trigger_position": int(rng.integers(0, 101)),
+              "gating": pick(_GATINGS.values()), "cursor_function": pick(_CURSORS.values()),
+              ("vbar", 1): float(rng.uniform(-2e-3, 2e-3)), ("vbar", 2): float(rng.uniform(-2e-3, 2e-3))})
+    scope.header, scope.verbose = bool(rng.integers(2)), bool(rng.integers(2))
+    scope.event(113, "Undefined header", "MATH:DEFI \"CH1*CH2\"")
+    load = pick(GEN_PEAK_V)
+    low, high = GEN_AMPLITUDE_VPP[load]
+    amplitude_vpp = float(rng.uniform(low, high))
+    offset_limit = GEN_PEAK_V[load] - amplitude_vpp / 2.0
+    generator.state.update({"shape": pick(_GEN_SHAPES.values()), "frequency": float(10 ** rng.uniform(1.0, 6.0)),
+                            "unit": pick(_GEN_UNITS.values()), "load": load, "amplitude_vpp": amplitude_vpp,
+                            "offset": float(rng.uniform(-offset_limit, offset_limit)),
+                            "modulation": pick((None, *GEN_MODULATIONS))})
+    generator.report(ScpiError(-113, "Undefined header"))
+    vibrometer.state.update({"echo": pick(("On", "Off")), "range": pick(DECODERS[vibrometer.decoder]),
+                             "low_pass": pick(LOW_PASS_FILTERS), "high_pass": pick(HIGH_PASS_FILTERS),
+                             "tracking": pick(TRACKING_FILTERS)})
+    if bench.stage is not None:
+        bench.stage.leave(x_mm=float(rng.uniform(0.0, 300.0)), y_mm=float(rng.uniform(0.0, 100.0)),
+                          velocity_mm_per_s=float(rng.uniform(1.0, 20.0)), error=pick("@CDH"))
+
+
 START_STATES: dict[str, Callable] = {"power_on": lambda bench: None, "hostile": hostile_start}
+_PREVIOUS_USER = re.compile(r"^previous-(\d+)$")
+
+
+def start_state(name: str) -> Callable:
+    """The start state `name`: one of START_STATES, or `previous-<seed>` (previous_user_start)."""
+    if name in START_STATES:
+        return START_STATES[name]
+    match = _PREVIOUS_USER.match(name)
+    if match is None:
+        raise ValueError(f"unknown simulated bench start state {name!r} "
+                         f"(known: {', '.join(START_STATES)}, previous-<seed>)")
+    return lambda bench: previous_user_start(bench, int(match.group(1)))

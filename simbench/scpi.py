@@ -103,9 +103,19 @@ def parse_spec(spec: str, suffixes: tuple[int, ...]) -> list[Mnemonic]:
         if match is None:
             raise ValueError(f"cannot read header spelling {spec!r} at {raw!r}")
         optional, word, suffix = bool(match.group(1)), match.group(2), bool(match.group(3))
-        short = "".join(c for c in word if not c.islower())
-        parts.append(Mnemonic(word.upper(), short.upper(), optional, suffixes if suffix else ()))
+        parts.append(Mnemonic(word.upper(), short_form(word), optional, suffixes if suffix else ()))
     return parts
+
+
+def short_form(word: str) -> str:
+    """The short form of a manual's spelling: its capitals (and digits), `SAMple` -> SAM."""
+    return "".join(c for c in word if not c.islower()).upper()
+
+
+def short_path(spec: str) -> str:
+    """The header in short form, as a reply carries it with verbose off: `ACQuire:MODe` ->
+    ACQ:MOD (optional mnemonics left out, `<x>` kept for the suffix)."""
+    return ":".join(p.short + ("<x>" if p.suffixes else "") for p in parse_spec(spec, (1,)) if not p.optional)
 
 
 def canonical_path(parts: list[Mnemonic]) -> str:

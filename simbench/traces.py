@@ -28,6 +28,8 @@ class ChannelSetup:
     position_div: float
     coupling: str  # DC | AC | GND
     probe_gain: float  # the scope's CH<n>:PRO setting (output / input)
+    offset: float = 0.0      # CH<n>:OFFSet, in the channel's units: subtracted before the ADC
+    input_gain: float = 1.0  # what the input impedance leaves of the signal (1 at 1 MOhm)
 
 
 @dataclass(frozen=True)
@@ -122,16 +124,26 @@ def acquire(steady: physics.SteadyState, setup: ScopeSetup, sensor_gains: np.nda
     if delays_s is not None:   # a delayed channel shows its signal from tau earlier
         for ch in np.flatnonzero(delays_s):
             signals[ch] = synthesize(steady, times - delays_s[ch], fundamentals)[ch]
-    signals = signals * sensor_gains[:, None]
+    signals = signals * (sensor_gains * np.array([c.input_gain for c in setup.channels]))[:, None]
     signals = pipeline.signals(signals, ctx)
     channel_values = _couple(signals * ctx.display_gain[:, None], setup, steady.frequency_hz)
     position = np.array([c.position_div for c in setup.channels])
-    screen = channel_values / ctx.scale_per_div[:, None] + position[:, None]
+    offset = np.array([c.offset for c in setup.channels])[:, None]
+    screen = (channel_values - offset) / ctx.scale_per_div[:, None] + position[:, None]
     digitizer = pipeline.digitizer_settings
     averages = setup.averages if digitizer.averaging else 1
     screen = digitize(screen, pipeline.noise_div_rms(ctx), averages, digitizer, rng)
-    values = (screen - position[:, None]) * ctx.scale_per_div[:, None]
+    values = (screen - position[:, None]) * ctx.scale_per_div[:, None] + offset
     return Record(setup, values, steady.frequency_hz)
+
+
+def input_gain(impedance_ohm: float, source_ohm: float) -> float:
+    """What an input of `impedance_ohm` keeps of a signal from a source of `source_ohm`,
+    relative to the 1 MOhm input the probes and gains are specified for: a 10:1 passive
+    probe (9 MOhm tip) into 50 Ohm keeps almost nothing, a 50 Ohm output keeps half."""
+    def divider(load_ohm: float) -> float:
+        return load_ohm / (load_ohm + source_ohm)
+    return divider(impedance_ohm) / divider(1e6)
 
 
 # -- the digitiser ----------------------------------------------------------------------

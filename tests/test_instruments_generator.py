@@ -6,11 +6,13 @@ from __future__ import annotations
 
 import pytest
 
-from conftest import TIMEOUT, expected_protocol
+from conftest import CLEAR, TIMEOUT, expected_protocol
 from squeezebench.instruments.agilent33120a import Agilent33120A
 from squeezebench.instruments.errors import GarbledReply, InstrumentError, InstrumentTimeout, OutOfRangeError
 
-CONNECT = [("VOLT:UNIT VPP", None), ("VOLT MIN", None), ("VOLT:OFFS 0", None)]   # at rest first
+CONNECT = [(CLEAR, None), ("VOLT:UNIT VPP", None), ("VOLT MIN", None), ("VOLT:OFFS 0", None),   # at rest first
+           ("AM:STAT OFF", None), ("FM:STAT OFF", None), ("FSK:STAT OFF", None), ("BM:STAT OFF", None),
+           ("SWE:STAT OFF", None)]
 IDN = "HEWLETT-PACKARD,33120A,0,7.0-5.0-1.0"
 LOAD_INF = ("OUTP:LOAD?", "+9.900000E+37")
 LOAD_50 = ("OUTP:LOAD?", "+5.000000E+01")

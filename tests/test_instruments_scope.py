@@ -12,7 +12,7 @@ from squeezebench.instruments.errors import (BenchMismatch, ClippedTraceError, G
                                              InstrumentTimeout, NoValidMeasurement, OutOfRangeError)
 from squeezebench.instruments.tds3054b import TDS3054B
 
-CONNECT = [("HEADER OFF", None)]
+CONNECT = [(CLEAR, None), ("HEADER OFF", None), ("VERBOSE ON", None)]
 
 
 def block(raw) -> bytes:
@@ -34,8 +34,8 @@ def test_connect_turns_headers_off_and_identifies():
 
 def test_a_channel_is_displayed_then_set_up_with_the_probe_first():
     with expected_protocol(TDS3054B, CONNECT + [
-            ("SELECT:CH1 ON", None), ("CH1:ID?", '""'), ("CH1:PROBE 0.01", None), ("CH1:PROBE?", "1.0E-2"),
-            ("CH1:COUPLING DC", None), ("CH1:POSITION 0", None), ("CH1:BANDWIDTH FULL", None)]) as scope:
+            ("SELECT:CH1 ON", None), ("CH1:IMPEDANCE MEG", None), ("CH1:ID?", '""'), ("CH1:PROBE 0.01", None), ("CH1:PROBE?", "1.0E-2"),
+            ("CH1:OFFSET 0", None), ("CH1:COUPLING DC", None), ("CH1:POSITION 0", None), ("CH1:BANDWIDTH FULL", None)]) as scope:
         scope.configure_channel(1, probe_gain=0.01)
 
 
@@ -43,7 +43,7 @@ def test_a_coded_probe_that_keeps_its_own_gain_is_a_bench_mismatch_not_a_later_e
     """TekProbe level I: no model to name, but the gain set does not take (error 242,
     p. 2-68): the mismatch is said in the bench's words and its event is read off."""
     with expected_protocol(TDS3054B, CONNECT + [
-            ("SELECT:CH1 ON", None), ("CH1:ID?", '""'), ("CH1:PROBE 0.01", None), ("CH1:PROBE?", "1.0E-1"),
+            ("SELECT:CH1 ON", None), ("CH1:IMPEDANCE MEG", None), ("CH1:ID?", '""'), ("CH1:PROBE 0.01", None), ("CH1:PROBE?", "1.0E-1"),
             ("*ESR?", "16"), ("ALLEV?", '242,"Hardware configuration error"')]) as scope:
         with pytest.raises(BenchMismatch, match=r"CH1 has a coded \(TekProbe level I\) probe .* gain 0.1 \(10:1\), "
                                                 r"but the bench description says 0.01 \(100:1\)"):
@@ -52,13 +52,14 @@ def test_a_coded_probe_that_keeps_its_own_gain_is_a_bench_mismatch_not_a_later_e
 
 def test_a_detected_probe_is_read_not_overwritten():
     with expected_protocol(TDS3054B, CONNECT + [
-            ("SELECT:CH2 ON", None), ("CH2:ID?", '"TCP202"'), ("CH2:PROBE?", "1.0E0"), ("CH2:COUPLING DC", None),
+            ("SELECT:CH2 ON", None), ("CH2:IMPEDANCE MEG", None), ("CH2:ID?", '"TCP202"'), ("CH2:PROBE?", "1.0E0"), ("CH2:OFFSET 0", None),
+            ("CH2:COUPLING DC", None),
             ("CH2:POSITION 0", None), ("CH2:BANDWIDTH FULL", None)]) as scope:
         scope.configure_channel(2, probe_gain=1.0)
 
 
 def test_a_detected_probe_that_disagrees_with_the_bench_is_a_bench_mismatch():
-    with expected_protocol(TDS3054B, CONNECT + [("SELECT:CH2 ON", None), ("CH2:ID?", '"TCP202"'),
+    with expected_protocol(TDS3054B, CONNECT + [("SELECT:CH2 ON", None), ("CH2:IMPEDANCE MEG", None), ("CH2:ID?", '"TCP202"'),
                                                 ("CH2:PROBE?", "1.0E0")]) as scope:
         with pytest.raises(BenchMismatch, match=r"CH2 has a TCP202 probe .* gain 1 \(1:1\), but the bench .* says 0.1"):
             scope.configure_channel(2, probe_gain=0.1)
@@ -221,3 +222,12 @@ def test_out_of_range_is_refused_before_anything_is_sent(call):
     with expected_protocol(TDS3054B, CONNECT) as scope:
         with pytest.raises(OutOfRangeError):
             call(scope)
+
+
+def test_replies_in_short_form_are_read_as_their_long_form():
+    """A scope whose VERBose was left OFF answers minimum-length keywords (p. 2-308)
+    until the connection's VERBOSE ON lands; either form reads the same."""
+    with expected_protocol(TDS3054B, CONNECT + [("ACQUIRE:MODE?", "AVE"), ("MEASUREMENT:GATING?", "SCRE"),
+                                                ("CH3:IMPEDANCE?", "FIF"), ("ACQUIRE:STOPAFTER?", "SEQ")]) as scope:
+        assert (scope.acquire_mode, scope.measurement_gating) == ("AVERAGE", "SCREEN")
+        assert scope.channel(3).impedance == "50Ohm" and scope.stop_after == "SEQUENCE"

@@ -47,9 +47,13 @@ def test_a_range_the_decoder_does_not_have_is_refused_before_sending():
             vibrometer.velocity_range = "25mm/s/V"
 
 
-def test_filter_in_the_controllers_spelling():
+def test_filters_in_the_controllers_spelling():
     with expected_protocol(OFV5000, QUIET + [("Set,VeloFilter,0,LowPassRange,100 kHz", None),
-                                             ("Get,VeloFilter,0,LowPassRange", "100 kHz")]) as vibrometer:
+                                             ("Get,VeloFilter,0,LowPassRange", "100 kHz"),
+                                             ("Set,VeloFilter,0,HighPassRange,Off", None),
+                                             ("Get,VeloFilter,0,HighPassRange", "Off"),
+                                             ("Set,TrackingFilter,0,Range,Off", None),
+                                             ("Get,TrackingFilter,0,Range", "Off")]) as vibrometer:
         vibrometer.prepare_for_measurement()
 
 

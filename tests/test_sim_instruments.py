@@ -6,11 +6,12 @@ from __future__ import annotations
 
 import itertools
 
+import numpy as np
 import pytest
 import pyvisa
 
 from squeezebench import paths
-from squeezebench.simbench import scpi
+from squeezebench.simbench import devices, scpi
 
 _TOKENS = itertools.count()
 TERMINATIONS = {"read_termination": "\n", "write_termination": "\n"}
@@ -76,6 +77,29 @@ def test_generator_answers_nothing_to_a_query_it_refuses(bench):
     assert g.query("SYST:ERR?") == '-113,"Undefined header"'
     assert g.query("SYST:ERR?") == '-420,"Query UNTERMINATED"'   # the read found nothing
 
+
+
+def test_generator_runs_one_modulation_at_a_time(bench):
+    g = bench["generator"]
+    assert [g.query(f"{m}:STAT?") for m in ("AM", "FM", "FSK", "BM", "SWE")] == ["0"] * 5
+    g.write("AM:STAT ON")
+    g.write("SWEEP:STATE ON")   # turning one on turns the one before off
+    assert [g.query(f"{m}:STAT?") for m in ("AM", "FM", "FSKEY", "BM", "SWE")] == ["0", "0", "0", "0", "1"]
+    g.write("SWE:STAT OFF")
+    assert g.query("SWE:STAT?") == "0" and g.query("SYST:ERR?") == '+0,"No error"'
+
+
+def test_a_modulation_left_on_is_not_the_sine_a_point_assumes():
+    """Closed forms of devices.modulated: AM at 100 % depth averages half the amplitude
+    over its 10 ms period, FM stays within its 100 Hz deviation, a one-cycle burst every
+    10 ms drives a 37 kHz plate with 1/370 of its amplitude, a sweep never reaches it."""
+    times_s = np.linspace(0.0, 0.1, 2001)[:-1]
+    am = [devices.modulated("AM", 37e3, 10.0, t)[1] for t in times_s]
+    assert np.mean(am) == pytest.approx(5.0, rel=1e-6) and max(am) <= 10.0
+    fm = [devices.modulated("FM", 37e3, 10.0, t)[0] for t in times_s]
+    assert min(fm) >= 37e3 - 100.0 and max(fm) <= 37e3 + 100.0 and np.ptp(fm) > 190.0
+    assert devices.modulated("BM", 37e3, 10.0, 0.0)[1] == pytest.approx(10.0 / 370.0)
+    assert max(devices.modulated("SWE", 37e3, 10.0, t)[0] for t in times_s) <= 1e3
 
 # -- Tektronix TDS 3054B ------------------------------------------------------------------------
 def test_scope_powers_on_as_appendix_d_says(bench):
@@ -247,3 +271,58 @@ def test_parser_rules():
         ("FREQUENCY", ("1",)), ("VOLTAGE", ("2",)), ("VOLTAGE:OFFSET", ("3",)), ("VOLTAGE:OFFSET", ("4", "5"))]
     assert isinstance(units[4], scpi.ScpiError) and units[4].code == -113   # FREQ is not under VOLTage
     assert (units[5].path, units[5].arguments) == ("FREQUENCY", ('"a;b"',))
+
+
+def test_scope_replies_in_short_form_with_verbose_off(bench):
+    """VERBose OFF (p. 2-308): keywords in replies, header included, in short form."""
+    s = bench["scope"]
+    s.write("ACQUIRE:MODE AVERAGE;:MEASUREMENT:GATING SCREEN;:VERBOSE OFF")
+    assert s.query("ACQUIRE:MODE?") == ":ACQ:MOD AVE"
+    s.write("HEADER OFF")
+    assert [s.query(q) for q in ("ACQUIRE:MODE?", "MEASUREMENT:GATING?", "CH1:BANDWIDTH?", "VERBOSE?")] == \
+        ["AVE", "SCRE", "FUL", "0"]
+    s.write("VERBOSE ON")
+    assert s.query("ACQUIRE:MODE?") == "AVERAGE"
+
+
+def _curve_values(s, source: str) -> np.ndarray:
+    """CURVE? of `source` in its units, through the preamble's YMULT, YZERO and YOFF."""
+    s.write(f"DATA:SOURCE {source};ENCDG RIBINARY;WIDTH 2;START 1;STOP 500")
+    fields = s.query("WFMPRE?").split(";")
+    y_mult, y_zero, y_off = float(fields[12]), float(fields[13]), float(fields[14])
+    raw = s.query_binary_values("CURVE?", datatype="h", is_big_endian=True, container=np.array)
+    return y_zero + y_mult * (raw - y_off)
+
+
+def test_a_channel_offset_moves_the_trace_on_screen_not_the_values(bench):
+    """CH<x>:OFFSet (p. 2-67) is subtracted before the ADC and given back as YZEro: the
+    record reads the same, the screen (and what clips) moves; the range follows Table 2-30."""
+    s = bench["scope"]
+    drive(bench)
+    setup(s)
+    s.write("ACQUIRE:STATE RUN")
+    s.query("*OPC?")
+    plain = _curve_values(s, "CH1")
+    s.write("CH1:OFFSET 10;:ACQUIRE:STATE RUN")   # one division of 10 V/div
+    s.query("*OPC?")
+    np.testing.assert_allclose(_curve_values(s, "CH1"), plain, atol=10.0 / 25.0 * 2)
+    s.write("CH1:OFFSET 40;:ACQUIRE:STATE RUN")   # the sine's troughs below the screen
+    s.query("*OPC?")
+    assert measure(s, "CH1", "MAXIMUM") == 9.91e37
+    assert s.query("*ESR?") == "16" and "Negative Clipping" in s.query("ALLEV?")
+    s.write("CH1:OFFSET 5000")   # beyond +-1000 V: 100 V at the 1x input of a 100:1 probe
+    assert float(s.query("CH1:OFFSET?")) == 1000.0
+    assert s.query("*ESR?") == "16" and s.query("ALLEV?") == '526,"Parameter overrange"'
+
+
+def test_a_50_ohm_input_halves_a_50_ohm_source_and_silences_a_passive_probe(bench):
+    s = bench["scope"]
+    drive(bench)
+    setup(s)
+    s.write("CH3:SCALE 0.05;:ACQUIRE:STATE RUN")
+    s.query("*OPC?")
+    velocity_v, piezo_v = measure(s, "CH3", "PK2PK"), measure(s, "CH1", "PK2PK")
+    s.write("CH3:IMPEDANCE FIFTY;:CH1:IMPEDANCE FIFTY;:ACQUIRE:STATE RUN")
+    s.query("*OPC?")
+    assert measure(s, "CH3", "PK2PK") == pytest.approx(velocity_v / 2.0, rel=0.02)
+    assert measure(s, "CH1", "PK2PK") < 0.01 * piezo_v   # what is left is a few ADC steps
