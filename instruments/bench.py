@@ -107,7 +107,6 @@ class BenchConfig:
 
 
 # -- bench files ------------------------------------------------------------------------------------
-_BENCH_FIELDS = ("visa_library", "resources", "electronics")
 _ELECTRONICS_FIELDS = tuple(f.name for f in dataclasses.fields(BenchElectronics))
 
 
@@ -124,9 +123,9 @@ def _read_yaml(path: Path) -> Any:
         raise BenchFileError(path, "YAML", f"not valid YAML{where}: {getattr(exc, 'problem', exc)}") from None
 
 
-def _electronics(path: Path, section: Any, field_prefix: str, strict: bool) -> BenchElectronics:
-    """BenchElectronics from a mapping; `strict` refuses keys it does not know (a bench
-    file), otherwise they are left to whoever reads them (a scene)."""
+def _electronics(path: Path, section: Any, field_prefix: str) -> BenchElectronics:
+    """BenchElectronics from a scene's `electronics:` mapping; keys it does not know are
+    the simulator's (simbench validates the scene)."""
     if section is None:
         return BenchElectronics()
     if not isinstance(section, dict):
@@ -134,9 +133,6 @@ def _electronics(path: Path, section: Any, field_prefix: str, strict: bool) -> B
     values = {}
     for key, value in section.items():
         if key not in _ELECTRONICS_FIELDS:
-            if strict:
-                raise BenchFileError(path, f"{field_prefix}.{key}",
-                                     f"unknown field (allowed: {', '.join(_ELECTRONICS_FIELDS)})")
             continue
         if key == "generator_load":
             value = str(value).upper()
@@ -150,50 +146,6 @@ def _electronics(path: Path, section: Any, field_prefix: str, strict: bool) -> B
     return BenchElectronics(**values)
 
 
-def load_bench_file(path: str | Path) -> BenchConfig:
-    """A real bench from YAML:
-
-        visa_library: "@py"          # "" for the system VISA library
-        resources: {generator: GPIB0::10::INSTR, scope: TCPIP0::192.168.0.20::INSTR,
-                    vibrometer: ASRL1::INSTR}
-        electronics: {amplifier_gain: 20, ...}    # optional; defaults of BenchElectronics
-
-    Anything wrong is a BenchFileError naming the file, the field and what is allowed.
-    """
-    path = Path(path)
-    data = _read_yaml(path)
-    if not isinstance(data, dict):
-        raise BenchFileError(path, "top level", f"must be a mapping with {', '.join(_BENCH_FIELDS)}")
-    for key in data:
-        if key not in _BENCH_FIELDS:
-            raise BenchFileError(path, str(key), f"unknown field (allowed: {', '.join(_BENCH_FIELDS)})")
-    library = data.get("visa_library", "")
-    if library is None:
-        library = ""
-    if not isinstance(library, str):
-        raise BenchFileError(path, "visa_library", f"{library!r} is not allowed (allowed: a string such as "
-                                                   "\"@py\", or \"\" for the system VISA library)")
-    resources = data.get("resources")
-    if not isinstance(resources, dict):
-        raise BenchFileError(path, "resources", f"must be a mapping of {', '.join(ROLES)} to VISA addresses")
-    for role in resources:
-        if role not in ROLES + OPTIONAL_ROLES:
-            raise BenchFileError(path, f"resources.{role}",
-                                 f"unknown role (allowed: {', '.join(ROLES + OPTIONAL_ROLES)})")
-    for role in ROLES:
-        address = resources.get(role)
-        if not isinstance(address, str) or not address.strip():
-            raise BenchFileError(path, f"resources.{role}",
-                                 f"missing or not a VISA address (e.g. {SIM_RESOURCES[role]})")
-    for role in OPTIONAL_ROLES:
-        if role in resources and (not isinstance(resources[role], str) or not resources[role].strip()):
-            raise BenchFileError(path, f"resources.{role}", f"not a VISA address (e.g. {SIM_RESOURCES[role]})")
-    return BenchConfig(visa_library=library,
-                       resources={role: resources[role].strip() for role in ROLES + OPTIONAL_ROLES if role in resources},
-                       electronics=_electronics(path, data.get("electronics"), "electronics", strict=True),
-                       source=str(path))
-
-
 def sim_bench_config(scene_path: str | Path) -> BenchConfig:
     """The simulated bench of a scene: its `electronics:` section, the default addresses."""
     path = Path(scene_path)
@@ -201,7 +153,7 @@ def sim_bench_config(scene_path: str | Path) -> BenchConfig:
     if not isinstance(scene, dict):
         raise BenchFileError(path, "top level", "must be a mapping (a scene file)")
     return BenchConfig(visa_library=f"{path}{SIMBENCH}", resources=dict(SIM_RESOURCES),
-                       electronics=_electronics(path, scene.get("electronics"), "electronics", strict=False),
+                       electronics=_electronics(path, scene.get("electronics"), "electronics"),
                        source=str(path))
 
 

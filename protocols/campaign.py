@@ -128,7 +128,7 @@ def load_campaign(path: Path) -> Campaign:
     problem is one CampaignError (or the scene's or bench file's own error)."""
     path = Path(path)
     try:
-        model = schemas.CampaignFile.model_validate(schemas.read_yaml(path))
+        model = schemas.validated(schemas.CampaignFile, schemas.read_yaml(path))
     except schemas.FileFormatError as exc:
         raise CampaignError(path, None, str(exc).removeprefix(f"{path}: ")) from None
     except ValidationError as exc:

@@ -51,7 +51,8 @@ def open_bench(scene: str | Path | None = None, bench_file: str | Path | None = 
     `bench.scope`, `bench.vibrometer` are the drivers; `bench.electronics` the amplifier
     and probes. Closing it closes the VISA session (the generator is left as it is:
     protocols, not this, bring it to its minimum)."""
-    from squeezebench.instruments.bench import load_bench_file, open_bench as open_configured, sim_bench_config
+    from squeezebench.instruments.bench import open_bench as open_configured, sim_bench_config
+    from squeezebench.schemas import load_bench_file
 
     if (scene is None) == (bench_file is None):
         raise UserError("open_bench needs exactly one of scene= (simulated bench) or bench_file= (real bench)")

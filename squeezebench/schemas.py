@@ -24,7 +24,7 @@ import pyvisa.rname
 from pydantic import AfterValidator, BaseModel, ConfigDict, Field, ValidationError, create_model, model_validator
 
 from squeezebench.errors import UserError
-from squeezebench.instruments.bench import ROLES, BenchConfig, BenchElectronics
+from squeezebench.instruments.bench import OPTIONAL_ROLES, ROLES, BenchConfig, BenchElectronics
 from squeezebench.instruments.errors import BenchFileError
 from squeezebench.protocols import (calibration, cartography, characterisation, cutting, detuning, powered_columns,
                                    resonance)
@@ -112,11 +112,11 @@ class CampaignFile(_Model):
     safety: SafetyLimits = SafetyLimits()
     runs: list[AnyRun] = Field(min_length=1)
 
-    @model_validator(mode="before")
-    @classmethod
-    def _inherit(cls, data: Any) -> Any:
-        """Each run gets the campaign's bench, acquisition and safety under its own, and its
-        plate the bench scene (and its stem as name) by default."""
+    @staticmethod
+    def prepared(data: Any) -> Any:
+        """The file's data with each run given the campaign's bench, acquisition and
+        safety under its own, and its plate the bench scene (and its stem as name) by
+        default (`validated` calls it before validation)."""
         if not isinstance(data, dict) or not isinstance(data.get("runs"), list):
             return data
         runs = []
@@ -163,16 +163,28 @@ class BenchFile(_Model):
     resources: Resources
     electronics: BenchElectronics = BenchElectronics()
 
-    @model_validator(mode="before")
-    @classmethod
-    def _load_setting_as_text(cls, data: Any) -> Any:
-        """`generator_load: 50` is a number in YAML; the setting is the text 50 or INF."""
+    @staticmethod
+    def prepared(data: Any) -> Any:
+        """`generator_load: 50` is a number in YAML; the setting is the text 50 or INF
+        (`validated` calls it before validation)."""
         electronics = data.get("electronics") if isinstance(data, dict) else None
         if isinstance(electronics, dict) and isinstance(electronics.get("generator_load"), (int, str)) \
                 and not isinstance(electronics["generator_load"], bool):
             data = {**data, "electronics": {**electronics,
                                             "generator_load": str(electronics["generator_load"]).upper()}}
         return data
+
+
+def validated(model: type[BaseModel], data: Any) -> Any:
+    """`data` (a file's YAML) as `model`, strictly: no coercion, so "16" is not a count,
+    true is not 1 and 3.5 is not an integer (a number where a float is asked is fine).
+    Validated as JSON: strict mode then still takes a YAML list for a tuple and a mapping
+    for a section. A YAML value JSON has no form for (a date) becomes its text, which only
+    a text field accepts. A model's `prepared` (defaults one section takes from another)
+    runs first, on the data as read: pydantic's JSON mode would not take Python values
+    back from a validator."""
+    prepare = getattr(model, "prepared", None)
+    return model.model_validate_json(json.dumps(prepare(data) if prepare else data, default=str), strict=True)
 
 
 # -- errors -------------------------------------------------------------------------------
@@ -254,11 +266,12 @@ def load_bench_file(path: str | Path) -> BenchConfig:
     except FileFormatError as exc:
         raise BenchFileError(path, "file", str(exc).removeprefix(f"{path}: ")) from None
     try:
-        bench = BenchFile.model_validate(data)
+        bench = validated(BenchFile, data)
     except ValidationError as exc:
         raise BenchFileError(path, *describe(exc, BenchFile)) from None
     return BenchConfig(visa_library=bench.visa_library or "",
-                       resources={role: getattr(bench.resources, role) for role in ROLES},
+                       resources={role: address for role in (*ROLES, *OPTIONAL_ROLES)
+                                  if (address := getattr(bench.resources, role)) is not None},
                        electronics=bench.electronics, source=str(path))
 
 
@@ -271,7 +284,7 @@ def load_design_file(path: str | Path):
     path = Path(path)
     data = read_yaml(path)
     try:
-        return DesignFile.model_validate(data)
+        return validated(DesignFile, data)
     except ValidationError as exc:
         field, message = describe(exc, DesignFile)
         raise UserError(f"{path}: {field}: {message}") from None

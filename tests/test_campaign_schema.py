@@ -74,3 +74,28 @@ def test_shipped_campaigns_load():
     for name in ("paper.yaml", "quick.yaml"):
         campaign = load_campaign(paths.campaigns_dir() / name)
         assert all(run.steps() for run in campaign.runs)
+
+
+@pytest.mark.parametrize("changes, field, wrong", [
+    ({"runs": [edited_run(acquisition={"averages": "16"})]}, "runs[0].acquisition.averages", "'16'"),
+    ({"runs": [edited_run(acquisition={"averages": 16.0})]}, "runs[0].acquisition.averages", "16.0"),
+    ({"runs": [edited_run(acquisition={"max_ranging_attempts": True})]},
+     "runs[0].acquisition.max_ranging_attempts", "True"),
+    ({"runs": [edited_run(parameters={**GOOD_RUN["parameters"], "search": {"start_hz": "36000",
+                                                                          "stop_hz": 38500}})]},
+     "runs[0].parameters.search.start_hz", "'36000'"),
+    ({"runs": [edited_run(safety={"max_piezo_voltage_vpp": True})]}, "runs[0].safety.max_piezo_voltage_vpp", "True"),
+])
+def test_no_value_is_coerced_into_another_type(tmp_path, changes, field, wrong):
+    """A string is not a number, a boolean not a count, 16.0 not an integer: each is
+    refused where it stands, not turned into what the field wanted."""
+    path = campaign_file(tmp_path, **changes)
+    with pytest.raises(CampaignError) as error:
+        load_campaign(path)
+    assert f"field '{field}': {wrong}" in str(error.value)
+
+
+def test_a_number_where_a_decimal_is_asked_and_a_list_for_a_sequence_are_fine(tmp_path):
+    run = edited_run(parameters={**GOOD_RUN["parameters"], "search": {"start_hz": 36000, "stop_hz": 38500.5}})
+    (loaded,) = load_campaign(campaign_file(tmp_path, runs=[run])).runs
+    assert loaded.parameters.search.start_hz == 36000.0 and isinstance(loaded.parameters.lengths, tuple)

@@ -9,8 +9,9 @@ import pytest
 import yaml
 
 from squeezebench.instruments.agilent33120a import Agilent33120A
+from squeezebench.schemas import load_bench_file   # the one validator of bench files (`run` and `check`)
 from squeezebench.instruments.bench import (SIM_RESOURCES, Bench, BenchConfig, BenchElectronics, SimulatedOperator,
-                                            TerminalOperator, WallClock, check_bench, load_bench_file, open_bench,
+                                            TerminalOperator, WallClock, check_bench, open_bench,
                                             sim_bench_config)
 from squeezebench.instruments.errors import BenchFileError, InstrumentConnectionError, OperatorUnavailable
 from squeezebench.instruments.ofv5000 import OFV5000
@@ -63,18 +64,23 @@ def test_load_bench_file(tmp_path):
 
 
 @pytest.mark.parametrize("content, field, allowed", [
-    ("resources: [unclosed", "YAML", "not valid YAML at line "),
-    ("- just\n- a list\n", "top level", "visa_library, resources, electronics"),
-    ({**GOOD_BENCH, "amplifier": 20}, "amplifier", "visa_library, resources, electronics"),
-    ({**GOOD_BENCH, "visa_library": 3}, "visa_library", "\"@py\""),
+    ("resources: [unclosed", "file", "not valid YAML at line "),
+    ("- just\n- a list\n", "top level", "electronics, resources, visa_library"),
+    ({**GOOD_BENCH, "amplifier": 20}, "amplifier", "electronics, resources, visa_library"),
+    ({**GOOD_BENCH, "visa_library": 3}, "visa_library", "should be a valid string"),
     ({**GOOD_BENCH, "resources": {"generator": "GPIB0::10::INSTR", "scope": "TCPIP0::1.2.3.4::INSTR"}},
-     "resources.vibrometer", "e.g. ASRL1::INSTR"),
+     "resources.vibrometer", "is missing"),
+    ({**GOOD_BENCH, "resources": {**SIM_RESOURCES, "scope": "192.168.0.20"}}, "resources.scope",
+     "e.g. GPIB0::10::INSTR"),
     ({**GOOD_BENCH, "resources": {**SIM_RESOURCES, "amplifier": "GPIB0::5::INSTR"}},
-     "resources.amplifier", "generator, scope, vibrometer"),
+     "resources.amplifier", "generator, scope, stage, vibrometer"),
     ({**GOOD_BENCH, "electronics": {"amplifier_gain": "twenty"}}, "electronics.amplifier_gain",
-     "a positive number"),
-    ({**GOOD_BENCH, "electronics": {"generator_load": 75}}, "electronics.generator_load", "50, INF"),
-    ({**GOOD_BENCH, "electronics": {"gain": 20}}, "electronics.gain", "amplifier_gain, amplifier_max_output_vpp"),
+     "should be a valid number"),
+    ({**GOOD_BENCH, "electronics": {"amplifier_gain": "20"}}, "electronics.amplifier_gain",
+     "should be a valid number"),
+    ({**GOOD_BENCH, "electronics": {"shunt_ohm": True}}, "electronics.shunt_ohm", "should be a valid number"),
+    ({**GOOD_BENCH, "electronics": {"generator_load": 75}}, "electronics", "50, INF"),
+    ({**GOOD_BENCH, "electronics": {"gain": 20}}, "electronics.gain", "amplifier_gain, amplifier_input_ohm"),
 ])
 def test_bench_file_errors_name_file_field_and_allowed_values(tmp_path, content, field, allowed):
     path = write_yaml(tmp_path, content)
