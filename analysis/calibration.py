@@ -59,6 +59,33 @@ class Deskew:
         deskewed = power_w + reactive_power_var * 2.0 * math.pi * frequency_hz * self.delay_s
         return deskewed if self.gain_ratio is None else deskewed * self.gain_ratio ** -gain_weight()
 
+    def applied_to(self, points: pd.DataFrame) -> pd.DataFrame:
+        """Reduced points with their power corrected (`power_w_uncorrected` kept) and the
+        correction recorded in columns, so every mean, fit and budget made of them (Q,
+        tan theta', Fig. 2's ratios) uses the corrected power and knows it did."""
+        points = points.copy()
+        points["power_w_uncorrected"] = points["power_w"]
+        points["power_w"] = self.corrected_power_w(points["power_w"], points["reactive_power_var"],
+                                                   points["frequency_hz"])
+        for column, value in zip(APPLIED_COLUMNS, (self.delay_s, self.std_uncertainty_s, self.gain_ratio,
+                                                   self.gain_ratio_u)):
+            points[column] = math.nan if value is None else value
+        points["deskew_source"] = self.source
+        return points
+
+    @classmethod
+    def applied_in(cls, points: pd.DataFrame) -> Deskew | None:
+        """The correction `applied_to` recorded in `points` (None: uncorrected powers)."""
+        if "power_w_uncorrected" not in points or points.empty:
+            return None
+        delay_s, delay_u_s, ratio, ratio_u = (float(points[column].iloc[0]) for column in APPLIED_COLUMNS)
+        return cls(delay_s, delay_u_s, str(points["deskew_source"].iloc[0]),
+                   None if math.isnan(ratio) else ratio, 0.0 if math.isnan(ratio_u) else ratio_u)
+
+
+#: What `Deskew.applied_to` records of the correction beside each corrected point.
+APPLIED_COLUMNS = ("deskew_delay_s", "deskew_delay_u_s", "deskew_gain_ratio", "deskew_gain_ratio_u")
+
 
 def _mean(values: np.ndarray, stated_u: np.ndarray) -> Estimate:
     """Mean of repeated records: stated uncertainties and their scatter, whichever larger."""

@@ -261,13 +261,19 @@ def _expanded(points: pd.DataFrame, column: str, estimate: Estimate) -> float:
 
 
 def _protocol_points(run: RunData, protocol: str) -> pd.DataFrame:
+    """The protocol's stored points, reduced; powers corrected by the run's own deskew
+    calibration when it has one (a recognised delay is corrected, not only budgeted)."""
+    from squeezebench.analysis.calibration import deskew_of_run   # it reads points through this module
+
     rows = run.protocol(protocol)
     if rows.empty:
         raise MissingDataError(f"protocol '{protocol}' is not in this run "
                                f"({run.run_dir / 'measurements'})")
     if "sweep" in rows:
         rows = rows[~flag(rows["sweep"], default=False)]
-    return reduced_points(run, rows.reset_index(drop=True))
+    points = reduced_points(run, rows.reset_index(drop=True))
+    deskew = deskew_of_run(run)
+    return points if deskew is None else deskew.applied_to(points)
 
 
 TABLE3_QUANTITIES = ["n_antinodes", "frequency_hz", "voltage_vpp", "power_w", "velocity_pp_mps"]
@@ -410,10 +416,10 @@ def characterise_plates(run: RunData, convention: model.Convention) -> dict[str,
     one), Q and tan(theta') with their whole budgets (`analysis.uncertainty`: the fits, the
     instruments' specifications, the geometry's and materials' tolerances)."""
     from squeezebench.analysis import uncertainty   # see _expanded
-    from squeezebench.analysis.calibration import deskew_of_run
+    from squeezebench.analysis.calibration import Deskew
 
-    deskew = deskew_of_run(run)
     points = _protocol_points(run, "characterisation")
+    deskew = Deskew.applied_in(points)
     results = {}
     for plate, group in points.groupby("plate", sort=True):
         first = group.iloc[0]

@@ -263,14 +263,16 @@ def detuning_slope_per_hz(points: pd.DataFrame) -> pd.Series:
 
 def with_expanded_uncertainties(points: pd.DataFrame, deskew: Deskew | None = None) -> pd.DataFrame:
     """Reduced points with, per budgeted quantity q, `q_u_combined`, `q_U` (k = 2) and
-    `q_dominant`; with a deskew the power is corrected (`power_w_uncorrected` kept).
+    `q_dominant`; with a deskew the power is corrected (`Deskew.applied_to`), unless the
+    points carry that correction already, whose budget is then theirs.
     Rows without a stored record (no reduction) keep NaN."""
+    applied = Deskew.applied_in(points)
+    if applied is not None:
+        deskew = applied
+    elif deskew is not None and "reactive_power_var" in points:
+        points = deskew.applied_to(points)
     points = points.copy()
     points["detuning_slope_per_hz"] = detuning_slope_per_hz(points)
-    if deskew is not None and "reactive_power_var" in points:
-        points["power_w_uncorrected"] = points["power_w"]
-        points["power_w"] = deskew.corrected_power_w(points["power_w"], points["reactive_power_var"],
-                                                     points["frequency_hz"])
     for quantity in POINT_BUDGETS:
         combined, dominant = [], []
         for _, row in points.iterrows():

@@ -101,3 +101,52 @@ def test_errors_on_erring_benches_with_and_without_calibration(tmp_path):
     summary = p95_by_run(plain)
     assert set(summary["quantity"]) == {"power_w", "velocity_pp_mps"}
     assert (summary["p95_abs_rel_error"] > 1e-3).all()   # the instruments' errors, not noise
+
+
+# -- a known lag corrected, not only budgeted (issue 28) -----------------------------------------
+LAG_S = 17e-9   # a current probe behind the voltage probe, as Tektronix's deskew note has it
+
+
+@pytest.fixture(scope="module")
+def characterised(tmp_path_factory):
+    """{bench: run directory} of one small plate's Fig. 5 characterisation after a deskew
+    calibration, on a bench whose current probe lags 17 ns and on one without the lag."""
+    tmp = tmp_path_factory.mktemp("lag")
+    paper = yaml.safe_load(paths.paper_campaign().read_text())
+    campaign = {key: paper[key] for key in ("acquisition", "safety")}
+    campaign["runs"] = [
+        {"name": "deskew", "protocol": "deskew_calibration", "bench": {"scene": "small_plate_1.yaml"},
+         "plate": {"n_powered_columns": 1, "n_powered_piezos": 4},
+         "parameters": {"load_ohm": 100, "frequency_hz": 45000}},
+        {"name": "fig5", "protocol": "characterisation", "bench": {"scene": "small_plate_1.yaml"},
+         "plate": {"n_powered_columns": 1, "n_powered_piezos": 4},
+         "parameters": {"search": {"start_hz": 30000, "stop_hz": 60000, "points": 31},
+                        "voltages_vpp": [10, 20, 30, 40]}}]
+    (tmp / "campaign.yaml").write_text(yaml.safe_dump(campaign, sort_keys=False))
+    lagging = campaign_with_effects(tmp / "campaign.yaml", tmp / "inputs", [{"current_probe_delay": {"delay_s": LAG_S}}])
+    return {"lag": run_campaign(lagging, out_dir=tmp / "lag", progress=False),
+            "none": run_campaign(tmp / "campaign.yaml", out_dir=tmp / "none", progress=False)}
+
+
+def test_q_and_tan_theta_are_computed_from_the_deskewed_power(characterised):
+    """With the lag measured by the deskew run, Fig. 5's tan theta' is the lag-free bench's
+    (not 2 % off), Q, which reads no power, is unchanged, and the budgets carry the
+    calibration's delay term instead of the specified +-10 ns."""
+    from squeezebench.analysis import model, uncertainty
+    from squeezebench.analysis.tables import characterise_plate, characterise_plates
+
+    convention = model.PAPER_CONVENTION
+    lag, none = (characterise_plates(load_run(characterised[bench]), convention)["small_plate_1"]
+                 for bench in ("lag", "none"))
+    uncorrected = characterise_plate("small_plate_1", lag.points.assign(power_w=lag.points["power_w_uncorrected"]),
+                                     lag.geometry, convention)
+    assert abs(uncorrected.tan_theta.value / none.tan_theta.value - 1) > 0.01   # the lag the run corrects
+    assert lag.tan_theta.value == pytest.approx(none.tan_theta.value, rel=0.003)
+    assert lag.q.value == pytest.approx(uncorrected.q.value, rel=1e-12)
+    deskew = deskew_of_run(load_run(characterised["lag"]))
+    assert deskew.delay_s == pytest.approx(LAG_S, abs=2 * deskew.std_uncertainty_s)
+    budgets = {name: uncertainty.characterisation_budgets(lag, convention, correction)[1]
+               for name, correction in (("specified", None), ("calibrated", deskew))}
+    delay = {name: next(t.std_uncertainty for t in budget.terms if t.name.startswith("CH2 delay"))
+             for name, budget in budgets.items()}
+    assert delay["calibrated"] < 0.2 * delay["specified"]
