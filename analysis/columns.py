@@ -117,6 +117,7 @@ COLUMNS: dict[str, tuple[str, str]] = {
     "power_w": ("W", "electrical power into the piezos"),
     "power_resonance_w": ("W", "power at resonance P0 of the series"),
     "power_ratio": ("1", "Pt / P0 (Fig. 2)"),
+    "power_ratio_U": ("1", "expanded uncertainty (k = 2) of Pt / P0: noise and CH2 delay; the gains cancel"),
     # per-plate readings and Table 5 under each reading (analysis.audit)
     "reading": ("", "reading of the paper's open conventions: 'paper' (the text's) or 'inferred' (analysis.readings)"),
     "q": ("1", "quality factor Q of the plate (Eq. 27)"),

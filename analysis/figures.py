@@ -51,8 +51,9 @@ def fig2_power_ratio(detuning: pd.DataFrame, path: Path) -> Path:
     """Fig. 2: Pt/P0 against the velocity ratio reached before regaining v0, one line per
     velocity level, one panel per campaign run; the paper's Fig. 2c stress point (100 mW
     at resonance, 120 mW at the stress point, at the printed voltage ratio) as a star in
-    the panels of runs with a stress phase. Columns: run_name, plate, velocity_level_pp_mps,
-    target_velocity_ratio, detuning_phase, power_ratio."""
+    the panels of runs with a stress phase; bars: the ratio's U (k = 2) where known. Columns:
+    run_name, plate, velocity_level_pp_mps, target_velocity_ratio, detuning_phase,
+    power_ratio (and power_ratio_U)."""
     runs = sorted(detuning["run_name"].unique())
     fig, axes = _grid(len(runs), 3, 3.8, 3.2, sharey=True)
     stress_ratio = paper_value("detuning", "stress", "resonance_voltage_v") / paper_value(
@@ -63,7 +64,8 @@ def fig2_power_ratio(detuning: pd.DataFrame, path: Path) -> Path:
         series = detuning[detuning["run_name"] == run]
         for level, group in series.groupby("velocity_level_pp_mps"):
             group = group.sort_values("target_velocity_ratio", ascending=False)
-            ax.plot(group["target_velocity_ratio"], group["power_ratio"], "o-", label=f"v0 = {level:g} m/s pp")
+            ax.errorbar(group["target_velocity_ratio"], group["power_ratio"], yerr=group.get("power_ratio_U"),
+                        fmt="o-", capsize=2, label=f"v0 = {level:g} m/s pp")
         if (series["detuning_phase"] == "stress").any():
             ax.plot([stress_ratio], [stress_power], label="paper, Fig. 2c", **PAPER_STYLE)
         ax.set_title(f"{run} ({series['plate'].iloc[0]})", fontsize=9)

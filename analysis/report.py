@@ -524,7 +524,7 @@ def detuning_section(context: ReportContext) -> Section | None:
         context.absent.append("Fig. 2: protocol 'detuning' is not in this run")
         return None
     summary = tables.detuning_table(context.run)
-    context.tables["fig2"] = tables.finish_table(summary, value_columns=("power_w", "power_ratio"))
+    context.tables["fig2"] = tables.finish_table(summary, value_columns=("power_w", "power_ratio", "power_ratio_U"))
     plotted = summary[summary["status"] == "measured"]
     runs = ", ".join(sorted(summary["run_name"].unique()))
     body = ("<p>At each velocity level v0 the plate is detuned until its velocity falls to a fraction "
@@ -559,12 +559,15 @@ def _detuning_grid(summary: pd.DataFrame, bench_words: str) -> str:
                 cells.append(f"<td class='na'>{html.escape(str(match['status'].iloc[0]))}</td>")
             else:
                 phase = " (stress)" if match["detuning_phase"].iloc[0] == "stress" else ""
-                cells.append(f"<td>{match['power_ratio'].iloc[0]:.3f}{phase}</td>")
+                ratio_u = match["power_ratio_U"].iloc[0]
+                spread = f" ± {ratio_u:.3f}" if math.isfinite(ratio_u) else ""
+                cells.append(f"<td>{match['power_ratio'].iloc[0]:.3f}{spread}{phase}</td>")
         p0 = group["power_resonance_w"].iloc[0] * 1e3
         rows.append(f"<tr><td>{html.escape(run)}</td><td>{html.escape(plate)}</td><td>{level:g}</td>"
                     f"<td>{p0:.1f}</td>{''.join(cells)}</tr>")
-    caption = (f"{bench_words} Fig. 2 as numbers: Pt/P0 for each series once v0 is regained after "
-               "detuning to the given velocity fraction; 'not reachable': the safety limit stopped the voltage.")
+    caption = (f"{bench_words} Fig. 2 as numbers: Pt/P0 ± U (k = 2) for each series once v0 is regained "
+               "after detuning to the given velocity fraction; the gains cancel in the ratio, the CH2 delay and the "
+               "noise do not; 'not reachable': the safety limit stopped the voltage.")
     return f"<table><caption>{html.escape(caption)}</caption><thead>{head}</thead><tbody>{''.join(rows)}</tbody></table>"
 
 

@@ -574,8 +574,11 @@ def finish_table(frame: pd.DataFrame, value_columns=("value", "std_uncertainty",
 def detuning_table(run: RunData) -> pd.DataFrame:
     """Fig. 2 (Sec. 2.2): Pt / P0 per plate, velocity level and target velocity ratio,
     where P0 is the power at resonance (its own row has ratio 1) and Pt the power once v0
-    is regained (or at the stress point). Unreachable targets stay as rows with status
-    'not reachable'."""
+    is regained (or at the stress point), with the ratio's expanded uncertainty (k = 2,
+    `uncertainty.power_ratio_std_uncertainty`: the gains cancel, the CH2 delay does not).
+    Unreachable targets stay as rows with status 'not reachable'."""
+    from squeezebench.analysis import uncertainty   # see _expanded
+
     points = with_scope_fallback(_protocol_points(run, "detuning"))
     rows = []
     # One campaign run is one series of Fig. 2 (the stress point is a run of its own on
@@ -588,6 +591,8 @@ def detuning_table(run: RunData) -> pd.DataFrame:
             for ratio, target in group[group["detuning_phase"] == phase].groupby("target_velocity_ratio"):
                 reachable = bool(flag(target["reachable"], default=True).all()) if "reachable" in target else True
                 power = float(target["power_w"].mean())
+                ratio_u = uncertainty.power_ratio_std_uncertainty(target, at_resonance) \
+                    if reachable and len(at_resonance) and "reactive_power_var" in target else math.nan
                 rows.append({"run_name": run_name, "plate": plate, "velocity_level_pp_mps": float(level),
                              "detuning_phase": phase,
                              "target_velocity_ratio": float(ratio),
@@ -597,10 +602,11 @@ def detuning_table(run: RunData) -> pd.DataFrame:
                              "power_w": power if reachable else math.nan,
                              "power_resonance_w": p0,
                              "power_ratio": power / p0 if reachable and p0 > 0 else math.nan,
+                             "power_ratio_U": uncertainty.COVERAGE_FACTOR * ratio_u,
                              "status": "measured" if reachable else NOT_REACHABLE})
     return pd.DataFrame(rows, columns=["run_name", "plate", "velocity_level_pp_mps", "detuning_phase",
                                        "target_velocity_ratio", "frequency_hz", "voltage_vpp", "power_w",
-                                       "power_resonance_w", "power_ratio", "status"])
+                                       "power_resonance_w", "power_ratio", "power_ratio_U", "status"])
 
 
 def resonance_sweeps(run: RunData) -> pd.DataFrame:

@@ -102,6 +102,29 @@ def delay_std_uncertainty_s() -> float:
                       SPECIFICATIONS["current_probe_delay"].std_uncertainty)
 
 
+def power_ratio_std_uncertainty(numerator: pd.DataFrame, denominator: pd.DataFrame) -> float:
+    """Standard uncertainty of R = mean P_t / mean P_0, two powers of one plate on one bench
+    (Fig. 2's Pt/P0), from their reduced points.
+
+    The gains (CH1, CH2, current probe, and a deskew's gain correction) multiply both
+    powers alike and cancel. The CH2 delay does not: a delay tau adds Q' w tau to each
+    power, so dR/R = (w_t Q'_t / P_t - w_0 Q'_0 / P_0) tau, small at resonance (Q' ~ 0)
+    and not at a detuned point. The noise of each mean is its own (Type A):
+    u(R)^2 / R^2 = u(P_t)^2 / P_t^2 + u(P_0)^2 / P_0^2 + (w_t Q'_t / P_t - w_0 Q'_0 / P_0)^2 u(tau)^2,
+    with u(tau) the deskew's when the points were corrected, else the specified one.
+    NaN when a point has no stored record to reduce."""
+    applied = Deskew.applied_in(numerator)
+    delay_u_s = applied.std_uncertainty_s if applied is not None else delay_std_uncertainty_s()
+    parts = []
+    for points in (numerator, denominator):
+        power = float(points["power_w"].mean())
+        noise = float(np.sqrt(np.sum(points["power_w_u"] ** 2))) / len(points)
+        phase = float((2.0 * math.pi * points["frequency_hz"] * points["reactive_power_var"]).mean()) / power
+        parts.append((power, noise / power, phase))
+    (p_t, noise_t, phase_t), (p_0, noise_0, phase_0) = parts
+    return abs(p_t / p_0) * math.sqrt(noise_t**2 + noise_0**2 + ((phase_t - phase_0) * delay_u_s) ** 2)
+
+
 def power_budget(point: dict, deskew: Deskew | None = None) -> Budget:
     """Mean power P = <v i>: P ~ g1 g2 g_probe, P' = P - Q_r w tau for a CH2 delay tau."""
     value = float(point["power_w"])

@@ -338,3 +338,37 @@ def test_a_mean_of_repeats_of_one_point_keeps_its_shared_type_b_part():
         expanded.append(U)
     assert expanded[0] == pytest.approx(budget.expanded_uncertainty, rel=1e-9)
     assert expanded[2] > 0.9 * expanded[0]   # not halved
+
+
+def test_fig2s_power_ratio_uncertainty_equals_a_monte_carlo_over_the_shared_inputs():
+    """Pt/P0 of one detuned point over two points at resonance, measured with the same
+    channels: a Monte Carlo drawing the gains (common: they cancel), the CH2 delay (rectangular,
+    common: it does not cancel, Q' differs) and each record's noise gives the closed form's
+    u(R) within 5 %; the gains alone would give nothing."""
+    from squeezebench.analysis.uncertainty import delay_std_uncertainty_s, power_ratio_std_uncertainty
+
+    resonance = pd.DataFrame([_point(power_w=0.10, reactive_power_var=-0.004, power_w_u=1e-4),
+                              _point(power_w=0.10, reactive_power_var=-0.005, power_w_u=1e-4)])
+    detuned = pd.DataFrame([_point(power_w=0.13, reactive_power_var=-0.39, frequency_hz=37150.0, power_w_u=1e-4)])
+    u = power_ratio_std_uncertainty(detuned, resonance)
+    rng = np.random.default_rng(28)
+    n = 200_000
+    half_width_s = delay_std_uncertainty_s() * math.sqrt(3.0)
+    tau = rng.uniform(-half_width_s, half_width_s, n)
+    gains = rng.uniform(0.97, 1.03, n) * rng.uniform(0.98, 1.02, n)
+
+    def measured(points: pd.DataFrame) -> np.ndarray:
+        true = points["power_w"].to_numpy()[:, None]
+        skew = (2 * math.pi * points["frequency_hz"] * points["reactive_power_var"]).to_numpy()[:, None] * tau
+        noise = points["power_w_u"].to_numpy()[:, None] * rng.standard_normal((len(points), n))
+        return (gains * (true + skew + noise)).mean(axis=0)
+
+    ratios = measured(detuned) / measured(resonance)
+    assert u == pytest.approx(float(np.std(ratios)), rel=0.05)
+    def after(deskew_u_s: float) -> float:
+        deskew = Deskew(0.0, deskew_u_s, "a deskew")
+        return power_ratio_std_uncertainty(deskew.applied_to(detuned), deskew.applied_to(resonance))
+
+    noise_only = after(0.0)
+    assert math.sqrt(u**2 - noise_only**2) > noise_only   # the delay does not cancel; it dominates here
+    assert after(0.3e-9) < 1.05 * noise_only               # a deskew removes it
