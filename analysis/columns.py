@@ -131,6 +131,13 @@ COLUMNS: dict[str, tuple[str, str]] = {
     "relative": ("1", "the term's standard uncertainty over |value|"),
     "share": ("1", "the term's share of the combined variance"),
     "source": ("", "where the term's size comes from (manual, datasheet, assumption)"),
+    # the measurement model (analysis.measurement_model)
+    "measurand": ("", "what exactly the quantity is, where and under which conditions"),
+    "model": ("", "the equation the stated value comes from"),
+    "input": ("", "one input of the quantity's model (a budget term or a tolerance)"),
+    "distribution": ("", "the input's probability distribution as the budget assumes it"),
+    "relative_std_uncertainty": ("1", "the input's standard uncertainty over |value| at the run's first stored point"),
+    "correction": ("", "whether the input's effect is corrected or only budgeted"),
     "floor_p95_rel": ("1", "p95 relative error the instruments' specified errors leave, whatever the averaging"),
     "dominant_term": ("", "largest term of the budget"),
     "point": ("", "the systematics study's point: table3 (Table 3), stress (Fig. 2c), sweep (a Fig. 5 "

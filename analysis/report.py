@@ -28,8 +28,8 @@ import numpy as np
 import pandas as pd
 
 import squeezebench
-from squeezebench.analysis import (audit, cartography_report, columns, figures, headline, model, predicted_plates,
-                                   presentation, provenance, readings, study, tables, uncertainty)
+from squeezebench.analysis import (audit, cartography_report, columns, figures, headline, measurement_model, model,
+                                   predicted_plates, presentation, provenance, readings, study, tables, uncertainty)
 from squeezebench.analysis.tables import MissingDataError
 from squeezebench.analysis.paper import paper_value
 from squeezebench.analysis.rundata import RunData, load_run
@@ -853,9 +853,16 @@ def provenance_section(context: ReportContext) -> Section:
     return Section("Provenance", body, "provenance", appendix=True)
 
 
+def _uncertainties(context: ReportContext) -> uncertainty.RunUncertainties:
+    """The run's budgets, computed once for the sections that share them."""
+    if "uncertainties" not in context.cache:
+        context.cache["uncertainties"] = uncertainty.run_uncertainties(context.run)
+    return context.cache["uncertainties"]
+
+
 def uncertainty_section(context: ReportContext) -> Section | None:
     """Uncertainty budgets (GUM, k = 2)"""
-    found = uncertainty.run_uncertainties(context.run)
+    found = _uncertainties(context)
     if found.points.empty:
         return None   # no stored records to budget (a study-only directory)
     quantities = list(uncertainty.POINT_BUDGETS)
@@ -913,6 +920,32 @@ def uncertainty_section(context: ReportContext) -> Section | None:
                    + "<p>CSV: <a href='uncertainty_points.csv'>uncertainty_points.csv</a>, "
                      "<a href='uncertainty_budgets.csv'>uncertainty_budgets.csv</a></p>")
 
+
+
+def measurement_model_section(context: ReportContext) -> Section | None:
+    """Measurement model: measurand, equation and inputs of every quantity (issue 28)"""
+    found = _uncertainties(context)
+    stored = [row for _, row in found.points.iterrows() if pd.notna(row.get("power_w_u"))]
+    if not stored:
+        return None
+    table = measurement_model.model_table(stored[0].to_dict(), found.deskew)
+    context.tables["measurement_model"] = table
+    blocks = []
+    for quantity, rows in table.groupby("quantity", sort=False):
+        first = rows.iloc[0]
+        inputs = rows[["input", "type", "distribution", "relative_std_uncertainty", "correction", "source"]]
+        described = (f"<p><b>Measurand.</b> {html.escape(first['measurand'])}</p>"
+                     f"<p><b>Model.</b> {html.escape(first['model'])}</p>") if first["measurand"] else ""
+        blocks.append(presentation.fold(f"{_words_of(quantity)} ({quantity})",
+                                        described + html_table(inputs, f"Inputs of {quantity}, at the run's "
+                                                               f"first stored point. " + _bench_words(context))))
+    return Section("Measurement model",
+                   "<p>What each stated quantity is, the equation it comes from and every input with its "
+                   "distribution, standard uncertainty, source and whether it is corrected or only budgeted, "
+                   "as a calibration certificate lists them (relative standard uncertainty at the run's first "
+                   "stored point). Inputs known to matter that no budget holds yet are listed as such. "
+                   "CSV: <a href='measurement_model.csv'>measurement_model.csv</a></p>" + "".join(blocks),
+                   "measurement-model", appendix=True)
 
 
 def readings_section(context: ReportContext) -> Section | None:
@@ -982,7 +1015,8 @@ def cartography_section(context: ReportContext) -> Section | None:
 SECTIONS: list[SectionBuilder] = [
     table3_section, table4_section, predicted_section, table5_section, detuning_section, cartography_section,
     characterisation_section,
-    readings_section, resonance_section, uncertainty_section, audit_section, study_section,
+    readings_section, resonance_section, uncertainty_section, measurement_model_section, audit_section,
+    study_section,
     hardcases_section, conventions_section, provenance_section,
 ]
 

@@ -372,3 +372,23 @@ def test_fig2s_power_ratio_uncertainty_equals_a_monte_carlo_over_the_shared_inpu
     noise_only = after(0.0)
     assert math.sqrt(u**2 - noise_only**2) > noise_only   # the delay does not cancel; it dominates here
     assert after(0.3e-9) < 1.05 * noise_only               # a deskew removes it
+
+
+def test_the_measurement_model_lists_every_input_the_budgets_use_with_its_correction():
+    """The page is made of the budgets themselves: every term of every point budget is
+    an input row, the measurand says the shunt's loss is in the power, and the CH2 delay
+    reads 'corrected' exactly when a deskew was applied."""
+    from squeezebench.analysis.measurement_model import MEASURANDS, model_table
+    from squeezebench.analysis.uncertainty import POINT_BUDGETS, point_budget
+
+    point = _point(detuning_slope_per_hz=0.0)
+    for deskew in (None, Deskew(12e-9, 0.3e-9, "a deskew run")):
+        table = model_table(point, deskew)
+        for quantity in POINT_BUDGETS:
+            listed = set(table.loc[table["quantity"] == quantity, "input"])
+            assert {t.name for t in point_budget(quantity, point, deskew).terms} <= listed
+        assert set(table["quantity"]) >= set(MEASURANDS)
+        delay = table[(table["quantity"] == "power_w") & table["input"].str.startswith("CH2 delay")]
+        assert delay["correction"].iloc[0].startswith("corrected" if deskew else "not corrected")
+    assert "shunt" in MEASURANDS["power_w"].definition
+    assert (table["type"] == "not budgeted").sum() >= 2
