@@ -59,12 +59,14 @@ MEASURANDS: dict[str, Measurand] = {
 }
 
 #: Inputs known to matter that no budget holds yet: stated, with why, rather than left out.
+_PROBE_COMPENSATION = ("voltage probe attenuation tolerance and compensation",
+                       "no figure for the bench's probe is in the project's specifications; a miscompensated "
+                       "probe adds a phase that acts like a CH1 delay")
 NOT_BUDGETED = (
-    ("power_w, piezo_voltage_vpp", "voltage probe attenuation tolerance and compensation",
-     "no figure for the bench's probe is in the project's specifications; a miscompensated probe "
-     "adds a phase that acts like a CH1 delay"),
+    ("power_w", *_PROBE_COMPENSATION),
     ("power_w", "current probe phase response over frequency",
      "budgeted as a pure delay (+-10 ns, assumed); the TCP202's phase is not a pure delay near its bandwidth"),
+    ("piezo_voltage_vpp", *_PROBE_COMPENSATION),
 )
 
 
@@ -114,10 +116,11 @@ def model_table(point: dict, deskew: Deskew | None) -> pd.DataFrame:
                  "relative_std_uncertainty": float("nan"),
                  "correction": "the deskew's, when the run has one; the gains cancel",
                  "source": "analysis.uncertainty.power_ratio_std_uncertainty"})
-    for quantities, name, why in NOT_BUDGETED:
-        rows.append({"quantity": quantities, "input": name, "type": "not budgeted", "distribution": "",
+    for quantity, name, why in NOT_BUDGETED:
+        rows.append({"quantity": quantity, "input": name, "type": "not budgeted", "distribution": "",
                      "relative_std_uncertainty": float("nan"), "correction": "none", "source": why})
-    table = pd.DataFrame(rows)
+    order = {quantity: i for i, quantity in enumerate(MEASURANDS)}
+    table = pd.DataFrame(rows).sort_values("quantity", key=lambda q: q.map(order), kind="stable").reset_index(drop=True)
     table.insert(1, "measurand", table["quantity"].map(lambda q: MEASURANDS[q].definition if q in MEASURANDS else ""))
     table.insert(2, "model", table["quantity"].map(lambda q: MEASURANDS[q].model if q in MEASURANDS else ""))
     return table
