@@ -21,6 +21,7 @@ Rules (IEEE 488.2 section 7, SCPI-1999 Vol. 1 section 6; TDS3000 programmer manu
 
 from __future__ import annotations
 
+import functools
 import itertools
 import math
 import re
@@ -280,11 +281,16 @@ def number(text: str, units: dict[str, float] | None = None) -> float:
     return value
 
 
+@functools.lru_cache(maxsize=256)
+def _spellings(options: tuple[tuple[str, str], ...]) -> tuple[tuple[str, str, str], ...]:
+    """(long form, short form, value) of each option, worked out once per option table."""
+    return tuple((spelling.upper(), short_form(spelling), value) for spelling, value in options)
+
+
 def choice(text: str, options: dict[str, str], style: str) -> str:
     """A character program datum among `options` (manual spelling -> canonical value)."""
     word = text.strip().upper()
-    for spelling, value in options.items():
-        long, short = spelling.upper(), "".join(c for c in spelling if not c.islower()).upper()
+    for long, short, value in _spellings(tuple(options.items())):
         if word in (short, long) or (style == PREFIX and long.startswith(word) and len(word) >= len(short)):
             return value
     raise illegal_parameter()
