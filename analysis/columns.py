@@ -131,6 +131,7 @@ COLUMNS: dict[str, tuple[str, str]] = {
     "relative": ("1", "the term's standard uncertainty over |value|"),
     "share": ("1", "the term's share of the combined variance"),
     "source": ("", "where the term's size comes from (manual, datasheet, assumption)"),
+    "error_model": ("", "how the simulated benches' errors were drawn: 'specified' (within the limits, as the budgets assume) or 'world' (normal, a probe lag of known sign, now and then out of specification)"),
     # the measurement model (analysis.measurement_model)
     "measurand": ("", "what exactly the quantity is, where and under which conditions"),
     "model": ("", "the equation the stated value comes from"),

@@ -138,24 +138,36 @@ def floors_table(summary: pd.DataFrame) -> pd.DataFrame:
                              ignore_index=True)
 
 
+def coverage_dir(error_model: str) -> str:
+    """Where a coverage study under `error_model` is stored, inside the study directory."""
+    return COVERAGE_DIR if error_model == "specified" else f"{COVERAGE_DIR}_{error_model}"
+
+
 def load_coverage(run_dir: Path) -> pd.DataFrame | None:
-    """The coverage study's rows, or None when none was run."""
-    path = Path(run_dir) / STUDY_DIR / COVERAGE_DIR / COVERAGE_FILE
-    return pd.read_parquet(path) if path.is_file() else None
+    """The coverage studies' rows (every error model run, `error_model` column), or None
+    when none was run."""
+    found = sorted((Path(run_dir) / STUDY_DIR).glob(f"{COVERAGE_DIR}*/{COVERAGE_FILE}"))
+    if not found:
+        return None
+    frames = [pd.read_parquet(path) for path in found]
+    return pd.concat([frame if "error_model" in frame else frame.assign(error_model="specified")
+                      for frame in frames], ignore_index=True)
 
 
 def coverage_table(points: pd.DataFrame) -> pd.DataFrame:
-    """Per quantity: how many of the stored points' expanded uncertainties (k = 2) cover
-    the truth, pooled over the benches, and how the benches split. Every point of a bench
+    """Per error model and quantity: how many of the stored points' expanded uncertainties
+    (k = 2) cover the truth, pooled over the benches, and how the benches split. Every point of a bench
     shares that bench's errors, so a bench is covered nearly wholly or hardly at all: the
     pooled fraction is about the fraction of benches covered, and few benches leave it
     uncertain: the Wilson 95 % interval of the fraction of benches mostly covered says how much."""
+    if "error_model" not in points:
+        points = points.assign(error_model="specified")
     rows = []
-    for quantity, group in points.groupby("quantity", sort=False):
+    for (model, quantity), group in points.groupby(["error_model", "quantity"], sort=False):
         by_bench = group.groupby("bench_seed")["covered"].mean()
         mostly = int((by_bench >= 0.5).sum())
         interval = stats.binomtest(mostly, len(by_bench)).proportion_ci(method="wilson")
-        rows.append({"quantity": quantity, "benches": len(by_bench), "points": len(group),
+        rows.append({"error_model": model, "quantity": quantity, "benches": len(by_bench), "points": len(group),
                      "covered_fraction": float(group["covered"].mean()),
                      "benches_fully_covered": int((by_bench == 1.0).sum()),
                      "benches_mostly_covered": mostly,

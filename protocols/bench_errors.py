@@ -26,7 +26,7 @@ import pandas as pd
 
 from squeezebench import paths
 from squeezebench.analysis.rundata import load_run
-from squeezebench.analysis.study import COVERAGE_DIR, COVERAGE_FILE, STUDY_DIR
+from squeezebench.analysis.study import COVERAGE_FILE, STUDY_DIR, coverage_dir
 from squeezebench.analysis.uncertainty import run_uncertainties
 from squeezebench.instruments.bench import open_bench, sim_bench_config
 from squeezebench.protocols.campaign import run_campaign
@@ -38,10 +38,13 @@ QUANTITIES = ("power_w", "velocity_pp_mps")
 ERROR_PERCENTILE = 95.0
 
 
-def errors_on_bench(campaign_file: Path, bench_seed: int, work_dir: Path) -> pd.DataFrame:
-    """Every stored point of the campaign run on bench `bench_seed`: relative error of
-    each quantity against the truth, with its expanded uncertainty; and the bench time."""
-    erring = campaign_with_effects(campaign_file, work_dir / "erring", systematic_effects(bench_seed))
+def errors_on_bench(campaign_file: Path, bench_seed: int, work_dir: Path,
+                    error_model: str = "specified") -> pd.DataFrame:
+    """Every stored point of the campaign run on bench `bench_seed` (its errors drawn under
+    `error_model`, `variants.ERROR_MODELS`): relative error of each quantity against the
+    truth, with its expanded uncertainty; and the bench time."""
+    erring = campaign_with_effects(campaign_file, work_dir / "erring",
+                                   systematic_effects(bench_seed, error_model=error_model))
     campaign_with_effects(campaign_file, work_dir / "plain", [])   # the same plates without the errors
     run_dir = run_campaign(erring, out_dir=work_dir / "run", progress=False)
     run = load_run(run_dir)
@@ -52,7 +55,7 @@ def errors_on_bench(campaign_file: Path, bench_seed: int, work_dir: Path) -> pd.
     for index, point in points.iterrows():
         truth = truths[index]
         for quantity in QUANTITIES:
-            rows.append({"bench_seed": bench_seed, "run_name": point["run_name"], "step_id": point["step_id"],
+            rows.append({"error_model": error_model, "bench_seed": bench_seed, "run_name": point["run_name"], "step_id": point["step_id"],
                          "point_index": point["point_index"], "quantity": quantity,
                          "measured_value": point[quantity], "true_value": truth[quantity],
                          "rel_error": point[quantity] / truth[quantity] - 1.0,
@@ -92,10 +95,11 @@ def bench_time_by_run_s(run_dir: Path) -> dict[str, float]:
     return times_s
 
 
-def _errors_on_fresh_bench(campaign_file: Path, bench_seed: int) -> tuple[pd.DataFrame, float]:
+def _errors_on_fresh_bench(campaign_file: Path, bench_seed: int,
+                           error_model: str = "specified") -> tuple[pd.DataFrame, float]:
     """`errors_on_bench` in a temporary directory of its own (a worker shares no files)."""
     with tempfile.TemporaryDirectory(prefix=f"squeezebench-bench-{bench_seed}-") as tmp:
-        frame = errors_on_bench(Path(campaign_file), bench_seed, Path(tmp))
+        frame = errors_on_bench(Path(campaign_file), bench_seed, Path(tmp), error_model)
         return frame, frame.attrs["bench_time_s"]
 
 
@@ -112,14 +116,18 @@ def errors_on_benches(campaign_file: Path, bench_seeds: range = range(1, 9), wor
 
 def run_coverage_study(out_dir: Path, benches: int, campaign_file: Path | None = None, resume: bool = False,
                        workers: int = 1, scheduler: Any = None,
-                       progress: Callable[[str], None] = lambda message: None) -> Path:
+                       progress: Callable[[str], None] = lambda message: None,
+                       error_model: str = "specified") -> Path:
     """Whether the reported expanded uncertainties cover the truth: the campaign (the
-    paper's by default) on benches 1..`benches` with errors drawn within specification,
-    every stored point scored. Each bench's rows go to OUT_DIR/study/coverage/bench_<k>.parquet
-    as it completes (`resume` keeps those already there of the same campaign file); all of them to
-    OUT_DIR/study/coverage/points.parquet. Returns that path."""
+    paper's by default) on benches 1..`benches` with errors drawn within specification
+    (`error_model` "specified", what the budgets assume) or as the world may err ("world":
+    normal, a probe lag of known sign, now and then an instrument out of specification),
+    every stored point scored. Each bench's rows go to
+    OUT_DIR/study/<coverage_dir(error_model)>/bench_<k>.parquet as it completes (`resume`
+    keeps those already there of the same campaign file); all of them to points.parquet
+    beside them. Returns that path."""
     campaign_file = Path(campaign_file or paths.paper_campaign())
-    directory = Path(out_dir) / STUDY_DIR / COVERAGE_DIR
+    directory = Path(out_dir) / STUDY_DIR / coverage_dir(error_model)
     if not resume:
         shutil.rmtree(directory, ignore_errors=True)
     directory.mkdir(parents=True, exist_ok=True)
@@ -131,8 +139,9 @@ def run_coverage_study(out_dir: Path, benches: int, campaign_file: Path | None =
         return path.exists() and set(pd.read_parquet(path, columns=["campaign_sha256"])["campaign_sha256"]) == {digest}
 
     pending = [seed for seed in seeds if not stored(seed)]
-    progress(f"coverage: {campaign_file.name} on {len(pending)} of {benches} simulated benches")
-    job = functools.partial(_errors_on_fresh_bench, campaign_file)
+    progress(f"coverage: {campaign_file.name} on {len(pending)} of {benches} simulated benches "
+             f"(errors: {error_model})")
+    job = functools.partial(_errors_on_fresh_bench, campaign_file, error_model=error_model)
     for seed, (frame, bench_time_s) in map_unordered(job, pending, workers, scheduler, "coverage"):
         write_frame_atomic(directory / f"bench_{seed}.parquet",
                            frame.assign(bench_time_s=bench_time_s, campaign=campaign_file.name, campaign_sha256=digest))

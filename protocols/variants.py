@@ -42,10 +42,18 @@ def without_maps(campaign_file: Path) -> Path:
     return Path(campaign_file)
 
 
-def systematic_effects(bench_seed: int, draw: bool = True, only: tuple[str, ...] = SYSTEMATIC_EFFECTS) -> list[dict]:
+#: How a simulated bench's errors are drawn (the `draw` of its systematic effects): within
+#: the specified limits as the budgets assume, or as the world may err (`effects.world_draw`).
+ERROR_MODELS = {"specified": 1, "world": 2}
+
+
+def systematic_effects(bench_seed: int, draw: bool = True, only: tuple[str, ...] = SYSTEMATIC_EFFECTS,
+                       error_model: str = "specified") -> list[dict]:
     """Scene `effects:` entries of one bench's systematic errors at specification
-    magnitudes (drawn once from `bench_seed` when `draw`; the limits themselves otherwise)."""
-    return [{name: {"draw": int(draw), "bench_seed": int(bench_seed)}} for name in only]
+    magnitudes (drawn once from `bench_seed` when `draw`, under `error_model`; the limits
+    themselves otherwise)."""
+    mode = ERROR_MODELS[error_model] if draw else 0
+    return [{name: {"draw": mode, "bench_seed": int(bench_seed)}} for name in only]
 
 
 def campaign_with_effects(campaign_file: Path, out_dir: Path, effects: list) -> Path:

@@ -388,6 +388,25 @@ def test_systematic_errors_are_drawn_once_per_bench(tmp_path):
     assert max(np.abs(draws)) <= 0.02 and np.std(draws) == pytest.approx(0.02 / math.sqrt(3), rel=0.1)
 
 
+
+def test_a_bench_erring_as_the_world_errs_is_not_what_the_budgets_assume(tmp_path):
+    """draw: 2 (effects.world_draw): the current probe lags by about 8 ns on every bench
+    (a sign the budget's +-10 ns rectangle does not know), the gains are normal (some
+    beyond their limit) and about one error in 100 is out of specification."""
+    def drawn(seed: int, name: str) -> dict[str, float]:
+        path = scene_file(tmp_path, "one_column_1mm.yaml", effects=[{name: {"draw": 2, "bench_seed": seed}}])
+        return fx.build_pipeline(load_scene(path)).get(name).values
+
+    delays = np.array([drawn(seed, "current_probe_delay")["delay_s"] for seed in range(300)])
+    regular = delays[np.abs(delays) < 1.4e-8]
+    assert np.median(delays) == pytest.approx(8e-9, rel=0.1) and (regular > 0).all()
+    gains = np.array([v for seed in range(300) for v in drawn(seed, "scope_gain_error").values()]) / 0.02
+    assert 0.03 < np.mean(np.abs(gains) > 1.0) < 0.2                 # some beyond the +-2 % limit
+    out_of_spec = np.isclose(np.abs(gains), fx.OUT_OF_SPEC_FACTOR)
+    assert out_of_spec.any() and out_of_spec.mean() == pytest.approx(fx.OUT_OF_SPEC_PROBABILITY, abs=0.01)
+    assert drawn(5, "scope_gain_error") == drawn(5, "scope_gain_error")
+
+
 # -- the laser spot on a plate the stage moves ----------------------------------------------
 
 def _spot_bench(tmp_path, effects):

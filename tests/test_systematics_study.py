@@ -117,6 +117,25 @@ def test_the_coverage_study_scores_every_stored_point_and_resumes_by_bench(tmp_p
     assert set(load_coverage(tmp_path)["bench_seed"]) == {1, 2, 3}
 
 
+def test_a_coverage_study_on_benches_erring_as_the_world_errs_is_stored_and_tabled_beside(tmp_path):
+    """The 'world' error model (normal errors, a probe lag of known sign, now and then an
+    instrument out of specification) runs beside the specified one; the table has a row
+    per model and quantity, each with its benches' interval."""
+    from squeezebench import paths
+    from squeezebench.analysis.study import coverage_table, load_coverage
+    from squeezebench.protocols.bench_errors import run_coverage_study
+
+    quick = paths.campaigns_dir() / "quick.yaml"
+    world = run_coverage_study(tmp_path, 2, quick, error_model="world")
+    specified = run_coverage_study(tmp_path, 1, quick)
+    assert world.parent != specified.parent
+    points = load_coverage(tmp_path)
+    assert set(points["error_model"]) == {"world", "specified"}
+    table = coverage_table(points).set_index(["error_model", "quantity"])
+    assert table.loc[("world", "power_w"), "benches"] == 2 and table.loc[("specified", "power_w"), "benches"] == 1
+    assert (table["benches_interval_low"] <= table["benches_interval_high"]).all()
+
+
 def test_a_negative_number_of_benches_is_refused(tmp_path, capsys):
     from squeezebench.cli import main
 
