@@ -131,6 +131,7 @@ COLUMNS: dict[str, tuple[str, str]] = {
     "relative": ("1", "the term's standard uncertainty over |value|"),
     "share": ("1", "the term's share of the combined variance"),
     "source": ("", "where the term's size comes from (manual, datasheet, assumption)"),
+    "median_coverage_of_U": ("1", "median over the points of the probability that +-U holds the value under its budget's own distribution"),
     "error_model": ("", "how the simulated benches' errors were drawn: 'specified' (within the limits, as the budgets assume) or 'world' (normal, a probe lag of known sign, now and then out of specification)"),
     # the measurement model (analysis.measurement_model)
     "measurand": ("", "what exactly the quantity is, where and under which conditions"),
@@ -163,6 +164,9 @@ COLUMNS: dict[str, tuple[str, str]] = {
     "piezo_voltage_vpp_dominant": ("", "dominant term of piezo_voltage_vpp's budget"),
     "frequency_hz_U": ("Hz", "expanded uncertainty (k = 2) of frequency_hz"),
     "frequency_hz_dominant": ("", "dominant term of frequency_hz's budget"),
+    **{f"{quantity}_U_coverage": ("1", f"probability that +-U holds {quantity} under its budget's own distribution "
+                                       "(largest specification term rectangular, the rest normal)")
+       for quantity in ("power_w", "velocity_pp_mps", "piezo_voltage_vpp", "frequency_hz")},
     "points": ("1", "stored points budgeted"),
     "median_expanded_relative": ("1", "median of U / |value| over the points"),
     # accuracy study (analysis.study)

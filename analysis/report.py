@@ -876,12 +876,13 @@ def uncertainty_section(context: ReportContext) -> Section | None:
     summary = pd.DataFrame([
         {"protocol": protocol, "quantity": q, "points": int(rows[f"{q}_U"].notna().sum()),
          "median_expanded_relative": float((rows[f"{q}_U"] / rows[q].abs()).median()),
+         "median_coverage_of_U": float(rows[f"{q}_U_coverage"].median()),
          "dominant_term": rows[f"{q}_dominant"].mode().iat[0]}
         for protocol, rows in found.points.groupby("protocol", sort=False) for q in quantities])
     context.tables["uncertainty_summary"] = summary
     context.tables["uncertainty_budgets"] = found.budgets
     columns = ["run_name", "step_id", "point_index", "protocol"] + [
-        f"{q}{suffix}" for q in quantities for suffix in ("", "_U", "_dominant")]
+        f"{q}{suffix}" for q in quantities for suffix in ("", "_U", "_U_coverage", "_dominant")]
     context.tables["uncertainty_points"] = found.points[[c for c in columns if c in found.points]]
     context.tables["uncertainty_resonances"] = found.searches
     plates = []
@@ -916,9 +917,16 @@ def uncertainty_section(context: ReportContext) -> Section | None:
     overall = "; ".join(
         f"{_words_of(q)} {100 * float((found.points[f'{q}_U'] / found.points[q].abs()).median()):.2g} % "
         f"(mostly {found.points[f'{q}_dominant'].mode().iat[0]})" for q in quantities if f"{q}_U" in found.points)
+    coverage = "; ".join(
+        f"{_words_of(q)} {100 * float(found.points[f'{q}_U_coverage'].min()):.1f} to "
+        f"{100 * float(found.points[f'{q}_U_coverage'].max()):.1f} %"
+        for q in quantities if found.points[f"{q}_U_coverage"].notna().any())
     return Section("Uncertainty budgets (GUM, k = 2)",
                    "<p>Expanded uncertainties (k = 2) of every stored point: noise of the record (Type A) "
-                   f"and the instruments' specifications (Type B). Median relative U over the run: {html.escape(overall)}.</p>"
+                   f"and the instruments' specifications (Type B). Median relative U over the run: {html.escape(overall)}. "
+                   "k = 2 is the convention; under each budget's own distribution (its largest specification "
+                   "term rectangular, the rest normal) +-U holds the value with a probability of "
+                   f"{html.escape(coverage)}: above 95 % where one rectangular term dominates.</p>"
                    + deskew
                    + presentation.fold("Median relative U and dominant term per protocol",
                                        html_table(summary, "Median relative U and dominant term per protocol. " + _bench_words(context)))

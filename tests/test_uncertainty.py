@@ -9,6 +9,8 @@ from dataclasses import replace
 import numpy as np
 import pandas as pd
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from squeezebench import paths
 from squeezebench.analysis import model
@@ -392,3 +394,17 @@ def test_the_measurement_model_lists_every_input_the_budgets_use_with_its_correc
         assert delay["correction"].iloc[0].startswith("corrected" if deskew else "not corrected")
     assert "shunt" in MEASURANDS["power_w"].definition
     assert (table["type"] == "not budgeted").sum() >= 2
+
+
+@settings(max_examples=25, deadline=None)
+@given(st.floats(0.0, 3.0), st.floats(0.05, 3.0), st.floats(1.0, 3.0))
+def test_the_coverage_of_plus_minus_k_u_is_the_convolutions(rectangular_u, normal_u, k):
+    """Budget.coverage_probability against a Monte Carlo of its own model (a rectangular
+    term plus a normal one): within 0.01; k = 2 covers more than 95 % once the rectangle dominates."""
+    budget = Budget("x", "1", 1.0, (Term("spec", "B", rectangular_u, "a limit"), Term("noise", "A", normal_u, "fit")))
+    rng = np.random.default_rng(7)
+    draws = rng.uniform(-1, 1, 200_000) * math.sqrt(3) * rectangular_u + rng.normal(0, normal_u, 200_000)
+    expected = float(np.mean(np.abs(draws) <= k * budget.std_uncertainty))
+    assert budget.coverage_probability(k) == pytest.approx(expected, abs=0.01)
+    if rectangular_u > 3 * normal_u:
+        assert budget.coverage_probability(2.0) > 0.97
