@@ -897,8 +897,7 @@ def uncertainty_section(context: ReportContext) -> Section | None:
                                "floor_p95_rel": uncertainty.P95_FACTOR * floor.std_uncertainty / abs(floor.value)})
     context.tables["uncertainty_q_tan_theta"] = pd.DataFrame(plates)
     context.tables["uncertainty_floors"] = uncertainty.systematic_floor(found.points, found.deskew)
-    deskew = ("<p>No deskew calibration in this run: the CH2 delay enters at its specified limit.</p>"
-              if found.deskew is None else
+    deskew = (_delay_flag(found.points) if found.deskew is None else
               f"<p>Power corrected by the deskew calibration: CH2 delay {found.deskew.delay_s * 1e9:.2f} ns "
               f"(u = {found.deskew.std_uncertainty_s * 1e9:.2f} ns), current-to-voltage gain ratio "
               f"{found.deskew.gain_ratio:.4f} (u = {found.deskew.gain_ratio_u:.4f}).</p>")
@@ -935,6 +934,35 @@ def uncertainty_section(context: ReportContext) -> Section | None:
                    + "<p>CSV: <a href='uncertainty_points.csv'>uncertainty_points.csv</a>, "
                      "<a href='uncertainty_budgets.csv'>uncertainty_budgets.csv</a></p>")
 
+
+
+#: A point's power is flagged when the CH2 delay makes more than this share of its variance
+#: and its U is beyond DELAY_FLAG_U_REL of the power (without a deskew run).
+DELAY_FLAG_SHARE = 0.5
+DELAY_FLAG_U_REL = 0.05
+
+
+def _delay_flag(points: pd.DataFrame) -> str:
+    """Without a deskew run: which points' power rests on the CH2 delay being zero-mean. A
+    current probe lags its voltage probe by a fixed delay of known sign (Tektronix's
+    deskew example: about 8 ns); the budget's +-10 ns rectangle does not know the sign, so
+    where that term dominates, the point needs the calibration rather than its U."""
+    text = "<p>No deskew calibration in this run: the CH2 delay enters at its specified limit.</p>"
+    if "power_w_dominant" not in points:
+        return text
+    variance = (points["power_w_U"] / uncertainty.COVERAGE_FACTOR) ** 2
+    delay_u = 2 * np.pi * points["frequency_hz"] * points["reactive_power_var"].abs() * \
+        uncertainty.delay_std_uncertainty_s()
+    flagged = points[(delay_u**2 > DELAY_FLAG_SHARE * variance)
+                     & (points["power_w_U"] > DELAY_FLAG_U_REL * points["power_w"].abs())]
+    if flagged.empty:
+        return text
+    where = ", ".join(sorted({f"{run} / {step}" for run, step in zip(flagged["run_name"], flagged["step_id"])}))
+    return (f"<p class='banner'><b>Needs a deskew calibration:</b> {len(flagged)} point(s) ({html.escape(where)}) "
+            f"have a power whose U (above {DELAY_FLAG_U_REL:.0%}) is mostly the CH2 delay, budgeted as zero-mean "
+            "+-10 ns. A current probe lags its voltage probe by a fixed delay of known sign (about 8 ns in "
+            "Tektronix's deskew example), which such a budget cannot cover for certain; measure it with a "
+            "deskew_calibration run (squeezebench plan --write adds one) before trusting these powers.</p>")
 
 
 def measurement_model_section(context: ReportContext) -> Section | None:

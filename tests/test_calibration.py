@@ -150,3 +150,29 @@ def test_q_and_tan_theta_are_computed_from_the_deskewed_power(characterised):
     delay = {name: next(t.std_uncertainty for t in budget.terms if t.name.startswith("CH2 delay"))
              for name, budget in budgets.items()}
     assert delay["calibrated"] < 0.2 * delay["specified"]
+
+
+def test_without_a_deskew_a_lagging_probe_leaves_the_stress_point_flagged(tmp_path):
+    """The Fig. 2c stress point (power factor 0.018) on a bench whose current probe lags
+    17 ns, no deskew run: its power is off by more than its U (the budget's +-10 ns
+    rectangle does not know the lag's sign), and the report says the point needs the
+    calibration rather than letting the U stand."""
+    from squeezebench.analysis.report import write_report
+    from squeezebench.analysis.uncertainty import run_uncertainties
+
+    paper = yaml.safe_load(paths.paper_campaign().read_text())
+    stress = next(run for run in paper["runs"] if run["name"] == "fig2c_stress")
+    campaign = {**{key: paper[key] for key in ("acquisition", "safety")}, "runs": [stress]}
+    (tmp_path / "campaign.yaml").write_text(yaml.safe_dump(campaign, sort_keys=False))
+    lagging = campaign_with_effects(tmp_path / "campaign.yaml", tmp_path / "inputs",
+                                    [{"current_probe_delay": {"delay_s": LAG_S}}])
+    run_dir = run_campaign(lagging, out_dir=tmp_path / "run", progress=False)
+    points = run_uncertainties(load_run(run_dir)).points
+    point = points[points["detuning_phase"] == "stress"].iloc[0]
+    scene = load_scene(run_dir / "inputs" / "one_column_1mm.yaml")
+    truth = physics.steady_state(scene.state(scene.initial_state), scene.electronics, point.generator_frequency_hz,
+                                 point.generator_amplitude_vpp, build_pipeline(load_scene(
+                                     paths.scenes_dir() / "one_column_1mm.yaml"))).power_w
+    assert abs(point["power_w"] - truth) > point["power_w_U"]   # the zero-mean budget misses the lag
+    html = (write_report(run_dir).parent / "index.html").read_text()
+    assert "Needs a deskew calibration" in html and "fig2c_stress" in html.split("Needs a deskew calibration")[1][:300]
