@@ -18,6 +18,8 @@ import subprocess
 import sys
 import textwrap
 
+import pytest
+
 from squeezebench import paths
 
 HARNESS = textwrap.dedent("""
@@ -106,12 +108,16 @@ HARNESS = textwrap.dedent("""
     """)
 
 
-def test_bursts_of_stop_signals_leave_the_generator_at_minimum_and_resume_exact(tmp_path):
+TRIALS = 100   # per seed: 200 trials in all, in two processes that parallel workers share
+
+
+@pytest.mark.parametrize("seed", [29, 31])
+def test_bursts_of_stop_signals_leave_the_generator_at_minimum_and_resume_exact(tmp_path, seed):
     script = tmp_path / "harness.py"
     script.write_text(HARNESS)
     done = subprocess.run([sys.executable, str(script), str(paths.campaign_file("quick.yaml")),
-                           str(tmp_path), "200", "29"], capture_output=True, text=True, timeout=900)
+                           str(tmp_path), str(TRIALS), str(seed)], capture_output=True, text=True, timeout=900)
     assert done.returncode == 0, done.stderr[-3000:]
     result = json.loads(done.stdout.strip().splitlines()[-1])
-    assert result["trials"] >= 200 and result["chains"] >= 1
+    assert result["trials"] >= TRIALS and result["chains"] >= 1
     assert result["problems"] == []
