@@ -14,7 +14,6 @@ from squeezebench.instruments.ofv5000 import OFV5000
 from squeezebench.instruments.tds3054b import TDS3054B, Waveform
 
 
-
 def load_bench_file(path) -> BenchConfig:
     """A real bench from its YAML file, through the one validator `run` and `check` use
     (`squeezebench.schemas.load_bench_file`: the file formats sit above the drivers, so
