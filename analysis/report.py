@@ -860,6 +860,12 @@ def provenance_section(context: ReportContext) -> Section:
     return Section("Provenance", body, "provenance", appendix=True)
 
 
+def _percent_range(fractions: pd.Series) -> str:
+    """"95.6 to 98.3 %", or one number when they all round alike."""
+    low, high = (f"{100 * float(v):.1f}" for v in (fractions.min(), fractions.max()))
+    return f"{low} %" if low == high else f"{low} to {high} %"
+
+
 def _uncertainties(context: ReportContext) -> uncertainty.RunUncertainties:
     """The run's budgets, computed once for the sections that share them."""
     if "uncertainties" not in context.cache:
@@ -916,10 +922,8 @@ def uncertainty_section(context: ReportContext) -> Section | None:
     overall = "; ".join(
         f"{_words_of(q)} {100 * float((found.points[f'{q}_U'] / found.points[q].abs()).median()):.2g} % "
         f"(mostly {found.points[f'{q}_dominant'].mode().iat[0]})" for q in quantities if f"{q}_U" in found.points)
-    coverage = "; ".join(
-        f"{_words_of(q)} {100 * float(found.points[f'{q}_U_coverage'].min()):.1f} to "
-        f"{100 * float(found.points[f'{q}_U_coverage'].max()):.1f} %"
-        for q in quantities if found.points[f"{q}_U_coverage"].notna().any())
+    coverage = "; ".join(f"{_words_of(q)} {_percent_range(found.points[f'{q}_U_coverage'])}"
+                         for q in quantities if found.points[f"{q}_U_coverage"].notna().any())
     return Section("Uncertainty budgets (GUM, k = 2)",
                    "<p>Expanded uncertainties (k = 2) of every stored point: noise of the record (Type A) "
                    f"and the instruments' specifications (Type B). Median relative U over the run: {html.escape(overall)}. "
