@@ -13,11 +13,11 @@ Run: python benchmarks/bench_previous_users.py [--states 50] [--campaigns quick 
 from __future__ import annotations
 
 import argparse
+import functools
 import os
 import sys
 import tempfile
 import time
-from dataclasses import replace
 from pathlib import Path
 
 import pandas as pd
@@ -35,27 +35,13 @@ COLUMNS = ["run_name", "step_id", "point_index", "generator_frequency_hz", "gene
 def measured(task: tuple[str, str]) -> tuple[str, str, pd.DataFrame | str, list[str]]:
     """(campaign, start, its rows or why it failed, the commands refused) of one run."""
     name, start = task
-    refused: list[str] = []
-    for cls in (devices.Generator, devices.Scope):
-        original = cls.__dict__.get("_recorded_report", cls.report)
-        cls._recorded_report = original
-
-        def report(self, error, _original=original):
-            if error.detail and 100 <= abs(error.code) < 500 and error.code != 401:
-                refused.append(f"{self.role}: {error.code} {error.message} ({error.detail})")
-            return _original(self, error)
-        cls.report = report
-
-    def config(scene):
-        plain = sim_bench_config(scene)
-        return replace(plain, visa_library=plain.visa_library.replace("@simbench", f"#start={start}@simbench"))
-    campaign.sim_bench_config = config
-    with tempfile.TemporaryDirectory() as out:
+    campaign.sim_bench_config = functools.partial(sim_bench_config, start=start)
+    with tempfile.TemporaryDirectory() as out, devices.recorded_refusals() as refused:
         try:
             run_dir = campaign.run_campaign(paths.campaigns_dir() / f"{name}.yaml", out_dir=Path(out) / "run",
                                             progress=False)
         except Exception as exc:   # reported, not raised: one bad state must not hide the others
-            return name, start, f"{type(exc).__name__}: {exc}", refused
+            return name, start, f"{type(exc).__name__}: {exc}", list(refused)
         rows = pd.concat([pd.read_parquet(p) for p in sorted((run_dir / "measurements").rglob("*.parquet"))])
     return name, start, rows[COLUMNS].reset_index(drop=True), refused
 

@@ -146,13 +146,16 @@ def _electronics(path: Path, section: Any, field_prefix: str) -> BenchElectronic
     return BenchElectronics(**values)
 
 
-def sim_bench_config(scene_path: str | Path) -> BenchConfig:
-    """The simulated bench of a scene: its `electronics:` section, the default addresses."""
+def sim_bench_config(scene_path: str | Path, start: str | None = None) -> BenchConfig:
+    """The simulated bench of a scene: its `electronics:` section, the default addresses;
+    `start` names the instruments' state when it opens (`simbench.devices.start_state`,
+    power-on by default)."""
     path = Path(scene_path)
     scene = _read_yaml(path)
     if not isinstance(scene, dict):
         raise BenchFileError(path, "top level", "must be a mapping (a scene file)")
-    return BenchConfig(visa_library=f"{path}{SIMBENCH}", resources=dict(SIM_RESOURCES),
+    fragment = f"#start={start}" if start else ""
+    return BenchConfig(visa_library=f"{path}{fragment}{SIMBENCH}", resources=dict(SIM_RESOURCES),
                        electronics=_electronics(path, scene.get("electronics"), "electronics"),
                        source=str(path))
 

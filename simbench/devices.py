@@ -26,8 +26,9 @@ import math
 import re
 import zlib
 from collections import deque
+from contextlib import contextmanager
 from dataclasses import dataclass
-from typing import Callable, ClassVar
+from typing import Callable, ClassVar, Iterator
 
 import numpy as np
 from pyvisa import constants, errors
@@ -166,6 +167,22 @@ class SimulatedInstrument:
         self._replies.clear()
 
 
+#: The lists `recorded_refusals` is filling.
+_REFUSALS: list[list[str]] = []
+
+
+@contextmanager
+def recorded_refusals() -> Iterator[list[str]]:
+    """Every command a simulated SCPI instrument (generator, scope) refuses while inside,
+    one line each: what a test or benchmark asserts a run never provokes."""
+    refused: list[str] = []
+    _REFUSALS.append(refused)
+    try:
+        yield refused
+    finally:
+        _REFUSALS.remove(refused)
+
+
 # == IEEE 488.2 instruments ===========================================================================
 @dataclass(frozen=True)
 class Command:
@@ -213,7 +230,7 @@ class ScpiInstrument(SimulatedInstrument):
         replies = []
         for unit in self._parser.units(text):
             if isinstance(unit, ScpiError):
-                self.report(unit)
+                self.refuse(unit)
                 continue
             handler = self._handlers.get((unit.path, unit.query))
             try:
@@ -222,11 +239,21 @@ class ScpiInstrument(SimulatedInstrument):
                 reply = handler(self, unit)
             except ScpiError as exc:
                 exc.detail = unit.text
-                self.report(exc)
+                self.refuse(exc)
                 continue
             if reply is not None:
                 replies.append(self.with_header(unit, reply))
         return self.combine(replies)
+
+    def refuse(self, error: ScpiError) -> None:
+        """A command refused (its text in `error.detail`): reported as the manual says, and
+        shown to every `recorded_refusals` open (command, execution, device or query errors:
+        codes 100-499 but the power-on event; the 5xx warnings and 2xxx measurement events
+        are not refusals of the command)."""
+        if 100 <= abs(error.code) < 500 and error.code != 401:
+            for refused in _REFUSALS:
+                refused.append(f"{self.role}: {error.code} {error.message} ({error.detail})")
+        self.report(error)
 
     @staticmethod
     def combine(replies: list) -> list:
@@ -778,11 +805,15 @@ class Scope(ScpiInstrument):
         """CH<x>:OFFSet (p. 2-67): the range follows the scale at the probe's input (Table
         2-30, for a 1x probe; in the channel's units with another), forced like any number."""
         channel = unit.suffixes[0]
-        gain = self.state["probe", channel]
-        input_scale = self.state["scale", channel] * gain
-        limit = next(limit for below, limit in _OFFSET_RANGE_AT_1X if input_scale < below) / gain
+        limit = self._offset_limit(channel)
         value = scpi.number(scpi.only_argument(unit.arguments))
         self.state["offset", channel] = self._forced(value, -limit, limit)
+
+    def _offset_limit(self, channel: int) -> float:
+        """The largest offset (channel units) at the channel's present scale and probe."""
+        gain = self.state["probe", channel]
+        input_scale = self.state["scale", channel] * gain
+        return next(limit for below, limit in _OFFSET_RANGE_AT_1X if input_scale < below) / gain
 
     def _input_gain(self, channel: int) -> float:
         """What CH<x>:IMPedance leaves of the signal: CH1 comes through the passive voltage
@@ -1281,10 +1312,9 @@ def previous_user_start(bench, seed: int) -> None:
     for n in CHANNELS:
         if n not in scope.probes:
             s["probe", n] = pick((1.0, 0.1, 0.01, 0.001))
-        s["scale", n] = pick(v for v in (1e-3, 1e-2, 0.1, 1.0, 10.0, 100.0) if scope._scale_limits(n)[0] <= v
-                             <= scope._scale_limits(n)[1])
-        input_scale = s["scale", n] * s["probe", n]
-        limit = next(lim for below, lim in _OFFSET_RANGE_AT_1X if input_scale < below) / s["probe", n]
+        finest, coarsest = scope._scale_limits(n)
+        s["scale", n] = pick(v for v in (1e-3, 1e-2, 0.1, 1.0, 10.0, 100.0) if finest <= v <= coarsest)
+        limit = scope._offset_limit(n)
         s.update({("select", n): bool(rng.integers(2)), ("position", n): float(rng.uniform(-5.0, 5.0)),
                   ("offset", n): pick((0.0, float(rng.uniform(-limit, limit)))),
                   ("coupling", n): pick(("DC", "GND") if n in scope.probes else _COUPLINGS.values()),

@@ -5,8 +5,8 @@ section."""
 
 from __future__ import annotations
 
+import functools
 import re
-from dataclasses import replace
 from pathlib import Path
 
 import pandas as pd
@@ -61,13 +61,6 @@ def _body(form: str) -> str:
     return out
 
 
-def _scene_config(start: str):
-    def config(scene):
-        plain = sim_bench_config(scene)
-        return replace(plain, visa_library=plain.visa_library.replace("@simbench", f"#start={start}@simbench"))
-    return config
-
-
 CAMPAIGNS = ("quick.yaml", "paper.yaml")
 
 
@@ -87,7 +80,7 @@ def runs(tmp_path_factory):
             patch.setattr(base.Instrument, name, recording)
         for start in ("power_on", "hostile"):
             traffic.clear()
-            patch.setattr(campaign, "sim_bench_config", _scene_config(start))
+            patch.setattr(campaign, "sim_bench_config", functools.partial(sim_bench_config, start=start))
             rows = {}
             for name in CAMPAIGNS:
                 run_dir = campaign.run_campaign(paths.campaigns_dir() / name,
@@ -95,7 +88,7 @@ def runs(tmp_path_factory):
                 rows[name] = pd.concat([pd.read_parquet(p)
                                         for p in sorted((run_dir / "measurements").rglob("*.parquet"))])
             lines: list[str] = []
-            config = _scene_config(start)(paths.default_scene())
+            config = sim_bench_config(paths.default_scene(), start=start)
             assert check_bench(config, out=lines.append) == 0, "\n".join(lines)
             results[start] = ({role: list(messages) for role, messages in traffic.items()}, rows, lines)
     return results

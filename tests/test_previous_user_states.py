@@ -8,7 +8,7 @@ and paper campaigns the same way."""
 
 from __future__ import annotations
 
-from dataclasses import replace
+import functools
 
 import pandas as pd
 import pytest
@@ -47,32 +47,8 @@ runs:
 """
 
 
-def started(start: str):
-    """sim_bench_config with the simulated instruments starting in `start`."""
-    def config(scene):
-        plain = sim_bench_config(scene)
-        return replace(plain, visa_library=plain.visa_library.replace("@simbench", f"#start={start}@simbench"))
-    return config
-
-
-def refusals(monkeypatch) -> list[str]:
-    """Every command the simulated generator or scope refuses from now on (command,
-    execution, device and query errors: codes 100-499 but the power-on event), named
-    with the command; the stale errors a start state plants carry no command."""
-    refused: list[str] = []
-    for cls in (devices.Generator, devices.Scope):
-        original = cls.report
-
-        def report(self, error, _original=original):
-            if error.detail and 100 <= abs(error.code) < 500 and error.code != 401:
-                refused.append(f"{self.role}: {error.code} {error.message} ({error.detail})")
-            return _original(self, error)
-        monkeypatch.setattr(cls, "report", report)
-    return refused
-
-
 def measure(start: str, tmp_path, monkeypatch) -> pd.DataFrame:
-    monkeypatch.setattr(campaign, "sim_bench_config", started(start))
+    monkeypatch.setattr(campaign, "sim_bench_config", functools.partial(sim_bench_config, start=start))
     path = tmp_path / f"{start}.yaml"
     path.write_text(CAMPAIGN, encoding="utf-8")
     run_dir = campaign.run_campaign(path, out_dir=tmp_path / start, progress=False)
@@ -106,8 +82,7 @@ def test_the_drawn_states_differ_in_what_a_measurement_depends_on():
 
 def _bench(start: str):
     """A simulated bench started in `start`, as the VISA library builds it."""
-    library = sim_bench_config(paths.default_scene()).visa_library.replace("@simbench", f"#start={start}@simbench")
-    manager = pyvisa.ResourceManager(library)
+    manager = pyvisa.ResourceManager(sim_bench_config(paths.default_scene(), start=start).visa_library)
     try:
         return manager.visalib.bench
     finally:
@@ -117,12 +92,13 @@ def _bench(start: str):
 @pytest.mark.parametrize("chunk", range(CHUNKS))
 def test_a_run_from_a_previous_users_state_measures_what_one_from_power_on_does(chunk, power_on, tmp_path,
                                                                                   monkeypatch):
-    refused = refusals(monkeypatch)
     for seed in range(1 + chunk, STATES + 1, CHUNKS):
         start = f"previous-{seed}"
-        if seed % CHUNKS == 1:   # a tenth of them through `check` too (it opens as a run does)
-            lines: list[str] = []
-            assert check_bench(started(start)(paths.default_scene()), out=lines.append) == 0, "\n".join(lines)
-        rows = measure(start, tmp_path, monkeypatch)
+        with devices.recorded_refusals() as refused:
+            if seed % CHUNKS == 1:   # a tenth of them through `check` too (it opens as a run does)
+                lines: list[str] = []
+                assert check_bench(sim_bench_config(paths.default_scene(), start=start), out=lines.append) == 0, \
+                    "\n".join(lines)
+            rows = measure(start, tmp_path, monkeypatch)
         pd.testing.assert_frame_equal(rows, power_on, obj=f"rows measured from {start}")
         assert not refused, f"{start}: {refused}"
