@@ -160,11 +160,19 @@ class ResonatorMaterial:
     poisson: float
     density_kg_m3: float
     source: str
+    #: Mechanical quality factors a plate of this material, free on a cushion in air, can
+    #: have: a scene whose q_mech lies outside describes another build (or a fit gone wrong).
+    q_mech_range: tuple[float, float]
+    q_mech_source: str
 
 
 #: The paper's Table 2 aluminium, with E_i read as 67 GPa (the print lost the exponent).
-ALUMINIUM = ResonatorMaterial("aluminium", young_pa=67e9, poisson=0.34, density_kg_m3=2790.0,
-                              source="paper, Table 2 (E_i = 67 GPa; printed 67109 N/m2)")
+ALUMINIUM = ResonatorMaterial(
+    "aluminium", young_pa=67e9, poisson=0.34, density_kg_m3=2790.0,
+    source="paper, Table 2 (E_i = 67 GPa; printed 67109 N/m2)",
+    q_mech_range=(100.0, 2000.0),
+    q_mech_source="assumed: aluminium plates with bonded piezos in air, free on a cushion, ring with a Q of "
+                  "hundreds to about two thousand (the paper's own Fig. 2c stress case gives 310, Sec. 2.2)")
 
 PIEZO_MATERIALS = {m.name: m for m in (NCE41,)}
 RESONATOR_MATERIALS = {m.name: m for m in (ALUMINIUM,)}

@@ -25,6 +25,10 @@ FREQUENCY_TOLERANCE = 0.05
 #: The force factor's datasheet tolerance (d31 +-5 %, s11^E +-5 %, in quadrature ~7 %), widened
 #: to 15 % for the laminate idealisation (no bond layer, a piezo's in-plane ends ignored).
 FORCE_FACTOR_TOLERANCE = 0.15
+#: The modal mass referred to the measurement point: density +-1 % and thickness +-2 %
+#: (`plate_modes.RELATIVE_TOLERANCES`) move it little; the same idealisations as the force
+#: factor's, and a point near a nodal line moves it much, so the same 15 %.
+MODAL_MASS_TOLERANCE = 0.15
 
 
 def geometry(scene: Scene, state: State) -> plate_modes.PlateGeometry:
@@ -86,6 +90,10 @@ class Prediction:
         return (self.replay_force_factor_n_per_v / abs(self.force_factor_n_per_v)
                 if self.force_factor_n_per_v else math.inf)
 
+    @property
+    def modal_mass_ratio(self) -> float:
+        return self.replay_modal_mass_g / self.modal_mass_g if self.modal_mass_g else math.inf
+
     def departures(self) -> list[str]:
         """What of the replay departs from the prediction beyond the tolerances, in words."""
         out = []
@@ -96,6 +104,8 @@ class Prediction:
                        f"{self.frequency_hz:.0f} Hz")
         if self.n_piezos_left and abs(self.force_factor_ratio - 1) > FORCE_FACTOR_TOLERANCE:
             out.append(f"force factor {self.force_factor_ratio:.2f} x the predicted")
+        if self.n_piezos_left and abs(self.modal_mass_ratio - 1) > MODAL_MASS_TOLERANCE:
+            out.append(f"modal mass {self.modal_mass_ratio:.2f} x the predicted {self.modal_mass_g:.3g} g")
         return out
 
     def as_row(self) -> dict:
@@ -109,7 +119,7 @@ class Prediction:
                 "replay_force_factor_n_per_v": self.replay_force_factor_n_per_v,
                 "force_factor_ratio": self.force_factor_ratio,
                 "predicted_modal_mass_g": self.modal_mass_g,
-                "replay_modal_mass_g": self.replay_modal_mass_g,
+                "replay_modal_mass_g": self.replay_modal_mass_g, "modal_mass_ratio": self.modal_mass_ratio,
                 "departures": "; ".join(self.departures()) or "within tolerance"}
 
 

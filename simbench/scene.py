@@ -40,6 +40,11 @@ the plate's modal mass. A calibration is read as the scope reads it: amplifier-o
 
 Whatever its origin, every state must describe a plate that can exist (`BOUNDS`): a scene
 whose calibration asks for more is refused at load, naming the bound and the values.
+Beyond that, a scene must describe the plate physics predicts (`PLAUSIBILITY`): q_mech in
+its material's range and, for a calibrated state, the resonance, force factor and modal
+mass of the plate model within their tolerances. A scene that reproduces a measurement the
+model does not explain says so, `replay: {reason: ...}`; it is then loaded, and `validate`,
+docs/scenes.md and the report show how far it departs and why.
 """
 
 from __future__ import annotations
@@ -77,6 +82,13 @@ BOUNDS = {
                         "model's own mass, at a point that may move less than the peak)",
     "shunt_share": f"shunt share of the power at resonance <= {MAX_SHUNT_SHARE:.0%} (Sec. 2.1)",
     "positive": "C0, R_mech, force factor and modal mass > 0",
+}
+#: What a plate physics predicts obeys (checked on every state of a scene that is not a replay).
+PLAUSIBILITY = {
+    "q_mech_range": "q_mech within the resonator material's range for a free plate in air "
+                    "(physics.ResonatorMaterial.q_mech_range)",
+    "plate_model": "a calibrated state's resonance, force factor and modal mass within the plate model's "
+                   "tolerances (simbench.predicted)",
 }
 GENERATOR_LOADS = ("INF", "50")
 #: Effects that were part of the bench the calibration values were measured on: when a
@@ -218,6 +230,9 @@ class Scene:
     effects: tuple[EffectSpec, ...]
     seed: int
     provenance: dict[str, str]
+    #: Why this scene reproduces a measurement rather than what physics predicts; None: it
+    #: describes a plate within `PLAUSIBILITY`.
+    replay_reason: str | None = None
 
     def state(self, name: str) -> State:
         try:
@@ -295,6 +310,7 @@ class StateFigures:
     loss_w_per_um2: float  # plate power / (amplitude pp in um)^2
     force_factor_vs_datasheet: float  # calibrated n_c psi over the pin-force value
     q_mech: float
+    q_mech_range: tuple[float, float]  # the resonator material's
 
     @property
     def modal_mass_ratio(self) -> float:
@@ -320,6 +336,13 @@ class StateFigures:
         if self.shunt_share > MAX_SHUNT_SHARE:
             broken.append(f"{BOUNDS['shunt_share']}: the shunt takes {self.shunt_share:.1%}")
         return broken
+
+    def implausibilities(self) -> list[str]:
+        """Each PLAUSIBILITY bound this state's figures break (the plate model's is `predicted`'s)."""
+        low, high = self.q_mech_range
+        if low <= self.q_mech <= high:
+            return []
+        return [f"{PLAUSIBILITY['q_mech_range']}: q_mech {self.q_mech:.4g} outside {low:g} to {high:g}"]
 
     def as_row(self) -> dict:
         return {"scene": self.scene, "state": self.state, "origin": self.origin,
@@ -370,7 +393,7 @@ def state_figures(scene: "Scene", state: State) -> StateFigures:
         shunt_share=shunt_share(steady), shunt_share_detuned=shunt_share(detuned),
         loss_w_per_um2=steady.plate_power_w / amplitude_um**2 if amplitude_um > 0 else math.inf,
         force_factor_vs_datasheet=state.branch.force_factor_n_per_v / physical_psi if physical_psi > 0 else math.inf,
-        q_mech=state.q_mech)
+        q_mech=state.q_mech, q_mech_range=scene.plate.material.q_mech_range)
 
 
 def scene_figures(scene: "Scene") -> list[StateFigures]:
@@ -451,7 +474,7 @@ def load_scene(path: str | Path) -> Scene:
         raise SceneError(f"{path}: {yaml_problem(exc)}") from None
     top = reader.mapping(raw, "scene", required=("plate", "actuators", "mode", "states", "initial_state"),
                          optional=("electronics", "measurement_point", "effects", "seed", "provenance",
-                                   "description"))
+                                   "description", "replay"))
     plate = _plate(reader, top["plate"])
     actuators = _actuators(reader, top["actuators"])
     mode_data = reader.mapping(top["mode"], "mode", required=("name", "half_wavelength_mm"))
@@ -465,6 +488,7 @@ def load_scene(path: str | Path) -> Scene:
         effects=_effects(reader, top.get("effects", [])),
         seed=reader.integer(top, "seed", "", minimum=0) if "seed" in top else 0,
         provenance=_provenance(reader, top.get("provenance", {}), raw),
+        replay_reason=_replay_reason(reader, top["replay"]) if "replay" in top else None,
     )
     scene = _calibrated_through_effects(reader, _predicted_states(reader, scene))
     for figures in scene_figures(scene):
@@ -472,7 +496,34 @@ def load_scene(path: str | Path) -> Scene:
         if broken:
             raise reader.error(f"states.{figures.state}", "describes a plate that cannot exist: "
                                + "; ".join(broken))
+    if scene.replay_reason is None:
+        _refuse_implausible(reader, scene)
     return scene
+
+
+def _replay_reason(reader: _Reader, data: Any) -> str:
+    reason = reader.text(reader.mapping(data, "replay", required=("reason",)), "reason", "replay").strip()
+    if not reason:
+        raise reader.error("replay.reason", "must say why the scene reproduces a measurement rather than "
+                                            "what the plate model predicts")
+    return reason
+
+
+def _refuse_implausible(reader: _Reader, scene: Scene) -> None:
+    """Refuse a scene that is not a declared replay and breaks `PLAUSIBILITY`: its q_mech
+    against the material's range, and each calibrated state against the plate model
+    (a solve per plate, so only for calibrated states of scenes that do not declare a replay)."""
+    for figures in scene_figures(scene):
+        state = scene.states[figures.state]
+        broken = figures.implausibilities()
+        if state.calibration is not None:
+            from squeezebench.simbench.predicted import predict   # it reads scenes
+
+            broken += [f"{PLAUSIBILITY['plate_model']}: {d}" for d in predict(scene, state).departures()]
+        if broken:
+            raise reader.error(f"states.{figures.state}", "describes a plate physics does not predict: "
+                               + "; ".join(broken) + ". A scene that reproduces a measurement the model does "
+                               "not explain says so: `replay: {reason: ...}`")
 
 
 def flexural_frequency_hz(plate: Plate, mode: Mode) -> float:

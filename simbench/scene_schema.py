@@ -21,9 +21,10 @@ from pydantic import BaseModel, ConfigDict, Field
 
 from squeezebench.simbench import physics
 from squeezebench.simbench.effects import EFFECTS
-from squeezebench.simbench.scene import (BOUNDS, CONVENTIONS, GENERATOR_LOADS, PAPER_MODEL_REFERENCE_VPP,
+from squeezebench.simbench.scene import (BOUNDS, CONVENTIONS, GENERATOR_LOADS, PAPER_MODEL_REFERENCE_VPP, PLAUSIBILITY,
                                          Electronics, load_scene, scenes_table)
-from squeezebench.simbench.predicted import FORCE_FACTOR_TOLERANCE, FREQUENCY_TOLERANCE, predictions_table
+from squeezebench.simbench.predicted import (FORCE_FACTOR_TOLERANCE, FREQUENCY_TOLERANCE, MODAL_MASS_TOLERANCE,
+                                             predictions_table)
 
 PiezoMaterialName = Literal[tuple(physics.PIEZO_MATERIALS)]  # type: ignore[valid-type]
 ResonatorMaterialName = Literal[tuple(physics.RESONATOR_MATERIALS)]  # type: ignore[valid-type]
@@ -141,6 +142,13 @@ class MeasurementPointModel(_Strict):
 EffectEntry = Union[EffectName, dict[EffectName, Union[dict[str, float], None]]]
 
 
+class ReplayModel(_Strict):
+    """The scene reproduces a measurement rather than what the plate model predicts."""
+
+    reason: str = Field(min_length=1, description="why: e.g. calibrated on a published point the model "
+                                                  "does not explain; shown by validate, docs/scenes.md, the report")
+
+
 class SceneFile(_Strict):
     """A scene: one plate on the simulated bench, its states, electronics and effects."""
 
@@ -155,6 +163,9 @@ class SceneFile(_Strict):
     effects: list[EffectEntry] = Field(default_factory=list, description="effect names, or {name: {parameter: "
                                        "number}}; see simbench.effects")
     seed: int = Field(default=0, ge=0)
+    replay: ReplayModel | None = Field(default=None, description="declared when the scene's calibration departs "
+                                       "from the plate model beyond its tolerances, or q_mech from the material's "
+                                       "range; otherwise such a scene is refused")
     provenance: dict[str, str] = Field(default_factory=dict, description="dotted field path (or section) -> "
                                        "where the number comes from")
 
@@ -292,7 +303,9 @@ def _predicted_beside_replay(scene_paths: list[Path]) -> list[str]:
              "plate constant d31/(s11(1-nu))) and modal mass are referred to the scene's "
              "measurement point. Replay: the scene's calibrated branch. Flagged when the "
              f"resonance departs by more than {FREQUENCY_TOLERANCE:.0%} or the force factor by "
-             f"more than {FORCE_FACTOR_TOLERANCE:.0%}, or when a cut removes every piezo.", "",
+             f"more than {FORCE_FACTOR_TOLERANCE:.0%}, the modal mass by more than {MODAL_MASS_TOLERANCE:.0%}, "
+             "or when a cut removes every piezo. A scene that is not a declared replay is refused at load where "
+             "it breaks these: " + "; ".join(PLAUSIBILITY.values()) + ".", "",
              "| " + " | ".join(columns.values()) + " |", "|" + "---|" * len(columns)]
     def cell(column: str, value: Any) -> str:
         if not isinstance(value, float):
@@ -303,6 +316,9 @@ def _predicted_beside_replay(scene_paths: list[Path]) -> list[str]:
 
     for row in table.to_dict("records"):
         lines.append("| " + " | ".join(cell(c, row[c]) for c in columns) + " |")
+    lines += ["", "Why each scene is a replay (its `replay.reason`):", ""]
+    lines += [f"- `{scene.path.stem}`: {scene.replay_reason or 'not a replay: within the bounds above'}"
+              for scene in map(load_scene, scene_paths)]
     return lines
 
 

@@ -306,11 +306,13 @@ def replay_departures(path: Path) -> list[str]:
     from squeezebench.simbench.scene import load_scene
 
     scene = load_scene(path)
+    kind = (f"a declared replay ({scene.replay_reason})" if scene.replay_reason
+            else "not a replay, and its physics")
     lines = []
     for state in scene.states.values():
         departures = [] if state.predicted else predict(scene, state).departures()
         if departures:
-            lines.append(f"{path.name}: state {state.name!r} replays a plate the model does not predict: "
+            lines.append(f"{path.name}: state {state.name!r}, {kind}, departs from the plate model: "
                          + "; ".join(departures))
     return lines
 

@@ -334,8 +334,8 @@ def test_validate_says_where_a_replay_departs_from_the_model(capsys, tmp_path):
     path.write_text(yaml.safe_dump(scene_from_design(strip())))
     assert cli.main(["validate", "large_plate", str(path)]) == 0
     err = capsys.readouterr().err
-    assert "large_plate.yaml: state 'large' replays a plate the model does not predict" in err
-    assert "force factor" in err and "strip.yaml" not in err
+    assert "large_plate.yaml: state 'large', a declared replay (reproduces Sec. 5's printed point" in err
+    assert "departs from the plate model" in err and "force factor" in err and "strip.yaml" not in err
 
 
 def test_transfer_study_on_one_drawn_build():
