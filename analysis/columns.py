@@ -108,6 +108,11 @@ COLUMNS: dict[str, tuple[str, str]] = {
     "relative_difference": ("1", "(value - paper_value) / |paper_value|"),
     "tolerance": ("unit", "expanded_uncertainty plus half the printed value's last digit"),
     "agrees": ("", "|value - paper_value| <= tolerance"),
+    "predicted_value": ("unit", "what the plate model predicts for the paper's plate from geometry and datasheets "
+                                "(analysis.predicted_plates; no printed result in)"),
+    "predicted_U": ("unit", "expanded uncertainty (k = 2) of predicted_value from the material, geometry, d31 and "
+                            "damping tolerances"),
+    "predicted_difference": ("1", "(predicted_value - paper_value) / |paper_value|"),
     "origin": ("", "measured (real bench), simulated, calibration input, derived or campaign setting"),
     "calibrated_on": ("", "the scene calibration that returns this printed value (round trip); empty: none"),
     "status": ("", "measured, not measured or not reachable"),
@@ -218,8 +223,10 @@ COLUMNS: dict[str, tuple[str, str]] = {
     "predicted_half_wavelength_mm": ("mm", "mean spacing of the predicted mode's interior nodal lines"),
     "printed_half_wavelength_mm": ("mm", "half-wavelength stated in the paper (empty: not stated)"),
     "predicted_velocity_pp_mps": ("m/s pp", "velocity at the plate centre at resonance at the printed voltage, predicted (shared q_mech)"),
+    "predicted_velocity_u_pp_mps": ("m/s pp", "expanded uncertainty (k = 2) of the predicted velocity: d31, damping spread, material and thickness tolerances"),
     "printed_velocity_pp_mps": ("m/s pp", "velocity printed in the paper (empty: not printed)"),
     "predicted_power_w": ("W", "power at resonance at the printed voltage, predicted (mechanical loss only)"),
+    "predicted_power_u_w": ("W", "expanded uncertainty (k = 2) of the predicted power: d31, damping spread, material and thickness tolerances"),
     "printed_power_w": ("W", "power printed in the paper"),
 }
 

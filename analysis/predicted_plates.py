@@ -6,6 +6,7 @@ text does not say where a column sits, the assumption is stated beside it (`LAYO
 """
 from __future__ import annotations
 
+import functools
 import math
 from pathlib import Path
 
@@ -71,6 +72,11 @@ def large_plate() -> plate_modes.PlateGeometry:
                                      q("resonator_thickness_mm") * MM, patches)
 
 
+#: How far one plate's mechanical Q may stray from the build's `MECHANICAL_Q` (rectangular
+#: half-width; the design file's default spread, analysis.design_file).
+MECHANICAL_Q_TOLERANCE = 0.30
+
+
 def frequency_relative_u() -> float:
     """Expanded (k = 2) relative uncertainty of a predicted frequency from the material and
     geometry tolerances (f ~ h sqrt(E / rho); each tolerance a rectangular half-width)."""
@@ -79,28 +85,40 @@ def frequency_relative_u() -> float:
                          + (t["density_kg_m3"] / 2) ** 2) / math.sqrt(3)
 
 
+def response_relative_u() -> dict[str, float]:
+    """Expanded (k = 2) relative uncertainty of the predicted velocity and power at resonance at
+    a given voltage, in closed form from the tolerances (rectangular half-widths):
+    v = F V q / (w M) and P = F^2 V^2 q / (2 w M), with F proportional to d31 and w M to
+    h^2 sqrt(E rho) (f ~ h sqrt(E / rho), M ~ rho h); the force factor's own dependence on the
+    resonator (the piezo's lever arm about the neutral axis) is left out."""
+    t = plate_modes.RELATIVE_TOLERANCES
+    u = {name: half / math.sqrt(3) for name, half in t.items()}
+    u_q = MECHANICAL_Q_TOLERANCE / math.sqrt(3)
+    u_omega_mass = math.hypot(2 * u["thickness_m"], u["young_pa"] / 2, u["density_kg_m3"] / 2)
+    return {"velocity_pp_mps": 2 * math.hypot(u["d31_c_per_n"], u_q, u_omega_mass),
+            "power_w": 2 * math.hypot(2 * u["d31_c_per_n"], u_q, u_omega_mass)}
+
+
 def _rows():
     for label in ("75", "59", "28"):
-        yield ("Table 3", f"{label} x 41 x 1 mm", table3_plate(label),
+        yield ("Table 3", label, f"{label} x 41 x 1 mm", table3_plate(label),
                paper_value("table3", label, "frequency_hz"), paper_value("table3", label, "n_antinodes"), None,
                *(paper_value("table3", label, q) for q in ("voltage_vpp", "velocity_pp_mps", "power_w")))
     for label in ("1-column", "2-columns 1 powered", "2-columns 2 powered"):
-        yield ("Table 4", label, table4_plate(label), paper_value("table4", label, "frequency_hz"),
+        yield ("Table 4", label, label, table4_plate(label), paper_value("table4", label, "frequency_hz"),
                paper_value("table4", "plate", "n_antinodes"), None,
                *(paper_value("table4", label, q) for q in ("voltage_vpp", "velocity_pp_mps", "power_w")))
     q = lambda name: paper_value("large_plate", "large_plate", name)  # noqa: E731
-    yield ("Sec. 5", "large plate 198 x 138 x 2 mm", large_plate(), q("frequency_hz"), 21.0,
+    yield ("Sec. 5", "large_plate", "large plate 198 x 138 x 2 mm", large_plate(), q("frequency_hz"), 21.0,
            q("half_wavelength_mm"), q("voltage_vpp"), np.nan, q("power_w"))
 
 
-def predictions() -> pd.DataFrame:
-    """Predicted beside printed for Tables 3-4 and the large plate: frequency (and its U),
-    deviation, interior antinodes, nodal-line spacing, and velocity and power at resonance at
-    the printed voltage with the one shared `MECHANICAL_Q`. The printed frequency only centres the
-    (n, 0) mode search (the family's neighbours lie >= 2/n away)."""
+@functools.cache
+def _predictions() -> pd.DataFrame:
     u_rel = frequency_relative_u()
+    u_response = response_relative_u()
     out = []
-    for (table, plate_label, geometry, printed_hz, printed_antinodes, printed_half_mm,
+    for (table, item, plate_label, geometry, printed_hz, printed_antinodes, printed_half_mm,
          voltage_vpp, printed_velocity, printed_power) in _rows():
         modes = plate_modes.solve_plate(geometry, near_hz=printed_hz)
         k = modes.working_mode(printed_hz)
@@ -112,7 +130,8 @@ def predictions() -> pd.DataFrame:
         resistance = 2 * math.pi * f * mass_kg / MECHANICAL_Q
         velocity_pp = force * voltage_vpp / resistance
         half_mm = modes.half_wavelength_m(k) * 1e3
-        out.append({"table": table, "plate": plate_label, "predicted_frequency_hz": f,
+        power = 0.5 * resistance * (velocity_pp / 2) ** 2
+        out.append({"table": table, "item": item, "plate": plate_label, "predicted_frequency_hz": f,
                     "predicted_frequency_u_hz": f * u_rel, "printed_frequency_hz": printed_hz,
                     "frequency_deviation": f / printed_hz - 1,
                     "predicted_antinodes": modes.interior_antinodes(k),
@@ -120,10 +139,46 @@ def predictions() -> pd.DataFrame:
                     "predicted_half_wavelength_mm": half_mm,
                     "printed_half_wavelength_mm": printed_half_mm if printed_half_mm else np.nan,
                     "voltage_vpp": voltage_vpp, "predicted_velocity_pp_mps": velocity_pp,
+                    "predicted_velocity_u_pp_mps": velocity_pp * u_response["velocity_pp_mps"],
                     "printed_velocity_pp_mps": printed_velocity,
-                    "predicted_power_w": 0.5 * resistance * (velocity_pp / 2) ** 2,
+                    "predicted_power_w": power, "predicted_power_u_w": power * u_response["power_w"],
                     "printed_power_w": printed_power})
     return pd.DataFrame(out)
+
+
+def predictions() -> pd.DataFrame:
+    """Predicted beside printed for Tables 3-4 and the large plate: frequency (and its U),
+    deviation, interior antinodes, nodal-line spacing, and velocity and power at resonance at
+    the printed voltage with the one shared `MECHANICAL_Q` (each with U, k = 2). The printed
+    frequency only centres the (n, 0) mode search (the family's neighbours lie >= 2/n away).
+    Solved once per process: geometry and materials are the module's own."""
+    return _predictions().copy()
+
+
+#: The paper's table quantities the model predicts: (value column, U column) of `predictions`.
+PREDICTED_QUANTITIES = {
+    "n_antinodes": ("predicted_antinodes", None),
+    "frequency_hz": ("predicted_frequency_hz", "predicted_frequency_u_hz"),
+    "velocity_pp_mps": ("predicted_velocity_pp_mps", "predicted_velocity_u_pp_mps"),
+    "power_w": ("predicted_power_w", "predicted_power_u_w"),
+}
+
+
+def tidy(table: str) -> pd.DataFrame:
+    """One row per (item, quantity) of the paper's `table` ("Table 3", "Table 4") the model
+    predicts: predicted_value and predicted_U (k = 2, NaN for a count). Table 4's amplitude is
+    the predicted velocity over w."""
+    frame = _predictions()
+    rows = []
+    for row in frame[frame["table"] == table].to_dict("records"):
+        for quantity, (value, u) in PREDICTED_QUANTITIES.items():
+            rows.append({"item": row["item"], "quantity": quantity, "predicted_value": float(row[value]),
+                         "predicted_U": float(row[u]) if u else math.nan})
+        omega = 2 * math.pi * row["predicted_frequency_hz"]
+        rows.append({"item": row["item"], "quantity": "amplitude_pp_m",
+                     "predicted_value": row["predicted_velocity_pp_mps"] / omega,
+                     "predicted_U": row["predicted_velocity_u_pp_mps"] / omega})
+    return pd.DataFrame(rows, columns=["item", "quantity", "predicted_value", "predicted_U"])
 
 
 def large_plate_mode_figure(path: Path) -> dict:

@@ -94,6 +94,18 @@ def cell(row: pd.Series, places: int | None, explain_href: str | None = None) ->
         mark = "✓" if agrees is True else "✗ outside tolerance" if agrees is False else ""
         parts.append(f"<div class='paper'>paper {number(row['paper_value'], quantity, None if places is None else max(0, places - 1))}"
                      f" · <span class='dev'>{deviation}</span> <span class='mark'>{mark}</span></div>")
+    predicted = row.get("predicted_value")
+    if isinstance(predicted, (int, float)) and math.isfinite(predicted):
+        u = row.get("predicted_U")
+        if isinstance(u, (int, float)) and math.isfinite(u) and u > 0 and quantity in DISPLAY:
+            # the prediction's own precision: U to two significant digits
+            u_places = max(0, 1 - math.floor(math.log10(u * DISPLAY[quantity].scale)))
+            shown = f"{number(predicted, quantity, u_places)} ± {number(u, quantity, u_places)}"
+        else:
+            shown = number(predicted, quantity, places)
+        deviation = row.get("predicted_difference")
+        said = f" · {percent(deviation)}" if isinstance(deviation, float) and math.isfinite(deviation) else ""
+        parts.append(f"<div class='physics'>physics {shown}{said}</div>")
     origin = str(row.get("origin") or "")
     calibrated = str(row.get("calibrated_on") or "")
     if calibrated:

@@ -314,7 +314,9 @@ def _paper_table_html(context: ReportContext, name: str, title: str, frame: pd.D
               else "noise and instrument specifications")
     caption = (f"{html.escape(title)}. {_bench_words(context)} Each cell: this run ± U (k = 2, {budget}), "
                "the printed value and the deviation; ✓ within, ✗ outside "
-               "U plus half the printed last digit; beneath, the origin of the number.")
+               "U plus half the printed last digit; physics: what the plate model predicts for the paper's "
+               "plate from geometry and datasheets ± U (k = 2) and its deviation from print (no printed "
+               "result in; see What physics predicts); beneath, the origin of the number.")
     return (f"<p>{intro}</p>" + presentation.paper_layout(frame, name, item_label, explain, caption)
             + presentation.calibration_notes(frame, item_label)
             + f"<p class='csv'>Machine-readable: <a href='{name}.csv'>{name}.csv</a> "
@@ -848,6 +850,10 @@ def provenance_section(context: ReportContext) -> Section:
         rows.append((f"inputs/{name}", f"sha256 {digest} ({state})"))
     for name, bench in sorted(manifest.get("benches", {}).items()):
         rows.append((f"bench, run {name}", f"{bench.get('bench')} ({bench.get('bench_input')})"))
+    for name, scene in sorted(run.scenes.items()):
+        replay = scene.get("replay") if isinstance(scene, dict) else None
+        rows.append((f"scene {name}", f"replay: {replay.get('reason')}" if isinstance(replay, dict) else
+                     "not a replay: within the plate model's bounds, or predicted by it"))
     for name, ids in sorted(manifest.get("instruments", {}).items()):
         rows.append((f"instruments, run {name}", json.dumps(ids, sort_keys=True)))
     counts = run.measurements.groupby("protocol").size() if "protocol" in run.measurements else {}
@@ -1112,6 +1118,7 @@ caption{caption-side:top;text-align:left;font-size:12px;color:#444;padding:4px 0
 table.paper td{min-width:150px}
 table.paper .run{font-weight:600;font-variant-numeric:tabular-nums}
 table.paper .paper,table.paper .origin{font-size:11px;color:#555}
+table.paper .physics{font-size:11px;color:#1d4f91}
 td.cal{background:#fff6d6}td.off{background:#fde2e2}td.off .mark{color:#a00;font-weight:600}
 td.ok .mark{color:#070}td.na{color:#888;font-style:italic}
 .notes{font-size:11px;color:#555}.notes ul{margin:.2em 0}
@@ -1125,7 +1132,7 @@ figcaption{font-size:13px;color:#333;max-width:1000px}
 table.audit td:last-child{max-width:360px}
 .wide{overflow-x:auto;max-width:100%}
 details{margin:.8em 0}summary{cursor:pointer;color:#0645ad}details[open]>summary{margin-bottom:.4em}
-@media (max-width:600px){body{padding:0 8px}table{font-size:12px}table.paper td{min-width:0;padding:2px 3px}table.paper .paper,table.paper .origin{font-size:10px}nav a{display:inline-block}}
+@media (max-width:600px){body{padding:0 8px}table{font-size:12px}table.paper td{min-width:0;padding:2px 3px}table.paper .paper,table.paper .origin,table.paper .physics{font-size:10px}nav a{display:inline-block}}
 @media print{body{max-width:none;font-size:10pt}nav{display:none}a{color:inherit;text-decoration:none}
  h2{page-break-before:always}section:first-of-type h2{page-break-before:avoid}
  figure,table.paper,tr{page-break-inside:avoid}td.cal,td.off,.banner{-webkit-print-color-adjust:exact;print-color-adjust:exact}}

@@ -295,14 +295,27 @@ def table3(run: RunData) -> pd.DataFrame:
         nearest = min(printed_lengths, key=lambda p: abs(p - float(length)))
         if abs(nearest - float(length)) <= 1.5:
             items[f"{nearest:g}"] = group
-    return _side_by_side(run, "table3", "table3", items, TABLE3_QUANTITIES, {"n_antinodes": "n_antinodes"})
+    return with_prediction(_side_by_side(run, "table3", "table3", items, TABLE3_QUANTITIES,
+                                         {"n_antinodes": "n_antinodes"}), "Table 3")
 
 
 def table4(run: RunData) -> pd.DataFrame:
     """Table 4 (Sec. 2.3.2): one- and two-column plates, one or two columns powered."""
     points = _protocol_points(run, "powered_columns")
     items = {str(name): group for name, group in points.groupby("configuration")}
-    return _side_by_side(run, "table4", "table4", items, TABLE4_QUANTITIES, {})
+    return with_prediction(_side_by_side(run, "table4", "table4", items, TABLE4_QUANTITIES, {}), "Table 4")
+
+
+def with_prediction(frame: pd.DataFrame, table: str) -> pd.DataFrame:
+    """`frame` with what physics predicts for the paper's plate beside each printed value it
+    can predict (analysis.predicted_plates: geometry and datasheets, no printed result in):
+    predicted_value, predicted_U (k = 2) and predicted_difference from print."""
+    from squeezebench.analysis import predicted_plates   # the plate solver: only where a paper table is drawn
+
+    out = frame.merge(predicted_plates.tidy(table), on=["item", "quantity"], how="left")
+    out["predicted_difference"] = [relative_difference(v, p) for v, p in zip(out["predicted_value"],
+                                                                              out["paper_value"])]
+    return out
 
 
 # --- Fig. 5 and Table 5 ------------------------------------------------------------------
@@ -552,7 +565,8 @@ def estimated_large_plate_power_w(plates: dict[str, PlateCharacterisation],
 
 def finish_table(frame: pd.DataFrame, value_columns=("value", "std_uncertainty", "expanded_uncertainty",
                                                      "scope_value", "paper_value", "relative_difference",
-                                                     "tolerance")) -> pd.DataFrame:
+                                                     "tolerance", "predicted_value", "predicted_U",
+                                                     "predicted_difference")) -> pd.DataFrame:
     """The table as written and read back: one dtype per column whatever the run holds.
     Number columns are floats, a missing number NaN (an empty CSV cell) with the row's
     `status` saying why ('not measured', 'not reachable'); `agrees` is a nullable boolean,

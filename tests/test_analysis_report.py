@@ -163,3 +163,39 @@ def test_the_headline_opens_the_report_and_ends_the_command(reported):
     assert page.index("class='headline'") < page.index("<table")
     printed = cli._finished(index).splitlines()   # what report and reproduce print last
     assert printed[-len(lines) - 1:-1] == lines and printed[-1].startswith("report written to")
+
+
+def test_tables_3_and_4_carry_what_physics_predicts_beside_print(reported):
+    """Each predicted cell is the plate model's number for the paper's plate (never the run's):
+    beside the printed value, with U (k = 2) and its deviation from print."""
+    from squeezebench.analysis import predicted_plates
+
+    run_dir, index = reported
+    predictions = predicted_plates.predictions().set_index(["table", "item"])
+    for name, title in (("table3", "Table 3"), ("table4", "Table 4")):
+        table = pd.read_csv(run_dir / "report" / f"{name}.csv", dtype={"item": str})
+        frequency = table[table["quantity"] == "frequency_hz"].set_index("item")
+        for item, row in frequency.iterrows():
+            expected = predictions.loc[(title, item)]
+            assert row["predicted_value"] == pytest.approx(expected["predicted_frequency_hz"])
+            assert row["predicted_U"] == pytest.approx(expected["predicted_frequency_u_hz"])
+            assert row["predicted_difference"] == pytest.approx(row["predicted_value"] / row["paper_value"] - 1)
+        assert table.loc[table["quantity"] == "voltage_vpp", "predicted_value"].isna().all()   # an input
+    assert index.read_text().count("<div class='physics'>physics ") >= 3 * 4 + 3 * 4
+
+
+def test_the_predicted_responses_u_is_the_propagation_of_its_tolerances():
+    """Closed form against a Monte Carlo of v ~ d31 q / (h^2 sqrt(E rho)), P ~ d31^2 q / (h^2 sqrt(E rho)),
+    every input rectangular within its tolerance."""
+    import numpy as np
+
+    from squeezebench.analysis import plate_modes, predicted_plates
+
+    rng = np.random.default_rng(7)
+    t = plate_modes.RELATIVE_TOLERANCES
+    draw = {name: 1 + rng.uniform(-half, half, 400_000) for name, half in t.items()}
+    q = 1 + rng.uniform(-predicted_plates.MECHANICAL_Q_TOLERANCE, predicted_plates.MECHANICAL_Q_TOLERANCE, 400_000)
+    omega_mass = draw["thickness_m"] ** 2 * np.sqrt(draw["young_pa"] * draw["density_kg_m3"])
+    closed = predicted_plates.response_relative_u()
+    assert 2 * np.std(draw["d31_c_per_n"] * q / omega_mass) == pytest.approx(closed["velocity_pp_mps"], rel=0.05)
+    assert 2 * np.std(draw["d31_c_per_n"] ** 2 * q / omega_mass) == pytest.approx(closed["power_w"], rel=0.05)
