@@ -44,9 +44,11 @@ def verdicts(tables: Mapping[str, pd.DataFrame]) -> pd.DataFrame:
     return pd.DataFrame(rows, columns=["table", "item", "quantity", "verdict", "relative_difference"])
 
 
-def headline(bench_kind: str, n_points: int, n_runs: int, tables: Mapping[str, pd.DataFrame]) -> list[str]:
-    """Two to five lines: what ran, what Tables 3-5 show against the paper, what physics
-    predicts (when the report holds the prediction), what a vibration map found."""
+def headline(bench_kind: str, n_points: int, n_runs: int, tables: Mapping[str, pd.DataFrame],
+             needs_deskew: int = 0) -> list[str]:
+    """Two to six lines: what ran, what Tables 3-5 show against the paper, what physics
+    predicts (when the report holds the prediction), what a vibration map found, and how many
+    powers need a deskew calibration the run did not make (`uncertainty.needs_deskew`)."""
     bench = {"simulated": "Dry run on the simulated bench", "real": "Measured on a real bench"}.get(
         bench_kind, f"Bench {bench_kind}")
     lines = [f"{bench}: {n_points} stored points from {n_runs} campaign runs."]
@@ -70,6 +72,10 @@ def headline(bench_kind: str, n_points: int, n_runs: int, tables: Mapping[str, p
                      f"{int((deviation <= PREDICTED_FREQUENCY_REL).sum())} of {len(predicted)} printed "
                      f"resonance frequencies within {100 * PREDICTED_FREQUENCY_REL:.0f} % (worst "
                      f"{100 * predicted.loc[deviation.idxmax(), 'frequency_deviation']:+.1f} %).")
+    if needs_deskew:
+        lines.append(f"{needs_deskew} stored power{'s' if needs_deskew > 1 else ''} rest on the current probe's "
+                     "delay being zero-mean (no deskew calibration in this run): measure it first, "
+                     "`squeezebench plan CAMPAIGN --target-rel-error X --write FILE` adds the run.")
     maps = tables.get("map_summary")
     if maps is not None and not maps.empty:
         row = maps.iloc[0]

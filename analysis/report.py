@@ -156,9 +156,10 @@ def summary_section(context: ReportContext) -> Section:
         lead = (f"<p class='banner'><b>Bench {html.escape(kind)}</b>: this run predates provenance "
                 "columns; its values are not labelled measured or simulated.</p>")
     measurements = run.measurements
+    found = _uncertainties(context)
     context.cache["headline"] = headline.headline(
         kind, len(measurements), measurements["run_name"].nunique() if not measurements.empty else 0,
-        context.tables)
+        context.tables, needs_deskew=0 if found.deskew is not None else len(uncertainty.needs_deskew(found.points)))
     body = "<p class='headline'>" + "<br>".join(map(html.escape, context.cache["headline"])) + "</p>" + lead
     body += _verdict_table(context)
     if not measurements.empty:
@@ -946,30 +947,18 @@ def uncertainty_section(context: ReportContext) -> Section | None:
 
 
 
-#: A point's power is flagged when the CH2 delay makes more than this share of its variance
-#: and its U is beyond DELAY_FLAG_U_REL of the power (without a deskew run).
-DELAY_FLAG_SHARE = 0.5
-DELAY_FLAG_U_REL = 0.05
-
-
 def _delay_flag(points: pd.DataFrame) -> str:
     """Without a deskew run: which points' power rests on the CH2 delay being zero-mean. A
     current probe lags its voltage probe by a fixed delay of known sign (Tektronix's
     deskew example: about 8 ns); the budget's +-10 ns rectangle does not know the sign, so
     where that term dominates, the point needs the calibration rather than its U."""
     text = "<p>No deskew calibration in this run: the CH2 delay enters at its specified limit.</p>"
-    if "power_w_dominant" not in points:
-        return text
-    variance = (points["power_w_U"] / uncertainty.COVERAGE_FACTOR) ** 2
-    delay_u = 2 * np.pi * points["frequency_hz"] * points["reactive_power_var"].abs() * \
-        uncertainty.delay_std_uncertainty_s()
-    flagged = points[(delay_u**2 > DELAY_FLAG_SHARE * variance)
-                     & (points["power_w_U"] > DELAY_FLAG_U_REL * points["power_w"].abs())]
+    flagged = uncertainty.needs_deskew(points)
     if flagged.empty:
         return text
     where = ", ".join(sorted({f"{run} / {step}" for run, step in zip(flagged["run_name"], flagged["step_id"])}))
     return (f"<p class='banner'><b>Needs a deskew calibration:</b> {len(flagged)} point(s) ({html.escape(where)}) "
-            f"have a power whose U (above {DELAY_FLAG_U_REL:.0%}) is mostly the CH2 delay, budgeted as zero-mean "
+            f"have a power whose U (above {uncertainty.DELAY_FLAG_U_REL:.0%}) is mostly the CH2 delay, budgeted as zero-mean "
             "+-10 ns. A current probe lags its voltage probe by a fixed delay of known sign (about 8 ns in "
             "Tektronix's deskew example), which such a budget cannot cover for certain; measure it with a "
             "deskew_calibration run (squeezebench plan --write adds one) before trusting these powers.</p>")

@@ -131,6 +131,26 @@ def delay_std_uncertainty_s() -> float:
                       SPECIFICATIONS["current_probe_delay"].std_uncertainty)
 
 
+#: Without a deskew run, a point's power needs one when the CH2 delay makes more than this
+#: share of its variance and its U is beyond DELAY_FLAG_U_REL of the power.
+DELAY_FLAG_SHARE = 0.5
+DELAY_FLAG_U_REL = 0.05
+
+
+def needs_deskew(points: pd.DataFrame) -> pd.DataFrame:
+    """The budgeted points (`run_uncertainties`, no deskew applied) whose power rests on the
+    CH2 delay being zero-mean: its term w |Q'| u(tau) is most of the variance of a U above
+    DELAY_FLAG_U_REL. A current probe lags its voltage probe by a fixed delay of known sign,
+    which the budget's +-10 ns rectangle cannot cover for certain: such a point needs the
+    delay measured (a deskew calibration run), not a wider U."""
+    if "power_w_U" not in points or "reactive_power_var" not in points:
+        return points.iloc[0:0]
+    variance = (points["power_w_U"] / COVERAGE_FACTOR) ** 2
+    delay_u = 2 * np.pi * points["frequency_hz"] * points["reactive_power_var"].abs() * delay_std_uncertainty_s()
+    return points[(delay_u**2 > DELAY_FLAG_SHARE * variance)
+                  & (points["power_w_U"] > DELAY_FLAG_U_REL * points["power_w"].abs())]
+
+
 def power_ratio_std_uncertainty(numerator: pd.DataFrame, denominator: pd.DataFrame) -> float:
     """Standard uncertainty of R = mean P_t / mean P_0, two powers of one plate on one bench
     (Fig. 2's Pt/P0), from their reduced points.

@@ -158,7 +158,7 @@ def test_without_a_deskew_a_lagging_probe_leaves_the_stress_point_flagged(tmp_pa
     rectangle does not know the lag's sign), and the report says the point needs the
     calibration rather than letting the U stand."""
     from squeezebench.analysis.report import write_report
-    from squeezebench.analysis.uncertainty import run_uncertainties
+    from squeezebench.analysis.uncertainty import needs_deskew, run_uncertainties
 
     paper = yaml.safe_load(paths.paper_campaign().read_text())
     stress = next(run for run in paper["runs"] if run["name"] == "fig2c_stress")
@@ -174,5 +174,8 @@ def test_without_a_deskew_a_lagging_probe_leaves_the_stress_point_flagged(tmp_pa
                                  point.generator_amplitude_vpp, build_pipeline(load_scene(
                                      paths.scenes_dir() / "one_column_1mm.yaml"))).power_w
     assert abs(point["power_w"] - truth) > point["power_w_U"]   # the zero-mean budget misses the lag
-    html = (write_report(run_dir).parent / "index.html").read_text()
+    report_dir = write_report(run_dir).parent
+    html = (report_dir / "index.html").read_text()
     assert "Needs a deskew calibration" in html and "fig2c_stress" in html.split("Needs a deskew calibration")[1][:300]
+    flagged = len(needs_deskew(points))
+    assert flagged >= 1 and f"{flagged} stored power" in (report_dir / "headline.txt").read_text()

@@ -57,3 +57,9 @@ def test_headline_counts_and_names_the_largest_miss():
 
 def test_a_run_without_paper_tables_says_only_what_ran():
     assert headline("real", 12, 1, {}) == ["Measured on a real bench: 12 stored points from 1 campaign runs."]
+
+
+def test_powers_resting_on_an_unmeasured_delay_are_said_first():
+    lines = headline("real", 12, 1, {}, needs_deskew=2)
+    assert len(lines) == 2 and lines[1].startswith("2 stored powers rest on the current probe's delay")
+    assert "--write FILE" in lines[1]
