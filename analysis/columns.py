@@ -146,6 +146,7 @@ COLUMNS: dict[str, tuple[str, str]] = {
     "relative_std_uncertainty": ("1", "the input's standard uncertainty over |value| at the run's first stored point"),
     "correction": ("", "whether the input's effect is corrected or only budgeted"),
     "floor_p95_rel": ("1", "p95 relative error the instruments' specified errors leave, whatever the averaging"),
+    "budget_floor_p95_rel": ("1", "the uncertainty budgets' floor (p95 relative, noise averaged away) at the campaign points a study point stands for: the floor the report stands by, the study its check"),
     "dominant_term": ("", "largest term of the budget"),
     "point": ("", "the systematics study's point: table3 (Table 3), stress (Fig. 2c), sweep (a Fig. 5 "
                   "plate), search (the resonance search), campaign (the whole paper campaign)"),

@@ -73,7 +73,7 @@ def headline(bench_kind: str, n_points: int, n_runs: int, tables: Mapping[str, p
                      f"resonance frequencies within {100 * PREDICTED_FREQUENCY_REL:.0f} % (worst "
                      f"{100 * predicted.loc[deviation.idxmax(), 'frequency_deviation']:+.1f} %).")
     if needs_deskew:
-        lines.append(f"{needs_deskew} stored power{'s' if needs_deskew > 1 else ''} rest on the current probe's "
+        lines.append(f"{needs_deskew} stored power{'s rest' if needs_deskew > 1 else ' rests'} on the current probe's "
                      "delay being zero-mean (no deskew calibration in this run): measure it first, "
                      "`squeezebench plan CAMPAIGN --target-rel-error X --write FILE` adds the run.")
     maps = tables.get("map_summary")

@@ -706,6 +706,9 @@ def _systematics_part(context: ReportContext, summary: pd.DataFrame) -> str:
     """The floors the instruments' specified errors put under averaging, and what the
     deskew calibration buys for its bench time."""
     floors = study.floors_table(summary)
+    budget = _budget_floors(context)
+    floors.insert(2, "budget_floor_p95_rel", [budget.get((row.point, row.quantity), np.nan)
+                                              for row in floors.itertuples()])
     context.tables["study_floors"] = floors
     if "campaign" not in set(floors["point"]):
         context.absent.append("The whole paper campaign on erring benches, per averaging: not run ('squeezebench "
@@ -713,7 +716,21 @@ def _systematics_part(context: ReportContext, summary: pd.DataFrame) -> str:
     words = "; ".join(
         f"{_words_of(row.quantity)} {100 * row.floor_p95_rel:.2g} % ({row.point}, from {cell_text(row.bench_time_s)} s per trial)"
         f"{_calibrated_words(row)}" for row in floors.itertuples())
-    return ("<h3>Floors on benches whose instruments err within specification</h3>"
+    checked = floors.dropna(subset=["budget_floor_p95_rel"])
+    reconciled = ("" if checked.empty else
+                  "<p><b>One floor per quantity: the budgets'.</b> The floor this report stands by is the "
+                  "uncertainty budgets' (the instruments' specified limits with the noise averaged away, "
+                  "<a href='#uncertainty-budgets-gum-k-2'>Uncertainty budgets</a>); the simulated benches "
+                  "below check it: "
+                  + html.escape("; ".join(f"{_words_of(row.quantity)} at the {row.point} point, budget "
+                                          f"{100 * row.budget_floor_p95_rel:.2g} %, study {100 * row.floor_p95_rel:.2g} %"
+                                          for row in checked.itertuples()))
+                  + f". A study's floor is a p95 over {int(floors['benches'].max())} benches at its best "
+                    "setting: it sits below the budget's when no bench drew an error near its limit "
+                    "(a delay near +-10 ns), and above it only if the budget misses an effect.</p>")
+    return ("<h3>Floors on benches whose instruments err within specification</h3>" + reconciled
+            + presentation.fold("How the study draws its benches, its floors per point, drawn against bench time "
+                                "and as a table",
             f"<p>Each trial is another simulated bench: scope gains, current-probe gain and delay, "
             "channel skew, vibrometer scale and generator frequency drawn once within their "
             "specifications (analysis.specifications), the noise drawn anew. Averaging (and, for the "
@@ -721,7 +738,7 @@ def _systematics_part(context: ReportContext, summary: pd.DataFrame) -> str:
             "search cannot resolve on the flat top of the peak, are all that is left. Floor (lowest p95 "
             "|relative error| over the benches at any setting), and the bench time per trial of the cheapest "
             f"setting within {study.AT_FLOOR - 1:.0%} of it: {html.escape(words)}.</p>"
-            + presentation.fold("The floors drawn against bench time, and as a table", context.figure(
+            + context.figure(
                 figures.systematics_fronts(summary, context.out_dir / "study_systematics.png"),
                              "Total error against bench time per trial over simulated benches erring "
                              "within specification, one panel per quantity: each point's series (averaging; "
@@ -774,6 +791,42 @@ def _coverage_part(context: ReportContext) -> str:
 def _words_of(quantity: str) -> str:
     """A quantity's code name as words, without its unit (`power_w` -> "power")."""
     return presentation.label(quantity).split(" (")[0]
+
+
+def _budget_floors(context: ReportContext) -> dict[tuple[str, str], float]:
+    """The uncertainty budgets' floor (`uncertainty.systematic_floor`, as the bench is) at the
+    campaign points each systematics point of the study stands for: (point, quantity) ->
+    p95 relative. stress: the Fig. 2c stress points; table3: the uncut plate of the cutting
+    run; campaign: the worst run."""
+    points = _uncertainties(context).points
+    if points.empty:
+        return {}
+    groups = {"campaign": points} if _study_campaign(context) == Path(
+        str(context.run.manifest.get("campaign", {}).get("file", ""))).name else {}
+    if "detuning_phase" in points:
+        groups["stress"] = points[points["detuning_phase"] == "stress"]
+    if "plate_length_mm" in points:
+        cutting = points[points["protocol"] == "resonator_cutting"]
+        groups["table3"] = cutting[cutting["plate_length_mm"] == cutting["plate_length_mm"].max()]
+    out = {}
+    for point, rows in groups.items():
+        if rows.empty:
+            continue
+        floors = (context.tables["uncertainty_floors"] if point == "campaign" and "uncertainty_floors" in context.tables
+                  and _uncertainties(context).deskew is None else uncertainty.systematic_floor(rows))
+        for quantity, group in floors.groupby("quantity"):
+            out[(point, str(quantity))] = float(group["floor_p95_rel"].max())
+    return out
+
+
+def _study_campaign(context: ReportContext) -> str:
+    """The file name of the campaign the study ran on erring benches ('' if unknown)."""
+    path = context.run.run_dir / study.STUDY_DIR / "manifest.json"
+    try:
+        settings = json.loads(path.read_text(encoding="utf-8")).get("settings", {})
+    except (OSError, ValueError):
+        return ""
+    return Path(str(settings.get("systematics", {}).get("campaign", ""))).name
 
 
 def _calibrated_words(row) -> str:
@@ -1028,7 +1081,8 @@ def predicted_section(context: ReportContext) -> Section:
             "no parameter fitted), beside the printed values. U (k = 2) from the material and thickness "
             "tolerances. Column layouts: " + "; ".join(html.escape(why) for _, why in
                                                        predicted_plates.LAYOUTS.values()) + ".</p>")
-    body += html_table(shown, "predicted (plate model) and printed (paper)")
+    body += presentation.fold("Predicted beside printed, plate by plate (the physics lines of Tables 3 and 4, and "
+                              "the large plate)", html_table(shown, "predicted (plate model) and printed (paper)"))
     figure = predicted_plates.large_plate_mode_figure(context.out_dir / "predicted_mode_large_plate.png")
     body += presentation.fold("The large plate's predicted working mode", context.figure(
         context.out_dir / "predicted_mode_large_plate.png",

@@ -84,11 +84,17 @@ def test_search_and_sweep_recover_the_truth(summary):
 
 
 def test_report_shows_the_study(run_dir, tmp_path):
-    campaign_run = build_run(tmp_path / "run", protocols=("powered_columns",))
+    campaign_run = build_run(tmp_path / "run", protocols=("powered_columns", "resonator_cutting"))
     shutil.copytree(run_dir / "study", campaign_run / "study")
     text = write_report(campaign_run).read_text()
     assert "Settings on each Pareto front" in text and "Heating drift" in text
     report_dir = campaign_run / "report"
+    # one floor: the budgets', at the run's own Table 3 point; the study's beside it as its check
+    floors = pd.read_csv(report_dir / "study_floors.csv")
+    table3 = floors[(floors["point"] == "table3") & (floors["quantity"] == "power_w")]
+    assert len(table3) == 1 and 0 < table3["budget_floor_p95_rel"].iat[0] < 0.2
+    assert floors.loc[floors["point"] == "campaign", "budget_floor_p95_rel"].isna().all()   # another campaign
+    assert "One floor per quantity: the budgets'." in text and "power at the table3 point, budget" in text
     assert (report_dir / "study_fronts.png").is_file() and (report_dir / "study_heating.png").is_file()
     fronts = pd.read_csv(report_dir / "study_fronts.csv")
     assert set(fronts["quantity"]) == {"power_w", "velocity_pp_mps", "amplitude_pp_m",
