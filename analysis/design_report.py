@@ -1,7 +1,7 @@
 """The design page: the answer first, then the mode, the power curve, the layouts, the budget.
 
 Written by `squeezebench design` as DIR/index.html beside design.json and the CSV tables;
-the same style as the run report (`report.CSS`), readable on a laptop and a phone.
+the run report's page and style (`analysis.page`), readable on a laptop and a phone.
 """
 from __future__ import annotations
 
@@ -20,7 +20,8 @@ import pandas as pd  # noqa: E402
 from squeezebench.analysis import presentation  # noqa: E402
 from squeezebench.analysis.design import COVERAGE_FACTOR, INPUTS, DesignAnswer  # noqa: E402
 from squeezebench.analysis.figures import PAPER_STYLE, save_figure  # noqa: E402
-from squeezebench.analysis.report import CSS, cell_text, html_table, scrolling_tables  # noqa: E402
+from squeezebench.analysis import page as html_page  # noqa: E402
+from squeezebench.analysis.report import cell_text, html_table  # noqa: E402
 
 FILES = {"page": "index.html", "json": "design.json", "budget": "budget.csv", "comparison": "comparison.csv",
          "layouts": "layouts.csv", "mode": "mode.png", "power": "power_voltage.png", "pareto": "layouts.png"}
@@ -346,12 +347,6 @@ def page(answer: DesignAnswer) -> str:
     sections.append(("Uncertainty budget", "<p>Each input moved by its standard uncertainty, the plate solved "
                      "again where it must be; U = 2 √(Σ contribution²).</p>" + budget_html))
     sections.append(("Assumptions and their origins", assumptions(answer)))
-    title = f"squeezebench design: {d.name}"
-    nav = "<nav>" + "".join(f"<a href='#s{i}'>{html.escape(t)}</a>" for i, (t, _) in enumerate(sections)) + "</nav>"
-    body = "".join(f"<section id='s{i}'><h2>{html.escape(t)}</h2>{scrolling_tables(b)}</section>"
-                   for i, (t, b) in enumerate(sections))
     description = f"<p>{html.escape(d.description)}</p>" if d.description else ""
-    return ("<!DOCTYPE html><html lang='en'><head><meta charset='utf-8'>"
-            "<meta name='viewport' content='width=device-width, initial-scale=1'>"
-            f"<title>{html.escape(title)}</title><style>{CSS}</style></head><body>"
-            f"<h1>{html.escape(title)}</h1>{description}{nav}{body}</body></html>")
+    return html_page.render(f"squeezebench design: {d.name}",
+                            [html_page.PageSection(f"s{i}", t, t, b) for i, (t, b) in enumerate(sections)], description)

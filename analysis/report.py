@@ -28,7 +28,7 @@ import numpy as np
 import pandas as pd
 
 import squeezebench
-from squeezebench.analysis import (audit, cartography_report, columns, figures, headline, measurement_model, model,
+from squeezebench.analysis import (audit, cartography_report, columns, figures, headline, measurement_model, model, page,
                                    predicted_plates, presentation, provenance, readings, study, tables, uncertainty)
 from squeezebench.analysis.tables import MissingDataError
 from squeezebench.analysis.paper import paper_value
@@ -1151,41 +1151,6 @@ def _words_for_missing(frame: pd.DataFrame, word: str) -> pd.DataFrame:
     return frame.where(frame.notna(), word)
 
 
-CSS = """
-body{font-family:system-ui,sans-serif;max-width:1200px;margin:0 auto;padding:0 16px;color:#222;line-height:1.4}
-h1{font-size:1.6em}h2{border-bottom:1px solid #bbb;margin-top:2em}
-nav{font-size:.9em;margin-bottom:1em}nav a{margin-right:.8em}
-table{border-collapse:collapse;font-size:13px;margin:.6em 0;max-width:100%}
-td,th{border:1px solid #ccc;padding:3px 6px;vertical-align:top;overflow-wrap:break-word}th{background:#f4f4f4;text-align:left}
-caption{caption-side:top;text-align:left;font-size:12px;color:#444;padding:4px 0}
-table.paper td{min-width:150px}
-table.paper .run{font-weight:600;font-variant-numeric:tabular-nums}
-table.paper .paper,table.paper .origin{font-size:11px;color:#555}
-table.paper .physics{font-size:11px;color:#1d4f91}
-td.cal{background:#fff6d6}td.off{background:#fde2e2}td.off .mark{color:#a00;font-weight:600}
-td.ok .mark{color:#070}td.na{color:#888;font-style:italic}
-.notes{font-size:11px;color:#555}.notes ul{margin:.2em 0}
-.banner{background:#fff6d6;border:1px solid #e0c060;padding:8px 12px}
-.banner.real{background:#e6f4e6;border-color:#8b8}
-.explain{background:#fde2e2;padding:6px 10px}
-ul.flagged li{margin-bottom:.4em}
-.missing{color:#a33}
-figure{margin:1em 0;max-width:100%}figure img{max-width:100%;max-height:440px;width:auto;height:auto;display:block}
-figcaption{font-size:13px;color:#333;max-width:1000px}
-table.audit td:last-child{max-width:360px}
-.wide{overflow-x:auto;max-width:100%}
-details{margin:.8em 0}summary{cursor:pointer;color:#0645ad}details[open]>summary{margin-bottom:.4em}
-@media (max-width:600px){body{padding:0 8px}table{font-size:12px}table.paper td{min-width:0;padding:2px 3px}table.paper .paper,table.paper .origin,table.paper .physics{font-size:10px}nav a{display:inline-block}}
-@media print{body{max-width:none;font-size:10pt}nav{display:none}a{color:inherit;text-decoration:none}
- h2{page-break-before:always}section:first-of-type h2{page-break-before:avoid}
- figure,table.paper,tr{page-break-inside:avoid}td.cal,td.off,.banner{-webkit-print-color-adjust:exact;print-color-adjust:exact}}
-"""
-
-
-def scrolling_tables(body_html: str) -> str:
-    """Every table in a box of the page's width that scrolls sideways on its own: on a
-    phone a wide table scrolls, the page does not."""
-    return re.sub(r"<table\b", "<div class='wide'><table", body_html).replace("</table>", "</table></div>")
 
 
 def _page(context: ReportContext, sections: list[Section]) -> str:
@@ -1195,12 +1160,6 @@ def _page(context: ReportContext, sections: list[Section]) -> str:
         kind, f"bench {kind}")
     title = f"squeezebench report: {run.run_dir.name} ({what})"
     sections = [s for s in sections if not s.appendix] + [s for s in sections if s.appendix]
-    nav = "<nav>" + "".join(f"<a href='#{s.anchor or _slug(s.title)}'>{html.escape(s.title.split(':')[0])}</a>"
-                            for s in sections) + "</nav>"
-    parts = [f"<section id='{s.anchor or _slug(s.title)}' class='{'appendix' if s.appendix else 'result'}'>"
-             f"<h2>{'Appendix: ' if s.appendix else ''}{html.escape(s.title)}</h2>{scrolling_tables(s.body_html)}</section>"
-             for s in sections]
-    return ("<!DOCTYPE html><html lang='en'><head><meta charset='utf-8'>"
-            "<meta name='viewport' content='width=device-width, initial-scale=1'>"
-            f"<title>{html.escape(title)}</title><style>{CSS}</style></head><body>"
-            f"<h1>{html.escape(title)}</h1>{nav}" + "".join(parts) + "</body></html>")
+    return page.render(title, [page.PageSection(
+        anchor=s.anchor or _slug(s.title), nav=s.title.split(":")[0], heading=f"{'Appendix: ' if s.appendix else ''}{s.title}",
+        body_html=s.body_html, css_class="appendix" if s.appendix else "result") for s in sections])
