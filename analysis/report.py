@@ -143,9 +143,15 @@ def summary_section(context: ReportContext) -> Section:
     inputs = (sorted(run.measurements["bench_input"].dropna().unique()) if "bench_input" in run.measurements
               else sorted({b.get("bench_input", "") for b in benches.values()} - {""}))
     if kind == "simulated":
+        replays = sum(isinstance(scene, dict) and isinstance(scene.get("replay"), dict)
+                      for scene in run.scenes.values())
+        said = ("" if not replays else ", a declared replay of published points the plate model does not predict"
+                if replays == len(run.scenes) == 1 else
+                f", {'all' if replays == len(run.scenes) else replays} of them declared replays of published "
+                "points the plate model does not predict")
         lead = ("<p class='banner'><b>Dry run on the simulated bench.</b> No plate was measured: the "
-                f"instruments answered from the physics of {len(inputs)} scene{'s' if len(inputs) != 1 else ''} "
-                "(<a href='#provenance'>listed in the appendix</a>). A cell whose scene was calibrated on the printed value it is compared with is "
+                f"instruments answered from the physics of {len(inputs)} scene{'s' if len(inputs) != 1 else ''}{said} "
+                "(<a href='#provenance'>listed in the appendix</a>, with why). A cell whose scene was calibrated on the printed value it is compared with is "
                 "shaded and labelled <i>calibration input</i>: it shows that the chain from instrument "
                 "to table returns what went in, not that the paper is confirmed.</p>")
     elif kind == "real":

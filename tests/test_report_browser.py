@@ -10,6 +10,7 @@ chromium`), because a skipped layout test would pass a report nobody looked at.
 
 from __future__ import annotations
 
+import html
 import sys
 from pathlib import Path
 
@@ -85,3 +86,15 @@ def test_the_dry_run_is_said_on_every_results_table(rendered):
     assert results
     for table in results:
         assert "Dry run: simulated bench." in table["caption"], table["caption"]
+
+
+def test_the_first_screen_says_the_scenes_are_replays_and_the_appendix_why(index):
+    """The quick campaign's one scene replays published points: the banner says so, and the
+    provenance appendix gives the scene's own reason."""
+    import yaml
+
+    text = index.read_text()
+    assert "1 scene, a declared replay of published points the plate model does not predict" in text
+    reason = yaml.safe_load((paths.scenes_dir() / "one_column_1mm.yaml").read_text())["replay"]["reason"]
+    appendix = text[text.index("id=\"provenance\""):]
+    assert "scene one_column_1mm.yaml" in appendix and html.escape(reason) in appendix
