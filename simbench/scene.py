@@ -338,7 +338,8 @@ class StateFigures:
         return broken
 
     def implausibilities(self) -> list[str]:
-        """Each PLAUSIBILITY bound this state's figures break (the plate model's is `predicted`'s)."""
+        """The q_mech bound of PLAUSIBILITY, if this state breaks it (the plate model's bound
+        needs a solve: `_refuse_implausible` asks `simbench.predicted`)."""
         low, high = self.q_mech_range
         if low <= self.q_mech <= high:
             return []
@@ -491,13 +492,14 @@ def load_scene(path: str | Path) -> Scene:
         replay_reason=_replay_reason(reader, top["replay"]) if "replay" in top else None,
     )
     scene = _calibrated_through_effects(reader, _predicted_states(reader, scene))
-    for figures in scene_figures(scene):
-        broken = figures.violations()
+    figures = scene_figures(scene)
+    for found in figures:
+        broken = found.violations()
         if broken:
-            raise reader.error(f"states.{figures.state}", "describes a plate that cannot exist: "
+            raise reader.error(f"states.{found.state}", "describes a plate that cannot exist: "
                                + "; ".join(broken))
     if scene.replay_reason is None:
-        _refuse_implausible(reader, scene)
+        _refuse_implausible(reader, scene, figures)
     return scene
 
 
@@ -509,19 +511,24 @@ def _replay_reason(reader: _Reader, data: Any) -> str:
     return reason
 
 
-def _refuse_implausible(reader: _Reader, scene: Scene) -> None:
+def _refuse_implausible(reader: _Reader, scene: Scene, figures: list[StateFigures]) -> None:
     """Refuse a scene that is not a declared replay and breaks `PLAUSIBILITY`: its q_mech
     against the material's range, and each calibrated state against the plate model
     (a solve per plate, so only for calibrated states of scenes that do not declare a replay)."""
-    for figures in scene_figures(scene):
-        state = scene.states[figures.state]
-        broken = figures.implausibilities()
+    for found in figures:
+        state = scene.states[found.state]
+        broken = found.implausibilities()
         if state.calibration is not None:
             from squeezebench.simbench.predicted import predict   # it reads scenes
 
-            broken += [f"{PLAUSIBILITY['plate_model']}: {d}" for d in predict(scene, state).departures()]
+            try:
+                departures = predict(scene, state).departures()
+            except ValueError as exc:
+                raise reader.error(f"states.{state.name}", f"the plate model finds no working mode to compare "
+                                                           f"the calibration with: {exc}") from None
+            broken += [f"{PLAUSIBILITY['plate_model']}: {d}" for d in departures]
         if broken:
-            raise reader.error(f"states.{figures.state}", "describes a plate physics does not predict: "
+            raise reader.error(f"states.{state.name}", "describes a plate physics does not predict: "
                                + "; ".join(broken) + ". A scene that reproduces a measurement the model does "
                                "not explain says so: `replay: {reason: ...}`")
 
