@@ -74,9 +74,9 @@ def paper_texts(name: str) -> dict[tuple[str, str], str]:
 def cell(row: pd.Series, places: int | None, explain_href: str | None = None) -> str:
     """One cell: "this run ± U" over "paper X, deviation %", with the origin beneath and
     a flag (and a link to what explains it) when the deviation is outside the tolerance."""
-    if row["status"] != "measured":
-        return f"<td class='na'>{html.escape(str(row['status']))}</td>"
     quantity = row["quantity"]
+    if row["status"] != "measured":
+        return f"<td class='na'>{html.escape(str(row['status']))}{_physics(row, quantity, places)}</td>"
     expanded = row.get("expanded_uncertainty")
     has_u = isinstance(expanded, (int, float)) and math.isfinite(expanded) and expanded > 0
     shown_places = places
@@ -94,18 +94,7 @@ def cell(row: pd.Series, places: int | None, explain_href: str | None = None) ->
         mark = "✓" if agrees is True else "✗ outside tolerance" if agrees is False else ""
         parts.append(f"<div class='paper'>paper {number(row['paper_value'], quantity, None if places is None else max(0, places - 1))}"
                      f" · <span class='dev'>{deviation}</span> <span class='mark'>{mark}</span></div>")
-    predicted = row.get("predicted_value")
-    if isinstance(predicted, (int, float)) and math.isfinite(predicted):
-        u = row.get("predicted_U")
-        if isinstance(u, (int, float)) and math.isfinite(u) and u > 0 and quantity in DISPLAY:
-            # the prediction's own precision: U to two significant digits
-            u_places = max(0, 1 - math.floor(math.log10(u * DISPLAY[quantity].scale)))
-            shown = f"{number(predicted, quantity, u_places)} ± {number(u, quantity, u_places)}"
-        else:
-            shown = number(predicted, quantity, places)
-        deviation = row.get("predicted_difference")
-        said = f" · {percent(deviation)}" if isinstance(deviation, float) and math.isfinite(deviation) else ""
-        parts.append(f"<div class='physics'>physics {shown}{said}</div>")
+    parts.append(_physics(row, quantity, places))
     origin = str(row.get("origin") or "")
     calibrated = str(row.get("calibrated_on") or "")
     if calibrated:
@@ -116,6 +105,23 @@ def cell(row: pd.Series, places: int | None, explain_href: str | None = None) ->
         parts.append(f"<div class='why'><a href='{html.escape(explain_href)}'>why?</a></div>")
     classes = ["off" if agrees is False else "ok" if agrees is True else "", "cal" if calibrated else ""]
     return f"<td class='{' '.join(c for c in classes if c)}'>{''.join(parts)}</td>"
+
+
+def _physics(row: pd.Series, quantity: str, places: int | None) -> str:
+    """The plate model's prediction for the paper's plate, ± U to two significant digits,
+    and its deviation from print; '' where the model predicts nothing for this cell."""
+    predicted = row.get("predicted_value")
+    if not (isinstance(predicted, (int, float)) and math.isfinite(predicted)):
+        return ""
+    u = row.get("predicted_U")
+    if isinstance(u, (int, float)) and math.isfinite(u) and u > 0 and quantity in DISPLAY:
+        u_places = max(0, 1 - math.floor(math.log10(u * DISPLAY[quantity].scale)))
+        shown = f"{number(predicted, quantity, u_places)} ± {number(u, quantity, u_places)}"
+    else:
+        shown = number(predicted, quantity, places)
+    deviation = row.get("predicted_difference")
+    said = f" · {percent(deviation)}" if isinstance(deviation, float) and math.isfinite(deviation) else ""
+    return f"<div class='physics'>physics {shown}{said}</div>"
 
 
 def paper_layout(frame: pd.DataFrame, paper_name: str | None, item_label, explain: dict[str, str] | None = None,
