@@ -162,10 +162,9 @@ def summary_section(context: ReportContext) -> Section:
         lead = (f"<p class='banner'><b>Bench {html.escape(kind)}</b>: this run predates provenance "
                 "columns; its values are not labelled measured or simulated.</p>")
     measurements = run.measurements
-    found = _uncertainties(context)
     context.cache["headline"] = headline.headline(
         kind, len(measurements), measurements["run_name"].nunique() if not measurements.empty else 0,
-        context.tables, needs_deskew=0 if found.deskew is not None else len(uncertainty.needs_deskew(found.points)))
+        context.tables, needs_deskew=_needs_deskew_count(context))
     body = "<p class='headline'>" + "<br>".join(map(html.escape, context.cache["headline"])) + "</p>" + lead
     body += _verdict_table(context)
     if not measurements.empty:
@@ -1004,6 +1003,16 @@ def uncertainty_section(context: ReportContext) -> Section | None:
                    + "<p>CSV: <a href='uncertainty_points.csv'>uncertainty_points.csv</a>, "
                      "<a href='uncertainty_budgets.csv'>uncertainty_budgets.csv</a></p>")
 
+
+
+def _needs_deskew_count(context: ReportContext) -> int:
+    """How many stored powers need a deskew the run did not make; 0 where the budgets cannot
+    be made (their own section says why), so the headline is always written."""
+    try:
+        found = _uncertainties(context)
+    except UserError:
+        return 0
+    return 0 if found.deskew is not None else len(uncertainty.needs_deskew(found.points))
 
 
 def _delay_flag(points: pd.DataFrame) -> str:
