@@ -526,7 +526,8 @@ def _refuse_implausible(reader: _Reader, scene: Scene, figures: list[StateFigure
             except ValueError as exc:
                 raise reader.error(f"states.{state.name}", f"the plate model finds no working mode to compare "
                                                            f"the calibration with: {exc}") from None
-            broken += [f"{PLAUSIBILITY['plate_model']}: {d}" for d in departures]
+            if departures:
+                broken.append(f"{PLAUSIBILITY['plate_model']}: " + ", ".join(departures))
         if broken:
             raise reader.error(f"states.{state.name}", "describes a plate physics does not predict: "
                                + "; ".join(broken) + ". A scene that reproduces a measurement the model does "
