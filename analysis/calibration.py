@@ -7,11 +7,11 @@ combines the records' fit covariance and scatter (Type A) with the resistor's ow
 constant L/R (Type B).
 
 The same records compare the current path with the voltage path:
-k = 8 P' (R + R_shunt) / V'pp^2 = g_CH2 g_probe / g_CH1. The power carries
-g_CH1 g_CH2 g_probe; dividing by k entirely would leave g_CH1^2, no better without a
-voltage reference, but dividing by k^alpha with the weight that minimises the remaining
-variance (`gain_weight`, 0.53 with the specified limits) leaves
-g_CH1^(1+alpha) (g_CH2 g_probe)^(1-alpha): 2.0 % instead of 2.4 % (k = 1).
+k = 8 P' (R + R_shunt) / V'pp^2 = g_CH2 g_probe / g_V (g_V = g_vprobe g_CH1, the voltage
+probe's attenuation error and CH1's gain). The power carries g_V g_CH2 g_probe; dividing
+by k entirely would leave g_V^2, no better without a voltage reference, but dividing by
+k^alpha with the weight that minimises the remaining variance (`gain_weight`) leaves
+g_V^(1+alpha) (g_CH2 g_probe)^(1-alpha).
 """
 
 from __future__ import annotations
@@ -35,12 +35,13 @@ SHUNT_TOLERANCE_REL = 0.01   # assumed: the 2 ohm shunt within 1 %
 
 #: Weight of the gain check in the power's gain correction (see `Deskew.gain_weight`).
 def gain_weight() -> float:
-    """alpha minimising the variance of g1^(1+alpha) (g2 g_probe)^(1-alpha): the power
-    corrected by k^-alpha (k = g2 g_probe / g1) trades the current path's gain errors for
-    the voltage path's, (S - s1^2) / (S + s1^2) with S the current path's variance."""
-    s1 = SPECIFICATIONS["scope_gain"].std_uncertainty ** 2
-    current = s1 + SPECIFICATIONS["current_probe_gain"].std_uncertainty ** 2
-    return (current - s1) / (current + s1)
+    """alpha minimising the variance of g_V^(1+alpha) (g2 g_probe)^(1-alpha): the power
+    corrected by k^-alpha (k = g2 g_probe / g_V) trades the current path's gain errors for
+    the voltage path's, (S - V) / (S + V) with S and V the paths' variances."""
+    scope = SPECIFICATIONS["scope_gain"].std_uncertainty ** 2
+    voltage = scope + SPECIFICATIONS["voltage_probe_attenuation"].std_uncertainty ** 2
+    current = scope + SPECIFICATIONS["current_probe_gain"].std_uncertainty ** 2
+    return (current - voltage) / (current + voltage)
 
 
 @dataclass(frozen=True)

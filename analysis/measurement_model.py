@@ -59,9 +59,9 @@ MEASURANDS: dict[str, Measurand] = {
 }
 
 #: Inputs known to matter that no budget holds yet: stated, with why, rather than left out.
-_PROBE_COMPENSATION = ("voltage probe attenuation tolerance and compensation",
+_PROBE_COMPENSATION = ("voltage probe compensation",
                        "no figure for the bench's probe is in the project's specifications; a miscompensated "
-                       "probe adds a phase that acts like a CH1 delay")
+                       "probe adds a phase that acts like a CH1 delay (its attenuation tolerance is budgeted)")
 NOT_BUDGETED = (
     ("power_w", *_PROBE_COMPENSATION),
     ("power_w", "current probe phase response over frequency",

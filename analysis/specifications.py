@@ -36,6 +36,11 @@ SPECIFICATIONS: dict[str, Specification] = {
                    "verifies +-50 to +-100 ps on its TDS 500B/600B/700A (performance verification, delay "
                    "between channels); 1 ns bounds an entry-level scope, a tenth of the +-10 ns "
                    "CH<x>:DESKew range (programmer manual)"),
+    "voltage_probe_attenuation": Specification(
+        0.02, "1", "assumed: the paper names no voltage probe (a 100:1 high-voltage probe is assumed); a "
+                   "passive divider probe's attenuation is specified to a few per cent, and the scope's "
+                   "gain accuracy does not include it (Tektronix's scope specifications ask for the "
+                   "probe's accuracy to be added); +-2 %"),
     "current_probe_gain": Specification(
         0.03, "1", "TCP202 instruction manual (070-9542), Specifications: DC accuracy +-3 %"),
     "current_probe_delay": Specification(

@@ -175,7 +175,7 @@ def power_ratio_std_uncertainty(numerator: pd.DataFrame, denominator: pd.DataFra
 
 
 def power_budget(point: dict, deskew: Deskew | None = None) -> Budget:
-    """Mean power P = <v i>: P ~ g1 g2 g_probe, P' = P - Q_r w tau for a CH2 delay tau."""
+    """Mean power P = <v i>: P ~ g_vprobe g1 g2 g_probe, P' = P - Q_r w tau for a CH2 delay tau."""
     value = float(point["power_w"])
     omega_q = 2.0 * math.pi * float(point["frequency_hz"]) * abs(float(point["reactive_power_var"]))
     if deskew is None:
@@ -184,13 +184,16 @@ def power_budget(point: dict, deskew: Deskew | None = None) -> Budget:
     else:
         delay = Term("CH2 delay after deskew", "B", omega_q * deskew.std_uncertainty_s, deskew.source)
     if deskew is None or deskew.gain_ratio is None:
-        gains = (_spec_term("CH1 gain", "scope_gain", value), _spec_term("CH2 gain", "scope_gain", value),
+        gains = (_spec_term("voltage probe attenuation", "voltage_probe_attenuation", value),
+                 _spec_term("CH1 gain", "scope_gain", value), _spec_term("CH2 gain", "scope_gain", value),
                  _spec_term("current probe gain", "current_probe_gain", value))
-    else:   # P k^-alpha carries g1^(1+alpha) (g2 g_probe)^(1-alpha) and k's own uncertainty
+    else:   # P k^-alpha carries (g_vprobe g1)^(1+alpha) (g2 g_probe)^(1-alpha) and k's own uncertainty
         alpha = gain_weight()
         current_u = math.hypot(SPECIFICATIONS["scope_gain"].std_uncertainty,
                                SPECIFICATIONS["current_probe_gain"].std_uncertainty)
-        gains = (_spec_term("CH1 gain (gain-checked)", "scope_gain", (1.0 + alpha) * value),
+        gains = (_spec_term("voltage probe attenuation (gain-checked)", "voltage_probe_attenuation",
+                            (1.0 + alpha) * value),
+                 _spec_term("CH1 gain (gain-checked)", "scope_gain", (1.0 + alpha) * value),
                  Term("current path gain (gain-checked)", "B", (1.0 - alpha) * abs(value) * current_u,
                       SPECIFICATIONS["current_probe_gain"].source + "; " + SPECIFICATIONS["scope_gain"].source),
                  Term("gain check", "A", alpha * abs(value) * deskew.gain_ratio_u / deskew.gain_ratio, deskew.source))
@@ -213,7 +216,8 @@ def velocity_budget(point: dict) -> Budget:
 def voltage_budget(point: dict) -> Budget:
     value = float(point["piezo_voltage_vpp"])
     return Budget("piezo_voltage_vpp", "V", value, (
-        _noise(point["piezo_voltage_vpp_u"]), _spec_term("CH1 gain", "scope_gain", value)))
+        _noise(point["piezo_voltage_vpp_u"]), _spec_term("voltage probe attenuation", "voltage_probe_attenuation", value),
+        _spec_term("CH1 gain", "scope_gain", value)))
 
 
 def frequency_budget(point: dict) -> Budget:
@@ -432,6 +436,9 @@ REFERENCE_FOR = {
     "CH3 gain": "a voltage reference: a precision DMM on the same signal",
     "vibrometer decoder scale": "a reference vibration: a calibrated shaker under the laser",
     "CH1 gain (gain-checked)": "a voltage reference: a precision DMM reading the calibration resistor's voltage",
+    "voltage probe attenuation": "a voltage reference: a precision DMM on the same signal, through the probe",
+    "voltage probe attenuation (gain-checked)": "a voltage reference: a precision DMM reading the calibration "
+                                                "resistor's voltage, through the probe",
     "current path gain (gain-checked)": "a current reference: a precision DMM reading the calibration "
                                         "resistor's voltage",
 }
@@ -557,8 +564,8 @@ def characterisation_budgets(plate, convention: model.Convention, deskew: Deskew
     """Budgets of a plate's Q and tan theta' (`analysis.tables.PlateCharacterisation`).
 
     The slopes carry V = 1 Vpp (Eqs. 25 and 27 are linear in V and V^2): the amplitude
-    slope reads g_CH3 g_decoder / g_CH1, the power slope g_CH2 g_probe / g_CH1 (P carries
-    g_CH1 once, V^2 twice), each with its fit's uncertainty and, for the power, the CH2
+    slope reads g_CH3 g_decoder / g_V, the power slope g_CH2 g_probe / g_V (P carries
+    g_V once, V^2 twice; g_V = g_vprobe g_CH1, the voltage path), each with its fit's uncertainty and, for the power, the CH2
     delay at the points' mean ratio of reactive to real power. Without `with_fit` the
     line fits' own (Type A) terms are left out: the floor no number of points lowers.
     """
@@ -569,6 +576,7 @@ def characterisation_budgets(plate, convention: model.Convention, deskew: Deskew
         Term("line fit", "A", fit * slope_a.std_uncertainty, "weighted fit of amplitude against voltage"),
         _spec_term("CH3 gain", "scope_gain", slope_a.value),
         _spec_term("vibrometer decoder scale", "vibrometer_scale", slope_a.value),
+        _spec_term("voltage probe attenuation", "voltage_probe_attenuation", slope_a.value),
         _spec_term("CH1 gain", "scope_gain", slope_a.value)))
     omega_ratio = float((2.0 * math.pi * points["frequency_hz"] * points["reactive_power_var"].abs()
                          / points["power_w"].abs()).mean())
@@ -580,6 +588,7 @@ def characterisation_budgets(plate, convention: model.Convention, deskew: Deskew
         Term("line fit", "A", fit * slope_p.std_uncertainty, "weighted fit of power against voltage squared"),
         _spec_term("CH2 gain", "scope_gain", slope_p.value),
         _spec_term("current probe gain", "current_probe_gain", slope_p.value),
+        _spec_term("voltage probe attenuation", "voltage_probe_attenuation", slope_p.value),
         _spec_term("CH1 gain", "scope_gain", slope_p.value), delay))
     at_one_volt = Budget("piezo_voltage_vpp", "V", 1.0, ())
     return model_budgets(amplitude, power, at_one_volt, plate.frequency_hz, plate.geometry, convention, tolerances)

@@ -426,6 +426,18 @@ class ScopeGainError(_ChannelGains, errors=dict.fromkeys(("ch1_rel", "ch2_rel", 
         return 1.0 + np.array([v["ch1_rel"], v["ch2_rel"], v["ch3_rel"]])
 
 
+class VoltageProbeError(_ChannelGains,
+                        errors={"attenuation_rel": SPECIFICATIONS["voltage_probe_attenuation"].half_width}):
+    """The voltage probe divides by its nominal attenuation / (1 + attenuation_rel): CH1
+    sees (1 + attenuation_rel) times the amplifier output over the nominal ratio. Default
+    +-2 %, assumed (`analysis.specifications` says why); it adds to the scope's gain error."""
+
+    name = "voltage_probe_error"
+
+    def gains(self) -> np.ndarray:
+        return np.array([1.0 + self.values["attenuation_rel"], 1.0, 1.0])
+
+
 class CurrentProbeGainError(_ChannelGains,
                             errors={"gain_rel": SPECIFICATIONS["current_probe_gain"].half_width}):
     """The TCP202 puts out (1 + gain_rel) times the current. Default +-3 %: TCP202
@@ -692,7 +704,7 @@ EFFECTS: dict[str, type[Effect]] = {cls.name: cls for cls in (
     Shunt, DielectricLossEffect, AmplifierLimits, NeighbouringMode, HeatingDrift,
     SettlingTransient, DcOffset, VibrometerRange, ScopeNoise, VibrometerNoise,
     Quantisation, Averaging, ClippedTrace, BusTimeout, GarbledReplyFault, TruncatedReplyFault,
-    InstrumentErrorEntry, Disconnect, ScopeGainError, CurrentProbeGainError, VibrometerScaleError,
+    InstrumentErrorEntry, Disconnect, ScopeGainError, VoltageProbeError, CurrentProbeGainError, VibrometerScaleError,
     ChannelSkew, CurrentProbeDelay, GeneratorFrequencyError, StageBacklash, PlateOffset, PlateTilt)}
 
 

@@ -358,7 +358,7 @@ EXAMPLES = {
                   "squeezebench reproduce --out /tmp/paper --no-study"],
     "study": ["squeezebench study --out runs/study",
               "squeezebench study --out runs/study --resume --coverage-benches 40"],
-    "plan": ["squeezebench plan quick --target-rel-error 0.05",
+    "plan": ["squeezebench plan quick --target-rel-error 0.08",
              "squeezebench plan paper --target-rel-error 0.03 --write planned.yaml",
              "squeezebench plan cartography --target-rel-error 0.03 --json"],
     "design": ["squeezebench design large_plate --no-layouts   # the paper's large plate, from physics",

@@ -22,19 +22,22 @@ def floors():
 
 
 def test_a_one_percent_target_is_below_the_gain_floor(floors):
-    # power carries three gains (CH1, CH2 +-2 %, TCP202 +-3 %): p95 ~ 1.96 x 2.4 % whatever the averaging
-    gains = math.sqrt(2 * SPECIFICATIONS["scope_gain"].std_uncertainty**2
+    # power carries four gains (voltage probe, CH1, CH2 +-2 %, TCP202 +-3 %): p95 ~ 1.96 x 2.7 % whatever the averaging
+    voltage_path = math.hypot(SPECIFICATIONS["voltage_probe_attenuation"].std_uncertainty,
+                              SPECIFICATIONS["scope_gain"].std_uncertainty)
+    gains = math.sqrt(voltage_path**2 + SPECIFICATIONS["scope_gain"].std_uncertainty**2
                       + SPECIFICATIONS["current_probe_gain"].std_uncertainty**2)
     power = [f for f in floors.floors if f.quantity == "power_w"]
     assert all(f.floor_p95_rel >= 1.96 * gains * 0.999 for f in power)
-    # the gain check trades the current path's errors for the voltage path's: g1^(1+a) (g2 gp)^(1-a)
+    # the gain check trades the current path's errors for the voltage path's: gV^(1+a) (g2 gp)^(1-a)
     alpha = gain_weight()
-    checked = math.hypot((1 + alpha) * SPECIFICATIONS["scope_gain"].std_uncertainty,
+    checked = math.hypot((1 + alpha) * voltage_path,
                          (1 - alpha) * math.hypot(SPECIFICATIONS["scope_gain"].std_uncertainty,
                                                   SPECIFICATIONS["current_probe_gain"].std_uncertainty))
-    assert checked < 0.9 * gains
+    assert checked < gains   # little: the voltage path (probe and CH1) is nearly as uncertain as the current path
     assert all(f.calibrated_floor_p95_rel >= 1.96 * checked * 0.999 for f in power)
-    assert {f.calibrated_dominant_term for f in power} == {"CH1 gain (gain-checked)"}
+    assert {f.calibrated_dominant_term for f in power} <= {"current path gain (gain-checked)",
+                                                          "voltage probe attenuation (gain-checked)"}
     assert len(floors.below_floor()) == len(floors.floors)
     text = "\n".join(floors.lines())
     assert "below the reachable floor" in text and "voltage reference" in text
@@ -46,11 +49,12 @@ def test_the_deskew_calibration_lifts_the_delay_term_at_its_cost(floors):
     assert set(floors.own_bench_time_s) == {"detuning", "cutting"}
     for f in floors.floors:
         assert f.calibrated_floor_p95_rel <= f.floor_p95_rel + 1e-12
-    relaxed = accuracy_floors(QUICK, 0.05)
+    relaxed = accuracy_floors(QUICK, 0.053)   # the gains alone leave 5.2 % (p95) on power, the detuning 5.5 %
     assert relaxed.below_floor() == []
     for run in relaxed.calibrated_runs():   # the calibration is planned only where it is needed
-        assert relaxed.floor(run, calibrated=False) > 0.05 >= relaxed.floor(run, calibrated=True)
-    assert all(0 < relaxed.noise_allowance(run) < 0.05 for run in relaxed.own_bench_time_s)
+        assert relaxed.floor(run, calibrated=False) > 0.053 >= relaxed.floor(run, calibrated=True)
+    assert relaxed.calibrated_runs()
+    assert all(0 < relaxed.noise_allowance(run) < 0.053 for run in relaxed.own_bench_time_s)
     assert relaxed.as_dict()["calibration"]["runs"] == relaxed.calibrated_runs()
 
 

@@ -319,6 +319,13 @@ def test_current_probe_gain_error(tmp_path, ideal):
     assert got["ch1_pp"] == ideal["ch1_pp"] and got["ch3_pp"] == ideal["ch3_pp"]
 
 
+def test_voltage_probe_error(tmp_path, ideal):
+    got = readings(systematic(tmp_path, "voltage_probe_error", attenuation_rel=0.02))
+    assert got["ch1_pp"] == pytest.approx(ideal["ch1_pp"] * 1.02, rel=1e-9)
+    assert got["power"] == pytest.approx(ideal["power"] * 1.02, rel=1e-9)
+    assert got["ch2_pp"] == ideal["ch2_pp"] and got["ch3_pp"] == ideal["ch3_pp"]
+
+
 def test_vibrometer_scale_error(tmp_path, ideal):
     got = readings(systematic(tmp_path, "vibrometer_scale_error", scale_rel=0.01))
     assert got["ch3_pp"] == pytest.approx(ideal["ch3_pp"] * 1.01, rel=1e-9)

@@ -61,7 +61,9 @@ def test_velocity_and_voltage_budgets():
     velocity = velocity_budget(_point())
     assert velocity.std_uncertainty == pytest.approx(0.3 * math.hypot(0.02 * RECT, 0.01 * RECT), rel=1e-3)
     assert velocity.dominant.name == "CH3 gain"
-    assert voltage_budget(_point()).dominant.name == "CH1 gain"
+    voltage = voltage_budget(_point())   # the probe's attenuation and CH1's gain, both +-2 %
+    assert {t.name for t in voltage.terms if t.std_uncertainty == voltage.dominant.std_uncertainty} == {
+        "voltage probe attenuation", "CH1 gain"}
 
 
 def test_detuning_slope_is_the_lorentzian_flank():
@@ -197,7 +199,8 @@ def _predicted_rel_errors(points: pd.DataFrame, e: dict) -> tuple[np.ndarray, np
     along = _signed_slope_per_hz(points) * points["generator_frequency_hz"].to_numpy() \
         * e["generator_frequency_error.frequency_rel"]
     ratio = (points["reactive_power_var"] / points["power_w"]).to_numpy()
-    power = ((1 + e["scope_gain_error.ch1_rel"]) * (1 + e["scope_gain_error.ch2_rel"])
+    power = ((1 + e["voltage_probe_error.attenuation_rel"]) * (1 + e["scope_gain_error.ch1_rel"])
+             * (1 + e["scope_gain_error.ch2_rel"])
              * (1 + e["current_probe_gain_error.gain_rel"])
              * (np.cos(omega_tau) - ratio * np.sin(omega_tau)) * (1 + 2 * along) - 1)
     velocity = (1 + e["scope_gain_error.ch3_rel"]) * (1 + e["vibrometer_scale_error.scale_rel"]) * (1 + along) - 1
@@ -226,7 +229,8 @@ def test_expanded_uncertainties_cover_95_percent_over_many_benches(erring_bench_
     points at once, which is why the campaign is not simply run on a handful of benches."""
     points, _, _ = erring_bench_points
     rng = np.random.default_rng(15)
-    limits = {"scope_gain_error.ch1_rel": "scope_gain", "scope_gain_error.ch2_rel": "scope_gain",
+    limits = {"voltage_probe_error.attenuation_rel": "voltage_probe_attenuation",
+              "scope_gain_error.ch1_rel": "scope_gain", "scope_gain_error.ch2_rel": "scope_gain",
               "scope_gain_error.ch3_rel": "scope_gain", "current_probe_gain_error.gain_rel": "current_probe_gain",
               "vibrometer_scale_error.scale_rel": "vibrometer_scale", "channel_skew.ch2_delay_s": "scope_skew",
               "current_probe_delay.delay_s": "current_probe_delay",
