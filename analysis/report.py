@@ -318,11 +318,12 @@ def _paper_table_html(context: ReportContext, name: str, title: str, frame: pd.D
     explain = _flag(context, title, name, frame)
     budget = ("the fits, instrument specifications, geometry and NCE 41 tolerances" if name == "table5"
               else "noise and instrument specifications")
+    physics = ("physics: what the plate model predicts for the paper's plate from geometry and datasheets "
+               "± U (k = 2) and its deviation from print (no printed result in; see What physics predicts); "
+               if "predicted_value" in frame and frame["predicted_value"].notna().any() else "")
     caption = (f"{html.escape(title)}. {_bench_words(context)} Each cell: this run ± U (k = 2, {budget}), "
                "the printed value and the deviation; ✓ within, ✗ outside "
-               "U plus half the printed last digit; physics: what the plate model predicts for the paper's "
-               "plate from geometry and datasheets ± U (k = 2) and its deviation from print (no printed "
-               "result in; see What physics predicts); beneath, the origin of the number.")
+               f"U plus half the printed last digit; {physics}beneath, the origin of the number.")
     return (f"<p>{intro}</p>" + presentation.paper_layout(frame, name, item_label, explain, caption)
             + presentation.calibration_notes(frame, item_label)
             + f"<p class='csv'>Machine-readable: <a href='{name}.csv'>{name}.csv</a> "
