@@ -732,8 +732,9 @@ def _systematics_part(context: ReportContext, summary: pd.DataFrame) -> str:
                                           f"{100 * row.budget_floor_p95_rel:.2g} %, study {100 * row.floor_p95_rel:.2g} %"
                                           for row in checked.itertuples()))
                   + f". A study's floor is a p95 over {int(floors['benches'].max())} benches at its best "
-                    "setting: it sits below the budget's when no bench drew an error near its limit "
-                    "(a delay near +-10 ns), and above it only if the budget misses an effect.</p>")
+                    "setting, and scatters by a good part of itself from one set of benches to another: it "
+                    "sits below the budget's when no bench drew an error near its limit (a delay near +-10 ns), "
+                    "and well above it only if the budget misses an effect.</p>")
     return ("<h3>Floors on benches whose instruments err within specification</h3>" + reconciled
             + presentation.fold("How the study draws its benches, its floors per point, drawn against bench time "
                                 "and as a table",
