@@ -10,7 +10,6 @@ from __future__ import annotations
 import functools
 import re
 from dataclasses import dataclass
-from importlib import resources
 
 import jinja2
 from markupsafe import Markup
@@ -35,16 +34,10 @@ def _environment() -> jinja2.Environment:
                               autoescape=True, undefined=jinja2.StrictUndefined, keep_trailing_newline=True)
 
 
-@functools.cache
-def css() -> str:
-    """The report's style sheet (laptop, phone and print)."""
-    return resources.files("squeezebench.analysis").joinpath("templates", "report.css").read_text(encoding="utf-8")
-
-
 def render(title: str, sections: list[PageSection], lead_html: str = "") -> str:
     """The whole page: title, optional lead (HTML), navigation, then the sections in order."""
     return _environment().get_template("page.html").render(
-        title=title, css=Markup(css()), lead=Markup(lead_html), sections=sections)
+        title=title, lead=Markup(lead_html), sections=sections)
 
 
 def scrolling_tables(body_html: str) -> str:
