@@ -54,6 +54,9 @@ class Deskew:
     source: str
     gain_ratio: float | None = None
     gain_ratio_u: float = 0.0
+    #: Where the delay was measured: a phase that is not a pure delay (the voltage probe's
+    #: compensation) is removed exactly there only (`uncertainty.compensation_phase_u`).
+    frequency_hz: float | None = None
 
     def corrected_power_w(self, power_w, reactive_power_var, frequency_hz):
         """P = (P' + Q' w tau) k^-alpha (arrays or numbers)."""
@@ -69,7 +72,7 @@ class Deskew:
         points["power_w"] = self.corrected_power_w(points["power_w"], points["reactive_power_var"],
                                                    points["frequency_hz"])
         for column, value in zip(APPLIED_COLUMNS, (self.delay_s, self.std_uncertainty_s, self.gain_ratio,
-                                                   self.gain_ratio_u)):
+                                                   self.gain_ratio_u, self.frequency_hz)):
             points[column] = math.nan if value is None else value
         points["deskew_source"] = self.source
         return points
@@ -79,13 +82,16 @@ class Deskew:
         """The correction `applied_to` recorded in `points` (None: uncorrected powers)."""
         if "power_w_uncorrected" not in points or points.empty:
             return None
-        delay_s, delay_u_s, ratio, ratio_u = (float(points[column].iloc[0]) for column in APPLIED_COLUMNS)
+        delay_s, delay_u_s, ratio, ratio_u, frequency_hz = (float(points[column].iloc[0])
+                                                           for column in APPLIED_COLUMNS)
         return cls(delay_s, delay_u_s, str(points["deskew_source"].iloc[0]),
-                   None if math.isnan(ratio) else ratio, 0.0 if math.isnan(ratio_u) else ratio_u)
+                   None if math.isnan(ratio) else ratio, 0.0 if math.isnan(ratio_u) else ratio_u,
+                   None if math.isnan(frequency_hz) else frequency_hz)
 
 
 #: What `Deskew.applied_to` records of the correction beside each corrected point.
-APPLIED_COLUMNS = ("deskew_delay_s", "deskew_delay_u_s", "deskew_gain_ratio", "deskew_gain_ratio_u")
+APPLIED_COLUMNS = ("deskew_delay_s", "deskew_delay_u_s", "deskew_gain_ratio", "deskew_gain_ratio_u",
+                   "deskew_frequency_hz")
 
 
 def _mean(values: np.ndarray, stated_u: np.ndarray) -> Estimate:
@@ -109,7 +115,7 @@ def deskew_from_points(points: pd.DataFrame) -> Deskew:
     runs = ", ".join(sorted(set(points["run_name"].astype(str))))
     return Deskew(measured.value, math.hypot(measured.std_uncertainty, RESISTOR_TIME_CONSTANT.std_uncertainty),
                   f"deskew calibration ({runs}: {len(points)} records through a resistor); "
-                  + RESISTOR_TIME_CONSTANT.source)
+                  + RESISTOR_TIME_CONSTANT.source, frequency_hz=float(points["frequency_hz"].mean()))
 
 
 def current_gain_ratio(points: pd.DataFrame) -> tuple[Estimate, float]:

@@ -59,14 +59,10 @@ MEASURANDS: dict[str, Measurand] = {
 }
 
 #: Inputs known to matter that no budget holds yet: stated, with why, rather than left out.
-_PROBE_COMPENSATION = ("voltage probe compensation",
-                       "no figure for the bench's probe is in the project's specifications; a miscompensated "
-                       "probe adds a phase that acts like a CH1 delay (its attenuation tolerance is budgeted)")
 NOT_BUDGETED = (
-    ("power_w", *_PROBE_COMPENSATION),
-    ("power_w", "current probe phase response over frequency",
-     "budgeted as a pure delay (+-10 ns, assumed); the TCP202's phase is not a pure delay near its bandwidth"),
-    ("piezo_voltage_vpp", *_PROBE_COMPENSATION),
+    ("velocity_pp_mps", "vibrometer decoder response over frequency",
+     "the decoder's +-1 % calibration error is budgeted; how flat its output stays from its calibration "
+     "frequency to the plates' 30-50 kHz is not in the project's specifications"),
 )
 
 
@@ -80,6 +76,10 @@ def _correction(term: uncertainty.Term, deskew: Deskew | None) -> str:
         return f"corrected: tau = {deskew.delay_s * 1e9:.2f} ns measured by the run's deskew calibration"
     if term.name.startswith("CH2 delay"):
         return "not corrected (no deskew run): budgeted at its limit"
+    if term.name.startswith("voltage probe compensation") and deskew is not None:
+        return (f"partly corrected: the deskew at {deskew.frequency_hz:.0f} Hz took its phase for part of the "
+                "delay; the residue at this frequency is budgeted") if deskew.frequency_hz else \
+            "not corrected (sign unknown): budgeted at its limit"
     if term.name == "gain check":
         return "corrected: the deskew run's gain ratio k, weighted"
     if term.type == "A":

@@ -41,13 +41,20 @@ SPECIFICATIONS: dict[str, Specification] = {
                    "passive divider probe's attenuation is specified to a few per cent, and the scope's "
                    "gain accuracy does not include it (Tektronix's scope specifications ask for the "
                    "probe's accuracy to be added); +-2 %"),
+    "voltage_probe_compensation": Specification(
+        0.01, "1", "assumed: a divider probe adjusted by eye on the scope's 1 kHz probe-compensation square "
+                   "wave keeps a flat top to about a trace width, +-1 % of the step; above the divider's pole "
+                   "(VOLTAGE_PROBE_POLE_HZ) a mismatch d leads CH1 by the phase d f_pole / f, and its gain part is "
+                   "the attenuation term's"),
     "current_probe_gain": Specification(
         0.03, "1", "TCP202 instruction manual (070-9542), Specifications: DC accuracy +-3 %"),
     "current_probe_delay": Specification(
         10e-9, "s", "assumed: no propagation-delay figure of the TCP202 was found; Tektronix's deskew note for "
                     "power measurements gives nominal delays of 6.5 ns (TDP1000 voltage probe) and 14.5 ns "
                     "(TCP0030 current probe), 8 ns apart; +-10 ns is also the most CH<x>:DESKew can "
-                    "correct (programmer manual)"),
+                    "correct (programmer manual); the TCP202's 50 MHz bandwidth (its specifications) acts below "
+                    "100 kHz as a constant delay, 1/(2 pi 50 MHz) = 3.2 ns, so its phase over frequency is "
+                    "part of this delay"),
     "vibrometer_scale": Specification(
         0.01, "1", "Polytec velocity decoder specifications: calibration error of the analog "
                    "output +-1 % (sinusoidal vibration, 70 % of full scale)"),
@@ -58,3 +65,19 @@ SPECIFICATIONS: dict[str, Specification] = {
         20e-6, "1", "HP/Agilent 33120A User's Guide, Specifications: frequency accuracy 10 ppm "
                     "(90 days), 20 ppm (1 year); the one-year figure"),
 }
+
+
+#: Pole of the voltage probe's compensated divider, R_tip C_tip: tens of megohms with a few
+#: picofarads (a 100:1 high-voltage probe's tip) make about 0.1 ms. Assumed, as the probe is.
+#: Well below the plates' 30-50 kHz, where a compensation mismatch d is a phase lead
+#: d f_pole / f: its delay-equivalent falls as 1/f^2, so a deskew at one frequency leaves a
+#: residue at another (`uncertainty.compensation_phase_u`).
+VOLTAGE_PROBE_POLE_HZ = 1.5e3
+
+
+def compensation_phase_rad(mismatch_rel: float, frequency_hz: float) -> float:
+    """CH1's phase lead (rad) through a divider probe whose compensation is off by
+    `mismatch_rel` (HF over LF gain minus one): H(f) = (1 + j f / f_z) / (1 + j f / f_p) with
+    f_z = f_p / (1 + d), f_p = VOLTAGE_PROBE_POLE_HZ (a compensated RC divider's transfer)."""
+    x = frequency_hz / VOLTAGE_PROBE_POLE_HZ
+    return math.atan(x * (1.0 + mismatch_rel)) - math.atan(x)

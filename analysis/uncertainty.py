@@ -38,7 +38,7 @@ from scipy import stats
 from squeezebench.analysis import model
 from squeezebench.analysis.calibration import Deskew, deskew_of_run, gain_weight
 from squeezebench.analysis.rundata import RunData
-from squeezebench.analysis.specifications import SPECIFICATIONS
+from squeezebench.analysis.specifications import SPECIFICATIONS, VOLTAGE_PROBE_POLE_HZ
 from squeezebench.analysis.tables import reduced_points, with_scope_fallback
 
 COVERAGE_FACTOR = 2.0
@@ -131,6 +131,28 @@ def delay_std_uncertainty_s() -> float:
                       SPECIFICATIONS["current_probe_delay"].std_uncertainty)
 
 
+def compensation_phase_per_mismatch(frequency_hz, deskew: Deskew | None = None):
+    """CH1's phase lead (rad) per unit of the voltage probe's compensation mismatch d at
+    `frequency_hz` (numbers or arrays): f_pole / f, the small-mismatch form of
+    `specifications.compensation_phase_rad`. A deskew at f_cal took that phase for part of
+    a delay and removes w times phase(f_cal) / w_cal; the residue is
+    f_pole / f (1 - (f / f_cal)^2), nothing at f_cal itself. Signed: two points' residues
+    come from the same d."""
+    per_mismatch = VOLTAGE_PROBE_POLE_HZ / np.asarray(frequency_hz, dtype=float)
+    if deskew is not None and deskew.frequency_hz:
+        per_mismatch = per_mismatch * (1.0 - (np.asarray(frequency_hz, dtype=float) / deskew.frequency_hz) ** 2)
+    return per_mismatch
+
+
+def compensation_term(name: str, power_per_rad: float, frequency_hz, deskew: Deskew | None) -> Term:
+    """The voltage probe's compensation in a power's budget: a CH1 lead phi moves the mean
+    power by -Q_r phi (P' = P cos phi - Q_r sin phi), `power_per_rad` = |Q_r| (or a mean of it)."""
+    spec = SPECIFICATIONS["voltage_probe_compensation"]
+    phase_u = float(np.abs(compensation_phase_per_mismatch(frequency_hz, deskew))) * spec.std_uncertainty
+    after = "; a deskew removed it at its own frequency, the residue is budgeted" if deskew is not None else ""
+    return Term(name, "B", abs(power_per_rad) * phase_u, spec.source + after)
+
+
 #: Without a deskew run, a point's power needs one when the CH2 delay makes more than this
 #: share of its variance and its U is beyond DELAY_FLAG_U_REL of the power.
 DELAY_FLAG_SHARE = 0.5
@@ -169,15 +191,20 @@ def power_ratio_std_uncertainty(numerator: pd.DataFrame, denominator: pd.DataFra
         power = float(points["power_w"].mean())
         noise = float(np.sqrt(np.sum(points["power_w_u"] ** 2))) / len(points)
         phase = float((2.0 * math.pi * points["frequency_hz"] * points["reactive_power_var"]).mean()) / power
-        parts.append((power, noise / power, phase))
-    (p_t, noise_t, phase_t), (p_0, noise_0, phase_0) = parts
-    return abs(p_t / p_0) * math.sqrt(noise_t**2 + noise_0**2 + ((phase_t - phase_0) * delay_u_s) ** 2)
+        lead = float((points["reactive_power_var"]
+                      * compensation_phase_per_mismatch(points["frequency_hz"], applied)).mean()) / power
+        parts.append((power, noise / power, phase, lead))
+    (p_t, noise_t, phase_t, lead_t), (p_0, noise_0, phase_0, lead_0) = parts
+    compensation_u = SPECIFICATIONS["voltage_probe_compensation"].std_uncertainty
+    return abs(p_t / p_0) * math.sqrt(noise_t**2 + noise_0**2 + ((phase_t - phase_0) * delay_u_s) ** 2
+                                      + ((lead_t - lead_0) * compensation_u) ** 2)
 
 
 def power_budget(point: dict, deskew: Deskew | None = None) -> Budget:
     """Mean power P = <v i>: P ~ g_vprobe g1 g2 g_probe, P' = P - Q_r w tau for a CH2 delay tau."""
     value = float(point["power_w"])
-    omega_q = 2.0 * math.pi * float(point["frequency_hz"]) * abs(float(point["reactive_power_var"]))
+    reactive = abs(float(point["reactive_power_var"]))
+    omega_q = 2.0 * math.pi * float(point["frequency_hz"]) * reactive
     if deskew is None:
         delay = Term("CH2 delay vs CH1 (skew, TCP202)", "B", omega_q * delay_std_uncertainty_s(),
                      SPECIFICATIONS["current_probe_delay"].source + "; " + SPECIFICATIONS["scope_skew"].source)
@@ -199,6 +226,7 @@ def power_budget(point: dict, deskew: Deskew | None = None) -> Budget:
                  Term("gain check", "A", alpha * abs(value) * deskew.gain_ratio_u / deskew.gain_ratio, deskew.source))
     return Budget("power_w", "W", value, (
         _noise(point["power_w_u"]), *gains, delay,
+        compensation_term("voltage probe compensation (CH1 phase)", reactive, point["frequency_hz"], deskew),
         _spec_term("generator frequency", "generator_frequency",
                    2.0 * value * point.get("detuning_slope_per_hz", 0.0) * float(point["frequency_hz"]))))
 
@@ -584,11 +612,15 @@ def characterisation_budgets(plate, convention: model.Convention, deskew: Deskew
                   SPECIFICATIONS["current_probe_delay"].source) if deskew is None else
              Term("CH2 delay after deskew", "B", abs(slope_p.value) * omega_ratio * deskew.std_uncertainty_s,
                   deskew.source))
+    lead_ratio = float((points["reactive_power_var"].abs() / points["power_w"].abs()
+                        * np.abs(compensation_phase_per_mismatch(points["frequency_hz"], deskew))).mean())
     power = Budget("power_w_per_vpp2", "W/V^2", slope_p.value, (
         Term("line fit", "A", fit * slope_p.std_uncertainty, "weighted fit of power against voltage squared"),
         _spec_term("CH2 gain", "scope_gain", slope_p.value),
         _spec_term("current probe gain", "current_probe_gain", slope_p.value),
         _spec_term("voltage probe attenuation", "voltage_probe_attenuation", slope_p.value),
-        _spec_term("CH1 gain", "scope_gain", slope_p.value), delay))
+        _spec_term("CH1 gain", "scope_gain", slope_p.value), delay,
+        _spec_term("voltage probe compensation (CH1 phase)", "voltage_probe_compensation",
+                   slope_p.value * lead_ratio)))
     at_one_volt = Budget("piezo_voltage_vpp", "V", 1.0, ())
     return model_budgets(amplitude, power, at_one_volt, plate.frequency_hz, plate.geometry, convention, tolerances)

@@ -10,7 +10,8 @@ acts at one or more stages of the simulation:
 - `noise`: adds per-acquisition random noise, as an rms in screen divisions;
 - `digitizer`: sets how the scope digitises (quantisation, averaging);
 - `generator`: what the generator really puts out for its settings (frequency error);
-- `timing`: a delay of a channel against CH1 (skew, current-probe delay);
+- `timing`: a channel's delay at the drive frequency (skew, current-probe delay, a voltage
+  probe's compensation phase);
 - `spot`: where the vibrometer's laser meets the plate when the x-y stage moves it
   (backlash, a plate off the stage's zero or rotated, a tilted plate);
 - `bus`: faults of the instruments and their link (timeouts, garbled or truncated
@@ -30,7 +31,7 @@ from typing import ClassVar
 
 import numpy as np
 
-from squeezebench.analysis.specifications import SPECIFICATIONS
+from squeezebench.analysis.specifications import SPECIFICATIONS, compensation_phase_rad
 from squeezebench.simbench import physics
 
 #: Screen channels: CH1 piezo voltage (V), CH2 current (A), CH3 vibrometer output (V).
@@ -467,7 +468,8 @@ class _ChannelDelay(SystematicEffect):
     stages = frozenset({"timing"})
     delay_parameter: ClassVar[str]
 
-    def delays_s(self) -> np.ndarray:
+    def delays_s(self, frequency_hz: float) -> np.ndarray:
+        """Each channel's delay at the drive frequency (a pure delay: the same at every one)."""
         return np.array([0.0, self.values[self.delay_parameter], 0.0])
 
 
@@ -495,6 +497,22 @@ class CurrentProbeDelay(_ChannelDelay,
     name = "current_probe_delay"
     delay_parameter = "delay_s"
     world_bias, world_spread = 0.8, 0.15   # ~8 +- 1.5 ns behind the voltage probe (Tektronix's deskew example)
+
+
+class VoltageProbeCompensation(_ChannelDelay,
+                               errors={"mismatch_rel": SPECIFICATIONS["voltage_probe_compensation"].half_width}):
+    """The voltage probe's divider compensated off by mismatch_rel (its high-frequency gain
+    over its low-frequency gain, minus one): CH1 leads by `compensation_phase_rad`, about
+    mismatch_rel * f_pole / f at the plates' frequencies, a phase that falls with frequency
+    where a delay's grows. Shown as CH1 advanced by phase / w at the drive frequency. Its gain
+    part is the attenuation error at the working frequency (`voltage_probe_error`). Default
+    +-1 %, assumed (`analysis.specifications` says why)."""
+
+    name = "voltage_probe_compensation"
+
+    def delays_s(self, frequency_hz: float) -> np.ndarray:
+        phase = compensation_phase_rad(self.values["mismatch_rel"], frequency_hz)
+        return np.array([-phase / (2.0 * np.pi * frequency_hz), 0.0, 0.0])
 
 
 class GeneratorFrequencyError(SystematicEffect,
@@ -705,7 +723,7 @@ EFFECTS: dict[str, type[Effect]] = {cls.name: cls for cls in (
     SettlingTransient, DcOffset, VibrometerRange, ScopeNoise, VibrometerNoise,
     Quantisation, Averaging, ClippedTrace, BusTimeout, GarbledReplyFault, TruncatedReplyFault,
     InstrumentErrorEntry, Disconnect, ScopeGainError, VoltageProbeError, CurrentProbeGainError, VibrometerScaleError,
-    ChannelSkew, CurrentProbeDelay, GeneratorFrequencyError, StageBacklash, PlateOffset, PlateTilt)}
+    ChannelSkew, CurrentProbeDelay, VoltageProbeCompensation, GeneratorFrequencyError, StageBacklash, PlateOffset, PlateTilt)}
 
 
 # -- the digitiser ----------------------------------------------------------------------
@@ -763,9 +781,9 @@ class EffectPipeline:
             settings = stage(settings)
         return settings
 
-    def channel_delays_s(self) -> np.ndarray | None:
-        """Delay of each channel against CH1 (delays add); None when no effect delays."""
-        return sum(stage() for stage in self._delays) if self._delays else None
+    def channel_delays_s(self, frequency_hz: float) -> np.ndarray | None:
+        """Delay of each channel at the drive frequency (delays add); None when no effect delays."""
+        return sum(stage(frequency_hz) for stage in self._delays) if self._delays else None
 
     def amplifier(self, amplifier: physics.Amplifier) -> physics.Amplifier:
         for stage in self._amplifier:

@@ -120,7 +120,7 @@ def acquire(steady: physics.SteadyState, setup: ScopeSetup, sensor_gains: np.nda
     fundamentals = pipeline.motion(steady.branch_velocity_phasors_mps[:, :1], ctx) \
         if pipeline.has_motion else None
     signals = synthesize(steady, times, fundamentals)
-    delays_s = pipeline.channel_delays_s()
+    delays_s = pipeline.channel_delays_s(steady.frequency_hz)
     if delays_s is not None:   # a delayed channel shows its signal from tau earlier
         for ch in np.flatnonzero(delays_s):
             signals[ch] = synthesize(steady, times - delays_s[ch], fundamentals)[ch]

@@ -6,7 +6,10 @@ import math
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
+from squeezebench.analysis.specifications import VOLTAGE_PROBE_POLE_HZ, compensation_phase_rad
 from squeezebench.instruments.bench import open_bench, sim_bench_config
 from squeezebench.instruments.errors import ConnectionLost, GarbledReply, InstrumentError, InstrumentTimeout
 from squeezebench.protocols.variants import SYSTEMATIC_EFFECTS
@@ -371,6 +374,34 @@ def test_channel_skew(tmp_path, ideal):
     # against the ideal bench read through the same whole-period gate (its granularity cancels)
     shift_w = _delayed_power_w(truth, 1e-9) - truth.power_w
     assert readings(skewed)["power"] - ideal["power"] == pytest.approx(shift_w, rel=1e-2)
+
+
+def test_voltage_probe_compensation(tmp_path):
+    """A probe compensated 2 % off leads CH1 by about d f_pole / f: at the Fig. 2c stress point
+    (power factor ~0.02) the power moves as a CH2 delay of phase / w would move it, and the
+    phase, unlike a delay's, halves when the frequency doubles."""
+    stress = {"frequency_hz": 37560.0, "generator_vpp": 240.0 / 20.0 * 10.05 / 10.0, "record_length": 10000}
+    bench = bench_with(tmp_path, [{"voltage_probe_compensation": {"draw": 0, "mismatch_rel": 0.02}}], **stress)
+    plain = bench_with(tmp_path, [], **stress)
+    truth = bench.sim.truth()
+    lead_rad = compensation_phase_rad(0.02, truth.frequency_hz)
+    assert lead_rad == pytest.approx(0.02 * VOLTAGE_PROBE_POLE_HZ / truth.frequency_hz, rel=0.03)   # first order in d
+    shift_w = _delayed_power_w(truth, lead_rad / (2.0 * math.pi * truth.frequency_hz)) - truth.power_w
+    got, ideal = readings(bench), readings(plain)
+    assert got["power"] - ideal["power"] == pytest.approx(shift_w, rel=1e-2)
+    assert abs(shift_w) > 0.01 * truth.power_w
+    assert got["ch1_pp"] == pytest.approx(ideal["ch1_pp"], rel=1e-3)   # its gain part is the attenuation's
+    assert compensation_phase_rad(0.02, 2 * truth.frequency_hz) == pytest.approx(lead_rad / 2, rel=0.02)
+
+
+@settings(max_examples=50, deadline=None)
+@given(st.floats(-0.05, 0.05), st.floats(10.0, 2e5))
+def test_the_compensation_phase_is_the_divider_transfer(mismatch, frequency_hz):
+    """compensation_phase_rad is the angle of (1 + j f/f_z) / (1 + j f/f_p), f_z = f_p / (1 + d):
+    an RC divider whose tip time constant is (1 + d) times the one that compensates it."""
+    f_p = VOLTAGE_PROBE_POLE_HZ
+    transfer = (1 + 1j * frequency_hz * (1 + mismatch) / f_p) / (1 + 1j * frequency_hz / f_p)
+    assert compensation_phase_rad(mismatch, frequency_hz) == pytest.approx(np.angle(transfer), abs=1e-12)
 
 
 def test_generator_frequency_error(tmp_path):
