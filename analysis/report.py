@@ -761,10 +761,6 @@ def _systematics_part(context: ReportContext, summary: pd.DataFrame) -> str:
                                  f"setting within {study.AT_FLOOR - 1:.0%} of it (study_floors.csv). Simulated bench.")))
 
 
-#: How the report names the coverage studies' error models (protocols.variants.ERROR_MODELS).
-COVERAGE_MODELS = {"specified": "benches within specification", "world": "benches erring as the world errs"}
-
-
 def _coverage_part(context: ReportContext) -> str:
     """Whether the expanded uncertainties this report prints cover the truth, checked on
     the paper campaign over simulated benches erring within specification."""
@@ -776,11 +772,7 @@ def _coverage_part(context: ReportContext) -> str:
     table = study.coverage_table(points)
     context.tables["study_coverage"] = table
     campaign = str(points["campaign"].iat[0]) if "campaign" in points else "the campaign"
-    words = "; ".join(f"{_words_of(row.quantity)} ({COVERAGE_MODELS.get(row.error_model, row.error_model)}): "
-                      f"{row.covered_fraction:.1%} of {row.points} points, "
-                      f"{row.benches_mostly_covered} of {row.benches} benches mostly covered "
-                      f"(95 % interval {row.benches_interval_low:.0%} to {row.benches_interval_high:.0%})"
-                      for row in table.itertuples())
+    words = "; ".join(study.coverage_lines(table, _words_of))
     return ("<h3>Coverage of the expanded uncertainties</h3>"
             f"<p>{html.escape(campaign)} run on up to {table['benches'].max()} simulated benches (bench k: "
             "errors drawn from seed k), every stored point's expanded uncertainty (k = 2, "

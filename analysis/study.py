@@ -176,6 +176,21 @@ def coverage_table(points: pd.DataFrame) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
+#: How a coverage study's benches erred, in words (protocols.variants.ERROR_MODELS).
+COVERAGE_MODELS = {"specified": "benches within specification", "world": "benches erring as the world errs"}
+
+
+def coverage_lines(table: pd.DataFrame, quantity_words=str) -> list[str]:
+    """One line per row of `coverage_table`: the pooled fraction of points covered and the
+    benches mostly covered with their Wilson 95 % interval (what `study` prints and the
+    report says)."""
+    return [f"{quantity_words(row.quantity)} ({COVERAGE_MODELS.get(row.error_model, row.error_model)}): "
+            f"{row.covered_fraction:.1%} of {row.points} points, "
+            f"{row.benches_mostly_covered} of {row.benches} benches mostly covered "
+            f"(95 % interval {row.benches_interval_low:.0%} to {row.benches_interval_high:.0%})"
+            for row in table.itertuples()]
+
+
 def _setting(value) -> str:
     if isinstance(value, (bool, np.bool_)):
         return "on" if value else "off"

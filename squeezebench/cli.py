@@ -233,9 +233,15 @@ def _run_coverage(args: argparse.Namespace, out: Path, benches: int) -> None:
     if benches:
         from squeezebench.protocols.bench_errors import run_coverage_study
 
-        run_coverage_study(out, benches, resume=args.resume, workers=args.workers, scheduler=args.scheduler,
-                           progress=lambda message: say(args, message),
-                           error_model=getattr(args, "coverage_errors", "specified"))
+        import pandas as pd
+
+        from squeezebench.analysis.study import coverage_lines, coverage_table
+
+        error_model = getattr(args, "coverage_errors", "specified")
+        stored = run_coverage_study(out, benches, resume=args.resume, workers=args.workers, scheduler=args.scheduler,
+                                    progress=lambda message: say(args, message), error_model=error_model)
+        for line in coverage_lines(coverage_table(pd.read_parquet(stored).assign(error_model=error_model))):
+            print(f"coverage: {line}", flush=True)
 
 
 def cmd_study(args: argparse.Namespace) -> int:

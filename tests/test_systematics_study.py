@@ -117,10 +117,11 @@ def test_the_coverage_study_scores_every_stored_point_and_resumes_by_bench(tmp_p
     assert set(load_coverage(tmp_path)["bench_seed"]) == {1, 2, 3}
 
 
-def test_a_coverage_study_on_benches_erring_as_the_world_errs_is_stored_and_tabled_beside(tmp_path):
+def test_a_coverage_study_on_benches_erring_as_the_world_errs_is_stored_and_tabled_beside(tmp_path, monkeypatch,
+                                                                                          capsys):
     """The 'world' error model (normal errors, a probe lag of known sign, now and then an
     instrument out of specification) runs beside the specified one; the table has a row
-    per model and quantity, each with its benches' interval."""
+    per model and quantity, each with its benches' interval, and `study` prints them."""
     from squeezebench import paths
     from squeezebench.analysis.study import coverage_table, load_coverage
     from squeezebench.protocols.bench_errors import run_coverage_study
@@ -134,6 +135,18 @@ def test_a_coverage_study_on_benches_erring_as_the_world_errs_is_stored_and_tabl
     table = coverage_table(points).set_index(["error_model", "quantity"])
     assert table.loc[("world", "power_w"), "benches"] == 2 and table.loc[("specified", "power_w"), "benches"] == 1
     assert (table["benches_interval_low"] <= table["benches_interval_high"]).all()
+
+    import argparse
+
+    from squeezebench import cli
+    from squeezebench.protocols import bench_errors
+
+    monkeypatch.setattr(bench_errors, "run_coverage_study", lambda *args, **kwargs: world)   # what it stored
+    cli._run_coverage(argparse.Namespace(resume=True, workers=1, scheduler=None, coverage_errors="world",
+                                         quiet=True), tmp_path, 2)
+    printed = capsys.readouterr().out.splitlines()
+    assert len(printed) == 2 and all(line.startswith("coverage: ") for line in printed)
+    assert "of 2 benches mostly covered (95 % interval" in printed[0] and "as the world errs" in printed[0]
 
 
 def test_a_negative_number_of_benches_is_refused(tmp_path, capsys):
