@@ -173,13 +173,29 @@ def fig5_q_tan(plates: dict[str, PlateCharacterisation], path: Path) -> Path:
     return save_figure(fig, path)
 
 
-def fig8_amplitude(large: PlateCharacterisation, path: Path) -> Path:
+PHYSICS_STYLE = {"color": "tab:green", "lw": 1.2}
+
+
+def _physics_band(ax, x, y, u, label: str) -> None:
+    """What the plate model predicts, a line with its U (k = 2) as a band."""
+    order = np.argsort(np.asarray(x))
+    x, y, u = (np.asarray(a)[order] for a in (x, y, u))
+    ax.plot(x, y, "-", label=label, **PHYSICS_STYLE)
+    ax.fill_between(x, y - u, y + u, color=PHYSICS_STYLE["color"], alpha=0.15, lw=0)
+
+
+def fig8_amplitude(large: PlateCharacterisation, path: Path, physics_m_per_vpp: tuple[float, float] | None = None) -> Path:
     """Fig. 8: amplitude pp against voltage pp with the fitted line, its residuals, and
-    the paper's published point (about 1 um at 32 Vpp, Sec. 5.3.2)."""
+    the paper's published point (about 1 um at 32 Vpp, Sec. 5.3.2); with
+    `physics_m_per_vpp` (slope, its relative U), the plate model's line and band."""
     points = large.points
     fig, (ax, res) = plt.subplots(2, 1, figsize=(6.5, 4.8), sharex=True, gridspec_kw={"height_ratios": (3, 1)})
     _fit_panel(ax, res, points["piezo_voltage_vpp"], points["amplitude_pp_m"], points["amplitude_pp_m_u"],
                large.amplitude_slope, 1e6, "voltage (Vpp)", "amplitude (µm pp)", stats_unit="µm pp")
+    if physics_m_per_vpp is not None:
+        slope, rel_u = physics_m_per_vpp
+        v = np.linspace(0.0, float(points["piezo_voltage_vpp"].max()), 20)
+        _physics_band(ax, v, slope * v * 1e6, rel_u * slope * v * 1e6, "physics: plate model ± U")
     ax.plot([paper_value("large_plate", "large_plate", "voltage_vpp")],
             [paper_value("large_plate", "large_plate", "amplitude_m") * 1e6], label="paper, Sec. 5.3.2", **PAPER_STYLE)
     ax.legend(fontsize=8, loc="lower right")
@@ -188,19 +204,22 @@ def fig8_amplitude(large: PlateCharacterisation, path: Path) -> Path:
 
 
 def fig9_power(power: pd.DataFrame, path: Path) -> Path:
-    """Fig. 9: power against V^2, measured and estimated from the small plates, and the
-    paper's published point (1.3 W at 32 Vpp). Columns: piezo_voltage_vpp,
-    power_measured_w, power_estimated_w."""
+    """Fig. 9: power against V^2, measured and estimated from the small plates, what the
+    plate model predicts (with its U band) and the paper's published point (1.3 W at 32
+    Vpp). Columns: piezo_voltage_vpp, power_measured_w, power_estimated_w,
+    power_predicted_w, power_predicted_U_w."""
     fig, ax = plt.subplots(figsize=(6.5, 4.2))
     v2 = power["piezo_voltage_vpp"] ** 2
     ax.plot(v2, power["power_measured_w"], "o", label="this run: large plate's sweep")
-    ax.plot(v2, power["power_estimated_w"], "s--", label="this run: estimated from small plates (Eqs. 25, 29)")
+    if power["power_estimated_w"].notna().any():
+        ax.plot(v2, power["power_estimated_w"], "s--", label="this run: estimated from small plates (Eqs. 25, 29)")
+    _physics_band(ax, v2, power["power_predicted_w"], power["power_predicted_U_w"], "physics: plate model ± U")
     ax.plot([paper_value("large_plate", "large_plate", "voltage_vpp") ** 2],
             [paper_value("large_plate", "large_plate", "power_w")], label="paper, Sec. 5.3.2", **PAPER_STYLE)
     ax.set_xlabel("voltage squared (Vpp²)")
     ax.set_ylabel("power (W)")
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=8)
+    ax.legend(fontsize=8, loc="upper left")   # the paper's point sits upper right
     return save_figure(fig, path)
 
 

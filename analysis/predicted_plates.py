@@ -95,8 +95,13 @@ def response_relative_u() -> dict[str, float]:
     u = {name: half / math.sqrt(3) for name, half in t.items()}
     u_q = MECHANICAL_Q_TOLERANCE / math.sqrt(3)
     u_omega_mass = math.hypot(2 * u["thickness_m"], u["young_pa"] / 2, u["density_kg_m3"] / 2)
+    # the amplitude v / w = F V q / (w^2 M), w^2 M ~ E h^3
+    u_omega2_mass = math.hypot(3 * u["thickness_m"], u["young_pa"])
     return {"velocity_pp_mps": 2 * math.hypot(u["d31_c_per_n"], u_q, u_omega_mass),
-            "power_w": 2 * math.hypot(2 * u["d31_c_per_n"], u_q, u_omega_mass)}
+            "amplitude_pp_m": 2 * math.hypot(u["d31_c_per_n"], u_q, u_omega2_mass),
+            "power_w": 2 * math.hypot(2 * u["d31_c_per_n"], u_q, u_omega_mass),
+            # tan theta' inverted through Eqs. 27 and 25 goes as P / (A f) ~ F: q, M and w cancel
+            "tan_theta": 2 * u["d31_c_per_n"]}
 
 
 def _rows():
@@ -174,11 +179,25 @@ def tidy(table: str) -> pd.DataFrame:
         for quantity, (value, u) in PREDICTED_QUANTITIES.items():
             rows.append({"item": row["item"], "quantity": quantity, "predicted_value": float(row[value]),
                          "predicted_U": float(row[u]) if u else math.nan})
-        omega = 2 * math.pi * row["predicted_frequency_hz"]
-        rows.append({"item": row["item"], "quantity": "amplitude_pp_m",
-                     "predicted_value": row["predicted_velocity_pp_mps"] / omega,
-                     "predicted_U": row["predicted_velocity_u_pp_mps"] / omega})
+        amplitude = row["predicted_velocity_pp_mps"] / (2 * math.pi * row["predicted_frequency_hz"])
+        rows.append({"item": row["item"], "quantity": "amplitude_pp_m", "predicted_value": amplitude,
+                     "predicted_U": amplitude * response_relative_u()["amplitude_pp_m"]})
     return pd.DataFrame(rows, columns=["item", "quantity", "predicted_value", "predicted_U"])
+
+
+def large_plate_response() -> dict[str, float]:
+    """The large plate at its predicted working mode, per volt: amplitude pp per Vpp at its
+    centre and power per Vpp^2 (both linear in the drive: Eqs. 25 and 27 are, and so is the
+    plate), each with its relative U (k = 2), and the frequency; what Figs. 8 and 9 and
+    Table 5 show beside the measured lines."""
+    row = _predictions().set_index("item").loc["large_plate"]
+    u = response_relative_u()
+    omega = 2 * math.pi * row["predicted_frequency_hz"]
+    return {"frequency_hz": float(row["predicted_frequency_hz"]),
+            "amplitude_pp_m_per_vpp": float(row["predicted_velocity_pp_mps"] / omega / row["voltage_vpp"]),
+            "amplitude_rel_U": u["amplitude_pp_m"],
+            "power_w_per_vpp2": float(row["predicted_power_w"] / row["voltage_vpp"] ** 2),
+            "power_rel_U": u["power_w"], "tan_theta_rel_U": u["tan_theta"]}
 
 
 def large_plate_mode_figure(path: Path) -> dict:

@@ -536,7 +536,29 @@ def table5(plates: dict[str, PlateCharacterisation], convention: model.Conventio
             rows.append(compare_with_paper(
                 _derived_row("table5", item, quantity, getattr(values, quantity), values.calibrated_on),
                 paper[(paper["item"] == item) & (paper["quantity"] == quantity)]))
-    return pd.DataFrame(rows, columns=TABLE_COLUMNS)
+    frame = pd.DataFrame(rows, columns=TABLE_COLUMNS)
+    predicted = predicted_large_plate_q_tan(measured.geometry, convention)
+    frame["predicted_value"] = frame["quantity"].map(lambda q: predicted[q][0])
+    frame["predicted_U"] = frame["quantity"].map(lambda q: predicted[q][1])
+    frame["predicted_difference"] = [relative_difference(v, p) for v, p in zip(frame["predicted_value"],
+                                                                                frame["paper_value"])]
+    return frame
+
+
+def predicted_large_plate_q_tan(geometry: model.PlateGeometry,
+                                convention: model.Convention) -> dict[str, tuple[float, float]]:
+    """What physics predicts the large plate's Q and tan theta' read as, each (value, U k = 2):
+    the plate model's amplitude and power per volt (analysis.predicted_plates, no printed
+    result in) through the same inversion of Eqs. 27 and 25, geometry and reading as the
+    measured plate. Both estimated and measured rows of Table 5 aim at this plate."""
+    from squeezebench.analysis import predicted_plates   # the plate solver: only where a paper table is drawn
+
+    response = predicted_plates.large_plate_response()
+    q = model.q_from_amplitude(response["amplitude_pp_m_per_vpp"], 1.0, geometry, convention)
+    tan = model.tan_theta_from_power(response["power_w_per_vpp2"], 1.0, q, response["frequency_hz"], geometry,
+                                     convention)
+    return {"q": (q, abs(q) * response["amplitude_rel_U"]),
+            "tan_theta": (tan, abs(tan) * response["tan_theta_rel_U"])}
 
 
 def _derived_row(table: str, item: str, quantity: str, value: Estimate, calibrated: dict[str, str]) -> dict:
@@ -553,14 +575,23 @@ def _derived_row(table: str, item: str, quantity: str, value: Estimate, calibrat
 def estimated_large_plate_power_w(plates: dict[str, PlateCharacterisation],
                                   convention: model.Convention) -> pd.DataFrame:
     """Fig. 9's estimate: Eq. 25 with Table 5's estimated Q and tan(theta') at each
-    measured voltage of the large plate, beside the measured power."""
-    estimate = estimate_large_from_small(plates, convention)
+    measured voltage of the large plate (NaN without the small plates), beside the measured
+    power and what physics predicts (the plate model's power per Vpp^2, with its U, k = 2)."""
     large = plates[LARGE_PLATE]
     voltages = large.points["piezo_voltage_vpp"].to_numpy()
-    estimated = [model.power_w(estimate.q.value, estimate.tan_theta.value, v, large.frequency_hz,
-                               large.geometry, convention) for v in voltages]
+    if TEMPLATE_SMALL_PLATE in plates:
+        estimate = estimate_large_from_small(plates, convention)
+        estimated = [model.power_w(estimate.q.value, estimate.tan_theta.value, v, large.frequency_hz,
+                                   large.geometry, convention) for v in voltages]
+    else:   # no small plate to estimate from: the measured and predicted lines alone
+        estimated = [math.nan] * len(voltages)
+    from squeezebench.analysis import predicted_plates   # the plate solver: only where a paper table is drawn
+
+    response = predicted_plates.large_plate_response()
+    predicted = response["power_w_per_vpp2"] * voltages**2
     return pd.DataFrame({"piezo_voltage_vpp": voltages, "power_measured_w": large.points["power_w"].to_numpy(),
-                         "power_estimated_w": estimated})
+                         "power_estimated_w": estimated, "power_predicted_w": predicted,
+                         "power_predicted_U_w": predicted * response["power_rel_U"]})
 
 
 def finish_table(frame: pd.DataFrame, value_columns=("value", "std_uncertainty", "expanded_uncertainty",

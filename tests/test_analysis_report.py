@@ -199,3 +199,24 @@ def test_the_predicted_responses_u_is_the_propagation_of_its_tolerances():
     closed = predicted_plates.response_relative_u()
     assert 2 * np.std(draw["d31_c_per_n"] * q / omega_mass) == pytest.approx(closed["velocity_pp_mps"], rel=0.05)
     assert 2 * np.std(draw["d31_c_per_n"] ** 2 * q / omega_mass) == pytest.approx(closed["power_w"], rel=0.05)
+    omega2_mass = draw["thickness_m"] ** 3 * draw["young_pa"]   # the amplitude v / w: w^2 M ~ E h^3
+    assert 2 * np.std(draw["d31_c_per_n"] * q / omega2_mass) == pytest.approx(closed["amplitude_pp_m"], rel=0.05)
+    assert 2 * np.std(draw["d31_c_per_n"]) == pytest.approx(closed["tan_theta"], rel=0.05)
+
+
+def test_table5s_physics_reads_the_predicted_plate_through_the_same_inversion(monkeypatch):
+    """Q inverted from the predicted amplitude scales with the shared damping figure; tan theta'
+    (P / (Q f)) does not: the damping cancels, which is why its U holds only d31's tolerance."""
+    from squeezebench.analysis import model, predicted_plates, tables
+
+    geometry = model.PlateGeometry(2e-3, 0.5e-3, 14e-3, 9e-3, n_powered_piezos=8, n_powered_groups=4)
+    before = tables.predicted_large_plate_q_tan(geometry, model.PAPER_CONVENTION)
+    monkeypatch.setattr(predicted_plates, "MECHANICAL_Q", 2 * predicted_plates.MECHANICAL_Q)
+    predicted_plates._predictions.cache_clear()
+    try:
+        after = tables.predicted_large_plate_q_tan(geometry, model.PAPER_CONVENTION)
+    finally:
+        predicted_plates._predictions.cache_clear()
+    assert after["q"][0] == pytest.approx(2 * before["q"][0], rel=1e-9)
+    assert after["tan_theta"][0] == pytest.approx(before["tan_theta"][0], rel=1e-9)
+    assert before["q"][1] / before["q"][0] == pytest.approx(predicted_plates.response_relative_u()["amplitude_pp_m"])
