@@ -74,7 +74,7 @@ def headline(answer: DesignAnswer) -> list[str]:
         against_words = ("the paper's printed values" if reference.startswith("printed")
                          else f"the built plate, {reference}")
         lines.append(f"Against {against_words}: " + "; ".join(parts) + ".")
-        if answer.measured is not None and answer.measured.origin == "simulated":
+        if answer.measured is not None and answer.measured.origin in ("simulated", "predicted"):
             lines.append("That plate was simulated: a simulated build of a predicted scene follows the same plate "
                          "model, so this checks the chain (scene, instruments, analysis), not the physics.")
     if answer.layouts is not None and not answer.layouts.empty:

@@ -16,6 +16,7 @@ from collections.abc import Mapping
 import numpy as np
 import pandas as pd
 
+from squeezebench.analysis import provenance
 from squeezebench.analysis.presentation import header, with_uncertainty
 
 #: The paper's tables a headline counts, in the order it names them.
@@ -40,8 +41,8 @@ def verdicts(tables: Mapping[str, pd.DataFrame]) -> pd.DataFrame:
             put_in = row.origin in INPUT_ORIGINS or (isinstance(row.calibrated_on, str) and row.calibrated_on)
             verdict = "disagrees" if not bool(row.agrees) else "round trip" if put_in else "agrees"
             rows.append({"table": title, "item": row.item, "quantity": row.quantity, "verdict": verdict,
-                         "relative_difference": row.relative_difference})
-    return pd.DataFrame(rows, columns=["table", "item", "quantity", "verdict", "relative_difference"])
+                         "relative_difference": row.relative_difference, "origin": row.origin})
+    return pd.DataFrame(rows, columns=["table", "item", "quantity", "verdict", "relative_difference", "origin"])
 
 
 def headline(bench_kind: str, n_points: int, n_runs: int, tables: Mapping[str, pd.DataFrame],
@@ -64,6 +65,9 @@ def headline(bench_kind: str, n_points: int, n_runs: int, tables: Mapping[str, p
             row = worst.loc[worst["relative_difference"].abs().idxmax()]
             said[1] += f" (largest: {row['table']} {row['item']} {header(row['quantity'])}, " \
                        f"{100 * row['relative_difference']:+.0f} %)"
+        predicted_cells = int((cells["origin"] == provenance.PREDICTED).sum())
+        if predicted_cells:
+            said.append(f"{predicted_cells} of them read on plates the model predicted (nothing printed in)")
         lines.append(f"Against the paper, of {len(cells)} compared values in Tables 3-5: " + "; ".join(said) + ".")
     predicted = tables.get("predicted")
     if predicted is not None and not predicted.empty:

@@ -4,6 +4,9 @@ stored row, and which published readings a simulated scene was calibrated on.
 Origins, as the report and the tables' `origin` column name them:
 - `measured`: read on a real bench (rows with `bench` = "real");
 - `simulated`: read on the simulated bench, where the scene's physics answered;
+- `predicted`: read on the simulated bench from a predicted scene state (its resonance,
+  mode and coupling from the plate model: geometry and datasheets, no printed result in),
+  what a lab would measure if the model is right;
 - `calibration input`: simulated, but the scene state was calibrated on this very
   published reading, so the value is the round trip of a printed number, not a result;
 - `derived`: computed from other values (Q, tan theta', the Table 5 estimate); a derived
@@ -24,6 +27,7 @@ from squeezebench.analysis.rundata import RunData
 
 MEASURED = "measured"
 SIMULATED = "simulated"
+PREDICTED = "predicted"
 CALIBRATION_INPUT = "calibration input"
 DERIVED = "derived"
 PAPER = "paper"
@@ -55,10 +59,25 @@ def bench_kind(rows: pd.DataFrame, manifest: dict | None = None) -> str:
     return " and ".join(sorted(kinds))
 
 
-def point_origin(rows: pd.DataFrame, manifest: dict | None = None) -> str:
-    """The origin of a value read directly from `rows` (before any calibration check)."""
+def point_origin(rows: pd.DataFrame, manifest: dict | None = None, scenes: dict | None = None) -> str:
+    """The origin of a value read directly from `rows` (before any calibration check);
+    with the run's `scenes` (RunData.scenes), simulated rows whose every scene state is a
+    predicted one are PREDICTED."""
     kind = bench_kind(rows, manifest)
+    if kind == "simulated" and scenes and not rows.empty and all(
+            _state_of(scenes, scene, state).get("resonance_frequency_hz") == "predicted"
+            for (scene, state), _ in rows.groupby([_scene_column(rows), _state_column(rows)], dropna=False)):
+        return PREDICTED
     return {"real": MEASURED, "simulated": SIMULATED}.get(kind, kind)
+
+
+def _state_of(scenes: dict, scene_name: str, state_name) -> dict:
+    """The scene state a row ran in (the scene's initial state when the row names none)."""
+    scene = scenes.get(scene_name, {})
+    states = scene.get("states", {}) if isinstance(scene, dict) else {}
+    key = state_name if isinstance(state_name, str) and state_name else scene.get("initial_state")
+    state = states.get(key, {}) if isinstance(states, dict) else {}
+    return state if isinstance(state, dict) else {}
 
 
 def calibrated_on(run: RunData, rows: pd.DataFrame) -> dict[str, str]:
@@ -71,10 +90,8 @@ def calibrated_on(run: RunData, rows: pd.DataFrame) -> dict[str, str]:
     for (scene_name, state_name), _ in rows.groupby([_scene_column(rows), _state_column(rows)],
                                                     dropna=False, sort=True):
         scene = run.scenes.get(scene_name, {})
-        states = scene.get("states", {}) if isinstance(scene, dict) else {}
         state_key = state_name if isinstance(state_name, str) and state_name else scene.get("initial_state")
-        state = states.get(state_key, {}) if isinstance(states, dict) else {}
-        for key, value in _calibration_items(state):
+        for key, value in _calibration_items(_state_of(run.scenes, scene_name, state_name)):
             if key in _STATE_KEYS:
                 direct.setdefault(_STATE_KEYS[key], []).append(
                     f"{scene_name} state {state_key}: {key} = {value:g}")

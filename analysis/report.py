@@ -145,10 +145,17 @@ def summary_section(context: ReportContext) -> Section:
     if kind == "simulated":
         replays = sum(isinstance(scene, dict) and isinstance(scene.get("replay"), dict)
                       for scene in run.scenes.values())
+        predicted = sum(isinstance(scene, dict) and any(
+            isinstance(state, dict) and state.get("resonance_frequency_hz") == "predicted"
+            for state in (scene.get("states") or {}).values()) for scene in run.scenes.values())
         said = ("" if not replays else ", a declared replay of published points the plate model does not predict"
                 if replays == len(run.scenes) == 1 else
                 f", {'all' if replays == len(run.scenes) else replays} of them declared replays of published "
                 "points the plate model does not predict")
+        if predicted:
+            said += (f"; {'all' if predicted == len(run.scenes) else predicted} predicted by the plate model from "
+                     "geometry and datasheets, no printed result in (cells labelled <i>predicted</i>: what a "
+                     "lab would measure if the model is right)")
         lead = ("<p class='banner'><b>Dry run on the simulated bench.</b> No plate was measured: the "
                 f"instruments answered from the physics of {len(inputs)} scene{'s' if len(inputs) != 1 else ''}{said} "
                 "(<a href='#provenance'>listed in the appendix</a>, with why). A cell whose scene was calibrated on the printed value it is compared with is "
@@ -897,7 +904,8 @@ def conventions_section(context: ReportContext) -> Section:
         "Q: Eq. 27 with the fitted slope of amplitude pp vs voltage pp. tan theta': Eq. 25 with the "
         "fitted slope of power vs Vpp^2, divided by Q. Table 5 estimate: Q of small_plate_4 through "
         "Eq. 29; tan theta' the mean of the small plates as thick as the large plate.",
-        "Origins: measured (real bench), simulated (simulated bench), calibration input (simulated, "
+        "Origins: measured (real bench), simulated (simulated bench), predicted (simulated bench on a "
+        "scene the plate model predicted from geometry and datasheets, no printed result in), calibration input (simulated, "
         "and the scene was calibrated on this printed value: a round trip), derived (computed from "
         "other values), campaign setting (typed into the campaign).",
     ]

@@ -218,7 +218,7 @@ def _origin(points: pd.DataFrame, quantity: str, calibrated: dict[str, str], run
         return provenance.SETTING
     if quantity in calibrated:
         return provenance.CALIBRATION_INPUT
-    return provenance.point_origin(points, run.manifest)
+    return provenance.point_origin(points, run.manifest, run.scenes)
 
 
 def _quantity_value(points: pd.DataFrame, quantity: str, constant_columns: dict[str, str]) -> dict:
@@ -440,7 +440,7 @@ def characterise_plates(run: RunData, convention: model.Convention) -> dict[str,
                                   scene_file=_text_or_none(first.get("scene_file")),
                                   scene_state=_text_or_none(first.get("scene_state")))
         result = replace(characterise_plate(str(plate), group, geometry, convention),
-                         origin=provenance.point_origin(group, run.manifest),
+                         origin=provenance.point_origin(group, run.manifest, run.scenes),
                          calibrated_on=provenance.calibrated_on(run, group))
         q, tan = uncertainty.characterisation_budgets(result, convention, deskew, with_fit=False)
         results[str(plate)] = result.with_whole_budget(q.std_uncertainty, tan.std_uncertainty)

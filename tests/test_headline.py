@@ -63,3 +63,12 @@ def test_powers_resting_on_an_unmeasured_delay_are_said_first():
     lines = headline("real", 12, 1, {}, needs_deskew=2)
     assert len(lines) == 2 and lines[1].startswith("2 stored powers rest on the current probe's delay")
     assert "--write FILE" in lines[1]
+
+
+def test_values_read_on_predicted_plates_are_said_to_be():
+    predicted = {"table4": _table([("table4", "1-column", "power_w", 0.115, -0.69, False, "predicted", None),
+                                   ("table4", "1-column", "frequency_hz", 43792, 0.0005, True, "predicted", None)])}
+    lines = headline("simulated", 40, 1, predicted)
+    assert "1 agree; 1 disagree" in lines[1]
+    assert "2 of them read on plates the model predicted (nothing printed in)" in lines[1]
+    assert "predicted" not in headline("simulated", 1111, 8, TABLES)[1]
