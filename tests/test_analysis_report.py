@@ -149,7 +149,7 @@ def test_a_run_without_the_papers_plates_is_reported_whole(tmp_path):
     q = fig5[(fig5["item"] == "lab_plate_3mm") & (fig5["quantity"] == "q")]["value"].astype(float).iloc[0]
     assert q == pytest.approx(3.1, rel=1e-3)
     assert "class='missing'" not in text and "Not available" not in text
-    assert "Table 5 and Figs. 8-9: the run has no characterisation of large_plate, small_plate_4" in text
+    assert "Table 5 and Figs. 8-9: the run has no characterisation of large_plate" in text
 
 
 def test_the_headline_opens_the_report_and_ends_the_command(reported):

@@ -17,12 +17,18 @@ from test_sim_support import RawBench, scene_file
 
 SHIPPED = sorted(p.name for p in paths.scenes_dir().glob("*.yaml"))
 STATES = [(name, state) for name in SHIPPED for state in load_scene(paths.scenes_dir() / name).states]
+#: The states calibrated on a published point (a predicted twin's states have none).
+CALIBRATED = [(name, state) for name, state in STATES
+              if load_scene(paths.scenes_dir() / name).state(state).calibration is not None]
+PREDICTED_TWINS = ("one_column_1mm", "one_column_1p2mm", "two_column_1p2mm", "large_plate")
 
 
 def test_every_plate_of_the_paper_has_a_scene():
     expected = {"one_column_1mm", "four_column_1mm", "nine_column_1mm", "one_column_1p2mm",
-                "two_column_1p2mm", "large_plate", *(f"small_plate_{i}" for i in range(1, 7))}
+                "two_column_1p2mm", "large_plate", *(f"small_plate_{i}" for i in range(1, 7)),
+                *(f"{name}_predicted" for name in PREDICTED_TWINS)}
     assert {name[:-5] for name in SHIPPED} == expected
+    assert len(CALIBRATED) == len(STATES) - 7   # the twins' seven states are predicted
 
 
 @pytest.mark.parametrize("name", SHIPPED)
@@ -95,7 +101,7 @@ def test_paper_model_calibration_uses_eqs_25_and_27():
     assert state.calibration.reading == "inferred"
 
 
-@pytest.mark.parametrize("name, state", STATES)
+@pytest.mark.parametrize("name, state", CALIBRATED)
 def test_noise_free_dry_run_reproduces_the_calibration(tmp_path, name, state):
     """At resonance and the published voltage: the published power and velocity pp.
 
@@ -162,7 +168,7 @@ def _truth_at_calibration(bench: RawBench, state: str):
     return bench.sim.truth(), target.calibration
 
 
-@pytest.mark.parametrize("name, state", STATES)
+@pytest.mark.parametrize("name, state", CALIBRATED)
 def test_shipped_effects_read_the_calibration_at_resonance(tmp_path, name, state):
     """Every shipped scene turns the shunt on: the scope must still read the published
     numbers (amplifier-output Vpp, CH1 x CH2 power, velocity pp)."""
@@ -215,7 +221,8 @@ def test_every_shipped_state_is_within_the_bounds_of_a_plate_that_can_exist():
     assert len(table) == len(STATES)
     assert (table["effective_coupling"] <= table["material_k31"]).all()
     assert (table["power_factor"] < MAX_POWER_FACTOR).all()
-    assert (table["modal_mass_ratio"] <= 1.0).all()
+    # a predicted state's modal mass is referred to its measurement point, which may move less than the peak
+    assert (table.loc[table["origin"] != "predicted", "modal_mass_ratio"] <= 1.0).all()
     assert (table["shunt_share"] <= MAX_SHUNT_SHARE).all()
     assert (table[["c0_nf", "modal_mass_g", "q_mech", "force_factor_vs_datasheet"]] > 0).all().all()
     # the Fig. 5 plates, inferred through the consistent reading, lose per um^2 within 10x of
