@@ -111,6 +111,17 @@ class Campaign:
     output_dir: Path
     runs: tuple[Run, ...]
 
+    def powers_off_resonance_without_deskew(self) -> list[str]:
+        """The detuning runs that read powers off resonance (detuned, regained, stress points,
+        power factor far below one) in a campaign without a deskew_calibration run: their
+        powers rest on the current probe's delay being zero-mean, which a probe that lags by
+        a fixed, known-sign delay is not (analysis.uncertainty.needs_deskew counts them
+        once measured)."""
+        if any(run.protocol == "deskew_calibration" for run in self.runs):
+            return []
+        return [run.name for run in self.runs if run.protocol == "detuning" and (
+            run.parameters.velocity_ratios or run.parameters.stress_frequency_hz is not None)]
+
 
 def _scenes_in(value: Any) -> list[Path]:
     if isinstance(value, Path):

@@ -82,7 +82,14 @@ def cmd_run(args: argparse.Namespace) -> int:
     from squeezebench.protocols.campaign import load_campaign, run_campaign
     from squeezebench.simulated_plates import check_powered_piezos
 
-    check_powered_piezos(load_campaign(paths.campaign_file(args.campaign)))
+    campaign = load_campaign(paths.campaign_file(args.campaign))
+    check_powered_piezos(campaign)
+    undeskewed = campaign.powers_off_resonance_without_deskew()
+    if undeskewed and not args.quiet:
+        print(f"squeezebench run: {', '.join(undeskewed)} read powers off resonance, where the current probe's "
+              "delay moves them most, and the campaign has no deskew_calibration run: those powers will rest on "
+              f"the delay being zero-mean. `squeezebench plan {args.campaign} --target-rel-error X --write FILE` "
+              "adds the run; the report counts the powers concerned.", file=sys.stderr)
 
     if args.accept_changed_bench and not args.resume:
         raise UserError("--accept-changed-bench continues a stopped run: use it with --resume")

@@ -108,6 +108,30 @@ def test_progress_bar_only_on_a_terminal_and_quiet_silences_results(monkeypatch,
     assert capsys.readouterr().out == "run stored in r\n"   # the -q run printed nothing
 
 
+def test_run_says_which_powers_will_rest_on_an_unmeasured_probe_delay(monkeypatch, capsys, tmp_path):
+    """A campaign that reads powers off resonance without a deskew run is told so before it
+    runs (on stderr, not with -q); one with the deskew run, or without detuned points, is not."""
+    import yaml
+
+    from squeezebench.protocols import campaign
+    from squeezebench.protocols.variants import calibration_run
+
+    monkeypatch.setattr(campaign, "run_campaign", lambda path, **kwargs: Path("r"))
+    assert cli.main(["run", "quick"]) == 0
+    err = capsys.readouterr().err
+    assert "detuning read powers off resonance" in err and "no deskew_calibration run" in err
+    assert "plan quick --target-rel-error X --write FILE" in err
+    assert cli.main(["run", "quick", "-q"]) == 0 and capsys.readouterr().err == ""
+    data = yaml.safe_load((paths.campaigns_dir() / "quick.yaml").read_text())
+    for name, runs in (("deskewed", [calibration_run(37000.0, "one_column_1mm.yaml"), *data["runs"]]),
+                       ("resonance_only", [{**r, "parameters": {**r["parameters"], "velocity_ratios": []}}
+                                           if r["protocol"] == "detuning" else r for r in data["runs"]])):
+        path = tmp_path / f"{name}.yaml"
+        path.write_text(yaml.safe_dump({**data, "name": name, "runs": runs}))
+        (tmp_path / "one_column_1mm.yaml").write_text((paths.scenes_dir() / "one_column_1mm.yaml").read_text())
+        assert campaign.load_campaign(path).powers_off_resonance_without_deskew() == [], name
+
+
 def test_verbose_logs_each_step_on_stderr_and_removes_its_handler(monkeypatch, capsys):
     import logging
 
