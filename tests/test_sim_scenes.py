@@ -16,10 +16,12 @@ from squeezebench import paths
 from test_sim_support import RawBench, scene_file
 
 SHIPPED = sorted(p.name for p in paths.scenes_dir().glob("*.yaml"))
-STATES = [(name, state) for name in SHIPPED for state in load_scene(paths.scenes_dir() / name).states]
+#: Read from the files, not loaded: collection must not solve the predicted twins' plates.
+_RAW = {name: yaml.safe_load((paths.scenes_dir() / name).read_text()) for name in SHIPPED}
+STATES = [(name, state) for name in SHIPPED for state in _RAW[name]["states"]]
 #: The states calibrated on a published point (a predicted twin's states have none).
 CALIBRATED = [(name, state) for name, state in STATES
-              if load_scene(paths.scenes_dir() / name).state(state).calibration is not None]
+              if _RAW[name]["states"][state].get("resonance_frequency_hz") != "predicted"]
 PREDICTED_TWINS = ("one_column_1mm", "one_column_1p2mm", "two_column_1p2mm", "large_plate")
 
 
