@@ -155,7 +155,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--run", type=Path, help="a run directory with its report (default: reproduce anew)")
     args = parser.parse_args()
-    run_dir = args.run
+    run_dir = args.run.resolve() if args.run else None   # a file URI needs an absolute path
     if run_dir is None:
         run_dir = Path(tempfile.mkdtemp()) / "paper"
         subprocess.run(["squeezebench", "reproduce", "--out", str(run_dir)], check=True)
