@@ -426,7 +426,7 @@ class Measured:
     frequency_hz: float
     voltage_vpp: object   # ufloat: the voltage the measured slope needs for the target amplitude
     power_w: object
-    origin: str = ""   # provenance of the points: "measured" on a real bench, "simulated" on the simulated one
+    origin: str = ""   # provenance of the points: "measured" on a real bench, "simulated" or "predicted" on the simulated one
 
 
 def measured_point(physics: PhysicsPrediction, built) -> Measured:
