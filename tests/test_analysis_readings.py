@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 from dataclasses import replace
 
+import pandas as pd
 import pytest
 
 from squeezebench.analysis import model, readings
@@ -47,8 +48,25 @@ def test_a_reading_counting_groups_needs_the_geometry_to_say_how_many():
         model.amplitude_pp_m(1.0, 1.0, geometry, model.INFERRED_CONVENTION)
 
 
+def test_the_look_elsewhere_fraction_is_the_closed_form_for_one_exact_reading():
+    """One reading reproducing the three targets exactly: a target moved by a factor 1 + e
+    (e uniform in +-0.2) is still met within 10 % when 1/1.1 <= 1 + e <= 1/0.9, probability
+    (1/0.9 - 1/1.1) / 0.4 each, cubed for the three."""
+    one = pd.DataFrame([{"defined": True, **{f"{t}_ratio": 1.0 for t in readings.TARGETS}}])
+    found = readings.look_elsewhere(one, draws=20000)
+    expected = ((1 / 0.9 - 1 / 1.1) / 0.4) ** 3
+    assert found["fraction_with_a_fit"] == pytest.approx(expected, abs=4 * (expected * (1 - expected) / 20000) ** 0.5)
+    assert found["interval_low"] < expected < found["interval_high"]
+    assert readings.look_elsewhere(one, spread=0.05)["fraction_with_a_fit"] == 1.0   # never moved out of reach
+    wrong_sign = one.assign(tan_theta_ratio=-1.0)
+    assert readings.look_elsewhere(wrong_sign)["fraction_with_a_fit"] == 0.0
+
+
 def test_the_search_says_in_words_how_isolated_the_inferred_reading_is(grid):
-    first, second = readings.search_words(grid)
+    first, second, third = readings.search_words(grid)
+    assert third.startswith("Look-elsewhere test: with the three printed targets each moved at random by up to +-20%")
+    # the reviewer's independent count: 43 % of 4000 draws
+    assert 0.35 < readings.look_elsewhere(grid)["fraction_with_a_fit"] < 0.5
     assert "13824 readings, 1 reproduce all three published numbers within 10 %" in first
     assert readings.INFERRED_READING.label in first
     assert second.startswith("Keeping Eq. 25 as printed (with pi and 3/4), the best reading is off by 18.2%")
