@@ -261,6 +261,7 @@ def _inferred_reading_explanation(context: ReportContext, table: str, item: str,
     key = ("fig9", "mean_power_difference") if table == "fig9" else (item, quantity)
     others = frame[(frame["reading"] != model.PAPER_CONVENTION.name) & (frame["item"] == key[0])
                    & (frame["quantity"] == key[1])]
+    built_under = _scene_readings(context)
     for row in others.itertuples(index=False):
         agrees = (abs(row.value) <= audit.MATCH_REL if table == "fig9"
                   else abs(row.relative_difference) <= audit.MATCH_REL)
@@ -269,10 +270,30 @@ def _inferred_reading_explanation(context: ReportContext, table: str, item: str,
                      if table == "fig9" else
                      f"this run gives {row.value:.3g} against the printed {row.printed:.3g} "
                      f"({presentation.percent(row.relative_difference)})")
-            return ("readings", f"under the {html.escape(str(row.reading))} reading of the paper's open "
+            reading = html.escape(str(row.reading))
+            if row.reading in built_under:   # the run's own mix of readings, not the paper, makes the miss
+                return ("readings", f"this run's Fig. 5 scenes were built from the paper's summaries under the "
+                        f"{reading} reading, and under it {shown}; analysed under the text's reading, used "
+                        "in this table, they cannot return the printed numbers: the miss comes from mixing "
+                        "two readings in this run, not from the paper")
+            return ("readings", f"under the {reading} reading of the paper's open "
                     f"conventions, {shown}: the text's reading, used in this table, is what disagrees "
                     "with the paper's own numbers")
     return None
+
+
+def _scene_readings(context: ReportContext) -> set[str]:
+    """The readings of Eqs. 25/27 the run's scenes were calibrated through (a state's
+    `calibration.paper_model.convention`): a simulated plate built under one reading returns
+    the printed numbers under that reading only."""
+    found = set()
+    for scene in context.run.scenes.values():
+        states = scene.get("states") if isinstance(scene, dict) else None
+        for state in (states or {}).values():
+            paper_model = (state.get("calibration") or {}).get("paper_model") if isinstance(state, dict) else None
+            if isinstance(paper_model, dict) and paper_model.get("convention"):
+                found.add(str(paper_model["convention"]))
+    return found
 
 
 def _table5_under_readings(context: ReportContext) -> pd.DataFrame | None:
