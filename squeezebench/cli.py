@@ -84,6 +84,12 @@ def cmd_run(args: argparse.Namespace) -> int:
 
     campaign = load_campaign(paths.campaign_file(args.campaign))
     check_powered_piezos(campaign)
+    replays = _declared_replays(campaign)
+    if replays and not args.quiet:
+        print(f"squeezebench run: {len(replays)} scene{'s' if len(replays) > 1 else ''} of this campaign "
+              f"{'are declared replays' if len(replays) > 1 else 'is a declared replay'} of published points the "
+              f"plate model does not predict ({', '.join(replays)}): `squeezebench validate NAME` shows each "
+              "departure; the report says so too.", file=sys.stderr)
     undeskewed = campaign.powers_off_resonance_without_deskew()
     if undeskewed and not args.quiet:
         print(f"squeezebench run: {', '.join(undeskewed)} read powers off resonance, where the current probe's "
@@ -117,6 +123,16 @@ def cmd_run(args: argparse.Namespace) -> int:
         say(args, "close the plot window to finish")
         plt.show()
     return 0
+
+
+def _declared_replays(campaign) -> list[str]:
+    """The campaign's scene files that declare `replay:` (read as text: no plate is solved)."""
+    from squeezebench.yamlfiles import read_yaml
+
+    files = dict.fromkeys(path for run in campaign.runs for path in run.input_files()
+                          if path.suffix in (".yaml", ".yml"))
+    return [path.stem for path in files
+            if isinstance(data := read_yaml(path), dict) and "replay" in data and "plate" in data]
 
 
 def cmd_validate(args: argparse.Namespace) -> int:

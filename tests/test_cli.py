@@ -121,7 +121,11 @@ def test_run_says_which_powers_will_rest_on_an_unmeasured_probe_delay(monkeypatc
     err = capsys.readouterr().err
     assert "detuning read powers off resonance" in err and "no deskew_calibration run" in err
     assert "plan quick --target-rel-error X --write FILE" in err
+    assert "1 scene of this campaign is a declared replay of published points the plate model does not " \
+           "predict (one_column_1mm)" in err
     assert cli.main(["run", "quick", "-q"]) == 0 and capsys.readouterr().err == ""
+    own = campaign.load_campaign(paths.data_dir() / "examples" / "own_plate_campaign.yaml")
+    assert cli._declared_replays(own) == []   # a user's own plate is no replay
     data = yaml.safe_load((paths.campaigns_dir() / "quick.yaml").read_text())
     for name, runs in (("deskewed", [calibration_run(37000.0, "one_column_1mm.yaml"), *data["runs"]]),
                        ("resonance_only", [{**r, "parameters": {**r["parameters"], "velocity_ratios": []}}
