@@ -84,19 +84,6 @@ def cmd_run(args: argparse.Namespace) -> int:
 
     campaign = load_campaign(paths.campaign_file(args.campaign))
     check_powered_piezos(campaign)
-    replays = _declared_replays(campaign)
-    if replays and not args.quiet:
-        print(f"squeezebench run: {len(replays)} scene{'s' if len(replays) > 1 else ''} of this campaign "
-              f"{'are declared replays' if len(replays) > 1 else 'is a declared replay'} of published points the "
-              f"plate model does not predict ({', '.join(replays)}): `squeezebench validate NAME` shows each "
-              "departure; the report says so too.", file=sys.stderr)
-    undeskewed = campaign.powers_off_resonance_without_deskew()
-    if undeskewed and not args.quiet:
-        print(f"squeezebench run: {', '.join(undeskewed)} read powers off resonance, where the current probe's "
-              "delay moves them most, and the campaign has no deskew_calibration run: those powers will rest on "
-              f"the delay being zero-mean. `squeezebench plan {args.campaign} --target-rel-error X --write FILE` "
-              "adds the run; the report counts the powers concerned.", file=sys.stderr)
-
     if args.accept_changed_bench and not args.resume:
         raise UserError("--accept-changed-bench continues a stopped run: use it with --resume")
     if args.operator_done and not args.resume:
@@ -115,6 +102,9 @@ def cmd_run(args: argparse.Namespace) -> int:
                            progress=show_progress(args), accept_changed_bench=args.accept_changed_bench,
                            operator_done=args.operator_done, **watchers)
     say(args, f"run stored in {run_dir}")
+    if not args.quiet:   # after the run: an error stays the one line it is
+        for note in _campaign_notes(campaign, args.campaign):
+            print(f"squeezebench run: {note}", file=sys.stderr)
     if args.plot:
         say(args, f"plot written to {plot.save(Path(run_dir) / 'live_plot.png')}")
     if args.plot and plot.interactive:
@@ -123,6 +113,25 @@ def cmd_run(args: argparse.Namespace) -> int:
         say(args, "close the plot window to finish")
         plt.show()
     return 0
+
+
+def _campaign_notes(campaign, name: str) -> list[str]:
+    """What a person should know of a campaign that ran: the replay scenes it used and the
+    powers it read off resonance without a deskew run."""
+    notes = []
+    replays = _declared_replays(campaign)
+    if replays:
+        notes.append(f"{len(replays)} scene{'s' if len(replays) > 1 else ''} of this campaign "
+                     f"{'are declared replays' if len(replays) > 1 else 'is a declared replay'} of published "
+                     f"points the plate model does not predict ({', '.join(replays)}): `squeezebench validate "
+                     "NAME` shows each departure; the report says so too.")
+    undeskewed = campaign.powers_off_resonance_without_deskew()
+    if undeskewed:
+        notes.append(f"{', '.join(undeskewed)} read powers off resonance, where the current probe's delay moves "
+                     "them most, and the campaign has no deskew_calibration run: those powers rest on the delay "
+                     f"being zero-mean. `squeezebench plan {name} --target-rel-error X --write FILE` adds the "
+                     "run; the report counts the powers concerned.")
+    return notes
 
 
 def _declared_replays(campaign) -> list[str]:

@@ -109,8 +109,9 @@ def test_progress_bar_only_on_a_terminal_and_quiet_silences_results(monkeypatch,
 
 
 def test_run_says_which_powers_will_rest_on_an_unmeasured_probe_delay(monkeypatch, capsys, tmp_path):
-    """A campaign that reads powers off resonance without a deskew run is told so before it
-    runs (on stderr, not with -q); one with the deskew run, or without detuned points, is not."""
+    """A campaign that reads powers off resonance without a deskew run is told so once it has
+    run (on stderr, not with -q: an error before that stays one line); one with the deskew
+    run, or without detuned points, is not."""
     import yaml
 
     from squeezebench.protocols import campaign
