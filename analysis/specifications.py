@@ -12,6 +12,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+import numpy as np
+
 
 @dataclass(frozen=True)
 class Specification:
@@ -71,13 +73,14 @@ SPECIFICATIONS: dict[str, Specification] = {
 #: picofarads (a 100:1 high-voltage probe's tip) make about 0.1 ms. Assumed, as the probe is.
 #: Well below the plates' 30-50 kHz, where a compensation mismatch d is a phase lead
 #: d f_pole / f: its delay-equivalent falls as 1/f^2, so a deskew at one frequency leaves a
-#: residue at another (`uncertainty.compensation_phase_u`).
+#: residue at another (`uncertainty.compensation_phase_per_mismatch`).
 VOLTAGE_PROBE_POLE_HZ = 1.5e3
 
 
 def compensation_phase_rad(mismatch_rel: float, frequency_hz: float) -> float:
-    """CH1's phase lead (rad) through a divider probe whose compensation is off by
+    """CH1's phase lead (rad, a number or an array like `frequency_hz`) through a divider probe whose compensation is off by
     `mismatch_rel` (HF over LF gain minus one): H(f) = (1 + j f / f_z) / (1 + j f / f_p) with
     f_z = f_p / (1 + d), f_p = VOLTAGE_PROBE_POLE_HZ (a compensated RC divider's transfer)."""
-    x = frequency_hz / VOLTAGE_PROBE_POLE_HZ
-    return math.atan(x * (1.0 + mismatch_rel)) - math.atan(x)
+    x = np.asarray(frequency_hz, dtype=float) / VOLTAGE_PROBE_POLE_HZ
+    phase = np.arctan(x * (1.0 + mismatch_rel)) - np.arctan(x)
+    return float(phase) if phase.ndim == 0 else phase

@@ -148,6 +148,8 @@ def predict(scene: Scene, state: State) -> Prediction:
 
 
 def predictions_table(scenes: list[Scene]) -> pd.DataFrame:
-    return pd.DataFrame([predict(s, st).as_row() for s in scenes for st in s.states.values()])
+    """Predicted beside replay for every replayed state (a predicted state is its own
+    prediction: nothing to set beside it, and a second solve to get there)."""
+    return pd.DataFrame([predict(s, st).as_row() for s in scenes for st in s.states.values() if not st.predicted])
 
 
