@@ -55,7 +55,7 @@ class Deskew:
     gain_ratio: float | None = None
     gain_ratio_u: float = 0.0
     #: Where the delay was measured: a phase that is not a pure delay (the voltage probe's
-    #: compensation) is removed exactly there only (`uncertainty.compensation_phase_u`).
+    #: compensation) is removed exactly there only (`uncertainty.compensation_phase_per_mismatch`).
     frequency_hz: float | None = None
 
     def corrected_power_w(self, power_w, reactive_power_var, frequency_hz):

@@ -76,10 +76,9 @@ def _correction(term: uncertainty.Term, deskew: Deskew | None) -> str:
         return f"corrected: tau = {deskew.delay_s * 1e9:.2f} ns measured by the run's deskew calibration"
     if term.name.startswith("CH2 delay"):
         return "not corrected (no deskew run): budgeted at its limit"
-    if term.name.startswith("voltage probe compensation") and deskew is not None:
+    if term.name.startswith("voltage probe compensation") and deskew is not None and deskew.frequency_hz:
         return (f"partly corrected: the deskew at {deskew.frequency_hz:.0f} Hz took its phase for part of the "
-                "delay; the residue at this frequency is budgeted") if deskew.frequency_hz else \
-            "not corrected (sign unknown): budgeted at its limit"
+                "delay; the residue at this frequency is budgeted")
     if term.name == "gain check":
         return "corrected: the deskew run's gain ratio k, weighted"
     if term.type == "A":

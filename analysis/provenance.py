@@ -71,13 +71,18 @@ def point_origin(rows: pd.DataFrame, manifest: dict | None = None, scenes: dict 
     return {"real": MEASURED, "simulated": SIMULATED}.get(kind, kind)
 
 
+def scene_states(scene) -> dict[str, dict]:
+    """A stored scene's states (RunData.scenes values are parsed YAML: anything a file held)."""
+    states = scene.get("states") if isinstance(scene, dict) else None
+    return {name: state for name, state in states.items() if isinstance(state, dict)} \
+        if isinstance(states, dict) else {}
+
+
 def _state_of(scenes: dict, scene_name: str, state_name) -> dict:
     """The scene state a row ran in (the scene's initial state when the row names none)."""
     scene = scenes.get(scene_name, {})
-    states = scene.get("states", {}) if isinstance(scene, dict) else {}
-    key = state_name if isinstance(state_name, str) and state_name else scene.get("initial_state")
-    state = states.get(key, {}) if isinstance(states, dict) else {}
-    return state if isinstance(state, dict) else {}
+    initial = scene.get("initial_state") if isinstance(scene, dict) else None
+    return scene_states(scene).get(state_name if isinstance(state_name, str) and state_name else initial, {})
 
 
 def calibrated_on(run: RunData, rows: pd.DataFrame) -> dict[str, str]:

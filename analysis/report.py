@@ -145,9 +145,8 @@ def summary_section(context: ReportContext) -> Section:
     if kind == "simulated":
         replays = sum(isinstance(scene, dict) and isinstance(scene.get("replay"), dict)
                       for scene in run.scenes.values())
-        predicted = sum(isinstance(scene, dict) and any(
-            isinstance(state, dict) and state.get("resonance_frequency_hz") == "predicted"
-            for state in (scene.get("states") or {}).values()) for scene in run.scenes.values())
+        predicted = sum(any(state.get("resonance_frequency_hz") == "predicted"
+                            for state in provenance.scene_states(scene).values()) for scene in run.scenes.values())
         said = ("" if not replays else ", a declared replay of published points the plate model does not predict"
                 if replays == len(run.scenes) == 1 else
                 f", {'all' if replays == len(run.scenes) else replays} of them declared replays of published "
@@ -288,9 +287,9 @@ def _scene_readings(context: ReportContext) -> set[str]:
     the printed numbers under that reading only."""
     found = set()
     for scene in context.run.scenes.values():
-        states = scene.get("states") if isinstance(scene, dict) else None
-        for state in (states or {}).values():
-            paper_model = (state.get("calibration") or {}).get("paper_model") if isinstance(state, dict) else None
+        for state in provenance.scene_states(scene).values():
+            calibration = state.get("calibration")
+            paper_model = calibration.get("paper_model") if isinstance(calibration, dict) else None
             if isinstance(paper_model, dict) and paper_model.get("convention"):
                 found.add(str(paper_model["convention"]))
     return found

@@ -144,13 +144,14 @@ def compensation_phase_per_mismatch(frequency_hz, deskew: Deskew | None = None):
     return per_mismatch
 
 
-def compensation_term(name: str, power_per_rad: float, frequency_hz, deskew: Deskew | None) -> Term:
+def compensation_term(power_per_mismatch: float, deskew: Deskew | None) -> Term:
     """The voltage probe's compensation in a power's budget: a CH1 lead phi moves the mean
-    power by -Q_r phi (P' = P cos phi - Q_r sin phi), `power_per_rad` = |Q_r| (or a mean of it)."""
+    power by -Q_r phi (P' = P cos phi - Q_r sin phi), so `power_per_mismatch` is |Q_r| times
+    `compensation_phase_per_mismatch` (or a slope's mean of it)."""
     spec = SPECIFICATIONS["voltage_probe_compensation"]
-    phase_u = float(np.abs(compensation_phase_per_mismatch(frequency_hz, deskew))) * spec.std_uncertainty
     after = "; a deskew removed it at its own frequency, the residue is budgeted" if deskew is not None else ""
-    return Term(name, "B", abs(power_per_rad) * phase_u, spec.source + after)
+    return Term("voltage probe compensation (CH1 phase)", "B", abs(power_per_mismatch) * spec.std_uncertainty,
+                spec.source + after)
 
 
 #: Without a deskew run, a point's power needs one when the CH2 delay makes more than this
@@ -226,7 +227,7 @@ def power_budget(point: dict, deskew: Deskew | None = None) -> Budget:
                  Term("gain check", "A", alpha * abs(value) * deskew.gain_ratio_u / deskew.gain_ratio, deskew.source))
     return Budget("power_w", "W", value, (
         _noise(point["power_w_u"]), *gains, delay,
-        compensation_term("voltage probe compensation (CH1 phase)", reactive, point["frequency_hz"], deskew),
+        compensation_term(reactive * float(compensation_phase_per_mismatch(point["frequency_hz"], deskew)), deskew),
         _spec_term("generator frequency", "generator_frequency",
                    2.0 * value * point.get("detuning_slope_per_hz", 0.0) * float(point["frequency_hz"]))))
 
@@ -620,7 +621,6 @@ def characterisation_budgets(plate, convention: model.Convention, deskew: Deskew
         _spec_term("current probe gain", "current_probe_gain", slope_p.value),
         _spec_term("voltage probe attenuation", "voltage_probe_attenuation", slope_p.value),
         _spec_term("CH1 gain", "scope_gain", slope_p.value), delay,
-        _spec_term("voltage probe compensation (CH1 phase)", "voltage_probe_compensation",
-                   slope_p.value * lead_ratio)))
+        compensation_term(slope_p.value * lead_ratio, deskew)))
     at_one_volt = Budget("piezo_voltage_vpp", "V", 1.0, ())
     return model_budgets(amplitude, power, at_one_volt, plate.frequency_hz, plate.geometry, convention, tolerances)
