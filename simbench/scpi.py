@@ -209,11 +209,27 @@ def split_outside_quotes(text: str, separator: str) -> list[str]:
 class MessageParser:
     """Program messages -> units, keeping the branch between units of one message."""
 
+    #: Messages parsed without error, remembered: a campaign sends the same few hundred
+    #: settings and queries tens of thousands of times (a sweep's new numbers are not kept
+    #: past this many).
+    REMEMBERED = 4096
+
     def __init__(self, tree: HeaderTree) -> None:
         self.tree = tree
+        self._parsed: dict[str, tuple[Unit, ...]] = {}
 
-    def units(self, message: str) -> Iterator[Unit | ScpiError]:
+    def units(self, message: str) -> tuple[Unit | ScpiError, ...]:
         """Each unit of `message`, or the ScpiError refusing it (later units still run)."""
+        parsed = self._parsed.get(message)
+        if parsed is None:
+            parsed = tuple(self._parse(message))
+            if not any(isinstance(unit, ScpiError) for unit in parsed):   # an error is the caller's to annotate
+                if len(self._parsed) >= self.REMEMBERED:
+                    self._parsed.clear()
+                self._parsed[message] = parsed
+        return parsed
+
+    def _parse(self, message: str) -> Iterator[Unit | ScpiError]:
         branch, branch_suffixes = self.tree.root, ()
         for raw in split_outside_quotes(message, ";"):
             text = raw.strip()

@@ -108,7 +108,7 @@ HARNESS = textwrap.dedent("""
     """)
 
 
-TRIALS = 100   # per seed: 200 trials in all, in two processes that parallel workers share
+TRIALS = 40   # per seed: 80 trials in all, in two processes that parallel workers share
 
 
 @pytest.mark.parametrize("seed", [29, 31])
