@@ -108,8 +108,13 @@ COLUMNS: dict[str, tuple[str, str]] = {
     "relative_difference": ("1", "(value - paper_value) / |paper_value|"),
     "tolerance": ("unit", "expanded_uncertainty plus half the printed value's last digit"),
     "agrees": ("", "|value - paper_value| <= tolerance"),
-    "predicted_value": ("unit", "what the plate model predicts for the paper's plate from geometry and datasheets "
-                                "(analysis.predicted_plates; no printed result in)"),
+    "predicted_value": ("unit", "what the plate model predicts from geometry and datasheets, no printed result in: "
+                                "for the paper's plate in Tables 3-5 (analysis.predicted_plates), for the run's "
+                                "scene plate in fig5_predicted.csv (simbench.predicted)"),
+    "scene_kind": ("", "replay (a scene calibrated to reproduce printed numbers) or predicted (geometry and "
+                       "datasheets only)"),
+    "value_over_predicted": ("1", "value / predicted_value"),
+    "agrees_with_prediction": ("", "|value - predicted_value| <= the two expanded uncertainties in quadrature"),
     "predicted_U": ("unit", "expanded uncertainty (k = 2) of predicted_value from the material, geometry, d31 and "
                             "damping tolerances"),
     "predicted_difference": ("1", "(predicted_value - paper_value) / |paper_value|"),

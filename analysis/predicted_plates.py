@@ -104,6 +104,20 @@ def response_relative_u() -> dict[str, float]:
             "tan_theta": 2 * u["d31_c_per_n"]}
 
 
+def response_per_volt(frequency_hz: float, modal_mass_kg: float, force_factor_n_per_v: float) -> dict[str, float]:
+    """A plate at resonance per volt of drive, with the build's one `MECHANICAL_Q` (a
+    one-degree-of-freedom resonator referred to the point its modal mass and force factor A
+    are referred to): mechanical resistance R = w M / q, velocity pp per Vpp |A| / R,
+    amplitude pp per Vpp |A| / (R w), power per Vpp^2 R (|A| / (2 R))^2 / 2 (the velocity
+    amplitude is half its pp)."""
+    omega = 2 * math.pi * frequency_hz
+    resistance = omega * modal_mass_kg / MECHANICAL_Q
+    velocity_pp = abs(force_factor_n_per_v) / resistance
+    return {"frequency_hz": frequency_hz, "velocity_pp_mps_per_vpp": velocity_pp,
+            "amplitude_pp_m_per_vpp": velocity_pp / omega,
+            "power_w_per_vpp2": 0.5 * resistance * (velocity_pp / 2) ** 2}
+
+
 def _rows():
     for label in ("75", "59", "28"):
         yield ("Table 3", label, f"{label} x 41 x 1 mm", table3_plate(label),
@@ -131,11 +145,10 @@ def _predictions() -> pd.DataFrame:
         # at resonance, at the plate centre (where the paper measured, Sec. 2.3.1):
         # R = w M / q, v = A V / R (pp for pp), P = R v0^2 / 2 with v0 the velocity amplitude
         mass_kg, forces = modes.referred_to(k, geometry.length_m / 2, geometry.width_m / 2)
-        force = abs(float(forces[modes.powered].sum()))
-        resistance = 2 * math.pi * f * mass_kg / MECHANICAL_Q
-        velocity_pp = force * voltage_vpp / resistance
+        response = response_per_volt(f, mass_kg, float(forces[modes.powered].sum()))
+        velocity_pp = response["velocity_pp_mps_per_vpp"] * voltage_vpp
         half_mm = modes.half_wavelength_m(k) * 1e3
-        power = 0.5 * resistance * (velocity_pp / 2) ** 2
+        power = response["power_w_per_vpp2"] * voltage_vpp**2
         out.append({"table": table, "item": item, "plate": plate_label, "predicted_frequency_hz": f,
                     "predicted_frequency_u_hz": f * u_rel, "printed_frequency_hz": printed_hz,
                     "frequency_deviation": f / printed_hz - 1,

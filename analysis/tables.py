@@ -547,18 +547,28 @@ def table5(plates: dict[str, PlateCharacterisation], convention: model.Conventio
 
 def predicted_large_plate_q_tan(geometry: model.PlateGeometry,
                                 convention: model.Convention) -> dict[str, tuple[float, float]]:
-    """What physics predicts the large plate's Q and tan theta' read as, each (value, U k = 2):
-    the plate model's amplitude and power per volt (analysis.predicted_plates, no printed
-    result in) through the same inversion of Eqs. 27 and 25, geometry and reading as the
-    measured plate. Both estimated and measured rows of Table 5 aim at this plate."""
+    """What physics predicts the large plate's Q and tan theta' read as (`predicted_q_tan` of
+    analysis.predicted_plates' large plate). Both estimated and measured rows of Table 5 aim
+    at this plate."""
     from squeezebench.analysis import predicted_plates   # the plate solver: only where a paper table is drawn
 
-    response = predicted_plates.large_plate_response()
+    return predicted_q_tan(predicted_plates.large_plate_response(), geometry, convention)
+
+
+def predicted_q_tan(response: dict[str, float], geometry: model.PlateGeometry,
+                    convention: model.Convention) -> dict[str, tuple[float, float]]:
+    """The Q and tan theta' a plate the model predicts reads as, each (value, U k = 2): its
+    amplitude pp per Vpp and power per Vpp^2 at resonance (`predicted_plates.response_per_volt`,
+    no printed result in) through the same inversion of Eqs. 27 and 25, geometry and reading
+    as a measured plate. U from the materials' and geometry's tolerances and the build's
+    damping spread (`predicted_plates.response_relative_u`)."""
+    from squeezebench.analysis import predicted_plates
+
+    u = predicted_plates.response_relative_u()
     q = model.q_from_amplitude(response["amplitude_pp_m_per_vpp"], 1.0, geometry, convention)
     tan = model.tan_theta_from_power(response["power_w_per_vpp2"], 1.0, q, response["frequency_hz"], geometry,
                                      convention)
-    return {"q": (q, abs(q) * response["amplitude_rel_U"]),
-            "tan_theta": (tan, abs(tan) * response["tan_theta_rel_U"])}
+    return {"q": (q, abs(q) * u["amplitude_pp_m"]), "tan_theta": (tan, abs(tan) * u["tan_theta"])}
 
 
 def _derived_row(table: str, item: str, quantity: str, value: Estimate, calibrated: dict[str, str]) -> dict:

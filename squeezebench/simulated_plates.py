@@ -6,6 +6,10 @@
   with the bounds every state was checked against at load. Importing this module appends
   it to `analysis.report.SECTIONS` (the report's documented way to add one), which the
   command line and the API do before writing a report.
+- `physics_section`: what the plate model predicts each characterised plate's Q and
+  tan theta' read as (Fig. 5 and the large plate), from its stored scene's geometry and
+  datasheets (`simbench.predicted`), beside what the run measured; inserted after the
+  report's characterisation section.
 - `check_powered_piezos`: a campaign whose plate states another number of powered piezos
   than its scene's state powers is refused before it runs (n_c scales Q and tan theta').
 
@@ -17,8 +21,13 @@ from __future__ import annotations
 
 import html
 
-from squeezebench.analysis import report
+import math
+
+import pandas as pd
+
+from squeezebench.analysis import predicted_plates, presentation, report, tables
 from squeezebench.errors import UserError
+from squeezebench.simbench import predicted
 from squeezebench.simbench.scene import BOUNDS, load_scene, scenes_table
 
 
@@ -36,6 +45,87 @@ def scenes_section(context: report.ReportContext) -> report.Section | None:
             + html.escape("; ".join(BOUNDS.values())) + ". CSV: <a href='scenes.csv'>scenes.csv</a></p>"
             + report.html_table(table, "The run's simulated plates at resonance. Dry run: simulated bench."))
     return report.Section("Simulated plates: could they exist?", body, appendix=True)
+
+
+PHYSICS_FILE = "fig5_predicted.csv"
+
+
+def physics_rows(context: report.ReportContext) -> pd.DataFrame:
+    """One row per (characterised plate, quantity): the measured Q or tan theta' with its U
+    (k = 2) and origin, what the plate model predicts with its U, their ratio and whether the
+    two agree within their combined U (columns as in report/columns.csv). The prediction takes the plate's stored scene's
+    geometry, piezos and datasheets and nothing it replays (`simbench.predicted.predict`,
+    referred to the scene's measurement point), the build's one mechanical Q
+    (`predicted_plates.MECHANICAL_Q`) and the report's reading of Eqs. 25/27."""
+    inputs = context.run.run_dir / "inputs"
+    steps = context.run.protocol("characterisation")
+    if "scene_file" not in steps:
+        return pd.DataFrame()   # rows from before scenes were recorded: nothing to predict from
+    rows = []
+    for name, plate in context.plates().items():
+        first = steps[steps["plate"] == name].iloc[0]
+        path = inputs / str(first["scene_file"])
+        if not path.is_file():
+            continue   # a real bench's plate: no geometry to predict from
+        scene = load_scene(path)
+        state = scene.state(first["scene_state"] or scene.initial_state)
+        prediction = predicted.predict(scene, state)
+        response = predicted_plates.response_per_volt(prediction.frequency_hz, prediction.modal_mass_g * 1e-3,
+                                                      prediction.force_factor_n_per_v)
+        expected = tables.predicted_q_tan(response, plate.geometry, context.convention)
+        for quantity, measured in (("q", plate.q), ("tan_theta", plate.tan_theta)):
+            value, u_predicted = expected[quantity]
+            u_measured = 2 * measured.std_uncertainty
+            rows.append({"plate": name, "scene_file": path.name, "scene_state": state.name,
+                         "scene_kind": "predicted" if state.predicted else "replay", "quantity": quantity,
+                         "unit": "1", "value": measured.value, "expanded_uncertainty": u_measured,
+                         "origin": plate.origin, "predicted_value": value, "predicted_U": u_predicted,
+                         "value_over_predicted": measured.value / value if value else math.nan,
+                         "agrees_with_prediction": bool(abs(measured.value - value)
+                                                        <= math.hypot(u_measured, u_predicted))})
+    return pd.DataFrame(rows)
+
+
+def _by_plate(frame: pd.DataFrame) -> pd.DataFrame:
+    """One row per plate for a person: each quantity's run and physics values ± U, the ratio."""
+    out = []
+    for plate, rows in frame.groupby("plate", sort=False):
+        row = {"plate": plate, "scene": f"{rows['scene_file'].iloc[0]} ({rows['scene_state'].iloc[0]})"}
+        for quantity, name in (("q", "Q"), ("tan_theta", "tan θ′")):
+            r = rows[rows["quantity"] == quantity].iloc[0]
+            row[f"{name}: this run"] = presentation.with_uncertainty(r["value"], r["expanded_uncertainty"])
+            row[f"{name}: physics"] = presentation.with_uncertainty(r["predicted_value"], r["predicted_U"])
+            row[f"{name}: run / physics"] = r["value_over_predicted"]
+        row["both within U"] = "✓" if rows["agrees_with_prediction"].all() else "✗"
+        out.append(row)
+    return pd.DataFrame(out)
+
+
+def physics_section(context: report.ReportContext) -> report.Section | None:
+    """What physics predicts for the characterised plates"""
+    if not context.run.scenes or context.run.protocol("characterisation").empty:
+        return None
+    frame = physics_rows(context)
+    if frame.empty:
+        return None
+    frame.to_csv(context.out_dir / PHYSICS_FILE, index=False)
+    replays = sorted(frame.loc[frame["scene_kind"] == "replay", "plate"].unique())
+    agree = frame.groupby("plate", sort=False)["agrees_with_prediction"].all()
+    body = ("<p>Each characterised plate as the plate model predicts it from its scene's geometry, piezos "
+            "and datasheets alone: the working mode's frequency, modal mass and force factor, the build's "
+            f"one mechanical Q ({predicted_plates.MECHANICAL_Q:g}), then the same Eqs. 27 and 25 and the same "
+            "reading as the measured plate (so their ratio does not depend on the reading: Q goes as the "
+            f"amplitude per volt, tan θ′ as the power over Q, under every reading). <b>{int(agree.sum())} of {len(agree)} plates agree with the "
+            "prediction within the combined U (k = 2) on both Q and tan θ′.</b>")
+    if replays:
+        body += (f" {len(replays)} of them ({html.escape(', '.join(replays))}) are replay scenes, calibrated to "
+                 "the paper's printed or summarised numbers: where they depart, the departure is that "
+                 "calibration's distance from the plate as described (Fig. 5's layouts are assumed: the paper's "
+                 "text does not give them).")
+    body += ("</p>" + report.html_table(_by_plate(frame), "Q and tan θ′ of each plate: this run against the "
+                                        "plate model's prediction, each ± U (k = 2).")
+             + f"<p class='csv'>CSV, one row per plate and quantity: <a href='{PHYSICS_FILE}'>{PHYSICS_FILE}</a></p>")
+    return report.Section("What physics predicts for the characterised plates (Fig. 5)", body, "plates-physics")
 
 
 def check_powered_piezos(campaign) -> None:
@@ -63,3 +153,5 @@ def check_powered_piezos(campaign) -> None:
 
 if scenes_section not in report.SECTIONS:
     report.SECTIONS.append(scenes_section)
+if physics_section not in report.SECTIONS:
+    report.SECTIONS.insert(report.SECTIONS.index(report.characterisation_section) + 1, physics_section)
