@@ -35,8 +35,11 @@ from squeezebench.analysis.paper import paper_value
 from squeezebench.analysis.rundata import RunData, load_run
 from squeezebench.errors import UserError
 
-#: The conventions every derived number of this report uses (the audit shows the others).
-REPORT_CONVENTION = model.PAPER_CONVENTION
+#: The conventions every derived number of this report uses (the audit shows the others): the
+#: physical reading, Table 2's E_i as 67 GPa (printed 67109 Pa, a resonator without
+#: stiffness) with the text's own definitions (V and A peak-to-peak, n_c every powered
+#: piezo). The paper's Q and tan theta' need other readings; the readings section shows them.
+REPORT_CONVENTION = model.PHYSICAL_CONVENTION
 
 
 @dataclass
@@ -240,9 +243,16 @@ def _explanation(context: ReportContext, table: str, item: str, quantity: str,
             return ("audit-" + _slug(row["topic"]),
                     f"the paper's own Eq. 25 with its printed Q turns its printed 1.3 W at 32 Vpp into "
                     f"tan θ′ = {row['computed']:.3g}, not the printed {row['printed']:.3g}: under the text's "
-                    "reading the printed power and loss tangent cannot both hold, and a plate that "
-                    "returns the 1.3 W misses the printed tan θ′")
+                    "definitions (E_i printed or 67 GPa: it cancels from tan θ′) the printed power and loss "
+                    "tangent cannot both hold, and a plate that returns the 1.3 W misses the printed tan θ′")
     return _inferred_reading_explanation(context, table, item, quantity)
+
+
+def _reading_words(context: ReportContext) -> str:
+    """The report's reading of Eqs. 25/27 named for a reader."""
+    return {model.PHYSICAL_CONVENTION.name: "the physical reading (E_i = 67 GPa, the text's definitions)",
+            model.PAPER_CONVENTION.name: "the text's reading (E_i as printed)"}.get(
+        context.convention.name, f"the {html.escape(context.convention.name)} reading")
 
 
 def _finding(findings: pd.DataFrame, topic: str, quantity_prefix: str) -> pd.Series:
@@ -253,12 +263,12 @@ def _finding(findings: pd.DataFrame, topic: str, quantity_prefix: str) -> pd.Ser
 def _inferred_reading_explanation(context: ReportContext, table: str, item: str,
                                   quantity: str) -> tuple[str, str] | None:
     """Table 5 and Fig. 9 under the inferred reading (analysis.readings): when this run
-    agrees with the paper there, the text's reading is what disagrees."""
+    agrees with the paper there, the report's reading is what disagrees."""
     frame = _table5_under_readings(context)
     if frame is None or table not in ("table5", "fig9"):
         return None
     key = ("fig9", "mean_power_difference") if table == "fig9" else (item, quantity)
-    others = frame[(frame["reading"] != model.PAPER_CONVENTION.name) & (frame["item"] == key[0])
+    others = frame[(frame["reading"] != context.convention.name) & (frame["item"] == key[0])
                    & (frame["quantity"] == key[1])]
     built_under = _scene_readings(context)
     for row in others.itertuples(index=False):
@@ -272,11 +282,11 @@ def _inferred_reading_explanation(context: ReportContext, table: str, item: str,
             reading = html.escape(str(row.reading))
             if row.reading in built_under:   # the run's own mix of readings, not the paper, makes the miss
                 return ("readings", f"this run's Fig. 5 scenes were built from the paper's summaries under the "
-                        f"{reading} reading, and under it {shown}; analysed under the text's reading, used "
+                        f"{reading} reading, and under it {shown}; analysed under {_reading_words(context)}, used "
                         "in this table, they cannot return the printed numbers: the miss comes from mixing "
                         "two readings in this run, not from the paper")
             return ("readings", f"under the {reading} reading of the paper's open "
-                    f"conventions, {shown}: the text's reading, used in this table, is what disagrees "
+                    f"conventions, {shown}: {_reading_words(context)}, used in this table, is what disagrees "
                     "with the paper's own numbers")
     return None
 
@@ -422,10 +432,19 @@ def _surprises(context: ReportContext, plates: dict[str, tables.PlateCharacteris
         example = plates[negative[0]]
         a_here = model.a_factor(example.geometry, context.convention)
         a_physical = model.a_factor(example.geometry, replace(context.convention, materials=model.MATERIALS_PHYSICAL))
-        q_sign = "" if (a_here > 0) == (a_physical > 0) else (
-            f" Q comes out positive here because Eq. 12's a is {_signed(a_here)} for {html.escape(negative[0])} with "
-            f"Table 2's E_i as printed ({context.convention.materials.resonator_young_pa:g} Pa); with E_i = 67 GPa, "
-            f"a = {_signed(a_physical)} and Q changes sign (Table 5 under each reading, in its section).")
+        a_printed = model.a_factor(example.geometry, replace(context.convention, materials=model.MATERIALS_AS_PRINTED))
+        q_sign = ""
+        if (a_here > 0) != (a_physical > 0):
+            q_sign = (f" Q comes out positive here because Eq. 12's a is {_signed(a_here)} for {html.escape(negative[0])} "
+                      f"with Table 2's E_i as printed ({context.convention.materials.resonator_young_pa:g} Pa); with "
+                      f"E_i = 67 GPa, a = {_signed(a_physical)} and Q changes sign (Table 5 under each reading, in its "
+                      "section).")
+        elif (a_here > 0) != (a_printed > 0):
+            q_sign = (f" Q comes out negative here: with E_i = {context.convention.materials.resonator_young_pa / 1e9:g} "
+                      f"GPa Eq. 12's a is {_signed(a_here)} for {html.escape(negative[0])}, and with d31's sign Eq. 27 "
+                      "gives a negative amplitude per unit Q; the paper's positive Q needs Table 2's E_i as printed "
+                      f"({model.MATERIALS_AS_PRINTED.resonator_young_pa:g} Pa, a = {_signed(a_printed)}), a resonator "
+                      "without stiffness (Table 5 under each reading, in its section).")
         lines.append(
             f"tan θ′ is negative for {len(negative)} of {len(plates)} plates: Eqs. 25 and 27 carry NCE 41's d31 with "
             f"its sign ({_signed(context.convention.materials.piezo_d31_c_per_n * 1e12)} pC/N); the amplitude is odd in "
@@ -1102,14 +1121,16 @@ def measurement_model_section(context: ReportContext) -> Section | None:
 
 
 def readings_section(context: ReportContext) -> Section | None:
-    """Q and tan theta' under the text's reading and the inferred one (issue 13)"""
+    """Q and tan theta' under the physical reading, the text's and the inferred one (issue 13)"""
     if context.run.protocol("characterisation").empty:
         return None   # characterisation_section says so
     plates = audit.plates_under_readings(context.run)
     plates.to_csv(context.out_dir / "plates_by_reading.csv", index=False)
     body = ("<p>Every characterised plate of this run (the paper's or your own), Q from Eq. 27 and "
-            "tan theta' from Eq. 25 under the text's own reading ('paper') and under the one reading "
-            "that reproduces the paper's published numbers at once ('inferred', analysis.readings). "
+            "tan theta' from Eq. 25 under the physical reading the report's tables use ('physical': "
+            "E_i = 67 GPa and the text's definitions), under the text's own reading with E_i as printed "
+            "('paper') and under the one reading that reproduces the paper's published numbers at once "
+            "('inferred', analysis.readings, a hypothesis about what the authors computed). "
             "CSV: <a href='plates_by_reading.csv'>plates_by_reading.csv</a></p>"
             + presentation.fold("How the readings were searched, and Q and tan θ′ of every plate under each",
                                 "".join(f"<p>{html.escape(words)}</p>" for words in readings.search_words())

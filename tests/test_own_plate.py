@@ -33,7 +33,7 @@ def test_own_plate_runs_and_reports_its_q_and_tan_theta(tmp_path):
     report = tmp_path / "run" / "report"
     plates = pd.read_csv(report / "plates_by_reading.csv").set_index(["plate", "reading"])
     # named "my_plate" in the campaign, not after the scene file: the geometry still follows
-    assert set(plates.index) == {("my_plate", "paper"), ("my_plate", "inferred")}
+    assert set(plates.index) == {("my_plate", "physical"), ("my_plate", "paper"), ("my_plate", "inferred")}
     for reading in ("paper", "inferred"):
         q, tan = plates.loc[("my_plate", reading), ["q", "tan_theta"]]
         assert math.isfinite(q) and q > 0 and math.isfinite(tan) and tan < 0

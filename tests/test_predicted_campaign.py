@@ -92,8 +92,7 @@ def test_a_predicted_plate_characterised_on_the_bench_reads_the_q_and_tan_theta_
     paths through one model, so they agree within 5 % and within their U; Table 5's physics
     line (the paper's stated geometry, not the scene's) lands within 5 % of the section's."""
     from squeezebench import simulated_plates
-    from squeezebench.analysis import model
-    from squeezebench.analysis.report import ReportContext
+    from squeezebench.analysis.report import REPORT_CONVENTION, ReportContext
 
     context = ReportContext(large_plate_run, tmp_path)
     rows = simulated_plates.physics_rows(context).set_index("quantity")
@@ -105,7 +104,7 @@ def test_a_predicted_plate_characterised_on_the_bench_reads_the_q_and_tan_theta_
         assert row["value_over_predicted"] == pytest.approx(1.0, abs=0.05), quantity
     table5 = tables.predicted_large_plate_q_tan(context.plates()["large_plate"].geometry, context.convention)
     assert table5["q"][0] == pytest.approx(rows.loc["q", "predicted_value"], rel=0.05)
-    assert context.convention == model.PAPER_CONVENTION
+    assert context.convention == REPORT_CONVENTION
 
 
 def test_a_replay_plate_is_set_beside_its_physics_and_its_departure_said(tmp_path):
