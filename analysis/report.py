@@ -242,9 +242,10 @@ def _explanation(context: ReportContext, table: str, item: str, quantity: str,
         if matches(row["computed"]):
             return ("audit-" + _slug(row["topic"]),
                     f"the paper's own Eq. 25 with its printed Q turns its printed 1.3 W at 32 Vpp into "
-                    f"tan θ′ = {row['computed']:.3g}, not the printed {row['printed']:.3g}: under the text's "
-                    "definitions (E_i printed or 67 GPa: it cancels from tan θ′) the printed power and loss "
-                    "tangent cannot both hold, and a plate that returns the 1.3 W misses the printed tan θ′")
+                    f"tan θ′ = {row['computed']:.3g} (E_i as printed), not the printed {row['printed']:.3g}: "
+                    "under the text's definitions the printed power and loss tangent cannot both hold, and a "
+                    "plate that returns the 1.3 W misses the printed tan θ′ under either E_i (with Q read from "
+                    "the same plate's amplitude, E_i cancels from tan θ′)")
     return _inferred_reading_explanation(context, table, item, quantity)
 
 

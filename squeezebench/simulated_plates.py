@@ -20,7 +20,6 @@ and neither imports `simbench`.
 from __future__ import annotations
 
 import html
-
 import math
 
 import pandas as pd
@@ -53,15 +52,16 @@ PHYSICS_FILE = "fig5_predicted.csv"
 def physics_rows(context: report.ReportContext) -> pd.DataFrame:
     """One row per (characterised plate, quantity): the measured Q or tan theta' with its U
     (k = 2) and origin, what the plate model predicts with its U, their ratio and whether the
-    two agree within their combined U (columns as in report/columns.csv). The prediction takes the plate's stored scene's
-    geometry, piezos and datasheets and nothing it replays (`simbench.predicted.predict`,
-    referred to the scene's measurement point), the build's one mechanical Q
-    (`predicted_plates.MECHANICAL_Q`) and the report's reading of Eqs. 25/27."""
+    two agree within their combined U (columns as in report/columns.csv). The prediction
+    takes the plate's stored scene's geometry, piezos and datasheets and nothing it replays
+    (`simbench.predicted.predict`, referred to the scene's measurement point), the build's
+    one mechanical Q (`predicted_plates.MECHANICAL_Q`) and the report's reading of Eqs. 25/27.
+    A plate the model cannot predict is left out, with why, in `frame.attrs["not_predicted"]`."""
     inputs = context.run.run_dir / "inputs"
     steps = context.run.protocol("characterisation")
     if "scene_file" not in steps:
         return pd.DataFrame()   # rows from before scenes were recorded: nothing to predict from
-    rows = []
+    rows, not_predicted = [], {}
     for name, plate in context.plates().items():
         first = steps[steps["plate"] == name].iloc[0]
         path = inputs / str(first["scene_file"])
@@ -69,10 +69,14 @@ def physics_rows(context: report.ReportContext) -> pd.DataFrame:
             continue   # a real bench's plate: no geometry to predict from
         scene = load_scene(path)
         state = scene.state(first["scene_state"] or scene.initial_state)
-        prediction = predicted.predict(scene, state)
-        response = predicted_plates.response_per_volt(prediction.frequency_hz, prediction.modal_mass_g * 1e-3,
-                                                      prediction.force_factor_n_per_v)
-        expected = tables.predicted_q_tan(response, plate.geometry, context.convention)
+        try:
+            prediction = predicted.predict(scene, state)
+            response = predicted_plates.response_per_volt(prediction.frequency_hz, prediction.modal_mass_g * 1e-3,
+                                                          prediction.force_factor_n_per_v)
+            expected = tables.predicted_q_tan(response, plate.geometry, context.convention)
+        except ValueError as exc:   # no (n, 0) mode near the state's resonance; no force left (model.ModelGeometryError)
+            not_predicted[name] = str(exc)
+            continue
         for quantity, measured in (("q", plate.q), ("tan_theta", plate.tan_theta)):
             value, u_predicted = expected[quantity]
             u_measured = 2 * measured.std_uncertainty
@@ -83,7 +87,9 @@ def physics_rows(context: report.ReportContext) -> pd.DataFrame:
                          "value_over_predicted": measured.value / value if value else math.nan,
                          "agrees_with_prediction": bool(abs(measured.value - value)
                                                         <= math.hypot(u_measured, u_predicted))})
-    return pd.DataFrame(rows)
+    frame = pd.DataFrame(rows)
+    frame.attrs["not_predicted"] = not_predicted
+    return frame
 
 
 def _by_plate(frame: pd.DataFrame) -> pd.DataFrame:
@@ -106,8 +112,11 @@ def physics_section(context: report.ReportContext) -> report.Section | None:
     if not context.run.scenes or context.run.protocol("characterisation").empty:
         return None
     frame = physics_rows(context)
+    missed = "".join(f"<p>{html.escape(name)}: not predicted ({html.escape(why)}).</p>"
+                     for name, why in frame.attrs.get("not_predicted", {}).items())
     if frame.empty:
-        return None
+        return report.Section("What physics predicts for the characterised plates (Fig. 5)", missed,
+                              "plates-physics") if missed else None
     frame.to_csv(context.out_dir / PHYSICS_FILE, index=False)
     replays = sorted(frame.loc[frame["scene_kind"] == "replay", "plate"].unique())
     agree = frame.groupby("plate", sort=False)["agrees_with_prediction"].all()
@@ -115,8 +124,9 @@ def physics_section(context: report.ReportContext) -> report.Section | None:
             "and datasheets alone: the working mode's frequency, modal mass and force factor, the build's "
             f"one mechanical Q ({predicted_plates.MECHANICAL_Q:g}), then the same Eqs. 27 and 25 and the same "
             "reading as the measured plate (so their ratio does not depend on the reading: Q goes as the "
-            f"amplitude per volt, tan θ′ as the power over Q, under every reading). <b>{int(agree.sum())} of {len(agree)} plates agree with the "
-            "prediction within the combined U (k = 2) on both Q and tan θ′.</b>")
+            "amplitude per volt, tan θ′ as the power over Q, under every reading). "
+            f"<b>{int(agree.sum())} of {len(agree)} plates agree with the prediction within the combined U "
+            "(k = 2) on both Q and tan θ′.</b>")
     if replays:
         body += (f" {len(replays)} of them ({html.escape(', '.join(replays))}) are replay scenes, calibrated to "
                  "the paper's printed or summarised numbers: where they depart, the departure is that "
@@ -124,7 +134,8 @@ def physics_section(context: report.ReportContext) -> report.Section | None:
                  "text does not give them).")
     body += ("</p>" + report.html_table(_by_plate(frame), "Q and tan θ′ of each plate: this run against the "
                                         "plate model's prediction, each ± U (k = 2).")
-             + f"<p class='csv'>CSV, one row per plate and quantity: <a href='{PHYSICS_FILE}'>{PHYSICS_FILE}</a></p>")
+             + f"<p class='csv'>CSV, one row per plate and quantity: <a href='{PHYSICS_FILE}'>{PHYSICS_FILE}</a></p>"
+             + missed)
     return report.Section("What physics predicts for the characterised plates (Fig. 5)", body, "plates-physics")
 
 

@@ -107,7 +107,7 @@ def test_a_predicted_plate_characterised_on_the_bench_reads_the_q_and_tan_theta_
     assert context.convention == REPORT_CONVENTION
 
 
-def test_a_replay_plate_is_set_beside_its_physics_and_its_departure_said(tmp_path):
+def test_a_replay_plate_is_set_beside_its_physics_and_its_departure_said(tmp_path, monkeypatch):
     """Fig. 5's plate 4, a replay calibrated to the paper's summaries: the report's physics
     section sets its Q and tan theta' beside the model's, calls it a replay, and marks the
     departure (tan theta' about twice the physics': the calibration's, not the model's)."""
@@ -138,3 +138,11 @@ def test_a_replay_plate_is_set_beside_its_physics_and_its_departure_said(tmp_pat
     for quantity in ("q", "tan_theta"):
         assert inferred.loc[quantity, "value_over_predicted"] == pytest.approx(
             rows.loc[quantity, "value_over_predicted"], rel=1e-9)
+    # a plate the model cannot solve is named with why, and the report still stands
+    from squeezebench.simbench import predicted
+
+    def unsolvable(scene, state):
+        raise ValueError("no (n, 0) mode among 12 modes near 48600 Hz; widen the band")
+    monkeypatch.setattr(predicted, "predict", unsolvable)
+    section = simulated_plates.physics_section(ReportContext(load_run(run_dir), tmp_path))
+    assert "small_plate_4: not predicted (no (n, 0) mode among 12 modes" in section.body_html
