@@ -249,11 +249,11 @@ def _explanation(context: ReportContext, table: str, item: str, quantity: str,
     return _inferred_reading_explanation(context, table, item, quantity)
 
 
-def _reading_words(context: ReportContext) -> str:
-    """The report's reading of Eqs. 25/27 named for a reader."""
+def _reading_words(name: str) -> str:
+    """A reading of Eqs. 25/27 (a Convention's name) named for a reader."""
     return {model.PHYSICAL_CONVENTION.name: "the physical reading (E_i = 67 GPa, the text's definitions)",
             model.PAPER_CONVENTION.name: "the text's reading (E_i as printed)"}.get(
-        context.convention.name, f"the {html.escape(context.convention.name)} reading")
+        name, f"the {html.escape(name)} reading")
 
 
 def _finding(findings: pd.DataFrame, topic: str, quantity_prefix: str) -> pd.Series:
@@ -280,15 +280,14 @@ def _inferred_reading_explanation(context: ReportContext, table: str, item: str,
                      if table == "fig9" else
                      f"this run gives {row.value:.3g} against the printed {row.printed:.3g} "
                      f"({presentation.percent(row.relative_difference)})")
-            reading = html.escape(str(row.reading))
+            reading, used = _reading_words(str(row.reading)), _reading_words(context.convention.name)
             if row.reading in built_under:   # the run's own mix of readings, not the paper, makes the miss
-                return ("readings", f"this run's Fig. 5 scenes were built from the paper's summaries under the "
-                        f"{reading} reading, and under it {shown}; analysed under {_reading_words(context)}, used "
-                        "in this table, they cannot return the printed numbers: the miss comes from mixing "
-                        "two readings in this run, not from the paper")
-            return ("readings", f"under the {reading} reading of the paper's open "
-                    f"conventions, {shown}: {_reading_words(context)}, used in this table, is what disagrees "
-                    "with the paper's own numbers")
+                return ("readings", f"this run's Fig. 5 scenes were built from the paper's summaries under "
+                        f"{reading}, and under it {shown}; analysed under {used}, used in this table, they "
+                        "cannot return the printed numbers: the miss comes from mixing two readings in this "
+                        "run, not from the paper")
+            return ("readings", f"under {reading} of the paper's open conventions, {shown}: {used}, used in "
+                    "this table, is what disagrees with the paper's own numbers")
     return None
 
 
