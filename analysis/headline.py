@@ -63,8 +63,9 @@ def headline(bench_kind: str, n_points: int, n_runs: int, tables: Mapping[str, p
         worst = cells[cells["verdict"] == "disagrees"]
         if not worst.empty:
             row = worst.loc[worst["relative_difference"].abs().idxmax()]
+            sign = ", the sign opposite to print" if row["relative_difference"] < -1 else ""   # value / printed < 0
             said[1] += f" (largest: {row['table']} {row['item']} {header(row['quantity'])}, " \
-                       f"{100 * row['relative_difference']:+.0f} %)"
+                       f"{100 * row['relative_difference']:+.0f} %{sign})"
         predicted_cells = int((cells["origin"] == provenance.PREDICTED).sum())
         if predicted_cells:
             said.append(f"{predicted_cells} of them read on plates the model predicted (nothing printed in)")

@@ -55,6 +55,13 @@ def test_headline_counts_and_names_the_largest_miss():
     assert "2 of 4 printed resonance frequencies within 3 % (worst +9.6 %)" in lines[2]
 
 
+def test_a_miss_of_the_opposite_sign_is_said_to_be():
+    """Under the physical reading Table 5's Q comes out negative: -1061 % is a sign, said so."""
+    flipped = {"table5": _table([("table5", "measured", "q", 1.48, -10.61, False, "derived", None)])}
+    assert "(largest: Table 5 measured Q, -1061 %, the sign opposite to print)" in headline("simulated", 9, 1, flipped)[1]
+    assert "opposite" not in headline("simulated", 1111, 8, TABLES)[1]
+
+
 def test_a_run_without_paper_tables_says_only_what_ran():
     assert headline("real", 12, 1, {}) == ["Measured on a real bench: 12 stored points from 1 campaign runs."]
 
