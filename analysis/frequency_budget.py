@@ -56,9 +56,9 @@ def frequency_budget() -> pd.DataFrame:
     bare plate's, the piezos as mass only, and the model's with the thick-plate factor, each
     with its deviation from print."""
     predictions = predicted_plates.predictions().set_index("item")
-    massive_only = dataclasses.replace(plate_modes.NCE41, young_pa=plate_modes.NCE41.young_pa * 1e-6)
+    mass_only_piezo = dataclasses.replace(plate_modes.NCE41, young_pa=plate_modes.NCE41.young_pa * 1e-6)
     rows = []
-    for table, item, _, geometry, printed_hz, *_ in predicted_plates._rows():
+    for table, item, _, geometry, printed_hz, *_ in predicted_plates.paper_plates():
         model_hz = float(predictions.loc[item, "predicted_frequency_hz"])
         half_m = float(predictions.loc[item, "predicted_half_wavelength_mm"]) * 1e-3
         antinodes = int(predictions.loc[item, "predicted_antinodes"])
@@ -66,7 +66,7 @@ def frequency_budget() -> pd.DataFrame:
             "model": model_hz,
             "bare_plate": _working_frequency_hz(dataclasses.replace(geometry, patches=()), plate_modes.NCE41,
                                                 model_hz, antinodes),
-            "piezo_mass_only": _working_frequency_hz(geometry, massive_only, model_hz, antinodes),
+            "piezo_mass_only": _working_frequency_hz(geometry, mass_only_piezo, model_hz, antinodes),
             "model_thick_plate": model_hz * mindlin_factor(geometry.thickness_m, half_m,
                                                            plate_modes.ALUMINIUM_TABLE2.poisson),
         }

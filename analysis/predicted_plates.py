@@ -118,7 +118,9 @@ def response_per_volt(frequency_hz: float, modal_mass_kg: float, force_factor_n_
             "power_w_per_vpp2": 0.5 * resistance * (velocity_pp / 2) ** 2}
 
 
-def _rows():
+def paper_plates():
+    """Each paper plate the model predicts: (table, item, label, geometry, printed frequency,
+    printed antinodes, printed lambda/2 in mm or None, printed voltage, velocity and power)."""
     for label in ("75", "59", "28"):
         yield ("Table 3", label, f"{label} x 41 x 1 mm", table3_plate(label),
                paper_value("table3", label, "frequency_hz"), paper_value("table3", label, "n_antinodes"), None,
@@ -138,7 +140,7 @@ def _predictions() -> pd.DataFrame:
     u_response = response_relative_u()
     out = []
     for (table, item, plate_label, geometry, printed_hz, printed_antinodes, printed_half_mm,
-         voltage_vpp, printed_velocity, printed_power) in _rows():
+         voltage_vpp, printed_velocity, printed_power) in paper_plates():
         modes = plate_modes.solve_plate(geometry, near_hz=printed_hz)
         k = modes.working_mode(printed_hz)
         f = float(modes.frequencies_hz[k])
@@ -210,7 +212,7 @@ def large_plate_response() -> dict[str, float]:
             "amplitude_pp_m_per_vpp": float(row["predicted_velocity_pp_mps"] / omega / row["voltage_vpp"]),
             "amplitude_rel_U": u["amplitude_pp_m"],
             "power_w_per_vpp2": float(row["predicted_power_w"] / row["voltage_vpp"] ** 2),
-            "power_rel_U": u["power_w"], "tan_theta_rel_U": u["tan_theta"]}
+            "power_rel_U": u["power_w"]}
 
 
 def large_plate_mode_figure(path: Path) -> dict:
