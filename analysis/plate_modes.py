@@ -4,7 +4,8 @@ Pure physics (no instrument, no run data): the simulator builds predicted scenes
 the report prints what it predicts beside the paper's values, so it lives in `analysis`
 like `analysis.model` (docs/design.md, "The plate model").
 
-The plate is a Kirchhoff plate (scikit-fem's Argyris triangle, C1-conforming quintic: 1.5
+The plate is a Kirchhoff plate (scikit-fem's Argyris triangle, C1-conforming quintic, its
+basis built in one pass by `analysis.argyris`: 1.5
 elements per flexural half-wave give the frequency to 0.1 %), free on all edges as the
 paper's plates lay on a cushion (Sec. 2.1). Where a piezo is bonded the section is a
 two-layer laminate: bending stiffness about the shifted neutral axis and mass per area of
@@ -30,7 +31,7 @@ import collections
 import functools
 import hashlib
 import json
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 
 import numpy as np
 from scipy.sparse.linalg import eigsh
@@ -280,10 +281,12 @@ def _discretisation(x: tuple[float, ...], y: tuple[float, ...], gx: tuple[float,
     """Mesh, Argyris basis and the probe of the shape grid (gx x gy) for mesh lines x, y:
     most of a solve's time, and the same for plates that differ only in materials or
     thicknesses (a layout sweep's thickness variants, a tolerance's nearby solve)."""
-    from skfem import Basis, ElementTriArgyris, MeshTri
+    from skfem import Basis, MeshTri
+
+    from .argyris import Argyris
 
     mesh = MeshTri.init_tensor(np.array(x), np.array(y))
-    basis = Basis(mesh, ElementTriArgyris(), intorder=8)
+    basis = Basis(mesh, Argyris(), intorder=8)
     points = np.array(np.meshgrid(np.array(gx), np.array(gy), indexing="ij")).reshape(2, -1)
     probes: dict[bytes, object] = {}
 
@@ -354,7 +357,7 @@ def _solve(geometry, resonator, piezo, near_hz, n_modes, elements_per_half_wave,
 
     @LinearForm
     def laplacian(v, w):
-        return w.ind * trace(dd(v))
+        return trace(dd(v))
 
     def per_element(values):
         return np.repeat(values[:, None], nqp, axis=1)
@@ -379,9 +382,12 @@ def _solve(geometry, resonator, piezo, near_hz, n_modes, elements_per_half_wave,
 
     theta = np.zeros((n, len(geometry.patches)))
     capacitance = np.zeros(len(geometry.patches))
+    # per element, then summed over each patch's elements: one assembly for every patch
+    per_element_laplacian = laplacian.elemental(basis)
     for i, (p, mask) in enumerate(zip(geometry.patches, inside)):
         _, _, z_m = laminate(resonator, geometry.thickness_m, piezo, p.thickness_m)
-        b = asm(laplacian, basis, ind=per_element(mask.astype(float)))
+        b = replace(per_element_laplacian, data=per_element_laplacian.data
+                                * np.tile(mask, basis.Nbfun)).todefault()
         # Theta per mass-normalised mode, referred to the peak point: A = Theta / phi_peak.
         theta[:, i] = piezo.plate_e31_c_per_m2 * z_m * (b @ vectors)
         capacitance[i] = (EPSILON_0_F_PER_M * piezo.relative_permittivity_t * (1 - piezo.k31**2)

@@ -161,3 +161,19 @@ def test_flexural_frequency_and_half_wavelength_are_inverse():
     for thickness_m, half_m in ((1e-3, 8e-3), (2e-3, 9.2e-3), (1.2e-3, 8.44e-3)):
         frequency = flexural_frequency_hz(ALUMINIUM_TABLE2, thickness_m, half_m)
         assert flexural_half_wavelength_m(ALUMINIUM_TABLE2, thickness_m, frequency) == pytest.approx(half_m, rel=1e-12)
+
+
+def test_the_one_pass_argyris_basis_is_skfems_own_to_the_bit():
+    """analysis.argyris only reorders the work of skfem's global basis: every value, gradient
+    and Hessian, at quadrature points and at probed points, is bit-identical."""
+    from skfem import Basis, ElementTriArgyris, MeshTri
+
+    from squeezebench.analysis.argyris import Argyris
+
+    mesh = MeshTri.init_tensor(np.linspace(0, 0.05, 6), np.array([0.0, 0.004, 0.02, 0.03]))
+    ours, theirs = Basis(mesh, Argyris(), intorder=8), Basis(mesh, ElementTriArgyris(), intorder=8)
+    for mine, skfems in zip(ours.basis, theirs.basis):
+        for part in ("value", "grad", "hess"):
+            assert np.array_equal(getattr(mine[0], part), getattr(skfems[0], part))
+    points = np.random.default_rng(3).uniform([0, 0], [0.05, 0.03], (40, 2)).T
+    assert (ours.probes(points) != theirs.probes(points)).nnz == 0
