@@ -22,6 +22,7 @@ import pandas as pd
 import pytest
 from pyvisa.resources import MessageBasedResource
 
+from squeezebench import stops
 from squeezebench.instruments.errors import ConnectionLost
 from squeezebench.protocols.campaign import run_campaign
 from squeezebench.protocols.storage import RunStore, read_measurements
@@ -60,20 +61,29 @@ def test_a_swallowed_interrupt_still_stops_the_run(reference, tmp_path, monkeypa
     original = MessageBasedResource.write
     count = {"n": 0}
 
+    at_signal = {}
+
     def write(resource, message, *args, **kwargs):
         count["n"] += 1
         if count["n"] == 30:   # while the bench is set up
+            at_signal.update(message=message, handler=signal.getsignal(signal.SIGINT))
             try:
                 os.kill(os.getpid(), signal.SIGINT)
                 sum(range(1000))   # the handler runs here...
-            except BaseException:
-                pass               # ...and its KeyboardInterrupt is swallowed
+            except BaseException as exc:
+                at_signal["swallowed"] = repr(exc)   # ...and its KeyboardInterrupt is swallowed
         return original(resource, message, *args, **kwargs)
 
     monkeypatch.setattr(MessageBasedResource, "write", write)
     tap = BusTap(monkeypatch)
-    with pytest.raises(KeyboardInterrupt, match="SIGINT"):
+    before = signal.getsignal(signal.SIGINT)
+    try:
         run_campaign(campaign, out_dir=tmp_path / "run")
+    except KeyboardInterrupt as exc:
+        assert "SIGINT" in str(exc)
+    else:   # seen once in a full parallel suite, never alone: say what the process was like
+        pytest.fail(f"the run completed: SIGINT's disposition before the run {before!r}, at the "
+                    f"signal {at_signal}, stops' state {stops._depth} {stops.received()}")
     assert count["n"] < n_writes // 2 and _is_minimum(tap.last_amplitude_vpp)
     assert RunStore(tmp_path / "run").journal() == []
 
