@@ -182,13 +182,23 @@ class control:  # noqa: N801 - named like PyMeasure's Instrument.control, used l
         if self.set_command is None:
             raise AttributeError(f"{self.name} is read-only")
         checked = self.checked(obj, value)
-        token = self.values[checked] if self.values is not None else checked
-        obj.write(self.set_command.format(token, **obj.command_fields))
+        obj.write(self._set_text(obj, checked))
         if self.check_set:
             now = self.__get__(obj)
             if now != checked:
                 raise InstrumentError(obj.role, obj.resource_name,
                                       f"{self.name} reads {now!r} after setting it to {checked!r}")
+
+    def set_message(self, obj: Any, value: Any) -> str:
+        """The set command for `value`, validated as a set is (OutOfRangeError names the
+        property), for a message concatenated with others: nothing is sent here."""
+        if self.set_command is None:
+            raise AttributeError(f"{self.name} is read-only")
+        return self._set_text(obj, self.checked(obj, value))
+
+    def _set_text(self, obj: Any, checked: Any) -> str:
+        token = self.values[checked] if self.values is not None else checked
+        return self.set_command.format(token, **obj.command_fields)
 
     def checked(self, obj: Any, value: Any) -> Any:
         """`value` in canonical form, or OutOfRangeError naming the property (nothing sent)."""

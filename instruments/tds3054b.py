@@ -26,7 +26,7 @@ from typing import Any
 
 import numpy as np
 
-from squeezebench.instruments.base import SCPIInstrument
+from squeezebench.instruments.base import SCPIInstrument, concatenated
 from squeezebench.instruments.errors import (BenchMismatch, ClippedTraceError, GarbledReply, InstrumentError,
                                              InstrumentTimeout, NoValidMeasurement, OutOfRangeError)
 from squeezebench.instruments.properties import (checked, control, strict_boolean, strict_discrete_set,
@@ -417,12 +417,14 @@ class TDS3054B(SCPIInstrument):
     # -- acquisition -----------------------------------------------------------------------------
     def acquire_single(self, timeout_s: float) -> None:
         """One single-sequence acquisition (all NUMAVG waveforms in AVERAGE mode), waited for
-        with `*OPC?`, which answers only once it is complete (p. 3-10)."""
-        self.stop_after = "SEQUENCE"
-        self.write("ACQUIRE:STATE RUN")  # p. 2-48 ACQuire:STATE
+        with `*OPC?`, which answers only once it is complete (p. 3-10); the three in one
+        message (p. 2-4)."""
+        message = concatenated([TDS3054B.stop_after.set_message(self, "SEQUENCE"),
+                                "ACQUIRE:STATE RUN",  # p. 2-48 ACQuire:STATE
+                                "*OPC?"])  # p. 2-240 *OPC
         with self.timeout(timeout_s):
             try:
-                reply = self.query("*OPC?")  # p. 2-240 *OPC
+                reply = self.query(message)
             except InstrumentTimeout:
                 # The late "1" would otherwise be read as the answer to the next query.
                 self.device_clear()
@@ -433,8 +435,9 @@ class TDS3054B(SCPIInstrument):
 
     def acquisition_timeout_s(self) -> float:
         """How long a single sequence may take with the present settings, generously."""
-        averages = self.num_averages if self.acquire_mode == "AVERAGE" else 1
-        record_s = HORIZONTAL_DIVISIONS * self.horizontal_scale_s_per_div
+        mode, averages, scale_s = self.read_controls("acquire_mode", "num_averages", "horizontal_scale_s_per_div")
+        averages = averages if mode == "AVERAGE" else 1
+        record_s = HORIZONTAL_DIVISIONS * scale_s
         return _ACQUISITION_MARGIN_S + averages * (record_s + _REARM_ALLOWANCE_S)
 
     def busy(self) -> bool:
@@ -447,37 +450,70 @@ class TDS3054B(SCPIInstrument):
 
         Without a value the scope answers 9.9E37 and queues the reason: clipping raises
         ClippedTraceError, anything else NoValidMeasurement with the scope's own message."""
-        name = source_name(source)
-        kind_key = kind.upper()
-        if kind_key not in MEASUREMENTS:
-            try:
-                kind_key = token_for_reply(MEASUREMENTS, kind_key)
-            except ValueError:
-                raise OutOfRangeError(f"{self.role}.measurement_type", kind, ", ".join(MEASUREMENTS)) from None
-        self.measurement_source = name
-        self.measurement_type = kind_key
-        command = "MEASUREMENT:IMMED:VALUE?"  # p. 2-213
-        reply = self.query(command)
-        value = self.parse_reply(command, reply)
-        if abs(value) < NO_VALUE:
-            return value
+        value = self._immediate([(source, kind)])[0]
+        if isinstance(value, ClippedTraceError):
+            raise value
+        return value
+
+    def measure_many(self, requests: list[tuple[int | str, str]]) -> list[float | None]:
+        """Immediate measurements of the last acquisition, in order, all in one message:
+        None where the source's trace is clipped (a caller re-ranges that channel and keeps
+        the others); any other missing value raises as `measure` does."""
+        return [None if isinstance(value, ClippedTraceError) else value for value in self._immediate(requests)]
+
+    def _immediate(self, requests: list[tuple[int | str, str]]) -> list[float | ClippedTraceError]:
+        """Each request's SOURCE, TYPE and VALUE? (p. 2-210 to 2-213) concatenated into one
+        message (p. 2-4), its replies `;`-separated (p. 2-5). The reason for a missing value
+        is in the event queue, which does not say which measurement it belongs to: with
+        several missing, the queue is read and each is asked again alone."""
+        if not requests:
+            return []
+        commands = []
+        for source, kind in requests:
+            commands += [TDS3054B.measurement_source.set_message(self, source_name(source)),
+                         TDS3054B.measurement_type.set_message(self, self._measurement_kind(kind)),
+                         "MEASUREMENT:IMMED:VALUE?"]  # p. 2-213
+        message = concatenated(commands)
+        reply = self.query(message)
+        values: list[float | ClippedTraceError] = [self.parse_reply(message, part) for part in reply.split(";")]
+        if len(values) != len(requests):
+            raise GarbledReply(self.role, self.resource_name, message, reply, f"expected {len(requests)} values")
+        missing = [i for i, value in enumerate(values) if abs(value) >= NO_VALUE]
+        if not missing:
+            return values
         events = [event for event in self.read_events() if event[0] not in _NOT_ERRORS]
-        why = "; ".join(f"{code}, {message}" for code, message in events) or \
+        what = ", ".join(f"{self._measurement_kind(kind)} measurement of {source_name(source)}"
+                         for source, kind in (requests[i] for i in missing))
+        why = "; ".join(f"{code}, {text}" for code, text in events) or \
             "no signal it can measure, or the source is not displayed"
         # Reading the queue to explain the missing value drains every other event with it:
         # a refused command (command, execution or device error: Tables 3-4 to 3-6, codes 1xx-3xx) is
         # reported whatever came with it, never hidden behind a clipping the runner re-ranges.
         refused = next((code for code, _ in events if 100 <= code < 400), None)
         if refused is not None:
-            raise InstrumentError(self.role, self.resource_name,
-                                  f"no {kind_key} measurement of {name}; the scope reports {why}", refused)
-        clipping = [message for code, message in events if code in CLIPPING_EVENTS]
+            raise InstrumentError(self.role, self.resource_name, f"no {what}; the scope reports {why}", refused)
+        if len(requests) > 1:
+            for i in missing:
+                values[i] = self._immediate([requests[i]])[0]
+            return values
+        name = source_name(requests[0][0])
+        clipping = [text for code, text in events if code in CLIPPING_EVENTS]
         if clipping:
-            others = "; ".join(f"{code}, {message}" for code, message in events if code not in CLIPPING_EVENTS)
-            raise ClippedTraceError(self.role, self.resource_name, name, None,
-                                    clipping[0] + (f" (also: {others})" if others else ""))
+            others = "; ".join(f"{code}, {text}" for code, text in events if code not in CLIPPING_EVENTS)
+            return [ClippedTraceError(self.role, self.resource_name, name, None,
+                                      clipping[0] + (f" (also: {others})" if others else ""))]
         raise NoValidMeasurement(self.role, self.resource_name,
-                                 f"no valid {kind_key} measurement of {name} (the scope answered {reply}: {why})")
+                                 f"no valid {what} (the scope answered {reply}: {why})")
+
+    def _measurement_kind(self, kind: str) -> str:
+        """A MEASUrement:IMMed:TYPe long form, from the long or the short form."""
+        kind_key = kind.upper()
+        if kind_key in MEASUREMENTS:
+            return kind_key
+        try:
+            return token_for_reply(MEASUREMENTS, kind_key)
+        except ValueError:
+            raise OutOfRangeError(f"{self.role}.measurement_type", kind, ", ".join(MEASUREMENTS)) from None
 
     def fetch_waveform(self, source: int | str, *, allow_clipped: bool = False) -> Waveform:
         """The whole record of `source` from the last acquisition, scaled to its units.

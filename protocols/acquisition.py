@@ -192,13 +192,16 @@ class Acquisition:
                 self._range(scales, VELOCITY_CHANNEL, CLIP_GROWTH * SCREEN_DIVISIONS * scales[VELOCITY_CHANNEL])
                 continue
             # Maximum and minimum, not PK2: a spike clips one side only, within the PK2 limit.
-            # The scope refuses to measure a clipped channel (ClippedTraceError).
+            # The scope gives no value of a clipped channel (None); all six in one message.
+            extremes = iter(scope.measure_many([(channel, kind) for channel in scales
+                                                for kind in ("MAXIMUM", "MINIMUM")]))
             peaks, rerange = {}, {}   # rerange: {channel: (expected pp, why)}
             for channel, scale in scales.items():
-                try:
-                    peaks[channel] = (scope.measure(channel, "MAXIMUM"), scope.measure(channel, "MINIMUM"))
-                except ClippedTraceError:
+                high, low = next(extremes), next(extremes)
+                if high is None or low is None:
                     rerange[channel] = (CLIP_GROWTH * SCREEN_DIVISIONS * scale, "clipped")
+                else:
+                    peaks[channel] = (high, low)
             pp = {channel: high - low for channel, (high, low) in peaks.items()}
             # Clipped or not, never above the limit (a clipped CH1 spans at least the screen).
             try:

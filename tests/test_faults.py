@@ -39,9 +39,14 @@ from test_protocols_support import FAST_ACQUISITION, ONE_COLUMN_PLATE, write_cam
 _AMPLITUDE_WRITE = re.compile(r"^VOLT ([-+0-9.eE]+)\s*$")
 
 
+#: How every measurement message ends (MEASUREMENT:IMMED's SOURCE, TYPE, then VALUE?).
+MEASUREMENT_VALUE = ";VALUE?"
+
+
 class BusTap:
     """Watches every write and query; raises `fault` once at the `fail_at`-th write, or
-    answers `garbled` to the `garble_at`-th query of `garble_command`.
+    answers `garbled` to the `garble_at`-th query ending in `garble_command` (a measurement's
+    VALUE? ends the message that also sets its source and type).
 
     Records the last amplitude written to the generator (after the fault too: the
     DriveController's exit path must still bring it down).
@@ -71,7 +76,7 @@ class BusTap:
             return result
 
         def query(resource, message, *args, **kwargs):
-            if message == tap.garble_command:
+            if tap.garble_command is not None and message.endswith(tap.garble_command):
                 tap.queries += 1
                 if tap.queries == tap.garble_at:
                     tap.fired = True
@@ -98,7 +103,7 @@ def reference(tmp_path_factory):
     tmp_path = tmp_path_factory.mktemp("faults_reference")
     campaign = small_campaign(tmp_path)
     with pytest.MonkeyPatch.context() as monkeypatch:
-        tap = BusTap(monkeypatch, garble_command="MEASUREMENT:IMMED:VALUE?")
+        tap = BusTap(monkeypatch, garble_command=MEASUREMENT_VALUE)
         run_dir = run_campaign(campaign, out_dir=tmp_path / "run")
     return campaign, read_measurements(run_dir), tap.writes, tap.queries
 
@@ -153,11 +158,11 @@ def test_garbled_measurement_reply_names_the_command(reference, tmp_path, monkey
     campaign, expected, _, n_queries = reference
     run_dir = tmp_path / "run"
     with monkeypatch.context() as patch:
-        tap = BusTap(patch, garble_command="MEASUREMENT:IMMED:VALUE?", garble_at=n_queries // 2)
+        tap = BusTap(patch, garble_command=MEASUREMENT_VALUE, garble_at=n_queries // 2)
         with pytest.raises(GarbledReply) as caught:
             run_campaign(campaign, out_dir=run_dir)
-    assert caught.value.command == "MEASUREMENT:IMMED:VALUE?"
-    assert "MEASUREMENT:IMMED:VALUE?" in str(caught.value) and "#@!" in str(caught.value)
+    assert caught.value.command.startswith("MEASUREMENT:IMMED:SOURCE") and caught.value.command.endswith("VALUE?")
+    assert "MEASUREMENT:IMMED:SOURCE" in str(caught.value) and "#@!" in str(caught.value)
     assert tap.last_amplitude_vpp is not None and _is_minimum(tap.last_amplitude_vpp)
     journal = RunStore(run_dir).journal()
     assert journal, "half-way through, some steps must be complete"
@@ -187,7 +192,7 @@ def test_repeated_faults_then_resume_leave_only_finite_values(reference, tmp_pat
     campaign, expected, n_writes, n_queries = reference
     run_dir = tmp_path / "run"
     faults = [dict(fail_at=n_writes // 5, fault=visa_timeout),
-              dict(garble_command="MEASUREMENT:IMMED:VALUE?", garble_at=max(1, n_queries // 5)),
+              dict(garble_command=MEASUREMENT_VALUE, garble_at=max(1, n_queries // 5)),
               dict(fail_at=n_writes // 5, fault=connection_reset)]
     for fault in faults:
         with monkeypatch.context() as patch:
@@ -309,9 +314,10 @@ def test_scene_faults_stop_cleanly_and_every_resume_keeps_what_was_measured(
     """The fault comes back in every session (a flaky bench stays flaky), so each session
     completes the steps before it; in the end the rows are the fault-free run's."""
     _, expected, _, _ = reference
-    # Message 2000 of a bench session: a session opens with ~80 messages and the longest
-    # step takes ~1750, so every session completes a step before the fault comes back.
-    campaign = small_campaign(tmp_path, effects=[{effect: {"at_message": 2000, **parameters}}])
+    # Message 1200 of a bench session (each run opens its own): a session opens with ~170
+    # messages and the longest step takes ~840, so every session completes a step before the
+    # fault comes back, and both runs (~1700 and ~1850 messages) meet it.
+    campaign = small_campaign(tmp_path, effects=[{effect: {"at_message": 1200, **parameters}}])
     with monkeypatch.context() as patch:
         tap = BusTap(patch)
         errors = _until_complete(campaign, tmp_path / "run", error)

@@ -10,6 +10,7 @@ import pytest
 from conftest import CLEAR, TIMEOUT, expected_protocol
 from squeezebench.instruments.errors import (BenchMismatch, ClippedTraceError, GarbledReply, InstrumentError,
                                              InstrumentTimeout, NoValidMeasurement, OutOfRangeError)
+from squeezebench.instruments.base import concatenated
 from squeezebench.instruments.tds3054b import TDS3054B
 
 CONNECT = [(CLEAR, None), ("HEADER OFF", None), ("VERBOSE ON", None)]
@@ -100,21 +101,21 @@ def test_measurements_are_gated_on_whole_periods():
 def test_averaging_and_single_sequence_acquisition():
     with expected_protocol(TDS3054B, CONNECT + [
             ("ACQUIRE:MODE AVERAGE", None), ("ACQUIRE:NUMAVG 16", None),
-            ("ACQUIRE:STOPAFTER SEQUENCE", None), ("ACQUIRE:STATE RUN", None), ("*OPC?", "1")]) as scope:
+            ("ACQUIRE:STOPAFTER SEQUENCE;STATE RUN;*OPC?", "1")]) as scope:
         scope.set_averaging(16)
         scope.acquire_single(timeout_s=5.0)
 
 
 def test_an_acquisition_that_never_completes_clears_the_late_reply():
-    with expected_protocol(TDS3054B, CONNECT + [("ACQUIRE:STOPAFTER SEQUENCE", None), ("ACQUIRE:STATE RUN", None),
-                                                ("*OPC?", TIMEOUT), (CLEAR, None)]) as scope:
+    with expected_protocol(TDS3054B, CONNECT + [("ACQUIRE:STOPAFTER SEQUENCE;STATE RUN;*OPC?", TIMEOUT),
+                                                (CLEAR, None)]) as scope:
         with pytest.raises(InstrumentTimeout, match="ACQUIRE:STATE RUN, then \\*OPC\\?"):
             scope.acquire_single(timeout_s=1.0)
 
 
 def measure_script(source: str, kind: str, reply: str) -> list:
-    return [(f"MEASUREMENT:IMMED:SOURCE {source}", None), (f"MEASUREMENT:IMMED:TYPE {kind}", None),
-            ("MEASUREMENT:IMMED:VALUE?", reply)]
+    """Source, type and value in one message (manual p. 2-4, concatenation rule 2)."""
+    return [(f"MEASUREMENT:IMMED:SOURCE {source};TYPE {kind};VALUE?", reply)]
 
 
 def test_a_measurement_in_full_spelling():
@@ -154,6 +155,43 @@ def test_other_events_drained_with_a_clipping_are_reported_with_it():
         with pytest.raises(ClippedTraceError) as caught:
             scope.measure(2, "MAXIMUM")
     assert "2244" in str(caught.value)
+
+
+def test_six_extremes_go_in_one_message_and_a_clipped_one_is_none():
+    """One message, six replies; the missing one (CH2's maximum) is asked again alone for
+    its reason, a clipping: None there, the other five kept."""
+    many = ("MEASUREMENT:IMMED:SOURCE CH1;TYPE MAXIMUM;VALUE?;SOURCE CH1;TYPE MINIMUM;VALUE?;"
+            "SOURCE CH2;TYPE MAXIMUM;VALUE?;SOURCE CH2;TYPE MINIMUM;VALUE?;"
+            "SOURCE CH3;TYPE MAXIMUM;VALUE?;SOURCE CH3;TYPE MINIMUM;VALUE?")
+    with expected_protocol(TDS3054B, CONNECT + [
+            (many, "1.5;-1.5;9.91E37;-2.0E-3;0.25;-0.24"),
+            ("*ESR?", "16"), ("ALLEV?", '2228,"Measurement error, Positive Clipping; "'),
+            *measure_script("CH2", "MAXIMUM", "9.91E37"),
+            ("*ESR?", "16"), ("ALLEV?", '2228,"Measurement error, Positive Clipping; "')]) as scope:
+        values = scope.measure_many([(c, k) for c in (1, 2, 3) for k in ("MAXIMUM", "MINIMUM")])
+    assert values == [1.5, -1.5, None, -2.0e-3, 0.25, -0.24]
+
+
+def test_a_refusal_among_several_missing_values_is_the_error():
+    with expected_protocol(TDS3054B, CONNECT + [
+            ("MEASUREMENT:IMMED:SOURCE CH1;TYPE MAXIMUM;VALUE?;SOURCE CH3;TYPE PK2PK;VALUE?", "9.9E37;9.9E37"),
+            ("*ESR?", "52"), ("ALLEV?", '222,"Data out of range; CH3:SCALE 1.3",2227,"Clipping"')]) as scope:
+        with pytest.raises(InstrumentError, match="MAXIMUM measurement of CH1, PK2PK measurement of CH3") as caught:
+            scope.measure_many([(1, "MAXIMUM"), (3, "PK2")])
+    assert caught.value.code == 222
+
+
+def test_fewer_replies_than_measurements_are_garbled():
+    with expected_protocol(TDS3054B, CONNECT + [
+            ("MEASUREMENT:IMMED:SOURCE CH1;TYPE MAXIMUM;VALUE?;SOURCE CH1;TYPE MINIMUM;VALUE?", "1.5")]) as scope:
+        with pytest.raises(GarbledReply, match="expected 2 values"):
+            scope.measure_many([(1, "MAXIMUM"), (1, "MINIMUM")])
+
+
+def test_the_acquisition_timeout_reads_its_three_settings_in_one_message():
+    with expected_protocol(TDS3054B, CONNECT + [
+            ("ACQUIRE:MODE?;NUMAVG?;:HORIZONTAL:MAIN:SCALE?", "AVERAGE;16;1.0E-4")]) as scope:
+        assert scope.acquisition_timeout_s() == pytest.approx(5.0 + 16 * (10 * 1e-4 + 0.1))
 
 
 def fetch_script(points: int, reply_preamble: str, curve: bytes | None) -> list:
@@ -231,3 +269,30 @@ def test_replies_in_short_form_are_read_as_their_long_form():
                                                 ("CH3:IMPEDANCE?", "FIF"), ("ACQUIRE:STOPAFTER?", "SEQ")]) as scope:
         assert (scope.acquire_mode, scope.measurement_gating) == ("AVERAGE", "SCREEN")
         assert scope.channel(3).impedance == "50Ohm" and scope.stop_after == "SEQUENCE"
+
+
+def test_units_concatenate_as_the_manual_shows():
+    """The TDS3000 manual's own examples (p. 2-4): another branch from the root with `:`, the
+    same branch by its last mnemonic, a star command as it is, leaving the branch."""
+    assert concatenated(["TRIGGER:MODE NORMAL", "ACQUIRE:NUMAVG 10"]) == "TRIGGER:MODE NORMAL;:ACQUIRE:NUMAVG 10"
+    assert concatenated(["ACQUIRE:MODE ENVELOPE", "ACQUIRE:NUMAVG 8"]) == "ACQUIRE:MODE ENVELOPE;NUMAVG 8"
+    assert concatenated(["ACQUIRE:MODE ENVELOPE", "*TRG", "ACQUIRE:NUMAVG 8"]) == "ACQUIRE:MODE ENVELOPE;*TRG;NUMAVG 8"
+    assert concatenated(["ACQUIRE:MODE NORMAL", "ACQUIRE:NUMAVG?", "ACQUIRE:STATE?"]) == \
+        "ACQUIRE:MODE NORMAL;NUMAVG?;STATE?"
+    assert concatenated(["FREQ 100", "VOLT 1", "VOLT:OFFS 0"]) == "FREQ 100;VOLT 1;:VOLT:OFFS 0"
+
+
+def test_measurements_in_one_message_are_those_asked_one_by_one_on_the_simulated_scope():
+    from squeezebench import paths
+    from squeezebench.protocols.acquisition import AcquisitionSettings
+    from squeezebench.protocols.simulated_session import open_simulated
+
+    with open_simulated(paths.default_scene(), None, 0.0) as session:
+        session.drive.set_piezo_voltage(10.0)
+        session.go_to_resonance()
+        session.acquisition(AcquisitionSettings(averages=4, record_length=500)).measure(keep_waveforms=False)
+        scope = session.bench.scope
+        requests = [(c, k) for c in (1, 2, 3) for k in ("MAXIMUM", "MINIMUM")] + [("MATH", "MEAN"), (1, "FREQ")]
+        together = scope.measure_many(requests)
+        alone = [scope.measure(source, kind) for source, kind in requests]
+    assert together == alone and None not in together

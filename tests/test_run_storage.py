@@ -237,7 +237,7 @@ def test_a_fixed_bench_lets_a_stopped_run_continue(tmp_path, capsys):
     from test_campaign_resume import reference_rows
     from test_protocols_support import noise_free_scene
 
-    campaign = small_campaign(tmp_path, effects=[{"disconnect": {"at_message": 2000, "instrument": 2}}])
+    campaign = small_campaign(tmp_path, effects=[{"disconnect": {"at_message": 1200, "instrument": 2}}])
     run_dir = tmp_path / "run"
     with pytest.raises(ConnectionLost):
         run_campaign(campaign, out_dir=run_dir, say=lambda message: None)
