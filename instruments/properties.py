@@ -182,7 +182,7 @@ class control:  # noqa: N801 - named like PyMeasure's Instrument.control, used l
         if self.set_command is None:
             raise AttributeError(f"{self.name} is read-only")
         checked = self.checked(obj, value)
-        obj.write(self._set_text(obj, checked))
+        obj.write(self.message_for(obj, checked))
         if self.check_set:
             now = self.__get__(obj)
             if now != checked:
@@ -194,9 +194,10 @@ class control:  # noqa: N801 - named like PyMeasure's Instrument.control, used l
         property), for a message concatenated with others: nothing is sent here."""
         if self.set_command is None:
             raise AttributeError(f"{self.name} is read-only")
-        return self._set_text(obj, self.checked(obj, value))
+        return self.message_for(obj, self.checked(obj, value))
 
-    def _set_text(self, obj: Any, checked: Any) -> str:
+    def message_for(self, obj: Any, checked: Any) -> str:
+        """The set command for a value its caller has already validated (`checked`)."""
         token = self.values[checked] if self.values is not None else checked
         return self.set_command.format(token, **obj.command_fields)
 

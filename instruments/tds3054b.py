@@ -71,6 +71,11 @@ MEASUREMENTS = {"AMPLITUDE": "AMP", "AREA": "ARE", "BURST": "BUR", "CAREA": "CAR
 _FULL = {name: name for name in MEASUREMENTS}
 
 
+def scale_range_per_div(probe_gain: float) -> tuple[float, float]:
+    """(finest, coarsest) vertical scale with a probe of this gain, in channel units/div."""
+    return SCALE_RANGE_AT_1X[0] / probe_gain, SCALE_RANGE_AT_1X[1] / probe_gain
+
+
 def source_name(source: int | str) -> str:
     """1 -> "CH1"; "ch2" -> "CH2"; "MATH" stays."""
     name = f"CH{source}" if isinstance(source, int) and not isinstance(source, bool) else str(source).upper()
@@ -210,8 +215,7 @@ class Channel:
 
     def scale_range_per_div(self) -> tuple[float, float]:
         """(finest, coarsest) vertical scale at the present probe gain, in channel units/div."""
-        gain = self.probe_gain
-        return SCALE_RANGE_AT_1X[0] / gain, SCALE_RANGE_AT_1X[1] / gain
+        return scale_range_per_div(self.probe_gain)
 
     def settings_snapshot(self) -> dict[str, Any]:
         return {name: getattr(self, name) for name in ("probe_gain", "scale_v_per_div", "position_div", "offset",
@@ -585,8 +589,26 @@ class TDS3054B(SCPIInstrument):
         return snapshot
 
     # Names the protocols package calls.
-    def set_vertical_scale(self, channel: int, scale_per_div: float) -> None:
-        self.channel(channel).scale_v_per_div = scale_per_div
+    def set_vertical_scales(self, scales_per_div: dict[int, float]) -> None:
+        """Several channels' vertical scales in two messages, not two per channel (p. 2-4):
+        their probe gains read together (a scale's range depends on its probe), then the
+        scales set together. A scale outside its channel's range is refused (OutOfRangeError)
+        before any is sent."""
+        channels = [self.channel(number) for number in scales_per_div]
+        message = concatenated([Channel.probe_gain.get_command.format(**ch.command_fields) for ch in channels])
+        reply = self.query(message)
+        try:
+            gains = [Channel.probe_gain.value_of(part) for part in reply.split(";")]
+            if len(gains) != len(channels):
+                raise ValueError(f"expected {len(channels)} probe gains")
+        except ValueError as exc:
+            raise GarbledReply(self.role, self.resource_name, message, reply, str(exc)) from None
+        commands = []
+        for ch, gain, scale in zip(channels, gains, scales_per_div.values()):
+            allowed = strict_range(*scale_range_per_div(gain), "units/div at the present probe gain")
+            value = checked(f"{ch.property_prefix}.scale_v_per_div", allowed, scale)
+            commands.append(Channel.scale_v_per_div.message_for(ch, value))   # p. 2-69 CH<x>:SCAle
+        self.write(concatenated(commands))
 
     def set_record_length(self, points: int) -> None:
         self.record_length = points

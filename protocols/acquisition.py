@@ -186,7 +186,7 @@ class Acquisition:
             for channel, scale in scales.items():
                 finest, coarsest = self._scale_limits[channel]
                 scales[channel] = min(max(scale, finest), coarsest)
-                scope.set_vertical_scale(channel, scales[channel])
+            scope.set_vertical_scales(scales)
             scope.acquire()
             if self.bench.vibrometer.over_range():
                 self._range(scales, VELOCITY_CHANNEL, CLIP_GROWTH * SCREEN_DIVISIONS * scales[VELOCITY_CHANNEL])

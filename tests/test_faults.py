@@ -44,7 +44,8 @@ MEASUREMENT_VALUE = ";VALUE?"
 
 
 class BusTap:
-    """Watches every write and query; raises `fault` once at the `fail_at`-th write, or
+    """Watches every write and query; raises `fault` once at the `fail_at`-th write (the
+    first from there to a resource whose name holds `fail_on`, if given), or
     answers `garbled` to the `garble_at`-th query ending in `garble_command` (a measurement's
     VALUE? ends the message that also sets its source and type).
 
@@ -53,12 +54,12 @@ class BusTap:
     """
 
     def __init__(self, monkeypatch, fail_at=None, fault=None, garble_command=None, garble_at=None,
-                 garbled=b"#@!"):
+                 garbled=b"#@!", fail_on=None):
         self.writes = 0
         self.queries = 0
         self.fired = False
         self.last_amplitude_vpp = None
-        self.fail_at, self.fault = fail_at, fault
+        self.fail_at, self.fault, self.fail_on = fail_at, fault, fail_on
         self.garble_command, self.garble_at, self.garbled = garble_command, garble_at, garbled
         original_write = MessageBasedResource.write
         original_query = MessageBasedResource.query
@@ -66,7 +67,8 @@ class BusTap:
 
         def write(resource, message, *args, **kwargs):
             tap.writes += 1
-            if tap.writes == tap.fail_at:
+            if (tap.fail_at is not None and tap.writes >= tap.fail_at and not tap.fired
+                    and (tap.fail_on is None or tap.fail_on in resource.resource_name)):
                 tap.fired = True
                 raise tap.fault()
             match = _AMPLITUDE_WRITE.match(message)
@@ -175,7 +177,7 @@ def test_disconnect_mid_campaign_stops_safely_and_resumes(reference, tmp_path, m
     campaign, expected, n_writes, _ = reference
     run_dir = tmp_path / "run"
     with monkeypatch.context() as patch:
-        tap = BusTap(patch, fail_at=n_writes // 2, fault=connection_reset)
+        tap = BusTap(patch, fail_at=n_writes // 2, fault=connection_reset, fail_on="TCPIP")   # the scope
         with pytest.raises(ConnectionLost) as caught:
             run_campaign(campaign, out_dir=run_dir)
     assert "went away" in str(caught.value) and caught.value.role == "scope"
@@ -315,8 +317,8 @@ def test_scene_faults_stop_cleanly_and_every_resume_keeps_what_was_measured(
     completes the steps before it; in the end the rows are the fault-free run's."""
     _, expected, _, _ = reference
     # Message 1200 of a bench session (each run opens its own): a session opens with ~170
-    # messages and the longest step takes ~840, so every session completes a step before the
-    # fault comes back, and both runs (~1700 and ~1850 messages) meet it.
+    # messages and the longest step takes ~670, so every session completes a step before the
+    # fault comes back, and both runs (~1450 and ~1500 messages) meet it.
     campaign = small_campaign(tmp_path, effects=[{effect: {"at_message": 1200, **parameters}}])
     with monkeypatch.context() as patch:
         tap = BusTap(patch)

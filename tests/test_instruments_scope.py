@@ -296,3 +296,17 @@ def test_measurements_in_one_message_are_those_asked_one_by_one_on_the_simulated
         together = scope.measure_many(requests)
         alone = [scope.measure(source, kind) for source, kind in requests]
     assert together == alone and None not in together
+
+
+def test_three_scales_go_in_two_messages_after_their_probes():
+    with expected_protocol(TDS3054B, CONNECT + [
+            ("CH1:PROBE?;:CH2:PROBE?;:CH3:PROBE?", "0.1;1.0;1.0"),
+            ("CH1:SCALE 2;:CH2:SCALE 0.005;:CH3:SCALE 0.5", None)]) as scope:
+        scope.set_vertical_scales({1: 2.0, 2: 0.005, 3: 0.5})
+
+
+def test_a_scale_beyond_its_probes_range_is_refused_before_any_is_set():
+    """A 10:1 probe's finest scale is 10 mV/div: 5 mV/div on CH1 is refused, and no scale goes out."""
+    with expected_protocol(TDS3054B, CONNECT + [("CH2:PROBE?;:CH1:PROBE?", "1.0;0.1")]) as scope:
+        with pytest.raises(OutOfRangeError, match="scope.ch1.scale_v_per_div"):
+            scope.set_vertical_scales({2: 0.005, 1: 0.005})
