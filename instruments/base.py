@@ -174,16 +174,20 @@ class SCPIInstrument(Instrument):
         return self.query("*IDN?")  # IEEE 488.2 10.14
 
     def read_controls(self, *names: str) -> tuple:
-        """Several controls read in one message (`concatenated`), each parsed as reading it
-        alone would be; for controls whose replies hold no `;`."""
-        controls = [getattr(type(self), name) for name in names]
-        message = concatenated([c.get_command.format(**self.command_fields) for c in controls])
+        """This instrument's controls `names` read in one message (`read_together`)."""
+        return self.read_together([(self, getattr(type(self), name)) for name in names])
+
+    def read_together(self, reads: list[tuple[Any, Any]]) -> tuple:
+        """Controls, each (its owner: this instrument or a part of it such as a scope's
+        channel, the control), read in one message (`concatenated`), each parsed as reading
+        it alone would be; for controls whose replies hold no `;`."""
+        message = concatenated([control.get_command.format(**owner.command_fields) for owner, control in reads])
         reply = self.query(message)
         parts = reply.split(";")
         try:
-            if len(parts) != len(controls):
-                raise ValueError(f"expected {len(controls)} replies")
-            return tuple(c.value_of(part) for c, part in zip(controls, parts))
+            if len(parts) != len(reads):
+                raise ValueError(f"expected {len(reads)} replies")
+            return tuple(control.value_of(part) for (_, control), part in zip(reads, parts))
         except ValueError as exc:
             raise GarbledReply(self.role, self.resource_name, message, reply, str(exc)) from None
 

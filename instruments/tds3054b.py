@@ -595,14 +595,7 @@ class TDS3054B(SCPIInstrument):
         scales set together. A scale outside its channel's range is refused (OutOfRangeError)
         before any is sent."""
         channels = [self.channel(number) for number in scales_per_div]
-        message = concatenated([Channel.probe_gain.get_command.format(**ch.command_fields) for ch in channels])
-        reply = self.query(message)
-        try:
-            gains = [Channel.probe_gain.value_of(part) for part in reply.split(";")]
-            if len(gains) != len(channels):
-                raise ValueError(f"expected {len(channels)} probe gains")
-        except ValueError as exc:
-            raise GarbledReply(self.role, self.resource_name, message, reply, str(exc)) from None
+        gains = self.read_together([(ch, Channel.probe_gain) for ch in channels])
         commands = []
         for ch, gain, scale in zip(channels, gains, scales_per_div.values()):
             allowed = strict_range(*scale_range_per_div(gain), "units/div at the present probe gain")
