@@ -115,8 +115,7 @@ def physics_section(context: report.ReportContext) -> report.Section | None:
     missed = "".join(f"<p>{html.escape(name)}: not predicted ({html.escape(why)}).</p>"
                      for name, why in frame.attrs.get("not_predicted", {}).items())
     if frame.empty:
-        return report.Section("What physics predicts for the characterised plates (Fig. 5)", missed,
-                              "plates-physics") if missed else None
+        return _section(missed) if missed else None
     frame.to_csv(context.out_dir / PHYSICS_FILE, index=False)
     replays = sorted(frame.loc[frame["scene_kind"] == "replay", "plate"].unique())
     agree = frame.groupby("plate", sort=False)["agrees_with_prediction"].all()
@@ -136,6 +135,10 @@ def physics_section(context: report.ReportContext) -> report.Section | None:
                                         "plate model's prediction, each ± U (k = 2).")
              + f"<p class='csv'>CSV, one row per plate and quantity: <a href='{PHYSICS_FILE}'>{PHYSICS_FILE}</a></p>"
              + missed)
+    return _section(body)
+
+
+def _section(body: str) -> report.Section:
     return report.Section("What physics predicts for the characterised plates (Fig. 5)", body, "plates-physics")
 
 
