@@ -9,7 +9,8 @@ stored waveforms (`analysis.waveforms.reduce_record`; Q and tan(theta') by
 Experiments (the scene, state and voltage of each are in `StudySettings`):
 - `averages`: sample mode and scope averaging 2..512 at resonance -> power, velocity, amplitude;
 - `record`: periods per record x record length (500 / 10000 points) -> the same;
-- `search`: coarse sweep points x golden-section tolerance -> resonance frequency;
+- `search`: coarse sweep points x golden-section tolerance -> resonance frequency (one
+  search per trial, to the finest tolerance; the coarser ones stop on its way);
 - `settle`: wait after a voltage step (ring-up, `settling_transient` on) -> power, velocity;
 - `sweep`: voltages in a characterisation sweep x averaging -> Q, tan(theta');
 - `heating`: a series of points at a high voltage with `heating_drift` on, at the
@@ -57,7 +58,8 @@ from squeezebench.analysis.waveforms import PointReduction
 from squeezebench.protocols import systematics_study
 from squeezebench.protocols.acquisition import AcquisitionSettings
 from squeezebench.protocols.parallel import map_unordered
-from squeezebench.protocols.resonance import SearchSettings, find_resonance, track_resonance
+from squeezebench.protocols.resonance import (Resonance, SearchSettings, find_resonance, stopped_at,
+                                              track_resonance)
 from squeezebench.protocols.storage import write_atomic, write_frame_atomic
 from squeezebench.protocols.simulated_session import (
     SimulatedSession, characterise_at_resonance, open_simulated, reduce_point)
@@ -161,7 +163,8 @@ class Experiment:
 
     `configurations` lists the knob values of each configuration (columns of
     `analysis.study.KNOBS`; the others keep `StudySettings.base`'s); `run` measures every
-    trial of one configuration into a `TaskRun`. Adding an experiment is one function
+    trial of one configuration into a `TaskRun`, and may store rows of other knob values
+    its trials also answer (a search's coarser tolerances, `TaskRun.add_search`). Adding an experiment is one function
     pair and one entry in `EXPERIMENTS`.
     """
 
@@ -203,8 +206,8 @@ def _search(run: "TaskRun") -> None:
                                     points=run.knobs["search_points"], tolerance_hz=run.knobs["search_tolerance_hz"])
             acquisition.reset_ranges()   # each search starts as a step does
             start_s = bench.now_s()
-            found = find_resonance(acquisition.measure_at, search)
-            run.add(repeat, bench.now_s() - start_s, {"resonance_frequency_hz": (found.frequency_hz, true_hz)})
+            run.add_search(repeat, start_s, find_resonance(acquisition.measure_at, search), search, true_hz,
+                           s.search_tolerances_hz)
 
 
 def _settle(run: "TaskRun") -> None:
@@ -278,12 +281,12 @@ EXPERIMENTS: dict[str, Experiment] = {
                          lambda s: [{"record_length": length, "periods_per_record": periods}
                                     for length in s.record_lengths for periods in s.periods_per_record],
                          _at_the_point),
-    # A search reads only the velocity's peak-to-peak: the short record does.
+    # A search reads only the velocity's peak-to-peak: the short record does. One task
+    # searches to the finest tolerance; the coarser ones are read from its points.
     "search": Experiment(lambda s: SceneSpec(s.point_scene), lambda s: s.point_state,
                          lambda s: [{"averages": n, "record_length": 500, "search_points": points,
-                                     "search_tolerance_hz": tolerance_hz}
-                                    for n, points, tolerance_hz in itertools.product(
-                                        s.search_averages, s.search_points, s.search_tolerances_hz)],
+                                     "search_tolerance_hz": min(s.search_tolerances_hz)}
+                                    for n, points in itertools.product(s.search_averages, s.search_points)],
                          _search),
     "settle": Experiment(lambda s: SceneSpec(s.point_scene, ("settling_transient",),
                                              q_mech=(s.point_state, s.settle_q_mech)),
@@ -303,8 +306,8 @@ EXPERIMENTS: dict[str, Experiment] = {
     "systematics_search": Experiment(
         lambda s: SceneSpec(s.point_scene), lambda s: s.point_state,
         lambda s: [{"averages": s.systematics.search_averages, "record_length": 500,
-                    "search_points": s.systematics.search_points, "search_tolerance_hz": tolerance_hz}
-                   for tolerance_hz in s.systematics.search_tolerances_hz],
+                    "search_points": s.systematics.search_points,
+                    "search_tolerance_hz": min(s.systematics.search_tolerances_hz)}],
         systematics_study.search_trials),
     **{f"systematics_campaign{'_calibrated' if calibrated else ''}": Experiment(
         lambda s: systematics_study.CampaignSpec(s.systematics.campaign), lambda s: None,
@@ -376,13 +379,24 @@ class TaskRun:
             session.simulated.reseed(self.task.seed(repeat))
             yield repeat
 
-    def add(self, repeat: int, bench_time_s: float, values: dict[str, tuple[float, float]]) -> None:
-        """`values` maps a quantity name (with its unit) to (measured, true)."""
+    def add(self, repeat: int, bench_time_s: float, values: dict[str, tuple[float, float]], **knobs) -> None:
+        """`values` maps a quantity name (with its unit) to (measured, true); `knobs`
+        override the task's for rows read from a finer configuration's trial."""
         for quantity, (measured, true) in values.items():
             self.rows.append({"experiment": self.task.experiment, "scene": self.task.scene_file,
-                              "state": self.task.state or "", **self.knobs, "repeat": repeat,
+                              "state": self.task.state or "", **self.knobs, **knobs, "repeat": repeat,
                               "bench_time_s": bench_time_s, "quantity": quantity, "measured_value": measured,
                               "true_value": true, "rel_error": measured / true - 1.0})
+
+
+    def add_search(self, repeat: int, start_s: float, found: Resonance, search: SearchSettings, true_hz: float,
+                   tolerances_hz: tuple[float, ...]) -> None:
+        """A search's rows at each of `tolerances_hz` (`found` went to the finest of them),
+        its bench time up to its last point (`protocols.resonance.stopped_at`)."""
+        for tolerance_hz in sorted(tolerances_hz, reverse=True):
+            result = stopped_at(found, search, tolerance_hz)
+            self.add(repeat, result.points[-1].clock_s - start_s,
+                     {"resonance_frequency_hz": (result.frequency_hz, true_hz)}, search_tolerance_hz=tolerance_hz)
 
 
 def run_task(task: Task) -> pd.DataFrame:

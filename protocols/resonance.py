@@ -17,7 +17,7 @@ points of a protocol: walk uphill from the last resonance, then refine the same 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Callable
 
 from squeezebench.protocols.acquisition import Point
@@ -116,6 +116,17 @@ def find_resonance(measure_at: Callable[[float], Point], search: SearchSettings)
     golden_section_maximum(probe, grid_hz[peak - 1], grid_hz[peak + 1], search.tolerance_hz)
     frequency_hz, velocity_pp_mps = probe.best()
     return Resonance(frequency_hz, velocity_pp_mps, probe.points)
+
+
+def stopped_at(found: Resonance, search: SearchSettings, tolerance_hz: float) -> Resonance:
+    """What `search` would have found with the coarser `tolerance_hz`, without measuring:
+    the search's path depends only on the velocities it reads, so the coarser search asks
+    for the first of `found`'s points in the same order and stops earlier. Its last point
+    is where it ends (`clock_s`: its bench time)."""
+    if tolerance_hz < search.tolerance_hz:
+        raise ValueError(f"a search to {search.tolerance_hz:g} Hz holds no finer one ({tolerance_hz:g} Hz)")
+    measured = iter(found.points)
+    return find_resonance(lambda frequency_hz: next(measured), replace(search, tolerance_hz=tolerance_hz))
 
 
 def track_resonance(measure_at: Callable[[float], Point], frequency_hz: float,

@@ -178,8 +178,8 @@ def search_trials(run: "TaskRun") -> None:
                                     points=run.knobs["search_points"], tolerance_hz=run.knobs["search_tolerance_hz"])
             acquisition = session.acquisition(run.acquisition_settings())
             start_s = session.now_s()
-            found = find_resonance(acquisition.measure_at, search)
-            run.add(repeat, session.now_s() - start_s, {"resonance_frequency_hz": (found.frequency_hz, true_hz)})
+            run.add_search(repeat, start_s, find_resonance(acquisition.measure_at, search), search, true_hz,
+                           s.systematics.search_tolerances_hz)
 
 
 @dataclasses.dataclass(frozen=True)

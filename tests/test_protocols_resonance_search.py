@@ -1,21 +1,28 @@
 """The resonance search finds narrow and wide peaks from velocity readings alone."""
 
+import dataclasses
+import itertools
 import math
 
+import numpy as np
 import pytest
 from hypothesis import given, settings, strategies as st
 
 from squeezebench.protocols.acquisition import Point
-from squeezebench.protocols.resonance import ResonanceError, SearchSettings, find_resonance, track_resonance
+from squeezebench.protocols.resonance import (ResonanceError, SearchSettings, find_resonance, stopped_at,
+                                              track_resonance)
 
 
-def lorentzian(f0_hz, q_mech, peak_pp_mps=0.2):
-    """|H| of a single mode: what a velocity reading near resonance looks like."""
+def lorentzian(f0_hz, q_mech, peak_pp_mps=0.2, noise_rel=0.0, seed=0):
+    """|H| of a single mode: what a velocity reading near resonance looks like, with
+    `noise_rel` of it drawn afresh at each reading, in the order read; the clock counts readings."""
+    rng, clock = np.random.default_rng(seed), itertools.count(1)
+
     def measure_at(frequency_hz):
         detuning = 2.0 * q_mech * (frequency_hz - f0_hz) / f0_hz
-        velocity = peak_pp_mps / math.sqrt(1.0 + detuning ** 2)
+        velocity = peak_pp_mps / math.sqrt(1.0 + detuning ** 2) * (1.0 + noise_rel * rng.standard_normal())
         return Point(frequency_hz, 0.5, 20.0, 10.0, 16, 500, 0.0, velocity, 10.0, 0.01,
-                     frequency_hz, 1.0, 0.0)
+                     frequency_hz, 1.0, float(next(clock)))
     return measure_at
 
 
@@ -27,6 +34,25 @@ def test_search_finds_the_peak_within_tolerance(f0_hz, q_mech):
     assert abs(found.frequency_hz - f0_hz) < 0.2
     # A narrow peak costs no more than a wide one: the sweep plus ~log(bracket/tol) points.
     assert len(found.points) <= 31 + 25
+
+
+@settings(max_examples=40, deadline=None)
+@given(f0_hz=st.floats(36_100, 38_900), q_mech=st.sampled_from([300.0, 1e4]), seed=st.integers(0, 2**32 - 1),
+       tolerances_hz=st.lists(st.sampled_from([0.1, 0.5, 1.0, 10.0, 50.0]), min_size=2, max_size=2, unique=True))
+def test_a_coarser_search_is_read_from_a_finer_one(f0_hz, q_mech, seed, tolerances_hz):
+    """On a noisy peak, the search stopped at a coarser tolerance gives exactly what a search
+    to that tolerance with the same noise gives, at the same cost, and ends no later."""
+    fine_hz, coarse_hz = sorted(tolerances_hz)
+    search = SearchSettings(start_hz=36_000, stop_hz=39_000, points=31, tolerance_hz=fine_hz)
+    fine = find_resonance(lorentzian(f0_hz, q_mech, noise_rel=0.02, seed=seed), search)
+    direct = find_resonance(lorentzian(f0_hz, q_mech, noise_rel=0.02, seed=seed),
+                            SearchSettings(start_hz=36_000, stop_hz=39_000, points=31, tolerance_hz=coarse_hz))
+    read = stopped_at(fine, search, coarse_hz)
+    assert (read.frequency_hz, read.velocity_pp_mps) == (direct.frequency_hz, direct.velocity_pp_mps)
+    assert [p.clock_s for p in read.points] == [p.clock_s for p in direct.points]
+    assert read.points == fine.points[:len(read.points)]
+    with pytest.raises(ValueError, match="finer"):
+        stopped_at(read, dataclasses.replace(search, tolerance_hz=coarse_hz), fine_hz)
 
 
 def test_peak_outside_the_range_is_a_user_error():
