@@ -50,7 +50,6 @@ from typing import Any, Callable, Iterator
 
 import numpy as np
 import pandas as pd
-import yaml
 
 import squeezebench
 from squeezebench.analysis.study import STUDY_DIR
@@ -64,6 +63,7 @@ from squeezebench.protocols.storage import write_atomic, write_frame_atomic
 from squeezebench.protocols.simulated_session import (
     SimulatedSession, characterise_at_resonance, open_simulated, reduce_point)
 from squeezebench import paths
+from squeezebench.yamlfiles import dump_yaml, load_strict
 
 
 @dataclasses.dataclass(frozen=True)
@@ -142,7 +142,7 @@ class SceneSpec:
 
     def render(self, scenes_dir: Path, seed: int) -> str:
         """The scene file's text, seeded by the study (each trial reseeds it on top)."""
-        data = yaml.safe_load((Path(scenes_dir) / self.name).read_text(encoding="utf-8"))
+        data = load_strict((Path(scenes_dir) / self.name).read_text(encoding="utf-8"))
         present = {e if isinstance(e, str) else next(iter(e)) for e in data.get("effects", [])}
         data["effects"] = [*data.get("effects", []), *(e for e in self.extra_effects if e not in present)]
         data["seed"] = seed
@@ -154,7 +154,7 @@ class SceneSpec:
             state = data["states"][self.q_mech[0]]
             state["calibration"]["power_w"] *= state["q_mech"] / self.q_mech[1]
             state["q_mech"] = self.q_mech[1]
-        return yaml.safe_dump(data, sort_keys=False)
+        return dump_yaml(data)
 
 
 @dataclasses.dataclass(frozen=True)

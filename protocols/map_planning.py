@@ -33,7 +33,6 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import yaml
 
 from squeezebench.analysis.cartography import homogeneity
 from squeezebench.analysis import predicted_plates
@@ -42,6 +41,7 @@ from squeezebench.protocols.campaign import Run, load_campaign
 from squeezebench.protocols.cartography import map_bench_time_s
 from squeezebench.protocols.simulated_session import open_simulated, reduce_point
 from squeezebench.protocols.variants import MAP_PROTOCOLS
+from squeezebench.yamlfiles import dump_yaml, load_strict
 
 AVERAGES = (1, 2, 4, 8, 16, 32)
 STEPS_MM = (1.0, 2.0, 3.0, 4.0, 6.0, 8.0)
@@ -195,10 +195,10 @@ def _point_noise(run: Run) -> tuple[dict[int, float], dict[int, float], float, f
 
 def write_planned_maps(campaign_path: Path, plans: list[MapPlan], out: Path) -> None:
     """Put each map's planned step and averaging into the campaign file at `out`."""
-    data = yaml.safe_load(Path(out).read_text(encoding="utf-8"))
+    data = load_strict(Path(out).read_text(encoding="utf-8"))
     chosen = {plan.run_name: plan.chosen for plan in plans if plan.chosen is not None}
     for run in data["runs"]:
         if run["name"] in chosen:
             run["parameters"]["grid"]["step_mm"] = chosen[run["name"]].step_mm
             run.setdefault("acquisition", {})["averages"] = chosen[run["name"]].averages
-    Path(out).write_text(yaml.safe_dump(data, sort_keys=False), encoding="utf-8")
+    Path(out).write_text(dump_yaml(data), encoding="utf-8")

@@ -31,9 +31,9 @@ from typing import TYPE_CHECKING, Iterator
 
 import numpy as np
 import pandas as pd
-import yaml
 
 from squeezebench import paths
+from squeezebench.yamlfiles import load_strict
 from squeezebench.analysis.calibration import Deskew, calibration_from_points
 from squeezebench.protocols import calibration
 from squeezebench.protocols.acquisition import AcquisitionSettings
@@ -202,7 +202,7 @@ def campaign_trials(calibrated: bool, run: "TaskRun") -> None:
     averaging, after the deskew calibration when `calibrated`, one trial per bench: every
     stored point's power and velocity against the truth at its setting; the cost is the
     campaign's bench time (the calibration's included)."""
-    names = [entry["name"] for entry in yaml.safe_load(run.scene.read_text(encoding="utf-8"))["runs"]]
+    names = [entry["name"] for entry in load_strict(run.scene.read_text(encoding="utf-8"))["runs"]]
     settings = {name: {"averages": run.knobs["averages"]} for name in names}
     for repeat in range(run.settings.repeats):
         with tempfile.TemporaryDirectory(prefix="squeezebench-campaign-") as tmp:

@@ -14,9 +14,8 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-import yaml
-
 from squeezebench import paths
+from squeezebench.yamlfiles import dump_yaml, load_strict
 
 #: Where the deskew calibration drives its resistor: a pure delay is the same at every
 #: frequency; near the plates' so the resistor's own L/R matters as it will.
@@ -36,9 +35,9 @@ MAP_PROTOCOLS = ("cartography",)
 
 def without_maps(campaign_file: Path) -> Path:
     """Rewrite the campaign file without its map runs (a variant the studies run)."""
-    data = yaml.safe_load(Path(campaign_file).read_text(encoding="utf-8"))
+    data = load_strict(Path(campaign_file).read_text(encoding="utf-8"))
     data["runs"] = [run for run in data["runs"] if run.get("protocol") not in MAP_PROTOCOLS]
-    Path(campaign_file).write_text(yaml.safe_dump(data, sort_keys=False), encoding="utf-8")
+    Path(campaign_file).write_text(dump_yaml(data), encoding="utf-8")
     return Path(campaign_file)
 
 
@@ -65,7 +64,7 @@ def campaign_with_effects(campaign_file: Path, out_dir: Path, effects: list) -> 
     """
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
-    campaign = yaml.safe_load(Path(campaign_file).read_text())
+    campaign = load_strict(Path(campaign_file).read_text())
     copies: dict[str, str] = {}
 
     def copy_scene(value: str) -> str:
@@ -83,7 +82,7 @@ def campaign_with_effects(campaign_file: Path, out_dir: Path, effects: list) -> 
     campaign = walk(campaign)
     campaign.pop("output_dir", None)
     target = out_dir / Path(campaign_file).name
-    target.write_text(yaml.safe_dump(campaign, sort_keys=False))
+    target.write_text(dump_yaml(campaign))
     return without_maps(target)
 
 
@@ -91,12 +90,12 @@ def scene_with_effects(scene: str | Path, out_dir: Path, effects: list) -> Path:
     """A copy of `scene` (a name in `paths.scenes_dir()` or a path) in `out_dir` that also
     lists `effects`; effects it already lists keep its own parameters."""
     source = Path(scene) if Path(scene).is_absolute() else paths.scenes_dir() / scene
-    data = yaml.safe_load(source.read_text())
+    data = load_strict(source.read_text())
     listed = {_effect_name(e) for e in data.get("effects", [])}
     data["effects"] = list(data.get("effects", [])) + [e for e in effects if _effect_name(e) not in listed]
     Path(out_dir).mkdir(parents=True, exist_ok=True)
     target = Path(out_dir) / source.name
-    target.write_text(yaml.safe_dump(data, sort_keys=False))
+    target.write_text(dump_yaml(data))
     return target
 
 
@@ -115,19 +114,19 @@ def calibration_run(frequency_hz: float, scene: str) -> dict:
 
 def with_calibration(campaign_file: Path, out: Path, frequency_hz: float = CALIBRATION_FREQUENCY_HZ) -> Path:
     """A copy of the campaign whose first run is a deskew calibration."""
-    data = yaml.safe_load(Path(campaign_file).read_text(encoding="utf-8"))
+    data = load_strict(Path(campaign_file).read_text(encoding="utf-8"))
     scene = data.get("bench", {}).get("scene") or data["runs"][0]["bench"]["scene"]
     data["runs"] = [calibration_run(frequency_hz, scene), *data["runs"]]
-    Path(out).write_text(yaml.safe_dump(data, sort_keys=False), encoding="utf-8")
+    Path(out).write_text(dump_yaml(data), encoding="utf-8")
     return Path(out)
 
 
 def with_acquisition(campaign_file: Path, acquisition_by_run: dict[str, dict], out: Path) -> Path:
     """A copy of the campaign file with keys of each run's `acquisition:` overridden."""
-    data = yaml.safe_load(Path(campaign_file).read_text(encoding="utf-8"))
+    data = load_strict(Path(campaign_file).read_text(encoding="utf-8"))
     for run in data["runs"]:
         run.setdefault("acquisition", {}).update(acquisition_by_run.get(run["name"], {}))   # maps: as written
-    Path(out).write_text(yaml.safe_dump(data, sort_keys=False), encoding="utf-8")
+    Path(out).write_text(dump_yaml(data), encoding="utf-8")
     return Path(out)
 
 

@@ -37,9 +37,9 @@ from pathlib import Path
 from typing import Any, Callable, Iterator, Mapping, Sequence
 
 import pandas as pd
-import yaml
 
 from squeezebench import paths
+from squeezebench.yamlfiles import dump_yaml
 from squeezebench.errors import UserError
 
 Watcher = Callable[[dict[str, Any]], None]
@@ -94,7 +94,7 @@ def run_protocol(protocol: str, out_dir: str | Path, *, plate: Mapping[str, Any]
     out_dir = Path(out_dir)
     with tempfile.TemporaryDirectory(prefix="squeezebench-api-") as tmp:
         campaign = Path(tmp) / f"{out_dir.name}.yaml"
-        campaign.write_text(yaml.safe_dump({"name": out_dir.name, "runs": [run]}, sort_keys=False))
+        campaign.write_text(dump_yaml({"name": out_dir.name, "runs": [run]}))
         return run_campaign(campaign, out_dir, resume=resume, on_point=on_point, on_step=on_step,
                             progress=progress)
 

@@ -16,9 +16,9 @@ from pathlib import Path
 from typing import Any, Iterable
 
 import pandas as pd
-import yaml
 
 from squeezebench import paths
+from squeezebench.yamlfiles import dump_yaml
 from squeezebench.analysis import design as design_model
 from squeezebench.analysis import design_report, layouts
 from squeezebench.errors import UserError
@@ -101,7 +101,7 @@ def scene_from_design(spec, seed: int = 1) -> dict:
     # the scene's placement rule must put every piezo where the design does
     with tempfile.TemporaryDirectory() as folder:
         path = Path(folder) / f"{spec.name}.yaml"
-        path.write_text(yaml.safe_dump(data, sort_keys=False), encoding="utf-8")
+        path.write_text(dump_yaml(data), encoding="utf-8")
         scene = load_scene(path)
     placed = sorted((round(p.x_center_m, 9), round(p.y_center_m, 9))
                     for p in predicted.geometry(scene, scene.state("built")).patches)
@@ -142,9 +142,9 @@ def write_build(answer: design_model.DesignAnswer, folder: str | Path, seed: int
     folder.mkdir(parents=True, exist_ok=True)
     scene = folder / f"{spec.name}.yaml"
     scene.write_text("# Predicted by `squeezebench design` from the design file: nothing measured is read.\n"
-                     + yaml.safe_dump(scene_from_design(spec, seed=seed), sort_keys=False), encoding="utf-8")
+                     + dump_yaml(scene_from_design(spec, seed=seed)), encoding="utf-8")
     campaign = folder / f"{spec.name}_characterisation.yaml"
-    campaign.write_text(yaml.safe_dump(characterisation_campaign(spec, answer, scene.name), sort_keys=False),
+    campaign.write_text(dump_yaml(characterisation_campaign(spec, answer, scene.name)),
                         encoding="utf-8")
     return scene, campaign
 

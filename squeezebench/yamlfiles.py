@@ -1,7 +1,8 @@
 """Reading YAML strictly: one loader for every file the project reads (campaigns, bench
 files, scenes). PyYAML's SafeLoader silently keeps the last of a key given twice (a scene
 with `amplifier_gain: 20` then `40` runs at 40) and accepts `.nan` and `.inf`; this one
-refuses both, naming the line.
+refuses both, naming the line. `dump_yaml` writes the files the project makes itself
+(scene and campaign variants), in the order given.
 """
 
 from __future__ import annotations
@@ -78,3 +79,9 @@ def yaml_problem(exc: yaml.YAMLError) -> str:
 def load_strict(text: str) -> Any:
     """YAML text through the strict loader (yaml.YAMLError on a repeated key or NaN/inf)."""
     return yaml.load(text, Loader=_StrictLoader)
+
+
+def dump_yaml(data: Any) -> str:
+    """`data` as safe YAML, keys in the order given: PyYAML's safe_dump on libyaml's emitter
+    where PyYAML has it (the same text, about 6x faster: the studies write a scene per bench)."""
+    return yaml.dump(data, Dumper=getattr(yaml, "CSafeDumper", yaml.SafeDumper), sort_keys=False)
