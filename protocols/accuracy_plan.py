@@ -115,8 +115,17 @@ class AccuracyFloors:
                                      for f in self.below_floor()}}
 
 
-def accuracy_floors(campaign_path: Path, target_rel_error: float) -> AccuracyFloors:
-    """Run the campaign once (simulated, calibration first) and read its floors."""
+def accuracy_floors(campaign_path: Path, target_rel_error: float,
+                    measured: tuple[list[RunFloor], dict[str, float], float, float] | None = None) -> AccuracyFloors:
+    """The campaign's floors against `target_rel_error`, from `measure_floors` (`measured`:
+    what it returned, e.g. kept by an earlier plan)."""
+    return AccuracyFloors(target_rel_error, *(measured or measure_floors(campaign_path)))
+
+
+def measure_floors(campaign_path: Path) -> tuple[list[RunFloor], dict[str, float], float, float]:
+    """Run the campaign once (simulated, calibration first) and read what its floors are at
+    any target: the floors per run and quantity, the bench time per run, the calibration's
+    bench time and its deskew's standard uncertainty (s)."""
     with tempfile.TemporaryDirectory(prefix="squeezebench-floor-") as tmp:
         variant = without_maps(with_calibration(Path(campaign_path), Path(tmp) / Path(campaign_path).name))
         run_dir = run_campaign(variant, out_dir=Path(tmp) / "run", progress=False)
@@ -130,4 +139,4 @@ def accuracy_floors(campaign_path: Path, target_rel_error: float) -> AccuracyFlo
                        deskewed.loc[(run, quantity), "dominant_term"])
               for (run, quantity), row in plain.iterrows() if quantity in QUANTITIES]
     calibration_s = times_s.pop(CALIBRATION_RUN)
-    return AccuracyFloors(target_rel_error, floors, times_s, calibration_s, deskew_u_s)
+    return floors, times_s, calibration_s, deskew_u_s

@@ -38,6 +38,7 @@ from squeezebench.analysis.cartography import homogeneity
 from squeezebench.analysis import predicted_plates
 from squeezebench.errors import UserError
 from squeezebench.protocols.campaign import Run, load_campaign
+from squeezebench.protocols.plan_cache import PlanCache
 from squeezebench.protocols.cartography import map_bench_time_s
 from squeezebench.protocols.simulated_session import open_simulated, reduce_point
 from squeezebench.protocols.variants import MAP_PROTOCOLS
@@ -111,17 +112,25 @@ def map_runs(campaign_path: Path) -> list[Run]:
     return [run for run in load_campaign(Path(campaign_path)).runs if run.protocol in MAP_PROTOCOLS]
 
 
-def plan_map(run: Run, target_rel_error: float, seed: int = 0) -> MapPlan:
-    """Every candidate (step, averaging) of `run`'s map, with its error and bench time."""
+def plan_map(run: Run, target_rel_error: float, seed: int = 0, cache: PlanCache | None = None) -> MapPlan:
+    """Every candidate (step, averaging) of `run`'s map, with its error and bench time (read
+    from `cache` where an earlier plan of the campaign keeps them)."""
     if not target_rel_error > 0:
         raise UserError(f"target relative error must be positive, got {target_rel_error!r}")
     if run.bench.scene is None:
         raise UserError("only simulated benches (bench: {scene: ...}) can be planned")
-    params = run.parameters
     if run.plate.name not in predicted_plates.GEOMETRIES:
         raise UserError(f"run {run.name}: no plate model for {run.plate.name!r} (known: "
                         f"{', '.join(predicted_plates.GEOMETRIES)}): a map's sampling error cannot be planned "
                         "without the mode it samples")
+    found = cache.call(map_candidates, run, seed) if cache is not None else map_candidates(run, seed)
+    return MapPlan(run.name, run.plate.name, target_rel_error, *found)
+
+
+def map_candidates(run: Run, seed: int = 0) -> tuple[float, list[MapCandidate], MapCandidate]:
+    """What a map plan is at any target: the continuum's coefficient of variation, every
+    candidate, and the candidate as written."""
+    params = run.parameters
     noise_rel, acquisition_s, frequency_hz, acceleration_mm_per_s2 = _point_noise(run)
     continuum_cv = homogeneity(np.abs(_touch_shape(run, CONTINUUM_STEP_MM, frequency_hz))).coefficient_of_variation
     rng = np.random.default_rng(seed)
@@ -151,7 +160,7 @@ def plan_map(run: Run, target_rel_error: float, seed: int = 0) -> MapPlan:
     as_written = next((c for c in candidates if c.step_mm == params.grid.step_mm
                        and c.averages == run.acquisition.averages), None) \
         or candidate(params.grid.step_mm, _nearest(run.acquisition.averages))
-    return MapPlan(run.name, run.plate.name, target_rel_error, float(continuum_cv), candidates, as_written)
+    return float(continuum_cv), candidates, as_written
 
 
 def _nearest(averages: int) -> int:

@@ -22,7 +22,6 @@ from __future__ import annotations
 
 import copy
 import dataclasses
-import functools
 import math
 import tempfile
 import zlib
@@ -33,14 +32,15 @@ import numpy as np
 import pandas as pd
 
 from squeezebench.analysis.waveforms import integer_period_mean_power_w, sample_interval_s
-from squeezebench.protocols.accuracy_plan import CALIBRATION_RUN, AccuracyFloors, accuracy_floors
+from squeezebench.protocols.accuracy_plan import CALIBRATION_RUN, AccuracyFloors, accuracy_floors, measure_floors
 from squeezebench.protocols.simulated_session import open_simulated
 from squeezebench.protocols.variants import MAP_PROTOCOLS, planned_campaign, without_maps
 from squeezebench.protocols.bench_errors import (
-    bench_time_by_run_s, errors_on_benches, p95_by_run)
+    bench_time_by_run_s, errors_on_bench, p95_by_run)
 from squeezebench.protocols.acquisition import AcquisitionSettings
 from squeezebench.protocols.campaign import Run, load_campaign, run_campaign
 from squeezebench.protocols.parallel import map_unordered
+from squeezebench.protocols.plan_cache import PlanCache
 from squeezebench.protocols.safety import SafetyLimits
 from squeezebench.errors import UserError
 
@@ -203,6 +203,8 @@ class Plan:
     check_benches: int = 0
     #: runs a check sent back: the fraction of the floor's headroom their noise may take
     noise_scale: dict[str, float] = dataclasses.field(default_factory=dict)
+    measurements: str = ""   # where the numbers came from (`PlanCache.words`)
+    cache: dict = dataclasses.field(default_factory=dict)   # `PlanCache.as_dict`
 
     @property
     def calibrate(self) -> bool:
@@ -262,6 +264,8 @@ class Plan:
                      f"{self.baseline_total_s:>10.1f}")
         if self.floors:
             lines += self.floors.lines()
+        if self.measurements:
+            lines.append(self.measurements)
         if self.check is not None:
             worst = self.check.groupby("quantity")["p95_abs_rel_error"].max()
             meets = self.meets_check
@@ -292,6 +296,7 @@ class Plan:
                 "baseline_averages": BASELINE_AVERAGES,
                 "calibration_bench_time_s": {k: v for k, v in self.planned_s.items() if k not in self.settings_by_run},
                 "floors": self.floors.as_dict() if self.floors else None,
+                "cache": self.cache,
                 "check": None if self.check is None else {
                     "benches": self.check_benches, "meets_target": self.meets_check,
                     "missed_runs": self.missed_runs(), "noise_scale": self.noise_scale,
@@ -306,13 +311,15 @@ def _call(job: Callable[[], Any]) -> Any:
 
 
 def make_plan(campaign_path: Path, target_rel_error: float, repeats: int = REPEATS,
-              workers: int = 1, scheduler: Any = None, check_benches: int = CHECK_BENCHES) -> Plan:
+              workers: int = 1, scheduler: Any = None, check_benches: int = CHECK_BENCHES,
+              cache: PlanCache | None = None) -> Plan:
     """Measure every setting on every plate, pick each run's, and time the campaign with
     the plan and with the baseline, on `workers` local processes or the Dask cluster at
     `scheduler` (the plan is the same either way). The floors the instruments' specified
     errors leave decide what the noise may take and whether to calibrate; the plan is then
     checked on `check_benches` simulated benches with drawn errors (0: no check; none when
-    the target is below the floor)."""
+    the target is below the floor). What does not depend on the target is read from
+    `cache` (default: the campaign's `plan_cache`) where an earlier plan stored it."""
     if not target_rel_error > 0:
         raise UserError(f"target relative error must be positive, got {target_rel_error!r}")
     campaign_path = Path(campaign_path)
@@ -330,20 +337,25 @@ def make_plan(campaign_path: Path, target_rel_error: float, repeats: int = REPEA
                 for scene, state, plate in _run_plates(run) for point in _run_points(run, plate)]
         plates.update(dict.fromkeys(keys))
         plates_by_run[run.name] = keys
+    # None of this depends on the target: an earlier plan of the same campaign may hold it.
+    cache = cache or campaign_cache(campaign_path)
     # The 512-average baseline does not depend on the study: it runs beside the settings.
-    baseline = functools.partial(simulate_bench_time_s, campaign_path,
-                                 {run.name: {"averages": BASELINE_AVERAGES} for run in campaign.runs})
-    jobs = {functools.partial(measure_setting, *key, setting, repeats): (key, setting)
+    baseline = cache.job(simulate_bench_time_s, campaign_path,
+                         {run.name: {"averages": BASELINE_AVERAGES} for run in campaign.runs})
+    jobs = {cache.job(measure_setting, *key, setting, repeats): (key, setting)
             for key in plates for setting in SETTINGS}
-    done = dict(map_unordered(_call, [baseline, *jobs], workers, scheduler, "plan"))
+    stored = [job for job in (baseline, *jobs) if cache.stored(job)]
+    done = {job: job() for job in stored}
+    done.update(map_unordered(_call, [job for job in (baseline, *jobs) if job not in done], workers, scheduler,
+                              "plan"))
     results = {jobs[job]: result for job, result in done.items() if job in jobs}
     studies = {key: PlateStudy(key[0], key[1], key[2].voltage_vpp, results[key, SETTINGS[0]][1],
                                [results[key, setting][0] for setting in SETTINGS]) for key in plates}
     studies_by_run = {run.name: [studies[key] for key in plates_by_run[run.name]] for run in campaign.runs}
-    floors = accuracy_floors(campaign_path, target_rel_error)
+    floors = accuracy_floors(campaign_path, target_rel_error, cache.call(measure_floors, campaign_path))
     noise_scale = {run.name: 1.0 for run in campaign.runs}
     plan = _choose(campaign, campaign_path, target_rel_error, repeats, studies_by_run, floors, done[baseline],
-                   noise_scale)
+                   noise_scale, cache)
     if not check_benches or floors.below_floor():
         return plan
     for tightenings in range(MAX_TIGHTENINGS + 1):
@@ -360,13 +372,19 @@ def make_plan(campaign_path: Path, target_rel_error: float, repeats: int = REPEA
         else:
             noise_scale.update({name: noise_scale[name] / 2.0 for name in missed})
         plan = _choose(campaign, campaign_path, target_rel_error, repeats, studies_by_run, floors, done[baseline],
-                       noise_scale)
+                       noise_scale, cache)
     return plan
+
+
+def campaign_cache(campaign_path: Path) -> PlanCache:
+    """The plan cache of a campaign: keyed by its file and every file its runs name."""
+    runs = load_campaign(Path(campaign_path)).runs
+    return PlanCache([Path(campaign_path), *dict.fromkeys(f for run in runs for f in run.input_files())])
 
 
 def _choose(campaign, campaign_path: Path, target_rel_error: float, repeats: int,
             studies_by_run: dict[str, list[PlateStudy]], floors: AccuracyFloors, baseline_s: dict[str, float],
-            noise_scale: dict[str, float]) -> Plan:
+            noise_scale: dict[str, float], cache: PlanCache) -> Plan:
     """Per run the cheapest setting whose noise fits in what the floor leaves of the
     target (errors add in quadrature; times the run's `noise_scale`, lowered where a check
     missed); where the floor is above the target, the cheapest
@@ -381,21 +399,35 @@ def _choose(campaign, campaign_path: Path, target_rel_error: float, repeats: int
                                    fallback=Setting(run.acquisition.record_length, BASELINE_AVERAGES))
         settings_by_run[run.name] = setting
         error_by_run[run.name] = max(s.result(setting).p95_rel_error for s in run_studies)
-    planned_s = simulate_bench_time_s(campaign_path, {name: dataclasses.asdict(setting)
-                                                      for name, setting in settings_by_run.items()},
-                                      calibrate=floors.calibrate)
+    planned_s = cache.call(simulate_bench_time_s, campaign_path,
+                           {name: dataclasses.asdict(setting) for name, setting in settings_by_run.items()},
+                           floors.calibrate)
     return Plan(target_rel_error, studies_by_run, settings_by_run, error_by_run, planned_s, baseline_s,
                 repeats=repeats, floors=floors, own_s=floors.own_bench_time_s,
-                noise_scale={name: scale for name, scale in noise_scale.items() if scale != 1.0})
+                noise_scale={name: scale for name, scale in noise_scale.items() if scale != 1.0},
+                measurements=cache.words(), cache=cache.as_dict())
 
 
 def check_plan(campaign_path: Path, plan: Plan, benches: int, workers: int = 1,
                scheduler: Any = None) -> pd.DataFrame:
     """p95 |relative error| per run and quantity of the planned campaign over `benches`
-    simulated benches whose instruments err within specification (`bench_errors`)."""
+    simulated benches whose instruments err within specification (`bench_errors`); a
+    bench an earlier plan checked with the same settings is read from the plan cache."""
+    cache = campaign_cache(campaign_path)
+    jobs = {cache.job(errors_on_planned_bench, campaign_path, _settings(plan), plan.calibrate, seed): seed
+            for seed in range(1, benches + 1)}
+    done = {job: job() for job in jobs if cache.stored(job)}
+    done.update(map_unordered(_call, [job for job in jobs if job not in done], workers, scheduler,
+                              "simulated benches"))
+    return p95_by_run(pd.concat([done[job] for job in jobs], ignore_index=True))
+
+
+def errors_on_planned_bench(campaign_path: Path, acquisition_by_run: dict[str, dict], calibrate: bool,
+                            bench_seed: int) -> pd.DataFrame:
+    """`errors_on_bench` of the campaign with these settings, on bench `bench_seed`."""
     with tempfile.TemporaryDirectory(prefix="squeezebench-check-") as tmp:
-        planned = planned_campaign(campaign_path, _settings(plan), plan.calibrate, Path(tmp) / campaign_path.name)
-        return p95_by_run(errors_on_benches(planned, range(1, benches + 1), workers, scheduler))
+        planned = planned_campaign(campaign_path, acquisition_by_run, calibrate, Path(tmp) / campaign_path.name)
+        return errors_on_bench(planned, bench_seed, Path(tmp) / "bench")
 
 
 def _settings(plan: Plan) -> dict[str, dict]:

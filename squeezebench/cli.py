@@ -298,7 +298,7 @@ def cmd_study(args: argparse.Namespace) -> int:
 def cmd_plan(args: argparse.Namespace) -> int:
     from squeezebench.protocols.campaign import load_campaign
     from squeezebench.protocols.map_planning import plan_map, write_planned_maps
-    from squeezebench.protocols.planning import make_plan, plan_text, write_planned_campaign
+    from squeezebench.protocols.planning import campaign_cache, make_plan, plan_text, write_planned_campaign
     from squeezebench.protocols.variants import MAP_PROTOCOLS
 
     campaign = paths.campaign_file(args.campaign)
@@ -309,10 +309,11 @@ def cmd_plan(args: argparse.Namespace) -> int:
     if campaign != Path(args.campaign):
         say(args, f"campaign: {campaign} (shipped; no file named {args.campaign} here)")
     runs = load_campaign(campaign).runs
-    maps = [plan_map(run, args.target_rel_error) for run in runs if run.protocol in MAP_PROTOCOLS]
+    cache = campaign_cache(campaign)
+    maps = [plan_map(run, args.target_rel_error, cache=cache) for run in runs if run.protocol in MAP_PROTOCOLS]
     only_maps = len(maps) == len(runs)
     plan = None if only_maps else make_plan(campaign, args.target_rel_error, workers=args.workers,
-                                            scheduler=args.scheduler)
+                                            scheduler=args.scheduler, cache=cache)
     written = None
     if args.write:
         written = write_planned_campaign(campaign, plan, args.write) if plan else Path(shutil.copyfile(campaign, args.write))

@@ -79,3 +79,14 @@ def expected_protocol(driver_class, exchanges: list[tuple[str, Any]], resource_n
 @pytest.fixture
 def protocol():
     return expected_protocol
+
+
+@pytest.fixture(scope="session", autouse=True)
+def fresh_plan_cache(tmp_path_factory):
+    """Plans of this session keep their measurements in a folder of its own: a test never
+    reads what a developer's plans (or another session's code) stored."""
+    from squeezebench.protocols.plan_cache import CACHE_VARIABLE
+
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setenv(CACHE_VARIABLE, str(tmp_path_factory.mktemp("plan-cache")))
+        yield

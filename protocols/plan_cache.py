@@ -1,0 +1,111 @@
+"""What a plan measured, kept for the next plan of the same campaign.
+
+Most of a plan does not depend on its target: the noise and cost of every scope setting
+on every plate, the floors the instruments' specified errors leave, the campaign's bench
+time with 512 averages. Planning the same campaign again at another target, the usual
+way to learn what a target costs, reads those instead of simulating them again, and runs
+only what it lacks (the planned campaign's bench time for settings not timed before, and
+always the check on erring benches).
+
+They are kept on joblib's `Memory` in $SQUEEZEBENCH_CACHE/plan (default
+$XDG_CACHE_HOME/squeezebench, else ~/.cache/squeezebench), each under the call's arguments
+and a fingerprint of all that decides it: the campaign file, every scene and bench file
+it names, and squeezebench's own source. A change to any of them is a new fingerprint, so
+nothing stale is ever read. SQUEEZEBENCH_CACHE=off measures everything afresh.
+"""
+
+from __future__ import annotations
+
+import functools
+import hashlib
+import importlib
+import os
+from pathlib import Path
+from typing import Any, Callable
+
+import joblib
+
+CACHE_VARIABLE = "SQUEEZEBENCH_CACHE"
+#: The packages whose source decides a simulated measurement.
+SOURCE_PACKAGES = ("squeezebench", "squeezebench.instruments", "squeezebench.protocols",
+                   "squeezebench.analysis", "squeezebench.simbench")
+
+
+def cache_dir() -> Path | None:
+    """Where measurements are kept, or None when $SQUEEZEBENCH_CACHE is `off`."""
+    text = os.environ.get(CACHE_VARIABLE, "").strip()
+    if text.lower() == "off":
+        return None
+    if text:
+        return Path(text).expanduser()
+    return Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "squeezebench"
+
+
+@functools.cache
+def source_fingerprint() -> str:
+    """SHA-256 of squeezebench's Python source, file by file (names and bytes)."""
+    digest = hashlib.sha256()
+    for package in SOURCE_PACKAGES:
+        for folder in importlib.import_module(package).__path__:
+            for path in sorted(Path(folder).glob("*.py")):
+                digest.update(f"{package}/{path.name}\0".encode())
+                digest.update(path.read_bytes())
+    return digest.hexdigest()
+
+
+def fingerprint(files: list[Path]) -> str:
+    """SHA-256 of the source and of `files` (the campaign and what it names), in order."""
+    digest = hashlib.sha256(source_fingerprint().encode())
+    for path in files:
+        digest.update(f"\0{Path(path).resolve()}\0".encode())
+        digest.update(Path(path).read_bytes())
+    return digest.hexdigest()
+
+
+def _keyed(fingerprint: str, function: Callable[..., Any], *args: Any) -> Any:
+    """function(*args); `fingerprint` is only part of the cache's key."""
+    return function(*args)
+
+
+class PlanCache:
+    """Cached calls for one campaign: `job` gives a picklable call (for a worker) that
+    reads the result where it is stored and stores it where it is not."""
+
+    def __init__(self, files: list[Path]) -> None:
+        self.fingerprint = fingerprint(files)
+        self.location = cache_dir()
+        try:
+            memory = joblib.Memory(None if self.location is None else self.location / "plan", verbose=0)
+        except OSError:   # an unwritable home: plan as if off, the plan says so
+            self.location, memory = None, joblib.Memory(None, verbose=0)
+        self._call = memory.cache(_keyed)
+        self.read = self.measured = 0
+
+    def job(self, function: Callable[..., Any], *args: Any) -> functools.partial:
+        """The call function(*args) through the cache, counted as read or measured."""
+        job = functools.partial(self._call, self.fingerprint, function, *args)
+        if self.stored(job):
+            self.read += 1
+        else:
+            self.measured += 1
+        return job
+
+    def stored(self, job: functools.partial) -> bool:
+        """Whether `job`'s result is kept (reading it is cheaper than sending it to a worker)."""
+        return self._call.check_call_in_cache(*job.args)
+
+    def call(self, function: Callable[..., Any], *args: Any) -> Any:
+        return self.job(function, *args)()
+
+    def words(self) -> str:
+        """Where the plan's measurements came from, for its table."""
+        total = self.read + self.measured
+        if self.location is None:
+            return f"measurements: all {total} simulated now ({CACHE_VARIABLE}=off or no writable cache folder)"
+        return (f"measurements: {self.read} of {total} read from {self.location / 'plan'} (an earlier plan of "
+                f"this campaign with the same files and code), {self.measured} simulated now; "
+                f"{CACHE_VARIABLE}=off simulates all")
+
+    def as_dict(self) -> dict:
+        return {"location": None if self.location is None else str(self.location / "plan"),
+                "read": self.read, "simulated": self.measured}
