@@ -98,32 +98,43 @@ class Reading:
 
     def large_plate_geometry(self) -> model.PlateGeometry:
         """The large plate (Sec. 5.2) under this reading's n_c, b_p and lambda."""
-        printed_half = paper_value("large_plate", "large_plate", "half_wavelength_mm") * MM
-        half = {"printed": printed_half,
-                "from_mode": paper_value("large_plate", "large_plate", "resonator_length_mm") * MM / 21.0,
-                "half": printed_half / 2.0}[self.wavelength]
-        n = int(paper_value("large_plate", "large_plate", "n_piezos"))
-        sensors = int(paper_value("large_plate", "large_plate", "n_sensor_piezos"))
-        return model.PlateGeometry(
-            resonator_thickness_m=paper_value("large_plate", "large_plate", "resonator_thickness_mm") * MM,
-            piezo_thickness_m=paper_value("large_plate", "large_plate", "piezo_thickness_mm") * MM,
-            piezo_length_m=paper_value("large_plate", "large_plate", f"piezo_{self.b_p}_mm") * MM,
-            half_wavelength_m=half,
-            n_powered_piezos=n - sensors if self.n_c == "actuating" else n,
-            n_powered_groups=int(paper_value("large_plate", "large_plate", "n_corner_groups")))
+        return _large_plate_geometry(self.n_c, self.b_p, self.wavelength)
 
     def table4_geometry(self, configuration: str) -> model.PlateGeometry:
         """A Table 4 plate (76 x 41 x 1.2 mm, (9,0) mode) under this reading."""
-        half = (paper_value("table4", "plate", "resonator_length_mm")
-                / paper_value("table4", "plate", "n_antinodes")) * MM
-        columns = int(paper_value("table4", configuration, "n_powered_columns"))
-        return model.PlateGeometry(
-            resonator_thickness_m=paper_value("table4", "plate", "resonator_thickness_mm") * MM,
-            piezo_thickness_m=paper_value("table4", "plate", "piezo_thickness_mm") * MM,
-            piezo_length_m=paper_value("table4", "plate", f"piezo_{self.b_p}_mm") * MM,
-            half_wavelength_m=half / 2.0 if self.wavelength == "half" else half,
-            n_powered_piezos=columns * int(paper_value("table4", "plate", "piezos_per_column")),
-            n_powered_groups=columns)
+        return _table4_geometry(configuration, self.b_p, self.wavelength)
+
+
+# The search builds each geometry for thousands of readings that share it: built once.
+@functools.cache
+def _large_plate_geometry(n_c: str, b_p: str, wavelength: str) -> model.PlateGeometry:
+    printed_half = paper_value("large_plate", "large_plate", "half_wavelength_mm") * MM
+    half = {"printed": printed_half,
+            "from_mode": paper_value("large_plate", "large_plate", "resonator_length_mm") * MM / 21.0,
+            "half": printed_half / 2.0}[wavelength]
+    n = int(paper_value("large_plate", "large_plate", "n_piezos"))
+    sensors = int(paper_value("large_plate", "large_plate", "n_sensor_piezos"))
+    return model.PlateGeometry(
+        resonator_thickness_m=paper_value("large_plate", "large_plate", "resonator_thickness_mm") * MM,
+        piezo_thickness_m=paper_value("large_plate", "large_plate", "piezo_thickness_mm") * MM,
+        piezo_length_m=paper_value("large_plate", "large_plate", f"piezo_{b_p}_mm") * MM,
+        half_wavelength_m=half,
+        n_powered_piezos=n - sensors if n_c == "actuating" else n,
+        n_powered_groups=int(paper_value("large_plate", "large_plate", "n_corner_groups")))
+
+
+@functools.cache
+def _table4_geometry(configuration: str, b_p: str, wavelength: str) -> model.PlateGeometry:
+    half = (paper_value("table4", "plate", "resonator_length_mm")
+            / paper_value("table4", "plate", "n_antinodes")) * MM
+    columns = int(paper_value("table4", configuration, "n_powered_columns"))
+    return model.PlateGeometry(
+        resonator_thickness_m=paper_value("table4", "plate", "resonator_thickness_mm") * MM,
+        piezo_thickness_m=paper_value("table4", "plate", "piezo_thickness_mm") * MM,
+        piezo_length_m=paper_value("table4", "plate", f"piezo_{b_p}_mm") * MM,
+        half_wavelength_m=half / 2.0 if wavelength == "half" else half,
+        n_powered_piezos=columns * int(paper_value("table4", "plate", "piezos_per_column")),
+        n_powered_groups=columns)
 
 
 #: The text's own definitions (Sec. 3, Table 2 as printed).
@@ -148,8 +159,8 @@ def evaluate(reading: Reading) -> dict:
             2.0 if reading.published_amplitude == "amplitude" else 1.0)
         tan = model.tan_theta_from_power(paper_value("large_plate", "large_plate", "power_w"), voltage, q,
                                          frequency, large, convention)
-        table4 = float(np.mean([table4_tan_theta(c, convention, reading.table4_geometry(c))
-                                for c in TABLE4_CONFIGURATIONS]))
+        table4 = sum(table4_tan_theta(c, convention, reading.table4_geometry(c))
+                     for c in TABLE4_CONFIGURATIONS) / len(TABLE4_CONFIGURATIONS)
     except model.ModelGeometryError:
         return {**row, "defined": False}
     row.update(defined=True, amplitude_pp_m=amplitude_pp, tan_theta=tan, table4_tan_theta_mean=table4,
