@@ -7,7 +7,10 @@ supplied power. The scope averages N acquisitions and the horizontal scale is ch
 the record holds the requested number of periods.
 
 Vertical scales follow the signal: each channel is set so the expected peak-to-peak
-fills about `fill_divisions` of the 8 on screen. The expectation is the last point of
+fills about `fill_divisions` of the 8 on screen, or less where the trace sits off the
+screen's centre (a current probe's DC offset): its extent from the centre, twice the larger
+of its maximum and minus its minimum, then fills EXTENT_FILL_DIVISIONS. Sized by its
+peak-to-peak alone, such a trace clips, then is too faint at the coarser scale, at every point. The expectation is the last point of
 the same step scaled by the drive voltage (velocity and current are proportional to
 the piezo voltage near a resonance); a step starts with no expectation and a coarse
 range. A clipped channel (ClippedTraceError, or a peak-to-peak at the screen edge) is
@@ -37,6 +40,8 @@ PIEZO_CHANNEL, CURRENT_CHANNEL, VELOCITY_CHANNEL = 1, 2, 3
 
 #: A clipped trace is re-acquired with this much more range (its true size is unknown).
 CLIP_GROWTH = 4.0
+#: Divisions a trace's extent from the screen's centre may fill (the 2 % edge and noise left).
+EXTENT_FILL_DIVISIONS = 7.0
 
 
 class RangingError(UserError):
@@ -107,8 +112,9 @@ class Acquisition:
 
     def reset_ranges(self) -> None:
         """Forget expectations: a step starts from the same state however it is reached."""
-        # Per-volt expectations from the last point: current pp (A) and velocity pp (m/s).
+        # Per-volt expectations from the last point: current pp and extent (A), velocity pp (m/s).
         self._current_pp_a_per_vpp: float | None = None
+        self._current_extent_a_per_vpp: float | None = None
         self._velocity_pp_mps_per_vpp: float | None = None
         self._horizontal_scale_s: float | None = None   # asked for
         self._horizontal_set_s: float | None = None     # the 1-2-4 value set
@@ -148,7 +154,7 @@ class Acquisition:
         settings, scope = self.settings, self.bench.scope
         piezo_vpp = self.drive.piezo_voltage_vpp
         self._set_horizontal(self.drive.frequency_hz)
-        pp, waveforms = self._acquire_in_range(piezo_vpp, keep_waveforms)
+        pp, extents, waveforms = self._acquire_in_range(piezo_vpp, keep_waveforms)
         point = Point(
             generator_frequency_hz=self.drive.frequency_hz,
             generator_amplitude_vpp=self.drive.generator_amplitude_vpp,
@@ -172,11 +178,12 @@ class Acquisition:
                            "amplitude_vpp": point.generator_amplitude_vpp,
                            "amplifier_gain": point.amplifier_gain})
         self._current_pp_a_per_vpp = point.scope_current_pp_a / piezo_vpp
+        self._current_extent_a_per_vpp = extents[CURRENT_CHANNEL] / piezo_vpp
         self._velocity_pp_mps_per_vpp = point.velocity_pp_mps / piezo_vpp
         return point
 
     def _acquire_in_range(self, piezo_vpp: float, keep_waveforms: bool):
-        """Acquire until no channel clips or is too faint; return pp per channel, waveforms."""
+        """Acquire until no channel clips or is too faint; return pp and extent per channel, waveforms."""
         settings, scope = self.settings, self.bench.scope
         self._vibrometer_scale = self._set_vibrometer_range(
             self._expected(self._velocity_pp_mps_per_vpp, piezo_vpp))
@@ -195,14 +202,15 @@ class Acquisition:
             # The scope gives no value of a clipped channel (None); all six in one message.
             extremes = iter(scope.measure_many([(channel, kind) for channel in scales
                                                 for kind in ("MAXIMUM", "MINIMUM")]))
-            peaks, rerange = {}, {}   # rerange: {channel: (expected pp, why)}
+            peaks, rerange = {}, {}   # rerange: {channel: (expected pp, expected extent, why)}
             for channel, scale in scales.items():
                 high, low = next(extremes), next(extremes)
                 if high is None or low is None:
-                    rerange[channel] = (CLIP_GROWTH * SCREEN_DIVISIONS * scale, "clipped")
+                    rerange[channel] = (CLIP_GROWTH * SCREEN_DIVISIONS * scale, 0.0, "clipped")
                 else:
                     peaks[channel] = (high, low)
             pp = {channel: high - low for channel, (high, low) in peaks.items()}
+            extents = {channel: 2.0 * max(high, -low) for channel, (high, low) in peaks.items()}
             # Clipped or not, never above the limit (a clipped CH1 spans at least the screen).
             try:
                 self.drive.check_measured(pp.get(PIEZO_CHANNEL, SCREEN_DIVISIONS * scales[PIEZO_CHANNEL]),
@@ -215,21 +223,20 @@ class Acquisition:
             for channel, scale in scales.items():
                 if channel in rerange:
                     continue
-                edge = 0.98 * SCREEN_DIVISIONS / 2 * scale   # channels sit at position 0
-                peak = max(peaks[channel][0], -peaks[channel][1])
-                if peak >= edge:   # at the ADC limit; an offset trace (nothing moving) needs its peak
-                    rerange[channel] = (CLIP_GROWTH * max(pp[channel], 2.0 * peak), "clipped")
+                edge = 0.98 * SCREEN_DIVISIONS * scale   # channels sit at position 0: the extent at the ADC limit
+                if extents[channel] >= edge:   # an offset trace (nothing moving) needs its extent
+                    rerange[channel] = (CLIP_GROWTH * extents[channel], 0.0, "clipped")
                 elif channel not in refined and pp[channel] < settings.min_fill_divisions * scale:
                     refined.add(channel)
-                    rerange[channel] = (pp[channel], "too faint")
+                    rerange[channel] = (pp[channel], extents[channel], "too faint")
             if not rerange:
                 try:
-                    return pp, (self._fetch_waveforms() if keep_waveforms else None)
+                    return pp, extents, (self._fetch_waveforms() if keep_waveforms else None)
                 except ClippedTraceError as exc:   # a spike the PK2 of an average missed
-                    rerange[exc.channel] = (CLIP_GROWTH * pp[exc.channel], "clipped trace")
-            for channel, (expected_pp, why) in rerange.items():
+                    rerange[exc.channel] = (CLIP_GROWTH * pp[exc.channel], 0.0, "clipped trace")
+            for channel, (expected_pp, expected_extent, why) in rerange.items():
                 log.info("CH%d %s at %.4g per division: re-ranging", channel, why, scales[channel])
-                self._range(scales, channel, expected_pp)
+                self._range(scales, channel, expected_pp, expected_extent)
         raise RangingError(f"could not range the scope within {settings.max_ranging_attempts} "
                            f"acquisitions at {piezo_vpp:.4g} Vpp, {self.drive.frequency_hz:.1f} Hz")
 
@@ -241,24 +248,28 @@ class Acquisition:
     def _initial_scales(self, piezo_vpp: float) -> dict[int, float]:
         fill = self.settings.fill_divisions
         current_pp_a = self._expected(self._current_pp_a_per_vpp, piezo_vpp)
+        current_extent_a = self._expected(self._current_extent_a_per_vpp, piezo_vpp) or 0.0
         velocity_pp_mps = self._expected(self._velocity_pp_mps_per_vpp, piezo_vpp)
         return {
             PIEZO_CHANNEL: piezo_vpp / fill,
             # Unknown current: start coarse (1 A pp is watts on these plates), refine after.
-            CURRENT_CHANNEL: (current_pp_a or 1.0) / fill,
+            CURRENT_CHANNEL: max((current_pp_a or 1.0) / fill, current_extent_a / EXTENT_FILL_DIVISIONS),
             # Unknown velocity: the decoder is at its coarsest, its output at most the limit.
             VELOCITY_CHANNEL: (velocity_pp_mps / self._vibrometer_scale if velocity_pp_mps
                                else self.settings.vibrometer_max_output_pp_v) / fill,
         }
 
-    def _range(self, scales: dict[int, float], channel: int, expected_pp: float) -> None:
-        """Set `channel` for a trace of `expected_pp` (channel units); CH3 via the decoder."""
+    def _range(self, scales: dict[int, float], channel: int, expected_pp: float,
+               expected_extent: float = 0.0) -> None:
+        """Set `channel` for a trace of `expected_pp` and extent from the centre (channel
+        units; see the module's docstring); CH3 via the decoder."""
         expected_pp = max(expected_pp, 1e-9)   # a flat trace: range on the finest scales
         if channel == VELOCITY_CHANNEL:
-            velocity_pp_mps = expected_pp * self._vibrometer_scale
-            self._vibrometer_scale = self._set_vibrometer_range(velocity_pp_mps)
-            expected_pp = velocity_pp_mps / self._vibrometer_scale
-        scales[channel] = expected_pp / self.settings.fill_divisions
+            old_scale = self._vibrometer_scale
+            self._vibrometer_scale = self._set_vibrometer_range(expected_pp * old_scale)
+            expected_pp, expected_extent = (v * old_scale / self._vibrometer_scale
+                                            for v in (expected_pp, expected_extent))
+        scales[channel] = max(expected_pp / self.settings.fill_divisions, expected_extent / EXTENT_FILL_DIVISIONS)
 
     def _set_vibrometer_range(self, expected_velocity_pp_mps: float | None) -> float:
         """The most sensitive decoder range keeping the output within its limit."""
