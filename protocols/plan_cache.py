@@ -11,7 +11,8 @@ They are kept on joblib's `Memory` in $SQUEEZEBENCH_CACHE/plan (default
 $XDG_CACHE_HOME/squeezebench, else ~/.cache/squeezebench), each under the call's arguments
 and a fingerprint of all that decides it: the campaign file, every scene and bench file
 it names, and squeezebench's own source. A change to any of them is a new fingerprint, so
-nothing stale is ever read. SQUEEZEBENCH_CACHE=off measures everything afresh.
+nothing stale is ever read; the folder stays under CACHE_BYTES_LIMIT.
+SQUEEZEBENCH_CACHE=off measures everything afresh.
 """
 
 from __future__ import annotations
@@ -26,6 +27,9 @@ from typing import Any, Callable
 import joblib
 
 CACHE_VARIABLE = "SQUEEZEBENCH_CACHE"
+#: The folder is kept under this size, the least recently used results going first (a
+#: plan of the paper campaign keeps about 5 MB; every change of the code starts a new set).
+CACHE_BYTES_LIMIT = 512 * 2**20
 #: The packages whose source decides a simulated measurement.
 SOURCE_PACKAGES = ("squeezebench", "squeezebench.instruments", "squeezebench.protocols",
                    "squeezebench.analysis", "squeezebench.simbench")
@@ -76,6 +80,7 @@ class PlanCache:
         self.location = cache_dir()
         try:
             memory = joblib.Memory(None if self.location is None else self.location / "plan", verbose=0)
+            memory.reduce_size(bytes_limit=CACHE_BYTES_LIMIT)
         except OSError:   # an unwritable home: plan as if off, the plan says so
             self.location, memory = None, joblib.Memory(None, verbose=0)
         self._call = memory.cache(_keyed)

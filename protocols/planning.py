@@ -360,9 +360,10 @@ def make_plan(campaign_path: Path, target_rel_error: float, repeats: int = REPEA
         return plan
     for tightenings in range(MAX_TIGHTENINGS + 1):
         plan.check, plan.check_benches = check_plan(campaign_path, plan, check_benches, workers,
-                                                    scheduler), check_benches
+                                                    scheduler, cache=cache), check_benches
         missed = plan.missed_runs()
         if not missed or tightenings == MAX_TIGHTENINGS:   # the plan returned is always the one checked
+            plan.measurements, plan.cache = cache.words(), cache.as_dict()   # the checks' benches counted too
             break
         # The floors and noise add as normal approximations; the check on erring benches is
         # the arbiter. Calibrate first (a bench in the floor's tail may miss), then halve the
@@ -409,11 +410,12 @@ def _choose(campaign, campaign_path: Path, target_rel_error: float, repeats: int
 
 
 def check_plan(campaign_path: Path, plan: Plan, benches: int, workers: int = 1,
-               scheduler: Any = None) -> pd.DataFrame:
+               scheduler: Any = None, cache: PlanCache | None = None) -> pd.DataFrame:
     """p95 |relative error| per run and quantity of the planned campaign over `benches`
     simulated benches whose instruments err within specification (`bench_errors`); a
-    bench an earlier plan checked with the same settings is read from the plan cache."""
-    cache = campaign_cache(campaign_path)
+    bench an earlier plan checked with the same settings is read from `cache` (default:
+    the campaign's)."""
+    cache = cache or campaign_cache(campaign_path)
     jobs = {cache.job(errors_on_planned_bench, campaign_path, _settings(plan), plan.calibrate, seed): seed
             for seed in range(1, benches + 1)}
     done = {job: job() for job in jobs if cache.stored(job)}

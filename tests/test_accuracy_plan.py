@@ -77,6 +77,8 @@ def test_a_reachable_target_is_planned_and_checked_on_eight_erring_benches(relax
     data = plan.as_dict()
     assert data["own_bench_time_s"] == pytest.approx(sum(plan.own_s.values()))
     assert data["check"]["benches"] == 8 and data["floors"]["below_floor"] == []
+    # what the plan read or simulated: 20 settings per plate, the floors, the timings, the 8 checked benches
+    assert data["cache"]["read"] + data["cache"]["simulated"] >= 20 + 1 + 2 + 8
 
 
 def test_a_target_below_the_floor_is_said_with_its_dominant_term():
@@ -99,7 +101,7 @@ def test_a_missed_check_calibrates_then_tightens_the_missing_runs(monkeypatch):
     verdicts = iter([0.09, 0.09, 0.02])   # the detuning run's p95 in successive checks
     seen = []
 
-    def check(campaign_path, plan, benches, workers=1, scheduler=None):
+    def check(campaign_path, plan, benches, workers=1, scheduler=None, cache=None):
         seen.append((plan.calibrate, dict(plan.noise_scale), plan.settings_by_run["detuning"]))
         return pd.DataFrame([{"run_name": "detuning", "quantity": "power_w", "p95_abs_rel_error": next(verdicts)},
                              {"run_name": "cutting", "quantity": "power_w", "p95_abs_rel_error": 0.02}])
@@ -122,7 +124,7 @@ def test_a_plan_that_keeps_missing_is_returned_checked_and_says_so(monkeypatch):
 
     calls = []
 
-    def check(campaign_path, plan, benches, workers=1, scheduler=None):
+    def check(campaign_path, plan, benches, workers=1, scheduler=None, cache=None):
         calls.append(plan)
         return pd.DataFrame([{"run_name": "detuning", "quantity": "power_w", "p95_abs_rel_error": 0.5}])
 
