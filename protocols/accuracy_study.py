@@ -164,8 +164,8 @@ class Experiment:
     `configurations` lists the knob values of each configuration (columns of
     `analysis.study.KNOBS`; the others keep `StudySettings.base`'s); `run` measures every
     trial of one configuration into a `TaskRun`, and may store rows of other knob values
-    its trials also answer (a search's coarser tolerances, `TaskRun.add_search`). Adding an experiment is one function
-    pair and one entry in `EXPERIMENTS`.
+    its trials also answer (a search's coarser tolerances, `TaskRun.add_search`). Adding
+    an experiment is one function pair and one entry in `EXPERIMENTS`.
     """
 
     scene: Callable[[StudySettings], SceneSpec]   # or a systematics_study.CampaignSpec
