@@ -205,6 +205,8 @@ def _side_by_side(run: RunData | None, table: str, paper_name: str, items: dict[
                 else:
                     used = points[reachable] if reachable is not None else points
                     row.update(_quantity_value(used, quantity, constant_columns))
+                    if quantity == "frequency_hz":
+                        row.update(_with_search_uncertainty(row, used, run))
                     row["status"] = "measured"
                     row["origin"] = _origin(used, quantity, calibrated, run, constant_columns)
                     row["calibrated_on"] = calibrated.get(quantity, "")
@@ -258,6 +260,26 @@ def _expanded(points: pd.DataFrame, column: str, estimate: Estimate) -> float:
         shared = np.sqrt(np.clip(combined**2 - noise**2, 0.0, None))
         return uncertainty.COVERAGE_FACTOR * mean_estimate(points[column], noise, shared).std_uncertainty
     return uncertainty.COVERAGE_FACTOR * estimate.std_uncertainty
+
+
+def _with_search_uncertainty(row: dict, points: pd.DataFrame, run: RunData) -> dict:
+    """A frequency compared with a printed resonance is where a resonance search set the
+    generator: its uncertainty also takes how well each search found the resonance
+    (`uncertainty.search_budgets`: the flat top's sampling and noise, the bracket, the
+    generator), in quadrature, from the largest of the points' searches."""
+    from squeezebench.analysis import uncertainty   # imports this module, see _expanded
+
+    searched = run.protocol("resonance_search")
+    if searched.empty or not {"run_name", "step_id"} <= set(points):
+        return {}
+    budgets = {(name, step): budget for name, step, budget in uncertainty.search_budgets(
+        reduced_points(run, searched.reset_index(drop=True)), uncertainty.search_setups(run))}
+    found = [budgets[key].std_uncertainty for key in zip(points["run_name"], points["step_id"]) if key in budgets]
+    if not found:
+        return {}
+    std = math.hypot(row["std_uncertainty"], max(found))
+    expanded = math.hypot(row["expanded_uncertainty"], uncertainty.COVERAGE_FACTOR * max(found))
+    return {"std_uncertainty": std, "expanded_uncertainty": expanded}
 
 
 def _protocol_points(run: RunData, protocol: str) -> pd.DataFrame:

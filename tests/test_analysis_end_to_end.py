@@ -30,3 +30,9 @@ def test_table4_campaign_then_report(tmp_path):
     # the recomputed power agrees with the scope's MATH mean of the same points
     ratio = power["value"].astype(float) / power["scope_value"].astype(float)
     assert ratio.between(0.9, 1.1).all(), power.to_string()
+    # a printed resonance is compared with where the search set the generator: the
+    # frequency's U holds each search's own (uncertainty_resonances.csv), not only the scope's
+    frequency = table4[table4["quantity"] == "frequency_hz"].set_index("item")
+    searches = pd.read_csv(run_dir / "report" / "uncertainty_resonances.csv")
+    for configuration, search_u_hz in zip(frequency.index, searches["resonance_frequency_hz_U"]):
+        assert frequency.loc[configuration, "expanded_uncertainty"] >= search_u_hz
