@@ -274,7 +274,8 @@ def _with_search_uncertainty(row: dict, points: pd.DataFrame, run: RunData) -> d
         return {}
     budgets = {(name, step): budget for name, step, budget in uncertainty.search_budgets(
         reduced_points(run, searched.reset_index(drop=True)), uncertainty.search_setups(run))}
-    found = [budgets[key].std_uncertainty for key in zip(points["run_name"], points["step_id"]) if key in budgets]
+    found = [budgets[key].std_uncertainty for key in zip(points["run_name"], points["step_id"])
+             if key in budgets]
     if not found:
         return {}
     std = math.hypot(row["std_uncertainty"], max(found))

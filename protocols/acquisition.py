@@ -10,13 +10,14 @@ Vertical scales follow the signal: each channel is set so the expected peak-to-p
 fills about `fill_divisions` of the 8 on screen, or less where the trace sits off the
 screen's centre (a current probe's DC offset): its extent from the centre, twice the larger
 of its maximum and minus its minimum, then fills EXTENT_FILL_DIVISIONS. Sized by its
-peak-to-peak alone, such a trace clips, then is too faint at the coarser scale, at every point. The expectation is the last point of
-the same step scaled by the drive voltage (velocity and current are proportional to
-the piezo voltage near a resonance); a step starts with no expectation and a coarse
-range. A clipped channel (ClippedTraceError, or a peak-to-peak at the screen edge) is
-re-ranged coarser and acquired again; a trace using less than `min_fill_divisions` is
-re-ranged finer once, because ADC steps of a barely visible trace would dominate the
-power. The vibrometer's decoder range is chosen the same way from the expected velocity.
+peak-to-peak alone, such a trace clips, then is too faint at the coarser scale, at every
+point. The expectation is the last point of the same step scaled by the drive voltage
+(velocity and current are proportional to the piezo voltage near a resonance); a step
+starts with no expectation and a coarse range. A clipped channel (ClippedTraceError, or
+a trace at the screen edge) is re-ranged coarser and acquired again; a trace using less
+than `min_fill_divisions` is re-ranged finer once, because ADC steps of a barely visible
+trace would dominate the power. The vibrometer's decoder range is chosen the same way
+from the expected velocity.
 """
 
 from __future__ import annotations
@@ -183,7 +184,8 @@ class Acquisition:
         return point
 
     def _acquire_in_range(self, piezo_vpp: float, keep_waveforms: bool):
-        """Acquire until no channel clips or is too faint; return pp and extent per channel, waveforms."""
+        """Acquire until no channel clips or is too faint; return pp and extent per
+        channel, and the waveforms."""
         settings, scope = self.settings, self.bench.scope
         self._vibrometer_scale = self._set_vibrometer_range(
             self._expected(self._velocity_pp_mps_per_vpp, piezo_vpp))
@@ -223,8 +225,10 @@ class Acquisition:
             for channel, scale in scales.items():
                 if channel in rerange:
                     continue
-                edge = 0.98 * SCREEN_DIVISIONS * scale   # channels sit at position 0: the extent at the ADC limit
-                if extents[channel] >= edge:   # an offset trace (nothing moving) needs its extent
+                # Channels sit at position 0: an extent this large reaches the ADC limit
+                # (an offset trace with nothing moving is caught by its extent too).
+                edge = 0.98 * SCREEN_DIVISIONS * scale
+                if extents[channel] >= edge:
                     rerange[channel] = (CLIP_GROWTH * extents[channel], 0.0, "clipped")
                 elif channel not in refined and pp[channel] < settings.min_fill_divisions * scale:
                     refined.add(channel)
@@ -269,7 +273,8 @@ class Acquisition:
             self._vibrometer_scale = self._set_vibrometer_range(expected_pp * old_scale)
             expected_pp, expected_extent = (v * old_scale / self._vibrometer_scale
                                             for v in (expected_pp, expected_extent))
-        scales[channel] = max(expected_pp / self.settings.fill_divisions, expected_extent / EXTENT_FILL_DIVISIONS)
+        scales[channel] = max(expected_pp / self.settings.fill_divisions,
+                              expected_extent / EXTENT_FILL_DIVISIONS)
 
     def _set_vibrometer_range(self, expected_velocity_pp_mps: float | None) -> float:
         """The most sensitive decoder range keeping the output within its limit."""
