@@ -187,6 +187,7 @@ def _side_by_side(run: RunData | None, table: str, paper_name: str, items: dict[
     """One row per (paper item, quantity): recomputed value with its uncertainties and
     origin, scope value, printed value."""
     paper = paper_table(paper_name)
+    searches = _search_std_uncertainties(run) if run is not None and "frequency_hz" in quantities else {}
     rows = []
     for item in paper["item"].unique():
         if item == "plate":
@@ -206,7 +207,7 @@ def _side_by_side(run: RunData | None, table: str, paper_name: str, items: dict[
                     used = points[reachable] if reachable is not None else points
                     row.update(_quantity_value(used, quantity, constant_columns))
                     if quantity == "frequency_hz":
-                        row.update(_with_search_uncertainty(row, used, run))
+                        row.update(_with_search_uncertainty(row, used, searches))
                     row["status"] = "measured"
                     row["origin"] = _origin(used, quantity, calibrated, run, constant_columns)
                     row["calibrated_on"] = calibrated.get(quantity, "")
@@ -262,25 +263,31 @@ def _expanded(points: pd.DataFrame, column: str, estimate: Estimate) -> float:
     return uncertainty.COVERAGE_FACTOR * estimate.std_uncertainty
 
 
-def _with_search_uncertainty(row: dict, points: pd.DataFrame, run: RunData) -> dict:
-    """A frequency compared with a printed resonance is where a resonance search set the
-    generator: its uncertainty also takes how well each search found the resonance
-    (`uncertainty.search_budgets`: the flat top's sampling and noise, the bracket, the
-    generator), in quadrature, from the largest of the points' searches."""
+def _search_std_uncertainties(run: RunData) -> dict[tuple[str, str], float]:
+    """{(run, step): standard uncertainty of where that step's resonance search put the
+    resonance} (`uncertainty.run_search_budgets`: the flat top's sampling and noise, the
+    bracket, the generator)."""
     from squeezebench.analysis import uncertainty   # imports this module, see _expanded
 
-    searched = run.protocol("resonance_search")
-    if searched.empty or not {"run_name", "step_id"} <= set(points):
+    if run.protocol("resonance_search").empty:
         return {}
-    budgets = {(name, step): budget for name, step, budget in uncertainty.search_budgets(
-        reduced_points(run, searched.reset_index(drop=True)), uncertainty.search_setups(run))}
-    found = [budgets[key].std_uncertainty for key in zip(points["run_name"], points["step_id"])
-             if key in budgets]
+    return {(name, step): budget.std_uncertainty for name, step, budget in uncertainty.run_search_budgets(run)}
+
+
+def _with_search_uncertainty(row: dict, points: pd.DataFrame, searches: dict[tuple[str, str], float]) -> dict:
+    """A frequency compared with a printed resonance is where a resonance search set the
+    generator: its uncertainty also takes how well the search found the resonance, in
+    quadrature, from the largest of the points' searches (`searches`:
+    `_search_std_uncertainties`)."""
+    from squeezebench.analysis.uncertainty import COVERAGE_FACTOR
+
+    if not {"run_name", "step_id"} <= set(points):
+        return {}
+    found = [searches[key] for key in zip(points["run_name"], points["step_id"]) if key in searches]
     if not found:
         return {}
-    std = math.hypot(row["std_uncertainty"], max(found))
-    expanded = math.hypot(row["expanded_uncertainty"], uncertainty.COVERAGE_FACTOR * max(found))
-    return {"std_uncertainty": std, "expanded_uncertainty": expanded}
+    return {"std_uncertainty": math.hypot(row["std_uncertainty"], max(found)),
+            "expanded_uncertainty": math.hypot(row["expanded_uncertainty"], COVERAGE_FACTOR * max(found))}
 
 
 def _protocol_points(run: RunData, protocol: str) -> pd.DataFrame:

@@ -331,6 +331,11 @@ def search_budgets(rows: pd.DataFrame, setups: dict[str, SearchSetup]) -> list[t
     return budgets
 
 
+def run_search_budgets(run: RunData) -> list[tuple[str, str, Budget]]:
+    """`search_budgets` of every resonance search stored in `run`."""
+    return search_budgets(reduced_points(run, run.protocol("resonance_search")), search_setups(run))
+
+
 POINT_BUDGETS = {"power_w": power_budget, "velocity_pp_mps": velocity_budget,
                  "piezo_voltage_vpp": voltage_budget, "frequency_hz": frequency_budget}
 
@@ -446,8 +451,7 @@ def run_uncertainties(run: RunData) -> RunUncertainties:
     searches = pd.DataFrame([
         {"run_name": run_name, "step_id": step_id, "resonance_frequency_hz": budget.value,
          "resonance_frequency_hz_U": budget.expanded_uncertainty, "dominant_term": budget.dominant.name}
-        for run_name, step_id, budget in search_budgets(reduced_points(run, run.protocol("resonance_search")),
-                                                        search_setups(run))])
+        for run_name, step_id, budget in run_search_budgets(run)])
     return RunUncertainties(with_expanded_uncertainties(points, deskew), example_budgets(points, deskew), deskew,
                             searches)
 
