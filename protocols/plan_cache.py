@@ -26,6 +26,8 @@ from typing import Any, Callable
 
 import joblib
 
+from squeezebench.protocols.parallel import map_unordered
+
 CACHE_VARIABLE = "SQUEEZEBENCH_CACHE"
 #: The folder is kept under this size, the least recently used results going first (a
 #: plan of the paper campaign keeps about 5 MB; every change of the code starts a new set).
@@ -71,6 +73,10 @@ def _keyed(fingerprint: str, function: Callable[..., Any], *args: Any) -> Any:
     return function(*args)
 
 
+def _run_job(job: Callable[[], Any]) -> Any:
+    return job()
+
+
 class PlanCache:
     """Cached calls for one campaign: `job` gives a picklable call (for a worker) that
     reads the result where it is stored and stores it where it is not."""
@@ -85,22 +91,28 @@ class PlanCache:
             self.location, memory = None, joblib.Memory(None, verbose=0)
         self._call = memory.cache(_keyed)
         self.read = self.measured = 0
+        self._stored: set[functools.partial] = set()   # jobs found stored when made
 
     def job(self, function: Callable[..., Any], *args: Any) -> functools.partial:
         """The call function(*args) through the cache, counted as read or measured."""
         job = functools.partial(self._call, self.fingerprint, function, *args)
-        if self.stored(job):
+        if self._call.check_call_in_cache(*job.args):
             self.read += 1
+            self._stored.add(job)
         else:
             self.measured += 1
         return job
 
-    def stored(self, job: functools.partial) -> bool:
-        """Whether `job`'s result is kept (reading it is cheaper than sending it to a worker)."""
-        return self._call.check_call_in_cache(*job.args)
-
     def call(self, function: Callable[..., Any], *args: Any) -> Any:
         return self.job(function, *args)()
+
+    def run(self, jobs: list[functools.partial], workers: int, scheduler: Any, description: str) -> dict:
+        """{job: result} of `jobs`: the stored ones read here (cheaper than sending them to a
+        worker), the others on `workers` local processes or the Dask cluster at `scheduler`."""
+        done = {job: job() for job in jobs if job in self._stored}
+        done.update(map_unordered(_run_job, [job for job in jobs if job not in done], workers, scheduler,
+                                  description))
+        return done
 
     def words(self) -> str:
         """Where the plan's measurements came from, for its table."""

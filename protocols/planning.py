@@ -26,7 +26,7 @@ import math
 import tempfile
 import zlib
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -39,7 +39,6 @@ from squeezebench.protocols.bench_errors import (
     bench_time_by_run_s, errors_on_bench, p95_by_run)
 from squeezebench.protocols.acquisition import AcquisitionSettings
 from squeezebench.protocols.campaign import Run, load_campaign, run_campaign
-from squeezebench.protocols.parallel import map_unordered
 from squeezebench.protocols.plan_cache import PlanCache
 from squeezebench.protocols.safety import SafetyLimits
 from squeezebench.errors import UserError
@@ -306,10 +305,6 @@ class Plan:
 SETTINGS = tuple(Setting(r, n) for r in RECORD_LENGTHS for n in AVERAGES)
 
 
-def _call(job: Callable[[], Any]) -> Any:
-    return job()
-
-
 def make_plan(campaign_path: Path, target_rel_error: float, repeats: int = REPEATS,
               workers: int = 1, scheduler: Any = None, check_benches: int = CHECK_BENCHES,
               cache: PlanCache | None = None) -> Plan:
@@ -344,10 +339,7 @@ def make_plan(campaign_path: Path, target_rel_error: float, repeats: int = REPEA
                          {run.name: {"averages": BASELINE_AVERAGES} for run in campaign.runs})
     jobs = {cache.job(measure_setting, *key, setting, repeats): (key, setting)
             for key in plates for setting in SETTINGS}
-    stored = [job for job in (baseline, *jobs) if cache.stored(job)]
-    done = {job: job() for job in stored}
-    done.update(map_unordered(_call, [job for job in (baseline, *jobs) if job not in done], workers, scheduler,
-                              "plan"))
+    done = cache.run([baseline, *jobs], workers, scheduler, "plan")
     results = {jobs[job]: result for job, result in done.items() if job in jobs}
     studies = {key: PlateStudy(key[0], key[1], key[2].voltage_vpp, results[key, SETTINGS[0]][1],
                                [results[key, setting][0] for setting in SETTINGS]) for key in plates}
@@ -418,9 +410,7 @@ def check_plan(campaign_path: Path, plan: Plan, benches: int, workers: int = 1,
     cache = cache or campaign_cache(campaign_path)
     jobs = {cache.job(errors_on_planned_bench, campaign_path, _settings(plan), plan.calibrate, seed): seed
             for seed in range(1, benches + 1)}
-    done = {job: job() for job in jobs if cache.stored(job)}
-    done.update(map_unordered(_call, [job for job in jobs if job not in done], workers, scheduler,
-                              "simulated benches"))
+    done = cache.run(list(jobs), workers, scheduler, "simulated benches")
     return p95_by_run(pd.concat([done[job] for job in jobs], ignore_index=True))
 
 
