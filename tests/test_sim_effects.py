@@ -414,15 +414,27 @@ def test_generator_frequency_error(tmp_path):
     assert bench.measure("CH1", "FREQ") == pytest.approx(F_HZ * (1 + 1e-3), rel=2e-5)   # the scope sees it
 
 
-def test_systematic_errors_are_drawn_once_per_bench(tmp_path):
-    def drawn(seed: int, scene: str = "one_column_1mm.yaml") -> dict[str, float]:
-        path = scene_file(tmp_path, scene, effects=[{"scope_gain_error": {"draw": 1, "bench_seed": seed}}])
-        return fx.build_pipeline(load_scene(path)).get("scope_gain_error").values
+def _drawn(tmp_path, name: str, draw: int, seed: int, scene: str = "one_column_1mm.yaml") -> dict[str, float]:
+    """The values a scene naming the systematic effect `name` (draw, bench_seed) draws."""
+    path = scene_file(tmp_path, scene, effects=[{name: {"draw": draw, "bench_seed": seed}}])
+    return fx.build_pipeline(load_scene(path)).get(name).values
 
-    first = drawn(7)
-    assert first == drawn(7) == drawn(7, "large_plate.yaml")   # the same instruments on every plate
-    assert first != drawn(8)
-    draws = [v for seed in range(200) for v in drawn(seed).values()]
+
+def _drawn_on_many_benches(tmp_path, name: str, draw: int, seeds: range) -> list[dict[str, float]]:
+    """`_drawn` for each of `seeds`: the scene is written and loaded once, and the effect built
+    per seed as `build_pipeline` builds it (a load per seed would spend the test on YAML)."""
+    scene = load_scene(scene_file(tmp_path, effects=[{name: {"draw": draw, "bench_seed": seeds[0]}}]))
+    return [fx.EFFECTS[name](scene, draw=draw, bench_seed=seed).values for seed in seeds]
+
+
+def test_systematic_errors_are_drawn_once_per_bench(tmp_path):
+    first = _drawn(tmp_path, "scope_gain_error", 1, 7)
+    assert first == _drawn(tmp_path, "scope_gain_error", 1, 7) == _drawn(
+        tmp_path, "scope_gain_error", 1, 7, "large_plate.yaml")   # the same instruments on every plate
+    assert first != _drawn(tmp_path, "scope_gain_error", 1, 8)
+    many = _drawn_on_many_benches(tmp_path, "scope_gain_error", 1, range(200))
+    assert many[7] == first and many[8] != first
+    draws = [v for values in many for v in values.values()]
     assert max(np.abs(draws)) <= 0.02 and np.std(draws) == pytest.approx(0.02 / math.sqrt(3), rel=0.1)
 
 
@@ -431,18 +443,15 @@ def test_a_bench_erring_as_the_world_errs_is_not_what_the_budgets_assume(tmp_pat
     """draw: 2 (effects.world_draw): the current probe lags by about 8 ns on every bench
     (a sign the budget's +-10 ns rectangle does not know), the gains are normal (some
     beyond their limit) and about one error in 100 is out of specification."""
-    def drawn(seed: int, name: str) -> dict[str, float]:
-        path = scene_file(tmp_path, "one_column_1mm.yaml", effects=[{name: {"draw": 2, "bench_seed": seed}}])
-        return fx.build_pipeline(load_scene(path)).get(name).values
-
-    delays = np.array([drawn(seed, "current_probe_delay")["delay_s"] for seed in range(300)])
+    delays = np.array([d["delay_s"] for d in _drawn_on_many_benches(tmp_path, "current_probe_delay", 2, range(300))])
     regular = delays[np.abs(delays) < 1.4e-8]
     assert np.median(delays) == pytest.approx(8e-9, rel=0.1) and (regular > 0).all()
-    gains = np.array([v for seed in range(300) for v in drawn(seed, "scope_gain_error").values()]) / 0.02
+    benches = _drawn_on_many_benches(tmp_path, "scope_gain_error", 2, range(300))
+    gains = np.array([v for d in benches for v in d.values()]) / 0.02
     assert 0.03 < np.mean(np.abs(gains) > 1.0) < 0.2                 # some beyond the +-2 % limit
     out_of_spec = np.isclose(np.abs(gains), fx.OUT_OF_SPEC_FACTOR)
     assert out_of_spec.any() and out_of_spec.mean() == pytest.approx(fx.OUT_OF_SPEC_PROBABILITY, abs=0.01)
-    assert drawn(5, "scope_gain_error") == drawn(5, "scope_gain_error")
+    assert _drawn(tmp_path, "scope_gain_error", 2, 5) == _drawn(tmp_path, "scope_gain_error", 2, 5) == benches[5]
 
 
 # -- the laser spot on a plate the stage moves ----------------------------------------------
