@@ -323,7 +323,7 @@ def predict_physics(design: DesignFile) -> PhysicsPrediction:
     antinodes = nominal.values["interior_antinodes"]
     rows, perturbed = [], {}
     for name, label, structural in INPUTS:
-        tolerance = design.damping.tolerance_rel if name == "mechanical_q" else getattr(design.tolerances, name)
+        tolerance = design.damping.tolerance_rel if name == "mechanical_q" else design.tolerance(name)
         u_rel = tolerance / math.sqrt(3)
         if u_rel == 0:
             continue

@@ -16,6 +16,7 @@ from typing import Literal, Optional, Union
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from squeezebench.analysis import plate_modes
+from squeezebench.analysis.specifications import sheet_thickness_tolerance
 
 #: Materials a design may name instead of giving constants.
 RESONATOR_MATERIALS = {"aluminium_table2": plate_modes.ALUMINIUM_TABLE2}
@@ -112,7 +113,8 @@ class Tolerances(_Model):
 
     young_pa: float = Field(plate_modes.RELATIVE_TOLERANCES["young_pa"], ge=0, lt=1)
     density_kg_m3: float = Field(plate_modes.RELATIVE_TOLERANCES["density_kg_m3"], ge=0, lt=1)
-    thickness_m: float = Field(plate_modes.RELATIVE_TOLERANCES["thickness_m"], ge=0, lt=1)
+    thickness_m: Optional[float] = Field(None, ge=0, lt=1, description="default: the rolled sheet's "
+                                         "(EN 485-4, specifications.sheet_thickness_tolerance)")
     d31_c_per_n: float = Field(plate_modes.RELATIVE_TOLERANCES["d31_c_per_n"], ge=0, lt=1)
     relative_permittivity_t: float = Field(plate_modes.RELATIVE_TOLERANCES["relative_permittivity_t"], ge=0, lt=1)
     tan_delta: float = Field(0.3, ge=0, lt=1)
@@ -171,7 +173,21 @@ class DesignFile(_Model):
                                  f"plate (0 to {r.length_mm:g} x 0 to {r.width_mm:g} mm), lower bound first")
         return self
 
+    @model_validator(mode="after")
+    def _thickness_tolerance_known(self) -> "DesignFile":
+        if self.tolerances.thickness_m is None:   # the sheet's, which the standard gives only for some thicknesses
+            sheet_thickness_tolerance(self.resonator.thickness_mm * 1e-3)
+        return self
+
     # -- what the plate model reads ----------------------------------------------------
+    def tolerance(self, name: str) -> float:
+        """Input `name`'s relative half-width (`Tolerances`); the resonator's thickness, unless
+        stated, its sheet's."""
+        stated = getattr(self.tolerances, name)
+        if stated is None:
+            return sheet_thickness_tolerance(self.resonator.thickness_mm * 1e-3)
+        return stated
+
     @property
     def resonator_material(self) -> plate_modes.Isotropic:
         m = self.resonator.material

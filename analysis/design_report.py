@@ -224,9 +224,10 @@ def assumptions(answer: DesignAnswer) -> str:
     items = [f"<li><b>{html.escape(k)}</b>: {html.escape(v)}</li>" for k, v in d.provenance.items()]
     items.append(f"<li><b>damping</b>: mechanical Q {d.damping.mechanical_q:g} ± {d.damping.tolerance_rel:.0%} "
                  f"(rectangular): {html.escape(d.damping.origin)} — the one fitted figure of the prediction</li>")
-    tol = d.tolerances
+    sheet = " (the rolled sheet's, EN 485-4)" if d.tolerances.thickness_m is None else ""
     items.append("<li><b>tolerances</b> (rectangular half-widths): " + ", ".join(
-        f"{label} ±{getattr(tol, name):.0%}" for name, label, _ in INPUTS if name != "mechanical_q") + "</li>")
+        f"{label} ±{d.tolerance(name):.1%}" + (sheet if name == "thickness_m" else "")
+        for name, label, _ in INPUTS if name != "mechanical_q") + "</li>")
     items.append(f"<li><b>piezo loss</b>: tan δ {d.piezo.tan_delta_low_field:g} at low field to "
                  f"{d.piezo.tan_delta_at_max_field:g} at {d.piezo.max_field_v_per_mm:g} V/mm (field amplitude), linear "
                  "between them (NCE 41 datasheet); the field limit is that highest stated point</li>")

@@ -15,7 +15,11 @@ candidate causes, each from physics, none fitted:
   modulus E/(1 - nu^2) for E), about -3 % for the 1 mm plates and -9 % for the 2 mm one.
 
 Whatever moves Table 3 onto print moves Table 4 off it: the two builds disagree with each
-other under any one parameter set, which the report's numbers, not a fit, show.
+other under any one parameter set, which the report's numbers, not a fit, show. The 3 %
+asked is also below what nominal geometry can promise: a rolled sheet's thickness is
++-0.05 mm at 1 and 1.2 mm (EN 485-4, `specifications.sheet_thickness_tolerance`), +-4-5 % of
+a frequency proportional to it, so the model's U (k = 2) is 5-6 %; the last line counts the
+plates within it.
 """
 from __future__ import annotations
 
@@ -71,7 +75,8 @@ def frequency_budget() -> pd.DataFrame:
                                                            plate_modes.ALUMINIUM_TABLE2.poisson),
         }
         row = {"table": table, "item": item, "thickness_mm": geometry.thickness_m * 1e3,
-               "printed_frequency_hz": printed_hz}
+               "printed_frequency_hz": printed_hz,
+               "model_frequency_U_rel": float(predictions.loc[item, "predicted_frequency_u_hz"]) / model_hz}
         for name, value in values.items():
             row[f"{name}_frequency_hz"] = value
             row[f"{name}_deviation"] = value / printed_hz - 1.0
@@ -81,7 +86,7 @@ def frequency_budget() -> pd.DataFrame:
 
 def main() -> None:
     frame = frequency_budget()
-    columns = ["table", "item", "thickness_mm", "printed_frequency_hz"] + [
+    columns = ["table", "item", "thickness_mm", "printed_frequency_hz", "model_frequency_U_rel"] + [
         c for c in frame.columns if c.endswith("_deviation")]
     with pd.option_context("display.width", 200, "display.float_format", "{:.4g}".format):
         print(frame[columns].to_string(index=False))
@@ -89,6 +94,10 @@ def main() -> None:
               for name in columns if name.endswith("_deviation")}
     print("Table 3-4 frequencies within 3 % of print (of 6): "
           + ", ".join(f"{name} {count}" for name, count in within.items()))
+    tables = frame[frame["table"] != "Sec. 5"]
+    print(f"the model's within its U (k = 2, {tables['model_frequency_U_rel'].min():.1%}-"
+          f"{tables['model_frequency_U_rel'].max():.1%}): "
+          f"{int((tables['model_deviation'].abs() <= tables['model_frequency_U_rel']).sum())} of {len(tables)}")
 
 
 if __name__ == "__main__":

@@ -73,10 +73,14 @@ def headline(bench_kind: str, n_points: int, n_runs: int, tables: Mapping[str, p
     predicted = tables.get("predicted")
     if predicted is not None and not predicted.empty:
         deviation = predicted["frequency_deviation"].abs()
+        within_u = (predicted["predicted_frequency_hz"] - predicted["printed_frequency_hz"]).abs() \
+            <= predicted["predicted_frequency_u_hz"]
         lines.append(f"From geometry and datasheets alone, the plate model puts "
                      f"{int((deviation <= PREDICTED_FREQUENCY_REL).sum())} of {len(predicted)} printed "
                      f"resonance frequencies within {100 * PREDICTED_FREQUENCY_REL:.0f} % (worst "
-                     f"{100 * predicted.loc[deviation.idxmax(), 'frequency_deviation']:+.1f} %).")
+                     f"{100 * predicted.loc[deviation.idxmax(), 'frequency_deviation']:+.1f} %) and "
+                     f"{int(within_u.sum())} within their U (k = 2), which the sheets' thickness "
+                     f"tolerance dominates.")
     if needs_deskew:
         lines.append(f"{needs_deskew} stored power{'s rest' if needs_deskew > 1 else ' rests'} on the current probe's "
                      "delay being zero-mean (no deskew calibration in this run): measure it first, "

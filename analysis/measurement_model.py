@@ -104,7 +104,9 @@ def model_table(point: dict, deskew: Deskew | None) -> pd.DataFrame:
                      "velocity_pp_mps), shared terms kept correlated", "type": "A and B",
                      "distribution": "as listed for those quantities", "relative_std_uncertainty": float("nan"),
                      "correction": "as listed for those quantities", "source": "analysis.uncertainty.model_budgets"})
-        for name, tolerance in uncertainty.TOLERANCES.items():
+        # the sheet's thickness tolerance depends on the plate: its source gives it per thickness
+        sheet = {"resonator_thickness_m": uncertainty.Tolerance(float("nan"), uncertainty.SHEET_THICKNESS_SOURCE)}
+        for name, tolerance in {**sheet, **uncertainty.TOLERANCES}.items():
             rows.append({"quantity": quantity, "input": name, "type": "B",
                          "distribution": _distribution(uncertainty.Term(name, "B", 0.0, "")),
                          "relative_std_uncertainty": tolerance.half_width_rel / 3**0.5,

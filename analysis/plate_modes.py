@@ -36,6 +36,8 @@ from dataclasses import asdict, dataclass, field, replace
 import numpy as np
 from scipy.sparse.linalg import eigsh
 
+from squeezebench.analysis.specifications import sheet_thickness_tolerance
+
 EPSILON_0_F_PER_M = 8.8541878128e-12
 
 
@@ -73,8 +75,13 @@ class Piezo(Isotropic):
 # 1350, k31 0.33, tan delta 0.004 at low field; tolerances +-5 % on d31 and k, +-10 % on eps.
 ALUMINIUM_TABLE2 = Isotropic(young_pa=67.109e9, poisson=0.34, density_kg_m3=2790.0)
 NCE41 = Piezo(young_pa=80e9, poisson=0.33, density_kg_m3=7900.0)
-RELATIVE_TOLERANCES = {"young_pa": 0.02, "density_kg_m3": 0.01, "thickness_m": 0.02,
-                       "d31_c_per_n": 0.05, "relative_permittivity_t": 0.10}
+#: Relative half-widths of the materials' rectangular spreads; a plate's thickness has its
+#: sheet's, from its nominal thickness (`relative_tolerances`).
+RELATIVE_TOLERANCES = {"young_pa": 0.02, "density_kg_m3": 0.01, "d31_c_per_n": 0.05, "relative_permittivity_t": 0.10}
+
+def relative_tolerances(thickness_m: float) -> dict[str, float]:
+    """Every input's relative half-width for a plate of nominal `thickness_m`."""
+    return {**RELATIVE_TOLERANCES, "thickness_m": sheet_thickness_tolerance(thickness_m)}
 
 
 @dataclass(frozen=True)

@@ -77,21 +77,23 @@ def large_plate() -> plate_modes.PlateGeometry:
 MECHANICAL_Q_TOLERANCE = 0.30
 
 
-def frequency_relative_u() -> float:
-    """Expanded (k = 2) relative uncertainty of a predicted frequency from the material and
-    geometry tolerances (f ~ h sqrt(E / rho); each tolerance a rectangular half-width)."""
-    t = plate_modes.RELATIVE_TOLERANCES
+def frequency_relative_u(thickness_m: float) -> float:
+    """Expanded (k = 2) relative uncertainty of a predicted frequency of a plate of nominal
+    `thickness_m` from the material and sheet tolerances (f ~ h sqrt(E / rho); each tolerance
+    a rectangular half-width, `plate_modes.relative_tolerances`)."""
+    t = plate_modes.relative_tolerances(thickness_m)
     return 2 * math.sqrt(t["thickness_m"] ** 2 + (t["young_pa"] / 2) ** 2
                          + (t["density_kg_m3"] / 2) ** 2) / math.sqrt(3)
 
 
-def response_relative_u() -> dict[str, float]:
+def response_relative_u(thickness_m: float) -> dict[str, float]:
     """Expanded (k = 2) relative uncertainty of the predicted velocity and power at resonance at
-    a given voltage, in closed form from the tolerances (rectangular half-widths):
+    a given voltage of a plate of nominal `thickness_m`, in closed form from the tolerances
+    (rectangular half-widths, `plate_modes.relative_tolerances`):
     v = F V q / (w M) and P = F^2 V^2 q / (2 w M), with F proportional to d31 and w M to
     h^2 sqrt(E rho) (f ~ h sqrt(E / rho), M ~ rho h); the force factor's own dependence on the
     resonator (the piezo's lever arm about the neutral axis) is left out."""
-    t = plate_modes.RELATIVE_TOLERANCES
+    t = plate_modes.relative_tolerances(thickness_m)
     u = {name: half / math.sqrt(3) for name, half in t.items()}
     u_q = MECHANICAL_Q_TOLERANCE / math.sqrt(3)
     u_omega_mass = math.hypot(2 * u["thickness_m"], u["young_pa"] / 2, u["density_kg_m3"] / 2)
@@ -136,11 +138,11 @@ def paper_plates():
 
 @functools.cache
 def _predictions() -> pd.DataFrame:
-    u_rel = frequency_relative_u()
-    u_response = response_relative_u()
     out = []
     for (table, item, plate_label, geometry, printed_hz, printed_antinodes, printed_half_mm,
          voltage_vpp, printed_velocity, printed_power) in paper_plates():
+        u_rel = frequency_relative_u(geometry.thickness_m)
+        u_response = response_relative_u(geometry.thickness_m)
         modes = plate_modes.solve_plate(geometry, near_hz=printed_hz)
         k = modes.working_mode(printed_hz)
         f = float(modes.frequencies_hz[k])
@@ -151,7 +153,8 @@ def _predictions() -> pd.DataFrame:
         velocity_pp = response["velocity_pp_mps_per_vpp"] * voltage_vpp
         half_mm = modes.half_wavelength_m(k) * 1e3
         power = response["power_w_per_vpp2"] * voltage_vpp**2
-        out.append({"table": table, "item": item, "plate": plate_label, "predicted_frequency_hz": f,
+        out.append({"table": table, "item": item, "plate": plate_label,
+                    "resonator_thickness_mm": geometry.thickness_m / MM, "predicted_frequency_hz": f,
                     "predicted_frequency_u_hz": f * u_rel, "printed_frequency_hz": printed_hz,
                     "frequency_deviation": f / printed_hz - 1,
                     "predicted_antinodes": modes.interior_antinodes(k),
@@ -196,7 +199,8 @@ def tidy(table: str) -> pd.DataFrame:
                          "predicted_U": float(row[u]) if u else math.nan})
         amplitude = row["predicted_velocity_pp_mps"] / (2 * math.pi * row["predicted_frequency_hz"])
         rows.append({"item": row["item"], "quantity": "amplitude_pp_m", "predicted_value": amplitude,
-                     "predicted_U": amplitude * response_relative_u()["amplitude_pp_m"]})
+                     "predicted_U": amplitude * response_relative_u(
+                         row["resonator_thickness_mm"] * MM)["amplitude_pp_m"]})
     return pd.DataFrame(rows, columns=["item", "quantity", "predicted_value", "predicted_U"])
 
 
@@ -206,7 +210,7 @@ def large_plate_response() -> dict[str, float]:
     plate), each with its relative U (k = 2), and the frequency; what Figs. 8 and 9 and
     Table 5 show beside the measured lines."""
     row = _predictions().set_index("item").loc["large_plate"]
-    u = response_relative_u()
+    u = response_relative_u(row["resonator_thickness_mm"] * MM)
     omega = 2 * math.pi * row["predicted_frequency_hz"]
     return {"frequency_hz": float(row["predicted_frequency_hz"]),
             "amplitude_pp_m_per_vpp": float(row["predicted_velocity_pp_mps"] / omega / row["voltage_vpp"]),

@@ -84,3 +84,25 @@ def compensation_phase_rad(mismatch_rel: float, frequency_hz: float) -> float:
     x = np.asarray(frequency_hz, dtype=float) / VOLTAGE_PROBE_POLE_HZ
     phase = np.arctan(x * (1.0 + mismatch_rel)) - np.arctan(x)
     return float(phase) if phase.ndim == 0 else phase
+
+
+#: EN 485-4 (1993), Table 1: thickness tolerance (+-mm) of cold-rolled aluminium sheet up to
+#: 1000 mm wide, alloy group II, by nominal thickness (over, up to and including; mm). Group II
+#: (the wider) because Table 2's 2790 kg/m^3 is a 2xxx alloy's density, all in that group;
+#: from 3.5 mm the standard has one value for both groups.
+SHEET_THICKNESS_TOLERANCE_MM = ((0.2, 0.5, 0.03), (0.5, 0.8, 0.04), (0.8, 1.2, 0.05), (1.2, 1.5, 0.07),
+                                (1.5, 1.8, 0.08), (1.8, 2.0, 0.09), (2.0, 2.5, 0.10), (2.5, 3.0, 0.11),
+                                (3.0, 3.5, 0.12), (3.5, 4.0, 0.15), (4.0, 5.0, 0.18), (5.0, 6.0, 0.20))
+
+
+def sheet_thickness_tolerance(thickness_m: float) -> float:
+    """Relative half-width of a rolled sheet's thickness about its nominal `thickness_m`
+    (`SHEET_THICKNESS_TOLERANCE_MM`): a plate's thickness is what a lab buys, not measures,
+    and f ~ h makes it the largest term of a predicted frequency's budget (4-5 % at 1 mm)."""
+    mm = thickness_m * 1e3
+    for over, up_to, tolerance_mm in SHEET_THICKNESS_TOLERANCE_MM:
+        if over < mm <= up_to + 1e-9:
+            return tolerance_mm / mm
+    raise ValueError(f"no sheet thickness tolerance for {mm:g} mm (EN 485-4 Table 1 covers "
+                     f"{SHEET_THICKNESS_TOLERANCE_MM[0][0]:g}-{SHEET_THICKNESS_TOLERANCE_MM[-1][1]:g} mm): "
+                     "state the plate's thickness tolerance")

@@ -594,7 +594,7 @@ def predicted_q_tan(response: dict[str, float], geometry: model.PlateGeometry,
     damping spread (`predicted_plates.response_relative_u`)."""
     from squeezebench.analysis import predicted_plates
 
-    u = predicted_plates.response_relative_u()
+    u = predicted_plates.response_relative_u(geometry.resonator_thickness_m)
     q = model.q_from_amplitude(response["amplitude_pp_m_per_vpp"], 1.0, geometry, convention)
     tan = model.tan_theta_from_power(response["power_w_per_vpp2"], 1.0, q, response["frequency_hz"], geometry,
                                      convention)

@@ -38,7 +38,7 @@ from scipy import stats
 from squeezebench.analysis import model
 from squeezebench.analysis.calibration import Deskew, deskew_of_run, gain_weight
 from squeezebench.analysis.rundata import RunData
-from squeezebench.analysis.specifications import SPECIFICATIONS, VOLTAGE_PROBE_POLE_HZ
+from squeezebench.analysis.specifications import SPECIFICATIONS, VOLTAGE_PROBE_POLE_HZ, sheet_thickness_tolerance
 from squeezebench.analysis.tables import reduced_points, with_scope_fallback
 
 COVERAGE_FACTOR = 2.0
@@ -515,9 +515,9 @@ class Tolerance:
     source: str
 
 
-#: Tolerances of the model's inputs that no measurement gives (relative, rectangular).
+#: Tolerances of the model's inputs that no measurement gives (relative, rectangular); the
+#: resonator's thickness has its sheet's, which depends on the plate (`tolerances_for`).
 TOLERANCES: dict[str, Tolerance] = {
-    "resonator_thickness_m": Tolerance(0.02, "assumed: rolled aluminium sheet, +-0.02 mm on 1 mm"),
     "piezo_thickness_m": Tolerance(0.02, "assumed: lapped piezo plates, +-0.01 mm on 0.5 mm"),
     "piezo_length_m": Tolerance(0.01, "assumed: diced piezo plates, +-0.1 mm on 9 mm"),
     "half_wavelength_m": Tolerance(0.01, "assumed: plate length / antinodes, +-0.1 mm on 8.4 mm"),
@@ -526,13 +526,23 @@ TOLERANCES: dict[str, Tolerance] = {
     "resonator_young_pa": Tolerance(0.03, "assumed: aluminium alloys 67-71 GPa, +-3 %"),
 }
 _GEOMETRY_FIELDS = ("resonator_thickness_m", "piezo_thickness_m", "piezo_length_m", "half_wavelength_m")
+#: Where the resonator thickness's tolerance comes from.
+SHEET_THICKNESS_SOURCE = ("EN 485-4 Table 1, cold-rolled sheet up to 1000 mm wide, alloy group II: +-0.05 mm "
+                          "from 0.8 to 1.2 mm, +-0.09 mm at 2 mm (specifications.sheet_thickness_tolerance)")
+
+
+def tolerances_for(geometry: model.PlateGeometry) -> dict[str, Tolerance]:
+    """`TOLERANCES` and the resonator thickness's, its sheet's at the plate's nominal thickness."""
+    return {"resonator_thickness_m": Tolerance(sheet_thickness_tolerance(geometry.resonator_thickness_m),
+                                               SHEET_THICKNESS_SOURCE), **TOLERANCES}
 _MATERIAL_FIELDS = ("piezo_d31_c_per_n", "piezo_c11_pa", "resonator_young_pa")
 
 
 def model_budgets(amplitude: Budget, power: Budget, voltage: Budget, frequency_hz: float,
                   geometry: model.PlateGeometry, convention: model.Convention,
-                  tolerances: dict[str, Tolerance] = TOLERANCES) -> tuple[Budget, Budget]:
-    """Budgets of Q (Eq. 27 inverted) and tan theta' (Eq. 25 inverted) at one point.
+                  tolerances: dict[str, Tolerance] | None = None) -> tuple[Budget, Budget]:
+    """Budgets of Q (Eq. 27 inverted) and tan theta' (Eq. 25 inverted) at one point, with
+    `tolerances` (by default `tolerances_for` the geometry).
 
     Amplitude, power and voltage enter through their budgets' terms, not their combined
     uncertainties: a Type B term of one name is one input shared by every budget that lists
@@ -542,6 +552,7 @@ def model_budgets(amplitude: Budget, power: Budget, voltage: Budget, frequency_h
     budget alone ("power: line fit"). Each tolerance is a separate term. The frequency's
     uncertainty (ppm) is negligible against the others and is not propagated.
     """
+    tolerances = tolerances_for(geometry) if tolerances is None else tolerances
     shared: dict[str, uncertainties.UFloat] = {}   # one unit variable per underlying input
     sources: dict[str, str] = {}
 
@@ -592,7 +603,7 @@ def model_budgets(amplitude: Budget, power: Budget, voltage: Budget, frequency_h
 
 
 def characterisation_budgets(plate, convention: model.Convention, deskew: Deskew | None = None,
-                             tolerances: dict[str, Tolerance] = TOLERANCES,
+                             tolerances: dict[str, Tolerance] | None = None,
                              with_fit: bool = True) -> tuple[Budget, Budget]:
     """Budgets of a plate's Q and tan theta' (`analysis.tables.PlateCharacterisation`).
 

@@ -25,9 +25,9 @@ FREQUENCY_TOLERANCE = 0.05
 #: The force factor's datasheet tolerance (d31 +-5 %, s11^E +-5 %, in quadrature ~7 %), widened
 #: to 15 % for the laminate idealisation (no bond layer, a piezo's in-plane ends ignored).
 FORCE_FACTOR_TOLERANCE = 0.15
-#: The modal mass referred to the measurement point: density +-1 % and thickness +-2 %
-#: (`plate_modes.RELATIVE_TOLERANCES`) move it little; the same idealisations as the force
-#: factor's, and a point near a nodal line moves it much, so the same 15 %.
+#: The modal mass referred to the measurement point: density +-1 % and the sheet's thickness
+#: +-4-5 % (`plate_modes.relative_tolerances`) move it less; the same idealisations as the
+#: force factor's, and a point near a nodal line moves it much, so the same 15 %.
 MODAL_MASS_TOLERANCE = 0.15
 
 

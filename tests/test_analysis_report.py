@@ -198,11 +198,11 @@ def test_the_predicted_responses_u_is_the_propagation_of_its_tolerances():
     from squeezebench.analysis import plate_modes, predicted_plates
 
     rng = np.random.default_rng(7)
-    t = plate_modes.RELATIVE_TOLERANCES
+    t = plate_modes.relative_tolerances(2e-3)
     draw = {name: 1 + rng.uniform(-half, half, 400_000) for name, half in t.items()}
     q = 1 + rng.uniform(-predicted_plates.MECHANICAL_Q_TOLERANCE, predicted_plates.MECHANICAL_Q_TOLERANCE, 400_000)
     omega_mass = draw["thickness_m"] ** 2 * np.sqrt(draw["young_pa"] * draw["density_kg_m3"])
-    closed = predicted_plates.response_relative_u()
+    closed = predicted_plates.response_relative_u(2e-3)
     assert 2 * np.std(draw["d31_c_per_n"] * q / omega_mass) == pytest.approx(closed["velocity_pp_mps"], rel=0.05)
     assert 2 * np.std(draw["d31_c_per_n"] ** 2 * q / omega_mass) == pytest.approx(closed["power_w"], rel=0.05)
     omega2_mass = draw["thickness_m"] ** 3 * draw["young_pa"]   # the amplitude v / w: w^2 M ~ E h^3
@@ -225,4 +225,4 @@ def test_table5s_physics_reads_the_predicted_plate_through_the_same_inversion(mo
         predicted_plates._predictions.cache_clear()
     assert after["q"][0] == pytest.approx(2 * before["q"][0], rel=1e-9)
     assert after["tan_theta"][0] == pytest.approx(before["tan_theta"][0], rel=1e-9)
-    assert before["q"][1] / before["q"][0] == pytest.approx(predicted_plates.response_relative_u()["amplitude_pp_m"])
+    assert before["q"][1] / before["q"][0] == pytest.approx(predicted_plates.response_relative_u(2e-3)["amplitude_pp_m"])

@@ -101,7 +101,7 @@ def test_strip_is_the_plate_model_of_table3(strip_prediction):
 def test_frequency_budget_matches_the_scaling_law(strip_prediction):
     """A thin plate's f ~ h sqrt(E / rho): the budget's U equals that law's (the piezo layer
     changes the exponents by a few per cent)."""
-    expected = predicted_plates.frequency_relative_u()
+    expected = predicted_plates.frequency_relative_u(1e-3)   # the strip is 1 mm thick
     got = strip_prediction.expanded["frequency_hz"] / strip_prediction.nominal.values["frequency_hz"]
     assert got == pytest.approx(expected, rel=0.1)
     assert strip_prediction.dominant("frequency_hz") == "resonator thickness"
@@ -158,6 +158,7 @@ def test_centre_on_a_nodal_line_is_refused():
     ({"mode": {"interior_antinodes": 9, "near_hz": 38000}}, "exactly one of interior_antinodes"),
     ({"touch_area": {"x_mm": [50, 10], "y_mm": [0, 41]}}, "lower bound first"),
     ({"piezo": {"length_x_mm": 5, "width_y_mm": 9, "thickness_mm": 0.5, "colour": "blue"}}, "unknown field"),
+    ({"resonator": {"length_mm": 75, "width_mm": 41, "thickness_mm": 8}}, "state the plate's thickness tolerance"),
 ])
 def test_a_bad_design_file_is_one_line_naming_the_field(tmp_path, change, words):
     import yaml
@@ -168,6 +169,14 @@ def test_a_bad_design_file_is_one_line_naming_the_field(tmp_path, change, words)
     with pytest.raises(UserError, match=words) as caught:
         load_design_file(path)
     assert str(caught.value).startswith(str(path)) and "\n" not in str(caught.value)
+
+
+def test_the_thickness_tolerance_is_the_sheets_unless_stated():
+    assert strip().tolerance("thickness_m") == pytest.approx(0.05)   # 1 mm: +-0.05 mm (EN 485-4)
+    assert strip(resonator={"length_mm": 75, "width_mm": 41, "thickness_mm": 2}).tolerance(
+        "thickness_m") == pytest.approx(0.045)
+    assert DesignFile.model_validate({**STRIP, "tolerances": {"thickness_m": 0.01}}).tolerance("thickness_m") == 0.01
+    assert strip().tolerance("young_pa") == plate_modes.RELATIVE_TOLERANCES["young_pa"]
 
 
 def test_shipped_large_plate_reads_nothing_measured():

@@ -47,12 +47,16 @@ def test_a_table_the_run_does_not_hold_counts_nothing():
 
 
 def test_headline_counts_and_names_the_largest_miss():
-    predicted = pd.DataFrame({"frequency_deviation": [0.002, -0.023, 0.096, 0.034]})
+    deviation = pd.Series([0.002, -0.023, 0.096, 0.034])
+    printed = pd.Series([43792.0, 44810.0, 35130.0, 37160.0])
+    predicted = pd.DataFrame({"frequency_deviation": deviation, "printed_frequency_hz": printed,
+                              "predicted_frequency_hz": printed * (1 + deviation),
+                              "predicted_frequency_u_hz": printed * 0.05})   # U 5 %: the 9.6 % miss is beyond it
     lines = headline("simulated", 1111, 8, {**TABLES, "predicted": predicted})
     assert lines[0] == "Dry run on the simulated bench: 1111 stored points from 8 campaign runs."
     assert "of 6 compared values" in lines[1] and "1 agree; 2 disagree" in lines[1]
     assert "Table 5 estimated tan θ′, +96 %" in lines[1] and "3 are round trips" in lines[1]
-    assert "2 of 4 printed resonance frequencies within 3 % (worst +9.6 %)" in lines[2]
+    assert "2 of 4 printed resonance frequencies within 3 % (worst +9.6 %) and 3 within their U" in lines[2]
 
 
 def test_a_miss_of_the_opposite_sign_is_said_to_be():

@@ -12,7 +12,7 @@ import pytest
 from squeezebench.analysis.plate_modes import (ALUMINIUM_TABLE2, NCE41, Isotropic, PlateGeometry, beam_frequencies_hz, column,
                                   flexural_half_wavelength_m, free_free_beam_roots, laminate,
                                   solve_plate)
-from squeezebench.analysis import predicted_plates
+from squeezebench.analysis import plate_modes, predicted_plates
 from squeezebench.paths import paper_values_dir
 
 MM = 1e-3
@@ -177,3 +177,19 @@ def test_the_one_pass_argyris_basis_is_skfems_own_to_the_bit():
             assert np.array_equal(getattr(mine[0], part), getattr(skfems[0], part))
     points = np.random.default_rng(3).uniform([0, 0], [0.05, 0.03], (40, 2)).T
     assert (ours.probes(points) != theirs.probes(points)).nnz == 0
+
+
+def test_the_sheet_thickness_tolerance_follows_en_485_4():
+    from squeezebench.analysis.specifications import SHEET_THICKNESS_TOLERANCE_MM, sheet_thickness_tolerance
+
+    # the paper's sheets: 1, 1.2 and 2 mm
+    assert sheet_thickness_tolerance(1e-3) == pytest.approx(0.05)
+    assert sheet_thickness_tolerance(1.2e-3) == pytest.approx(0.05 / 1.2)
+    assert sheet_thickness_tolerance(2e-3) == pytest.approx(0.045)
+    # a thickness on a row's upper bound belongs to that row ("over ... up to and including")
+    assert sheet_thickness_tolerance(1.2001e-3) == pytest.approx(0.07 / 1.2001)
+    rows = np.array(SHEET_THICKNESS_TOLERANCE_MM)
+    assert (rows[1:, 0] == rows[:-1, 1]).all() and (np.diff(rows[:, 2]) > 0).all()   # contiguous, widening
+    with pytest.raises(ValueError, match="state the plate's thickness tolerance"):
+        sheet_thickness_tolerance(8e-3)
+    assert plate_modes.relative_tolerances(1e-3)["thickness_m"] == sheet_thickness_tolerance(1e-3)

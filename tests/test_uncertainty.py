@@ -20,8 +20,8 @@ from squeezebench.analysis.calibration import Deskew
 from squeezebench.analysis.specifications import SPECIFICATIONS, compensation_phase_rad
 from squeezebench.analysis.tables import characterise_plates, reduced_points
 from squeezebench.analysis.uncertainty import (
-    TOLERANCES, Budget, Term, characterisation_budgets, detuning_slope_per_hz, example_budgets,
-    model_budgets, power_budget, run_uncertainties, velocity_budget, voltage_budget,
+    Budget, Term, characterisation_budgets, detuning_slope_per_hz, example_budgets,
+    model_budgets, power_budget, run_uncertainties, tolerances_for, velocity_budget, voltage_budget,
     with_expanded_uncertainties)
 from squeezebench.protocols.campaign import run_campaign
 from squeezebench.simbench import physics
@@ -115,7 +115,10 @@ def test_q_and_tan_theta_propagate_the_tolerances():
     assert "power: x" not in terms or terms["power: x"] == 0   # Type A terms of one name stay apart
     tan_terms = {t.name: t.std_uncertainty for t in tan.terms}
     assert tan_terms["power: x"] == pytest.approx(abs(tan.value) * 0.02, rel=1e-4)   # tan ∝ P
-    assert q.dominant.name in TOLERANCES and tan.dominant.name in TOLERANCES   # the constants, not the readings
+    constants = tolerances_for(geometry)
+    assert q.dominant.name in constants and tan.dominant.name in constants   # the constants, not the readings
+    # the resonator's thickness carries its 1 mm sheet's tolerance, +-0.05 mm (EN 485-4)
+    assert constants["resonator_thickness_m"].half_width_rel == pytest.approx(0.05)
 
 
 def test_q_and_tan_theta_uncertainties_equal_a_monte_carlo_over_the_shared_inputs():
@@ -141,7 +144,7 @@ def test_q_and_tan_theta_uncertainties_equal_a_monte_carlo_over_the_shared_input
     g1 = rect(0.02)   # one draw, both slopes
     a = slope_a * (1 + rng.normal(0, 0.004, trials) + rect(0.02) + g1)
     p = slope_p * (1 + rng.normal(0, 0.006, trials) + rect(0.03) + g1)
-    fields = {name: 1 + rect(TOLERANCES[name].half_width_rel) for name in TOLERANCES}
+    fields = {name: 1 + rect(t.half_width_rel) for name, t in tolerances_for(geometry).items()}
     qs, tans = np.empty(trials), np.empty(trials)
     for i in range(trials):
         shape = replace(geometry, **{k: getattr(geometry, k) * fields[k][i] for k in
