@@ -10,6 +10,7 @@ import numpy as np
 import pandas as pd
 
 from squeezebench.analysis import cartography, predicted_plates
+from squeezebench.analysis.drawing import Drawing
 from squeezebench.analysis.presentation import with_uncertainty
 
 
@@ -63,14 +64,17 @@ def map_summaries(run) -> tuple[pd.DataFrame, dict[str, pd.DataFrame]]:
     return pd.DataFrame(rows), maps
 
 
-def section_html(run, out_dir: Path, figure, html_table) -> tuple[str, pd.DataFrame, pd.DataFrame]:
+def section_html(run, out_dir: Path, figure, html_table,
+                 draw: Drawing | None = None) -> tuple[str, pd.DataFrame, pd.DataFrame]:
     """The section's body (per map, a sentence with the answer, the figure; then the numbers
-    of every map), the summaries and the reduced points."""
+    of every map), the summaries and the reduced points; the maps drawn by `draw` (here by
+    default)."""
+    draw = draw or Drawing(1)
     summaries, maps = map_summaries(run)
     body = ""
     for row in summaries.itertuples(index=False):
         path = out_dir / f"map_{row.run_name}.png"
-        map_figure(maps[row.run_name], path, row.plate)
+        draw(map_figure, maps[row.run_name], path, row.plate)
         mac = (f"; against the plate model's working mode ({row.predicted_mode_frequency_hz / 1e3:.2f} kHz, "
                f"predicted from geometry and datasheets) the modal assurance criterion is {row.mac_with_predicted:.3f}"
                if np.isfinite(row.mac_with_predicted) else "; the plate model does not know this plate")

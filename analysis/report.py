@@ -30,10 +30,12 @@ import pandas as pd
 import squeezebench
 from squeezebench.analysis import (audit, cartography_report, columns, figures, headline, measurement_model, model, page,
                                    predicted_plates, presentation, provenance, readings, study, tables, uncertainty)
+from squeezebench.analysis.drawing import Drawing
 from squeezebench.analysis.tables import MissingDataError
 from squeezebench.analysis.paper import paper_value
 from squeezebench.analysis.rundata import RunData, load_run
 from squeezebench.errors import UserError
+from squeezebench.workers import default_workers
 
 #: The conventions every derived number of this report uses (the audit shows the others): the
 #: physical reading, Table 2's E_i as 67 GPa (printed 67109 Pa, a resonator without
@@ -52,6 +54,7 @@ class ReportContext:
     absent: list[str] = field(default_factory=list)   # what the run does not hold, for the summary
     flagged: list[tuple[str, str, str]] = field(default_factory=list)  # (where, sentence, audit anchor)
     figure_count: int = 0
+    draw: Drawing = field(default_factory=lambda: Drawing(1))   # figure functions, maybe on other processes
 
     def plates(self) -> dict[str, tables.PlateCharacterisation]:
         """Fig. 5 characterisation, computed once for the sections that share it."""
@@ -86,18 +89,23 @@ SectionBuilder = Callable[[ReportContext], "Section | None"]
 HEADLINE_FILE = "headline.txt"
 
 
-def write_report(run_dir: Path | str) -> Path:
-    """Recompute everything from the stored run; return the path of index.html."""
+def write_report(run_dir: Path | str, workers: int | None = None) -> Path:
+    """Recompute everything from the stored run; return the path of index.html. Figures are
+    drawn on `workers - 1` other processes meanwhile (default: `squeezebench.workers`)."""
     run = load_run(run_dir)
     if run.measurements.empty and not (run.run_dir / "study").is_dir():   # a study alone is reportable
         raise UserError(f"{run.run_dir}: the run holds no measurements yet "
                         "(measurements/*/*.parquet); nothing to report")
     out_dir = run.run_dir / "report"
     out_dir.mkdir(exist_ok=True)
-    context = ReportContext(run=run, out_dir=out_dir)
+    context = ReportContext(run=run, out_dir=out_dir, draw=Drawing(workers or default_workers()))
     builders = [b for b in SECTIONS if b is not provenance_section] + [provenance_section]   # appendix last
-    sections = [section for builder in builders if (section := _guarded(builder, context)) is not None]
-    sections.insert(0, summary_section(context))   # last: it sums up what the others found
+    try:
+        sections = [section for builder in builders if (section := _guarded(builder, context)) is not None]
+        sections.insert(0, summary_section(context))   # last: it sums up what the others found
+        context.draw.finish()   # no page points at a figure not yet drawn
+    finally:
+        context.draw.cancel()
     (out_dir / HEADLINE_FILE).write_text("\n".join(context.cache["headline"]) + "\n")
     for name, table in context.tables.items():
         table.to_csv(out_dir / f"{name}.csv", index=False)
@@ -402,13 +410,13 @@ def characterisation_section(context: ReportContext) -> Section | None:
                                 _plates_table(context, plates)))
     runs = ", ".join(sorted(context.run.protocol("characterisation")["run_name"].unique()))
     body += presentation.fold("The voltage sweeps of every plate, their fitted lines and residuals", context.figure(
-        figures.plate_fits(plates, context.out_dir / "plate_fits.png"),
+        context.draw(figures.plate_fits, plates, context.out_dir / "plate_fits.png"),
         f"Voltage sweeps of every characterised plate (campaign runs {html.escape(runs)}): amplitude pp "
         "against voltage pp (Eq. 27, top of each pair) and power against voltage pp squared (Eq. 25, "
         "bottom), with the fitted lines; the small panels show the residuals in units of each point's "
         "standard uncertainty. " + _bench_words(context)))
     body += context.figure(
-        figures.fig5_q_tan(plates, context.out_dir / "fig5.png"),
+        context.draw(figures.fig5_q_tan, plates, context.out_dir / "fig5.png"),
         "Fig. 5 of the paper recomputed: Q and tan θ′ per plate with expanded uncertainties (k = 2). "
         "The paper's per-plate points did not survive in its text; it prints Plate 4's Q (2.34, drawn "
         "as ◆) and the mean tan θ′ per thickness (−1.30 at 2 mm, −1.64 at 1.2 mm, dashed). "
@@ -524,8 +532,8 @@ def table5_section(context: ReportContext) -> Section | None:
     physics_power = (response["power_w_per_vpp2"] * printed_vpp**2,
                      response["power_rel_U"] * response["power_w_per_vpp2"] * printed_vpp**2)
     fig8 = context.figure(
-        figures.fig8_amplitude(large, context.out_dir / "fig8.png",
-                               (response["amplitude_pp_m_per_vpp"], response["amplitude_rel_U"])),
+        context.draw(figures.fig8_amplitude, large, context.out_dir / "fig8.png",
+                     (response["amplitude_pp_m_per_vpp"], response["amplitude_rel_U"])),
         "Fig. 8 recomputed: amplitude pp of the large plate against voltage pp, with the fitted line "
         f"(intercept kept) and residuals. The paper reports about {paper_value('large_plate', 'large_plate', 'amplitude_m') * 1e6:g} µm "
         f"at {printed_vpp:g} Vpp (★). Physics (the plate model, no printed result in; green, ± U "
@@ -550,7 +558,7 @@ def table5_section(context: ReportContext) -> Section | None:
                 "this run did not characterise.</p>" + fig8)
     power = tables.estimated_large_plate_power_w(plates, context.convention)
     body += context.figure(
-        figures.fig9_power(power, context.out_dir / "fig9.png"),
+        context.draw(figures.fig9_power, power, context.out_dir / "fig9.png"),
         "Fig. 9 recomputed: power of the large plate against voltage pp squared, from its own sweep "
         + ("(●) and estimated from the small plates through Eqs. 25 and 29 with Table 5's estimate (■). "
            if estimated else "(●). ")
@@ -608,7 +616,7 @@ def detuning_section(context: ReportContext) -> Section | None:
             "power at resonance. Losses that grow with the voltage (dielectric) raise Pt/P0 above 1.</p>")
     if not plotted.empty:
         body += context.figure(
-            figures.fig2_power_ratio(plotted, context.out_dir / "fig2.png"),
+            context.draw(figures.fig2_power_ratio, plotted, context.out_dir / "fig2.png"),
             f"Fig. 2 recomputed: Pt/P0 against the velocity fraction reached before regaining v0, one "
             f"line per velocity level, one panel per campaign run ({html.escape(runs)}). The paper's "
             "Fig. 2c stress point, 100 mW at resonance rising to 120 mW once v0 is regained at 37560 Hz "
@@ -655,7 +663,7 @@ def resonance_section(context: ReportContext) -> Section | None:
     sweeps = tables.resonance_sweeps(context.run)
     n_searches = sweeps.groupby(["run_name", "step_id"]).ngroups if not sweeps.empty else 0
     body = presentation.fold(f"The frequency sweeps of the {n_searches} resonance searches", context.figure(
-        figures.resonance_curves(sweeps, context.out_dir / "resonance.png"),
+        context.draw(figures.resonance_curves, sweeps, context.out_dir / "resonance.png"),
         "Velocity pp against frequency during every resonance search, one panel per plate; each line "
         "is one search (campaign run / step, in the legend), before the golden-section refinement. "
         "The paper shows no such curve; it reports the resonance frequencies found (Tables 3, 4). "
@@ -751,7 +759,7 @@ def study_section(context: ReportContext) -> Section | None:
         fronts.to_csv(context.out_dir / "study_fronts.csv", index=False)
         body += presentation.fold(
             "Error against bench time on an ideal bench, and the settings on each Pareto front",
-            context.figure(figures.study_fronts(noise, context.out_dir / "study_fronts.png"),
+            context.figure(context.draw(figures.study_fronts, noise, context.out_dir / "study_fronts.png"),
                            "Error against bench time per trial on an ideal bench (noise, settling, "
                            "search and heating only), one panel per quantity: every configuration as a "
                            "dot, each experiment's Pareto front as a line. Simulated bench; the paper "
@@ -768,7 +776,7 @@ def study_section(context: ReportContext) -> Section | None:
             "frequency found cold loses power as the averaging (and so the series) lasts longer. "
             "Re-centring on the resonance before each point removes that error at the cost of "
             "the tracking's bench time.</p>"
-            + context.figure(figures.heating_drift(heating, context.out_dir / "study_heating.png"),
+            + context.figure(context.draw(figures.heating_drift, heating, context.out_dir / "study_heating.png"),
                              "Power error against scope averaging on a heating plate, at the "
                              "frequency found cold and with the resonance tracked. Simulated bench.")
             + html_table(heating, "Heating drift. Simulated bench."))
@@ -813,7 +821,7 @@ def _systematics_part(context: ReportContext, summary: pd.DataFrame) -> str:
             "|relative error| over the benches at any setting), and the bench time per trial of the cheapest "
             f"setting within {study.AT_FLOOR - 1:.0%} of it: {html.escape(words)}.</p>"
             + context.figure(
-                figures.systematics_fronts(summary, context.out_dir / "study_systematics.png"),
+                context.draw(figures.systematics_fronts, summary, context.out_dir / "study_systematics.png"),
                              "Total error against bench time per trial over simulated benches erring "
                              "within specification, one panel per quantity: each point's series (averaging; "
                              "the search's tolerance) as the bench is (solid) and after the deskew "
@@ -1176,7 +1184,8 @@ def cartography_section(context: ReportContext) -> Section | None:
     """Vibration map (Fig. 7)"""
     if context.run.protocol("cartography").empty:
         return None
-    body, summary, points = cartography_report.section_html(context.run, context.out_dir, context.figure, html_table)
+    body, summary, points = cartography_report.section_html(context.run, context.out_dir, context.figure, html_table,
+                                                             context.draw)
     if context.bench() == "simulated":
         body = ("<p class='banner'>On the simulated bench the map is drawn from the same plate model it is "
                 "compared with: a modal assurance criterion near 1 shows the chain (stage, acquisition, phase) "

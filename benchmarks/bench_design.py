@@ -17,7 +17,8 @@ import time
 
 from squeezebench.analysis import design, layouts
 from squeezebench.paths import design_file
-from squeezebench.protocols.parallel import default_workers, map_unordered
+from squeezebench.protocols.parallel import map_unordered
+from squeezebench.workers import default_workers
 from squeezebench.schemas import load_design_file
 
 SWEEP_GOAL_S = 300.0

@@ -25,7 +25,8 @@ import pandas as pd
 from squeezebench import paths
 from squeezebench.instruments.bench import sim_bench_config
 from squeezebench.protocols import campaign
-from squeezebench.protocols.parallel import default_workers, map_unordered
+from squeezebench.protocols.parallel import map_unordered
+from squeezebench.workers import default_workers
 from squeezebench.simbench import devices
 
 COLUMNS = ["run_name", "step_id", "point_index", "generator_frequency_hz", "generator_amplitude_vpp",

@@ -38,7 +38,7 @@ sys.path.insert(0, str(ROOT / "benchmarks"))
 
 from bench_simulator import acquire_and_fetch, best_of, idn_queries, open_bare_scope, prepared_scope  # noqa: E402
 from squeezebench import cli, paths  # noqa: E402
-from squeezebench.protocols.parallel import default_workers  # noqa: E402
+from squeezebench.workers import default_workers  # noqa: E402
 from squeezebench.analysis.waveforms import reduce_point  # noqa: E402
 from squeezebench.protocols import accuracy_study  # noqa: E402
 from squeezebench.protocols.plan_cache import CACHE_VARIABLE  # noqa: E402

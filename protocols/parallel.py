@@ -12,7 +12,6 @@ planner seed every trial from what defines it).
 from __future__ import annotations
 
 import contextlib
-import os
 from typing import Any, Callable, Iterable, Iterator, TypeVar
 
 import joblib
@@ -22,28 +21,6 @@ from squeezebench.errors import UserError
 
 T = TypeVar("T")
 CONNECT_TIMEOUT_S = 10.0
-WORKERS_VARIABLE = "SQUEEZEBENCH_WORKERS"
-
-
-def default_workers() -> int:
-    """Local processes to use when none is asked for: $SQUEEZEBENCH_WORKERS, else the
-    cores this process may run on (its affinity mask, which a scheduler or `taskset` may
-    have narrowed, not the machine's core count)."""
-    text = os.environ.get(WORKERS_VARIABLE, "").strip()
-    if text:
-        try:
-            count = int(text)
-        except ValueError:
-            count = 0
-        if count < 1:
-            raise UserError(f"{WORKERS_VARIABLE} must be a whole number of at least 1, got {text!r}")
-        return count
-    try:
-        return len(os.sched_getaffinity(0))
-    except AttributeError:   # macOS and Windows have no affinity call
-        return os.cpu_count() or 1
-
-
 def _indexed(function: Callable[[T], Any], index: int, item: T) -> tuple[int, Any]:
     return index, function(item)
 

@@ -214,7 +214,7 @@ def cmd_reproduce(args: argparse.Namespace) -> int:
         run_study(run_dir, experiments=REPRODUCE_EXPERIMENTS, resume=args.resume,
                   progress=lambda message: say(args, message), workers=args.workers, scheduler=args.scheduler)
     _run_coverage(args, run_dir, coverage_benches)
-    index = write_report(run_dir)
+    index = write_report(run_dir, args.workers)
     say(args, f"run stored in {run_dir}\n" + _finished(index))
     return 0
 
@@ -577,7 +577,7 @@ def main(argv: list[str] | None = None) -> int:
     handler = console_log(getattr(args, "verbose", False))
     try:
         if getattr(args, "workers", 0) is None:   # only commands that run trials have the option
-            from squeezebench.protocols.parallel import default_workers
+            from squeezebench.workers import default_workers
 
             args.workers = default_workers()
         return args.func(args)

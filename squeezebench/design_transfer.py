@@ -164,7 +164,7 @@ def main(argv: list[str] | None = None) -> int:
     """python -m squeezebench.design_transfer [--builds N] [--workers N] [--out FILE.csv]"""
     import argparse
 
-    from squeezebench.protocols.parallel import default_workers
+    from squeezebench.workers import default_workers
 
     parser = argparse.ArgumentParser(prog="python -m squeezebench.design_transfer", description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)

@@ -159,7 +159,8 @@ def predicted_antinodes(spec) -> int:
 def run_design(plate: str | Path, from_runs: Iterable[str | Path] = (), measured: str | Path | None = None,
                measured_plate: str | None = None, sweep: bool = True, workers: int | None = None,
                scheduler: Any = None) -> design_model.DesignAnswer:
-    from squeezebench.protocols.parallel import default_workers, map_unordered
+    from squeezebench.protocols.parallel import map_unordered
+    from squeezebench.workers import default_workers
     from squeezebench.schemas import load_design_file
 
     spec = load_design_file(paths.design_file(plate))

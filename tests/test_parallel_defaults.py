@@ -8,7 +8,7 @@ import pytest
 
 from squeezebench import cli
 from squeezebench.errors import UserError
-from squeezebench.protocols.parallel import WORKERS_VARIABLE, default_workers
+from squeezebench.workers import WORKERS_VARIABLE, default_workers
 
 
 def test_default_is_the_cores_this_process_may_use(monkeypatch):

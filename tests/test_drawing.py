@@ -1,0 +1,41 @@
+"""The report's figures drawn on another process: the same PNG bytes as drawn in place, the
+path handed back at once, and a figure that fails stops the report at `finish`."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from squeezebench.analysis import figures
+from squeezebench.analysis.drawing import Drawing
+
+
+def _power() -> pd.DataFrame:
+    voltages = np.array([8.0, 16.0, 24.0, 32.0])
+    return pd.DataFrame({"piezo_voltage_vpp": voltages, "power_measured_w": 1.2e-3 * voltages**2,
+                         "power_estimated_w": np.nan, "power_predicted_w": 1.0e-3 * voltages**2,
+                         "power_predicted_U_w": 2e-4 * voltages**2})
+
+
+def test_a_figure_drawn_on_a_worker_is_the_one_drawn_in_place(tmp_path, monkeypatch):
+    Drawing(2)   # the worker starts in this directory...
+    monkeypatch.chdir(tmp_path)   # ...and the report is asked for from another, by a relative path
+    here, there = Path("here.png"), Path("there.png")
+    assert Drawing(1)(figures.fig9_power, _power(), here) == here and here.stat().st_size > 10_000
+    drawing = Drawing(2)
+    assert drawing(figures.fig9_power, _power(), there) == there   # handed back before it is drawn
+    drawing.finish()
+    assert there.read_bytes() == here.read_bytes()
+
+
+def test_a_figure_that_fails_raises_at_finish(tmp_path):
+    drawing = Drawing(2)
+    drawing(figures.fig9_power, pd.DataFrame({"piezo_voltage_vpp": [1.0]}), tmp_path / "broken.png")
+    with pytest.raises(KeyError, match="power_measured_w"):
+        drawing.finish()
+    drawing.finish()   # what failed is not raised twice
+    with pytest.raises(ValueError, match="at least 1"):
+        Drawing(0)
