@@ -277,6 +277,10 @@ def look_elsewhere(grid: pd.DataFrame | None = None, draws: int = LOOK_ELSEWHERE
     defined = grid[grid["defined"]]
     ratios = defined[[f"{t}_ratio" for t in TARGETS]].to_numpy(dtype=float)   # computed / printed
     ratios = ratios[(ratios > 0).all(axis=1)]   # a wrong sign fits no moved target either
+    # |r / f - 1| <= MATCH_REL needs (1 - MATCH_REL) f <= r <= (1 + MATCH_REL) f, f within 1 +- spread:
+    # a reading outside those bounds on any target fits no draw (the margin keeps rounding's borderline ones)
+    low, high = (1 - spread) * (1 - MATCH_REL) * (1 - 1e-9), (1 + spread) * (1 + MATCH_REL) * (1 + 1e-9)
+    ratios = ratios[((ratios >= low) & (ratios <= high)).all(axis=1)]
     factors = np.random.default_rng(seed).uniform(1 - spread, 1 + spread, size=(draws, len(TARGETS)))
     hits = 0
     for chunk in np.array_split(factors, max(1, draws // 250)):   # (draws, readings, targets) in pieces

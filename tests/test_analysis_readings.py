@@ -7,6 +7,8 @@ from dataclasses import replace
 
 import pandas as pd
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from squeezebench.analysis import model, readings
 
@@ -60,6 +62,22 @@ def test_the_look_elsewhere_fraction_is_the_closed_form_for_one_exact_reading():
     assert readings.look_elsewhere(one, spread=0.05)["fraction_with_a_fit"] == 1.0   # never moved out of reach
     wrong_sign = one.assign(tan_theta_ratio=-1.0)
     assert readings.look_elsewhere(wrong_sign)["fraction_with_a_fit"] == 0.0
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.lists(st.tuples(*[st.floats(-0.5, 2.5)] * 3), min_size=1, max_size=30), st.floats(0.01, 0.5))
+def test_the_look_elsewhere_count_is_the_count_over_every_reading(ratios, spread):
+    """Leaving out the readings no moved target can reach changes no draw's verdict: the
+    count equals one over every reading, each draw against each."""
+    import numpy as np
+
+    frame = pd.DataFrame([{"defined": True, **{f"{t}_ratio": r for t, r in zip(readings.TARGETS, row)}}
+                          for row in ratios])
+    found = readings.look_elsewhere(frame, draws=300, spread=spread, seed=3)
+    factors = np.random.default_rng(3).uniform(1 - spread, 1 + spread, size=(300, len(readings.TARGETS)))
+    every = np.array(ratios)[None, :, :] / factors[:, None, :]
+    hits = ((np.abs(every - 1.0) <= readings.MATCH_REL).all(axis=2) & (np.array(ratios) > 0).all(axis=1)).any(axis=1)
+    assert found["fraction_with_a_fit"] == hits.sum() / 300
 
 
 def test_the_search_says_in_words_how_isolated_the_inferred_reading_is(grid):
