@@ -129,8 +129,8 @@ def load_waveform(run_dir: Path, relative_path: str) -> Waveform:
     path = Path(run_dir) / relative_path
     if not path.is_file():
         raise RunDataError(f"{path}: waveform file named in the measurements is missing")
-    try:
-        table = pq.read_table(path)
+    try:   # a few kB: one file's reader without threads is three times quicker than read_table
+        table = pq.ParquetFile(path).read(use_threads=False)
     except Exception as exc:
         raise RunDataError(f"{path}: unreadable waveform file ({exc})") from exc
     raw = (table.schema.metadata or {}).get(b"squeezebench")
@@ -138,7 +138,7 @@ def load_waveform(run_dir: Path, relative_path: str) -> Waveform:
         metadata = json.loads(raw) if raw else {}
     except json.JSONDecodeError as exc:
         raise RunDataError(f"{path}: the 'squeezebench' metadata is not valid JSON ({exc})") from exc
-    return Waveform(samples=table.to_pandas(), metadata=metadata)
+    return Waveform(samples=table.to_pandas(use_threads=False), metadata=metadata)
 
 
 def _channel_preamble(metadata: dict, column: str, channel: str) -> dict:
