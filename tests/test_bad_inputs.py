@@ -266,3 +266,14 @@ def test_run_refuses_more_powered_columns_than_the_scene_powers(files, capsys):
     line = one_line(capsys)
     assert "5 powered columns" in line and "powers 1" in line and "n_powered_columns" in line
     assert not (files / "run").exists()
+
+
+@pytest.mark.parametrize("content", [b"garbage", b"PAR1" + b"\0" * 64 + b"PAR1"])
+def test_an_unreadable_waveform_file_is_named(tmp_path, content):
+    from squeezebench.analysis.rundata import RunDataError, load_waveform
+
+    (tmp_path / "w.parquet").write_bytes(content)
+    with pytest.raises(RunDataError, match=r"w\.parquet: unreadable waveform file \("):
+        load_waveform(tmp_path, "w.parquet")
+    with pytest.raises(RunDataError, match="missing"):
+        load_waveform(tmp_path, "absent.parquet")
