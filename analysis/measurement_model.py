@@ -105,7 +105,8 @@ def model_table(point: dict, deskew: Deskew | None) -> pd.DataFrame:
                      "distribution": "as listed for those quantities", "relative_std_uncertainty": float("nan"),
                      "correction": "as listed for those quantities", "source": "analysis.uncertainty.model_budgets"})
         # the sheet's thickness tolerance depends on the plate: its source gives it per thickness
-        sheet = {"resonator_thickness_m": uncertainty.Tolerance(float("nan"), uncertainty.SHEET_THICKNESS_SOURCE)}
+        sheet = {"resonator_thickness_m": uncertainty.Tolerance(
+            float("nan"), "one value per plate, from its nominal thickness: " + uncertainty.SHEET_THICKNESS_SOURCE)}
         for name, tolerance in {**sheet, **uncertainty.TOLERANCES}.items():
             rows.append({"quantity": quantity, "input": name, "type": "B",
                          "distribution": _distribution(uncertainty.Term(name, "B", 0.0, "")),

@@ -79,6 +79,7 @@ NCE41 = Piezo(young_pa=80e9, poisson=0.33, density_kg_m3=7900.0)
 #: sheet's, from its nominal thickness (`relative_tolerances`).
 RELATIVE_TOLERANCES = {"young_pa": 0.02, "density_kg_m3": 0.01, "d31_c_per_n": 0.05, "relative_permittivity_t": 0.10}
 
+
 def relative_tolerances(thickness_m: float) -> dict[str, float]:
     """Every input's relative half-width for a plate of nominal `thickness_m`."""
     return {**RELATIVE_TOLERANCES, "thickness_m": sheet_thickness_tolerance(thickness_m)}
