@@ -4,12 +4,13 @@ A figure function (`analysis.figures`, `cartography_report.map_figure`) takes it
 the PNG's path and reads nothing else, so the report hands it to a worker and goes on: a
 third of a report's time is matplotlib, which otherwise leaves every core but one idle.
 The page is written only once every figure is (`Drawing.finish`). With one worker figures
-are drawn in place, as before; the PNGs are the same bytes either way.
+are drawn in place, as before; the PNGs are the same bytes either way, so a figure whose
+process died (killed, out of memory) is drawn again here rather than lost.
 """
 
 from __future__ import annotations
 
-from concurrent.futures import Future
+from concurrent.futures import BrokenExecutor, Future
 from pathlib import Path
 from typing import Any, Callable
 
@@ -20,9 +21,10 @@ from joblib.externals.loky import ProcessPoolExecutor
 _EXECUTOR: tuple[int, ProcessPoolExecutor] | None = None
 
 
-def _executor(size: int) -> ProcessPoolExecutor:
+def _executor(size: int, fresh: bool = False) -> ProcessPoolExecutor:
+    """The drawing processes; `fresh`: new ones (the old ones broke)."""
     global _EXECUTOR
-    if _EXECUTOR is None or _EXECUTOR[0] != size:
+    if fresh or _EXECUTOR is None or _EXECUTOR[0] != size:
         if _EXECUTOR is not None:
             _EXECUTOR[1].shutdown(wait=False)
         # loky's processes: spawned, not forked, so safe beside the threads of a busy parent
@@ -36,29 +38,44 @@ class Drawing:
     def __init__(self, workers: int) -> None:
         if workers < 1:
             raise ValueError(f"workers must be at least 1, got {workers!r}")
-        self._executor = _executor(workers - 1) if workers > 1 else None
-        self._pending: list[Future] = []
+        self._size = workers - 1
+        self._executor = _executor(self._size) if workers > 1 else None
+        self._pending: list[tuple[Future, tuple]] = []   # (future, the call it runs)
 
     def __call__(self, function: Callable[..., Any], data: Any, path: Path, *more: Any) -> Path:
         """`function(data, path, *more)`, now or on a worker; returns `path`."""
         if self._executor is None:
             function(data, path, *more)
-        else:   # the worker's working directory is not this one's
-            self._pending.append(self._executor.submit(function, data, Path(path).resolve(), *more))
+            return path
+        call = (function, data, Path(path).resolve(), *more)   # the worker's working directory is not ours
+        try:
+            future = self._executor.submit(*call)
+        except BrokenExecutor:   # a process of an earlier report died
+            self._executor = _executor(self._size, fresh=True)
+            future = self._executor.submit(*call)
+        self._pending.append((future, call))
         return path
 
     def finish(self) -> None:
-        """Wait for every figure handed out; the first one that failed raises here."""
+        """Wait for every figure handed out; the first one that failed raises here. A figure
+        whose process died is drawn here instead, and the next report gets new processes."""
         pending, self._pending = self._pending, []
+        broken = False
         try:
-            for future in pending:
-                future.result()
+            for future, (function, *arguments) in pending:
+                try:
+                    future.result()
+                except BrokenExecutor:
+                    broken = True
+                    function(*arguments)
         finally:
-            for future in pending:
+            for future, _ in pending:
                 future.cancel()
+            if broken:
+                _executor(self._size, fresh=True)
 
     def cancel(self) -> None:
         """Drop the figures not started yet (the report stopped)."""
-        for future in self._pending:
+        for future, _ in self._pending:
             future.cancel()
         self._pending = []

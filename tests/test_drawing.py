@@ -3,6 +3,7 @@ path handed back at once, and a figure that fails stops the report at `finish`."
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import numpy as np
@@ -39,3 +40,23 @@ def test_a_figure_that_fails_raises_at_finish(tmp_path):
     drawing.finish()   # what failed is not raised twice
     with pytest.raises(ValueError, match="at least 1"):
         Drawing(0)
+
+
+def test_a_figure_whose_process_died_is_drawn_here_and_the_next_report_gets_new_processes(tmp_path):
+    """A drawing process killed mid-figure (out of memory, a stray signal) loses nothing:
+    `finish` draws that figure in this process, and later figures go to fresh processes."""
+    parent = os.getpid()
+
+    def dies_on_a_worker(data, path):
+        if os.getpid() != parent:
+            os._exit(1)
+        figures.fig9_power(data, path)
+
+    drawing = Drawing(2)
+    drawing(dies_on_a_worker, _power(), tmp_path / "killed.png")
+    drawing.finish()
+    assert (tmp_path / "killed.png").stat().st_size > 10_000
+    again = Drawing(2)
+    again(figures.fig9_power, _power(), tmp_path / "after.png")
+    again.finish()
+    assert (tmp_path / "after.png").read_bytes() == (tmp_path / "killed.png").read_bytes()
