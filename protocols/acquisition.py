@@ -250,18 +250,22 @@ class Acquisition:
         return None if per_vpp is None else per_vpp * piezo_vpp
 
     def _initial_scales(self, piezo_vpp: float) -> dict[int, float]:
-        fill = self.settings.fill_divisions
         current_pp_a = self._expected(self._current_pp_a_per_vpp, piezo_vpp)
         current_extent_a = self._expected(self._current_extent_a_per_vpp, piezo_vpp) or 0.0
         velocity_pp_mps = self._expected(self._velocity_pp_mps_per_vpp, piezo_vpp)
         return {
-            PIEZO_CHANNEL: piezo_vpp / fill,
+            PIEZO_CHANNEL: self._scale_for(piezo_vpp),
             # Unknown current: start coarse (1 A pp is watts on these plates), refine after.
-            CURRENT_CHANNEL: max((current_pp_a or 1.0) / fill, current_extent_a / EXTENT_FILL_DIVISIONS),
+            CURRENT_CHANNEL: self._scale_for(current_pp_a or 1.0, current_extent_a),
             # Unknown velocity: the decoder is at its coarsest, its output at most the limit.
-            VELOCITY_CHANNEL: (velocity_pp_mps / self._vibrometer_scale if velocity_pp_mps
-                               else self.settings.vibrometer_max_output_pp_v) / fill,
+            VELOCITY_CHANNEL: self._scale_for(velocity_pp_mps / self._vibrometer_scale if velocity_pp_mps
+                                              else self.settings.vibrometer_max_output_pp_v),
         }
+
+    def _scale_for(self, expected_pp: float, expected_extent: float = 0.0) -> float:
+        """Volts (or amperes) per division for a trace of `expected_pp` and extent from the
+        centre: the pp fills `fill_divisions`, the extent at most EXTENT_FILL_DIVISIONS."""
+        return max(expected_pp / self.settings.fill_divisions, expected_extent / EXTENT_FILL_DIVISIONS)
 
     def _range(self, scales: dict[int, float], channel: int, expected_pp: float,
                expected_extent: float = 0.0) -> None:
@@ -273,8 +277,7 @@ class Acquisition:
             self._vibrometer_scale = self._set_vibrometer_range(expected_pp * old_scale)
             expected_pp, expected_extent = (v * old_scale / self._vibrometer_scale
                                             for v in (expected_pp, expected_extent))
-        scales[channel] = max(expected_pp / self.settings.fill_divisions,
-                              expected_extent / EXTENT_FILL_DIVISIONS)
+        scales[channel] = self._scale_for(expected_pp, expected_extent)
 
     def _set_vibrometer_range(self, expected_velocity_pp_mps: float | None) -> float:
         """The most sensitive decoder range keeping the output within its limit."""
