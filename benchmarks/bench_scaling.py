@@ -29,6 +29,7 @@ import sys
 import tempfile
 import time
 from pathlib import Path
+from unittest import mock
 
 import numpy as np
 
@@ -114,8 +115,7 @@ def plan_s() -> list[tuple[float, str]]:
     command's default workers, which `make_plan` leaves to its caller): from an empty
     plan cache, then again with what the first stored."""
     times = []
-    with tempfile.TemporaryDirectory() as cache:
-        os.environ[CACHE_VARIABLE] = cache
+    with tempfile.TemporaryDirectory() as cache, mock.patch.dict(os.environ, {CACHE_VARIABLE: cache}):
         for _ in range(2):
             before = load()
             start_s = time.perf_counter()
