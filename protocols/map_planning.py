@@ -29,6 +29,7 @@ candidate and are left out. Only simulated benches can be planned, as for the po
 from __future__ import annotations
 
 import dataclasses
+import functools
 from pathlib import Path
 from typing import Any
 
@@ -117,14 +118,25 @@ def plan_map(run: Run, target_rel_error: float, seed: int = 0, cache: PlanCache 
     from `cache` where an earlier plan of the campaign keeps them)."""
     if not target_rel_error > 0:
         raise UserError(f"target relative error must be positive, got {target_rel_error!r}")
+    found = cache.result(map_job(run, cache, seed)) if cache is not None else map_candidates(_plannable(run), seed)
+    return MapPlan(run.name, run.plate.name, target_rel_error, *found)
+
+
+def map_job(run: Run, cache: PlanCache, seed: int = 0) -> functools.partial:
+    """`map_candidates` of `run` as a job of `cache` (`plan_map` reads its result), for a
+    plan to run beside its other jobs."""
+    return cache.job(map_candidates, _plannable(run), seed)
+
+
+def _plannable(run: Run) -> Run:
+    """`run`, refused with the reason if its map cannot be planned."""
     if run.bench.scene is None:
         raise UserError("only simulated benches (bench: {scene: ...}) can be planned")
     if run.plate.name not in predicted_plates.GEOMETRIES:
         raise UserError(f"run {run.name}: no plate model for {run.plate.name!r} (known: "
                         f"{', '.join(predicted_plates.GEOMETRIES)}): a map's sampling error cannot be planned "
                         "without the mode it samples")
-    found = cache.call(map_candidates, run, seed) if cache is not None else map_candidates(run, seed)
-    return MapPlan(run.name, run.plate.name, target_rel_error, *found)
+    return run
 
 
 def map_candidates(run: Run, seed: int = 0) -> tuple[float, list[MapCandidate], MapCandidate]:

@@ -91,11 +91,17 @@ class PlanCache:
             self.location, memory = None, joblib.Memory(None, verbose=0)
         self._call = memory.cache(_keyed)
         self.read = self.measured = 0
+        self._jobs: dict[tuple, functools.partial] = {}   # one job per call, counted once
         self._stored: set[functools.partial] = set()   # jobs found stored when made
+        self._done: dict[functools.partial, Any] = {}   # results of this plan's batches
 
     def job(self, function: Callable[..., Any], *args: Any) -> functools.partial:
-        """The call function(*args) through the cache, counted as read or measured."""
-        job = functools.partial(self._call, self.fingerprint, function, *args)
+        """The call function(*args) through the cache, counted as read or measured (the
+        same call asked for again is the same job, counted once)."""
+        key = (function.__module__, function.__qualname__, joblib.hash(args))
+        if key in self._jobs:
+            return self._jobs[key]
+        job = self._jobs[key] = functools.partial(self._call, self.fingerprint, function, *args)
         if self._call.check_call_in_cache(*job.args):
             self.read += 1
             self._stored.add(job)
@@ -103,15 +109,22 @@ class PlanCache:
             self.measured += 1
         return job
 
+    def result(self, job: functools.partial) -> Any:
+        """`job`'s result: from a batch it ran in, else read or computed here."""
+        if job not in self._done:
+            self._done[job] = job()
+        return self._done[job]
+
     def call(self, function: Callable[..., Any], *args: Any) -> Any:
-        return self.job(function, *args)()
+        return self.result(self.job(function, *args))
 
     def run(self, jobs: list[functools.partial], workers: int, scheduler: Any, description: str) -> dict:
         """{job: result} of `jobs`: the stored ones read here (cheaper than sending them to a
         worker), the others on `workers` local processes or the Dask cluster at `scheduler`."""
-        done = {job: job() for job in jobs if job in self._stored}
+        done = {job: self.result(job) for job in jobs if job in self._stored or job in self._done}
         done.update(map_unordered(_run_job, [job for job in jobs if job not in done], workers, scheduler,
                                   description))
+        self._done.update(done)
         return done
 
     def words(self) -> str:

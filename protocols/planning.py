@@ -22,11 +22,12 @@ from __future__ import annotations
 
 import copy
 import dataclasses
+import functools
 import math
 import tempfile
 import zlib
 from pathlib import Path
-from typing import Any
+from typing import Any, Sequence
 
 import numpy as np
 import pandas as pd
@@ -34,7 +35,7 @@ import pandas as pd
 from squeezebench.analysis.waveforms import integer_period_mean_power_w, sample_interval_s
 from squeezebench.protocols.accuracy_plan import CALIBRATION_RUN, AccuracyFloors, accuracy_floors, measure_floors
 from squeezebench.protocols.simulated_session import open_simulated
-from squeezebench.protocols.variants import MAP_PROTOCOLS, planned_campaign, without_maps
+from squeezebench.protocols.variants import MAP_PROTOCOLS, only_run, planned_campaign
 from squeezebench.protocols.bench_errors import (
     bench_time_by_run_s, errors_on_bench, p95_by_run)
 from squeezebench.protocols.acquisition import AcquisitionSettings
@@ -177,14 +178,25 @@ def measure_setting(scene: Path, state: str | None, point: OperatingPoint, acqui
         return result, session.drive.frequency_hz
 
 
-def simulate_bench_time_s(campaign_path: Path, acquisition_by_run: dict[str, dict],
-                          calibrate: bool = False) -> dict[str, float]:
-    """Run the campaign on the simulated bench with these acquisition settings (with
-    `calibrate`, after a deskew calibration, which appears as its own run); bench time per run."""
+def simulate_run_bench_time_s(campaign_path: Path, run_name: str, acquisition: dict) -> float:
+    """Bench time of run `run_name` of the campaign (or `CALIBRATION_RUN`, the deskew
+    calibration a calibrated plan starts with) with these acquisition settings, run alone on
+    the simulated bench: a run opens a bench of its own, so alone it takes what it does
+    within the campaign (`variants.only_run`), and the runs are timed on as many workers."""
     with tempfile.TemporaryDirectory(prefix="squeezebench-plan-") as tmp:
-        variant = without_maps(planned_campaign(campaign_path, acquisition_by_run, calibrate,
-                                                Path(tmp) / campaign_path.name))
-        return bench_time_by_run_s(run_campaign(variant, out_dir=Path(tmp) / "run", progress=False))
+        variant = only_run(planned_campaign(campaign_path, {run_name: acquisition}, run_name == CALIBRATION_RUN,
+                                            Path(tmp) / campaign_path.name), run_name)
+        return bench_time_by_run_s(run_campaign(variant, out_dir=Path(tmp) / "run", progress=False))[run_name]
+
+
+def bench_time_jobs(cache: PlanCache, campaign_path: Path, acquisition_by_run: dict[str, dict],
+                    calibrate: bool) -> dict[functools.partial, str]:
+    """{job: run name} timing every run of `acquisition_by_run`, and the calibration first
+    if `calibrate`; each run's job depends on its own settings only, so a plan at another
+    target reads the runs whose setting it keeps."""
+    runs = {**({CALIBRATION_RUN: {}} if calibrate else {}), **acquisition_by_run}
+    return {cache.job(simulate_run_bench_time_s, campaign_path, name, acquisition): name
+            for name, acquisition in runs.items()}
 
 
 @dataclasses.dataclass
@@ -307,14 +319,15 @@ SETTINGS = tuple(Setting(r, n) for r in RECORD_LENGTHS for n in AVERAGES)
 
 def make_plan(campaign_path: Path, target_rel_error: float, repeats: int = REPEATS,
               workers: int = 1, scheduler: Any = None, check_benches: int = CHECK_BENCHES,
-              cache: PlanCache | None = None) -> Plan:
+              cache: PlanCache | None = None, alongside: Sequence[functools.partial] = ()) -> Plan:
     """Measure every setting on every plate, pick each run's, and time the campaign with
     the plan and with the baseline, on `workers` local processes or the Dask cluster at
     `scheduler` (the plan is the same either way). The floors the instruments' specified
     errors leave decide what the noise may take and whether to calibrate; the plan is then
     checked on `check_benches` simulated benches with drawn errors (0: no check; none when
     the target is below the floor). What does not depend on the target is read from
-    `cache` (default: the campaign's `plan_cache`) where an earlier plan stored it."""
+    `cache` (default: the campaign's `plan_cache`) where an earlier plan stored it; the
+    `alongside` jobs of `cache` (a caller's map plans) run in the same batch as the settings."""
     if not target_rel_error > 0:
         raise UserError(f"target relative error must be positive, got {target_rel_error!r}")
     campaign_path = Path(campaign_path)
@@ -333,21 +346,28 @@ def make_plan(campaign_path: Path, target_rel_error: float, repeats: int = REPEA
         plates.update(dict.fromkeys(keys))
         plates_by_run[run.name] = keys
     # None of this depends on the target: an earlier plan of the same campaign may hold it.
+    # The floors and the 512-average baseline do not depend on the settings' study either:
+    # they run beside it, as do the `alongside` jobs (the caller's map plans of the campaign).
     cache = cache or campaign_cache(campaign_path)
-    # The 512-average baseline does not depend on the study: it runs beside the settings.
-    baseline = cache.job(simulate_bench_time_s, campaign_path,
-                         {run.name: {"averages": BASELINE_AVERAGES} for run in campaign.runs})
+    baseline = bench_time_jobs(cache, campaign_path, {run.name: {"averages": BASELINE_AVERAGES}
+                                                      for run in campaign.runs}, calibrate=False)
+    floors_job = cache.job(measure_floors, campaign_path)
     jobs = {cache.job(measure_setting, *key, setting, repeats): (key, setting)
             for key in plates for setting in SETTINGS}
-    done = cache.run([baseline, *jobs], workers, scheduler, "plan")
+    done = cache.run([floors_job, *alongside, *baseline, *jobs], workers, scheduler, "plan")   # longest first
     results = {jobs[job]: result for job, result in done.items() if job in jobs}
     studies = {key: PlateStudy(key[0], key[1], key[2].voltage_vpp, results[key, SETTINGS[0]][1],
                                [results[key, setting][0] for setting in SETTINGS]) for key in plates}
     studies_by_run = {run.name: [studies[key] for key in plates_by_run[run.name]] for run in campaign.runs}
-    floors = accuracy_floors(campaign_path, target_rel_error, cache.call(measure_floors, campaign_path))
+    floors = accuracy_floors(campaign_path, target_rel_error, done[floors_job])
+    baseline_s = {name: done[job] for job, name in baseline.items()}
     noise_scale = {run.name: 1.0 for run in campaign.runs}
-    plan = _choose(campaign, campaign_path, target_rel_error, repeats, studies_by_run, floors, done[baseline],
-                   noise_scale, cache)
+
+    def choose() -> Plan:
+        return _choose(campaign, campaign_path, target_rel_error, repeats, studies_by_run, floors, baseline_s,
+                       noise_scale, cache, workers, scheduler)
+
+    plan = choose()
     if not check_benches or floors.below_floor():
         return plan
     for tightenings in range(MAX_TIGHTENINGS + 1):
@@ -364,8 +384,7 @@ def make_plan(campaign_path: Path, target_rel_error: float, repeats: int = REPEA
             floors.calibration_forced_by = f"the check on {check_benches} benches without it"
         else:
             noise_scale.update({name: noise_scale[name] / 2.0 for name in missed})
-        plan = _choose(campaign, campaign_path, target_rel_error, repeats, studies_by_run, floors, done[baseline],
-                       noise_scale, cache)
+        plan = choose()
     return plan
 
 
@@ -377,7 +396,7 @@ def campaign_cache(campaign_path: Path) -> PlanCache:
 
 def _choose(campaign, campaign_path: Path, target_rel_error: float, repeats: int,
             studies_by_run: dict[str, list[PlateStudy]], floors: AccuracyFloors, baseline_s: dict[str, float],
-            noise_scale: dict[str, float], cache: PlanCache) -> Plan:
+            noise_scale: dict[str, float], cache: PlanCache, workers: int, scheduler: Any) -> Plan:
     """Per run the cheapest setting whose noise fits in what the floor leaves of the
     target (errors add in quadrature; times the run's `noise_scale`, lowered where a check
     missed); where the floor is above the target, the cheapest
@@ -392,9 +411,10 @@ def _choose(campaign, campaign_path: Path, target_rel_error: float, repeats: int
                                    fallback=Setting(run.acquisition.record_length, BASELINE_AVERAGES))
         settings_by_run[run.name] = setting
         error_by_run[run.name] = max(s.result(setting).p95_rel_error for s in run_studies)
-    planned_s = cache.call(simulate_bench_time_s, campaign_path,
-                           {name: dataclasses.asdict(setting) for name, setting in settings_by_run.items()},
-                           floors.calibrate)
+    timing = bench_time_jobs(cache, campaign_path, {name: dataclasses.asdict(setting)
+                                                    for name, setting in settings_by_run.items()}, floors.calibrate)
+    done = cache.run(list(timing), workers, scheduler, "planned bench time")
+    planned_s = {name: done[job] for job, name in timing.items()}
     return Plan(target_rel_error, studies_by_run, settings_by_run, error_by_run, planned_s, baseline_s,
                 repeats=repeats, floors=floors, own_s=floors.own_bench_time_s,
                 noise_scale={name: scale for name, scale in noise_scale.items() if scale != 1.0},

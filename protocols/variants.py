@@ -41,6 +41,16 @@ def without_maps(campaign_file: Path) -> Path:
     return Path(campaign_file)
 
 
+def only_run(campaign_file: Path, name: str) -> Path:
+    """Rewrite the campaign file with run `name` alone: each run opens a bench of its own,
+    so it takes the same bench time alone as within the campaign (a planner times runs apart,
+    on as many workers)."""
+    data = load_strict(Path(campaign_file).read_text(encoding="utf-8"))
+    data["runs"] = [run for run in data["runs"] if run["name"] == name]
+    Path(campaign_file).write_text(dump_yaml(data), encoding="utf-8")
+    return Path(campaign_file)
+
+
 #: How a simulated bench's errors are drawn (the `draw` of its systematic effects): within
 #: the specified limits as the budgets assume, or as the world may err (`effects.world_draw`).
 ERROR_MODELS = {"specified": 1, "world": 2}

@@ -297,7 +297,7 @@ def cmd_study(args: argparse.Namespace) -> int:
 
 def cmd_plan(args: argparse.Namespace) -> int:
     from squeezebench.protocols.campaign import load_campaign
-    from squeezebench.protocols.map_planning import plan_map, write_planned_maps
+    from squeezebench.protocols.map_planning import map_job, plan_map, write_planned_maps
     from squeezebench.protocols.planning import campaign_cache, make_plan, plan_text, write_planned_campaign
     from squeezebench.protocols.variants import MAP_PROTOCOLS
 
@@ -310,10 +310,11 @@ def cmd_plan(args: argparse.Namespace) -> int:
         say(args, f"campaign: {campaign} (shipped; no file named {args.campaign} here)")
     runs = load_campaign(campaign).runs
     cache = campaign_cache(campaign)
-    maps = [plan_map(run, args.target_rel_error, cache=cache) for run in runs if run.protocol in MAP_PROTOCOLS]
-    only_maps = len(maps) == len(runs)
-    plan = None if only_maps else make_plan(campaign, args.target_rel_error, workers=args.workers,
-                                            scheduler=args.scheduler, cache=cache)
+    map_plans = [run for run in runs if run.protocol in MAP_PROTOCOLS]
+    plan = None if len(map_plans) == len(runs) else make_plan(
+        campaign, args.target_rel_error, workers=args.workers, scheduler=args.scheduler, cache=cache,
+        alongside=[map_job(run, cache) for run in map_plans])   # on the same workers
+    maps = [plan_map(run, args.target_rel_error, cache=cache) for run in map_plans]
     written = None
     if args.write:
         written = write_planned_campaign(campaign, plan, args.write) if plan else Path(shutil.copyfile(campaign, args.write))

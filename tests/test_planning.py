@@ -78,3 +78,18 @@ def test_a_setting_measures_the_same_whatever_ran_before():
     backward = [measure_setting(*args, setting, repeats=2) for setting in reversed(settings)][::-1]
     assert forward == backward
     assert forward[0][0].p95_rel_error != forward[1][0].p95_rel_error   # the settings do differ
+
+
+def test_a_run_timed_alone_takes_its_bench_time_within_the_campaign(tmp_path):
+    # The planner times runs apart, on as many workers: each must cost what it does in order.
+    from squeezebench.protocols.bench_errors import bench_time_by_run_s
+    from squeezebench.protocols.campaign import run_campaign
+    from squeezebench.protocols.planning import CALIBRATION_RUN, simulate_run_bench_time_s
+    from squeezebench.protocols.variants import planned_campaign
+
+    settings = {"detuning": {"averages": 8}, "cutting": {"averages": 32, "record_length": 500}}
+    together = bench_time_by_run_s(run_campaign(planned_campaign(QUICK, settings, True, tmp_path / QUICK.name),
+                                                out_dir=tmp_path / "run", progress=False))
+    assert set(together) == {CALIBRATION_RUN, *settings}
+    for name, seconds in together.items():
+        assert simulate_run_bench_time_s(QUICK, name, settings.get(name, {})) == pytest.approx(seconds, rel=1e-9)
