@@ -44,6 +44,7 @@ import itertools
 import json
 import shutil
 import tempfile
+import threading
 import zlib
 from pathlib import Path
 from typing import Any, Callable, Iterator
@@ -423,8 +424,11 @@ class AccuracyStudy:
 
     def __init__(self, settings: StudySettings, scenes_dir: Path, out_dir: Path,
                  progress: Callable[[str], None] = lambda message: None,
-                 workers: int = 1, scheduler: Any = None) -> None:
+                 workers: int = 1, scheduler: Any = None, stop: threading.Event | None = None,
+                 bar: bool = True) -> None:
         self.settings = settings
+        self.stop = stop
+        self.bar = bar
         self.scenes_dir = Path(scenes_dir)
         self.out_dir = Path(out_dir) / STUDY_DIR
         self.trials_dir = self.out_dir / "trials"
@@ -471,8 +475,11 @@ class AccuracyStudy:
             where = f"the Dask cluster at {self.scheduler}" if self.scheduler is not None else \
                 f"{self.workers} worker{'s' if self.workers > 1 else ''}"
             self.progress(f"accuracy study: {len(pending)} tasks of {len(tasks)} on {where}")
-        for task, frame in map_unordered(run_task, pending, self.workers, self.scheduler, "accuracy study"):
+        for task, frame in map_unordered(run_task, pending, self.workers, self.scheduler, "accuracy study",
+                                         bar=self.bar):
             write_frame_atomic(self._task_path(task), frame)
+            if self.stop is not None and self.stop.is_set():   # the tasks stored are kept for a resume
+                return self.out_dir
         for name in experiments:
             if name not in stored_experiments:
                 self._assemble(name, [task for task in tasks if task.experiment == name])
@@ -491,7 +498,11 @@ class AccuracyStudy:
 
 def run_study(out_dir: Path, settings: StudySettings = StudySettings(),
               experiments: tuple[str, ...] = AccuracyStudy.EXPERIMENTS, resume: bool = False,
-              progress: Callable[[str], None] = print, workers: int = 1, scheduler: Any = None) -> Path:
+              progress: Callable[[str], None] = print, workers: int = 1, scheduler: Any = None,
+              stop: threading.Event | None = None, bar: bool = True) -> Path:
     """The study on the shipped scenes into OUT_DIR/study/, on `workers` local processes
-    or the Dask cluster at `scheduler` (the trials are the same either way)."""
-    return AccuracyStudy(settings, paths.scenes_dir(), out_dir, progress, workers, scheduler).run(experiments, resume)
+    or the Dask cluster at `scheduler` (the trials are the same either way); once `stop` is
+    set it ends after the task it is storing, unassembled (`resume` continues it); `bar`
+    off hides its progress bar (it runs beside another)."""
+    return AccuracyStudy(settings, paths.scenes_dir(), out_dir, progress, workers, scheduler, stop,
+                         bar).run(experiments, resume)

@@ -12,6 +12,7 @@ planner seed every trial from what defines it).
 from __future__ import annotations
 
 import contextlib
+import threading
 from typing import Any, Callable, Iterable, Iterator, TypeVar
 
 import joblib
@@ -49,18 +50,58 @@ def _backend(workers: int, scheduler: Any) -> Iterator[int]:
 
 
 def map_unordered(function: Callable[[T], Any], items: Iterable[T], workers: int = 1,
-                  scheduler: Any = None, description: str = "") -> Iterator[tuple[T, Any]]:
+                  scheduler: Any = None, description: str = "", bar: bool = True) -> Iterator[tuple[T, Any]]:
     """(item, function(item)) for every item, in the order the tasks finish.
 
     `workers` local processes (1: in this process, in order), or the Dask cluster at
-    `scheduler`. The progress bar shows only when stderr is a terminal.
+    `scheduler`. The progress bar shows only when stderr is a terminal, and `bar`
+    (not beside another one: see `Beside`).
     """
     items = list(items)
     if not items:
         return
     with _backend(workers, scheduler) as n_jobs, \
-            tqdm(total=len(items), desc=description, unit="task", disable=None, leave=False) as bar:
+            tqdm(total=len(items), desc=description, unit="task", disable=None if bar else True,
+                 leave=False) as progress:
         run = joblib.Parallel(n_jobs=min(n_jobs, len(items)), return_as="generator_unordered")
         for index, result in run(joblib.delayed(_indexed)(function, i, item) for i, item in enumerate(items)):
-            bar.update()
+            progress.update()
             yield items[index], result
+
+
+class Beside:
+    """`function(stop)` on a thread of this process while the caller does its own work
+    here: its tasks go to the workers meanwhile (the accuracy study beside the campaign).
+    `start` (any arguments, so a run's watcher can call it) starts it once; `finish` starts
+    it if it has not and waits, re-raising what it raised; `cancel` sets `stop`, which it
+    must check between tasks, and waits for it."""
+
+    def __init__(self, function: Callable[[threading.Event], Any]) -> None:
+        self.stop = threading.Event()
+        self._function = function
+        self._thread: threading.Thread | None = None
+        self._error: BaseException | None = None
+
+    def start(self, *_: Any) -> None:
+        if self._thread is None:
+            self._thread = threading.Thread(target=self._run, name="beside", daemon=True)
+            self._thread.start()
+
+    def _run(self) -> None:
+        try:
+            self._function(self.stop)
+        except BaseException as exc:   # handed to the caller by finish()
+            self._error = exc
+
+    def finish(self) -> None:
+        self.start()
+        self._thread.join()
+        if self._error is not None:
+            raise self._error
+
+    def cancel(self) -> None:
+        """Stop it (what it stored is kept) and wait; what it raised meanwhile is dropped:
+        the caller is raising its own reason."""
+        self.stop.set()
+        if self._thread is not None:
+            self._thread.join()

@@ -204,15 +204,23 @@ def cmd_reproduce(args: argparse.Namespace) -> int:
     from squeezebench.analysis.report import write_report
     from squeezebench.protocols.accuracy_study import run_study
     from squeezebench.protocols.campaign import run_campaign
+    from squeezebench.protocols.parallel import Beside
 
     coverage_benches = _coverage_benches(args)
     if not args.resume:
         _clear_previous_reproduction(args, args.out)
-    run_dir = run_campaign(paths.paper_campaign(), resume=args.resume, out_dir=args.out,
-                           progress=show_progress(args))
-    if not args.no_study:
-        run_study(run_dir, experiments=REPRODUCE_EXPERIMENTS, resume=args.resume,
-                  progress=lambda message: say(args, message), workers=args.workers, scheduler=args.scheduler)
+    # The study reads only shipped scenes: its trials run on the workers while the campaign
+    # runs here, from the campaign's first stored step (its run directory made) on.
+    study = Beside(lambda stop: None if args.no_study else run_study(
+        args.out, experiments=REPRODUCE_EXPERIMENTS, resume=args.resume, progress=lambda message: say(args, message),
+        workers=args.workers, scheduler=args.scheduler, stop=stop, bar=False))
+    try:
+        run_dir = run_campaign(paths.paper_campaign(), resume=args.resume, out_dir=args.out,
+                               progress=show_progress(args), on_step=study.start)
+    except BaseException:
+        study.cancel()
+        raise
+    study.finish()
     _run_coverage(args, run_dir, coverage_benches)
     index = write_report(run_dir, args.workers)
     say(args, f"run stored in {run_dir}\n" + _finished(index))

@@ -203,3 +203,33 @@ def test_an_interrupted_study_resumes_with_the_tasks_it_lacks(serial, tmp_path, 
     assert ran == ['{"settle_s": 0.05}']
     for name, frame in stored(tmp_path).items():
         pd.testing.assert_frame_equal(frame, serial[name])
+
+
+def test_a_stopped_study_keeps_the_task_it_stored_and_resumes_to_the_same_trials(serial, tmp_path):
+    # `reproduce` runs the study beside the campaign and stops it when the campaign stops.
+    import threading
+
+    stop = threading.Event()
+    stop.set()
+    run_study(tmp_path, PARALLEL, PARALLEL_EXPERIMENTS, progress=lambda message: None, stop=stop, bar=False)
+    assert len(list((tmp_path / "study" / "trials").rglob("*.parquet"))) == 1
+    assert not list((tmp_path / "study").glob("*.parquet"))   # nothing assembled from part of it
+    run_study(tmp_path, PARALLEL, PARALLEL_EXPERIMENTS, resume=True, progress=lambda message: None)
+    for name, frame in stored(tmp_path).items():
+        pd.testing.assert_frame_equal(frame, serial[name])
+
+
+def test_beside_hands_back_what_its_thread_raised_and_runs_when_never_started():
+    from squeezebench.protocols.parallel import Beside
+
+    seen = []
+    Beside(lambda stop: seen.append(stop.is_set())).finish()   # never started: finish runs it
+    assert seen == [False]
+    failing = Beside(lambda stop: 1 / 0)
+    failing.start()
+    with pytest.raises(ZeroDivisionError):
+        failing.finish()
+    waiting = Beside(lambda stop: stop.wait() and 1 / 0)
+    waiting.start()
+    waiting.cancel()   # it sees the stop; what it raises then is dropped: the caller raises its own
+    assert waiting.stop.is_set() and not waiting._thread.is_alive()
