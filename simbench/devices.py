@@ -684,6 +684,10 @@ class Scope(ScpiInstrument):
         self._record: traces.Record | None = None
         self._ready_s = 0.0
         self._scaled: tuple = (None, None, None, None)
+        # A record's clipping per channel setting, and the last gate: every measurement of
+        # an acquisition asks for the same (six extremes, a mean and a frequency per point).
+        self._clipped: tuple = (None, {})
+        self._gated: tuple = (None, None)
 
     # -- status and events (TDS PM Section 3) ------------------------------------------------
     def report(self, error: ScpiError) -> None:
@@ -972,12 +976,18 @@ class Scope(ScpiInstrument):
         else:
             channels = [int(source[2:])]
         record = self.record()
+        if self._clipped[0] is not record:
+            self._clipped = (record, {})
         high = low = False
         for channel in (c for c in channels if c <= 3):
-            screen = (record.trace(f"CH{channel}") - self.state["offset", channel]) / self.state["scale", channel] \
-                + self.state["position", channel]
-            high |= bool(np.any(screen >= fx.ADC_MAX_DIV - 1e-9))
-            low |= bool(np.any(screen <= fx.ADC_MIN_DIV + 1e-9))
+            setting = (channel, self.state["offset", channel], self.state["scale", channel],
+                       self.state["position", channel])
+            if setting not in self._clipped[1]:
+                screen = (record.trace(f"CH{channel}") - setting[1]) / setting[2] + setting[3]
+                self._clipped[1][setting] = (bool(np.any(screen >= fx.ADC_MAX_DIV - 1e-9)),
+                                             bool(np.any(screen <= fx.ADC_MIN_DIV + 1e-9)))
+            channel_high, channel_low = self._clipped[1][setting]
+            high, low = high or channel_high, low or channel_low
         if high and low:
             return 2227, "Positive and Negative Clipping"
         if high or low:
@@ -1018,8 +1028,12 @@ class Scope(ScpiInstrument):
         if self.state["gating"] != "CURSOR":
             return slice(None)
         low, high = sorted((self.state["vbar", 1], self.state["vbar", 2]))
-        inside = np.flatnonzero((setup.times_s() >= low) & (setup.times_s() <= high))
-        return slice(int(inside[0]), int(inside[-1]) + 1) if inside.size else None
+        key = (setup.first_sample_s, setup.sample_interval_s, setup.record_length, low, high)
+        if self._gated[0] != key:
+            times_s = setup.times_s()
+            inside = np.flatnonzero((times_s >= low) & (times_s <= high))
+            self._gated = (key, slice(int(inside[0]), int(inside[-1]) + 1) if inside.size else None)
+        return self._gated[1]
 
     def _measurement_units(self, unit: Unit) -> bytes:
         scpi.no_arguments(unit.arguments)

@@ -55,7 +55,16 @@ class ScopeSetup:
         return -self.record_time_s / 2.0
 
     def times_s(self) -> np.ndarray:
-        return self.first_sample_s + np.arange(self.record_length) * self.sample_interval_s
+        """The sample times (read-only: one array serves every acquisition and measurement
+        of the same time base)."""
+        return _sample_times_s(self.first_sample_s, self.sample_interval_s, self.record_length)
+
+
+@functools.lru_cache(maxsize=32)
+def _sample_times_s(first_sample_s: float, sample_interval_s: float, record_length: int) -> np.ndarray:
+    times = first_sample_s + np.arange(record_length) * sample_interval_s
+    times.flags.writeable = False
+    return times
 
 
 @dataclass
