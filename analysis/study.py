@@ -57,6 +57,46 @@ def summarise(trials: pd.DataFrame) -> pd.DataFrame:
     return summary
 
 
+#: Bootstrap resamples of a configuration's repeats for the Monte Carlo uncertainty of its p95.
+BOOTSTRAP_DRAWS = 2000
+FIGURE_KEYS = ["experiment", "scene", "state", *KNOBS, "quantity"]
+
+
+def p95_standard_error(abs_errors: np.ndarray, draws: int = BOOTSTRAP_DRAWS, seed: int = 0) -> float:
+    """The Monte Carlo standard uncertainty of the p95 of `abs_errors` (one per repeat): the
+    spread of that percentile over bootstrap resamples of the repeats (seeded). With 8
+    repeats it is wide: the p95 then sits between the two largest errors."""
+    errors = np.asarray(abs_errors, dtype=float)
+    resampled = np.random.default_rng(seed).choice(errors, size=(draws, errors.size), replace=True)
+    return float(np.std(np.percentile(resampled, ERROR_PERCENTILE, axis=1), ddof=1))
+
+
+def figures(trials: pd.DataFrame) -> pd.DataFrame:
+    """`summarise`'s p95 and bench time per configuration and quantity, with the p95's Monte
+    Carlo standard uncertainty (`p95_mc_u`): what the fronts and floors are drawn from, as
+    a study's figures to compare with another run of it (`compare_figures`)."""
+    summary = summarise(trials).set_index(FIGURE_KEYS)
+    u = (trials.assign(abs_rel_error=trials["rel_error"].abs()).groupby(FIGURE_KEYS)["abs_rel_error"]
+         .apply(lambda e: p95_standard_error(e.to_numpy())).rename("p95_mc_u"))
+    return summary[["n_repeats", "p95_abs_rel_error", "bench_time_s"]].join(u).reset_index()
+
+
+def compare_figures(current: pd.DataFrame, reference: pd.DataFrame, coverage: float = 2.0) -> pd.DataFrame:
+    """Each figure of `current` beside `reference` (both from `figures`): the p95's change in
+    units of their combined Monte Carlo uncertainty (`z`), `within` when |z| <= `coverage`
+    (about 95 % of figures when both runs sample the same error distributions), and the
+    relative change of the bench time. Figures only one side has are left out (`missing`
+    counts them in the caller's words)."""
+    keys = [k for k in FIGURE_KEYS if k in current and k in reference]
+    both = current.merge(reference, on=keys, suffixes=("", "_reference"), validate="one_to_one")
+    combined = np.hypot(both["p95_mc_u"], both["p95_mc_u_reference"])
+    change = both["p95_abs_rel_error"] - both["p95_abs_rel_error_reference"]
+    both["z"] = np.where(combined > 0, change / combined.where(combined > 0, 1.0), np.where(change == 0, 0.0, np.inf))
+    both["within"] = both["z"].abs() <= coverage
+    both["bench_time_rel_change"] = both["bench_time_s"] / both["bench_time_s_reference"] - 1.0
+    return both
+
+
 def front_index(group: pd.DataFrame) -> list:
     """Index of the configurations no cheaper one beats (ties in time: the more accurate)."""
     ordered = group.sort_values(["bench_time_s", "p95_abs_rel_error"])

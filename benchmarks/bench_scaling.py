@@ -3,26 +3,29 @@
 1. `squeezebench reproduce` wall time with the default flags (workers: the cores this
    process may use) and with one worker (goal, default flags, idle: <= 25 s);
 2. the accuracy study's speed-up with the default workers over one, from the same two runs
-   (goal on 2 cores: >= 1.7x);
+   (goal on 2 cores: >= 1.7x), and its figures against those stored in study_reference.csv
+   (`analysis.study.compare_figures`: the p95 errors within their Monte Carlo uncertainty);
 3. a 512-average 10,000-point simulated acquisition and fetch against a single one
    (goal <= 4x);
 4. the per-point reduction (analysis.waveforms.reduce_point) of 10,000 samples (goal <= 1 ms);
 5. a simulated command (`*IDN?` through the scene backend) against a bare pyvisa-sim
    query (goal <= 2x);
-6. `squeezebench plan` on the paper campaign with the default flags (goal <= 10 s), from
-   an empty plan cache, then again at the same target (`protocols.plan_cache`).
+6. `squeezebench plan paper --target-rel-error 0.01` with the default flags (goal <= 10 s),
+   from an empty plan cache, then again at the same target (`protocols.plan_cache`).
 
 Wall times of the commands are single runs (they are long); the short operations take
 the best of several. The machine may be shared: each wall time is printed with the
 1-minute load average taken just before it, so a reader can tell an idle figure from a
 loaded one.
 
-Run: python benchmarks/bench_scaling.py [--repeat N] [--skip-reproduce] [--skip-plan]
+Run: python benchmarks/bench_scaling.py [--repeat N] [--skip-reproduce] [--skip-plan] [--write-reference]
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
+import io
 import math
 import os
 import sys
@@ -32,6 +35,7 @@ from pathlib import Path
 from unittest import mock
 
 import numpy as np
+import pandas as pd
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
@@ -40,21 +44,24 @@ sys.path.insert(0, str(ROOT / "benchmarks"))
 from bench_simulator import acquire_and_fetch, best_of, idn_queries, open_bare_scope, prepared_scope  # noqa: E402
 from squeezebench import cli, paths  # noqa: E402
 from squeezebench.workers import default_workers  # noqa: E402
+from squeezebench.analysis import study  # noqa: E402
 from squeezebench.analysis.waveforms import reduce_point  # noqa: E402
 from squeezebench.protocols import accuracy_study  # noqa: E402
 from squeezebench.protocols.plan_cache import CACHE_VARIABLE  # noqa: E402
-from squeezebench.protocols.planning import make_plan  # noqa: E402
 
 FREQUENCY_HZ = 37180.0
+#: The study's figures (`analysis.study.figures`) of `reproduce` before the study was made
+#: cheaper: a cheaper study must give the same figures within their Monte Carlo uncertainty.
+REFERENCE = ROOT / "benchmarks" / "study_reference.csv"
 
 
 def load() -> str:
     return f"load {os.getloadavg()[0]:.2f}"
 
 
-def reproduce_s(workers: int | None) -> tuple[float, float, str]:
+def reproduce_s(workers: int | None) -> tuple[float, float, str, pd.DataFrame]:
     """Wall seconds of `squeezebench reproduce` (`--workers N` unless None: the default
-    flags), of its study phase, and the load average before it."""
+    flags), of its study phase, the load average before it, and the study's figures."""
     study_s = []
     original = accuracy_study.run_study
 
@@ -73,11 +80,24 @@ def reproduce_s(workers: int | None) -> tuple[float, float, str]:
             start_s = time.perf_counter()
             status = cli.main(["reproduce", "--out", str(Path(tmp) / "paper"), "--quiet", *flags])
             total_s = time.perf_counter() - start_s
+            found = study.figures(study.load_trials(Path(tmp) / "paper")) if status == 0 else None
     finally:
         accuracy_study.run_study = original
     if status != 0:
         raise SystemExit(f"reproduce {' '.join(flags)} exited with {status}")
-    return total_s, study_s[0], before
+    return total_s, study_s[0], before, found
+
+
+def figures_against_reference(found: pd.DataFrame) -> str:
+    """The study's figures against the stored reference, in their Monte Carlo uncertainty."""
+    reference = pd.read_csv(REFERENCE, keep_default_na=False)
+    compared = study.compare_figures(found, reference)
+    worst = compared.loc[compared["z"].abs().idxmax()]
+    return (f"study figures against {REFERENCE.name}: {int(compared['within'].sum())} of {len(compared)} p95 errors "
+            f"within 2 Monte Carlo u of the reference (about 95 % expected of an unchanged study; "
+            f"{len(reference) - len(compared)} reference figures not found), largest |z| {abs(worst['z']):.1f} "
+            f"({worst['experiment']} {worst['quantity']}); bench time per trial "
+            f"{100 * compared['bench_time_rel_change'].median():+.1f} % (median)")
 
 
 def acquisition_ratio(repeat: int) -> tuple[float, float]:
@@ -111,16 +131,19 @@ def command_ratio(repeat: int) -> tuple[float, float]:
 
 
 def plan_s() -> list[tuple[float, str]]:
-    """`squeezebench plan` on the paper campaign with the default flags (1 % target; the
-    command's default workers, which `make_plan` leaves to its caller): from an empty
-    plan cache, then again with what the first stored."""
+    """`squeezebench plan paper --target-rel-error 0.01` with the default flags (its map run
+    included; the target is below the floor, so it exits 2 after printing the plan): from an
+    empty plan cache, then again with what the first stored."""
     times = []
-    with tempfile.TemporaryDirectory() as cache, mock.patch.dict(os.environ, {CACHE_VARIABLE: cache}):
+    with tempfile.TemporaryDirectory() as cache, mock.patch.dict(os.environ, {CACHE_VARIABLE: cache}), \
+            contextlib.redirect_stderr(io.StringIO()):
         for _ in range(2):
             before = load()
             start_s = time.perf_counter()
-            make_plan(paths.paper_campaign(), 0.01, workers=default_workers())
+            status = cli.main(["plan", "paper", "--target-rel-error", "0.01", "--quiet"])
             times.append((time.perf_counter() - start_s, before))
+            if status not in (0, 2):
+                raise SystemExit(f"plan exited with {status}")
     return times
 
 
@@ -129,14 +152,19 @@ def main() -> None:
     parser.add_argument("--repeat", type=int, default=7)
     parser.add_argument("--skip-reproduce", action="store_true")
     parser.add_argument("--skip-plan", action="store_true")
+    parser.add_argument("--write-reference", action="store_true",
+                        help=f"store this run's study figures as {REFERENCE.name} (after a change meant to keep them)")
     args = parser.parse_args()
     if not args.skip_reproduce:
-        default_s, study_default_s, default_load = reproduce_s(None)
-        one_s, study_one_s, one_load = reproduce_s(1)
+        default_s, study_default_s, default_load, found = reproduce_s(None)
+        if args.write_reference:
+            found.to_csv(REFERENCE, index=False)
+        one_s, study_one_s, one_load, _ = reproduce_s(1)
         print(f"reproduce wall time: default flags ({default_workers()} workers) {default_s:6.1f} s ({default_load})"
               f"   1 worker {one_s:6.1f} s ({one_load})   (goal, default flags: <= 25 s)")
         print(f"accuracy study: 1 worker {study_one_s:6.1f} s   default flags {study_default_s:6.1f} s   "
               f"speed-up {study_one_s / study_default_s:4.2f}x (goal on 2 cores: >= 1.7x)")
+        print(figures_against_reference(found))
     single_s, averaged_s = acquisition_ratio(args.repeat)
     print(f"acquire + fetch 3 x 10k points: sample mode {single_s * 1e3:6.2f} ms   512 averages "
           f"{averaged_s * 1e3:6.2f} ms   ratio {averaged_s / single_s:4.2f} (goal <= 4)")

@@ -233,3 +233,29 @@ def test_beside_hands_back_what_its_thread_raised_and_runs_when_never_started():
     waiting.start()
     waiting.cancel()   # it sees the stop; what it raises then is dropped: the caller raises its own
     assert waiting.stop.is_set() and not waiting._thread.is_alive()
+
+
+def _synthetic_trials(scale: float, seed: int) -> pd.DataFrame:
+    rng = np.random.default_rng(seed)
+    rows = [{"experiment": "averages", "scene": "s.yaml", "state": "", **{k: 0 for k in study.KNOBS},
+             "averages": averages, "quantity": "power_w", "repeat": repeat, "bench_time_s": 1.0 + averages,
+             "rel_error": scale * rng.normal() / np.sqrt(averages)}
+            for averages in (1, 4, 16, 64) for repeat in range(8)]
+    return pd.DataFrame(rows)
+
+
+def test_a_p95s_monte_carlo_uncertainty_scales_with_the_errors_and_vanishes_without_spread():
+    errors = np.abs(np.random.default_rng(3).normal(size=8))
+    assert study.p95_standard_error(np.full(8, 0.01)) == 0.0
+    assert study.p95_standard_error(10 * errors) == pytest.approx(10 * study.p95_standard_error(errors))
+    assert 0 < study.p95_standard_error(errors) < np.ptp(errors)
+
+
+def test_figures_of_the_same_distributions_agree_within_their_monte_carlo_uncertainty_and_a_shift_does_not():
+    reference = study.figures(_synthetic_trials(0.01, seed=1))
+    again = study.compare_figures(study.figures(_synthetic_trials(0.01, seed=1)), reference)
+    assert again["within"].all() and (again["z"] == 0).all() and (again["bench_time_rel_change"] == 0).all()
+    redrawn = study.compare_figures(study.figures(_synthetic_trials(0.01, seed=2)), reference)
+    assert len(redrawn) == 4 and redrawn["within"].mean() >= 0.75   # other draws, the same distributions
+    tenfold = study.compare_figures(study.figures(_synthetic_trials(0.1, seed=2)), reference)
+    assert not tenfold["within"].any() and (tenfold["z"] > 2).all()
