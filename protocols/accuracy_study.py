@@ -351,6 +351,12 @@ class Task:
         entropy = [self.settings.seed, *(zlib.crc32(str(part).encode()) for part in (self.experiment, self.key, trial))]
         return int(np.random.SeedSequence(entropy).generate_state(1)[0])
 
+    def bench_seed(self, what: str, repeat: int) -> int:
+        """The noise of `what` every configuration of the experiment shares on bench
+        `repeat` (its calibration): from the experiment and the bench, not the configuration."""
+        entropy = [self.settings.seed, *(zlib.crc32(str(part).encode()) for part in (self.experiment, what, repeat))]
+        return int(np.random.SeedSequence(entropy).generate_state(1)[0])
+
 
 class TaskRun:
     """One task's bench, trials and rows (one row per trial and quantity)."""

@@ -17,14 +17,18 @@ point scored and the campaign's bench time the cost (minutes of computing: `repr
 leaves it to `study`). Each but the search is also run, in the experiment
 `..._calibrated`, after the deskew and gain check (`protocols.calibration`) on the same
 bench, whose correction the power takes and whose bench time the trial is charged (per
-point: the worst case; a campaign pays it once). Averaging lowers the noise until the
-bench's errors are all that is left: the floor.
+point: the worst case; a campaign pays it once). As on a real bench, a bench is
+calibrated once and every configuration measured on it takes that calibration: it is
+measured on a bench of its own with the same drawn errors and its own seed
+(`bench_calibration`), so a worker measures it once for all of them. Averaging lowers
+the noise until the bench's errors are all that is left: the floor.
 """
 
 from __future__ import annotations
 
 import contextlib
 import dataclasses
+import functools
 import tempfile
 from pathlib import Path
 from typing import TYPE_CHECKING, Iterator
@@ -96,6 +100,29 @@ def measure_calibration(session: SimulatedSession, settings: SystematicsSettings
     return calibration_from_points(pd.DataFrame(rows))
 
 
+def bench_calibration(run: "TaskRun", repeat: int, limits: SafetyLimits) -> tuple[Deskew, float]:
+    """The deskew calibration of bench `repeat + 1` and its bench time: what every
+    configuration of the task's experiment measured on that bench takes."""
+    task = run.task
+    return _calibration(task.scene_file, task.scene_text, task.state, repeat, limits, run.settings.base.settle_s,
+                        run.settings.systematics, task.bench_seed("calibration", repeat))
+
+
+@functools.lru_cache(maxsize=64)
+def _calibration(scene_file: str, scene_text: str, state: str | None, repeat: int, limits: SafetyLimits,
+                 settle_s: float, settings: SystematicsSettings, seed: int) -> tuple[Deskew, float]:
+    """`measure_calibration` on a fresh bench `repeat + 1` of the scene, its noise from `seed`:
+    a function of its arguments only, so kept for the worker's next configuration."""
+    with tempfile.TemporaryDirectory(prefix="squeezebench-calibration-") as tmp:
+        scene = Path(tmp) / scene_file
+        scene.write_text(scene_text, encoding="utf-8")
+        bench = scene_with_effects(scene, Path(tmp) / f"bench_{repeat + 1}", systematic_effects(repeat + 1))
+        with open_simulated(bench, state, settle_s, limits) as session:
+            session.simulated.reseed(seed)
+            start_s = session.now_s()
+            return measure_calibration(session, settings), session.now_s() - start_s
+
+
 def _truth_at_setting(run: "TaskRun", frequency_hz: float, generator_vpp: float, limits: SafetyLimits):
     """The plate without the errors at the same generator setting."""
     with open_simulated(run.scene, run.task.state, run.settings.base.settle_s, limits) as plain:
@@ -111,10 +138,8 @@ def point_trials(point: str, calibrated: bool, run: "TaskRun") -> None:
     voltage_vpp = s.point_voltage_vpp if point == "table3" else x.stress_voltage_vpp
     limits = SafetyLimits(max_piezo_voltage_vpp=max(voltage_vpp, SafetyLimits().max_piezo_voltage_vpp))
     for repeat in range(s.repeats):
+        correction, calibration_s = bench_calibration(run, repeat, limits) if calibrated else (None, 0.0)
         with erring_bench(run, repeat, limits) as session:
-            start_s = session.now_s()
-            correction = measure_calibration(session, x) if calibrated else None
-            calibration_s = session.now_s() - start_s
             session.drive.set_piezo_voltage(voltage_vpp)
             if point == "table3":
                 session.go_to_resonance()
@@ -145,19 +170,19 @@ def sweep_trials(calibrated: bool, run: "TaskRun") -> None:
         geometry = plain.simulated.scene.geometry(plain.simulated.state)
         truth = characterise_at_resonance(plain, s.sweep_scene, voltages_vpp, geometry, measure=None)
     for repeat in range(s.repeats):
+        correct, calibration_s = None, 0.0
+        if calibrated:
+            correction, calibration_s = bench_calibration(run, repeat, limits)
+
+            def correct(points: pd.DataFrame, correction: Deskew = correction) -> pd.Series:
+                return correction.corrected_power_w(points["power_w"], points["reactive_power_var"],
+                                                    points["frequency_hz"])
         with erring_bench(run, repeat, limits) as session:
             start_s = session.now_s()
-            correct = None
-            if calibrated:
-                correction = measure_calibration(session, s.systematics)
-
-                def correct(points: pd.DataFrame, correction: Deskew = correction) -> pd.Series:
-                    return correction.corrected_power_w(points["power_w"], points["reactive_power_var"],
-                                                        points["frequency_hz"])
             acquisition = session.acquisition(run.acquisition_settings())
             measured = characterise_at_resonance(session, s.sweep_scene, voltages_vpp, geometry, acquisition,
                                                  correct)
-            run.add(repeat, session.now_s() - start_s,
+            run.add(repeat, session.now_s() - start_s + calibration_s,
                     {"q": (measured.q.value, truth.q.value),
                      "tan_theta": (measured.tan_theta.value, truth.tan_theta.value)})
 
