@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import contextlib
 import threading
+import warnings
 from typing import Any, Callable, Iterable, Iterator, TypeVar
 
 import joblib
@@ -22,6 +23,12 @@ from squeezebench.errors import UserError
 
 T = TypeVar("T")
 CONNECT_TIMEOUT_S = 10.0
+# A map its caller stops (a study stopped with its campaign) drops its unused and running
+# tasks on purpose: joblib's warning about them would be a second message after the stop's.
+warnings.filterwarnings("ignore", message=r"\d+ tasks (have been successfully executed|which were still being)",
+                        category=UserWarning, module="joblib")
+
+
 def _indexed(function: Callable[[T], Any], index: int, item: T) -> tuple[int, Any]:
     return index, function(item)
 

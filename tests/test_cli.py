@@ -253,3 +253,28 @@ def test_every_help_ends_with_examples_that_parse(command, capsys):
         words = line.split("#")[0].split()
         assert words[0] == "squeezebench" and words[1] == command
         parser.parse_args(words[1:])   # an example that does not parse exits 2 here
+
+
+def test_reproduce_stops_its_study_when_the_campaign_stops(tmp_path, monkeypatch):
+    # The study runs beside the campaign (from its first stored step): a stop of the campaign
+    # (Ctrl-C, SIGTERM) must end the study too, not leave it running behind exit 130.
+    import threading
+
+    from squeezebench.protocols import accuracy_study, campaign
+
+    seen = {}
+
+    def study(out_dir, stop=None, **kwargs):
+        seen["started"] = True
+        seen["stopped"] = stop.wait(timeout=10)
+
+    def stopped_campaign(path, on_step=None, **kwargs):
+        on_step({"run": "fig2a_one_column", "step": "resonance"})
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(accuracy_study, "run_study", study)
+    monkeypatch.setattr(campaign, "run_campaign", stopped_campaign)
+    with pytest.raises(KeyboardInterrupt):
+        cli.cmd_reproduce(cli.build_parser().parse_args(["reproduce", "--out", str(tmp_path / "paper"), "-q"]))
+    assert seen == {"started": True, "stopped": True}
+    assert not [t for t in threading.enumerate() if t.name == "beside"]
