@@ -13,7 +13,6 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
-from scipy import stats
 
 from squeezebench.analysis.tables import MissingDataError
 
@@ -200,13 +199,15 @@ def coverage_table(points: pd.DataFrame) -> pd.DataFrame:
     shares that bench's errors, so a bench is covered nearly wholly or hardly at all: the
     pooled fraction is about the fraction of benches covered, and few benches leave it
     uncertain: the Wilson 95 % interval of the fraction of benches mostly covered says how much."""
+    from scipy.stats import binomtest   # here: scipy.stats takes a third of a second to import in every study worker
+
     if "error_model" not in points:
         points = points.assign(error_model="specified")
     rows = []
     for (model, quantity), group in points.groupby(["error_model", "quantity"], sort=False):
         by_bench = group.groupby("bench_seed")["covered"].mean()
         mostly = int((by_bench >= 0.5).sum())
-        interval = stats.binomtest(mostly, len(by_bench)).proportion_ci(method="wilson")
+        interval = binomtest(mostly, len(by_bench)).proportion_ci(method="wilson")
         rows.append({"error_model": model, "quantity": quantity, "benches": len(by_bench), "points": len(group),
                      "covered_fraction": float(group["covered"].mean()),
                      "benches_fully_covered": int((by_bench == 1.0).sum()),
