@@ -14,8 +14,9 @@
 6. `squeezebench plan paper --target-rel-error 0.01` with the default flags (goal <= 10 s),
    from an empty plan cache, then again at the same target (`protocols.plan_cache`).
 
-Wall times of the commands are single runs (they are long); the short operations take
-the best of several. The machine may be shared: each wall time is printed with the
+Wall times of the commands are single runs (they are long), each in a fresh process as a
+user starts it (imports and worker processes included); the short operations take the
+best of several. The machine may be shared: each wall time is printed with the
 1-minute load average taken just before it, so a reader can tell an idle figure from a
 loaded one.
 
@@ -25,15 +26,13 @@ Run: python benchmarks/bench_scaling.py [--repeat N] [--skip-reproduce] [--skip-
 from __future__ import annotations
 
 import argparse
-import contextlib
-import io
 import math
 import os
+import subprocess
 import sys
 import tempfile
 import time
 from pathlib import Path
-from unittest import mock
 
 import numpy as np
 import pandas as pd
@@ -47,7 +46,6 @@ from squeezebench import cli, paths  # noqa: E402
 from squeezebench.workers import default_workers  # noqa: E402
 from squeezebench.analysis import study  # noqa: E402
 from squeezebench.analysis.waveforms import reduce_point  # noqa: E402
-from squeezebench.protocols import accuracy_study  # noqa: E402
 from squeezebench.protocols.plan_cache import CACHE_VARIABLE  # noqa: E402
 
 FREQUENCY_HZ = 37180.0
@@ -60,29 +58,35 @@ def load() -> str:
     return f"load {os.getloadavg()[0]:.2f}"
 
 
+def command_s(arguments: list[str], environment: dict[str, str] | None = None,
+              allowed: tuple[int, ...] = (0,)) -> tuple[float, str]:
+    """Wall seconds of `python -m squeezebench ARGUMENTS` in a fresh process, as a user runs
+    it (start-up, imports and worker processes included), and the load average before it."""
+    before = load()
+    start_s = time.perf_counter()
+    done = subprocess.run([sys.executable, "-m", "squeezebench", *arguments], capture_output=True, text=True,
+                          env={**os.environ, **(environment or {})}, cwd=ROOT)
+    elapsed_s = time.perf_counter() - start_s
+    if done.returncode not in allowed:
+        raise SystemExit(f"squeezebench {' '.join(arguments)} exited with {done.returncode}: {done.stderr}")
+    return elapsed_s, before
+
+
 def reproduce_s(workers: int | None) -> tuple[float, str, pd.DataFrame]:
-    """Wall seconds of `squeezebench reproduce` (`--workers N` unless None: the default
-    flags), the load average before it, and its study's figures."""
+    """`squeezebench reproduce` (`--workers N` unless None: the default flags): its wall
+    seconds, the load average before it, and its study's figures."""
     flags = [] if workers is None else ["--workers", str(workers)]
     with tempfile.TemporaryDirectory(prefix="squeezebench-bench-") as tmp:
-        before = load()
-        start_s = time.perf_counter()
-        status = cli.main(["reproduce", "--out", str(Path(tmp) / "paper"), "--quiet", *flags])
-        total_s = time.perf_counter() - start_s
-        if status != 0:
-            raise SystemExit(f"reproduce {' '.join(flags)} exited with {status}")
-        return total_s, before, study.figures(study.load_trials(Path(tmp) / "paper"))
+        elapsed_s, before = command_s(["reproduce", "--out", str(Path(tmp) / "paper"), "--quiet", *flags])
+        return elapsed_s, before, study.figures(study.load_trials(Path(tmp) / "paper"))
 
 
 def study_s(workers: int) -> tuple[float, str]:
-    """Wall seconds of reproduce's accuracy study alone on `workers` (in `reproduce` it
-    shares the cores with the campaign), and the load average before it."""
+    """`squeezebench study` with reproduce's experiments only (in `reproduce` the study shares
+    the cores with the campaign) on `workers`."""
+    experiments = [flag for name in cli.REPRODUCE_EXPERIMENTS for flag in ("--experiment", name)]
     with tempfile.TemporaryDirectory(prefix="squeezebench-bench-") as tmp:
-        before = load()
-        start_s = time.perf_counter()
-        accuracy_study.run_study(Path(tmp), experiments=cli.REPRODUCE_EXPERIMENTS, progress=lambda message: None,
-                                 workers=workers, bar=False)
-        return time.perf_counter() - start_s, before
+        return command_s(["study", "--out", tmp, "--quiet", "--workers", str(workers), *experiments])
 
 
 def figures_against_reference(found: pd.DataFrame) -> str:
@@ -131,17 +135,9 @@ def plan_s() -> list[tuple[float, str]]:
     """`squeezebench plan paper --target-rel-error 0.01` with the default flags (its map run
     included; the target is below the floor, so it exits 2 after printing the plan): from an
     empty plan cache, then again with what the first stored."""
-    times = []
-    with tempfile.TemporaryDirectory() as cache, mock.patch.dict(os.environ, {CACHE_VARIABLE: cache}), \
-            contextlib.redirect_stderr(io.StringIO()):
-        for _ in range(2):
-            before = load()
-            start_s = time.perf_counter()
-            status = cli.main(["plan", "paper", "--target-rel-error", "0.01", "--quiet"])
-            times.append((time.perf_counter() - start_s, before))
-            if status not in (0, 2):
-                raise SystemExit(f"plan exited with {status}")
-    return times
+    with tempfile.TemporaryDirectory() as cache:
+        return [command_s(["plan", "paper", "--target-rel-error", "0.01", "--quiet"], {CACHE_VARIABLE: cache},
+                          allowed=(0, 2)) for _ in range(2)]
 
 
 def main() -> None:
