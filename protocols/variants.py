@@ -12,7 +12,7 @@ can run.
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any
+from typing import Any, Callable
 
 from squeezebench import paths
 from squeezebench.yamlfiles import dump_yaml, load_strict
@@ -35,18 +35,19 @@ MAP_PROTOCOLS = ("cartography",)
 
 def without_maps(campaign_file: Path) -> Path:
     """Rewrite the campaign file without its map runs (a variant the studies run)."""
-    data = load_strict(Path(campaign_file).read_text(encoding="utf-8"))
-    data["runs"] = [run for run in data["runs"] if run.get("protocol") not in MAP_PROTOCOLS]
-    Path(campaign_file).write_text(dump_yaml(data), encoding="utf-8")
-    return Path(campaign_file)
+    return _keep_runs(campaign_file, lambda run: run.get("protocol") not in MAP_PROTOCOLS)
 
 
 def only_run(campaign_file: Path, name: str) -> Path:
     """Rewrite the campaign file with run `name` alone: each run opens a bench of its own,
     so it takes the same bench time alone as within the campaign (a planner times runs apart,
     on as many workers)."""
+    return _keep_runs(campaign_file, lambda run: run["name"] == name)
+
+
+def _keep_runs(campaign_file: Path, keep: Callable[[dict], bool]) -> Path:
     data = load_strict(Path(campaign_file).read_text(encoding="utf-8"))
-    data["runs"] = [run for run in data["runs"] if run["name"] == name]
+    data["runs"] = [run for run in data["runs"] if keep(run)]
     Path(campaign_file).write_text(dump_yaml(data), encoding="utf-8")
     return Path(campaign_file)
 
