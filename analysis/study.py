@@ -84,8 +84,8 @@ def compare_figures(current: pd.DataFrame, reference: pd.DataFrame, coverage: fl
     """Each figure of `current` beside `reference` (both from `figures`): the p95's change in
     units of their combined Monte Carlo uncertainty (`z`), `within` when |z| <= `coverage`
     (about 95 % of figures when both runs sample the same error distributions), and the
-    relative change of the bench time. Figures only one side has are left out (`missing`
-    counts them in the caller's words)."""
+    relative change of the bench time. Figures only one side has are left out (the caller
+    counts them)."""
     keys = [k for k in FIGURE_KEYS if k in current and k in reference]
     both = current.merge(reference, on=keys, suffixes=("", "_reference"), validate="one_to_one")
     combined = np.hypot(both["p95_mc_u"], both["p95_mc_u_reference"])
