@@ -528,6 +528,7 @@ TOLERANCES: dict[str, Tolerance] = {
     "resonator_young_pa": Tolerance(0.03, "assumed: aluminium alloys 67-71 GPa, +-3 %"),
 }
 _GEOMETRY_FIELDS = ("resonator_thickness_m", "piezo_thickness_m", "piezo_length_m", "half_wavelength_m")
+_MATERIAL_FIELDS = ("piezo_d31_c_per_n", "piezo_c11_pa", "resonator_young_pa")
 #: Where the resonator thickness's tolerance comes from.
 SHEET_THICKNESS_SOURCE = ("EN 485-4 Table 1, cold-rolled sheet up to 1000 mm wide, alloy group II: +-0.05 mm "
                           "from 0.8 to 1.2 mm, +-0.09 mm at 2 mm (specifications.sheet_thickness_tolerance)")
@@ -537,7 +538,6 @@ def tolerances_for(geometry: model.PlateGeometry) -> dict[str, Tolerance]:
     """`TOLERANCES` and the resonator thickness's, its sheet's at the plate's nominal thickness."""
     return {"resonator_thickness_m": Tolerance(sheet_thickness_tolerance(geometry.resonator_thickness_m),
                                                SHEET_THICKNESS_SOURCE), **TOLERANCES}
-_MATERIAL_FIELDS = ("piezo_d31_c_per_n", "piezo_c11_pa", "resonator_young_pa")
 
 
 def model_budgets(amplitude: Budget, power: Budget, voltage: Budget, frequency_hz: float,

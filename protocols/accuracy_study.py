@@ -348,13 +348,15 @@ class Task:
     def seed(self, trial: int | str) -> int:
         """The noise of one trial (or of the configuration's setup): from what defines it,
         never from what ran before, so any order, partition or worker count draws the same."""
-        entropy = [self.settings.seed, *(zlib.crc32(str(part).encode()) for part in (self.experiment, self.key, trial))]
-        return int(np.random.SeedSequence(entropy).generate_state(1)[0])
+        return self._seed(self.key, trial)
 
     def bench_seed(self, what: str, repeat: int) -> int:
         """The noise of `what` every configuration of the experiment shares on bench
         `repeat` (its calibration): from the experiment and the bench, not the configuration."""
-        entropy = [self.settings.seed, *(zlib.crc32(str(part).encode()) for part in (self.experiment, what, repeat))]
+        return self._seed(what, repeat)
+
+    def _seed(self, *parts: Any) -> int:
+        entropy = [self.settings.seed, *(zlib.crc32(str(part).encode()) for part in (self.experiment, *parts))]
         return int(np.random.SeedSequence(entropy).generate_state(1)[0])
 
 

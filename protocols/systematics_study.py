@@ -76,10 +76,14 @@ class SystematicsSettings:
 @contextlib.contextmanager
 def erring_bench(run: "TaskRun", repeat: int, limits: SafetyLimits) -> Iterator[SimulatedSession]:
     """Bench `repeat + 1`: the task's plate, the instruments' errors drawn from that seed."""
-    scene = scene_with_effects(run.scene, run.scene.parent / f"bench_{repeat + 1}", systematic_effects(repeat + 1))
-    with open_simulated(scene, run.task.state, run.settings.base.settle_s, limits) as session:
+    with open_simulated(_bench_scene(run.scene, repeat), run.task.state, run.settings.base.settle_s, limits) as session:
         session.simulated.reseed(run.task.seed(repeat))
         yield session
+
+
+def _bench_scene(scene: Path, repeat: int) -> Path:
+    """Bench `repeat + 1` of `scene`, its instruments' errors drawn from that seed, written beside it."""
+    return scene_with_effects(scene, scene.parent / f"bench_{repeat + 1}", systematic_effects(repeat + 1))
 
 
 def measure_calibration(session: SimulatedSession, settings: SystematicsSettings) -> Deskew:
@@ -116,8 +120,7 @@ def _calibration(scene_file: str, scene_text: str, state: str | None, repeat: in
     with tempfile.TemporaryDirectory(prefix="squeezebench-calibration-") as tmp:
         scene = Path(tmp) / scene_file
         scene.write_text(scene_text, encoding="utf-8")
-        bench = scene_with_effects(scene, Path(tmp) / f"bench_{repeat + 1}", systematic_effects(repeat + 1))
-        with open_simulated(bench, state, settle_s, limits) as session:
+        with open_simulated(_bench_scene(scene, repeat), state, settle_s, limits) as session:
             session.simulated.reseed(seed)
             start_s = session.now_s()
             return measure_calibration(session, settings), session.now_s() - start_s

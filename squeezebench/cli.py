@@ -318,11 +318,11 @@ def cmd_plan(args: argparse.Namespace) -> int:
         say(args, f"campaign: {campaign} (shipped; no file named {args.campaign} here)")
     runs = load_campaign(campaign).runs
     cache = campaign_cache(campaign)
-    map_plans = [run for run in runs if run.protocol in MAP_PROTOCOLS]
-    plan = None if len(map_plans) == len(runs) else make_plan(
+    map_runs = [run for run in runs if run.protocol in MAP_PROTOCOLS]
+    plan = None if len(map_runs) == len(runs) else make_plan(
         campaign, args.target_rel_error, workers=args.workers, scheduler=args.scheduler, cache=cache,
-        alongside=[map_job(run, cache) for run in map_plans])   # on the same workers
-    maps = [plan_map(run, args.target_rel_error, cache=cache) for run in map_plans]
+        alongside=[map_job(run, cache) for run in map_runs])   # on the same workers
+    maps = [plan_map(run, args.target_rel_error, cache=cache) for run in map_runs]
     written = None
     if args.write:
         written = write_planned_campaign(campaign, plan, args.write) if plan else Path(shutil.copyfile(campaign, args.write))
