@@ -175,8 +175,7 @@ class DesignFile(_Model):
 
     @model_validator(mode="after")
     def _thickness_tolerance_known(self) -> "DesignFile":
-        if self.tolerances.thickness_m is None:   # the sheet's, which the standard gives only for some thicknesses
-            sheet_thickness_tolerance(self.resonator.thickness_mm * 1e-3)
+        self.tolerance("thickness_m")   # unstated, the sheet's: the standard gives it only for some thicknesses
         return self
 
     # -- what the plate model reads ----------------------------------------------------
