@@ -522,24 +522,36 @@ class TDS3054B(SCPIInstrument):
     def fetch_waveform(self, source: int | str, *, allow_clipped: bool = False) -> Waveform:
         """The whole record of `source` from the last acquisition, scaled to its units.
 
-        A record with samples at the ADC limits raises ClippedTraceError unless
-        `allow_clipped`; the Waveform says which fraction was clipped either way.
+        Two bus round trips: one message sets the transfer and reads the acquisition mode,
+        the averaging count and the preamble (p. 2-4), then CURVE?. DATa:STOP at the largest
+        record length transfers the whole record whatever its length (p. 2-96), so the
+        record length need not be asked first. A record with samples at the ADC limits
+        raises ClippedTraceError unless `allow_clipped`; the Waveform says which fraction
+        was clipped either way.
         """
         name = source_name(source)
-        points = self.record_length
-        self.data_source = name
-        self.data_encoding = "RIBINARY"
-        self.data_width = 2
-        self.data_start = 1
-        self.data_stop = points
-        reply = self.query("WFMPRE?")  # p. 2-314
-        if len(reply.split(";")) == 5:
+        scope = type(self)
+        message = concatenated([scope.data_source.set_message(self, name),
+                                scope.data_encoding.set_message(self, "RIBINARY"),
+                                scope.data_width.set_message(self, 2),
+                                scope.data_start.set_message(self, 1),
+                                scope.data_stop.set_message(self, max(RECORD_LENGTHS)),
+                                scope.acquire_mode.get_command, scope.num_averages.get_command,
+                                "WFMPRE?"])  # p. 2-314
+        reply = self.query(message)
+        parts = reply.split(";", 2)
+        if len(parts) != 3:
+            raise GarbledReply(self.role, self.resource_name, message, reply,
+                               "expected the acquisition mode, the averaging count and the preamble")
+        mode, averages = (self.parse_reply(message, part, control.value_of)
+                          for part, control in zip(parts, (scope.acquire_mode, scope.num_averages)))
+        if len(parts[2].split(";")) == 5:
             raise InstrumentError(self.role, self.resource_name,
                                   f"{name} is not displayed: the scope has no record of it")
-        preamble = self.parse_reply("WFMPRE?", reply, parse_preamble)
+        preamble = self.parse_reply(message, parts[2], parse_preamble)
         if (preamble.bytes_per_point, preamble.encoding, preamble.binary_format, preamble.byte_order) != \
                 (2, "BIN", "RI", "MSB"):
-            raise GarbledReply(self.role, self.resource_name, "WFMPRE?", reply,
+            raise GarbledReply(self.role, self.resource_name, "WFMPRE?", parts[2],
                                "expected 2-byte signed big-endian binary (DATA:ENCDG RIBINARY, DATA:WIDTH 2)")
         raw = self.query_block("CURVE?")  # p. 2-90
         if raw.size != preamble.points:
@@ -550,13 +562,12 @@ class TDS3054B(SCPIInstrument):
         if clipped_fraction > 0 and not allow_clipped:
             raise ClippedTraceError(self.role, self.resource_name, name, clipped_fraction)
         n = np.arange(raw.size, dtype=np.float64)
-        averages = self.num_averages if self.acquire_mode == "AVERAGE" else 1
         return Waveform(
             time_s=preamble.x_zero_s + preamble.x_increment_s * (n - preamble.point_offset),
             values=preamble.y_zero + preamble.y_multiplier * (raw.astype(np.float64) - preamble.y_offset_counts),
             unit=preamble.y_unit, x_increment_s=preamble.x_increment_s, y_multiplier=preamble.y_multiplier,
             y_offset_counts=preamble.y_offset_counts, y_zero=preamble.y_zero, bits=preamble.bits,
-            source=name, clipped_fraction=clipped_fraction, averages=averages)
+            source=name, clipped_fraction=clipped_fraction, averages=averages if mode == "AVERAGE" else 1)
 
     # -- status (Section 3: *ESR? makes the events it summarises readable) -----------------------
     def read_events(self) -> list[tuple[int, str]]:

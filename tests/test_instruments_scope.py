@@ -194,38 +194,49 @@ def test_the_acquisition_timeout_reads_its_three_settings_in_one_message():
         assert scope.acquisition_timeout_s() == pytest.approx(5.0 + 16 * (10 * 1e-4 + 0.1))
 
 
-def fetch_script(points: int, reply_preamble: str, curve: bytes | None) -> list:
-    script = [("HORIZONTAL:RECORDLENGTH?", str(points)), ("DATA:SOURCE CH2", None), ("DATA:ENCDG RIBINARY", None),
-              ("DATA:WIDTH 2", None), ("DATA:START 1", None), (f"DATA:STOP {points}", None),
-              ("WFMPRE?", reply_preamble)]
-    return script + ([("CURVE?", curve)] if curve is not None else [])
+FETCH_CH2 = "DATA:SOURCE CH2;ENCDG RIBINARY;WIDTH 2;START 1;STOP 10000;:ACQUIRE:MODE?;NUMAVG?;:WFMPRE?"
+
+
+def fetch_script(reply_preamble: str, curve: bytes | None, acquisition: str = "AVERAGE;16") -> list:
+    """Fetching CH2: the transfer set and the record described in one message, then the curve."""
+    return [(FETCH_CH2, f"{acquisition};{reply_preamble}")] + ([("CURVE?", curve)] if curve is not None else [])
 
 
 def test_fetch_waveform_scales_the_block_with_the_preamble():
     raw = np.array([-200, 0, 100, 300])
-    with expected_protocol(TDS3054B, CONNECT + fetch_script(4, preamble(4), block(raw)) + [
-            ("ACQUIRE:MODE?", "AVERAGE"), ("ACQUIRE:NUMAVG?", "16")]) as scope:
+    with expected_protocol(TDS3054B, CONNECT + fetch_script(preamble(4), block(raw))) as scope:
         waveform = scope.fetch_waveform(2)
     assert waveform.values == pytest.approx(0.5 + 1.5625e-5 * (raw - 100.0))
     assert waveform.time_s == pytest.approx(-1e-3 + 2e-6 * np.arange(4))
     assert waveform.unit == "A" and waveform.averages == 16 and waveform.clipped_fraction == 0.0
 
 
+def test_a_sample_mode_record_is_one_waveform_whatever_the_averaging_count():
+    with expected_protocol(TDS3054B, CONNECT + fetch_script(preamble(4), block([1, 2, 3, 4]), "SAMPLE;16")) as scope:
+        assert scope.fetch_waveform(2).averages == 1
+
+
+def test_a_fetch_reply_without_its_three_parts_is_garbled():
+    with expected_protocol(TDS3054B, CONNECT + [(FETCH_CH2, "AVERAGE;16")]) as scope:
+        with pytest.raises(GarbledReply, match="the averaging count and the preamble"):
+            scope.fetch_waveform(2)
+
+
 def test_fetching_a_channel_that_is_not_displayed_says_so():
-    with expected_protocol(TDS3054B, CONNECT + fetch_script(4, "2;16;BIN;RI;MSB", None)) as scope:
+    with expected_protocol(TDS3054B, CONNECT + fetch_script("2;16;BIN;RI;MSB", None)) as scope:
         with pytest.raises(InstrumentError, match="CH2 is not displayed"):
             scope.fetch_waveform(2)
 
 
 def test_a_clipped_record_is_refused():
     raw = np.array([0, 32640, 100, 32700])
-    with expected_protocol(TDS3054B, CONNECT + fetch_script(4, preamble(4), block(raw))) as scope:
+    with expected_protocol(TDS3054B, CONNECT + fetch_script(preamble(4), block(raw))) as scope:
         with pytest.raises(ClippedTraceError, match="50 %"):
             scope.fetch_waveform(2)
 
 
 def test_a_block_shorter_than_announced_is_garbled():
-    with expected_protocol(TDS3054B, CONNECT + fetch_script(4, preamble(4), block([1, 2, 3]))) as scope:
+    with expected_protocol(TDS3054B, CONNECT + fetch_script(preamble(4), block([1, 2, 3]))) as scope:
         with pytest.raises(GarbledReply, match="announces 4 points"):
             scope.fetch_waveform(2)
 

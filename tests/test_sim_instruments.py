@@ -179,6 +179,19 @@ def test_a_channel_that_is_not_displayed_has_no_measurement_nor_record(bench):
     assert s.query("ALLEV?").startswith('2244,"Waveform requested is not turned on')
 
 
+def test_a_transfer_stopping_beyond_the_record_sends_the_whole_record(bench):
+    """p. 2-96: DATa:STOP above the record length transfers up to it (the driver's fetch
+    relies on it rather than asking the record length first)."""
+    s = bench["scope"]
+    drive(bench)
+    setup(s)
+    s.write("ACQUIRE:STATE RUN")
+    s.query("*OPC?")
+    s.write("DATA:SOURCE CH1;ENCDG RIBINARY;WIDTH 2;START 1;STOP 10000")
+    assert s.query("WFMPRE?").split(";")[5] == "500"   # NR_PT
+    assert s.query_binary_values("CURVE?", datatype="h", is_big_endian=True, container=np.array).size == 500
+
+
 def test_math_exists_only_in_the_mode_it_was_defined_in(bench):
     s = bench["scope"]
     drive(bench)
