@@ -49,6 +49,7 @@ docs/scenes.md and the report show how far it departs and why.
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass, replace
 from pathlib import Path
@@ -464,13 +465,22 @@ class _Reader:
 
 
 def load_scene(path: str | Path) -> Scene:
-    """Read and validate a scene file; calibrate every state's motional branch."""
+    """Read and validate a scene file; calibrate every state's motional branch. The same
+    text at the same path gives the same (frozen) Scene for the rest of the process: a
+    study or a plan opens a bench per trial, and checking a scene may solve its plate."""
     path = Path(path)
-    reader = _Reader(path)
     try:
-        raw = load_strict(path.read_text(encoding="utf-8"))   # a key given twice is refused
+        text = path.read_text(encoding="utf-8")
     except OSError as exc:
         raise SceneError(f"{path}: cannot read the scene file ({exc.strerror})") from exc
+    return _scene(path, text)
+
+
+@functools.lru_cache(maxsize=32)
+def _scene(path: Path, text: str) -> Scene:
+    reader = _Reader(path)
+    try:
+        raw = load_strict(text)   # a key given twice is refused
     except yaml.YAMLError as exc:
         raise SceneError(f"{path}: {yaml_problem(exc)}") from None
     top = reader.mapping(raw, "scene", required=("plate", "actuators", "mode", "states", "initial_state"),

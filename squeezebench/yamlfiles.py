@@ -7,6 +7,8 @@ refuses both, naming the line. `dump_yaml` writes the files the project makes it
 
 from __future__ import annotations
 
+import copy
+import functools
 import math
 from pathlib import Path
 from typing import Any
@@ -77,7 +79,15 @@ def yaml_problem(exc: yaml.YAMLError) -> str:
 
 
 def load_strict(text: str) -> Any:
-    """YAML text through the strict loader (yaml.YAMLError on a repeated key or NaN/inf)."""
+    """YAML text through the strict loader (yaml.YAMLError on a repeated key or NaN/inf):
+    a copy of what the same text gave before in this process, since the studies and the
+    planner open a bench per trial, each reading its scene and bench files again (a copy
+    costs a tenth of a parse, and the caller may change it)."""
+    return copy.deepcopy(_parsed(text))
+
+
+@functools.lru_cache(maxsize=64)
+def _parsed(text: str) -> Any:
     return yaml.load(text, Loader=_StrictLoader)
 
 
