@@ -765,8 +765,11 @@ class EffectPipeline:
         for effect in self.by_stage["digitizer"]:
             self.digitizer_settings = effect.digitizer(self.digitizer_settings)
         self.is_random = bool(self._noise)
+        #: Acquisitions at the same settings may show different screens (a moving plate, an
+        #: effect that changes per acquisition): no screen can be reused.
+        self.screen_varies = bool(self._motion) or any(e.varies_per_acquisition for e in effects)
         #: Acquisitions at the same settings may differ: no record can be reused.
-        self.varies = self.is_random or bool(self._motion) or any(e.varies_per_acquisition for e in effects)
+        self.varies = self.is_random or self.screen_varies
         self.bus = self.by_stage["bus"]
 
     @property

@@ -72,6 +72,7 @@ class SimulatedBench:
         self.state_name = scene.initial_state
         self.effects = fx.build_pipeline(scene)
         self._steady_cache: tuple = (None, None)
+        self._screen_cache: tuple = (None, None)
         self._record_cache: tuple = (None, None)
         self.acquisitions_since_generator_write = 0
         self.messages_received = 0   # by the three instruments: what bus faults count
@@ -144,16 +145,21 @@ class SimulatedBench:
     def acquire(self, setup: traces.ScopeSetup, acquisition_period_s: float) -> traces.Record:
         """One acquisition starting now; its random stream is set by what defines it.
 
-        Without noise or transients a record depends only on the settings, so the last
-        one is reused while they stay the same (the ideal bench costs almost nothing).
+        Unless a moving plate or an effect changes it from one acquisition to the next, the
+        screen before the noise depends only on the settings, so the last one is reused
+        while they stay the same (repeated points draw only their noise); without noise the
+        record itself is (the ideal bench costs almost nothing).
         """
         steady = self.steady_state()
+        key = (self._steady_cache[0], setup, tuple(self.sensor_gains()))
+        if self.effects.screen_varies or self._screen_cache[0] != key:
+            self._screen_cache = (key, traces.screen(
+                steady, setup, self.sensor_gains(), self.vibrometer.range_mps_per_v(), self.effects,
+                self.clock.now_s(), acquisition_period_s))
+        shown = self._screen_cache[1]
         if not self.effects.varies:
-            key = (self._steady_cache[0], setup, tuple(self.sensor_gains()))
             if self._record_cache[0] != key:
-                self._record_cache = (key, traces.acquire(
-                    steady, setup, self.sensor_gains(), self.vibrometer.range_mps_per_v(), self.effects,
-                    self.clock.now_s(), acquisition_period_s, None))
+                self._record_cache = (key, traces.record_of(shown, self.effects.digitizer_settings, None))
             return self._record_cache[1]
         rng = None
         if self.effects.is_random:
@@ -162,9 +168,7 @@ class SimulatedBench:
                                            self.acquisitions_since_generator_write)
             rng = np.random.default_rng(seed)
         self.acquisitions_since_generator_write += 1
-        return traces.acquire(steady, setup, self.sensor_gains(),
-                              self.vibrometer.range_mps_per_v(), self.effects, self.clock.now_s(),
-                              acquisition_period_s, rng)
+        return traces.record_of(shown, self.effects.digitizer_settings, rng)
 
     def close(self) -> None:
         """Stop the effects' clock subscriptions (once: PyVISA may close twice)."""

@@ -11,7 +11,7 @@ from __future__ import annotations
 import functools
 import math
 import zlib
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from scipy.special import ndtr
@@ -111,14 +111,36 @@ def acquisition_seed(scene_seed: int, state: str, generator_key: str, counter: i
                                    zlib.crc32(generator_key.encode()), counter])
 
 
-def acquire(steady: physics.SteadyState, setup: ScopeSetup, sensor_gains: np.ndarray,
-            vibrometer_range_mps_per_v: float, pipeline: fx.EffectPipeline, start_s: float,
-            acquisition_period_s: float, rng: np.random.Generator | None) -> Record:
-    """One (possibly averaged) acquisition of the three channels through the effects.
+@dataclass
+class Screen:
+    """An acquisition before the digitiser draws its noise: the noise-free signals on the
+    screen (divisions from the centre, per channel), each channel's noise (divisions rms)
+    and what turns divisions back into channel units. Without a moving plate or an effect
+    that changes from one acquisition to the next, every acquisition at the same settings
+    shows the same screen, so a bench keeps it, with the sums of records `digitize` derives
+    from it (`sums`, per channel, filled as they are needed)."""
 
-    `sensor_gains` turn the physical signals into what reaches the scope inputs (probe
-    attenuation, current probe A/A, 1 / decoder range).
-    """
+    setup: ScopeSetup
+    frequency_hz: float
+    signal_div: np.ndarray      # (3, n)
+    noise_div_rms: np.ndarray   # (3,)
+    sums: dict = field(default_factory=dict)
+
+    def values(self, divisions: np.ndarray) -> np.ndarray:
+        """Channel values of screen positions (3, n)."""
+        channels = self.setup.channels
+        position = np.array([c.position_div for c in channels])[:, None]
+        scale = np.array([c.scale_per_div for c in channels])[:, None]
+        offset = np.array([c.offset for c in channels])[:, None]
+        return (divisions - position) * scale + offset
+
+
+def screen(steady: physics.SteadyState, setup: ScopeSetup, sensor_gains: np.ndarray,
+           vibrometer_range_mps_per_v: float, pipeline: fx.EffectPipeline, start_s: float,
+           acquisition_period_s: float) -> Screen:
+    """What one (possibly averaged) acquisition of the three channels shows through the
+    effects before the digitiser. `sensor_gains` turn the physical signals into what
+    reaches the scope inputs (probe attenuation, current probe A/A, 1 / decoder range)."""
     times = setup.times_s()
     probe = np.array([c.probe_gain for c in setup.channels])
     ctx = fx.AcquisitionContext(
@@ -138,12 +160,23 @@ def acquire(steady: physics.SteadyState, setup: ScopeSetup, sensor_gains: np.nda
     channel_values = _couple(signals * ctx.display_gain[:, None], setup, steady.frequency_hz)
     position = np.array([c.position_div for c in setup.channels])
     offset = np.array([c.offset for c in setup.channels])[:, None]
-    screen = (channel_values - offset) / ctx.scale_per_div[:, None] + position[:, None]
-    digitizer = pipeline.digitizer_settings
-    averages = setup.averages if digitizer.averaging else 1
-    screen = digitize(screen, pipeline.noise_div_rms(ctx), averages, digitizer, rng)
-    values = (screen - position[:, None]) * ctx.scale_per_div[:, None] + offset
-    return Record(setup, values, steady.frequency_hz)
+    signal_div = (channel_values - offset) / ctx.scale_per_div[:, None] + position[:, None]
+    return Screen(setup, steady.frequency_hz, signal_div, pipeline.noise_div_rms(ctx))
+
+
+def record_of(shown: Screen, settings: fx.DigitizerSettings, rng: np.random.Generator | None) -> Record:
+    """The record the scope keeps of `shown`: digitised, in channel units."""
+    averages = shown.setup.averages if settings.averaging else 1
+    divisions = digitize(shown.signal_div, shown.noise_div_rms, averages, settings, rng, shown.sums)
+    return Record(shown.setup, shown.values(divisions), shown.frequency_hz)
+
+
+def acquire(steady: physics.SteadyState, setup: ScopeSetup, sensor_gains: np.ndarray,
+            vibrometer_range_mps_per_v: float, pipeline: fx.EffectPipeline, start_s: float,
+            acquisition_period_s: float, rng: np.random.Generator | None) -> Record:
+    """One (possibly averaged) acquisition of the three channels through the effects."""
+    return record_of(screen(steady, setup, sensor_gains, vibrometer_range_mps_per_v, pipeline, start_s,
+                            acquisition_period_s), pipeline.digitizer_settings, rng)
 
 
 def input_gain(impedance_ohm: float, source_ohm: float) -> float:
@@ -164,24 +197,74 @@ MIN_SPREAD_LSB = 2.0
 
 
 def digitize(screen_div: np.ndarray, noise_div_rms: np.ndarray, averages: int,
-             settings: fx.DigitizerSettings, rng: np.random.Generator | None) -> np.ndarray:
+             settings: fx.DigitizerSettings, rng: np.random.Generator | None,
+             sums: dict | None = None) -> np.ndarray:
     """Screen positions (divisions) of the record the scope keeps, per channel: clipped
-    at the ADC limits and quantised, in sample mode or as an average of `averages`."""
+    at the ADC limits and quantised, in sample mode or as an average of `averages`.
+    `sums` keeps each channel's `SumOfRecords` for the next record of the same screen."""
     out = np.empty_like(screen_div)
     averaged = settings.averaging and averages > 1
+    sums = {} if sums is None else sums
     for ch, (signal, sigma) in enumerate(zip(screen_div, noise_div_rms)):
         if averaged:
-            out[ch] = average_of_records(signal, sigma, averages, settings, rng)
+            if sigma > 0 and ch not in sums:
+                sums[ch] = sum_of_records(signal, sigma, averages, settings)
+            out[ch] = average_of_records(signal, sigma, averages, settings, rng, sums.get(ch))
         else:
             noisy = signal + sigma * rng.standard_normal(signal.size) if sigma > 0 else signal
             out[ch] = _quantise(_clip(noisy), settings.sample_lsb_div)
     return _clip(out)
 
 
+@dataclass(frozen=True)
+class SumOfRecords:
+    """How `average_of_records` draws the sum of N records, per sample: `centre` + `spread`
+    Z (Z standard normal; rounded to whole sample steps when quantised) where `direct`,
+    the records one by one elsewhere. It depends on the signal, the noise and N only, so
+    the records of one screen share it."""
+
+    centre: np.ndarray
+    spread: np.ndarray | float
+    direct: np.ndarray   # bool per sample
+    quantised: bool
+
+
+def sum_of_records(signal: np.ndarray, sigma: float, averages: int,
+                   settings: fx.DigitizerSettings) -> SumOfRecords:
+    """The distribution `average_of_records` draws the sum of `averages` records of
+    `signal` + N(0, sigma^2) from (sigma > 0); see there."""
+    lsb = settings.sample_lsb_div
+    reach = NOISE_REACH_SIGMA * sigma
+    far = (signal >= fx.ADC_MIN_DIV + reach) & (signal <= fx.ADC_MAX_DIV - reach)
+    if lsb is None:
+        return SumOfRecords(averages * signal, sigma * math.sqrt(averages), far, quantised=False)
+    steps = signal / lsb   # one record's mean and variance, in sample steps
+    if sigma >= settings.dither_threshold_lsb * lsb and far.all():
+        mean, variance = steps, np.full_like(steps, (sigma / lsb) ** 2 + 1.0 / 12.0)
+    else:
+        mean_offset, step_variance = _step_moments(sigma / lsb)
+        # Linear interpolation on the uniform phase grid, by index (np.interp searches).
+        position = (steps - np.floor(steps)) * STEP_PHASES
+        index = np.minimum(position.astype(np.intp), STEP_PHASES - 1)
+        weight = position - index
+        mean = steps + mean_offset[index] * (1.0 - weight) + mean_offset[index + 1] * weight
+        variance = step_variance[index] * (1.0 - weight) + step_variance[index + 1] * weight
+        near = ~far
+        if near.any():
+            lowest, highest = round(fx.ADC_MIN_DIV / lsb), round(fx.ADC_MAX_DIV / lsb)   # the clip's levels
+            mean[near], variance[near] = _level_moments(steps[near], sigma / lsb, lowest, highest)
+    # The sum of N records is a whole number of steps: a normal rounded to that
+    # lattice, narrowed by the rounding's 1/12 (Sheppard's correction).
+    spread = np.sqrt(np.maximum(averages * variance - 1.0 / 12.0, 0.0))
+    direct = (averages * variance >= MIN_SPREAD_LSB**2) | (variance == 0.0)
+    return SumOfRecords(averages * mean, spread, direct, quantised=True)
+
+
 def average_of_records(signal: np.ndarray, sigma: float, averages: int, settings: fx.DigitizerSettings,
-                       rng: np.random.Generator | None) -> np.ndarray:
+                       rng: np.random.Generator | None, sums: SumOfRecords | None = None) -> np.ndarray:
     """The mean of `averages` records, each `signal` + N(0, sigma^2) clipped at the ADC
-    limits and quantised to the sample step, without drawing them where statistics allow.
+    limits and quantised to the sample step, without drawing them where statistics allow
+    (`sums`: `sum_of_records` of these arguments, computed here if not given).
 
     The records are independent, so their sum has N times the per-sample mean m and
     variance v of one record. It is drawn directly (one draw per sample, whatever N):
@@ -204,33 +287,11 @@ def average_of_records(signal: np.ndarray, sigma: float, averages: int, settings
     lsb = settings.sample_lsb_div
     if sigma == 0:   # every record is the same
         return _quantise(_quantise(_clip(signal), lsb), settings.average_lsb_div)
-    reach = NOISE_REACH_SIGMA * sigma
-    far = (signal >= fx.ADC_MIN_DIV + reach) & (signal <= fx.ADC_MAX_DIV - reach)
-    if lsb is None:
-        total = averages * signal + (sigma * math.sqrt(averages)) * rng.standard_normal(signal.size)
-        direct = far
-    else:
-        steps = signal / lsb   # one record's mean and variance, in sample steps
-        if sigma >= settings.dither_threshold_lsb * lsb and far.all():
-            mean, variance = steps, np.full_like(steps, (sigma / lsb) ** 2 + 1.0 / 12.0)
-        else:
-            mean_offset, step_variance = _step_moments(sigma / lsb)
-            # Linear interpolation on the uniform phase grid, by index (np.interp searches).
-            position = (steps - np.floor(steps)) * STEP_PHASES
-            index = np.minimum(position.astype(np.intp), STEP_PHASES - 1)
-            weight = position - index
-            mean = steps + mean_offset[index] * (1.0 - weight) + mean_offset[index + 1] * weight
-            variance = step_variance[index] * (1.0 - weight) + step_variance[index + 1] * weight
-            near = ~far
-            if near.any():
-                lowest, highest = round(fx.ADC_MIN_DIV / lsb), round(fx.ADC_MAX_DIV / lsb)   # the clip's levels
-                mean[near], variance[near] = _level_moments(steps[near], sigma / lsb, lowest, highest)
-        # The sum of N records is a whole number of steps: a normal rounded to that
-        # lattice, narrowed by the rounding's 1/12 (Sheppard's correction).
-        spread = np.sqrt(np.maximum(averages * variance - 1.0 / 12.0, 0.0))
-        total = np.round(averages * mean + spread * rng.standard_normal(signal.size))
-        direct = (averages * variance >= MIN_SPREAD_LSB**2) | (variance == 0.0)
-    drawn = ~direct
+    sums = sums or sum_of_records(signal, sigma, averages, settings)
+    total = sums.centre + sums.spread * rng.standard_normal(signal.size)
+    if sums.quantised:
+        total = np.round(total)
+    drawn = ~sums.direct
     if drawn.any():
         total[drawn] = _sum_of_records(signal[drawn], sigma, averages, lsb, rng)
     return _kept_average(total, averages, settings, rng)

@@ -98,3 +98,32 @@ def test_an_effect_that_is_off_costs_nothing_and_no_noise_is_exact():
     expected = traces._clip(traces._quantise(traces._quantise(traces._clip(signals), STEP_DIV),
                                              SETTINGS.average_lsb_div))
     np.testing.assert_array_equal(quiet, expected)
+
+
+@pytest.mark.parametrize("averages", [1, 4, 512])
+def test_records_of_a_kept_screen_are_those_of_fresh_ones_draw_for_draw(averages):
+    """A bench keeps a screen's sums of records for its next acquisitions at the same
+    settings: the records are then exactly what computing everything again gives."""
+    signals = screen(2000, 5.11)   # near the clip, some samples drawn record by record
+    kept: dict = {}
+    for seed in range(3):
+        again = traces.digitize(signals, NOISE_DIV, averages, SETTINGS, np.random.default_rng(seed), kept)
+        fresh = traces.digitize(signals, NOISE_DIV, averages, SETTINGS, np.random.default_rng(seed))
+        np.testing.assert_array_equal(again, fresh)
+    assert len(kept) == (3 if averages > 1 else 0)
+
+
+def test_a_bench_reuses_a_screen_only_while_its_settings_and_drive_stay():
+    from squeezebench import paths
+    from squeezebench.instruments.bench import open_bench, sim_bench_config
+
+    with open_bench(sim_bench_config(paths.default_scene())) as bench:
+        simulated = bench.resource_manager.visalib.bench
+        bench.generator.set_frequency(37000.0)
+        bench.scope.acquire()
+        first = simulated._screen_cache[1]
+        bench.scope.acquire()
+        assert simulated._screen_cache[1] is first
+        bench.generator.set_frequency(37100.0)
+        bench.scope.acquire()
+        assert simulated._screen_cache[1] is not first
