@@ -233,8 +233,10 @@ def test_nohup_ignored_sighup_does_not_stop_the_run(tmp_path):
     process = subprocess.Popen(["nohup", *_command("run", "quick.yaml", "--out", str(tmp_path / "run"), "-q")],
                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     for delay_s in (0.2, 0.8, 1.5, 2.5):   # start-up, bench open, steps
-        time.sleep(delay_s)
-        if process.poll() is None:
+        try:
+            process.wait(timeout=delay_s)
+            break   # ended: nothing left to signal
+        except subprocess.TimeoutExpired:
             process.send_signal(signal.SIGHUP)
     out, err = process.communicate(timeout=120)
     assert process.returncode == 0, err
