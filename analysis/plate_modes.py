@@ -328,9 +328,39 @@ def flexural_frequency_hz(material: Isotropic, thickness_m: float, half_waveleng
     return float((np.pi / half_wavelength_m) ** 2 * np.sqrt(d / mass) / (2 * np.pi))
 
 
+def stiffness_and_mass(basis, rigidity_per_element: np.ndarray, mass_per_element: np.ndarray,
+                       poisson: float) -> tuple:
+    """The Kirchhoff plate's stiffness and mass matrices (CSR) on `basis` (a scalar skfem
+    basis with Hessians): the bilinear forms D [(1 - nu) w,ab v,ab + nu w,aa v,bb] and
+    rho h w v, D and rho h constant on each element. The same quadrature as skfem's `asm`,
+    each element's 21 x 21 block as one batched matrix product instead of a loop over the
+    pairs of basis functions (four times faster on the large plate; equal to roundoff)."""
+    from scipy.sparse import coo_matrix
+
+    fields = [functions[0] for functions in basis.basis]
+    n = len(fields)
+    dx = basis.dx   # quadrature weight x Jacobian, (elements, points)
+    elements, points = dx.shape
+    hessians = np.stack([f.hess for f in fields]).reshape(n, 4, elements, points).transpose(2, 0, 1, 3)
+    traces = hessians[:, :, 0, :] + hessians[:, :, 3, :]   # (elements, n, points)
+    hessians = hessians.reshape(elements, n, 4 * points)
+    weight = rigidity_per_element[:, None] * dx
+    full = np.matmul(hessians * np.tile(weight, 4)[:, None, :], hessians.transpose(0, 2, 1))
+    laplacians = np.matmul(traces * weight[:, None, :], traces.transpose(0, 2, 1))
+    values = np.stack([f.value for f in fields]).transpose(1, 0, 2)   # (elements, n, points)
+    mass = np.matmul(values * (mass_per_element[:, None] * dx)[:, None, :], values.transpose(0, 2, 1))
+    dofs = basis.element_dofs.T   # block (e, j, i) couples dof i (row) with dof j (column)
+    rows = np.broadcast_to(dofs[:, None, :], (elements, n, n)).ravel()
+    columns = np.broadcast_to(dofs[:, :, None], (elements, n, n)).ravel()
+    shape = (basis.N, basis.N)
+    stiffness = (1 - poisson) * full + poisson * laplacians
+    return (coo_matrix((stiffness.ravel(), (rows, columns)), shape=shape).tocsr(),
+            coo_matrix((mass.ravel(), (rows, columns)), shape=shape).tocsr())
+
+
 def _solve(geometry, resonator, piezo, near_hz, n_modes, elements_per_half_wave, mesh_half_wave_m=None) -> PlateModes:
-    from skfem import BilinearForm, LinearForm, asm
-    from skfem.helpers import dd, ddot, trace
+    from skfem import LinearForm
+    from skfem.helpers import dd, trace
 
     half_wave = mesh_half_wave_m or flexural_half_wavelength_m(resonator, geometry.thickness_m, near_hz)
     target = half_wave / elements_per_half_wave
@@ -352,26 +382,12 @@ def _solve(geometry, resonator, piezo, near_hz, n_modes, elements_per_half_wave,
         d_lam, m_lam, _ = laminate(resonator, geometry.thickness_m, piezo, p.thickness_m)
         d_e[mask], m_e[mask] = d_lam, m_lam
         inside.append(mask)
-    nqp = basis.X.shape[1]
-    nu = resonator.poisson
-
-    @BilinearForm
-    def stiffness(u, v, w):
-        return w.d * ((1 - nu) * ddot(dd(u), dd(v)) + nu * trace(dd(u)) * trace(dd(v)))
-
-    @BilinearForm
-    def mass(u, v, w):
-        return w.m * u * v
 
     @LinearForm
     def laplacian(v, w):
         return trace(dd(v))
 
-    def per_element(values):
-        return np.repeat(values[:, None], nqp, axis=1)
-
-    k_mat = asm(stiffness, basis, d=per_element(d_e))
-    m_mat = asm(mass, basis, m=per_element(m_e))
+    k_mat, m_mat = stiffness_and_mass(basis, d_e, m_e, resonator.poisson)
     sigma = (2 * np.pi * near_hz) ** 2
     n = min(n_modes, k_mat.shape[0] - 2)
     # a fixed start vector: ARPACK's random one would flip mode signs from run to run
