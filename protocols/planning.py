@@ -179,24 +179,21 @@ def measure_setting(scene: Path, state: str | None, point: OperatingPoint, acqui
 
 
 def simulate_run_bench_time_s(campaign_path: Path, run_name: str, acquisition: dict) -> float:
-    """Bench time of run `run_name` of the campaign (or `CALIBRATION_RUN`, the deskew
-    calibration a calibrated plan starts with) with these acquisition settings, run alone on
-    the simulated bench: a run opens a bench of its own, so alone it takes what it does
-    within the campaign (`variants.only_run`), and the runs are timed on as many workers."""
+    """Bench time of run `run_name` of the campaign with these acquisition settings, run
+    alone on the simulated bench: a run opens a bench of its own, so alone it takes what it
+    does within the campaign (`variants.only_run`), and the runs are timed on as many workers."""
     with tempfile.TemporaryDirectory(prefix="squeezebench-plan-") as tmp:
-        variant = only_run(planned_campaign(campaign_path, {run_name: acquisition}, run_name == CALIBRATION_RUN,
+        variant = only_run(planned_campaign(campaign_path, {run_name: acquisition}, False,
                                             Path(tmp) / campaign_path.name), run_name)
         return bench_time_by_run_s(run_campaign(variant, out_dir=Path(tmp) / "run", progress=False))[run_name]
 
 
-def bench_time_jobs(cache: PlanCache, campaign_path: Path, acquisition_by_run: dict[str, dict],
-                    calibrate: bool) -> dict[functools.partial, str]:
-    """{job: run name} timing every run of `acquisition_by_run`, and the calibration first
-    if `calibrate`; each run's job depends on its own settings only, so a plan at another
-    target reads the runs whose setting it keeps."""
-    runs = {**({CALIBRATION_RUN: {}} if calibrate else {}), **acquisition_by_run}
+def bench_time_jobs(cache: PlanCache, campaign_path: Path, acquisition_by_run: dict[str, dict]
+                    ) -> dict[functools.partial, str]:
+    """{job: run name} timing every run of `acquisition_by_run`; each run's job depends on
+    its own settings only, so a plan at another target reads the runs whose setting it keeps."""
     return {cache.job(simulate_run_bench_time_s, campaign_path, name, acquisition): name
-            for name, acquisition in runs.items()}
+            for name, acquisition in acquisition_by_run.items()}
 
 
 @dataclasses.dataclass
@@ -350,7 +347,7 @@ def make_plan(campaign_path: Path, target_rel_error: float, repeats: int = REPEA
     # they run beside it, as do the `alongside` jobs (the caller's map plans of the campaign).
     cache = cache or campaign_cache(campaign_path)
     baseline = bench_time_jobs(cache, campaign_path, {run.name: {"averages": BASELINE_AVERAGES}
-                                                      for run in campaign.runs}, calibrate=False)
+                                                      for run in campaign.runs})
     floors_job = cache.job(measure_floors, campaign_path)
     jobs = {cache.job(measure_setting, *key, setting, repeats): (key, setting)
             for key in plates for setting in SETTINGS}
@@ -412,9 +409,12 @@ def _choose(campaign, campaign_path: Path, target_rel_error: float, repeats: int
         settings_by_run[run.name] = setting
         error_by_run[run.name] = max(s.result(setting).p95_rel_error for s in run_studies)
     timing = bench_time_jobs(cache, campaign_path, {name: dataclasses.asdict(setting)
-                                                    for name, setting in settings_by_run.items()}, floors.calibrate)
+                                                    for name, setting in settings_by_run.items()})
     done = cache.run(list(timing), workers, scheduler, "planned bench time")
-    planned_s = {name: done[job] for job, name in timing.items()}
+    # The calibration a calibrated plan starts with is the floors' own: a run opens a bench
+    # of its own, so it takes there the bench time it takes first in the planned campaign.
+    planned_s = {**({CALIBRATION_RUN: floors.calibration_bench_time_s} if floors.calibrate else {}),
+                 **{name: done[job] for job, name in timing.items()}}
     return Plan(target_rel_error, studies_by_run, settings_by_run, error_by_run, planned_s, baseline_s,
                 repeats=repeats, floors=floors, own_s=floors.own_bench_time_s,
                 noise_scale={name: scale for name, scale in noise_scale.items() if scale != 1.0},

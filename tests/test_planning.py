@@ -81,7 +81,9 @@ def test_a_setting_measures_the_same_whatever_ran_before():
 
 
 def test_a_run_timed_alone_takes_its_bench_time_within_the_campaign(tmp_path):
-    # The planner times runs apart, on as many workers: each must cost what it does in order.
+    # The planner times runs apart, on as many workers: each must cost what it does in order,
+    # and the calibration what it cost when the floors were measured.
+    from squeezebench.protocols.accuracy_plan import measure_floors
     from squeezebench.protocols.bench_errors import bench_time_by_run_s
     from squeezebench.protocols.campaign import run_campaign
     from squeezebench.protocols.planning import CALIBRATION_RUN, simulate_run_bench_time_s
@@ -91,5 +93,7 @@ def test_a_run_timed_alone_takes_its_bench_time_within_the_campaign(tmp_path):
     together = bench_time_by_run_s(run_campaign(planned_campaign(QUICK, settings, True, tmp_path / QUICK.name),
                                                 out_dir=tmp_path / "run", progress=False))
     assert set(together) == {CALIBRATION_RUN, *settings}
+    _, _, calibration_s, _ = measure_floors(QUICK)
+    assert calibration_s == pytest.approx(together.pop(CALIBRATION_RUN), rel=1e-9)
     for name, seconds in together.items():
-        assert simulate_run_bench_time_s(QUICK, name, settings.get(name, {})) == pytest.approx(seconds, rel=1e-9)
+        assert simulate_run_bench_time_s(QUICK, name, settings[name]) == pytest.approx(seconds, rel=1e-9)
