@@ -151,6 +151,12 @@ class NeighbouringMode(Effect):
         return replace(load, branches=(*load.branches, neighbour))
 
 
+#: The resonance follows the plate's temperature to a millikelvin (2e-7 of its frequency,
+#: under a hundredth of a hertz): the steady state is solved again when the plate has
+#: warmed by that much, not at every message that advances the clock.
+TEMPERATURE_RESOLUTION_K = 1e-3
+
+
 class HeatingDrift(Effect):
     """The plate warms with the power it dissipates and its resonance falls.
 
@@ -177,7 +183,7 @@ class HeatingDrift(Effect):
         self._plate_power_w = None
 
     def load(self, load: physics.PlateLoad) -> physics.PlateLoad:
-        factor = 1.0 + self.parameters["frequency_coefficient_per_k"] * self.temperature_rise_k
+        factor = 1.0 + self.parameters["frequency_coefficient_per_k"] * self.state_key()
         return load.with_branch_frequencies_scaled(factor)
 
     def attach(self, bench) -> None:
@@ -188,7 +194,8 @@ class HeatingDrift(Effect):
         bench.clock.unsubscribe(self._advance)
 
     def state_key(self) -> float:
-        return self.temperature_rise_k
+        """The temperature rise the plate's resonance follows, to TEMPERATURE_RESOLUTION_K."""
+        return round(self.temperature_rise_k / TEMPERATURE_RESOLUTION_K) * TEMPERATURE_RESOLUTION_K
 
     def _advance(self, start_s: float, duration_s: float) -> None:
         # Sub-steps of a tenth of tau keep the power (which depends on the temperature
