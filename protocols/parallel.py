@@ -12,7 +12,6 @@ planner seed every trial from what defines it).
 from __future__ import annotations
 
 import contextlib
-import importlib
 import threading
 import warnings
 from typing import Any, Callable, Iterable, Iterator, TypeVar
@@ -113,28 +112,3 @@ class Beside:
         self.stop.set()
         if self._thread is not None:
             self._thread.join()
-
-
-def _import(module: str) -> None:
-    importlib.import_module(module)   # nothing returned: a module is not a result to send back
-
-
-def warm(workers: int, module: str) -> threading.Thread | None:
-    """Start the `workers` local processes a later `map_unordered` will use, each importing
-    `module` (what its tasks need), on a thread (returned; None for one worker): the
-    workers spawn and import (most of a second) while this process reads its inputs and
-    imports its own, instead of after."""
-    if workers < 2:
-        return None
-
-    def spawn_and_import() -> None:
-        try:
-            with _backend(workers, None) as n_jobs:
-                # twice as many imports as workers: each worker takes one before any finishes
-                joblib.Parallel(n_jobs=n_jobs)(joblib.delayed(_import)(module) for _ in range(2 * n_jobs))
-        except Exception:   # best effort (a stop may end the workers first): the map reports failures
-            pass
-
-    thread = threading.Thread(target=spawn_and_import, name="warm", daemon=True)
-    thread.start()
-    return thread

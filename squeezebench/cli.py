@@ -287,10 +287,6 @@ def _run_coverage(args: argparse.Namespace, out: Path, benches: int) -> None:
 def cmd_study(args: argparse.Namespace) -> int:
     from dataclasses import replace
 
-    from squeezebench.protocols import parallel
-
-    if args.scheduler is None:
-        parallel.warm(args.workers, "squeezebench.protocols.accuracy_study")
     from squeezebench.protocols.accuracy_study import StudySettings, run_study
 
     try:
@@ -308,10 +304,6 @@ def cmd_study(args: argparse.Namespace) -> int:
 
 
 def cmd_plan(args: argparse.Namespace) -> int:
-    from squeezebench.protocols import parallel
-
-    if args.scheduler is None:
-        parallel.warm(args.workers, "squeezebench.protocols.planning")
     from squeezebench.protocols.campaign import load_campaign
     from squeezebench.protocols.map_planning import map_job, plan_map, write_planned_maps
     from squeezebench.protocols.planning import campaign_cache, make_plan, plan_text, write_planned_campaign

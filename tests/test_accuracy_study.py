@@ -235,20 +235,6 @@ def test_beside_hands_back_what_its_thread_raised_and_runs_when_never_started():
     assert waiting.stop.is_set() and not waiting._thread.is_alive()
 
 
-@pytest.mark.filterwarnings("error::pytest.PytestUnhandledThreadExceptionWarning")
-def test_warmed_workers_run_the_map_and_a_failed_warming_costs_it_nothing():
-    # `study` and `plan` start their workers importing while they read their inputs; the
-    # warming is best effort, and the map that follows (possibly while it is still
-    # running) must not see its failures.
-    from squeezebench.protocols.parallel import map_unordered, warm
-
-    warming = [warm(2, "no_such_module_anywhere"), warm(2, "json")]
-    assert sorted(map_unordered(abs, [-3, -1, 2], workers=2)) == [(-3, 3), (-1, 1), (2, 2)]
-    for thread in warming:
-        thread.join()   # a failure it did not keep to itself fails the test here
-    assert warm(1, "json") is None   # one worker: this process, nothing to start
-
-
 def _synthetic_trials(scale: float, seed: int) -> pd.DataFrame:
     rng = np.random.default_rng(seed)
     rows = [{"experiment": "averages", "scene": "s.yaml", "state": "", **{k: 0 for k in study.KNOBS},
