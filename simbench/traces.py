@@ -171,14 +171,6 @@ def record_of(shown: Screen, settings: fx.DigitizerSettings, rng: np.random.Gene
     return Record(shown.setup, shown.values(divisions), shown.frequency_hz)
 
 
-def acquire(steady: physics.SteadyState, setup: ScopeSetup, sensor_gains: np.ndarray,
-            vibrometer_range_mps_per_v: float, pipeline: fx.EffectPipeline, start_s: float,
-            acquisition_period_s: float, rng: np.random.Generator | None) -> Record:
-    """One (possibly averaged) acquisition of the three channels through the effects."""
-    return record_of(screen(steady, setup, sensor_gains, vibrometer_range_mps_per_v, pipeline, start_s,
-                            acquisition_period_s), pipeline.digitizer_settings, rng)
-
-
 def input_gain(impedance_ohm: float, source_ohm: float) -> float:
     """What an input of `impedance_ohm` keeps of a signal from a source of `source_ohm`,
     relative to the 1 MOhm input the probes and gains are specified for: a 10:1 passive
