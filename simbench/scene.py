@@ -49,7 +49,7 @@ docs/scenes.md and the report show how far it departs and why.
 
 from __future__ import annotations
 
-import functools
+import collections
 import math
 from dataclasses import dataclass, replace
 from pathlib import Path
@@ -464,19 +464,30 @@ class _Reader:
         return value
 
 
+#: Scenes built in this process, by (file name, text), most recently used last: a study or
+#: a plan opens a bench per trial (a study's task writes its scene into a folder of its
+#: own), and checking a scene may solve its plate. A scene depends on its folder only
+#: through `path`, set on the copy returned.
+_BUILT: "collections.OrderedDict[tuple[str, str], Scene]" = collections.OrderedDict()
+_BUILT_SIZE = 32
+
+
 def load_scene(path: str | Path) -> Scene:
-    """Read and validate a scene file; calibrate every state's motional branch. The same
-    text at the same path gives the same (frozen) Scene for the rest of the process: a
-    study or a plan opens a bench per trial, and checking a scene may solve its plate."""
+    """Read and validate a scene file; calibrate every state's motional branch."""
     path = Path(path)
     try:
         text = path.read_text(encoding="utf-8")
     except OSError as exc:
         raise SceneError(f"{path}: cannot read the scene file ({exc.strerror})") from exc
-    return _scene(path, text)
+    key = (path.name, text)
+    if key not in _BUILT:
+        _BUILT[key] = _scene(path, text)   # a refused scene raises, naming this path, and is not kept
+        while len(_BUILT) > _BUILT_SIZE:
+            _BUILT.popitem(last=False)
+    _BUILT.move_to_end(key)
+    return replace(_BUILT[key], path=path)
 
 
-@functools.lru_cache(maxsize=32)
 def _scene(path: Path, text: str) -> Scene:
     reader = _Reader(path)
     try:
