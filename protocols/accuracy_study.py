@@ -173,6 +173,9 @@ class Experiment:
     state: Callable[[StudySettings], str | None]
     configurations: Callable[[StudySettings], list[dict]]
     run: Callable[["TaskRun"], None]
+    #: Its configurations share each bench's calibration (`systematics_study.bench_calibration`,
+    #: kept by the worker): one worker runs them all, so no bench is calibrated twice.
+    shares_calibrations: bool = False
 
 
 def _at_the_point(run: "TaskRun") -> None:
@@ -302,7 +305,7 @@ EXPERIMENTS: dict[str, Experiment] = {
         lambda s: SceneSpec(s.point_scene),
         (lambda s: s.point_state) if point == "table3" else (lambda s: s.systematics.stress_state),
         lambda s: [{"averages": n} for n in s.systematics.averages],
-        functools.partial(systematics_study.point_trials, point, calibrated))
+        functools.partial(systematics_study.point_trials, point, calibrated), shares_calibrations=calibrated)
        for point in ("table3", "stress") for calibrated in (False, True)},
     "systematics_search": Experiment(
         lambda s: SceneSpec(s.point_scene), lambda s: s.point_state,
@@ -318,7 +321,7 @@ EXPERIMENTS: dict[str, Experiment] = {
     **{f"systematics_sweep{'_calibrated' if calibrated else ''}": Experiment(
         lambda s: SceneSpec(s.sweep_scene), lambda s: None,
         lambda s: [{"n_voltages": s.systematics.sweep_voltages, "averages": n} for n in s.systematics.sweep_averages],
-        functools.partial(systematics_study.sweep_trials, calibrated))
+        functools.partial(systematics_study.sweep_trials, calibrated), shares_calibrations=calibrated)
        for calibrated in (False, True)},
 }
 
@@ -408,6 +411,25 @@ class TaskRun:
                      {"resonance_frequency_hz": (result.frequency_hz, true_hz)}, search_tolerance_hz=tolerance_hz)
 
 
+def work_units(tasks: list[Task]) -> list[tuple[Task, ...]]:
+    """What one worker runs at a time: the configurations of an experiment that shares its
+    benches' calibrations together (on two workers, calibrating every bench in both cost
+    the study 16 calibrations of 40), each other task alone; the shared ones first, being
+    the longest, so the last units to finish are short."""
+    shared: dict[str, list[Task]] = {}
+    alone = []
+    for task in tasks:
+        if EXPERIMENTS[task.experiment].shares_calibrations:
+            shared.setdefault(task.experiment, []).append(task)
+        else:
+            alone.append((task,))
+    return [tuple(unit) for unit in shared.values()] + alone
+
+
+def run_tasks(unit: tuple[Task, ...]) -> list[pd.DataFrame]:
+    return [run_task(task) for task in unit]
+
+
 def run_task(task: Task) -> pd.DataFrame:
     """The trials of one task (in a worker: the scene goes to a private temporary file)."""
     with tempfile.TemporaryDirectory(prefix="squeezebench-study-") as tmp:
@@ -483,9 +505,10 @@ class AccuracyStudy:
             where = f"the Dask cluster at {self.scheduler}" if self.scheduler is not None else \
                 f"{self.workers} worker{'s' if self.workers > 1 else ''}"
             self.progress(f"accuracy study: {len(pending)} tasks of {len(tasks)} on {where}")
-        for task, frame in map_unordered(run_task, pending, self.workers, self.scheduler, "accuracy study",
-                                         bar=self.bar):
-            write_frame_atomic(self._task_path(task), frame)
+        for unit, frames in map_unordered(run_tasks, work_units(pending), self.workers, self.scheduler,
+                                          "accuracy study", bar=self.bar):
+            for task, frame in zip(unit, frames):
+                write_frame_atomic(self._task_path(task), frame)
             if self.stop is not None and self.stop.is_set():   # the tasks stored are kept for a resume
                 return self.out_dir
         for name in experiments:
@@ -510,7 +533,7 @@ def run_study(out_dir: Path, settings: StudySettings = StudySettings(),
               stop: threading.Event | None = None, bar: bool = True) -> Path:
     """The study on the shipped scenes into OUT_DIR/study/, on `workers` local processes
     or the Dask cluster at `scheduler` (the trials are the same either way); once `stop` is
-    set it ends after the task it is storing, unassembled (`resume` continues it); `bar`
+    set it ends after the tasks it is storing, unassembled (`resume` continues it); `bar`
     off hides its progress bar (it runs beside another)."""
     return AccuracyStudy(settings, paths.scenes_dir(), out_dir, progress, workers, scheduler, stop,
                          bar).run(experiments, resume)

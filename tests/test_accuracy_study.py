@@ -219,6 +219,20 @@ def test_a_stopped_study_keeps_the_task_it_stored_and_resumes_to_the_same_trials
         pd.testing.assert_frame_equal(frame, serial[name])
 
 
+def test_configurations_sharing_calibrations_go_to_one_worker_first():
+    # A calibrated experiment's configurations share each bench's calibration, which a
+    # worker keeps: together, on one worker, no bench is calibrated twice.
+    names = ("averages", "systematics_table3_calibrated", "systematics_table3", "systematics_sweep_calibrated")
+    tasks = AccuracyStudy(SMALL, paths.scenes_dir(), "unused").tasks(names)
+    units = accuracy_study.work_units(tasks)
+    assert [[task.experiment for task in unit] for unit in units[:2]] == [
+        ["systematics_table3_calibrated"] * len(SMALL.systematics.averages),
+        ["systematics_sweep_calibrated"] * len(SMALL.systematics.sweep_averages)]
+    assert all(len(unit) == 1 for unit in units[2:])
+    every = [task for unit in units for task in unit]
+    assert len(every) == len(tasks) and set(every) == set(tasks)   # each task once
+
+
 def test_beside_hands_back_what_its_thread_raised_and_runs_when_never_started():
     from squeezebench.protocols.parallel import Beside
 
