@@ -427,6 +427,7 @@ def work_units(tasks: list[Task]) -> list[tuple[Task, ...]]:
 
 
 def run_tasks(unit: tuple[Task, ...]) -> list[pd.DataFrame]:
+    """The trials of a unit's tasks, in order, on one worker."""
     return [run_task(task) for task in unit]
 
 

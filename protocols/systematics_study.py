@@ -20,8 +20,9 @@ bench, whose correction the power takes and whose bench time the trial is charge
 point: the worst case; a campaign pays it once). As on a real bench, a bench is
 calibrated once and every configuration measured on it takes that calibration: it is
 measured on a bench of its own with the same drawn errors and its own seed
-(`bench_calibration`), kept by the worker that runs all of them (`accuracy_study.work_units`). Averaging lowers
-the noise until the bench's errors are all that is left: the floor.
+(`bench_calibration`), kept by the worker that runs all of them
+(`accuracy_study.work_units`). Averaging lowers the noise until the bench's errors are
+all that is left: the floor.
 """
 
 from __future__ import annotations

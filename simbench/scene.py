@@ -51,6 +51,7 @@ from __future__ import annotations
 
 import collections
 import math
+import threading
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
@@ -467,9 +468,11 @@ class _Reader:
 #: Scenes built in this process, by (file name, text), most recently used last: a study or
 #: a plan opens a bench per trial (a study's task writes its scene into a folder of its
 #: own), and checking a scene may solve its plate. A scene depends on its folder only
-#: through `path`, set on the copy returned.
+#: through `path`, set on the copy returned. `reproduce` on one worker loads scenes on two
+#: threads (the campaign's and the study's): the lock keeps the order consistent.
 _BUILT: "collections.OrderedDict[tuple[str, str], Scene]" = collections.OrderedDict()
 _BUILT_SIZE = 32
+_BUILT_LOCK = threading.Lock()
 
 
 def load_scene(path: str | Path) -> Scene:
@@ -480,12 +483,17 @@ def load_scene(path: str | Path) -> Scene:
     except OSError as exc:
         raise SceneError(f"{path}: cannot read the scene file ({exc.strerror})") from exc
     key = (path.name, text)
-    if key not in _BUILT:
-        _BUILT[key] = _scene(path, text)   # a refused scene raises, naming this path, and is not kept
-        while len(_BUILT) > _BUILT_SIZE:
-            _BUILT.popitem(last=False)
-    _BUILT.move_to_end(key)
-    return replace(_BUILT[key], path=path)
+    with _BUILT_LOCK:
+        scene = _BUILT.get(key)
+        if scene is not None:
+            _BUILT.move_to_end(key)
+    if scene is None:
+        scene = _scene(path, text)   # a refused scene raises, naming this path, and is not kept
+        with _BUILT_LOCK:
+            _BUILT[key] = scene
+            while len(_BUILT) > _BUILT_SIZE:
+                _BUILT.popitem(last=False)
+    return replace(scene, path=path)
 
 
 def _scene(path: Path, text: str) -> Scene:
