@@ -12,6 +12,7 @@ planner seed every trial from what defines it).
 from __future__ import annotations
 
 import contextlib
+import importlib
 import threading
 import warnings
 from typing import Any, Callable, Iterable, Iterator, TypeVar
@@ -62,11 +63,13 @@ def map_unordered(function: Callable[[T], Any], items: Iterable[T], workers: int
 
     `workers` local processes (1: in this process, in order), or the Dask cluster at
     `scheduler`. The progress bar shows only when stderr is a terminal, and `bar`
-    (not beside another one: see `Beside`).
+    (not beside another one: see `Beside`). A `warm` still starting the workers is waited
+    for first: two joblib calls at once on one loky executor die together when either aborts.
     """
     items = list(items)
     if not items:
         return
+    _wait_for_warming()
     with _backend(workers, scheduler) as n_jobs, \
             tqdm(total=len(items), desc=description, unit="task", disable=None if bar else True,
                  leave=False) as progress:
@@ -112,3 +115,37 @@ class Beside:
         self.stop.set()
         if self._thread is not None:
             self._thread.join()
+
+
+_warming: list[threading.Thread] = []   # the `warm` threads not yet waited for
+
+
+def _import(module: str) -> None:
+    importlib.import_module(module)   # nothing returned: a module is no result to send back
+
+
+def warm(workers: int, module: str) -> None:
+    """Start the `workers` local processes a later `map_unordered` uses, each importing
+    `module` (what its tasks need), on a thread: the workers spawn and import (most of a
+    second) while this process reads its inputs and imports its own, instead of after.
+    The map waits for it before it starts, so the two never share the executor at once."""
+    if workers < 2:
+        return
+
+    def spawn_and_import() -> None:
+        try:
+            with _backend(workers, None) as n_jobs:
+                # twice as many imports as workers: each worker takes one before any ends
+                joblib.Parallel(n_jobs=n_jobs)(joblib.delayed(_import)(module) for _ in range(2 * n_jobs))
+        except Exception:   # the module or a process failed: the map meets it again and says so
+            pass
+
+    thread = threading.Thread(target=spawn_and_import, name="warm", daemon=True)
+    _warming.append(thread)
+    thread.start()
+
+
+def _wait_for_warming() -> None:
+    while _warming:
+        _warming.pop().join()
+

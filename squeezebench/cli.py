@@ -287,6 +287,10 @@ def _run_coverage(args: argparse.Namespace, out: Path, benches: int) -> None:
 def cmd_study(args: argparse.Namespace) -> int:
     from dataclasses import replace
 
+    from squeezebench.protocols import parallel
+
+    if args.scheduler is None:   # the workers import their trials' code while this process does
+        parallel.warm(args.workers, "squeezebench.protocols.accuracy_study")
     from squeezebench.protocols.accuracy_study import StudySettings, run_study
 
     try:

@@ -233,6 +233,22 @@ def test_configurations_sharing_calibrations_go_to_one_worker_first():
     assert len(every) == len(tasks) and set(every) == set(tasks)   # each task once
 
 
+@pytest.mark.filterwarnings("error::pytest.PytestUnhandledThreadExceptionWarning")
+def test_warmed_workers_run_the_map_and_a_failed_warming_costs_it_nothing():
+    # `study` starts its workers importing while it reads its inputs; the
+    # map waits for that first (two joblib calls on one executor die together), and a
+    # warming that fails is the map's to meet, not an error of its own.
+    from squeezebench.protocols import parallel
+
+    parallel.warm(2, "no_such_module_anywhere")
+    parallel.warm(2, "json")
+    assert len(parallel._warming) == 2
+    assert sorted(parallel.map_unordered(abs, [-3, -1, 2], workers=2)) == [(-3, 3), (-1, 1), (2, 2)]
+    assert parallel._warming == []   # waited for before the map started
+    parallel.warm(1, "json")   # one worker: this process, nothing to start
+    assert parallel._warming == []
+
+
 def test_beside_hands_back_what_its_thread_raised_and_runs_when_never_started():
     from squeezebench.protocols.parallel import Beside
 
