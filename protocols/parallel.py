@@ -148,4 +148,3 @@ def warm(workers: int, module: str) -> None:
 def _wait_for_warming() -> None:
     while _warming:
         _warming.pop().join()
-
