@@ -35,7 +35,7 @@ import pandas as pd
 from squeezebench.analysis.waveforms import integer_period_mean_power_w, sample_interval_s
 from squeezebench.protocols.accuracy_plan import CALIBRATION_RUN, AccuracyFloors, accuracy_floors, measure_floors
 from squeezebench.protocols.simulated_session import open_simulated
-from squeezebench.protocols.variants import MAP_PROTOCOLS, only_run, planned_campaign
+from squeezebench.protocols.variants import MAP_PROTOCOLS, only_run, planned_campaign, with_acquisition
 from squeezebench.protocols.bench_errors import (
     bench_time_by_run_s, errors_on_bench, p95_by_run)
 from squeezebench.protocols.acquisition import AcquisitionSettings
@@ -183,8 +183,8 @@ def simulate_run_bench_time_s(campaign_path: Path, run_name: str, acquisition: d
     alone on the simulated bench: a run opens a bench of its own, so alone it takes what it
     does within the campaign (`variants.only_run`), and the runs are timed on as many workers."""
     with tempfile.TemporaryDirectory(prefix="squeezebench-plan-") as tmp:
-        variant = only_run(planned_campaign(campaign_path, {run_name: acquisition}, False,
-                                            Path(tmp) / campaign_path.name), run_name)
+        variant = only_run(with_acquisition(campaign_path, {run_name: acquisition}, Path(tmp) / campaign_path.name),
+                           run_name)
         return bench_time_by_run_s(run_campaign(variant, out_dir=Path(tmp) / "run", progress=False))[run_name]
 
 

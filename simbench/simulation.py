@@ -150,11 +150,11 @@ class SimulatedBench:
         while they stay the same (repeated points draw only their noise); without noise the
         record itself is (the ideal bench costs almost nothing).
         """
-        steady = self.steady_state()
-        key = (self._steady_cache[0], setup, tuple(self.sensor_gains()))
+        steady, gains = self.steady_state(), self.sensor_gains()
+        key = (self._steady_cache[0], setup, tuple(gains))
         if self.effects.screen_varies or self._screen_cache[0] != key:
             self._screen_cache = (key, traces.screen(
-                steady, setup, self.sensor_gains(), self.vibrometer.range_mps_per_v(), self.effects,
+                steady, setup, gains, self.vibrometer.range_mps_per_v(), self.effects,
                 self.clock.now_s(), acquisition_period_s))
         shown = self._screen_cache[1]
         if not self.effects.varies:

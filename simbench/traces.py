@@ -128,11 +128,15 @@ class Screen:
 
     def values(self, divisions: np.ndarray) -> np.ndarray:
         """Channel values of screen positions (3, n)."""
-        channels = self.setup.channels
-        position = np.array([c.position_div for c in channels])[:, None]
-        scale = np.array([c.scale_per_div for c in channels])[:, None]
-        offset = np.array([c.offset for c in channels])[:, None]
+        position, scale, offset = _screen_placement(self.setup)
         return (divisions - position) * scale + offset
+
+
+def _screen_placement(setup: ScopeSetup) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Each channel's position (divisions), scale (units per division) and offset (units),
+    as columns: a value v sits at (v - offset) / scale + position divisions."""
+    return tuple(np.array([getattr(c, name) for c in setup.channels])[:, None]
+                 for name in ("position_div", "scale_per_div", "offset"))
 
 
 def screen(steady: physics.SteadyState, setup: ScopeSetup, sensor_gains: np.ndarray,
@@ -158,9 +162,8 @@ def screen(steady: physics.SteadyState, setup: ScopeSetup, sensor_gains: np.ndar
     signals = signals * (sensor_gains * np.array([c.input_gain for c in setup.channels]))[:, None]
     signals = pipeline.signals(signals, ctx)
     channel_values = _couple(signals * ctx.display_gain[:, None], setup, steady.frequency_hz)
-    position = np.array([c.position_div for c in setup.channels])
-    offset = np.array([c.offset for c in setup.channels])[:, None]
-    signal_div = (channel_values - offset) / ctx.scale_per_div[:, None] + position[:, None]
+    position, scale, offset = _screen_placement(setup)
+    signal_div = (channel_values - offset) / scale + position
     return Screen(setup, steady.frequency_hz, signal_div, pipeline.noise_div_rms(ctx))
 
 
