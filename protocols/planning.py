@@ -4,8 +4,9 @@ For every distinct plate (scene, state) the campaign's runs measure, on the simu
 bench at its resonance and the run's (smallest) voltage, the relative error of the
 power reduced from the stored waveforms (analysis.waveforms.integer_period_mean_power_w,
 as the analysis does) against the scene's closed-form truth (`truth().power_w`) is
-measured for each setting: record length 500 or 10000 points x averaging 1 (sample
-mode), 2, 4, ..., 512, over several acquisitions (each acquisition's noise is seeded by
+measured for each setting, one after the other on one bench per plate: record length
+500 or 10000 points x averaging 1 (sample mode), 2, 4, ..., 512, over several
+acquisitions (each setting ranges the channels afresh, and each acquisition's noise is seeded by
 the scene's seed and what defines it, so the plan is reproducible and the same on any
 number of workers, `protocols.parallel`); the 95th percentile of |error| is compared with the
 target. A run gets the setting meeting the target on all its plates at the least bench
@@ -27,14 +28,14 @@ import math
 import tempfile
 import zlib
 from pathlib import Path
-from typing import Any, Sequence
+from typing import Any, Callable, Sequence
 
 import numpy as np
 import pandas as pd
 
 from squeezebench.analysis.waveforms import integer_period_mean_power_w, sample_interval_s
 from squeezebench.protocols.accuracy_plan import CALIBRATION_RUN, AccuracyFloors, accuracy_floors, measure_floors
-from squeezebench.protocols.simulated_session import open_simulated
+from squeezebench.protocols.simulated_session import SimulatedSession, open_simulated
 from squeezebench.protocols.variants import MAP_PROTOCOLS, only_run, planned_campaign, with_acquisition
 from squeezebench.protocols.bench_errors import (
     bench_time_by_run_s, errors_on_bench, p95_by_run)
@@ -60,6 +61,9 @@ class Setting:
 
     record_length: int
     averages: int
+
+
+SETTINGS = tuple(Setting(r, n) for r in RECORD_LENGTHS for n in AVERAGES)
 
 
 @dataclasses.dataclass
@@ -148,14 +152,15 @@ def _trial_seed(scene_seed: int, state: str | None, point: OperatingPoint, setti
     return int(np.random.SeedSequence(entropy).generate_state(1)[0])
 
 
-def measure_setting(scene: Path, state: str | None, point: OperatingPoint, acquisition: AcquisitionSettings,
-                    limits: SafetyLimits, setting: Setting, repeats: int = REPEATS) -> tuple[SettingResult, float]:
-    """Error and bench cost of one setting on one plate at one operating point (a fresh
-    bench), and the frequency driven."""
+def measure_settings(scene: Path, state: str | None, point: OperatingPoint, acquisition: AcquisitionSettings,
+                     limits: SafetyLimits, repeats: int = REPEATS, settings: Sequence[Setting] = SETTINGS
+                     ) -> tuple[list[SettingResult], float]:
+    """Error and bench cost of each setting on one plate at one operating point, and the
+    frequency driven. One bench serves them all, as on a real bench: the plate is driven
+    there once, and each setting ranges the channels afresh and draws from its own seeds
+    (`_trial_seed`), so it measures the same whatever was measured before it."""
     with open_simulated(scene, state, acquisition.settle_s, limits) as session:
-        simulated, clock = session.simulated, session.bench.clock
-        scene_seed = simulated.scene.seed
-        simulated.reseed(_trial_seed(scene_seed, state, point, setting, "setup"))
+        simulated = session.simulated
         session.drive.set_piezo_voltage(point.voltage_vpp)
         if point.frequency_hz is None:
             session.go_to_resonance()   # the closed-form resonance, not a measured search
@@ -164,18 +169,29 @@ def measure_setting(scene: Path, state: str | None, point: OperatingPoint, acqui
             scale = point.velocity_level_pp_mps / simulated.truth().velocity_pp_mps
             session.drive.set_piezo_voltage(min(point.voltage_vpp * scale, session.drive.max_piezo_voltage_vpp))
         truth_power_w = simulated.truth().power_w
-        ranged = session.acquisition(dataclasses.replace(
-            acquisition, record_length=setting.record_length, averages=setting.averages))
-        ranged.measure(keep_waveforms=False)   # ranges the channels once
-        errors, costs_s = [], []
-        for repeat in range(repeats):
-            simulated.reseed(_trial_seed(scene_seed, state, point, setting, repeat))
-            start_s = clock.now_s()
-            measured = copy.copy(ranged).measure(keep_waveforms=True)   # each from the ranged state
-            costs_s.append(clock.now_s() - start_s)
-            errors.append(abs(_waveform_power_w(measured) / truth_power_w - 1.0))
-        result = SettingResult(setting, float(np.percentile(errors, ERROR_PERCENTILE)), float(np.mean(costs_s)))
-        return result, session.drive.frequency_hz
+        scene_seed = simulated.scene.seed
+        return ([_measure_setting(session, acquisition, setting, truth_power_w, repeats,
+                                  functools.partial(_trial_seed, scene_seed, state, point, setting))
+                 for setting in settings], session.drive.frequency_hz)
+
+
+def _measure_setting(session: SimulatedSession, acquisition: AcquisitionSettings, setting: Setting,
+                     truth_power_w: float, repeats: int, seed: Callable[[int | str], int]) -> SettingResult:
+    """One setting at the present drive: ranged once, then `repeats` acquisitions, each
+    from the ranged state and its own seed (`seed(trial)`)."""
+    simulated, clock = session.simulated, session.bench.clock
+    simulated.reseed(seed("setup"))
+    ranged = session.acquisition(dataclasses.replace(
+        acquisition, record_length=setting.record_length, averages=setting.averages))
+    ranged.measure(keep_waveforms=False)   # ranges the channels once
+    errors, costs_s = [], []
+    for repeat in range(repeats):
+        simulated.reseed(seed(repeat))
+        start_s = clock.now_s()
+        measured = copy.copy(ranged).measure(keep_waveforms=True)   # each from the ranged state
+        costs_s.append(clock.now_s() - start_s)
+        errors.append(abs(_waveform_power_w(measured) / truth_power_w - 1.0))
+    return SettingResult(setting, float(np.percentile(errors, ERROR_PERCENTILE)), float(np.mean(costs_s)))
 
 
 def simulate_run_bench_time_s(campaign_path: Path, run_name: str, acquisition: dict) -> float:
@@ -311,8 +327,6 @@ class Plan:
                     "p95_abs_rel_error": self.check.to_dict(orient="records")}}
 
 
-SETTINGS = tuple(Setting(r, n) for r in RECORD_LENGTHS for n in AVERAGES)
-
 
 def make_plan(campaign_path: Path, target_rel_error: float, repeats: int = REPEATS,
               workers: int = 1, scheduler: Any = None, check_benches: int = CHECK_BENCHES,
@@ -349,12 +363,10 @@ def make_plan(campaign_path: Path, target_rel_error: float, repeats: int = REPEA
     baseline = bench_time_jobs(cache, campaign_path, {run.name: {"averages": BASELINE_AVERAGES}
                                                       for run in campaign.runs})
     floors_job = cache.job(measure_floors, campaign_path)
-    jobs = {cache.job(measure_setting, *key, setting, repeats): (key, setting)
-            for key in plates for setting in SETTINGS}
+    jobs = {cache.job(measure_settings, *key, repeats): key for key in plates}
     done = cache.run([floors_job, *alongside, *baseline, *jobs], workers, scheduler, "plan")   # longest first
-    results = {jobs[job]: result for job, result in done.items() if job in jobs}
-    studies = {key: PlateStudy(key[0], key[1], key[2].voltage_vpp, results[key, SETTINGS[0]][1],
-                               [results[key, setting][0] for setting in SETTINGS]) for key in plates}
+    studies = {key: PlateStudy(key[0], key[1], key[2].voltage_vpp, done[job][1], done[job][0])
+               for job, key in jobs.items()}
     studies_by_run = {run.name: [studies[key] for key in plates_by_run[run.name]] for run in campaign.runs}
     floors = accuracy_floors(campaign_path, target_rel_error, done[floors_job])
     baseline_s = {name: done[job] for job, name in baseline.items()}

@@ -66,18 +66,23 @@ def test_the_planned_campaign_is_written_with_the_planned_settings(tmp_path, mon
     assert (runs["cutting"].record_length, runs["cutting"].averages) == (10000, 1)
 
 
-def test_a_setting_measures_the_same_whatever_ran_before():
+def test_a_setting_measures_the_same_whatever_ran_before_it_on_the_bench():
     from squeezebench.protocols.campaign import load_campaign
-    from squeezebench.protocols.planning import _run_plates, _run_points, measure_setting
+    from squeezebench.protocols.planning import _run_plates, _run_points, measure_settings
 
     run = load_campaign(QUICK).runs[0]
     scene, state, plate = _run_plates(run)[0]
     args = (scene, state, _run_points(run, plate)[0], run.acquisition, run.safety)
-    settings = [Setting(500, 4), Setting(500, 64)]
-    forward = [measure_setting(*args, setting, repeats=2) for setting in settings]
-    backward = [measure_setting(*args, setting, repeats=2) for setting in reversed(settings)][::-1]
-    assert forward == backward
-    assert forward[0][0].p95_rel_error != forward[1][0].p95_rel_error   # the settings do differ
+    settings = [Setting(500, 4), Setting(500, 64), Setting(10000, 1)]
+    forward, forward_hz = measure_settings(*args, repeats=2, settings=settings)
+    backward, backward_hz = measure_settings(*args, repeats=2, settings=settings[::-1])
+    assert forward_hz == backward_hz
+    assert [r.p95_rel_error for r in forward] == [r.p95_rel_error for r in backward[::-1]]
+    # the scope keeps the averaging count it last had, and says so in a reply one byte
+    # longer: bench time may differ by a byte's transfer, nothing more
+    assert [r.bench_time_per_point_s for r in forward] == \
+        pytest.approx([r.bench_time_per_point_s for r in backward[::-1]], rel=1e-3)
+    assert forward[0].p95_rel_error != forward[1].p95_rel_error   # the settings do differ
 
 
 def test_a_run_timed_alone_takes_its_bench_time_within_the_campaign(tmp_path):
