@@ -422,7 +422,9 @@ def _choose(campaign, campaign_path: Path, target_rel_error: float, repeats: int
         error_by_run[run.name] = max(s.result(setting).p95_rel_error for s in run_studies)
     timing = bench_time_jobs(cache, campaign_path, {name: dataclasses.asdict(setting)
                                                     for name, setting in settings_by_run.items()})
-    done = cache.run(list(timing), workers, scheduler, "planned bench time")
+    # longest first, the runs' own bench time a proxy for their simulation's: the workers end together
+    done = cache.run(sorted(timing, key=lambda job: -floors.own_bench_time_s[timing[job]]), workers, scheduler,
+                     "planned bench time")
     # The calibration a calibrated plan starts with is the floors' own: a run opens a bench
     # of its own, so it takes there the bench time it takes first in the planned campaign.
     planned_s = {**({CALIBRATION_RUN: floors.calibration_bench_time_s} if floors.calibrate else {}),
