@@ -128,7 +128,7 @@ def measure_floors(campaign_path: Path) -> tuple[list[RunFloor], dict[str, float
     bench time and its deskew's standard uncertainty (s)."""
     with tempfile.TemporaryDirectory(prefix="squeezebench-floor-") as tmp:
         variant = without_maps(with_calibration(Path(campaign_path), Path(tmp) / Path(campaign_path).name))
-        run_dir = run_campaign(variant, out_dir=Path(tmp) / "run", progress=False)
+        run_dir = run_campaign(variant, out_dir=Path(tmp) / "run", progress=False, durable=False)
         found = run_uncertainties(load_run(run_dir))
         times_s = bench_time_by_run_s(run_dir)
     deskew_u_s = found.deskew.std_uncertainty_s

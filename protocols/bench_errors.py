@@ -42,11 +42,12 @@ def errors_on_bench(campaign_file: Path, bench_seed: int, work_dir: Path,
                     error_model: str = "specified") -> pd.DataFrame:
     """Every stored point of the campaign run on bench `bench_seed` (its errors drawn under
     `error_model`, `variants.ERROR_MODELS`): relative error of each quantity against the
-    truth, with its expanded uncertainty; and the bench time."""
+    truth, with its expanded uncertainty; and the bench time. `work_dir` is scratch: the
+    run there is not kept, so it is not made durable."""
     erring = campaign_with_effects(campaign_file, work_dir / "erring",
                                    systematic_effects(bench_seed, error_model=error_model))
     campaign_with_effects(campaign_file, work_dir / "plain", [])   # the same plates without the errors
-    run_dir = run_campaign(erring, out_dir=work_dir / "run", progress=False)
+    run_dir = run_campaign(erring, out_dir=work_dir / "run", progress=False, durable=False)
     run = load_run(run_dir)
     found = run_uncertainties(run)
     points = found.points

@@ -326,7 +326,7 @@ def run_campaign(path: Path, resume: bool = False, out_dir: Path | None = None,
                  accept_changed_bench: bool = False,
                  on_point: Callable[[dict[str, Any]], None] | None = None,
                  on_step: Callable[[dict[str, Any]], None] | None = None,
-                 operator_done: bool = False) -> Path:
+                 operator_done: bool = False, durable: bool = True) -> Path:
     """Run (or with `resume`, continue) a campaign; return its run directory. `progress`
     off hides the progress bar (a campaign run inside another tool, e.g. the planner);
     `accept_changed_bench` lets a resume use a bench file or scene changed since (a bench
@@ -334,10 +334,12 @@ def run_campaign(path: Path, resume: bool = False, out_dir: Path | None = None,
     `say` shows what the operator must know now (default: the terminal's stderr), and
     everything said also goes to log.txt. SIGTERM and SIGHUP stop it as Ctrl-C does.
     `on_point` and `on_step` watch the run (see Watchers). `operator_done` (with `resume`)
-    says the operator's action the run stopped on for want of a terminal has been done."""
+    says the operator's action the run stopped on for want of a terminal has been done.
+    `durable` off skips the fsyncs, for a temporary run read and deleted by the tool that
+    made it (`storage.RunStore`)."""
     with handled():
         return _run_campaign(path, resume, out_dir, progress, say, accept_changed_bench,
-                             Watchers(on_point, on_step), operator_done)
+                             Watchers(on_point, on_step), operator_done, durable)
 
 
 @dataclass(frozen=True)
@@ -368,10 +370,10 @@ class Watchers:
 
 def _run_campaign(path: Path, resume: bool, out_dir: Path | None, progress: bool,
                   say: Callable[[str], None] | None, accept_changed_bench: bool, watchers: Watchers,
-                  operator_done: bool = False) -> Path:
+                  operator_done: bool = False, durable: bool = True) -> Path:
     campaign = load_campaign(path)
     run_dir = Path(out_dir) if out_dir is not None else campaign.output_dir
-    store = RunStore(run_dir)
+    store = RunStore(run_dir, durable)
     foreign = store.foreign_entries()
     if foreign:
         raise CampaignError(campaign.file, None, f"{run_dir} is not empty and holds no run "

@@ -201,7 +201,8 @@ def simulate_run_bench_time_s(campaign_path: Path, run_name: str, acquisition: d
     with tempfile.TemporaryDirectory(prefix="squeezebench-plan-") as tmp:
         variant = only_run(with_acquisition(campaign_path, {run_name: acquisition}, Path(tmp) / campaign_path.name),
                            run_name)
-        return bench_time_by_run_s(run_campaign(variant, out_dir=Path(tmp) / "run", progress=False))[run_name]
+        return bench_time_by_run_s(run_campaign(variant, out_dir=Path(tmp) / "run", progress=False,
+                                                 durable=False))[run_name]
 
 
 def bench_time_jobs(cache: PlanCache, campaign_path: Path, acquisition_by_run: dict[str, dict]

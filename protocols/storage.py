@@ -113,23 +113,27 @@ def check_writable_file(path: Path) -> None:
         probe.unlink()
 
 
-def write_atomic(path: Path, data: bytes) -> None:
-    """Write `data` to `path` so that a reader sees the old file or the new, never half."""
+def write_atomic(path: Path, data: bytes, durable: bool = True) -> None:
+    """Write `data` to `path` so that a reader sees the old file or the new, never half;
+    `durable`: on the disk (fsynced, with its folder) before returning, so a power cut
+    cannot lose it."""
     with _writing(path):
         path.parent.mkdir(parents=True, exist_ok=True)
         tmp = path.with_name(f".{path.name}.tmp")
         with open(tmp, "wb") as handle:
             handle.write(data)
-            handle.flush()
-            os.fsync(handle.fileno())
+            if durable:
+                handle.flush()
+                os.fsync(handle.fileno())
         os.replace(tmp, path)
-        _fsync_dir(path.parent)
+        if durable:
+            _fsync_dir(path.parent)
 
 
-def write_json_atomic(path: Path, value: Any) -> None:
+def write_json_atomic(path: Path, value: Any, durable: bool = True) -> None:
     """A JSON document to `path`, indented and sorted, atomically (`write_atomic`); what
     JSON has no type for (a path, a timestamp) is written as its text."""
-    write_atomic(path, json.dumps(value, indent=2, sort_keys=True, default=str).encode())
+    write_atomic(path, json.dumps(value, indent=2, sort_keys=True, default=str).encode(), durable)
 
 
 def write_frame_atomic(path: Path, frame: pd.DataFrame) -> None:
@@ -148,10 +152,12 @@ OPERATOR_REQUEST = "operator_request.json"
 
 
 class RunStore:
-    """Reads and writes one run directory."""
+    """Reads and writes one run directory. A store that is not `durable` skips the fsyncs
+    (a temporary run, e.g. a plan's, deleted once read: no power cut can matter to it)."""
 
-    def __init__(self, run_dir: Path):
+    def __init__(self, run_dir: Path, durable: bool = True):
         self.run_dir = Path(run_dir)
+        self.durable = durable
         self._quarantine_dir: Path | None = None
 
     # -- creation, ownership and the manifest ---------------------------------------------
@@ -210,7 +216,7 @@ class RunStore:
 
     def ensure_campaign_copy(self, campaign_file: Path) -> None:
         if not (self.run_dir / CAMPAIGN_COPY).exists():
-            write_atomic(self.run_dir / CAMPAIGN_COPY, Path(campaign_file).read_bytes())
+            write_atomic(self.run_dir / CAMPAIGN_COPY, Path(campaign_file).read_bytes(), self.durable)
 
     def manifest(self) -> dict[str, Any]:
         path = self.run_dir / MANIFEST
@@ -299,7 +305,7 @@ class RunStore:
 
     def _write_manifest(self, manifest: dict[str, Any]) -> None:
         manifest["updated_utc"] = _utc_now()
-        write_atomic(self.run_dir / MANIFEST, json.dumps(manifest, indent=2, sort_keys=True).encode())
+        write_atomic(self.run_dir / MANIFEST, json.dumps(manifest, indent=2, sort_keys=True).encode(), self.durable)
 
     def add_input(self, path: Path, accept_changed: bool = False) -> str:
         """Copy a scene or bench file into inputs/ and record its sha256; return the copy.
@@ -320,7 +326,7 @@ class RunStore:
                                "(an address, a fault removed), resume with --accept-changed-bench: the "
                                "manifest keeps both versions and which steps used which")
         copy = f"inputs/{path.name}" if not known else f"inputs/{path.stem}.{digest[:12]}{path.suffix}"
-        write_atomic(self.run_dir / copy, path.read_bytes())
+        write_atomic(self.run_dir / copy, path.read_bytes(), self.durable)
         versions = known.get("versions", [{"sha256": known["sha256"], "copy": known["copy"],
                                            "steps_before": 0}]) if known else []
         steps_before = len(self.journal())
@@ -344,7 +350,7 @@ class RunStore:
         self._write_manifest(manifest)
 
     def write_settings(self, run_name: str, settings: dict[str, Any]) -> None:
-        write_json_atomic(self.run_dir / "settings" / f"{run_name}.json", settings)
+        write_json_atomic(self.run_dir / "settings" / f"{run_name}.json", settings, self.durable)
 
     def write_evidence(self, run_name: str, step_id: str, evidence: dict[str, Any]) -> Path:
         """What made a step stop (an acquisition the safety check refused), kept beside the
@@ -352,12 +358,12 @@ class RunStore:
         folder = self.run_dir / "evidence" / run_name
         n = len(list(folder.glob(f"{step_id}-*.json"))) if folder.is_dir() else 0
         path = folder / f"{step_id}-{n + 1}.json"
-        write_json_atomic(path, evidence)
+        write_json_atomic(path, evidence, self.durable)
         return path
 
     def write_operator_request(self, request: dict[str, Any]) -> None:
         """What the run stopped waiting for (no terminal to confirm it on)."""
-        write_json_atomic(self.run_dir / OPERATOR_REQUEST, request)
+        write_json_atomic(self.run_dir / OPERATOR_REQUEST, request, self.durable)
 
     def operator_request(self) -> dict[str, Any] | None:
         path = self.run_dir / OPERATOR_REQUEST
@@ -396,7 +402,7 @@ class RunStore:
             kept = self._quarantine(path, copy=True)
             good = [line for line in path.read_bytes().splitlines(keepends=True)
                     if _entry_problem(line) is None and _step_of(line) not in damaged]
-            write_atomic(path, b"".join(good))
+            write_atomic(path, b"".join(good), self.durable)
             for number, reason in bad:
                 say(f"{path} line {number}: {reason}; the whole journal as found is kept in {kept}, "
                     "and the step of that line, if any, will be measured again")
@@ -456,8 +462,9 @@ class RunStore:
     def append_journal(self, entry: dict[str, Any]) -> None:
         with _writing(self.run_dir / JOURNAL), open(self.run_dir / JOURNAL, "ab") as handle:
             handle.write(json.dumps(entry, sort_keys=True).encode() + b"\n")
-            handle.flush()
-            os.fsync(handle.fileno())
+            if self.durable:
+                handle.flush()
+                os.fsync(handle.fileno())
 
     # -- steps ----------------------------------------------------------------------------
     def write_step(self, run_name: str, step_id: str, rows: list[dict[str, Any]],
@@ -485,13 +492,13 @@ class RunStore:
             table = table.replace_schema_metadata({**(table.schema.metadata or {}),
                                                    METADATA_KEY: json.dumps(metadata).encode()})
             data = _parquet_bytes(table)
-            write_atomic(staging / f"{point_index:04d}.parquet", data)
+            write_atomic(staging / f"{point_index:04d}.parquet", data, self.durable)
             files[f"waveforms/{run_name}/{step_id}/{point_index:04d}.parquet"] = _sha256_bytes(data)
         os.replace(staging, final_dir)
         columns = list(dict.fromkeys(key for row in rows for key in row))  # union, in order
         table = pa.Table.from_pylist([{key: row.get(key) for key in columns} for row in rows])
         data = _parquet_bytes(table)
-        write_atomic(self.run_dir / _measurement_file(run_name, step_id), data)
+        write_atomic(self.run_dir / _measurement_file(run_name, step_id), data, self.durable)
         files[_measurement_file(run_name, step_id)] = _sha256_bytes(data)
         return files
 
@@ -523,7 +530,8 @@ class RunStore:
             shutil.copy2(item, target)
         else:
             os.replace(item, target)
-        _fsync_dir(target.parent)
+        if self.durable:
+            _fsync_dir(target.parent)
         log.warning("quarantined %s as %s", item, target)
         return target
 

@@ -98,7 +98,8 @@ def _characterise(spec: DesignFile, folder: Path, seed: int) -> Path:
     from squeezebench.protocols.campaign import run_campaign
 
     _, campaign = write_build(design_model.DesignAnswer(design_model.predict_physics(spec)), folder, seed=seed)
-    return run_campaign(campaign, out_dir=folder / f"run_{spec.name}", progress=False, say=lambda m: None)
+    return run_campaign(campaign, out_dir=folder / f"run_{spec.name}", progress=False, say=lambda m: None,
+                        durable=False)   # a temporary folder
 
 
 #: Draws of one build before giving up (a plate with no clean mode near its family is

@@ -57,6 +57,19 @@ def sorted_rows(run_dir):
     return read_measurements(run_dir).sort_values(["run_name", "step_id", "point_index"]).reset_index(drop=True)
 
 
+@pytest.mark.parametrize("durable", [True, False])
+def test_a_run_is_fsynced_unless_it_is_a_temporary_one(completed, tmp_path, monkeypatch, durable):
+    # a scratch run (a plan's, deleted once read) skips the fsyncs; the same files either way
+    campaign, reference = completed
+    synced = []
+    real_fsync = os.fsync
+    monkeypatch.setattr(os, "fsync", lambda fd: synced.append(fd) or real_fsync(fd))
+    run_dir = run_campaign(campaign, out_dir=tmp_path / "run", say=lambda message: None, durable=durable)
+    assert bool(synced) == durable
+    assert digests(run_dir) == digests(reference)
+    assert RunStore(run_dir).verify() == []
+
+
 def test_journal_entries_carry_the_checksums_of_their_files(run):
     _, run_dir = run
     for entry in RunStore(run_dir).journal():
