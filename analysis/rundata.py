@@ -16,6 +16,7 @@ import pyarrow.parquet as pq
 import yaml
 
 from squeezebench.errors import UserError
+from squeezebench.yamlfiles import load_strict
 
 #: Waveform columns (design.md) and the scope channel each one is recorded on.
 WAVEFORM_CHANNELS = {"piezo_voltage_v": "CH1", "current_a": "CH2", "vibrometer_output_v": "CH3"}
@@ -167,7 +168,7 @@ def _read_inputs(inputs_dir: Path) -> dict[str, dict]:
     scenes = {}
     for path in sorted(inputs_dir.glob("*.y*ml")) if inputs_dir.is_dir() else []:
         try:
-            scenes[path.name] = yaml.safe_load(path.read_text()) or {}
+            scenes[path.name] = load_strict(path.read_text()) or {}   # as the run read them
         except yaml.YAMLError as exc:
             raise RunDataError(f"{path}: not valid YAML ({exc})") from exc
     return scenes

@@ -8,6 +8,7 @@ import pandas as pd
 import pytest
 
 from squeezebench.analysis import audit, readings
+from squeezebench.yamlfiles import dump_yaml, load_strict
 
 
 @pytest.fixture(scope="module")
@@ -69,17 +70,16 @@ def test_convention_grid_states_which_reading_matches_what():
 @pytest.fixture(scope="module")
 def characterisation_run(tmp_path_factory):
     """The paper campaign's Fig. 5 and Figs. 8-9 runs on the shipped (simulated) scenes."""
-    import yaml
 
     from squeezebench import paths
     from squeezebench.analysis.rundata import load_run
     from squeezebench.protocols.campaign import run_campaign
 
     out = tmp_path_factory.mktemp("characterisation")
-    campaign = yaml.safe_load(paths.paper_campaign().read_text())
+    campaign = load_strict(paths.paper_campaign().read_text())
     campaign["runs"] = [r for r in campaign["runs"] if r["protocol"] == "characterisation"]
     campaign["name"] = "characterisation"
-    (out / "c.yaml").write_text(yaml.safe_dump(campaign))
+    (out / "c.yaml").write_text(dump_yaml(campaign))
     return load_run(run_campaign(out / "c.yaml", out_dir=out / "run"))
 
 

@@ -4,24 +4,23 @@ from __future__ import annotations
 
 import pandas as pd
 import pytest
-import yaml
 
 from squeezebench.analysis.report import write_report
 from squeezebench.protocols.campaign import run_campaign
 from squeezebench import paths
+from squeezebench.yamlfiles import dump_yaml, load_strict
 
 TABLE4_RUN = "table4_powered_columns"
 
 
 def test_table4_campaign_then_report(tmp_path):
-
-    campaign = yaml.safe_load(paths.paper_campaign().read_text())
+    campaign = load_strict(paths.paper_campaign().read_text())
     campaign["runs"] = [run for run in campaign["runs"] if run["name"] == TABLE4_RUN]
     if not campaign["runs"]:
         pytest.skip(f"the paper campaign has no run named {TABLE4_RUN}")
     campaign["name"] = "e2e"
     campaign_file = tmp_path / "e2e.yaml"
-    campaign_file.write_text(yaml.safe_dump(campaign))
+    campaign_file.write_text(dump_yaml(campaign))
     run_dir = run_campaign(campaign_file, out_dir=tmp_path / "run")
     write_report(run_dir)
     table4 = pd.read_csv(run_dir / "report" / "table4.csv")

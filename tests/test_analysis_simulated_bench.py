@@ -13,7 +13,6 @@ import math
 
 import pandas as pd
 import pytest
-import yaml
 
 from squeezebench.analysis.report import write_report
 from squeezebench.analysis.rundata import load_run
@@ -23,6 +22,7 @@ from squeezebench.simbench import physics
 from squeezebench.simbench.effects import build_pipeline
 from squeezebench.simbench.scene import load_scene
 from squeezebench import paths
+from squeezebench.yamlfiles import dump_yaml, load_strict
 
 RUNS = ("table3_cutting", "table4_powered_columns")
 CALIBRATED = ("frequency_hz", "voltage_vpp", "power_w", "velocity_pp_mps")
@@ -46,18 +46,18 @@ def _with_scenes(node, scenes: dict[str, str]):
 
 
 def _run(tmp_path, noise_free: bool):
-    campaign = yaml.safe_load(paths.paper_campaign().read_text())
+    campaign = load_strict(paths.paper_campaign().read_text())
     campaign["runs"] = [run for run in campaign["runs"] if run["name"] in RUNS]
     scenes = {}
     for name in ("one_column_1mm.yaml", "one_column_1p2mm.yaml", "two_column_1p2mm.yaml"):
-        scene = yaml.safe_load((paths.scenes_dir() / name).read_text())
+        scene = load_strict((paths.scenes_dir() / name).read_text())
         if noise_free:
             scene["effects"] = []
         scenes[name] = str(tmp_path / name)
-        (tmp_path / name).write_text(yaml.safe_dump(scene, sort_keys=False))
+        (tmp_path / name).write_text(dump_yaml(scene))
     campaign = _with_scenes(campaign, scenes)
     campaign_file = tmp_path / "tables.yaml"
-    campaign_file.write_text(yaml.safe_dump(campaign, sort_keys=False))
+    campaign_file.write_text(dump_yaml(campaign))
     run_dir = run_campaign(campaign_file, out_dir=tmp_path / "run")
     write_report(run_dir)
     table = pd.concat([pd.read_csv(run_dir / "report" / f"table{n}.csv") for n in (3, 4)], ignore_index=True)

@@ -13,11 +13,11 @@ import pandas as pd
 import pyarrow as pa
 import pyarrow.parquet as pq
 import pytest
-import yaml
 
 from squeezebench.analysis import model, tables
 from squeezebench.analysis.paper import paper_value
 from squeezebench.analysis.rundata import load_run
+from squeezebench.yamlfiles import dump_yaml
 
 SCALE_MPS_PER_V = 0.125
 N_SAMPLES = 10_000
@@ -102,7 +102,7 @@ class RunBuilder:
         (self.run_dir / "inputs").mkdir(parents=True, exist_ok=True)
         for name, scene in scenes.items():
             path = self.run_dir / "inputs" / name
-            path.write_text(yaml.safe_dump(scene))
+            path.write_text(dump_yaml(scene))
             inputs[name] = {"copy": f"inputs/{name}", "sha256": hashlib.sha256(path.read_bytes()).hexdigest()}
         manifest = {"software": {"name": "squeezebench", "version": "test"}, "inputs": inputs,
                     "instruments": {}, "created_utc": "2026-01-01T00:00:00+00:00"}

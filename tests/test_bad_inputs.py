@@ -9,11 +9,11 @@ from __future__ import annotations
 import json
 
 import pytest
-import yaml
 
 from squeezebench import cli, paths, schemas
 from squeezebench.instruments.agilent33120a import Agilent33120A
 from squeezebench.instruments.errors import OutOfRangeError
+from squeezebench.yamlfiles import dump_yaml
 from test_protocols_support import FAST_ACQUISITION, ONE_COLUMN_PLATE
 
 SEARCH = {"start_hz": 36000, "stop_hz": 38500, "points": 11, "tolerance_hz": 1.0}
@@ -26,7 +26,7 @@ BENCH = ("visa_library: '@py'\nresources: {generator: 'GPIB0::10::INSTR', scope:
 
 
 def campaign_text(**changes) -> str:
-    return yaml.safe_dump({**GOOD, **changes}, sort_keys=False)
+    return dump_yaml({**GOOD, **changes})
 
 
 def with_params(**parameters) -> list:

@@ -7,7 +7,6 @@ import json
 
 import numpy as np
 import pytest
-import yaml
 
 from squeezebench import paths
 from squeezebench.analysis.calibration import current_gain_ratio, deskew_of_run, gain_weight
@@ -19,6 +18,7 @@ from squeezebench.simbench import physics
 from squeezebench.simbench.effects import build_pipeline
 from squeezebench.simbench.scene import load_scene
 from squeezebench.protocols.variants import campaign_with_effects
+from squeezebench.yamlfiles import dump_yaml, load_strict
 
 PROBE_DELAY_S, SKEW_S = 8e-9, 1e-9
 GAINS = {"ch1_rel": 0.01, "ch2_rel": -0.01, "ch3_rel": 0.0}
@@ -30,7 +30,7 @@ ERRORS = [{"current_probe_delay": {"delay_s": PROBE_DELAY_S}}, {"channel_skew": 
 @pytest.fixture(scope="module")
 def calibrated_run(tmp_path_factory):
     tmp = tmp_path_factory.mktemp("calibration")
-    paper = yaml.safe_load(paths.paper_campaign().read_text())
+    paper = load_strict(paths.paper_campaign().read_text())
     stress = next(run for run in paper["runs"] if run["name"] == "fig2c_stress")
     campaign = {key: paper[key] for key in ("acquisition", "safety")}
     campaign["runs"] = [
@@ -38,7 +38,7 @@ def calibrated_run(tmp_path_factory):
          "plate": {"n_powered_columns": 1, "n_powered_piezos": 4},
          "parameters": {"load_ohm": 100, "frequency_hz": 37560}},
         stress]
-    (tmp / "campaign.yaml").write_text(yaml.safe_dump(campaign, sort_keys=False))
+    (tmp / "campaign.yaml").write_text(dump_yaml(campaign))
     erring = campaign_with_effects(tmp / "campaign.yaml", tmp / "inputs", ERRORS)
     return run_campaign(erring, out_dir=tmp / "run", progress=False)
 
@@ -112,7 +112,7 @@ def characterised(tmp_path_factory):
     """{bench: run directory} of one small plate's Fig. 5 characterisation after a deskew
     calibration, on a bench whose current probe lags 17 ns and on one without the lag."""
     tmp = tmp_path_factory.mktemp("lag")
-    paper = yaml.safe_load(paths.paper_campaign().read_text())
+    paper = load_strict(paths.paper_campaign().read_text())
     campaign = {key: paper[key] for key in ("acquisition", "safety")}
     campaign["runs"] = [
         {"name": "deskew", "protocol": "deskew_calibration", "bench": {"scene": "small_plate_1.yaml"},
@@ -122,7 +122,7 @@ def characterised(tmp_path_factory):
          "plate": {"n_powered_columns": 1, "n_powered_piezos": 4},
          "parameters": {"search": {"start_hz": 30000, "stop_hz": 60000, "points": 31},
                         "voltages_vpp": [10, 20, 30, 40]}}]
-    (tmp / "campaign.yaml").write_text(yaml.safe_dump(campaign, sort_keys=False))
+    (tmp / "campaign.yaml").write_text(dump_yaml(campaign))
     lagging = campaign_with_effects(tmp / "campaign.yaml", tmp / "inputs", [{"current_probe_delay": {"delay_s": LAG_S}}])
     return {"lag": run_campaign(lagging, out_dir=tmp / "lag", progress=False),
             "none": run_campaign(tmp / "campaign.yaml", out_dir=tmp / "none", progress=False)}
@@ -160,10 +160,10 @@ def test_without_a_deskew_a_lagging_probe_leaves_the_stress_point_flagged(tmp_pa
     from squeezebench.analysis.report import write_report
     from squeezebench.analysis.uncertainty import needs_deskew, run_uncertainties
 
-    paper = yaml.safe_load(paths.paper_campaign().read_text())
+    paper = load_strict(paths.paper_campaign().read_text())
     stress = next(run for run in paper["runs"] if run["name"] == "fig2c_stress")
     campaign = {**{key: paper[key] for key in ("acquisition", "safety")}, "runs": [stress]}
-    (tmp_path / "campaign.yaml").write_text(yaml.safe_dump(campaign, sort_keys=False))
+    (tmp_path / "campaign.yaml").write_text(dump_yaml(campaign))
     lagging = campaign_with_effects(tmp_path / "campaign.yaml", tmp_path / "inputs",
                                     [{"current_probe_delay": {"delay_s": LAG_S}}])
     run_dir = run_campaign(lagging, out_dir=tmp_path / "run", progress=False)

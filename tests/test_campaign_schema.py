@@ -1,10 +1,10 @@
 """A malformed campaign is one CampaignError naming the file, the field and what is allowed."""
 
 import pytest
-import yaml
 
 from squeezebench.protocols.campaign import CampaignError, load_campaign
 from squeezebench.errors import UserError
+from squeezebench.yamlfiles import dump_yaml, load_strict
 
 GOOD_RUN = {"name": "cut", "protocol": "resonator_cutting", "bench": {"scene": "one_column_1mm.yaml"},
             "plate": {"n_powered_columns": 1, "n_powered_piezos": 4},
@@ -16,12 +16,12 @@ def campaign_file(tmp_path, **changes):
     data = {"name": "c", "runs": [GOOD_RUN]}
     data.update(changes)
     path = tmp_path / "c.yaml"
-    path.write_text(yaml.safe_dump(data))
+    path.write_text(dump_yaml(data))
     return path
 
 
 def edited_run(**changes):
-    run = yaml.safe_load(yaml.safe_dump(GOOD_RUN))
+    run = load_strict(dump_yaml(GOOD_RUN))
     run.update(changes)
     return run
 

@@ -54,6 +54,7 @@ from pathlib import Path  # noqa: E402
 
 from squeezebench import paths  # noqa: E402
 from squeezebench.protocols.storage import RunStore  # noqa: E402
+from squeezebench.yamlfiles import dump_yaml, load_strict  # noqa: E402
 
 
 def test_check_json_is_one_document_naming_each_instrument(capsys):
@@ -112,7 +113,6 @@ def test_run_says_which_powers_will_rest_on_an_unmeasured_probe_delay(monkeypatc
     """A campaign that reads powers off resonance without a deskew run is told so once it has
     run (on stderr, not with -q: an error before that stays one line); one with the deskew
     run, or without detuned points, is not."""
-    import yaml
 
     from squeezebench.protocols import campaign
     from squeezebench.protocols.variants import calibration_run
@@ -127,12 +127,12 @@ def test_run_says_which_powers_will_rest_on_an_unmeasured_probe_delay(monkeypatc
     assert cli.main(["run", "quick", "-q"]) == 0 and capsys.readouterr().err == ""
     own = campaign.load_campaign(paths.data_dir() / "examples" / "own_plate_campaign.yaml")
     assert cli._declared_replays(own) == []   # a user's own plate is no replay
-    data = yaml.safe_load((paths.campaigns_dir() / "quick.yaml").read_text())
+    data = load_strict((paths.campaigns_dir() / "quick.yaml").read_text())
     for name, runs in (("deskewed", [calibration_run(37000.0, "one_column_1mm.yaml"), *data["runs"]]),
                        ("resonance_only", [{**r, "parameters": {**r["parameters"], "velocity_ratios": []}}
                                            if r["protocol"] == "detuning" else r for r in data["runs"]])):
         path = tmp_path / f"{name}.yaml"
-        path.write_text(yaml.safe_dump({**data, "name": name, "runs": runs}))
+        path.write_text(dump_yaml({**data, "name": name, "runs": runs}))
         (tmp_path / "one_column_1mm.yaml").write_text((paths.scenes_dir() / "one_column_1mm.yaml").read_text())
         assert campaign.load_campaign(path).powers_off_resonance_without_deskew() == [], name
 

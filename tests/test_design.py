@@ -16,6 +16,7 @@ from squeezebench.analysis import design, layouts, plate_modes, predicted_plates
 from squeezebench.analysis.design_file import DesignFile
 from squeezebench.errors import UserError
 from squeezebench.schemas import load_design_file
+from squeezebench.yamlfiles import dump_yaml, load_strict
 
 #: Table 3's plate (75 x 41 x 1 mm, one column of four piezos mid-length) as a design.
 STRIP = {
@@ -161,11 +162,9 @@ def test_centre_on_a_nodal_line_is_refused():
     ({"resonator": {"length_mm": 75, "width_mm": 41, "thickness_mm": 8}}, "state the plate's thickness tolerance"),
 ])
 def test_a_bad_design_file_is_one_line_naming_the_field(tmp_path, change, words):
-    import yaml
-
     data = {**STRIP, **change}
     path = tmp_path / "plate.yaml"
-    path.write_text(yaml.safe_dump(data))
+    path.write_text(dump_yaml(data))
     with pytest.raises(UserError, match=words) as caught:
         load_design_file(path)
     assert str(caught.value).startswith(str(path)) and "\n" not in str(caught.value)
@@ -231,10 +230,8 @@ def test_a_layout_family_on_the_strip():
 # --- the command ---------------------------------------------------------------------------------
 
 def test_design_command_writes_page_json_and_tables(tmp_path, capsys):
-    import yaml
-
     path = tmp_path / "strip.yaml"
-    path.write_text(yaml.safe_dump(STRIP))
+    path.write_text(dump_yaml(STRIP))
     assert cli.main(["design", str(path), "--no-layouts", "--out", str(tmp_path / "out"), "--json"]) == 0
     payload = json.loads(capsys.readouterr().out)
     assert payload["command"] == "design" and payload["design"] == "strip"
@@ -265,12 +262,10 @@ def test_plate_modes_share_one_mesh_between_tolerance_solves():
 
 
 def test_design_from_python(tmp_path):
-    import yaml
-
     import squeezebench
 
     path = tmp_path / "strip.yaml"
-    path.write_text(yaml.safe_dump(STRIP))
+    path.write_text(dump_yaml(STRIP))
     answer = squeezebench.design(path, out_dir=tmp_path / "page")
     assert answer.layouts is None and answer.paper_route is None
     assert answer.physics.nominal.values["interior_antinodes"] == 9
@@ -283,13 +278,12 @@ def test_design_built_on_the_simulated_bench_meets_its_prediction(tmp_path, caps
     """design -> predicted scene and campaign -> run -> design --measured: the simulated build
     lands within the prediction's U (a chain check: the scene follows the same plate model),
     and the page says the plate was simulated."""
-    import yaml
 
     from squeezebench.protocols.campaign import run_campaign
     from squeezebench.simbench.scene import load_scene
 
     path = tmp_path / "strip.yaml"
-    path.write_text(yaml.safe_dump(STRIP))
+    path.write_text(dump_yaml(STRIP))
     assert cli.main(["design", str(path), "--no-layouts", "--out", str(tmp_path / "page"),
                      "--write-build", str(tmp_path / "build"), "-q"]) == 0
     scene = load_scene(tmp_path / "build" / "strip.yaml")
@@ -318,15 +312,13 @@ def test_design_built_on_the_simulated_bench_meets_its_prediction(tmp_path, caps
 
 
 def test_a_predicted_state_cannot_also_be_calibrated(tmp_path):
-    import yaml
-
     from squeezebench.designing import scene_from_design
     from squeezebench.simbench.scene import SceneError, load_scene
 
     data = scene_from_design(strip())
     data["states"]["built"]["calibration"] = {"voltage_vpp": 20, "velocity_pp_mps": 0.2, "power_w": 0.03}
     path = tmp_path / "both.yaml"
-    path.write_text(yaml.safe_dump(data))
+    path.write_text(dump_yaml(data))
     with pytest.raises(SceneError, match="predicted or calibrated, not both"):
         load_scene(path)
 
@@ -335,12 +327,11 @@ def test_validate_says_where_a_replay_departs_from_the_model(capsys, tmp_path):
     """The shipped large plate replays the paper's numbers: its force factor and resonance
     depart from the plate model beyond the tolerances, and `validate` says so per state; a
     design's predicted scene has nothing to depart from."""
-    import yaml
 
     from squeezebench.designing import scene_from_design
 
     path = tmp_path / "strip.yaml"
-    path.write_text(yaml.safe_dump(scene_from_design(strip())))
+    path.write_text(dump_yaml(scene_from_design(strip())))
     assert cli.main(["validate", "large_plate", str(path)]) == 0
     err = capsys.readouterr().err
     assert "large_plate.yaml: state 'large', a declared replay (reproduces Sec. 5's printed point" in err
@@ -366,7 +357,6 @@ def test_paper_route_from_the_small_plates_is_table5s_estimate(tmp_path):
     """Route (b) for the shipped large-plate design, fed the paper campaign's small plates,
     carries the same Q and tan(theta') as the report's Table 5 estimate (Plate 4's Q by
     Eq. 29, the mean tan(theta') of the 2 mm plates)."""
-    import yaml
 
     from squeezebench import paths
     from squeezebench.analysis import tables
@@ -375,14 +365,14 @@ def test_paper_route_from_the_small_plates_is_table5s_estimate(tmp_path):
     from squeezebench.designing import characterised_plates
     from squeezebench.protocols.campaign import run_campaign
 
-    paper = yaml.safe_load(paths.paper_campaign().read_text())
+    paper = load_strict(paths.paper_campaign().read_text())
     runs = {run["name"]: run for run in paper["runs"]}
     small = runs["fig5_small_plates"]
     small["parameters"]["plates"] = [p for p in small["parameters"]["plates"]
                                      if p["scene"] in ("small_plate_2.yaml", "small_plate_4.yaml")]
     campaign = {**{k: v for k, v in paper.items() if k != "runs"}, "name": "table5_subset",
                 "runs": [small, runs["fig8_9_large_plate"]]}
-    (tmp_path / "subset.yaml").write_text(yaml.safe_dump(campaign))
+    (tmp_path / "subset.yaml").write_text(dump_yaml(campaign))
     run_dir = run_campaign(tmp_path / "subset.yaml", out_dir=tmp_path / "run", progress=False)
 
     estimate = tables.estimate_large_from_small(tables.characterise_plates(load_run(run_dir), REPORT_CONVENTION),

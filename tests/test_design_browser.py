@@ -7,9 +7,9 @@ import sys
 from pathlib import Path
 
 import pytest
-import yaml
 
 from squeezebench import cli
+from squeezebench.yamlfiles import dump_yaml
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "docs"))
 import make_screenshots  # noqa: E402  (docs/ is not a package)
@@ -22,7 +22,7 @@ WIDTHS = (make_screenshots.WIDTH_PX, make_screenshots.PHONE_WIDTH_PX)
 def widths(tmp_path_factory):
     make_screenshots.chromium()
     folder = tmp_path_factory.mktemp("design")
-    (folder / "strip.yaml").write_text(yaml.safe_dump(STRIP))
+    (folder / "strip.yaml").write_text(dump_yaml(STRIP))
     assert cli.main(["design", str(folder / "strip.yaml"), "--no-layouts", "--out", str(folder / "page"), "-q"]) == 0
     return {width: make_screenshots.measure(folder / "page" / "index.html", width) for width in WIDTHS}
 

@@ -22,7 +22,6 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
-import yaml
 from pyvisa import constants
 from pyvisa.errors import VisaIOError
 from pyvisa.resources import MessageBasedResource
@@ -32,6 +31,7 @@ from squeezebench.instruments.errors import ConnectionLost, GarbledReply, Instru
 from squeezebench.protocols.campaign import run_campaign
 from squeezebench.protocols.storage import RunStore, read_measurements
 from squeezebench import cli, paths
+from squeezebench.yamlfiles import dump_yaml, load_strict
 from test_campaign_resume import small_campaign
 from test_protocols_support import FAST_ACQUISITION, ONE_COLUMN_PLATE, write_campaign
 
@@ -241,7 +241,7 @@ def test_malformed_campaign_file(tmp_path, capsys, broken, field):
     campaign = {"name": "broken", "bench": {"scene": "one_column_1mm.yaml"},
                 "acquisition": FAST_ACQUISITION, **broken}
     path = tmp_path / "broken.yaml"
-    path.write_text(yaml.safe_dump(campaign, sort_keys=False))
+    path.write_text(dump_yaml(campaign))
     status, err = _cli(["run", path, "--out", tmp_path / "run"], capsys)
     _assert_user_error(status, err, path, field)
 
@@ -255,7 +255,7 @@ def test_campaign_file_that_is_not_yaml(tmp_path, capsys):
 
 def test_malformed_scene_file(tmp_path, capsys):
     """A scene with an unknown top-level key and one with a key removed: both named."""
-    scene = yaml.safe_load((paths.scenes_dir() / "one_column_1mm.yaml").read_text())
+    scene = load_strict((paths.scenes_dir() / "one_column_1mm.yaml").read_text())
     cases = []
     unknown = dict(scene, not_a_scene_field=1)
     cases.append((unknown, "not_a_scene_field"))
@@ -266,7 +266,7 @@ def test_malformed_scene_file(tmp_path, capsys):
             break
     for i, (data, field) in enumerate(cases):
         path = tmp_path / f"scene{i}.yaml"
-        path.write_text(yaml.safe_dump(data, sort_keys=False))
+        path.write_text(dump_yaml(data))
         campaign = write_campaign(tmp_path, [{"name": "r", "protocol": "resonance_search",
                                               "plate": ONE_COLUMN_PLATE, "parameters": {"search": SEARCH}}],
                                   name=f"c{i}", bench={"scene": str(path)})

@@ -6,7 +6,6 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
-import yaml
 
 from squeezebench.instruments.agilent33120a import Agilent33120A
 from squeezebench.schemas import load_bench_file   # the one validator of bench files (`run` and `check`)
@@ -17,6 +16,7 @@ from squeezebench.instruments.errors import BenchFileError, InstrumentConnection
 from squeezebench.instruments.ofv5000 import OFV5000
 from squeezebench.instruments.tds3054b import TDS3054B
 from squeezebench.errors import UserError
+from squeezebench.yamlfiles import dump_yaml
 
 ROOT = Path(__file__).resolve().parents[1]
 SCENE = ROOT / "data" / "scenes" / "one_column_1mm.yaml"
@@ -31,7 +31,7 @@ def sim_library(request) -> str:
 
 def write_yaml(tmp_path: Path, data, name: str = "bench.yaml") -> Path:
     path = tmp_path / name
-    path.write_text(data if isinstance(data, str) else yaml.safe_dump(data))
+    path.write_text(data if isinstance(data, str) else dump_yaml(data))
     return path
 
 

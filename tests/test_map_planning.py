@@ -13,6 +13,7 @@ from squeezebench.analysis.cartography import homogeneity, map_points
 from squeezebench.analysis.rundata import load_run
 from squeezebench.protocols.campaign import run_campaign
 from squeezebench.protocols.map_planning import AVERAGES, map_runs, plan_map, write_planned_maps
+from squeezebench.yamlfiles import dump_yaml, load_strict
 from test_cartography_protocol import map_campaign
 
 TARGET = 0.08   # a 4 mm grid meets it over this area, a 2 mm one with room: the plan must choose
@@ -66,13 +67,11 @@ def test_plan_cli_answers_for_a_map_and_exits_2_when_no_grid_meets_the_target(pl
 
 
 def test_a_plate_without_a_model_is_refused_with_the_reason(tmp_path):
-    import yaml
-
     from squeezebench.errors import UserError
 
     campaign = map_campaign(tmp_path)
-    data = yaml.safe_load(campaign.read_text())
+    data = load_strict(campaign.read_text())
     data["runs"][0]["plate"]["name"] = "my_plate"
-    campaign.write_text(yaml.safe_dump(data))
+    campaign.write_text(dump_yaml(data))
     with pytest.raises(UserError, match="no plate model for 'my_plate'.*cannot be planned"):
         plan_map(map_runs(campaign)[0], 0.05)

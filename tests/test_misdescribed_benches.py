@@ -11,13 +11,13 @@ import random
 from dataclasses import replace
 
 import pytest
-import yaml
 
 from squeezebench.errors import UserError
 from squeezebench.instruments.bench import sim_bench_config
 from squeezebench.protocols import campaign as campaign_module
 from squeezebench.protocols.safety import SafetyLimits
 from squeezebench.protocols.storage import read_measurements
+from squeezebench.yamlfiles import dump_yaml, load_strict
 from test_protocols_support import ONE_COLUMN_PLATE, noise_free_scene, write_campaign
 
 LIMIT_VPP = 100.0
@@ -46,9 +46,9 @@ def test_no_misdescription_stores_a_voltage_beyond_its_setpoint_or_the_limit(chu
         folder = tmp_path / f"bench{i}"
         folder.mkdir()
         scene = noise_free_scene(folder, "one_column_1mm.yaml")
-        data = yaml.safe_load(scene.read_text())
+        data = load_strict(scene.read_text())
         data.setdefault("electronics", {}).update(hardware)
-        scene.write_text(yaml.safe_dump(data, sort_keys=False))
+        scene.write_text(dump_yaml(data))
         campaign = write_campaign(folder, [{"name": "sweep", "protocol": "characterisation", "plate": ONE_COLUMN_PLATE,
                                             "parameters": {"search": {"start_hz": 36000, "stop_hz": 38500, "points": 5,
                                                                       "tolerance_hz": 5.0},

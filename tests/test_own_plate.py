@@ -8,9 +8,9 @@ import shutil
 from pathlib import Path
 
 import pandas as pd
-import yaml
 
 from squeezebench import cli
+from squeezebench.yamlfiles import dump_yaml, load_strict
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "data" / "examples"
 
@@ -18,11 +18,11 @@ EXAMPLES = Path(__file__).resolve().parents[1] / "data" / "examples"
 def _campaign(tmp_path: Path, **plate) -> Path:
     """The example campaign and its scene copied side by side (the scene path is relative)."""
     shutil.copy(EXAMPLES / "own_plate.yaml", tmp_path / "own_plate.yaml")
-    campaign = yaml.safe_load((EXAMPLES / "own_plate_campaign.yaml").read_text())
+    campaign = load_strict((EXAMPLES / "own_plate_campaign.yaml").read_text())
     campaign["output_dir"] = str(tmp_path / "run")
     campaign["runs"][0]["plate"].update(plate)
     path = tmp_path / "campaign.yaml"
-    path.write_text(yaml.safe_dump(campaign, sort_keys=False))
+    path.write_text(dump_yaml(campaign))
     return path
 
 

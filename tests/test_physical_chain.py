@@ -13,7 +13,6 @@ import json
 import re
 
 import pytest
-import yaml
 from pyvisa.resources import MessageBasedResource
 
 from squeezebench.instruments.bench import BenchElectronics
@@ -21,6 +20,7 @@ from squeezebench.protocols.campaign import run_campaign
 from squeezebench.protocols.safety import MeasuredVoltageError, chain_warnings
 from squeezebench.protocols.storage import read_measurements
 from squeezebench.simbench import physics
+from squeezebench.yamlfiles import dump_yaml, load_strict
 from test_faults import _AMPLITUDE_WRITE, BusTap, _is_minimum
 from test_protocols_support import ONE_COLUMN_PLATE, noise_free_scene, write_campaign
 
@@ -29,9 +29,9 @@ LIMIT_VPP = 100.0
 
 def fifty_ohm_campaign(tmp_path, voltages_vpp):
     scene = noise_free_scene(tmp_path, "one_column_1mm.yaml")
-    data = yaml.safe_load(scene.read_text())
+    data = load_strict(scene.read_text())
     data.setdefault("electronics", {}).update(generator_load="50", amplifier_input_ohm=1e6)
-    scene.write_text(yaml.safe_dump(data, sort_keys=False))
+    scene.write_text(dump_yaml(data))
     search = {"start_hz": 36000, "stop_hz": 38500, "points": 11, "tolerance_hz": 2.0}
     return write_campaign(tmp_path, [
         {"name": "sweep", "protocol": "characterisation", "plate": ONE_COLUMN_PLATE,
@@ -134,9 +134,9 @@ def test_a_coded_probe_other_than_the_bench_file_is_refused_by_check_and_before_
     from squeezebench.protocols import campaign as campaign_module
 
     scene = noise_free_scene(tmp_path, "one_column_1mm.yaml")
-    data = yaml.safe_load(scene.read_text())
+    data = load_strict(scene.read_text())
     data.setdefault("electronics", {}).update({"voltage_probe_attenuation": 10.0, "voltage_probe_coded": True})
-    scene.write_text(yaml.safe_dump(data, sort_keys=False))
+    scene.write_text(dump_yaml(data))
 
     def misdescribed(path):
         config = sim_bench_config(path)

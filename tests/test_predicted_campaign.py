@@ -4,7 +4,6 @@ the bench reads what the plate model predicts, and the report calls it predicted
 measured, simulated or a calibration input."""
 import pandas as pd
 import pytest
-import yaml
 
 from squeezebench import paths
 from squeezebench.analysis import predicted_plates, provenance, tables
@@ -12,6 +11,7 @@ from squeezebench.analysis.rundata import load_run
 from squeezebench.cli import main
 from squeezebench.protocols.campaign import run_campaign
 from squeezebench.simbench.scene import load_scene
+from squeezebench.yamlfiles import dump_yaml, load_strict
 
 TWINS = ("one_column_1mm", "one_column_1p2mm", "two_column_1p2mm", "large_plate")
 
@@ -20,7 +20,7 @@ TWINS = ("one_column_1mm", "one_column_1p2mm", "two_column_1p2mm", "large_plate"
 def test_every_predicted_twin_is_the_replays_plate_with_nothing_printed_in(name):
     """Same plate, piezos and electronics as the replay; every state predicted, no calibration,
     one damping figure; the states Table 3/4 and Figs. 8-9 use are there."""
-    twin, replay = (yaml.safe_load((paths.scenes_dir() / f"{n}.yaml").read_text()) for n in (f"{name}_predicted", name))
+    twin, replay = (load_strict((paths.scenes_dir() / f"{n}.yaml").read_text()) for n in (f"{name}_predicted", name))
     assert "replay" not in twin
     assert twin["plate"] == replay["plate"]   # the same plate, named alike: the analysis knows it by name
     assert twin["actuators"]["piezo"] == replay["actuators"]["piezo"]
@@ -40,11 +40,11 @@ def test_the_predicted_campaign_validates(capsys):
 def table4_run(tmp_path_factory):
     """Table 4's run of the predicted campaign alone."""
     tmp = tmp_path_factory.mktemp("predicted")
-    campaign = yaml.safe_load((paths.campaigns_dir() / "paper_predicted.yaml").read_text())
+    campaign = load_strict((paths.campaigns_dir() / "paper_predicted.yaml").read_text())
     campaign["runs"] = [r for r in campaign["runs"] if r["name"] == "table4_powered_columns"]
     for name in ("one_column_1p2mm_predicted.yaml", "two_column_1p2mm_predicted.yaml"):
         (tmp / name).write_text((paths.scenes_dir() / name).read_text())
-    (tmp / "campaign.yaml").write_text(yaml.safe_dump(campaign))
+    (tmp / "campaign.yaml").write_text(dump_yaml(campaign))
     return load_run(run_campaign(tmp / "campaign.yaml", out_dir=tmp / "run", progress=False))
 
 
@@ -67,9 +67,9 @@ def test_the_bench_reads_what_the_model_predicts_and_calls_it_predicted(table4_r
 def test_a_replay_run_is_simulated_not_predicted():
     rows = pd.DataFrame({"bench": ["simulated"], "bench_input": ["inputs/one_column_1p2mm.yaml"],
                          "scene_state": ["one_powered"]})
-    replay = {"one_column_1p2mm.yaml": yaml.safe_load((paths.scenes_dir() / "one_column_1p2mm.yaml").read_text())}
+    replay = {"one_column_1p2mm.yaml": load_strict((paths.scenes_dir() / "one_column_1p2mm.yaml").read_text())}
     assert provenance.point_origin(rows, None, replay) == provenance.SIMULATED
-    twin = {"one_column_1p2mm.yaml": yaml.safe_load(
+    twin = {"one_column_1p2mm.yaml": load_strict(
         (paths.scenes_dir() / "one_column_1p2mm_predicted.yaml").read_text())}
     assert provenance.point_origin(rows, None, twin) == provenance.PREDICTED
 
@@ -78,10 +78,10 @@ def test_a_replay_run_is_simulated_not_predicted():
 def large_plate_run(tmp_path_factory):
     """The large plate's characterisation of the predicted campaign alone."""
     tmp = tmp_path_factory.mktemp("predicted_large")
-    campaign = yaml.safe_load((paths.campaigns_dir() / "paper_predicted.yaml").read_text())
+    campaign = load_strict((paths.campaigns_dir() / "paper_predicted.yaml").read_text())
     campaign["runs"] = [r for r in campaign["runs"] if r["name"] == "fig8_9_large_plate"]
     (tmp / "large_plate_predicted.yaml").write_text((paths.scenes_dir() / "large_plate_predicted.yaml").read_text())
-    (tmp / "campaign.yaml").write_text(yaml.safe_dump(campaign))
+    (tmp / "campaign.yaml").write_text(dump_yaml(campaign))
     return load_run(run_campaign(tmp / "campaign.yaml", out_dir=tmp / "run", progress=False))
 
 
@@ -114,13 +114,13 @@ def test_a_replay_plate_is_set_beside_its_physics_and_its_departure_said(tmp_pat
     from squeezebench import simulated_plates
     from squeezebench.analysis.report import write_report
 
-    campaign = yaml.safe_load(paths.paper_campaign().read_text())
+    campaign = load_strict(paths.paper_campaign().read_text())
     run = next(r for r in campaign["runs"] if r["name"] == "fig5_small_plates")
     run["bench"] = {"scene": "small_plate_4.yaml"}
     run["parameters"]["plates"] = [p for p in run["parameters"]["plates"] if p["scene"] == "small_plate_4.yaml"]
     campaign["runs"] = [run]
     (tmp_path / "small_plate_4.yaml").write_text((paths.scenes_dir() / "small_plate_4.yaml").read_text())
-    (tmp_path / "campaign.yaml").write_text(yaml.safe_dump(campaign))
+    (tmp_path / "campaign.yaml").write_text(dump_yaml(campaign))
     run_dir = run_campaign(tmp_path / "campaign.yaml", out_dir=tmp_path / "run", progress=False)
     text = write_report(run_dir).read_text()
     assert "What physics predicts for the characterised plates" in text

@@ -8,11 +8,11 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import yaml
 
 from squeezebench.protocols.campaign import run_campaign
 from squeezebench.protocols.storage import read_measurements
 from squeezebench import paths
+from squeezebench.yamlfiles import dump_yaml, load_strict
 
 #: Small acquisition settings: the tests check logic, not noise.
 FAST_ACQUISITION = {"averages": 2, "record_length": 500, "periods_per_record": 10, "settle_s": 0.2}
@@ -21,17 +21,17 @@ ONE_COLUMN_PLATE = {"n_powered_columns": 1, "n_powered_piezos": 4}
 
 def noise_free_scene(tmp_path: Path, name: str, effects: list | None = None) -> Path:
     """A copy of a shipped scene without effects (noise, drift...) but `effects`, in tmp_path."""
-    scene = yaml.safe_load((paths.scenes_dir() / name).read_text())
+    scene = load_strict((paths.scenes_dir() / name).read_text())
     scene["effects"] = effects or []
     path = tmp_path / name
-    path.write_text(yaml.safe_dump(scene, sort_keys=False))
+    path.write_text(dump_yaml(scene))
     return path
 
 
 def write_campaign(tmp_path: Path, runs: list[dict], name: str = "test", **top) -> Path:
     campaign = {"name": name, "acquisition": FAST_ACQUISITION, **top, "runs": runs}
     path = tmp_path / f"{name}.yaml"
-    path.write_text(yaml.safe_dump(campaign, sort_keys=False))
+    path.write_text(dump_yaml(campaign))
     return path
 
 

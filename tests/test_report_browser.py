@@ -20,6 +20,7 @@ import squeezebench.simulated_plates  # noqa: F401  (the report as the command l
 from squeezebench import paths
 from squeezebench.analysis import report
 from squeezebench.protocols.campaign import run_campaign
+from squeezebench.yamlfiles import load_strict
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "docs"))
 import make_screenshots  # noqa: E402  (docs/ is not a package)
@@ -91,10 +92,9 @@ def test_the_dry_run_is_said_on_every_results_table(rendered):
 def test_the_first_screen_says_the_scenes_are_replays_and_the_appendix_why(index):
     """The quick campaign's one scene replays published points: the banner says so, and the
     provenance appendix gives the scene's own reason."""
-    import yaml
 
     text = index.read_text()
     assert "1 scene, a declared replay of published points the plate model does not predict" in text
-    reason = yaml.safe_load((paths.scenes_dir() / "one_column_1mm.yaml").read_text())["replay"]["reason"]
+    reason = load_strict((paths.scenes_dir() / "one_column_1mm.yaml").read_text())["replay"]["reason"]
     appendix = text[text.index("id=\"provenance\""):]
     assert "scene one_column_1mm.yaml" in appendix and html.escape(reason) in appendix

@@ -6,24 +6,24 @@ import dataclasses
 import math
 
 import pytest
-import yaml
 
 from squeezebench import paths
 from squeezebench.simbench.predicted import FORCE_FACTOR_TOLERANCE, MODAL_MASS_TOLERANCE
 from squeezebench.simbench.scene import SceneError, load_scene, scene_figures
 from squeezebench.schemas import replay_departures
+from squeezebench.yamlfiles import dump_yaml, load_strict
 
 STATE = "one_powered"
 VOLTAGE_VPP = 24.0
 
 
 def _raw(name="one_column_1p2mm"):
-    return yaml.safe_load((paths.scenes_dir() / f"{name}.yaml").read_text())
+    return load_strict((paths.scenes_dir() / f"{name}.yaml").read_text())
 
 
 def _write(tmp_path, raw, name="plate.yaml"):
     path = tmp_path / name
-    path.write_text(yaml.safe_dump(raw, sort_keys=False))
+    path.write_text(dump_yaml(raw))
     return path
 
 

@@ -7,17 +7,17 @@ import math
 from pathlib import Path
 
 import pytest
-import yaml
 
 from squeezebench.analysis import model
 from squeezebench.simbench import physics
 from squeezebench.simbench.scene import SceneError, covered_by_provenance, load_scene, numeric_field_paths
 from squeezebench import paths
+from squeezebench.yamlfiles import dump_yaml, load_strict
 from test_sim_support import RawBench, scene_file
 
 SHIPPED = sorted(p.name for p in paths.scenes_dir().glob("*.yaml"))
 #: Read from the files, not loaded: collection must not solve the predicted twins' plates.
-_RAW = {name: yaml.safe_load((paths.scenes_dir() / name).read_text()) for name in SHIPPED}
+_RAW = {name: load_strict((paths.scenes_dir() / name).read_text()) for name in SHIPPED}
 STATES = [(name, state) for name in SHIPPED for state in _RAW[name]["states"]]
 #: The states calibrated on a published point (a predicted twin's states have none).
 CALIBRATED = [(name, state) for name, state in STATES
@@ -37,16 +37,16 @@ def test_every_plate_of_the_paper_has_a_scene():
 def test_every_number_has_provenance(name):
     path = paths.scenes_dir() / name
     scene = load_scene(path)
-    missing = [f for f in numeric_field_paths(yaml.safe_load(path.read_text()))
+    missing = [f for f in numeric_field_paths(load_strict(path.read_text()))
                if not covered_by_provenance(f, scene.provenance)]
     assert missing == []
 
 
 def _broken(tmp_path, edit):
-    raw = yaml.safe_load((paths.scenes_dir() / "one_column_1mm.yaml").read_text())
+    raw = load_strict((paths.scenes_dir() / "one_column_1mm.yaml").read_text())
     edit(raw)
     path = tmp_path / "broken.yaml"
-    path.write_text(yaml.safe_dump(raw, sort_keys=False))
+    path.write_text(dump_yaml(raw))
     return path
 
 
@@ -241,7 +241,7 @@ def test_docs_pages_are_current_and_every_shipped_scene_fits_the_schema(tmp_path
         assert written.read_text() == (docs / written.name).read_text(), (
             f"docs/{written.name} is stale: python -m squeezebench.simbench.scene_schema docs/")
     for name in SHIPPED:
-        SceneFile.model_validate(yaml.safe_load((paths.scenes_dir() / name).read_text()))
+        SceneFile.model_validate(load_strict((paths.scenes_dir() / name).read_text()))
 
 
 def test_the_schema_refuses_what_the_loader_refuses():
@@ -249,7 +249,7 @@ def test_the_schema_refuses_what_the_loader_refuses():
 
     from squeezebench.simbench.scene_schema import SceneFile
 
-    raw = yaml.safe_load((paths.scenes_dir() / "one_column_1mm.yaml").read_text())
+    raw = load_strict((paths.scenes_dir() / "one_column_1mm.yaml").read_text())
     raw["plate"]["material"] = "unobtainium"
     with pytest.raises(pydantic.ValidationError, match="plate.material"):
         SceneFile.model_validate(raw)

@@ -11,9 +11,9 @@ from pathlib import Path
 
 import numpy as np
 import pyvisa
-import yaml
 
 from squeezebench import paths
+from squeezebench.yamlfiles import dump_yaml, load_strict
 
 _TOKENS = itertools.count()
 TERMINATIONS = {"read_termination": "\n", "write_termination": "\n"}
@@ -21,10 +21,10 @@ TERMINATIONS = {"read_termination": "\n", "write_termination": "\n"}
 
 def scene_file(tmp_path: Path, name: str = "one_column_1mm.yaml", **changes) -> Path:
     """A copy of a shipped scene with top-level sections replaced (e.g. effects=[])."""
-    scene = yaml.safe_load((paths.scenes_dir() / name).read_text())
+    scene = load_strict((paths.scenes_dir() / name).read_text())
     scene.update(changes)
     path = tmp_path / f"{len(list(tmp_path.iterdir()))}_{name}"
-    path.write_text(yaml.safe_dump(scene, sort_keys=False))
+    path.write_text(dump_yaml(scene))
     return path
 
 

@@ -205,6 +205,11 @@ def _entry_point_started(pid: int) -> bool:
     return bool(caught >> (signal.SIGTERM - 1) & 1)
 
 
+def _as_from_a_terminal() -> None:
+    for sig in (signal.SIGINT, signal.SIGHUP):
+        signal.signal(sig, signal.SIG_DFL)
+
+
 @pytest.mark.skipif(not os.path.exists("/proc/self/status"), reason="reads /proc")
 def test_a_stop_signal_at_any_moment_of_start_up_exits_130_without_a_traceback(tmp_path):
     """From the moment the entry point runs (while the command imports its modules, parses
@@ -213,10 +218,11 @@ def test_a_stop_signal_at_any_moment_of_start_up_exits_130_without_a_traceback(t
     for trial in range(6):
         sig = rng.choice([signal.SIGINT, signal.SIGTERM, signal.SIGHUP])
         # As from a terminal: a test runner started in the background of a script has SIGINT
-        # ignored, which the command rightly keeps ignored; the user's terminal does not.
+        # ignored, and under nohup SIGHUP too, which the command rightly keeps ignored; the
+        # user's terminal does not.
         process = subprocess.Popen(_command("run", "quick.yaml", "--out", str(tmp_path / f"run{trial}"), "-q"),
                                    stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                                   preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+                                   preexec_fn=_as_from_a_terminal)
         deadline = time.monotonic() + 30.0
         while not _entry_point_started(process.pid):
             assert time.monotonic() < deadline and process.poll() is None, \
