@@ -90,3 +90,16 @@ def fresh_plan_cache(tmp_path_factory):
     with pytest.MonkeyPatch.context() as patch:
         patch.setenv(CACHE_VARIABLE, str(tmp_path_factory.mktemp("plan-cache")))
         yield
+
+
+@pytest.fixture(scope="session", autouse=True)
+def _not_waiting_for_the_disk():
+    """fsync makes a stored step survive a power cut, which no test in this process can
+    cut: here the runs do not wait for the disk (some 6 s of the suite). The tests that
+    kill runs do it to real processes, which keep their fsyncs; test_run_storage checks
+    that a durable run calls fsync and a temporary one does not."""
+    import os
+
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(os, "fsync", lambda fd: None)
+        yield
