@@ -27,7 +27,6 @@ powered set. All SI units.
 """
 from __future__ import annotations
 
-import collections
 import functools
 import hashlib
 import json
@@ -37,6 +36,7 @@ import numpy as np
 from scipy.sparse.linalg import eigsh
 
 from squeezebench.analysis.specifications import sheet_thickness_tolerance
+from squeezebench.lru import RecentlyUsed
 
 EPSILON_0_F_PER_M = 8.8541878128e-12
 
@@ -247,10 +247,9 @@ def _key(geometry: PlateGeometry, resonator: Isotropic, piezo: Piezo, near_hz: f
     return hashlib.sha256(text.encode()).hexdigest()
 
 
-#: Solved plates, most recently used last: a campaign's few plates stay, a layout sweep's
-#: hundreds (each solved once) do not pile up in a worker's memory.
-_CACHE: "collections.OrderedDict[str, PlateModes]" = collections.OrderedDict()
-_CACHE_SIZE = 16
+#: Solved plates: a campaign's few plates stay, a layout sweep's hundreds (each solved
+#: once) do not pile up in a worker's memory.
+_CACHE: RecentlyUsed[PlateModes] = RecentlyUsed(16)
 
 
 def solve_plate(geometry: PlateGeometry, resonator: Isotropic = ALUMINIUM_TABLE2,
@@ -270,12 +269,8 @@ def solve_plate(geometry: PlateGeometry, resonator: Isotropic = ALUMINIUM_TABLE2
         density_per_hz = geometry.length_m * geometry.width_m / 2 * np.sqrt(mass / d)
         n_modes = max(12, int(np.ceil(band_rel * near_hz * density_per_hz)))
     key = _key(geometry, resonator, piezo, near_hz, n_modes, elements_per_half_wave, mesh_half_wave_m)
-    if key not in _CACHE:
-        _CACHE[key] = _solve(geometry, resonator, piezo, near_hz, n_modes, elements_per_half_wave, mesh_half_wave_m)
-        while len(_CACHE) > _CACHE_SIZE:
-            _CACHE.popitem(last=False)
-    _CACHE.move_to_end(key)
-    return _CACHE[key]
+    return _CACHE.get(key, lambda: _solve(geometry, resonator, piezo, near_hz, n_modes, elements_per_half_wave,
+                                          mesh_half_wave_m))
 
 
 def flexural_half_wavelength_m(material: Isotropic, thickness_m: float, frequency_hz: float) -> float:

@@ -49,9 +49,7 @@ docs/scenes.md and the report show how far it departs and why.
 
 from __future__ import annotations
 
-import collections
 import math
-import threading
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
@@ -64,6 +62,7 @@ from squeezebench.analysis import model
 from squeezebench.simbench import physics
 from squeezebench.simbench.effects import EFFECTS
 from squeezebench.errors import UserError
+from squeezebench.lru import RecentlyUsed
 from squeezebench.yamlfiles import load_strict, yaml_problem
 
 #: A state's `resonance_frequency_hz` when the plate model gives it (and the branch).
@@ -465,14 +464,11 @@ class _Reader:
         return value
 
 
-#: Scenes built in this process, by (file name, text), most recently used last: a study or
-#: a plan opens a bench per trial (a study's task writes its scene into a folder of its
-#: own), and checking a scene may solve its plate. A scene depends on its folder only
-#: through `path`, set on the copy returned. `reproduce` on one worker loads scenes on two
-#: threads (the campaign's and the study's): the lock keeps the order consistent.
-_BUILT: "collections.OrderedDict[tuple[str, str], Scene]" = collections.OrderedDict()
-_BUILT_SIZE = 32
-_BUILT_LOCK = threading.Lock()
+#: Scenes built in this process, by (file name, text): a study or a plan opens a bench per
+#: trial (a study's task writes its scene into a folder of its own), and checking a scene
+#: may solve its plate. A scene depends on its folder only through `path`, set on the copy
+#: returned.
+_BUILT: RecentlyUsed[Scene] = RecentlyUsed(32)
 
 
 def load_scene(path: str | Path) -> Scene:
@@ -482,18 +478,8 @@ def load_scene(path: str | Path) -> Scene:
         text = path.read_text(encoding="utf-8")
     except OSError as exc:
         raise SceneError(f"{path}: cannot read the scene file ({exc.strerror})") from exc
-    key = (path.name, text)
-    with _BUILT_LOCK:
-        scene = _BUILT.get(key)
-        if scene is not None:
-            _BUILT.move_to_end(key)
-    if scene is None:
-        scene = _scene(path, text)   # a refused scene raises, naming this path, and is not kept
-        with _BUILT_LOCK:
-            _BUILT[key] = scene
-            while len(_BUILT) > _BUILT_SIZE:
-                _BUILT.popitem(last=False)
-    return replace(scene, path=path)
+    # a refused scene raises, naming this path, and is not kept
+    return replace(_BUILT.get((path.name, text), lambda: _scene(path, text)), path=path)
 
 
 def _scene(path: Path, text: str) -> Scene:
