@@ -57,12 +57,19 @@ class Drawing:
         return path
 
     def finish(self) -> None:
-        """Wait for every figure handed out; the first one that failed raises here. A figure
-        whose process died is drawn here instead, and the next report gets new processes."""
+        """Wait for every figure handed out; one that failed raises here. This process has
+        nothing else left to do, so it draws the figures no worker has started, the last
+        handed out first (the least likely started). A figure whose process died is drawn
+        here instead, and the next report gets new processes."""
         pending, self._pending = self._pending, []
         broken = False
         try:
+            for future, (function, *arguments) in reversed(pending):
+                if future.cancel():
+                    function(*arguments)
             for future, (function, *arguments) in pending:
+                if future.cancelled():   # drawn above
+                    continue
                 try:
                     future.result()
                 except BrokenExecutor:

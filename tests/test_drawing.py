@@ -60,3 +60,21 @@ def test_a_figure_whose_process_died_is_drawn_here_and_the_next_report_gets_new_
     again(figures.fig9_power, _power(), tmp_path / "after.png")
     again.finish()
     assert (tmp_path / "after.png").read_bytes() == (tmp_path / "killed.png").read_bytes()
+
+
+def _drawn_by(data, path):
+    import time
+
+    time.sleep(0.1)
+    Path(path).write_text(str(os.getpid()))
+
+
+def test_figures_no_worker_has_started_are_drawn_here_at_finish(tmp_path):
+    # the report has nothing left to do but wait: it draws what the worker has not begun
+    drawing = Drawing(2)
+    paths = [tmp_path / f"figure{i}.png" for i in range(6)]
+    for path in paths:
+        drawing(_drawn_by, None, path)
+    drawing.finish()
+    drawers = [int(path.read_text()) for path in paths]   # each drawn once, by someone
+    assert drawers[-1] == os.getpid()   # the last handed out cannot have been started
