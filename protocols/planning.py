@@ -6,10 +6,10 @@ power reduced from the stored waveforms (analysis.waveforms.integer_period_mean_
 as the analysis does) against the scene's closed-form truth (`truth().power_w`) is
 measured for each setting, one after the other on one bench per plate: record length
 500 or 10000 points x averaging 1 (sample mode), 2, 4, ..., 512, over several
-acquisitions (each setting ranges the channels afresh, and each acquisition's noise is seeded by
-the scene's seed and what defines it, so the plan is reproducible and the same on any
-number of workers, `protocols.parallel`); the 95th percentile of |error| is compared with the
-target. A run gets the setting meeting the target on all its plates at the least bench
+acquisitions (each setting ranges the channels afresh, and each acquisition's noise is
+seeded by the scene's seed and what defines it, so the plan is reproducible and the same
+on any number of workers, `protocols.parallel`); the 95th percentile of |error| is
+compared with the target. A run gets the setting meeting the target on all its plates at the least bench
 time per point (the baseline's when none does: every step of a run shares its
 acquisition settings). The campaign is then run twice on the simulated bench into
 temporary directories, with the planned settings and with 512 averages everywhere (the
@@ -326,7 +326,6 @@ class Plan:
                     "benches": self.check_benches, "meets_target": self.meets_check,
                     "missed_runs": self.missed_runs(), "noise_scale": self.noise_scale,
                     "p95_abs_rel_error": self.check.to_dict(orient="records")}}
-
 
 
 def make_plan(campaign_path: Path, target_rel_error: float, repeats: int = REPEATS,
