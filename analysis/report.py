@@ -101,6 +101,10 @@ def write_report(run_dir: Path | str, workers: int | None = None) -> Path:
     context = ReportContext(run=run, out_dir=out_dir, draw=Drawing(workers or default_workers()))
     builders = [b for b in SECTIONS if b is not provenance_section] + [provenance_section]   # appendix last
     try:
+        try:
+            _study_figures(context)   # the longest to draw: handed out first
+        except UserError:
+            pass   # the study's section says why, in its place
         sections = [section for builder in builders if (section := _guarded(builder, context)) is not None]
         sections.insert(0, summary_section(context))   # last: it sums up what the others found
         context.draw.finish()   # no page points at a figure not yet drawn
@@ -742,15 +746,14 @@ def study_section(context: ReportContext) -> Section | None:
         context.absent.append("Accuracy vs bench time: no study/ folder ('squeezebench study --out RUN_DIR' writes it)")
         return None
     body = _coverage_part(context)
-    try:
-        trials = study.load_trials(context.run.run_dir)
-    except MissingDataError:
+    found = _study_summary(context)
+    if found is None:
         return Section("Accuracy vs bench time", body, "study") if body else None
-    summary = study.summarise(trials)
+    n_trials, summary = found
     summary.to_csv(context.out_dir / "study_summary.csv", index=False)
-    systematics = summary[summary["experiment"].map(study.is_systematics)]
-    noise = summary[~summary["experiment"].map(study.is_systematics)]
-    body = (f"<p>{len(trials)} trial rows (RUN_DIR/study/*.parquet) on the simulated bench, each scored "
+    systematics, noise, heating = _study_parts(summary)
+    drawn = _study_figures(context)
+    body = (f"<p>{n_trials} trial rows (RUN_DIR/study/*.parquet) on the simulated bench, each scored "
             "against the scene's closed-form truth; the cost is the virtual bench time of "
             f"one trial. Error = {study.ERROR_PERCENTILE:g}th percentile of |relative error| over the "
             "repeats. All configurations: <a href='study_summary.csv'>study_summary.csv</a>.</p>") + body
@@ -759,7 +762,7 @@ def study_section(context: ReportContext) -> Section | None:
         fronts.to_csv(context.out_dir / "study_fronts.csv", index=False)
         body += presentation.fold(
             "Error against bench time on an ideal bench, and the settings on each Pareto front",
-            context.figure(context.draw(figures.study_fronts, noise, context.out_dir / "study_fronts.png"),
+            context.figure(drawn["study_fronts"],
                            "Error against bench time per trial on an ideal bench (noise, settling, "
                            "search and heating only), one panel per quantity: every configuration as a "
                            "dot, each experiment's Pareto front as a line. Simulated bench; the paper "
@@ -767,8 +770,7 @@ def study_section(context: ReportContext) -> Section | None:
             + "<h3>Settings on each Pareto front (cheapest first)</h3>"
             + html_table(fronts, "Settings on each Pareto front. Simulated bench."))
     if not systematics.empty:
-        body += _systematics_part(context, systematics)
-    heating = study.heating_table(summary)
+        body += _systematics_part(context, systematics, drawn["study_systematics"])
     if not heating.empty:
         body += presentation.fold(
             "Heating drift: longer averaging at a fixed frequency, and tracking",
@@ -776,14 +778,51 @@ def study_section(context: ReportContext) -> Section | None:
             "frequency found cold loses power as the averaging (and so the series) lasts longer. "
             "Re-centring on the resonance before each point removes that error at the cost of "
             "the tracking's bench time.</p>"
-            + context.figure(context.draw(figures.heating_drift, heating, context.out_dir / "study_heating.png"),
+            + context.figure(drawn["study_heating"],
                              "Power error against scope averaging on a heating plate, at the "
                              "frequency found cold and with the resonance tracked. Simulated bench.")
             + html_table(heating, "Heating drift. Simulated bench."))
     return Section("Accuracy vs bench time", body, "study")
 
 
-def _systematics_part(context: ReportContext, summary: pd.DataFrame) -> str:
+def _study_summary(context: ReportContext) -> tuple[int, pd.DataFrame] | None:
+    """The stored study's number of trial rows and summary (`study.summarise`), computed
+    once; None without a study (or without trials)."""
+    if "study" not in context.cache:
+        try:
+            trials = study.load_trials(context.run.run_dir)
+        except MissingDataError:
+            context.cache["study"] = None
+        else:
+            context.cache["study"] = len(trials), study.summarise(trials)
+    return context.cache["study"]
+
+
+def _study_parts(summary: pd.DataFrame) -> tuple[pd.DataFrame, pd.DataFrame, pd.DataFrame]:
+    """The summary's systematics experiments, its noise experiments, and its heating table."""
+    is_systematics = summary["experiment"].map(study.is_systematics)
+    return summary[is_systematics], summary[~is_systematics], study.heating_table(summary)
+
+
+def _study_figures(context: ReportContext) -> dict[str, Path]:
+    """The study's figures, handed to the drawing processes once ({name: PNG}, those its
+    data has). `write_report` hands them out before any section: they are the longest to
+    draw, and the study's section comes late on the page."""
+    if "study_figures" not in context.cache:
+        found = _study_summary(context) if (context.run.run_dir / "study").is_dir() else None
+        drawn = {}
+        if found is not None:
+            systematics, noise, heating = _study_parts(found[1])
+            for name, function, data in (("study_fronts", figures.study_fronts, noise),
+                                         ("study_systematics", figures.systematics_fronts, systematics),
+                                         ("study_heating", figures.heating_drift, heating)):
+                if not data.empty:
+                    drawn[name] = context.draw(function, data, context.out_dir / f"{name}.png")
+        context.cache["study_figures"] = drawn
+    return context.cache["study_figures"]
+
+
+def _systematics_part(context: ReportContext, summary: pd.DataFrame, drawn: Path) -> str:
     """The floors the instruments' specified errors put under averaging, and what the
     deskew calibration buys for its bench time."""
     floors = study.floors_table(summary)
@@ -821,7 +860,7 @@ def _systematics_part(context: ReportContext, summary: pd.DataFrame) -> str:
             "|relative error| over the benches at any setting), and the bench time per trial of the cheapest "
             f"setting within {study.AT_FLOOR - 1:.0%} of it: {html.escape(words)}.</p>"
             + context.figure(
-                context.draw(figures.systematics_fronts, summary, context.out_dir / "study_systematics.png"),
+                drawn,
                              "Total error against bench time per trial over simulated benches erring "
                              "within specification, one panel per quantity: each point's series (averaging; "
                              "the search's tolerance) as the bench is (solid) and after the deskew "
