@@ -41,7 +41,6 @@ class Drawing:
         self._size = workers - 1
         self._executor = _executor(self._size) if workers > 1 else None
         self._pending: list[tuple[Future, tuple]] = []   # (future, the call it runs)
-        self._beside: list[Future] = []   # `beside` work, read by the sections themselves
 
     def __call__(self, function: Callable[..., Any], data: Any, path: Path, *more: Any) -> Path:
         """`function(data, path, *more)`, now or on a worker; returns `path`."""
@@ -56,32 +55,6 @@ class Drawing:
             future = self._executor.submit(*call)
         self._pending.append((future, call))
         return path
-
-    def beside(self, function: Callable[..., Any], *arguments: Any) -> Callable[[], Any]:
-        """`function(*arguments)` on a drawing process (here at once, with one worker), for a
-        section to read later: returns the call giving its result or raising what it raised
-        (computed here if its process died). For work the report would otherwise do on its
-        one thread while the drawing processes wait for figures."""
-        if self._executor is None:
-            done: Future = Future()
-            try:
-                done.set_result(function(*arguments))
-            except Exception as exc:   # raised where the section reads it
-                done.set_exception(exc)
-            return done.result
-        try:
-            future = self._executor.submit(function, *arguments)
-        except BrokenExecutor:
-            self._executor = _executor(self._size, fresh=True)
-            future = self._executor.submit(function, *arguments)
-        self._beside.append(future)
-
-        def read() -> Any:
-            try:
-                return future.result()
-            except BrokenExecutor:
-                return function(*arguments)
-        return read
 
     def finish(self) -> None:
         """Wait for every figure handed out; one that failed raises here. This process has
@@ -109,8 +82,7 @@ class Drawing:
                 _executor(self._size, fresh=True)
 
     def cancel(self) -> None:
-        """Drop the figures and the `beside` work not started yet (the report stopped, or
-        is written: a section that was not built leaves its work unread)."""
-        for future in [f for f, _ in self._pending] + self._beside:
+        """Drop the figures not started yet (the report stopped)."""
+        for future, _ in self._pending:
             future.cancel()
-        self._pending, self._beside = [], []
+        self._pending = []

@@ -82,8 +82,6 @@ class Section:
     appendix: bool = False   # reference material: after every result, titled "Appendix: ..."
 
 
-#: A section builder; it may carry `prefetch(context)`, called before any section is built,
-#: to hand the drawing processes what it will read (`Drawing.beside`) or draw.
 SectionBuilder = Callable[[ReportContext], "Section | None"]
 
 
@@ -103,11 +101,10 @@ def write_report(run_dir: Path | str, workers: int | None = None) -> Path:
     context = ReportContext(run=run, out_dir=out_dir, draw=Drawing(workers or default_workers()))
     builders = [b for b in SECTIONS if b is not provenance_section] + [provenance_section]   # appendix last
     try:
-        for builder in builders:   # what sections hand the drawing processes before any is built
-            try:
-                getattr(builder, "prefetch", lambda context: None)(context)
-            except UserError:
-                pass   # the section says why, in its place
+        try:
+            _study_figures(context)   # the longest to draw: handed out first
+        except UserError:
+            pass   # the study's section says why, in its place
         sections = [section for builder in builders if (section := _guarded(builder, context)) is not None]
         sections.insert(0, summary_section(context))   # last: it sums up what the others found
         context.draw.finish()   # no page points at a figure not yet drawn
@@ -809,8 +806,8 @@ def _study_parts(summary: pd.DataFrame) -> tuple[pd.DataFrame, pd.DataFrame, pd.
 
 def _study_figures(context: ReportContext) -> dict[str, Path]:
     """The study's figures, handed to the drawing processes once ({name: PNG}, those its
-    data has). They are the longest to draw and the study's section comes late on the page,
-    so `write_report` hands them out before any section (`study_section.prefetch`)."""
+    data has). `write_report` hands them out before any section: they are the longest to
+    draw, and the study's section comes late on the page."""
     if "study_figures" not in context.cache:
         found = _study_summary(context) if (context.run.run_dir / "study").is_dir() else None
         drawn = {}
@@ -823,9 +820,6 @@ def _study_figures(context: ReportContext) -> dict[str, Path]:
                     drawn[name] = context.draw(function, data, context.out_dir / f"{name}.png")
         context.cache["study_figures"] = drawn
     return context.cache["study_figures"]
-
-
-study_section.prefetch = _study_figures
 
 
 def _systematics_part(context: ReportContext, summary: pd.DataFrame, drawn: Path) -> str:

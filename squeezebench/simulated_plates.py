@@ -21,7 +21,6 @@ from __future__ import annotations
 
 import html
 import math
-from pathlib import Path
 
 import pandas as pd
 
@@ -58,18 +57,20 @@ def physics_rows(context: report.ReportContext) -> pd.DataFrame:
     (`simbench.predicted.predict`, referred to the scene's measurement point), the build's
     one mechanical Q (`predicted_plates.MECHANICAL_Q`) and the report's reading of Eqs. 25/27.
     A plate the model cannot predict is left out, with why, in `frame.attrs["not_predicted"]`."""
-    stored = _stored_scenes(context)
-    if stored is None:
+    inputs = context.run.run_dir / "inputs"
+    steps = context.run.protocol("characterisation")
+    if "scene_file" not in steps:
         return pd.DataFrame()   # rows from before scenes were recorded: nothing to predict from
     rows, not_predicted = [], {}
     for name, plate in context.plates().items():
-        if name not in stored:
+        first = steps[steps["plate"] == name].iloc[0]
+        path = inputs / str(first["scene_file"])
+        if not path.is_file():
             continue   # a real bench's plate: no geometry to predict from
-        path, state_name = stored[name]
         scene = load_scene(path)
-        state = scene.state(state_name)
+        state = scene.state(first["scene_state"] or scene.initial_state)
         try:
-            prediction = context.cache.get("predictions", {}).get(name, lambda: predicted.predict(scene, state))()
+            prediction = predicted.predict(scene, state)
             response = predicted_plates.response_per_volt(prediction.frequency_hz, prediction.modal_mass_g * 1e-3,
                                                           prediction.force_factor_n_per_v)
             expected = tables.predicted_q_tan(response, plate.geometry, context.convention)
@@ -89,33 +90,6 @@ def physics_rows(context: report.ReportContext) -> pd.DataFrame:
     frame = pd.DataFrame(rows)
     frame.attrs["not_predicted"] = not_predicted
     return frame
-
-
-def _stored_scenes(context: report.ReportContext) -> dict[str, tuple[Path, str]] | None:
-    """Each characterised plate's stored scene and state, {plate: (RUN_DIR/inputs/..., state)},
-    plates without a stored scene (a real bench's) left out; None for rows from before
-    scenes were recorded."""
-    steps = context.run.protocol("characterisation")
-    if "scene_file" not in steps:
-        return None
-    stored = {}
-    for first in steps.drop_duplicates("plate").itertuples(index=False):   # a plate's first step
-        path = context.run.run_dir / "inputs" / str(first.scene_file)
-        if path.is_file():
-            stored[first.plate] = path, first.scene_state or load_scene(path).initial_state
-    return stored
-
-
-def _predict_stored(path: Path, state: str) -> predicted.Prediction:
-    return predicted.predict(scene := load_scene(path), scene.state(state))
-
-
-def _hand_out_predictions(context: report.ReportContext) -> None:
-    """The plate model's predictions (a plate solve each, most of the section's time) go to
-    a drawing process before any section is built; `physics_rows` reads them."""
-    if context.run.scenes and not context.run.protocol("characterisation").empty:
-        context.cache["predictions"] = {name: context.draw.beside(_predict_stored, *where)
-                                        for name, where in (_stored_scenes(context) or {}).items()}
 
 
 def _by_plate(frame: pd.DataFrame) -> pd.DataFrame:
@@ -193,6 +167,5 @@ def check_powered_piezos(campaign) -> None:
 
 if scenes_section not in report.SECTIONS:
     report.SECTIONS.append(scenes_section)
-physics_section.prefetch = _hand_out_predictions
 if physics_section not in report.SECTIONS:
     report.SECTIONS.insert(report.SECTIONS.index(report.characterisation_section) + 1, physics_section)

@@ -78,20 +78,3 @@ def test_figures_no_worker_has_started_are_drawn_here_at_finish(tmp_path):
     drawing.finish()
     drawers = [int(path.read_text()) for path in paths]   # each drawn once, by someone
     assert drawers[-1] == os.getpid()   # the last handed out cannot have been started
-
-
-def _pid_and(value):
-    if value < 0:
-        raise ValueError("negative")
-    return os.getpid(), value
-
-
-@pytest.mark.parametrize("workers", [1, 2])
-def test_work_beside_the_report_gives_its_result_or_raises_where_it_is_read(workers):
-    drawing = Drawing(workers)
-    read, failed = drawing.beside(_pid_and, 3), drawing.beside(_pid_and, -1)   # nothing raised yet
-    pid, value = read()
-    assert value == 3 and (pid == os.getpid()) == (workers == 1)   # another process where there is one
-    with pytest.raises(ValueError, match="negative"):
-        failed()
-    drawing.cancel()
