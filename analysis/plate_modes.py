@@ -248,8 +248,10 @@ def _key(geometry: PlateGeometry, resonator: Isotropic, piezo: Piezo, near_hz: f
 
 
 #: Solved plates: a campaign's few plates stay, a layout sweep's hundreds (each solved
-#: once) do not pile up in a worker's memory.
-_CACHE: RecentlyUsed[PlateModes] = RecentlyUsed(16)
+#: once) do not pile up in a worker's memory (a small plate with its mesh is about 15 MB,
+#: the large one 50 MB). 32: the test suite's design and prediction modules solved 17 of
+#: their 86 plates twice with 16, 8 with 32.
+_CACHE: RecentlyUsed[PlateModes] = RecentlyUsed(32)
 
 
 def solve_plate(geometry: PlateGeometry, resonator: Isotropic = ALUMINIUM_TABLE2,
