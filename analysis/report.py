@@ -859,8 +859,7 @@ def _systematics_part(context: ReportContext, summary: pd.DataFrame, drawn: Path
             "search cannot resolve on the flat top of the peak, are all that is left. Floor (lowest p95 "
             "|relative error| over the benches at any setting), and the bench time per trial of the cheapest "
             f"setting within {study.AT_FLOOR - 1:.0%} of it: {html.escape(words)}.</p>"
-            + context.figure(
-                drawn,
+            + context.figure(drawn,
                              "Total error against bench time per trial over simulated benches erring "
                              "within specification, one panel per quantity: each point's series (averaging; "
                              "the search's tolerance) as the bench is (solid) and after the deskew "
