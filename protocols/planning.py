@@ -4,14 +4,17 @@ For every distinct plate (scene, state) the campaign's runs measure, on the simu
 bench at its resonance and the run's (smallest) voltage, the relative error of the
 power reduced from the stored waveforms (analysis.waveforms.integer_period_mean_power_w,
 as the analysis does) against the scene's closed-form truth (`truth().power_w`) is
-measured for each setting, one after the other on one bench per plate: record length
+measured for scope settings, one after the other on one bench per plate: record length
 500 or 10000 points x averaging 1 (sample mode), 2, 4, ..., 512, over several
 acquisitions (each setting ranges the channels afresh, and each acquisition's noise is
 seeded by the scene's seed and what defines it, so the plan is reproducible and the same
 on any number of workers, `protocols.parallel`); the 95th percentile of |error| is
 compared with the target. A run gets the setting meeting the target on all its plates at the least bench
 time per point (the baseline's when none does: every step of a run shares its
-acquisition settings). The campaign is then run twice on the simulated bench into
+acquisition settings). A point's bench time grows with the averaging, so the averagings
+are measured in rounds, fewest first, and only as far as a cheaper setting meeting the
+target could still be found (`SettingsStudy`): the choice is the one measuring all twenty
+gives. The campaign is then run twice on the simulated bench into
 temporary directories, with the planned settings and with 512 averages everywhere (the
 fixed baseline, at the campaign's record lengths), and the virtual bench time of each run
 is read from the journals.
@@ -64,6 +67,11 @@ class Setting:
 
 
 SETTINGS = tuple(Setting(r, n) for r in RECORD_LENGTHS for n in AVERAGES)
+#: The averagings a plate's bench measures together, round after round, at both record
+#: lengths. The scope waits for every record it averages, so a point's bench time grows
+#: with the averaging (by 4 % or more a step on the paper's plates: 0.08 s at 500 points
+#: in sample mode, 5.7 s at 512 averages); the rounds go from cheap to dear.
+AVERAGING_ROUNDS = ((1,), (2, 4), (8, 16, 32), (64, 128, 256, 512))
 
 
 @dataclasses.dataclass
@@ -79,13 +87,14 @@ class PlateStudy:
     state: str | None
     voltage_vpp: float
     resonance_hz: float
-    results: list[SettingResult]
+    results: list[SettingResult]   # the settings measured (`SettingsStudy`: as far as the plan needed)
 
     def result(self, setting: Setting) -> SettingResult:
         return next(r for r in self.results if r.setting == setting)
 
 
-def cheapest_setting(studies: list[PlateStudy], target_rel_error: float, fallback: Setting) -> Setting:
+def cheapest_setting(studies: list[PlateStudy], target_rel_error: float, fallback: Setting | None
+                     ) -> Setting | None:
     """The setting meeting the target on every plate at the least bench time per point
     (summed over the plates); `fallback` when none meets it everywhere."""
     meeting = [r.setting for r in studies[0].results
@@ -94,6 +103,74 @@ def cheapest_setting(studies: list[PlateStudy], target_rel_error: float, fallbac
         return fallback
     return min(meeting, key=lambda setting: (sum(s.result(setting).bench_time_per_point_s for s in studies),
                                              setting.averages))
+
+
+class SettingsStudy:
+    """The settings' study of a plan's plates (keys of `measure_settings`), measured only as
+    far as the runs' choices need: a round measures the next averagings of
+    `AVERAGING_ROUNDS` at both record lengths, on one bench per plate. Since every
+    setting not measured yet has more averages, and so costs more per point, than the
+    most averaged one measured, a run's cheapest setting is known once one meets its target
+    at no more cost than those; `choose` returns what `cheapest_setting` picks among all
+    twenty. A setting measures the same whatever ran before it on its bench, so the
+    rounds' results are those of one bench measuring all twenty."""
+
+    def __init__(self, cache: PlanCache, keys: Sequence[tuple], repeats: int) -> None:
+        self.cache, self.repeats = cache, repeats
+        self.rounds = dict.fromkeys(keys, 0)   # rounds measured per plate
+        self._results: dict[tuple, list[SettingResult]] = {key: [] for key in keys}
+        self._resonance_hz: dict[tuple, float] = {}
+
+    def next_round(self, keys: Sequence[tuple]) -> dict[functools.partial, tuple]:
+        """{job: key} measuring each plate's next round."""
+        return {self.cache.job(measure_settings, *key, self.repeats,
+                               tuple(Setting(r, n) for r in RECORD_LENGTHS for n in AVERAGING_ROUNDS[self.rounds[key]])
+                               ): key for key in keys}
+
+    def absorb(self, jobs: dict[functools.partial, tuple], done: dict) -> None:
+        for job, key in jobs.items():
+            results, self._resonance_hz[key] = done[job]
+            self._results[key] += results
+            self.rounds[key] += 1
+
+    def study(self, key: tuple, rounds: int | None = None) -> PlateStudy:
+        """The plate's measured settings (of its first `rounds` rounds), in `SETTINGS`' order."""
+        averages = {n for averagings in AVERAGING_ROUNDS[:rounds] for n in averagings}
+        return PlateStudy(key[0], key[1], key[2].voltage_vpp, self._resonance_hz[key],
+                          sorted((r for r in self._results[key] if r.setting.averages in averages),
+                                 key=lambda r: SETTINGS.index(r.setting)))
+
+    def choose(self, wanted: dict[str, tuple[list[tuple], float, Setting]], workers: int, scheduler: Any
+               ) -> dict[str, Setting]:
+        """{run: setting} for {run: (its plate keys, noise target, fallback)}, measuring the
+        rounds the choices need on `workers`."""
+        while True:
+            chosen = {name: self._cheapest(*want) for name, want in wanted.items()}
+            behind = {key: None for name, (keys, _, _) in wanted.items() if chosen[name] is None
+                      for key in keys if self.rounds[key] == min(self.rounds[k] for k in keys)}
+            if not behind:
+                return chosen
+            jobs = self.next_round(list(behind))
+            self.absorb(jobs, self.cache.run(list(jobs), workers, scheduler, "settings"))
+
+    def _cheapest(self, keys: list[tuple], target: float, fallback: Setting) -> Setting | None:
+        """`cheapest_setting` among all twenty, or None while a round not measured on every
+        plate of the run could hold a cheaper one."""
+        rounds = min(self.rounds[key] for key in keys)
+        if not rounds:
+            return None
+        studies = [self.study(key, rounds) for key in keys]
+        best = cheapest_setting(studies, target, fallback=None)
+        if rounds == len(AVERAGING_ROUNDS):
+            return best or fallback
+        if best is None:
+            return None
+
+        def cost(setting: Setting) -> float:
+            return sum(s.result(setting).bench_time_per_point_s for s in studies)
+
+        most = AVERAGING_ROUNDS[rounds - 1][-1]   # every setting not measured costs more than this one
+        return best if cost(best) <= min(cost(Setting(r, most)) for r in RECORD_LENGTHS) else None
 
 
 def _waveform_power_w(point) -> float:
@@ -331,14 +408,14 @@ class Plan:
 def make_plan(campaign_path: Path, target_rel_error: float, repeats: int = REPEATS,
               workers: int = 1, scheduler: Any = None, check_benches: int = CHECK_BENCHES,
               cache: PlanCache | None = None, alongside: Sequence[functools.partial] = ()) -> Plan:
-    """Measure every setting on every plate, pick each run's, and time the campaign with
-    the plan and with the baseline, on `workers` local processes or the Dask cluster at
-    `scheduler` (the plan is the same either way). The floors the instruments' specified
-    errors leave decide what the noise may take and whether to calibrate; the plan is then
-    checked on `check_benches` simulated benches with drawn errors (0: no check; none when
-    the target is below the floor). What does not depend on the target is read from
-    `cache` (default: the campaign's `plan_cache`) where an earlier plan stored it; the
-    `alongside` jobs of `cache` (a caller's map plans) run in the same batch as the settings."""
+    """Measure the settings the plates' runs need (`SettingsStudy`), pick each run's, and
+    time the campaign with the plan and with the baseline, on `workers` local processes or
+    the Dask cluster at `scheduler` (the plan is the same either way). The floors the
+    instruments' specified errors leave decide what the noise may take and whether to
+    calibrate; the plan is then checked on `check_benches` simulated benches with drawn
+    errors (0: no check; none when the target is below the floor). What an earlier plan of
+    the campaign measured is read from `cache` (default: the campaign's `plan_cache`); the
+    `alongside` jobs of `cache` (a caller's map plans) run in the same batch as the floors."""
     if not target_rel_error > 0:
         raise UserError(f"target relative error must be positive, got {target_rel_error!r}")
     campaign_path = Path(campaign_path)
@@ -358,23 +435,23 @@ def make_plan(campaign_path: Path, target_rel_error: float, repeats: int = REPEA
         plates_by_run[run.name] = keys
     # None of this depends on the target: an earlier plan of the same campaign may hold it.
     # The floors and the 512-average baseline do not depend on the settings' study either:
-    # they run beside it, as do the `alongside` jobs (the caller's map plans of the campaign).
+    # they run beside its first round, as do the `alongside` jobs (the caller's map plans).
     cache = cache or campaign_cache(campaign_path)
     baseline = bench_time_jobs(cache, campaign_path, {run.name: {"averages": BASELINE_AVERAGES}
                                                       for run in campaign.runs})
     floors_job = cache.job(measure_floors, campaign_path)
-    jobs = {cache.job(measure_settings, *key, repeats): key for key in plates}
-    done = cache.run([floors_job, *alongside, *baseline, *jobs], workers, scheduler, "plan")   # longest first
-    studies = {key: PlateStudy(key[0], key[1], key[2].voltage_vpp, done[job][1], done[job][0])
-               for job, key in jobs.items()}
-    studies_by_run = {run.name: [studies[key] for key in plates_by_run[run.name]] for run in campaign.runs}
+    # the settings' first round too: no choice can be made before the floors are known
+    settings = SettingsStudy(cache, list(plates), repeats)
+    first_round = settings.next_round(list(plates))
+    done = cache.run([floors_job, *alongside, *baseline, *first_round], workers, scheduler, "plan")   # longest first
+    settings.absorb(first_round, done)
     floors = accuracy_floors(campaign_path, target_rel_error, done[floors_job])
     baseline_s = {name: done[job] for job, name in baseline.items()}
     noise_scale = {run.name: 1.0 for run in campaign.runs}
 
     def choose() -> Plan:
-        return _choose(campaign, campaign_path, target_rel_error, repeats, studies_by_run, floors, baseline_s,
-                       noise_scale, cache, workers, scheduler)
+        return _choose(campaign, campaign_path, target_rel_error, repeats, settings, plates_by_run, floors,
+                       baseline_s, noise_scale, cache, workers, scheduler)
 
     plan = choose()
     if not check_benches or floors.below_floor():
@@ -403,23 +480,23 @@ def campaign_cache(campaign_path: Path) -> PlanCache:
     return PlanCache([Path(campaign_path), *dict.fromkeys(f for run in runs for f in run.input_files())])
 
 
-def _choose(campaign, campaign_path: Path, target_rel_error: float, repeats: int,
-            studies_by_run: dict[str, list[PlateStudy]], floors: AccuracyFloors, baseline_s: dict[str, float],
+def _choose(campaign, campaign_path: Path, target_rel_error: float, repeats: int, settings: SettingsStudy,
+            plates_by_run: dict[str, list[tuple]], floors: AccuracyFloors, baseline_s: dict[str, float],
             noise_scale: dict[str, float], cache: PlanCache, workers: int, scheduler: Any) -> Plan:
     """Per run the cheapest setting whose noise fits in what the floor leaves of the
     target (errors add in quadrature; times the run's `noise_scale`, lowered where a check
     missed); where the floor is above the target, the cheapest
     whose noise stays a third of the floor (it then adds under 6 %)."""
     unreachable = {f.run_name for f in floors.below_floor()}
-    settings_by_run, error_by_run = {}, {}
-    for run in campaign.runs:
-        run_studies = studies_by_run[run.name]
-        noise_target = (floors.floor(run.name, calibrated=True) / 3.0 if run.name in unreachable
-                        else floors.noise_allowance(run.name) * noise_scale[run.name])
-        setting = cheapest_setting(run_studies, noise_target,
-                                   fallback=Setting(run.acquisition.record_length, BASELINE_AVERAGES))
-        settings_by_run[run.name] = setting
-        error_by_run[run.name] = max(s.result(setting).p95_rel_error for s in run_studies)
+    settings_by_run = settings.choose(
+        {run.name: (plates_by_run[run.name],
+                    floors.floor(run.name, calibrated=True) / 3.0 if run.name in unreachable
+                    else floors.noise_allowance(run.name) * noise_scale[run.name],
+                    Setting(run.acquisition.record_length, BASELINE_AVERAGES)) for run in campaign.runs},
+        workers, scheduler)
+    studies_by_run = {name: [settings.study(key) for key in keys] for name, keys in plates_by_run.items()}
+    error_by_run = {name: max(s.result(setting).p95_rel_error for s in studies_by_run[name])
+                    for name, setting in settings_by_run.items()}
     timing = bench_time_jobs(cache, campaign_path, {name: dataclasses.asdict(setting)
                                                     for name, setting in settings_by_run.items()})
     # longest first, the runs' own bench time a proxy for their simulation's: the workers end together

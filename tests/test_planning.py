@@ -23,23 +23,71 @@ def test_planned_settings_meet_the_target_in_at_most_half_the_baseline_time(plan
     assert all(s.averages < BASELINE_AVERAGES for s in plan.settings_by_run.values())
 
 
+@pytest.fixture(scope="module")
+def quick_plates():
+    """The quick campaign's plates and operating points, and all twenty settings measured on each."""
+    from squeezebench.protocols.campaign import load_campaign
+    from squeezebench.protocols.planning import _run_plates, _run_points, measure_settings
+
+    keys = list(dict.fromkeys((scene, state, point, run.acquisition, run.safety)
+                              for run in load_campaign(QUICK).runs for scene, state, plate in _run_plates(run)
+                              for point in _run_points(run, plate)))
+    return {key: measure_settings(*key, repeats=4)[0] for key in keys}
+
+
 def test_each_run_gets_the_cheapest_setting_meeting_the_target_on_all_its_plates(plan):
     for name, studies in plan.studies.items():
         chosen = plan.settings_by_run[name]
         cost = lambda setting: sum(s.result(setting).bench_time_per_point_s for s in studies)  # noqa: E731
-        for result in studies[0].results:
-            if all(s.result(result.setting).p95_rel_error <= TARGET_REL_ERROR for s in studies):
-                assert cost(chosen) <= cost(result.setting)
+        measured_everywhere = set.intersection(*({r.setting for r in s.results} for s in studies))
+        for setting in measured_everywhere:
+            if all(s.result(setting).p95_rel_error <= TARGET_REL_ERROR for s in studies):
+                assert cost(chosen) <= cost(setting)
 
 
-def test_errors_shrink_with_averaging(plan):
-    # Averaging removes noise: 512 averages beat 2 on every plate studied.
-    for studies in plan.studies.values():
-        for study in studies:
-            for record_length in RECORD_LENGTHS:
-                many, few = (study.result(Setting(record_length, n)) for n in (512, 2))
-                assert many.p95_rel_error < few.p95_rel_error
-                assert many.bench_time_per_point_s > few.bench_time_per_point_s
+def test_measuring_the_averagings_as_far_as_needed_chooses_as_measuring_all_twenty(quick_plates, monkeypatch):
+    from squeezebench.protocols.plan_cache import CACHE_VARIABLE, PlanCache
+    from squeezebench.protocols.planning import (AVERAGING_ROUNDS, SETTINGS, PlateStudy, SettingsStudy,
+                                                 cheapest_setting)
+
+    monkeypatch.setenv(CACHE_VARIABLE, "off")
+    cache = PlanCache([QUICK])   # one cache: each round is measured once over all the targets
+    keys = list(quick_plates)
+    full = [PlateStudy(key[0], key[1], key[2].voltage_vpp, 0.0, quick_plates[key]) for key in keys]
+    errors = sorted({r.p95_rel_error for results in quick_plates.values() for r in results})
+    fallback = Setting(10000, BASELINE_AVERAGES)
+    # every measured error as a target, and just below it: each setting in turn meets or misses
+    targets = [1e-9, *errors, *(e * (1 - 1e-9) for e in errors), 1.0]
+    for plates in (keys[:1], keys):   # one plate, and a run over all of them
+        for target in targets:
+            study = SettingsStudy(cache, plates, repeats=4)
+            chosen = study.choose({"run": (plates, target, fallback)}, workers=1, scheduler=None)["run"]
+            assert chosen == cheapest_setting([full[keys.index(k)] for k in plates], target, fallback)
+            for key in plates:   # the rounds measured, and as measuring all twenty on one bench gave
+                measured = study.study(key).results
+                assert [r.setting for r in measured] == \
+                    [s for s in SETTINGS if any(s.averages in AVERAGING_ROUNDS[i] for i in range(study.rounds[key]))]
+                alone = {r.setting: r for r in quick_plates[key]}
+                assert [r.p95_rel_error for r in measured] == [alone[r.setting].p95_rel_error for r in measured]
+                assert [r.bench_time_per_point_s for r in measured] == \
+                    pytest.approx([alone[r.setting].bench_time_per_point_s for r in measured], rel=1e-3)
+    loose = SettingsStudy(cache, keys, repeats=4)
+    loose.choose({"run": (keys, 1.0, fallback)}, workers=1, scheduler=None)
+    assert set(loose.rounds.values()) == {1}   # met in sample mode: nothing more averaged is measured
+    strict = SettingsStudy(cache, keys, repeats=4)
+    assert strict.choose({"run": (keys, 1e-9, fallback)}, workers=1, scheduler=None)["run"] == fallback
+    assert set(strict.rounds.values()) == {len(AVERAGING_ROUNDS)}
+
+
+def test_errors_shrink_with_averaging(quick_plates):
+    # Averaging removes noise: 512 averages beat 2 on every plate studied; a point's bench
+    # time grows with the averaging at either record length (what the rounds rely on).
+    for results in quick_plates.values():
+        for record_length in RECORD_LENGTHS:
+            by_averages = {r.setting.averages: r for r in results if r.setting.record_length == record_length}
+            assert by_averages[512].p95_rel_error < by_averages[2].p95_rel_error
+            costs = [by_averages[n].bench_time_per_point_s for n in sorted(by_averages)]
+            assert costs == sorted(costs) and len(set(costs)) == len(costs)
 
 
 def test_table_lists_each_run_and_the_total(plan):
