@@ -151,7 +151,7 @@ class SettingsStudy:
             if not behind:
                 return chosen
             jobs = self.next_round(list(behind))
-            self.absorb(jobs, self.cache.run(list(jobs), workers, scheduler, "settings"))
+            self.absorb(jobs, self.cache.run(list(jobs), workers, scheduler, "scope settings"))
 
     def _cheapest(self, keys: list[tuple], target: float, fallback: Setting) -> Setting | None:
         """`cheapest_setting` among all twenty, or None while a round not measured on every
