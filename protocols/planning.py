@@ -101,8 +101,12 @@ def cheapest_setting(studies: list[PlateStudy], target_rel_error: float, fallbac
                if all(s.result(r.setting).p95_rel_error <= target_rel_error for s in studies)]
     if not meeting:
         return fallback
-    return min(meeting, key=lambda setting: (sum(s.result(setting).bench_time_per_point_s for s in studies),
-                                             setting.averages))
+    return min(meeting, key=lambda setting: (bench_time_per_point_s(studies, setting), setting.averages))
+
+
+def bench_time_per_point_s(studies: list[PlateStudy], setting: Setting) -> float:
+    """What a point costs at `setting`, summed over the plates: a run's cost of the setting."""
+    return sum(s.result(setting).bench_time_per_point_s for s in studies)
 
 
 class SettingsStudy:
@@ -165,12 +169,9 @@ class SettingsStudy:
             return best or fallback
         if best is None:
             return None
-
-        def cost(setting: Setting) -> float:
-            return sum(s.result(setting).bench_time_per_point_s for s in studies)
-
         most = AVERAGING_ROUNDS[rounds - 1][-1]   # every setting not measured costs more than this one
-        return best if cost(best) <= min(cost(Setting(r, most)) for r in RECORD_LENGTHS) else None
+        bound_s = min(bench_time_per_point_s(studies, Setting(r, most)) for r in RECORD_LENGTHS)
+        return best if bench_time_per_point_s(studies, best) <= bound_s else None
 
 
 def _waveform_power_w(point) -> float:

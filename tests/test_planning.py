@@ -36,20 +36,22 @@ def quick_plates():
 
 
 def test_each_run_gets_the_cheapest_setting_meeting_the_target_on_all_its_plates(plan):
+    from squeezebench.protocols.planning import bench_time_per_point_s
+
     for name, studies in plan.studies.items():
         chosen = plan.settings_by_run[name]
-        cost = lambda setting: sum(s.result(setting).bench_time_per_point_s for s in studies)  # noqa: E731
         measured_everywhere = set.intersection(*({r.setting for r in s.results} for s in studies))
         for setting in measured_everywhere:
             if all(s.result(setting).p95_rel_error <= TARGET_REL_ERROR for s in studies):
-                assert cost(chosen) <= cost(setting)
+                assert bench_time_per_point_s(studies, chosen) <= bench_time_per_point_s(studies, setting)
 
 
 def test_measuring_the_averagings_as_far_as_needed_chooses_as_measuring_all_twenty(quick_plates, monkeypatch):
     from squeezebench.protocols.plan_cache import CACHE_VARIABLE, PlanCache
-    from squeezebench.protocols.planning import (AVERAGING_ROUNDS, SETTINGS, PlateStudy, SettingsStudy,
+    from squeezebench.protocols.planning import (AVERAGES, AVERAGING_ROUNDS, SETTINGS, PlateStudy, SettingsStudy,
                                                  cheapest_setting)
 
+    assert tuple(n for averagings in AVERAGING_ROUNDS for n in averagings) == AVERAGES
     monkeypatch.setenv(CACHE_VARIABLE, "off")
     cache = PlanCache([QUICK])   # one cache: each round is measured once over all the targets
     keys = list(quick_plates)
