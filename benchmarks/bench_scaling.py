@@ -17,8 +17,9 @@
 Wall times of the commands are single runs (they are long), each in a fresh process as a
 user starts it (imports and worker processes included); the short operations take the
 best of several. The machine may be shared: each wall time is printed with the
-1-minute load average taken just before it, so a reader can tell an idle figure from a
-loaded one.
+1-minute load average taken just before it and the CPU seconds other processes took while
+it ran, so a reader can tell an idle figure from a loaded one (the load average alone still
+remembers the previous command).
 
 Run: python benchmarks/bench_scaling.py [--repeat N] [--skip-reproduce] [--skip-plan] [--write-reference]
 """
@@ -58,18 +59,31 @@ def load() -> str:
     return f"load {os.getloadavg()[0]:.2f}"
 
 
+def machine_busy_s() -> float:
+    """CPU seconds this machine has been busy since boot, all processes (Linux /proc/stat:
+    user, nice, system, irq, softirq, steal; not idle or iowait)."""
+    user, nice, system, _idle, _iowait, irq, softirq, steal = \
+        (int(field) for field in Path("/proc/stat").read_text().split("\n", 1)[0].split()[1:9])
+    return (user + nice + system + irq + softirq + steal) / os.sysconf("SC_CLK_TCK")
+
+
 def command_s(arguments: list[str], environment: dict[str, str] | None = None,
               allowed: tuple[int, ...] = (0,)) -> tuple[float, str]:
     """Wall seconds of `python -m squeezebench ARGUMENTS` in a fresh process, as a user runs
-    it (start-up, imports and worker processes included), and the load average before it."""
+    it (start-up, imports and worker processes included), and whether the machine was idle
+    meanwhile: the load average before it (the minute before, so partly the previous
+    command) and the CPU seconds other processes took while it ran (about 0.3 with nothing
+    else running, for a command with worker processes: helpers it does not wait for)."""
     before = load()
+    busy_s, own_s = machine_busy_s(), sum(os.times()[2:4])   # the children's user and system time
     start_s = time.perf_counter()
     done = subprocess.run([sys.executable, "-m", "squeezebench", *arguments], capture_output=True, text=True,
                           env={**os.environ, **(environment or {})}, cwd=ROOT)
     elapsed_s = time.perf_counter() - start_s
+    others_s = (machine_busy_s() - busy_s) - (sum(os.times()[2:4]) - own_s)
     if done.returncode not in allowed:
         raise SystemExit(f"squeezebench {' '.join(arguments)} exited with {done.returncode}: {done.stderr}")
-    return elapsed_s, before
+    return elapsed_s, f"{before}, other processes {max(others_s, 0.0):.1f} CPU-s"
 
 
 def reproduce_s(workers: int | None) -> tuple[float, str, pd.DataFrame]:
