@@ -69,7 +69,7 @@ class Setting:
 SETTINGS = tuple(Setting(r, n) for r in RECORD_LENGTHS for n in AVERAGES)
 #: The averagings a plate's bench measures together, round after round, at both record
 #: lengths. The scope waits for every record it averages, so a point's bench time grows
-#: with the averaging (by 4 % or more a step on the paper's plates: 0.08 s at 500 points
+#: with the averaging (by 3.9 % or more a step on the paper's plates: 0.08 s at 500 points
 #: in sample mode, 5.7 s at 512 averages); the rounds go from cheap to dear.
 AVERAGING_ROUNDS = ((1,), (2, 4), (8, 16, 32), (64, 128, 256, 512))
 

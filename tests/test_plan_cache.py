@@ -79,7 +79,8 @@ def test_a_replanned_campaign_is_the_same_plan_read_not_simulated(cache_folder):
 
     first = make_plan(QUICK, 0.01, repeats=2, check_benches=0)
     second = make_plan(QUICK, 0.02, repeats=2, check_benches=0)
-    # one study per plate and operating point (3), the floors, the two runs' baseline and plan
+    # the settings' first round on each plate and operating point (3: all 1 % needs here),
+    # the floors, the two runs' baseline and plan
     assert first.cache["simulated"] == 3 + 1 + 2 + 2 and first.cache["read"] == 0
     # at another target only the planned campaign's timing can be new
     assert second.cache["simulated"] <= 1 and second.cache["read"] >= first.cache["simulated"] - 1
