@@ -208,9 +208,11 @@ class ScpiInstrument(SimulatedInstrument):
     _parser: ClassVar[scpi.MessageParser]
     _handlers: ClassVar[dict[tuple[str, bool], Callable]]
     _short_paths: ClassVar[dict[str, str]]
-    #: Canonical paths of the headers COMMANDS models, and of the queries answering a group.
+    #: Queries whose replies carry their own headers (HEADer ON), besides the groups.
+    OWN_HEADERS: ClassVar[frozenset[str]] = frozenset()
+    #: Canonical paths of the headers COMMANDS models; the queries whose replies are headed.
     modelled: ClassVar[frozenset[str]]
-    _groups: ClassVar[frozenset[str]]
+    _headed: ClassVar[frozenset[str]]
     stored: dict
 
     def __init_subclass__(cls, **kwargs) -> None:
@@ -257,7 +259,7 @@ class ScpiInstrument(SimulatedInstrument):
             if children:
                 cls._handlers[path, True] = state_only.group(children)
                 grouped.add(path)
-        cls._groups = frozenset(grouped)
+        cls._headed = frozenset(grouped) | cls.OWN_HEADERS
 
     def handle(self, message: bytes) -> list:
         if self._replies:   # IEEE 488.2 6.3.2.3: a new message discards unread replies
@@ -283,7 +285,7 @@ class ScpiInstrument(SimulatedInstrument):
                 self.refuse(exc)
                 continue
             if reply is not None:
-                replies.append(reply if unit.path in self._groups else self.with_header(unit, reply))
+                replies.append(reply if unit.path in self._headed else self.with_header(unit, reply))
         return self.combine(replies)
 
     def refuse(self, error: ScpiError) -> None:
@@ -749,6 +751,7 @@ class Scope(ScpiInstrument):
     role = "scope"
     STYLE = PREFIX
     TABLE = "tds3000"
+    OWN_HEADERS = frozenset({"WFMPRE", "WAVFRM"})
     IDENTITY = b"TEKTRONIX,TDS 3054B,0,CF:91.1CT FV:v3.41 TDS3GM:v1.00 TDS3FFT:v1.00 TDS3TRG:v1.00"
 
     def power_on(self) -> None:
@@ -1222,6 +1225,20 @@ class Scope(ScpiInstrument):
         length = b"%d" % len(data)
         return b"#%d%s%s" % (len(length), length, data)
 
+    def _waveform(self, unit: Unit) -> bytes:
+        """WAVFrm? (p. 2-309): WFMPre? and CURVe? in one reply; only the transmission fields
+        of the preamble when the source is not displayed."""
+        preamble = self._preamble(unit)
+        if self.trace(self._selection()[0]) is None:
+            return preamble
+        curve = Unit("CURVE", True, (), (), unit.text)
+        return preamble + b";" + self.with_header(curve, self._curve(curve))
+
+    def _event_count(self, unit: Unit) -> bytes:
+        """EVQty? (p. 2-127): the events *ESR? made readable and not read yet."""
+        scpi.no_arguments(unit.arguments)
+        return b"%d" % len(self.available)
+
     COMMANDS = (
         Command("*IDN", lambda s, u: s.IDENTITY, None, "p. 2-149 *IDN?"),
         Command("*RST", None, _reset, "p. 2-252 *RST"),
@@ -1302,6 +1319,8 @@ class Scope(ScpiInstrument):
         Command("DATa:STOP", *_setting("data_stop", _int(1, 10000), str), "p. 2-96 DATa:STOP"),
         Command("WFMPre", _preamble, None, "p. 2-314 WFMPre?"),
         Command("CURVe", _curve, None, "p. 2-90 CURVe"),
+        Command("WAVFrm", _waveform, None, "p. 2-309 WAVFrm?"),
+        Command("EVQty", _event_count, None, "p. 2-127 EVQty?"),
     )
 
     def changed(self, key: str, unit: Unit) -> None:

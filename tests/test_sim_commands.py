@@ -176,3 +176,14 @@ def test_the_coverage_section_of_the_commands_page_is_current():
         "docs/instrument-commands.md is stale: python -m squeezebench.simbench.command_coverage "
         "docs/instrument-commands.md")
     assert all(c.accepted == c.headers for c in command_coverage.coverages())
+
+
+def test_wavfrm_is_the_preamble_then_the_curve_each_with_one_header(sim):
+    """TDS PM p. 2-309: WAVFrm? answers as WFMPre?;CURVe? does (the preamble carries its
+    own header: HEADer ON puts none in front of it)."""
+    scope = sim.scope
+    scope.handle(b"HEADER ON;:SELECT:CH1 ON;:DATA:SOURCE CH1;ENCDG ASCII;START 1;STOP 5")
+    [separate] = scope.handle(b"WFMPRE?;:CURVE?")
+    [together] = scope.handle(b"WAVFRM?")
+    assert together == separate and together.startswith(b":WFMPRE:BYT_NR ") and b";:CURVE " in together
+    scope.handle(b"HEADER OFF;:DATA:ENCDG RIBINARY;STOP 10000")
