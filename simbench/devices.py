@@ -533,8 +533,8 @@ class Generator(ScpiInstrument):
         """APPLy?: shape, frequency, amplitude (VOLT:UNIT) and offset as one quoted string."""
         scpi.no_arguments(unit.arguments)
         s = self.state
-        return b'"%s %+.12E,%+.6E,%+.6E"' % (s["shape"].encode(), s["frequency"], _vpp_to(s["amplitude_vpp"], s["unit"]),
-                                           s["offset"])
+        amplitude = _vpp_to(s["amplitude_vpp"], s["unit"])
+        return b'"%s %+.12E,%+.6E,%+.6E"' % (s["shape"].encode(), s["frequency"], amplitude, s["offset"])
 
     def _load_query(self, unit: Unit) -> bytes:
         load = self.state["load"]

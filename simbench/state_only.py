@@ -23,8 +23,8 @@ from squeezebench.simbench.scpi import ScpiError, Unit
 
 #: Placeholders (lower case, without <>) that stand for an integer or a decimal number.
 _INTEGERS = ("nr1", "setup number", "enable value")
-_NUMBERS = ("nr3", "# cycles", "frequency", "amplitude", "offset", "percent", "depth in percent", "peak deviation in hz",
-            "start phase", "rate in hz", "seconds", "value")
+_NUMBERS = ("nr3", "# cycles", "frequency", "amplitude", "offset", "percent", "depth in percent",
+            "peak deviation in hz", "start phase", "rate in hz", "seconds", "value")
 _STRINGS = ("qstring", "quoted string")
 #: SCPI-1999 Vol. 1 7.2.1: the words a decimal numeric datum may be replaced by.
 _NUMERIC_WORDS = {"MINIMUM", "MAXIMUM", "DEFAULT", "INFINITY"}

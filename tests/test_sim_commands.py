@@ -99,7 +99,8 @@ def test_the_state_only_headers_read_back_what_was_set(sim):
     assert generator.handle(b'DISP:TEXT "HI";TEXT?') == [b'"HI"']
     assert generator.handle(b"SYST:ERR?") == [b'+0,"No error"']
     generator.handle(b"AM:DEPT 500")   # beyond the limit: clipped, as the modelled numbers are
-    assert generator.handle(b"AM:DEPT?;:SYST:ERR?") == [b'+1.200000E+02;-222,"Data out of range;value clipped to upper limit"']
+    clipped = b'-222,"Data out of range;value clipped to upper limit"'
+    assert generator.handle(b"AM:DEPT?;:SYST:ERR?") == [b"+1.200000E+02;" + clipped]
     generator.handle(b"*RST")
     assert generator.handle(b"BM:NCYC?;:FSK:SOUR?") == [b"+1.000000E+00;INT"]
     scope.handle(b"HEADER OFF;VERBOSE ON;CH1:INVERT ON;:CH2:INVERT OFF;:MASK:POLARITY NEGA")
@@ -187,3 +188,17 @@ def test_wavfrm_is_the_preamble_then_the_curve_each_with_one_header(sim):
     [together] = scope.handle(b"WAVFRM?")
     assert together == separate and together.startswith(b":WFMPRE:BYT_NR ") and b";:CURVE " in together
     scope.handle(b"HEADER OFF;:DATA:ENCDG RIBINARY;STOP 10000")
+
+
+def test_apply_sets_the_waveform_at_once_and_apply_query_answers_it(sim):
+    """UG Ch. 4 APPLy: shape, frequency, amplitude (in VOLT:UNIT), offset in one command,
+    DEFault or left out the *RST value, modulation off; APPLy? as one quoted string."""
+    generator = sim.generator
+    generator.handle(b"*RST;BM:STAT ON;:APPL:SQU 2 KHZ,1.5,0.1")
+    assert generator.handle(b"APPL?") == [b'"SQU +2.000000000000E+03,+1.500000E+00,+1.000000E-01"']
+    assert generator.handle(b"BM:STAT?") == [b"0"]
+    generator.handle(b"VOLT:UNIT VRMS;:APPL:SIN DEF,1")
+    assert generator.handle(b"APPLY?") == [b'"SIN +1.000000000000E+03,+1.000000E+00,+0.000000E+00"']
+    assert generator.settings().amplitude == pytest.approx(2.0 * 2.0 ** 0.5)
+    assert generator.handle(b"SYST:ERR?") == [b'+0,"No error"']
+    generator.handle(b"*RST")
