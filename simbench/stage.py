@@ -7,7 +7,9 @@ State per axis: NOT REFERENCED at power-on (`TS` ...0A), HOMING (1E) during `OR`
 of a trapezoidal velocity profile at the axis's `VA` and `AC`, on the simulated clock; `TS`
 reads MOVING until that time has passed. A command the controller refuses is silent and
 leaves its letter for `TE` (SMC100 UM TE): H for a move NOT REFERENCED, M while MOVING, C
-for a parameter missing or beyond the software limits `SL`/`SR`.
+for a parameter missing or beyond the software limits `SL`/`SR`. The other commands of the
+manual's set (`commands/smc100.tsv`: servo gains, jogging, the TTL port ...) are kept per
+axis as state only.
 """
 
 from __future__ import annotations
