@@ -82,7 +82,8 @@ class Setting:
         self.entry = entry
         self.path = path
         self.argument = argument(entry.arguments)
-        self.frequency = "frequency" in entry.arguments.lower() or "rate" in entry.arguments.lower()
+        # a frequency or rate takes the Hz suffixes (SCPI-1999 Vol. 1 7.2.2)
+        self.frequency = re.search(r"<[^<>]*(frequency|rate)[^<>]*>", entry.arguments, re.IGNORECASE) is not None
 
     def key(self, unit: Unit) -> tuple:
         return (self.path, unit.suffixes)
