@@ -34,7 +34,7 @@ import numpy as np
 from pyvisa import constants, errors
 
 from squeezebench.simbench import effects as fx
-from squeezebench.simbench import physics, scpi, traces
+from squeezebench.simbench import command_tables, physics, scpi, state_only, traces
 from squeezebench.simbench.clock import BusTiming
 from squeezebench.simbench.scpi import PREFIX, SCPI, ScpiError, Unit
 
@@ -196,13 +196,24 @@ class Command:
 
 
 class ScpiInstrument(SimulatedInstrument):
-    """Dispatch on the canonical header path; errors through `report`."""
+    """Dispatch on the canonical header path; errors through `report`.
+
+    COMMANDS are the headers modelled physically; every other header of the manual's
+    command summary (`TABLE`, see `command_tables`) is accepted and kept as state only
+    (`state_only`), in `stored`."""
 
     STYLE: ClassVar[str]
+    TABLE: ClassVar[str]
     COMMANDS: ClassVar[tuple[Command, ...]]
     _parser: ClassVar[scpi.MessageParser]
     _handlers: ClassVar[dict[tuple[str, bool], Callable]]
     _short_paths: ClassVar[dict[str, str]]
+    #: Queries whose replies carry their own headers (HEADer ON), besides the groups.
+    OWN_HEADERS: ClassVar[frozenset[str]] = frozenset()
+    #: Canonical paths of the headers COMMANDS models; the queries whose replies are headed.
+    modelled: ClassVar[frozenset[str]]
+    _headed: ClassVar[frozenset[str]]
+    stored: dict
 
     def __init_subclass__(cls, **kwargs) -> None:
         super().__init_subclass__(**kwargs)
@@ -210,13 +221,45 @@ class ScpiInstrument(SimulatedInstrument):
             return
         tree = scpi.HeaderTree(cls.STYLE)
         cls._handlers, cls._short_paths = {}, {}
+        allowed: dict[str, tuple[int, ...]] = {}
         for command in cls.COMMANDS:
             path = tree.add(command.spec, command.suffixes)
             cls._short_paths[path] = scpi.short_path(command.spec)
+            allowed[path] = command.suffixes
             for query, handler in ((True, command.query), (False, command.set)):
                 if handler is not None:
                     cls._handlers[path, query] = handler
+        cls.modelled = frozenset(allowed)
+        cls._add_state_only(tree, allowed)
         cls._parser = scpi.MessageParser(tree)
+
+    @classmethod
+    def _add_state_only(cls, tree: scpi.HeaderTree, allowed: dict[str, tuple[int, ...]]) -> None:
+        """The summary's headers (and forms) COMMANDS leaves out, as state only; a query-only
+        header grouping settings answers them all (`<all settings>`: the whole setup)."""
+        groups, settings = [], []
+        for entry in command_tables.table(cls.TABLE):
+            path = tree.add(entry.header)
+            cls._short_paths.setdefault(path, scpi.short_path(entry.header))
+            allowed.setdefault(path, (1, 2, 3, 4))
+            setting = state_only.Setting(entry, path)
+            if entry.settable and entry.queryable and entry.arguments and not (setting.argument.free
+                                                                               or path.startswith("*")):
+                settings.append(path)
+            if entry.settable:
+                cls._handlers.setdefault((path, False), setting.set)
+            if entry.queryable and (path, True) not in cls._handlers:
+                if not entry.settable and entry.reply in ("", "<all settings>"):
+                    groups.append((path, entry.reply == "<all settings>"))
+                cls._handlers[path, True] = setting.query
+        grouped = set()
+        for path, whole in groups:
+            children = [(child, cls._handlers[child, True], allowed[child]) for child in settings
+                        if whole or child.startswith(path + ":")]
+            if children:
+                cls._handlers[path, True] = state_only.group(children)
+                grouped.add(path)
+        cls._headed = frozenset(grouped) | cls.OWN_HEADERS
 
     def handle(self, message: bytes) -> list:
         if self._replies:   # IEEE 488.2 6.3.2.3: a new message discards unread replies
@@ -242,7 +285,7 @@ class ScpiInstrument(SimulatedInstrument):
                 self.refuse(exc)
                 continue
             if reply is not None:
-                replies.append(self.with_header(unit, reply))
+                replies.append(reply if unit.path in self._headed else self.with_header(unit, reply))
         return self.combine(replies)
 
     def refuse(self, error: ScpiError) -> None:
@@ -335,6 +378,7 @@ class Generator(ScpiInstrument):
 
     role = "generator"
     STYLE = SCPI
+    TABLE = "hp33120a"
     IDENTITY = b"HEWLETT-PACKARD,33120A,0,7.0-5.0-1.0"
 
     def power_on(self) -> None:
@@ -346,6 +390,7 @@ class Generator(ScpiInstrument):
         50 ohm output termination, amplitudes in Vpp."""
         self.state = {"shape": "SIN", "frequency": 1e3, "amplitude_vpp": 0.1, "offset": 0.0,
                       "load": 50.0, "unit": "VPP", "modulation": None}
+        self.stored = {}
 
     # -- errors (UG Ch. 5: SYSTem:ERRor? reads the oldest, +0,"No error" when empty) -------------
     def report(self, error: ScpiError) -> None:
@@ -403,12 +448,15 @@ class Generator(ScpiInstrument):
         return GEN_PEAK_V[self.state["load"]] - self.state["amplitude_vpp"] / 2.0
 
     @staticmethod
-    def _min_max(text: str, low: float, high: float) -> float | None:
+    def _min_max(text: str, low: float, high: float, default: float | None = None) -> float | None:
+        """MINimum, MAXimum (and DEFault, the *RST value, where the summary allows it)."""
         word = text.strip().upper()
         if word in ("MIN", "MINIMUM"):
             return low
         if word in ("MAX", "MAXIMUM"):
             return high
+        if default is not None and word in ("DEF", "DEFAULT"):
+            return default
         return None
 
     def _limit_query(self, unit: Unit, value: float, low: float, high: float, fmt: str) -> bytes:
@@ -419,15 +467,33 @@ class Generator(ScpiInstrument):
             value = limit
         return (fmt % value).encode()
 
+    def _frequency_value(self, text: str, default: float | None = None) -> float:
+        value = self._min_max(text, *GEN_FREQUENCY_HZ, default)
+        value = scpi.number(text, _FREQUENCY_SUFFIXES) if value is None else value
+        return self._limited(value, *GEN_FREQUENCY_HZ)
+
+    def _amplitude_vpp_value(self, text: str, default_vpp: float | None = None) -> float:
+        low, high = self._amplitude_limits_vpp()
+        vpp = self._min_max(text, low, high, default_vpp)
+        if vpp is None:
+            match = re.match(r"^(.*?)\s*(M?)(VPP|VRMS|DBM)$", text.strip().upper())
+            if match:   # a unit suffix overrides VOLT:UNIT for this number
+                vpp = _vpp_from(scpi.number(match.group(1)) * (1e-3 if match.group(2) else 1.0), match.group(3))
+            else:
+                vpp = _vpp_from(scpi.number(text, _VOLT_SUFFIXES), self.state["unit"])
+        return self._limited(vpp, low, high)
+
+    def _offset_value(self, text: str, default: float | None = None) -> float:
+        limit = self._offset_limit_v()
+        value = self._min_max(text, -limit, limit, default)
+        return self._limited(scpi.number(text, _VOLT_SUFFIXES) if value is None else value, -limit, limit)
+
     # -- handlers -------------------------------------------------------------------------------
     def _frequency_query(self, unit: Unit) -> bytes:
         return self._limit_query(unit, self.state["frequency"], *GEN_FREQUENCY_HZ, "%+.12E")
 
     def _frequency_set(self, unit: Unit) -> None:
-        text = scpi.only_argument(unit.arguments)
-        value = self._min_max(text, *GEN_FREQUENCY_HZ)
-        value = scpi.number(text, _FREQUENCY_SUFFIXES) if value is None else value
-        self.state["frequency"] = self._limited(value, *GEN_FREQUENCY_HZ)
+        self.state["frequency"] = self._frequency_value(scpi.only_argument(unit.arguments))
         self.changed("frequency", unit)
 
     def _amplitude_query(self, unit: Unit) -> bytes:
@@ -437,16 +503,7 @@ class Generator(ScpiInstrument):
                                  _vpp_to(low, unit_name), _vpp_to(high, unit_name), "%+.6E")
 
     def _amplitude_set(self, unit: Unit) -> None:
-        text = scpi.only_argument(unit.arguments)
-        low, high = self._amplitude_limits_vpp()
-        vpp = self._min_max(text, low, high)
-        if vpp is None:
-            match = re.match(r"^(.*?)\s*(M?)(VPP|VRMS|DBM)$", text.strip().upper())
-            if match:   # a unit suffix overrides VOLT:UNIT for this number
-                vpp = _vpp_from(scpi.number(match.group(1)) * (1e-3 if match.group(2) else 1.0), match.group(3))
-            else:
-                vpp = _vpp_from(scpi.number(text, _VOLT_SUFFIXES), self.state["unit"])
-        self.state["amplitude_vpp"] = self._limited(vpp, low, high)
+        self.state["amplitude_vpp"] = self._amplitude_vpp_value(scpi.only_argument(unit.arguments))
         self.changed("amplitude", unit)
 
     def _offset_query(self, unit: Unit) -> bytes:
@@ -454,16 +511,38 @@ class Generator(ScpiInstrument):
         return self._limit_query(unit, self.state["offset"], -limit, limit, "%+.6E")
 
     def _offset_set(self, unit: Unit) -> None:
-        text = scpi.only_argument(unit.arguments)
-        limit = self._offset_limit_v()
-        value = self._min_max(text, -limit, limit)
-        self.state["offset"] = self._limited(scpi.number(text, _VOLT_SUFFIXES) if value is None else value,
-                                             -limit, limit)
+        self.state["offset"] = self._offset_value(scpi.only_argument(unit.arguments))
         self.changed("offset", unit)
 
-    def _load_query(self, unit: Unit) -> bytes:
+    def _apply(self, unit: Unit, shape: str) -> None:
+        """APPLy:<shape> [<frequency> [,<amplitude> [,<offset>]]] (UG Ch. 4): the shape and its
+        numbers in one command; one left out, or DEFault, is its *RST value (1 kHz, 100 mVpp,
+        0 V). The amplitude is in VOLT:UNIT; APPLy turns modulation off. For DC only the
+        offset acts (the level)."""
+        if len(unit.arguments) > 3:
+            raise scpi.parameter_not_allowed()
+        frequency, amplitude, offset = (*unit.arguments, "DEF", "DEF", "DEF")[:3]
+        self.state.update(shape=shape, modulation=None)
+        if shape != "DC":
+            self.state["frequency"] = self._frequency_value(frequency, 1e3)
+            self.state["amplitude_vpp"] = self._amplitude_vpp_value(amplitude, 0.1)
+        self.state["offset"] = self._offset_value(offset, 0.0)
+        self.changed("apply", unit)
+
+    def _apply_query(self, unit: Unit) -> bytes:
+        """APPLy?: shape, frequency, amplitude (VOLT:UNIT) and offset as one quoted string."""
         scpi.no_arguments(unit.arguments)
-        return b"%+.6E" % (GEN_INFINITE if math.isinf(self.state["load"]) else self.state["load"])
+        s = self.state
+        amplitude = _vpp_to(s["amplitude_vpp"], s["unit"])
+        return b'"%s %+.12E,%+.6E,%+.6E"' % (s["shape"].encode(), s["frequency"], amplitude, s["offset"])
+
+    def _load_query(self, unit: Unit) -> bytes:
+        load = self.state["load"]
+        if unit.arguments:   # OUTPut:LOAD? {MINimum|MAXimum}: 50 ohm, INFinity
+            load = self._min_max(scpi.only_argument(unit.arguments), 50.0, math.inf)
+            if load is None:
+                raise scpi.illegal_parameter()
+        return b"%+.6E" % (GEN_INFINITE if math.isinf(load) else load)
 
     def _load_set(self, unit: Unit) -> None:
         """OUTPut:LOAD {50|INFinity|MINimum|MAXimum}: only 50 ohm or INF (UG Ch. 4). The
@@ -509,16 +588,33 @@ class Generator(ScpiInstrument):
         Command("*CLS", None, _clear_status, "UG Ch. 4 *CLS"),
         Command("*OPC", lambda g, u: b"1", lambda g, u: None, "UG Ch. 4 *OPC"),
         Command("SYSTem:ERRor", _error_query, None, "UG Ch. 4 SYSTem:ERRor?; Ch. 5"),
-        Command("FUNCtion:SHAPe", *_setting("shape", _choices(_GEN_SHAPES, SCPI), str), "UG Ch. 4 FUNCtion:SHAPe"),
-        Command("FREQuency", _frequency_query, _frequency_set, "UG Ch. 4 FREQuency"),
-        Command("VOLTage", _amplitude_query, _amplitude_set, "UG Ch. 4 VOLTage"),
-        Command("VOLTage:OFFSet", _offset_query, _offset_set, "UG Ch. 4 VOLTage:OFFSet"),
-        Command("VOLTage:UNIT", *_setting("unit", _choices(_GEN_UNITS, SCPI), str), "UG Ch. 4 VOLTage:UNIT"),
+        Command("[SOURce:]FUNCtion:SHAPe", *_setting("shape", _choices(_GEN_SHAPES, SCPI), str),
+                "UG Ch. 4 FUNCtion:SHAPe"),
+        Command("[SOURce:]FREQuency", _frequency_query, _frequency_set, "UG Ch. 4 FREQuency"),
+        Command("[SOURce:]VOLTage", _amplitude_query, _amplitude_set, "UG Ch. 4 VOLTage"),
+        Command("[SOURce:]VOLTage:OFFSet", _offset_query, _offset_set, "UG Ch. 4 VOLTage:OFFSet"),
+        Command("[SOURce:]VOLTage:UNIT", *_setting("unit", _choices({**_GEN_UNITS, "DEFault": "VPP"}, SCPI), str),
+                "UG Ch. 4 VOLTage:UNIT"),
         Command("OUTPut:LOAD", _load_query, _load_set, "UG Ch. 4 OUTPut:LOAD"),
-        *(Command(f"{spelling}:STATe", lambda g, u, kind=kind: _flag(g.state["modulation"] == kind).encode(),
+        *(Command(f"[SOURce:]{spelling}:STATe", lambda g, u, kind=kind: _flag(g.state["modulation"] == kind).encode(),
                   lambda g, u, kind=kind: g._modulation_set(u, kind), f"UG Ch. 4 {spelling}:STATe")
           for kind, spelling in GEN_MODULATIONS.items()),
+        *(Command(f"APPLy:{spelling}", None, lambda g, u, shape=shape: g._apply(u, shape), f"UG Ch. 4 APPLy:{spelling}")
+          for spelling, shape in _GEN_SHAPES.items()),
+        Command("APPLy", _apply_query, None, "UG Ch. 4 APPLy?"),
     )
+
+    # -- state-only headers (state_only): replies as the 33120A formats numbers and keywords --
+    def clipped(self, value: float, low: float, high: float) -> float:
+        return self._limited(value, low, high)
+
+    @staticmethod
+    def number_reply(value: float, integer: bool) -> str:
+        return "%+d" % value if integer else "%+.6E" % value
+
+    @staticmethod
+    def choice_reply(value: str, spelling: str) -> str:
+        return scpi.short_form(spelling)
 
 
 def modulated(kind: str, frequency_hz: float, amplitude_vpp: float, time_s: float) -> tuple[float, float]:
@@ -570,9 +666,11 @@ _MEASUREMENTS = {"AMPlitude": "AMPLITUDE", "AREa": "AREA", "BURst": "BURST", "CA
                  "NOVershoot": "NOVERSHOOT", "NWIdth": "NWIDTH", "PDUty": "PDUTY", "PERIod": "PERIOD",
                  "PHASE": "PHASE", "PK2pk": "PK2PK", "POVershoot": "POVERSHOOT", "PWIdth": "PWIDTH",
                  "RISe": "RISE", "RMS": "RMS"}
-#: The measurements traces.measure computes (long form -> its name there).
+#: The measurements traces.measure computes (long form -> its name there); another type
+#: answers no value (NO_VALUE, event 2200): the simulator does not compute it.
 _SIMULATED_MEASUREMENTS = {"MEAN": "MEAN", "CMEAN": "CME", "PK2PK": "PK2", "AMPLITUDE": "AMP", "MAXIMUM": "MAX",
-                           "MINIMUM": "MINI", "RMS": "RMS", "FREQUENCY": "FREQ"}
+                           "MINIMUM": "MINI", "RMS": "RMS", "FREQUENCY": "FREQ", "PERIOD": "PERI", "HIGH": "HIGH",
+                           "LOW": "LOW", "CRMS": "CRM"}
 _ENCODINGS = {"ASCIi": "ASCII", "RIBinary": "RIBINARY", "RPBinary": "RPBINARY", "SRIbinary": "SRIBINARY",
               "SRPbinary": "SRPBINARY"}
 #: DATa:ENCdg -> (BN_Fmt, BYT_Or) of the preamble.
@@ -636,6 +734,12 @@ def _nearest_int(allowed: tuple) -> Callable:
     return lambda scope, text, unit: int(scope._nearest(scpi.number(text), allowed))
 
 
+def _trigger_level(scope, text: str, unit: Unit) -> float:
+    """TRIGger:A:LEVel {ECL|TTL|<NR3>} (TDS PM p. 2-271): the presets are -1.3 V and 1.4 V."""
+    preset = {"ECL": -1.3, "TTL": 1.4}.get(text.strip().upper())
+    return scpi.number(text) if preset is None else preset
+
+
 def _flag(value: bool) -> str:
     return "1" if value else "0"
 
@@ -646,6 +750,8 @@ class Scope(ScpiInstrument):
 
     role = "scope"
     STYLE = PREFIX
+    TABLE = "tds3000"
+    OWN_HEADERS = frozenset({"WFMPRE", "WAVFRM"})
     IDENTITY = b"TEKTRONIX,TDS 3054B,0,CF:91.1CT FV:v3.41 TDS3GM:v1.00 TDS3FFT:v1.00 TDS3TRG:v1.00"
 
     def power_on(self) -> None:
@@ -674,6 +780,7 @@ class Scope(ScpiInstrument):
                       "data_encoding": "RIBINARY", "data_width": 1, "data_start": 1, "data_stop": 10000,
                       "select_math": False, "delay_state": True, "delay_time": 0.0, "trigger_position": 10,
                       "gating": "OFF", "cursor_function": "OFF", ("vbar", 1): -1.6e-3, ("vbar", 2): 1.6e-3}
+        self.stored = {}
         for n in CHANNELS:
             probe = self.probes.get(n)
             self.state.update({("select", n): n == 1, ("scale", n): 0.1, ("position", n): 0.0,
@@ -1009,7 +1116,8 @@ class Scope(ScpiInstrument):
             self.event(*clipping)
             return NO_VALUE
         if kind not in _SIMULATED_MEASUREMENTS:
-            raise ValueError(f"the simulated scope does not compute {kind} measurements")
+            self.event(2200, "Measurement error, Measurement system error")
+            return NO_VALUE
         record = self.record()
         gate = self._gate(record.setup)
         if gate is None:
@@ -1117,6 +1225,20 @@ class Scope(ScpiInstrument):
         length = b"%d" % len(data)
         return b"#%d%s%s" % (len(length), length, data)
 
+    def _waveform(self, unit: Unit) -> bytes:
+        """WAVFrm? (p. 2-309): WFMPre? and CURVe? in one reply; only the transmission fields
+        of the preamble when the source is not displayed."""
+        preamble = self._preamble(unit)
+        if self.trace(self._selection()[0]) is None:
+            return preamble
+        curve = Unit("CURVE", True, (), (), unit.text)
+        return preamble + b";" + self.with_header(curve, self._curve(curve))
+
+    def _event_count(self, unit: Unit) -> bytes:
+        """EVQty? (p. 2-127): the events *ESR? made readable and not read yet."""
+        scpi.no_arguments(unit.arguments)
+        return b"%d" % len(self.available)
+
     COMMANDS = (
         Command("*IDN", lambda s, u: s.IDENTITY, None, "p. 2-149 *IDN?"),
         Command("*RST", None, _reset, "p. 2-252 *RST"),
@@ -1178,7 +1300,7 @@ class Scope(ScpiInstrument):
                 "p. 2-269 TRIGger:A:EDGe:SLOpe"),
         Command("TRIGger:A:EDGe:COUPling", *_setting("trigger_coupling", _tds_choice(_TRIGGER_COUPLINGS), str),
                 "p. 2-268 TRIGger:A:EDGe:COUPling"),
-        Command("TRIGger:A:LEVel", *_setting("trigger_level", lambda s, t, u: scpi.number(t), _nr3),
+        Command("TRIGger:A:LEVel", *_setting("trigger_level", _trigger_level, _nr3),
                 "p. 2-271 TRIGger:A:LEVel"),
         Command("MATH:TYPe", *_setting("math_type", _tds_choice(_MATH_TYPES), str), "p. 2-202 MATH:TYPe"),
         Command("MATH:DEFINE", _setting("math_define", None, _quoted)[0], _math_define_set, "p. 2-198 MATH:DEFINE"),
@@ -1197,10 +1319,23 @@ class Scope(ScpiInstrument):
         Command("DATa:STOP", *_setting("data_stop", _int(1, 10000), str), "p. 2-96 DATa:STOP"),
         Command("WFMPre", _preamble, None, "p. 2-314 WFMPre?"),
         Command("CURVe", _curve, None, "p. 2-90 CURVe"),
+        Command("WAVFrm", _waveform, None, "p. 2-309 WAVFrm?"),
+        Command("EVQty", _event_count, None, "p. 2-127 EVQty?"),
     )
 
     def changed(self, key: str, unit: Unit) -> None:
         """Nothing happens at once: settings act on the next acquisition."""
+
+    # -- state-only headers (state_only): replies as the TDS formats numbers and keywords ----
+    def clipped(self, value: float, low: float, high: float) -> float:
+        return self._forced(value, low, high)
+
+    @staticmethod
+    def number_reply(value: float, integer: bool) -> str:
+        return str(int(value)) if integer else _nr3(value)
+
+    def choice_reply(self, value: str, spelling: str) -> str:
+        return value if self.verbose else scpi.short_form(spelling)
 
 
 # == Polytec OFV-5000 =================================================================================
@@ -1224,6 +1359,11 @@ class Vibrometer(SimulatedInstrument):
     echo on at power-on, `Error` for a line it refuses; the decoder range scales CH3."""
 
     role = "vibrometer"
+    #: The lines (Device,index,Attribute) that act: on the protocol (echo) or on the signal
+    #: chain (the decoder range scales CH3; over-range and signal level read the bench).
+    #: Every other line of the command set (command_tables) is kept as state only.
+    MODELLED = frozenset({"Controller,0,Name", "Interface,0,Echo", "VeloDec,0,Name", "VeloDec,0,Range",
+                          "OverRange,0,Value", "SignalLevel,0,Value"})
 
     def power_on(self) -> None:
         self.decoder = self.options.get("decoder", "VD-09")
@@ -1252,12 +1392,37 @@ class Vibrometer(SimulatedInstrument):
             ("Get", "SignalLevel", "0", "Value"):
                 lambda value: b"%d" % round(self.bench.scene.measurement_point.signal_level_percent),
         }
+        self.stored: dict[str, str] = {}
+        for entry in command_tables.table("ofv5000"):
+            for verb in entry.forms:
+                self._lines.setdefault((verb, *entry.header.split(",")), self._state_only(entry, verb))
 
     def _setter(self, key: str, allowed: tuple[str, ...]):
         def set_(value: str | None) -> bytes | None:
             if value not in allowed:
                 return b"Error"
             self.state[key] = value
+            return None
+        return set_
+
+    def _state_only(self, entry: command_tables.Entry, verb: str) -> Callable[[str | None], bytes | None]:
+        """A line the simulator does not model: Set keeps a value among those the table
+        lists (or a number in its low..high), Get reads it back, GetDevInfo lists them."""
+        values = entry.arguments.split("|") if entry.arguments else []
+        if verb == "GetDevInfo":
+            return lambda value: (",".join(values) if values else entry.reply).encode()
+        if verb == "Get":
+            return lambda value: self.stored.get(entry.header, entry.reply).encode()
+        low_high = [float(v) for v in values[0].split("..")] if len(values) == 1 and ".." in values[0] else None
+
+        def set_(value: str | None) -> bytes | None:
+            try:
+                allowed = low_high[0] <= float(value) <= low_high[1] if low_high else value in values
+            except ValueError:
+                allowed = False
+            if not allowed:
+                return b"Error"
+            self.stored[entry.header] = value
             return None
         return set_
 

@@ -145,14 +145,12 @@ class HeaderTree:
             for i, part in enumerate(parts):
                 if i in dropped:
                     continue
-                child = None
-                for spelling, x in part.spellings(self.style):
-                    existing = node.children.get(spelling)
-                    if existing is None:
-                        child = child or Node()
-                        node.children[spelling] = (child, x)
-                    else:
-                        child = existing[0]
+                spellings = list(part.spellings(self.style))
+                # A mnemonic the manual spells with other capitals elsewhere (TDS PM:
+                # `SOUrce` and `SOURCE1`) shares its node: every spelling leads there.
+                child = next((node.children[s][0] for s, _ in spellings if s in node.children), None) or Node()
+                for spelling, x in spellings:
+                    node.children.setdefault(spelling, (child, x))
                 node = child
             if node.path is not None and node.path != path:
                 raise ValueError(f"{spec!r} collides with {node.path!r}")

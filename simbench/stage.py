@@ -7,15 +7,18 @@ State per axis: NOT REFERENCED at power-on (`TS` ...0A), HOMING (1E) during `OR`
 of a trapezoidal velocity profile at the axis's `VA` and `AC`, on the simulated clock; `TS`
 reads MOVING until that time has passed. A command the controller refuses is silent and
 leaves its letter for `TE` (SMC100 UM TE): H for a move NOT REFERENCED, M while MOVING, C
-for a parameter missing or beyond the software limits `SL`/`SR`.
+for a parameter missing or beyond the software limits `SL`/`SR`. The other commands of the
+manual's set (`commands/smc100.tsv`: servo gains, jogging, the TTL port ...) are kept per
+axis as state only.
 """
 
 from __future__ import annotations
 
 import re
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 from squeezebench.analysis.cartography import move_time_s
+from squeezebench.simbench import command_tables
 from squeezebench.simbench.devices import SimulatedInstrument
 from squeezebench.simbench.modeshape import mode_shape
 
@@ -24,9 +27,15 @@ TRAVEL_MM = {"1": (0.0, 300.0), "2": (0.0, 200.0)}
 VELOCITY_MM_PER_S = 20.0
 ACCELERATION_MM_PER_S2 = 80.0
 REVISION = "SMC_CC - Controller-driver version 2.0.0"
-#: Parameters read with `?`; the other queries (TS, TP, VE) take no argument.
-_PARAMETERS = ("SL", "SR", "VA", "AC")
+#: Parameters read with `?` (PA?: the target of the last move); the other queries (TS, TP, VE) take no argument.
+_PARAMETERS = ("SL", "SR", "VA", "AC", "PA")
 _LINE = re.compile(r"^(\d{1,2})([A-Z]{2})(.*)$")
+#: The manual's command set (command_tables); the commands below it are modelled, the
+#: others kept per axis as state only (a KP gain tunes no servo here).
+COMMANDS = {entry.header: entry for entry in command_tables.table("smc100")}
+MODELLED = frozenset({"AC", "OR", "PA", "PR", "PT", "SL", "SR", "ST", "TE", "TH", "TP", "TS", "VA", "VE"})
+#: Commands that answer without `?`: the reports, and PT (the time a move would take).
+_ANSWERING = frozenset(code for code, entry in COMMANDS.items() if "report" in entry.forms) | {"PT"}
 
 
 @dataclass
@@ -43,6 +52,7 @@ class Axis:
     velocity_mm_per_s: float = VELOCITY_MM_PER_S
     acceleration_mm_per_s2: float = ACCELERATION_MM_PER_S2
     error: str = "@"
+    stored: dict[str, str] = field(default_factory=dict)   # state-only parameters
 
 
 class Stage(SimulatedInstrument):
@@ -80,8 +90,8 @@ class Stage(SimulatedInstrument):
         return self._gain
 
     def is_query(self, message: bytes) -> bool:
-        text = message.decode("ascii", errors="replace").strip()
-        return text.endswith("?") or text[-2:] in ("TS", "TP", "TE", "VE")
+        match = _LINE.match(message.decode("ascii", errors="replace").strip())
+        return match is not None and (match.group(3) == "?" or match.group(2) in _ANSWERING)
 
     def point_mm(self) -> tuple[float, float]:
         self._settle_all()
@@ -109,8 +119,10 @@ class Stage(SimulatedInstrument):
 
     def _command(self, axis: Axis, command: str, argument: str) -> str | None:
         queries = {"TS": lambda: f"{0:04X}{axis.state}", "TP": lambda: f"{axis.position_mm:.6g}",
+                   "TH": lambda: f"{axis.target_mm if axis.state in ('1E', '28') else axis.position_mm:.6g}",
                    "VE": lambda: f" {REVISION}", "SL": lambda: f"{axis.low_mm:g}", "SR": lambda: f"{axis.high_mm:g}",
-                   "VA": lambda: f"{axis.velocity_mm_per_s:g}", "AC": lambda: f"{axis.acceleration_mm_per_s2:g}"}
+                   "VA": lambda: f"{axis.velocity_mm_per_s:g}", "AC": lambda: f"{axis.acceleration_mm_per_s2:g}",
+                   "PA": lambda: f"{axis.target_mm:.6g}"}
         if command == "TE":
             letter, axis.error = axis.error, "@"
             return letter
@@ -120,12 +132,43 @@ class Stage(SimulatedInstrument):
             self._home(axis)
         elif command == "PA":
             self._move(axis, argument)
-        elif command == "VA" and argument:
-            self._velocity(axis, argument)
+        elif command == "PR":
+            self._move(axis, argument, relative=True)
+        elif command == "PT" and argument not in ("", "?"):
+            displacement = _number(argument)
+            if displacement is None:
+                axis.error = "C"
+                return None
+            return f"{move_time_s(displacement, axis.velocity_mm_per_s, axis.acceleration_mm_per_s2):.6g}"
+        elif command in ("VA", "AC") and argument not in ("", "?"):
+            self._rate(axis, command, argument)
+        elif command in ("SL", "SR") and argument not in ("", "?"):
+            self._software_limit(axis, command, argument)
         elif command == "ST" and argument == "":
             self._stop(axis)
         else:
+            return self._state_only(axis, command, argument)
+        return None
+
+    @staticmethod
+    def _state_only(axis: Axis, command: str, argument: str) -> str | None:
+        """A command of the manual's set that moves nothing here: stored per axis and read
+        back (STATE ONLY); a number beyond the table's limits is refused with C."""
+        entry = COMMANDS.get(command)
+        if entry is None:
             axis.error = "A"   # SMC100 UM TE: unknown message code
+        elif argument == "?" and entry.queryable:
+            return axis.stored.get(command, entry.reply)
+        elif argument == "" and "report" in entry.forms:
+            return entry.reply
+        elif entry.settable and argument != "?" and bool(argument) == bool(entry.arguments):
+            value = _number(argument) if entry.limits else argument
+            if value is None or (entry.limits and not entry.limits[0] <= value <= entry.limits[1]):
+                axis.error = "C"
+            elif argument:
+                axis.stored[command] = f"{value:g}" if entry.limits else argument
+        else:
+            axis.error = "C"   # a parameter missing, or one the command does not take
         return None
 
     def _home(self, axis: Axis) -> None:
@@ -134,12 +177,13 @@ class Stage(SimulatedInstrument):
             return
         self._start(axis, "1E", axis.low_mm)
 
-    def _move(self, axis: Axis, argument: str) -> None:
-        try:
-            target = float(argument)
-        except ValueError:
+    def _move(self, axis: Axis, argument: str, relative: bool = False) -> None:
+        target = _number(argument)
+        if target is None:
             axis.error = "C"
             return
+        if relative:
+            target += axis.position_mm
         if axis.state not in ("32", "33", "34", "35"):
             axis.error = {"28": "M", "1E": "L"}.get(axis.state, "H")
         elif not axis.low_mm <= target <= axis.high_mm:
@@ -156,15 +200,27 @@ class Stage(SimulatedInstrument):
         axis.end_s = now + move_time_s(target_mm - axis.position_mm, axis.velocity_mm_per_s,
                                        axis.acceleration_mm_per_s2)
 
-    def _velocity(self, axis: Axis, argument: str) -> None:
-        try:
-            value = float(argument)
-        except ValueError:
-            value = -1.0
-        if value <= 0:
+    @staticmethod
+    def _rate(axis: Axis, command: str, argument: str) -> None:
+        """VA (velocity) or AC (acceleration): positive; they shape the next move's profile."""
+        value = _number(argument)
+        if value is None or value <= 0:
             axis.error = "C"
-        else:
+        elif command == "VA":
             axis.velocity_mm_per_s = value
+        else:
+            axis.acceleration_mm_per_s2 = value
+
+    @staticmethod
+    def _software_limit(axis: Axis, command: str, argument: str) -> None:
+        """SL/SR: the travel PA and PR may use; each stays on its side of the position."""
+        value = _number(argument)
+        if value is None or (value > axis.position_mm if command == "SL" else value < axis.position_mm):
+            axis.error = "C"
+        elif command == "SL":
+            axis.low_mm = value
+        else:
+            axis.high_mm = value
 
     def _stop(self, axis: Axis) -> None:
         if axis.state in ("1E", "28"):
@@ -172,3 +228,11 @@ class Stage(SimulatedInstrument):
             done = min(1.0, (self.bench.clock.now_s() - axis.start_s) / span)
             axis.position_mm = axis.start_mm + done * (axis.target_mm - axis.start_mm)
             axis.state = "0E" if axis.state == "1E" else "33"   # a stopped homing leaves it NOT REFERENCED
+
+
+def _number(text: str) -> float | None:
+    try:
+        value = float(text)
+    except ValueError:
+        return None
+    return value if value == value and abs(value) != float("inf") else None

@@ -412,8 +412,16 @@ def measure(record: Record, source: str, kind: str) -> float:
         return float(trace.min())
     if kind == "RMS":
         return float(np.sqrt(np.mean(trace**2)))
+    if kind == "CRM":  # cycle RMS: over the first period
+        return float(np.sqrt(np.mean(trace[whole_periods(record.setup.times_s(), record.frequency_hz, True)] ** 2)))
+    if kind == "HIGH":  # the min-max method: HIGH and LOW are the extremes
+        return float(trace.max())
+    if kind == "LOW":
+        return float(trace.min())
     if kind == "FREQ":
         return crossing_frequency_hz(trace, record.setup.times_s())
+    if kind == "PERI":
+        return 1.0 / crossing_frequency_hz(trace, record.setup.times_s())
     raise ValueError(f"measurement type {kind!r} is not simulated")
 
 
