@@ -6,7 +6,9 @@ PyVISA ResourceManager over the library the configuration names:
 - `"<scene.yaml>@simbench"`: simbench's simulated bench; the clock and the operator come
   from it (a request for a plate state switches the scene, no prompt);
 - anything else (`""`, `"@py"`, a VISA library path): the real bench, with wall time and
-  an operator prompted on the terminal.
+  an operator prompted on the terminal; or, when the bench file names serve-sim's bench
+  port (`simulator:`), the served simulated bench with its clock and plate changes
+  (`instruments.served`).
 
 The drivers never know which: they only see a PyVISA resource.
 
@@ -33,6 +35,7 @@ from squeezebench.instruments.base import Instrument
 from squeezebench.instruments.errors import (BenchFileError, BenchMismatch, InstrumentConnectionError, InstrumentError, InstrumentTimeout,
                                              OperatorUnavailable)
 from squeezebench.instruments.ofv5000 import OFV5000
+from squeezebench.instruments.served import ServedSimulator
 from squeezebench.instruments.smc100 import SMC100Stage
 from squeezebench.instruments.tds3054b import CHANNELS, TDS3054B
 from squeezebench.yamlfiles import load_strict
@@ -104,6 +107,7 @@ class BenchConfig:
     resources: Mapping[str, str]
     electronics: BenchElectronics = field(default_factory=BenchElectronics)
     source: str | None = None   # the file it was read from, for messages
+    simulator: str | None = None   # serve-sim's bench port: a served bench's clock and operator
 
 
 # -- bench files ------------------------------------------------------------------------------------
@@ -333,6 +337,8 @@ def open_bench(config: BenchConfig) -> Bench:
     library = _library_path(config.visa_library)
     resource_manager = _resource_manager(library)
     try:
+        # a served bench starts afresh before its instruments open, as a simulated one does
+        served = ServedSimulator(resource_manager, config.simulator) if config.simulator else None
         drivers = {role: _open_role(resource_manager, role, config.resources[role]) for role in ROLES}
         for role in ("generator", "scope"):   # status a previous session left is not this run's
             drivers[role].clear_status()
@@ -342,6 +348,8 @@ def open_bench(config: BenchConfig) -> Bench:
         if library.endswith(SIMBENCH):
             simulated = resource_manager.visalib.bench
             clock, operator = simulated.clock, SimulatedOperator(simulated)
+        elif served is not None:
+            clock = operator = served
         else:
             clock, operator = WallClock(), TerminalOperator()
     except BaseException:

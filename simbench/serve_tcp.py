@@ -1,0 +1,79 @@
+"""A served instrument on a TCP port of the loopback: a raw SCPI socket, as the TDS 3054B's
+Ethernet module (TDS3EM) offers one and VISA opens as `TCPIP::HOST::PORT::SOCKET`.
+
+One client at a time, as the instrument's socket server takes; a client that goes away
+(or a `connection_reset` fault) frees the port for the next one.
+"""
+
+from __future__ import annotations
+
+import socket
+import struct
+import threading
+
+from pyvisa.errors import VisaIOError
+
+from squeezebench.simbench.serve import LOOPBACK, send
+
+
+class TcpPort:
+    """Listens on `host`:`port` (0: a free one) and serves `endpoint` until `close`."""
+
+    def __init__(self, endpoint, host: str = "127.0.0.1", port: int = 0) -> None:
+        if host not in LOOPBACK:
+            raise ValueError(f"serve-sim listens on the loopback only ({', '.join(LOOPBACK)}), not {host!r}")
+        self.endpoint = endpoint
+        self._listener = socket.socket(socket.AF_INET6 if ":" in host else socket.AF_INET, socket.SOCK_STREAM)
+        self._listener.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+        self._listener.bind((host, port))
+        self._listener.listen(1)
+        self._listener.settimeout(0.1)
+        self.host, self.port = host, self._listener.getsockname()[1]
+        self._closed = threading.Event()
+        self._thread = threading.Thread(target=self._serve, name=f"serve-sim tcp {self.port}", daemon=True)
+        self._thread.start()
+
+    @property
+    def address(self) -> str:
+        return f"TCPIP::{self.host}::{self.port}::SOCKET"
+
+    def close(self) -> None:
+        self._closed.set()
+        self._thread.join(timeout=5)
+        self._listener.close()
+
+    def _serve(self) -> None:
+        while not self._closed.is_set():
+            try:
+                connection, _ = self._listener.accept()
+            except (socket.timeout, OSError):
+                continue
+            with connection:
+                self._talk(connection)
+
+    def _talk(self, connection: socket.socket) -> None:
+        connection.settimeout(0.1)
+        connection.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+        stale = self._closed.is_set
+        while not stale():
+            try:
+                data = connection.recv(65536)
+            except socket.timeout:
+                continue
+            except OSError:
+                return
+            if not data:
+                return
+            try:
+                replies = self.endpoint(data)
+            except VisaIOError:   # the instrument's own `disconnect` fault: it is gone
+                return
+            for message, reply in replies:
+                delivery = self.endpoint.delivery(message, reply)
+                try:
+                    send(delivery, connection.sendall, stale)
+                except OSError:
+                    return
+                if delivery.cut:   # RST, not FIN: the peer's next read fails at once
+                    connection.setsockopt(socket.SOL_SOCKET, socket.SO_LINGER, struct.pack("ii", 1, 0))
+                    return
