@@ -34,6 +34,7 @@ from pyvisa import constants
 from squeezebench.simbench import line
 from squeezebench.simbench.scene import SceneError, load_scene
 from squeezebench.simbench.transport_faults import TransportFault
+from squeezebench.yamlfiles import read_yaml
 
 #: Where serve-sim may listen: this machine only.
 LOOPBACK = ("127.0.0.1", "::1")
@@ -95,10 +96,11 @@ class ServedBench:
                 self._resource_manager = None
 
     def mount(self, scene_path: str) -> None:
-        """The operator puts a plate on: the scene already mounted stays (and keeps its state)."""
+        """The operator puts a plate on: the plate already mounted stays (and keeps its
+        state); a scene that differs from it only by its transport faults is that plate."""
         path = Path(scene_path).resolve()
         with self.lock:
-            if path != self.mounted and path.read_bytes() != self.mounted.read_bytes():
+            if path != self.mounted and _plate_of(path) != _plate_of(self.mounted):
                 self.bench.mount(path)
             self.mounted = path
 
@@ -118,6 +120,12 @@ class ServedBench:
                     self.on_event(f"transport fault {fault.describe()}: fired")
                 return _faulty(fault, reply)
         return Delivery([Piece(reply)])
+
+
+def _plate_of(scene_path: Path) -> dict:
+    """A scene file's content but its transport faults."""
+    data = read_yaml(scene_path)
+    return {key: value for key, value in data.items() if key != "transport_faults"} if isinstance(data, dict) else data
 
 
 def _drain(device) -> Iterator[bytes]:
@@ -151,9 +159,11 @@ def _faulty(fault: TransportFault, reply: bytes) -> Delivery:
         return Delivery([Piece(reply.rstrip(b"\n"))], fault=fault)
     if fault.fault == "connection_reset":
         return Delivery([Piece(reply[:len(reply) // 2])], cut=True, fault=fault)
-    # framing_error: a burst read as by a receiver set to one stop bit more than was sent
+    # framing_error: a burst on the line during the reply, read as by a receiver set to one
+    # stop bit more than was sent; it is over before the terminating LF
     sent = line.LineSettings(9600, 8, "N", 1)
-    return Delivery([Piece(line.received(reply, sent, dataclasses.replace(sent, stop_bits=2)))], fault=fault)
+    burst = line.received(reply[:-1], sent, dataclasses.replace(sent, stop_bits=2))
+    return Delivery([Piece(burst + reply[-1:])], fault=fault)
 
 
 class InstrumentEndpoint:
@@ -164,9 +174,19 @@ class InstrumentEndpoint:
         self.served, self.role = served, role
         self._partial = bytearray()
 
-    def __call__(self, data: bytes) -> list[tuple[bytes, bytes]]:
+    def generation(self) -> int:
+        return self.served.generation
+
+    def __call__(self, data: bytes, generation: int | None = None) -> list[tuple[bytes, bytes]]:
         """Each whole message in `data` written on its own, as the client's VISA session
-        wrote it (a stream may bring several at once): each costs its own bus time."""
+        wrote it (a stream may bring several at once): each costs its own bus time. Data
+        of a session older than the bench (`generation`) is dropped."""
+        with self.served.lock:
+            if generation is not None and generation != self.served.generation:
+                return []
+            return self._messages(data)
+
+    def _messages(self, data: bytes) -> list[tuple[bytes, bytes]]:
         self._partial += data
         replies = []
         while b"\n" in self._partial:
@@ -175,6 +195,10 @@ class InstrumentEndpoint:
             del self._partial[:end]
             replies += [(message, reply) for reply in self.served.exchange(self.role, message)]
         return replies
+
+    def reset(self) -> None:
+        """Forget a half-received message (a fresh bench)."""
+        self._partial.clear()
 
     def delivery(self, message: bytes, reply: bytes) -> Delivery:
         return self.served.delivery(self.role, message, reply)
@@ -187,7 +211,10 @@ class BenchEndpoint:
         self.served = served
         self._partial = bytearray()
 
-    def __call__(self, data: bytes) -> list[tuple[bytes, bytes]]:
+    def generation(self) -> int:
+        return -1   # the bench port serves every session, the fresh bench's too
+
+    def __call__(self, data: bytes, generation: int | None = None) -> list[tuple[bytes, bytes]]:
         self._partial += data
         replies = []
         while b"\n" in self._partial:
@@ -205,8 +232,9 @@ class BenchEndpoint:
 def send(delivery: Delivery, write: Callable[[bytes], object], stale: Callable[[], bool],
          line_settings: line.LineSettings | None = None) -> None:
     """Write a delivery's pieces; given `line_settings` (a serial line at its real rate),
-    each in parts of about 10 ms, each part taking its time on the line. Stops early once
-    `stale()` (the client has gone, or a fresh bench opened)."""
+    each in parts of about 10 ms, each part taking its time on the line. Stops as soon as
+    `stale()` (the client has gone, or a fresh bench opened): a pause waits in short steps
+    so a trickle never holds up the next session."""
     for piece in delivery.pieces:
         data = piece.data
         step = max(1, line_settings.baud // (line_settings.frame_bits * 100)) if line_settings else max(1, len(data))
@@ -215,10 +243,20 @@ def send(delivery: Delivery, write: Callable[[bytes], object], stale: Callable[[
                 return
             part = data[start:start + step]
             write(part)
-            if line_settings:
-                time.sleep(line_settings.transfer_s(len(part)))
-        if piece.pause_s:
-            time.sleep(piece.pause_s)
+            if line_settings and not _wait(line_settings.transfer_s(len(part)), stale):
+                return
+        if piece.pause_s and not _wait(piece.pause_s, stale):
+            return
+
+
+def _wait(duration_s: float, stale: Callable[[], bool]) -> bool:
+    """Sleep `duration_s` in steps of at most 10 ms; False as soon as `stale()`."""
+    end = time.monotonic() + duration_s
+    while (left := end - time.monotonic()) > 0:
+        if stale():
+            return False
+        time.sleep(min(left, 0.01))
+    return True
 
 
 # -- the bench port ---------------------------------------------------------------------------

@@ -40,11 +40,13 @@ def client_settings(fd: int) -> LineSettings:
 class PtyPort:
     """A pseudo-terminal serving `endpoint` with the line `settings` until `close`."""
 
-    def __init__(self, endpoint, settings: LineSettings, real_rate: bool = False,
+    def __init__(self, endpoint, settings: LineSettings, lock, real_rate: bool = False,
                  generation=lambda: 0) -> None:
         self.endpoint, self.settings, self.real_rate = endpoint, settings, real_rate
+        self._lock = lock   # the served bench's
         self._generation = generation   # the bench's opening count: a new one drops what is in flight
         self._master, self._slave = os.openpty()
+        os.set_blocking(self._master, False)
         tty.setraw(self._slave)   # no echo nor line editing before a client sets the line up
         self.device = os.ttyname(self._slave)
         self._closed = threading.Event()
@@ -56,8 +58,11 @@ class PtyPort:
         return f"ASRL{self.device}::INSTR"
 
     def flush(self) -> None:
-        """Drop what the client has not read (a fresh bench: nothing of the old one stays)."""
-        termios.tcflush(self._slave, termios.TCIFLUSH)
+        """Drop what is in flight both ways (a fresh bench: nothing of the old session
+        stays, neither replies the client has not read nor messages the port has not)."""
+        termios.tcflush(self._slave, termios.TCIFLUSH)   # replies on their way to the client
+        termios.tcflush(self._master, termios.TCIFLUSH)  # messages on their way to the instrument
+        self.endpoint.reset()
 
     def close(self) -> None:
         self._closed.set()
@@ -70,18 +75,23 @@ class PtyPort:
             ready, _, _ = select.select([self._master], [], [], 0.1)
             if not ready:
                 continue
-            try:
-                data = os.read(self._master, 65536)
-            except OSError:   # no client has the line open
-                time.sleep(0.05)
-                continue
-            client = client_settings(self._slave)
-            if self.real_rate:
-                time.sleep(client.transfer_s(len(data)))
-            try:
-                replies = self.endpoint(received(data, client, self.settings))
-            except VisaIOError:   # the instrument's own `disconnect` fault: silent from now on
-                continue
+            # read and answered in one hold of the bench: a fresh bench (`flush`, under the
+            # same lock) never gets a message of the session before it
+            with self._lock:
+                try:
+                    data = os.read(self._master, 65536)
+                except BlockingIOError:   # flushed since select: a fresh bench dropped it
+                    continue
+                except OSError:   # no client has the line open
+                    time.sleep(0.05)
+                    continue
+                client = client_settings(self._slave)
+                if self.real_rate:
+                    time.sleep(client.transfer_s(len(data)))
+                try:
+                    replies = self.endpoint(received(data, client, self.settings))
+                except VisaIOError:   # the instrument's own `disconnect` fault: silent from now on
+                    continue
             generation = self._generation()
             stale = lambda: self._closed.is_set() or self._generation() != generation   # noqa: E731
             for message, reply in replies:

@@ -28,7 +28,7 @@ class ServedSim:
             for role in NETWORK_ROLES:
                 self.ports[role] = TcpPort(InstrumentEndpoint(self.served, role), host)
             for role in SERIAL_ROLES:
-                self.ports[role] = PtyPort(InstrumentEndpoint(self.served, role), MANUAL_SETTINGS[role],
+                self.ports[role] = PtyPort(InstrumentEndpoint(self.served, role), MANUAL_SETTINGS[role], self.served.lock,
                                            real_rate=line_rate == "real", generation=lambda: self.served.generation)
                 self.served.on_open.append(self.ports[role].flush)
         except BaseException:

@@ -16,6 +16,9 @@ from pyvisa.errors import VisaIOError
 from squeezebench.simbench.serve import LOOPBACK, send
 
 
+_QUICKACK = getattr(socket, "TCP_QUICKACK", 12)
+
+
 class TcpPort:
     """Listens on `host`:`port` (0: a free one) and serves `endpoint` until `close`."""
 
@@ -49,15 +52,20 @@ class TcpPort:
             except (socket.timeout, OSError):
                 continue
             with connection:
-                self._talk(connection)
+                self._talk(connection, self.endpoint.generation())
 
-    def _talk(self, connection: socket.socket) -> None:
+    def _talk(self, connection: socket.socket, generation: int) -> None:
+        """One client's session; once a fresh bench opens, what this one still sends is dropped."""
         connection.settimeout(0.1)
         connection.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
-        stale = self._closed.is_set
+        def stale() -> bool:
+            return self._closed.is_set() or self.endpoint.generation() != generation
         while not stale():
             try:
                 data = connection.recv(65536)
+                # ACK at once: a client writing two messages in a row (Nagle) would otherwise
+                # wait out the delayed ACK, some 40 ms a message (Linux tcp(7), TCP_QUICKACK)
+                connection.setsockopt(socket.IPPROTO_TCP, _QUICKACK, 1)
             except socket.timeout:
                 continue
             except OSError:
@@ -65,7 +73,7 @@ class TcpPort:
             if not data:
                 return
             try:
-                replies = self.endpoint(data)
+                replies = self.endpoint(data, generation)
             except VisaIOError:   # the instrument's own `disconnect` fault: it is gone
                 return
             for message, reply in replies:

@@ -8,7 +8,9 @@ exception: it is the way a network stack may deliver any reply, so it acts on ev
 
 - `chunked_reply`: every reply leaves in random pieces of 1..`max_chunk_bytes` bytes with
   a pause of up to `max_pause_s` between them (a reader must join them);
-- `slow_trickle`: the reply trickles at `bytes_per_s`, slower than any VISA timeout waits;
+- `slow_trickle`: the reply trickles at `bytes_per_s`, for longer than the reader's VISA
+  timeout when it is slow enough (a VISA read waits its timeout for each piece up to a
+  termination character, which a binary block may hold anywhere);
 - `missing_termination`: the reply loses its final LF;
 - `connection_reset`: half of the reply goes, then the connection is reset (TCP RST) or,
   on a serial line, the port stops answering until the client opens it again;
