@@ -76,7 +76,23 @@ class ServedBench:
         self._resource_manager: pyvisa.ResourceManager | None = None
         self.on_event = on_event   # told when a transport fault fires (serve-sim's log)
         self.on_open: list[Callable[[], None]] = []   # told when a fresh bench opens (the ptys drop old bytes)
+        self._ports: list = []
         self.open()
+
+    def register(self, port) -> None:
+        """A port (with `pending()`: it holds bytes it has not answered) for `settle` to wait on."""
+        self._ports.append(port)
+
+    def settle(self, port, limit_s: float = 0.5) -> None:
+        """Wait until every port but `port` has handled what it received. The client is
+        one program: what it waits on (a query, a bench command) is the last thing it sent,
+        and what it wrote elsewhere before (a new frequency) must reach the bench first, as
+        in-process, or bench time and the physics would depend on thread scheduling. Nothing
+        pending twice 0.1 ms apart: a pty's bytes reach its master through a kernel worker."""
+        end, quiet = time.monotonic() + limit_s, 0
+        while quiet < 2 and time.monotonic() < end:
+            quiet = 0 if any(other.pending() for other in self._ports if other is not port) else quiet + 1
+            time.sleep(1e-4)
 
     def open(self) -> None:
         """A fresh simulated bench from the scene, as each in-process `open_bench` builds."""
@@ -177,23 +193,23 @@ class InstrumentEndpoint:
     def generation(self) -> int:
         return self.served.generation
 
-    def __call__(self, data: bytes, generation: int | None = None) -> list[tuple[bytes, bytes]]:
+    def __call__(self, data: bytes, generation: int | None = None, port=None) -> list[tuple[bytes, bytes]]:
         """Each whole message in `data` written on its own, as the client's VISA session
-        wrote it (a stream may bring several at once): each costs its own bus time. Data
+        wrote it (a stream may bring several at once): each costs its own bus time. A query
+        waits for what the client wrote elsewhere before it (`ServedBench.settle`). Data
         of a session older than the bench (`generation`) is dropped."""
-        with self.served.lock:
-            if generation is not None and generation != self.served.generation:
-                return []
-            return self._messages(data)
-
-    def _messages(self, data: bytes) -> list[tuple[bytes, bytes]]:
         self._partial += data
         replies = []
         while b"\n" in self._partial:
             end = self._partial.index(b"\n") + 1
             message = bytes(self._partial[:end])
             del self._partial[:end]
-            replies += [(message, reply) for reply in self.served.exchange(self.role, message)]
+            if getattr(self.served.bench, self.role).is_query(message.rstrip(b"\r\n")):
+                self.served.settle(port)
+            with self.served.lock:
+                if generation is not None and generation != self.served.generation:
+                    return []
+                replies += [(message, reply) for reply in self.served.exchange(self.role, message)]
         return replies
 
     def reset(self) -> None:
@@ -211,16 +227,20 @@ class BenchEndpoint:
         self.served = served
         self._partial = bytearray()
 
+    def reset(self) -> None:
+        self._partial.clear()
+
     def generation(self) -> int:
         return -1   # the bench port serves every session, the fresh bench's too
 
-    def __call__(self, data: bytes, generation: int | None = None) -> list[tuple[bytes, bytes]]:
+    def __call__(self, data: bytes, generation: int | None = None, port=None) -> list[tuple[bytes, bytes]]:
         self._partial += data
         replies = []
         while b"\n" in self._partial:
             end = self._partial.index(b"\n")
             message = bytes(self._partial[:end]).rstrip(b"\r")
             del self._partial[:end + 1]
+            self.served.settle(port)   # every bench command is waited on: the client's last message
             replies.append((message, bench_command(self.served, message) + b"\n"))
         return replies
 

@@ -12,6 +12,8 @@ A pty has no modem lines: the 33120A's DTR/DSR handshake is not modelled.
 
 from __future__ import annotations
 
+import array
+import fcntl
 import os
 import select
 import termios
@@ -47,6 +49,8 @@ class PtyPort:
         self._generation = generation   # the bench's opening count: a new one drops what is in flight
         self._master, self._slave = os.openpty()
         os.set_blocking(self._master, False)
+        self._holding = False
+        endpoint.served.register(self)
         tty.setraw(self._slave)   # no echo nor line editing before a client sets the line up
         self.device = os.ttyname(self._slave)
         self._closed = threading.Event()
@@ -56,6 +60,15 @@ class PtyPort:
     @property
     def address(self) -> str:
         return f"ASRL{self.device}::INSTR"
+
+    def pending(self) -> bool:
+        """Whether bytes of the client wait here, unread or unanswered."""
+        count = array.array("i", [0])
+        try:
+            fcntl.ioctl(self._master, termios.FIONREAD, count)
+        except OSError:
+            return self._holding
+        return self._holding or count[0] > 0
 
     def flush(self) -> None:
         """Drop what is in flight both ways (a fresh bench: nothing of the old session
@@ -75,24 +88,26 @@ class PtyPort:
             ready, _, _ = select.select([self._master], [], [], 0.1)
             if not ready:
                 continue
-            # read and answered in one hold of the bench: a fresh bench (`flush`, under the
-            # same lock) never gets a message of the session before it
+            # read under the bench's lock: a fresh bench (`flush`, under the same lock) never
+            # gets a message of the session before it
             with self._lock:
+                self._holding = True
+                generation = self._generation()
                 try:
                     data = os.read(self._master, 65536)
-                except BlockingIOError:   # flushed since select: a fresh bench dropped it
+                except OSError:   # flushed since select, or no client has the line open
+                    self._holding = False
+                    time.sleep(0.01)
                     continue
-                except OSError:   # no client has the line open
-                    time.sleep(0.05)
-                    continue
+            try:
                 client = client_settings(self._slave)
                 if self.real_rate:
                     time.sleep(client.transfer_s(len(data)))
-                try:
-                    replies = self.endpoint(received(data, client, self.settings))
-                except VisaIOError:   # the instrument's own `disconnect` fault: silent from now on
-                    continue
-            generation = self._generation()
+                replies = self.endpoint(received(data, client, self.settings), generation, self)
+            except VisaIOError:   # the instrument's own `disconnect` fault: silent from now on
+                continue
+            finally:
+                self._holding = False
             stale = lambda: self._closed.is_set() or self._generation() != generation   # noqa: E731
             for message, reply in replies:
                 delivery = self.endpoint.delivery(message, reply)

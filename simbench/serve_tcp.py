@@ -7,8 +7,12 @@ One client at a time, as the instrument's socket server takes; a client that goe
 
 from __future__ import annotations
 
+import array
+import fcntl
+import select
 import socket
 import struct
+import termios
 import threading
 
 from pyvisa.errors import VisaIOError
@@ -17,6 +21,16 @@ from squeezebench.simbench.serve import LOOPBACK, send
 
 
 _QUICKACK = getattr(socket, "TCP_QUICKACK", 12)
+
+
+def _unread(connection: socket.socket) -> int:
+    """Bytes received and not read yet (tcp(7) SIOCINQ, the same request as FIONREAD)."""
+    count = array.array("i", [0])
+    try:
+        fcntl.ioctl(connection.fileno(), termios.FIONREAD, count)
+    except OSError:
+        return 0
+    return count[0]
 
 
 class TcpPort:
@@ -33,6 +47,8 @@ class TcpPort:
         self._listener.settimeout(0.1)
         self.host, self.port = host, self._listener.getsockname()[1]
         self._closed = threading.Event()
+        self._holding, self._connection = False, None
+        endpoint.served.register(self)
         self._thread = threading.Thread(target=self._serve, name=f"serve-sim tcp {self.port}", daemon=True)
         self._thread.start()
 
@@ -54,28 +70,34 @@ class TcpPort:
             with connection:
                 self._talk(connection, self.endpoint.generation())
 
+    def pending(self) -> bool:
+        """Whether bytes of the client wait here, unread or unanswered."""
+        connection = self._connection
+        return self._holding or (connection is not None and connection.fileno() >= 0 and _unread(connection) > 0)
+
     def _talk(self, connection: socket.socket, generation: int) -> None:
         """One client's session; once a fresh bench opens, what this one still sends is dropped."""
         connection.settimeout(0.1)
         connection.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
         def stale() -> bool:
             return self._closed.is_set() or self.endpoint.generation() != generation
+        self._connection = connection
         while not stale():
+            if not select.select([connection], [], [], 0.1)[0]:
+                continue
+            self._holding = True
             try:
                 data = connection.recv(65536)
                 # ACK at once: a client writing two messages in a row (Nagle) would otherwise
                 # wait out the delayed ACK, some 40 ms a message (Linux tcp(7), TCP_QUICKACK)
                 connection.setsockopt(socket.IPPROTO_TCP, _QUICKACK, 1)
-            except socket.timeout:
-                continue
-            except OSError:
+                if not data:
+                    return
+                replies = self.endpoint(data, generation, self)
+            except (OSError, VisaIOError):   # gone, or the instrument's own `disconnect` fault
                 return
-            if not data:
-                return
-            try:
-                replies = self.endpoint(data, generation)
-            except VisaIOError:   # the instrument's own `disconnect` fault: it is gone
-                return
+            finally:
+                self._holding = False
             for message, reply in replies:
                 delivery = self.endpoint.delivery(message, reply)
                 try:
