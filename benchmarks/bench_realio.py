@@ -9,24 +9,34 @@
    baud 8N1) with `--line-rate real`: the wall time the transfer takes against the line's
    n x frame bits / baud.
 
-Run: python benchmarks/bench_realio.py [--count N] [--skip-slow-line]
+3. With `--paper`: the paper campaign on the in-process bench and over pyvisa-py against
+   serve-sim, both wall times, and whether every step file's rows are equal (bench
+   provenance apart). Too slow for the test suite (about a minute on 2 cores), so here.
+
+Run: python benchmarks/bench_realio.py [--count N] [--skip-slow-line] [--paper]
 """
 
 from __future__ import annotations
 
 import argparse
 import sys
+import tempfile
 import time
 import uuid
 from pathlib import Path
 
+import pandas as pd
 import pyvisa
+import yaml
 from pyvisa import constants
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from squeezebench import paths  # noqa: E402
+from squeezebench.instruments.bench import sim_bench_config  # noqa: E402
+from squeezebench.instruments.served import served_bench_file  # noqa: E402
+from squeezebench.protocols.campaign import run_campaign  # noqa: E402
 from squeezebench.simbench.line import MANUAL_SETTINGS, LineSettings  # noqa: E402
 from squeezebench.simbench.serve import InstrumentEndpoint, ServedBench  # noqa: E402
 from squeezebench.simbench.serve_pty import PtyPort  # noqa: E402
@@ -95,16 +105,41 @@ def waveform_over_line(settings: LineSettings, name: str) -> None:
         served.close()
 
 
+def paper_over_pyvisa_py() -> None:
+    """The paper campaign in-process and served, rows compared step file by step file."""
+    provenance = ["bench", "bench_input", "bench_input_sha256"]
+    with tempfile.TemporaryDirectory() as folder:
+        start = time.perf_counter()
+        in_process = run_campaign(paths.campaign_file("paper"), out_dir=Path(folder) / "sim", progress=False)
+        sim_s = time.perf_counter() - start
+        with ServedSim(SCENE) as served:
+            bench = Path(folder) / "served.yaml"
+            bench.write_text(yaml.safe_dump(served_bench_file(served.addresses, sim_bench_config(SCENE).electronics)))
+            start = time.perf_counter()
+            over_py = run_campaign(paths.campaign_file("paper"), out_dir=Path(folder) / "py", progress=False,
+                                   bench_file=bench)
+            py_s = time.perf_counter() - start
+        files = sorted(in_process.glob("measurements/*/*.parquet"))
+        differ = [f.relative_to(in_process) for f in files
+                  if not pd.read_parquet(f).drop(columns=provenance).equals(
+                      pd.read_parquet(over_py / f.relative_to(in_process)).drop(columns=provenance))]
+    print(f"paper campaign: @simbench {sim_s:.1f} s, @py over serve-sim {py_s:.1f} s; {len(files)} step files, "
+          f"{len(differ)} with other rows" + (f": {', '.join(map(str, differ))}" if differ else " (all equal)"))
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--count", type=int, default=300, help="queries per transport (default 300)")
     parser.add_argument("--skip-slow-line", action="store_true", help="leave out the 9600-baud line (~23 s)")
+    parser.add_argument("--paper", action="store_true", help="also the paper campaign both ways (about a minute)")
     args = parser.parse_args()
     overheads(args.count)
     print(f"one {POINTS}-point waveform (CURVE?, 16-bit) over a serial line, --line-rate real:")
     if not args.skip_slow_line:
         waveform_over_line(MANUAL_SETTINGS["generator"], "33120A's RS-232")
     waveform_over_line(MANUAL_SETTINGS["vibrometer"], "OFV-5000's RS-232")
+    if args.paper:
+        paper_over_pyvisa_py()
 
 
 if __name__ == "__main__":
