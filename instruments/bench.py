@@ -302,11 +302,15 @@ def _library_path(visa_library: str) -> str:
 
 
 def _resource_manager(library: str) -> pyvisa.ResourceManager:
+    """`""` is the system VISA library (`@ivi`: NI-VISA, Keysight), never PyVISA's fallback
+    to pyvisa-py when there is none: a bench file says `"@py"` to use pyvisa-py."""
     try:
-        return pyvisa.ResourceManager(library)
+        return pyvisa.ResourceManager(library or "@ivi")
     except (OSError, ValueError, VisaIOError) as exc:
+        reason = " ".join(str(exc).split()).rstrip(":")   # PyVISA's own may end in an empty detail
+        hint = "" if library else ' (NI-VISA or Keysight IO Libraries; visa_library: "@py" uses pyvisa-py)'
         raise InstrumentConnectionError("bench", library or "(system VISA library)",
-                                        f"cannot load the VISA library: {exc}") from None
+                                        f"cannot load the VISA library: {reason}{hint}") from None
 
 
 def _open_role(resource_manager: pyvisa.ResourceManager, role: str, address: str) -> Instrument:

@@ -10,7 +10,9 @@ The physics and the bench clock are the simulated bench's: every message costs t
 time of the bus the in-process bench models, however fast the loopback is, so a run over
 the served bench has the rows of the same run in-process. A reply is read from the
 simulated instrument in the in-process session's pieces (PyVISA's 20 kB chunk) as soon as
-it is ready, and the virtual clock lets a deferred reply (`*OPC?`) be ready at once. What
+it is ready, and the virtual clock lets a deferred reply (`*OPC?`) be ready at once. Not
+modelled: a query the instrument refuses makes the client wait its VISA timeout in wall
+time, which the served bench clock does not count (in-process it does). What
 the bench does outside the instruments (its clock, the operator's plate changes) goes
 through one more TCP port, the bench port (`bench_command`'s line protocol), which
 `instruments.served` opens a served bench with. The transports are `serve_tcp` and
@@ -60,7 +62,6 @@ class Delivery:
 
     pieces: list[Piece]
     cut: bool = False
-    fault: TransportFault | None = None
 
 
 class ServedBench:
@@ -160,6 +161,7 @@ def _drain(device) -> Iterator[bytes]:
 
 
 def _faulty(fault: TransportFault, reply: bytes) -> Delivery:
+    """How `reply` leaves under `fault` (`simbench.transport_faults` says what each does)."""
     if fault.fault == "chunked_reply":
         rng = random.Random(int(fault.parameter("seed")) * 1_000_003 + fault.seen)
         pieces, start = [], 0
@@ -167,19 +169,18 @@ def _faulty(fault: TransportFault, reply: bytes) -> Delivery:
             size = rng.randint(1, int(fault.parameter("max_chunk_bytes")))
             pieces.append(Piece(reply[start:start + size], rng.uniform(0.0, fault.parameter("max_pause_s"))))
             start += size
-        return Delivery(pieces, fault=fault)
+        return Delivery(pieces)
     if fault.fault == "slow_trickle":
-        return Delivery([Piece(reply[i:i + 1], 1.0 / fault.parameter("bytes_per_s")) for i in range(len(reply))],
-                        fault=fault)
+        return Delivery([Piece(reply[i:i + 1], 1.0 / fault.parameter("bytes_per_s")) for i in range(len(reply))])
     if fault.fault == "missing_termination":
-        return Delivery([Piece(reply.rstrip(b"\n"))], fault=fault)
+        return Delivery([Piece(reply.rstrip(b"\n"))])
     if fault.fault == "connection_reset":
-        return Delivery([Piece(reply[:len(reply) // 2])], cut=True, fault=fault)
+        return Delivery([Piece(reply[:len(reply) // 2])], cut=True)
     # framing_error: a burst on the line during the reply, read as by a receiver set to one
     # stop bit more than was sent; it is over before the terminating LF
     sent = line.LineSettings(9600, 8, "N", 1)
     burst = line.received(reply[:-1], sent, dataclasses.replace(sent, stop_bits=2))
-    return Delivery([Piece(burst + reply[-1:])], fault=fault)
+    return Delivery([Piece(burst + reply[-1:])])
 
 
 class InstrumentEndpoint:

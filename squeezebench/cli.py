@@ -1,4 +1,4 @@
-"""The `squeezebench` command: check, run, report, reproduce, plan, study, validate, design.
+"""The `squeezebench` command: check, run, report, reproduce, plan, study, validate, design, serve-sim.
 
 Each subcommand is a thin call into the package that does the work; the command line
 only turns user errors into one clear message and an exit status, and keeps the
@@ -428,9 +428,10 @@ EXAMPLES = {
     "run": ["squeezebench run quick                    # a short campaign on the simulated bench",
             "squeezebench run paper --out runs/paper   # the paper's measurements",
             "squeezebench run my_campaign.yaml --resume  # continue after the last stored step",
-            "squeezebench run cartography --plot       # a vibration map, watched live"],
-    "serve-sim": ["squeezebench serve-sim --bench served.yaml &     # the simulated bench on sockets and ptys",
-                  "squeezebench run quick --bench served.yaml        # the campaign through pyvisa-py"],
+            "squeezebench run cartography --plot       # a vibration map, watched live",
+            "squeezebench run quick --bench served.yaml  # over pyvisa-py against serve-sim"],
+    "serve-sim": ["squeezebench serve-sim --scene one_column_1mm --bench served.yaml  # then: run quick --bench served.yaml",
+                  "squeezebench serve-sim --line-rate real --for 600   # serial bytes at their baud rate; stops by itself"],
     "validate": ["squeezebench validate my_campaign.yaml my_bench.yaml",
                  "squeezebench validate quick large_plate --json"],
     "report": ["squeezebench report runs/paper           # writes runs/paper/report/index.html",
