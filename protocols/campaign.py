@@ -349,7 +349,7 @@ def run_campaign(path: Path, resume: bool = False, out_dir: Path | None = None,
     `on_point` and `on_step` watch the run (see Watchers). `operator_done` (with `resume`)
     says the operator's action the run stopped on for want of a terminal has been done.
     `durable` off skips the fsyncs, for a temporary run read and deleted by the tool that
-    made it (`storage.RunStore`)."""
+    made it (`storage.RunStore`). `bench_file` puts every run on that bench (`run --bench`)."""
     with handled():
         return _run_campaign(path, resume, out_dir, progress, say, accept_changed_bench,
                              Watchers(on_point, on_step), operator_done, durable, bench_file)

@@ -84,12 +84,13 @@ class ServedBench:
         """A port (with `pending()`: it holds bytes it has not answered) for `settle` to wait on."""
         self._ports.append(port)
 
-    def settle(self, port, limit_s: float = 0.5) -> None:
+    def settle(self, port, limit_s: float = 5.0) -> None:
         """Wait until every port but `port` has handled what it received. The client is
         one program: what it waits on (a query, a bench command) is the last thing it sent,
         and what it wrote elsewhere before (a new frequency) must reach the bench first, as
         in-process, or bench time and the physics would depend on thread scheduling. Nothing
-        pending twice 0.1 ms apart: a pty's bytes reach its master through a kernel worker."""
+        pending twice 0.1 ms apart: a pty's bytes reach its master through a kernel worker.
+        `limit_s` only bounds a wait on a second client, which breaks the order anyway."""
         end, quiet = time.monotonic() + limit_s, 0
         while quiet < 2 and time.monotonic() < end:
             quiet = 0 if any(other.pending() for other in self._ports if other is not port) else quiet + 1

@@ -92,8 +92,11 @@ def cmd_serve_sim(args: argparse.Namespace) -> int:
     electronics = sim_bench_config(scene).electronics   # a BenchFileError names a scene that cannot be read
     with ServedSim(scene, args.line_rate, on_event=lambda text: print(f"serve-sim: {text}", file=sys.stderr)) as sim:
         bench = served_bench_file(sim.addresses, electronics)
-        args.bench.write_text(f"# written by `squeezebench serve-sim --scene {scene}`; valid while it runs\n"
-                              + yaml.safe_dump(bench, sort_keys=False), encoding="utf-8")
+        try:
+            args.bench.write_text(f"# written by `squeezebench serve-sim --scene {scene}`; valid while it runs\n"
+                                  + yaml.safe_dump(bench, sort_keys=False), encoding="utf-8")
+        except OSError as exc:
+            raise UserError(f"the bench file {args.bench} cannot be written ({exc.strerror or exc})") from None
         for role, address in sim.addresses.items():
             say(args, f"{role}: {address}")
         say(args, f"bench file {args.bench}: squeezebench check --bench {args.bench}; stop with Ctrl-C")

@@ -181,6 +181,14 @@ def test_serve_sim_writes_a_bench_file_and_stops_by_itself(tmp_path, capsys):
     assert "bench: TCPIP::127.0.0.1::" in capsys.readouterr().out
 
 
+def test_bad_serve_sim_and_run_bench_arguments_are_one_message(tmp_path, capsys):
+    assert cli.main(["serve-sim", "--bench", str(tmp_path / "no" / "dir.yaml"), "--for", "0"]) == 2
+    assert "cannot be written" in capsys.readouterr().err
+    assert cli.main(["run", "quick", "--bench", str(tmp_path / "missing.yaml"), "--out", str(tmp_path / "r")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "missing.yaml" in err and "--bench" in err
+
+
 # -- the line model -------------------------------------------------------------------------
 line_settings = st.builds(LineSettings, st.sampled_from([1200, 9600, 57600, 115200]), st.sampled_from([7, 8]),
                           st.sampled_from(["N", "E", "O"]), st.sampled_from([1, 2]))
