@@ -112,7 +112,7 @@ def paper_over_pyvisa_py() -> None:
         start = time.perf_counter()
         in_process = run_campaign(paths.campaign_file("paper"), out_dir=Path(folder) / "sim", progress=False)
         sim_s = time.perf_counter() - start
-        with ServedSim(SCENE) as served:
+        with ServedSim(SCENE, computing_allowance_s=30) as served:
             bench = Path(folder) / "served.yaml"
             bench.write_text(yaml.safe_dump(served_bench_file(served.addresses, sim_bench_config(SCENE).electronics)))
             start = time.perf_counter()

@@ -268,7 +268,8 @@ class Bench:
             if address is None:
                 raise InstrumentConnectionError("stage", "(none)", "this protocol needs an x-y stage; add "
                                                 f"resources.stage to the bench file (e.g. {SIM_RESOURCES['stage']})")
-            driver = _open_role(self.resource_manager, "stage", address)
+            driver = _open_role(self.resource_manager, "stage", address,
+                                self.clock if isinstance(self.clock, ServedSimulator) else None)
             driver.clear_status()
             driver.sleep = self.clock.sleep
             self.drivers["stage"] = driver
@@ -313,10 +314,14 @@ def _resource_manager(library: str) -> pyvisa.ResourceManager:
                                         f"cannot load the VISA library: {reason}{hint}") from None
 
 
-def _open_role(resource_manager: pyvisa.ResourceManager, role: str, address: str) -> Instrument:
-    """The role's driver, connected and identified, or InstrumentConnectionError."""
+def _open_role(resource_manager: pyvisa.ResourceManager, role: str, address: str,
+               served: ServedSimulator | None = None) -> Instrument:
+    """The role's driver, connected and identified, or InstrumentConnectionError. A served
+    instrument's timeouts get serve-sim's allowance for the simulator's own computing."""
     try:
         resource = resource_manager.open_resource(address)
+        if served is not None:
+            served.allow_computing(resource)
     except (VisaIOError, ValueError) as exc:
         reason = exc.description if isinstance(exc, VisaIOError) else str(exc)
         raise InstrumentConnectionError(role, address, f"no instrument at this address ({reason})") from None
@@ -343,7 +348,7 @@ def open_bench(config: BenchConfig) -> Bench:
     try:
         # a served bench starts afresh before its instruments open, as a simulated one does
         served = ServedSimulator(resource_manager, config.simulator) if config.simulator else None
-        drivers = {role: _open_role(resource_manager, role, config.resources[role]) for role in ROLES}
+        drivers = {role: _open_role(resource_manager, role, config.resources[role], served) for role in ROLES}
         for role in ("generator", "scope"):   # status a previous session left is not this run's
             drivers[role].clear_status()
         # The load setting belongs to what the generator drives (the amplifier input), not

@@ -33,6 +33,32 @@ class ServedSimulator:
             raise InstrumentConnectionError(ROLE, address, f"no serve-sim bench port at this address ({exc}); "
                                             "is `squeezebench serve-sim` still running?") from None
         self._ask("OPEN")
+        self.computing_allowance_s = float(self._ask("ALLOWANCE?"))
+
+    def allow_computing(self, resource: Any) -> None:
+        """Add serve-sim's allowance to every timeout a driver sets on `resource`: a served
+        reply takes the simulator's computing in wall time (an averaged acquisition on a
+        busy machine, seconds), which the VISA timeout would count and a real instrument's
+        does not; the driver reads back the timeout it set."""
+        allowance_ms = 1000.0 * self.computing_allowance_s
+        if not allowance_ms:
+            return
+        base = type(resource)
+        visa_timeout = base.timeout   # PyVISA's attribute descriptor (ms; None or inf: no limit)
+
+        class Allowed(base):   # the same resource class: a driver's isinstance checks still hold
+            @property
+            def timeout(self):
+                value = visa_timeout.__get__(self, base)
+                return value if value is None or value == float("inf") else value - allowance_ms
+
+            @timeout.setter
+            def timeout(self, value):
+                visa_timeout.__set__(self, value if value is None or value == float("inf") else value + allowance_ms)
+
+        current = resource.timeout
+        resource.__class__ = Allowed
+        resource.timeout = current
 
     def _ask(self, line: str) -> str:
         try:

@@ -67,7 +67,8 @@ class Delivery:
 class ServedBench:
     """The simulated bench behind the served ports: one lock, a fresh bench on `open`."""
 
-    def __init__(self, scene_path: str | Path, on_event: Callable[[str], None] = lambda text: None) -> None:
+    def __init__(self, scene_path: str | Path, on_event: Callable[[str], None] = lambda text: None,
+                 computing_allowance_s: float = 0.0) -> None:
         self.scene_path = Path(scene_path).resolve()
         scene = load_scene(self.scene_path)
         # once per serve-sim: the faults' counters are this server's, not the scene cache's
@@ -76,8 +77,10 @@ class ServedBench:
         self.generation = 0   # how many times the bench was opened; a delivery of an older one stops
         self._resource_manager: pyvisa.ResourceManager | None = None
         self.on_event = on_event   # told when a transport fault fires (serve-sim's log)
+        self.computing_allowance_s = computing_allowance_s   # added to the clients' VISA timeouts
         self.on_open: list[Callable[[], None]] = []   # told when a fresh bench opens (the ptys drop old bytes)
         self._ports: list = []
+        self._settling: set = set()
         self.open()
 
     def register(self, port) -> None:
@@ -92,9 +95,14 @@ class ServedBench:
         pending twice 0.1 ms apart: a pty's bytes reach its master through a kernel worker.
         `limit_s` only bounds a wait on a second client, which breaks the order anyway."""
         end, quiet = time.monotonic() + limit_s, 0
-        while quiet < 2 and time.monotonic() < end:
-            quiet = 0 if any(other.pending() for other in self._ports if other is not port) else quiet + 1
-            time.sleep(1e-4)
+        self._settling.add(port)   # a port waiting here holds nothing the others must wait for
+        try:
+            while quiet < 2 and time.monotonic() < end:
+                busy = any(other.pending() for other in self._ports if other is not port and other not in self._settling)
+                quiet = 0 if busy else quiet + 1
+                time.sleep(1e-4)
+        finally:
+            self._settling.discard(port)
 
     def open(self) -> None:
         """A fresh simulated bench from the scene, as each in-process `open_bench` builds."""
@@ -284,7 +292,8 @@ def _wait(duration_s: float, stale: Callable[[], bool]) -> bool:
 # -- the bench port ---------------------------------------------------------------------------
 def bench_command(served: ServedBench, message: bytes) -> bytes:
     """One line of the bench port's protocol, answered with one line:
-    `OPEN` (a fresh bench) -> `OK`; `TIME?` -> the bench clock in integer nanoseconds;
+    `OPEN` (a fresh bench) -> `OK`; `ALLOWANCE?` -> seconds a client adds to its VISA
+    timeouts for the simulator's computing; `TIME?` -> the bench clock in integer nanoseconds;
     `SLEEP <s>` -> `OK` once the bench time has passed; `STATE <name>`, `MOUNT <path>` (the
     operator's plate changes) -> `OK` or `ERR <why>`; `*IDN?` -> who answers."""
     text = message.decode("ascii", "replace").strip()
@@ -293,6 +302,8 @@ def bench_command(served: ServedBench, message: bytes) -> bytes:
         with served.lock:
             if verb == "*IDN?":
                 return b"squeezebench,serve-sim bench port,0,1"
+            if verb == "ALLOWANCE?":
+                return repr(float(served.computing_allowance_s)).encode()
             if verb == "OPEN":
                 served.open()
             elif verb == "TIME?":

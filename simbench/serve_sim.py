@@ -15,13 +15,14 @@ from squeezebench.simbench.serve_tcp import TcpPort
 
 class ServedSim:
     """The served bench of `scene` on loopback ports until `close` (a context manager).
-    `line_rate="real"` makes every byte on a serial line take its time on the line."""
+    `line_rate="real"` makes every byte on a serial line take its time on the line;
+    `computing_allowance_s` is added to the clients' VISA timeouts (`instruments.served`)."""
 
     def __init__(self, scene: str | Path, line_rate: str = "model", host: str = "127.0.0.1",
-                 on_event: Callable[[str], None] = lambda text: None) -> None:
+                 on_event: Callable[[str], None] = lambda text: None, computing_allowance_s: float = 0.0) -> None:
         if line_rate not in LINE_RATES:
             raise ValueError(f"line_rate must be one of {', '.join(LINE_RATES)}, got {line_rate!r}")
-        self.served = ServedBench(scene, on_event)
+        self.served = ServedBench(scene, on_event, computing_allowance_s)
         self.ports: dict = {}
         try:
             self.ports["bench"] = TcpPort(BenchEndpoint(self.served), host)

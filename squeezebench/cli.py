@@ -88,9 +88,12 @@ def cmd_serve_sim(args: argparse.Namespace) -> int:
     from squeezebench.instruments.served import served_bench_file
     from squeezebench.simbench.serve_sim import ServedSim
 
+    if not args.timeout_allowance >= 0:
+        raise UserError(f"--timeout-allowance must be 0 or more seconds, got {args.timeout_allowance:g}")
     scene = paths.input_file(args.scene)
     electronics = sim_bench_config(scene).electronics   # a BenchFileError names a scene that cannot be read
-    with ServedSim(scene, args.line_rate, on_event=lambda text: print(f"serve-sim: {text}", file=sys.stderr)) as sim:
+    with ServedSim(scene, args.line_rate, on_event=lambda text: print(f"serve-sim: {text}", file=sys.stderr),
+                   computing_allowance_s=args.timeout_allowance) as sim:
         bench = served_bench_file(sim.addresses, electronics)
         try:
             args.bench.write_text(f"# written by `squeezebench serve-sim --scene {scene}`; valid while it runs\n"
@@ -503,6 +506,9 @@ def build_parser() -> argparse.ArgumentParser:
                        help="bench file to write with the served addresses (default: %(default)s)")
     serve.add_argument("--line-rate", choices=("model", "real"), default="model",
                        help="real: each byte on a serial line takes its baud-rate time (default: bench clock only)")
+    serve.add_argument("--timeout-allowance", type=float, default=30.0, metavar="SECONDS",
+                       help="added to the clients' VISA timeouts: the simulator's computing of a reply takes "
+                            "wall time a real instrument's does not (default: %(default)s; 0 for the drivers' own)")
     serve.add_argument("--for", dest="for_s", type=float, default=None, metavar="SECONDS",
                        help="stop by itself after this long (default: until Ctrl-C)")
     serve.set_defaults(func=cmd_serve_sim)

@@ -95,7 +95,7 @@ def test_serve_sim_listens_on_the_loopback_only():
 
 
 def test_quick_over_pyvisa_py_has_the_simulated_benchs_rows(in_process, tmp_path):
-    with ServedSim(SCENE) as sim:
+    with ServedSim(SCENE, computing_allowance_s=30) as sim:   # a loaded machine computes slowly
         bench = served_bench(sim, tmp_path)
         assert cli.main(["check", "--bench", str(bench), "-q"]) == 0
         served = rows(run_campaign(paths.campaign_file("quick"), out_dir=tmp_path / "run", progress=False,
@@ -114,7 +114,7 @@ def faulty_scene(folder: Path, faults: list[dict]) -> Path:
 def test_replies_in_random_chunks_are_joined_and_change_no_row(in_process, tmp_path):
     scene = faulty_scene(tmp_path, [{"fault": "chunked_reply", "instrument": "scope", "max_chunk_bytes": 50,
                                      "max_pause_s": 1e-4}])
-    with ServedSim(scene) as sim:
+    with ServedSim(scene, computing_allowance_s=30) as sim:
         bench = served_bench(sim, tmp_path)
         served = rows(run_campaign(paths.campaign_file("quick"), out_dir=tmp_path / "run", progress=False,
                                    bench_file=bench))
