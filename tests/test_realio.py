@@ -171,6 +171,22 @@ def test_a_client_at_the_wrong_stop_bits_gets_no_answer_from_the_33120a(tmp_path
             resource_manager.close()
 
 
+def test_a_served_bench_adds_the_computing_allowance_to_the_drivers_timeouts(tmp_path):
+    from pyvisa import constants
+
+    from squeezebench.instruments.bench import open_bench
+    from squeezebench.schemas import load_bench_file
+
+    with ServedSim(SCENE, computing_allowance_s=7) as sim:
+        with open_bench(load_bench_file(served_bench(sim, tmp_path))) as bench:
+            scope = bench.scope.resource
+            assert scope.timeout == 2000   # what the driver set, read back
+            assert scope.get_visa_attribute(constants.ResourceAttribute.timeout_value) == 9000
+            with bench.scope.timeout(5.0):
+                assert scope.get_visa_attribute(constants.ResourceAttribute.timeout_value) == 12000
+            assert scope.timeout == 2000
+
+
 def test_serve_sim_writes_a_bench_file_and_stops_by_itself(tmp_path, capsys):
     bench = tmp_path / "served.yaml"
     assert cli.main(["serve-sim", "--scene", "one_column_1mm", "--bench", str(bench), "--for", "0.2"]) == 0
