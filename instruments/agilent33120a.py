@@ -21,10 +21,14 @@ from __future__ import annotations
 import re
 from typing import Any
 
-from squeezebench.instruments.base import SCPIInstrument
+from pyvisa import constants
+
+from squeezebench.instruments.base import SCPIInstrument, set_serial_line
 from squeezebench.instruments.errors import InstrumentError
 from squeezebench.instruments.properties import Validator, checked, control, strict_range
 
+#: The RS-232 port's factory baud rate (33120A UG, Chapter 3).
+BAUD_RATE = 9600
 #: Sine frequency limits (Hz).
 FREQUENCY_RANGE_HZ = (100e-6, 15e6)
 #: Sine amplitude limits (Vpp) and |offset| + Vpp/2 limit (V) per OUTP:LOAD setting.
@@ -90,6 +94,9 @@ class Agilent33120A(SCPIInstrument):
                           values={"50": "50", "INF": "INF"}, parse=_load_setting, manual="UG Ch. 4 OUTPut:LOAD")
 
     def __init__(self, resource: Any, role: str = "generator") -> None:
+        # Over RS-232 (33120A UG, Chapter 3 "RS-232 interface configuration"): 9600 baud,
+        # 8 data bits, no parity, 2 stop bits, the factory settings. Set before the first byte.
+        set_serial_line(resource, BAUD_RATE, constants.StopBits.two)
         super().__init__(resource, role)
         # Safe from the first message: before anything is read, whatever a previous user
         # left is brought to rest. Through the amplifier a 2 V offset is some 40 V DC on the

@@ -15,6 +15,7 @@ from typing import Any, Iterator
 import numpy as np
 from pyvisa import constants
 from pyvisa.errors import VisaIOError
+from pyvisa.resources import SerialInstrument
 
 from squeezebench.instruments.errors import (ConnectionLost, GarbledReply, InstrumentConnectionError, InstrumentError,
                                 InstrumentTimeout)
@@ -134,6 +135,19 @@ class Instrument:
     def settings_snapshot(self) -> dict[str, Any]:
         """Every readable setting, queried now (provenance of a run)."""
         return {name: getattr(self, name) for name in controls_of(type(self))}
+
+
+def set_serial_line(resource: Any, baud_rate: int, stop_bits: constants.StopBits,
+                    flow_control: constants.ControlFlow | None = None) -> None:
+    """On a serial resource (RS-232), the line settings its manual gives: 8 data bits, no
+    parity, `baud_rate`, `stop_bits` (and `flow_control`); a GPIB or network resource has none."""
+    if isinstance(resource, SerialInstrument):
+        resource.baud_rate = baud_rate
+        resource.data_bits = 8
+        resource.parity = constants.Parity.none
+        resource.stop_bits = stop_bits
+        if flow_control is not None:
+            resource.flow_control = flow_control
 
 
 def concatenated(commands: list[str]) -> str:

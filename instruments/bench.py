@@ -6,7 +6,9 @@ PyVISA ResourceManager over the library the configuration names:
 - `"<scene.yaml>@simbench"`: simbench's simulated bench; the clock and the operator come
   from it (a request for a plate state switches the scene, no prompt);
 - anything else (`""`, `"@py"`, a VISA library path): the real bench, with wall time and
-  an operator prompted on the terminal.
+  an operator prompted on the terminal; or, when the bench file names serve-sim's bench
+  port (`simulator:`), the served simulated bench with its clock and plate changes
+  (`instruments.served`).
 
 The drivers never know which: they only see a PyVISA resource.
 
@@ -33,6 +35,7 @@ from squeezebench.instruments.base import Instrument
 from squeezebench.instruments.errors import (BenchFileError, BenchMismatch, InstrumentConnectionError, InstrumentError, InstrumentTimeout,
                                              OperatorUnavailable)
 from squeezebench.instruments.ofv5000 import OFV5000
+from squeezebench.instruments.served import ServedSimulator
 from squeezebench.instruments.smc100 import SMC100Stage
 from squeezebench.instruments.tds3054b import CHANNELS, TDS3054B
 from squeezebench.yamlfiles import load_strict
@@ -104,6 +107,7 @@ class BenchConfig:
     resources: Mapping[str, str]
     electronics: BenchElectronics = field(default_factory=BenchElectronics)
     source: str | None = None   # the file it was read from, for messages
+    simulator: str | None = None   # serve-sim's bench port: a served bench's clock and operator
 
 
 # -- bench files ------------------------------------------------------------------------------------
@@ -264,7 +268,8 @@ class Bench:
             if address is None:
                 raise InstrumentConnectionError("stage", "(none)", "this protocol needs an x-y stage; add "
                                                 f"resources.stage to the bench file (e.g. {SIM_RESOURCES['stage']})")
-            driver = _open_role(self.resource_manager, "stage", address)
+            driver = _open_role(self.resource_manager, "stage", address,
+                                self.clock if isinstance(self.clock, ServedSimulator) else None)
             driver.clear_status()
             driver.sleep = self.clock.sleep
             self.drivers["stage"] = driver
@@ -298,17 +303,25 @@ def _library_path(visa_library: str) -> str:
 
 
 def _resource_manager(library: str) -> pyvisa.ResourceManager:
+    """`""` is the system VISA library (`@ivi`: NI-VISA, Keysight), never PyVISA's fallback
+    to pyvisa-py when there is none: a bench file says `"@py"` to use pyvisa-py."""
     try:
-        return pyvisa.ResourceManager(library)
+        return pyvisa.ResourceManager(library or "@ivi")
     except (OSError, ValueError, VisaIOError) as exc:
+        reason = " ".join(str(exc).split()).rstrip(":")   # PyVISA's own may end in an empty detail
+        hint = "" if library else ' (NI-VISA or Keysight IO Libraries; visa_library: "@py" uses pyvisa-py)'
         raise InstrumentConnectionError("bench", library or "(system VISA library)",
-                                        f"cannot load the VISA library: {exc}") from None
+                                        f"cannot load the VISA library: {reason}{hint}") from None
 
 
-def _open_role(resource_manager: pyvisa.ResourceManager, role: str, address: str) -> Instrument:
-    """The role's driver, connected and identified, or InstrumentConnectionError."""
+def _open_role(resource_manager: pyvisa.ResourceManager, role: str, address: str,
+               served: ServedSimulator | None = None) -> Instrument:
+    """The role's driver, connected and identified, or InstrumentConnectionError. A served
+    instrument's timeouts get serve-sim's allowance for the simulator's own computing."""
     try:
         resource = resource_manager.open_resource(address)
+        if served is not None:
+            served.allow_computing(resource)
     except (VisaIOError, ValueError) as exc:
         reason = exc.description if isinstance(exc, VisaIOError) else str(exc)
         raise InstrumentConnectionError(role, address, f"no instrument at this address ({reason})") from None
@@ -333,7 +346,9 @@ def open_bench(config: BenchConfig) -> Bench:
     library = _library_path(config.visa_library)
     resource_manager = _resource_manager(library)
     try:
-        drivers = {role: _open_role(resource_manager, role, config.resources[role]) for role in ROLES}
+        # a served bench starts afresh before its instruments open, as a simulated one does
+        served = ServedSimulator(resource_manager, config.simulator) if config.simulator else None
+        drivers = {role: _open_role(resource_manager, role, config.resources[role], served) for role in ROLES}
         for role in ("generator", "scope"):   # status a previous session left is not this run's
             drivers[role].clear_status()
         # The load setting belongs to what the generator drives (the amplifier input), not
@@ -342,6 +357,8 @@ def open_bench(config: BenchConfig) -> Bench:
         if library.endswith(SIMBENCH):
             simulated = resource_manager.visalib.bench
             clock, operator = simulated.clock, SimulatedOperator(simulated)
+        elif served is not None:
+            clock = operator = served
         else:
             clock, operator = WallClock(), TerminalOperator()
     except BaseException:

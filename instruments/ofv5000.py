@@ -24,9 +24,8 @@ from typing import Any
 
 import numpy as np
 from pyvisa import constants
-from pyvisa.resources import SerialInstrument
 
-from squeezebench.instruments.base import Instrument
+from squeezebench.instruments.base import Instrument, set_serial_line
 from squeezebench.instruments.errors import GarbledReply, InstrumentError, InstrumentTimeout
 from squeezebench.instruments.properties import checked, control, strict_discrete_set
 
@@ -100,11 +99,7 @@ class OFV5000(Instrument):
 
     def __init__(self, resource: Any, role: str = "vibrometer") -> None:
         super().__init__(resource, role)
-        if isinstance(resource, SerialInstrument):
-            resource.baud_rate = BAUD_RATE
-            resource.data_bits = 8
-            resource.parity = constants.Parity.none
-            resource.stop_bits = constants.StopBits.one
+        set_serial_line(resource, BAUD_RATE, constants.StopBits.one)
         self._last_line = ""
         self.device_clear()
         self._echo_off()

@@ -31,9 +31,8 @@ import time
 from typing import Any, Callable
 
 from pyvisa import constants
-from pyvisa.resources import SerialInstrument
 
-from squeezebench.instruments.base import Instrument
+from squeezebench.instruments.base import Instrument, set_serial_line
 from squeezebench.instruments.errors import InstrumentError, OutOfRangeError
 
 BAUD_RATE = 57600
@@ -106,12 +105,7 @@ class SMC100Stage(Instrument):
         super().__init__(resource, role)
         resource.read_termination = LINE_END
         resource.write_termination = LINE_END
-        if isinstance(resource, SerialInstrument):
-            resource.baud_rate = BAUD_RATE
-            resource.data_bits = 8
-            resource.parity = constants.Parity.none
-            resource.stop_bits = constants.StopBits.one
-            resource.flow_control = constants.ControlFlow.xon_xoff
+        set_serial_line(resource, BAUD_RATE, constants.StopBits.one, constants.ControlFlow.xon_xoff)
         self.poll_interval_s = poll_interval_s
         self.motion_timeout_s = motion_timeout_s
         self.sleep = sleep   # the bench's own wait: bench time on the simulated bench

@@ -133,10 +133,11 @@ def _scenes_in(value: Any) -> list[Path]:
     return []
 
 
-def load_campaign(path: Path) -> Campaign:
+def load_campaign(path: Path, bench_file: Path | None = None) -> Campaign:
     """Read and validate a campaign file, every scene and bench file it uses, and every
     voltage, frequency and count it will request (before any bench opens); every
-    problem is one CampaignError (or the scene's or bench file's own error)."""
+    problem is one CampaignError (or the scene's or bench file's own error). With
+    `bench_file`, every run is on that bench (`run --bench`); its scene stays the plate's."""
     path = Path(path)
     try:
         model = schemas.validated(schemas.CampaignFile, schemas.read_yaml(path))
@@ -144,7 +145,7 @@ def load_campaign(path: Path) -> Campaign:
         raise CampaignError(path, None, str(exc).removeprefix(f"{path}: ")) from None
     except ValidationError as exc:
         raise CampaignError(path, *schemas.describe(exc, schemas.CampaignFile)) from None
-    loader = _Loader(path)
+    loader = _Loader(path, bench_file)
     name = model.name or path.stem
     problem = schemas.file_name_problem(name)
     if problem:
@@ -172,14 +173,18 @@ def load_campaign(path: Path) -> Campaign:
 class _Loader:
     """Turns a validated run into a Run: scenes and bench files found and validated."""
 
-    def __init__(self, file: Path):
+    def __init__(self, file: Path, bench_file: Path | None = None):
         self.file = file
         self.scenes: dict[Path, None] = {}
+        self.bench_file = bench_file
 
     def run(self, item: Any, field: str) -> Run:
-        if item.bench is None:
+        if self.bench_file is not None:
+            bench = self.given_bench(self.bench_file)
+        elif item.bench is None:
             raise CampaignError(self.file, f"{field}.bench", "is missing (and the campaign has no default bench)")
-        bench = self.bench(item.bench, f"{field}.bench")
+        else:
+            bench = self.bench(item.bench, f"{field}.bench")
         return Run(name=item.name, protocol=item.protocol, bench=bench,
                    plate=self.with_scenes(item.plate, f"{field}.plate"),
                    acquisition=item.acquisition, safety=item.safety,
@@ -197,6 +202,14 @@ class _Loader:
         except UserError as exc:   # the bench file's own error, and where the campaign names it
             raise CampaignError(self.file, f"{field}.file", str(exc)) from None
         return BenchChoice(file=file)
+
+    @staticmethod
+    def given_bench(file: Path) -> BenchChoice:
+        """`run --bench FILE`: relative to the working directory, as a command line's paths are."""
+        if not file.is_file():
+            raise CampaignError(file, None, "the bench file given with --bench does not exist")
+        schemas.load_bench_file(file)   # its own error names file and field
+        return BenchChoice(file=file.resolve())
 
     def scene(self, value: str, field: str) -> Path:
         """A relative scene path is the user's file next to the campaign first, then a shipped one."""
@@ -326,7 +339,7 @@ def run_campaign(path: Path, resume: bool = False, out_dir: Path | None = None,
                  accept_changed_bench: bool = False,
                  on_point: Callable[[dict[str, Any]], None] | None = None,
                  on_step: Callable[[dict[str, Any]], None] | None = None,
-                 operator_done: bool = False, durable: bool = True) -> Path:
+                 operator_done: bool = False, durable: bool = True, bench_file: Path | None = None) -> Path:
     """Run (or with `resume`, continue) a campaign; return its run directory. `progress`
     off hides the progress bar (a campaign run inside another tool, e.g. the planner);
     `accept_changed_bench` lets a resume use a bench file or scene changed since (a bench
@@ -336,10 +349,10 @@ def run_campaign(path: Path, resume: bool = False, out_dir: Path | None = None,
     `on_point` and `on_step` watch the run (see Watchers). `operator_done` (with `resume`)
     says the operator's action the run stopped on for want of a terminal has been done.
     `durable` off skips the fsyncs, for a temporary run read and deleted by the tool that
-    made it (`storage.RunStore`)."""
+    made it (`storage.RunStore`). `bench_file` puts every run on that bench (`run --bench`)."""
     with handled():
         return _run_campaign(path, resume, out_dir, progress, say, accept_changed_bench,
-                             Watchers(on_point, on_step), operator_done, durable)
+                             Watchers(on_point, on_step), operator_done, durable, bench_file)
 
 
 @dataclass(frozen=True)
@@ -370,8 +383,8 @@ class Watchers:
 
 def _run_campaign(path: Path, resume: bool, out_dir: Path | None, progress: bool,
                   say: Callable[[str], None] | None, accept_changed_bench: bool, watchers: Watchers,
-                  operator_done: bool = False, durable: bool = True) -> Path:
-    campaign = load_campaign(path)
+                  operator_done: bool = False, durable: bool = True, bench_file: Path | None = None) -> Path:
+    campaign = load_campaign(path, bench_file)
     run_dir = Path(out_dir) if out_dir is not None else campaign.output_dir
     store = RunStore(run_dir, durable)
     foreign = store.foreign_entries()

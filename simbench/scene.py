@@ -59,7 +59,8 @@ import pandas as pd
 import yaml
 
 from squeezebench.analysis import model
-from squeezebench.simbench import physics
+from squeezebench.simbench import physics, transport_faults
+from squeezebench.simbench.transport_faults import TransportFault
 from squeezebench.simbench.effects import EFFECTS
 from squeezebench.errors import UserError
 from squeezebench.lru import RecentlyUsed
@@ -234,6 +235,8 @@ class Scene:
     #: Why this scene reproduces a measurement rather than what physics predicts; None: it
     #: describes a plate within `PLAUSIBILITY`.
     replay_reason: str | None = None
+    #: Faults of a served bench's transport (`serve-sim`); the in-process bench has none.
+    transport_faults: tuple[TransportFault, ...] = ()
 
     def state(self, name: str) -> State:
         try:
@@ -490,7 +493,7 @@ def _scene(path: Path, text: str) -> Scene:
         raise SceneError(f"{path}: {yaml_problem(exc)}") from None
     top = reader.mapping(raw, "scene", required=("plate", "actuators", "mode", "states", "initial_state"),
                          optional=("electronics", "measurement_point", "effects", "seed", "provenance",
-                                   "description", "replay"))
+                                   "description", "replay", "transport_faults"))
     plate = _plate(reader, top["plate"])
     actuators = _actuators(reader, top["actuators"])
     mode_data = reader.mapping(top["mode"], "mode", required=("name", "half_wavelength_mm"))
@@ -505,6 +508,7 @@ def _scene(path: Path, text: str) -> Scene:
         seed=reader.integer(top, "seed", "", minimum=0) if "seed" in top else 0,
         provenance=_provenance(reader, top.get("provenance", {}), raw),
         replay_reason=_replay_reason(reader, top["replay"]) if "replay" in top else None,
+        transport_faults=transport_faults.parse(top.get("transport_faults", []), reader.error),
     )
     scene = _calibrated_through_effects(reader, _predicted_states(reader, scene))
     figures = scene_figures(scene)

@@ -21,6 +21,7 @@ from pydantic import BaseModel, ConfigDict, Field
 
 from squeezebench.simbench import physics
 from squeezebench.simbench.effects import EFFECTS
+from squeezebench.simbench.transport_faults import FAULTS, ROLES
 from squeezebench.simbench.scene import (BOUNDS, CONVENTIONS, GENERATOR_LOADS, PAPER_MODEL_REFERENCE_VPP, PLAUSIBILITY,
                                          Electronics, load_scene, scenes_table)
 from squeezebench.simbench.predicted import (FORCE_FACTOR_TOLERANCE, FREQUENCY_TOLERANCE, MODAL_MASS_TOLERANCE,
@@ -149,6 +150,20 @@ class ReplayModel(_Strict):
                                                   "does not explain; shown by validate, docs/scenes.md, the report")
 
 
+class TransportFaultModel(_Strict):
+    """A fault of a served bench's transport: on one instrument's `occurrence`-th reply to a
+    message containing `query`, once per serve-sim (`chunked_reply`: on every reply)."""
+
+    fault: Literal[tuple(FAULTS)]  # type: ignore[valid-type]
+    instrument: Literal[ROLES]  # type: ignore[valid-type]
+    query: str = Field(default="", description="text the message must contain (any message when empty)")
+    occurrence: int = Field(default=1, ge=1)
+    max_chunk_bytes: float | None = Field(default=None, gt=0, description="chunked_reply: largest piece (7)")
+    max_pause_s: float | None = Field(default=None, gt=0, description="chunked_reply: longest pause (0.002)")
+    seed: float | None = Field(default=None, ge=0, description="chunked_reply: the pieces' random seed (0)")
+    bytes_per_s: float | None = Field(default=None, gt=0, description="slow_trickle: the reply's rate (50)")
+
+
 class SceneFile(_Strict):
     """A scene: one plate on the simulated bench, its states, electronics and effects."""
 
@@ -168,6 +183,9 @@ class SceneFile(_Strict):
                                        "range; otherwise such a scene is refused")
     provenance: dict[str, str] = Field(default_factory=dict, description="dotted field path (or section) -> "
                                        "where the number comes from")
+    transport_faults: list[TransportFaultModel] = Field(
+        default_factory=list, description="faults of the transport when the scene is served (`serve-sim`); "
+                                          "see simbench.transport_faults")
 
 
 def json_schema() -> dict[str, Any]:

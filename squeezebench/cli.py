@@ -1,4 +1,4 @@
-"""The `squeezebench` command: check, run, report, reproduce, plan, study, validate, design.
+"""The `squeezebench` command: check, run, report, reproduce, plan, study, validate, design, serve-sim.
 
 Each subcommand is a thin call into the package that does the work; the command line
 only turns user errors into one clear message and an exit status, and keeps the
@@ -78,11 +78,44 @@ def cmd_check(args: argparse.Namespace) -> int:
     return 0 if passed else EXIT_USER_ERROR
 
 
+def cmd_serve_sim(args: argparse.Namespace) -> int:
+    import threading
+    import time
+
+    import yaml
+
+    from squeezebench.instruments.bench import sim_bench_config
+    from squeezebench.instruments.served import served_bench_file
+    from squeezebench.simbench.serve_sim import ServedSim
+
+    if not args.timeout_allowance >= 0:
+        raise UserError(f"--timeout-allowance must be 0 or more seconds, got {args.timeout_allowance:g}")
+    scene = paths.input_file(args.scene)
+    electronics = sim_bench_config(scene).electronics   # a BenchFileError names a scene that cannot be read
+    with ServedSim(scene, args.line_rate, on_event=lambda text: print(f"serve-sim: {text}", file=sys.stderr),
+                   computing_allowance_s=args.timeout_allowance) as sim:
+        bench = served_bench_file(sim.addresses, electronics)
+        try:
+            args.bench.write_text(f"# written by `squeezebench serve-sim --scene {scene}`; valid while it runs\n"
+                                  + yaml.safe_dump(bench, sort_keys=False), encoding="utf-8")
+        except OSError as exc:
+            raise UserError(f"the bench file {args.bench} cannot be written ({exc.strerror or exc})") from None
+        for role, address in sim.addresses.items():
+            say(args, f"{role}: {address}")
+        say(args, f"bench file {args.bench}: squeezebench check --bench {args.bench}; stop with Ctrl-C")
+        try:
+            time.sleep(args.for_s) if args.for_s is not None else threading.Event().wait()
+        except KeyboardInterrupt:
+            print("squeezebench serve-sim: stopped", file=sys.stderr)
+            return EXIT_INTERRUPTED
+    return 0
+
+
 def cmd_run(args: argparse.Namespace) -> int:
     from squeezebench.protocols.campaign import load_campaign, run_campaign
     from squeezebench.simulated_plates import check_powered_piezos
 
-    campaign = load_campaign(paths.campaign_file(args.campaign))
+    campaign = load_campaign(paths.campaign_file(args.campaign), bench_file=args.bench)
     check_powered_piezos(campaign)
     if args.accept_changed_bench and not args.resume:
         raise UserError("--accept-changed-bench continues a stopped run: use it with --resume")
@@ -100,7 +133,7 @@ def cmd_run(args: argparse.Namespace) -> int:
                   "window)", file=sys.stderr)
     run_dir = run_campaign(paths.campaign_file(args.campaign), resume=args.resume, out_dir=args.out,
                            progress=show_progress(args), accept_changed_bench=args.accept_changed_bench,
-                           operator_done=args.operator_done, **watchers)
+                           operator_done=args.operator_done, bench_file=args.bench, **watchers)
     say(args, f"run stored in {run_dir}")
     if not args.quiet:   # after the run: an error stays the one line it is
         for note in _campaign_notes(campaign, args.campaign):
@@ -401,7 +434,10 @@ EXAMPLES = {
     "run": ["squeezebench run quick                    # a short campaign on the simulated bench",
             "squeezebench run paper --out runs/paper   # the paper's measurements",
             "squeezebench run my_campaign.yaml --resume  # continue after the last stored step",
-            "squeezebench run cartography --plot       # a vibration map, watched live"],
+            "squeezebench run cartography --plot       # a vibration map, watched live",
+            "squeezebench run quick --bench served.yaml  # over pyvisa-py against serve-sim"],
+    "serve-sim": ["squeezebench serve-sim --scene one_column_1mm --bench served.yaml  # then: run quick --bench served.yaml",
+                  "squeezebench serve-sim --line-rate real --for 600   # serial bytes at their baud rate; stops by itself"],
     "validate": ["squeezebench validate my_campaign.yaml my_bench.yaml",
                  "squeezebench validate quick large_plate --json"],
     "report": ["squeezebench report runs/paper           # writes runs/paper/report/index.html",
@@ -456,9 +492,26 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("--operator-done", action="store_true",
                      help="with --resume: the operator's action the run stopped on for want of a terminal "
                           "(a cut, a plate change; it named it) has been done")
+    run.add_argument("--bench", type=Path, default=None, metavar="FILE",
+                     help="run every run of the campaign on this bench file (e.g. serve-sim's); a run's "
+                          "scene then names the plate the operator mounts")
     run.add_argument("--plot", action="store_true",
                      help="draw the resonance sweeps, the measured points and the resonance drift live")
     run.set_defaults(func=cmd_run)
+
+    serve = add("serve-sim", help="serve the simulated bench's instruments on this machine's TCP ports and "
+                "pseudo-terminals, for a real VISA library (pyvisa-py)")
+    serve.add_argument("--scene", default=str(paths.default_scene()), help="scene file or name (default: %(default)s)")
+    serve.add_argument("--bench", type=Path, default=Path("served.yaml"), metavar="FILE",
+                       help="bench file to write with the served addresses (default: %(default)s)")
+    serve.add_argument("--line-rate", choices=("model", "real"), default="model",
+                       help="real: each byte on a serial line takes its baud-rate time (default: bench clock only)")
+    serve.add_argument("--timeout-allowance", type=float, default=30.0, metavar="SECONDS",
+                       help="added to the clients' VISA timeouts: the simulator's computing of a reply takes "
+                            "wall time a real instrument's does not (default: %(default)s; 0 for the drivers' own)")
+    serve.add_argument("--for", dest="for_s", type=float, default=None, metavar="SECONDS",
+                       help="stop by itself after this long (default: until Ctrl-C)")
+    serve.set_defaults(func=cmd_serve_sim)
 
     validate = add("validate", json=True, help="check campaign, bench and scene files (and every scene "
                    "and request a campaign has) without touching a bench or a run directory")

@@ -160,6 +160,7 @@ class BenchFile(_Model):
     """A real bench: the VISA library, an address per instrument, the electronics."""
 
     visa_library: Optional[str] = ""   # "" or null: the system VISA library; "@py": pyvisa-py
+    simulator: Optional[VisaAddress] = None   # serve-sim's bench port (a served simulated bench)
     resources: Resources
     electronics: BenchElectronics = BenchElectronics()
 
@@ -272,7 +273,7 @@ def load_bench_file(path: str | Path) -> BenchConfig:
     return BenchConfig(visa_library=bench.visa_library or "",
                        resources={role: address for role in (*ROLES, *OPTIONAL_ROLES)
                                   if (address := getattr(bench.resources, role)) is not None},
-                       electronics=bench.electronics, source=str(path))
+                       electronics=bench.electronics, source=str(path), simulator=bench.simulator)
 
 
 # -- design files -------------------------------------------------------------------------

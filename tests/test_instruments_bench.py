@@ -65,8 +65,8 @@ def test_load_bench_file(tmp_path):
 
 @pytest.mark.parametrize("content, field, allowed", [
     ("resources: [unclosed", "file", "not valid YAML at line "),
-    ("- just\n- a list\n", "top level", "electronics, resources, visa_library"),
-    ({**GOOD_BENCH, "amplifier": 20}, "amplifier", "electronics, resources, visa_library"),
+    ("- just\n- a list\n", "top level", "electronics, resources, simulator, visa_library"),
+    ({**GOOD_BENCH, "amplifier": 20}, "amplifier", "electronics, resources, simulator, visa_library"),
     ({**GOOD_BENCH, "visa_library": 3}, "visa_library", "should be a valid string"),
     ({**GOOD_BENCH, "resources": {"generator": "GPIB0::10::INSTR", "scope": "TCPIP0::1.2.3.4::INSTR"}},
      "resources.vibrometer", "is missing"),
