@@ -128,9 +128,20 @@ def _noise(u: float) -> Term:
 
 # -- the stored point's values -----------------------------------------------------------------
 def delay_std_uncertainty_s() -> float:
-    """CH2 delay against CH1 before any deskew: scope skew and TCP202 delay, independent."""
-    return math.hypot(SPECIFICATIONS["scope_skew"].std_uncertainty,
-                      SPECIFICATIONS["current_probe_delay"].std_uncertainty)
+    """CH2 delay against CH1 before any deskew, as the budgets carry it: a bias bound, not a
+    zero-mean spread. The current probe lags by a delay of known sign up to
+    `current_probe_lag` (beyond its +-10 ns specification when its cable is long), and the
+    scope's skew adds up to its limit: |tau| <= that sum, uncorrected. Carried in
+    quadrature as the standard uncertainty whose k-fold is the bound (u = bound / k), so a
+    U whose delay term dominates holds any delay within the bound, of either sign (the
+    former +-10 ns rectangle about zero missed a 17 ns lag at the Fig. 2c stress point)."""
+    bound_s = SPECIFICATIONS["current_probe_lag"].half_width + SPECIFICATIONS["scope_skew"].half_width
+    return bound_s / COVERAGE_FACTOR
+
+
+#: Where the uncorrected CH2 delay's bound comes from.
+DELAY_SOURCE = ("bias bound (k u = bound): " + SPECIFICATIONS["current_probe_lag"].source + "; "
+                + SPECIFICATIONS["scope_skew"].source)
 
 
 def compensation_phase_per_mismatch(frequency_hz, deskew: Deskew | None = None):
@@ -163,11 +174,10 @@ DELAY_FLAG_U_REL = 0.05
 
 
 def needs_deskew(points: pd.DataFrame) -> pd.DataFrame:
-    """The budgeted points (`run_uncertainties`, no deskew applied) whose power rests on the
-    CH2 delay being zero-mean: its term w |Q'| u(tau) is most of the variance of a U above
-    DELAY_FLAG_U_REL. A current probe lags its voltage probe by a fixed delay of known sign,
-    which the budget's +-10 ns rectangle cannot cover for certain: such a point needs the
-    delay measured (a deskew calibration run), not a wider U."""
+    """The budgeted points (`run_uncertainties`, no deskew applied) whose U is mostly the
+    CH2 delay's bias bound: its term w |Q'| u(tau) is most of the variance of a U above
+    DELAY_FLAG_U_REL. The bound holds the current probe's lag, but a deskew calibration run
+    measures it and shrinks such a U to the rest of its budget."""
     if "power_w_U" not in points or "reactive_power_var" not in points:
         return points.iloc[0:0]
     variance = (points["power_w_U"] / COVERAGE_FACTOR) ** 2
@@ -183,12 +193,17 @@ def power_ratio_std_uncertainty(numerator: pd.DataFrame, denominator: pd.DataFra
     The gains (CH1, CH2, current probe, and a deskew's gain correction) multiply both
     powers alike and cancel. The CH2 delay does not: a delay tau adds Q' w tau to each
     power, so dR/R = (w_t Q'_t / P_t - w_0 Q'_0 / P_0) tau, small at resonance (Q' ~ 0)
-    and not at a detuned point. The noise of each mean is its own (Type A):
-    u(R)^2 / R^2 = u(P_t)^2 / P_t^2 + u(P_0)^2 / P_0^2 + (w_t Q'_t / P_t - w_0 Q'_0 / P_0)^2 u(tau)^2,
+    and not at a detuned point. Nor does the generator's frequency error e: P_0 sits on the
+    resonance's flat top, P_t on its slope, where a power moves by 2 s f e (s = |d ln v / d f|,
+    `detuning_slope_per_hz`; P ~ v^2 at one voltage), so dR/R = 2 (s_t f_t - s_0 f_0) e
+    (1.2 % at r = 0.8 for 20 ppm). The noise of each mean is its own (Type A):
+    u(R)^2 / R^2 = u(P_t)^2 / P_t^2 + u(P_0)^2 / P_0^2 + (w_t Q'_t / P_t - w_0 Q'_0 / P_0)^2 u(tau)^2
+                   + 4 (s_t f_t - s_0 f_0)^2 u(e)^2,
     with u(tau) the deskew's when the points were corrected, else the specified one.
     NaN when a point has no stored record to reduce."""
     applied = Deskew.applied_in(numerator)
     delay_u_s = applied.std_uncertainty_s if applied is not None else delay_std_uncertainty_s()
+    slopes = _slopes_of(numerator, denominator)
     parts = []
     for points in (numerator, denominator):
         power = float(points["power_w"].mean())
@@ -196,11 +211,25 @@ def power_ratio_std_uncertainty(numerator: pd.DataFrame, denominator: pd.DataFra
         phase = float((2.0 * math.pi * points["frequency_hz"] * points["reactive_power_var"]).mean()) / power
         lead = float((points["reactive_power_var"]
                       * compensation_phase_per_mismatch(points["frequency_hz"], applied)).mean()) / power
-        parts.append((power, noise / power, phase, lead))
-    (p_t, noise_t, phase_t, lead_t), (p_0, noise_0, phase_0, lead_0) = parts
+        setting_hz = points["generator_frequency_hz"] if "generator_frequency_hz" in points else points["frequency_hz"]
+        pulling = 2.0 * float((slopes.loc[points.index] * setting_hz).mean())
+        parts.append((power, noise / power, phase, lead, pulling))
+    (p_t, noise_t, phase_t, lead_t, pull_t), (p_0, noise_0, phase_0, lead_0, pull_0) = parts
     compensation_u = SPECIFICATIONS["voltage_probe_compensation"].std_uncertainty
+    frequency_u = SPECIFICATIONS["generator_frequency"].std_uncertainty
     return abs(p_t / p_0) * math.sqrt(noise_t**2 + noise_0**2 + ((phase_t - phase_0) * delay_u_s) ** 2
-                                      + ((lead_t - lead_0) * compensation_u) ** 2)
+                                      + ((lead_t - lead_0) * compensation_u) ** 2
+                                      + ((pull_t - pull_0) * frequency_u) ** 2)
+
+
+def _slopes_of(numerator: pd.DataFrame, denominator: pd.DataFrame) -> pd.Series:
+    """`detuning_slope_per_hz` of both sets of points (their own column if they carry one),
+    by index: the detuned points' slopes need the resonance points of their level."""
+    both = pd.concat([numerator, denominator])
+    both = both[~both.index.duplicated()]
+    if "detuning_slope_per_hz" in both:
+        return both["detuning_slope_per_hz"].fillna(0.0)
+    return detuning_slope_per_hz(both)
 
 
 def power_budget(point: dict, deskew: Deskew | None = None) -> Budget:
@@ -209,8 +238,7 @@ def power_budget(point: dict, deskew: Deskew | None = None) -> Budget:
     reactive = abs(float(point["reactive_power_var"]))
     omega_q = 2.0 * math.pi * float(point["frequency_hz"]) * reactive
     if deskew is None:
-        delay = Term("CH2 delay vs CH1 (skew, TCP202)", "B", omega_q * delay_std_uncertainty_s(),
-                     SPECIFICATIONS["current_probe_delay"].source + "; " + SPECIFICATIONS["scope_skew"].source)
+        delay = Term("CH2 delay vs CH1 (skew, TCP202)", "B", omega_q * delay_std_uncertainty_s(), DELAY_SOURCE)
     else:
         delay = Term("CH2 delay after deskew", "B", omega_q * deskew.std_uncertainty_s, deskew.source)
     if deskew is None or deskew.gain_ratio is None:
@@ -627,7 +655,7 @@ def characterisation_budgets(plate, convention: model.Convention, deskew: Deskew
     omega_ratio = float((2.0 * math.pi * points["frequency_hz"] * points["reactive_power_var"].abs()
                          / points["power_w"].abs()).mean())
     delay = (Term("CH2 delay vs CH1 (skew, TCP202)", "B", abs(slope_p.value) * omega_ratio * delay_std_uncertainty_s(),
-                  SPECIFICATIONS["current_probe_delay"].source) if deskew is None else
+                  DELAY_SOURCE) if deskew is None else
              Term("CH2 delay after deskew", "B", abs(slope_p.value) * omega_ratio * deskew.std_uncertainty_s,
                   deskew.source))
     lead_ratio = float((points["reactive_power_var"].abs() / points["power_w"].abs()

@@ -128,8 +128,8 @@ def _campaign_notes(campaign, name: str) -> list[str]:
     undeskewed = campaign.powers_off_resonance_without_deskew()
     if undeskewed:
         notes.append(f"{', '.join(undeskewed)} read powers off resonance, where the current probe's delay moves "
-                     "them most, and the campaign has no deskew_calibration run: those powers rest on the delay "
-                     f"being zero-mean. `squeezebench plan {name} --target-rel-error X --write FILE` adds the "
+                     "them most, and the campaign has no deskew_calibration run: their U carries the delay's "
+                     f"bias bound. `squeezebench plan {name} --target-rel-error X --write FILE` adds the "
                      "run; the report counts the powers concerned.")
     return notes
 
