@@ -504,6 +504,12 @@ REFERENCE_FOR = {
                                                 "resistor's voltage, through the probe",
     "current path gain (gain-checked)": "a current reference: a precision DMM reading the calibration "
                                         "resistor's voltage",
+    "piezo_d31_c_per_n": "the piezo plates' own d31: a resonance-antiresonance measurement of a free plate "
+                         "(IEEE 176)",
+    "piezo_c11_pa": "the piezo plates' own stiffness: a resonance-antiresonance measurement of a free plate "
+                    "(IEEE 176)",
+    "resonator_thickness_m": "the plate's own thickness: a micrometer at several places",
+    "resonator_young_pa": "the alloy's own modulus: a free plate's bending resonance",
 }
 
 
@@ -536,6 +542,30 @@ def systematic_floor(points: pd.DataFrame, calibration: Deskew | None = None) ->
             rows.append({"run_name": run_name, "quantity": quantity, "floor_p95_rel": P95_FACTOR * relative,
                          "dominant_term": dominant, "lifted_by": LIFTED_BY.get(dominant, "")})
     return pd.DataFrame(rows, columns=["run_name", "quantity", "floor_p95_rel", "dominant_term", "lifted_by"])
+
+
+def characterisation_floor(run: RunData, calibration: Deskew | None = None,
+                           convention: model.Convention = model.PHYSICAL_CONVENTION) -> pd.DataFrame:
+    """Per (run, quantity) of Q and tan theta' (the characterisation protocol's plates): the
+    p95 relative error their budgets leave without the line fits' own terms (what no number
+    of points lowers: the instruments' specifications, the geometry's and materials'
+    tolerances), at the run's worst plate, with the term that dominates there; columns of
+    `systematic_floor`. `calibration`: after that deskew (its uncertainty)."""
+    from squeezebench.analysis.tables import characterise_plates   # it imports this module
+
+    columns = ["run_name", "quantity", "floor_p95_rel", "dominant_term", "lifted_by"]
+    if run.protocol("characterisation").empty:
+        return pd.DataFrame(columns=columns)
+    worst: dict[tuple[str, str], tuple[float, Budget]] = {}
+    for plate in characterise_plates(run, convention).values():
+        run_name = str(plate.points["run_name"].iat[0])
+        for budget in characterisation_budgets(plate, convention, calibration, with_fit=False):
+            relative = budget.std_uncertainty / abs(budget.value)
+            if relative > worst.get((run_name, budget.quantity), (-1.0, None))[0]:
+                worst[(run_name, budget.quantity)] = (relative, budget)
+    return pd.DataFrame([{"run_name": run_name, "quantity": quantity, "floor_p95_rel": P95_FACTOR * relative,
+                          "dominant_term": budget.dominant.name, "lifted_by": LIFTED_BY.get(budget.dominant.name, "")}
+                         for (run_name, quantity), (relative, budget) in worst.items()], columns=columns)
 
 
 # -- Q and tan theta' through the paper's model ----------------------------------------------
