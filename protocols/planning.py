@@ -368,6 +368,10 @@ class Plan:
         lines.append(f"{'total':<24} {'':>6} {'':>8} {max(self.error_by_run.values()):>10.2e} {'':>7} "
                      f"{self.planned_total_s:>10.1f} {self.own_total_s:>8.1f} {ratio:>6.2f} "
                      f"{self.baseline_total_s:>10.1f}")
+        if self.own_total_s and self.planned_total_s > self.own_total_s:
+            lines.append(f"the plan is dearer than the campaign's own settings: {self.planned_total_s:.1f} s of bench "
+                         f"time against {self.own_total_s:.1f} s ({ratio:.2f} times): the cheapest settings whose "
+                         "noise fits the target cost more than those the campaign names")
         if self.floors:
             lines += self.floors.lines()
         if self.measurements:

@@ -211,3 +211,16 @@ def test_a_folder_named_like_a_shipped_campaign_does_not_hide_it(tmp_path, monke
     assert paths.campaign_file("quick") == QUICK
     (tmp_path / "mine.yaml").write_text("runs: []\n")
     assert paths.campaign_file("mine.yaml") == Path("mine.yaml")
+
+
+def test_a_plan_dearer_than_the_campaigns_own_settings_says_so():
+    from squeezebench.protocols import planning
+
+    def plan(own_s: dict) -> str:
+        return planning.Plan(0.05, {}, {"detuning": planning.Setting(500, 16), "cutting": planning.Setting(500, 4)},
+                             {"detuning": 0.01, "cutting": 0.01}, {"detuning": 2.0, "cutting": 1.0},
+                             {"detuning": 8.0, "cutting": 4.0}, own_s=own_s).table()
+
+    assert "dearer than the campaign's own settings: 3.0 s of bench time against 2.0 s (1.50 times)" in \
+        plan({"detuning": 1.0, "cutting": 1.0})
+    assert "dearer" not in plan({"detuning": 2.0, "cutting": 2.0})
