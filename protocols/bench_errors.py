@@ -23,6 +23,7 @@ from typing import Any, Callable
 
 import numpy as np
 import pandas as pd
+from scipy import optimize
 
 from squeezebench import paths
 from squeezebench.analysis.rundata import load_run
@@ -36,9 +37,10 @@ from squeezebench.protocols.storage import sha256_file, write_frame_atomic
 from squeezebench.protocols.variants import campaign_with_effects, systematic_effects
 
 QUANTITIES = ("power_w", "velocity_pp_mps")
-#: What the coverage study scores: every stored point's QUANTITIES and the values the report
-#: derives from several points with a U of their own (Fig. 2's Pt/P0).
-COVERAGE_QUANTITIES = (*QUANTITIES, "power_ratio")
+#: What the coverage study scores: every stored point's QUANTITIES and amplitude (Table 4; the
+#: velocity's relative budget), and the values the report derives with a U of their own:
+#: Fig. 2's Pt/P0 and each search's resonance frequency.
+COVERAGE_QUANTITIES = (*QUANTITIES, "amplitude_pp_m", "power_ratio", "resonance_frequency_hz")
 ERROR_PERCENTILE = 95.0
 
 
@@ -58,8 +60,14 @@ def errors_on_bench(campaign_file: Path, bench_seed: int, work_dir: Path,
     truths = _truths(points, work_dir / "plain")
     rows = [_scored(point, quantity, point[quantity], truths[index][quantity], point[f"{quantity}_U"])
             for index, point in points.iterrows() for quantity in QUANTITIES if quantity in quantities]
+    if "amplitude_pp_m" in quantities:
+        rows += [_scored(point, "amplitude_pp_m", point["amplitude_pp_m"], truths[index]["amplitude_pp_m"],
+                         abs(point["amplitude_pp_m"]) * point["velocity_pp_mps_U"] / abs(point["velocity_pp_mps"]))
+                 for index, point in points.iterrows() if np.isfinite(point["amplitude_pp_m"])]
     if "power_ratio" in quantities:
         rows += _power_ratios(run, points, truths)
+    if "resonance_frequency_hz" in quantities:
+        rows += _resonance_frequencies(run, found.searches, work_dir / "plain")
     frame = pd.DataFrame(rows).assign(error_model=error_model, bench_seed=bench_seed)
     frame.attrs["bench_time_s"] = sum(bench_time_by_run_s(run_dir).values())
     return frame
@@ -106,8 +114,40 @@ def _truths(points: pd.DataFrame, plain_dir: Path) -> dict:
                 bench.generator.set_frequency(float(point["generator_frequency_hz"]))
                 bench.generator.set_amplitude_vpp(float(point["generator_amplitude_vpp"]))
                 truth = simulated.truth()
-                truths[index] = {"power_w": truth.power_w, "velocity_pp_mps": truth.velocity_pp_mps}
+                truths[index] = {"power_w": truth.power_w, "velocity_pp_mps": truth.velocity_pp_mps,
+                                 "amplitude_pp_m": truth.velocity_pp_mps / (2.0 * np.pi * truth.frequency_hz)}
     return truths
+
+
+def _resonance_frequencies(run, searches: pd.DataFrame, plain_dir: Path) -> list[dict]:
+    """Each resonance search's frequency (`uncertainty.search_budgets`: the generator setting
+    it found) scored against the setting at which an ideal generator gives the most velocity
+    on the plate without the errors, at the search's drive (bounded search, 10 mHz)."""
+    if searches.empty:
+        return []
+    found = run.protocol("resonance_search")
+    found = found[~found["sweep"].astype(bool)]
+    rows = []
+    for search in searches.itertuples():
+        row = found[(found["run_name"] == search.run_name) & (found["step_id"] == search.step_id)].iloc[0]
+        with open_bench(sim_bench_config(plain_dir / f"{row['plate']}.yaml")) as bench:
+            simulated = bench.resource_manager.visalib.bench
+            if isinstance(row["scene_state"], str):
+                simulated.set_state(row["scene_state"])
+            bench.generator.set_amplitude_vpp(float(row["generator_amplitude_vpp"]))
+
+            def slower(frequency_hz: float) -> float:
+                bench.generator.set_frequency(float(frequency_hz))
+                return -simulated.truth().velocity_pp_mps
+
+            reach_hz = max(3.0 * search.resonance_frequency_hz_U, 20.0)
+            peak = optimize.minimize_scalar(slower, bounds=(search.resonance_frequency_hz - reach_hz,
+                                                            search.resonance_frequency_hz + reach_hz),
+                                            method="bounded", options={"xatol": 1e-2})
+        rows.append(_scored({"run_name": search.run_name, "step_id": search.step_id, "point_index": row["point_index"]},
+                            "resonance_frequency_hz", search.resonance_frequency_hz, float(peak.x),
+                            search.resonance_frequency_hz_U))
+    return rows
 
 
 def bench_time_by_run_s(run_dir: Path) -> dict[str, float]:
