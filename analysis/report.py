@@ -888,13 +888,16 @@ def _coverage_part(context: ReportContext) -> str:
     words = "; ".join(study.coverage_lines(table, _words_of))
     return ("<h3>Coverage of the expanded uncertainties</h3>"
             f"<p>{html.escape(campaign)} run on up to {table['benches'].max()} simulated benches (bench k: "
-            "errors drawn from seed k), every stored point's expanded uncertainty (k = 2, "
-            "analysis.uncertainty) compared with the truth at its setting. Benches 'within specification' "
+            "errors drawn from seed k), every expanded uncertainty (k = 2, analysis.uncertainty) the report "
+            "prints on a stored point (power, velocity, amplitude), on Fig. 2's Pt/P0 and on each resonance "
+            "frequency compared with the truth at its setting. Benches 'within specification' "
             "err as the budgets assume (uniformly within each limit); 'as the world errs' do not (normal "
             "errors, a current probe lagging by about 8 ns, one bench in 13 with an error beyond its "
             f"specification): the test a budget can fail. {html.escape(words)}. A bench's errors are "
-            "shared by all its points, so a bench is covered almost wholly or hardly at all; the fraction "
-            "of points covered is close to the fraction of benches, and a handful of benches decides it.</p>"
+            "shared by all its values, so a bench is covered almost wholly or hardly at all: the interval "
+            "resamples benches, and a handful of them decides it. Q and tan theta' are not scored: their "
+            "budgets are mostly the plates' geometry and material tolerances, which the simulated benches "
+            "do not draw.</p>"
             + presentation.fold("Coverage per quantity, as a table", html_table(
                 table, "Coverage of the expanded uncertainties (k = 2) over simulated benches "
                        "(study_coverage.csv). Simulated bench.")))
