@@ -339,8 +339,10 @@ def cmd_plan(args: argparse.Namespace) -> int:
                                              (f"planned campaign written to {written}" if written else "")]
         say(args, "\n\n".join(t for t in texts if t))
     if plan is not None and not plan.reachable:   # the table says why; a script must not take the plan for one that meets it
+        quantities = sorted({f.quantity for f in plan.floors.below_floor()})
         print(f"squeezebench plan: target {args.target_rel_error:g} is below the floor the instruments' "
-              "specified errors leave; no setting meets it", file=sys.stderr)
+              f"specified errors (and the plates' tolerances) leave on {', '.join(quantities)}; no setting meets it",
+              file=sys.stderr)
         return EXIT_USER_ERROR
     if any(m.chosen is None for m in maps):
         print(f"squeezebench plan: no grid step meets the map target {args.target_rel_error:g}", file=sys.stderr)

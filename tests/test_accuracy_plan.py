@@ -195,7 +195,9 @@ def test_a_target_below_the_q_and_tan_theta_floors_is_refused_naming_them(tmp_pa
     real = planning.make_plan
     monkeypatch.setattr(planning, "make_plan", lambda path, target, **kw: real(path, target, repeats=2, **kw))
     assert cli.main(["plan", str(campaign), "--target-rel-error", "0.08", "--json"]) == 2
-    data = json.loads(capsys.readouterr().out)
+    captured = capsys.readouterr()
+    assert "leave on q, tan_theta;" in captured.err
+    data = json.loads(captured.out)
     below = {f["quantity"]: f["calibrated_floor_p95_rel"] for f in data["floors"]["below_floor"]}
     assert {"q", "tan_theta"} <= set(below) and min(below["q"], below["tan_theta"]) > 0.08
     assert data["reachable"] is False
