@@ -82,8 +82,9 @@ def headline(bench_kind: str, n_points: int, n_runs: int, tables: Mapping[str, p
                      f"{int(within_u.sum())} within their U (k = 2), which the sheets' thickness "
                      f"tolerance dominates.")
     if needs_deskew:
-        lines.append(f"{needs_deskew} stored power{'s rest' if needs_deskew > 1 else ' rests'} on the current probe's "
-                     "delay being zero-mean (no deskew calibration in this run): measure it first, "
+        lines.append(f"{needs_deskew} stored power{'s have a U' if needs_deskew > 1 else ' has a U'} mostly the current "
+                     "probe's delay bound (no deskew calibration in this run): a deskew run shrinks "
+                     f"{'them' if needs_deskew > 1 else 'it'}, "
                      "`squeezebench plan CAMPAIGN --target-rel-error X --write FILE` adds the run.")
     maps = tables.get("map_summary")
     if maps is not None and not maps.empty:

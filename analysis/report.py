@@ -888,13 +888,16 @@ def _coverage_part(context: ReportContext) -> str:
     words = "; ".join(study.coverage_lines(table, _words_of))
     return ("<h3>Coverage of the expanded uncertainties</h3>"
             f"<p>{html.escape(campaign)} run on up to {table['benches'].max()} simulated benches (bench k: "
-            "errors drawn from seed k), every stored point's expanded uncertainty (k = 2, "
-            "analysis.uncertainty) compared with the truth at its setting. Benches 'within specification' "
+            "errors drawn from seed k), every expanded uncertainty (k = 2, analysis.uncertainty) the report "
+            "prints on a stored point (power, velocity, amplitude), on Fig. 2's Pt/P0 and on each resonance "
+            "frequency compared with the truth at its setting. Benches 'within specification' "
             "err as the budgets assume (uniformly within each limit); 'as the world errs' do not (normal "
             "errors, a current probe lagging by about 8 ns, one bench in 13 with an error beyond its "
             f"specification): the test a budget can fail. {html.escape(words)}. A bench's errors are "
-            "shared by all its points, so a bench is covered almost wholly or hardly at all; the fraction "
-            "of points covered is close to the fraction of benches, and a handful of benches decides it.</p>"
+            "shared by all its values, so a bench is covered almost wholly or hardly at all: the interval "
+            "resamples benches, and a handful of them decides it. Q and tan theta' are not scored: their "
+            "budgets are mostly the plates' geometry and material tolerances, which the simulated benches "
+            "do not draw.</p>"
             + presentation.fold("Coverage per quantity, as a table", html_table(
                 table, "Coverage of the expanded uncertainties (k = 2) over simulated benches "
                        "(study_coverage.csv). Simulated bench.")))
@@ -1124,20 +1127,20 @@ def _needs_deskew_count(context: ReportContext) -> int:
 
 
 def _delay_flag(points: pd.DataFrame) -> str:
-    """Without a deskew run: which points' power rests on the CH2 delay being zero-mean. A
-    current probe lags its voltage probe by a fixed delay of known sign (Tektronix's
-    deskew example: about 8 ns); the budget's +-10 ns rectangle does not know the sign, so
-    where that term dominates, the point needs the calibration rather than its U."""
-    text = "<p>No deskew calibration in this run: the CH2 delay enters at its specified limit.</p>"
+    """Without a deskew run: which points' U is mostly the CH2 delay's bias bound (the
+    current probe's lag of known sign, `uncertainty.delay_std_uncertainty_s`): covered, but
+    a deskew calibration would measure the lag and shrink them."""
+    text = "<p>No deskew calibration in this run: the CH2 delay enters at its bound.</p>"
     flagged = uncertainty.needs_deskew(points)
     if flagged.empty:
         return text
     where = ", ".join(sorted({f"{run} / {step}" for run, step in zip(flagged["run_name"], flagged["step_id"])}))
+    bound_ns = uncertainty.COVERAGE_FACTOR * uncertainty.delay_std_uncertainty_s() * 1e9
     return (f"<p class='banner'><b>Needs a deskew calibration:</b> {len(flagged)} point(s) ({html.escape(where)}) "
-            f"have a power whose U (above {uncertainty.DELAY_FLAG_U_REL:.0%}) is mostly the CH2 delay, budgeted as zero-mean "
-            "+-10 ns. A current probe lags its voltage probe by a fixed delay of known sign (about 8 ns in "
-            "Tektronix's deskew example), which such a budget cannot cover for certain; measure it with a "
-            "deskew_calibration run (squeezebench plan --write adds one) before trusting these powers.</p>")
+            f"have a power whose U (above {uncertainty.DELAY_FLAG_U_REL:.0%}) is mostly the CH2 delay, budgeted as "
+            f"a bias bound of {bound_ns:.0f} ns: a current probe lags its voltage probe by a fixed delay of known "
+            "sign (about 8 ns in Tektronix's deskew example) that nothing here measured. A deskew_calibration run "
+            "(squeezebench plan --write adds one) measures it and shrinks these U.</p>")
 
 
 def measurement_model_section(context: ReportContext) -> Section | None:

@@ -57,6 +57,12 @@ SPECIFICATIONS: dict[str, Specification] = {
                     "correct (programmer manual); the TCP202's 50 MHz bandwidth (its specifications) acts below "
                     "100 kHz as a constant delay, 1/(2 pi 50 MHz) = 3.2 ns, so its phase over frequency is "
                     "part of this delay"),
+    "current_probe_lag": Specification(
+        20e-9, "s", "assumed: a limit of known sign, not a zero-mean spread: a current probe's signal path "
+                    "(transformer, amplifier, cable) lags a passive voltage probe's; Tektronix's deskew note for "
+                    "power measurements has its current probe 8 ns behind its voltage probe; 20 ns bounds twice "
+                    "that, the TCP202's 3.2 ns bandwidth delay and a longer cable. Without a deskew run this "
+                    "bound (and the scope's skew) is what the CH2 delay may be"),
     "vibrometer_scale": Specification(
         0.01, "1", "Polytec velocity decoder specifications: calibration error of the analog "
                    "output +-1 % (sinusoidal vibration, 70 % of full scale)"),

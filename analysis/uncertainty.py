@@ -128,9 +128,20 @@ def _noise(u: float) -> Term:
 
 # -- the stored point's values -----------------------------------------------------------------
 def delay_std_uncertainty_s() -> float:
-    """CH2 delay against CH1 before any deskew: scope skew and TCP202 delay, independent."""
-    return math.hypot(SPECIFICATIONS["scope_skew"].std_uncertainty,
-                      SPECIFICATIONS["current_probe_delay"].std_uncertainty)
+    """CH2 delay against CH1 before any deskew, as the budgets carry it: a bias bound, not a
+    zero-mean spread. The current probe lags by a delay of known sign up to
+    `current_probe_lag` (beyond its +-10 ns specification when its cable is long), and the
+    scope's skew adds up to its limit: |tau| <= that sum, uncorrected. Carried in
+    quadrature as the standard uncertainty whose k-fold is the bound (u = bound / k), so a
+    U whose delay term dominates holds any delay within the bound, of either sign (the
+    former +-10 ns rectangle about zero missed a 17 ns lag at the Fig. 2c stress point)."""
+    bound_s = SPECIFICATIONS["current_probe_lag"].half_width + SPECIFICATIONS["scope_skew"].half_width
+    return bound_s / COVERAGE_FACTOR
+
+
+#: Where the uncorrected CH2 delay's bound comes from.
+DELAY_SOURCE = ("bias bound (k u = bound): " + SPECIFICATIONS["current_probe_lag"].source + "; "
+                + SPECIFICATIONS["scope_skew"].source)
 
 
 def compensation_phase_per_mismatch(frequency_hz, deskew: Deskew | None = None):
@@ -163,11 +174,10 @@ DELAY_FLAG_U_REL = 0.05
 
 
 def needs_deskew(points: pd.DataFrame) -> pd.DataFrame:
-    """The budgeted points (`run_uncertainties`, no deskew applied) whose power rests on the
-    CH2 delay being zero-mean: its term w |Q'| u(tau) is most of the variance of a U above
-    DELAY_FLAG_U_REL. A current probe lags its voltage probe by a fixed delay of known sign,
-    which the budget's +-10 ns rectangle cannot cover for certain: such a point needs the
-    delay measured (a deskew calibration run), not a wider U."""
+    """The budgeted points (`run_uncertainties`, no deskew applied) whose U is mostly the
+    CH2 delay's bias bound: its term w |Q'| u(tau) is most of the variance of a U above
+    DELAY_FLAG_U_REL. The bound holds the current probe's lag, but a deskew calibration run
+    measures it and shrinks such a U to the rest of its budget."""
     if "power_w_U" not in points or "reactive_power_var" not in points:
         return points.iloc[0:0]
     variance = (points["power_w_U"] / COVERAGE_FACTOR) ** 2
@@ -183,12 +193,17 @@ def power_ratio_std_uncertainty(numerator: pd.DataFrame, denominator: pd.DataFra
     The gains (CH1, CH2, current probe, and a deskew's gain correction) multiply both
     powers alike and cancel. The CH2 delay does not: a delay tau adds Q' w tau to each
     power, so dR/R = (w_t Q'_t / P_t - w_0 Q'_0 / P_0) tau, small at resonance (Q' ~ 0)
-    and not at a detuned point. The noise of each mean is its own (Type A):
-    u(R)^2 / R^2 = u(P_t)^2 / P_t^2 + u(P_0)^2 / P_0^2 + (w_t Q'_t / P_t - w_0 Q'_0 / P_0)^2 u(tau)^2,
+    and not at a detuned point. Nor does the generator's frequency error e: P_0 sits on the
+    resonance's flat top, P_t on its slope, where a power moves by 2 s f e (s = |d ln v / d f|,
+    `detuning_slope_per_hz`; P ~ v^2 at one voltage), so dR/R = 2 (s_t f_t - s_0 f_0) e
+    (1.2 % at r = 0.8 for 20 ppm). The noise of each mean is its own (Type A):
+    u(R)^2 / R^2 = u(P_t)^2 / P_t^2 + u(P_0)^2 / P_0^2 + (w_t Q'_t / P_t - w_0 Q'_0 / P_0)^2 u(tau)^2
+                   + 4 (s_t f_t - s_0 f_0)^2 u(e)^2,
     with u(tau) the deskew's when the points were corrected, else the specified one.
     NaN when a point has no stored record to reduce."""
     applied = Deskew.applied_in(numerator)
     delay_u_s = applied.std_uncertainty_s if applied is not None else delay_std_uncertainty_s()
+    slopes = _slopes_of(numerator, denominator)
     parts = []
     for points in (numerator, denominator):
         power = float(points["power_w"].mean())
@@ -196,11 +211,25 @@ def power_ratio_std_uncertainty(numerator: pd.DataFrame, denominator: pd.DataFra
         phase = float((2.0 * math.pi * points["frequency_hz"] * points["reactive_power_var"]).mean()) / power
         lead = float((points["reactive_power_var"]
                       * compensation_phase_per_mismatch(points["frequency_hz"], applied)).mean()) / power
-        parts.append((power, noise / power, phase, lead))
-    (p_t, noise_t, phase_t, lead_t), (p_0, noise_0, phase_0, lead_0) = parts
+        setting_hz = points["generator_frequency_hz"] if "generator_frequency_hz" in points else points["frequency_hz"]
+        pulling = 2.0 * float((slopes.loc[points.index] * setting_hz).mean())
+        parts.append((power, noise / power, phase, lead, pulling))
+    (p_t, noise_t, phase_t, lead_t, pull_t), (p_0, noise_0, phase_0, lead_0, pull_0) = parts
     compensation_u = SPECIFICATIONS["voltage_probe_compensation"].std_uncertainty
+    frequency_u = SPECIFICATIONS["generator_frequency"].std_uncertainty
     return abs(p_t / p_0) * math.sqrt(noise_t**2 + noise_0**2 + ((phase_t - phase_0) * delay_u_s) ** 2
-                                      + ((lead_t - lead_0) * compensation_u) ** 2)
+                                      + ((lead_t - lead_0) * compensation_u) ** 2
+                                      + ((pull_t - pull_0) * frequency_u) ** 2)
+
+
+def _slopes_of(numerator: pd.DataFrame, denominator: pd.DataFrame) -> pd.Series:
+    """`detuning_slope_per_hz` of both sets of points (their own column if they carry one),
+    by index: the detuned points' slopes need the resonance points of their level."""
+    both = pd.concat([numerator, denominator])
+    both = both[~both.index.duplicated()]
+    if "detuning_slope_per_hz" in both:
+        return both["detuning_slope_per_hz"].fillna(0.0)
+    return detuning_slope_per_hz(both)
 
 
 def power_budget(point: dict, deskew: Deskew | None = None) -> Budget:
@@ -209,8 +238,7 @@ def power_budget(point: dict, deskew: Deskew | None = None) -> Budget:
     reactive = abs(float(point["reactive_power_var"]))
     omega_q = 2.0 * math.pi * float(point["frequency_hz"]) * reactive
     if deskew is None:
-        delay = Term("CH2 delay vs CH1 (skew, TCP202)", "B", omega_q * delay_std_uncertainty_s(),
-                     SPECIFICATIONS["current_probe_delay"].source + "; " + SPECIFICATIONS["scope_skew"].source)
+        delay = Term("CH2 delay vs CH1 (skew, TCP202)", "B", omega_q * delay_std_uncertainty_s(), DELAY_SOURCE)
     else:
         delay = Term("CH2 delay after deskew", "B", omega_q * deskew.std_uncertainty_s, deskew.source)
     if deskew is None or deskew.gain_ratio is None:
@@ -476,6 +504,12 @@ REFERENCE_FOR = {
                                                 "resistor's voltage, through the probe",
     "current path gain (gain-checked)": "a current reference: a precision DMM reading the calibration "
                                         "resistor's voltage",
+    "piezo_d31_c_per_n": "the piezo plates' own d31: a resonance-antiresonance measurement of a free plate "
+                         "(IEEE 176)",
+    "piezo_c11_pa": "the piezo plates' own stiffness: a resonance-antiresonance measurement of a free plate "
+                    "(IEEE 176)",
+    "resonator_thickness_m": "the plate's own thickness: a micrometer at several places",
+    "resonator_young_pa": "the alloy's own modulus: a free plate's bending resonance",
 }
 
 
@@ -508,6 +542,30 @@ def systematic_floor(points: pd.DataFrame, calibration: Deskew | None = None) ->
             rows.append({"run_name": run_name, "quantity": quantity, "floor_p95_rel": P95_FACTOR * relative,
                          "dominant_term": dominant, "lifted_by": LIFTED_BY.get(dominant, "")})
     return pd.DataFrame(rows, columns=["run_name", "quantity", "floor_p95_rel", "dominant_term", "lifted_by"])
+
+
+def characterisation_floor(run: RunData, calibration: Deskew | None = None,
+                           convention: model.Convention = model.PHYSICAL_CONVENTION) -> pd.DataFrame:
+    """Per (run, quantity) of Q and tan theta' (the characterisation protocol's plates): the
+    p95 relative error their budgets leave without the line fits' own terms (what no number
+    of points lowers: the instruments' specifications, the geometry's and materials'
+    tolerances), at the run's worst plate, with the term that dominates there; columns of
+    `systematic_floor`. `calibration`: after that deskew (its uncertainty)."""
+    from squeezebench.analysis.tables import characterise_plates   # it imports this module
+
+    columns = ["run_name", "quantity", "floor_p95_rel", "dominant_term", "lifted_by"]
+    if run.protocol("characterisation").empty:
+        return pd.DataFrame(columns=columns)
+    worst: dict[tuple[str, str], tuple[float, Budget]] = {}
+    for plate in characterise_plates(run, convention).values():
+        run_name = str(plate.points["run_name"].iat[0])
+        for budget in characterisation_budgets(plate, convention, calibration, with_fit=False):
+            relative = budget.std_uncertainty / abs(budget.value)
+            if relative > worst.get((run_name, budget.quantity), (-1.0, None))[0]:
+                worst[(run_name, budget.quantity)] = (relative, budget)
+    return pd.DataFrame([{"run_name": run_name, "quantity": quantity, "floor_p95_rel": P95_FACTOR * relative,
+                          "dominant_term": budget.dominant.name, "lifted_by": LIFTED_BY.get(budget.dominant.name, "")}
+                         for (run_name, quantity), (relative, budget) in worst.items()], columns=columns)
 
 
 # -- Q and tan theta' through the paper's model ----------------------------------------------
@@ -627,7 +685,7 @@ def characterisation_budgets(plate, convention: model.Convention, deskew: Deskew
     omega_ratio = float((2.0 * math.pi * points["frequency_hz"] * points["reactive_power_var"].abs()
                          / points["power_w"].abs()).mean())
     delay = (Term("CH2 delay vs CH1 (skew, TCP202)", "B", abs(slope_p.value) * omega_ratio * delay_std_uncertainty_s(),
-                  SPECIFICATIONS["current_probe_delay"].source) if deskew is None else
+                  DELAY_SOURCE) if deskew is None else
              Term("CH2 delay after deskew", "B", abs(slope_p.value) * omega_ratio * deskew.std_uncertainty_s,
                   deskew.source))
     lead_ratio = float((points["reactive_power_var"].abs() / points["power_w"].abs()

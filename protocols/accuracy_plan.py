@@ -3,7 +3,8 @@
 Averaging, longer records and finer searches only shrink the noise. What stays is the
 instruments' specified errors (`analysis.specifications`): per run, the p95 relative
 error they leave at its worst stored point is the run's floor
-(`analysis.uncertainty.systematic_floor`). A target below the floor cannot be planned
+(`analysis.uncertainty.systematic_floor`; Q and tan theta' of characterised plates:
+`characterisation_floor`, their tolerances mostly). A target below the floor cannot be planned
 with scope settings; a calibration protocol may lift the dominant term (the deskew
 calibration replaces the CH2 delay by what it measured), at the bench time it costs.
 
@@ -19,14 +20,16 @@ import math
 import tempfile
 from pathlib import Path
 
+import pandas as pd
+
 from squeezebench.analysis.rundata import load_run
-from squeezebench.analysis.uncertainty import REFERENCE_FOR, run_uncertainties, systematic_floor
+from squeezebench.analysis.uncertainty import REFERENCE_FOR, characterisation_floor, run_uncertainties, systematic_floor
 from squeezebench.protocols.bench_errors import bench_time_by_run_s
-from squeezebench.protocols.variants import with_calibration, without_maps
+from squeezebench.protocols.variants import carries_calibration, with_calibration, without_maps
 from squeezebench.protocols.campaign import run_campaign
 
 CALIBRATION_RUN = "deskew_calibration"
-QUANTITIES = ("power_w", "velocity_pp_mps")
+QUANTITIES = ("power_w", "velocity_pp_mps", "q", "tan_theta")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -49,6 +52,8 @@ class AccuracyFloors:
     #: Calibrate although every floor is below the target: a check on simulated benches
     #: found the uncalibrated floors too close to it (they are normal approximations).
     calibration_forced_by: str = ""
+    #: The campaign carries its own deskew calibration (the shipped ones do): every plan keeps it.
+    own_calibration: bool = False
 
     def floor(self, run_name: str, calibrated: bool) -> float:
         """The run's floor over its quantities."""
@@ -70,7 +75,13 @@ class AccuracyFloors:
     @property
     def calibrate(self) -> bool:
         """Whether the plan calibrates: once, first, and its correction serves every run."""
-        return bool(self.calibrated_runs() or self.calibration_forced_by)
+        return bool(self.calibrated_runs() or self.calibration_forced_by or self.own_calibration)
+
+    @property
+    def own_bench_time_with_calibration_s(self) -> dict[str, float]:
+        """The campaign as written, per run, with its own calibration when it carries one."""
+        own = {CALIBRATION_RUN: self.calibration_bench_time_s} if self.own_calibration else {}
+        return {**own, **self.own_bench_time_s}
 
     def planned_floor(self, run_name: str) -> float:
         return self.floor(run_name, self.calibrate)
@@ -80,13 +91,15 @@ class AccuracyFloors:
         return math.sqrt(max(self.target_rel_error**2 - self.planned_floor(run_name)**2, 0.0))
 
     def lines(self) -> list[str]:
-        out = ["accuracy floor: p95 |relative error| the instruments' specified errors leave (noise averaged away)",
+        out = ["accuracy floor: p95 |relative error| the instruments' specified errors (and for Q and tan theta' the "
+               "plates' tolerances) leave, noise averaged away",
                f"{'run':<24} {'quantity':<16} {'floor':>7} {'dominant term':<32} {'deskewed':>8} dominant term"]
         for f in self.floors:
             out.append(f"{f.run_name:<24} {f.quantity:<16} {f.floor_p95_rel:>7.2%} {f.dominant_term:<32} "
                        f"{f.calibrated_floor_p95_rel:>8.2%} {f.calibrated_dominant_term}")
         if self.calibrate:
-            needed = ", ".join(self.calibrated_runs()) or self.calibration_forced_by
+            needed = (", ".join(self.calibrated_runs()) or self.calibration_forced_by
+                      or "every run (the campaign carries it)")
             out.append(f"calibration plan: one deskew_calibration step first ({self.calibration_bench_time_s:.1f} s of "
                        f"bench time; CH2 delay then known to {self.deskew_std_uncertainty_s * 1e9:.2f} ns, the "
                        f"current path's gain checked against the voltage path's), needed by {needed}; "
@@ -119,7 +132,8 @@ def accuracy_floors(campaign_path: Path, target_rel_error: float,
                     measured: tuple[list[RunFloor], dict[str, float], float, float] | None = None) -> AccuracyFloors:
     """The campaign's floors against `target_rel_error`, from `measure_floors` (`measured`:
     what it returned, e.g. kept by an earlier plan)."""
-    return AccuracyFloors(target_rel_error, *(measured or measure_floors(campaign_path)))
+    return AccuracyFloors(target_rel_error, *(measured or measure_floors(campaign_path)),
+                          own_calibration=carries_calibration(campaign_path))
 
 
 def measure_floors(campaign_path: Path) -> tuple[list[RunFloor], dict[str, float], float, float]:
@@ -129,11 +143,15 @@ def measure_floors(campaign_path: Path) -> tuple[list[RunFloor], dict[str, float
     with tempfile.TemporaryDirectory(prefix="squeezebench-floor-") as tmp:
         variant = without_maps(with_calibration(Path(campaign_path), Path(tmp) / Path(campaign_path).name))
         run_dir = run_campaign(variant, out_dir=Path(tmp) / "run", progress=False, durable=False)
-        found = run_uncertainties(load_run(run_dir))
+        run = load_run(run_dir)
+        found = run_uncertainties(run)
         times_s = bench_time_by_run_s(run_dir)
+        # Q and tan theta' of the characterised plates: floors of their own (tolerances, mostly)
+        plain = pd.concat([systematic_floor(found.points), characterisation_floor(run)]).set_index(
+            ["run_name", "quantity"])
+        deskewed = pd.concat([systematic_floor(found.points, found.deskew),
+                              characterisation_floor(run, found.deskew)]).set_index(["run_name", "quantity"])
     deskew_u_s = found.deskew.std_uncertainty_s
-    plain = systematic_floor(found.points).set_index(["run_name", "quantity"])
-    deskewed = systematic_floor(found.points, found.deskew).set_index(["run_name", "quantity"])
     floors = [RunFloor(run, quantity, float(row["floor_p95_rel"]), row["dominant_term"],
                        float(deskewed.loc[(run, quantity), "floor_p95_rel"]),
                        deskewed.loc[(run, quantity), "dominant_term"])

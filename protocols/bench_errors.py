@@ -23,10 +23,12 @@ from typing import Any, Callable
 
 import numpy as np
 import pandas as pd
+from scipy import optimize
 
 from squeezebench import paths
 from squeezebench.analysis.rundata import load_run
 from squeezebench.analysis.study import COVERAGE_FILE, STUDY_DIR, coverage_dir
+from squeezebench.analysis.tables import detuning_table
 from squeezebench.analysis.uncertainty import run_uncertainties
 from squeezebench.instruments.bench import open_bench, sim_bench_config
 from squeezebench.protocols.campaign import run_campaign
@@ -35,15 +37,19 @@ from squeezebench.protocols.storage import sha256_file, write_frame_atomic
 from squeezebench.protocols.variants import campaign_with_effects, systematic_effects
 
 QUANTITIES = ("power_w", "velocity_pp_mps")
+#: What the coverage study scores: every stored point's QUANTITIES and amplitude (Table 4; the
+#: velocity's relative budget), and the values the report derives with a U of their own:
+#: Fig. 2's Pt/P0 and each search's resonance frequency.
+COVERAGE_QUANTITIES = (*QUANTITIES, "amplitude_pp_m", "power_ratio", "resonance_frequency_hz")
 ERROR_PERCENTILE = 95.0
 
 
 def errors_on_bench(campaign_file: Path, bench_seed: int, work_dir: Path,
-                    error_model: str = "specified") -> pd.DataFrame:
+                    error_model: str = "specified", quantities: tuple[str, ...] = QUANTITIES) -> pd.DataFrame:
     """Every stored point of the campaign run on bench `bench_seed` (its errors drawn under
-    `error_model`, `variants.ERROR_MODELS`): relative error of each quantity against the
-    truth, with its expanded uncertainty; and the bench time. `work_dir` is scratch: the
-    run there is not kept, so it is not made durable."""
+    `error_model`, `variants.ERROR_MODELS`): relative error of each of `quantities` (of
+    COVERAGE_QUANTITIES) against the truth, with its expanded uncertainty; and the bench
+    time. `work_dir` is scratch: the run there is not kept, so it is not made durable."""
     erring = campaign_with_effects(campaign_file, work_dir / "erring",
                                    systematic_effects(bench_seed, error_model=error_model))
     campaign_with_effects(campaign_file, work_dir / "plain", [])   # the same plates without the errors
@@ -52,19 +58,47 @@ def errors_on_bench(campaign_file: Path, bench_seed: int, work_dir: Path,
     found = run_uncertainties(run)
     points = found.points
     truths = _truths(points, work_dir / "plain")
-    rows = []
-    for index, point in points.iterrows():
-        truth = truths[index]
-        for quantity in QUANTITIES:
-            rows.append({"error_model": error_model, "bench_seed": bench_seed, "run_name": point["run_name"], "step_id": point["step_id"],
-                         "point_index": point["point_index"], "quantity": quantity,
-                         "measured_value": point[quantity], "true_value": truth[quantity],
-                         "rel_error": point[quantity] / truth[quantity] - 1.0,
-                         "rel_expanded_u": point[f"{quantity}_U"] / abs(truth[quantity]),
-                         "covered": abs(point[quantity] - truth[quantity]) <= point[f"{quantity}_U"]})
-    frame = pd.DataFrame(rows)
+    rows = [_scored(point, quantity, point[quantity], truths[index][quantity], point[f"{quantity}_U"])
+            for index, point in points.iterrows() for quantity in QUANTITIES if quantity in quantities]
+    if "amplitude_pp_m" in quantities:
+        rows += [_scored(point, "amplitude_pp_m", point["amplitude_pp_m"], truths[index]["amplitude_pp_m"],
+                         abs(point["amplitude_pp_m"]) * point["velocity_pp_mps_U"] / abs(point["velocity_pp_mps"]))
+                 for index, point in points.iterrows() if np.isfinite(point["amplitude_pp_m"])]
+    if "power_ratio" in quantities:
+        rows += _power_ratios(run, points, truths)
+    if "resonance_frequency_hz" in quantities:
+        rows += _resonance_frequencies(run, found.searches, work_dir / "plain")
+    frame = pd.DataFrame(rows).assign(error_model=error_model, bench_seed=bench_seed)
     frame.attrs["bench_time_s"] = sum(bench_time_by_run_s(run_dir).values())
     return frame
+
+
+def _scored(point, quantity: str, measured: float, true: float, expanded_u: float) -> dict:
+    """One scored value: its error against the truth and whether its U covers it."""
+    return {"run_name": point["run_name"], "step_id": point["step_id"], "point_index": point["point_index"],
+            "quantity": quantity, "measured_value": measured, "true_value": true,
+            "rel_error": measured / true - 1.0, "rel_expanded_u": expanded_u / abs(true),
+            "covered": abs(measured - true) <= expanded_u}
+
+
+def _power_ratios(run, points: pd.DataFrame, truths: dict) -> list[dict]:
+    """Fig. 2's Pt/P0 as the report gives it (`tables.detuning_table`), each scored against
+    the ratio of the truths of the points it is made of (the resonance's own 1 is left out)."""
+    if "detuning_phase" not in points:
+        return []
+    table = detuning_table(run)
+    detuning = points[points["protocol"] == "detuning"]
+    rows = []
+    for row in table[(table["detuning_phase"] != "resonance") & table["power_ratio_U"].notna()].itertuples():
+        same_level = detuning[(detuning["run_name"] == row.run_name)
+                              & (detuning["velocity_level_pp_mps"] == row.velocity_level_pp_mps)]
+        target = same_level[(same_level["detuning_phase"] == row.detuning_phase)
+                            & (same_level["target_velocity_ratio"] == row.target_velocity_ratio)]
+        resonance = same_level[same_level["detuning_phase"] == "resonance"]
+        true = (np.mean([truths[i]["power_w"] for i in target.index])
+                / np.mean([truths[i]["power_w"] for i in resonance.index]))
+        rows.append(_scored(target.iloc[0], "power_ratio", row.power_ratio, float(true), row.power_ratio_U))
+    return rows
 
 
 def _truths(points: pd.DataFrame, plain_dir: Path) -> dict:
@@ -80,8 +114,40 @@ def _truths(points: pd.DataFrame, plain_dir: Path) -> dict:
                 bench.generator.set_frequency(float(point["generator_frequency_hz"]))
                 bench.generator.set_amplitude_vpp(float(point["generator_amplitude_vpp"]))
                 truth = simulated.truth()
-                truths[index] = {"power_w": truth.power_w, "velocity_pp_mps": truth.velocity_pp_mps}
+                truths[index] = {"power_w": truth.power_w, "velocity_pp_mps": truth.velocity_pp_mps,
+                                 "amplitude_pp_m": truth.velocity_pp_mps / (2.0 * np.pi * truth.frequency_hz)}
     return truths
+
+
+def _resonance_frequencies(run, searches: pd.DataFrame, plain_dir: Path) -> list[dict]:
+    """Each resonance search's frequency (`uncertainty.search_budgets`: the generator setting
+    it found) scored against the setting at which an ideal generator gives the most velocity
+    on the plate without the errors, at the search's drive (bounded search, 10 mHz)."""
+    if searches.empty:
+        return []
+    found = run.protocol("resonance_search")
+    found = found[~found["sweep"].astype(bool)]
+    rows = []
+    for search in searches.itertuples():
+        row = found[(found["run_name"] == search.run_name) & (found["step_id"] == search.step_id)].iloc[0]
+        with open_bench(sim_bench_config(plain_dir / f"{row['plate']}.yaml")) as bench:
+            simulated = bench.resource_manager.visalib.bench
+            if isinstance(row["scene_state"], str):
+                simulated.set_state(row["scene_state"])
+            bench.generator.set_amplitude_vpp(float(row["generator_amplitude_vpp"]))
+
+            def slower(frequency_hz: float) -> float:
+                bench.generator.set_frequency(float(frequency_hz))
+                return -simulated.truth().velocity_pp_mps
+
+            reach_hz = max(3.0 * search.resonance_frequency_hz_U, 20.0)
+            peak = optimize.minimize_scalar(slower, bounds=(search.resonance_frequency_hz - reach_hz,
+                                                            search.resonance_frequency_hz + reach_hz),
+                                            method="bounded", options={"xatol": 1e-2})
+        rows.append(_scored({"run_name": search.run_name, "step_id": search.step_id, "point_index": row["point_index"]},
+                            "resonance_frequency_hz", search.resonance_frequency_hz, float(peak.x),
+                            search.resonance_frequency_hz_U))
+    return rows
 
 
 def bench_time_by_run_s(run_dir: Path) -> dict[str, float]:
@@ -96,11 +162,11 @@ def bench_time_by_run_s(run_dir: Path) -> dict[str, float]:
     return times_s
 
 
-def _errors_on_fresh_bench(campaign_file: Path, bench_seed: int,
-                           error_model: str = "specified") -> tuple[pd.DataFrame, float]:
+def _errors_on_fresh_bench(campaign_file: Path, bench_seed: int, error_model: str = "specified",
+                           quantities: tuple[str, ...] = QUANTITIES) -> tuple[pd.DataFrame, float]:
     """`errors_on_bench` in a temporary directory of its own (a worker shares no files)."""
     with tempfile.TemporaryDirectory(prefix=f"squeezebench-bench-{bench_seed}-") as tmp:
-        frame = errors_on_bench(Path(campaign_file), bench_seed, Path(tmp), error_model)
+        frame = errors_on_bench(Path(campaign_file), bench_seed, Path(tmp), error_model, quantities)
         return frame, frame.attrs["bench_time_s"]
 
 
@@ -142,7 +208,8 @@ def run_coverage_study(out_dir: Path, benches: int, campaign_file: Path | None =
     pending = [seed for seed in seeds if not stored(seed)]
     progress(f"coverage: {campaign_file.name} on {len(pending)} of {benches} simulated benches "
              f"(errors: {error_model})")
-    job = functools.partial(_errors_on_fresh_bench, campaign_file, error_model=error_model)
+    job = functools.partial(_errors_on_fresh_bench, campaign_file, error_model=error_model,
+                            quantities=COVERAGE_QUANTITIES)
     for seed, (frame, bench_time_s) in map_unordered(job, pending, workers, scheduler, "coverage"):
         write_frame_atomic(directory / f"bench_{seed}.parquet",
                            frame.assign(bench_time_s=bench_time_s, campaign=campaign_file.name, campaign_sha256=digest))

@@ -114,9 +114,8 @@ class Campaign:
     def powers_off_resonance_without_deskew(self) -> list[str]:
         """The detuning runs that read powers off resonance (detuned, regained, stress points,
         power factor far below one) in a campaign without a deskew_calibration run: their
-        powers rest on the current probe's delay being zero-mean, which a probe that lags by
-        a fixed, known-sign delay is not (analysis.uncertainty.needs_deskew counts them
-        once measured)."""
+        U carries the current probe's lag as a bias bound, which a deskew run would measure
+        and shrink (analysis.uncertainty.needs_deskew counts them once measured)."""
         if any(run.protocol == "deskew_calibration" for run in self.runs):
             return []
         return [run.name for run in self.runs if run.protocol == "detuning" and (

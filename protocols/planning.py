@@ -39,7 +39,8 @@ import pandas as pd
 from squeezebench.analysis.waveforms import integer_period_mean_power_w, sample_interval_s
 from squeezebench.protocols.accuracy_plan import CALIBRATION_RUN, AccuracyFloors, accuracy_floors, measure_floors
 from squeezebench.protocols.simulated_session import SimulatedSession, open_simulated
-from squeezebench.protocols.variants import MAP_PROTOCOLS, only_run, planned_campaign, with_acquisition
+from squeezebench.protocols.variants import (CALIBRATION_PROTOCOL, MAP_PROTOCOLS, only_run, planned_campaign,
+                                             with_acquisition)
 from squeezebench.protocols.bench_errors import (
     bench_time_by_run_s, errors_on_bench, p95_by_run)
 from squeezebench.protocols.acquisition import AcquisitionSettings
@@ -348,7 +349,8 @@ class Plan:
         return sum(self.own_s.values())
 
     def table(self) -> str:
-        lines = [f"target relative error (p95, power and velocity): {self.target_rel_error:g}; noise p95 of "
+        lines = [f"target relative error (p95, power and velocity; Q and tan theta' floors too): "
+                 f"{self.target_rel_error:g}; noise p95 of "
                  f"{self.repeats} acquisitions per setting; floor: the instruments' specified errors",
                  f"{'run':<24} {'record':>6} {'averages':>8} {'noise p95':>10} {'floor':>7} {'planned s':>10} "
                  f"{'own s':>8} {'ratio':>6} {'512-avg s':>10}"]
@@ -359,12 +361,17 @@ class Plan:
                          f"{self.error_by_run[name]:>10.2e} {floor:>7.2%} {planned_s:>10.1f} {own_s:>8.1f} "
                          f"{planned_s / own_s:>6.2f} {self.baseline_s.get(name, 0.0):>10.1f}")
         for name in set(self.planned_s) - set(self.settings_by_run):   # the calibration the plan adds
-            lines.append(f"{name:<24} {'':>6} {'':>8} {'':>10} {'':>7} {self.planned_s[name]:>10.1f} {0.0:>8.1f} "
+            lines.append(f"{name:<24} {'':>6} {'':>8} {'':>10} {'':>7} {self.planned_s[name]:>10.1f} "
+                         f"{self.own_s.get(name, 0.0):>8.1f} "
                          f"{'':>6} {'':>10}")
         ratio = self.planned_total_s / self.own_total_s if self.own_total_s else math.nan
         lines.append(f"{'total':<24} {'':>6} {'':>8} {max(self.error_by_run.values()):>10.2e} {'':>7} "
                      f"{self.planned_total_s:>10.1f} {self.own_total_s:>8.1f} {ratio:>6.2f} "
                      f"{self.baseline_total_s:>10.1f}")
+        if self.own_total_s and self.planned_total_s > self.own_total_s:
+            lines.append(f"the plan is dearer than the campaign's own settings: {self.planned_total_s:.1f} s of bench "
+                         f"time against {self.own_total_s:.1f} s ({ratio:.2f} times): the cheapest settings whose "
+                         "noise fits the target cost more than those the campaign names")
         if self.floors:
             lines += self.floors.lines()
         if self.measurements:
@@ -424,7 +431,9 @@ def make_plan(campaign_path: Path, target_rel_error: float, repeats: int = REPEA
     if any(run.bench.scene is None for run in campaign.runs):
         raise UserError("only simulated benches (bench: {scene: ...}) can be planned")
     # a map's settings answer to its homogeneity figures: `map_planning` plans those runs
-    campaign = dataclasses.replace(campaign, runs=tuple(r for r in campaign.runs if r.protocol not in MAP_PROTOCOLS))
+    # (and a calibration the campaign carries is kept as written: the floors measure it)
+    campaign = dataclasses.replace(campaign, runs=tuple(r for r in campaign.runs if r.protocol not in MAP_PROTOCOLS
+                                                        and r.protocol != CALIBRATION_PROTOCOL))
     if not campaign.runs:
         raise UserError(f"{campaign_path.name} has only maps: nothing for the point planner")
     plates = {}   # one study per plate, voltage and acquisition, shared by the runs measuring it
@@ -508,7 +517,7 @@ def _choose(campaign, campaign_path: Path, target_rel_error: float, repeats: int
     planned_s = {**({CALIBRATION_RUN: floors.calibration_bench_time_s} if floors.calibrate else {}),
                  **{name: done[job] for job, name in timing.items()}}
     return Plan(target_rel_error, studies_by_run, settings_by_run, error_by_run, planned_s, baseline_s,
-                repeats=repeats, floors=floors, own_s=floors.own_bench_time_s,
+                repeats=repeats, floors=floors, own_s=floors.own_bench_time_with_calibration_s,
                 noise_scale={name: scale for name, scale in noise_scale.items() if scale != 1.0},
                 measurements=cache.words(), cache=cache.as_dict())
 

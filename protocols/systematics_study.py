@@ -47,7 +47,8 @@ from squeezebench.protocols.resonance import SearchSettings, find_resonance
 from squeezebench.protocols.safety import SafetyLimits
 from squeezebench.protocols.simulated_session import (
     SimulatedSession, characterise_at_resonance, open_simulated, reduce_point)
-from squeezebench.protocols.variants import planned_campaign, scene_with_effects, systematic_effects
+from squeezebench.protocols.variants import (CALIBRATION_PROTOCOL, planned_campaign, scene_with_effects,
+                                             systematic_effects)
 
 if TYPE_CHECKING:
     from squeezebench.protocols.accuracy_study import TaskRun
@@ -231,7 +232,8 @@ def campaign_trials(calibrated: bool, run: "TaskRun") -> None:
     averaging, after the deskew calibration when `calibrated`, one trial per bench: every
     stored point's power and velocity against the truth at its setting; the cost is the
     campaign's bench time (the calibration's included)."""
-    names = [entry["name"] for entry in load_strict(run.scene.read_text(encoding="utf-8"))["runs"]]
+    names = [entry["name"] for entry in load_strict(run.scene.read_text(encoding="utf-8"))["runs"]
+             if entry["protocol"] != CALIBRATION_PROTOCOL]   # the calibration keeps its own averaging
     settings = {name: {"averages": run.knobs["averages"]} for name in names}
     for repeat in range(run.settings.repeats):
         with tempfile.TemporaryDirectory(prefix="squeezebench-campaign-") as tmp:

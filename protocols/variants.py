@@ -114,22 +114,41 @@ def _effect_name(entry) -> str:
     return entry if isinstance(entry, str) else next(iter(entry))
 
 
+CALIBRATION_PROTOCOL = "deskew_calibration"
+
+
 def calibration_run(frequency_hz: float, scene: str) -> dict:
     """The campaign entry of a deskew calibration at the plates' working frequency, with
     its own averaging: its records set the delay for every later point."""
-    return {"name": "deskew_calibration", "protocol": "deskew_calibration", "bench": {"scene": scene},
+    return {"name": "deskew_calibration", "protocol": CALIBRATION_PROTOCOL, "bench": {"scene": scene},
             "plate": {"n_powered_columns": 1, "n_powered_piezos": 1},
             "acquisition": {"averages": 64, "record_length": 10000},
             "parameters": {"frequency_hz": float(frequency_hz)}}
 
 
+def carries_calibration(campaign_file: Path) -> bool:
+    """Whether the campaign measures its CH2 delay itself (a deskew calibration run)."""
+    return _calibrates(load_strict(Path(campaign_file).read_text(encoding="utf-8")))
+
+
+def _calibrates(data: dict) -> bool:
+    return any(run.get("protocol") == CALIBRATION_PROTOCOL for run in data["runs"])
+
+
 def with_calibration(campaign_file: Path, out: Path, frequency_hz: float = CALIBRATION_FREQUENCY_HZ) -> Path:
-    """A copy of the campaign whose first run is a deskew calibration."""
+    """A copy of the campaign whose first run is a deskew calibration (its own, when it
+    carries one: the shipped campaigns do)."""
     data = load_strict(Path(campaign_file).read_text(encoding="utf-8"))
-    scene = data.get("bench", {}).get("scene") or data["runs"][0]["bench"]["scene"]
-    data["runs"] = [calibration_run(frequency_hz, scene), *data["runs"]]
+    if not _calibrates(data):
+        scene = data.get("bench", {}).get("scene") or data["runs"][0]["bench"]["scene"]
+        data["runs"] = [calibration_run(frequency_hz, scene), *data["runs"]]
     Path(out).write_text(dump_yaml(data), encoding="utf-8")
     return Path(out)
+
+
+def without_calibration(campaign_file: Path) -> Path:
+    """Rewrite the campaign file without its deskew calibration: the bench as it is."""
+    return _keep_runs(campaign_file, lambda run: run.get("protocol") != CALIBRATION_PROTOCOL)
 
 
 def with_acquisition(campaign_file: Path, acquisition_by_run: dict[str, dict], out: Path) -> Path:
@@ -142,6 +161,7 @@ def with_acquisition(campaign_file: Path, acquisition_by_run: dict[str, dict], o
 
 
 def planned_campaign(campaign_file: Path, acquisition_by_run: dict[str, dict], calibrate: bool, out: Path) -> Path:
-    """The campaign file with these settings, preceded by the deskew calibration if `calibrate`."""
+    """The campaign file with these settings, preceded by the deskew calibration if
+    `calibrate`, without any if not (its own as written when it carries one)."""
     variant = with_acquisition(campaign_file, acquisition_by_run, out)
-    return with_calibration(variant, out) if calibrate else variant
+    return with_calibration(variant, out) if calibrate else without_calibration(variant)

@@ -161,8 +161,8 @@ def _campaign_notes(campaign, name: str) -> list[str]:
     undeskewed = campaign.powers_off_resonance_without_deskew()
     if undeskewed:
         notes.append(f"{', '.join(undeskewed)} read powers off resonance, where the current probe's delay moves "
-                     "them most, and the campaign has no deskew_calibration run: those powers rest on the delay "
-                     f"being zero-mean. `squeezebench plan {name} --target-rel-error X --write FILE` adds the "
+                     "them most, and the campaign has no deskew_calibration run: their U carries the delay's "
+                     f"bias bound. `squeezebench plan {name} --target-rel-error X --write FILE` adds the "
                      "run; the report counts the powers concerned.")
     return notes
 
@@ -372,8 +372,10 @@ def cmd_plan(args: argparse.Namespace) -> int:
                                              (f"planned campaign written to {written}" if written else "")]
         say(args, "\n\n".join(t for t in texts if t))
     if plan is not None and not plan.reachable:   # the table says why; a script must not take the plan for one that meets it
+        quantities = sorted({f.quantity for f in plan.floors.below_floor()})
         print(f"squeezebench plan: target {args.target_rel_error:g} is below the floor the instruments' "
-              "specified errors leave; no setting meets it", file=sys.stderr)
+              f"specified errors (and the plates' tolerances) leave on {', '.join(quantities)}; no setting meets it",
+              file=sys.stderr)
         return EXIT_USER_ERROR
     if any(m.chosen is None for m in maps):
         print(f"squeezebench plan: no grid step meets the map target {args.target_rel_error:g}", file=sys.stderr)

@@ -17,8 +17,19 @@ QUICK = paths.campaigns_dir() / "quick.yaml"
 
 
 @pytest.fixture(scope="module")
-def floors():
-    return accuracy_floors(QUICK, 0.01)
+def user_quick(tmp_path_factory):
+    """The quick campaign as a user may write it: without the deskew calibration run the
+    shipped one carries, so the plan decides whether to buy it."""
+    from squeezebench.protocols.variants import without_calibration
+
+    out = tmp_path_factory.mktemp("user") / "quick.yaml"
+    out.write_text(QUICK.read_text(encoding="utf-8"), encoding="utf-8")
+    return without_calibration(out)
+
+
+@pytest.fixture(scope="module")
+def floors(user_quick):
+    return accuracy_floors(user_quick, 0.01)
 
 
 def test_a_one_percent_target_is_below_the_gain_floor(floors):
@@ -43,13 +54,13 @@ def test_a_one_percent_target_is_below_the_gain_floor(floors):
     assert "below the reachable floor" in text and "voltage reference" in text
 
 
-def test_the_deskew_calibration_lifts_the_delay_term_at_its_cost(floors):
+def test_the_deskew_calibration_lifts_the_delay_term_at_its_cost(floors, user_quick):
     assert floors.calibration_bench_time_s > 1.0
     assert floors.deskew_std_uncertainty_s < 1e-9
     assert set(floors.own_bench_time_s) == {"detuning", "cutting"}
     for f in floors.floors:
         assert f.calibrated_floor_p95_rel <= f.floor_p95_rel + 1e-12
-    relaxed = accuracy_floors(QUICK, 0.053)   # the gains alone leave 5.2 % (p95) on power, the detuning 5.5 %
+    relaxed = accuracy_floors(user_quick, 0.053)   # the gains alone leave 5.2 % (p95) on power, the detuning 5.5 %
     assert relaxed.below_floor() == []
     for run in relaxed.calibrated_runs():   # the calibration is planned only where it is needed
         assert relaxed.floor(run, calibrated=False) > 0.053 >= relaxed.floor(run, calibrated=True)
@@ -60,9 +71,9 @@ def test_the_deskew_calibration_lifts_the_delay_term_at_its_cost(floors):
 
 # -- the planner with the floor (protocols.planning) -------------------------------------------
 @pytest.fixture(scope="module")
-def relaxed_plan():
+def relaxed_plan(user_quick):
     from squeezebench.protocols.planning import make_plan
-    return make_plan(QUICK, 0.08, repeats=2, check_benches=8)
+    return make_plan(user_quick, 0.08, repeats=2, check_benches=8)
 
 
 def test_a_reachable_target_is_planned_and_checked_on_eight_erring_benches(relaxed_plan):
@@ -83,9 +94,9 @@ def test_a_reachable_target_is_planned_and_checked_on_eight_erring_benches(relax
     assert data["cache"]["read"] + data["cache"]["simulated"] == 3 + 1 + 2 + 2 + 8
 
 
-def test_a_target_below_the_floor_is_said_with_its_dominant_term():
+def test_a_target_below_the_floor_is_said_with_its_dominant_term(user_quick):
     from squeezebench.protocols.planning import make_plan
-    plan = make_plan(QUICK, 0.01, repeats=2, check_benches=8)
+    plan = make_plan(user_quick, 0.01, repeats=2, check_benches=8)
     assert plan.check is None   # nothing to check: no setting reaches it
     table = plan.table()
     assert "below the reachable floor" in table and "current probe gain" in table
@@ -93,7 +104,7 @@ def test_a_target_below_the_floor_is_said_with_its_dominant_term():
         assert plan.error_by_run[name] <= plan.floors.floor(name, calibrated=True) / 3.0 or setting.averages == 512
 
 
-def test_a_missed_check_calibrates_then_tightens_the_missing_runs(monkeypatch):
+def test_a_missed_check_calibrates_then_tightens_the_missing_runs(monkeypatch, user_quick):
     """The check on erring benches is the arbiter: a miss first buys the calibration, then
     halves the noise the missing run may take, until the check meets the target."""
     import pandas as pd
@@ -109,7 +120,7 @@ def test_a_missed_check_calibrates_then_tightens_the_missing_runs(monkeypatch):
                              {"run_name": "cutting", "quantity": "power_w", "p95_abs_rel_error": 0.02}])
 
     monkeypatch.setattr(planning, "check_plan", check)
-    plan = planning.make_plan(QUICK, 0.08, repeats=2, check_benches=8)
+    plan = planning.make_plan(user_quick, 0.08, repeats=2, check_benches=8)
     assert [calibrated for calibrated, _, _ in seen] == [False, True, True]
     assert [scale for _, scale, _ in seen] == [{}, {}, {"detuning": 0.5}]
     assert plan.meets_check and plan.noise_scale == {"detuning": 0.5}
@@ -119,7 +130,7 @@ def test_a_missed_check_calibrates_then_tightens_the_missing_runs(monkeypatch):
     assert plan.as_dict()["check"]["noise_scale"] == {"detuning": 0.5}
 
 
-def test_a_plan_that_keeps_missing_is_returned_checked_and_says_so(monkeypatch):
+def test_a_plan_that_keeps_missing_is_returned_checked_and_says_so(monkeypatch, user_quick):
     import pandas as pd
 
     from squeezebench.protocols import planning
@@ -131,7 +142,7 @@ def test_a_plan_that_keeps_missing_is_returned_checked_and_says_so(monkeypatch):
         return pd.DataFrame([{"run_name": "detuning", "quantity": "power_w", "p95_abs_rel_error": 0.5}])
 
     monkeypatch.setattr(planning, "check_plan", check)
-    plan = planning.make_plan(QUICK, 0.08, repeats=2, check_benches=8)
+    plan = planning.make_plan(user_quick, 0.08, repeats=2, check_benches=8)
     assert len(calls) == planning.MAX_TIGHTENINGS + 1 and calls[-1] is plan   # the last plan is the checked one
     assert not plan.meets_check and plan.missed_runs() == ["detuning"]
     assert f"missed by detuning after {planning.MAX_TIGHTENINGS} tightenings" in plan.table()
@@ -160,6 +171,40 @@ def test_plan_write_below_the_floor_exits_non_zero_and_the_written_plan_carries_
         assert run["p95_rel_error"] == pytest.approx(math.hypot(floor, run["noise_p95_rel_error"]))
         assert run["p95_rel_error"] > 0.01 > run["noise_p95_rel_error"]
     assert [r.name for r in load_campaign(out).runs][0] == CALIBRATION_RUN
+    # the shipped quick campaign carries its calibration: kept once, its bench time in its own
+    assert [r.protocol for r in load_campaign(out).runs].count(CALIBRATION_RUN) == 1
+    assert data["own_bench_time_by_run_s"][CALIBRATION_RUN] > 1.0
+
+
+def test_a_target_below_the_q_and_tan_theta_floors_is_refused_naming_them(tmp_path, monkeypatch, capsys):
+    """Q and tan theta' carry the plates' geometry and material tolerances (d31 and c11
+    +-5 %, the sheet's thickness): their floors are above 8 % whatever the averaging, so a
+    plan at 8 % on a characterisation says so, names them and exits 2 (issue 46: it said
+    'reachable')."""
+    from squeezebench import cli
+    from squeezebench.protocols import planning
+    from squeezebench.yamlfiles import dump_yaml, load_strict
+
+    paper = load_strict(paths.paper_campaign().read_text())
+    fig5 = next(run for run in paper["runs"] if run["name"] == "fig5_small_plates")
+    fig5 = {**fig5, "parameters": {**fig5["parameters"], "plates": fig5["parameters"]["plates"][:1],
+                                   "search": {"start_hz": 30000, "stop_hz": 60000, "points": 31}}}
+    campaign = tmp_path / "fig5.yaml"
+    campaign.write_text(dump_yaml({"name": "fig5", **{k: paper[k] for k in ("acquisition", "safety")},
+                                   "runs": [fig5]}))
+    real = planning.make_plan
+    monkeypatch.setattr(planning, "make_plan", lambda path, target, **kw: real(path, target, repeats=2, **kw))
+    assert cli.main(["plan", str(campaign), "--target-rel-error", "0.08", "--json"]) == 2
+    captured = capsys.readouterr()
+    assert "leave on q, tan_theta;" in captured.err
+    data = json.loads(captured.out)
+    below = {f["quantity"]: f["calibrated_floor_p95_rel"] for f in data["floors"]["below_floor"]}
+    assert {"q", "tan_theta"} <= set(below) and min(below["q"], below["tan_theta"]) > 0.08
+    assert data["reachable"] is False
+    assert cli.main(["plan", str(campaign), "--target-rel-error", "0.08"]) == 2   # the cache answers
+    text = capsys.readouterr().out
+    assert "fig5_small_plates        q " in text and "fig5_small_plates        tan_theta" in text
+    assert "below the reachable floor" in text
 
 
 def test_a_folder_named_like_a_shipped_campaign_does_not_hide_it(tmp_path, monkeypatch):
@@ -168,3 +213,16 @@ def test_a_folder_named_like_a_shipped_campaign_does_not_hide_it(tmp_path, monke
     assert paths.campaign_file("quick") == QUICK
     (tmp_path / "mine.yaml").write_text("runs: []\n")
     assert paths.campaign_file("mine.yaml") == Path("mine.yaml")
+
+
+def test_a_plan_dearer_than_the_campaigns_own_settings_says_so():
+    from squeezebench.protocols import planning
+
+    def plan(own_s: dict) -> str:
+        return planning.Plan(0.05, {}, {"detuning": planning.Setting(500, 16), "cutting": planning.Setting(500, 4)},
+                             {"detuning": 0.01, "cutting": 0.01}, {"detuning": 2.0, "cutting": 1.0},
+                             {"detuning": 8.0, "cutting": 4.0}, own_s=own_s).table()
+
+    assert "dearer than the campaign's own settings: 3.0 s of bench time against 2.0 s (1.50 times)" in \
+        plan({"detuning": 1.0, "cutting": 1.0})
+    assert "dearer" not in plan({"detuning": 2.0, "cutting": 2.0})

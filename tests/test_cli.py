@@ -118,16 +118,22 @@ def test_run_says_which_powers_will_rest_on_an_unmeasured_probe_delay(monkeypatc
     from squeezebench.protocols.variants import calibration_run
 
     monkeypatch.setattr(campaign, "run_campaign", lambda path, **kwargs: Path("r"))
-    assert cli.main(["run", "quick"]) == 0
+    assert cli.main(["run", "quick"]) == 0   # ships with its deskew run (issue 46): no caveat
     err = capsys.readouterr().err
-    assert "detuning read powers off resonance" in err and "no deskew_calibration run" in err
-    assert "plan quick --target-rel-error X --write FILE" in err
+    assert "deskew" not in err
     assert "1 scene of this campaign is a declared replay of published points the plate model does not " \
            "predict (one_column_1mm)" in err
-    assert cli.main(["run", "quick", "-q"]) == 0 and capsys.readouterr().err == ""
+    data = load_strict((paths.campaigns_dir() / "quick.yaml").read_text())
+    data["runs"] = [r for r in data["runs"] if r["protocol"] != "deskew_calibration"]
+    (tmp_path / "mine.yaml").write_text(dump_yaml({**data, "name": "mine"}))
+    (tmp_path / "one_column_1mm.yaml").write_text((paths.scenes_dir() / "one_column_1mm.yaml").read_text())
+    assert cli.main(["run", str(tmp_path / "mine.yaml")]) == 0   # a user's copy without it
+    err = capsys.readouterr().err
+    assert "detuning read powers off resonance" in err and "no deskew_calibration run" in err
+    assert "--target-rel-error X --write FILE" in err
+    assert cli.main(["run", str(tmp_path / "mine.yaml"), "-q"]) == 0 and capsys.readouterr().err == ""
     own = campaign.load_campaign(paths.data_dir() / "examples" / "own_plate_campaign.yaml")
     assert cli._declared_replays(own) == []   # a user's own plate is no replay
-    data = load_strict((paths.campaigns_dir() / "quick.yaml").read_text())
     for name, runs in (("deskewed", [calibration_run(37000.0, "one_column_1mm.yaml"), *data["runs"]]),
                        ("resonance_only", [{**r, "parameters": {**r["parameters"], "velocity_ratios": []}}
                                            if r["protocol"] == "detuning" else r for r in data["runs"]])):

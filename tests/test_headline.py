@@ -72,7 +72,7 @@ def test_a_run_without_paper_tables_says_only_what_ran():
 
 def test_powers_resting_on_an_unmeasured_delay_are_said_first():
     lines = headline("real", 12, 1, {}, needs_deskew=2)
-    assert len(lines) == 2 and lines[1].startswith("2 stored powers rest on the current probe's delay")
+    assert len(lines) == 2 and lines[1].startswith("2 stored powers have a U mostly the current probe's delay bound")
     assert "--write FILE" in lines[1]
 
 

@@ -98,3 +98,11 @@ def test_the_first_screen_says_the_scenes_are_replays_and_the_appendix_why(index
     reason = load_strict((paths.scenes_dir() / "one_column_1mm.yaml").read_text())["replay"]["reason"]
     appendix = text[text.index("id=\"provenance\""):]
     assert "scene one_column_1mm.yaml" in appendix and html.escape(reason) in appendix
+
+
+def test_the_shipped_campaign_corrects_its_probe_delay_and_its_headline_needs_no_caveat(index):
+    """quick ships with its deskew run (issue 46): the powers are corrected by the delay it
+    measured, and the headline has no line about an unmeasured probe delay."""
+    assert "Power corrected by the deskew calibration" in index.read_text()
+    headline = (index.parent / "headline.txt").read_text()
+    assert "delay" not in headline and "deskew" not in headline

@@ -246,4 +246,4 @@ def test_nohup_ignored_sighup_does_not_stop_the_run(tmp_path):
             process.send_signal(signal.SIGHUP)
     out, err = process.communicate(timeout=120)
     assert process.returncode == 0, err
-    assert len(RunStore(tmp_path / "run").journal()) == 6   # every step of quick
+    assert len(RunStore(tmp_path / "run").journal()) == 7   # every step of quick, its deskew run's included

@@ -105,8 +105,15 @@ def test_the_coverage_study_scores_every_stored_point_and_resumes_by_bench(tmp_p
     path = run_coverage_study(tmp_path, 2, quick)
     points = load_coverage(tmp_path)
     assert path.is_file() and set(points["bench_seed"]) == {1, 2}
-    assert set(points["quantity"]) == {"power_w", "velocity_pp_mps"}
-    assert (points["rel_expanded_u"] > 0.01).all()   # the specifications, not the noise alone
+    assert set(points["quantity"]) == {"power_w", "velocity_pp_mps", "amplitude_pp_m", "power_ratio",
+                                       "resonance_frequency_hz"}   # every quantity the report gives a U
+    point_values = points[points["quantity"].isin(["power_w", "velocity_pp_mps", "amplitude_pp_m"])]
+    assert (point_values["rel_expanded_u"] > 0.01).all()   # the specifications, not the noise alone
+    ratios = points[points["quantity"] == "power_ratio"]
+    assert len(ratios) == 2 * 2 and ratios["covered"].all()   # two detuned targets on each bench
+    searches = points[points["quantity"] == "resonance_frequency_hz"]
+    assert len(searches) == 2 * 3 and searches["covered"].all()   # detuning's and two cut lengths' searches
+    assert (searches["rel_error"].abs() < 1e-3).all()   # Hz on 37 kHz: the ideal generator's peak, found
     table = coverage_table(points).set_index("quantity")
     assert table.loc["power_w", "benches"] == 2
     assert table.loc["power_w", "covered_fraction"] == pytest.approx(points[points["quantity"] == "power_w"]
@@ -134,7 +141,8 @@ def test_a_coverage_study_on_benches_erring_as_the_world_errs_is_stored_and_tabl
     assert set(points["error_model"]) == {"world", "specified"}
     table = coverage_table(points).set_index(["error_model", "quantity"])
     assert table.loc[("world", "power_w"), "benches"] == 2 and table.loc[("specified", "power_w"), "benches"] == 1
-    assert (table["benches_interval_low"] <= table["benches_interval_high"]).all()
+    assert (table["coverage_interval_low"] <= table["covered_fraction"]).all()
+    assert (table["covered_fraction"] <= table["coverage_interval_high"]).all()
 
     import argparse
 
@@ -145,8 +153,8 @@ def test_a_coverage_study_on_benches_erring_as_the_world_errs_is_stored_and_tabl
     cli._run_coverage(argparse.Namespace(resume=True, workers=1, scheduler=None, coverage_errors="world",
                                          quiet=True), tmp_path, 2)
     printed = capsys.readouterr().out.splitlines()
-    assert len(printed) == 2 and all(line.startswith("coverage: ") for line in printed)
-    assert "of 2 benches mostly covered (95 % interval" in printed[0] and "as the world errs" in printed[0]
+    assert len(printed) == 5 and all(line.startswith("coverage: ") for line in printed)   # one per quantity
+    assert "on 2 benches" in printed[0] and "bootstrap 95 % interval" in printed[0] and "as the world errs" in printed[0]
 
 
 def test_a_negative_number_of_benches_is_refused(tmp_path, capsys):

@@ -43,7 +43,7 @@ def test_power_budget_combines_specifications_and_names_the_dominant_term():
     terms = {t.name: t.std_uncertainty for t in budget.terms}
     assert terms["CH1 gain"] == pytest.approx(0.1 * 0.02 * RECT)
     assert terms["current probe gain"] == pytest.approx(0.1 * 0.03 * RECT)
-    delay_u = math.hypot(1e-9, 10e-9) * RECT
+    delay_u = (20e-9 + 1e-9) / 2   # the lag's bias bound and the skew's limit, k u = bound (issue 46)
     assert terms["CH2 delay vs CH1 (skew, TCP202)"] == pytest.approx(2 * math.pi * 37000 * 0.1 * delay_u)
     assert budget.std_uncertainty == pytest.approx(math.sqrt(sum(u**2 for u in terms.values())))
     assert budget.expanded_uncertainty == pytest.approx(2 * budget.std_uncertainty)
@@ -435,3 +435,32 @@ def test_the_coverage_of_plus_minus_k_u_is_the_convolutions(rectangular_u, norma
     assert budget.coverage_probability(k) == pytest.approx(expected, abs=0.01)
     if rectangular_u > 3 * normal_u:
         assert budget.coverage_probability(2.0) > 0.97
+
+
+def test_fig2s_power_ratio_carries_the_generators_frequency_error_the_flat_top_does_not_cancel():
+    """P0 on the resonance's top, Pt on its slope at r = v/v0 = 0.8: the generator off by its
+    20 ppm limit moves Pt by the Lorentzian's 2 s f e and P0 not at all. The ratio's budget
+    holds that term (its rectangle's half-width is sqrt(3) u) within 5 % of the Lorentzian's
+    exact change; at resonance alone (R = P0/P0) the term is nothing."""
+    from squeezebench.analysis.uncertainty import power_ratio_std_uncertainty
+
+    f0_hz, q = 37180.0, 300.0
+    ratio = 0.8
+    offset_hz = math.sqrt(1.0 / ratio**2 - 1.0) * f0_hz / (2.0 * q)
+
+    def power(frequency_hz: float) -> float:   # P ~ v^2 at one voltage: the Lorentzian 1 / (1 + x^2)
+        return 1.0 / (1.0 + (2.0 * q * (frequency_hz - f0_hz) / f0_hz) ** 2)
+
+    def point(frequency_hz: float, phase: str, target: float) -> dict:
+        return _point(power_w=power(frequency_hz), reactive_power_var=0.0, power_w_u=0.0, frequency_hz=frequency_hz,
+                      generator_frequency_hz=frequency_hz, detuning_phase=phase, target_velocity_ratio=target,
+                      run_name="fig2a", velocity_level_pp_mps=0.25)
+
+    resonance = pd.DataFrame([point(f0_hz, "resonance", 1.0)], index=[0])
+    detuned = pd.DataFrame([point(f0_hz + offset_hz, "regained", ratio)], index=[1])
+    u = power_ratio_std_uncertainty(detuned, resonance)
+    limit = 20e-6
+    exact = power((f0_hz + offset_hz) * (1 + limit)) / power(f0_hz * (1 + limit)) / (power(f0_hz + offset_hz)) - 1.0
+    assert math.sqrt(3.0) * u / power(f0_hz + offset_hz) == pytest.approx(abs(exact), rel=0.05)
+    assert abs(exact) > 0.01   # the issue's -1.2 % at r = 0.8
+    assert power_ratio_std_uncertainty(resonance, resonance) == 0.0
