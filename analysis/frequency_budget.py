@@ -55,13 +55,21 @@ def frequency_budget() -> pd.DataFrame:
 
 def same_sheet_ratios() -> pd.DataFrame:
     """f59/f75 and f28/f75 (Table 3: one sheet, cut), model and print: thickness and alloy
-    cancel, what is left is the model's form (thick plate, bond, the plate's shape)."""
+    cancel, what is left is the model's form (thick plate, bond, the plate's shape). With it,
+    the bond effectiveness eta that would close the gap, to first order (Rayleigh: the patches'
+    stiffening holds a share S_p of each mode's energy, so d ln f = S_p / 2 d ln eta and the
+    ratio moves by (S_p,item - S_p,75) / 2 d ln eta): what would have to move, not a fit."""
     frame = predicted_plates.predictions().set_index("item")
+    model_rows = predicted_plates._predictions().set_index("item")
     rows = []
     for item in ("59", "28"):
         model = frame.loc[item, "predicted_frequency_hz"] / frame.loc["75", "predicted_frequency_hz"]
         printed = frame.loc[item, "printed_frequency_hz"] / frame.loc["75", "printed_frequency_hz"]
-        rows.append({"ratio": f"f{item}/f75", "model": model, "printed": printed, "deviation": model / printed - 1})
+        lever = (model_rows.loc[item, "piezo_energy_share"] - model_rows.loc["75", "piezo_energy_share"]) / 2
+        eta = model_rows.loc[item, "bond_effectiveness"]
+        rows.append({"ratio": f"f{item}/f75", "model": model, "printed": printed, "deviation": model / printed - 1,
+                     "bond_effectiveness": eta,
+                     "bond_effectiveness_to_agree": eta * math.exp(math.log(printed / model) / lever)})
     return pd.DataFrame(rows)
 
 

@@ -43,11 +43,14 @@ def test_the_thick_plate_correction_takes_the_large_plate_from_plus_6_percent_to
 def test_f59_over_f75_is_within_2_percent_of_print():
     ratios = frequency_budget.same_sheet_ratios().set_index("ratio")
     assert abs(ratios.loc["f59/f75", "deviation"]) <= 0.02
+    # the ratio's printed value is the print's, not the model's
+    assert ratios.loc["f59/f75", "printed"] == pytest.approx(37180 / 37160)
 
 
-@pytest.mark.xfail(strict=True, reason="f28/f75 is +5 % off print (was +5.9 %): the epoxy bond's shear lag "
-                                       "(eta 0.75) takes a quarter of the column's stiffening away; the ratio "
-                                       "needs eta near 0.3 (frequency_budget.same_sheet_ratios)")
+@pytest.mark.xfail(strict=True, reason="f28/f75 is +5.1 % off print (was +5.9 %): the epoxy bond's shear lag "
+                                       "(eta 0.75) takes a quarter of the column's stiffening away; agreement "
+                                       "needs eta near 0.24 to first order (frequency_budget.same_sheet_ratios), "
+                                       "a bond far softer than an epoxy's, so a term the model lacks is likelier")
 def test_f28_over_f75_is_within_2_percent_of_print():
     ratios = frequency_budget.same_sheet_ratios().set_index("ratio")
     assert abs(ratios.loc["f28/f75", "deviation"]) <= 0.02
