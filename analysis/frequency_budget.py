@@ -37,9 +37,11 @@ def frequency_budget() -> pd.DataFrame:
     for table, item, _, geometry, _, antinodes in predicted_plates.paper_plates():
         printed_hz = float(predictions.loc[item, "printed_frequency_hz"])
         model_hz = float(predictions.loc[item, "predicted_frequency_hz"])
-        rigid = plate_modes.solve_plate(geometry, near_hz=model_hz, band_rel=0.3, bond=plate_modes.RIGID_BOND,
+        # centred where the model's own (Kirchhoff) solve looked: the same mesh, the same family
+        thin_hz = float(model.loc[item, "kirchhoff_frequency_hz"])
+        rigid = plate_modes.solve_plate(geometry, near_hz=thin_hz, band_rel=0.3, bond=plate_modes.RIGID_BOND,
                                         thick_plate=False)
-        k = predicted_plates.mode_with_antinodes(rigid, int(predictions.loc[item, "predicted_antinodes"]), model_hz)
+        k = predicted_plates.mode_with_antinodes(rigid, int(predictions.loc[item, "predicted_antinodes"]), thin_hz)
         values = {"thin_rigid_bond": float(rigid.frequencies_hz[k]),
                   "thin_epoxy_bond": float(model.loc[item, "kirchhoff_frequency_hz"]), "model": model_hz}
         row = {"table": table, "item": item, "thickness_mm": geometry.thickness_m * 1e3,
