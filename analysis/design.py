@@ -316,7 +316,8 @@ class PhysicsPrediction:
 
 def predict_physics(design: DesignFile) -> PhysicsPrediction:
     """Route (a) with its budget: one solve at nominal, one per structural input moved by its
-    standard uncertainty (t / sqrt 3 for a rectangular half-width t); the piezo's and the
+    standard uncertainty (t / sqrt 3 for a rectangular half-width t, t / sqrt 6 for the sheet's
+    triangular thickness, `plate_modes.relative_standard_uncertainty`); the piezo's and the
     damping's inputs reuse the nominal solve."""
     modal = modal_part(design)
     nominal = operating_point(design, modal=modal)
@@ -324,7 +325,7 @@ def predict_physics(design: DesignFile) -> PhysicsPrediction:
     rows, perturbed = [], {}
     for name, label, structural in INPUTS:
         tolerance = design.damping.tolerance_rel if name == "mechanical_q" else design.tolerance(name)
-        u_rel = tolerance / math.sqrt(3)
+        u_rel = plate_modes.relative_standard_uncertainty(name, tolerance)   # the sheet's triangular
         if u_rel == 0:
             continue
         moved = modal_part(design, {name: 1 + u_rel}, antinodes=antinodes) if structural else modal
