@@ -15,6 +15,7 @@ import pandas as pd
 
 from squeezebench.analysis import provenance
 from squeezebench.analysis.paper import paper_table, printed_step
+from squeezebench.analysis.tables import ROUND_TRIP
 
 
 @dataclass(frozen=True)
@@ -35,6 +36,9 @@ DISPLAY = {
     "tan_theta": Display("tan θ′", "", 1.0),
     "tan_theta_mean": Display("mean tan θ′", "", 1.0),
 }
+#: How a round trip is marked (tables.ROUND_TRIP): a value the run was given came back, which
+#: shows the chain, never the paper; not the ✓ of an agreement.
+ROUND_TRIP_MARK = "↺ round trip"
 #: Significant digits of a number the paper does not print.
 UNPRINTED_DIGITS = 4
 
@@ -75,7 +79,8 @@ def cell(row: pd.Series, places: int | None, explain_href: str | None = None) ->
     """One cell: "this run ± U" over "paper X, deviation %", with the origin beneath and
     a flag (and a link to what explains it) when the deviation is outside the tolerance."""
     quantity = row["quantity"]
-    if row["status"] != "measured":
+    round_trip = row["status"] == ROUND_TRIP
+    if row["status"] != "measured" and not round_trip:
         return f"<td class='na'>{html.escape(str(row['status']))}{_physics(row, quantity, places)}</td>"
     expanded = row.get("expanded_uncertainty")
     has_u = isinstance(expanded, (int, float)) and math.isfinite(expanded) and expanded > 0
@@ -91,7 +96,8 @@ def cell(row: pd.Series, places: int | None, explain_href: str | None = None) ->
     parts = [f"<div class='run'>{run}</div>"]
     if isinstance(row.get("paper_value"), (int, float)) and math.isfinite(row["paper_value"]):
         deviation = percent(row["relative_difference"])
-        mark = "✓" if agrees is True else "✗ outside tolerance" if agrees is False else ""
+        mark = (ROUND_TRIP_MARK if round_trip else "✓" if agrees is True
+                else "✗ outside tolerance" if agrees is False else "")
         parts.append(f"<div class='paper'>paper {number(row['paper_value'], quantity, None if places is None else max(0, places - 1))}"
                      f" · <span class='dev'>{deviation}</span> <span class='mark'>{mark}</span></div>")
     parts.append(_physics(row, quantity, places))
@@ -103,7 +109,8 @@ def cell(row: pd.Series, places: int | None, explain_href: str | None = None) ->
     parts.append(f"<div class='origin'{title}>{html.escape(origin)}</div>")
     if agrees is False and explain_href:
         parts.append(f"<div class='why'><a href='{html.escape(explain_href)}'>why?</a></div>")
-    classes = ["off" if agrees is False else "ok" if agrees is True else "", "cal" if calibrated else ""]
+    classes = ["off" if agrees is False else "ok" if agrees is True else "trip" if round_trip else "",
+               "cal" if calibrated else ""]
     return f"<td class='{' '.join(c for c in classes if c)}'>{''.join(parts)}</td>"
 
 
@@ -179,9 +186,11 @@ def with_uncertainty(value: float, u: float, digits: int = 2) -> str:
 
 
 def percent(fraction: float) -> str:
-    """A relative difference in %, two significant digits below 1 % (never "+0.0 %")."""
+    """A relative difference in %, two significant digits below 1 % (never "+0.0 %"), at
+    most three from 1 % on ("+96.0 %", "−1061 %")."""
     value = 100 * fraction
-    text = f"{value:+.1f}" if abs(value) >= 1 or value == 0 else f"{value:+.2g}"
+    text = (f"{value:+.0f}" if abs(value) >= 100 else f"{value:+.1f}" if abs(value) >= 1 or value == 0
+            else f"{value:+.2g}")
     return f"{text} %".replace("-", "−")
 
 

@@ -30,6 +30,12 @@ TABLE_COLUMNS = ["table", "item", "quantity", "unit", "value", "std_uncertainty"
 
 NOT_MEASURED = "not measured"
 NOT_REACHABLE = "not reachable"
+#: `status` of a printed value the run was given (or calibrated on, or derived only from
+#: those) that came back within its tolerance: it shows the chain, not the paper, so its
+#: `agrees` is left empty, never counted as an agreement.
+ROUND_TRIP = "round_trip"
+#: Origins of values that were inputs of the run, not results.
+INPUT_ORIGINS = (provenance.CALIBRATION_INPUT, provenance.SETTING)
 #: A straight line through fewer points has no residual to judge it by.
 MIN_FIT_POINTS = 3
 
@@ -634,6 +640,12 @@ def estimated_large_plate_power_w(plates: dict[str, PlateCharacterisation],
                          "power_predicted_U_w": predicted * response["power_rel_U"]})
 
 
+def is_put_in(frame: pd.DataFrame) -> pd.Series:
+    """Rows whose value the run was given: a campaign setting, a calibration input, or
+    derived from calibration inputs (`calibrated_on` names them)."""
+    return frame["origin"].isin(INPUT_ORIGINS) | frame["calibrated_on"].map(lambda c: isinstance(c, str) and c != "")
+
+
 def finish_table(frame: pd.DataFrame, value_columns=("value", "std_uncertainty", "expanded_uncertainty",
                                                      "scope_value", "paper_value", "relative_difference",
                                                      "tolerance", "predicted_value", "predicted_U",
@@ -642,10 +654,16 @@ def finish_table(frame: pd.DataFrame, value_columns=("value", "std_uncertainty",
     Number columns are floats, a missing number NaN (an empty CSV cell) with the row's
     `status` saying why ('not measured', 'not reachable'); `agrees` is a nullable boolean,
     empty where nothing was compared; a missing printed value has `paper_source` 'not
-    printed'. Words never stand in a number column, so `pd.read_csv` gives floats back."""
+    printed'. A value the run was given that comes back within its tolerance has status
+    'round_trip' and `agrees` empty (`ROUND_TRIP`). Words never stand in a number column, so
+    `pd.read_csv` gives floats back."""
     out = frame.copy()
     if "agrees" in out:   # compared only where both numbers exist
         out["agrees"] = out["agrees"].map(lambda a: pd.NA if a is None or pd.isna(a) else bool(a)).astype("boolean")
+        if "origin" in out and "calibrated_on" in out:
+            came_back = out["agrees"].fillna(False).astype(bool) & is_put_in(out)
+            out.loc[came_back, "status"] = ROUND_TRIP
+            out.loc[came_back, "agrees"] = pd.NA
     if "paper_source" in out:
         out["paper_source"] = out["paper_source"].where(out["paper_source"].fillna("") != "", "not printed")
     for column in (c for c in value_columns if c in out):
