@@ -123,7 +123,8 @@ def opening(bench_kind: str, n_points: int, n_runs: int, tables: Mapping[str, pd
             lines.append(Line(f"{_noun(len(agree), 'value', 'values')} this run measured "
                               f"{'agrees' if len(agree) == 1 else 'agree'} with print within U{said}.",
                               kind="agree"))
-    physics = _physics_line(tables.get("predicted"))
+    # the plate model against the paper's plates: said where the run measured them
+    physics = None if cells.empty else _physics_line(tables.get("predicted"))
     if physics:
         lines.append(physics)
     misses = [reasons.get((row["table_name"], row["item"], row["quantity"])) or miss_line(row)
@@ -188,18 +189,21 @@ def _physics_line(predicted: pd.DataFrame | None) -> Line | None:
 
 
 def map_lines(maps: pd.DataFrame | None) -> list[Line]:
-    """A vibration map's numbers: velocity and the amplitude it means in µm pp against the
-    haptics criterion, its spread and uniformity."""
+    """A vibration map's numbers: velocity, and the amplitude it means in µm pp against the
+    haptics criterion (with the voltage that reaches it), its spread and uniformity."""
     if maps is None or maps.empty:
         return []
     row = maps.iloc[0]
     more = f" ({len(maps) - 1} more maps in the report)" if len(maps) > 1 else ""
     amplitude = ""
-    if "mean_amplitude_pp_um" in row and np.isfinite(row["mean_amplitude_pp_um"]):
-        verdict = "above" if row["mean_amplitude_pp_um"] >= row["criterion_amplitude_pp_um"] else "below"
-        amplitude = (f" ({with_uncertainty(row['mean_amplitude_pp_um'], row['mean_amplitude_pp_um_U'])} µm pp, "
-                     f"{verdict} the {row['criterion_amplitude_pp_um']:g} µm pp a finger needs to feel the effect)")
+    if "mean_amplitude_pp_m" in row and np.isfinite(row["mean_amplitude_pp_m"]):
+        criterion = row["criterion_amplitude_pp_m"] * 1e6
+        verdict = "above" if row["mean_amplitude_pp_m"] * 1e6 >= criterion else "below"
+        amplitude = (f", that is {with_uncertainty(1e6 * row['mean_amplitude_pp_m'], 1e6 * row['mean_amplitude_pp_m_U'])}"
+                     f" µm pp at {row['piezo_voltage_vpp']:g} V pp, {verdict} the {criterion:g} µm pp a fingertip needs "
+                     f"(about {row['voltage_for_criterion_vpp']:.0f} V pp reaches it)")
     return [Line(f"Vibration map {row['run_name']}: {row['n_touch_points']} points over the touch area, velocity "
                  f"{with_uncertainty(row['mean_velocity_pp_mps'], row['mean_velocity_pp_mps_U'])} m/s pp on "
-                 f"average{amplitude}, coefficient of variation {row['coefficient_of_variation']:.0%}, "
-                 f"{row['width_uniformity']:.0%} uniform across the width{more}.", "#map", "map")]
+                 f"average{amplitude}; coefficient of variation "
+                 f"{with_uncertainty(100 * row['coefficient_of_variation'], 100 * row['coefficient_of_variation_U'], unit='%')}, "
+                 f"{row['width_uniformity']:.1%} uniform across the width{more}.", "#map", "map")]

@@ -177,12 +177,22 @@ def calibration_notes(frame: pd.DataFrame, item_label=str) -> str:
                                          f"<ul>{''.join(lines)}</ul>") + "</div>")
 
 
-def with_uncertainty(value: float, u: float, digits: int = 2) -> str:
-    """"value ± u" with u to `digits` significant digits and value to the same decimal."""
+#: No number is shown with more significant figures than this: an uncertainty below the
+#: last of them is said as a bound.
+MAX_FIGURES = 6
+
+
+def with_uncertainty(value: float, u: float, digits: int = 2, unit: str = "") -> str:
+    """"value ± u unit" with u to `digits` significant digits and value to the same decimal;
+    a value never past MAX_FIGURES figures ("45.2759 (U < 0.0001)" for a U of 3e-14)."""
+    unit = f" {unit}" if unit else ""
     if not (math.isfinite(value) and math.isfinite(u)) or u <= 0:
-        return f"{value:.4g}".replace("-", "−")
+        return f"{value:.4g}{unit}".replace("-", "−")
     places = max(0, digits - 1 - math.floor(math.log10(u)))
-    return f"{value:.{places}f} ± {u:.{places}f}".replace("-", "−")
+    cap = max(0, MAX_FIGURES - 1 - math.floor(math.log10(abs(value)))) if value else places
+    if places > cap:
+        return f"{value:.{cap}f}{unit} (U < {10.0 ** -cap:.{cap}f}{unit})".replace("-", "−")
+    return f"{value:.{places}f} ± {u:.{places}f}{unit}".replace("-", "−")
 
 
 def percent(fraction: float) -> str:

@@ -175,9 +175,8 @@ def summary_section(context: ReportContext) -> Section:
                      "lab would measure if the model is right)")
         lead = ("<p class='banner'><b>Dry run on the simulated bench.</b> No plate was measured: the "
                 f"instruments answered from the physics of {len(inputs)} scene{'s' if len(inputs) != 1 else ''}{said} "
-                "(<a href='#provenance'>listed in the appendix</a>, with why). A printed value the run was given "
-                f"that comes back is shaded and marked {presentation.ROUND_TRIP_MARK}: it shows that the chain from "
-                "instrument to table returns what went in, not that the paper is confirmed.</p>")
+                f"(<a href='#provenance'>listed in the appendix</a>, with why). {presentation.ROUND_TRIP_MARK}: "
+                "a printed value the run was given came back (the chain, not the paper).</p>")
     elif kind == "real":
         ids = sorted({json.dumps(v, sort_keys=True) for v in run.manifest.get("instruments", {}).values()})
         lead = ("<p class='banner real'><b>Measured on a real bench</b> (instruments: "
@@ -204,8 +203,8 @@ def summary_section(context: ReportContext) -> Section:
             + html.escape(", ".join(f"{p}: {n}" for p, n in protocols.items()))
             + f") on {len(plates)} plates: " + html.escape(", ".join(plates)) + ".</p>")
     if context.absent:
-        body += ("<p>Not in this run (sections left out):</p><ul>"
-                 + "".join(f"<li>{html.escape(a)}</li>" for a in context.absent) + "</ul>")
+        body += presentation.fold(f"Not in this run: {len(context.absent)} section{'s' if len(context.absent) != 1 else ''} "
+                                  "left out", "<ul>" + "".join(f"<li>{html.escape(a)}</li>" for a in context.absent) + "</ul>")
     return Section("Summary", body, "summary")
 
 
@@ -326,16 +325,19 @@ def _inferred_reading_explanation(context: ReportContext, table: str, item: str,
                      f"this run gives {_signed(row.value)} against the printed {_signed(row.printed)} "
                      f"({presentation.percent(row.relative_difference)})")
             reading, used = _reading_words(str(row.reading)), _reading_words(context.convention.name)
+            there = (f"{100 * abs(row.value):.1f} %" if table == "fig9" else
+                     f"{_signed(row.value)}, {presentation.percent(row.relative_difference)}")
+            short = _reading_words(str(row.reading)).split(" (")[0]
             if row.reading in built_under:   # the run's own mix of readings, not the paper, makes the miss
                 return ("readings", f"this run's Fig. 5 scenes were built from the paper's summaries under "
                         f"{reading}, and under it {shown}; analysed under {used}, used in this table, they "
                         "cannot return the printed numbers: the miss comes from mixing two readings in this "
                         "run, not from the paper",
-                        f"this run's scenes were built under {reading}, where {shown}: the miss is this run's "
-                        "mix of two readings, not the paper")
+                        f"this run's scenes were built under {short} ({there} there): the run mixes two "
+                        "readings, the paper holds")
             return ("readings", f"under {reading} of the paper's open conventions, {shown}: {used}, used in "
                     "this table, is what disagrees with the paper's own numbers",
-                    f"it holds only under {reading}, where {shown}; not under {used}")
+                    f"it holds only under {reading} ({there} there), not under {used.split(', the text')[0]})")
     return None
 
 
@@ -396,9 +398,8 @@ def _paper_table_section(context: ReportContext, name: str, title: str, protocol
         context.tables[name] = tables.finish_table(tables.empty_table(name, quantities))
         context.absent.append(f"{title}: protocol '{protocol}' is not in this run")
         return None
-    frame = compute(context.run)
-    context.tables[name] = tables.finish_table(frame)
-    return Section(title, _paper_table_html(context, name, title, frame, item_label, intro), name)
+    context.tables[name] = tables.finish_table(compute(context.run))   # the CSV's rows are the HTML's cells
+    return Section(title, _paper_table_html(context, name, title, context.tables[name], item_label, intro), name)
 
 
 def _paper_table_html(context: ReportContext, name: str, title: str, frame: pd.DataFrame,
@@ -411,7 +412,8 @@ def _paper_table_html(context: ReportContext, name: str, title: str, frame: pd.D
                if "predicted_value" in frame and frame["predicted_value"].notna().any() else "")
     caption = (f"{html.escape(title)}. {_bench_words(context)} Each cell: this run ± U (k = 2, {budget}), "
                "the printed value and the deviation; ✓ within, ✗ outside "
-               f"U plus half the printed last digit; {physics}beneath, the origin of the number.")
+               f"U plus half the printed last digit, {presentation.ROUND_TRIP_MARK}: a printed value the run was "
+               f"given came back (the chain, not the paper); {physics}beneath, the origin of the number.")
     return (f"<p>{intro}</p>" + presentation.paper_layout(frame, name, item_label, explain, caption)
             + presentation.calibration_notes(frame, item_label)
             + f"<p class='csv'>Machine-readable: <a href='{name}.csv'>{name}.csv</a> "
@@ -443,12 +445,14 @@ def characterisation_section(context: ReportContext) -> Section | None:
         return None
     plates = context.plates()
     context.tables["fig5"] = tables.finish_table(tables.fig5_table(plates))
+    surprising = _surprises(context, plates)
     body = ("<p>Every characterised plate of this run: Q from the slope of amplitude pp against "
             "voltage pp (Eq. 27), tan θ′ from the slope of power against voltage pp squared (Eq. 25) "
             "divided by Q. Both lines are fitted with an intercept, which a plate obeying the model "
             "leaves at zero within its uncertainty; χ²/dof near 1 says the points scatter as their "
             "uncertainties state.</p>"
-            + _surprises(context, plates)
+            + (presentation.fold("What a reader would stop at in these fits (signs, χ²/dof), and why", surprising)
+               if surprising else "")
             + presentation.fold(f"Q, tan θ′ and both fits of each of the {len(plates)} plates, as numbers",
                                 _plates_table(context, plates)))
     runs = ", ".join(sorted(context.run.protocol("characterisation")["run_name"].unique()))
@@ -584,8 +588,7 @@ def table5_section(context: ReportContext) -> Section | None:
         f"there. " + _bench_words(context))
     if estimated:
         title = "Table 5: the large plate estimated from the small ones (Sec. 5.3)"
-        table5 = tables.table5(plates, context.convention)
-        context.tables["table5"] = tables.finish_table(table5)
+        context.tables["table5"] = table5 = tables.finish_table(tables.table5(plates, context.convention))
         body = _paper_table_html(
             context, "table5", title, table5, lambda item: f"{item} ({'Eq. 29 from small_plate_4' if item == 'estimated' else 'large_plate'})",
             "Estimated: Q of small_plate_4 carried to the large plate by Eq. 29, tan θ′ the mean of "
@@ -735,9 +738,9 @@ def audit_section(context: ReportContext) -> Section:
                            f"{html.escape(str(worst['comment']))}{numbers}.</li>")
     explained = [f"{html.escape(where)}, {why}" for where, why, _ in context.flagged if "</a>." in why]
     body = ""
-    if explained:
-        body += ("<p><b>This run's disagreements with the paper, and what explains them:</b></p><ul>"
-                 + "".join(f"<li>{why}</li>" for why in explained) + "</ul>")
+    if explained:   # the summary opens with each in a line: here in full, one click away
+        body += presentation.fold(f"This run's {len(explained)} disagreements with the paper, and what explains them",
+                                  "<ul>" + "".join(f"<li>{why}</li>" for why in explained) + "</ul>")
     body += ("<p>What the paper's printed numbers and equations say about each other, computed from "
              "its printed values alone (data/paper/), independently of any run. Conclusions, one per "
              "finding (its largest difference from a printed value):</p>"
@@ -1229,13 +1232,13 @@ def readings_section(context: ReportContext) -> Section | None:
         table5 = audit.table5_under_readings(context.run)
     except UserError as exc:
         return Section("Plates under each reading", body + f"<p>Table 5 and Fig. 9 under each reading: "
-                       f"{html.escape(str(exc))}.</p>", "readings")
+                       f"{html.escape(str(exc))}.</p>", "readings", appendix=True)
     table5.to_csv(context.out_dir / "table5_by_reading.csv", index=False)
     body += ("<h3>Table 5 and Fig. 9 under each reading</h3>"
              + "".join(f"<p>{html.escape(words)}</p>" for words in audit.table5_verdicts(table5))
              + presentation.fold("Table 5 and Fig. 9 under each reading, as numbers",
                                  html_table(table5, f"Table 5 and Fig. 9 under each reading. {_bench_words(context)}")))
-    return Section("Plates under each reading", body, "readings")
+    return Section("Plates under each reading", body, "readings", appendix=True)
 
 
 #: The report, in order (the summary goes first, built last). Another package adds a

@@ -105,6 +105,8 @@ def cmd_run(args: argparse.Namespace) -> int:
                            progress=show_progress(args), accept_changed_bench=args.accept_changed_bench,
                            operator_done=args.operator_done, **watchers)
     say(args, f"run stored in {run_dir}")
+    for line in _map_headline(campaign, run_dir):   # a map's answer now, not at `report`
+        say(args, line)
     if not args.quiet:   # after the run: an error stays the one line it is
         for note in _campaign_notes(campaign, args.campaign):
             print(f"squeezebench run: {note}", file=sys.stderr)
@@ -116,6 +118,20 @@ def cmd_run(args: argparse.Namespace) -> int:
         say(args, "close the plot window to finish")
         plt.show()
     return 0
+
+
+def _map_headline(campaign, run_dir: Path) -> list[str]:
+    """The report's lines for each vibration map the campaign made (nothing without one)."""
+    from squeezebench.protocols.variants import MAP_PROTOCOLS
+
+    if not any(run.protocol in MAP_PROTOCOLS for run in campaign.runs):
+        return []
+    from squeezebench.analysis.cartography_report import map_summaries
+    from squeezebench.analysis.headline import map_lines
+    from squeezebench.analysis.rundata import load_run
+
+    summaries, _ = map_summaries(load_run(run_dir))
+    return [line.text for line in map_lines(summaries)]
 
 
 def _campaign_notes(campaign, name: str) -> list[str]:

@@ -139,7 +139,9 @@ def physics_section(context: report.ReportContext) -> report.Section | None:
 
 
 def _section(body: str) -> report.Section:
-    return report.Section("What physics predicts for the characterised plates (Fig. 5)", body, "plates-physics")
+    # detail of Fig. 5's plates, plate by plate: reference, after the results
+    return report.Section("What physics predicts for the characterised plates (Fig. 5)", body, "plates-physics",
+                          appendix=True)
 
 
 def check_powered_piezos(campaign) -> None:

@@ -89,9 +89,33 @@ def test_physics_against_print_within_u_or_not():
                               "predicted_frequency_u_hz": printed * 0.05,   # U 5 %: the 9.6 % miss is beyond it
                               "printed_power_w": [0.1, 0.1, 0.1, math.nan],
                               "predicted_power_w": [0.1, 0.05, 0.3, 0.2], "predicted_power_u_w": [0.02] * 4})
-    line = next(line for line in opening("simulated", 1, 1, {"predicted": predicted}) if line.kind == "physics")
+    line = next(line for line in opening("simulated", 1, 1, {**TABLES, "predicted": predicted}) if line.kind == "physics")
     assert "resonance frequency 3 of 4 plates (worst +9.6 %); power 1 of 3 (worst +200 %)" in line.text
     assert line.href == "#predicted"
+    # a run that measured none of the paper's plates (a map alone) is not told about them
+    assert not any(line.kind == "physics" for line in opening("simulated", 1, 1, {"predicted": predicted}))
+
+
+def test_a_map_is_read_in_um_pp_against_the_haptics_criterion_with_the_tables_rounding():
+    from squeezebench.analysis.headline import map_lines
+
+    maps = pd.DataFrame([{"run_name": "fig7", "n_touch_points": 350, "mean_velocity_pp_mps": 0.09824,
+                          "mean_velocity_pp_mps_U": 0.00254, "mean_amplitude_pp_m": 2.984e-7,
+                          "mean_amplitude_pp_m_U": 7.7e-9, "criterion_amplitude_pp_m": 1e-6,
+                          "piezo_voltage_vpp": 20.0, "voltage_for_criterion_vpp": 67.02,
+                          "coefficient_of_variation": 0.497040, "coefficient_of_variation_U": 1.6e-5,
+                          "width_uniformity": 0.9412}])
+    text = map_lines(maps)[0].text
+    assert "0.2984 ± 0.0077 µm pp at 20 V pp, below the 1 µm pp a fingertip needs (about 67 V pp reaches it)" in text
+    assert "coefficient of variation 49.7040 ± 0.0016 %" in text and "94.1% uniform" in text
+
+
+def test_no_number_is_shown_past_six_figures():
+    from squeezebench.analysis.presentation import with_uncertainty
+
+    assert with_uncertainty(45.275888133030989, 3.3e-14) == "45.2759 (U < 0.0001)"
+    assert with_uncertainty(9.21847, 0.00067) == "9.21847 ± 0.00067"
+    assert with_uncertainty(-14.218, 2.04) == "−14.2 ± 2.0"
 
 
 def test_a_run_without_paper_tables_says_only_what_ran_in_the_singular():
