@@ -119,7 +119,7 @@ COLUMNS: dict[str, tuple[str, str]] = {
                        "datasheets only)"),
     "value_over_predicted": ("1", "value / predicted_value"),
     "agrees_with_prediction": ("", "|value - predicted_value| <= the two expanded uncertainties in quadrature"),
-    "predicted_U": ("unit", "expanded uncertainty (k = 2) of predicted_value from the material, geometry, d31 and "
+    "predicted_expanded_uncertainty": ("unit", "expanded uncertainty (k = 2) of predicted_value from the material, geometry, d31 and "
                             "damping tolerances"),
     "predicted_difference": ("1", "(predicted_value - paper_value) / |paper_value|"),
     "origin": ("", "measured (real bench), simulated, calibration input, derived or campaign setting"),

@@ -120,7 +120,7 @@ def _physics(row: pd.Series, quantity: str, places: int | None) -> str:
     predicted = row.get("predicted_value")
     if not (isinstance(predicted, (int, float)) and math.isfinite(predicted)):
         return ""
-    u = row.get("predicted_U")
+    u = row.get("predicted_expanded_uncertainty")
     if isinstance(u, (int, float)) and math.isfinite(u) and u > 0 and quantity in DISPLAY:
         u_places = max(0, 1 - math.floor(math.log10(u * DISPLAY[quantity].scale)))
         shown = f"{number(predicted, quantity, u_places)} ± {number(u, quantity, u_places)}"

@@ -345,7 +345,7 @@ def table4(run: RunData) -> pd.DataFrame:
 def with_prediction(frame: pd.DataFrame, table: str) -> pd.DataFrame:
     """`frame` with what physics predicts for the paper's plate beside each printed value it
     can predict (analysis.predicted_plates: geometry and datasheets, no printed result in):
-    predicted_value, predicted_U (k = 2) and predicted_difference from print."""
+    predicted_value, predicted_expanded_uncertainty (k = 2) and predicted_difference from print."""
     from squeezebench.analysis import predicted_plates   # the plate solver: only where a paper table is drawn
 
     out = frame.merge(predicted_plates.tidy(table), on=["item", "quantity"], how="left")
@@ -575,7 +575,7 @@ def table5(plates: dict[str, PlateCharacterisation], convention: model.Conventio
     frame = pd.DataFrame(rows, columns=TABLE_COLUMNS)
     predicted = predicted_large_plate_q_tan(measured.geometry, convention)
     frame["predicted_value"] = frame["quantity"].map(lambda q: predicted[q][0])
-    frame["predicted_U"] = frame["quantity"].map(lambda q: predicted[q][1])
+    frame["predicted_expanded_uncertainty"] = frame["quantity"].map(lambda q: predicted[q][1])
     frame["predicted_difference"] = [relative_difference(v, p) for v, p in zip(frame["predicted_value"],
                                                                                 frame["paper_value"])]
     return frame
@@ -646,9 +646,34 @@ def is_put_in(frame: pd.DataFrame) -> pd.Series:
     return frame["origin"].isin(INPUT_ORIGINS) | frame["calibrated_on"].map(lambda c: isinstance(c, str) and c != "")
 
 
+#: What a paper table's `item` is, as a wide table's first column names it.
+ITEM_NAMES = {"table3": "plate_length_mm", "table4": "configuration", "table5": "estimate"}
+
+
+def wide_table(frame: pd.DataFrame) -> pd.DataFrame:
+    """A finished paper table (tidy: one row per item and quantity) as pandas users expect
+    it: one row per item, named for what it is (`ITEM_NAMES`: Table 3's plate length in mm),
+    and per quantity (its unit in its name) its value, `<quantity>_expanded_u` (U, k = 2),
+    `paper_<quantity>` and `<quantity>_status` ('measured', 'round_trip', 'not measured')."""
+    name = str(frame["table"].iloc[0]) if len(frame) else ""
+    item = ITEM_NAMES.get(name, "item")
+    parts = {"": "value", "_expanded_u": "expanded_uncertainty", "paper_": "paper_value", "_status": "status"}
+    wide = {}
+    for suffix, column in parts.items():
+        pivot = frame.pivot(index="item", columns="quantity", values=column)
+        for quantity in dict.fromkeys(frame["quantity"]):
+            wide[f"{suffix}{quantity}" if suffix == "paper_" else f"{quantity}{suffix}"] = pivot[quantity]
+    out = pd.DataFrame(wide)
+    order = [c for q in dict.fromkeys(frame["quantity"]) for c in (q, f"{q}_expanded_u", f"paper_{q}", f"{q}_status")]
+    out = out[order].reindex(list(dict.fromkeys(frame["item"]))).rename_axis(item).reset_index()
+    if item.endswith("_mm"):
+        out[item] = out[item].astype(float)
+    return out
+
+
 def finish_table(frame: pd.DataFrame, value_columns=("value", "std_uncertainty", "expanded_uncertainty",
                                                      "scope_value", "paper_value", "relative_difference",
-                                                     "tolerance", "predicted_value", "predicted_U",
+                                                     "tolerance", "predicted_value", "predicted_expanded_uncertainty",
                                                      "predicted_difference")) -> pd.DataFrame:
     """The table as written and read back: one dtype per column whatever the run holds.
     Number columns are floats, a missing number NaN (an empty CSV cell) with the row's

@@ -333,7 +333,8 @@ def validate_file(path: Path) -> dict[str, Any]:
         scenes = sorted({p.name for run in campaign.runs for p in run.input_files() if p.suffix == ".yaml"})
         n_steps = sum(len(run.steps()) for run in campaign.runs)
         return {"file": str(path), "kind": "campaign",
-                "summary": f"{len(campaign.runs)} runs, {n_steps} steps, inputs {', '.join(scenes)}",
+                "summary": f"{len(campaign.runs)} run{'s' if len(campaign.runs) != 1 else ''}, {n_steps} "
+                           f"step{'s' if n_steps != 1 else ''}, inputs {', '.join(scenes)}",
                 "warnings": [f"{source}: {w}" for source, config in configs.items()
                              for w in chain_warnings(config.electronics)]}
     if isinstance(data, dict) and ("resources" in data or "visa_library" in data):

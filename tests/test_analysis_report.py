@@ -185,7 +185,7 @@ def test_tables_3_and_4_carry_what_physics_predicts_beside_print(reported):
         for item, row in frequency.iterrows():
             expected = predictions.loc[(title, item)]
             assert row["predicted_value"] == pytest.approx(expected["predicted_frequency_hz"])
-            assert row["predicted_U"] == pytest.approx(expected["predicted_frequency_u_hz"])
+            assert row["predicted_expanded_uncertainty"] == pytest.approx(expected["predicted_frequency_u_hz"])
             assert row["predicted_difference"] == pytest.approx(row["predicted_value"] / row["paper_value"] - 1)
         assert table.loc[table["quantity"] == "voltage_vpp", "predicted_value"].isna().all()   # an input
     assert index.read_text().count("<div class='physics'>physics ") >= 3 * 4 + 3 * 4
