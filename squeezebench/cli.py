@@ -167,12 +167,18 @@ def cmd_validate(args: argparse.Namespace) -> int:
     """Each file checked on its own: one line per file (stdout if sound, stderr if not)."""
     from squeezebench.schemas import validate_file
 
+    checked = _files_to_validate(args)
+    if not checked:
+        raise UserError("name at least one file (or --campaign, --scene, --design, --bench NAME)")
     results = []
-    for file in args.files:
+    for label, path, problem in checked:
+        if problem:
+            results.append({"file": label, "ok": False, "error": problem, "warnings": []})
+            continue
         try:
-            results.append({**validate_file(paths.input_file(file)), "ok": True, "error": None})
+            results.append({**validate_file(path), "ok": True, "error": None})
         except UserError as exc:
-            results.append({"file": file, "ok": False, "error": str(exc), "warnings": []})
+            results.append({"file": label, "ok": False, "error": str(exc), "warnings": []})
     passed = all(result["ok"] for result in results)
     if args.json:
         emit_json({"command": "validate", "passed": passed, "files": results})
@@ -186,6 +192,41 @@ def cmd_validate(args: argparse.Namespace) -> int:
             for warning in result["warnings"]:
                 print(f"squeezebench validate: warning: {warning}", file=sys.stderr)
     return 0 if passed else EXIT_USER_ERROR
+
+
+def _files_to_validate(args: argparse.Namespace) -> list[tuple[str, Path | None, str]]:
+    """(name as given, file, problem) for each file to check: a file as given; a shipped
+    name, resolved by kind with --campaign/--scene/--design/--bench, else in every kind that
+    has it (said once on stderr: `validate large_plate` means the scene and the design)."""
+    found = []
+    for kind in paths.SHIPPED_KINDS:
+        for name in getattr(args, kind) or ():
+            try:
+                found.append((name, paths.shipped_of_kind(name, kind), ""))
+            except UserError as exc:
+                found.append((name, None, str(exc)))
+    for name in args.files:
+        if Path(name).is_file():
+            found.append((name, Path(name), ""))
+            continue
+        kinds = [kind for kind in paths.SHIPPED_KINDS if _shipped(name, kind)]
+        if not kinds:
+            found.append((name, None, paths.unknown_name(name, list(paths.SHIPPED_KINDS))))
+            continue
+        if len(kinds) > 1 and not args.quiet:
+            words = " and the ".join(paths.KIND_SINGULAR[kind] for kind in kinds)
+            print(f"squeezebench validate: {len(kinds)} shipped files are called {name}: the {words}; checking "
+                  f"each ({' or '.join(f'--{paths.KIND_SINGULAR[k]} {name}' for k in kinds)} checks one)",
+                  file=sys.stderr)
+        found.extend((name, _shipped(name, kind), "") for kind in kinds)
+    return found
+
+
+def _shipped(name: str, kind: str) -> Path | None:
+    try:
+        return paths.shipped_of_kind(name, kind)
+    except UserError:
+        return None
 
 
 def cmd_report(args: argparse.Namespace) -> int:
@@ -368,6 +409,12 @@ def cmd_plan(args: argparse.Namespace) -> int:
 
 
 def cmd_design(args: argparse.Namespace) -> int:
+    if args.template:   # a file to fill in: `squeezebench design --template > my_plate.yaml`
+        sys.stdout.write(paths.design_template().read_text(encoding="utf-8"))
+        return 0
+    if args.plate is None:
+        raise UserError("name a design file (or a shipped design), or start one with: squeezebench design "
+                        "--template > my_plate.yaml")
     from squeezebench.analysis.design_report import headline, payload
     from squeezebench.designing import run_design, write_build, write_design
 
@@ -474,7 +521,8 @@ EXAMPLES = {
              "squeezebench plan cartography --target-rel-error 0.03 --json"],
     "list": ["squeezebench list                         # every shipped campaign, scene, design and bench",
              "squeezebench list campaigns --json"],
-    "design": ["squeezebench design large_plate --no-layouts   # the paper's large plate, from physics",
+    "design": ["squeezebench design --template > my_plate.yaml   # a plate to fill in (docs/design-files.md)",
+               "squeezebench design large_plate --no-layouts   # the paper's large plate, from physics",
                "squeezebench design large_plate --from runs/paper  # and by the paper's method from its small plates",
                "squeezebench design my_plate.yaml --write-build build/   # + its predicted scene and campaign",
                "squeezebench design my_plate.yaml --measured runs/my_plate_characterisation --json"],
@@ -543,7 +591,11 @@ def build_parser() -> argparse.ArgumentParser:
 
     validate = add("validate", json=True, help="check campaign, bench and scene files (and every scene "
                    "and request a campaign has) without touching a bench or a run directory")
-    validate.add_argument("files", nargs="+", metavar="FILE", help="campaign, bench or scene YAML files")
+    validate.add_argument("files", nargs="*", metavar="FILE",
+                          help="campaign, bench, scene or design YAML files, or shipped ones by name")
+    for kind, singular in paths.KIND_SINGULAR.items():
+        validate.add_argument(f"--{singular}", dest=kind, action="append", metavar="NAME",
+                              help=f"the shipped {singular} of this name (or a file), whatever else is called so")
     validate.set_defaults(func=cmd_validate)
 
     report = add("report", help="recompute tables and figures from a stored run")
@@ -599,8 +651,10 @@ def build_parser() -> argparse.ArgumentParser:
 
     design = add("design", json=True, help="predict what a plate will need before it is built (voltage, "
                  "power, mode, layouts), from physics and from characterised small plates")
-    design.add_argument("plate", help="design YAML file, or the name of a shipped one "
-                        f"({', '.join(paths.shipped_names('designs'))})")
+    design.add_argument("plate", nargs="?", help="design YAML file (docs/design-files.md), or the name of a "
+                        f"shipped one ({', '.join(paths.shipped_names('designs'))})")
+    design.add_argument("--template", action="store_true",
+                        help="print a commented design file to start from (a 120 x 60 x 1.5 mm plate) and stop")
     design.add_argument("--from", dest="from_runs", nargs="+", type=Path, default=None, metavar="RUN_DIR",
                         help="characterisation runs of small plates of the same build: also predict by the "
                              "paper's method (Eqs. 25-29)")
@@ -608,8 +662,8 @@ def build_parser() -> argparse.ArgumentParser:
                         help="a characterisation run of the built plate: set the measurement beside the predictions")
     design.add_argument("--measured-plate", default=None, metavar="NAME",
                         help="which plate of --measured is the built one (default: the design's name, or the only one)")
-    design.add_argument("--out", type=Path, default=None, help="folder for the page and its files "
-                        "(default: designs/<name>)")
+    design.add_argument("--out", type=Path, default=None, metavar="DIR",
+                        help="write the page and its files into DIR itself (default: designs/<name>)")
     design.add_argument("--write-build", type=Path, default=None, metavar="DIR",
                         help="also write DIR/<name>.yaml, the design as a predicted scene of the simulated bench, "
                              "and DIR/<name>_characterisation.yaml, the campaign that characterises it (a dry run "

@@ -48,6 +48,11 @@ def designs_dir() -> Path:
     return data_dir() / "designs"
 
 
+def design_template() -> Path:
+    """The worked example of docs/design-files.md (`squeezebench design --template`)."""
+    return data_dir() / "examples" / "design_template.yaml"
+
+
 def design_file(name: str | Path) -> Path:
     """A design file as given, else a shipped design of that name (with or without `.yaml`)."""
     return _given_or_shipped(name, designs_dir())
