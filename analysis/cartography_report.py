@@ -11,7 +11,7 @@ import pandas as pd
 
 from squeezebench.analysis import cartography, predicted_plates
 from squeezebench.analysis.drawing import Drawing
-from squeezebench.analysis.presentation import with_uncertainty
+from squeezebench.analysis.presentation import fold, with_uncertainty
 
 
 def map_figure(points: pd.DataFrame, path: Path, plate: str) -> None:
@@ -120,7 +120,8 @@ def section_html(run, out_dir: Path, figure, html_table,
         "MAC with model": [f"{m:.3f}" if np.isfinite(m) else "no model" for m in summaries["mac_with_predicted"]],
     })[["run_name", "n_points", "mean velocity (m/s pp)", "mean amplitude (µm pp)", CRITERION_HEADER, "min / max (m/s pp)", "coefficient of variation (%)",
         "area above share of peak (%)", "width uniformity", "nodal-line spacing (mm)", "MAC with model"]]
-    body += html_table(shown.rename(columns={"run_name": "map", "n_points": "points"}),
-                       "homogeneity of each map's touch area, ± U (k = 2): the points' noise, and for velocities the "
-                       "scale all points share (CH3 gain, decoder)")
+    body += fold("Homogeneity of each map as numbers, with the voltage that reaches the haptics criterion",
+                 html_table(shown.rename(columns={"run_name": "map", "n_points": "points"}),
+                            "homogeneity of each map's touch area, ± U (k = 2): the points' noise, and for velocities "
+                            "the scale all points share (CH3 gain, decoder)"))
     return body, summaries, pd.concat(maps.values(), ignore_index=True)

@@ -896,10 +896,10 @@ def _systematics_part(context: ReportContext, summary: pd.DataFrame, drawn: Path
                     "setting, and scatters by a good part of itself from one set of benches to another: it "
                     "sits below the budget's when no bench drew an error near its limit (a delay near +-10 ns), "
                     "and well above it only if the budget misses an effect.</p>")
-    return ("<h3>Floors on benches whose instruments err within specification</h3>" + reconciled
-            + presentation.fold("How the study draws its benches, its floors per point, drawn against bench time "
-                                "and as a table",
-            f"<p>Each trial is another simulated bench: scope gains, current-probe gain and delay, "
+    return ("<h3>Floors on benches whose instruments err within specification</h3>"
+            + presentation.fold("The budgets' floor each quantity is held to, how the study draws its benches, "
+                                "its floors per point, drawn against bench time and as a table",
+            reconciled + f"<p>Each trial is another simulated bench: scope gains, current-probe gain and delay, "
             "channel skew, vibrometer scale and generator frequency drawn once within their "
             "specifications (analysis.specifications), the noise drawn anew. Averaging (and, for the "
             "search, a finer tolerance) lowers the noise until the bench's own errors, or what the "
@@ -1251,10 +1251,12 @@ def predicted_section(context: ReportContext) -> Section:
     body = ("<p>Predicted from geometry and materials only (free Kirchhoff plate on Argyris elements, "
             "the piezos as laminate patches; the paper's Table 2 aluminium and NCE 41 for every plate, "
             "no parameter fitted), beside the printed values. U (k = 2) from the material and thickness "
-            "tolerances. Column layouts: " + "; ".join(html.escape(why) for _, why in
-                                                       predicted_plates.LAYOUTS.values()) + ".</p>")
+            "tolerances.</p>")
     body += presentation.fold("Predicted beside printed, plate by plate (the physics lines of Tables 3 and 4, and "
-                              "the large plate)", html_table(shown, "predicted (plate model) and printed (paper)"))
+                              "the large plate), and the column layouts assumed",
+                              "<p>Column layouts: " + "; ".join(html.escape(why) for _, why in
+                                                                predicted_plates.LAYOUTS.values()) + ".</p>"
+                              + html_table(shown, "predicted (plate model) and printed (paper)"))
     figure = predicted_plates.large_plate_mode_figure(context.out_dir / "predicted_mode_large_plate.png")
     body += presentation.fold("The large plate's predicted working mode", context.figure(
         context.out_dir / "predicted_mode_large_plate.png",
