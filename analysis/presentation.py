@@ -67,6 +67,8 @@ def number(value: float, quantity: str, places: int | None) -> str:
     if places is None:
         magnitude = math.floor(math.log10(abs(shown))) if shown else 0
         places = max(0, UNPRINTED_DIGITS - 1 - magnitude)
+    if places < 0:   # U's second figure left of the units: 38414 ± 2273 shows as 38400 ± 2300
+        shown, places = round(shown, places), 0
     return f"{shown:.{places}f}".replace("-", "−")
 
 
@@ -85,9 +87,8 @@ def cell(row: pd.Series, places: int | None, explain_href: str | None = None) ->
     expanded = row.get("expanded_uncertainty")
     has_u = isinstance(expanded, (int, float)) and math.isfinite(expanded) and expanded > 0
     shown_places = places
-    if has_u and places is not None:   # U keeps at least one significant digit
-        shown_u = expanded * DISPLAY[quantity].scale
-        shown_places = max(places, -math.floor(math.log10(shown_u)))
+    if has_u and quantity in DISPLAY:   # the uncertainty sets the figures: two on U, the value to match
+        shown_places = 1 - math.floor(math.log10(expanded * DISPLAY[quantity].scale))
     run = number(row["value"], quantity, shown_places)
     if has_u:
         run += f" ± {number(expanded, quantity, shown_places)}"
@@ -122,7 +123,7 @@ def _physics(row: pd.Series, quantity: str, places: int | None) -> str:
         return ""
     u = row.get("predicted_expanded_uncertainty")
     if isinstance(u, (int, float)) and math.isfinite(u) and u > 0 and quantity in DISPLAY:
-        u_places = max(0, 1 - math.floor(math.log10(u * DISPLAY[quantity].scale)))
+        u_places = 1 - math.floor(math.log10(u * DISPLAY[quantity].scale))
         shown = f"{number(predicted, quantity, u_places)} ± {number(u, quantity, u_places)}"
     else:
         shown = number(predicted, quantity, places)

@@ -337,7 +337,7 @@ def _inferred_reading_explanation(context: ReportContext, table: str, item: str,
                         "readings, the paper holds")
             return ("readings", f"under {reading} of the paper's open conventions, {shown}: {used}, used in "
                     "this table, is what disagrees with the paper's own numbers",
-                    f"it holds only under {reading} ({there} there), not under {used.split(', the text')[0]})")
+                    f"it holds only under {short} ({there} there), not under {used.split(', the text')[0]})")
     return None
 
 
