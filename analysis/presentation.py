@@ -189,10 +189,12 @@ def with_uncertainty(value: float, u: float, digits: int = 2, unit: str = "") ->
     unit = f" {unit}" if unit else ""
     if not (math.isfinite(value) and math.isfinite(u)) or u <= 0:
         return f"{value:.4g}{unit}".replace("-", "−")
-    places = max(0, digits - 1 - math.floor(math.log10(u)))
+    places = digits - 1 - math.floor(math.log10(u))
     cap = max(0, MAX_FIGURES - 1 - math.floor(math.log10(abs(value)))) if value else places
     if places > cap:
         return f"{value:.{cap}f}{unit} (U < {10.0 ** -cap:.{cap}f}{unit})".replace("-", "−")
+    if places < 0:   # U's figures left of the units: 44593 ± 2471 is 44600 ± 2500
+        value, u, places = round(value, places), round(u, places), 0
     return f"{value:.{places}f} ± {u:.{places}f}{unit}".replace("-", "−")
 
 

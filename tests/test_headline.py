@@ -116,6 +116,7 @@ def test_no_number_is_shown_past_six_figures():
     assert with_uncertainty(45.275888133030989, 3.3e-14) == "45.2759 (U < 0.0001)"
     assert with_uncertainty(9.21847, 0.00067) == "9.21847 ± 0.00067"
     assert with_uncertainty(-14.218, 2.04) == "−14.2 ± 2.0"
+    assert with_uncertainty(44593.0, 2471.0) == "44600 ± 2500"   # two figures on U, left of the units too
 
 
 def test_a_run_without_paper_tables_says_only_what_ran_in_the_singular():
