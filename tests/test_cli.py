@@ -343,6 +343,7 @@ def test_a_progress_bar_on_a_terminal_that_reports_no_size():
     """A pseudo-terminal opened without a size (`script -c`, a CI runner) reports 0 x 0:
     tqdm drew nothing there until given a size."""
     import os
+    import select
 
     from tqdm import tqdm
 
@@ -360,7 +361,9 @@ def test_a_progress_bar_on_a_terminal_that_reports_no_size():
                 sys.stderr = real
             with tqdm(total=2, file=stream, **options) as bar:
                 bar.update(2)
-        drawn = os.read(master, 4096).decode()
+        drawn = ""
+        while "100%|" not in drawn and select.select([master], [], [], 1.0)[0]:   # each frame as it came
+            drawn += os.read(master, 4096).decode()
     finally:
         os.close(master)
         os.close(slave)
