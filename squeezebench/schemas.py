@@ -15,6 +15,7 @@ Scenes are simbench's (`simbench.scene.load_scene` validates them).
 from __future__ import annotations
 
 import json
+import math
 import re
 import sys
 from pathlib import Path
@@ -278,11 +279,19 @@ def _problem(one: dict, model: type[BaseModel]) -> tuple[str, str, str]:
     elif kind in ("model_type", "dataclass_type", "dict_type"):
         allowed = _allowed(model, (*loc, "_"))
         message = f"{one['input']!r} must be a mapping" + (f" of {', '.join(allowed)}" if allowed else "")
-    elif kind in ("float_type", "int_type") and isinstance(one.get("input"), str):
+    elif kind in ("float_type", "int_type") and _is_number(one.get("input")):
         message = f"{one['input']!r} is text, not a number: write it without quotes"
     else:
         message = f"{one['input']!r}: {one['msg'][0].lower()}{one['msg'][1:]}"
     return field, message, guess
+
+
+def _is_number(text: Any) -> bool:
+    """A number quoted in the file ('1.5'), not words ('20 V')."""
+    try:
+        return isinstance(text, str) and math.isfinite(float(text))
+    except ValueError:
+        return False
 
 
 def describe(error: ValidationError, model: type[BaseModel]) -> tuple[str, str]:
