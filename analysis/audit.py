@@ -87,7 +87,7 @@ def eq28_findings() -> list[Finding]:
     printed28 = model.power_from_amplitude_w(amplitude, op["q"], op["tan_theta"], op["frequency_hz"], geometry,
                                              replace(convention, eq28_with_pi=False))
     return [Finding("Eq. 28 missing pi", "Eq. 25 / Eq. 28 as printed, same Q, V, A", eq25 / printed28, None,
-                    "Eqs. 25, 27, 28", f"equals pi = {math.pi:.6f}: Eq. 28 lost a factor pi")]
+                    "Eqs. 25, 27, 28", f"equals pi = {math.pi:.5f}: Eq. 28 lost a factor pi")]
 
 
 def sign_findings() -> list[Finding]:

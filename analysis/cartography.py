@@ -130,6 +130,16 @@ def velocity_scale_rel_u() -> float:
     return math.sqrt(sum(t.std_uncertainty**2 for t in unit.terms if t.type == "B"))
 
 
+#: The vibration amplitude a fingertip needs to feel the squeeze-film effect, about 1 µm pp
+#: (the paper's Sec. 1; its large plate is designed for it, Sec. 5): what a map is read against.
+HAPTICS_AMPLITUDE_PP_M = 1e-6
+
+
+def amplitude_pp_m(velocity_pp_mps: float, frequency_hz: float) -> float:
+    """Displacement pp of a sinusoidal vibration of velocity pp `velocity_pp_mps`: x = v / (2 pi f)."""
+    return velocity_pp_mps / (2 * math.pi * frequency_hz)
+
+
 def summarise_map(points: pd.DataFrame, predicted: np.ndarray | None = None, share_of_peak: float = 0.5,
                   seed: int = 0) -> dict:
     """The numbers a designer reads off one map, each with its expanded uncertainty (k = 2):

@@ -11,7 +11,7 @@ import pandas as pd
 
 from squeezebench.analysis import cartography, predicted_plates
 from squeezebench.analysis.drawing import Drawing
-from squeezebench.analysis.presentation import with_uncertainty
+from squeezebench.analysis.presentation import fold, with_uncertainty
 
 
 def map_figure(points: pd.DataFrame, path: Path, plate: str) -> None:
@@ -57,11 +57,21 @@ def map_summaries(run) -> tuple[pd.DataFrame, dict[str, pd.DataFrame]]:
         frequency_hz = float(one["generator_frequency_hz"].median())
         predicted = predicted_plates.working_shape(plate, frequency_hz, one["x_m"].to_numpy(), one["y_m"].to_numpy())
         summary = cartography.summarise_map(one, None if predicted is None else predicted[0])
+        voltage_vpp = float(one["piezo_voltage_setpoint_vpp"].median())
+        amplitude = cartography.amplitude_pp_m(summary["mean_velocity_pp_mps"], frequency_hz)
         rows.append({"run_name": run_name, "plate": plate, "drive_frequency_hz": frequency_hz,
-                     "piezo_voltage_vpp": float(one["piezo_voltage_setpoint_vpp"].median()),
-                     "predicted_mode_frequency_hz": np.nan if predicted is None else predicted[1], **summary})
+                     "piezo_voltage_vpp": voltage_vpp,
+                     "predicted_mode_frequency_hz": np.nan if predicted is None else predicted[1], **summary,
+                     "mean_amplitude_pp_m": amplitude,
+                     "mean_amplitude_pp_m_U": cartography.amplitude_pp_m(summary["mean_velocity_pp_mps_U"], frequency_hz),
+                     "criterion_amplitude_pp_m": cartography.HAPTICS_AMPLITUDE_PP_M,
+                     # the response is linear in the drive: the voltage that brings the mean to the criterion
+                     "voltage_for_criterion_vpp": voltage_vpp * cartography.HAPTICS_AMPLITUDE_PP_M / amplitude})
         maps[run_name] = one
     return pd.DataFrame(rows), maps
+
+
+CRITERION_HEADER = f"V pp for {1e6 * cartography.HAPTICS_AMPLITUDE_PP_M:g} µm pp"
 
 
 def section_html(run, out_dir: Path, figure, html_table,
@@ -81,7 +91,10 @@ def section_html(run, out_dir: Path, figure, html_table,
         body += (f"<p><b>{html.escape(row.run_name)}</b> ({html.escape(row.plate)}): {row.n_points} points at "
                  f"{row.drive_frequency_hz / 1e3:.3f} kHz and {row.piezo_voltage_vpp:g} V pp. Over the touch area "
                  f"the velocity is {with_uncertainty(row.mean_velocity_pp_mps, row.mean_velocity_pp_mps_U)} m/s pp on "
-                 f"average (coefficient of variation {row.coefficient_of_variation:.0%}, "
+                 f"average, a displacement of {with_uncertainty(1e6 * row.mean_amplitude_pp_m, 1e6 * row.mean_amplitude_pp_m_U)} "
+                 f"µm pp against the {1e6 * row.criterion_amplitude_pp_m:g} µm pp a fingertip needs (about "
+                 f"{row.voltage_for_criterion_vpp:.0f} V pp reaches it; coefficient of variation "
+                 f"{with_uncertainty(100 * row.coefficient_of_variation, 100 * row.coefficient_of_variation_U, unit='%')}, "
                  f"{row.fraction_above_share:.0%} of the area above {row.share_of_peak:.0%} of the peak), with "
                  f"{row.n_nodal_lines} nodal lines {row.nodal_line_spacing_m * 1e3:.2f} mm apart; "
                  f"{row.width_uniformity:.1%} of the map's mean square is uniform across the width "
@@ -93,6 +106,9 @@ def section_html(run, out_dir: Path, figure, html_table,
     shown = summaries.assign(**{
         "mean velocity (m/s pp)": [with_uncertainty(m, u) for m, u in zip(summaries["mean_velocity_pp_mps"],
                                                                            summaries["mean_velocity_pp_mps_U"])],
+        "mean amplitude (µm pp)": [with_uncertainty(1e6 * m, 1e6 * u) for m, u in zip(
+            summaries["mean_amplitude_pp_m"], summaries["mean_amplitude_pp_m_U"])],
+        CRITERION_HEADER: [f"{v:.0f}" for v in summaries["voltage_for_criterion_vpp"]],
         "coefficient of variation (%)": [with_uncertainty(100 * c, 100 * u) for c, u in zip(
             summaries["coefficient_of_variation"], summaries["coefficient_of_variation_U"])],
         "area above share of peak (%)": [with_uncertainty(100 * f, 100 * u) for f, u in zip(
@@ -102,9 +118,10 @@ def section_html(run, out_dir: Path, figure, html_table,
         "width uniformity": [f"{w:.1%}" for w in summaries["width_uniformity"]],
         "nodal-line spacing (mm)": [f"{s * 1e3:.2f}" for s in summaries["nodal_line_spacing_m"]],
         "MAC with model": [f"{m:.3f}" if np.isfinite(m) else "no model" for m in summaries["mac_with_predicted"]],
-    })[["run_name", "n_points", "mean velocity (m/s pp)", "min / max (m/s pp)", "coefficient of variation (%)",
+    })[["run_name", "n_points", "mean velocity (m/s pp)", "mean amplitude (µm pp)", CRITERION_HEADER, "min / max (m/s pp)", "coefficient of variation (%)",
         "area above share of peak (%)", "width uniformity", "nodal-line spacing (mm)", "MAC with model"]]
-    body += html_table(shown.rename(columns={"run_name": "map", "n_points": "points"}),
-                       "homogeneity of each map's touch area, ± U (k = 2): the points' noise, and for velocities the "
-                       "scale all points share (CH3 gain, decoder)")
+    body += fold("Homogeneity of each map as numbers, with the voltage that reaches the haptics criterion",
+                 html_table(shown.rename(columns={"run_name": "map", "n_points": "points"}),
+                            "homogeneity of each map's touch area, ± U (k = 2): the points' noise, and for velocities "
+                            "the scale all points share (CH3 gain, decoder)"))
     return body, summaries, pd.concat(maps.values(), ignore_index=True)

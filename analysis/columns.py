@@ -66,6 +66,10 @@ COLUMNS: dict[str, tuple[str, str]] = {
     "n_touch_points": ("1", "points in the touch area (the homogeneity figures' points)"),
     "mean_velocity_pp_mps": ("m/s pp", "mean velocity amplitude over the touch area"),
     "mean_velocity_pp_mps_U": ("m/s pp", "expanded uncertainty (k = 2) of the mean: noise and the shared velocity scale"),
+    "mean_amplitude_pp_m": ("m pp", "mean displacement over the touch area, mean_velocity_pp_mps / (2 pi f)"),
+    "mean_amplitude_pp_m_U": ("m pp", "expanded uncertainty (k = 2) of mean_amplitude_pp_m"),
+    "criterion_amplitude_pp_m": ("m pp", "the displacement a fingertip needs to feel the squeeze film (1 um pp)"),
+    "voltage_for_criterion_vpp": ("V pp", "piezo voltage that brings mean_amplitude_pp_m to the criterion (linear response)"),
     "min_velocity_pp_mps": ("m/s pp", "smallest velocity amplitude over the touch area"),
     "max_velocity_pp_mps": ("m/s pp", "largest velocity amplitude over the touch area"),
     "max_velocity_pp_mps_U": ("m/s pp", "expanded uncertainty (k = 2) of the largest: noise and the shared velocity scale"),
@@ -115,7 +119,7 @@ COLUMNS: dict[str, tuple[str, str]] = {
                        "datasheets only)"),
     "value_over_predicted": ("1", "value / predicted_value"),
     "agrees_with_prediction": ("", "|value - predicted_value| <= the two expanded uncertainties in quadrature"),
-    "predicted_U": ("unit", "expanded uncertainty (k = 2) of predicted_value from the material, geometry, d31 and "
+    "predicted_expanded_uncertainty": ("unit", "expanded uncertainty (k = 2) of predicted_value from the material, geometry, d31 and "
                             "damping tolerances"),
     "predicted_difference": ("1", "(predicted_value - paper_value) / |paper_value|"),
     "origin": ("", "measured (real bench), simulated, calibration input, derived or campaign setting"),

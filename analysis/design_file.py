@@ -9,16 +9,43 @@ reads and validates a file with one-line messages (file, field, what is allowed)
 """
 from __future__ import annotations
 
+import math
+import re
+
 from typing import Literal, Optional, Union
 
-from pydantic import BaseModel, ConfigDict, Field, model_validator
+from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
 
 from squeezebench.analysis import plate_modes
 from squeezebench.analysis.specifications import sheet_thickness_tolerance
 
-#: Materials a design may name instead of giving constants.
-RESONATOR_MATERIALS = {"aluminium_table2": plate_modes.ALUMINIUM_TABLE2}
+#: Materials a design may name instead of giving constants. aluminium_table2 is the paper's
+#: Table 2 aluminium; al_6061_t6 the ASM datasheet of 6061-T6 (68.9 GPa, 0.33, 2700 kg/m^3).
+RESONATOR_MATERIALS = {"aluminium_table2": plate_modes.ALUMINIUM_TABLE2,
+                       "al_6061_t6": plate_modes.Isotropic(young_pa=68.9e9, poisson=0.33, density_kg_m3=2700.0)}
 PIEZO_MATERIALS = {"NCE41": plate_modes.NCE41}
+#: The names people write for them (compared without case, spaces, hyphens or underscores).
+MATERIAL_ALIASES = {"aluminium": "aluminium_table2", "aluminum": "aluminium_table2", "al": "aluminium_table2",
+                    "aluminiumtable2": "aluminium_table2", "al6061t6": "al_6061_t6", "6061t6": "al_6061_t6",
+                    "aa6061t6": "al_6061_t6", "aluminium6061t6": "al_6061_t6", "nce41": "NCE41"}
+
+
+#: How the guide and the messages name each material.
+MATERIAL_WORDS = {"aluminium_table2": "aluminium (the paper's Table 2)", "al_6061_t6": "Al 6061-T6",
+                  "NCE41": "NCE 41"}
+
+
+def material_name(value, known: dict) -> object:
+    """A material as written ("Al 6061-T6", "NCE 41") as its name in `known`; constants (a
+    mapping) as they are; an unknown name is a ValueError naming what is accepted."""
+    if not isinstance(value, str):
+        return value
+    name = MATERIAL_ALIASES.get(re.sub(r"[\s_-]", "", value.lower()), value)
+    if name in known:
+        return name
+    constants = ", or give young_pa, poisson and density_kg_m3" if known is RESONATOR_MATERIALS else ""
+    raise ValueError(f"unknown material {value!r}: name {' or '.join(MATERIAL_WORDS[k] for k in known)} (any "
+                     f"case, spaces or hyphens){constants}")
 
 
 class _Model(BaseModel):
@@ -32,14 +59,17 @@ class IsotropicMaterial(_Model):
 
 
 class Resonator(_Model):
-    material: Union[Literal["aluminium_table2"], IsotropicMaterial] = "aluminium_table2"
+    material: Union[Literal["aluminium_table2", "al_6061_t6"], IsotropicMaterial] = "aluminium_table2"
     length_mm: float = Field(gt=0, le=2000)
     width_mm: float = Field(gt=0, le=2000)
     thickness_mm: float = Field(gt=0, le=50)
 
+    _material = field_validator("material", mode="before")(lambda value: material_name(value, RESONATOR_MATERIALS))
+
 
 class PiezoSpec(_Model):
     material: Literal["NCE41"] = "NCE41"
+    _material = field_validator("material", mode="before")(lambda value: material_name(value, PIEZO_MATERIALS))
     length_x_mm: float = Field(gt=0, description="across the nodal lines (along the plate's length)")
     width_y_mm: float = Field(gt=0, description="along the nodal lines: the paper's b_p")
     thickness_mm: float = Field(gt=0, le=10)

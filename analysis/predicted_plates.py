@@ -334,19 +334,19 @@ PREDICTED_QUANTITIES = {
 
 def tidy(table: str) -> pd.DataFrame:
     """One row per (item, quantity) of the paper's `table` ("Table 3", "Table 4") the model
-    predicts: predicted_value and predicted_U (k = 2, NaN for a count). Table 4's amplitude is
+    predicts: predicted_value and predicted_expanded_uncertainty (k = 2, NaN for a count). Table 4's amplitude is
     the predicted velocity over w."""
     frame = predictions().merge(_predictions()[["item", "drive_u_rel"]], on="item")
     rows = []
     for row in frame[frame["table"] == table].to_dict("records"):
         for quantity, (value, u) in PREDICTED_QUANTITIES.items():
             rows.append({"item": row["item"], "quantity": quantity, "predicted_value": float(row[value]),
-                         "predicted_U": float(row[u]) if u else math.nan})
+                         "predicted_expanded_uncertainty": float(row[u]) if u else math.nan})
         amplitude = row["predicted_velocity_pp_mps"] / (2 * math.pi * row["predicted_frequency_hz"])
         base = response_relative_u(row["resonator_thickness_mm"] * MM)["amplitude_pp_m"]
         rows.append({"item": row["item"], "quantity": "amplitude_pp_m", "predicted_value": amplitude,
-                     "predicted_U": amplitude * math.hypot(base, row["drive_u_rel"])})
-    return pd.DataFrame(rows, columns=["item", "quantity", "predicted_value", "predicted_U"])
+                     "predicted_expanded_uncertainty": amplitude * math.hypot(base, row["drive_u_rel"])})
+    return pd.DataFrame(rows, columns=["item", "quantity", "predicted_value", "predicted_expanded_uncertainty"])
 
 
 def large_plate_response() -> dict[str, float]:

@@ -15,6 +15,7 @@ import pandas as pd
 
 from squeezebench.analysis import provenance
 from squeezebench.analysis.paper import paper_table, printed_step
+from squeezebench.analysis.tables import ROUND_TRIP
 
 
 @dataclass(frozen=True)
@@ -35,6 +36,9 @@ DISPLAY = {
     "tan_theta": Display("tan θ′", "", 1.0),
     "tan_theta_mean": Display("mean tan θ′", "", 1.0),
 }
+#: How a round trip is marked (tables.ROUND_TRIP): a value the run was given came back, which
+#: shows the chain, never the paper; not the ✓ of an agreement.
+ROUND_TRIP_MARK = "↺ round trip"
 #: Significant digits of a number the paper does not print.
 UNPRINTED_DIGITS = 4
 
@@ -63,6 +67,8 @@ def number(value: float, quantity: str, places: int | None) -> str:
     if places is None:
         magnitude = math.floor(math.log10(abs(shown))) if shown else 0
         places = max(0, UNPRINTED_DIGITS - 1 - magnitude)
+    if places < 0:   # U's second figure left of the units: 38414 ± 2273 shows as 38400 ± 2300
+        shown, places = round(shown, places), 0
     return f"{shown:.{places}f}".replace("-", "−")
 
 
@@ -75,14 +81,14 @@ def cell(row: pd.Series, places: int | None, explain_href: str | None = None) ->
     """One cell: "this run ± U" over "paper X, deviation %", with the origin beneath and
     a flag (and a link to what explains it) when the deviation is outside the tolerance."""
     quantity = row["quantity"]
-    if row["status"] != "measured":
+    round_trip = row["status"] == ROUND_TRIP
+    if row["status"] != "measured" and not round_trip:
         return f"<td class='na'>{html.escape(str(row['status']))}{_physics(row, quantity, places)}</td>"
     expanded = row.get("expanded_uncertainty")
     has_u = isinstance(expanded, (int, float)) and math.isfinite(expanded) and expanded > 0
     shown_places = places
-    if has_u and places is not None:   # U keeps at least one significant digit
-        shown_u = expanded * DISPLAY[quantity].scale
-        shown_places = max(places, -math.floor(math.log10(shown_u)))
+    if has_u and quantity in DISPLAY:   # the uncertainty sets the figures: two on U, the value to match
+        shown_places = 1 - math.floor(math.log10(expanded * DISPLAY[quantity].scale))
     run = number(row["value"], quantity, shown_places)
     if has_u:
         run += f" ± {number(expanded, quantity, shown_places)}"
@@ -91,7 +97,8 @@ def cell(row: pd.Series, places: int | None, explain_href: str | None = None) ->
     parts = [f"<div class='run'>{run}</div>"]
     if isinstance(row.get("paper_value"), (int, float)) and math.isfinite(row["paper_value"]):
         deviation = percent(row["relative_difference"])
-        mark = "✓" if agrees is True else "✗ outside tolerance" if agrees is False else ""
+        mark = (ROUND_TRIP_MARK if round_trip else "✓" if agrees is True
+                else "✗ outside tolerance" if agrees is False else "")
         parts.append(f"<div class='paper'>paper {number(row['paper_value'], quantity, None if places is None else max(0, places - 1))}"
                      f" · <span class='dev'>{deviation}</span> <span class='mark'>{mark}</span></div>")
     parts.append(_physics(row, quantity, places))
@@ -103,7 +110,8 @@ def cell(row: pd.Series, places: int | None, explain_href: str | None = None) ->
     parts.append(f"<div class='origin'{title}>{html.escape(origin)}</div>")
     if agrees is False and explain_href:
         parts.append(f"<div class='why'><a href='{html.escape(explain_href)}'>why?</a></div>")
-    classes = ["off" if agrees is False else "ok" if agrees is True else "", "cal" if calibrated else ""]
+    classes = ["off" if agrees is False else "ok" if agrees is True else "trip" if round_trip else "",
+               "cal" if calibrated else ""]
     return f"<td class='{' '.join(c for c in classes if c)}'>{''.join(parts)}</td>"
 
 
@@ -113,9 +121,9 @@ def _physics(row: pd.Series, quantity: str, places: int | None) -> str:
     predicted = row.get("predicted_value")
     if not (isinstance(predicted, (int, float)) and math.isfinite(predicted)):
         return ""
-    u = row.get("predicted_U")
+    u = row.get("predicted_expanded_uncertainty")
     if isinstance(u, (int, float)) and math.isfinite(u) and u > 0 and quantity in DISPLAY:
-        u_places = max(0, 1 - math.floor(math.log10(u * DISPLAY[quantity].scale)))
+        u_places = 1 - math.floor(math.log10(u * DISPLAY[quantity].scale))
         shown = f"{number(predicted, quantity, u_places)} ± {number(u, quantity, u_places)}"
     else:
         shown = number(predicted, quantity, places)
@@ -170,18 +178,32 @@ def calibration_notes(frame: pd.DataFrame, item_label=str) -> str:
                                          f"<ul>{''.join(lines)}</ul>") + "</div>")
 
 
-def with_uncertainty(value: float, u: float, digits: int = 2) -> str:
-    """"value ± u" with u to `digits` significant digits and value to the same decimal."""
+#: No number is shown with more significant figures than this: an uncertainty below the
+#: last of them is said as a bound.
+MAX_FIGURES = 6
+
+
+def with_uncertainty(value: float, u: float, digits: int = 2, unit: str = "") -> str:
+    """"value ± u unit" with u to `digits` significant digits and value to the same decimal;
+    a value never past MAX_FIGURES figures ("45.2759 (U < 0.0001)" for a U of 3e-14)."""
+    unit = f" {unit}" if unit else ""
     if not (math.isfinite(value) and math.isfinite(u)) or u <= 0:
-        return f"{value:.4g}".replace("-", "−")
-    places = max(0, digits - 1 - math.floor(math.log10(u)))
-    return f"{value:.{places}f} ± {u:.{places}f}".replace("-", "−")
+        return f"{value:.4g}{unit}".replace("-", "−")
+    places = digits - 1 - math.floor(math.log10(u))
+    cap = max(0, MAX_FIGURES - 1 - math.floor(math.log10(abs(value)))) if value else places
+    if places > cap:
+        return f"{value:.{cap}f}{unit} (U < {10.0 ** -cap:.{cap}f}{unit})".replace("-", "−")
+    if places < 0:   # U's figures left of the units: 44593 ± 2471 is 44600 ± 2500
+        value, u, places = round(value, places), round(u, places), 0
+    return f"{value:.{places}f} ± {u:.{places}f}{unit}".replace("-", "−")
 
 
 def percent(fraction: float) -> str:
-    """A relative difference in %, two significant digits below 1 % (never "+0.0 %")."""
+    """A relative difference in %, two significant digits below 1 % (never "+0.0 %"), at
+    most three from 1 % on ("+96.0 %", "−1061 %")."""
     value = 100 * fraction
-    text = f"{value:+.1f}" if abs(value) >= 1 or value == 0 else f"{value:+.2g}"
+    text = (f"{value:+.0f}" if abs(value) >= 100 else f"{value:+.1f}" if abs(value) >= 1 or value == 0
+            else f"{value:+.2g}")
     return f"{text} %".replace("-", "−")
 
 

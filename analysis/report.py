@@ -54,6 +54,9 @@ class ReportContext:
     cache: dict[str, object] = field(default_factory=dict)
     absent: list[str] = field(default_factory=list)   # what the run does not hold, for the summary
     flagged: list[tuple[str, str, str]] = field(default_factory=list)  # (where, sentence, audit anchor)
+    # each disagreement's line in the opening: (table, item, quantity) -> headline.Line
+    reasons: dict[tuple[str, str, str], headline.Line] = field(default_factory=dict)
+    extra_misses: list[headline.Line] = field(default_factory=list)   # beyond Tables 3-5 (Fig. 9)
     figure_count: int = 0
     draw: Drawing = field(default_factory=lambda: Drawing(1))   # figure functions, maybe on other processes
 
@@ -173,9 +176,8 @@ def summary_section(context: ReportContext) -> Section:
                      "lab would measure if the model is right)")
         lead = ("<p class='banner'><b>Dry run on the simulated bench.</b> No plate was measured: the "
                 f"instruments answered from the physics of {len(inputs)} scene{'s' if len(inputs) != 1 else ''}{said} "
-                "(<a href='#provenance'>listed in the appendix</a>, with why). A cell whose scene was calibrated on the printed value it is compared with is "
-                "shaded and labelled <i>calibration input</i>: it shows that the chain from instrument "
-                "to table returns what went in, not that the paper is confirmed.</p>")
+                f"(<a href='#provenance'>listed in the appendix</a>, with why). {presentation.ROUND_TRIP_MARK}: "
+                "a printed value the run was given came back (the chain, not the paper).</p>")
     elif kind == "real":
         ids = sorted({json.dumps(v, sort_keys=True) for v in run.manifest.get("instruments", {}).values()})
         lead = ("<p class='banner real'><b>Measured on a real bench</b> (instruments: "
@@ -184,23 +186,48 @@ def summary_section(context: ReportContext) -> Section:
         lead = (f"<p class='banner'><b>Bench {html.escape(kind)}</b>: this run predates provenance "
                 "columns; its values are not labelled measured or simulated.</p>")
     measurements = run.measurements
-    context.cache["headline"] = headline.headline(
-        kind, len(measurements), measurements["run_name"].nunique() if not measurements.empty else 0,
-        context.tables, needs_deskew=_needs_deskew_count(context))
-    body = "<p class='headline'>" + "<br>".join(map(html.escape, context.cache["headline"])) + "</p>" + lead
-    body += _verdict_table(context)
+    said = (kind, len(measurements), measurements["run_name"].nunique() if not measurements.empty else 0,
+            context.tables, _needs_deskew_count(context), context.reasons, context.extra_misses)
+    context.cache["headline"] = headline.headline(*said)
+    body = _opening_html(headline.opening(*said)) + lead
+    verdicts = _verdict_table(context)
+    if verdicts:
+        body += presentation.fold("Against the paper, table by table, with each disagreement's full reason", verdicts)
     if not measurements.empty:
         plates = sorted(measurements["plate"].dropna().unique())
         protocols = measurements.groupby("protocol")["run_name"].nunique()
+        n_runs = measurements["run_name"].nunique()
         body += presentation.fold(
-            f"What ran: {measurements['run_name'].nunique()} campaign runs on {len(plates)} plates",
-            "<p>" + f"{len(measurements)} stored points from {measurements['run_name'].nunique()} campaign runs ("
+            f"What ran: {n_runs} campaign run{'s' if n_runs != 1 else ''} on {len(plates)} "
+            f"plate{'s' if len(plates) != 1 else ''}",
+            "<p>" + f"{len(measurements)} stored points from {n_runs} campaign run{'s' if n_runs != 1 else ''} ("
             + html.escape(", ".join(f"{p}: {n}" for p, n in protocols.items()))
             + f") on {len(plates)} plates: " + html.escape(", ".join(plates)) + ".</p>")
     if context.absent:
-        body += ("<p>Not in this run (sections left out):</p><ul>"
-                 + "".join(f"<li>{html.escape(a)}</li>" for a in context.absent) + "</ul>")
+        body += presentation.fold(f"Not in this run: {len(context.absent)} section{'s' if len(context.absent) != 1 else ''} "
+                                  "left out", "<ul>" + "".join(f"<li>{html.escape(a)}</li>" for a in context.absent) + "</ul>")
     return Section("Summary", body, "summary")
+
+
+def _opening_html(lines: list[headline.Line]) -> str:
+    """The opening's sentences, each linked to where the report shows why; the printed
+    numbers the run does not return as a list."""
+    def sentence(line: headline.Line) -> str:
+        link = f" <a href='{html.escape(line.href)}'>Why</a>" if line.href and line.kind == "miss" else (
+            f" <a href='{html.escape(line.href)}'>More</a>" if line.href else "")
+        return html.escape(line.text) + link
+
+    out, misses = [], []
+    for line in lines + [headline.Line("")]:   # the sentinel closes a list still open
+        if line.kind == "miss":
+            misses.append(f"<li>{sentence(line)}</li>")
+            continue
+        if misses:
+            out.append(f"<ul class='misses'>{''.join(misses)}</ul>")
+            misses = []
+        if line.text:
+            out.append(f"<p class='headline {html.escape(line.kind)}'>{sentence(line)}</p>")
+    return "<div class='opening'>" + "".join(out) + "</div>"
 
 
 def _verdict_table(context: ReportContext) -> str:
@@ -232,11 +259,12 @@ def _verdict_table(context: ReportContext) -> str:
 
 
 def _explanation(context: ReportContext, table: str, item: str, quantity: str,
-                 value: float) -> tuple[str, str] | None:
+                 value: float) -> tuple[str, str, str] | None:
     """What explains a disagreement of this run's `value` (table, item, quantity) with the
-    paper: the anchor to link and a sentence built from computed numbers, or None. An
-    explanation counts only when it reproduces this run's value (within MATCH_REL): the
-    audit's number from printed values alone, or this run under the inferred reading."""
+    paper: the anchor to link, a sentence built from computed numbers and the same in a
+    few words for the opening, or None. An explanation counts only when it reproduces this
+    run's value (within MATCH_REL): the audit's number from printed values alone, or this
+    run under the inferred reading."""
     findings = _findings()
 
     def matches(number: float) -> bool:
@@ -249,16 +277,20 @@ def _explanation(context: ReportContext, table: str, item: str, quantity: str,
             return ("audit-" + _slug(carried["topic"]),
                     f"Eq. 29 carries Plate 4's printed Q = {needed['printed']:.3g} to {carried['computed']:.4g}; "
                     f"the printed {carried['printed']:.3g} needs Q = {needed['computed']:.4g}: the paper "
-                    "computed it from Plate 4's Q before rounding")
+                    "computed it from Plate 4's Q before rounding",
+                    f"the paper's own Eq. 29 carries Plate 4's printed Q to {carried['computed']:.4g}: it was "
+                    "computed before rounding")
     if (table, item, quantity) == ("table5", "measured", "tan_theta"):
         row = _finding(findings, "Table 5 under E_i", "tan theta'")
         if matches(row["computed"]):
             return ("audit-" + _slug(row["topic"]),
                     f"the paper's own Eq. 25 with its printed Q turns its printed 1.3 W at 32 Vpp into "
-                    f"tan θ′ = {row['computed']:.3g} (E_i as printed), not the printed {row['printed']:.3g}: "
+                    f"tan θ′ = {_signed(row['computed'])} (E_i as printed), not the printed {_signed(row['printed'])}: "
                     "under the text's definitions the printed power and loss tangent cannot both hold, and a "
                     "plate that returns the 1.3 W misses the printed tan θ′ under either E_i (with Q read from "
-                    "the same plate's amplitude, E_i cancels from tan θ′)")
+                    "the same plate's amplitude, E_i cancels from tan θ′)",
+                    f"the paper's own Eq. 25 turns its printed 1.3 W into tan θ′ = {_signed(row['computed'])}: "
+                    "the printed power and loss tangent cannot both hold")
     return _inferred_reading_explanation(context, table, item, quantity)
 
 
@@ -275,7 +307,7 @@ def _finding(findings: pd.DataFrame, topic: str, quantity_prefix: str) -> pd.Ser
 
 
 def _inferred_reading_explanation(context: ReportContext, table: str, item: str,
-                                  quantity: str) -> tuple[str, str] | None:
+                                  quantity: str) -> tuple[str, str, str] | None:
     """Table 5 and Fig. 9 under the inferred reading (analysis.readings): when this run
     agrees with the paper there, the report's reading is what disagrees."""
     frame = _table5_under_readings(context)
@@ -291,16 +323,22 @@ def _inferred_reading_explanation(context: ReportContext, table: str, item: str,
         if agrees:
             shown = (f"the estimate is within {100 * abs(row.value):.1f} % of the measured power"
                      if table == "fig9" else
-                     f"this run gives {row.value:.3g} against the printed {row.printed:.3g} "
+                     f"this run gives {_signed(row.value)} against the printed {_signed(row.printed)} "
                      f"({presentation.percent(row.relative_difference)})")
             reading, used = _reading_words(str(row.reading)), _reading_words(context.convention.name)
+            there = (f"{100 * abs(row.value):.1f} %" if table == "fig9" else
+                     f"{_signed(row.value)}, {presentation.percent(row.relative_difference)}")
+            short = _reading_words(str(row.reading)).split(" (")[0]
             if row.reading in built_under:   # the run's own mix of readings, not the paper, makes the miss
                 return ("readings", f"this run's Fig. 5 scenes were built from the paper's summaries under "
                         f"{reading}, and under it {shown}; analysed under {used}, used in this table, they "
                         "cannot return the printed numbers: the miss comes from mixing two readings in this "
-                        "run, not from the paper")
+                        "run, not from the paper",
+                        f"this run's scenes were built under {short} ({there} there): the run mixes two "
+                        "readings, the paper holds")
             return ("readings", f"under {reading} of the paper's open conventions, {shown}: {used}, used in "
-                    "this table, is what disagrees with the paper's own numbers")
+                    "this table, is what disagrees with the paper's own numbers",
+                    f"it holds only under {short} ({there} there), not under {used.split(', the text')[0]})")
     return None
 
 
@@ -341,12 +379,15 @@ def _flag(context: ReportContext, title: str, anchor: str, frame: pd.DataFrame) 
                     f"{presentation.percent(row.relative_difference)} from the printed value")
         explanation = _explanation(context, str(row.table), str(row.item), str(row.quantity), row.value)
         if explanation:
-            link, why = explanation
+            link, why, short = explanation
             sentence += f"; {why}. <a href='#{link}'>{'Audit' if link.startswith('audit') else 'Readings'}</a>."
             links[str(row.item)] = f"#{link}"
         else:
+            link, short = anchor, "no audit finding explains it"
             sentence += "; no audit finding explains it."
             links.setdefault(str(row.item), f"#{anchor}")
+        context.reasons[(str(row.table), str(row.item), str(row.quantity))] = headline.miss_line(
+            pd.Series({**row._asdict(), "table": headline.PAPER_TABLES.get(str(row.table), title)}), short, f"#{link}")
         context.flagged.append((title, sentence, anchor))
     return links
 
@@ -358,9 +399,8 @@ def _paper_table_section(context: ReportContext, name: str, title: str, protocol
         context.tables[name] = tables.finish_table(tables.empty_table(name, quantities))
         context.absent.append(f"{title}: protocol '{protocol}' is not in this run")
         return None
-    frame = compute(context.run)
-    context.tables[name] = tables.finish_table(frame)
-    return Section(title, _paper_table_html(context, name, title, frame, item_label, intro), name)
+    context.tables[name] = tables.finish_table(compute(context.run))   # the CSV's rows are the HTML's cells
+    return Section(title, _paper_table_html(context, name, title, context.tables[name], item_label, intro), name)
 
 
 def _paper_table_html(context: ReportContext, name: str, title: str, frame: pd.DataFrame,
@@ -373,7 +413,8 @@ def _paper_table_html(context: ReportContext, name: str, title: str, frame: pd.D
                if "predicted_value" in frame and frame["predicted_value"].notna().any() else "")
     caption = (f"{html.escape(title)}. {_bench_words(context)} Each cell: this run ± U (k = 2, {budget}), "
                "the printed value and the deviation; ✓ within, ✗ outside "
-               f"U plus half the printed last digit; {physics}beneath, the origin of the number.")
+               f"U plus half the printed last digit, {presentation.ROUND_TRIP_MARK}: a printed value the run was "
+               f"given came back (the chain, not the paper); {physics}beneath, the origin of the number.")
     return (f"<p>{intro}</p>" + presentation.paper_layout(frame, name, item_label, explain, caption)
             + presentation.calibration_notes(frame, item_label)
             + f"<p class='csv'>Machine-readable: <a href='{name}.csv'>{name}.csv</a> "
@@ -405,12 +446,14 @@ def characterisation_section(context: ReportContext) -> Section | None:
         return None
     plates = context.plates()
     context.tables["fig5"] = tables.finish_table(tables.fig5_table(plates))
+    surprising = _surprises(context, plates)
     body = ("<p>Every characterised plate of this run: Q from the slope of amplitude pp against "
             "voltage pp (Eq. 27), tan θ′ from the slope of power against voltage pp squared (Eq. 25) "
             "divided by Q. Both lines are fitted with an intercept, which a plate obeying the model "
             "leaves at zero within its uncertainty; χ²/dof near 1 says the points scatter as their "
             "uncertainties state.</p>"
-            + _surprises(context, plates)
+            + (presentation.fold("What a reader would stop at in these fits (signs, χ²/dof), and why", surprising)
+               if surprising else "")
             + presentation.fold(f"Q, tan θ′ and both fits of each of the {len(plates)} plates, as numbers",
                                 _plates_table(context, plates)))
     runs = ", ".join(sorted(context.run.protocol("characterisation")["run_name"].unique()))
@@ -546,8 +589,7 @@ def table5_section(context: ReportContext) -> Section | None:
         f"there. " + _bench_words(context))
     if estimated:
         title = "Table 5: the large plate estimated from the small ones (Sec. 5.3)"
-        table5 = tables.table5(plates, context.convention)
-        context.tables["table5"] = tables.finish_table(table5)
+        context.tables["table5"] = table5 = tables.finish_table(tables.table5(plates, context.convention))
         body = _paper_table_html(
             context, "table5", title, table5, lambda item: f"{item} ({'Eq. 29 from small_plate_4' if item == 'estimated' else 'large_plate'})",
             "Estimated: Q of small_plate_4 carried to the large plate by Eq. 29, tan θ′ the mean of "
@@ -579,11 +621,16 @@ def table5_section(context: ReportContext) -> Section | None:
                 f"the paper's 10 %.")
     if error >= audit.MATCH_REL:
         explanation = _explanation(context, "fig9", "", "power_w", error)
+        opening = (f"Fig. 9: the power estimated from the small plates is {100 * error:.1f} % from the measured "
+                   "power on average, outside the paper's 10 %")
         if explanation:
-            anchor, why = explanation
+            anchor, why, short = explanation
             sentence += f" Why: {why}. <a href='#{anchor}'>Readings</a>."
+            context.extra_misses.append(headline.Line(f"{opening}; {short}.", f"#{anchor}", "miss"))
         else:
             sentence += " No audit finding or reading explains it."
+            context.extra_misses.append(headline.Line(f"{opening}; no audit finding or reading explains it.",
+                                                      "#table5", "miss"))
         context.flagged.append(("Fig. 9", sentence, "table5"))
     body += f"<p class='{'explain' if error >= audit.MATCH_REL else ''}'>{sentence}</p>"
     return Section(title, body, "table5")
@@ -692,9 +739,9 @@ def audit_section(context: ReportContext) -> Section:
                            f"{html.escape(str(worst['comment']))}{numbers}.</li>")
     explained = [f"{html.escape(where)}, {why}" for where, why, _ in context.flagged if "</a>." in why]
     body = ""
-    if explained:
-        body += ("<p><b>This run's disagreements with the paper, and what explains them:</b></p><ul>"
-                 + "".join(f"<li>{why}</li>" for why in explained) + "</ul>")
+    if explained:   # the summary opens with each in a line: here in full, one click away
+        body += presentation.fold(f"This run's {len(explained)} disagreements with the paper, and what explains them",
+                                  "<ul>" + "".join(f"<li>{why}</li>" for why in explained) + "</ul>")
     body += ("<p>What the paper's printed numbers and equations say about each other, computed from "
              "its printed values alone (data/paper/), independently of any run. Conclusions, one per "
              "finding (its largest difference from a printed value):</p>"
@@ -850,10 +897,10 @@ def _systematics_part(context: ReportContext, summary: pd.DataFrame, drawn: Path
                     "setting, and scatters by a good part of itself from one set of benches to another: it "
                     "sits below the budget's when no bench drew an error near its limit (a delay near +-10 ns), "
                     "and well above it only if the budget misses an effect.</p>")
-    return ("<h3>Floors on benches whose instruments err within specification</h3>" + reconciled
-            + presentation.fold("How the study draws its benches, its floors per point, drawn against bench time "
-                                "and as a table",
-            f"<p>Each trial is another simulated bench: scope gains, current-probe gain and delay, "
+    return ("<h3>Floors on benches whose instruments err within specification</h3>"
+            + presentation.fold("The budgets' floor each quantity is held to, how the study draws its benches, "
+                                "its floors per point, drawn against bench time and as a table",
+            reconciled + f"<p>Each trial is another simulated bench: scope gains, current-probe gain and delay, "
             "channel skew, vibrometer scale and generator frequency drawn once within their "
             "specifications (analysis.specifications), the noise drawn anew. Averaging (and, for the "
             "search, a finer tolerance) lowers the noise until the bench's own errors, or what the "
@@ -1189,13 +1236,13 @@ def readings_section(context: ReportContext) -> Section | None:
         table5 = audit.table5_under_readings(context.run)
     except UserError as exc:
         return Section("Plates under each reading", body + f"<p>Table 5 and Fig. 9 under each reading: "
-                       f"{html.escape(str(exc))}.</p>", "readings")
+                       f"{html.escape(str(exc))}.</p>", "readings", appendix=True)
     table5.to_csv(context.out_dir / "table5_by_reading.csv", index=False)
     body += ("<h3>Table 5 and Fig. 9 under each reading</h3>"
              + "".join(f"<p>{html.escape(words)}</p>" for words in audit.table5_verdicts(table5))
              + presentation.fold("Table 5 and Fig. 9 under each reading, as numbers",
                                  html_table(table5, f"Table 5 and Fig. 9 under each reading. {_bench_words(context)}")))
-    return Section("Plates under each reading", body, "readings")
+    return Section("Plates under each reading", body, "readings", appendix=True)
 
 
 #: The report, in order (the summary goes first, built last). Another package adds a
@@ -1209,10 +1256,12 @@ def predicted_section(context: ReportContext) -> Section:
             "Argyris elements with Mindlin's thick-plate correction, the piezos as laminate patches on a "
             "compliant epoxy bond; the paper's Table 2 aluminium and NCE 41 for every plate, no parameter "
             "fitted), beside the printed values. U (k = 2) from the sheet's thickness (EN 485-4), the "
-            "aluminium alloy family, the bond and the piezos' placement. Column layouts: "
-            + "; ".join(html.escape(why) for _, why in predicted_plates.LAYOUTS.values()) + ".</p>")
+            "aluminium alloy family, the bond and the piezos' placement.</p>")
     body += presentation.fold("Predicted beside printed, plate by plate (the physics lines of Tables 3 and 4, and "
-                              "the large plate)", html_table(shown, "predicted (plate model) and printed (paper)"))
+                              "the large plate), and the column layouts assumed",
+                              "<p>Column layouts: " + "; ".join(html.escape(why) for _, why in
+                                                                predicted_plates.LAYOUTS.values()) + ".</p>"
+                              + html_table(shown, "predicted (plate model) and printed (paper)"))
     agree = predicted_plates.what_would_agree(infer_placement=False)
     body += presentation.fold(
         "Where power and velocity miss: which input would have to move", html_table(

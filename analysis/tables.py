@@ -30,6 +30,12 @@ TABLE_COLUMNS = ["table", "item", "quantity", "unit", "value", "std_uncertainty"
 
 NOT_MEASURED = "not measured"
 NOT_REACHABLE = "not reachable"
+#: `status` of a printed value the run was given (or calibrated on, or derived only from
+#: those) that came back within its tolerance: it shows the chain, not the paper, so its
+#: `agrees` is left empty, never counted as an agreement.
+ROUND_TRIP = "round_trip"
+#: Origins of values that were inputs of the run, not results.
+INPUT_ORIGINS = (provenance.CALIBRATION_INPUT, provenance.SETTING)
 #: A straight line through fewer points has no residual to judge it by.
 MIN_FIT_POINTS = 3
 
@@ -339,7 +345,7 @@ def table4(run: RunData) -> pd.DataFrame:
 def with_prediction(frame: pd.DataFrame, table: str) -> pd.DataFrame:
     """`frame` with what physics predicts for the paper's plate beside each printed value it
     can predict (analysis.predicted_plates: geometry and datasheets, no printed result in):
-    predicted_value, predicted_U (k = 2) and predicted_difference from print."""
+    predicted_value, predicted_expanded_uncertainty (k = 2) and predicted_difference from print."""
     from squeezebench.analysis import predicted_plates   # the plate solver: only where a paper table is drawn
 
     out = frame.merge(predicted_plates.tidy(table), on=["item", "quantity"], how="left")
@@ -569,7 +575,7 @@ def table5(plates: dict[str, PlateCharacterisation], convention: model.Conventio
     frame = pd.DataFrame(rows, columns=TABLE_COLUMNS)
     predicted = predicted_large_plate_q_tan(measured.geometry, convention)
     frame["predicted_value"] = frame["quantity"].map(lambda q: predicted[q][0])
-    frame["predicted_U"] = frame["quantity"].map(lambda q: predicted[q][1])
+    frame["predicted_expanded_uncertainty"] = frame["quantity"].map(lambda q: predicted[q][1])
     frame["predicted_difference"] = [relative_difference(v, p) for v, p in zip(frame["predicted_value"],
                                                                                 frame["paper_value"])]
     return frame
@@ -636,18 +642,55 @@ def estimated_large_plate_power_w(plates: dict[str, PlateCharacterisation],
                          "power_predicted_U_w": predicted * response["power_rel_U"]})
 
 
+def is_put_in(frame: pd.DataFrame) -> pd.Series:
+    """Rows whose value the run was given: a campaign setting, a calibration input, or
+    derived from calibration inputs (`calibrated_on` names them)."""
+    return frame["origin"].isin(INPUT_ORIGINS) | frame["calibrated_on"].map(lambda c: isinstance(c, str) and c != "")
+
+
+#: What a paper table's `item` is, as a wide table's first column names it.
+ITEM_NAMES = {"table3": "plate_length_mm", "table4": "configuration", "table5": "estimate"}
+
+
+def wide_table(frame: pd.DataFrame) -> pd.DataFrame:
+    """A finished paper table (tidy: one row per item and quantity) as pandas users expect
+    it: one row per item, named for what it is (`ITEM_NAMES`: Table 3's plate length in mm),
+    and per quantity (its unit in its name) its value, `<quantity>_expanded_u` (U, k = 2),
+    `paper_<quantity>` and `<quantity>_status` ('measured', 'round_trip', 'not measured')."""
+    name = str(frame["table"].iloc[0]) if len(frame) else ""
+    item = ITEM_NAMES.get(name, "item")
+    parts = {"": "value", "_expanded_u": "expanded_uncertainty", "paper_": "paper_value", "_status": "status"}
+    wide = {}
+    for suffix, column in parts.items():
+        pivot = frame.pivot(index="item", columns="quantity", values=column)
+        for quantity in dict.fromkeys(frame["quantity"]):
+            wide[f"{suffix}{quantity}" if suffix == "paper_" else f"{quantity}{suffix}"] = pivot[quantity]
+    out = pd.DataFrame(wide)
+    order = [c for q in dict.fromkeys(frame["quantity"]) for c in (q, f"{q}_expanded_u", f"paper_{q}", f"{q}_status")]
+    out = out[order].reindex(list(dict.fromkeys(frame["item"]))).rename_axis(item).reset_index()
+    if item.endswith("_mm"):
+        out[item] = out[item].astype(float)
+    return out
+
+
 def finish_table(frame: pd.DataFrame, value_columns=("value", "std_uncertainty", "expanded_uncertainty",
                                                      "scope_value", "paper_value", "relative_difference",
-                                                     "tolerance", "predicted_value", "predicted_U",
+                                                     "tolerance", "predicted_value", "predicted_expanded_uncertainty",
                                                      "predicted_difference")) -> pd.DataFrame:
     """The table as written and read back: one dtype per column whatever the run holds.
     Number columns are floats, a missing number NaN (an empty CSV cell) with the row's
     `status` saying why ('not measured', 'not reachable'); `agrees` is a nullable boolean,
     empty where nothing was compared; a missing printed value has `paper_source` 'not
-    printed'. Words never stand in a number column, so `pd.read_csv` gives floats back."""
+    printed'. A value the run was given that comes back within its tolerance has status
+    'round_trip' and `agrees` empty (`ROUND_TRIP`). Words never stand in a number column, so
+    `pd.read_csv` gives floats back."""
     out = frame.copy()
     if "agrees" in out:   # compared only where both numbers exist
         out["agrees"] = out["agrees"].map(lambda a: pd.NA if a is None or pd.isna(a) else bool(a)).astype("boolean")
+        if "origin" in out and "calibrated_on" in out:
+            came_back = out["agrees"].fillna(False).astype(bool) & is_put_in(out)
+            out.loc[came_back, "status"] = ROUND_TRIP
+            out.loc[came_back, "agrees"] = pd.NA
     if "paper_source" in out:
         out["paper_source"] = out["paper_source"].where(out["paper_source"].fillna("") != "", "not printed")
     for column in (c for c in value_columns if c in out):

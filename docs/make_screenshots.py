@@ -43,7 +43,13 @@ window.addEventListener('load', () => {
                                   ? img.closest('figure').querySelector('figcaption').textContent.trim() : ''), ...box(img)})),
                // a wide table scrolls inside its own box: that box is what must fit the page
                tables: [...document.querySelectorAll('table')].map(t => ({caption: t.caption ? t.caption.textContent.trim() : '',
-                        text: t.textContent, ...box(t.closest('.wide') || t)})),
+                        text: t.textContent, cells: [...t.querySelectorAll('td')].map(td => td.textContent),
+                        ...box(t.closest('.wide') || t)})),
+               // the opening sentences, the round trips' cells and every word a reader can see
+               opening: document.querySelector('.opening') ? document.querySelector('.opening').textContent : '',
+               round_trips: [...document.querySelectorAll('td.trip')].map(td => td.textContent),
+               text: (() => { const b = document.body.cloneNode(true);
+                              b.querySelectorAll('script,style').forEach(e => e.remove()); return b.textContent; })(),
                sections: Object.fromEntries([...document.querySelectorAll('section[id], figure[id]')].map(s => [s.id, box(s)]))};
   const target = window.parent !== window ? window.parent.document : document;
   const pre = target.createElement('pre');

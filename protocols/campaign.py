@@ -50,6 +50,7 @@ from squeezebench.protocols.acquisition import Acquisition, AcquisitionSettings
 from squeezebench.protocols.safety import DriveController, MeasuredVoltageError, SafetyLimits, chain_warnings
 from squeezebench.protocols.steps import Plate, Step, StepContext
 from squeezebench.protocols.storage import RunStore, bench_provenance, sha256_file
+from squeezebench.terminal import bar_width
 from squeezebench.stops import deferred, generator_state, handled, raise_if_stopped
 from squeezebench.errors import UserError
 from squeezebench.schemas import PROTOCOLS
@@ -463,7 +464,7 @@ class _Runner:
         with tqdm(total=total, initial=len(self.done), unit="step", desc=self.campaign.name,
                   bar_format="{desc}: {percentage:3.0f}%|{bar}| {n_fmt}/{total_fmt} steps "
                              "[wall {elapsed}, ~{remaining} to go]{postfix}",
-                  dynamic_ncols=True, disable=not self.progress) as self.bar:
+                  disable=not self.progress, **bar_width()) as self.bar:
             self._show_times()
             for run, steps in self.plans:
                 pending = [step for step in steps if (run.name, step.step_id) not in self.done]

@@ -21,6 +21,7 @@ import joblib
 from tqdm import tqdm
 
 from squeezebench.errors import UserError
+from squeezebench.terminal import bar_width
 
 T = TypeVar("T")
 CONNECT_TIMEOUT_S = 10.0
@@ -72,7 +73,7 @@ def map_unordered(function: Callable[[T], Any], items: Iterable[T], workers: int
     _wait_for_warming()
     with _backend(workers, scheduler) as n_jobs, \
             tqdm(total=len(items), desc=description, unit="task", disable=None if bar else True,
-                 leave=False) as progress:
+                 leave=False, **bar_width()) as progress:
         run = joblib.Parallel(n_jobs=min(n_jobs, len(items)), return_as="generator_unordered")
         for index, result in run(joblib.delayed(_indexed)(function, i, item) for i, item in enumerate(items)):
             progress.update()

@@ -349,8 +349,9 @@ class Plan:
         return sum(self.own_s.values())
 
     def table(self) -> str:
+        # one unit style in the table: every relative error in %, as the floors are
         lines = [f"target relative error (p95, power and velocity; Q and tan theta' floors too): "
-                 f"{self.target_rel_error:g}; noise p95 of "
+                 f"{self.target_rel_error:g} ({100 * self.target_rel_error:g} %); noise p95 of "
                  f"{self.repeats} acquisitions per setting; floor: the instruments' specified errors",
                  f"{'run':<24} {'record':>6} {'averages':>8} {'noise p95':>10} {'floor':>7} {'planned s':>10} "
                  f"{'own s':>8} {'ratio':>6} {'512-avg s':>10}"]
@@ -358,14 +359,14 @@ class Plan:
             planned_s, own_s = self.planned_s.get(name, 0.0), self.own_s.get(name, math.nan)
             floor = self.floors.planned_floor(name) if self.floors else math.nan
             lines.append(f"{name:<24} {setting.record_length:>6d} {setting.averages:>8d} "
-                         f"{self.error_by_run[name]:>10.2e} {floor:>7.2%} {planned_s:>10.1f} {own_s:>8.1f} "
+                         f"{self.error_by_run[name]:>10.3%} {floor:>7.2%} {planned_s:>10.1f} {own_s:>8.1f} "
                          f"{planned_s / own_s:>6.2f} {self.baseline_s.get(name, 0.0):>10.1f}")
         for name in set(self.planned_s) - set(self.settings_by_run):   # the calibration the plan adds
             lines.append(f"{name:<24} {'':>6} {'':>8} {'':>10} {'':>7} {self.planned_s[name]:>10.1f} "
                          f"{self.own_s.get(name, 0.0):>8.1f} "
                          f"{'':>6} {'':>10}")
         ratio = self.planned_total_s / self.own_total_s if self.own_total_s else math.nan
-        lines.append(f"{'total':<24} {'':>6} {'':>8} {max(self.error_by_run.values()):>10.2e} {'':>7} "
+        lines.append(f"{'total':<24} {'':>6} {'':>8} {max(self.error_by_run.values()):>10.3%} {'':>7} "
                      f"{self.planned_total_s:>10.1f} {self.own_total_s:>8.1f} {ratio:>6.2f} "
                      f"{self.baseline_total_s:>10.1f}")
         if self.own_total_s and self.planned_total_s > self.own_total_s:

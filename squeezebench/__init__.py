@@ -4,7 +4,8 @@ The Python API (squeezebench.api) is also here: `squeezebench.resonance_search(.
 """
 
 #: squeezebench.api's functions, imported on first use: the command line stays light.
-_API = ("open_bench", "run_protocol", "resonance_search", "characterisation", "run_campaign", "load_run", "design")
+_API = ("open_bench", "run_protocol", "resonance_search", "characterisation", "run_campaign", "load_run", "design",
+        "table3", "table4", "table5")
 
 
 def __getattr__(name: str):

@@ -17,8 +17,11 @@
   the campaign runner's safety limits, crash-safe storage, `resume` and provenance; the
   run directory is an ordinary one (`squeezebench report` reads it).
 - `run_campaign(campaign, ...)`: a campaign file, or a shipped one by name (`"quick"`).
-- `load_run(run_dir)`: a stored run as DataFrames: `points()`, `waveforms()`, `settings()`;
+- `load_run(run_dir)`: a stored run as DataFrames: `points()`, `waveforms()`, `settings()`
+  (one row per run, one typed column per setting), `table3()`/`table4()`/`table5()`;
   `report()` regenerates its report.
+- `table3(run, wide=True)` (and `table4`, `table5`): the paper's table recomputed, one row
+  per plate, one column per quantity with its unit in the name, `_expanded_u` columns for U.
 - `design(plate, ...)`: what a plate will need before it is built (`squeezebench design`):
   `answer.physics.nominal.values`, `answer.physics.expanded` (U, k = 2), `answer.physics.budget`,
   `answer.comparison()`, `answer.layouts`; `out_dir` also writes the page.
@@ -130,6 +133,21 @@ def design(plate: str | Path, *, from_runs: Sequence[str | Path] = (), measured:
     return answer
 
 
+def table3(run: RunResults | str | Path, wide: bool = False) -> pd.DataFrame:
+    """Table 3 of a run (a `load_run` result or its directory); see `RunResults.table3`."""
+    return (run if isinstance(run, RunResults) else load_run(run)).table3(wide)
+
+
+def table4(run: RunResults | str | Path, wide: bool = False) -> pd.DataFrame:
+    """Table 4 of a run; see `RunResults.table4`."""
+    return (run if isinstance(run, RunResults) else load_run(run)).table4(wide)
+
+
+def table5(run: RunResults | str | Path, wide: bool = False) -> pd.DataFrame:
+    """Table 5 of a run; see `RunResults.table5`."""
+    return (run if isinstance(run, RunResults) else load_run(run)).table5(wide)
+
+
 def load_run(run_dir: str | Path) -> RunResults:
     """A stored run (from `squeezebench run`, `reproduce` or this module)."""
     run = RunResults(Path(run_dir))
@@ -173,13 +191,50 @@ class RunResults:
         return frame[["run_name", "step_id", "point_index",
                       *[c for c in frame.columns if c not in ("run_name", "step_id", "point_index")]]]
 
-    def settings(self) -> pd.DataFrame:
+    def settings(self, long: bool = False) -> pd.DataFrame:
         """The settings each protocol run started with (instruments as read back,
-        acquisition, safety, electronics, parameters): one row per run and setting."""
+        acquisition, safety, electronics, parameters): one row per run, one column per
+        setting ('acquisition.averages'), each of one type (a number, a word, a flag);
+        `long=True`: one row per run and setting, the values in one mixed column."""
         rows = [{"run_name": file.stem, "setting": setting, "value": value}
                 for file in sorted((self.run_dir / "settings").glob("*.json"))
                 for setting, value in _flatten(json.loads(file.read_text()))]
-        return pd.DataFrame(rows, columns=["run_name", "setting", "value"])
+        frame = pd.DataFrame(rows, columns=["run_name", "setting", "value"])
+        if long:
+            return frame
+        wide = pd.DataFrame.from_dict({run: dict(zip(group["setting"], group["value"]))
+                                       for run, group in frame.groupby("run_name", sort=False)}, orient="index")
+        # a column a list filled (a sweep's voltages) stays as it is; every other takes one type
+        wide = wide.infer_objects().convert_dtypes(convert_string=False, convert_integer=False)
+        return wide.rename_axis("run_name").reset_index()
+
+    def table3(self, wide: bool = False) -> pd.DataFrame:
+        """Table 3 recomputed: tidy, one row per (plate length, quantity); `wide=True` one row
+        per plate, one column per quantity (unit in its name) and `<quantity>_expanded_u`, its U
+        (k = 2), `paper_<quantity>`, `<quantity>_status`."""
+        return self._paper_table("table3", wide)
+
+    def table4(self, wide: bool = False) -> pd.DataFrame:
+        """Table 4 recomputed, as `table3`; one row per configuration when wide."""
+        return self._paper_table("table4", wide)
+
+    def table5(self, wide: bool = False) -> pd.DataFrame:
+        """Table 5 recomputed (the report's reading), as `table3`; one row per estimate when wide."""
+        return self._paper_table("table5", wide)
+
+    def _paper_table(self, name: str, wide: bool) -> pd.DataFrame:
+        from squeezebench.analysis import tables
+        from squeezebench.analysis.rundata import load_run as load_stored_run
+
+        run = load_stored_run(self.run_dir)
+        if name == "table5":
+            from squeezebench.analysis.report import REPORT_CONVENTION
+
+            frame = tables.table5(tables.characterise_plates(run, REPORT_CONVENTION), REPORT_CONVENTION)
+        else:
+            frame = getattr(tables, name)(run)
+        frame = tables.finish_table(frame)
+        return tables.wide_table(frame) if wide else frame
 
     def manifest(self) -> dict[str, Any]:
         """Software version, input files with their sha256, instrument identifications."""

@@ -11,8 +11,10 @@ a terminal; `-q` keeps only errors and what the operator must act on, `-v` adds 
 from __future__ import annotations
 
 import argparse
+import difflib
 import json
 import logging
+import re
 import shutil
 import sys
 from pathlib import Path
@@ -115,7 +117,8 @@ def cmd_run(args: argparse.Namespace) -> int:
     from squeezebench.protocols.campaign import load_campaign, run_campaign
     from squeezebench.simulated_plates import check_powered_piezos
 
-    campaign = load_campaign(paths.campaign_file(args.campaign), bench_file=args.bench)
+    file = paths.shipped_of_kind(args.campaign, "campaigns")
+    campaign = load_campaign(file, bench_file=args.bench)
     check_powered_piezos(campaign)
     if args.accept_changed_bench and not args.resume:
         raise UserError("--accept-changed-bench continues a stopped run: use it with --resume")
@@ -131,10 +134,12 @@ def cmd_run(args: argparse.Namespace) -> int:
             print("squeezebench run: --plot found no display (matplotlib draws off-screen): the plot is "
                   "written as RUN_DIR/live_plot.png at the end (set MPLBACKEND to QtAgg or TkAgg for a "
                   "window)", file=sys.stderr)
-    run_dir = run_campaign(paths.campaign_file(args.campaign), resume=args.resume, out_dir=args.out,
+    run_dir = run_campaign(file, resume=args.resume, out_dir=args.out,
                            progress=show_progress(args), accept_changed_bench=args.accept_changed_bench,
                            operator_done=args.operator_done, bench_file=args.bench, **watchers)
     say(args, f"run stored in {run_dir}")
+    for line in _map_headline(campaign, run_dir):   # a map's answer now, not at `report`
+        say(args, line)
     if not args.quiet:   # after the run: an error stays the one line it is
         for note in _campaign_notes(campaign, args.campaign):
             print(f"squeezebench run: {note}", file=sys.stderr)
@@ -146,6 +151,20 @@ def cmd_run(args: argparse.Namespace) -> int:
         say(args, "close the plot window to finish")
         plt.show()
     return 0
+
+
+def _map_headline(campaign, run_dir: Path) -> list[str]:
+    """The report's lines for each vibration map the campaign made (nothing without one)."""
+    from squeezebench.protocols.variants import MAP_PROTOCOLS
+
+    if not any(run.protocol in MAP_PROTOCOLS for run in campaign.runs):
+        return []
+    from squeezebench.analysis.cartography_report import map_summaries
+    from squeezebench.analysis.headline import map_lines
+    from squeezebench.analysis.rundata import load_run
+
+    summaries, _ = map_summaries(load_run(run_dir))
+    return [line.text for line in map_lines(summaries)]
 
 
 def _campaign_notes(campaign, name: str) -> list[str]:
@@ -181,12 +200,18 @@ def cmd_validate(args: argparse.Namespace) -> int:
     """Each file checked on its own: one line per file (stdout if sound, stderr if not)."""
     from squeezebench.schemas import validate_file
 
+    checked = _files_to_validate(args)
+    if not checked:
+        raise UserError("name at least one file (or --campaign, --scene, --design, --bench NAME)")
     results = []
-    for file in args.files:
+    for label, path, problem in checked:
+        if problem:
+            results.append({"file": label, "ok": False, "error": problem, "warnings": []})
+            continue
         try:
-            results.append({**validate_file(paths.input_file(file)), "ok": True, "error": None})
+            results.append({**validate_file(path), "ok": True, "error": None})
         except UserError as exc:
-            results.append({"file": file, "ok": False, "error": str(exc), "warnings": []})
+            results.append({"file": label, "ok": False, "error": str(exc), "warnings": []})
     passed = all(result["ok"] for result in results)
     if args.json:
         emit_json({"command": "validate", "passed": passed, "files": results})
@@ -200,6 +225,41 @@ def cmd_validate(args: argparse.Namespace) -> int:
             for warning in result["warnings"]:
                 print(f"squeezebench validate: warning: {warning}", file=sys.stderr)
     return 0 if passed else EXIT_USER_ERROR
+
+
+def _files_to_validate(args: argparse.Namespace) -> list[tuple[str, Path | None, str]]:
+    """(name as given, file, problem) for each file to check: a file as given; a shipped
+    name, resolved by kind with --campaign/--scene/--design/--bench, else in every kind that
+    has it (said once on stderr: `validate large_plate` means the scene and the design)."""
+    found = []
+    for kind in paths.SHIPPED_KINDS:
+        for name in getattr(args, kind) or ():
+            try:
+                found.append((name, paths.shipped_of_kind(name, kind), ""))
+            except UserError as exc:
+                found.append((name, None, str(exc)))
+    for name in args.files:
+        if Path(name).is_file():
+            found.append((name, Path(name), ""))
+            continue
+        kinds = [kind for kind in paths.SHIPPED_KINDS if _shipped(name, kind)]
+        if not kinds:
+            found.append((name, None, paths.unknown_name(name, list(paths.SHIPPED_KINDS))))
+            continue
+        if len(kinds) > 1 and not args.quiet:
+            words = " and the ".join(paths.KIND_SINGULAR[kind] for kind in kinds)
+            print(f"squeezebench validate: {len(kinds)} shipped files are called {name}: the {words}; checking "
+                  f"each ({' or '.join(f'--{paths.KIND_SINGULAR[k]} {name}' for k in kinds)} checks one)",
+                  file=sys.stderr)
+        found.extend((name, _shipped(name, kind), "") for kind in kinds)
+    return found
+
+
+def _shipped(name: str, kind: str) -> Path | None:
+    try:
+        return paths.shipped_of_kind(name, kind)
+    except UserError:
+        return None
 
 
 def cmd_report(args: argparse.Namespace) -> int:
@@ -346,7 +406,7 @@ def cmd_plan(args: argparse.Namespace) -> int:
     from squeezebench.protocols.planning import campaign_cache, make_plan, plan_text, write_planned_campaign
     from squeezebench.protocols.variants import MAP_PROTOCOLS
 
-    campaign = paths.campaign_file(args.campaign)
+    campaign = paths.shipped_of_kind(args.campaign, "campaigns")
     if args.write is not None:   # refused before minutes of planning, not after
         from squeezebench.protocols.storage import check_writable_file
 
@@ -384,6 +444,12 @@ def cmd_plan(args: argparse.Namespace) -> int:
 
 
 def cmd_design(args: argparse.Namespace) -> int:
+    if args.template:   # a file to fill in: `squeezebench design --template > my_plate.yaml`
+        sys.stdout.write(paths.design_template().read_text(encoding="utf-8"))
+        return 0
+    if args.plate is None:
+        raise UserError("name a design file (or a shipped design), or start one with: squeezebench design "
+                        "--template > my_plate.yaml")
     from squeezebench.analysis.design_report import headline, payload
     from squeezebench.designing import run_design, write_build, write_design
 
@@ -405,17 +471,57 @@ def cmd_design(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_list(args: argparse.Namespace) -> int:
+    """The shipped files by kind: the names `run`, `plan`, `validate` and `design` accept."""
+    kinds = [args.kind] if args.kind else list(paths.SHIPPED_KINDS)
+    listed = {kind: [{"name": path.stem, "file": str(path), "about": _about(path)} for path in paths.shipped(kind)]
+              for kind in kinds}
+    if args.json:
+        emit_json({"command": "list", **listed})
+        return 0
+    for kind, entries in listed.items():
+        say(args, f"{kind} ({len(entries)}):")
+        width = max((len(entry["name"]) for entry in entries), default=0)
+        for entry in entries:
+            say(args, f"  {entry['name']:<{width}}  {entry['about']}".rstrip())
+    return 0
+
+
+def _about(path: Path) -> str:
+    """A shipped file's first sentence: every shipped file opens with a comment saying what
+    it is (up to its first command example, indented)."""
+    words = []
+    for line in path.read_text(encoding="utf-8").splitlines():
+        if not line.startswith("#") or line.startswith("#  "):
+            break
+        words.append(line.lstrip("#").strip())
+    text = " ".join(words)
+    end = next((m.end(1) for m in re.finditer(r"(\S+\.) ", text) if m.group(1).lstrip("(") not in _ABBREVIATIONS), len(text))
+    return text[:end]
+
+
+#: Words ending in a full stop that do not end a sentence ("Fig. 7").
+_ABBREVIATIONS = {"Fig.", "Figs.", "Sec.", "Eq.", "Eqs.", "e.g.", "i.e.", "cf."}
+
+
 def _relative_error(text: str) -> float:
-    value = float(text)
-    if not 0 < value < 1:   # inf, nan, 0 or 100 % cannot be planned for
-        raise argparse.ArgumentTypeError(f"must be a number between 0 and 1 (0.01 is 1 %), got {text}")
+    """argparse names a type's ValueError by the function's name: every refusal is said here."""
+    try:
+        value = float(text)
+    except ValueError:
+        value = None
+    if value is None or not 0 < value < 1:   # inf, nan, 0 or 100 % cannot be planned for
+        raise argparse.ArgumentTypeError(f"must be a number between 0 and 1 (0.01 is 1 %), got {text!r}")
     return value
 
 
 def _workers(text: str) -> int:
-    count = int(text)
-    if count < 1:
-        raise argparse.ArgumentTypeError(f"must be at least 1, got {count}")
+    try:
+        count = int(text)
+    except ValueError:
+        count = None
+    if count is None or count < 1:
+        raise argparse.ArgumentTypeError(f"must be a whole number of processes, at least 1, got {text!r}")
     return count
 
 
@@ -451,41 +557,64 @@ EXAMPLES = {
     "plan": ["squeezebench plan quick --target-rel-error 0.08",
              "squeezebench plan paper --target-rel-error 0.03 --write planned.yaml",
              "squeezebench plan cartography --target-rel-error 0.03 --json"],
-    "design": ["squeezebench design large_plate --no-layouts   # the paper's large plate, from physics",
+    "list": ["squeezebench list                         # every shipped campaign, scene, design and bench",
+             "squeezebench list campaigns --json"],
+    "design": ["squeezebench design --template > my_plate.yaml   # a plate to fill in (docs/design-files.md)",
+               "squeezebench design large_plate --no-layouts   # the paper's large plate, from physics",
                "squeezebench design large_plate --from runs/paper  # and by the paper's method from its small plates",
                "squeezebench design my_plate.yaml --write-build build/   # + its predicted scene and campaign",
                "squeezebench design my_plate.yaml --measured runs/my_plate_characterisation --json"],
 }
 
 
+def _loudness(parser: argparse.ArgumentParser, default) -> None:
+    """-q/-v (and --version): on the top-level parser with their defaults, on each
+    subcommand with SUPPRESS defaults, so one given before the subcommand's name is not
+    reset by the subcommand's own default."""
+    parser.add_argument("--version", action="version", version=f"squeezebench {__version__}")
+    loudness = parser.add_mutually_exclusive_group()
+    loudness.add_argument("-q", "--quiet", action="store_true", default=default,
+                          help="only errors and what the operator must act on; no progress bar")
+    loudness.add_argument("-v", "--verbose", action="store_true", default=default,
+                          help="also log every run and step on stderr (as in the run's log.txt)")
+
+
+def _json_flag(parser: argparse.ArgumentParser, default) -> None:
+    parser.add_argument("--json", action="store_true", default=default,
+                        help="print the result as one JSON document")
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(prog="squeezebench", description=__doc__,
-                                     formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--version", action="version", version=f"squeezebench {__version__}")
-    # Every subcommand takes -q/-v after its name (`squeezebench run X -v`).
+                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    # The global options, before the subcommand (`squeezebench -q check`) or after it
+    # (`squeezebench check -q`): every subcommand takes them from the `common` parent.
+    _loudness(parser, False)
+    _json_flag(parser, False)
     common = _Parser(add_help=False)
-    common.add_argument("--version", action="version", version=f"squeezebench {__version__}")
-    loudness = common.add_mutually_exclusive_group()
-    loudness.add_argument("-q", "--quiet", action="store_true",
-                          help="only errors and what the operator must act on; no progress bar")
-    loudness.add_argument("-v", "--verbose", action="store_true",
-                          help="also log every run and step on stderr (as in the run's log.txt)")
+    _loudness(common, argparse.SUPPRESS)
     json_flag = _Parser(add_help=False)
-    json_flag.add_argument("--json", action="store_true", help="print the result as one JSON document")
-    sub = parser.add_subparsers(dest="command", required=True)
+    _json_flag(json_flag, argparse.SUPPRESS)
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND",
+                                parser_class=_Parser)
+    parser.commands = {}
 
     def add(name: str, json: bool = False, **kwargs) -> argparse.ArgumentParser:
         lines = EXAMPLES[name]
-        return sub.add_parser(name, parents=[common, json_flag] if json else [common],
-                              epilog="examples:\n" + "\n".join(f"  {line}" for line in lines),
-                              formatter_class=argparse.RawDescriptionHelpFormatter, **kwargs)
+        command = sub.add_parser(name, parents=[common, json_flag] if json else [common],
+                                 epilog="examples:\n" + "\n".join(f"  {line}" for line in lines),
+                                 formatter_class=argparse.RawDescriptionHelpFormatter, **kwargs)
+        command.set_defaults(json_output=json)
+        parser.commands[name] = command
+        return command
 
+    campaigns = ", ".join(paths.shipped_names("campaigns"))
     check = add("check", json=True, help="open every instrument and print its identification")
     check.add_argument("--bench", default="sim", help="'sim' or a bench YAML file (default: sim)")
     check.set_defaults(func=cmd_check)
 
     run = add("run", help="run a campaign file")
-    run.add_argument("campaign", help="campaign YAML file, or the name of a shipped one (quick, paper)")
+    run.add_argument("campaign", help=f"campaign YAML file, or the name of a shipped one ({campaigns})")
     run.add_argument("--resume", action="store_true", help="continue after the last completed step")
     run.add_argument("--out", type=Path, default=None, help="run directory (default: from the campaign)")
     run.add_argument("--accept-changed-bench", action="store_true",
@@ -517,7 +646,11 @@ def build_parser() -> argparse.ArgumentParser:
 
     validate = add("validate", json=True, help="check campaign, bench and scene files (and every scene "
                    "and request a campaign has) without touching a bench or a run directory")
-    validate.add_argument("files", nargs="+", metavar="FILE", help="campaign, bench or scene YAML files")
+    validate.add_argument("files", nargs="*", metavar="FILE",
+                          help="campaign, bench, scene or design YAML files, or shipped ones by name")
+    for kind, singular in paths.KIND_SINGULAR.items():
+        validate.add_argument(f"--{singular}", dest=kind, action="append", metavar="NAME",
+                              help=f"the shipped {singular} of this name (or a file), whatever else is called so")
     validate.set_defaults(func=cmd_validate)
 
     report = add("report", help="recompute tables and figures from a stored run")
@@ -564,7 +697,7 @@ def build_parser() -> argparse.ArgumentParser:
     study.set_defaults(func=cmd_study)
 
     plan = add("plan", json=True, help="cheapest acquisition settings meeting an accuracy target")
-    plan.add_argument("campaign", help="campaign YAML file, or the name of a shipped one (quick, paper)")
+    plan.add_argument("campaign", help=f"campaign YAML file, or the name of a shipped one ({campaigns})")
     plan.add_argument("--target-rel-error", type=_relative_error, default=0.01, help="relative error goal (default 0.01)")
     plan.add_argument("--write", type=Path, default=None, metavar="FILE",
                       help="also write the campaign with the planned settings to FILE")
@@ -573,7 +706,10 @@ def build_parser() -> argparse.ArgumentParser:
 
     design = add("design", json=True, help="predict what a plate will need before it is built (voltage, "
                  "power, mode, layouts), from physics and from characterised small plates")
-    design.add_argument("plate", help="design YAML file, or the name of a shipped one (large_plate)")
+    design.add_argument("plate", nargs="?", help="design YAML file (docs/design-files.md), or the name of a "
+                        f"shipped one ({', '.join(paths.shipped_names('designs'))})")
+    design.add_argument("--template", action="store_true",
+                        help="print a commented design file to start from (a 120 x 60 x 1.5 mm plate) and stop")
     design.add_argument("--from", dest="from_runs", nargs="+", type=Path, default=None, metavar="RUN_DIR",
                         help="characterisation runs of small plates of the same build: also predict by the "
                              "paper's method (Eqs. 25-29)")
@@ -581,8 +717,8 @@ def build_parser() -> argparse.ArgumentParser:
                         help="a characterisation run of the built plate: set the measurement beside the predictions")
     design.add_argument("--measured-plate", default=None, metavar="NAME",
                         help="which plate of --measured is the built one (default: the design's name, or the only one)")
-    design.add_argument("--out", type=Path, default=None, help="folder for the page and its files "
-                        "(default: designs/<name>)")
+    design.add_argument("--out", type=Path, default=None, metavar="DIR",
+                        help="write the page and its files into DIR itself (default: designs/<name>)")
     design.add_argument("--write-build", type=Path, default=None, metavar="DIR",
                         help="also write DIR/<name>.yaml, the design as a predicted scene of the simulated bench, "
                              "and DIR/<name>_characterisation.yaml, the campaign that characterises it (a dry run "
@@ -591,6 +727,11 @@ def build_parser() -> argparse.ArgumentParser:
                         help="skip the sweep of 300 piezo layouts (about 4 minutes on 2 cores for the large plate)")
     _add_parallel_options(design)
     design.set_defaults(func=cmd_design)
+
+    listing = add("list", json=True, help="list the shipped campaigns, scenes, designs and bench examples")
+    listing.add_argument("kind", nargs="?", choices=sorted(paths.SHIPPED_KINDS), metavar="KIND",
+                         help=f"only these: {', '.join(paths.SHIPPED_KINDS)} (default: all)")
+    listing.set_defaults(func=cmd_list)
     return parser
 
 
@@ -620,11 +761,35 @@ def console_log(verbose: bool) -> logging.Handler | None:
 
 
 class _Parser(argparse.ArgumentParser):
-    """Usage errors as every other error: one line on stderr, exit 2, and with `--json`
-    anywhere on the line also one JSON document on stdout (a script reads no usage text)."""
+    """Usage errors as every other error: the usage line of the command they belong to, one
+    line naming that command on stderr, exit 2, and with `--json` anywhere on the line also
+    one JSON document on stdout (a script reads no usage text)."""
+
+    commands: dict[str, argparse.ArgumentParser] = {}
+
+    def parse_args(self, args=None, namespace=None):
+        """Arguments no parser knows are the subcommand's error, said with its usage (argparse
+        leaves them to the top-level parser); so are -q with -v and --json where the
+        subcommand has no JSON output, whichever side of its name they were given."""
+        found, extras = self.parse_known_args(args, namespace)
+        command = self.commands.get(getattr(found, "command", None), self)
+        if extras:
+            command.error(f"unrecognized arguments: {' '.join(extras)}")
+        if getattr(found, "quiet", False) and getattr(found, "verbose", False):
+            command.error("-q/--quiet and -v/--verbose contradict each other: give one")
+        if getattr(found, "json", False) and not getattr(found, "json_output", True):
+            command.error("--json: this command has no JSON output")
+        return found
 
     def error(self, message: str) -> NoReturn:
         argv = sys.argv[1:] if _Parser.argv is None else _Parser.argv
+        invalid = re.search(r"invalid choice: '([^']*)' \(choose from (.*)\)", message)
+        if invalid:   # a mistyped name: the closest one, as git and pip do
+            choices = re.findall(r"'([^']*)'", invalid.group(2))
+            close = difflib.get_close_matches(invalid.group(1), choices, n=1)
+            if close:
+                message += f"; did you mean '{close[0]}'?"
+        sys.stderr.write(self.format_usage())
         print(f"{self.prog}: {message} (see {self.prog} --help)", file=sys.stderr)
         if "--json" in argv:
             emit_json({"command": next((a for a in argv if not a.startswith("-")), None), "error": message})

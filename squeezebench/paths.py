@@ -9,6 +9,8 @@ import os
 from importlib import resources
 from pathlib import Path
 
+from squeezebench.errors import UserError
+
 
 def data_dir() -> Path:
     """The shipped `data/` folder; `SQUEEZEBENCH_DATA` overrides it."""
@@ -46,6 +48,11 @@ def designs_dir() -> Path:
     return data_dir() / "designs"
 
 
+def design_template() -> Path:
+    """The worked example of docs/design-files.md (`squeezebench design --template`)."""
+    return data_dir() / "examples" / "design_template.yaml"
+
+
 def design_file(name: str | Path) -> Path:
     """A design file as given, else a shipped design of that name (with or without `.yaml`)."""
     return _given_or_shipped(name, designs_dir())
@@ -67,6 +74,44 @@ def _given_or_shipped(name: str | Path, *folders: Path) -> Path:
 def benches_dir() -> Path:
     """Bench file examples to copy and fill in with a lab's VISA addresses."""
     return data_dir() / "benches"
+
+
+#: What `squeezebench list KIND` lists: each kind of shipped file and its folder.
+SHIPPED_KINDS = {"campaigns": campaigns_dir, "scenes": scenes_dir, "designs": designs_dir, "benches": benches_dir}
+#: One of each kind, as a message names it.
+KIND_SINGULAR = {"campaigns": "campaign", "scenes": "scene", "designs": "design", "benches": "bench"}
+
+
+def shipped(kind: str) -> list[Path]:
+    """The shipped files of one kind (`SHIPPED_KINDS`), sorted by name."""
+    return sorted(SHIPPED_KINDS[kind]().glob("*.yaml"))
+
+
+def shipped_names(kind: str) -> list[str]:
+    return [path.stem for path in shipped(kind)]
+
+
+def shipped_of_kind(name: str | Path, kind: str) -> Path:
+    """`name` as a file, else the shipped file of that kind and name; a name that is neither
+    is a UserError naming the shipped ones of that kind, with the closest as a guess."""
+    path = _given_or_shipped(name, SHIPPED_KINDS[kind]())
+    if path.is_file():
+        return path
+    raise UserError(unknown_name(str(name), [kind]))
+
+
+def unknown_name(name: str, kinds: list[str]) -> str:
+    """"no file X, and no shipped campaign of that name; did you mean 'quick'? shipped
+    campaigns: ..." (difflib's closest names of those kinds)."""
+    import difflib
+
+    known = {kind: shipped_names(kind) for kind in kinds}
+    stem = Path(name).stem if name.endswith((".yaml", ".yml")) else name
+    guesses = difflib.get_close_matches(stem, [n for names in known.values() for n in names], n=1)
+    guess = f"; did you mean '{guesses[0]}'?" if guesses else ""
+    what = " or ".join(KIND_SINGULAR[kind] for kind in kinds)
+    listed = "; ".join(f"shipped {kind}: {', '.join(names)}" for kind, names in known.items())
+    return f"{name}: no such file, and no shipped {what} of that name{guess} ({listed}; `squeezebench list` shows them)"
 
 
 def paper_values_dir() -> Path:

@@ -15,6 +15,7 @@ Scenes are simbench's (`simbench.scene.load_scene` validates them).
 from __future__ import annotations
 
 import json
+import math
 import re
 import sys
 from pathlib import Path
@@ -190,13 +191,16 @@ def validated(model: type[BaseModel], data: Any) -> Any:
 
 # -- errors -------------------------------------------------------------------------------
 def _field_path(loc: tuple) -> str:
-    """runs[0].parameters.search.points, without pydantic's union tags."""
+    """runs[0].parameters.search.points, without pydantic's union tags (a protocol's branch
+    name, "literal['aluminium_table2']", "IsotropicMaterial"): the file's words only."""
     parts: list[str] = []
     for i, item in enumerate(loc):
         if isinstance(item, int):
             parts.append(f"[{item}]")
         elif i > 0 and isinstance(loc[i - 1], int) and item in RUN_MODELS:
             continue   # the discriminator's branch name
+        elif i > 0 and not re.fullmatch(r"[a-z_][a-z0-9_]*", str(item)):
+            continue   # a union's branch: the field is the one before it
         else:
             parts.append(f".{item}" if parts else str(item))
     return "".join(parts)
@@ -228,22 +232,46 @@ def _resolve(schema: dict, node: dict) -> dict:
             return node
 
 
-def describe(error: ValidationError, model: type[BaseModel]) -> tuple[str, str]:
-    """(field, message) of a validation error's first problem, in the file's words."""
+_UNKNOWN = ("extra_forbidden", "unexpected_keyword_argument")
+
+
+def problems(error: ValidationError, model: type[BaseModel]) -> list[tuple[str, str]]:
+    """Every problem of a file, one (field, message) per field in the file's words: a union
+    tries each branch and reports each, but it is one field and one problem; a misspelt key
+    is one problem (the right name, which it makes "missing", is offered instead)."""
     errors = error.errors(include_url=False)
-    # An unknown key first: a misspelt key also makes the right one "missing".
-    first = min(errors, key=lambda e: e["type"] not in ("extra_forbidden", "unexpected_keyword_argument"))
-    loc, kind = first["loc"], first["type"]
+    found: dict[str, str] = {}
+    guessed: set[str] = set()
+    for one in sorted(errors, key=lambda e: e["type"] not in _UNKNOWN):   # unknown keys first
+        field, message, guess = _problem(one, model)
+        if one["type"] == "missing" and field in guessed:
+            continue
+        if guess:
+            guessed.add(guess)
+        found.setdefault(field, message)
+    return list(found.items())
+
+
+def _problem(one: dict, model: type[BaseModel]) -> tuple[str, str, str]:
+    """(field, message, the field a misspelt key was probably meant to be) of one error."""
+    import difflib
+
+    loc, kind = one["loc"], one["type"]
     field = _field_path(loc) or "top level"
-    if kind in ("extra_forbidden", "unexpected_keyword_argument"):
-        message = f"unknown field (allowed: {', '.join(_allowed(model, loc))})"
+    guess = ""
+    if kind in _UNKNOWN:
+        allowed = _allowed(model, loc)
+        close = difflib.get_close_matches(str(loc[-1]), allowed, n=1)
+        message = f"unknown field ({f'did you mean {close[0]!r}? ' if close else ''}allowed: {', '.join(allowed)})"
+        if close:
+            guess = _field_path((*loc[:-1], close[0]))
     elif kind == "missing":
         message = "is missing"
     elif kind == "value_error":
-        message = str(first["ctx"]["error"])
+        message = str(one["ctx"]["error"])
     elif kind == "union_tag_invalid":
-        message = f"{first['input'].get('protocol')!r} is not one of: {', '.join(sorted(RUN_MODELS))}" \
-            if isinstance(first.get("input"), dict) else first["msg"]
+        message = f"{one['input'].get('protocol')!r} is not one of: {', '.join(sorted(RUN_MODELS))}" \
+            if isinstance(one.get("input"), dict) else one["msg"]
         field = f"{field}.protocol"
     elif kind == "union_tag_not_found":
         message, field = f"is missing (one of: {', '.join(sorted(RUN_MODELS))})", f"{field}.protocol"
@@ -251,10 +279,27 @@ def describe(error: ValidationError, model: type[BaseModel]) -> tuple[str, str]:
         message = "must be a non-empty list of protocol runs"
     elif kind in ("model_type", "dataclass_type", "dict_type"):
         allowed = _allowed(model, (*loc, "_"))
-        message = f"{first['input']!r} must be a mapping" + (f" of {', '.join(allowed)}" if allowed else "")
+        message = f"{one['input']!r} must be a mapping" + (f" of {', '.join(allowed)}" if allowed else "")
+    elif kind in ("float_type", "int_type") and _is_number(one.get("input")):
+        message = f"{one['input']!r} is text, not a number: write it without quotes"
     else:
-        message = f"{first['input']!r}: {first['msg'][0].lower()}{first['msg'][1:]}"
-    more = len(errors) - 1
+        message = f"{one['input']!r}: {one['msg'][0].lower()}{one['msg'][1:]}"
+    return field, message, guess
+
+
+def _is_number(text: Any) -> bool:
+    """A number quoted in the file ('1.5'), not words ('20 V')."""
+    try:
+        return isinstance(text, str) and math.isfinite(float(text))
+    except ValueError:
+        return False
+
+
+def describe(error: ValidationError, model: type[BaseModel]) -> tuple[str, str]:
+    """(field, message) of a validation error's first problem, in the file's words, and how
+    many more the file has."""
+    found = problems(error, model)
+    (field, message), more = found[0], len(found) - 1
     return field, message + (f" ({more} more problem{'s' if more > 1 else ''} after this one)" if more else "")
 
 
@@ -277,6 +322,10 @@ def load_bench_file(path: str | Path) -> BenchConfig:
 
 
 # -- design files -------------------------------------------------------------------------
+#: The design-file user guide every design-file error names.
+DESIGN_GUIDE = "docs/design-files.md"
+
+
 def load_design_file(path: str | Path):
     """A plate to design (`analysis.design_file.DesignFile`); a problem is one line naming
     the file, the field and what is wrong."""
@@ -286,9 +335,12 @@ def load_design_file(path: str | Path):
     data = read_yaml(path)
     try:
         return validated(DesignFile, data)
-    except ValidationError as exc:
-        field, message = describe(exc, DesignFile)
-        raise UserError(f"{path}: {field}: {message}") from None
+    except ValidationError as exc:   # every problem at once: a design file is written by hand
+        found = problems(exc, DesignFile)
+        if len(found) == 1:
+            raise UserError(f"{path}: {found[0][0]}: {found[0][1]} (every field: {DESIGN_GUIDE})") from None
+        raise UserError(f"{path}: {len(found)} problems (every field: {DESIGN_GUIDE}):\n"
+                        + "\n".join(f"  {field}: {message}" for field, message in found)) from None
 
 
 # -- scenes -------------------------------------------------------------------------------
@@ -334,7 +386,8 @@ def validate_file(path: Path) -> dict[str, Any]:
         scenes = sorted({p.name for run in campaign.runs for p in run.input_files() if p.suffix == ".yaml"})
         n_steps = sum(len(run.steps()) for run in campaign.runs)
         return {"file": str(path), "kind": "campaign",
-                "summary": f"{len(campaign.runs)} runs, {n_steps} steps, inputs {', '.join(scenes)}",
+                "summary": f"{len(campaign.runs)} run{'s' if len(campaign.runs) != 1 else ''}, {n_steps} "
+                           f"step{'s' if n_steps != 1 else ''}, inputs {', '.join(scenes)}",
                 "warnings": [f"{source}: {w}" for source, config in configs.items()
                              for w in chain_warnings(config.electronics)]}
     if isinstance(data, dict) and ("resources" in data or "visa_library" in data):
@@ -344,9 +397,13 @@ def validate_file(path: Path) -> dict[str, Any]:
     if isinstance(data, dict) and "plate" in data:
         return {"file": str(path), "kind": "scene", "summary": "", "warnings": replay_departures(path)}
     if isinstance(data, dict) and "resonator" in data:
+        from squeezebench.analysis.design import predict_physics   # what `design` refuses, refused here too
+
         design = load_design_file(path)
+        mode = predict_physics(design).nominal.values
         return {"file": str(path), "kind": "design",
-                "summary": f"{design.n_powered_piezos} powered piezos in {design.n_powered_groups} groups",
+                "summary": f"{design.n_powered_piezos} powered piezos in {design.n_powered_groups} groups, "
+                           f"working mode {mode['frequency_hz']:.0f} Hz",
                 "warnings": []}
     raise UserError(f"{path}: top level: not a campaign (with 'runs'), bench (with 'resources'), "
                     "scene (with 'plate') or design (with 'resonator') file")

@@ -83,7 +83,7 @@ def physics_rows(context: report.ReportContext) -> pd.DataFrame:
             rows.append({"plate": name, "scene_file": path.name, "scene_state": state.name,
                          "scene_kind": "predicted" if state.predicted else "replay", "quantity": quantity,
                          "unit": "1", "value": measured.value, "expanded_uncertainty": u_measured,
-                         "origin": plate.origin, "predicted_value": value, "predicted_U": u_predicted,
+                         "origin": plate.origin, "predicted_value": value, "predicted_expanded_uncertainty": u_predicted,
                          "value_over_predicted": measured.value / value if value else math.nan,
                          "agrees_with_prediction": bool(abs(measured.value - value)
                                                         <= math.hypot(u_measured, u_predicted))})
@@ -100,7 +100,7 @@ def _by_plate(frame: pd.DataFrame) -> pd.DataFrame:
         for quantity, name in (("q", "Q"), ("tan_theta", "tan θ′")):
             r = rows[rows["quantity"] == quantity].iloc[0]
             row[f"{name}: this run"] = presentation.with_uncertainty(r["value"], r["expanded_uncertainty"])
-            row[f"{name}: physics"] = presentation.with_uncertainty(r["predicted_value"], r["predicted_U"])
+            row[f"{name}: physics"] = presentation.with_uncertainty(r["predicted_value"], r["predicted_expanded_uncertainty"])
             row[f"{name}: run / physics"] = r["value_over_predicted"]
         row["both within U"] = "✓" if rows["agrees_with_prediction"].all() else "✗"
         out.append(row)
@@ -139,7 +139,9 @@ def physics_section(context: report.ReportContext) -> report.Section | None:
 
 
 def _section(body: str) -> report.Section:
-    return report.Section("What physics predicts for the characterised plates (Fig. 5)", body, "plates-physics")
+    # detail of Fig. 5's plates, plate by plate: reference, after the results
+    return report.Section("What physics predicts for the characterised plates (Fig. 5)", body, "plates-physics",
+                          appendix=True)
 
 
 def check_powered_piezos(campaign) -> None:

@@ -10,6 +10,7 @@ from __future__ import annotations
 import copy
 import functools
 import math
+import re
 from pathlib import Path
 from typing import Any
 
@@ -51,6 +52,11 @@ def _float(loader: _StrictLoader, node: yaml.ScalarNode) -> float:
 
 _StrictLoader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG, _mapping)
 _StrictLoader.add_constructor("tag:yaml.org,2002:float", _float)
+# YAML 1.1 reads an exponent without a dot (1e-6) as text; YAML 1.2, Python and every
+# person read a number, and a design file's 1 µm is written so.
+_StrictLoader.add_implicit_resolver("tag:yaml.org,2002:float",
+                                    re.compile(r"^[-+]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)[eE][-+]?[0-9]+$"),
+                                    list("-+0123456789."))
 
 
 def read_yaml(path: Path) -> Any:

@@ -111,6 +111,6 @@ def test_a_miss_made_by_mixing_readings_is_not_blamed_on_the_paper(characterisat
 
     context = report.ReportContext(run=characterisation_run, out_dir=tmp_path)
     assert report._scene_readings(context) == {"inferred"}
-    anchor, why = report._inferred_reading_explanation(context, "fig9", "", "power_w")
+    anchor, why, _ = report._inferred_reading_explanation(context, "fig9", "", "power_w")
     assert anchor == "readings" and "mixing two readings in this run, not from the paper" in why
     assert "is what disagrees with the paper's own numbers" not in why

@@ -54,7 +54,8 @@ def test_run_data_as_frames_and_the_report(notebook):
     assert {"run_name", "step_id", "point_index", "time_s", "piezo_voltage_v", "current_a",
             "vibrometer_output_v"} <= set(waveforms.columns)
     assert waveforms.groupby("point_index").size().eq(500).all()   # FAST's record length
-    assert settings.set_index("setting").loc["acquisition.averages", "value"] == 4
+    assert settings.loc[0, "acquisition.averages"] == 4   # one row per run, one typed column per setting
+    assert settings["acquisition.averages"].dtype == "int64" and settings["run_name"].tolist() == ["characterisation"]
     report = where / "runs/notebook/characterisation/report"
     assert (report / "index.html").is_file() and (report / "scenes.csv").is_file()   # as the CLI's
 
@@ -92,3 +93,20 @@ def test_the_package_root_offers_the_api():
     assert squeezebench.load_run is api.load_run
     with pytest.raises(AttributeError):
         squeezebench.no_such_name
+
+
+def test_a_paper_table_in_the_shape_pandas_users_expect(tmp_path):
+    """One row per plate, named for what it is; one column per quantity with its unit in the
+    name, its U and the printed value beside it; snake_case; a round trip is a status."""
+    run = api.run_campaign("quick", tmp_path / "quick")
+    wide = api.table3(run, wide=True)
+    assert wide.columns[0] == "plate_length_mm" and wide["plate_length_mm"].dtype == float
+    for quantity in ("frequency_hz", "power_w", "velocity_pp_mps"):
+        assert {quantity, f"{quantity}_expanded_u", f"paper_{quantity}", f"{quantity}_status"} <= set(wide.columns)
+        assert wide[quantity].dtype == float
+    assert all(column == column.lower() for column in wide.columns)
+    tidy = run.table3()
+    measured = tidy[tidy["status"] != "not measured"]
+    assert len(wide) == tidy["item"].nunique() and len(measured)
+    assert set(measured["status"]) <= {"round_trip", "measured"} and measured.loc[
+        measured["status"] == "round_trip", "agrees"].isna().all()

@@ -256,7 +256,7 @@ def test_every_help_ends_with_examples_that_parse(command, capsys):
     assert "examples:\n  squeezebench " + command in capsys.readouterr().out
     parser = cli.build_parser()
     for line in cli.EXAMPLES[command]:
-        words = line.split("#")[0].split()
+        words = line.split("#")[0].split(">")[0].split()   # a shell redirection is not an argument
         assert words[0] == "squeezebench" and words[1] == command
         parser.parse_args(words[1:])   # an example that does not parse exits 2 here
 
@@ -284,3 +284,93 @@ def test_reproduce_stops_its_study_when_the_campaign_stops(tmp_path, monkeypatch
         cli.cmd_reproduce(cli.build_parser().parse_args(["reproduce", "--out", str(tmp_path / "paper"), "-q"]))
     assert seen == {"started": True, "stopped": True}
     assert not [t for t in threading.enumerate() if t.name == "beside"]
+
+
+# -- habits of other command lines ----------------------------------------------------------
+
+def test_a_usage_error_is_named_against_its_subcommand_with_its_usage(capsys):
+    with pytest.raises(SystemExit) as stopped:
+        cli.main(["run", "quick", "--no-such-flag"])
+    assert stopped.value.code == cli.EXIT_USER_ERROR
+    err = capsys.readouterr().err
+    assert err.startswith("usage: squeezebench run ")
+    assert "squeezebench run: unrecognized arguments: --no-such-flag (see squeezebench run --help)" in err
+    with pytest.raises(SystemExit):
+        cli.main(["plan", "quick", "--target-rel-error", "abc"])
+    err = capsys.readouterr().err
+    assert "squeezebench plan: argument --target-rel-error: must be a number between 0 and 1" in err
+    assert "_relative_error" not in err   # argparse names a type's failure by its function
+    with pytest.raises(SystemExit):
+        cli.main(["rnu", "quick"])
+    assert "did you mean 'run'?" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("argv", [["-q", "run", "quick"], ["run", "quick", "-q"], ["run", "-q", "quick"]])
+def test_global_options_before_or_after_the_subcommand(argv, monkeypatch, capsys):
+    from squeezebench.protocols import campaign
+
+    seen = []
+    monkeypatch.setattr(campaign, "run_campaign", lambda path, **kwargs: seen.append(kwargs) or Path("r"))
+    monkeypatch.setattr(cli.sys.stderr, "isatty", lambda: True, raising=False)
+    assert cli.main(argv) == 0
+    assert capsys.readouterr().out == "" and seen[-1]["progress"] is False
+    assert cli.build_parser().parse_args(["--json", "check"]).json is True
+    with pytest.raises(SystemExit):
+        cli.main(["-q", "check", "-v"])   # contradictory, whichever side each is on
+    assert "squeezebench check: -q/--quiet and -v/--verbose" in capsys.readouterr().err
+
+
+def test_an_unknown_campaign_lists_the_shipped_ones(capsys, tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    assert cli.main(["run", "quik"]) == cli.EXIT_USER_ERROR
+    err = capsys.readouterr().err
+    assert err.startswith("squeezebench run: quik: no such file") and "did you mean 'quick'?" in err
+    shipped = [path.stem for path in paths.campaigns_dir().glob("*.yaml")]
+    assert len(shipped) >= 4 and all(name in err for name in shipped)
+    with pytest.raises(SystemExit):
+        cli.main(["run", "--help"])
+    shown = capsys.readouterr().out
+    assert all(name in shown for name in shipped)   # from the data folder, not a list in the code
+
+
+def test_list_shows_every_shipped_file_by_kind(capsys):
+    assert cli.main(["list", "campaigns", "--json"]) == 0
+    listed = json.loads(capsys.readouterr().out)
+    assert [entry["name"] for entry in listed["campaigns"]] == sorted(p.stem for p in paths.campaigns_dir().glob("*.yaml"))
+    assert all(entry["about"] for entry in listed["campaigns"])   # each says what it is
+    assert cli.main(["list"]) == 0
+    out = capsys.readouterr().out
+    for kind, folder in (("scenes", paths.scenes_dir()), ("designs", paths.designs_dir()), ("benches", paths.benches_dir())):
+        assert f"{kind} ({len(list(folder.glob('*.yaml')))}):" in out
+    assert "  large_plate " in out and "Fig. 7 (Sec. 5.2): a vibration map" in out
+
+
+def test_a_progress_bar_on_a_terminal_that_reports_no_size():
+    """A pseudo-terminal opened without a size (`script -c`, a CI runner) reports 0 x 0:
+    tqdm drew nothing there until given a size."""
+    import os
+    import select
+
+    from tqdm import tqdm
+
+    from squeezebench import terminal
+
+    master, slave = os.openpty()
+    try:
+        with open(slave, "w", closefd=False) as stream:
+            real = sys.stderr
+            sys.stderr = stream
+            try:
+                assert os.get_terminal_size(slave).columns == 0
+                options = terminal.bar_width()
+            finally:
+                sys.stderr = real
+            with tqdm(total=2, file=stream, **options) as bar:
+                bar.update(2)
+        drawn = ""
+        while "100%|" not in drawn and select.select([master], [], [], 1.0)[0]:   # each frame as it came
+            drawn += os.read(master, 4096).decode()
+    finally:
+        os.close(master)
+        os.close(slave)
+    assert options["ncols"] > 0 and "100%|" in drawn

@@ -384,3 +384,66 @@ def test_paper_route_from_the_small_plates_is_table5s_estimate(tmp_path):
     assert route.q.std_dev == pytest.approx(estimate.q.std_uncertainty, rel=1e-12)
     assert route.tan_theta.nominal_value == pytest.approx(estimate.tan_theta.value, rel=1e-12)
     assert route.tan_theta.std_dev == pytest.approx(estimate.tan_theta.std_uncertainty, rel=1e-12)
+
+
+# -- the design-file guide: a plate written from docs/design-files.md alone -----------------
+
+def _guide() -> str:
+    from pathlib import Path
+
+    return (Path(__file__).resolve().parents[1] / "docs" / "design-files.md").read_text(encoding="utf-8")
+
+
+def _block(text: str, language: str, index: int = 0) -> str:
+    return text.split(f"```{language}\n")[index + 1].split("```")[0]
+
+
+def test_the_guides_plate_designs_on_the_first_try(tmp_path, capsys):
+    """The worked example (120 x 60 x 1.5 mm) as the guide prints it, written to a file,
+    validates and designs; `design --template` prints the same file."""
+    example = _block(_guide(), "yaml")
+    assert "length_mm: 120" in example and "width_mm: 60" in example and "thickness_mm: 1.5" in example
+    assert "material: aluminium " in example and "material: NCE 41" in example and "1e-6" in example
+    path = tmp_path / "my_plate.yaml"
+    path.write_text(example)
+    assert cli.main(["validate", str(path)]) == 0
+    assert cli.main(["design", str(path), "--no-layouts", "--out", str(tmp_path / "out"), "-q"]) == 0
+    assert (tmp_path / "out" / "index.html").is_file()
+    capsys.readouterr()
+    assert cli.main(["design", "--template"]) == 0
+    assert capsys.readouterr().out == example
+
+
+def test_a_file_with_three_mistakes_gets_three_messages_in_the_users_words(tmp_path):
+    example = _block(_guide(), "yaml")
+    wrong = (example.replace("material: aluminium ", "material: unobtainium ")
+             .replace("thickness_mm: 1.5", 'thickness_mm: "1.5"').replace("max_output_vpp", "max_out_vpp"))
+    path = tmp_path / "my_plate.yaml"
+    path.write_text(wrong)
+    with pytest.raises(UserError) as refused:
+        load_design_file(path)
+    message = str(refused.value)
+    lines = message.splitlines()
+    assert lines[0] == f"{path}: 3 problems (every field: docs/design-files.md):" and len(lines) == 4
+    assert "did you mean 'max_output_vpp'?" in message and "literal" not in message.lower()
+    assert "'1.5' is text, not a number" in message and "unknown material 'unobtainium'" in message
+    # the guide shows the same messages
+    shown = _block(_guide(), "text").splitlines()
+    assert [line.strip() for line in shown[1:]] == [line.strip() for line in lines[1:]]
+
+
+@pytest.mark.parametrize("written, meant", [("Al 6061-T6", "al_6061_t6"), ("aluminum", "aluminium_table2"),
+                                            ("ALUMINIUM", "aluminium_table2"), ("6061-T6", "al_6061_t6")])
+def test_materials_by_the_names_people_write(written, meant):
+    from squeezebench.analysis.design_file import RESONATOR_MATERIALS, material_name
+
+    assert material_name(written, RESONATOR_MATERIALS) == meant
+    assert material_name("nce-41", {"NCE41": None}) == "NCE41"
+
+
+def test_the_guides_material_table_shows_the_constants_the_model_uses():
+    from squeezebench.analysis.design_file import PIEZO_MATERIALS, RESONATOR_MATERIALS
+
+    guide = _guide()
+    for material in (*RESONATOR_MATERIALS.values(), *PIEZO_MATERIALS.values()):
+        assert f"| {material.young_pa / 1e9:g} | {material.poisson:g} | {material.density_kg_m3:g} |" in guide

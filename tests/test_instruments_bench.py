@@ -77,7 +77,7 @@ def test_load_bench_file(tmp_path):
     ({**GOOD_BENCH, "electronics": {"amplifier_gain": "twenty"}}, "electronics.amplifier_gain",
      "should be a valid number"),
     ({**GOOD_BENCH, "electronics": {"amplifier_gain": "20"}}, "electronics.amplifier_gain",
-     "should be a valid number"),
+     "'20' is text, not a number: write it without quotes"),
     ({**GOOD_BENCH, "electronics": {"shunt_ohm": True}}, "electronics.shunt_ohm", "should be a valid number"),
     ({**GOOD_BENCH, "electronics": {"generator_load": 75}}, "electronics", "50, INF"),
     ({**GOOD_BENCH, "electronics": {"gain": 20}}, "electronics.gain", "amplifier_gain, amplifier_input_ohm"),

@@ -106,3 +106,51 @@ def test_the_shipped_campaign_corrects_its_probe_delay_and_its_headline_needs_no
     assert "Power corrected by the deskew calibration" in index.read_text()
     headline = (index.parent / "headline.txt").read_text()
     assert "delay" not in headline and "deskew" not in headline
+
+
+# -- the paper's report: the first screen and the length the issue measured ----------------
+
+#: Above the appendix at 390 px (a phone): fifteen screens of 844 px.
+PHONE_SCREEN_PX = 844
+MAX_PHONE_SCREENS = 15
+MAX_FIGURES = 6
+
+
+@pytest.fixture(scope="module")
+def paper(tmp_path_factory):
+    """The whole paper campaign's report (about 25 s on 2 cores), measured at both widths."""
+    make_screenshots.chromium()
+    run_dir = run_campaign(paths.paper_campaign(), out_dir=tmp_path_factory.mktemp("paper") / "run", progress=False)
+    index = report.write_report(run_dir)
+    return {width: make_screenshots.measure(index, width) for width in WIDTHS}
+
+
+def test_the_papers_results_end_within_nine_laptop_and_fifteen_phone_screens(paper):
+    assert paper[make_screenshots.WIDTH_PX]["appendix_top"] <= MAX_RESULTS_HEIGHT_PX
+    assert paper[make_screenshots.PHONE_WIDTH_PX]["appendix_top"] <= MAX_PHONE_SCREENS * PHONE_SCREEN_PX
+
+
+@pytest.mark.parametrize("width", WIDTHS)
+def test_a_round_trip_is_never_shown_as_an_agreement(paper, width):
+    rendered = paper[width]
+    assert "✓" not in rendered["opening"] and "round trip" in rendered["opening"]
+    assert rendered["round_trips"], "the paper's scenes are calibrated on its printed values"
+    for cell in rendered["round_trips"]:
+        assert "✓" not in cell and "↺ round trip" in cell, cell
+
+
+def _figures(number: str) -> int:
+    """Significant figures of a number as written ("0.00670" has 3)."""
+    return len(number.replace(".", "").lstrip("0")) or 1
+
+
+@pytest.mark.parametrize("width", WIDTHS)
+def test_no_cell_has_more_than_six_figures_and_no_markdown_shows(paper, width):
+    import re
+
+    rendered = paper[width]
+    assert "`" not in rendered["text"], "markdown backticks shown as text"
+    for table in rendered["tables"]:
+        for cell in table["cells"]:
+            for number in re.findall(r"(?<![\w.])\d+(?:\.\d+)?(?![\w.])", cell):
+                assert _figures(number) <= MAX_FIGURES, (table["caption"][:60], cell)
