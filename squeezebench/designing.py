@@ -158,14 +158,29 @@ def predicted_antinodes(spec) -> int:
 
 def run_design(plate: str | Path, from_runs: Iterable[str | Path] = (), measured: str | Path | None = None,
                measured_plate: str | None = None, sweep: bool = True, workers: int | None = None,
-               scheduler: Any = None) -> design_model.DesignAnswer:
+               scheduler: Any = None, allow_infeasible: bool = False) -> design_model.DesignAnswer:
+    """The design's answer; an infeasible one (`design.judge`) is refused with the nearest
+    feasible change named, unless `allow_infeasible` (then it carries its red verdict). A
+    mode the powered piezos cancel on is refused before its budget is solved."""
     from squeezebench.protocols.parallel import map_unordered
     from squeezebench.workers import default_workers
     from squeezebench.schemas import load_design_file
 
     spec = load_design_file(paths.design_file(plate))
-    physics = design_model.predict_physics(spec)
-    answer = design_model.DesignAnswer(physics, printed=printed_values(spec.paper_plate))
+    modal = design_model.modal_part(spec)
+    neighbours = []
+    if design_model.cancellation(spec, modal.modes, modal.mode_index):
+        neighbours = design_model.neighbour_modes(spec, modal.modes.interior_antinodes(modal.mode_index))
+        if not allow_infeasible:
+            reason, change = design_model.cancellation(spec, modal.modes, modal.mode_index, neighbours)
+            _refuse(spec, design_model.Verdict("infeasible", (reason,), (change,)))
+    physics = design_model.predict_physics(spec, modal=modal)
+    placement = design_model.placement_curve(physics) if design_model.mean_edge_gap_mm(spec) is not None else None
+    verdict = design_model.judge(physics, placement, neighbours)
+    if verdict.status == "infeasible" and not allow_infeasible:
+        _refuse(spec, verdict)
+    answer = design_model.DesignAnswer(physics, printed=printed_values(spec.paper_plate), verdict=verdict,
+                                       placement=placement)
     from_runs = list(from_runs)
     if from_runs:
         try:
@@ -191,8 +206,26 @@ def run_design(plate: str | Path, from_runs: Iterable[str | Path] = (), measured
                                        workers=workers or default_workers(), scheduler=scheduler,
                                        description="layouts"):
             rows.extend(result)
-        answer = replace(answer, layouts=layouts.finish(rows))
+        frame = layouts.finish(rows)
+        answer = replace(answer, layouts=frame, best_layout=_best_layout(frame, spec, int(values["interior_antinodes"])))
     return answer
+
+
+def _refuse(spec, verdict: design_model.Verdict):
+    raise design_model.DesignError(
+        f"design {spec.name!r} is not an answer (infeasible): {'; '.join(verdict.reasons)}. Nearest feasible change: "
+        f"{'; or '.join(verdict.changes) or 'none found'}. (--allow-infeasible shows it, marked infeasible)")
+
+
+def _best_layout(frame: pd.DataFrame, spec, antinodes: int) -> design_model.PhysicsPrediction | None:
+    """The Pareto front's least-power layout, solved again with its budget."""
+    front = frame[frame["pareto"]]
+    if front.empty:
+        return None
+    best = front.loc[front["power_w"].idxmin()]
+    layout = layouts.Layout(best["columns"], float(best["edge_offset_mm"]), int(best["piezos_per_column"]),
+                            best["arrangement"], float(best["piezo_thickness_mm"]))
+    return design_model.predict_physics(layouts.layout_design(layout, spec, antinodes))
 
 
 #: Beside the designs' folders: every design checked against its built plate, one row per
