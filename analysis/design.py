@@ -57,6 +57,8 @@ MIN_CENTRE_SHARE = 0.5
 #: their magnitudes) below which they cancel on it: the drive then hangs on the few per cent
 #: by which the placement breaks the cancellation, and the voltage on nothing a lab controls.
 MIN_COUPLING_SHARE = 0.1
+#: Below this net coupling the powered piezos partly cancel: an answer, but a marginal one.
+PARTIAL_COUPLING_SHARE = 0.5
 
 
 class DesignError(UserError):
@@ -540,7 +542,8 @@ def judge(physics: PhysicsPrediction, curve: pd.DataFrame | None = None,
           neighbours: list[Neighbour] = ()) -> Verdict:
     """The design's verdict. Infeasible: the powered piezos cancel on the working mode, or the
     target needs more than a limit allows (amplifier voltage, current or power, the
-    ceramic's field); marginal: a limit lies within the answer's U. The changes named: the
+    ceramic's field); marginal: a limit lies within the answer's U, or the piezos partly
+    cancel. The changes named: the
     better neighbouring mode, the largest target the limits allow (voltage, field and current
     grow as the target, power about as its square), and the placement along the length that
     needs the least voltage when `curve` shows one within the limits."""
@@ -550,6 +553,9 @@ def judge(physics: PhysicsPrediction, curve: pd.DataFrame | None = None,
     if cancelled:
         infeasible.append(cancelled[0])
         changes.append(cancelled[1])
+    elif v["coupling_share"] < PARTIAL_COUPLING_SHARE:
+        marginal.append(f"the powered piezos partly cancel on the working mode (net coupling "
+                        f"{v['coupling_share']:.0%} of their sum): a small shift of one group moves the voltage much")
     scale = 1.0
     for what, output, limit, unit, power in _limits(physics):
         value = v[output]

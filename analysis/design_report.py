@@ -99,11 +99,13 @@ def placement_sentences(answer: DesignAnswer) -> list[str]:
     best = ok.loc[ok["voltage_vpp"].idxmin()]
     rows = answer.physics.budget[(answer.physics.budget["output"] == "voltage_vpp")
                                  & (answer.physics.budget["input"] == "placement_mm")]
-    share = (float(rows["contribution"].iloc[0]) / (answer.physics.expanded["voltage_vpp"] / COVERAGE_FACTOR)) ** 2 \
-        if len(rows) and answer.physics.expanded["voltage_vpp"] > 0 else 0.0
+    contribution = float(rows["contribution"].iloc[0]) if len(rows) else 0.0
+    share = (contribution / (answer.physics.expanded["voltage_vpp"] / COVERAGE_FACTOR)) ** 2 if contribution else 0.0
+    # the budget's contribution is the slope times u = t / sqrt 3: the whole half-width moves it sqrt 3 times as much
+    swing = abs(contribution) * np.sqrt(3) / v["voltage_vpp"]
     move = best["edge_gap_mm"] - gap
-    lines = [f"Placement: the end piezos sit {gap:.1f} mm from the edges, bonded to ±{d.placement_tolerance_mm:g} mm "
-             f"({share:.0%} of the voltage's U²). Between {ok['edge_gap_mm'].min():.1f} and "
+    lines = [f"Placement: the end piezos sit {gap:.1f} mm from the edges, bonded to ±{d.placement_tolerance_mm:g} mm, "
+             f"which moves the voltage by about ±{swing:.0%} ({share:.0%} of its U²). Between {ok['edge_gap_mm'].min():.1f} and "
              f"{ok['edge_gap_mm'].max():.1f} mm from the edges the voltage for the target runs from "
              f"{ok['voltage_vpp'].min():.3g} to {ok['voltage_vpp'].max():.3g} Vpp and the power from "
              f"{ok['power_w'].min():.3g} to {ok['power_w'].max():.3g} W."]
