@@ -35,6 +35,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field, replace
+from typing import Callable
 
 import numpy as np
 import pandas as pd
@@ -420,31 +421,39 @@ def placement_range_mm(design: DesignFile, half_wavelength_mm: float) -> tuple[f
     return 0.0, min(half_wavelength_mm, design.resonator.length_mm / 4 - design.piezo.length_x_mm / 2)
 
 
-def placement_curve(physics: PhysicsPrediction, gaps_mm: np.ndarray | None = None) -> pd.DataFrame:
+def placement_curve(physics: PhysicsPrediction, gaps_mm: np.ndarray | None = None,
+                    mapper: Callable | None = None) -> pd.DataFrame:
     """The design solved with its end groups at each distance from the edges in `gaps_mm`
     (default `PLACEMENT_POINTS` over `placement_range_mm`), on the design's working mode:
-    one row per distance. The voltage's U there is the drawn design's relative U of every
-    input but the placement (the placement is the axis); a distance the model cannot answer
-    for says why."""
+    one row per distance, in order. The voltage's U there is the drawn design's relative U
+    of every input but the placement (the placement is the axis). `mapper(function, items)`
+    yields (item, result) pairs in any order (the parallel engine's map); default: here, in
+    order."""
     design, values = physics.design, physics.nominal.values
-    antinodes = values["interior_antinodes"]
     if gaps_mm is None:
         gaps_mm = np.linspace(*placement_range_mm(design, values["half_wavelength_mm"]), PLACEMENT_POINTS)
     rows = physics.budget[(physics.budget["output"] == "voltage_vpp") & (physics.budget["input"] != "placement_mm")]
     u_rel_others = COVERAGE_FACTOR * float(np.sqrt((rows["contribution"] ** 2).sum())) / values["voltage_vpp"]
-    out = []
-    for gap in np.asarray(gaps_mm, dtype=float):
-        row = {"edge_gap_mm": float(gap)}
-        try:
-            moved = design.with_end_groups_at(float(gap))
-            point = operating_point(moved, modal=modal_part(moved, antinodes=antinodes)).values
-        except (DesignError, ValueError) as exc:
-            out.append(row | {"why_not": str(exc).split(": ", 1)[-1]})
-            continue
-        why = "" if point["interior_antinodes"] == antinodes else f"the mode found has {point['interior_antinodes']} antinodes"
-        out.append(row | {k: point[k] for k in PLACEMENT_COLUMNS if k in point}
-                   | {"voltage_expanded_uncertainty": u_rel_others * point["voltage_vpp"], "why_not": why})
+    tasks = [(design, values["interior_antinodes"], float(gap), u_rel_others) for gap in np.asarray(gaps_mm)]
+    mapper = mapper or (lambda function, items: ((item, function(item)) for item in items))
+    out = sorted((row for _, row in mapper(placement_point, tasks)), key=lambda row: row["edge_gap_mm"])
     return pd.DataFrame(out, columns=PLACEMENT_COLUMNS)
+
+
+def placement_point(task: tuple[DesignFile, int, float, float]) -> dict:
+    """One row of `placement_curve` (a parallel task): the design with its end groups
+    `gap` mm from the edges on its `antinodes` mode; a distance the model cannot answer for
+    says why instead."""
+    design, antinodes, gap, u_rel_others = task
+    row = {"edge_gap_mm": gap}
+    try:
+        moved = design.with_end_groups_at(gap)
+        point = operating_point(moved, modal=modal_part(moved, antinodes=antinodes)).values
+    except (DesignError, ValueError) as exc:
+        return row | {"why_not": str(exc).split(": ", 1)[-1]}
+    why = "" if point["interior_antinodes"] == antinodes else f"the mode found has {point['interior_antinodes']} antinodes"
+    return (row | {k: point[k] for k in PLACEMENT_COLUMNS if k in point}
+            | {"voltage_expanded_uncertainty": u_rel_others * point["voltage_vpp"], "why_not": why})
 
 
 def crossings(x: np.ndarray, y: np.ndarray, level: float) -> list[float]:

@@ -397,7 +397,11 @@ def _placement_payload(answer: DesignAnswer) -> dict | None:
                                                       <= ok["voltage_expanded_uncertainty"], "edge_gap_mm"].tolist()},
                    "power_w": {"printed": answer.printed["power_w"], "edge_gap_mm": crossings(
                        ok["edge_gap_mm"], ok["power_w"], answer.printed["power_w"])}}
+    least = ok.loc[ok["voltage_vpp"].idxmin()] if len(ok) else None
     return {"edge_gap_mm": mean_edge_gap_mm(answer.design), "tolerance_mm": answer.design.placement_tolerance_mm,
+            "least_voltage": None if least is None else {
+                "edge_gap_mm": float(least["edge_gap_mm"]), "voltage_vpp": float(least["voltage_vpp"]),
+                "expanded_uncertainty": float(least["voltage_expanded_uncertainty"])},
             "sentences": placement_sentences(answer), "curve": json.loads(curve.to_json(orient="records")),
             "implied_by_printed": implied}
 

@@ -175,7 +175,10 @@ def run_design(plate: str | Path, from_runs: Iterable[str | Path] = (), measured
             reason, change = design_model.cancellation(spec, modal.modes, modal.mode_index, neighbours)
             _refuse(spec, design_model.Verdict("infeasible", (reason,), (change,)))
     physics = design_model.predict_physics(spec, modal=modal)
-    placement = design_model.placement_curve(physics) if design_model.mean_edge_gap_mm(spec) is not None else None
+    placement = None
+    if design_model.mean_edge_gap_mm(spec) is not None:
+        placement = design_model.placement_curve(physics, mapper=lambda function, items: map_unordered(
+            function, items, workers=workers or default_workers(), scheduler=scheduler, description="placements"))
     verdict = design_model.judge(physics, placement, neighbours)
     if verdict.status == "infeasible" and not allow_infeasible:
         _refuse(spec, verdict)

@@ -513,3 +513,23 @@ def test_a_mode_the_piezos_cancel_on_is_refused_naming_the_better_neighbour(tmp_
     assert named.startswith("the 13-antinode mode at ") and "mode: {interior_antinodes: 13}" in named
     voltage = float(named.split("needs about ")[1].split(" Vpp")[0])
     assert 10 < voltage < 300   # a sane drive, not millions
+
+
+def test_design_command_draws_the_placement_curve(tmp_path, capsys):
+    """A design with end columns: the page, design.json and placement.csv carry the voltage
+    against the distance from the edges, from flush to half a wavelength in."""
+    path = tmp_path / "ends.yaml"
+    path.write_text(dump_yaml(ENDS))
+    assert cli.main(["design", str(path), "--no-layouts", "--out", str(tmp_path / "out"), "--json"]) == 0
+    payload = json.loads(capsys.readouterr().out)
+    placement = payload["placement"]
+    gaps = [row["edge_gap_mm"] for row in placement["curve"]]
+    half_wave = payload["physics"]["half_wavelength_mm"]["value"]
+    assert len(gaps) == design.PLACEMENT_POINTS and gaps[0] == 0 and gaps[-1] == pytest.approx(half_wave)
+    assert placement["edge_gap_mm"] == pytest.approx(1.0) and placement["tolerance_mm"] == 0.5
+    least = placement["least_voltage"]
+    assert least["voltage_vpp"] == pytest.approx(min(row["voltage_vpp"] for row in placement["curve"] if row["voltage_vpp"]))
+    assert placement["implied_by_printed"] is None   # not one of the paper's plates
+    assert any(line.startswith("Placement: the end piezos sit 1.0 mm") for line in payload["headline"])
+    assert {"placement", "placement_figure"} <= set(payload["files"])
+    assert (tmp_path / "out" / "placement.png").is_file()
