@@ -32,7 +32,7 @@ PIEZO_THICKNESSES_MM = (0.3, 0.5, 1.0)
 
 LAYOUT_COLUMNS = ["layout", "columns", "edge_offset_mm", "edge_gap_mm", "piezos_per_column", "arrangement",
                   "piezo_thickness_mm", "n_piezos"]
-RESULT_COLUMNS = ["frequency_hz", "interior_antinodes", "voltage_vpp", "power_w", "piezo_field_v_per_mm",
+RESULT_COLUMNS = ["frequency_hz", "interior_antinodes", "coupling_share", "voltage_vpp", "power_w", "piezo_field_v_per_mm",
                   "current_pp_a", "weakest_antinode_ratio", "width_uniformity", "feasible", "why_not"]
 
 
@@ -100,8 +100,8 @@ def layout_design(layout: Layout, design: DesignFile, antinodes: int) -> DesignF
 
 def evaluate(layout: Layout, design: DesignFile, antinodes: int) -> dict:
     """One layout's row: what the target needs, the homogeneity, and whether it is feasible
-    (amplifier output and the piezo's field limit); a layout the model cannot answer for
-    says why instead of numbers."""
+    (amplifier output, the piezo's field limit, powered piezos that do not cancel); a layout
+    the model cannot answer for says why instead of numbers."""
     row = {"columns": layout.columns, "edge_offset_mm": layout.edge_offset_mm,
            "edge_gap_mm": layout.edge_gap_mm(design.piezo.length_x_mm),
            "piezos_per_column": layout.piezos_per_column, "arrangement": layout.arrangement,
@@ -117,6 +117,8 @@ def evaluate(layout: Layout, design: DesignFile, antinodes: int) -> dict:
         limits.append(f"needs {values['voltage_vpp']:.0f} Vpp > amplifier {design.amplifier.max_output_vpp:g} Vpp")
     if values["piezo_field_v_per_mm"] > candidate.piezo.max_field_v_per_mm:
         limits.append(f"field {values['piezo_field_v_per_mm']:.0f} V/mm > {candidate.piezo.max_field_v_per_mm:g} V/mm")
+    if values["coupling_share"] < design_model.MIN_COUPLING_SHARE:
+        limits.append(f"its powered piezos cancel on the working mode (net coupling {values['coupling_share']:.0%})")
     if values["interior_antinodes"] != antinodes:
         limits.append(f"its working mode has {values['interior_antinodes']} antinodes, not the design's {antinodes}")
     return {**row, "n_piezos": candidate.n_powered_piezos,

@@ -230,6 +230,11 @@ def test_a_layout_family_on_the_strip():
     assert flush["voltage_vpp"] > quarter["voltage_vpp"]
     weak = layouts.evaluate(layouts.Layout("ends", 2.5, 2, "centred", 1.0), spec, 9)
     assert not weak["feasible"] and "amplifier" in weak["why_not"]
+    # on a mode with an even count the two ends swing in opposition: end columns cancel
+    opposed = layouts.evaluate(layouts.Layout("ends", 2.5 + 2.0, 4, "centred", 0.5),
+                               strip(target={"amplitude_pp_m": 1e-6, "at": "touch_area"}), 10)
+    assert opposed["coupling_share"] < design.MIN_COUPLING_SHARE
+    assert not opposed["feasible"] and "cancel" in opposed["why_not"]
 
 
 # --- the command ---------------------------------------------------------------------------------
@@ -473,6 +478,10 @@ def test_verdict_follows_the_limits_with_their_u(strip_prediction):
     refused = verdict(v / 2)
     assert refused.status == "infeasible" and "amplifier" in refused.reasons[0]
     assert refused.changes == (f"a target of at most {0.5:.3g} µm pp",)
+    field = strip_prediction.nominal.values["piezo_field_v_per_mm"]
+    depoled = design.judge(replace(strip_prediction, design=strip(piezo={"max_field_v_per_mm": field / 4})))
+    assert depoled.status == "infeasible" and "the ceramic's field limit" in depoled.reasons[0]
+    assert depoled.changes == (f"a target of at most {0.25:.3g} µm pp",)
 
 
 def test_an_infeasible_design_is_refused_unless_allowed(tmp_path, capsys):
