@@ -345,8 +345,9 @@ class PhysicsPrediction:
 def predict_physics(design: DesignFile, modal: ModalPart | None = None) -> PhysicsPrediction:
     """Route (a) with its budget: one solve at nominal (`modal`, when already solved), one per
     structural input moved by its standard uncertainty (t / sqrt 3 for a rectangular
-    half-width t; the end groups moved inward together by the placement's); the piezo's and
-    the damping's inputs reuse the nominal solve."""
+    half-width t, t / sqrt 6 for the sheet's triangular thickness,
+    `plate_modes.relative_standard_uncertainty`; the end groups moved inward together by the
+    placement's); the piezo's and the damping's inputs reuse the nominal solve."""
     modal = modal or modal_part(design)
     nominal = operating_point(design, modal=modal)
     antinodes = nominal.values["interior_antinodes"]
@@ -361,7 +362,8 @@ def predict_physics(design: DesignFile, modal: ModalPart | None = None) -> Physi
             point = _placement_step(design, tolerance_mm, antinodes, nominal)
         else:
             tolerance = design.damping.tolerance_rel if name == "mechanical_q" else design.tolerance(name)
-            tolerance_mm, u_mm, u_rel = math.nan, math.nan, tolerance / math.sqrt(3)
+            tolerance_mm, u_mm = math.nan, math.nan
+            u_rel = plate_modes.relative_standard_uncertainty(name, tolerance)   # the sheet's triangular
             if u_rel == 0:
                 continue
             moved = modal_part(design, {name: 1 + u_rel}, antinodes=antinodes) if structural else modal

@@ -9,8 +9,6 @@ reads and validates a file with one-line messages (file, field, what is allowed)
 """
 from __future__ import annotations
 
-import math
-
 from typing import Literal, Optional, Union
 
 from pydantic import BaseModel, ConfigDict, Field, model_validator
@@ -254,15 +252,14 @@ class DesignFile(_Model):
     @property
     def search_hz(self) -> float:
         """Where the mode solver looks: `mode.near_hz`, or for a count of antinodes the bare
-        plate's free-free beam estimate, f = (beta L)^2 / (2 pi L^2) sqrt(D / rho h) with
-        beta L = (n + 1/2) pi (n antinodes between n + 1 nodal lines); the bonded piezos move
-        it a few per cent, well inside the solver's band."""
+        plate's free-free beam estimate, bending waves of half-wavelength L / (n + 1/2) (beta L =
+        (n + 1/2) pi, n antinodes between n + 1 nodal lines) in the model's thick plate
+        (`plate_modes.flexural_frequency_hz`); the bonded piezos move it a few per cent, well
+        inside the solver's band."""
         if self.mode.near_hz is not None:
             return self.mode.near_hz
         m, h, length = self.resonator_material, self.resonator.thickness_mm * 1e-3, self.resonator.length_mm * 1e-3
-        d, mass, _ = plate_modes.laminate(m, h, m, 0.0)
-        beta_l = (self.mode.interior_antinodes + 0.5) * math.pi
-        return beta_l**2 / (2 * math.pi * length**2) * math.sqrt(d / mass)
+        return plate_modes.flexural_frequency_hz(m, h, length / (self.mode.interior_antinodes + 0.5))
 
     @property
     def n_powered_piezos(self) -> int:

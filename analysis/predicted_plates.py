@@ -6,6 +6,7 @@ text does not say where a column sits, the assumption is stated beside it (`LAYO
 """
 from __future__ import annotations
 
+import dataclasses
 import functools
 import math
 from pathlib import Path
@@ -18,20 +19,33 @@ from squeezebench.analysis.paper import paper_value
 
 MM = 1e-3
 
-#: Column layouts (x of each column's centre, mm) and why.
+#: How far the edge columns' outer sides sit from the free edge (mm): the paper says only
+#: "glued at the edges" (Fig. 3) and "at the four corners" (Sec. 5.2). Assumed: the patch lies
+#: within the edge's first flexural half-wave (about 8-9 mm, a 5-6 mm patch and a gap up to
+#: 4 mm), gap 2 mm +-2 mm (rectangular). The force factor is very sensitive to it (the mode's
+#: curvature vanishes at a free edge), so it is an input with a range, carried in U, never
+#: chosen from a printed result (`implied_edge_gap_mm` states what the print implies).
+EDGE_GAP_MM = 2.0
+EDGE_GAP_TOLERANCE_MM = 2.0
+
+#: Column layouts (x of each column's centre, mm, at the nominal edge gap) and why.
 LAYOUTS = {
     "table3": ((38.0,), "assumed: the one column sits mid-length, since the plate was cut "
-                        "symmetrically to 28 mm and still driven (Sec. 2.3.1)"),
-    "table4": ((2.5, 73.5), "Fig. 3 caption: piezos glued at the edges"),
-    "large": ((3.0, 195.0), "Sec. 5.2: two piezos at each corner (along the short edges)"),
+                        "symmetrically to 28 mm and still driven (Sec. 2.3.1); at the centre's curvature "
+                        "maximum its +-0.5 mm bonding tolerance moves nothing to first order"),
+    "table4": ((EDGE_GAP_MM + 2.5, 76.0 - EDGE_GAP_MM - 2.5),
+               f"Fig. 3 caption: piezos glued at the edges; assumed {EDGE_GAP_MM:g} +- {EDGE_GAP_TOLERANCE_MM:g} mm "
+               "from the edge to the patch"),
+    "large": ((EDGE_GAP_MM + 3.0, 198.0 - EDGE_GAP_MM - 3.0),
+              f"Sec. 5.2: two piezos at each corner (along the short edges); assumed {EDGE_GAP_MM:g} +- "
+              f"{EDGE_GAP_TOLERANCE_MM:g} mm from the edge to the patch"),
 }
 
-
-#: The one damping figure, shared by every aluminium plate on its cushion: the paper's only
-#: damping measurement that is not itself a compared result, the Fig. 2c stress case (37.6 V
-#: at 37180 Hz and 240 V at 37560 Hz give the same velocity, so |Z(37560)|/R = 240/37.6 ->
-#: q_mech = 310; Sec. 2.2). Within the plausible range for aluminium in air (hundreds to ~2000).
-MECHANICAL_Q = 310.0
+#: The mode each plate is driven in, as the text describes the plate (never a printed
+#: result): "All plates worked at the (9, 0) mode" (Sec. 2.1), the large plate's (21, 0)
+#: mode (Sec. 5.3.1). A cut plate's mode is not stated as a design: it is the (n, 0) mode
+#: its centre column drives nearest the uncut plate's (`_cut_plate_mode`).
+STATED_ANTINODES = {"76 mm plates": 9, "large": 21}
 
 
 def _columns(x_mm: tuple[float, ...], width_mm: float, per: int, powered: int) -> tuple:
@@ -51,25 +65,33 @@ def table3_plate(label: str) -> plate_modes.PlateGeometry:
     return plate.cut_to(float(label) * MM)
 
 
-def table4_plate(label: str) -> plate_modes.PlateGeometry:
+def table4_plate(label: str, edge_gap_mm: float = EDGE_GAP_MM) -> plate_modes.PlateGeometry:
     width = paper_value("table4", "plate", "resonator_width_mm")
+    length = paper_value("table4", "plate", "resonator_length_mm")
+    piezo_x = paper_value("table4", "plate", "piezo_width_mm")
     n_columns = int(paper_value("table4", label, "n_columns"))
+    xs = (edge_gap_mm + piezo_x / 2, length - edge_gap_mm - piezo_x / 2)
     return plate_modes.PlateGeometry(
-        paper_value("table4", "plate", "resonator_length_mm") * MM, width * MM,
-        paper_value("table4", "plate", "resonator_thickness_mm") * MM,
-        _columns(LAYOUTS["table4"][0][:n_columns], width, 4,
-                 int(paper_value("table4", label, "n_powered_columns"))))
+        length * MM, width * MM, paper_value("table4", "plate", "resonator_thickness_mm") * MM,
+        _columns(xs[:n_columns], width, 4, int(paper_value("table4", label, "n_powered_columns"))))
 
 
-def large_plate() -> plate_modes.PlateGeometry:
+def large_plate(edge_gap_mm: float = EDGE_GAP_MM) -> plate_modes.PlateGeometry:
     q = lambda name: paper_value("large_plate", "large_plate", name)  # noqa: E731
-    width = q("resonator_width_mm")
-    patches = tuple(plate_modes.Patch(x * MM, y * MM, q("piezo_width_mm") * MM,
+    width, length, piezo_x = q("resonator_width_mm"), q("resonator_length_mm"), q("piezo_width_mm")
+    patches = tuple(plate_modes.Patch(x * MM, y * MM, piezo_x * MM,
                                       q("piezo_length_mm") * MM, q("piezo_thickness_mm") * MM, True, "corner")
-                    for x in LAYOUTS["large"][0]
+                    for x in (edge_gap_mm + piezo_x / 2, length - edge_gap_mm - piezo_x / 2)
                     for y in (7.0, 21.0, width - 21.0, width - 7.0))
-    return plate_modes.PlateGeometry(q("resonator_length_mm") * MM, width * MM,
-                                     q("resonator_thickness_mm") * MM, patches)
+    return plate_modes.PlateGeometry(length * MM, width * MM, q("resonator_thickness_mm") * MM, patches)
+
+
+#: The one damping figure, shared by every aluminium plate on its cushion: the paper's only
+#: damping measurement that is not itself a compared result, the Fig. 2c stress case (37.6 V
+#: at 37180 Hz and 240 V at 37560 Hz give the same velocity, so |Z(37560)|/R = 240/37.6 ->
+#: q_mech = 310; Sec. 2.2). Within the plausible range for aluminium in air (hundreds to ~2000).
+#: `analysis.damping` predicts each plate's Q from its losses instead (`loss_budget`).
+MECHANICAL_Q = 310.0
 
 
 #: How far one plate's mechanical Q may stray from the build's `MECHANICAL_Q` (rectangular
@@ -77,24 +99,30 @@ def large_plate() -> plate_modes.PlateGeometry:
 MECHANICAL_Q_TOLERANCE = 0.30
 
 
+def _u(name: str, tolerances: dict[str, float]) -> float:
+    return plate_modes.relative_standard_uncertainty(name, tolerances[name])
+
+
 def frequency_relative_u(thickness_m: float) -> float:
     """Expanded (k = 2) relative uncertainty of a predicted frequency of a plate of nominal
-    `thickness_m` from the material and sheet tolerances (f ~ h sqrt(E / rho); each tolerance
-    a rectangular half-width, `plate_modes.relative_tolerances`)."""
+    `thickness_m` from the sheet's and the alloy family's tolerances (f ~ h sqrt(E / rho);
+    `plate_modes.relative_tolerances`, the thickness triangular). A plate's own terms (bond,
+    placement) are added by `_predictions`."""
     t = plate_modes.relative_tolerances(thickness_m)
-    return 2 * math.sqrt(t["thickness_m"] ** 2 + (t["young_pa"] / 2) ** 2
-                         + (t["density_kg_m3"] / 2) ** 2) / math.sqrt(3)
+    return 2 * math.sqrt(_u("thickness_m", t) ** 2 + (_u("young_pa", t) / 2) ** 2
+                         + (_u("density_kg_m3", t) / 2) ** 2)
 
 
 def response_relative_u(thickness_m: float) -> dict[str, float]:
     """Expanded (k = 2) relative uncertainty of the predicted velocity and power at resonance at
     a given voltage of a plate of nominal `thickness_m`, in closed form from the tolerances
-    (rectangular half-widths, `plate_modes.relative_tolerances`):
+    (`plate_modes.relative_tolerances`, the thickness triangular, the rest rectangular):
     v = F V q / (w M) and P = F^2 V^2 q / (2 w M), with F proportional to d31 and w M to
     h^2 sqrt(E rho) (f ~ h sqrt(E / rho), M ~ rho h); the force factor's own dependence on the
-    resonator (the piezo's lever arm about the neutral axis) is left out."""
+    resonator (the piezo's lever arm about the neutral axis) is left out, and a plate's own
+    terms (bond, placement) are added by `_predictions`."""
     t = plate_modes.relative_tolerances(thickness_m)
-    u = {name: half / math.sqrt(3) for name, half in t.items()}
+    u = {name: _u(name, t) for name in t}
     u_q = MECHANICAL_Q_TOLERANCE / math.sqrt(3)
     u_omega_mass = math.hypot(2 * u["thickness_m"], u["young_pa"] / 2, u["density_kg_m3"] / 2)
     # the amplitude v / w = F V q / (w^2 M), w^2 M ~ E h^3
@@ -106,14 +134,31 @@ def response_relative_u(thickness_m: float) -> dict[str, float]:
             "tan_theta": 2 * u["d31_c_per_n"]}
 
 
-def response_per_volt(frequency_hz: float, modal_mass_kg: float, force_factor_n_per_v: float) -> dict[str, float]:
-    """A plate at resonance per volt of drive, with the build's one `MECHANICAL_Q` (a
-    one-degree-of-freedom resonator referred to the point its modal mass and force factor A
-    are referred to): mechanical resistance R = w M / q, velocity pp per Vpp |A| / R,
-    amplitude pp per Vpp |A| / (R w), power per Vpp^2 R (|A| / (2 R))^2 / 2 (the velocity
-    amplitude is half its pp)."""
+def bond_effectiveness_range(geometry: plate_modes.PlateGeometry) -> tuple[float, float, float]:
+    """The first patch's shear-lag effectiveness eta at the bond's nominal and at the two ends
+    of its stated tolerances (thicker and softer: the least; thinner and stiffer: the most)."""
+    t = plate_modes.RELATIVE_TOLERANCES
+    p, bond = geometry.patches[0], plate_modes.EPOXY
+
+    def eta(scale_t: float, scale_g: float) -> float:
+        moved = dataclasses.replace(bond, thickness_m=bond.thickness_m * scale_t,
+                                    shear_modulus_pa=bond.shear_modulus_pa * scale_g)
+        return plate_modes.shear_lag_effectiveness(plate_modes.ALUMINIUM_TABLE2, geometry.thickness_m,
+                                                   plate_modes.NCE41, p.thickness_m, moved, p.length_x_m)
+
+    lo_t, lo_g = 1 + t["bond_thickness_m"], 1 - t["bond_shear_modulus_pa"]
+    return eta(1, 1), eta(lo_t, lo_g), eta(2 - lo_t, 2 - lo_g)
+
+
+def response_per_volt(frequency_hz: float, modal_mass_kg: float, force_factor_n_per_v: float,
+                      mechanical_q: float | None = None) -> dict[str, float]:
+    """A plate at resonance per volt of drive, with the build's one `MECHANICAL_Q` unless
+    `mechanical_q` is given (a one-degree-of-freedom resonator referred to the point its modal
+    mass and force factor A are referred to): mechanical resistance R = w M / q, velocity pp
+    per Vpp |A| / R, amplitude pp per Vpp |A| / (R w), power per Vpp^2 R (|A| / (2 R))^2 / 2
+    (the velocity amplitude is half its pp)."""
     omega = 2 * math.pi * frequency_hz
-    resistance = omega * modal_mass_kg / MECHANICAL_Q
+    resistance = omega * modal_mass_kg / (mechanical_q or MECHANICAL_Q)
     velocity_pp = abs(force_factor_n_per_v) / resistance
     return {"frequency_hz": frequency_hz, "velocity_pp_mps_per_vpp": velocity_pp,
             "amplitude_pp_m_per_vpp": velocity_pp / omega,
@@ -121,61 +166,160 @@ def response_per_volt(frequency_hz: float, modal_mass_kg: float, force_factor_n_
 
 
 def paper_plates():
-    """Each paper plate the model predicts: (table, item, label, geometry, printed frequency,
-    printed antinodes, printed lambda/2 in mm or None, printed voltage, velocity and power)."""
+    """Each paper plate the model predicts: (table, item, label, geometry, edge-gap geometry
+    or None (a function of the gap in mm, for the plates whose columns sit at an edge), the
+    stated antinodes or None for a cut plate)."""
     for label in ("75", "59", "28"):
-        yield ("Table 3", label, f"{label} x 41 x 1 mm", table3_plate(label),
-               paper_value("table3", label, "frequency_hz"), paper_value("table3", label, "n_antinodes"), None,
-               *(paper_value("table3", label, q) for q in ("voltage_vpp", "velocity_pp_mps", "power_w")))
+        yield ("Table 3", label, f"{label} x 41 x 1 mm", table3_plate(label), None,
+               STATED_ANTINODES["76 mm plates"] if label == "75" else None)
     for label in ("1-column", "2-columns 1 powered", "2-columns 2 powered"):
-        yield ("Table 4", label, label, table4_plate(label), paper_value("table4", label, "frequency_hz"),
-               paper_value("table4", "plate", "n_antinodes"), None,
-               *(paper_value("table4", label, q) for q in ("voltage_vpp", "velocity_pp_mps", "power_w")))
-    q = lambda name: paper_value("large_plate", "large_plate", name)  # noqa: E731
-    yield ("Sec. 5", "large_plate", "large plate 198 x 138 x 2 mm", large_plate(), q("frequency_hz"), 21.0,
-           q("half_wavelength_mm"), q("voltage_vpp"), np.nan, q("power_w"))
+        yield ("Table 4", label, label, table4_plate(label), functools.partial(table4_plate, label),
+               STATED_ANTINODES["76 mm plates"])
+    yield ("Sec. 5", "large_plate", "large plate 198 x 138 x 2 mm", large_plate(), large_plate,
+           STATED_ANTINODES["large"])
+
+
+def _search_hz(geometry: plate_modes.PlateGeometry, antinodes: int) -> float:
+    """Where a plate's (n, 0) mode of `antinodes` interior antinodes is sought: the bare plate's
+    bending-wave frequency at a half-wavelength of L / (n + 1/2) (a free end's node sits about a
+    quarter wave in), from geometry and Table 2 only."""
+    return plate_modes.flexural_frequency_hz(plate_modes.ALUMINIUM_TABLE2, geometry.thickness_m,
+                                             geometry.length_m / (antinodes + 0.5))
+
+
+def mode_with_antinodes(modes: plate_modes.PlateModes, antinodes: int, near_hz: float) -> int:
+    """The (n, 0) mode with `antinodes` interior antinodes nearest `near_hz` (the family's
+    neighbours have other counts, so `near_hz` only breaks a tie)."""
+    family = [k for k in range(len(modes.frequencies_hz))
+              if modes.uniformity[k] >= 0.6 and modes.interior_antinodes(k) == antinodes]
+    if not family:
+        raise ValueError(f"no (n, 0) mode with {antinodes} interior antinodes near {near_hz:.0f} Hz")
+    return min(family, key=lambda k: abs(modes.frequencies_hz[k] - near_hz))
+
+
+def _cut_plate_mode(modes: plate_modes.PlateModes, uncut_hz: float) -> int:
+    """A cut plate's working mode: among its (n, 0) modes, those its powered column drives (at
+    least a tenth of the best force factor: a centre column cannot drive an antisymmetric
+    mode), the one nearest the uncut plate's working frequency (the bench's drive stays where
+    it was; the same column, the same half-wavelength)."""
+    family = np.nonzero(modes.uniformity >= 0.8)[0]
+    force = np.abs(modes.force_factor_n_per_v[family][:, modes.powered].sum(axis=1))
+    driven = family[force >= 0.1 * force.max()]
+    return int(driven[np.argmin(abs(modes.frequencies_hz[driven] - uncut_hz))])
+
+
+def _solve_working(geometry: plate_modes.PlateGeometry, antinodes: int | None, uncut_hz: float | None):
+    """The plate's solution and its working mode's index (`mode_with_antinodes`, or for a cut
+    plate `_cut_plate_mode`)."""
+    if antinodes is not None:
+        near = _search_hz(geometry, antinodes)
+        modes = plate_modes.solve_plate(geometry, near_hz=near, band_rel=0.3)
+        return modes, mode_with_antinodes(modes, antinodes, near)
+    modes = plate_modes.solve_plate(geometry, near_hz=uncut_hz, band_rel=0.3)
+    return modes, _cut_plate_mode(modes, uncut_hz)
+
+
+def _at_centre(geometry, modes, k) -> dict[str, float]:
+    """Frequency, modal mass and powered force factor referred to the plate's centre (where the
+    paper measured, Sec. 2.3.1)."""
+    mass_kg, forces = modes.referred_to(k, geometry.length_m / 2, geometry.width_m / 2)
+    return {"frequency_hz": float(modes.frequencies_hz[k]), "modal_mass_kg": mass_kg,
+            "force_factor_n_per_v": abs(float(forces[modes.powered].sum()))}
 
 
 @functools.cache
 def _predictions() -> pd.DataFrame:
+    """Per plate and per volt, from geometry, the stated modes and the datasheets only: no
+    printed result, voltage or frequency is read (tests/test_predicted_plates.py perturbs each)."""
+    from squeezebench.analysis import damping
+
     out = []
-    for (table, item, plate_label, geometry, printed_hz, printed_antinodes, printed_half_mm,
-         voltage_vpp, printed_velocity, printed_power) in paper_plates():
-        u_rel = frequency_relative_u(geometry.thickness_m)
-        u_response = response_relative_u(geometry.thickness_m)
-        modes = plate_modes.solve_plate(geometry, near_hz=printed_hz)
-        k = modes.working_mode(printed_hz)
-        f = float(modes.frequencies_hz[k])
-        # at resonance, at the plate centre (where the paper measured, Sec. 2.3.1):
-        # R = w M / q, v = A V / R (pp for pp), P = R v0^2 / 2 with v0 the velocity amplitude
-        mass_kg, forces = modes.referred_to(k, geometry.length_m / 2, geometry.width_m / 2)
-        response = response_per_volt(f, mass_kg, float(forces[modes.powered].sum()))
-        velocity_pp = response["velocity_pp_mps_per_vpp"] * voltage_vpp
-        half_mm = modes.half_wavelength_m(k) * 1e3
-        power = response["power_w_per_vpp2"] * voltage_vpp**2
+    uncut_hz = None
+    for table, item, plate_label, geometry, at_gap, antinodes in paper_plates():
+        modes, k = _solve_working(geometry, antinodes, uncut_hz)
+        if table == "Table 3" and antinodes is not None:
+            uncut_hz = float(modes.frequencies_hz[k])
+        nominal = _at_centre(geometry, modes, k)
+        f = nominal["frequency_hz"]
+        # bond: the patches' added stiffness and moment scale with eta (Rayleigh: d ln w^2 = S_p d ln eta)
+        eta, eta_lo, eta_hi = bond_effectiveness_range(geometry)
+        span = (eta_hi - eta_lo) / eta
+        u_bond_f = 0.5 * float(modes.piezo_energy_share[k]) * span / (2 * math.sqrt(3))
+        u_bond_force = span / (2 * math.sqrt(3))
+        u_place = {"frequency_hz": 0.0, "force_factor_n_per_v": 0.0, "modal_mass_kg": 0.0}
+        if at_gap is not None:   # the edge gap's ends, each solved (the force factor is far from linear in it)
+            ends = [_at_centre(g, *_solve_working(g, antinodes, None))
+                    for g in (at_gap(EDGE_GAP_MM - EDGE_GAP_TOLERANCE_MM), at_gap(EDGE_GAP_MM + EDGE_GAP_TOLERANCE_MM))]
+            u_place = {q: abs(ends[1][q] - ends[0][q]) / nominal[q] / (2 * math.sqrt(3)) for q in u_place}
+        u_f = math.hypot(frequency_relative_u(geometry.thickness_m) / 2, u_bond_f, u_place["frequency_hz"])
+        base = response_relative_u(geometry.thickness_m)
+        u_drive = math.hypot(u_bond_force, u_place["force_factor_n_per_v"], u_place["modal_mass_kg"])
+        terms = damping.mode_loss_terms(modes, k, plate_modes.ALUMINIUM_TABLE2, geometry.thickness_m,
+                                        plate_modes.EPOXY.loss_factor)
+        response = response_per_volt(f, nominal["modal_mass_kg"], nominal["force_factor_n_per_v"])
         out.append({"table": table, "item": item, "plate": plate_label,
                     "resonator_thickness_mm": geometry.thickness_m / MM, "predicted_frequency_hz": f,
-                    "predicted_frequency_u_hz": f * u_rel, "printed_frequency_hz": printed_hz,
-                    "frequency_deviation": f / printed_hz - 1,
+                    "predicted_frequency_u_hz": f * 2 * u_f,
+                    "kirchhoff_frequency_hz": float(modes.kirchhoff_frequencies_hz[k]),
+                    "frequency_u_bond_rel": 2 * u_bond_f, "frequency_u_placement_rel": 2 * u_place["frequency_hz"],
                     "predicted_antinodes": modes.interior_antinodes(k),
-                    "printed_antinodes": int(printed_antinodes),
-                    "predicted_half_wavelength_mm": half_mm,
-                    "printed_half_wavelength_mm": printed_half_mm if printed_half_mm else np.nan,
-                    "voltage_vpp": voltage_vpp, "predicted_velocity_pp_mps": velocity_pp,
-                    "predicted_velocity_u_pp_mps": velocity_pp * u_response["velocity_pp_mps"],
-                    "printed_velocity_pp_mps": printed_velocity,
-                    "predicted_power_w": power, "predicted_power_u_w": power * u_response["power_w"],
-                    "printed_power_w": printed_power})
+                    "predicted_half_wavelength_mm": modes.half_wavelength_m(k) * 1e3,
+                    "modal_mass_g": nominal["modal_mass_kg"] * 1e3,
+                    "force_factor_n_per_v": nominal["force_factor_n_per_v"],
+                    "force_factor_u_placement_rel": 2 * u_place["force_factor_n_per_v"],
+                    "bond_effectiveness": eta, "drive_u_rel": 2 * u_drive,
+                    "velocity_pp_mps_per_vpp": response["velocity_pp_mps_per_vpp"],
+                    "velocity_u_rel": 2 * math.hypot(base["velocity_pp_mps"] / 2, u_drive),
+                    "power_w_per_vpp2": response["power_w_per_vpp2"],
+                    "power_u_rel": 2 * math.hypot(base["power_w"] / 2, 2 * u_drive),
+                    "damping_q": damping.mechanical_q(terms),
+                    **{f"loss_{name}": value for name, value in terms.items()}})
     return pd.DataFrame(out)
 
 
+def _printed(table: str, item: str) -> dict:
+    """The printed values a prediction is set beside (and the drive voltage it is evaluated at)."""
+    if table == "Sec. 5":
+        q = lambda name: paper_value("large_plate", "large_plate", name)  # noqa: E731
+        return {"printed_frequency_hz": q("frequency_hz"), "printed_antinodes": 21,
+                "printed_half_wavelength_mm": q("half_wavelength_mm"), "voltage_vpp": q("voltage_vpp"),
+                "printed_velocity_pp_mps": np.nan, "printed_power_w": q("power_w")}
+    name = "table3" if table == "Table 3" else "table4"
+    q = lambda quantity, row=item: paper_value(name, row, quantity)  # noqa: E731
+    return {"printed_frequency_hz": q("frequency_hz"),
+            "printed_antinodes": int(q("n_antinodes") if name == "table3" else q("n_antinodes", "plate")),
+            "printed_half_wavelength_mm": np.nan, "voltage_vpp": q("voltage_vpp"),
+            "printed_velocity_pp_mps": q("velocity_pp_mps"), "printed_power_w": q("power_w")}
+
+
 def predictions() -> pd.DataFrame:
-    """Predicted beside printed for Tables 3-4 and the large plate: frequency (and its U),
-    deviation, interior antinodes, nodal-line spacing, and velocity and power at resonance at
-    the printed voltage with the one shared `MECHANICAL_Q` (each with U, k = 2). The printed
-    frequency only centres the (n, 0) mode search (the family's neighbours lie >= 2/n away).
-    Solved once per process: geometry and materials are the module's own."""
-    return _predictions().copy()
+    """Predicted beside printed for Tables 3-4 and the large plate: frequency (and its U:
+    sheet, alloy, bond and placement), deviation, interior antinodes, nodal-line spacing, and
+    velocity and power at resonance at the printed drive voltage with the one shared
+    `MECHANICAL_Q` (each with U, k = 2; the placement and bond terms included). The model is
+    solved once per process from geometry and the stated modes (`_predictions`); the printed
+    values are only set beside it, and the drive voltage scales it."""
+    rows = []
+    for row in _predictions().to_dict("records"):
+        printed = _printed(row["table"], row["item"])
+        v = printed["voltage_vpp"]
+        velocity, power = row["velocity_pp_mps_per_vpp"] * v, row["power_w_per_vpp2"] * v**2
+        rows.append({"table": row["table"], "item": row["item"], "plate": row["plate"],
+                     "resonator_thickness_mm": row["resonator_thickness_mm"],
+                     "predicted_frequency_hz": row["predicted_frequency_hz"],
+                     "predicted_frequency_u_hz": row["predicted_frequency_u_hz"],
+                     "printed_frequency_hz": printed["printed_frequency_hz"],
+                     "frequency_deviation": row["predicted_frequency_hz"] / printed["printed_frequency_hz"] - 1,
+                     "predicted_antinodes": row["predicted_antinodes"],
+                     "printed_antinodes": printed["printed_antinodes"],
+                     "predicted_half_wavelength_mm": row["predicted_half_wavelength_mm"],
+                     "printed_half_wavelength_mm": printed["printed_half_wavelength_mm"],
+                     "voltage_vpp": v, "predicted_velocity_pp_mps": velocity,
+                     "predicted_velocity_u_pp_mps": velocity * row["velocity_u_rel"],
+                     "printed_velocity_pp_mps": printed["printed_velocity_pp_mps"],
+                     "predicted_power_w": power, "predicted_power_u_w": power * row["power_u_rel"],
+                     "printed_power_w": printed["printed_power_w"]})
+    return pd.DataFrame(rows)
 
 
 #: The paper's table quantities the model predicts: (value column, U column) of `predictions`.
@@ -191,32 +335,178 @@ def tidy(table: str) -> pd.DataFrame:
     """One row per (item, quantity) of the paper's `table` ("Table 3", "Table 4") the model
     predicts: predicted_value and predicted_U (k = 2, NaN for a count). Table 4's amplitude is
     the predicted velocity over w."""
-    frame = _predictions()
+    frame = predictions().merge(_predictions()[["item", "drive_u_rel"]], on="item")
     rows = []
     for row in frame[frame["table"] == table].to_dict("records"):
         for quantity, (value, u) in PREDICTED_QUANTITIES.items():
             rows.append({"item": row["item"], "quantity": quantity, "predicted_value": float(row[value]),
                          "predicted_U": float(row[u]) if u else math.nan})
         amplitude = row["predicted_velocity_pp_mps"] / (2 * math.pi * row["predicted_frequency_hz"])
+        base = response_relative_u(row["resonator_thickness_mm"] * MM)["amplitude_pp_m"]
         rows.append({"item": row["item"], "quantity": "amplitude_pp_m", "predicted_value": amplitude,
-                     "predicted_U": amplitude * response_relative_u(
-                         row["resonator_thickness_mm"] * MM)["amplitude_pp_m"]})
+                     "predicted_U": amplitude * math.hypot(base, row["drive_u_rel"])})
     return pd.DataFrame(rows, columns=["item", "quantity", "predicted_value", "predicted_U"])
 
 
 def large_plate_response() -> dict[str, float]:
     """The large plate at its predicted working mode, per volt: amplitude pp per Vpp at its
     centre and power per Vpp^2 (both linear in the drive: Eqs. 25 and 27 are, and so is the
-    plate), each with its relative U (k = 2), and the frequency; what Figs. 8 and 9 and
-    Table 5 show beside the measured lines."""
+    plate), each with its relative U (k = 2, the placement and bond terms included), and the
+    frequency; what Figs. 8 and 9 and Table 5 show beside the measured lines."""
     row = _predictions().set_index("item").loc["large_plate"]
     u = response_relative_u(row["resonator_thickness_mm"] * MM)
     omega = 2 * math.pi * row["predicted_frequency_hz"]
     return {"frequency_hz": float(row["predicted_frequency_hz"]),
-            "amplitude_pp_m_per_vpp": float(row["predicted_velocity_pp_mps"] / omega / row["voltage_vpp"]),
-            "amplitude_rel_U": u["amplitude_pp_m"],
-            "power_w_per_vpp2": float(row["predicted_power_w"] / row["voltage_vpp"] ** 2),
-            "power_rel_U": u["power_w"]}
+            "amplitude_pp_m_per_vpp": float(row["velocity_pp_mps_per_vpp"] / omega),
+            "amplitude_rel_U": math.hypot(u["amplitude_pp_m"], row["drive_u_rel"]),
+            "power_w_per_vpp2": float(row["power_w_per_vpp2"]),
+            "power_rel_U": float(row["power_u_rel"])}
+
+
+def loss_budget() -> pd.DataFrame:
+    """Per paper plate: the Q its printed power and velocity imply through the model's modal
+    mass (`damping.implied_q`; the large plate's "1 um" read as pp), the loss terms without the
+    bond and per unit bond loss factor (1/Q is linear in it), and the Q with the bond's nominal
+    loss factor: what `damping.fit_and_check` fits and judges."""
+    from squeezebench.analysis import damping
+
+    rows = []
+    for row in _predictions().to_dict("records"):
+        printed = _printed(row["table"], row["item"])
+        f = row["predicted_frequency_hz"]
+        if row["table"] == "Sec. 5":
+            amplitude_pp = paper_value("large_plate", "large_plate", "amplitude_m")
+            velocity_pp = 2 * math.pi * f * amplitude_pp
+        else:
+            velocity_pp = printed["printed_velocity_pp_mps"]
+        implied = damping.implied_q(f, row["modal_mass_g"] * 1e-3, velocity_pp, printed["printed_power_w"])
+        without = row["loss_aluminium"] + row["loss_piezo"] + row["loss_radiation"]
+        per_eta = row["loss_bond"] / plate_modes.EPOXY.loss_factor
+        total = without + row["loss_bond"]
+        rows.append({"table": row["table"], "item": row["item"], "implied_q": implied,
+                     "loss_without_bond": without, "bond_loss_per_eta": per_eta, "q_nominal": 1.0 / total,
+                     "radiation_share": row["loss_radiation"] / total, "bond_share_nominal": row["loss_bond"] / total})
+    return pd.DataFrame(rows)
+
+
+#: The edge gaps (mm) the placement curve and the inference sweep: the stated range and on
+#: to where the patch reaches the first nodal line of curvature.
+EDGE_GAPS_MM = (0.0, 0.5, 1.0, 1.5, 2.0, 2.5, 3.0, 3.5, 4.0, 5.0, 6.0)
+
+
+def large_plate_placement_curve(amplitude_pp_m: float = 1e-6, gaps_mm=EDGE_GAPS_MM) -> pd.DataFrame:
+    """The large plate's force factor, frequency, and the voltage (pp) and power that give
+    `amplitude_pp_m` at its centre, against the patches' distance from the edge, with the build's
+    `MECHANICAL_Q` and with the plate's own physics Q (`analysis.damping`, nominal bond loss)."""
+    from squeezebench.analysis import damping
+
+    rows = []
+    for gap in gaps_mm:
+        geometry = large_plate(gap)
+        modes, k = _solve_working(geometry, STATED_ANTINODES["large"], None)
+        at = _at_centre(geometry, modes, k)
+        q_physics = damping.mechanical_q(damping.mode_loss_terms(
+            modes, k, plate_modes.ALUMINIUM_TABLE2, geometry.thickness_m, plate_modes.EPOXY.loss_factor))
+        row = {"edge_gap_mm": gap, "within_stated_range": abs(gap - EDGE_GAP_MM) <= EDGE_GAP_TOLERANCE_MM + 1e-9,
+               "frequency_hz": at["frequency_hz"], "force_factor_n_per_v": at["force_factor_n_per_v"],
+               "physics_q": q_physics}
+        for label, q in (("", MECHANICAL_Q), ("_physics_q", q_physics)):
+            response = response_per_volt(at["frequency_hz"], at["modal_mass_kg"], at["force_factor_n_per_v"], q)
+            volts = amplitude_pp_m / response["amplitude_pp_m_per_vpp"]
+            row[f"voltage_vpp{label}"] = volts
+            row[f"power_w{label}"] = response["power_w_per_vpp2"] * volts**2
+        rows.append(row)
+    return pd.DataFrame(rows)
+
+
+def implied_force_factor_n_per_v(voltage_vpp: float, velocity_pp_mps: float, power_w: float) -> float:
+    """The force factor a printed drive, velocity and power imply at resonance, model-free:
+    the drive's force amplitude A V0 times the velocity amplitude v0 over two is the power, so
+    A = 2 P / (V0 v0) (V0, v0 half their pp)."""
+    return 2.0 * power_w / (voltage_vpp / 2.0 * velocity_pp_mps / 2.0)
+
+
+def implied_edge_gap_mm(target: float, curve: pd.DataFrame, column: str = "force_factor_n_per_v") -> float | None:
+    """INFERENCE, not an input: the first edge gap at which the model's `column` of `curve`
+    (against `edge_gap_mm`) reaches `target`, linear between swept gaps; None if no swept gap
+    reaches it. Never used to predict the numbers it is inferred from."""
+    gaps, values = curve["edge_gap_mm"].to_numpy(), curve[column].to_numpy()
+    for i in range(len(gaps) - 1):
+        lo, hi = values[i], values[i + 1]
+        if (lo - target) * (hi - target) <= 0 and hi != lo:
+            return float(gaps[i] + (target - lo) / (hi - lo) * (gaps[i + 1] - gaps[i]))
+    return None
+
+
+def large_plate_placement_inference() -> pd.DataFrame:
+    """INFERENCE, labelled so: the edge gap the large plate's printed numbers imply on the
+    model's placement curve (`large_plate_placement_curve`, 1 um read as pp): the printed 32 Vpp
+    (with the build's Q and with the physics Q), the printed 1.3 W (likewise) and the force
+    factor the two imply together, model-free (`implied_force_factor_n_per_v`). Each row gives
+    the curve's range over the swept gaps, so a printed number no placement reaches says so."""
+    curve = large_plate_placement_curve()
+    q = lambda name: paper_value("large_plate", "large_plate", name)  # noqa: E731
+    f = float(curve["frequency_hz"].iloc[0])
+    velocity_pp = 2 * math.pi * f * q("amplitude_m")
+    targets = (("voltage_vpp", "printed voltage for 1 um pp, build Q", q("voltage_vpp")),
+               ("voltage_vpp_physics_q", "printed voltage for 1 um pp, physics Q", q("voltage_vpp")),
+               ("power_w", "printed power at 1 um pp, build Q", q("power_w")),
+               ("power_w_physics_q", "printed power at 1 um pp, physics Q", q("power_w")),
+               ("force_factor_n_per_v", "force factor implied by 32 Vpp, 1 um pp and 1.3 W",
+                implied_force_factor_n_per_v(q("voltage_vpp"), velocity_pp, q("power_w"))))
+    rows = []
+    for column, what, target in targets:
+        gap = implied_edge_gap_mm(target, curve, column)
+        rows.append({"printed": what, "target": target, "model_min": float(curve[column].min()),
+                     "model_max": float(curve[column].max()),
+                     "inferred_edge_gap_mm": np.nan if gap is None else gap,
+                     "status": "inference" if gap is not None else
+                     f"no gap in {curve['edge_gap_mm'].min():g}-{curve['edge_gap_mm'].max():g} mm reaches it"})
+    return pd.DataFrame(rows)
+
+
+def what_would_agree(infer_placement: bool = True) -> pd.DataFrame:
+    """For each paper plate, what the printed power and velocity imply beside what the model
+    predicts, and so which input would have to move, and by how much, for the two to agree:
+    the force factor (implied / predicted; for the edge plates, with `infer_placement`, the
+    edge gap that gives it: an INFERENCE, labelled so, from a sweep of solves) and the Q
+    (implied / the build's `MECHANICAL_Q`)."""
+    from squeezebench.analysis import damping
+
+    rows = []
+    for row in _predictions().to_dict("records"):
+        printed = _printed(row["table"], row["item"])
+        f, v = row["predicted_frequency_hz"], printed["voltage_vpp"]
+        if row["table"] == "Sec. 5":
+            velocity = 2 * math.pi * f * paper_value("large_plate", "large_plate", "amplitude_m")
+        else:
+            velocity = printed["printed_velocity_pp_mps"]
+        implied_force = implied_force_factor_n_per_v(v, velocity, printed["printed_power_w"])
+        implied_q = damping.implied_q(f, row["modal_mass_g"] * 1e-3, velocity, printed["printed_power_w"])
+        gap = None
+        if infer_placement and row["table"] != "Table 3":
+            gap = implied_edge_gap_mm(implied_force, _edge_curve(row["item"]))
+        rows.append({"table": row["table"], "item": row["item"],
+                     "predicted_force_factor_n_per_v": row["force_factor_n_per_v"],
+                     "implied_force_factor_n_per_v": implied_force,
+                     "force_factor_ratio": implied_force / row["force_factor_n_per_v"],
+                     "implied_q": implied_q, "q_ratio": implied_q / MECHANICAL_Q,
+                     "physics_q": row["damping_q"],
+                     "inferred_edge_gap_mm": gap if gap is not None else np.nan})
+    return pd.DataFrame(rows)
+
+
+@functools.cache
+def _edge_curve(item: str) -> pd.DataFrame:
+    """The powered force factor at the plate's centre against the edge gap, for an edge plate."""
+    if item == "large_plate":
+        return large_plate_placement_curve()
+    rows = []
+    for gap in EDGE_GAPS_MM:
+        geometry = table4_plate(item, gap)
+        at = _at_centre(geometry, *_solve_working(geometry, STATED_ANTINODES["76 mm plates"], None))
+        rows.append({"edge_gap_mm": gap, "force_factor_n_per_v": at["force_factor_n_per_v"]})
+    return pd.DataFrame(rows)
 
 
 def large_plate_mode_figure(path: Path) -> dict:
@@ -226,9 +516,7 @@ def large_plate_mode_figure(path: Path) -> dict:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    printed_hz = paper_value("large_plate", "large_plate", "frequency_hz")
-    modes = plate_modes.solve_plate(large_plate(), near_hz=printed_hz)
-    k = modes.working_mode(printed_hz)
+    modes, k = _solve_working(large_plate(), STATED_ANTINODES["large"], None)
     fig, ax = plt.subplots(figsize=(7, 4.2))
     image = ax.pcolormesh(modes.x_m * 1e3, modes.y_m * 1e3, modes.shapes[k].T, cmap="RdBu_r",
                           vmin=-1, vmax=1, shading="gouraud")
@@ -266,3 +554,20 @@ def working_shape(plate: str, near_hz: float, x_m, y_m) -> tuple[np.ndarray, flo
     modes = plate_modes.solve_plate(GEOMETRIES[plate](), near_hz=near_hz)
     k = modes.working_mode(near_hz)
     return modes.shape_at(k, x_m, y_m), float(modes.frequencies_hz[k])
+
+
+def main() -> None:
+    """The paper's plates predicted beside print, what would have to move, and the large
+    plate's placement curve with what the print implies (`python -m
+    squeezebench.analysis.predicted_plates`)."""
+    with pd.option_context("display.width", 220, "display.max_columns", 30, "display.float_format", "{:.4g}".format):
+        for title, frame in (("predicted beside printed", predictions()),
+                             ("what would have to move (INFERENCE for the edge gap)", what_would_agree()),
+                             ("large plate against the patches' distance from the edge", large_plate_placement_curve()),
+                             ("the large plate's placement the print implies (INFERENCE)",
+                              large_plate_placement_inference())):
+            print(f"\n{title}\n{frame.to_string(index=False)}")
+
+
+if __name__ == "__main__":
+    main()

@@ -28,8 +28,9 @@ import numpy as np
 import pandas as pd
 
 import squeezebench
-from squeezebench.analysis import (audit, cartography_report, columns, figures, headline, measurement_model, model, page,
-                                   predicted_plates, presentation, provenance, readings, study, tables, uncertainty)
+from squeezebench.analysis import (audit, cartography_report, columns, damping, figures, headline, measurement_model,
+                                   model, page, predicted_plates, presentation, provenance, readings, study, tables,
+                                   uncertainty)
 from squeezebench.analysis.drawing import Drawing
 from squeezebench.analysis.tables import MissingDataError
 from squeezebench.analysis.paper import paper_value
@@ -1201,13 +1202,25 @@ def predicted_section(context: ReportContext) -> Section:
     frame = predicted_plates.predictions()
     context.tables["predicted"] = frame
     shown = frame.assign(frequency_deviation=frame["frequency_deviation"].map(lambda d: f"{d:+.1%}"))
-    body = ("<p>Predicted from geometry and materials only (free Kirchhoff plate on Argyris elements, "
-            "the piezos as laminate patches; the paper's Table 2 aluminium and NCE 41 for every plate, "
-            "no parameter fitted), beside the printed values. U (k = 2) from the material and thickness "
-            "tolerances. Column layouts: " + "; ".join(html.escape(why) for _, why in
-                                                       predicted_plates.LAYOUTS.values()) + ".</p>")
+    body = ("<p>Predicted from geometry, the modes the text states and the datasheets only (free plate on "
+            "Argyris elements with Mindlin's thick-plate correction, the piezos as laminate patches on a "
+            "compliant epoxy bond; the paper's Table 2 aluminium and NCE 41 for every plate, no parameter "
+            "fitted), beside the printed values. U (k = 2) from the sheet's thickness (EN 485-4), the "
+            "aluminium alloy family, the bond and the piezos' placement. Column layouts: "
+            + "; ".join(html.escape(why) for _, why in predicted_plates.LAYOUTS.values()) + ".</p>")
     body += presentation.fold("Predicted beside printed, plate by plate (the physics lines of Tables 3 and 4, and "
                               "the large plate)", html_table(shown, "predicted (plate model) and printed (paper)"))
+    agree = predicted_plates.what_would_agree(infer_placement=False)
+    body += presentation.fold(
+        "Where power and velocity miss: which input would have to move", html_table(
+            agree, "the force factor and Q the printed power and velocity imply (model-free, and through the "
+                   "model's modal mass) over the model's: the factor each would have to move by"))
+    fit = damping.fit_and_check()
+    body += presentation.fold(
+        "Damping from physics: fitted on Table 3, judged on Table 4 and the large plate", html_table(
+            fit, f"Q from the aluminium's, the ceramic's (Qm) and the bond's losses weighted by their strain "
+                 f"energy, and radiation into air; the bond's loss factor fitted on Table 3 "
+                 f"({fit['fitted_bond_loss_factor'].iloc[0]:.3g}), the other rows held out"))
     figure = predicted_plates.large_plate_mode_figure(context.out_dir / "predicted_mode_large_plate.png")
     body += presentation.fold("The large plate's predicted working mode", context.figure(
         context.out_dir / "predicted_mode_large_plate.png",

@@ -86,6 +86,40 @@ def compensation_phase_rad(mismatch_rel: float, frequency_hz: float) -> float:
     return float(phase) if phase.ndim == 0 else phase
 
 
+#: The plate model's inputs (`analysis.plate_modes.RELATIVE_TOLERANCES`): relative half-widths
+#: of rectangular spreads about the nominal values (Table 2's aluminium, NCE 41, the epoxy bond).
+MODEL_TOLERANCES: dict[str, Specification] = {
+    "young_pa": Specification(
+        0.03, "1", "alloy family: the paper names no alloy, only Table 2's constants; ordinary wrought "
+                   "aluminium alloys' typical moduli run from 68.9 GPa (1xxx, 3003, 6061) to 73.1 GPa (2024) "
+                   "(ASM Handbook Vol. 2, properties of wrought aluminium alloys; Aluminum Association, "
+                   "Aluminum Standards and Data), +-3 % about their middle"),
+    "density_kg_m3": Specification(
+        0.03, "1", "alloy family: typical densities from 2660 kg/m^3 (5083) to 2810 kg/m^3 (7075) (same "
+                   "sources), +-3 %; with the modulus's, sqrt(E / rho) spreads by 3-4 % across the family"),
+    "d31_c_per_n": Specification(0.05, "1", "NCE 41 datasheet (Noliac): +-5 % on d31 and k"),
+    "relative_permittivity_t": Specification(0.10, "1", "NCE 41 datasheet (Noliac): +-10 % on the permittivity"),
+    "bond_thickness_m": Specification(
+        0.5, "1", "assumed: the paper says only that the piezos are glued; a pressed epoxy bondline under a "
+                  "small ceramic is 20-60 um (the Araldite 2011 datasheet's 0.05-0.10 mm is the layer for "
+                  "the greatest lap shear strength of a structural joint, thicker than a pressed one): 40 um "
+                  "+-50 %"),
+    "bond_shear_modulus_pa": Specification(
+        0.5, "1", "assumed: cured room-temperature epoxies (Araldite 2011 class) have tensile moduli of "
+                  "about 2-3 GPa and Poisson's ratios of 0.35-0.4, so a shear modulus of about 1 GPa; "
+                  "+-50 % for the cure and temperature the paper does not state"),
+    "bond_loss_factor": Specification(
+        0.67, "1", "assumed: a glassy epoxy well below its glass transition has a shear loss factor of "
+                   "0.01-0.05 (0.03 +-67 %); fitted on one build in `analysis.damping.fit_and_check`"),
+}
+
+#: How the sheet's thickness spreads within the standard's limits: triangular (GUM 4.3.9:
+#: values near the limits less likely than near the middle), u = a / sqrt(6). A mill rolls to the
+#: nominal gauge and the standard's limit is its acceptance bound, not the spread of its
+#: production; the rectangular a / sqrt(3) (GUM 4.3.7) would treat a sheet at the limit as as
+#: likely as one at the gauge.
+THICKNESS_DISTRIBUTION = "triangular"
+
 #: EN 485-4 (1993), Table 1: thickness tolerance (+-mm) of cold-rolled aluminium sheet up to
 #: 1000 mm wide, alloy group II, by nominal thickness (over, up to and including; mm). Group II
 #: (the wider) because Table 2's 2790 kg/m^3 is a 2xxx alloy's density, all in that group;

@@ -591,14 +591,16 @@ def predicted_q_tan(response: dict[str, float], geometry: model.PlateGeometry,
     amplitude pp per Vpp and power per Vpp^2 at resonance (`predicted_plates.response_per_volt`,
     no printed result in) through the same inversion of Eqs. 27 and 25, geometry and reading
     as a measured plate. U from the materials' and geometry's tolerances and the build's
-    damping spread (`predicted_plates.response_relative_u`)."""
+    damping spread (`predicted_plates.response_relative_u`), or the response's own
+    `amplitude_rel_U` where it carries one (the large plate's, with its placement and bond)."""
     from squeezebench.analysis import predicted_plates
 
     u = predicted_plates.response_relative_u(geometry.resonator_thickness_m)
     q = model.q_from_amplitude(response["amplitude_pp_m_per_vpp"], 1.0, geometry, convention)
     tan = model.tan_theta_from_power(response["power_w_per_vpp2"], 1.0, q, response["frequency_hz"], geometry,
                                      convention)
-    return {"q": (q, abs(q) * u["amplitude_pp_m"]), "tan_theta": (tan, abs(tan) * u["tan_theta"])}
+    u_amplitude = response.get("amplitude_rel_U", u["amplitude_pp_m"])
+    return {"q": (q, abs(q) * u_amplitude), "tan_theta": (tan, abs(tan) * u["tan_theta"])}
 
 
 def _derived_row(table: str, item: str, quantity: str, value: Estimate, calibrated: dict[str, str]) -> dict:

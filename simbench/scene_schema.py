@@ -298,7 +298,8 @@ def _predicted_beside_replay(scene_paths: list[Path]) -> list[str]:
     lines = ["", "## Predicted beside replay", "",
              "Predicted: `simbench.predicted` puts each state's geometry and materials (never its "
              "resonance, calibration or q_mech) through the plate model `analysis.plate_modes` "
-             "(free Kirchhoff plate, Argyris elements, piezos as laminate patches); the working "
+             "(free plate on Argyris elements with Mindlin's thick-plate correction, piezos as laminate "
+             "patches on an epoxy bond); the working "
              "(n, 0) mode is searched near the replayed resonance. Force factor (powered piezos, "
              "plate constant d31/(s11(1-nu))) and modal mass are referred to the scene's "
              "measurement point. Replay: the scene's calibrated branch. Flagged when the "

@@ -1,0 +1,141 @@
+"""The paper's plates as the model predicts them (analysis.predicted_plates): every printed
+resonance within its U (k = 2) built from stated tolerances only, antinode counts exact, the
+same-sheet ratios, the modes chosen by physics, and no printed result, voltage or frequency
+read by a prediction."""
+import numpy as np
+import pandas as pd
+import pytest
+
+from squeezebench.analysis import frequency_budget, plate_modes, predicted_plates
+from squeezebench.paths import paper_values_dir
+
+#: The paper's stated geometry and build: what a prediction is made from (everything else in
+#: data/paper/ is a result, a drive or a reading, and must move no predicted value).
+INPUTS = {"resonator_length_mm", "resonator_width_mm", "resonator_thickness_mm", "piezo_width_mm",
+          "piezo_length_mm", "piezo_thickness_mm", "n_columns", "n_powered_columns", "piezos_per_column",
+          "n_piezos", "n_corner_groups", "n_sensor_piezos"}
+
+
+@pytest.fixture(scope="module")
+def frame():
+    return predicted_plates.predictions()
+
+
+def test_every_printed_resonance_is_within_its_u_and_u_stays_below_6_percent(frame):
+    u_rel = frame["predicted_frequency_u_hz"] / frame["predicted_frequency_hz"]
+    assert (u_rel <= 0.06).all()
+    assert (frame["frequency_deviation"].abs() <= u_rel).all(), frame[["item", "frequency_deviation"]]
+
+
+def test_antinode_counts_are_exact_and_the_large_plates_spacing_is_its_design(frame):
+    assert (frame["predicted_antinodes"] == frame["printed_antinodes"]).all()
+    large = frame[frame["table"] == "Sec. 5"].iloc[0]
+    assert large["predicted_half_wavelength_mm"] == pytest.approx(large["printed_half_wavelength_mm"], rel=0.05)
+
+
+def test_the_thick_plate_correction_takes_the_large_plate_from_plus_6_percent_to_within_its_u():
+    row = predicted_plates._predictions().set_index("item").loc["large_plate"]
+    printed = 52400.0
+    assert 0.04 < row["kirchhoff_frequency_hz"] / printed - 1 < 0.08   # a thin plate: +5.8 %
+    assert abs(row["predicted_frequency_hz"] / printed - 1) < 0.03
+
+
+def test_f59_over_f75_is_within_2_percent_of_print():
+    ratios = frequency_budget.same_sheet_ratios().set_index("ratio")
+    assert abs(ratios.loc["f59/f75", "deviation"]) <= 0.02
+
+
+@pytest.mark.xfail(strict=True, reason="f28/f75 is +5 % off print (was +5.9 %): the epoxy bond's shear lag "
+                                       "(eta 0.75) takes a quarter of the column's stiffening away; the ratio "
+                                       "needs eta near 0.3 (frequency_budget.same_sheet_ratios)")
+def test_f28_over_f75_is_within_2_percent_of_print():
+    ratios = frequency_budget.same_sheet_ratios().set_index("ratio")
+    assert abs(ratios.loc["f28/f75", "deviation"]) <= 0.02
+
+
+def _rows():
+    for path in sorted(paper_values_dir().glob("*.csv")):
+        table = pd.read_csv(path, dtype={"item": str, "value": str}, keep_default_na=False)
+        for row in table.itertuples():
+            if row.quantity not in INPUTS:
+                yield path.stem, row.item, row.quantity
+
+
+def test_changing_any_printed_value_changes_no_predicted_value(monkeypatch):
+    """Each printed value (frequencies, antinode counts, powers, velocities, voltages, Q, tan
+    theta', ...) moved by +37 % in turn: the per-volt predictions stay bit-identical (the plate
+    solves are cached by geometry, so a prediction that read a printed value would differ)."""
+    reference = predicted_plates._predictions().copy()
+    original = predicted_plates.paper_value
+    rows = list(_rows())
+    assert len(rows) > 60
+    try:
+        for moved in rows:
+            monkeypatch.setattr(predicted_plates, "paper_value",
+                                lambda *key, moved=moved: original(*key) * (1.37 if key == moved else 1.0))
+            predicted_plates._predictions.cache_clear()
+            pd.testing.assert_frame_equal(predicted_plates._predictions(), reference, obj=str(moved))
+    finally:
+        predicted_plates._predictions.cache_clear()
+
+
+def test_the_59_mm_plate_keeps_its_mode_when_its_printed_frequency_moves(monkeypatch):
+    """Issue 45's case: with the printed 37180 Hz changed to 31000 Hz the old search jumped to a
+    6-antinode mode at 28.4 kHz; the mode is now chosen by physics, not by the printed value."""
+    original = predicted_plates.paper_value
+    monkeypatch.setattr(predicted_plates, "paper_value", lambda name, item, quantity: 31000.0 if (
+        name, item, quantity) == ("table3", "59", "frequency_hz") else original(name, item, quantity))
+    predicted_plates._predictions.cache_clear()
+    try:
+        row = predicted_plates.predictions().set_index("item").loc["59"]
+        assert row["predicted_antinodes"] == 7 and row["printed_frequency_hz"] == 31000.0
+        assert 36e3 < row["predicted_frequency_hz"] < 39e3
+    finally:
+        predicted_plates._predictions.cache_clear()
+
+
+def test_the_drive_voltage_only_scales_the_responses(frame):
+    per_volt = predicted_plates._predictions().set_index("item")
+    for row in frame.itertuples():
+        assert row.predicted_velocity_pp_mps == pytest.approx(
+            per_volt.loc[row.item, "velocity_pp_mps_per_vpp"] * row.voltage_vpp)
+        assert row.predicted_power_w == pytest.approx(per_volt.loc[row.item, "power_w_per_vpp2"] * row.voltage_vpp**2)
+
+
+def test_placement_is_in_the_edge_plates_u_and_not_in_the_centred_ones():
+    per_volt = predicted_plates._predictions().set_index("item")
+    assert (per_volt.loc[["75", "59", "28"], "force_factor_u_placement_rel"] == 0).all()
+    assert (per_volt.loc[["1-column", "large_plate"], "force_factor_u_placement_rel"] > 0.1).all()
+    assert (per_volt["velocity_u_rel"] > per_volt["force_factor_u_placement_rel"]).all()
+
+
+def test_what_would_agree_inverts_the_printed_power_and_velocity():
+    """The implied force factor and Q, put back through the model's one-mode response at the
+    printed drive, give the printed velocity and power: the gap each input would have to close."""
+    agree = predicted_plates.what_would_agree(infer_placement=False).set_index("item")
+    model = predicted_plates._predictions().set_index("item")
+    frame = predicted_plates.predictions().set_index("item")
+    for item in ("75", "1-column", "2-columns 2 powered"):
+        response = predicted_plates.response_per_volt(
+            model.loc[item, "predicted_frequency_hz"], model.loc[item, "modal_mass_g"] * 1e-3,
+            agree.loc[item, "implied_force_factor_n_per_v"], agree.loc[item, "implied_q"])
+        v = frame.loc[item, "voltage_vpp"]
+        assert response["velocity_pp_mps_per_vpp"] * v == pytest.approx(frame.loc[item, "printed_velocity_pp_mps"])
+        assert response["power_w_per_vpp2"] * v**2 == pytest.approx(frame.loc[item, "printed_power_w"])
+
+
+def test_an_inferred_edge_gap_is_where_the_curve_meets_the_implied_force_factor():
+    curve = pd.DataFrame({"edge_gap_mm": [0.0, 1.0, 2.0], "force_factor_n_per_v": [0.1, 0.3, 0.7]})
+    assert predicted_plates.implied_edge_gap_mm(0.5, curve) == pytest.approx(1.5)
+    assert predicted_plates.implied_edge_gap_mm(0.9, curve) is None
+
+
+def test_the_responses_u_is_the_propagation_of_its_tolerances_with_a_triangular_sheet():
+    """The frequency's closed-form U against a Monte Carlo of f ~ h sqrt(E / rho), the sheet's
+    thickness triangular within EN 485-4's limit, the alloy's E and rho rectangular."""
+    rng = np.random.default_rng(5)
+    t = plate_modes.relative_tolerances(1e-3)
+    h = 1 + rng.triangular(-t["thickness_m"], 0, t["thickness_m"], 400_000)
+    e = 1 + rng.uniform(-t["young_pa"], t["young_pa"], 400_000)
+    rho = 1 + rng.uniform(-t["density_kg_m3"], t["density_kg_m3"], 400_000)
+    assert 2 * np.std(h * np.sqrt(e / rho)) == pytest.approx(predicted_plates.frequency_relative_u(1e-3), rel=0.02)
