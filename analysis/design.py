@@ -41,7 +41,7 @@ import numpy as np
 import pandas as pd
 from uncertainties import ufloat
 
-from squeezebench.analysis import cartography, model, plate_modes
+from squeezebench.analysis import cartography, damping, model, plate_modes, specifications
 from squeezebench.analysis.design_file import DesignFile
 from squeezebench.errors import UserError
 
@@ -76,8 +76,11 @@ INPUTS = (
     ("d31_c_per_n", "piezo d31", False),
     ("relative_permittivity_t", "piezo permittivity (C0)", False),
     ("tan_delta", "piezo tan delta", False),
+    ("bond_loss_factor", "bond's loss factor (Q from physics)", False),
     ("mechanical_q", "mechanical Q of the build", False),
 )
+#: The label of the Q input when Q comes from the loss physics: what the model leaves out.
+UNMODELLED_LOSS_LABEL = "mechanical Q: losses outside the loss model"
 
 
 @dataclass(frozen=True)
@@ -192,6 +195,7 @@ class ModalPart:
     touch_x_m: np.ndarray = field(repr=False)
     touch_y_m: np.ndarray = field(repr=False)
     touch: np.ndarray = field(repr=False)   # deflection / centre's, on the touch grid
+    loss_terms: dict = field(default_factory=dict)   # `damping.mode_loss_terms` at the nominal bond loss
 
 
 #: The inputs `modal_part` scales by a factor (placement moves the groups instead).
@@ -246,9 +250,15 @@ def modal_part(design: DesignFile, factors: dict[str, float] | None = None,
     if force == 0:
         raise DesignError(f"design {design.name!r}: the powered piezos' forces cancel on the "
                           f"{modes.frequencies_hz[k]:.0f} Hz mode; power groups on one side of a nodal line")
+    terms = damping.mode_loss_terms(modes, k, resonator, geometry.thickness_m, plate_modes.EPOXY.loss_factor)
     return ModalPart(modes, k, geometry, mass_kg, force, coupling_share(powered_forces), centre_share,
                      abs(centre_share) / np.abs(around).max(),
-                     gx, gy, values.reshape(gx.shape) / centre_share)
+                     gx, gy, values.reshape(gx.shape) / centre_share, terms)
+
+
+def physics_q(terms: dict, bond_factor: float = 1.0) -> float:
+    """Q from the loss terms with the bond's loss factor scaled by `bond_factor`."""
+    return damping.mechanical_q(terms | {"bond": terms["bond"] * bond_factor})
 
 
 def operating_point(design: DesignFile, factors: dict[str, float] | None = None,
@@ -266,7 +276,8 @@ def operating_point(design: DesignFile, factors: dict[str, float] | None = None,
     lumped = Lumped(
         frequency_hz=frequency, modal_mass_kg=modal.modal_mass_kg,
         force_factor_n_per_v=modal.force_factor_n_per_v * f["d31_c_per_n"],
-        mechanical_q=design.damping.mechanical_q * f["mechanical_q"],
+        mechanical_q=(physics_q(modal.loss_terms, f["bond_loss_factor"]) if design.damping.source == "physics"
+                      else design.damping.mechanical_q) * f["mechanical_q"],
         clamped_capacitance_f=float(modes.clamped_capacitance_f[modes.powered].sum()) * f["relative_permittivity_t"],
         piezo_thickness_m=design.piezo.thickness_mm * 1e-3,
         tan_delta_low_field=design.piezo.tan_delta_low_field * f["tan_delta"],
@@ -288,6 +299,8 @@ def operating_point(design: DesignFile, factors: dict[str, float] | None = None,
         "plate_mass_g": modes.plate_mass_kg * 1e3,
         "force_factor_n_per_v": lumped.force_factor_n_per_v,
         "coupling_share": modal.coupling_share,
+        "mechanical_q": lumped.mechanical_q,
+        "physics_q": physics_q(modal.loss_terms),
         "clamped_capacitance_nf": lumped.clamped_capacitance_f * 1e9,
         "k_eff": lumped.k_eff,
         "velocity_pp_mps": centre_velocity,
@@ -310,8 +323,8 @@ def operating_point(design: DesignFile, factors: dict[str, float] | None = None,
 
 
 #: The outputs an uncertainty is given for (the counts and the plate's mass are exact).
-UNCERTAIN = ("frequency_hz", "half_wavelength_mm", "modal_mass_g", "force_factor_n_per_v", "clamped_capacitance_nf",
-             "k_eff", "velocity_pp_mps", "amplitude_pp_m", "voltage_vpp", "piezo_field_v_per_mm",
+UNCERTAIN = ("frequency_hz", "half_wavelength_mm", "mechanical_q", "modal_mass_g", "force_factor_n_per_v",
+             "clamped_capacitance_nf", "k_eff", "velocity_pp_mps", "amplitude_pp_m", "voltage_vpp", "piezo_field_v_per_mm",
              "mechanical_power_w", "dielectric_power_w", "power_w", "current_pp_a", "apparent_power_va",
              "weakest_antinode_ratio", "width_uniformity")
 
@@ -361,8 +374,10 @@ def predict_physics(design: DesignFile, modal: ModalPart | None = None) -> Physi
                 continue
             point = _placement_step(design, tolerance_mm, antinodes, nominal)
         else:
-            tolerance = design.damping.tolerance_rel if name == "mechanical_q" else design.tolerance(name)
+            tolerance = _tolerance(design, name)
             tolerance_mm, u_mm = math.nan, math.nan
+            if name == "mechanical_q" and design.damping.source == "physics":
+                label = UNMODELLED_LOSS_LABEL
             u_rel = plate_modes.relative_standard_uncertainty(name, tolerance)   # the sheet's triangular
             if u_rel == 0:
                 continue
@@ -380,6 +395,16 @@ def predict_physics(design: DesignFile, modal: ModalPart | None = None) -> Physi
                                                         .sum()))
                 for output in UNCERTAIN}
     return PhysicsPrediction(design, nominal, expanded, budget, perturbed)
+
+
+def _tolerance(design: DesignFile, name: str) -> float:
+    """A non-placement input's relative half-width: Q's from the damping, the bond's loss
+    factor's from the model's specifications when Q comes from physics (else it moves nothing)."""
+    if name == "mechanical_q":
+        return design.damping.tolerance_rel
+    if name == "bond_loss_factor":
+        return specifications.MODEL_TOLERANCES["bond_loss_factor"].half_width if design.damping.source == "physics" else 0.0
+    return design.tolerance(name)
 
 
 def _placement_step(design: DesignFile, tolerance_mm: float, antinodes: int,

@@ -91,11 +91,21 @@ class Target(_Model):
 
 
 class Damping(_Model):
-    """The one fitted physics: the build's mechanical loss (shared by every plate of it)."""
+    """The plate's mechanical loss: the build's stated Q (one figure shared by every plate of
+    it), or Q from the physics of its losses (`analysis.damping`: aluminium, ceramic Qm, bond,
+    radiation into air, weighted by the mode's strain energy), when `source` is physics; then
+    `tolerance_rel` is the spread of what the loss model leaves out and `mechanical_q` unused."""
 
-    mechanical_q: float = Field(gt=1, lt=1e5)
+    source: Literal["stated", "physics"] = "stated"
+    mechanical_q: Optional[float] = Field(None, gt=1, lt=1e5)
     tolerance_rel: float = Field(0.3, ge=0, lt=1, description="half-width of a rectangular spread")
     origin: str = Field(min_length=1)
+
+    @model_validator(mode="after")
+    def _stated_q_given(self) -> "Damping":
+        if self.source == "stated" and self.mechanical_q is None:
+            raise ValueError("give mechanical_q, or source: physics for Q from the plate's losses")
+        return self
 
 
 class Amplifier(_Model):

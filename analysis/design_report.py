@@ -51,8 +51,7 @@ def headline(answer: DesignAnswer) -> list[str]:
              + (f". Nearest feasible change: {'; or '.join(verdict.changes)}" if verdict.changes else "") + ".",
              f"{d.name} needs {_pm(answer, 'voltage_vpp')} Vpp and {_pm(answer, 'power_w')} W for "
              f"{_target_words(answer)}, from physics (working mode {_pm(answer, 'frequency_hz', 2)} Hz, "
-             f"{v['interior_antinodes']} antinodes; mechanical Q {d.damping.mechanical_q:g} ± "
-             f"{d.damping.tolerance_rel:.0%}, the build's one fitted figure)."]
+             f"{v['interior_antinodes']} antinodes; {_q_words(answer)})."]
     limits = [f"amplifier {v['voltage_vpp'] / d.amplifier.max_output_vpp:.0%} of its {d.amplifier.max_output_vpp:g} Vpp",
               f"piezo field {v['piezo_field_v_per_mm']:.0f} of {d.piezo.max_field_v_per_mm:g} V/mm"]
     if d.amplifier.max_current_app:
@@ -139,6 +138,16 @@ def _implied_placement(answer: DesignAnswer, curve: pd.DataFrame) -> str:
     power = f"its {printed['power_w']:g} W at {where(at_power)}" if at_power else f"its {printed['power_w']:g} W nowhere"
     return (f"Inference, not a prediction: on this curve the paper's build would have {voltage}, {power}; the paper "
             "does not state the placement, and nothing here is chosen from its printed numbers.")
+
+
+def _q_words(answer: DesignAnswer) -> str:
+    """Where the mechanical Q comes from, and the loss physics' Q beside a stated one."""
+    d, v = answer.design, answer.physics.nominal.values
+    if d.damping.source == "physics":
+        return (f"mechanical Q {_pm(answer, 'mechanical_q', 2)} from the plate's losses (aluminium, ceramic, bond, "
+                f"radiation), ± {d.damping.tolerance_rel:.0%} for losses outside that model")
+    return (f"mechanical Q {d.damping.mechanical_q:g} ± {d.damping.tolerance_rel:.0%}, the build's stated figure; "
+            f"the loss physics gives {v['physics_q']:.0f} for this plate")
 
 
 def _source_short(source: str) -> str:
@@ -275,7 +284,7 @@ def pareto_figure(answer: DesignAnswer, path: Path) -> Path:
 # --- tables -------------------------------------------------------------------------------
 
 _VALUE_ROWS = (("frequency_hz", "working mode frequency", "Hz"), ("half_wavelength_mm", "nodal-line spacing λ/2", "mm"),
-               ("modal_mass_g", "modal mass at the centre", "g"), ("force_factor_n_per_v", "force factor at the centre", "N/V"),
+               ("mechanical_q", "mechanical Q", "1"), ("modal_mass_g", "modal mass at the centre", "g"), ("force_factor_n_per_v", "force factor at the centre", "N/V"),
                ("clamped_capacitance_nf", "clamped capacitance C0 (powered)", "nF"),
                ("k_eff", "effective coupling k_eff", "1"), ("voltage_vpp", "piezo voltage", "V pp"),
                ("piezo_field_v_per_mm", "field amplitude in the piezo", "V/mm"),
@@ -327,12 +336,12 @@ def _plain(value: float, u: float) -> str:
 def assumptions(answer: DesignAnswer) -> str:
     d = answer.design
     items = [f"<li><b>{html.escape(k)}</b>: {html.escape(v)}</li>" for k, v in d.provenance.items()]
-    items.append(f"<li><b>damping</b>: mechanical Q {d.damping.mechanical_q:g} ± {d.damping.tolerance_rel:.0%} "
-                 f"(rectangular): {html.escape(d.damping.origin)} — the one fitted figure of the prediction</li>")
+    items.append(f"<li><b>damping</b>: {html.escape(_q_words(answer))} (rectangular): "
+                 f"{html.escape(d.damping.origin)}</li>")
     sheet = " (the rolled sheet's, EN 485-4)" if d.tolerances.thickness_m is None else ""
     items.append("<li><b>tolerances</b> (rectangular half-widths): " + ", ".join(
         f"{label} ±{d.tolerance(name):.1%}" + (sheet if name == "thickness_m" else "")
-        for name, label, _ in INPUTS if name not in ("mechanical_q", "placement_mm")) + "</li>")
+        for name, label, _ in INPUTS if name not in ("mechanical_q", "placement_mm", "bond_loss_factor")) + "</li>")
     items.append(f"<li><b>placement</b>: each end group within ±{d.placement_tolerance_mm:g} mm along the length "
                  "(rectangular; the bonding tolerance unless a group states its own), all moved together in the "
                  "budget, as one template or jig places them</li>")

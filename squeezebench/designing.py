@@ -58,12 +58,13 @@ SCENE_MATERIALS = {"aluminium_table2": "aluminium"}
 SCENE_EFFECTS = ["shunt", "scope_noise", "quantisation", "averaging", "dc_offset"]
 
 
-def scene_from_design(spec, seed: int = 1) -> dict:
+def scene_from_design(spec, seed: int = 1, mechanical_q: float | None = None) -> dict:
     """A predicted scene of the designed plate for the simulated bench: its geometry and
     materials, the build's q_mech, and a state whose resonance and branch the plate model
     gives (`resonance_frequency_hz: predicted`); measured at the plate's centre. A design
     the scene format cannot place (piezos a column does not centre, or a position's two
-    groups not at the width's ends) is refused, saying how the scene places them."""
+    groups not at the width's ends) is refused, saying how the scene places them. Its q_mech:
+    `mechanical_q` (the design's answer's), else the design's stated Q."""
     from squeezebench.simbench import predicted
     from squeezebench.simbench.scene import load_scene
 
@@ -89,7 +90,7 @@ def scene_from_design(spec, seed: int = 1) -> dict:
                       "columns": [{"name": g.name, "position_mm": g.x_mm} for g in spec.groups]},
         "mode": {"name": f"{antinodes} antinodes", "half_wavelength_mm": round(half_wave_mm, 6)},
         "states": {"built": {"description": "as designed, every powered group driven",
-                             "resonance_frequency_hz": "predicted", "q_mech": spec.damping.mechanical_q,
+                             "resonance_frequency_hz": "predicted", "q_mech": mechanical_q or spec.damping.mechanical_q,
                              "powered_columns": [g.name for g in spec.groups if g.powered]}},
         "initial_state": "built",
         "measurement_point": {"x_mm": spec.resonator.length_mm / 2, "y_mm": spec.resonator.width_mm / 2,
@@ -121,7 +122,7 @@ def characterisation_campaign(spec, answer: design_model.DesignAnswer, scene_fil
     values = answer.physics.nominal.values
     frequency = values["frequency_hz"]
     top = min(values["voltage_vpp"], spec.amplifier.max_output_vpp, 100.0)
-    points = max(31, math.ceil(0.12 * spec.damping.mechanical_q) + 1)   # steps <= half the bandwidth f/Q
+    points = max(31, math.ceil(0.12 * values["mechanical_q"]) + 1)   # steps <= half the bandwidth f/Q
     return {
         "name": f"{spec.name}_characterisation", "output_dir": f"runs/{spec.name}_characterisation",
         "safety": {"max_piezo_voltage_vpp": 100},
@@ -141,8 +142,9 @@ def write_build(answer: design_model.DesignAnswer, folder: str | Path, seed: int
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
     scene = folder / f"{spec.name}.yaml"
+    data = scene_from_design(spec, seed=seed, mechanical_q=answer.physics.nominal.values["mechanical_q"])
     scene.write_text("# Predicted by `squeezebench design` from the design file: nothing measured is read.\n"
-                     + dump_yaml(scene_from_design(spec, seed=seed)), encoding="utf-8")
+                     + dump_yaml(data), encoding="utf-8")
     campaign = folder / f"{spec.name}_characterisation.yaml"
     campaign.write_text(dump_yaml(characterisation_campaign(spec, answer, scene.name)),
                         encoding="utf-8")
