@@ -132,9 +132,10 @@ def _implied_placement(answer: DesignAnswer, curve: pd.DataFrame) -> str:
     else:
         within = curve[(curve["voltage_vpp"] - printed["voltage_vpp"]).abs() <= curve["voltage_expanded_uncertainty"]]
         lowest = curve.loc[curve["voltage_vpp"].idxmin()]
+        lo, hi = (within["edge_gap_mm"].min(), within["edge_gap_mm"].max()) if len(within) else (None, None)
+        span = "" if lo is None else f"; within its U at {lo:.1f} mm" if lo == hi else f"; within U from {lo:.1f} to {hi:.1f} mm"
         voltage = (f"its {printed['voltage_vpp']:g} Vpp nowhere (the least is {lowest['voltage_vpp']:.3g} Vpp at "
-                   f"{lowest['edge_gap_mm']:.1f} mm" + (f"; within U from {within['edge_gap_mm'].min():.1f} to "
-                                                         f"{within['edge_gap_mm'].max():.1f} mm)" if len(within) else ")"))
+                   f"{lowest['edge_gap_mm']:.1f} mm{span})")
     power = f"its {printed['power_w']:g} W at {where(at_power)}" if at_power else f"its {printed['power_w']:g} W nowhere"
     return (f"Inference, not a prediction: on this curve the paper's build would have {voltage}, {power}; the paper "
             "does not state the placement, and nothing here is chosen from its printed numbers.")
@@ -249,9 +250,12 @@ def placement_figure(answer: DesignAnswer, path: Path) -> Path:
                    label=f"printed {answer.printed['voltage_vpp']:g} Vpp (implied placement: inference)")
         power_ax.axhline(answer.printed["power_w"], color="C3", linestyle=":", linewidth=1,
                          label=f"printed {answer.printed['power_w']:g} W")
-    ax.set(xlabel="end piezos' distance from the plate's edges (mm)", ylabel="piezo voltage (V pp)",
+    ax.set(xlabel="end piezos' distance from the plate's edges (mm)", ylabel="piezo voltage (V pp, log scale)",
            title="where along the length the end piezos are bonded")
-    ax.set_ylim(0, None)
+    ax.set_yscale("log")   # near a nodal line of curvature the voltage runs up tenfold: keep the useful range legible
+    plain = matplotlib.ticker.FuncFormatter(lambda y, _: f"{y:g}")
+    ax.yaxis.set_major_formatter(plain)
+    ax.yaxis.set_minor_formatter(plain)
     power_ax.set_ylim(0, None)
     power_ax.set_ylabel("electrical power (W)")
     handles = ax.get_legend_handles_labels()
