@@ -14,10 +14,17 @@ so the power at a given amplitude depends on mass, frequency and damping only, t
 voltage for it on the coupling too. tan(delta) follows the NCE 41 datasheet between its
 low-field value and its value at 400 V/mm, linear in the field amplitude.
 
-Each result carries U (k = 2) from the material, geometry, piezo and damping tolerances
-(rectangular half-widths of the design file), propagated by the law of propagation of
-uncertainty with sensitivities from a solve at each input moved by its standard
-uncertainty (GUM 5.1.3, numerically): the budget says which inputs dominate.
+Each result carries U (k = 2) from the material, geometry, placement, piezo and damping
+tolerances (rectangular half-widths of the design file), propagated by the law of
+propagation of uncertainty with sensitivities from a solve at each input moved by its
+standard uncertainty (GUM 5.1.3, numerically): the budget says which inputs dominate.
+
+Where the piezos sit along the length decides the drive: near a free edge the mode's
+curvature, which the piezos couple to, falls to zero. `placement_curve` solves the design
+with its end groups at a range of distances from the edges, so a designer reads what moving
+them does; `judge` turns the answer into a verdict (feasible, marginal, infeasible) against
+the amplifier, the ceramic's field limit and the coupling, naming the nearest change that
+makes an infeasible design feasible.
 
 Route (b), the paper's method (Sec. 5): Q and tan(theta') measured on characterised small
 plates of the same build, Q scaled to the design's piezo by Eq. 29, tan(theta') the mean of
@@ -28,12 +35,13 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field, replace
+from typing import Callable
 
 import numpy as np
 import pandas as pd
 from uncertainties import ufloat
 
-from squeezebench.analysis import cartography, model, plate_modes
+from squeezebench.analysis import cartography, damping, model, plate_modes, specifications
 from squeezebench.analysis.design_file import DesignFile
 from squeezebench.errors import UserError
 
@@ -46,6 +54,12 @@ TOUCH_POINTS_PER_HALF_WAVE = 8
 #: within half a wavelength) is too close to a nodal line for a target "at the centre": the
 #: prediction would hang on the node's exact place.
 MIN_CENTRE_SHARE = 0.5
+#: The powered piezos' net coupling to a mode (|sum of their force factors| over the sum of
+#: their magnitudes) below which they cancel on it: the drive then hangs on the few per cent
+#: by which the placement breaks the cancellation, and the voltage on nothing a lab controls.
+MIN_COUPLING_SHARE = 0.1
+#: Below this net coupling the powered piezos partly cancel: an answer, but a marginal one.
+PARTIAL_COUPLING_SHARE = 0.5
 
 
 class DesignError(UserError):
@@ -58,11 +72,15 @@ INPUTS = (
     ("young_pa", "resonator Young's modulus", True),
     ("density_kg_m3", "resonator density", True),
     ("thickness_m", "resonator thickness", True),
+    ("placement_mm", "placement of the end piezos along the length", True),
     ("d31_c_per_n", "piezo d31", False),
     ("relative_permittivity_t", "piezo permittivity (C0)", False),
     ("tan_delta", "piezo tan delta", False),
+    ("bond_loss_factor", "bond's loss factor (Q from physics)", False),
     ("mechanical_q", "mechanical Q of the build", False),
 )
+#: The label of the Q input when Q comes from the loss physics: what the model leaves out.
+UNMODELLED_LOSS_LABEL = "mechanical Q: losses outside the loss model"
 
 
 @dataclass(frozen=True)
@@ -134,7 +152,8 @@ class OperatingPoint:
 
 def _select_mode(modes: plate_modes.PlateModes, near_hz: float, antinodes: int | None) -> int:
     """The (n, 0) mode nearest `near_hz`; with `antinodes`, the one with that count if any
-    (a tolerance moves frequencies, never the mode a design is built for)."""
+    (a tolerance moves frequencies, never the mode a design is built for). A mode is chosen
+    by its count or by the frequency a designer asks for, never by a printed value."""
     k = modes.working_mode(near_hz)
     if antinodes is None or modes.interior_antinodes(k) == antinodes:
         return k
@@ -170,14 +189,24 @@ class ModalPart:
     geometry: plate_modes.PlateGeometry = field(repr=False)
     modal_mass_kg: float
     force_factor_n_per_v: float   # powered piezos, signed sum's magnitude, at nominal d31
+    coupling_share: float   # |sum of the powered piezos' force factors| / sum of their magnitudes
     centre_share: float   # the centre's deflection over the mode's largest
     centre_to_antinode: float   # |centre's deflection| over the nearest antinode's on the centre line
     touch_x_m: np.ndarray = field(repr=False)
     touch_y_m: np.ndarray = field(repr=False)
     touch: np.ndarray = field(repr=False)   # deflection / centre's, on the touch grid
+    loss_terms: dict = field(default_factory=dict)   # `damping.mode_loss_terms` at the nominal bond loss
 
 
-_STRUCTURAL = tuple(name for name, _, solve in INPUTS if solve)
+#: The inputs `modal_part` scales by a factor (placement moves the groups instead).
+_STRUCTURAL = tuple(name for name, _, solve in INPUTS if solve and name != "placement_mm")
+
+
+def coupling_share(force_factors: np.ndarray) -> float:
+    """|sum A_i| / sum |A_i| over the powered piezos' force factors on one mode: 1 when they
+    all push the same way, 0 when they cancel."""
+    total = float(np.abs(force_factors).sum())
+    return abs(float(force_factors.sum())) / total if total > 0 else 0.0
 
 
 def modal_part(design: DesignFile, factors: dict[str, float] | None = None,
@@ -216,12 +245,20 @@ def modal_part(design: DesignFile, factors: dict[str, float] | None = None,
                           f"{modes.frequencies_hz[k]:.0f} Hz mode")
     # referred to the centre from the mode's peak (where `modes` refers them): M / s^2, A / s
     mass_kg = float(modes.modal_mass_kg[k]) / centre_share**2
-    force = abs(float(modes.force_factor_n_per_v[k, modes.powered].sum()) / centre_share)
+    powered_forces = modes.force_factor_n_per_v[k, modes.powered]
+    force = abs(float(powered_forces.sum()) / centre_share)
     if force == 0:
         raise DesignError(f"design {design.name!r}: the powered piezos' forces cancel on the "
                           f"{modes.frequencies_hz[k]:.0f} Hz mode; power groups on one side of a nodal line")
-    return ModalPart(modes, k, geometry, mass_kg, force, centre_share, abs(centre_share) / np.abs(around).max(),
-                     gx, gy, values.reshape(gx.shape) / centre_share)
+    terms = damping.mode_loss_terms(modes, k, resonator, geometry.thickness_m, plate_modes.EPOXY.loss_factor)
+    return ModalPart(modes, k, geometry, mass_kg, force, coupling_share(powered_forces), centre_share,
+                     abs(centre_share) / np.abs(around).max(),
+                     gx, gy, values.reshape(gx.shape) / centre_share, terms)
+
+
+def physics_q(terms: dict, bond_factor: float = 1.0) -> float:
+    """Q from the loss terms with the bond's loss factor scaled by `bond_factor`."""
+    return damping.mechanical_q(terms | {"bond": terms["bond"] * bond_factor})
 
 
 def operating_point(design: DesignFile, factors: dict[str, float] | None = None,
@@ -239,7 +276,8 @@ def operating_point(design: DesignFile, factors: dict[str, float] | None = None,
     lumped = Lumped(
         frequency_hz=frequency, modal_mass_kg=modal.modal_mass_kg,
         force_factor_n_per_v=modal.force_factor_n_per_v * f["d31_c_per_n"],
-        mechanical_q=design.damping.mechanical_q * f["mechanical_q"],
+        mechanical_q=(physics_q(modal.loss_terms, f["bond_loss_factor"]) if design.damping.source == "physics"
+                      else design.damping.mechanical_q) * f["mechanical_q"],
         clamped_capacitance_f=float(modes.clamped_capacitance_f[modes.powered].sum()) * f["relative_permittivity_t"],
         piezo_thickness_m=design.piezo.thickness_mm * 1e-3,
         tan_delta_low_field=design.piezo.tan_delta_low_field * f["tan_delta"],
@@ -260,6 +298,9 @@ def operating_point(design: DesignFile, factors: dict[str, float] | None = None,
         "modal_mass_g": modal.modal_mass_kg * 1e3,
         "plate_mass_g": modes.plate_mass_kg * 1e3,
         "force_factor_n_per_v": lumped.force_factor_n_per_v,
+        "coupling_share": modal.coupling_share,
+        "mechanical_q": lumped.mechanical_q,
+        "physics_q": physics_q(modal.loss_terms),
         "clamped_capacitance_nf": lumped.clamped_capacitance_f * 1e9,
         "k_eff": lumped.k_eff,
         "velocity_pp_mps": centre_velocity,
@@ -282,8 +323,8 @@ def operating_point(design: DesignFile, factors: dict[str, float] | None = None,
 
 
 #: The outputs an uncertainty is given for (the counts and the plate's mass are exact).
-UNCERTAIN = ("frequency_hz", "half_wavelength_mm", "modal_mass_g", "force_factor_n_per_v", "clamped_capacitance_nf",
-             "k_eff", "velocity_pp_mps", "amplitude_pp_m", "voltage_vpp", "piezo_field_v_per_mm",
+UNCERTAIN = ("frequency_hz", "half_wavelength_mm", "mechanical_q", "modal_mass_g", "force_factor_n_per_v",
+             "clamped_capacitance_nf", "k_eff", "velocity_pp_mps", "amplitude_pp_m", "voltage_vpp", "piezo_field_v_per_mm",
              "mechanical_power_w", "dielectric_power_w", "power_w", "current_pp_a", "apparent_power_va",
              "weakest_antinode_ratio", "width_uniformity")
 
@@ -314,33 +355,265 @@ class PhysicsPrediction:
         return nominal, COVERAGE_FACTOR * spread
 
 
-def predict_physics(design: DesignFile) -> PhysicsPrediction:
-    """Route (a) with its budget: one solve at nominal, one per structural input moved by its
-    standard uncertainty (t / sqrt 3 for a rectangular half-width t, t / sqrt 6 for the sheet's
-    triangular thickness, `plate_modes.relative_standard_uncertainty`); the piezo's and the
-    damping's inputs reuse the nominal solve."""
-    modal = modal_part(design)
+def predict_physics(design: DesignFile, modal: ModalPart | None = None) -> PhysicsPrediction:
+    """Route (a) with its budget: one solve at nominal (`modal`, when already solved), one per
+    structural input moved by its standard uncertainty (t / sqrt 3 for a rectangular
+    half-width t, t / sqrt 6 for the sheet's triangular thickness,
+    `plate_modes.relative_standard_uncertainty`; the end groups moved inward together by the
+    placement's); the piezo's and the damping's inputs reuse the nominal solve."""
+    modal = modal or modal_part(design)
     nominal = operating_point(design, modal=modal)
     antinodes = nominal.values["interior_antinodes"]
+    moves_placement = any(design.is_end_group(g) for g in design.groups)
     rows, perturbed = [], {}
     for name, label, structural in INPUTS:
-        tolerance = design.damping.tolerance_rel if name == "mechanical_q" else design.tolerance(name)
-        u_rel = plate_modes.relative_standard_uncertainty(name, tolerance)   # the sheet's triangular
-        if u_rel == 0:
-            continue
-        moved = modal_part(design, {name: 1 + u_rel}, antinodes=antinodes) if structural else modal
-        point = operating_point(design, {name: 1 + u_rel}, modal=moved)
+        if name == "placement_mm":
+            tolerance_mm = design.placement_tolerance_mm if moves_placement else 0.0
+            tolerance, u_rel, u_mm = math.nan, math.nan, tolerance_mm / math.sqrt(3)
+            if u_mm == 0:
+                continue
+            point = _placement_step(design, tolerance_mm, antinodes, nominal)
+        else:
+            tolerance = _tolerance(design, name)
+            tolerance_mm, u_mm = math.nan, math.nan
+            if name == "mechanical_q" and design.damping.source == "physics":
+                label = UNMODELLED_LOSS_LABEL
+            u_rel = plate_modes.relative_standard_uncertainty(name, tolerance)   # the sheet's triangular
+            if u_rel == 0:
+                continue
+            moved = modal_part(design, {name: 1 + u_rel}, antinodes=antinodes) if structural else modal
+            point = operating_point(design, {name: 1 + u_rel}, modal=moved)
         perturbed[name] = point
         for output in UNCERTAIN:
             change = point.values[output] - nominal.values[output]
             rows.append({"output": output, "input": name, "input_label": label, "tolerance_rel": tolerance,
-                         "input_u_rel": u_rel, "contribution": change, "contribution_abs": abs(change)})
+                         "input_u_rel": u_rel, "tolerance_mm": tolerance_mm, "input_u_mm": u_mm,
+                         "contribution": change, "contribution_abs": abs(change)})
     budget = pd.DataFrame(rows, columns=["output", "input", "input_label", "tolerance_rel", "input_u_rel",
-                                         "contribution", "contribution_abs"])
+                                         "tolerance_mm", "input_u_mm", "contribution", "contribution_abs"])
     expanded = {output: COVERAGE_FACTOR * float(np.sqrt((budget.loc[budget["output"] == output, "contribution"] ** 2)
                                                         .sum()))
                 for output in UNCERTAIN}
     return PhysicsPrediction(design, nominal, expanded, budget, perturbed)
+
+
+def _tolerance(design: DesignFile, name: str) -> float:
+    """A non-placement input's relative half-width: Q's from the damping, the bond's loss
+    factor's from the model's specifications when Q comes from physics (else it moves nothing)."""
+    if name == "mechanical_q":
+        return design.damping.tolerance_rel
+    if name == "bond_loss_factor":
+        return specifications.MODEL_TOLERANCES["bond_loss_factor"].half_width if design.damping.source == "physics" else 0.0
+    return design.tolerance(name)
+
+
+def _placement_step(design: DesignFile, tolerance_mm: float, antinodes: int,
+                    nominal: OperatingPoint) -> OperatingPoint:
+    """The working point with the end groups moved inward by one standard uncertainty of
+    the placement, u = t / sqrt 3, as a line through the solve at the whole half-width t
+    (and 2 t if that fails): a step of a few tenths of a millimetre can land where two modes
+    of the plate mix and none keeps straight nodal lines, which says nothing of the slope."""
+    for step_mm in (tolerance_mm, 2 * tolerance_mm):
+        moved = design.moved_inward(step_mm)
+        try:
+            point = operating_point(moved, modal=modal_part(moved, antinodes=antinodes))
+        except DesignError:
+            continue
+        scale = 1 / math.sqrt(3) * tolerance_mm / step_mm
+        values = {k: (nominal.values[k] + (x - nominal.values[k]) * scale if k in UNCERTAIN else x)
+                  for k, x in point.values.items()}
+        return replace(point, values=values, lumped=_scaled_lumped(nominal.lumped, point.lumped, scale))
+    raise DesignError(f"design {design.name!r}: with the end piezos moved by the placement tolerance "
+                      f"({tolerance_mm:g} or {2 * tolerance_mm:g} mm) no mode keeps its nodal lines straight across "
+                      "the width: the placement decides the mode; state a tighter placement tolerance")
+
+
+def _scaled_lumped(nominal: Lumped, moved: Lumped, scale: float) -> Lumped:
+    """`nominal` moved toward `moved` by `scale` of the way, field by field (linear sensitivities)."""
+    return Lumped(**{k: getattr(nominal, k) + (getattr(moved, k) - getattr(nominal, k)) * scale
+                     for k in nominal.__dataclass_fields__})
+
+
+# --- placement along the length ------------------------------------------------------------
+
+#: Points of the placement curve between flush with the edges and half a wavelength in.
+PLACEMENT_POINTS = 10
+PLACEMENT_COLUMNS = ["edge_gap_mm", "frequency_hz", "interior_antinodes", "force_factor_n_per_v", "coupling_share",
+                     "voltage_vpp", "voltage_expanded_uncertainty", "power_w", "piezo_field_v_per_mm", "why_not"]
+
+
+def placement_range_mm(design: DesignFile, half_wavelength_mm: float) -> tuple[float, float]:
+    """Where the end groups may go: from flush with the edges to half a wavelength in (past
+    it the same curvature repeats with the next nodal line), within the outer quarters."""
+    return 0.0, min(half_wavelength_mm, design.resonator.length_mm / 4 - design.piezo.length_x_mm / 2)
+
+
+def placement_curve(physics: PhysicsPrediction, gaps_mm: np.ndarray | None = None,
+                    mapper: Callable | None = None) -> pd.DataFrame:
+    """The design solved with its end groups at each distance from the edges in `gaps_mm`
+    (default `PLACEMENT_POINTS` over `placement_range_mm`), on the design's working mode:
+    one row per distance, in order. The voltage's U there is the drawn design's relative U
+    of every input but the placement (the placement is the axis). `mapper(function, items)`
+    yields (item, result) pairs in any order (the parallel engine's map); default: here, in
+    order."""
+    design, values = physics.design, physics.nominal.values
+    if gaps_mm is None:
+        gaps_mm = np.linspace(*placement_range_mm(design, values["half_wavelength_mm"]), PLACEMENT_POINTS)
+    rows = physics.budget[(physics.budget["output"] == "voltage_vpp") & (physics.budget["input"] != "placement_mm")]
+    u_rel_others = COVERAGE_FACTOR * float(np.sqrt((rows["contribution"] ** 2).sum())) / values["voltage_vpp"]
+    tasks = [(design, values["interior_antinodes"], float(gap), u_rel_others) for gap in np.asarray(gaps_mm)]
+    mapper = mapper or (lambda function, items: ((item, function(item)) for item in items))
+    out = sorted((row for _, row in mapper(placement_point, tasks)), key=lambda row: row["edge_gap_mm"])
+    return pd.DataFrame(out, columns=PLACEMENT_COLUMNS)
+
+
+def placement_point(task: tuple[DesignFile, int, float, float]) -> dict:
+    """One row of `placement_curve` (a parallel task): the design with its end groups
+    `gap` mm from the edges on its `antinodes` mode; a distance the model cannot answer for
+    says why instead."""
+    design, antinodes, gap, u_rel_others = task
+    row = {"edge_gap_mm": gap}
+    try:
+        moved = design.with_end_groups_at(gap)
+        point = operating_point(moved, modal=modal_part(moved, antinodes=antinodes)).values
+    except (DesignError, ValueError) as exc:
+        return row | {"why_not": str(exc).split(": ", 1)[-1]}
+    why = "" if point["interior_antinodes"] == antinodes else f"the mode found has {point['interior_antinodes']} antinodes"
+    return (row | {k: point[k] for k in PLACEMENT_COLUMNS if k in point}
+            | {"voltage_expanded_uncertainty": u_rel_others * point["voltage_vpp"], "why_not": why})
+
+
+def crossings(x: np.ndarray, y: np.ndarray, level: float) -> list[float]:
+    """Where the piecewise-linear curve y(x) takes the value `level` (every crossing, in order)."""
+    x, y = np.asarray(x, dtype=float), np.asarray(y, dtype=float) - level
+    found = [float(x[i]) for i in np.nonzero(y == 0)[0]]
+    for i in np.nonzero(y[:-1] * y[1:] < 0)[0]:
+        found.append(float(x[i] - y[i] * (x[i + 1] - x[i]) / (y[i + 1] - y[i])))
+    return sorted(found)
+
+
+def mean_edge_gap_mm(design: DesignFile) -> float | None:
+    """The end groups' mean distance from their edges (None without end groups)."""
+    gaps = [design.edge_gap_mm(g) for g in design.groups if design.is_end_group(g)]
+    return float(np.mean(gaps)) if gaps else None
+
+
+# --- the verdict ----------------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class Neighbour:
+    """A mode next to the design's by antinode count, as the design would drive it."""
+
+    interior_antinodes: int
+    frequency_hz: float
+    voltage_vpp: float
+    coupling_share: float
+
+
+def neighbour_modes(design: DesignFile, antinodes: int) -> list[Neighbour]:
+    """The modes with one antinode fewer and one more, each solved as the design's working
+    mode (a count the plate does not show cleanly is left out)."""
+    out = []
+    for count in (antinodes - 1, antinodes + 1):
+        if count < 1:
+            continue
+        candidate = DesignFile.model_validate({**design.model_dump(), "mode": {"interior_antinodes": count}})
+        try:
+            modal = modal_part(candidate, antinodes=count)
+            values = operating_point(candidate, modal=modal).values
+        except (DesignError, ValueError):
+            continue
+        if values["interior_antinodes"] == count:
+            out.append(Neighbour(count, values["frequency_hz"], values["voltage_vpp"], values["coupling_share"]))
+    return out
+
+
+def better_neighbour(design: DesignFile, neighbours: list[Neighbour]) -> Neighbour | None:
+    """Of the neighbours the powered piezos do not cancel on, the one nearest the frequency
+    the design asks for (the lower voltage between equals)."""
+    usable = [n for n in neighbours if n.coupling_share >= MIN_COUPLING_SHARE]
+    return min(usable, key=lambda n: (abs(n.frequency_hz - design.search_hz), n.voltage_vpp)) if usable else None
+
+
+@dataclass(frozen=True)
+class Verdict:
+    """Whether the answer is one a lab can build on: 'feasible', 'marginal' (a limit within
+    the answer's U) or 'infeasible', why, and the nearest changes that make it feasible."""
+
+    status: str
+    reasons: tuple[str, ...] = ()
+    changes: tuple[str, ...] = ()
+
+
+def cancellation(design: DesignFile, modes: plate_modes.PlateModes, k: int,
+                 neighbours: list[Neighbour] = ()) -> tuple[str, str] | None:
+    """Why mode k is no working mode when the powered piezos cancel on it, and the change to
+    make (the better of `neighbours`); None when they add."""
+    share = coupling_share(modes.force_factor_n_per_v[k, modes.powered])
+    if share >= MIN_COUPLING_SHARE:
+        return None
+    reason = (f"the powered piezos cancel on the {modes.interior_antinodes(k)}-antinode mode at "
+              f"{modes.frequencies_hz[k]:.0f} Hz (net coupling {share:.1%} of their sum), so its voltage hangs on "
+              "how unevenly they happen to be placed")
+    best = better_neighbour(design, list(neighbours))
+    change = (f"the {best.interior_antinodes}-antinode mode at {best.frequency_hz:.0f} Hz, where they add, needs "
+              f"about {best.voltage_vpp:.3g} Vpp (mode: {{interior_antinodes: {best.interior_antinodes}}})" if best
+              else "power only the groups on one side of the mode's middle, or move them so that they add")
+    return reason, change
+
+
+def _limits(physics: PhysicsPrediction) -> list[tuple[str, str, float, str, int]]:
+    """(what, output, limit, unit, power of the drive it grows with) for each stated limit."""
+    d = physics.design
+    limits = [("the amplifier's output", "voltage_vpp", d.amplifier.max_output_vpp, "Vpp", 1),
+              ("the ceramic's field limit", "piezo_field_v_per_mm", d.piezo.max_field_v_per_mm, "V/mm", 1)]
+    if d.amplifier.max_current_app:
+        limits.append(("the amplifier's current", "current_pp_a", d.amplifier.max_current_app, "A pp", 1))
+    if d.amplifier.max_power_w:
+        limits.append(("the amplifier's power", "power_w", d.amplifier.max_power_w, "W", 2))
+    return limits
+
+
+def judge(physics: PhysicsPrediction, curve: pd.DataFrame | None = None,
+          neighbours: list[Neighbour] = ()) -> Verdict:
+    """The design's verdict. Infeasible: the powered piezos cancel on the working mode, or the
+    target needs more than a limit allows (amplifier voltage, current or power, the
+    ceramic's field); marginal: a limit lies within the answer's U, or the piezos partly
+    cancel. The changes named: the
+    better neighbouring mode, the largest target the limits allow (voltage, field and current
+    grow as the target, power about as its square), and the placement along the length that
+    needs the least voltage when `curve` shows one within the limits."""
+    d, v, u = physics.design, physics.nominal.values, physics.expanded
+    infeasible, marginal, changes = [], [], []
+    cancelled = cancellation(d, physics.nominal.modes, physics.nominal.mode_index, neighbours)
+    if cancelled:
+        infeasible.append(cancelled[0])
+        changes.append(cancelled[1])
+    elif v["coupling_share"] < PARTIAL_COUPLING_SHARE:
+        marginal.append(f"the powered piezos partly cancel on the working mode (net coupling "
+                        f"{v['coupling_share']:.0%} of their sum): a small shift of one group moves the voltage much")
+    scale = 1.0
+    for what, output, limit, unit, power in _limits(physics):
+        value = v[output]
+        if value > limit:
+            infeasible.append(f"needs {value:.3g} {unit}, beyond {what} ({limit:g} {unit})")
+            scale = min(scale, (limit / value) ** (1 / power))
+        elif value + u[output] > limit:
+            marginal.append(f"{what} ({limit:g} {unit}) lies within the U of the {value:.3g} ± {u[output]:.2g} {unit} "
+                            "needed")
+    if scale < 1 and v["coupling_share"] >= MIN_COUPLING_SHARE:
+        target = d.target
+        wanted = (f"{target.amplitude_pp_m * scale * 1e6:.3g} µm pp" if target.amplitude_pp_m is not None
+                  else f"{target.velocity_pp_mps * scale:.3g} m/s pp")
+        changes.append(f"a target of at most {wanted}")
+        if curve is not None and curve["voltage_vpp"].notna().any():
+            best = curve.loc[curve["voltage_vpp"].idxmin()]
+            drive = best["voltage_vpp"] / v["voltage_vpp"]
+            if all(v[output] * drive <= limit for _, output, limit, _, power in _limits(physics) if power == 1):
+                changes.append(f"the end piezos {best['edge_gap_mm']:.1f} mm from the edges (about "
+                               f"{best['voltage_vpp']:.3g} Vpp)")
+    status = "infeasible" if infeasible else "marginal" if marginal else "feasible"
+    return Verdict(status, tuple(infeasible or marginal), tuple(changes))
 
 
 # --- route (b): the paper's method from characterised small plates ---------------------------
@@ -486,6 +759,12 @@ class DesignAnswer:
     layouts: pd.DataFrame | None = None
     #: every design this lab checked against its built plate (`designing.HISTORY_FILE`)
     history: pd.DataFrame | None = None
+    #: judged by `designing.run_design` (with the placement curve and the neighbouring modes)
+    verdict: Verdict | None = None
+    #: the design with its end groups at each distance from the edges (`placement_curve`)
+    placement: pd.DataFrame | None = None
+    #: the layout sweep's least-power layout on its Pareto front, with its own budget
+    best_layout: PhysicsPrediction | None = None
 
     @property
     def design(self) -> DesignFile:
@@ -493,3 +772,8 @@ class DesignAnswer:
 
     def comparison(self) -> pd.DataFrame:
         return comparison(self.physics, self.paper_route, self.measured, self.printed)
+
+    def judged(self) -> Verdict:
+        """The verdict given, or the one the physics alone gives (no changes from the
+        placement curve or the neighbouring modes)."""
+        return self.verdict or judge(self.physics, self.placement)

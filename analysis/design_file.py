@@ -89,6 +89,9 @@ class Group(_Model):
     x_mm: float = Field(ge=0, description="centre of the group's piezos along the length")
     y_mm: list[float] = Field(min_length=1, description="centre of each piezo across the width")
     powered: bool = True
+    #: Half-width (rectangular) of where the bond puts the group along the length; default
+    #: the design's bonding tolerance (`Tolerances.placement_mm`).
+    x_tolerance_mm: Optional[float] = Field(None, ge=0, le=20)
 
 
 class Mode(_Model):
@@ -118,11 +121,21 @@ class Target(_Model):
 
 
 class Damping(_Model):
-    """The one fitted physics: the build's mechanical loss (shared by every plate of it)."""
+    """The plate's mechanical loss: the build's stated Q (one figure shared by every plate of
+    it), or Q from the physics of its losses (`analysis.damping`: aluminium, ceramic Qm, bond,
+    radiation into air, weighted by the mode's strain energy), when `source` is physics; then
+    `tolerance_rel` is the spread of what the loss model leaves out and `mechanical_q` unused."""
 
-    mechanical_q: float = Field(gt=1, lt=1e5)
+    source: Literal["stated", "physics"] = "stated"
+    mechanical_q: Optional[float] = Field(None, gt=1, lt=1e5)
     tolerance_rel: float = Field(0.3, ge=0, lt=1, description="half-width of a rectangular spread")
     origin: str = Field(min_length=1)
+
+    @model_validator(mode="after")
+    def _stated_q_given(self) -> "Damping":
+        if self.source == "stated" and self.mechanical_q is None:
+            raise ValueError("give mechanical_q, or source: physics for Q from the plate's losses")
+        return self
 
 
 class Amplifier(_Model):
@@ -146,6 +159,9 @@ class Tolerances(_Model):
     d31_c_per_n: float = Field(plate_modes.RELATIVE_TOLERANCES["d31_c_per_n"], ge=0, lt=1)
     relative_permittivity_t: float = Field(plate_modes.RELATIVE_TOLERANCES["relative_permittivity_t"], ge=0, lt=1)
     tan_delta: float = Field(0.3, ge=0, lt=1)
+    #: Bonding tolerance along the length (mm, rectangular half-width, absolute): where a hand
+    #: with a paper template puts a piezo, for a group that states none.
+    placement_mm: float = Field(0.5, ge=0, le=20)
 
 
 class FromSmallPlates(_Model):
@@ -214,6 +230,37 @@ class DesignFile(_Model):
         if stated is None:
             return sheet_thickness_tolerance(self.resonator.thickness_mm * 1e-3)
         return stated
+
+    @property
+    def placement_tolerance_mm(self) -> float:
+        """The widest of the groups' placement tolerances: the budget moves every group
+        together (one template or jig places them all), by this much."""
+        return max(g.x_tolerance_mm if g.x_tolerance_mm is not None else self.tolerances.placement_mm
+                   for g in self.groups)
+
+    def edge_gap_mm(self, group: Group) -> float:
+        """Distance from the group's piezos to the nearer end of the plate (0: flush)."""
+        return min(group.x_mm, self.resonator.length_mm - group.x_mm) - self.piezo.length_x_mm / 2
+
+    def is_end_group(self, group: Group) -> bool:
+        """A group in an outer quarter of the length: what a placement along the length moves."""
+        return min(group.x_mm, self.resonator.length_mm - group.x_mm) < self.resonator.length_mm / 4
+
+    def with_end_groups_at(self, edge_gap_mm: float) -> "DesignFile":
+        """The design with every end group `edge_gap_mm` from its end of the plate (each at
+        its own end; groups nearer the middle stay)."""
+        length, half_piezo = self.resonator.length_mm, self.piezo.length_x_mm / 2
+        return self._end_groups_moved(lambda x: edge_gap_mm + half_piezo if x < length / 2
+                                      else length - edge_gap_mm - half_piezo)
+
+    def moved_inward(self, shift_mm: float) -> "DesignFile":
+        """The design with every end group `shift_mm` nearer the middle of the length."""
+        length = self.resonator.length_mm
+        return self._end_groups_moved(lambda x: x + shift_mm if x < length / 2 else x - shift_mm)
+
+    def _end_groups_moved(self, new_x_mm) -> "DesignFile":
+        moved = [g.model_copy(update={"x_mm": new_x_mm(g.x_mm)}) if self.is_end_group(g) else g for g in self.groups]
+        return DesignFile.model_validate({**self.model_dump(), "groups": [g.model_dump() for g in moved]})
 
     @property
     def resonator_material(self) -> plate_modes.Isotropic:

@@ -18,13 +18,15 @@ import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
 from squeezebench.analysis import presentation  # noqa: E402
-from squeezebench.analysis.design import COVERAGE_FACTOR, INPUTS, DesignAnswer  # noqa: E402
+from squeezebench.analysis.design import COVERAGE_FACTOR, INPUTS, DesignAnswer, crossings  # noqa: E402
+from squeezebench.analysis.design import mean_edge_gap_mm  # noqa: E402
 from squeezebench.analysis.figures import PAPER_STYLE, save_figure  # noqa: E402
 from squeezebench.analysis import page as html_page  # noqa: E402
 from squeezebench.analysis.report import cell_text, html_table  # noqa: E402
 
 FILES = {"page": "index.html", "json": "design.json", "budget": "budget.csv", "comparison": "comparison.csv",
-         "layouts": "layouts.csv", "mode": "mode.png", "power": "power_voltage.png", "pareto": "layouts.png"}
+         "layouts": "layouts.csv", "mode": "mode.png", "power": "power_voltage.png", "pareto": "layouts.png",
+         "placement": "placement.csv", "placement_figure": "placement.png"}
 #: The outputs the budget section shows, in the order a designer asks for them.
 BUDGET_OUTPUTS = ("voltage_vpp", "power_w", "frequency_hz", "current_pp_a", "weakest_antinode_ratio")
 
@@ -38,17 +40,18 @@ def _target_words(answer: DesignAnswer) -> str:
 
 
 def _pm(answer: DesignAnswer, quantity: str, digits: int = 2) -> str:
-    return presentation.with_uncertainty(answer.physics.nominal.values[quantity], answer.physics.expanded[quantity],
-                                         digits)
+    return _pm_of(answer.physics, quantity, digits)
 
 
 def headline(answer: DesignAnswer) -> list[str]:
     """What a person reads first: a few sentences, every number with its U (k = 2)."""
     v, d = answer.physics.nominal.values, answer.design
-    lines = [f"{d.name} needs {_pm(answer, 'voltage_vpp')} Vpp and {_pm(answer, 'power_w')} W for "
+    verdict = answer.judged()
+    lines = [f"Verdict: {verdict.status}" + (f" ({'; '.join(verdict.reasons)})" if verdict.reasons else "")
+             + (f". Nearest feasible change: {'; or '.join(verdict.changes)}" if verdict.changes else "") + ".",
+             f"{d.name} needs {_pm(answer, 'voltage_vpp')} Vpp and {_pm(answer, 'power_w')} W for "
              f"{_target_words(answer)}, from physics (working mode {_pm(answer, 'frequency_hz', 2)} Hz, "
-             f"{v['interior_antinodes']} antinodes; mechanical Q {d.damping.mechanical_q:g} ± "
-             f"{d.damping.tolerance_rel:.0%}, the build's one fitted figure)."]
+             f"{v['interior_antinodes']} antinodes; {_q_words(answer)})."]
     limits = [f"amplifier {v['voltage_vpp'] / d.amplifier.max_output_vpp:.0%} of its {d.amplifier.max_output_vpp:g} Vpp",
               f"piezo field {v['piezo_field_v_per_mm']:.0f} of {d.piezo.max_field_v_per_mm:g} V/mm"]
     if d.amplifier.max_current_app:
@@ -77,9 +80,75 @@ def headline(answer: DesignAnswer) -> list[str]:
         if answer.measured is not None and answer.measured.origin in ("simulated", "predicted"):
             lines.append("That plate was simulated: a simulated build of a predicted scene follows the same plate "
                          "model, so this checks the chain (scene, instruments, analysis), not the physics.")
+    lines.extend(placement_sentences(answer))
     if answer.layouts is not None and not answer.layouts.empty:
         lines.append(_layouts_sentence(answer))
     return lines
+
+
+def placement_sentences(answer: DesignAnswer) -> list[str]:
+    """What the end piezos' place along the length does, in words a designer acts on; with
+    the paper's printed values, where on the curve they fall (an inference, labelled)."""
+    curve = answer.placement
+    if curve is None or curve["voltage_vpp"].notna().sum() < 2:
+        return []
+    d, v = answer.design, answer.physics.nominal.values
+    ok = curve[curve["voltage_vpp"].notna()]
+    gap = mean_edge_gap_mm(d)
+    best = ok.loc[ok["voltage_vpp"].idxmin()]
+    rows = answer.physics.budget[(answer.physics.budget["output"] == "voltage_vpp")
+                                 & (answer.physics.budget["input"] == "placement_mm")]
+    contribution = float(rows["contribution"].iloc[0]) if len(rows) else 0.0
+    share = (contribution / (answer.physics.expanded["voltage_vpp"] / COVERAGE_FACTOR)) ** 2 if contribution else 0.0
+    # the budget's contribution is the slope times u = t / sqrt 3: the whole half-width moves it sqrt 3 times as much
+    swing = abs(contribution) * np.sqrt(3) / v["voltage_vpp"]
+    move = best["edge_gap_mm"] - gap
+    lines = [f"Placement: the end piezos sit {gap:.1f} mm from the edges, bonded to ±{d.placement_tolerance_mm:g} mm, "
+             f"which moves the voltage by about ±{swing:.0%} ({share:.0%} of its U²). Between {ok['edge_gap_mm'].min():.1f} and "
+             f"{ok['edge_gap_mm'].max():.1f} mm from the edges the voltage for the target runs from "
+             f"{ok['voltage_vpp'].min():.3g} to {ok['voltage_vpp'].max():.3g} Vpp and the power from "
+             f"{ok['power_w'].min():.3g} to {ok['power_w'].max():.3g} W."]
+    if abs(move) >= 0.05 and v["voltage_vpp"] / best["voltage_vpp"] > 1.05:
+        lines.append(f"Moving them {abs(move):.1f} mm {'inward' if move > 0 else 'outward'} "
+                     f"({best['edge_gap_mm']:.1f} mm from the edges) divides the voltage by "
+                     f"{v['voltage_vpp'] / best['voltage_vpp']:.2g} (to {best['voltage_vpp']:.3g} Vpp).")
+    if answer.printed:
+        lines.append(_implied_placement(answer, ok))
+    return lines
+
+
+def _implied_placement(answer: DesignAnswer, curve: pd.DataFrame) -> str:
+    """Where the printed voltage and power fall on the placement curve: the crossings, else
+    the distances whose U (k = 2) holds the printed voltage. An inference about the paper's
+    build, never an input of the prediction."""
+    printed = answer.printed
+
+    def where(gaps: list[float]) -> str:
+        return " and ".join(f"{g:.1f} mm" for g in gaps) + " from the edges"
+    at_voltage = crossings(curve["edge_gap_mm"], curve["voltage_vpp"], printed["voltage_vpp"])
+    at_power = crossings(curve["edge_gap_mm"], curve["power_w"], printed["power_w"])
+    if at_voltage:
+        voltage = f"its {printed['voltage_vpp']:g} Vpp at {where(at_voltage)}"
+    else:
+        within = curve[(curve["voltage_vpp"] - printed["voltage_vpp"]).abs() <= curve["voltage_expanded_uncertainty"]]
+        lowest = curve.loc[curve["voltage_vpp"].idxmin()]
+        lo, hi = (within["edge_gap_mm"].min(), within["edge_gap_mm"].max()) if len(within) else (None, None)
+        span = "" if lo is None else f"; within its U at {lo:.1f} mm" if lo == hi else f"; within U from {lo:.1f} to {hi:.1f} mm"
+        voltage = (f"its {printed['voltage_vpp']:g} Vpp nowhere (the least is {lowest['voltage_vpp']:.3g} Vpp at "
+                   f"{lowest['edge_gap_mm']:.1f} mm{span})")
+    power = f"its {printed['power_w']:g} W at {where(at_power)}" if at_power else f"its {printed['power_w']:g} W nowhere"
+    return (f"Inference, not a prediction: on this curve the paper's build would have {voltage}, {power}; the paper "
+            "does not state the placement, and nothing here is chosen from its printed numbers.")
+
+
+def _q_words(answer: DesignAnswer) -> str:
+    """Where the mechanical Q comes from, and the loss physics' Q beside a stated one."""
+    d, v = answer.design, answer.physics.nominal.values
+    if d.damping.source == "physics":
+        return (f"mechanical Q {_pm(answer, 'mechanical_q', 2)} from the plate's losses (aluminium, ceramic, bond, "
+                f"radiation), ± {d.damping.tolerance_rel:.0%} for losses outside that model")
+    return (f"mechanical Q {d.damping.mechanical_q:g} ± {d.damping.tolerance_rel:.0%}, the build's stated figure; "
+            f"the loss physics gives {v['physics_q']:.0f} for this plate")
 
 
 def _source_short(source: str) -> str:
@@ -92,16 +161,25 @@ def _layouts_sentence(answer: DesignAnswer) -> str:
     if feasible.empty:
         return f"None of {len(frame)} layouts meets the target within the limits."
     best = feasible.loc[feasible["power_w"].idxmin()]
-    return (f"Of {len(frame)} layouts, {len(feasible)} meet the target within the limits; the least power: "
+    text = (f"Of {len(frame)} layouts, {len(feasible)} meet the target within the limits; the least power: "
             f"{best['power_w']:.2g} W at {best['voltage_vpp']:.0f} Vpp, weakest antinode {best['weakest_antinode_ratio']:.0%} "
             f"(layout {int(best['layout'])}: {_layout_words(best)}).")
+    if answer.best_layout is not None:
+        b = answer.best_layout
+        text += (f" Solved again with its budget: {_pm_of(b, 'voltage_vpp')} Vpp and {_pm_of(b, 'power_w')} W "
+                 f"(dominant: {b.dominant('voltage_vpp')}).")
+    return text
+
+
+def _pm_of(physics, quantity: str, digits: int = 2) -> str:
+    return presentation.with_uncertainty(physics.nominal.values[quantity], physics.expanded[quantity], digits)
 
 
 def _layout_words(row) -> str:
     columns = "columns at both ends" if row["columns"] == "ends" else "columns at both ends and the centre"
     spread = "at the corners" if row["arrangement"] == "corners" else "across the middle"
-    return (f"{columns} {row['edge_offset_mm']:.1f} mm in, {int(row['piezos_per_column'])} piezos per column "
-            f"{spread}, {row['piezo_thickness_mm']:g} mm thick")
+    return (f"{columns}, their piezos {row['edge_gap_mm']:.1f} mm from the edges, {int(row['piezos_per_column'])} "
+            f"piezos per column {spread}, {row['piezo_thickness_mm']:g} mm thick")
 
 
 # --- figures --------------------------------------------------------------------------------
@@ -150,6 +228,42 @@ def power_figure(answer: DesignAnswer, path: Path) -> Path:
     return save_figure(fig, path)
 
 
+def placement_figure(answer: DesignAnswer, path: Path) -> Path:
+    """Voltage (with the other inputs' U) and power for the target against the end piezos'
+    distance from the edges; the drawn placement, the sweep's best layout of the same
+    pattern and, for one of the paper's plates, its printed values where the curve meets them."""
+    curve = answer.placement[answer.placement["voltage_vpp"].notna()]
+    v = answer.physics.nominal.values
+    fig, ax = plt.subplots(figsize=(7, 4.4))
+    gap, volt, band = curve["edge_gap_mm"], curve["voltage_vpp"], curve["voltage_expanded_uncertainty"]
+    ax.plot(gap, volt, color="C0", marker="o", label="voltage for the target")
+    ax.fill_between(gap, volt - band, volt + band, color="C0", alpha=0.2, label="U (k = 2) of the other inputs")
+    drawn = mean_edge_gap_mm(answer.design)
+    ax.errorbar([drawn], [v["voltage_vpp"]], xerr=[answer.design.placement_tolerance_mm],
+                yerr=[answer.physics.expanded["voltage_vpp"]], fmt="D", color="k", label="as drawn, ± bonding and U")
+    power_ax = ax.twinx()
+    power_ax.plot(gap, curve["power_w"], color="C3", linestyle="--", label="power for the target")
+    if answer.printed:
+        for g in crossings(gap, volt, answer.printed["voltage_vpp"]):
+            ax.plot([g], [answer.printed["voltage_vpp"]], **PAPER_STYLE)
+        ax.axhline(answer.printed["voltage_vpp"], **{**PAPER_STYLE, "marker": None, "linestyle": ":"},
+                   label=f"printed {answer.printed['voltage_vpp']:g} Vpp (implied placement: inference)")
+        power_ax.axhline(answer.printed["power_w"], color="C3", linestyle=":", linewidth=1,
+                         label=f"printed {answer.printed['power_w']:g} W")
+    ax.set(xlabel="end piezos' distance from the plate's edges (mm)", ylabel="piezo voltage (V pp, log scale)",
+           title="where along the length the end piezos are bonded")
+    ax.set_yscale("log")   # near a nodal line of curvature the voltage runs up tenfold: keep the useful range legible
+    plain = matplotlib.ticker.FuncFormatter(lambda y, _: f"{y:g}")
+    ax.yaxis.set_major_formatter(plain)
+    ax.yaxis.set_minor_formatter(plain)
+    power_ax.set_ylim(0, None)
+    power_ax.set_ylabel("electrical power (W)")
+    handles = ax.get_legend_handles_labels()
+    more = power_ax.get_legend_handles_labels()
+    ax.legend(handles[0] + more[0], handles[1] + more[1], fontsize=8)
+    return save_figure(fig, path)
+
+
 def pareto_figure(answer: DesignAnswer, path: Path) -> Path:
     frame, v = answer.layouts, answer.physics.nominal.values
     fig, ax = plt.subplots(figsize=(7, 4.4))
@@ -174,7 +288,7 @@ def pareto_figure(answer: DesignAnswer, path: Path) -> Path:
 # --- tables -------------------------------------------------------------------------------
 
 _VALUE_ROWS = (("frequency_hz", "working mode frequency", "Hz"), ("half_wavelength_mm", "nodal-line spacing λ/2", "mm"),
-               ("modal_mass_g", "modal mass at the centre", "g"), ("force_factor_n_per_v", "force factor at the centre", "N/V"),
+               ("mechanical_q", "mechanical Q", "1"), ("modal_mass_g", "modal mass at the centre", "g"), ("force_factor_n_per_v", "force factor at the centre", "N/V"),
                ("clamped_capacitance_nf", "clamped capacitance C0 (powered)", "nF"),
                ("k_eff", "effective coupling k_eff", "1"), ("voltage_vpp", "piezo voltage", "V pp"),
                ("piezo_field_v_per_mm", "field amplitude in the piezo", "V/mm"),
@@ -195,9 +309,13 @@ def values_table(answer: DesignAnswer) -> pd.DataFrame:
 def budget_table(answer: DesignAnswer, output: str) -> pd.DataFrame:
     rows = answer.physics.budget[answer.physics.budget["output"] == output]
     total = float(np.sqrt((rows["contribution"] ** 2).sum()))
+    absolute = rows["tolerance_rel"].isna()   # the placement's, in mm
     return pd.DataFrame({
-        "input": rows["input_label"], "tolerance (±, rectangular)": [presentation.percent(t).lstrip("+") for t in rows["tolerance_rel"]],
-        "u of the input": [f"{x:.2%}" for x in rows["input_u_rel"]],
+        "input": rows["input_label"],
+        "tolerance (±, rectangular)": [f"{mm:g} mm" if a else presentation.percent(t).lstrip("+")
+                                       for a, t, mm in zip(absolute, rows["tolerance_rel"], rows["tolerance_mm"])],
+        "u of the input": [f"{mm:.2f} mm" if a else f"{x:.2%}"
+                           for a, x, mm in zip(absolute, rows["input_u_rel"], rows["input_u_mm"])],
         "contribution to u": [np.format_float_positional(c, precision=3, unique=False, fractional=False, trim="-",
                                                          sign=True) for c in rows["contribution"]],
         "share of u²": [f"{(c / total) ** 2:.0%}" if total else "0%" for c in rows["contribution"]]})
@@ -222,12 +340,15 @@ def _plain(value: float, u: float) -> str:
 def assumptions(answer: DesignAnswer) -> str:
     d = answer.design
     items = [f"<li><b>{html.escape(k)}</b>: {html.escape(v)}</li>" for k, v in d.provenance.items()]
-    items.append(f"<li><b>damping</b>: mechanical Q {d.damping.mechanical_q:g} ± {d.damping.tolerance_rel:.0%} "
-                 f"(rectangular): {html.escape(d.damping.origin)} — the one fitted figure of the prediction</li>")
+    items.append(f"<li><b>damping</b>: {html.escape(_q_words(answer))} (rectangular): "
+                 f"{html.escape(d.damping.origin)}</li>")
     sheet = " (the rolled sheet's, EN 485-4)" if d.tolerances.thickness_m is None else ""
     items.append("<li><b>tolerances</b> (rectangular half-widths): " + ", ".join(
         f"{label} ±{d.tolerance(name):.1%}" + (sheet if name == "thickness_m" else "")
-        for name, label, _ in INPUTS if name != "mechanical_q") + "</li>")
+        for name, label, _ in INPUTS if name not in ("mechanical_q", "placement_mm", "bond_loss_factor")) + "</li>")
+    items.append(f"<li><b>placement</b>: each end group within ±{d.placement_tolerance_mm:g} mm along the length "
+                 "(rectangular; the bonding tolerance unless a group states its own), all moved together in the "
+                 "budget, as one template or jig places them</li>")
     items.append(f"<li><b>piezo loss</b>: tan δ {d.piezo.tan_delta_low_field:g} at low field to "
                  f"{d.piezo.tan_delta_at_max_field:g} at {d.piezo.max_field_v_per_mm:g} V/mm (field amplitude), linear "
                  "between them (NCE 41 datasheet); the field limit is that highest stated point</li>")
@@ -250,8 +371,15 @@ def payload(answer: DesignAnswer, files: dict[str, str]) -> dict:
     v, u = answer.physics.nominal.values, answer.physics.expanded
     physics = {k: {"value": float(x), "expanded_uncertainty": u.get(k)} for k, x in v.items()}
     route = answer.paper_route
+    verdict = answer.judged()
     return {
         "command": "design", "design": answer.design.name, "headline": headline(answer),
+        "verdict": {"status": verdict.status, "reasons": list(verdict.reasons), "changes": list(verdict.changes)},
+        "placement": _placement_payload(answer),
+        "best_layout": None if answer.best_layout is None else {
+            "edge_gap_mm": mean_edge_gap_mm(answer.best_layout.design),
+            **{k: {"value": answer.best_layout.nominal.values[k],
+                   "expanded_uncertainty": answer.best_layout.expanded[k]} for k in ("voltage_vpp", "power_w")}},
         "target": answer.design.target.model_dump(), "coverage_factor": COVERAGE_FACTOR,
         "physics": physics,
         "dominant_inputs": {k: answer.physics.dominant(k) for k in BUDGET_OUTPUTS},
@@ -268,6 +396,29 @@ def payload(answer: DesignAnswer, files: dict[str, str]) -> dict:
     }
 
 
+def _placement_payload(answer: DesignAnswer) -> dict | None:
+    curve = answer.placement
+    if curve is None:
+        return None
+    ok = curve[curve["voltage_vpp"].notna()]
+    implied = None
+    if answer.printed:
+        implied = {"inference": True,
+                   "voltage_vpp": {"printed": answer.printed["voltage_vpp"], "edge_gap_mm": crossings(
+                       ok["edge_gap_mm"], ok["voltage_vpp"], answer.printed["voltage_vpp"]),
+                       "within_u_edge_gap_mm": ok.loc[(ok["voltage_vpp"] - answer.printed["voltage_vpp"]).abs()
+                                                      <= ok["voltage_expanded_uncertainty"], "edge_gap_mm"].tolist()},
+                   "power_w": {"printed": answer.printed["power_w"], "edge_gap_mm": crossings(
+                       ok["edge_gap_mm"], ok["power_w"], answer.printed["power_w"])}}
+    least = ok.loc[ok["voltage_vpp"].idxmin()] if len(ok) else None
+    return {"edge_gap_mm": mean_edge_gap_mm(answer.design), "tolerance_mm": answer.design.placement_tolerance_mm,
+            "least_voltage": None if least is None else {
+                "edge_gap_mm": float(least["edge_gap_mm"]), "voltage_vpp": float(least["voltage_vpp"]),
+                "expanded_uncertainty": float(least["voltage_expanded_uncertainty"])},
+            "sentences": placement_sentences(answer), "curve": json.loads(curve.to_json(orient="records")),
+            "implied_by_printed": implied}
+
+
 def _uf(value) -> dict:
     return {"value": value.nominal_value, "expanded_uncertainty": COVERAGE_FACTOR * value.std_dev}
 
@@ -282,12 +433,16 @@ def write(answer: DesignAnswer, out_dir: Path) -> dict[str, str]:
     mode_figure(answer, out_dir / FILES["mode"])
     power_figure(answer, out_dir / FILES["power"])
     files["mode"], files["power"] = FILES["mode"], FILES["power"]
+    if answer.placement is not None and answer.placement["voltage_vpp"].notna().sum() >= 2:
+        answer.placement.to_csv(out_dir / FILES["placement"], index=False)
+        placement_figure(answer, out_dir / FILES["placement_figure"])
+        files["placement"], files["placement_figure"] = FILES["placement"], FILES["placement_figure"]
     if answer.layouts is not None:
         answer.layouts.to_csv(out_dir / FILES["layouts"], index=False)
         pareto_figure(answer, out_dir / FILES["pareto"])
         files["layouts"], files["pareto"] = FILES["layouts"], FILES["pareto"]
     files["page"], files["json"] = FILES["page"], FILES["json"]
-    (out_dir / FILES["page"]).write_text(page(answer), encoding="utf-8")
+    (out_dir / FILES["page"]).write_text(page(answer, files), encoding="utf-8")
     (out_dir / FILES["json"]).write_text(json.dumps(payload(answer, files), indent=2, default=str), encoding="utf-8")
     return files
 
@@ -313,10 +468,13 @@ def _figure(file: str, alt: str, caption: str) -> str:
             f"<figcaption>{html.escape(caption)}</figcaption></figure>")
 
 
-def page(answer: DesignAnswer) -> str:
+def page(answer: DesignAnswer, files: dict[str, str]) -> str:
     d = answer.design
     sections = []
-    answer_html = ("<div class='banner real'>" + "".join(f"<p>{html.escape(line)}</p>" for line in headline(answer))
+    status = answer.judged().status
+    lines = [html.escape(line) for line in headline(answer)]
+    lines[0] = f"<span class='verdict'>{lines[0]}</span>"
+    answer_html = (f"<div class='banner {status}'>" + "".join(f"<p>{line}</p>" for line in lines)
                    + "</div>" + html_table(comparison_table(answer), "Each route's prediction ± U (k = 2) beside the "
                                            "reference: a measurement of the built plate when given, else the paper's "
                                            "printed value"))
@@ -328,10 +486,16 @@ def page(answer: DesignAnswer) -> str:
     sections.append(("Power against voltage", _figure(
         FILES["power"], "power against voltage", "Electrical power at resonance against the piezo voltage: physics "
         "with its band, the paper's method with its band when small plates were given, the target's voltage.")))
+    if "placement_figure" in files:
+        sections.append(("Where along the length", "".join(f"<p>{html.escape(t)}</p>" for t in
+                                                          placement_sentences(answer)) + _figure(
+            FILES["placement_figure"], "voltage and power against the piezos' distance from the edge",
+            "The voltage and power the target needs with the end piezos at each distance from the plate's edges, on "
+            "the design's working mode; the diamond is the design as drawn with its bonding tolerance and U.")))
     if answer.layouts is not None:
         frame = answer.layouts
         front = frame[frame["pareto"]].sort_values("power_w")
-        shown = front[["layout", "columns", "edge_offset_mm", "piezos_per_column", "arrangement", "piezo_thickness_mm",
+        shown = front[["layout", "columns", "edge_gap_mm", "piezos_per_column", "arrangement", "piezo_thickness_mm",
                        "voltage_vpp", "power_w", "weakest_antinode_ratio"]]
         sections.append(("Where the piezos go", f"<p>{html.escape(_layouts_sentence(answer))}</p>" + _figure(
             FILES["pareto"], "power against homogeneity of the layouts",

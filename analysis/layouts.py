@@ -4,7 +4,9 @@ The trade-off of the beam-model paper (ref. 001) made into numbers: each layout 
 design's plate (columns, their distance from the ends, piezos per column and how they are
 spread across the width, piezo thickness) is solved by the plate model at the design's
 working mode and target, and gives the power and voltage the target needs and how even
-the touch area's antinodes are. Layouts that share a mesh (they differ only in piezo
+the touch area's antinodes are. The distance from the ends is searched finest near the
+edges, where the mode's curvature, and with it the drive, changes fastest: the front then
+says where to bond the piezos, not only how many. Layouts that share a mesh (they differ only in piezo
 thickness) form one task, so the mesh and its basis are built once (`plate_modes`).
 """
 from __future__ import annotations
@@ -18,24 +20,26 @@ import pandas as pd
 from squeezebench.analysis import design as design_model
 from squeezebench.analysis.design_file import DesignFile, Group
 
-#: The sweep's axes (300 layouts). Offsets are fractions of the working mode's half-wavelength, from the
-#: plate's ends to the centre of the end columns (0: the piezo flush with the edge).
+#: The sweep's axes (216 layouts, 72 meshes). Edge gaps are fractions of the working mode's
+#: half-wavelength between the plate's ends and the end columns' piezos (0: flush with the
+#: edge); a whole half-wave in repeats the flush curvature at the next nodal line, so the gaps
+#: stop short of it and are closest where the drive changes fastest.
 COLUMNS = ("ends", "ends_and_centre")
-EDGE_OFFSETS_HALF_WAVES = (0.0, 0.25, 0.5, 0.75, 1.0)
+EDGE_GAPS_HALF_WAVES = (0.0, 0.125, 0.25, 0.375, 0.5, 0.75)
 PIEZOS_PER_COLUMN = (2, 4, 6)
 ARRANGEMENTS = ("corners", "centred")
-PIEZO_THICKNESSES_MM = (0.3, 0.5, 0.75, 1.0, 1.25)
+PIEZO_THICKNESSES_MM = (0.3, 0.5, 1.0)
 
-LAYOUT_COLUMNS = ["layout", "columns", "edge_offset_mm", "piezos_per_column", "arrangement", "piezo_thickness_mm",
-                  "n_piezos"]
-RESULT_COLUMNS = ["frequency_hz", "interior_antinodes", "voltage_vpp", "power_w", "piezo_field_v_per_mm",
+LAYOUT_COLUMNS = ["layout", "columns", "edge_offset_mm", "edge_gap_mm", "piezos_per_column", "arrangement",
+                  "piezo_thickness_mm", "n_piezos"]
+RESULT_COLUMNS = ["frequency_hz", "interior_antinodes", "coupling_share", "voltage_vpp", "power_w", "piezo_field_v_per_mm",
                   "current_pp_a", "weakest_antinode_ratio", "width_uniformity", "feasible", "why_not"]
 
 
 @dataclass(frozen=True)
 class Layout:
     columns: str
-    edge_offset_mm: float
+    edge_offset_mm: float   # centre of the end columns from the plate's ends
     piezos_per_column: int
     arrangement: str
     piezo_thickness_mm: float
@@ -45,17 +49,21 @@ class Layout:
         """Layouts with the same key differ only in thickness: one mesh serves them all."""
         return (self.columns, self.edge_offset_mm, self.piezos_per_column, self.arrangement)
 
+    def edge_gap_mm(self, piezo_length_x_mm: float) -> float:
+        """From the plate's ends to the end columns' piezos."""
+        return round(self.edge_offset_mm - piezo_length_x_mm / 2, 3)
+
     def name(self) -> str:
         return (f"{self.columns} @{self.edge_offset_mm:.1f} mm, {self.piezos_per_column} {self.arrangement}, "
                 f"{self.piezo_thickness_mm:g} mm")
 
 
 def grid(half_wavelength_mm: float, piezo_length_x_mm: float) -> list[Layout]:
-    """The sweep's layouts (300): every combination of the axes above."""
+    """The sweep's layouts (216): every combination of the axes above."""
     layouts = []
-    for columns, offset, count, arrangement, thickness in itertools.product(
-            COLUMNS, EDGE_OFFSETS_HALF_WAVES, PIEZOS_PER_COLUMN, ARRANGEMENTS, PIEZO_THICKNESSES_MM):
-        x = piezo_length_x_mm / 2 + offset * half_wavelength_mm
+    for columns, gap, count, arrangement, thickness in itertools.product(
+            COLUMNS, EDGE_GAPS_HALF_WAVES, PIEZOS_PER_COLUMN, ARRANGEMENTS, PIEZO_THICKNESSES_MM):
+        x = piezo_length_x_mm / 2 + gap * half_wavelength_mm
         layouts.append(Layout(columns, round(x, 3), count, arrangement, thickness))
     return layouts
 
@@ -92,9 +100,10 @@ def layout_design(layout: Layout, design: DesignFile, antinodes: int) -> DesignF
 
 def evaluate(layout: Layout, design: DesignFile, antinodes: int) -> dict:
     """One layout's row: what the target needs, the homogeneity, and whether it is feasible
-    (amplifier output and the piezo's field limit); a layout the model cannot answer for
-    says why instead of numbers."""
+    (amplifier output, the piezo's field limit, powered piezos that do not cancel); a layout
+    the model cannot answer for says why instead of numbers."""
     row = {"columns": layout.columns, "edge_offset_mm": layout.edge_offset_mm,
+           "edge_gap_mm": layout.edge_gap_mm(design.piezo.length_x_mm),
            "piezos_per_column": layout.piezos_per_column, "arrangement": layout.arrangement,
            "piezo_thickness_mm": layout.piezo_thickness_mm}
     try:
@@ -108,6 +117,8 @@ def evaluate(layout: Layout, design: DesignFile, antinodes: int) -> dict:
         limits.append(f"needs {values['voltage_vpp']:.0f} Vpp > amplifier {design.amplifier.max_output_vpp:g} Vpp")
     if values["piezo_field_v_per_mm"] > candidate.piezo.max_field_v_per_mm:
         limits.append(f"field {values['piezo_field_v_per_mm']:.0f} V/mm > {candidate.piezo.max_field_v_per_mm:g} V/mm")
+    if values["coupling_share"] < design_model.MIN_COUPLING_SHARE:
+        limits.append(f"its powered piezos cancel on the working mode (net coupling {values['coupling_share']:.0%})")
     if values["interior_antinodes"] != antinodes:
         limits.append(f"its working mode has {values['interior_antinodes']} antinodes, not the design's {antinodes}")
     return {**row, "n_piezos": candidate.n_powered_piezos,

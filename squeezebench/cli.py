@@ -455,7 +455,7 @@ def cmd_design(args: argparse.Namespace) -> int:
 
     answer = run_design(args.plate, from_runs=args.from_runs or (), measured=args.measured,
                         measured_plate=args.measured_plate, sweep=not args.no_layouts,
-                        workers=args.workers, scheduler=args.scheduler)
+                        workers=args.workers, scheduler=args.scheduler, allow_infeasible=args.allow_infeasible)
     folder, files = write_design(answer, args.out, measured_run=args.measured)
     build = {}
     if args.write_build is not None:
@@ -723,8 +723,12 @@ def build_parser() -> argparse.ArgumentParser:
                         help="also write DIR/<name>.yaml, the design as a predicted scene of the simulated bench, "
                              "and DIR/<name>_characterisation.yaml, the campaign that characterises it (a dry run "
                              "of the built plate; on a real bench, name a bench file instead of the scene)")
+    design.add_argument("--allow-infeasible", action="store_true",
+                        help="write the page of a design that is not an answer (beyond the amplifier or the "
+                             "ceramic's field, or piezos that cancel on the mode), marked infeasible in red, and "
+                             "exit 0 (default: refuse it, naming the nearest feasible change, exit 2)")
     design.add_argument("--no-layouts", action="store_true",
-                        help="skip the sweep of 300 piezo layouts (about 4 minutes on 2 cores for the large plate)")
+                        help="skip the sweep of 216 piezo layouts (about 3 minutes on 2 cores for the large plate)")
     _add_parallel_options(design)
     design.set_defaults(func=cmd_design)
 

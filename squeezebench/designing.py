@@ -58,12 +58,13 @@ SCENE_MATERIALS = {"aluminium_table2": "aluminium"}
 SCENE_EFFECTS = ["shunt", "scope_noise", "quantisation", "averaging", "dc_offset"]
 
 
-def scene_from_design(spec, seed: int = 1) -> dict:
+def scene_from_design(spec, seed: int = 1, mechanical_q: float | None = None) -> dict:
     """A predicted scene of the designed plate for the simulated bench: its geometry and
     materials, the build's q_mech, and a state whose resonance and branch the plate model
     gives (`resonance_frequency_hz: predicted`); measured at the plate's centre. A design
     the scene format cannot place (piezos a column does not centre, or a position's two
-    groups not at the width's ends) is refused, saying how the scene places them."""
+    groups not at the width's ends) is refused, saying how the scene places them. Its q_mech:
+    `mechanical_q` (the design's answer's), else the design's stated Q."""
     from squeezebench.simbench import predicted
     from squeezebench.simbench.scene import load_scene
 
@@ -89,7 +90,7 @@ def scene_from_design(spec, seed: int = 1) -> dict:
                       "columns": [{"name": g.name, "position_mm": g.x_mm} for g in spec.groups]},
         "mode": {"name": f"{antinodes} antinodes", "half_wavelength_mm": round(half_wave_mm, 6)},
         "states": {"built": {"description": "as designed, every powered group driven",
-                             "resonance_frequency_hz": "predicted", "q_mech": spec.damping.mechanical_q,
+                             "resonance_frequency_hz": "predicted", "q_mech": mechanical_q or spec.damping.mechanical_q,
                              "powered_columns": [g.name for g in spec.groups if g.powered]}},
         "initial_state": "built",
         "measurement_point": {"x_mm": spec.resonator.length_mm / 2, "y_mm": spec.resonator.width_mm / 2,
@@ -121,7 +122,7 @@ def characterisation_campaign(spec, answer: design_model.DesignAnswer, scene_fil
     values = answer.physics.nominal.values
     frequency = values["frequency_hz"]
     top = min(values["voltage_vpp"], spec.amplifier.max_output_vpp, 100.0)
-    points = max(31, math.ceil(0.12 * spec.damping.mechanical_q) + 1)   # steps <= half the bandwidth f/Q
+    points = max(31, math.ceil(0.12 * values["mechanical_q"]) + 1)   # steps <= half the bandwidth f/Q
     return {
         "name": f"{spec.name}_characterisation", "output_dir": f"runs/{spec.name}_characterisation",
         "safety": {"max_piezo_voltage_vpp": 100},
@@ -141,8 +142,9 @@ def write_build(answer: design_model.DesignAnswer, folder: str | Path, seed: int
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
     scene = folder / f"{spec.name}.yaml"
+    data = scene_from_design(spec, seed=seed, mechanical_q=answer.physics.nominal.values["mechanical_q"])
     scene.write_text("# Predicted by `squeezebench design` from the design file: nothing measured is read.\n"
-                     + dump_yaml(scene_from_design(spec, seed=seed)), encoding="utf-8")
+                     + dump_yaml(data), encoding="utf-8")
     campaign = folder / f"{spec.name}_characterisation.yaml"
     campaign.write_text(dump_yaml(characterisation_campaign(spec, answer, scene.name)),
                         encoding="utf-8")
@@ -158,14 +160,32 @@ def predicted_antinodes(spec) -> int:
 
 def run_design(plate: str | Path, from_runs: Iterable[str | Path] = (), measured: str | Path | None = None,
                measured_plate: str | None = None, sweep: bool = True, workers: int | None = None,
-               scheduler: Any = None) -> design_model.DesignAnswer:
+               scheduler: Any = None, allow_infeasible: bool = False) -> design_model.DesignAnswer:
+    """The design's answer; an infeasible one (`design.judge`) is refused with the nearest
+    feasible change named, unless `allow_infeasible` (then it carries its red verdict). A
+    mode the powered piezos cancel on is refused before its budget is solved."""
     from squeezebench.protocols.parallel import map_unordered
     from squeezebench.workers import default_workers
     from squeezebench.schemas import load_design_file
 
     spec = load_design_file(paths.design_file(plate))
-    physics = design_model.predict_physics(spec)
-    answer = design_model.DesignAnswer(physics, printed=printed_values(spec.paper_plate))
+    modal = design_model.modal_part(spec)
+    neighbours = []
+    if design_model.cancellation(spec, modal.modes, modal.mode_index):
+        neighbours = design_model.neighbour_modes(spec, modal.modes.interior_antinodes(modal.mode_index))
+        if not allow_infeasible:
+            reason, change = design_model.cancellation(spec, modal.modes, modal.mode_index, neighbours)
+            _refuse(spec, design_model.Verdict("infeasible", (reason,), (change,)))
+    physics = design_model.predict_physics(spec, modal=modal)
+    placement = None
+    if design_model.mean_edge_gap_mm(spec) is not None:
+        placement = design_model.placement_curve(physics, mapper=lambda function, items: map_unordered(
+            function, items, workers=workers or default_workers(), scheduler=scheduler, description="placements"))
+    verdict = design_model.judge(physics, placement, neighbours)
+    if verdict.status == "infeasible" and not allow_infeasible:
+        _refuse(spec, verdict)
+    answer = design_model.DesignAnswer(physics, printed=printed_values(spec.paper_plate), verdict=verdict,
+                                       placement=placement)
     from_runs = list(from_runs)
     if from_runs:
         try:
@@ -191,8 +211,26 @@ def run_design(plate: str | Path, from_runs: Iterable[str | Path] = (), measured
                                        workers=workers or default_workers(), scheduler=scheduler,
                                        description="layouts"):
             rows.extend(result)
-        answer = replace(answer, layouts=layouts.finish(rows))
+        frame = layouts.finish(rows)
+        answer = replace(answer, layouts=frame, best_layout=_best_layout(frame, spec, int(values["interior_antinodes"])))
     return answer
+
+
+def _refuse(spec, verdict: design_model.Verdict):
+    raise design_model.DesignError(
+        f"design {spec.name!r} is not an answer (infeasible): {'; '.join(verdict.reasons)}. Nearest feasible change: "
+        f"{'; or '.join(verdict.changes) or 'none found'}. (--allow-infeasible shows it, marked infeasible)")
+
+
+def _best_layout(frame: pd.DataFrame, spec, antinodes: int) -> design_model.PhysicsPrediction | None:
+    """The Pareto front's least-power layout, solved again with its budget."""
+    front = frame[frame["pareto"]]
+    if front.empty:
+        return None
+    best = front.loc[front["power_w"].idxmin()]
+    layout = layouts.Layout(best["columns"], float(best["edge_offset_mm"]), int(best["piezos_per_column"]),
+                            best["arrangement"], float(best["piezo_thickness_mm"]))
+    return design_model.predict_physics(layouts.layout_design(layout, spec, antinodes))
 
 
 #: Beside the designs' folders: every design checked against its built plate, one row per
