@@ -147,6 +147,10 @@ def _slug(text: str) -> str:
 
 # --- sections ----------------------------------------------------------------------------
 
+#: Said on a table whose numbers come from the plate model and print, not from any bench.
+PLATE_MODEL_WORDS = "Plate model, no bench:"
+
+
 def _bench_words(context: ReportContext) -> str:
     """Said on every table: where its numbers come from."""
     kind = context.bench()
@@ -1270,7 +1274,7 @@ def predicted_section(context: ReportContext) -> Section:
     fit = damping.fit_and_check()
     body += presentation.fold(
         "Damping from physics: fitted on Table 3, judged on Table 4 and the large plate", html_table(
-            fit, f"Q from the aluminium's, the ceramic's (Qm) and the bond's losses weighted by their strain "
+            fit, f"{PLATE_MODEL_WORDS} Q from the aluminium's, the ceramic's (Qm) and the bond's losses weighted by their strain "
                  f"energy, and radiation into air; the bond's loss factor fitted on Table 3 "
                  f"({fit['fitted_bond_loss_factor'].iloc[0]:.3g}), the other rows held out"))
     figure = predicted_plates.large_plate_mode_figure(context.out_dir / "predicted_mode_large_plate.png")
