@@ -138,12 +138,7 @@ def load_campaign(path: Path) -> Campaign:
     voltage, frequency and count it will request (before any bench opens); every
     problem is one CampaignError (or the scene's or bench file's own error)."""
     path = Path(path)
-    try:
-        model = schemas.validated(schemas.CampaignFile, schemas.read_yaml(path))
-    except schemas.FileFormatError as exc:
-        raise CampaignError(path, None, str(exc).removeprefix(f"{path}: ")) from None
-    except ValidationError as exc:
-        raise CampaignError(path, *schemas.describe(exc, schemas.CampaignFile)) from None
+    model = _campaign_model(path)
     loader = _Loader(path)
     name = model.name or path.stem
     problem = schemas.file_name_problem(name)
@@ -167,6 +162,23 @@ def load_campaign(path: Path) -> Campaign:
     for i, run in enumerate(runs):
         check_requests(path, run, f"runs[{i}]")
     return Campaign(path, name, Path(model.output_dir or f"runs/{name}"), runs)
+
+
+def _campaign_model(path: Path) -> schemas.CampaignFile:
+    """The file as the schema reads it; any problem is one CampaignError."""
+    try:
+        return schemas.validated(schemas.CampaignFile, schemas.read_yaml(path))
+    except schemas.FileFormatError as exc:
+        raise CampaignError(path, None, str(exc).removeprefix(f"{path}: ")) from None
+    except ValidationError as exc:
+        raise CampaignError(path, *schemas.describe(exc, schemas.CampaignFile)) from None
+
+
+def planned_steps(path: Path) -> list[tuple[str, str]]:
+    """(run, step) of every step a campaign file plans, in order, read from the file alone
+    (a run directory's copy: its scenes and bench file are not looked for)."""
+    return [(item.name, step.step_id) for item in _campaign_model(Path(path)).runs
+            for step in PROTOCOLS[item.protocol].plan(item.parameters, item.plate)]
 
 
 class _Loader:
@@ -442,6 +454,7 @@ class _Runner:
         self.done = {(entry["run"], entry["step"]) for entry in journal}
         self.bench_time_s = journal[-1]["campaign_bench_time_s"] if journal else 0.0
         self.plans = [(run, run.steps()) for run in campaign.runs]
+        self.campaign_sha256 = sha256_file(campaign.file)   # each journal line vouches for the copy
         self.done_this_session = 0
 
     def run(self) -> None:
@@ -542,7 +555,7 @@ class _Runner:
         files = self.store.write_step(run.name, step.step_id, ctx.rows, ctx.waveforms, provenance)
         entry = {"run": run.name, "step": step.step_id, "protocol": run.protocol,
                  "rows": len(ctx.rows), "context": ctx.updates, "files": files,
-                 "inputs": self.inputs[run.name],
+                 "inputs": self.inputs[run.name], "campaign_sha256": self.campaign_sha256,
                  "campaign_bench_time_s": bench_time_s,
                  "completed_utc": dt.datetime.now(dt.timezone.utc).isoformat(timespec="seconds")}
         self.store.append_journal(entry)

@@ -187,16 +187,32 @@ def cmd_report(args: argparse.Namespace) -> int:
         print(f"squeezebench report: warning: UNVERIFIED: {reason}", file=sys.stderr)
     if store.exists():
         store.manifest()   # a malformed manifest is one message, not a traceback in the report
-    problems = store.verify()
+    problems = store.verify(planned=_planned_steps(store))
     if problems and not args.allow_missing:
         more = f" (and {len(problems) - 1} more)" if len(problems) > 1 else ""
         raise UserError(f"{problems[0]}{more}; the report would lack their rows: restore the "
                         "files, or pass --allow-missing to report without them")
     for problem in problems:
         print(f"squeezebench report: warning: {problem}", file=sys.stderr)
-    index = write_report(Path(args.run_dir))
+    index = write_report(Path(args.run_dir), left_out=[*(f"UNVERIFIED: {r}" for r in unverified), *problems])
     say(args, _finished(index))
     return 0
+
+
+def _planned_steps(store) -> list[tuple[str, str]] | None:
+    """The steps the run's campaign copy plans (None for a run without one, a study);
+    a copy that cannot be read plans nothing and is said (the report leaves it out)."""
+    from squeezebench.protocols.campaign import planned_steps
+    from squeezebench.protocols.storage import CAMPAIGN_COPY
+
+    copy = store.run_dir / CAMPAIGN_COPY
+    if not copy.is_file():
+        return None
+    try:
+        return planned_steps(copy)
+    except UserError as exc:
+        raise UserError(f"{exc}; which steps the run should have is unknown (restore the run's campaign copy)") \
+            from None
 
 
 def cmd_reproduce(args: argparse.Namespace) -> int:
