@@ -47,6 +47,7 @@ from squeezebench.instruments.bench import ConfirmedOperator, open_bench, sim_be
 from squeezebench.instruments.errors import OperatorUnavailable, OutOfRangeError
 from squeezebench.instruments.tds3054b import HORIZONTAL_DIVISIONS, HORIZONTAL_SCALES_S_PER_DIV
 from squeezebench.protocols.acquisition import Acquisition, AcquisitionSettings
+from squeezebench.protocols.drive_record import DriveRecord, bring_to_rest
 from squeezebench.protocols.safety import DriveController, MeasuredVoltageError, SafetyLimits, chain_warnings
 from squeezebench.protocols.steps import Plate, Step, StepContext
 from squeezebench.protocols.storage import RunStore, bench_provenance, sha256_file
@@ -409,6 +410,8 @@ def _run_campaign(path: Path, resume: bool, out_dir: Path | None, progress: bool
                 store.create(campaign.file)
                 journal = []
             store.check_writable([run.name for run in campaign.runs])
+            for config in {run.bench.input_file: run.bench.config() for run in campaign.runs}.values():
+                bring_to_rest(config, tell)   # after an unclean end: the plate at rest before anything
             for warning in dict.fromkeys(f"{run.bench.input_file}: {w}" for run in campaign.runs
                                          for w in chain_warnings(run.bench.config().electronics)):
                 tell(warning)
@@ -506,7 +509,8 @@ class _Runner:
                     "parameters": dataclasses.asdict(run.parameters),
                     "instruments": bench.settings_snapshot()})
                 drive = stack.enter_context(DriveController(bench.generator, bench.electronics, bench.clock,
-                                                            run.safety, settle_s=run.acquisition.settle_s))
+                                                            run.safety, settle_s=run.acquisition.settle_s,
+                                                            on_amplitude=DriveRecord(run.bench.config())))
             acquisition = Acquisition(bench, drive, run.acquisition)
             acquisition.configure()
             bench.check_errors()   # a setting the instruments refused would void every step

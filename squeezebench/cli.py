@@ -1,4 +1,4 @@
-"""The `squeezebench` command: check, run, report, reproduce, plan, study, validate, design.
+"""The `squeezebench` command: check, safe, run, report, reproduce, plan, study, validate, design.
 
 Each subcommand is a thin call into the package that does the work; the command line
 only turns user errors into one clear message and an exit status, and keeps the
@@ -69,13 +69,27 @@ def cmd_check(args: argparse.Namespace) -> int:
         lines.append(line)
         say(args, line)
 
-    found = inspect_bench(_bench_config(args.bench), out=out)
+    from squeezebench.protocols.drive_record import bring_to_rest
+
+    config = _bench_config(args.bench)
+    bring_to_rest(config, out)   # after an unclean end, said first
+    found = inspect_bench(config, out=out)
     passed = found.passed
     if args.json:   # per instrument for scripts; `lines` as a person reads them
         emit_json({"command": "check", "bench": args.bench, **found.as_dict(), "lines": lines})
     elif args.quiet and not passed:
         print(f"squeezebench check: {lines[-1]}", file=sys.stderr)   # the cause, said last
     return 0 if passed else EXIT_USER_ERROR
+
+
+def cmd_safe(args: argparse.Namespace) -> int:
+    """Only the generator, to its minimum amplitude (saying an unclean end first)."""
+    from squeezebench.protocols.drive_record import bring_to_rest
+
+    found = bring_to_rest(_bench_config(args.bench), lambda line: say(args, line), always=True)
+    if args.json:
+        emit_json({"command": "safe", "bench": args.bench, "left_driven": found})
+    return 0
 
 
 def cmd_run(args: argparse.Namespace) -> int:
@@ -414,6 +428,7 @@ EXAMPLES = {
     "check": ["squeezebench check                        # the simulated bench",
               "squeezebench check --bench my_bench.yaml  # a real one (copy data/benches/lab_example.yaml)",
               "squeezebench check --bench my_bench.yaml --json"],
+    "safe": ["squeezebench safe --bench my_bench.yaml   # the plate at rest now"],
     "run": ["squeezebench run quick                    # a short campaign on the simulated bench",
             "squeezebench run paper --out runs/paper   # the paper's measurements",
             "squeezebench run my_campaign.yaml --resume  # continue after the last stored step",
@@ -461,6 +476,11 @@ def build_parser() -> argparse.ArgumentParser:
     check = add("check", json=True, help="open every instrument and print its identification")
     check.add_argument("--bench", default="sim", help="'sim' or a bench YAML file (default: sim)")
     check.set_defaults(func=cmd_check)
+
+    safe = add("safe", json=True, help="set the bench's generator to its minimum amplitude (and only that), "
+               "saying what an unclean end left it at")
+    safe.add_argument("--bench", default="sim", help="'sim' or a bench YAML file (default: sim)")
+    safe.set_defaults(func=cmd_safe)
 
     run = add("run", help="run a campaign file")
     run.add_argument("campaign", help="campaign YAML file, or the name of a shipped one (quick, paper)")
