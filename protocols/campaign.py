@@ -296,6 +296,30 @@ def check_requests(file: Path, run: Run, field: str) -> None:
         raise CampaignError(file, f"{field}.acquisition.periods_per_record",
                             f"{run.acquisition.periods_per_record!r} periods at {lowest_hz:g} Hz do not fit in the "
                             f"scope's longest record, {longest_record_s:g} s")
+    if run.protocol == "cartography":
+        _check_map(file, run, f"{field}.parameters")
+
+
+def _check_map(file: Path, run: Run, field: str) -> None:
+    """A map's bench: a stage, and every point within its travel where the travel is known
+    before the bench opens (`schemas.stage_travel_mm`; a real stage's is read when the run
+    opens it, and every point checked then, before the first move)."""
+    config = run.bench.config()
+    if "stage" not in config.resources:
+        raise CampaignError(file, field, f"a map needs an x-y stage, and {run.bench.input_file} names none "
+                            "(resources.stage)")
+    travel = schemas.stage_travel_mm(config)
+    if travel is None:
+        return
+    grid = run.parameters.grid
+    reference = run.parameters.reference_point_mm
+    for i, (axis, bounds) in enumerate((("x", grid.x_range_mm), ("y", grid.y_range_mm))):
+        low, high = travel[axis]
+        first, last = grid.bounds_mm(bounds)
+        for where, value in (("grid", first), ("grid", last), ("reference_point_mm", reference and reference[i])):
+            if value is not None and not low <= value <= high:
+                raise CampaignError(file, f"{field}.{where}", f"{axis} = {value:g} mm is beyond the stage's travel, "
+                                    f"{low:g} to {high:g} mm")
 
 
 def _check_value(file: Path, where: str, name: str, value: Any, limits) -> None:
