@@ -141,3 +141,19 @@ def test_any_map_validate_accepts_the_run_accepts_point_by_point(tmp_path, capsy
         refused = _cause(capsys)
         assert cli.main(["run", file, "--out", str(tmp_path / "never"), "-q"]) == cli.EXIT_USER_ERROR
         assert _cause(capsys) == refused
+
+
+@settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(dx_mm=st.floats(-12, 12).map(lambda v: round(v, 1)), dy_mm=st.floats(-16, 16).map(lambda v: round(v, 1)))
+def test_two_groups_are_refused_exactly_when_their_piezos_overlap(tmp_path, capsys, dx_mm, dy_mm):
+    """Group B placed (dx, dy) from group A: refused by `validate`, in the words `design`
+    uses, exactly when the two rectangles share area (|dx| < length and |dy| < width)."""
+    data = yaml.safe_load((paths.designs_dir() / "large_plate.yaml").read_text())
+    length_mm, width_mm = data["piezo"]["length_x_mm"], data["piezo"]["width_y_mm"]
+    x_mm, y_mm = 60.0, 60.0
+    design = _design(tmp_path, groups=[{"name": "A", "x_mm": x_mm, "y_mm": [y_mm]},
+                                       {"name": "B", "x_mm": x_mm + dx_mm, "y_mm": [y_mm + dy_mm]}])
+    overlap = abs(dx_mm) < length_mm and abs(dy_mm) < width_mm
+    assert cli.main(["validate", design, "-q"]) == (cli.EXIT_USER_ERROR if overlap else 0)
+    if overlap:
+        assert "groups 'A' and 'B'" in _cause(capsys)
