@@ -173,7 +173,7 @@ class FromSmallPlates(_Model):
 
 
 class DesignFile(_Model):
-    name: str = Field(min_length=1, pattern=r"^[A-Za-z0-9_.-]+$")
+    name: str = Field(min_length=1, max_length=100, pattern=r"^[A-Za-z0-9_.-]+$")   # a folder's name, as schemas.MAX_NAME_LENGTH
     description: str = ""
     resonator: Resonator
     piezo: PiezoSpec
@@ -210,6 +210,12 @@ class DesignFile(_Model):
             ys = sorted(g.y_mm)
             if any(b - a < p.width_y_mm - 1e-9 for a, b in zip(ys, ys[1:])):
                 raise ValueError(f"group {g.name!r}: piezos {p.width_y_mm:g} mm wide overlap at y = {ys} mm")
+        piezos = [(g.name, g.x_mm, y) for g in self.groups for y in g.y_mm]
+        for i, (group_a, xa, ya) in enumerate(piezos):   # across groups: two groups at one spot
+            for group_b, xb, yb in piezos[i + 1:]:
+                if group_a != group_b and abs(xa - xb) < p.length_x_mm - 1e-9 and abs(ya - yb) < p.width_y_mm - 1e-9:
+                    raise ValueError(f"groups {group_a!r} and {group_b!r}: piezos {p.length_x_mm:g} x {p.width_y_mm:g} mm "
+                                     f"centred at ({xa:g}, {ya:g}) and ({xb:g}, {yb:g}) mm overlap")
         if self.touch_area is not None:
             (x0, x1), (y0, y1) = self.touch_area.x_mm, self.touch_area.y_mm
             if not (0 <= x0 < x1 <= r.length_mm and 0 <= y0 < y1 <= r.width_mm):

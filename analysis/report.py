@@ -93,9 +93,11 @@ SectionBuilder = Callable[[ReportContext], "Section | None"]
 HEADLINE_FILE = "headline.txt"
 
 
-def write_report(run_dir: Path | str, workers: int | None = None) -> Path:
+def write_report(run_dir: Path | str, workers: int | None = None, left_out: list[str] = ()) -> Path:
     """Recompute everything from the stored run; return the path of index.html. Figures are
-    drawn on `workers - 1` other processes meanwhile (default: `squeezebench.workers`)."""
+    drawn on `workers - 1` other processes meanwhile (default: `squeezebench.workers`).
+    `left_out`: what the run's checks found missing or unverified and the report was told
+    to go on without; the page and its headline open with it."""
     run = load_run(run_dir)
     if run.measurements.empty and not (run.run_dir / "study").is_dir():   # a study alone is reportable
         raise UserError(f"{run.run_dir}: the run holds no measurements yet "
@@ -111,6 +113,9 @@ def write_report(run_dir: Path | str, workers: int | None = None) -> Path:
             pass   # the study's section says why, in its place
         sections = [section for builder in builders if (section := _guarded(builder, context)) is not None]
         sections.insert(0, summary_section(context))   # last: it sums up what the others found
+        if left_out:
+            sections.insert(0, _left_out_section(left_out))
+            context.cache["headline"].insert(0, f"LEFT OUT of this report ({len(left_out)}): " + "; ".join(left_out))
         context.draw.finish()   # no page points at a figure not yet drawn
     finally:
         context.draw.cancel()
@@ -122,6 +127,13 @@ def write_report(run_dir: Path | str, workers: int | None = None) -> Path:
     index = out_dir / "index.html"
     index.write_text(_page(context, sections))
     return index
+
+
+def _left_out_section(left_out: list[str]) -> Section:
+    """What the report was told to go on without (`--allow-missing`, `--allow-unverified`)."""
+    items = "".join(f"<li>{html.escape(item)}</li>" for item in left_out)
+    return Section("Left out of this report", f"<p class='banner'>The run's checks found these missing or not what "
+                   f"made the run; the report was asked to go on without them:</p><ul>{items}</ul>", "left-out")
 
 
 def _header(path: Path) -> pd.DataFrame:

@@ -19,12 +19,13 @@ through it.
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import time
 import uuid
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Callable, Mapping
+from typing import Any, Callable, Iterator, Mapping
 
 import pyvisa
 import yaml
@@ -340,6 +341,23 @@ def _open_role(resource_manager: pyvisa.ResourceManager, role: str, address: str
         raise InstrumentConnectionError(role, address, exc.message) from None
 
 
+@contextlib.contextmanager
+def generator_only(config: BenchConfig) -> Iterator[Agilent33120A]:
+    """The generator of `config` alone, its load setting the bench's (nothing else is
+    opened or touched: for bringing it to rest, `protocols.drive_record`)."""
+    resource_manager = _resource_manager(_library_path(config.visa_library))
+    try:
+        generator = _open_role(resource_manager, "generator", config.resources["generator"])
+        generator.output_load = config.electronics.generator_load
+        yield generator
+    finally:
+        resource_manager.close()
+
+
+def is_simulated(config: BenchConfig) -> bool:
+    return config.visa_library.endswith(SIMBENCH)
+
+
 def open_bench(config: BenchConfig) -> Bench:
     """Open every instrument of `config`; InstrumentConnectionError names the first role
     that does not answer (nothing stays open then)."""
@@ -354,7 +372,7 @@ def open_bench(config: BenchConfig) -> Bench:
         # The load setting belongs to what the generator drives (the amplifier input), not
         # to a protocol: with the wrong one every programmed amplitude is off by two.
         drivers["generator"].output_load = config.electronics.generator_load
-        if library.endswith(SIMBENCH):
+        if is_simulated(config):
             simulated = resource_manager.visalib.bench
             clock, operator = simulated.clock, SimulatedOperator(simulated)
         elif served is not None:

@@ -47,6 +47,7 @@ from squeezebench.instruments.bench import ConfirmedOperator, open_bench, sim_be
 from squeezebench.instruments.errors import OperatorUnavailable, OutOfRangeError
 from squeezebench.instruments.tds3054b import HORIZONTAL_DIVISIONS, HORIZONTAL_SCALES_S_PER_DIV
 from squeezebench.protocols.acquisition import Acquisition, AcquisitionSettings
+from squeezebench.protocols.drive_record import DriveRecord, bring_to_rest
 from squeezebench.protocols.safety import DriveController, MeasuredVoltageError, SafetyLimits, chain_warnings
 from squeezebench.protocols.steps import Plate, Step, StepContext
 from squeezebench.protocols.storage import RunStore, bench_provenance, sha256_file
@@ -139,12 +140,7 @@ def load_campaign(path: Path, bench_file: Path | None = None) -> Campaign:
     problem is one CampaignError (or the scene's or bench file's own error). With
     `bench_file`, every run is on that bench (`run --bench`); its scene stays the plate's."""
     path = Path(path)
-    try:
-        model = schemas.validated(schemas.CampaignFile, schemas.read_yaml(path))
-    except schemas.FileFormatError as exc:
-        raise CampaignError(path, None, str(exc).removeprefix(f"{path}: ")) from None
-    except ValidationError as exc:
-        raise CampaignError(path, *schemas.describe(exc, schemas.CampaignFile)) from None
+    model = _campaign_model(path)
     loader = _Loader(path, bench_file)
     name = model.name or path.stem
     problem = schemas.file_name_problem(name)
@@ -168,6 +164,23 @@ def load_campaign(path: Path, bench_file: Path | None = None) -> Campaign:
     for i, run in enumerate(runs):
         check_requests(path, run, f"runs[{i}]")
     return Campaign(path, name, Path(model.output_dir or f"runs/{name}"), runs)
+
+
+def _campaign_model(path: Path) -> schemas.CampaignFile:
+    """The file as the schema reads it; any problem is one CampaignError."""
+    try:
+        return schemas.validated(schemas.CampaignFile, schemas.read_yaml(path))
+    except schemas.FileFormatError as exc:
+        raise CampaignError(path, None, str(exc).removeprefix(f"{path}: ")) from None
+    except ValidationError as exc:
+        raise CampaignError(path, *schemas.describe(exc, schemas.CampaignFile)) from None
+
+
+def planned_steps(path: Path) -> list[tuple[str, str]]:
+    """(run, step) of every step a campaign file plans, in order, read from the file alone
+    (a run directory's copy: its scenes and bench file are not looked for)."""
+    return [(item.name, step.step_id) for item in _campaign_model(Path(path)).runs
+            for step in PROTOCOLS[item.protocol].plan(item.parameters, item.plate)]
 
 
 class _Loader:
@@ -296,6 +309,30 @@ def check_requests(file: Path, run: Run, field: str) -> None:
         raise CampaignError(file, f"{field}.acquisition.periods_per_record",
                             f"{run.acquisition.periods_per_record!r} periods at {lowest_hz:g} Hz do not fit in the "
                             f"scope's longest record, {longest_record_s:g} s")
+    if run.protocol == "cartography":
+        _check_map(file, run, f"{field}.parameters")
+
+
+def _check_map(file: Path, run: Run, field: str) -> None:
+    """A map's bench: a stage, and every point within its travel where the travel is known
+    before the bench opens (`schemas.stage_travel_mm`; a real stage's is read when the run
+    opens it, and every point checked then, before the first move)."""
+    config = run.bench.config()
+    if "stage" not in config.resources:
+        raise CampaignError(file, field, f"a map needs an x-y stage, and {run.bench.input_file} names none "
+                            "(resources.stage)")
+    travel = schemas.stage_travel_mm(config)
+    if travel is None:
+        return
+    grid = run.parameters.grid
+    reference = run.parameters.reference_point_mm
+    for i, (axis, bounds) in enumerate((("x", grid.x_range_mm), ("y", grid.y_range_mm))):
+        low, high = travel[axis]
+        first, last = grid.bounds_mm(bounds)
+        for where, value in (("grid", first), ("grid", last), ("reference_point_mm", reference and reference[i])):
+            if value is not None and not low <= value <= high:
+                raise CampaignError(file, f"{field}.{where}", f"{axis} = {value:g} mm is beyond the stage's travel, "
+                                    f"{low:g} to {high:g} mm")
 
 
 def _check_value(file: Path, where: str, name: str, value: Any, limits) -> None:
@@ -410,6 +447,8 @@ def _run_campaign(path: Path, resume: bool, out_dir: Path | None, progress: bool
                 store.create(campaign.file)
                 journal = []
             store.check_writable([run.name for run in campaign.runs])
+            for config in {run.bench.input_file: run.bench.config() for run in campaign.runs}.values():
+                bring_to_rest(config, tell)   # after an unclean end: the plate at rest before anything
             for warning in dict.fromkeys(f"{run.bench.input_file}: {w}" for run in campaign.runs
                                          for w in chain_warnings(run.bench.config().electronics)):
                 tell(warning)
@@ -455,6 +494,7 @@ class _Runner:
         self.done = {(entry["run"], entry["step"]) for entry in journal}
         self.bench_time_s = journal[-1]["campaign_bench_time_s"] if journal else 0.0
         self.plans = [(run, run.steps()) for run in campaign.runs]
+        self.campaign_sha256 = sha256_file(campaign.file)   # each journal line vouches for the copy
         self.done_this_session = 0
 
     def run(self) -> None:
@@ -506,7 +546,8 @@ class _Runner:
                     "parameters": dataclasses.asdict(run.parameters),
                     "instruments": bench.settings_snapshot()})
                 drive = stack.enter_context(DriveController(bench.generator, bench.electronics, bench.clock,
-                                                            run.safety, settle_s=run.acquisition.settle_s))
+                                                            run.safety, settle_s=run.acquisition.settle_s,
+                                                            on_amplitude=DriveRecord(run.bench.config())))
             acquisition = Acquisition(bench, drive, run.acquisition)
             acquisition.configure()
             bench.check_errors()   # a setting the instruments refused would void every step
@@ -555,7 +596,7 @@ class _Runner:
         files = self.store.write_step(run.name, step.step_id, ctx.rows, ctx.waveforms, provenance)
         entry = {"run": run.name, "step": step.step_id, "protocol": run.protocol,
                  "rows": len(ctx.rows), "context": ctx.updates, "files": files,
-                 "inputs": self.inputs[run.name],
+                 "inputs": self.inputs[run.name], "campaign_sha256": self.campaign_sha256,
                  "campaign_bench_time_s": bench_time_s,
                  "completed_utc": dt.datetime.now(dt.timezone.utc).isoformat(timespec="seconds")}
         self.store.append_journal(entry)

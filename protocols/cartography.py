@@ -35,9 +35,18 @@ PROTOCOL = "cartography"
 log = logging.getLogger(__name__)
 
 
+#: The most points a map may have. The shipped maps have 325 (4 mm step) and 1323 (2 mm);
+#: a 1 mm step over the same area has 5141. Beyond this, a typo in `step_mm` (0.01 mm made
+#: 50 million points, and planning them alone hung), not a plan.
+MAX_MAP_POINTS = 10_000
+
+
 @dataclass(frozen=True)
 class Grid:
     """A regular grid over [x0, x1] x [y0, y1] in mm, `margin_mm` inside those bounds."""
+
+    # Checked before any point is made: at most MAX_MAP_POINTS, more than one, none negative
+    # (positions are mm from the plate's corner). The docstring above is the schema's text.
 
     x_range_mm: tuple[float, float]
     y_range_mm: tuple[float, float]
@@ -52,11 +61,28 @@ class Grid:
             if high - low < 2 * self.margin_mm:
                 raise ValueError(f"grid: the {name} range {low:g}-{high:g} mm leaves nothing inside a "
                                  f"{self.margin_mm:g} mm margin")
+            if low + self.margin_mm < 0:
+                raise ValueError(f"grid: the {name} range starts at {low + self.margin_mm:g} mm (margin included); "
+                                 "positions are mm from the plate's corner, none is negative")
+        n_points = self.axis_count(self.x_range_mm) * self.axis_count(self.y_range_mm)
+        if n_points > MAX_MAP_POINTS:
+            raise ValueError(f"grid: step_mm {self.step_mm:g} makes {n_points:.3g} points, more than the "
+                             f"{MAX_MAP_POINTS} a map may have; take a longer step or a smaller area")
+        if n_points == 1:
+            raise ValueError(f"grid: step_mm {self.step_mm:g} is longer than both ranges: the map would be one "
+                             "point; take a step shorter than the ranges")
+
+    def bounds_mm(self, bounds: tuple[float, float]) -> tuple[float, float]:
+        """The first and last position along one axis (the margin inside `bounds`)."""
+        low = bounds[0] + self.margin_mm
+        return low, low + self.step_mm * (self.axis_count(bounds) - 1)
+
+    def axis_count(self, bounds: tuple[float, float]) -> float:
+        """Points along one axis (a float: counted before anything is made, however many)."""
+        return float(np.floor((bounds[1] - bounds[0] - 2 * self.margin_mm) / self.step_mm + 1e-9)) + 1
 
     def axis_mm(self, bounds: tuple[float, float]) -> np.ndarray:
-        low, high = bounds[0] + self.margin_mm, bounds[1] - self.margin_mm
-        n = int(np.floor((high - low) / self.step_mm + 1e-9)) + 1
-        return low + self.step_mm * np.arange(n)
+        return bounds[0] + self.margin_mm + self.step_mm * np.arange(int(self.axis_count(bounds)))
 
     def rows_mm(self) -> list[np.ndarray]:
         """Each row (one y) as an (n, 2) array of (x, y) in visiting order, every other row

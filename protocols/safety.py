@@ -125,8 +125,11 @@ class DriveController:
     """
 
     def __init__(self, generator, electronics, clock, limits: SafetyLimits,
-                 settle_s: float = 0.0):
+                 settle_s: float = 0.0, on_amplitude=None):
         self._generator = generator
+        # Told (generator Vpp, piezo Vpp) before an amplitude above the minimum is sent, and
+        # (None, None) once the minimum is: protocols.drive_record survives a killed process.
+        self._on_amplitude = on_amplitude
         self._clock = clock
         self.limits = limits
         self.amplifier_gain = float(electronics.amplifier_gain)   # nominal, as recorded in rows
@@ -242,8 +245,13 @@ class DriveController:
             sent_vpp -= 1e-6
         self.check(self.chain_gain * sent_vpp)
         self._setpoint_vpp = None   # until a ramp reaches its target, what is sent is what is set
+        at_minimum = sent_vpp <= self.minimum_generator_amplitude_vpp
+        if self._on_amplitude is not None and not at_minimum:
+            self._on_amplitude(sent_vpp, self.chain_gain * sent_vpp)
         self._generator.set_amplitude_vpp(sent_vpp)
         self.generator_amplitude_vpp = sent_vpp
+        if self._on_amplitude is not None and at_minimum:
+            self._on_amplitude(None, None)
 
     # -- safe exit ------------------------------------------------------------------------
     def __enter__(self) -> DriveController:

@@ -250,7 +250,51 @@ class RunStore:
         if not (self.run_dir / MANIFEST).is_file():
             reasons.append(f"{self.run_dir / MANIFEST}: missing, so what campaign, inputs and instruments made "
                            "these rows is unknown (rebuild it with 'report --rebuild-manifest')")
+        if not reasons:
+            reasons += self.altered_sources()
         return reasons
+
+    def altered_sources(self) -> list[str]:
+        """What the run was made from that is missing or no longer what made it: the
+        campaign copy, every version of every scene and bench file under inputs/, and the
+        manifest's own records of them, each against the checksums the journal's entries
+        hold (fsynced with each step, so the authority) and the manifest's."""
+        manifest, entries = self.manifest(), self.journal()
+        problems = []
+        copy = self.run_dir / CAMPAIGN_COPY
+        recorded = manifest["campaign"]["sha256"]
+        journal_says = {entry["campaign_sha256"] for entry in entries if "campaign_sha256" in entry}
+        if not copy.is_file():
+            problems.append(f"{copy}: missing, so the campaign that made the run cannot be checked")
+        elif (digest := sha256_file(copy)) != recorded or journal_says - {digest}:
+            problems.append(f"{copy}: not the campaign the run was made with (sha256 {digest[:12]}...; the "
+                            f"manifest records {recorded[:12]}...{_also(journal_says, digest)})")
+        used: dict[str, set[str]] = {}   # input name -> the digests the journal says steps used
+        for entry in entries:
+            for name, digest in entry.get("inputs", {}).items():
+                used.setdefault(name, set()).add(digest)
+        for name, digests in sorted(used.items()):
+            versions = {v["sha256"]: v["copy"] for v in _versions(manifest["inputs"].get(name))}
+            for digest in sorted(digests):
+                if digest not in versions:
+                    problems.append(f"{self.run_dir / MANIFEST}: inputs.{name} does not record the version "
+                                    f"(sha256 {digest[:12]}...) the journal says the run's steps used")
+        for name, record in sorted(manifest["inputs"].items()):
+            for version in _versions(record):
+                file = self.run_dir / str(version.get("copy"))
+                if not file.is_file():
+                    problems.append(f"{file}: missing (a copy of {name} the run was made from)")
+                elif sha256_file(file) != version.get("sha256"):
+                    problems.append(f"{file}: not the {name} the run was made with (sha256 "
+                                    f"{sha256_file(file)[:12]}..., recorded {str(version.get('sha256'))[:12]}...)")
+        for run_name, bench in sorted(manifest.get("benches", {}).items()):
+            name = Path(str(bench.get("bench_input", ""))).name
+            known = used.get(name) or {v["sha256"] for v in _versions(manifest["inputs"].get(name))}
+            if bench.get("bench_input_sha256") not in known:
+                problems.append(f"{self.run_dir / MANIFEST}: benches.{run_name}.bench_input_sha256 "
+                                f"({str(bench.get('bench_input_sha256'))[:12]}...) is not the sha256 of any "
+                                f"version of {name} the run used")
+        return problems
 
     def rebuild_manifest(self) -> dict[str, Any]:
         """A manifest made again from the journal and the files whose checksums it
@@ -423,15 +467,24 @@ class RunStore:
             path.touch()
         return entries
 
-    def verify(self, entries: list[dict[str, Any]] | None = None) -> list[str]:
+    def verify(self, entries: list[dict[str, Any]] | None = None,
+               planned: list[tuple[str, str]] | None = None) -> list[str]:
         """One message per step file the journal names that is missing or fails its checksum
-        (and, reading the journal itself, per line that is not an entry)."""
+        (and, reading the journal itself, per line that is not an entry), and per step of
+        `planned` ((run, step) in the campaign's order) the journal does not have: a lost
+        line names no file, so only the campaign's plan can say it is gone."""
         problems = []
         if entries is None:
             entries, bad = self._read_journal()
             problems += [f"{self.run_dir / JOURNAL} line {number}: {reason}" for number, reason in bad]
         for entry in entries:
             problems += self._entry_problems(entry)
+        if not (self.run_dir / JOURNAL).is_file():
+            return problems   # no journal: `unverifiable` says it, once
+        done = {(entry["run"], entry["step"]) for entry in entries}
+        problems += [f"step {run_name}/{step_id}: planned by {self.run_dir / CAMPAIGN_COPY} but not in "
+                     f"{self.run_dir / JOURNAL} (its line was lost, or the run stopped before it: resume the run "
+                     "to measure it)" for run_name, step_id in planned or [] if (run_name, step_id) not in done]
         return problems
 
     def _entry_problems(self, entry: dict[str, Any]) -> list[str]:
@@ -534,6 +587,19 @@ class RunStore:
             _fsync_dir(target.parent)
         log.warning("quarantined %s as %s", item, target)
         return target
+
+
+def _versions(record: dict[str, Any] | None) -> list[dict[str, Any]]:
+    """Every version of one input the manifest records (a run from before versions: one)."""
+    if not isinstance(record, dict):
+        return []
+    return record.get("versions") or [{"sha256": record.get("sha256"), "copy": record.get("copy")}]
+
+
+def _also(journal_says: set[str], digest: str) -> str:
+    """The journal's word on the campaign, where it differs from the copy."""
+    others = sorted(journal_says - {digest})
+    return f", the journal {', '.join(d[:12] + '...' for d in others)}" if others else ""
 
 
 def _measurement_file(run_name: str, step_id: str) -> str:

@@ -15,6 +15,11 @@ from squeezebench import stops
 EXIT_INTERRUPTED = 130
 
 
+def _interrupted() -> int:
+    print("squeezebench: interrupted outside the command (starting or returning)", file=sys.stderr)
+    return EXIT_INTERRUPTED
+
+
 def command(argv: list[str] | None = None) -> int:
     """The command's exit status, 130 if a stop signal came at any moment of it; the
     caller has installed `stops.handled()`."""
@@ -23,15 +28,22 @@ def command(argv: list[str] | None = None) -> int:
 
         status = cli.main(argv)
     except KeyboardInterrupt:   # before the command's own handler could take it
-        print("squeezebench: interrupted before the command started", file=sys.stderr)
-        status = EXIT_INTERRUPTED
+        status = _interrupted()
     return EXIT_INTERRUPTED if stops.received() else status
 
 
 def main(argv: list[str] | None = None) -> int:
-    stops.take_over()
-    status = command(argv)
-    stops.hold()   # a signal from here on cannot raise where nothing would catch it
+    try:
+        stops.take_over()   # inside: a signal between two of its installs raises here
+        status = command(argv)
+        stops.hold()   # a signal from here on cannot raise where nothing would catch it
+    except KeyboardInterrupt:   # the first signal, outside the command's own handlers
+        stops.hold()
+        status = _interrupted()
+    status = EXIT_INTERRUPTED if stops.received() else status
+    # A signal recorded until here makes the status 130; one after it finds the signal
+    # ignored (the command's work is done and said), never the default that kills.
+    stops.ignore_from_now()
     return EXIT_INTERRUPTED if stops.received() else status
 
 

@@ -1,4 +1,4 @@
-"""The `squeezebench` command: check, run, report, reproduce, plan, study, validate, design, serve-sim.
+"""The `squeezebench` command: check, safe, run, report, reproduce, plan, study, validate, design, serve-sim.
 
 Each subcommand is a thin call into the package that does the work; the command line
 only turns user errors into one clear message and an exit status, and keeps the
@@ -71,7 +71,11 @@ def cmd_check(args: argparse.Namespace) -> int:
         lines.append(line)
         say(args, line)
 
-    found = inspect_bench(_bench_config(args.bench), out=out)
+    from squeezebench.protocols.drive_record import bring_to_rest
+
+    config = _bench_config(args.bench)
+    bring_to_rest(config, out)   # after an unclean end, said first
+    found = inspect_bench(config, out=out)
     passed = found.passed
     if args.json:   # per instrument for scripts; `lines` as a person reads them
         emit_json({"command": "check", "bench": args.bench, **found.as_dict(), "lines": lines})
@@ -110,6 +114,15 @@ def cmd_serve_sim(args: argparse.Namespace) -> int:
         except KeyboardInterrupt:
             print("squeezebench serve-sim: stopped", file=sys.stderr)
             return EXIT_INTERRUPTED
+
+
+def cmd_safe(args: argparse.Namespace) -> int:
+    """Only the generator, to its minimum amplitude (saying an unclean end first)."""
+    from squeezebench.protocols.drive_record import bring_to_rest
+
+    found = bring_to_rest(_bench_config(args.bench), lambda line: say(args, line), always=True)
+    if args.json:
+        emit_json({"command": "safe", "bench": args.bench, "left_driven": found})
     return 0
 
 
@@ -280,16 +293,32 @@ def cmd_report(args: argparse.Namespace) -> int:
         print(f"squeezebench report: warning: UNVERIFIED: {reason}", file=sys.stderr)
     if store.exists():
         store.manifest()   # a malformed manifest is one message, not a traceback in the report
-    problems = store.verify()
+    problems = store.verify(planned=_planned_steps(store))
     if problems and not args.allow_missing:
         more = f" (and {len(problems) - 1} more)" if len(problems) > 1 else ""
         raise UserError(f"{problems[0]}{more}; the report would lack their rows: restore the "
                         "files, or pass --allow-missing to report without them")
     for problem in problems:
         print(f"squeezebench report: warning: {problem}", file=sys.stderr)
-    index = write_report(Path(args.run_dir))
+    index = write_report(Path(args.run_dir), left_out=[*(f"UNVERIFIED: {r}" for r in unverified), *problems])
     say(args, _finished(index))
     return 0
+
+
+def _planned_steps(store) -> list[tuple[str, str]] | None:
+    """The steps the run's campaign copy plans (None for a run without one, a study);
+    a copy that cannot be read plans nothing and is said (the report leaves it out)."""
+    from squeezebench.protocols.campaign import planned_steps
+    from squeezebench.protocols.storage import CAMPAIGN_COPY
+
+    copy = store.run_dir / CAMPAIGN_COPY
+    if not copy.is_file():
+        return None
+    try:
+        return planned_steps(copy)
+    except UserError as exc:
+        raise UserError(f"{exc}; which steps the run should have is unknown (restore the run's campaign copy)") \
+            from None
 
 
 def cmd_reproduce(args: argparse.Namespace) -> int:
@@ -539,6 +568,7 @@ EXAMPLES = {
     "check": ["squeezebench check                        # the simulated bench",
               "squeezebench check --bench my_bench.yaml  # a real one (copy data/benches/lab_example.yaml)",
               "squeezebench check --bench my_bench.yaml --json"],
+    "safe": ["squeezebench safe --bench my_bench.yaml   # the plate at rest now"],
     "run": ["squeezebench run quick                    # a short campaign on the simulated bench",
             "squeezebench run paper --out runs/paper   # the paper's measurements",
             "squeezebench run my_campaign.yaml --resume  # continue after the last stored step",
@@ -612,6 +642,11 @@ def build_parser() -> argparse.ArgumentParser:
     check = add("check", json=True, help="open every instrument and print its identification")
     check.add_argument("--bench", default="sim", help="'sim' or a bench YAML file (default: sim)")
     check.set_defaults(func=cmd_check)
+
+    safe = add("safe", json=True, help="set the bench's generator to its minimum amplitude (and only that), "
+               "saying what an unclean end left it at")
+    safe.add_argument("--bench", default="sim", help="'sim' or a bench YAML file (default: sim)")
+    safe.set_defaults(func=cmd_safe)
 
     run = add("run", help="run a campaign file")
     run.add_argument("campaign", help=f"campaign YAML file, or the name of a shipped one ({campaigns})")

@@ -22,6 +22,16 @@ def data_dir() -> Path:
     return Path(str(resources.files("squeezebench.data")))
 
 
+def state_dir() -> Path:
+    """Where squeezebench keeps what must outlive a process (the drive record of each
+    generator, protocols.drive_record): `SQUEEZEBENCH_STATE`, else $XDG_STATE_HOME/squeezebench,
+    else ~/.local/state/squeezebench."""
+    override = os.environ.get("SQUEEZEBENCH_STATE")
+    if override:
+        return Path(override)
+    return Path(os.environ.get("XDG_STATE_HOME") or Path.home() / ".local" / "state") / "squeezebench"
+
+
 def scenes_dir() -> Path:
     return data_dir() / "scenes"
 

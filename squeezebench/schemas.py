@@ -25,7 +25,8 @@ import pyvisa.rname
 from pydantic import AfterValidator, BaseModel, ConfigDict, Field, ValidationError, create_model, model_validator
 
 from squeezebench.errors import UserError
-from squeezebench.instruments.bench import OPTIONAL_ROLES, ROLES, BenchConfig, BenchElectronics
+from squeezebench.instruments.bench import OPTIONAL_ROLES, ROLES, BenchConfig, BenchElectronics, is_simulated
+from squeezebench.instruments.smc100 import AXES as SMC100_AXES
 from squeezebench.instruments.errors import BenchFileError
 from squeezebench.protocols import (calibration, cartography, characterisation, cutting, detuning, powered_columns,
                                    resonance)
@@ -150,11 +151,38 @@ def _visa_address(value: str) -> str:
 VisaAddress = Annotated[str, AfterValidator(_visa_address)]
 
 
+#: The interfaces each instrument has (its manual): the 33120A GPIB and RS-232; the TDS3054B
+#: Ethernet, and GPIB or RS-232 through its communication module; the OFV-5000 controller and
+#: the SMC100 RS-232 (a USB adapter is a serial port too). An RS-232 port may also be reached
+#: through a serial device server: a TCPIP SOCKET address.
+INTERFACES = {"generator": ("GPIB", "ASRL"), "scope": ("TCPIP", "GPIB", "ASRL"),
+              "vibrometer": ("ASRL",), "stage": ("ASRL",)}
+
+
 class Resources(_Model):
     generator: VisaAddress
     scope: VisaAddress
     vibrometer: VisaAddress
     stage: Optional[VisaAddress] = None   # the x-y stage a map (cartography) needs; SMC100 pair
+
+    @model_validator(mode="after")
+    def _reachable_and_distinct(self) -> Resources:
+        seen: dict[str, str] = {}
+        for role, allowed in INTERFACES.items():
+            address = getattr(self, role)
+            if address is None:
+                continue
+            parsed = pyvisa.rname.parse_resource_name(address)
+            serial_server = "ASRL" in allowed and (parsed.interface_type, parsed.resource_class) == ("TCPIP", "SOCKET")
+            if parsed.interface_type not in allowed and not serial_server:
+                raise ValueError(f"{role} {address!r} is a {parsed.interface_type} address; the {role} is reached "
+                                 f"by {' or '.join(allowed)}{' (or a serial server, TCPIP...::SOCKET)' if 'ASRL' in allowed else ''}")
+            key = str(parsed).upper()
+            if key in seen:
+                raise ValueError(f"{role} and {seen[key]} have the same address, {address!r}: each instrument "
+                                 "answers at its own")
+            seen[key] = role
+        return self
 
 
 class BenchFile(_Model):
@@ -319,6 +347,16 @@ def load_bench_file(path: str | Path) -> BenchConfig:
                        resources={role: address for role in (*ROLES, *OPTIONAL_ROLES)
                                   if (address := getattr(bench.resources, role)) is not None},
                        electronics=bench.electronics, source=str(path), simulator=bench.simulator)
+
+
+def stage_travel_mm(config: BenchConfig) -> dict[str, tuple[float, float]] | None:
+    """The stage's travel per axis (mm) where it is known before the bench opens: the
+    simulated stage's; a real stage's is read from it when a run opens it (SMC100 SL/SR)."""
+    if not is_simulated(config):
+        return None
+    from squeezebench.simbench.stage import TRAVEL_MM
+
+    return {axis: TRAVEL_MM[str(address)] for axis, address in SMC100_AXES.items()}
 
 
 # -- design files -------------------------------------------------------------------------

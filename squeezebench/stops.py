@@ -113,6 +113,17 @@ def hold() -> None:
     _depth["deferred"] += 1
 
 
+def ignore_from_now() -> None:
+    """For a command's whole process (its entry point), about to exit with its status:
+    every stop signal is ignored from now on. Interpreter shutdown puts back the default disposition of every
+    signal that has a Python handler (a later signal of a burst would then kill the
+    process, status -2 or -15, not 130) but leaves an ignored one ignored; blocking them
+    instead would hold only the main thread, and the kernel hands a signal to any thread
+    that does not block it."""
+    for sig in STOP_SIGNALS:
+        signal.signal(sig, signal.SIG_IGN)
+
+
 @contextlib.contextmanager
 def deferred() -> Iterator[None]:
     """Inside, a stop signal is recorded and raised only on leaving (while the bench opens

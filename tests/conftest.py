@@ -13,6 +13,8 @@ messages unsent fails the test, as does any message out of order.
 
 from __future__ import annotations
 
+import os
+import tempfile
 from contextlib import contextmanager
 from typing import Any, Iterator
 
@@ -103,3 +105,14 @@ def _not_waiting_for_the_disk():
     with pytest.MonkeyPatch.context() as patch:
         patch.setattr(os, "fsync", lambda fd: None)
         yield
+
+
+# Drive records (protocols.drive_record) outlive a process: this test process and its
+# children keep theirs out of the user's state folder, and each test has its own, so a run
+# one test kills does not tell another test's bench it was left driven.
+os.environ.setdefault("SQUEEZEBENCH_STATE", tempfile.mkdtemp(prefix="squeezebench-state-"))
+
+
+@pytest.fixture(autouse=True)
+def _own_drive_records(tmp_path_factory, monkeypatch):
+    monkeypatch.setenv("SQUEEZEBENCH_STATE", str(tmp_path_factory.mktemp("state")))

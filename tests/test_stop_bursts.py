@@ -121,3 +121,99 @@ def test_bursts_of_stop_signals_leave_the_generator_at_minimum_and_resume_exact(
     result = json.loads(done.stdout.strip().splitlines()[-1])
     assert result["trials"] >= TRIALS and result["chains"] >= 1
     assert result["problems"] == []
+
+
+#: The same bursts against whole processes: each trial is a child forked from one warm
+#: harness (nothing imported again) that runs the real entry point, `main()`, under
+#: `sys.exit` and interpreter shutdown, as the installed command does. The child signals
+#: itself the burst's first signal from inside the k-th generator write and tells the
+#: harness, which sends the rest 0-50 ms apart from outside, so later signals land in the
+#: bring-down, the final message, `sys.exit` and the interpreter's shutdown (where the
+#: default dispositions came back and killed the process: status -2 or -15).
+PROCESSES = textwrap.dedent("""
+    import json, os, random, select, signal, sys, time
+    import tqdm
+    from pyvisa.resources import MessageBasedResource
+    from squeezebench import stops
+    from squeezebench.__main__ import command, main
+
+    campaign, out, n_trials, seed = sys.argv[1], sys.argv[2], int(sys.argv[3]), int(sys.argv[4])
+    for sig in stops.STOP_SIGNALS:   # the harness itself is never stopped by a stray signal
+        signal.signal(sig, signal.SIG_IGN)
+    trial = {"writes": 0, "at": None, "first": None, "tell": None}
+    write = MessageBasedResource.write
+
+    def tapped(resource, message, *args, **kwargs):
+        trial["writes"] += 1
+        if trial["writes"] == trial["at"] and message.startswith(("VOLT", "FREQ", "APPL", "OUTP")):
+            os.write(trial["tell"], b"!")   # first: the signal may raise before the next call
+            os.kill(os.getpid(), trial["first"])
+        elif trial["writes"] == trial["at"]:
+            trial["at"] += 1   # the burst starts at a generator write
+        return write(resource, message, *args, **kwargs)
+
+    MessageBasedResource.write = tapped
+
+    def child(run_dir, err_file, at, first, tell):
+        err = os.open(err_file, os.O_WRONLY | os.O_CREAT | os.O_TRUNC)
+        os.dup2(err, 2)
+        os.dup2(os.open(os.devnull, os.O_WRONLY), 1)
+        signal.signal(signal.SIGINT, signal.default_int_handler)   # a terminal's dispositions
+        for sig in (signal.SIGTERM, signal.SIGHUP):
+            signal.signal(sig, signal.SIG_DFL)
+        trial.update(writes=0, at=at, first=first, tell=tell)
+        sys.exit(main(["run", campaign, "--out", run_dir, "-q"]))   # unwinds the harness: a real exit
+
+    # Warm: the first run of a process imports lazily and solves the plate; every child
+    # inherits that. tqdm's monitor thread would be forked mid-sleep: none.
+    tqdm.tqdm.monitor_interval = 0
+    assert command(["run", campaign, "--out", f"{out}/warm", "-q"]) == 0
+    rng = random.Random(seed)
+    statuses, problems, trials, finished = {}, [], 0, 0
+    while trials < n_trials:
+        n = rng.randint(2, 10)
+        signals = [rng.choice(stops.STOP_SIGNALS) for _ in range(n)]
+        gaps = [rng.uniform(0, 0.05) for _ in range(n - 1)]
+        at = rng.randrange(1, 150)
+        run_dir, err_file = f"{out}/run{trials}_{finished}", f"{out}/err{trials}_{finished}.txt"
+        read_end, tell = os.pipe()
+        pid = os.fork()
+        if pid == 0:
+            os.close(read_end)
+            child(run_dir, err_file, at, signals[0], tell)
+        os.close(tell)
+        ready, _, _ = select.select([read_end], [], [], 120)
+        started = bool(ready) and os.read(read_end, 1) == b"!"
+        os.close(read_end)
+        if started:
+            for sig, gap in zip(signals[1:], gaps):
+                time.sleep(gap)
+                os.kill(pid, sig)   # a zombie until reaped below: never another process
+        _, wait_status = os.waitpid(pid, 0)
+        status = os.waitstatus_to_exitcode(wait_status)
+        if not started:   # the run ended before the burst's write
+            finished += 1
+            if status != 0:
+                problems.append(f"unsignalled run: exit {status}")
+            continue
+        trials += 1
+        statuses[status] = statuses.get(status, 0) + 1
+        err = open(err_file).read()
+        if status != 130 or "Traceback" in err or "interrupted" not in err:
+            problems.append(f"trial {trials}: {[signal.Signals(s).name for s in signals]}, exit {status}, {err!r}")
+    print(json.dumps({"trials": trials, "statuses": statuses, "problems": problems}))
+    """)
+
+
+def test_bursts_against_whole_processes_exit_130_every_time(tmp_path):
+    """200 trials, ~70 s of one core: a warm-up run, then per trial the bench's opening, up to
+    150 writes and the burst's gaps. Before the entry point ignored the stop signals on its
+    way out, 30 of 30 trials ended by a signal (-2, -15, -1)."""
+    script = tmp_path / "processes.py"
+    script.write_text(PROCESSES)
+    done = subprocess.run([sys.executable, str(script), str(paths.campaign_file("quick.yaml")),
+                           str(tmp_path), "200", "41"], capture_output=True, text=True, timeout=900)
+    assert done.returncode == 0, done.stderr[-3000:]
+    result = json.loads(done.stdout.strip().splitlines()[-1])
+    assert result["trials"] == 200 and result["statuses"] == {"130": 200}, result
+    assert result["problems"] == []
