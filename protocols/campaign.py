@@ -447,8 +447,9 @@ def _run_campaign(path: Path, resume: bool, out_dir: Path | None, progress: bool
                 store.create(campaign.file)
                 journal = []
             store.check_writable([run.name for run in campaign.runs])
-            for config in {run.bench.input_file: run.bench.config() for run in campaign.runs}.values():
-                bring_to_rest(config, tell)   # after an unclean end: the plate at rest before anything
+            if durable:   # a temporary run (plan, study: simulated, in workers) is no operator's drive
+                for config in {run.bench.input_file: run.bench.config() for run in campaign.runs}.values():
+                    bring_to_rest(config, tell)   # after an unclean end: the plate at rest before anything
             for warning in dict.fromkeys(f"{run.bench.input_file}: {w}" for run in campaign.runs
                                          for w in chain_warnings(run.bench.config().electronics)):
                 tell(warning)
@@ -547,7 +548,8 @@ class _Runner:
                     "instruments": bench.settings_snapshot()})
                 drive = stack.enter_context(DriveController(bench.generator, bench.electronics, bench.clock,
                                                             run.safety, settle_s=run.acquisition.settle_s,
-                                                            on_amplitude=DriveRecord(run.bench.config())))
+                                                            on_amplitude=DriveRecord(run.bench.config())
+                                                            if self.store.durable else None))
             acquisition = Acquisition(bench, drive, run.acquisition)
             acquisition.configure()
             bench.check_errors()   # a setting the instruments refused would void every step

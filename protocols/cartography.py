@@ -41,6 +41,18 @@ log = logging.getLogger(__name__)
 MAX_MAP_POINTS = 10_000
 
 
+def axis_count(bounds: tuple[float, float], step_mm: float, margin_mm: float = 0.0) -> float:
+    """Positions along one axis of [low, high] at `step_mm`, `margin_mm` inside (a float:
+    counted before anything is made, however many)."""
+    return float(np.floor((bounds[1] - bounds[0] - 2 * margin_mm) / step_mm + 1e-9)) + 1
+
+
+def axis_mm(bounds: tuple[float, float], step_mm: float, margin_mm: float = 0.0) -> np.ndarray:
+    """Those positions. Unbounded: a model sampled on a fine grid (the map planner's
+    continuum) is no map the stage visits, so MAX_MAP_POINTS is `Grid`'s, not theirs."""
+    return bounds[0] + margin_mm + step_mm * np.arange(int(axis_count(bounds, step_mm, margin_mm)))
+
+
 @dataclass(frozen=True)
 class Grid:
     """A regular grid over [x0, x1] x [y0, y1] in mm, `margin_mm` inside those bounds."""
@@ -79,10 +91,10 @@ class Grid:
 
     def axis_count(self, bounds: tuple[float, float]) -> float:
         """Points along one axis (a float: counted before anything is made, however many)."""
-        return float(np.floor((bounds[1] - bounds[0] - 2 * self.margin_mm) / self.step_mm + 1e-9)) + 1
+        return axis_count(bounds, self.step_mm, self.margin_mm)
 
     def axis_mm(self, bounds: tuple[float, float]) -> np.ndarray:
-        return bounds[0] + self.margin_mm + self.step_mm * np.arange(int(self.axis_count(bounds)))
+        return axis_mm(bounds, self.step_mm, self.margin_mm)
 
     def rows_mm(self) -> list[np.ndarray]:
         """Each row (one y) as an (n, 2) array of (x, y) in visiting order, every other row

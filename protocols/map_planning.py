@@ -40,6 +40,7 @@ from squeezebench.analysis import predicted_plates
 from squeezebench.errors import UserError
 from squeezebench.protocols.campaign import Run, load_campaign
 from squeezebench.protocols.plan_cache import PlanCache
+from squeezebench.protocols import cartography
 from squeezebench.protocols.cartography import map_bench_time_s
 from squeezebench.protocols.simulated_session import open_simulated, reduce_point
 from squeezebench.protocols.variants import MAP_PROTOCOLS
@@ -183,8 +184,14 @@ def _touch_shape(run: Run, step_mm: float, frequency_hz: float, shift_mm: float 
     """The model's shape at the touch-area points of the run's grid at `step_mm`, its
     first column moved `shift_mm` along the length."""
     params = run.parameters
-    (x0, x1) = params.grid.x_range_mm
-    points = dataclasses.replace(params.grid, step_mm=step_mm, x_range_mm=(x0 + shift_mm, x1)).points_mm()
+    grid = params.grid
+    (x0, x1) = grid.x_range_mm
+    # the model sampled, not a map to visit (the continuum's 0.5 mm exceeds a map's bound),
+    # in the grid's visiting order (each point's noise draw follows it)
+    xs = cartography.axis_mm((x0 + shift_mm, x1), step_mm, grid.margin_mm)
+    ys = cartography.axis_mm(grid.y_range_mm, step_mm, grid.margin_mm)
+    points = np.vstack([np.column_stack([xs[::-1] if grid.serpentine and i % 2 else xs, np.full(len(xs), y)])
+                        for i, y in enumerate(ys)])
     inside = np.array([params.in_touch_area(x, y) for x, y in points])
     shape, _ = predicted_plates.working_shape(run.plate.name, frequency_hz, points[inside, 0] * 1e-3,
                                               points[inside, 1] * 1e-3)

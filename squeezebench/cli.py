@@ -114,6 +114,7 @@ def cmd_serve_sim(args: argparse.Namespace) -> int:
         except KeyboardInterrupt:
             print("squeezebench serve-sim: stopped", file=sys.stderr)
             return EXIT_INTERRUPTED
+    return 0
 
 
 def cmd_safe(args: argparse.Namespace) -> int:

@@ -13,7 +13,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from squeezebench import paths
-from squeezebench.analysis import model
+from squeezebench.analysis import model, tables
 from squeezebench.analysis.report import write_report
 from squeezebench.analysis.rundata import load_run
 from squeezebench.analysis.calibration import Deskew
@@ -287,7 +287,8 @@ def test_the_report_shows_expanded_uncertainties_and_budgets(erring_bench_points
     summary = pd.read_csv(run_dir / "report" / "uncertainty_summary.csv")
     assert set(summary["protocol"]) == set(points["protocol"])
     assert (summary["median_expanded_relative"] > 0).all()
-    assert "current probe gain" in set(summary["dominant_term"])
+    # the paper campaign's deskew run checks the gains: the current path's gain, checked, leads
+    assert "current path gain (gain-checked)" in set(summary["dominant_term"])
     assert "Uncertainty budgets (GUM, k = 2)" in (run_dir / "report" / "index.html").read_text()
     floors = pd.read_csv(run_dir / "report" / "uncertainty_floors.csv")
     assert set(floors["quantity"]) == {"power_w", "velocity_pp_mps"}
@@ -298,10 +299,13 @@ def test_the_report_shows_expanded_uncertainties_and_budgets(erring_bench_points
 
 def test_q_and_tan_theta_budgets_of_the_characterised_plates(erring_bench_points):
     _, _, run_dir = erring_bench_points
-    plates = characterise_plates(load_run(run_dir), model.PAPER_CONVENTION)
+    run = load_run(run_dir)
+    plates = characterise_plates(run, model.PAPER_CONVENTION)
+    deskew = Deskew.applied_in(tables._protocol_points(run, "characterisation"))   # as the tables read it
+    assert deskew is not None   # the paper campaign carries its deskew run
     assert len(plates) == 7
     for plate in plates.values():
-        q, tan = characterisation_budgets(plate, model.PAPER_CONVENTION)
+        q, tan = characterisation_budgets(plate, model.PAPER_CONVENTION, deskew)
         assert q.value == pytest.approx(plate.q.value, rel=1e-9)
         assert tan.value == pytest.approx(plate.tan_theta.value, rel=1e-9)
         # the tables state the whole budget; the fit alone is far below it
