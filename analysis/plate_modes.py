@@ -267,12 +267,42 @@ def solve_plate(geometry: PlateGeometry, resonator: Isotropic = ALUMINIUM_TABLE2
     fixes that mesh size instead: solves of one plate whose materials move by their
     tolerances then share one mesh, so their differences are physics, not remeshing."""
     if n_modes is None:
-        d, mass, _ = laminate(resonator, geometry.thickness_m, piezo, 0.0)
-        density_per_hz = geometry.length_m * geometry.width_m / 2 * np.sqrt(mass / d)
-        n_modes = max(12, int(np.ceil(band_rel * near_hz * density_per_hz)))
+        n_modes = mode_count(geometry, resonator, piezo, near_hz, band_rel)
     key = _key(geometry, resonator, piezo, near_hz, n_modes, elements_per_half_wave, mesh_half_wave_m)
     return _CACHE.get(key, lambda: _solve(geometry, resonator, piezo, near_hz, n_modes, elements_per_half_wave,
                                           mesh_half_wave_m))
+
+
+def mode_count(geometry: PlateGeometry, resonator: Isotropic, piezo: Piezo, near_hz: float,
+               band_rel: float) -> int:
+    """How many modes cover the band `band_rel` (whole width, relative) about `near_hz`: a
+    plate's modal density is S/2 sqrt(rho h / D) per hertz; at least 12."""
+    d, mass, _ = laminate(resonator, geometry.thickness_m, piezo, 0.0)
+    density_per_hz = geometry.length_m * geometry.width_m / 2 * np.sqrt(mass / d)
+    return max(12, int(np.ceil(band_rel * near_hz * density_per_hz)))
+
+
+def mesh_lines(geometry: PlateGeometry, resonator: Isotropic, near_hz: float, elements_per_half_wave: float,
+               mesh_half_wave_m: float | None = None, x_edges=None, y_edges=None) -> tuple[np.ndarray, ...]:
+    """The mesh lines x, y of a solve (about `elements_per_half_wave` elements per flexural
+    half-wave, a line on every patch edge, or on `x_edges` and `y_edges` when given) and its
+    shape grid gx, gy."""
+    half_wave = mesh_half_wave_m or flexural_half_wavelength_m(resonator, geometry.thickness_m, near_hz)
+    target = half_wave / elements_per_half_wave
+    x = _grid(geometry.length_m, [b for p in geometry.patches for b in p.bounds[:2]] if x_edges is None
+              else list(x_edges), target)
+    y = _grid(geometry.width_m, [b for p in geometry.patches for b in p.bounds[2:]] if y_edges is None
+              else list(y_edges), target)
+    # Shapes on a grid fine enough to place nodal lines (4 points per half-wave: zero crossings interpolate to ~1 % of it).
+    gx = np.linspace(0, geometry.length_m, int(np.ceil(4 * geometry.length_m / half_wave)) + 1)
+    gy = np.linspace(0, geometry.width_m, int(np.ceil(4 * geometry.width_m / half_wave)) + 1)
+    return x, y, gx, gy
+
+
+def clamped_capacitance_f(piezo: Piezo, patch: Patch) -> float:
+    """C0 = eps33^T (1 - k31^2) A / h_p of one piezo (thin patch, electroded faces)."""
+    return (EPSILON_0_F_PER_M * piezo.relative_permittivity_t * (1 - piezo.k31**2)
+            * patch.length_x_m * patch.width_y_m / patch.thickness_m)
 
 
 def flexural_half_wavelength_m(material: Isotropic, thickness_m: float, frequency_hz: float) -> float:
@@ -359,13 +389,7 @@ def _solve(geometry, resonator, piezo, near_hz, n_modes, elements_per_half_wave,
     from skfem import LinearForm
     from skfem.helpers import dd, trace
 
-    half_wave = mesh_half_wave_m or flexural_half_wavelength_m(resonator, geometry.thickness_m, near_hz)
-    target = half_wave / elements_per_half_wave
-    x = _grid(geometry.length_m, [b for p in geometry.patches for b in p.bounds[:2]], target)
-    y = _grid(geometry.width_m, [b for p in geometry.patches for b in p.bounds[2:]], target)
-    # Shapes on a grid fine enough to place nodal lines (4 points per half-wave: zero crossings interpolate to ~1 % of it).
-    gx = np.linspace(0, geometry.length_m, int(np.ceil(4 * geometry.length_m / half_wave)) + 1)
-    gy = np.linspace(0, geometry.width_m, int(np.ceil(4 * geometry.width_m / half_wave)) + 1)
+    x, y, gx, gy = mesh_lines(geometry, resonator, near_hz, elements_per_half_wave, mesh_half_wave_m)
     mesh, basis, grid_probe, probe = _discretisation(*(tuple(a.tolist()) for a in (x, y, gx, gy)))
     centres = mesh.p[:, mesh.t].mean(axis=1)
 
@@ -393,6 +417,25 @@ def _solve(geometry, resonator, piezo, near_hz, n_modes, elements_per_half_wave,
     order = np.argsort(eigenvalues)
     eigenvalues, vectors = eigenvalues[order], vectors[:, order]
 
+    # per element, then summed over each patch's elements: one assembly for every patch
+    per_element_laplacian = laplacian.elemental(basis)
+    laplacians = np.zeros((n, len(inside)))
+    for i, mask in enumerate(inside):
+        b = replace(per_element_laplacian, data=per_element_laplacian.data
+                                * np.tile(mask, basis.Nbfun)).todefault()
+        laplacians[:, i] = b @ vectors
+    return modes_from_vectors(geometry, resonator, piezo, eigenvalues, vectors, gx, gy, grid_probe, probe,
+                              laplacians)
+
+
+def modes_from_vectors(geometry: PlateGeometry, resonator: Isotropic, piezo: Piezo, eigenvalues: np.ndarray,
+                       vectors: np.ndarray, gx: np.ndarray, gy: np.ndarray, grid_probe, probe,
+                       patch_laplacians: np.ndarray) -> PlateModes:
+    """The `PlateModes` of mass-normalised eigenpairs (eigenvalues w^2 ascending, vectors
+    (dofs, modes)) on a basis whose `grid_probe` evaluates them on the shape grid gx x gy and
+    `probe(points)` anywhere; `patch_laplacians[k, i]` is \\int_patch_i (phi_xx + phi_yy) dA
+    of mode k. Shared by the full solve and reduced models of it (`analysis.reduced_layouts`)."""
+    n = len(eigenvalues)
     shapes = (grid_probe @ vectors).T.reshape(n, len(gx), len(gy))
     flat = shapes.reshape(n, -1)
     peak = flat[np.arange(n), np.abs(flat).argmax(axis=1)]  # signed: the peak reads +1
@@ -403,16 +446,11 @@ def _solve(geometry, resonator, piezo, near_hz, n_modes, elements_per_half_wave,
 
     theta = np.zeros((n, len(geometry.patches)))
     capacitance = np.zeros(len(geometry.patches))
-    # per element, then summed over each patch's elements: one assembly for every patch
-    per_element_laplacian = laplacian.elemental(basis)
-    for i, (p, mask) in enumerate(zip(geometry.patches, inside)):
+    for i, p in enumerate(geometry.patches):
         _, _, z_m = laminate(resonator, geometry.thickness_m, piezo, p.thickness_m)
-        b = replace(per_element_laplacian, data=per_element_laplacian.data
-                                * np.tile(mask, basis.Nbfun)).todefault()
         # Theta per mass-normalised mode, referred to the peak point: A = Theta / phi_peak.
-        theta[:, i] = piezo.plate_e31_c_per_m2 * z_m * (b @ vectors)
-        capacitance[i] = (EPSILON_0_F_PER_M * piezo.relative_permittivity_t * (1 - piezo.k31**2)
-                          * p.length_x_m * p.width_y_m / p.thickness_m)
+        theta[:, i] = piezo.plate_e31_c_per_m2 * z_m * patch_laplacians[:, i]
+        capacitance[i] = clamped_capacitance_f(piezo, p)
     plate_mass = (resonator.density_kg_m3 * geometry.thickness_m * geometry.length_m
                   * geometry.width_m)
     return PlateModes(
