@@ -92,5 +92,12 @@ def measure(repeat: int = REPEAT) -> Reference:
     return Reference(_best_s(repeat, python_loop), _best_s(repeat, sparse_factorisation), load)
 
 
+def mean(before: Reference, after: Reference) -> Reference:
+    """The unit of a run timed between two measurements: each part's mean (a load that came
+    or went meanwhile shows as their difference, which the run prints)."""
+    return Reference((before.loop_s + after.loop_s) / 2, (before.factorisation_s + after.factorisation_s) / 2,
+                     before.load_before)
+
+
 if __name__ == "__main__":
     print(measure().line())
