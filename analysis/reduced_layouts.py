@@ -42,7 +42,7 @@ FREQUENCY_TOLERANCE_REL = 0.002
 FORCE_TOLERANCE_REL = 0.02
 #: The Ritz basis: the bare plate's modes within this whole band (relative) about the
 #: drive; patches move the working mode by a few per cent and mix it with its neighbours.
-BASIS_BAND_REL = 0.3
+BASIS_BAND_REL = 0.2
 #: The full solve's quadrature order (`plate_modes._discretisation`), used on the clipped pieces.
 QUADRATURE_ORDER = 8
 #: Patch edges closer than this share of an element are meshed as one line.
@@ -51,7 +51,7 @@ MIN_EDGE_GAP = 0.125
 #: done when their w^2 and coupling integrals move by less than `SETTLED_REL` in a step.
 CANDIDATE_UNIFORMITY = 0.5
 SETTLED_REL = 1e-3
-MAX_STEPS = 12
+MAX_STEPS = 30
 
 
 @dataclass(frozen=True)
@@ -259,23 +259,15 @@ class ReducedPlate:
             d, m, _ = plate_modes.laminate(bare.resonator, bare.thickness_m, bare.piezo, patch.thickness_m)
             parts.append((self.patch_points(tuple(float(b) for b in patch.bounds)), d - d0, m - m0))
         r = len(self.eigenvalues)
-        added = np.zeros((self.stiffness.shape[0], 0))   # M0-orthonormal to the bare modes and each other
-        added_stiffness = np.zeros((0, 0))
-        added_at = [(np.zeros((len(p.weights), 0)), np.zeros((2, 2, len(p.weights), 0))) for p, _, _ in parts]
+        # the Ritz matrices, grown by each step's new vectors (M0-orthonormal to all before,
+        # so the bare plate's parts of their blocks are the identity and W^T K0 W)
+        stiffness = np.diag(self.eigenvalues) + sum(dd * p.stiffness for p, dd, _ in parts)
+        mass = np.eye(r) + sum(dm * p.mass for p, _, dm in parts)
+        laplacians = np.array([p.laplacian for p, _, _ in parts]).reshape(len(parts), r)
+        at_points = [(p.mode_values, p.mode_hessians) for p, _, _ in parts]   # every basis vector's
+        added = np.zeros((self.stiffness.shape[0], 0))
         previous = None
         for step in range(MAX_STEPS + 1):
-            c = added.shape[1]
-            stiffness, mass = np.zeros((r + c, r + c)), np.eye(r + c)
-            stiffness[:r, :r] = np.diag(self.eigenvalues)
-            stiffness[r:, r:] = added_stiffness
-            laplacians = np.zeros((len(parts), r + c))
-            for i, ((points, dd, dm), (values, hessians)) in enumerate(zip(parts, added_at)):
-                cross_k, cross_m = _integrals(points.weights, nu, points.mode_values, points.mode_hessians,
-                                              values, hessians)
-                own_k, own_m = _integrals(points.weights, nu, values, hessians, values, hessians)
-                stiffness += dd * np.block([[points.stiffness, cross_k], [cross_k.T, own_k]])
-                mass += dm * np.block([[points.mass, cross_m], [cross_m.T, own_m]])
-                laplacians[i] = np.concatenate([points.laplacian, points.weights @ (hessians[0, 0] + hessians[1, 1])])
             eigenvalues, coefficients = eigh(stiffness, mass)
             n = min(self.n_modes, len(eigenvalues))
             nearest = np.sort(np.argsort(abs(eigenvalues - self.sigma))[:n])
@@ -284,8 +276,7 @@ class ReducedPlate:
             coupling = (laplacians @ coefficients).T
             if not parts:
                 break
-            shapes = self.grid_probe @ vectors
-            shapes = shapes.reshape(len(self._gx), len(self._gy), -1)
+            shapes = (self.grid_probe @ vectors).reshape(len(self._gx), len(self._gy), -1)
             uniformity = (shapes.mean(axis=1) ** 2).sum(axis=0) * len(self._gy) / (shapes**2).sum(axis=(0, 1))
             targets = np.nonzero(uniformity >= CANDIDATE_UNIFORMITY)[0]
             if targets.size == 0:
@@ -304,18 +295,27 @@ class ReducedPlate:
             direction = self._shifted.solve(residual)
             for basis in (self.vectors, added, self.vectors, added):   # twice: orthogonal to roundoff
                 direction -= basis @ (basis.T @ (self.mass @ direction))
-            gram = direction.T @ (self.mass @ direction)
-            size, rotation = np.linalg.eigh(gram)
+            size, rotation = np.linalg.eigh(direction.T @ (self.mass @ direction))
             keep = size > 1e-12 * max(size.max(), 1e-300)
             if not keep.any():
                 break
             direction = direction @ (rotation[:, keep] / np.sqrt(size[keep]))
-            cross = added.T @ (self.stiffness @ direction)
-            added_stiffness = np.block([[added_stiffness, cross],
-                                        [cross.T, direction.T @ (self.stiffness @ direction)]])
+            stiffness_k = direction.T @ (self.stiffness @ direction)
+            cross_k = np.vstack([np.zeros((r, direction.shape[1])), added.T @ (self.stiffness @ direction)])
+            cross_m, mass_k = np.zeros_like(cross_k), np.eye(direction.shape[1])
+            new_laplacians = np.zeros((len(parts), direction.shape[1]))
+            for i, ((points, dd, dm), (values, hessians)) in enumerate(zip(parts, at_points)):
+                new_values, new_hessians = self._at_points(points.values, points.hessians, points.dofs, direction)
+                k, m = _integrals(points.weights, nu, values, hessians, new_values, new_hessians)
+                own_k, own_m = _integrals(points.weights, nu, new_values, new_hessians, new_values, new_hessians)
+                cross_k, cross_m = cross_k + dd * k, cross_m + dm * m
+                stiffness_k, mass_k = stiffness_k + dd * own_k, mass_k + dm * own_m
+                at_points[i] = (np.hstack([values, new_values]), np.concatenate([hessians, new_hessians], axis=3))
+                new_laplacians[i] = points.weights @ (new_hessians[0, 0] + new_hessians[1, 1])
+            stiffness = np.block([[stiffness, cross_k], [cross_k.T, stiffness_k]])
+            mass = np.block([[mass, cross_m], [cross_m.T, mass_k]])
+            laplacians = np.hstack([laplacians, new_laplacians])
             added = np.hstack([added, direction])
-            added_at = [(np.hstack([v, nv]), np.concatenate([h, nh], axis=3)) for (v, h), (nv, nh) in zip(
-                added_at, (self._at_points(p.values, p.hessians, p.dofs, direction) for p, _, _ in parts))]
         return plate_modes.modes_from_vectors(geometry, bare.resonator, bare.piezo, eigenvalues, vectors,
                                               self._gx, self._gy, self.grid_probe, self.probe, coupling)
 
