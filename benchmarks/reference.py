@@ -12,9 +12,11 @@ work squeezebench does:
   kernels and memory traffic the plate solves run at).
 
 Each part is timed as the best of `repeat` runs (the least disturbed by other processes);
-the reference is their sum, about 1.5 s on the 2-core machine of issue 51 when idle. It is
-one core's work: a parallel command can take fewer reference units on more cores, which is
-the point of running it there.
+the reference is their sum: 1.97 s on the 2-core machine of issue 51 at load 3, 11 s there
+at load 13 to 17 (eight jobs sharing it). It is one core's work: a parallel command can
+take fewer reference units on more cores, which is the point of running it there, and on
+an overloaded machine a parallel command's share of it falls faster than one core's, so
+its figure in reference units rises.
 
 Run alone: python benchmarks/reference.py
 """
