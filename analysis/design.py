@@ -41,7 +41,7 @@ import numpy as np
 import pandas as pd
 from uncertainties import ufloat
 
-from squeezebench.analysis import cartography, damping, model, plate_modes, specifications
+from squeezebench.analysis import cartography, damping, model, plate_modes, reduced_layouts, specifications
 from squeezebench.analysis.design_file import DesignFile
 from squeezebench.errors import UserError
 
@@ -209,22 +209,36 @@ def coupling_share(force_factors: np.ndarray) -> float:
     return abs(float(force_factors.sum())) / total if total > 0 else 0.0
 
 
+def _mesh_half_wave_m(design: DesignFile) -> float:
+    """One mesh for the design and its tolerance solves (sized on the nominal bare plate)."""
+    return plate_modes.flexural_half_wavelength_m(design.resonator_material, design.resonator.thickness_mm * 1e-3,
+                                                  design.search_hz)
+
+
+def bare_plate(design: DesignFile) -> reduced_layouts.BarePlate:
+    """What the design's layouts share, as `modal_part` solves them: the reduced model's key."""
+    r = design.resonator
+    return reduced_layouts.BarePlate(r.length_mm * 1e-3, r.width_mm * 1e-3, r.thickness_mm * 1e-3,
+                                     design.resonator_material, design.piezo_material, design.search_hz,
+                                     SEARCH_BAND_REL, mesh_half_wave_m=_mesh_half_wave_m(design))
+
+
 def modal_part(design: DesignFile, factors: dict[str, float] | None = None,
-               antinodes: int | None = None) -> ModalPart:
-    """Solve the design's plate with its structural inputs scaled by `factors`."""
+               antinodes: int | None = None, solve=None) -> ModalPart:
+    """Solve the design's plate with its structural inputs scaled by `factors`, by `solve`
+    (`plate_modes.solve_plate` unless given: a layout sweep's reduced model)."""
     f = {name: 1.0 for name in _STRUCTURAL} | {k: v for k, v in (factors or {}).items() if k in _STRUCTURAL}
     resonator = design.resonator_material
     resonator = replace(resonator, young_pa=resonator.young_pa * f["young_pa"],
                         density_kg_m3=resonator.density_kg_m3 * f["density_kg_m3"])
     geometry = design.geometry(thickness_factor=f["thickness_m"])
     try:
-        # one mesh for the design and its tolerance solves (sized on the nominal bare plate)
-        mesh_half_wave = plate_modes.flexural_half_wavelength_m(
-            design.resonator_material, design.resonator.thickness_mm * 1e-3, design.search_hz)
+        mesh_half_wave = _mesh_half_wave_m(design)
         # a design names its mode by antinode count, so +-5 % about the estimate is enough to
         # find it (the estimate is within about 1 % of the solved plate for the paper's plates)
-        modes = plate_modes.solve_plate(geometry, resonator, design.piezo_material, near_hz=design.search_hz,
-                                        mesh_half_wave_m=mesh_half_wave, band_rel=SEARCH_BAND_REL)
+        modes = (solve or plate_modes.solve_plate)(geometry, resonator, design.piezo_material,
+                                                   near_hz=design.search_hz, mesh_half_wave_m=mesh_half_wave,
+                                                   band_rel=SEARCH_BAND_REL)
         k = _select_mode(modes, design.search_hz, antinodes if antinodes is not None else design.mode.interior_antinodes)
     except ValueError:
         raise DesignError(f"design {design.name!r}: no mode near {design.search_hz:.0f} Hz keeps its nodal lines "
@@ -262,11 +276,11 @@ def physics_q(terms: dict, bond_factor: float = 1.0) -> float:
 
 
 def operating_point(design: DesignFile, factors: dict[str, float] | None = None,
-                    modal: ModalPart | None = None) -> OperatingPoint:
+                    modal: ModalPart | None = None, solve=None) -> OperatingPoint:
     """The design's working point with each input scaled by `factors` (1 if absent); `modal`
-    is the solve to use when only non-structural inputs move."""
+    is the solve to use when only non-structural inputs move, `solve` the plate's solver."""
     f = {name: 1.0 for name, _, _ in INPUTS} | (factors or {})
-    modal = modal or modal_part(design, f)
+    modal = modal or modal_part(design, f, solve=solve)
     modes, k = modal.modes, modal.mode_index
     frequency = float(modes.frequencies_hz[k])
     if design.target.at == "centre" and modal.centre_to_antinode < MIN_CENTRE_SHARE:
@@ -757,6 +771,7 @@ class DesignAnswer:
     measured: Measured | None = None
     printed: dict[str, float] | None = None   # the paper's values for this plate, when it is one of its plates
     layouts: pd.DataFrame | None = None
+    layouts_note: str = ""   # how the layouts were solved (reduced model checked, or in full)
     #: every design this lab checked against its built plate (`designing.HISTORY_FILE`)
     history: pd.DataFrame | None = None
     #: judged by `designing.run_design` (with the placement curve and the neighbouring modes)

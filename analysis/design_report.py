@@ -391,6 +391,7 @@ def payload(answer: DesignAnswer, files: dict[str, str]) -> dict:
         "comparison": json.loads(answer.comparison().to_json(orient="records")),
         "layouts": None if answer.layouts is None else {
             "count": int(len(answer.layouts)), "feasible": int(answer.layouts["feasible"].sum()),
+            "solved_by": answer.layouts_note,
             "pareto": json.loads(answer.layouts[answer.layouts["pareto"]].to_json(orient="records"))},
         "files": files,
     }

@@ -98,7 +98,7 @@ def layout_design(layout: Layout, design: DesignFile, antinodes: int) -> DesignF
         "mode": {"interior_antinodes": antinodes}})
 
 
-def evaluate(layout: Layout, design: DesignFile, antinodes: int) -> dict:
+def evaluate(layout: Layout, design: DesignFile, antinodes: int, solve=None) -> dict:
     """One layout's row: what the target needs, the homogeneity, and whether it is feasible
     (amplifier output, the piezo's field limit, powered piezos that do not cancel); a layout
     the model cannot answer for says why instead of numbers."""
@@ -108,7 +108,7 @@ def evaluate(layout: Layout, design: DesignFile, antinodes: int) -> dict:
            "piezo_thickness_mm": layout.piezo_thickness_mm}
     try:
         candidate = layout_design(layout, design, antinodes)
-        values = design_model.operating_point(candidate).values
+        values = design_model.operating_point(candidate, solve=solve).values
     except (design_model.DesignError, ValueError) as exc:
         return {**row, "n_piezos": np.nan, **{c: np.nan for c in RESULT_COLUMNS},
                 "feasible": False, "why_not": str(exc).split(": ", 1)[-1]}

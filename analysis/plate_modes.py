@@ -410,9 +410,7 @@ def solve_plate(geometry: PlateGeometry, resonator: Isotropic = ALUMINIUM_TABLE2
     `bond` is the adhesive under every patch (`RIGID_BOND`: the classical laminate);
     `thick_plate` False leaves the frequencies Kirchhoff's."""
     if n_modes is None:
-        d, mass, _ = laminate(resonator, geometry.thickness_m, piezo, 0.0)
-        density_per_hz = geometry.length_m * geometry.width_m / 2 * np.sqrt(mass / d)
-        n_modes = max(12, int(np.ceil(band_rel * near_hz * density_per_hz)))
+        n_modes = mode_count(geometry, resonator, piezo, near_hz, band_rel)
     key = _key(geometry, resonator, piezo, near_hz, n_modes, elements_per_half_wave, mesh_half_wave_m, bond,
                thick_plate)
     return _CACHE.get(key, lambda: _solve(geometry, resonator, piezo, near_hz, n_modes, elements_per_half_wave,
@@ -423,6 +421,38 @@ def _thin_half_wavelength_m(material: Isotropic, thickness_m: float, kirchhoff_h
     """Half-wavelength pi/k of bending waves in a thin (Kirchhoff) plate, k^4 = w^2 rho h / D."""
     d, mass, _ = laminate(material, thickness_m, material, 0.0)
     return float(np.pi / ((2 * np.pi * kirchhoff_hz) ** 2 * mass / d) ** 0.25)
+
+
+def mode_count(geometry: PlateGeometry, resonator: Isotropic, piezo: Piezo, near_hz: float,
+               band_rel: float) -> int:
+    """How many modes cover the band `band_rel` (whole width, relative) about `near_hz`: a
+    plate's modal density is S/2 sqrt(rho h / D) per hertz; at least 12."""
+    d, mass, _ = laminate(resonator, geometry.thickness_m, piezo, 0.0)
+    density_per_hz = geometry.length_m * geometry.width_m / 2 * np.sqrt(mass / d)
+    return max(12, int(np.ceil(band_rel * near_hz * density_per_hz)))
+
+
+def mesh_lines(geometry: PlateGeometry, resonator: Isotropic, kirchhoff_hz: float, elements_per_half_wave: float,
+               mesh_half_wave_m: float | None = None, x_edges=None, y_edges=None) -> tuple[np.ndarray, ...]:
+    """The mesh lines x, y of a solve (about `elements_per_half_wave` elements per flexural
+    half-wave at the eigenproblem's frequency `kirchhoff_hz`, a line on every patch edge, or
+    on `x_edges` and `y_edges` when given) and its shape grid gx, gy."""
+    half_wave = mesh_half_wave_m or _thin_half_wavelength_m(resonator, geometry.thickness_m, kirchhoff_hz)
+    target = half_wave / elements_per_half_wave
+    x = _grid(geometry.length_m, [b for p in geometry.patches for b in p.bounds[:2]] if x_edges is None
+              else list(x_edges), target)
+    y = _grid(geometry.width_m, [b for p in geometry.patches for b in p.bounds[2:]] if y_edges is None
+              else list(y_edges), target)
+    # Shapes on a grid fine enough to place nodal lines (4 points per half-wave: zero crossings interpolate to ~1 % of it).
+    gx = np.linspace(0, geometry.length_m, int(np.ceil(4 * geometry.length_m / half_wave)) + 1)
+    gy = np.linspace(0, geometry.width_m, int(np.ceil(4 * geometry.width_m / half_wave)) + 1)
+    return x, y, gx, gy
+
+
+def clamped_capacitance_f(piezo: Piezo, patch: Patch) -> float:
+    """C0 = eps33^T (1 - k31^2) A / h_p of one piezo (thin patch, electroded faces)."""
+    return (EPSILON_0_F_PER_M * piezo.relative_permittivity_t * (1 - piezo.k31**2)
+            * patch.length_x_m * patch.width_y_m / patch.thickness_m)
 
 
 def flexural_half_wavelength_m(material: Isotropic, thickness_m: float, frequency_hz: float) -> float:
@@ -514,29 +544,20 @@ def _solve(geometry, resonator, piezo, near_hz, n_modes, elements_per_half_wave,
     from skfem.helpers import dd, trace
 
     # the eigenproblem is Kirchhoff's: look for its modes where their corrected frequencies fall near the drive
-    if thick_plate:
-        near_hz = kirchhoff_frequency_hz(near_hz, resonator, geometry.thickness_m)
-    half_wave = mesh_half_wave_m or _thin_half_wavelength_m(resonator, geometry.thickness_m, near_hz)
-    target = half_wave / elements_per_half_wave
-    x = _grid(geometry.length_m, [b for p in geometry.patches for b in p.bounds[:2]], target)
-    y = _grid(geometry.width_m, [b for p in geometry.patches for b in p.bounds[2:]], target)
-    # Shapes on a grid fine enough to place nodal lines (4 points per half-wave: zero crossings interpolate to ~1 % of it).
-    gx = np.linspace(0, geometry.length_m, int(np.ceil(4 * geometry.length_m / half_wave)) + 1)
-    gy = np.linspace(0, geometry.width_m, int(np.ceil(4 * geometry.width_m / half_wave)) + 1)
+    near_hz = eigenproblem_hz(near_hz, resonator, geometry.thickness_m, thick_plate)
+    x, y, gx, gy = mesh_lines(geometry, resonator, near_hz, elements_per_half_wave, mesh_half_wave_m)
     mesh, basis, grid_probe, probe = _discretisation(*(tuple(a.tolist()) for a in (x, y, gx, gy)))
     centres = mesh.p[:, mesh.t].mean(axis=1)
 
     d_bare, mass_bare, _ = laminate(resonator, geometry.thickness_m, piezo, 0.0)
     d_e = np.full(mesh.nelements, d_bare)
     m_e = np.full(mesh.nelements, mass_bare)
-    inside, sections = [], []
-    for p in geometry.patches:
+    inside, sections = [], patch_sections(geometry, resonator, piezo, bond)
+    for p, section in zip(geometry.patches, sections):
         x0, x1, y0, y1 = p.bounds
         mask = ((centres[0] > x0) & (centres[0] < x1) & (centres[1] > y0) & (centres[1] < y1))
-        section = bonded_section(resonator, geometry.thickness_m, piezo, p.thickness_m, bond, p.length_x_m)
         d_e[mask], m_e[mask] = section[:2]
         inside.append(mask)
-        sections.append(section)
 
     @LinearForm
     def laplacian(v, w):
@@ -551,6 +572,48 @@ def _solve(geometry, resonator, piezo, near_hz, n_modes, elements_per_half_wave,
     order = np.argsort(eigenvalues)
     eigenvalues, vectors = eigenvalues[order], vectors[:, order]
 
+    # per element, then summed over each patch's elements: one assembly for every patch
+    per_element_laplacian = laplacian.elemental(basis)
+    laplacians = np.zeros((n, len(inside)))
+    for i, mask in enumerate(inside):
+        b = replace(per_element_laplacian, data=per_element_laplacian.data
+                                * np.tile(mask, basis.Nbfun)).todefault()
+        laplacians[:, i] = b @ vectors
+    added = np.where(np.any(inside, axis=0), d_e - d_bare, 0.0) if inside else np.zeros(mesh.nelements)
+    if added.any():
+        # the patches' added rigidity alone: its energy in each mass-normalised mode
+        k_added, _ = stiffness_and_mass(basis, added, m_e, resonator.poisson)
+        added_energy = np.einsum("ij,ij->j", vectors, k_added @ vectors)
+    else:
+        added_energy = np.zeros(n)
+    return modes_from_vectors(geometry, resonator, piezo, bond, thick_plate, sections, eigenvalues, vectors,
+                              gx, gy, grid_probe, probe, laplacians, added_energy)
+
+
+def eigenproblem_hz(near_hz: float, resonator: Isotropic, thickness_m: float, thick_plate: bool) -> float:
+    """Where the (Kirchhoff) eigenproblem's modes lie whose frequencies, corrected when
+    `thick_plate`, fall near the drive `near_hz`."""
+    return kirchhoff_frequency_hz(near_hz, resonator, thickness_m) if thick_plate else near_hz
+
+
+def patch_sections(geometry: PlateGeometry, resonator: Isotropic, piezo: Piezo,
+                   bond: Bond) -> list[tuple[float, float, float, float]]:
+    """Each patch's `bonded_section` (D, mass per area, lever arm, eta) on this plate."""
+    return [bonded_section(resonator, geometry.thickness_m, piezo, p.thickness_m, bond, p.length_x_m)
+            for p in geometry.patches]
+
+
+def modes_from_vectors(geometry: PlateGeometry, resonator: Isotropic, piezo: Piezo, bond: Bond, thick_plate: bool,
+                       sections: list, eigenvalues: np.ndarray, vectors: np.ndarray, gx: np.ndarray,
+                       gy: np.ndarray, grid_probe, probe, patch_laplacians: np.ndarray,
+                       added_energy: np.ndarray) -> PlateModes:
+    """The `PlateModes` of mass-normalised Kirchhoff eigenpairs (eigenvalues w_K^2 ascending,
+    vectors (dofs, modes)) on a basis whose `grid_probe` evaluates them on the shape grid
+    gx x gy and `probe(points)` anywhere; `sections` are the patches' `patch_sections`,
+    `patch_laplacians[k, i]` is \\int_patch_i (phi_xx + phi_yy) dA of mode k and
+    `added_energy[k]` phi_k^T K_added phi_k, the patches' added rigidity's share of
+    w_K^2. Shared by the full solve and reduced models of it (`analysis.reduced_layouts`)."""
+    n = len(eigenvalues)
     shapes = (grid_probe @ vectors).T.reshape(n, len(gx), len(gy))
     flat = shapes.reshape(n, -1)
     peak = flat[np.arange(n), np.abs(flat).argmax(axis=1)]  # signed: the peak reads +1
@@ -561,25 +624,15 @@ def _solve(geometry, resonator, piezo, near_hz, n_modes, elements_per_half_wave,
 
     theta = np.zeros((n, len(geometry.patches)))
     capacitance = np.zeros(len(geometry.patches))
-    # per element, then summed over each patch's elements: one assembly for every patch
-    per_element_laplacian = laplacian.elemental(basis)
-    for i, (p, mask, (_, _, z_m, eta)) in enumerate(zip(geometry.patches, inside, sections)):
-        b = replace(per_element_laplacian, data=per_element_laplacian.data
-                                * np.tile(mask, basis.Nbfun)).todefault()
+    for i, (p, (_, _, z_m, eta)) in enumerate(zip(geometry.patches, sections)):
         # Theta per mass-normalised mode, referred to the peak point: A = Theta / phi_peak;
         # the bond passes eta of the piezo's moment on (shear lag, reciprocal to its stiffening).
-        theta[:, i] = piezo.plate_e31_c_per_m2 * z_m * eta * (b @ vectors)
-        capacitance[i] = (EPSILON_0_F_PER_M * piezo.relative_permittivity_t * (1 - piezo.k31**2)
-                          * p.length_x_m * p.width_y_m / p.thickness_m)
+        theta[:, i] = piezo.plate_e31_c_per_m2 * z_m * eta * patch_laplacians[:, i]
+        capacitance[i] = clamped_capacitance_f(piezo, p)
     plate_mass = (resonator.density_kg_m3 * geometry.thickness_m * geometry.length_m
                   * geometry.width_m)
-    added = np.where(np.any(inside, axis=0), d_e - d_bare, 0.0) if inside else np.zeros(mesh.nelements)
-    if added.any():
-        # the patches' added rigidity alone: its energy over the whole, w_K^2 (mass-normalised modes)
-        k_added, _ = stiffness_and_mass(basis, added, m_e, resonator.poisson)
-        piezo_share = np.einsum("ij,ij->j", vectors, k_added @ vectors) / np.maximum(eigenvalues, 1e-30)
-    else:
-        piezo_share = np.zeros(n)
+    # the patches' added rigidity's energy over the whole, w_K^2 (mass-normalised modes)
+    piezo_share = added_energy / np.maximum(eigenvalues, 1e-30)
     kirchhoff = np.sqrt(np.maximum(eigenvalues, 0.0)) / (2 * np.pi)
     frequencies = (np.array([thick_plate_frequency_hz(f, resonator, geometry.thickness_m) for f in kirchhoff])
                    if thick_plate else kirchhoff)

@@ -21,6 +21,7 @@ import tempfile
 import time
 from pathlib import Path
 
+import reference  # noqa: E402  (benchmarks/, the script's own folder)
 from squeezebench.analysis.report import write_report
 from squeezebench.paths import campaigns_dir
 from squeezebench.protocols.campaign import load_campaign, run_campaign
@@ -31,6 +32,7 @@ GOAL_S = 60.0
 
 
 def main() -> int:
+    unit = reference.measure()
     campaign_file = campaigns_dir() / "cartography.yaml"
     run = load_campaign(campaign_file).runs[0]
     grid = run.parameters.grid
@@ -45,12 +47,13 @@ def main() -> int:
         write_report(run_dir)
         report_s = time.perf_counter() - start
     moves_s = map_bench_time_s(grid.points_mm(), (0.0, 0.0), 20.0, 80.0, settle_s=0.0, acquisition_s=0.0)
+    print(unit.line())
     print(f"load average (1 min) at the end: {os.getloadavg()[0]:.2f} on {os.cpu_count()} cores")
-    print(f"{len(mapped)} points at {grid.step_mm:g} mm: {wall_s:.1f} s wall for the whole map "
+    print(f"{len(mapped)} points at {grid.step_mm:g} mm: {unit.both(wall_s)} wall for the whole map "
           f"(goal <= {GOAL_S:.0f} s, ratio {wall_s / GOAL_S:.2f}), {1e3 * wall_s / len(mapped):.1f} ms a point")
     print(f"bench time {bench_s / 60:.1f} min, of which the stage's moves {moves_s / 60:.1f} min "
           f"(the rest: acquisitions, settling, the resonance re-checks)")
-    print(f"report on the stored map: {report_s:.1f} s")
+    print(f"report on the stored map: {unit.both(report_s)}")
     return 0 if wall_s <= GOAL_S else 1
 
 

@@ -1,49 +1,119 @@
 """Speed of `squeezebench design` on the paper's large plate (prints figures; not a test).
 
-What it times, in one run: the physics route with its whole budget (one solve at nominal,
-one per structural tolerance on the same mesh, the rest reusing them), and the sweep of
-300 piezo layouts on the parallel engine with the default workers (the cores this process
-may use). Goal (issue 24): the sweep <= 5 min on this 2-core machine. Printed as ratios
-of this run, with the load average beside them.
+What it times, in one run, on the parallel engine with the default workers:
 
-Run: python benchmarks/bench_design.py
+1. the physics route with its whole budget (one solve at nominal, one per structural
+   tolerance on the same mesh);
+2. the sweep's layouts (`layouts.grid`, 216) by the reduced model (`analysis.reduced_layouts`: each worker
+   builds the model once, then every layout), its check against the full solve on the
+   sample (`analysis.layout_sweep`) with the worst deviation found, and the full solve of
+   whole mesh families (every thickness of a placement), extrapolated to the whole sweep;
+3. about 3,000 layouts with the placement as a variable (the sweep's other axes at 84 gaps
+   between the end columns and the ends, over the sweep's range of gaps) by the reduced
+   model (`--skip-3000` skips it).
+
+Goals (issue 51, set for a 300-layout sweep): the sweep <= 20 reference units, 3,000 <= 200.
+Every time is printed in seconds and in reference units (`benchmarks/reference.py`), the reference measured before
+and after the timings in this run (their mean is the unit), with the load average beside.
+
+Run: python benchmarks/bench_design.py [--families N] [--skip-3000]
 """
 
 from __future__ import annotations
 
+import argparse
+import itertools
 import os
 import sys
 import time
 
-from squeezebench.analysis import design, layouts
+import numpy as np
+
+import reference  # the script's own folder (benchmarks/)
+from squeezebench.analysis import design, layout_sweep, layouts
 from squeezebench.paths import design_file
 from squeezebench.protocols.parallel import map_unordered
-from squeezebench.workers import default_workers
 from squeezebench.schemas import load_design_file
+from squeezebench.workers import default_workers
 
-SWEEP_GOAL_S = 300.0
+GOAL_SWEEP_REF = 20.0
+GOAL_3000_REF = 200.0
+#: 84 gaps x the sweep's 36 other combinations: 3,024 layouts
+PLACEMENTS_HALF_WAVES = np.linspace(0.0, max(layouts.EDGE_GAPS_HALF_WAVES), 84)
+
+
+def placement_grid(half_wavelength_mm: float, piezo_length_x_mm: float) -> list[layouts.Layout]:
+    """The sweep's axes with 84 gaps of the end columns from the ends instead of 6 (3,024 layouts)."""
+    return [layouts.Layout(columns, round(piezo_length_x_mm / 2 + gap * half_wavelength_mm, 3), count,
+                           arrangement, thickness)
+            for columns, gap, count, arrangement, thickness in itertools.product(
+                layouts.COLUMNS, PLACEMENTS_HALF_WAVES, layouts.PIEZOS_PER_COLUMN, layouts.ARRANGEMENTS,
+                layouts.PIEZO_THICKNESSES_MM)]
+
+
+def timed(function, *args):
+    start = time.perf_counter()
+    result = function(*args)
+    return time.perf_counter() - start, result
+
+
+def reduced_sweep(grid, spec, antinodes: int, workers: int):
+    """The check on the sample, then every layout by the reduced model: (check s, sweep s,
+    the check, layouts that fell back to the full solve)."""
+    checks, chunks = layout_sweep.tasks(grid, spec, antinodes, chunks=4 * workers)
+    check_s, checked = timed(lambda: [r for _, r in map_unordered(layout_sweep.run, checks, workers=workers)])
+    sweep_s, results = timed(lambda: [r for _, r in map_unordered(layout_sweep.run, chunks, workers=workers)])
+    rows = [row for chunk_rows, _ in results for row in chunk_rows]
+    assert len(rows) == len(grid)
+    return check_s, sweep_s, layout_sweep.check(checked), sum(fallbacks for _, fallbacks in results)
 
 
 def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--families", type=int, default=4, help="mesh families (one layout per piezo thickness each) solved in full")
+    parser.add_argument("--skip-3000", action="store_true")
+    args = parser.parse_args()
+    before = reference.measure()
     spec = load_design_file(design_file("large_plate"))
-    start = time.perf_counter()
-    physics = design.predict_physics(spec)
-    physics_s = time.perf_counter() - start
-    values = physics.nominal.values
-    grid = layouts.grid(values["half_wavelength_mm"], spec.piezo.length_x_mm)
     workers = default_workers()
-    start = time.perf_counter()
-    rows = [row for _, result in map_unordered(layouts.evaluate_mesh_group,
-                                               layouts.tasks(grid, spec, int(values["interior_antinodes"])),
-                                               workers=workers) for row in result]
-    sweep_s = time.perf_counter() - start
-    frame = layouts.finish(rows)
-    print(f"load average (1 min) at the end: {os.getloadavg()[0]:.2f} on {os.cpu_count()} cores, {workers} workers")
-    print(f"physics route with its budget: {physics_s:.1f} s ({len(physics.perturbed)} tolerance points)")
-    print(f"layout sweep: {len(frame)} layouts in {sweep_s:.0f} s (goal <= {SWEEP_GOAL_S:.0f} s, ratio "
-          f"{sweep_s / SWEEP_GOAL_S:.2f}), {sweep_s * workers / len(frame):.2f} s of one core a layout; "
-          f"{int(frame['feasible'].sum())} within the limits, {int(frame['pareto'].sum())} on the Pareto front")
-    return 0 if sweep_s <= SWEEP_GOAL_S else 1
+    physics_s, physics = timed(design.predict_physics, spec)
+    values = physics.nominal.values
+    antinodes = int(values["interior_antinodes"])
+    grid = layouts.grid(values["half_wavelength_mm"], spec.piezo.length_x_mm)
+    check_s, sweep_s, check, fallbacks = reduced_sweep(grid, spec, antinodes, workers)
+    families = layouts.tasks(grid, spec, antinodes)
+    chosen = [families[int(i)] for i in np.linspace(0, len(families) - 1, args.families).round()]
+    full_s, _ = timed(lambda: list(map_unordered(layouts.evaluate_mesh_group, chosen, workers=workers)))
+    solved = sum(len(task[0]) for task in chosen)
+    full_sweep_s = full_s * len(grid) / solved
+    if not args.skip_3000:
+        big = placement_grid(values["half_wavelength_mm"], spec.piezo.length_x_mm)
+        big_check_s, big_sweep_s, big_check, big_fallbacks = reduced_sweep(big, spec, antinodes, workers)
+    after = reference.measure()
+    unit = reference.mean(before, after)
+    print(f"before: {before.line()}\nafter:  {after.line()}\nunit: their mean, {unit.seconds:.3f} s; "
+          f"load average (1 min) at the end {os.getloadavg()[0]:.2f} on {os.cpu_count()} cores, {workers} workers")
+    print(f"physics route with its budget: {unit.both(physics_s)} ({len(physics.perturbed)} tolerance points)")
+    total_s = check_s + sweep_s
+    print(f"{len(grid)} layouts, reduced model: {unit.both(sweep_s)} for all (each worker's model built once "
+          f"included; {fallbacks} fell back to the full solve), + check on {len(check.table)} sampled layouts "
+          f"{unit.both(check_s)}: total {unit.both(total_s)} (goal <= {GOAL_SWEEP_REF:.0f} ref: "
+          f"{'met' if unit.units(total_s) <= GOAL_SWEEP_REF else 'MISSED'})")
+    print(f"{len(grid)} layouts, full solve: {unit.both(full_sweep_s)}, extrapolated from {solved} layouts "
+          f"({len(chosen)} mesh families) solved in {unit.both(full_s)}; reduced model "
+          f"{full_sweep_s / total_s:.1f}x faster with its check")
+    limits = layout_sweep.reduced_layouts
+    print(f"check against the full solve: {check.worst()}; limits {limits.FREQUENCY_TOLERANCE_REL:.1%} "
+          f"and {limits.FORCE_TOLERANCE_REL:.0%}: "
+          f"{'passed' if check.passed else 'MISSED, so `design` solves this sweep in full'}")
+    print(check.table.to_string(index=False, float_format=lambda v: f"{v:+.4%}"))
+    if not args.skip_3000:
+        big_total_s = big_check_s + big_sweep_s
+        print(f"{len(big)} layouts ({len(PLACEMENTS_HALF_WAVES)} placements), reduced model: {unit.both(big_sweep_s)} + check on "
+              f"{len(big_check.table)} {unit.both(big_check_s)}: total {unit.both(big_total_s)} "
+              f"({big_fallbacks} fell back; goal <= {GOAL_3000_REF:.0f} ref: "
+              f"{'met' if unit.units(big_total_s) <= GOAL_3000_REF else 'MISSED'}); check: {big_check.worst()}")
+    return 0
 
 
 if __name__ == "__main__":

@@ -21,6 +21,7 @@ from pathlib import Path
 
 os.environ["MPLBACKEND"] = "Agg"
 
+import reference  # noqa: E402  (benchmarks/, the script's own folder)
 from squeezebench import cli  # noqa: E402
 
 GOAL_RATIO = 1.5
@@ -38,6 +39,7 @@ def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeat", type=int, default=3)
     args = parser.parse_args()
+    unit = reference.measure()
     plain, plotted = [], []
     with tempfile.TemporaryDirectory() as folder:
         timed_run(Path(folder) / "warm", plot=True)   # imports and caches, for neither side
@@ -46,7 +48,9 @@ def main() -> int:
             plotted.append(timed_run(Path(folder) / f"plot{i}", plot=True))
     ratio = statistics.median(plotted) / statistics.median(plain)
     print(f"load average (1 min) at the end: {os.getloadavg()[0]:.2f} on {os.cpu_count()} cores")
-    print(f"run quick: {statistics.median(plain):.2f} s, with --plot {statistics.median(plotted):.2f} s "
+    print(unit.line())
+    print(f"run quick: {unit.both(statistics.median(plain), 2)}, "
+          f"with --plot {unit.both(statistics.median(plotted), 2)} "
           f"(medians of {args.repeat}); ratio {ratio:.2f} (goal <= {GOAL_RATIO})")
     return 0 if ratio <= GOAL_RATIO else 1
 

@@ -23,6 +23,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
+import reference  # noqa: E402  (benchmarks/, the script's own folder)
 from squeezebench.analysis.report import write_report  # noqa: E402
 from squeezebench.analysis.waveforms import integer_period_mean_power_w  # noqa: E402
 from squeezebench.protocols.accuracy_study import run_study  # noqa: E402
@@ -82,14 +83,17 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--repeat", type=int, default=5, help="timings per figure, best kept (default 5)")
     parser.add_argument("--skip-reproduce", action="store_true", help="only the waveform reduction")
     args = parser.parse_args(argv)
+    unit = reference.measure()
+    print(unit.line())
     if not args.skip_reproduce:
         phases = reproduce_wall_s()
-        print("reproduce: " + " + ".join(f"{name} {seconds:.1f} s" for name, seconds in phases.items())
-              + f" = {sum(phases.values()):.1f} s wall (goal: under 120 s)")
+        print("reproduce: " + " + ".join(f"{name} {unit.both(seconds)}" for name, seconds in phases.items())
+              + f" = {unit.both(sum(phases.values()))} wall (goal: under 120 s)")
     reduce_s, dot_s = reduction_ratio(args.repeat)
     ratio = reduce_s / dot_s
     verdict = "ok" if ratio <= REDUCTION_GOAL_RATIO else "SLOWER than goal"
-    print(f"waveform reduction ({N_SAMPLES} samples): {reduce_s * 1e6:.1f} us vs bare dot "
+    print(f"waveform reduction ({N_SAMPLES} samples): {reduce_s * 1e6:.1f} us = {unit.units(reduce_s) * 1e6:.1f} uref "
+          f"vs bare dot "
           f"{dot_s * 1e6:.1f} us -> {ratio:.2f}x (goal <= {REDUCTION_GOAL_RATIO:g}x, {verdict})")
     return 0
 

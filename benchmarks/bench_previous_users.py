@@ -22,6 +22,8 @@ from pathlib import Path
 
 import pandas as pd
 
+from reference import measure as measure_reference   # benchmarks/, the script's own folder
+
 from squeezebench import paths
 from squeezebench.instruments.bench import sim_bench_config
 from squeezebench.protocols import campaign
@@ -55,6 +57,8 @@ def main(argv: list[str] | None = None) -> int:
     tasks = [(name, start) for name in args.campaigns
              for start in ("power_on", *(f"previous-{seed}" for seed in range(1, args.states + 1)))]
     workers = default_workers()
+    unit = measure_reference()
+    print(unit.line())
     begin = time.perf_counter()
     results = {(name, start): (rows, refused) for _, (name, start, rows, refused)
                in map_unordered(measured, tasks, workers=workers)}
@@ -76,7 +80,7 @@ def main(argv: list[str] | None = None) -> int:
               f"{len(reference)} rows with no command refused")
         for line in bad:
             print(f"    {line}")
-    print(f"{len(tasks)} runs in {time.perf_counter() - begin:.0f} s on {workers} workers; "
+    print(f"{len(tasks)} runs in {unit.both(time.perf_counter() - begin, 0)} on {workers} workers; "
           f"load average (1 min) {os.getloadavg()[0]:.2f} on {os.cpu_count()} cores")
     return 1 if failed else 0
 

@@ -11,8 +11,16 @@
 4. the per-point reduction (analysis.waveforms.reduce_point) of 10,000 samples (goal <= 1 ms);
 5. a simulated command (`*IDN?` through the scene backend) against a bare pyvisa-sim
    query (goal <= 2x);
-6. `squeezebench plan paper --target-rel-error 0.01` with the default flags (goal <= 10 s),
-   from an empty plan cache, then again at the same target (`protocols.plan_cache`).
+6. `squeezebench plan paper --target-rel-error 0.01` with the default flags (goal <= 8
+   reference units), from an empty plan cache, then again at the same target
+   (`protocols.plan_cache`);
+7. the README's test command's suite, `python -m pytest -n auto` (goal <= 80 reference units;
+   `--skip-suite` leaves it out: it takes minutes and every core).
+
+Every wall time is printed in seconds and in reference units (`benchmarks/reference.py`:
+a fixed workload timed before and after the commands in this same run, their mean the
+unit), so a figure means the same on another machine (issue 51); goal for `reproduce`
+with the default flags: <= 20 reference units.
 
 Wall times of the commands are single runs (they are long), each in a fresh process as a
 user starts it (imports and worker processes included); the short operations take the
@@ -21,7 +29,8 @@ best of several. The machine may be shared: each wall time is printed with the
 it ran, so a reader can tell an idle figure from a loaded one (the load average alone still
 remembers the previous command).
 
-Run: python benchmarks/bench_scaling.py [--repeat N] [--skip-reproduce] [--skip-plan] [--write-reference]
+Run: python benchmarks/bench_scaling.py [--repeat N] [--skip-reproduce] [--skip-plan] [--skip-suite]
+     [--write-reference]
 """
 
 from __future__ import annotations
@@ -42,6 +51,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "benchmarks"))
 
+import reference  # noqa: E402
 from bench_simulator import acquire_and_fetch, best_of, idn_queries, open_bare_scope, prepared_scope  # noqa: E402
 from squeezebench import cli, paths  # noqa: E402
 from squeezebench.workers import default_workers  # noqa: E402
@@ -68,8 +78,8 @@ def machine_busy_s() -> float:
 
 
 def command_s(arguments: list[str], environment: dict[str, str] | None = None,
-              allowed: tuple[int, ...] = (0,)) -> tuple[float, str]:
-    """Wall seconds of `python -m squeezebench ARGUMENTS` in a fresh process, as a user runs
+              allowed: tuple[int, ...] = (0,), module: str = "squeezebench") -> tuple[float, str]:
+    """Wall seconds of `python -m MODULE ARGUMENTS` in a fresh process, as a user runs
     it (start-up, imports and worker processes included), and whether the machine was idle
     meanwhile: the load average before it (the minute before, so partly the previous
     command) and the CPU seconds other processes took while it ran (0.0-0.4 measured here
@@ -77,12 +87,12 @@ def command_s(arguments: list[str], environment: dict[str, str] | None = None,
     before = load()
     busy_s, own_s = machine_busy_s(), sum(os.times()[2:4])   # the children's user and system time
     start_s = time.perf_counter()
-    done = subprocess.run([sys.executable, "-m", "squeezebench", *arguments], capture_output=True, text=True,
+    done = subprocess.run([sys.executable, "-m", module, *arguments], capture_output=True, text=True,
                           env={**os.environ, **(environment or {})}, cwd=ROOT)
     elapsed_s = time.perf_counter() - start_s
     others_s = (machine_busy_s() - busy_s) - (sum(os.times()[2:4]) - own_s)
     if done.returncode not in allowed:
-        raise SystemExit(f"squeezebench {' '.join(arguments)} exited with {done.returncode}: {done.stderr}")
+        raise SystemExit(f"{module} {' '.join(arguments)} exited with {done.returncode}: {done.stderr}")
     return elapsed_s, f"{before}, other processes {max(others_s, 0.0):.1f} CPU-s"
 
 
@@ -154,37 +164,58 @@ def plan_s() -> list[tuple[float, str]]:
                           allowed=(0, 2)) for _ in range(2)]
 
 
+def suite_s() -> tuple[float, str]:
+    """The README's test command's suite (`python -m pytest -n auto`), from the checkout."""
+    return command_s(["-n", "auto", "-q", "-p", "no:cacheprovider"], module="pytest")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeat", type=int, default=7)
     parser.add_argument("--skip-reproduce", action="store_true")
     parser.add_argument("--skip-plan", action="store_true")
+    parser.add_argument("--skip-suite", action="store_true")
     parser.add_argument("--write-reference", action="store_true",
                         help=f"store this run's study figures as {REFERENCE.name} (after a change meant to keep them)")
     args = parser.parse_args()
+    before = reference.measure()
+    lines = []
     if not args.skip_reproduce:
         default_s, default_load, found = reproduce_s(None)
         if args.write_reference:
             found.to_csv(REFERENCE, index=False)
         one_s, one_load, _ = reproduce_s(1)
-        print(f"reproduce wall time: default flags ({default_workers()} workers) {default_s:6.1f} s ({default_load})"
-              f"   1 worker {one_s:6.1f} s ({one_load})   (goal, default flags: <= 25 s)")
-        print(figures_against_reference(found))
+        lines.append(lambda unit: f"reproduce wall time: default flags ({default_workers()} workers) "
+                     f"{unit.both(default_s)} ({default_load})   1 worker {unit.both(one_s)} ({one_load})   "
+                     "(goal, default flags: <= 20 ref)")
+        lines.append(lambda unit: figures_against_reference(found))
         (study_default_s, study_default_load), (study_one_s, study_one_load) = study_s(default_workers()), study_s(1)
-        print(f"accuracy study alone: default flags {study_default_s:6.1f} s ({study_default_load})   1 worker "
-              f"{study_one_s:6.1f} s ({study_one_load})   speed-up {study_one_s / study_default_s:4.2f}x "
-              "(goal on 2 cores: >= 1.7x)")
+        lines.append(lambda unit: f"accuracy study alone: default flags {unit.both(study_default_s)} "
+                     f"({study_default_load})   1 worker {unit.both(study_one_s)} ({study_one_load})   speed-up "
+                     f"{study_one_s / study_default_s:4.2f}x (goal on 2 cores: >= 1.7x)")
     single_s, averaged_s = acquisition_ratio(args.repeat)
-    print(f"acquire + fetch 3 x 10k points: sample mode {single_s * 1e3:6.2f} ms   512 averages "
-          f"{averaged_s * 1e3:6.2f} ms   ratio {averaged_s / single_s:4.2f} (goal <= 4)")
-    print(f"reduction of one 10k-sample point: {reduction_s(args.repeat) * 1e3:6.2f} ms (goal <= 1 ms)")
+    lines.append(lambda unit: f"acquire + fetch 3 x 10k points: sample mode {single_s * 1e3:6.2f} ms = "
+                 f"{unit.units(single_s) * 1e3:.2f} mref   512 averages {averaged_s * 1e3:6.2f} ms = "
+                 f"{unit.units(averaged_s) * 1e3:.2f} mref   ratio {averaged_s / single_s:4.2f} (goal <= 4)")
+    point_s = reduction_s(args.repeat)
+    lines.append(lambda unit: f"reduction of one 10k-sample point: {point_s * 1e3:6.2f} ms = "
+                 f"{unit.units(point_s) * 1e3:.2f} mref (goal <= 1 ms)")
     bare_s, scene_s = command_ratio(args.repeat)
-    print(f"*IDN? query: pyvisa-sim {bare_s * 1e6:7.1f} us   scene backend {scene_s * 1e6:7.1f} us   "
-          f"ratio {scene_s / bare_s:4.2f} (goal <= 2)")
+    lines.append(lambda unit: f"*IDN? query: pyvisa-sim {bare_s * 1e6:7.1f} us   scene backend {scene_s * 1e6:7.1f} us "
+                 f"= {unit.units(scene_s) * 1e6:.1f} uref   ratio {scene_s / bare_s:4.2f} (goal <= 2)")
     if not args.skip_plan:
         (cold_s, cold_load), (warm_s, warm_load) = plan_s()
-        print(f"plan on the paper campaign, default flags: empty cache {cold_s:6.1f} s ({cold_load})   "
-              f"again {warm_s:6.1f} s ({warm_load}) (goal <= 10 s)")
+        lines.append(lambda unit: f"plan on the paper campaign, default flags: empty cache {unit.both(cold_s)} "
+                     f"({cold_load})   again {unit.both(warm_s)} ({warm_load}) (goal, empty cache: <= 8 ref)")
+    if not args.skip_suite:
+        test_s, test_load = suite_s()
+        lines.append(lambda unit: f"the README's test command's suite (pytest -n auto): {unit.both(test_s)} "
+                     f"({test_load}) (goal <= 80 ref)")
+    after = reference.measure()
+    unit = reference.mean(before, after)
+    print(f"before: {before.line()}\nafter:  {after.line()}\nunit: their mean, {unit.seconds:.3f} s")
+    for line in lines:
+        print(line(unit))
 
 if __name__ == "__main__":
     main()

@@ -25,6 +25,7 @@ import yaml
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
+import reference  # noqa: E402  (benchmarks/, the script's own folder)
 from squeezebench.simbench.effects import EFFECTS  # noqa: E402
 from squeezebench import paths  # noqa: E402
 
@@ -110,6 +111,8 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeat", type=int, default=7)
     repeat = parser.parse_args().repeat
+    unit = reference.measure()
+    print(unit.line())
 
     with tempfile.TemporaryDirectory() as tmp:
         bare = open_bare_scope(Path(tmp))
@@ -120,7 +123,8 @@ def main() -> None:
         bare_s = best_of(repeat, idn_queries, bare) / 200
         scene_s = best_of(repeat, idn_queries, scene_scope) / 200
         command_s = best_of(repeat, setting_commands, scene_scope) / 200
-        print(f"*IDN? query: pyvisa-sim {bare_s * 1e6:8.1f} us   scene backend {scene_s * 1e6:8.1f} us   "
+        print(f"*IDN? query: pyvisa-sim {bare_s * 1e6:8.1f} us   scene backend {scene_s * 1e6:8.1f} us = "
+              f"{unit.units(scene_s) * 1e6:.1f} uref   "
               f"ratio {scene_s / bare_s:5.2f} (goal <= 2)")
         print(f"ACQUIRE:NUMAVG 16 (parsed, dispatched on its header): {command_s * 1e6:8.1f} us   "
               f"ratio to the bare query {command_s / bare_s:5.2f} (goal <= 2)")
@@ -129,7 +133,8 @@ def main() -> None:
         _, every_scope = prepared_scope(every_scene)
         ideal_s = best_of(repeat, acquire_and_fetch, ideal_scope)
         every_s = best_of(repeat, acquire_and_fetch, every_scope)
-        print(f"acquire + fetch 3 x 10k points, 16 averages: ideal {ideal_s * 1e3:7.2f} ms   "
+        print(f"acquire + fetch 3 x 10k points, 16 averages: ideal {ideal_s * 1e3:7.2f} ms = "
+              f"{unit.units(ideal_s) * 1e3:.2f} mref   "
               f"all effects {every_s * 1e3:7.2f} ms   ratio {every_s / ideal_s:5.1f} (goal >= 10)")
 
 

@@ -21,6 +21,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
+import reference  # noqa: E402  (benchmarks/, the script's own folder)
 from squeezebench import paths  # noqa: E402
 from squeezebench.protocols.bench_errors import errors_on_benches, p95_by_run  # noqa: E402
 from squeezebench.protocols.planning import CHECK_BENCHES, make_plan, write_planned_campaign  # noqa: E402
@@ -33,11 +34,12 @@ def main() -> int:
     parser.add_argument("--benches", type=int, default=20, help="unseen benches to validate on (default 20)")
     parser.add_argument("--workers", type=int, default=2)
     args = parser.parse_args()
-
+    unit = reference.measure()
+    print(unit.line())
     start = time.perf_counter()
     plan = make_plan(args.campaign, args.target, workers=args.workers)
     print(plan.table())
-    print(f"plan: {time.perf_counter() - start:.0f} s wall")
+    print(f"plan: {unit.both(time.perf_counter() - start, 0)} wall")
     if plan.check is None:
         print("the target is below the reachable floor: nothing to validate")
         return 0
@@ -48,7 +50,7 @@ def main() -> int:
         errors = errors_on_benches(planned, unseen, workers=args.workers)
     p95 = p95_by_run(errors)
     print(f"\nthe planned campaign on {len(unseen)} benches it was not checked on "
-          f"({unseen.start}..{unseen.stop - 1}), {time.perf_counter() - start:.0f} s wall:")
+          f"({unseen.start}..{unseen.stop - 1}), {unit.both(time.perf_counter() - start, 0)} wall:")
     print(p95.to_string(index=False, float_format=lambda v: f"{v:.2%}"))
     worst = p95.groupby("quantity")["p95_abs_rel_error"].max()
     print("worst run p95 |error|: " + ", ".join(f"{q} {v:.2%}" for q, v in worst.items())

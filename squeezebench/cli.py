@@ -495,6 +495,8 @@ def cmd_design(args: argparse.Namespace) -> int:
         emit_json(payload(answer, files) | {"out": str(folder), "build": build})
     else:
         say(args, "\n".join(headline(answer)))
+        if answer.layouts_note:
+            say(args, answer.layouts_note)
         say(args, f"design page written to {folder / files['page']}")
         if build:
             say(args, f"predicted scene {build['scene']}; characterise it with: squeezebench run {build['campaign']}")

@@ -163,7 +163,8 @@ def run_design(plate: str | Path, from_runs: Iterable[str | Path] = (), measured
                scheduler: Any = None, allow_infeasible: bool = False) -> design_model.DesignAnswer:
     """The design's answer; an infeasible one (`design.judge`) is refused with the nearest
     feasible change named, unless `allow_infeasible` (then it carries its red verdict). A
-    mode the powered piezos cancel on is refused before its budget is solved."""
+    mode the powered piezos cancel on is refused before its budget is solved. The layout
+    sweep (`sweep`) is by the reduced model where it passes its check (`sweep_layouts`)."""
     from squeezebench.protocols.parallel import map_unordered
     from squeezebench.workers import default_workers
     from squeezebench.schemas import load_design_file
@@ -204,15 +205,9 @@ def run_design(plate: str | Path, from_runs: Iterable[str | Path] = (), measured
         answer = replace(answer, measured=design_model.measured_point(physics, plates[name]))
     if sweep:
         values = physics.nominal.values
-        grid = layouts.grid(values["half_wavelength_mm"], spec.piezo.length_x_mm)
-        rows = []
-        for _, result in map_unordered(layouts.evaluate_mesh_group,
-                                       layouts.tasks(grid, spec, int(values["interior_antinodes"])),
-                                       workers=workers or default_workers(), scheduler=scheduler,
-                                       description="layouts"):
-            rows.extend(result)
-        frame = layouts.finish(rows)
-        answer = replace(answer, layouts=frame, best_layout=_best_layout(frame, spec, int(values["interior_antinodes"])))
+        frame, note = sweep_layouts(spec, values, workers=workers, scheduler=scheduler)
+        answer = replace(answer, layouts=frame, layouts_note=note,
+                         best_layout=_best_layout(frame, spec, int(values["interior_antinodes"])))
     return answer
 
 
@@ -231,6 +226,49 @@ def _best_layout(frame: pd.DataFrame, spec, antinodes: int) -> design_model.Phys
     layout = layouts.Layout(best["columns"], float(best["edge_offset_mm"]), int(best["piezos_per_column"]),
                             best["arrangement"], float(best["piezo_thickness_mm"]))
     return design_model.predict_physics(layouts.layout_design(layout, spec, antinodes))
+
+
+def sweep_layouts(spec, values: dict, workers: int | None = None, scheduler: Any = None, reduced: bool = True,
+                  grid: list | None = None) -> tuple[pd.DataFrame, str]:
+    """The layout sweep (`layouts.grid` unless `grid` is given) at the design's working mode
+    on the parallel engine: by the reduced model with its sample checked against the full
+    solve (`analysis.layout_sweep`), every layout in full if the check fails or `reduced` is
+    false. Returns the table and a sentence saying how it was solved."""
+    from squeezebench.analysis import layout_sweep
+    from squeezebench.protocols.parallel import map_unordered
+    from squeezebench.workers import default_workers
+
+    workers = workers or default_workers()
+    grid = grid if grid is not None else layouts.grid(values["half_wavelength_mm"], spec.piezo.length_x_mm)
+    antinodes = int(values["interior_antinodes"])
+
+    def full(wanted: list) -> list[dict]:
+        return [row for _, result in map_unordered(layouts.evaluate_mesh_group, layouts.tasks(wanted, spec, antinodes),
+                                                   workers=workers, scheduler=scheduler, description="layouts")
+                for row in result]
+
+    if not reduced:
+        return layouts.finish(full(grid)), f"{len(grid)} layouts, each by the full solve"
+    # the sample first: a model that misses its check costs the sample's reduced solves, not a sweep's
+    checks, chunks = layout_sweep.tasks(grid, spec, antinodes, chunks=4 * workers)
+    checked = [result for _, result in map_unordered(layout_sweep.run, checks, workers=workers, scheduler=scheduler,
+                                                     description="layouts checked")]
+    check = layout_sweep.check(checked)
+    if not check.passed:
+        sampled = {result["layout"] for result in checked}
+        rows = [result["row"] for result in checked] + full([layout for layout in grid if layout not in sampled])
+        return layouts.finish(rows), (
+            f"{len(grid)} layouts, each by the full solve: the reduced model missed its check against it "
+            f"({check.worst()}; limits {layout_sweep.reduced_layouts.FREQUENCY_TOLERANCE_REL:.1%} and "
+            f"{layout_sweep.reduced_layouts.FORCE_TOLERANCE_REL:.0%})")
+    rows, fallbacks = [], 0
+    for _, (chunk_rows, chunk_fallbacks) in map_unordered(layout_sweep.run, chunks, workers=workers,
+                                                         scheduler=scheduler, description="layouts"):
+        rows.extend(chunk_rows)
+        fallbacks += chunk_fallbacks
+    extra = f"; {fallbacks} did not settle and were solved in full" if fallbacks else ""
+    return layouts.finish(rows), (f"{len(grid)} layouts by the reduced model{extra}; checked against the full "
+                                  f"solve on {len(checked)} of them: {check.worst()}")
 
 
 #: Beside the designs' folders: every design checked against its built plate, one row per

@@ -1,0 +1,371 @@
+"""A reduced model of one plate for sweeps of its piezo layouts, checked against the full solve.
+
+Every layout of a sweep is the same plate with other patches; the full solve
+(`plate_modes.solve_plate`) builds a mesh, a basis and an eigenproblem of thousands of
+degrees of freedom for each (about 0.9 s for the large plate). Here the bare plate is
+solved once on its own mesh (`plate_modes.mesh_lines` of the plate without patches), and
+its mass-normalised modes in a band about the drive, phi_1..phi_r (K0 phi = w^2 M0 phi),
+are the Ritz basis of every layout. A patch changes the rigidity and the mass per area on
+its rectangle by dD and dm (`plate_modes.patch_sections`: the bonded laminate, its bond's
+shear lag and mass, whatever that physics is), so
+in that basis (Rayleigh-Ritz, the bilinear forms of `plate_modes.stiffness_and_mass`)
+
+    K_ab = w_a^2 delta_ab + sum_patches dD \\int_patch [(1 - nu) phi_a,ij phi_b,ij + nu lap phi_a lap phi_b] dA
+    M_ab = delta_ab       + sum_patches dm \\int_patch phi_a phi_b dA
+
+and the coupling integral of `plate_modes` is \\int_patch lap phi dA of the Ritz modes. Like
+the full solve this is Kirchhoff's eigenproblem (about the drive's Kirchhoff frequency,
+`plate_modes.eigenproblem_hz`); `plate_modes.modes_from_vectors` then applies the same
+thick-plate correction, bond effectiveness and strain-energy shares to its eigenpairs. The
+integrals over a patch are exact for any rectangle, on or off the mesh lines: each triangle
+the patch covers is clipped to it and integrated with the full solve's quadrature on the
+pieces, so a patch may sit anywhere on the plate. They depend only on the rectangle, so a
+sweep computes each once, and a layout costs an r x r eigenproblem (milliseconds).
+
+A Ritz basis of smooth bare modes cannot bend more softly under a stiff patch, so it is
+a model, not the solve: `check` compares it with full solves of a sample of the sweep's
+layouts (frequency within `FREQUENCY_TOLERANCE_REL`, force factor within
+`FORCE_TOLERANCE_REL`), and a sweep whose sample misses is solved in full
+(`squeezebench.designing`).
+"""
+from __future__ import annotations
+
+import functools
+from dataclasses import dataclass, replace
+
+import numpy as np
+from scipy.linalg import eigh
+from scipy.sparse.linalg import eigsh
+
+from squeezebench.analysis import plate_modes
+from squeezebench.analysis.plate_modes import Bond, Isotropic, Piezo, PlateGeometry
+
+#: The reduced model answers for a layout if its working mode's frequency is within 0.2 %
+#: of the full solve's and its force factor within 2 % (issue 51).
+FREQUENCY_TOLERANCE_REL = 0.002
+FORCE_TOLERANCE_REL = 0.02
+#: The Ritz basis: the bare plate's modes within this whole band (relative) about the
+#: drive; patches move the working mode by a few per cent and mix it with its neighbours.
+BASIS_BAND_REL = 0.2
+#: The full solve's quadrature order (`plate_modes._discretisation`), used on the clipped pieces.
+QUADRATURE_ORDER = 8
+#: Patch edges closer than this share of an element are meshed as one line.
+MIN_EDGE_GAP = 0.125
+#: Davidson refinement of the working-mode candidates (modes this even across the width):
+#: done when their w^2 and coupling integrals move by less than `SETTLED_REL` in a step.
+CANDIDATE_UNIFORMITY = 0.5
+SETTLED_REL = 1e-3
+MAX_STEPS = 30
+
+
+@dataclass(frozen=True)
+class BarePlate:
+    """What a sweep's layouts share: the plate, its materials, the drive and the mesh size
+    (the arguments of `plate_modes.solve_plate` but the patches)."""
+
+    length_m: float
+    width_m: float
+    thickness_m: float
+    resonator: Isotropic
+    piezo: Piezo
+    near_hz: float
+    band_rel: float
+    elements_per_half_wave: float = 1.5
+    mesh_half_wave_m: float | None = None
+    bond: Bond = plate_modes.EPOXY
+    thick_plate: bool = True
+    x_edges_m: tuple[float, ...] = ()
+    y_edges_m: tuple[float, ...] = ()
+
+    def with_edges_of(self, geometries) -> "BarePlate":
+        """This plate meshed with a line on every patch edge of `geometries` (a sweep's
+        layouts), edges closer than `MIN_EDGE_GAP` of an element apart taken as one: a
+        patch then covers whole elements, as in its full solve, and no element is a sliver."""
+        gap = MIN_EDGE_GAP * (self.mesh_half_wave_m or plate_modes.flexural_half_wavelength_m(
+            self.resonator, self.thickness_m, self.near_hz)) / self.elements_per_half_wave
+        return replace(self, x_edges_m=_spread({b for g in geometries for p in g.patches for b in p.bounds[:2]}, gap),
+                       y_edges_m=_spread({b for g in geometries for p in g.patches for b in p.bounds[2:]}, gap))
+
+    @property
+    def geometry(self) -> PlateGeometry:
+        return PlateGeometry(self.length_m, self.width_m, self.thickness_m)
+
+    def fits(self, geometry: PlateGeometry) -> bool:
+        return (geometry.length_m, geometry.width_m, geometry.thickness_m) == (
+            self.length_m, self.width_m, self.thickness_m)
+
+
+def _spread(edges, gap: float) -> tuple[float, ...]:
+    """The sorted `edges` less each one within `gap` of the last one kept."""
+    kept: list[float] = []
+    for edge in sorted(edges):
+        if not kept or edge - kept[-1] >= gap:
+            kept.append(float(edge))
+    return tuple(kept)
+
+
+def clip_to_rectangle(polygon: np.ndarray, x0: float, x1: float, y0: float, y1: float) -> np.ndarray:
+    """The convex `polygon` (k, 2) cut to the rectangle [x0, x1] x [y0, y1]
+    (Sutherland-Hodgman, one half-plane at a time); (0, 2) if they do not overlap."""
+    for axis, bound, keep_above in ((0, x0, True), (0, x1, False), (1, y0, True), (1, y1, False)):
+        if len(polygon) == 0:
+            break
+        side = (polygon[:, axis] - bound) * (1 if keep_above else -1)
+        out = []
+        for i in range(len(polygon)):
+            a, b, sa, sb = polygon[i - 1], polygon[i], side[i - 1], side[i]
+            if sb >= 0:
+                if sa < 0:
+                    out.append(a + (b - a) * sa / (sa - sb))
+                out.append(b)
+            elif sa >= 0:
+                out.append(a + (b - a) * sa / (sa - sb))
+        polygon = np.array(out).reshape(-1, 2)
+    return polygon
+
+
+@dataclass(frozen=True)
+class PatchPoints:
+    """A rectangle's quadrature on the mesh: weights (Q), the elements' basis functions'
+    values (functions, Q) and Hessians (functions, 2, 2, Q), their dofs (functions, Q), the
+    bare modes' values (Q, r) and Hessians (2, 2, Q, r) there, and the bare modes' integrals:
+    stiffness per unit dD (r, r), mass per unit dm (r, r), \\int lap phi dA (r)."""
+
+    weights: np.ndarray
+    values: np.ndarray
+    hessians: np.ndarray
+    dofs: np.ndarray
+    mode_values: np.ndarray
+    mode_hessians: np.ndarray
+    stiffness: np.ndarray
+    mass: np.ndarray
+    laplacian: np.ndarray
+
+
+def _integrals(weights: np.ndarray, nu: float, values_a, hessians_a, values_b, hessians_b):
+    """Stiffness per unit dD, mass per unit dm between two sets of functions given at the
+    points: the bilinear forms of `plate_modes.stiffness_and_mass`."""
+    weighted = hessians_a * weights[:, None]
+    laplacians_a = hessians_a[0, 0] + hessians_a[1, 1]
+    laplacians_b = hessians_b[0, 0] + hessians_b[1, 1]
+    stiffness = ((1 - nu) * np.einsum("ijqa,ijqb->ab", weighted, hessians_b)
+                 + nu * (laplacians_a * weights[:, None]).T @ laplacians_b)
+    return stiffness, (values_a * weights[:, None]).T @ values_b
+
+
+class ReducedPlate:
+    """The bare plate's Ritz basis and the patch integrals computed so far; `solve(geometry)`
+    answers as `plate_modes.solve_plate` does, for any patches on this plate."""
+
+    def __init__(self, bare: BarePlate):
+        from scipy.sparse.linalg import splu
+
+        self.bare = bare
+        eigenproblem_hz = plate_modes.eigenproblem_hz(bare.near_hz, bare.resonator, bare.thickness_m,
+                                                      bare.thick_plate)
+        x, y, gx, gy = plate_modes.mesh_lines(bare.geometry, bare.resonator, eigenproblem_hz,
+                                              bare.elements_per_half_wave, bare.mesh_half_wave_m,
+                                              bare.x_edges_m, bare.y_edges_m)
+        self._gx, self._gy = gx, gy
+        self.mesh, self.basis, self.grid_probe, self.probe = plate_modes._discretisation(
+            *(tuple(a.tolist()) for a in (x, y, gx, gy)))
+        d0, m0, _ = plate_modes.laminate(bare.resonator, bare.thickness_m, bare.piezo, 0.0)
+        self.stiffness, self.mass = plate_modes.stiffness_and_mass(
+            self.basis, np.full(self.mesh.nelements, d0), np.full(self.mesh.nelements, m0), bare.resonator.poisson)
+        self.sigma = (2 * np.pi * eigenproblem_hz) ** 2
+        count = plate_modes.mode_count(bare.geometry, bare.resonator, bare.piezo, bare.near_hz, BASIS_BAND_REL)
+        count = min(count, self.stiffness.shape[0] - 2)
+        eigenvalues, vectors = eigsh(self.stiffness, k=count, M=self.mass, sigma=self.sigma, which="LM",
+                                     tol=1e-9, v0=np.ones(self.stiffness.shape[0]))
+        order = np.argsort(eigenvalues)
+        self.eigenvalues, self.vectors = eigenvalues[order], vectors[:, order]
+        self._shifted = splu((self.stiffness - self.sigma * self.mass).tocsc())
+        self.n_modes = plate_modes.mode_count(bare.geometry, bare.resonator, bare.piezo, bare.near_hz,
+                                              bare.band_rel)
+        self._patches: dict[tuple[float, ...], PatchPoints] = {}
+
+    def patch_points(self, bounds: tuple[float, float, float, float]) -> PatchPoints:
+        """The quadrature and integrals of the rectangle `bounds` (x0, x1, y0, y1), kept for the sweep."""
+        if bounds not in self._patches:
+            self._patches[bounds] = self._integrate(*bounds)
+        return self._patches[bounds]
+
+    def _quadrature(self, x0: float, x1: float, y0: float, y1: float):
+        """Points (2, Q), weights (Q) and elements (Q) of the rectangle cut into the triangles
+        it covers: each piece fanned into triangles, each with the full solve's rule."""
+        from skfem.quadrature import get_quadrature
+        from skfem.refdom import RefTri
+
+        reference, reference_weights = get_quadrature(RefTri, QUADRATURE_ORDER)
+        corners = self.mesh.p[:, self.mesh.t]   # (2, 3, elements)
+        low, high = corners.min(axis=1), corners.max(axis=1)
+        near = np.nonzero((low[0] < x1) & (high[0] > x0) & (low[1] < y1) & (high[1] > y0))[0]
+        points, weights, cells = [], [], []
+        for element in near:
+            piece = clip_to_rectangle(corners[:, :, element].T, x0, x1, y0, y1)
+            for b, c in zip(piece[1:-1], piece[2:]):
+                a = piece[0]
+                jacobian = abs((b[0] - a[0]) * (c[1] - a[1]) - (c[0] - a[0]) * (b[1] - a[1]))
+                if jacobian <= 0:
+                    continue
+                points.append(a[:, None] + np.outer(b - a, reference[0]) + np.outer(c - a, reference[1]))
+                weights.append(reference_weights * jacobian)
+                cells.append(np.full(reference.shape[1], element))
+        if not points:
+            raise ValueError(f"a patch [{x0:.4g}, {x1:.4g}] x [{y0:.4g}, {y1:.4g}] m is off the plate")
+        return np.hstack(points), np.concatenate(weights), np.concatenate(cells)
+
+    def _integrate(self, x0: float, x1: float, y0: float, y1: float) -> PatchPoints:
+        points, weights, cells = self._quadrature(x0, x1, y0, y1)
+        basis, mapping = self.basis, self.basis.mapping
+        local = mapping.invF(points[:, :, None], tind=cells)
+        fields = [basis.elem.gbasis(mapping, local, k, tind=cells)[0] for k in range(basis.Nbfun)]
+        values = np.array([f.value[:, 0] for f in fields])
+        hessians = np.array([f.hess[..., 0] for f in fields])
+        dofs = basis.element_dofs[:, cells]
+        mode_values, mode_hessians = self._at_points(values, hessians, dofs, self.vectors)
+        stiffness, mass = _integrals(weights, self.bare.resonator.poisson, mode_values, mode_hessians,
+                                     mode_values, mode_hessians)
+        laplacian = weights @ (mode_hessians[0, 0] + mode_hessians[1, 1])
+        return PatchPoints(weights, values, hessians, dofs, mode_values, mode_hessians, stiffness, mass, laplacian)
+
+    @staticmethod
+    def _at_points(values, hessians, dofs, vectors):
+        """Values (Q, r) and Hessians (2, 2, Q, r) of the global `vectors` (dofs, r) at the points."""
+        coefficients = vectors[dofs]   # (functions, Q, r)
+        return (np.einsum("kq,kqr->qr", values, coefficients),
+                np.einsum("kijq,kqr->ijqr", hessians, coefficients))
+
+    def _loads(self, parts, at, eigenvalues) -> np.ndarray:
+        """(dK - lambda dM) x of the patches for the vectors whose values and Hessians at
+        each patch's points are `at`, one lambda per vector: a global vector (dofs, c)."""
+        nu = self.bare.resonator.poisson
+        loads = np.zeros((self.stiffness.shape[0], len(eigenvalues)))
+        for (points, dd, dm), (v, h) in zip(parts, at):
+            per_function = (dd * ((1 - nu) * np.einsum("kijq,ijqc->kqc", points.hessians, h)
+                                  + nu * (points.hessians[:, 0, 0] + points.hessians[:, 1, 1])[..., None]
+                                  * (h[0, 0] + h[1, 1]))
+                            - dm * eigenvalues * points.values[..., None] * v) * points.weights[:, None]
+            for c in range(loads.shape[1]):
+                loads[:, c] += np.bincount(points.dofs.ravel(), per_function[..., c].ravel(),
+                                           minlength=loads.shape[0])
+        return loads
+
+    def solve(self, geometry: PlateGeometry) -> plate_modes.PlateModes:
+        """The modes of `geometry` (this plate with its patches) nearest the drive, as
+        `plate_modes.solve_plate` gives them: Rayleigh-Ritz in the bare modes, then the
+        working-mode candidates (nodal lines nearly straight across the width) refined by
+        Davidson steps on the plate with its patches, (K0 - sigma M0)^-1 of their residuals
+        added to the basis until their frequencies and coupling integrals settle; raises
+        `NotConverged` if they do not in `MAX_STEPS`."""
+        if not self.bare.fits(geometry):
+            raise ValueError("the reduced model is of another plate")
+        bare, nu = self.bare, self.bare.resonator.poisson
+        d0, m0, _ = plate_modes.laminate(bare.resonator, bare.thickness_m, bare.piezo, 0.0)
+        sections = plate_modes.patch_sections(geometry, bare.resonator, bare.piezo, bare.bond)
+        parts = [(self.patch_points(tuple(float(b) for b in patch.bounds)), d - d0, m - m0)
+                 for patch, (d, m, _, _) in zip(geometry.patches, sections)]
+        r = len(self.eigenvalues)
+        # the Ritz matrices, grown by each step's new vectors (M0-orthonormal to all before,
+        # so the bare plate's parts of their blocks are the identity and W^T K0 W)
+        # the patches' part of K apart too: their share of each mode's strain energy
+        added_stiffness = sum((dd * p.stiffness for p, dd, _ in parts), np.zeros((r, r)))
+        stiffness = np.diag(self.eigenvalues) + added_stiffness
+        mass = np.eye(r) + sum(dm * p.mass for p, _, dm in parts)
+        laplacians = np.array([p.laplacian for p, _, _ in parts]).reshape(len(parts), r)
+        at_points = [(p.mode_values, p.mode_hessians) for p, _, _ in parts]   # every basis vector's
+        added = np.zeros((self.stiffness.shape[0], 0))
+        previous = None
+        for step in range(MAX_STEPS + 1):
+            eigenvalues, coefficients = eigh(stiffness, mass)
+            n = min(self.n_modes, len(eigenvalues))
+            nearest = np.sort(np.argsort(abs(eigenvalues - self.sigma))[:n])
+            eigenvalues, coefficients = eigenvalues[nearest], coefficients[:, nearest]
+            vectors = self.vectors @ coefficients[:r] + added @ coefficients[r:]
+            coupling = (laplacians @ coefficients).T
+            added_energy = np.einsum("ij,ij->j", coefficients, added_stiffness @ coefficients)
+            if not parts:
+                break
+            shapes = (self.grid_probe @ vectors).reshape(len(self._gx), len(self._gy), -1)
+            uniformity = (shapes.mean(axis=1) ** 2).sum(axis=0) * len(self._gy) / (shapes**2).sum(axis=(0, 1))
+            targets = np.nonzero(uniformity >= CANDIDATE_UNIFORMITY)[0]
+            if targets.size == 0:
+                targets = np.array([int(np.argmin(abs(eigenvalues - self.sigma)))])
+            figures = np.concatenate([eigenvalues[targets], np.abs(coupling[targets]).sum(axis=1)])
+            if previous is not None and previous.shape == figures.shape and np.all(
+                    abs(figures - previous) <= SETTLED_REL * abs(previous)):
+                break
+            if step == MAX_STEPS:
+                raise NotConverged(f"the reduced model did not settle in {MAX_STEPS} steps")
+            previous = figures
+            # residuals on the plate with its patches: (K - lambda M) x, the patches' part at their points
+            x, lam = vectors[:, targets], eigenvalues[targets]
+            at = [self._at_points(p.values, p.hessians, p.dofs, x) for p, _, _ in parts]
+            residual = self.stiffness @ x - (self.mass @ x) * lam + self._loads(parts, at, lam)
+            direction = self._shifted.solve(residual)
+            for basis in (self.vectors, added, self.vectors, added):   # twice: orthogonal to roundoff
+                direction -= basis @ (basis.T @ (self.mass @ direction))
+            size, rotation = np.linalg.eigh(direction.T @ (self.mass @ direction))
+            keep = size > 1e-12 * max(size.max(), 1e-300)
+            if not keep.any():
+                break
+            direction = direction @ (rotation[:, keep] / np.sqrt(size[keep]))
+            stiffness_k = direction.T @ (self.stiffness @ direction)
+            cross_k = np.vstack([np.zeros((r, direction.shape[1])), added.T @ (self.stiffness @ direction)])
+            cross_m, mass_k = np.zeros_like(cross_k), np.eye(direction.shape[1])
+            cross_added, own_added = np.zeros_like(cross_k), np.zeros_like(stiffness_k)
+            new_laplacians = np.zeros((len(parts), direction.shape[1]))
+            for i, ((points, dd, dm), (values, hessians)) in enumerate(zip(parts, at_points)):
+                new_values, new_hessians = self._at_points(points.values, points.hessians, points.dofs, direction)
+                k, m = _integrals(points.weights, nu, values, hessians, new_values, new_hessians)
+                own_k, own_m = _integrals(points.weights, nu, new_values, new_hessians, new_values, new_hessians)
+                cross_k, cross_m, cross_added = cross_k + dd * k, cross_m + dm * m, cross_added + dd * k
+                stiffness_k, mass_k, own_added = stiffness_k + dd * own_k, mass_k + dm * own_m, own_added + dd * own_k
+                at_points[i] = (np.hstack([values, new_values]), np.concatenate([hessians, new_hessians], axis=3))
+                new_laplacians[i] = points.weights @ (new_hessians[0, 0] + new_hessians[1, 1])
+            stiffness = np.block([[stiffness, cross_k], [cross_k.T, stiffness_k]])
+            mass = np.block([[mass, cross_m], [cross_m.T, mass_k]])
+            added_stiffness = np.block([[added_stiffness, cross_added], [cross_added.T, own_added]])
+            laplacians = np.hstack([laplacians, new_laplacians])
+            added = np.hstack([added, direction])
+        return plate_modes.modes_from_vectors(geometry, bare.resonator, bare.piezo, bare.bond, bare.thick_plate,
+                                              sections, eigenvalues, vectors, self._gx, self._gy, self.grid_probe,
+                                              self.probe, coupling, added_energy)
+
+
+class NotConverged(ValueError):
+    """The reduced model's refinement did not settle: the layout needs the full solve."""
+
+
+@functools.lru_cache(maxsize=2)   # a sweep's plate, and one more: a worker serves one sweep at a time
+def reduced_plate(bare: BarePlate) -> ReducedPlate:
+    return ReducedPlate(bare)
+
+
+class Solver:
+    """A stand-in for `plate_modes.solve_plate` that answers from the reduced model of
+    `bare` for plates it is (same plate, materials, drive and mesh) and by the full solve
+    for any other (a tolerance's moved materials) or where the model does not settle;
+    `full_solves` counts those."""
+
+    def __init__(self, bare: BarePlate):
+        self.bare = bare
+        self.full_solves = 0
+
+    def __call__(self, geometry: PlateGeometry, resonator: Isotropic = plate_modes.ALUMINIUM_TABLE2,
+                 piezo: Piezo = plate_modes.NCE41, near_hz: float = 40e3, n_modes: int | None = None,
+                 elements_per_half_wave: float = 1.5, mesh_half_wave_m: float | None = None,
+                 band_rel: float = 0.16, bond: Bond = plate_modes.EPOXY,
+                 thick_plate: bool = True) -> plate_modes.PlateModes:
+        wanted = replace(self.bare, length_m=geometry.length_m, width_m=geometry.width_m,
+                         thickness_m=geometry.thickness_m, resonator=resonator, piezo=piezo, near_hz=near_hz,
+                         band_rel=band_rel, elements_per_half_wave=elements_per_half_wave,
+                         mesh_half_wave_m=mesh_half_wave_m, bond=bond, thick_plate=thick_plate)
+        if wanted == self.bare and n_modes is None:
+            try:
+                return reduced_plate(self.bare).solve(geometry)
+            except NotConverged:
+                pass
+        self.full_solves += 1
+        return plate_modes.solve_plate(geometry, resonator, piezo, near_hz, n_modes, elements_per_half_wave,
+                                       mesh_half_wave_m, band_rel, bond, thick_plate)
