@@ -119,7 +119,9 @@ def write_atomic(path: Path, data: bytes, durable: bool = True) -> None:
     cannot lose it."""
     with _writing(path):
         path.parent.mkdir(parents=True, exist_ok=True)
-        tmp = path.with_name(f".{path.name}.tmp")
+        # the process in the name: two processes writing one file (the simulated benches'
+        # shared drive record) must not move each other's half-written copy
+        tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
         with open(tmp, "wb") as handle:
             handle.write(data)
             if durable:
