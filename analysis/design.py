@@ -497,15 +497,6 @@ def placement_point(task: tuple[DesignFile, int, float, float]) -> dict:
             | {"voltage_expanded_uncertainty": u_rel_others * point["voltage_vpp"], "why_not": why})
 
 
-def crossings(x: np.ndarray, y: np.ndarray, level: float) -> list[float]:
-    """Where the piecewise-linear curve y(x) takes the value `level` (every crossing, in order)."""
-    x, y = np.asarray(x, dtype=float), np.asarray(y, dtype=float) - level
-    found = [float(x[i]) for i in np.nonzero(y == 0)[0]]
-    for i in np.nonzero(y[:-1] * y[1:] < 0)[0]:
-        found.append(float(x[i] - y[i] * (x[i + 1] - x[i]) / (y[i + 1] - y[i])))
-    return sorted(found)
-
-
 def mean_edge_gap_mm(design: DesignFile) -> float | None:
     """The end groups' mean distance from their edges (None without end groups)."""
     gaps = [design.edge_gap_mm(g) for g in design.groups if design.is_end_group(g)]

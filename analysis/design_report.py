@@ -18,8 +18,8 @@ import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
 from squeezebench.analysis import presentation  # noqa: E402
-from squeezebench.analysis.design import COVERAGE_FACTOR, INPUTS, DesignAnswer, crossings  # noqa: E402
-from squeezebench.analysis.design import mean_edge_gap_mm  # noqa: E402
+from squeezebench.analysis.design import COVERAGE_FACTOR, INPUTS, DesignAnswer, mean_edge_gap_mm  # noqa: E402
+from squeezebench.analysis.plate_modes import crossings  # noqa: E402
 from squeezebench.analysis.figures import PAPER_STYLE, save_figure  # noqa: E402
 from squeezebench.analysis import page as html_page  # noqa: E402
 from squeezebench.analysis.report import cell_text, html_table  # noqa: E402

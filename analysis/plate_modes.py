@@ -657,6 +657,13 @@ def sign_changes(x: np.ndarray, values: np.ndarray) -> np.ndarray:
     return x[i] - m[i] * (x[i + 1] - x[i]) / (m[i + 1] - m[i])
 
 
+def crossings(x: np.ndarray, y: np.ndarray, level: float) -> list[float]:
+    """Where the piecewise-linear curve y(x) takes the value `level`: every sample at it and
+    every `sign_changes` of y - level between samples, in order."""
+    x, above = np.asarray(x, dtype=float), np.asarray(y, dtype=float) - level
+    return sorted([float(v) for v in x[above == 0]] + [float(v) for v in sign_changes(x, above)])
+
+
 @functools.lru_cache(maxsize=None)
 def free_free_beam_roots(count: int) -> tuple[float, ...]:
     """The first `count` roots beta L of cos(bL) cosh(bL) = 1 (free-free beam, elastic modes)."""

@@ -431,12 +431,8 @@ def implied_edge_gap_mm(target: float, curve: pd.DataFrame, column: str = "force
     """INFERENCE, not an input: the first edge gap at which the model's `column` of `curve`
     (against `edge_gap_mm`) reaches `target`, linear between swept gaps; None if no swept gap
     reaches it. Never used to predict the numbers it is inferred from."""
-    gaps, values = curve["edge_gap_mm"].to_numpy(), curve[column].to_numpy()
-    for i in range(len(gaps) - 1):
-        lo, hi = values[i], values[i + 1]
-        if (lo - target) * (hi - target) <= 0 and hi != lo:
-            return float(gaps[i] + (target - lo) / (hi - lo) * (gaps[i + 1] - gaps[i]))
-    return None
+    found = plate_modes.crossings(curve["edge_gap_mm"], curve[column], target)
+    return found[0] if found else None
 
 
 def large_plate_placement_inference() -> pd.DataFrame:

@@ -523,7 +523,7 @@ def test_placement_curve_says_where_the_piezos_drive_best(ends_prediction):
 @given(st.floats(-5, 5), st.floats(0.1, 3), st.floats(-10, 10))
 def test_crossings_of_a_line_are_its_root(intercept, slope, level):
     x = np.linspace(0, 10, 11)
-    found = design.crossings(x, intercept + slope * x, level)
+    found = plate_modes.crossings(x, intercept + slope * x, level)
     root = (level - intercept) / slope
     assert found == ([pytest.approx(root)] if 0 <= root <= 10 else [])
 
