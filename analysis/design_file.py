@@ -85,7 +85,7 @@ class PiezoSpec(_Model):
 class Group(_Model):
     """Piezos bonded side by side across the width at one place along the length."""
 
-    name: str = Field(min_length=1)
+    name: str = Field(min_length=1, max_length=100)   # a name in messages and tables, bounded as the design's
     x_mm: float = Field(ge=0, description="centre of the group's piezos along the length")
     y_mm: list[float] = Field(min_length=1, description="centre of each piezo across the width")
     powered: bool = True
@@ -167,8 +167,9 @@ class Tolerances(_Model):
 class FromSmallPlates(_Model):
     """Route (b), the paper's method: which characterised small plate's Q Eq. 29 scales."""
 
-    template_plate: Optional[str] = Field(None, description="default: the mean over the small plates "
-                                                            "as thick as the resonator")
+    template_plate: Optional[str] = Field(None, min_length=1, max_length=100, pattern=r"^[A-Za-z0-9_.-]+$",
+                                          description="a plate's name, as a run names it; default: the mean "
+                                                      "over the small plates as thick as the resonator")
     origin: str = ""
 
 
@@ -193,29 +194,15 @@ class DesignFile(_Model):
 
     @model_validator(mode="after")
     def _fits_on_plate(self) -> "DesignFile":
-        r, p = self.resonator, self.piezo
+        r = self.resonator
         if not any(g.powered for g in self.groups):
             raise ValueError("no group is powered: set powered: true on at least one")
         names = [g.name for g in self.groups]
         if len(set(names)) != len(names):
             raise ValueError(f"group names must differ: {names}")
-        for g in self.groups:
-            if g.x_mm - p.length_x_mm / 2 < -1e-9 or g.x_mm + p.length_x_mm / 2 > r.length_mm + 1e-9:
-                raise ValueError(f"group {g.name!r}: a piezo {p.length_x_mm:g} mm long centred at x = {g.x_mm:g} mm "
-                                 f"overhangs the plate (0 to {r.length_mm:g} mm)")
-            for y in g.y_mm:
-                if y - p.width_y_mm / 2 < -1e-9 or y + p.width_y_mm / 2 > r.width_mm + 1e-9:
-                    raise ValueError(f"group {g.name!r}: a piezo {p.width_y_mm:g} mm wide centred at y = {y:g} mm "
-                                     f"overhangs the plate (0 to {r.width_mm:g} mm)")
-            ys = sorted(g.y_mm)
-            if any(b - a < p.width_y_mm - 1e-9 for a, b in zip(ys, ys[1:])):
-                raise ValueError(f"group {g.name!r}: piezos {p.width_y_mm:g} mm wide overlap at y = {ys} mm")
-        piezos = [(g.name, g.x_mm, y) for g in self.groups for y in g.y_mm]
-        for i, (group_a, xa, ya) in enumerate(piezos):   # across groups: two groups at one spot
-            for group_b, xb, yb in piezos[i + 1:]:
-                if group_a != group_b and abs(xa - xb) < p.length_x_mm - 1e-9 and abs(ya - yb) < p.width_y_mm - 1e-9:
-                    raise ValueError(f"groups {group_a!r} and {group_b!r}: piezos {p.length_x_mm:g} x {p.width_y_mm:g} mm "
-                                     f"centred at ({xa:g}, {ya:g}) and ({xb:g}, {yb:g}) mm overlap")
+        problem = self.geometry().layout_problem("group")   # within a group and across groups
+        if problem:
+            raise ValueError(problem)
         if self.touch_area is not None:
             (x0, x1), (y0, y1) = self.touch_area.x_mm, self.touch_area.y_mm
             if not (0 <= x0 < x1 <= r.length_mm and 0 <= y0 < y1 <= r.width_mm):

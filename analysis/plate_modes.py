@@ -160,6 +160,30 @@ class PlateGeometry:
             if p.bounds[0] >= offset - 1e-12 and p.bounds[1] <= offset + length_m + 1e-12)
         return PlateGeometry(length_m, self.width_m, self.thickness_m, kept)
 
+    def layout_problem(self, kind: str) -> str | None:
+        """Why the patches cannot be bonded as placed (None if they can): one overhangs the
+        plate, or two share area, within one `kind` (a design's group, a scene's column) or
+        across two. The model would solve either without complaint: a patch off the metal
+        or two patches in one spot are no plate."""
+        def mm(value_m: float) -> str:
+            return f"{value_m * 1e3:.6g}"
+
+        for p in self.patches:
+            x0, x1, y0, y1 = p.bounds
+            if x0 < -1e-12 or x1 > self.length_m + 1e-12 or y0 < -1e-12 or y1 > self.width_m + 1e-12:
+                return (f"{kind} {p.name!r}: a piezo {mm(p.length_x_m)} x {mm(p.width_y_m)} mm centred at "
+                        f"({mm(p.x_center_m)}, {mm(p.y_center_m)}) mm overhangs the plate "
+                        f"(0 to {mm(self.length_m)} x 0 to {mm(self.width_m)} mm)")
+        for i, a in enumerate(self.patches):
+            for b in self.patches[i + 1:]:
+                if (abs(a.x_center_m - b.x_center_m) < (a.length_x_m + b.length_x_m) / 2 - 1e-12
+                        and abs(a.y_center_m - b.y_center_m) < (a.width_y_m + b.width_y_m) / 2 - 1e-12):
+                    who = f"{kind} {a.name!r}" if a.name == b.name else f"{kind}s {a.name!r} and {b.name!r}"
+                    return (f"{who}: piezos {mm(a.length_x_m)} x {mm(a.width_y_m)} mm centred at "
+                            f"({mm(a.x_center_m)}, {mm(a.y_center_m)}) and ({mm(b.x_center_m)}, "
+                            f"{mm(b.y_center_m)}) mm overlap")
+        return None
+
 
 def column(x_center_m: float, plate_width_m: float, piezo_length_x_m: float,
            piezo_width_y_m: float, piezo_thickness_m: float, count: int,

@@ -37,6 +37,7 @@ from squeezebench import paths  # noqa: E402
 from squeezebench.instruments.bench import sim_bench_config  # noqa: E402
 from squeezebench.instruments.served import served_bench_file  # noqa: E402
 from squeezebench.protocols.campaign import run_campaign  # noqa: E402
+from squeezebench.schemas import stage_travel_mm  # noqa: E402
 from squeezebench.simbench.line import MANUAL_SETTINGS, LineSettings  # noqa: E402
 from squeezebench.simbench.serve import InstrumentEndpoint, ServedBench  # noqa: E402
 from squeezebench.simbench.serve_pty import PtyPort  # noqa: E402
@@ -114,7 +115,9 @@ def paper_over_pyvisa_py() -> None:
         sim_s = time.perf_counter() - start
         with ServedSim(SCENE, computing_allowance_s=30) as served:
             bench = Path(folder) / "served.yaml"
-            bench.write_text(yaml.safe_dump(served_bench_file(served.addresses, sim_bench_config(SCENE).electronics)))
+            config = sim_bench_config(SCENE)
+            bench.write_text(yaml.safe_dump(served_bench_file(served.addresses, config.electronics,
+                                                               stage_travel_mm(config))))
             start = time.perf_counter()
             over_py = run_campaign(paths.campaign_file("paper"), out_dir=Path(folder) / "py", progress=False,
                                    bench_file=bench)

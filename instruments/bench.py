@@ -109,6 +109,7 @@ class BenchConfig:
     electronics: BenchElectronics = field(default_factory=BenchElectronics)
     source: str | None = None   # the file it was read from, for messages
     simulator: str | None = None   # serve-sim's bench port: a served bench's clock and operator
+    stage_travel_mm: Mapping[str, tuple[float, float]] | None = None   # per axis, as the bench file states it
 
 
 # -- bench files ------------------------------------------------------------------------------------

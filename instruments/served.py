@@ -88,8 +88,12 @@ class ServedSimulator:
         self.request(instruction, state)
 
 
-def served_bench_file(addresses: Mapping[str, str], electronics: Any) -> dict[str, Any]:
-    """The bench file of a served bench: pyvisa-py, the served addresses, the scene's electronics."""
+def served_bench_file(addresses: Mapping[str, str], electronics: Any,
+                      stage_travel_mm: Mapping[str, tuple[float, float]] | None = None) -> dict[str, Any]:
+    """The bench file of a served bench: pyvisa-py, the served addresses, the scene's
+    electronics and, with a stage, its travel per axis (mm)."""
+    travel = {"stage_travel_mm": {axis: list(limits) for axis, limits in stage_travel_mm.items()}} \
+        if "stage" in addresses and stage_travel_mm else {}
     return {"visa_library": "@py", "simulator": addresses["bench"],
             "resources": {role: address for role, address in addresses.items() if role != "bench"},
-            "electronics": dataclasses.asdict(electronics)}
+            **travel, "electronics": dataclasses.asdict(electronics)}

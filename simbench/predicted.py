@@ -10,13 +10,14 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Sequence
 
 import numpy as np
 import pandas as pd
 
 from squeezebench.analysis import plate_modes
 from squeezebench.simbench import physics
-from squeezebench.simbench.scene import Scene, State
+from squeezebench.simbench.scene import Actuators, Plate, Scene, State
 
 #: A replay's resonance further than this from the prediction is flagged: the model's
 #: measured spread on Tables 3-4 (tests/test_predicted_plates.py) is -2.6 % to +0.8 % and +4.9 %
@@ -38,12 +39,19 @@ def geometry(scene: Scene, state: State) -> plate_modes.PlateGeometry:
     piezo's width along the plate's length (across the nodal lines), centred on the width;
     columns sharing a position are the paper's corner groups, placed at the two ends of the
     width. A cut state is the uncut plate cut symmetrically: a column it cuts through is gone."""
-    piezo, per = scene.actuators.piezo, scene.actuators.piezos_per_column
+    uncut = layout(scene.plate, scene.actuators, state.powered_columns)
+    return uncut.cut_to(state.plate_length_mm * 1e-3) if state.plate_length_mm else uncut
+
+
+def layout(plate: Plate, actuators: Actuators, powered_columns: Sequence[str] = ()) -> plate_modes.PlateGeometry:
+    """The uncut plate with every column's piezos where `geometry` puts them (the scene's
+    load checks them against the plate with `PlateGeometry.layout_problem`)."""
+    piezo, per = actuators.piezo, actuators.piezos_per_column
     mm = 1e-3
-    width = scene.plate.width_mm * mm
+    width = plate.width_mm * mm
     patches: list[plate_modes.Patch] = []
     by_position: dict[float, list] = {}
-    for c in scene.actuators.columns:
+    for c in actuators.columns:
         by_position.setdefault(c.position_mm, []).append(c)
     for position, columns in by_position.items():
         span = per * piezo.length_mm * mm
@@ -52,11 +60,9 @@ def geometry(scene: Scene, state: State) -> plate_modes.PlateGeometry:
         for c, start in zip(columns, starts):
             patches += [plate_modes.Patch(
                 position * mm, start + (i + 0.5) * piezo.length_mm * mm, piezo.width_mm * mm,
-                piezo.length_mm * mm, piezo.thickness_mm * mm, c.name in state.powered_columns, c.name)
+                piezo.length_mm * mm, piezo.thickness_mm * mm, c.name in powered_columns, c.name)
                 for i in range(per)]
-    uncut = plate_modes.PlateGeometry(scene.plate.length_mm * mm, width, scene.plate.thickness_mm * mm,
-                                      tuple(patches))
-    return uncut.cut_to(state.plate_length_mm * mm) if state.plate_length_mm else uncut
+    return plate_modes.PlateGeometry(plate.length_mm * mm, width, plate.thickness_mm * mm, tuple(patches))
 
 
 def materials(scene: Scene) -> tuple[plate_modes.Isotropic, plate_modes.Piezo]:

@@ -496,6 +496,7 @@ def _scene(path: Path, text: str) -> Scene:
                                    "description", "replay", "transport_faults"))
     plate = _plate(reader, top["plate"])
     actuators = _actuators(reader, top["actuators"])
+    _refuse_misplaced_piezos(reader, plate, actuators)
     mode_data = reader.mapping(top["mode"], "mode", required=("name", "half_wavelength_mm"))
     mode = Mode(str(mode_data["name"]), reader.number(mode_data, "half_wavelength_mm", "mode"))
     states = _states(reader, top["states"], plate, actuators, mode)
@@ -520,6 +521,16 @@ def _scene(path: Path, text: str) -> Scene:
     if scene.replay_reason is None:
         _refuse_implausible(reader, scene, figures)
     return scene
+
+
+def _refuse_misplaced_piezos(reader: _Reader, plate: Plate, actuators: Actuators) -> None:
+    """Every piezo on the plate and none on another, where the plate model places them (a
+    10 mm piezo on a 2 mm plate was simulated, its force factor from a patch off the metal)."""
+    from squeezebench.simbench.predicted import layout   # it reads scenes
+
+    problem = layout(plate, actuators).layout_problem("column")
+    if problem:
+        raise reader.error("actuators", problem)
 
 
 def _replay_reason(reader: _Reader, data: Any) -> str:

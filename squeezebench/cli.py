@@ -92,15 +92,16 @@ def cmd_serve_sim(args: argparse.Namespace) -> int:
 
     from squeezebench.instruments.bench import sim_bench_config
     from squeezebench.instruments.served import served_bench_file
+    from squeezebench.schemas import stage_travel_mm
     from squeezebench.simbench.serve_sim import ServedSim
 
     if not args.timeout_allowance >= 0:
         raise UserError(f"--timeout-allowance must be 0 or more seconds, got {args.timeout_allowance:g}")
     scene = paths.input_file(args.scene)
-    electronics = sim_bench_config(scene).electronics   # a BenchFileError names a scene that cannot be read
+    config = sim_bench_config(scene)   # a BenchFileError names a scene that cannot be read
     with ServedSim(scene, args.line_rate, on_event=lambda text: print(f"serve-sim: {text}", file=sys.stderr),
                    computing_allowance_s=args.timeout_allowance) as sim:
-        bench = served_bench_file(sim.addresses, electronics)
+        bench = served_bench_file(sim.addresses, config.electronics, stage_travel_mm(config))
         try:
             args.bench.write_text(f"# written by `squeezebench serve-sim --scene {scene}`; valid while it runs\n"
                                   + yaml.safe_dump(bench, sort_keys=False), encoding="utf-8")

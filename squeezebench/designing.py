@@ -169,7 +169,9 @@ def run_design(plate: str | Path, from_runs: Iterable[str | Path] = (), measured
     from squeezebench.workers import default_workers
     from squeezebench.schemas import load_design_file
 
-    spec = load_design_file(paths.design_file(plate))
+    from_runs = list(from_runs)
+    small_plates = characterised_plates(from_runs) if from_runs else {}
+    spec = load_design_file(paths.design_file(plate), characterised=small_plates)
     modal = design_model.modal_part(spec)
     neighbours = []
     if design_model.cancellation(spec, modal.modes, modal.mode_index):
@@ -187,10 +189,9 @@ def run_design(plate: str | Path, from_runs: Iterable[str | Path] = (), measured
         _refuse(spec, verdict)
     answer = design_model.DesignAnswer(physics, printed=printed_values(spec.paper_plate), verdict=verdict,
                                        placement=placement)
-    from_runs = list(from_runs)
     if from_runs:
         try:
-            route = design_model.predict_from_small_plates(physics, characterised_plates(from_runs))
+            route = design_model.predict_from_small_plates(physics, small_plates)
             answer = replace(answer, paper_route=route)
         except design_model.DesignError as exc:
             answer = replace(answer, paper_route_problem=str(exc))

@@ -19,11 +19,12 @@ import math
 import re
 import sys
 from pathlib import Path
-from typing import Annotated, Any, Literal, Optional, Union
+from typing import Annotated, Any, Iterable, Literal, Optional, Union
 
 import pyvisa.rname
 from pydantic import AfterValidator, BaseModel, ConfigDict, Field, ValidationError, create_model, model_validator
 
+from squeezebench import paths
 from squeezebench.errors import UserError
 from squeezebench.instruments.bench import OPTIONAL_ROLES, ROLES, BenchConfig, BenchElectronics, is_simulated
 from squeezebench.instruments.smc100 import AXES as SMC100_AXES
@@ -185,13 +186,38 @@ class Resources(_Model):
         return self
 
 
+def _travel(value: tuple[float, float]) -> tuple[float, float]:
+    if not value[0] < value[1]:
+        raise ValueError(f"{list(value)} must be [low, high] mm, low below high")
+    return value
+
+
+class StageTravel(_Model):
+    """The x-y stage's travel per axis (mm): the software limits SL and SR set on each SMC100
+    controller (SMC100 user's manual), known before the bench opens so that `validate` and
+    `run` refuse a map beyond them alike; the run checks every point again against the limits
+    the stage reports when it opens."""
+
+    x: Annotated[tuple[float, float], AfterValidator(_travel)]
+    y: Annotated[tuple[float, float], AfterValidator(_travel)]
+
+
 class BenchFile(_Model):
     """A real bench: the VISA library, an address per instrument, the electronics."""
 
     visa_library: Optional[str] = ""   # "" or null: the system VISA library; "@py": pyvisa-py
     simulator: Optional[VisaAddress] = None   # serve-sim's bench port (a served simulated bench)
     resources: Resources
+    stage_travel_mm: Optional[StageTravel] = None   # with resources.stage, and only then
     electronics: BenchElectronics = BenchElectronics()
+
+    @model_validator(mode="after")
+    def _stage_described(self) -> BenchFile:
+        if (self.resources.stage is None) != (self.stage_travel_mm is None):
+            raise ValueError("resources.stage and stage_travel_mm ({x: [low, high], y: [low, high]} mm, the "
+                             "controllers' SL and SR) go together: a map is checked against the travel "
+                             "before the bench opens")
+        return self
 
     @staticmethod
     def prepared(data: Any) -> Any:
@@ -308,6 +334,9 @@ def _problem(one: dict, model: type[BaseModel]) -> tuple[str, str, str]:
     elif kind in ("model_type", "dataclass_type", "dict_type"):
         allowed = _allowed(model, (*loc, "_"))
         message = f"{one['input']!r} must be a mapping" + (f" of {', '.join(allowed)}" if allowed else "")
+    elif kind == "string_too_long":   # the text itself would be the whole line
+        message = (f"{one['input'][:20]!r}... is {len(one['input'])} characters long; "
+                   f"at most {one['ctx']['max_length']} characters")
     elif kind in ("float_type", "int_type") and _is_number(one.get("input")):
         message = f"{one['input']!r} is text, not a number: write it without quotes"
     else:
@@ -346,14 +375,16 @@ def load_bench_file(path: str | Path) -> BenchConfig:
     return BenchConfig(visa_library=bench.visa_library or "",
                        resources={role: address for role in (*ROLES, *OPTIONAL_ROLES)
                                   if (address := getattr(bench.resources, role)) is not None},
-                       electronics=bench.electronics, source=str(path), simulator=bench.simulator)
+                       electronics=bench.electronics, source=str(path), simulator=bench.simulator,
+                       stage_travel_mm=bench.stage_travel_mm and bench.stage_travel_mm.model_dump())
 
 
 def stage_travel_mm(config: BenchConfig) -> dict[str, tuple[float, float]] | None:
-    """The stage's travel per axis (mm) where it is known before the bench opens: the
-    simulated stage's; a real stage's is read from it when a run opens it (SMC100 SL/SR)."""
+    """The stage's travel per axis (mm) before the bench opens: the simulated stage's, a real
+    one's as its bench file states it (a run reads the stage's own, SMC100 SL/SR, when it
+    opens it, and checks the map again); None for a bench without a stage."""
     if not is_simulated(config):
-        return None
+        return config.stage_travel_mm
     from squeezebench.simbench.stage import TRAVEL_MM
 
     return {axis: TRAVEL_MM[str(address)] for axis, address in SMC100_AXES.items()}
@@ -364,21 +395,38 @@ def stage_travel_mm(config: BenchConfig) -> dict[str, tuple[float, float]] | Non
 DESIGN_GUIDE = "docs/design-files.md"
 
 
-def load_design_file(path: str | Path):
+def load_design_file(path: str | Path, characterised: Iterable[str] = ()):
     """A plate to design (`analysis.design_file.DesignFile`); a problem is one line naming
-    the file, the field and what is wrong."""
+    the file, the field and what is wrong. `from_small_plates.template_plate` must name a
+    plate the paper's route can read (`template_plates`, with the plates `characterised` in
+    the runs `design --from` reads)."""
     from squeezebench.analysis.design_file import DesignFile   # the plate model's imports: only for a design
 
     path = Path(path)
     data = read_yaml(path)
     try:
-        return validated(DesignFile, data)
+        design = validated(DesignFile, data)
     except ValidationError as exc:   # every problem at once: a design file is written by hand
         found = problems(exc, DesignFile)
         if len(found) == 1:
             raise UserError(f"{path}: {found[0][0]}: {found[0][1]} (every field: {DESIGN_GUIDE})") from None
         raise UserError(f"{path}: {len(found)} problems (every field: {DESIGN_GUIDE}):\n"
                         + "\n".join(f"  {field}: {message}" for field, message in found)) from None
+    template, known = design.from_small_plates.template_plate, template_plates(characterised)
+    if template is not None and template not in known:
+        raise UserError(f"{path}: from_small_plates.template_plate: {template!r} is no plate the paper's route "
+                        f"knows; known: {', '.join(known)} (the shipped small plates, and with design --from the "
+                        f"runs' characterised plates; every field: {DESIGN_GUIDE})")
+    return design
+
+
+def template_plates(characterised: Iterable[str] = ()) -> list[str]:
+    """The plates whose Q the paper's route (Eq. 29) may scale: the shipped scenes' plates
+    but the large one it designs (a characterisation names a plate by its scene), and
+    `characterised`, the plates of the runs given."""
+    from squeezebench.analysis.tables import LARGE_PLATE
+
+    return sorted({name for name in paths.shipped_names("scenes") if name != LARGE_PLATE} | set(characterised))
 
 
 # -- scenes -------------------------------------------------------------------------------

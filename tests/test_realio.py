@@ -22,6 +22,7 @@ from squeezebench import cli, paths
 from squeezebench.instruments.bench import sim_bench_config
 from squeezebench.instruments.served import served_bench_file
 from squeezebench.protocols.campaign import run_campaign
+from squeezebench.schemas import stage_travel_mm
 from squeezebench.simbench.line import MANUAL_SETTINGS, LineSettings, received
 from squeezebench.simbench.serve_sim import ServedSim
 from squeezebench.simbench.serve_tcp import TcpPort
@@ -62,7 +63,8 @@ def loopback_only(monkeypatch):
 
 def served_bench(sim: ServedSim, folder: Path) -> Path:
     path = folder / "served.yaml"
-    path.write_text(yaml.safe_dump(served_bench_file(sim.addresses, sim_bench_config(SCENE).electronics)))
+    config = sim_bench_config(SCENE)
+    path.write_text(yaml.safe_dump(served_bench_file(sim.addresses, config.electronics, stage_travel_mm(config))))
     return path
 
 
