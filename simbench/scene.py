@@ -504,7 +504,7 @@ def _scene(path: Path, text: str) -> Scene:
     scene = Scene(
         path=path, plate=plate, actuators=actuators, mode=mode, states=states, initial_state=initial,
         electronics=_electronics(reader, top.get("electronics", {})),
-        measurement_point=_measurement_point(reader, top.get("measurement_point", {"x_mm": 0, "y_mm": 0})),
+        measurement_point=_measurement_point(reader, top.get("measurement_point", {"x_mm": 0, "y_mm": 0}), plate),
         effects=_effects(reader, top.get("effects", [])),
         seed=reader.integer(top, "seed", "", minimum=0) if "seed" in top else 0,
         provenance=_provenance(reader, top.get("provenance", {}), raw),
@@ -799,14 +799,21 @@ def _electronics(reader: _Reader, data: Any) -> Electronics:
     return Electronics(**values, generator_load=load, voltage_probe_coded=coded)
 
 
-def _measurement_point(reader: _Reader, data: Any) -> MeasurementPoint:
+def _measurement_point(reader: _Reader, data: Any, plate: Plate) -> MeasurementPoint:
     data = reader.mapping(data, "measurement_point", required=("x_mm", "y_mm"),
                           optional=("signal_level_percent", "description"))
     level = reader.number(data, "signal_level_percent", "measurement_point", default=80.0, strict=False)
     if level > 100:
         raise reader.error("measurement_point.signal_level_percent", f"must be 0..100, got {level!r}")
-    return MeasurementPoint(reader.number(data, "x_mm", "measurement_point", strict=False),
-                            reader.number(data, "y_mm", "measurement_point", strict=False), level)
+    point = MeasurementPoint(reader.number(data, "x_mm", "measurement_point", strict=False),
+                             reader.number(data, "y_mm", "measurement_point", strict=False), level)
+    # the beam must land on the metal (a point 20 m off a 41 mm plate was a plate-model traceback)
+    for axis, value, size in (("x_mm", point.x_mm, plate.length_mm), ("y_mm", point.y_mm, plate.width_mm)):
+        if value > size:
+            raise reader.error(f"measurement_point.{axis}", f"{value:g} mm is off the plate: at most "
+                                                           f"{'plate.length_mm' if axis == 'x_mm' else 'plate.width_mm'}"
+                                                           f" ({size:g} mm)")
+    return point
 
 
 def _effects(reader: _Reader, data: Any) -> tuple[EffectSpec, ...]:

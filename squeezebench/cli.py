@@ -129,12 +129,11 @@ def cmd_safe(args: argparse.Namespace) -> int:
 
 
 def cmd_run(args: argparse.Namespace) -> int:
-    from squeezebench.protocols.campaign import load_campaign, run_campaign
-    from squeezebench.simulated_plates import check_powered_piezos
+    from squeezebench.protocols.campaign import run_campaign
+    from squeezebench.schemas import load_checked_campaign
 
     file = paths.shipped_of_kind(args.campaign, "campaigns")
-    campaign = load_campaign(file, bench_file=args.bench)
-    check_powered_piezos(campaign)
+    campaign = load_checked_campaign(file, bench_file=args.bench)
     if args.accept_changed_bench and not args.resume:
         raise UserError("--accept-changed-bench continues a stopped run: use it with --resume")
     if args.operator_done and not args.resume:

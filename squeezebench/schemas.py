@@ -457,17 +457,28 @@ def replay_departures(path: Path) -> list[str]:
 
 
 # -- checking any file -------------------------------------------------------------------
+def load_checked_campaign(path: Path, bench_file: Path | None = None):
+    """The campaign as `run` takes it (`protocols.campaign.load_campaign`), and each plate's
+    powered piezos and columns against its scene's state: what `validate` and `run` both
+    refuse (a plate of 8000 powered piezos passed `validate` and stopped `run`)."""
+    from squeezebench.protocols.campaign import load_campaign
+    from squeezebench.simulated_plates import check_powered_piezos   # the simulated bench's plates
+
+    campaign = load_campaign(path, bench_file=bench_file)
+    check_powered_piezos(campaign)
+    return campaign
+
+
 def validate_file(path: Path) -> dict[str, Any]:
     """Check a campaign (with every scene and bench file it uses and every request it
     will make), bench or scene file. Returns {file, kind, summary, warnings}; a problem
     is the UserError of the file it is in."""
-    from squeezebench.protocols.campaign import load_campaign
     from squeezebench.protocols.safety import chain_warnings
 
     path = Path(path)
     data = read_yaml(path)
     if isinstance(data, dict) and "runs" in data:
-        campaign = load_campaign(path)
+        campaign = load_checked_campaign(path)
         configs = {run.bench.input_file: run.bench.config() for run in campaign.runs}
         scenes = sorted({p.name for run in campaign.runs for p in run.input_files() if p.suffix == ".yaml"})
         n_steps = sum(len(run.steps()) for run in campaign.runs)
