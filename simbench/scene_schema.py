@@ -271,7 +271,11 @@ def format_markdown() -> str:
               "`simbench.scene.scenes_table` the figures of `docs/scenes.md`.",
               "", "Example of a plate written only from physical parameters: `data/examples/own_plate.yaml` "
               "(with `data/examples/own_plate_campaign.yaml`).",
-              "", "## A plate that can exist", "", "Every state is refused at load if it breaks one of:", ""]
+              "", "## A plate that can exist", "",
+              "A scene is refused at load if a piezo overhangs the plate or lies on another, in its column or "
+              "another, where the plate model places them (a column's piezos side by side centred on the width; "
+              "columns at one position at the width's two ends), or if `measurement_point` is off the plate.",
+              "", "Every state is refused at load if it breaks one of:", ""]
     lines += [f"- {text}" for text in BOUNDS.values()]
     lines += ["", "## Effects", "", "| effect | parameters (defaults) |", "|---|---|"]
     lines += [f"| `{name}` | {', '.join(f'{k} = {v:g}' for k, v in effect.defaults.items()) or 'none'} |"
