@@ -260,10 +260,13 @@ def test_plan_refuses_an_infinite_target_and_an_unwritable_output_before_plannin
     assert blocker.read_text() == "not a folder\n"
 
 
-def test_run_refuses_more_powered_columns_than_the_scene_powers(files, capsys):
+def test_validate_and_run_refuse_more_powered_columns_than_the_scene_powers(files, capsys):
     path = write(files, "five", campaign_text(runs=[{**CUT, "plate": {**ONE_COLUMN_PLATE, "n_powered_columns": 5}}]))
+    assert cli.main(["validate", str(path)]) == cli.EXIT_USER_ERROR
+    refused = one_line(capsys).split(": ", 1)[1]
     assert cli.main(["run", str(path), "--out", str(files / "run")]) == cli.EXIT_USER_ERROR
     line = one_line(capsys)
+    assert line.endswith(refused)   # the one validator, the same words
     assert "5 powered columns" in line and "powers 1" in line and "n_powered_columns" in line
     assert not (files / "run").exists()
 

@@ -192,21 +192,22 @@ def _scene(tmp_path, name: str = "scene", **changes) -> str:
 
 
 @pytest.mark.parametrize("changes, words", [
-    ({"plate": {"width_mm": 2}}, ("column 'A'", "overhangs the plate", "0 to 2 mm")),
+    ({"plate": {"width_mm": 2}}, ("actuators:", "column 'A'", "overhangs the plate", "0 to 2 mm")),
     ({"actuators": {"piezo": {"length_mm": 10, "width_mm": 5, "thickness_mm": 0.5, "material": "NCE 41"},
-                    "piezos_per_column": 5}}, ("column 'A'", "10 mm", "overhangs", "0 to 41 mm")),
+                    "piezos_per_column": 5}}, ("actuators:", "column 'A'", "10 mm", "overhangs", "0 to 41 mm")),
     ({"actuators": {"columns": [{"name": "A", "position_mm": 2.5}, {"name": "B", "position_mm": 75}]}},
-     ("column 'B'", "overhangs the plate", "0 to 76")),
+     ("actuators:", "column 'B'", "overhangs the plate", "0 to 76")),
     ({"actuators": {"columns": [{"name": "A", "position_mm": 2.5}, {"name": "B", "position_mm": 5}]}},
-     ("columns 'A' and 'B'", "overlap")),
+     ("actuators:", "columns 'A' and 'B'", "overlap")),
+    ({"measurement_point": {"x_mm": 38, "y_mm": 20500}}, ("measurement_point.y_mm", "off the plate", "41 mm")),
 ])
-def test_piezos_off_the_plate_or_on_one_another_are_refused_by_validate_and_run(tmp_path, capsys, changes, words):
+def test_piezos_or_the_spot_off_the_plate_are_refused_by_validate_and_run(tmp_path, capsys, changes, words):
     """The scene alone and a campaign on it: `validate` and `run` refuse with one line naming
-    the scene and its actuators, before anything is measured."""
+    the scene and the field, before anything is measured."""
     scene = _scene(tmp_path, **changes)
     assert cli.main(["validate", scene]) == cli.EXIT_USER_ERROR
     refused = _cause(capsys)
-    assert all(word in refused for word in (scene, "actuators:", *words)), refused
+    assert all(word in refused for word in (scene, *words)), refused
     data = yaml.safe_load(paths.campaign_file("quick.yaml").read_text())
     data["bench"] = {"scene": scene}
     campaign = tmp_path / "on_it.yaml"
