@@ -35,7 +35,7 @@ def write_yaml(tmp_path: Path, data, name: str = "bench.yaml") -> Path:
     return path
 
 
-GOOD_BENCH = {"visa_library": "@py", "resources": dict(SIM_RESOURCES),
+GOOD_BENCH = {"visa_library": "@py", "resources": dict(SIM_RESOURCES), "stage_travel_mm": {"x": [0, 300], "y": [0, 200]},
               "electronics": {"amplifier_gain": 20, "amplifier_max_output_vpp": 240, "generator_load": "INF"}}
 
 
@@ -61,12 +61,13 @@ def test_load_bench_file(tmp_path):
     assert config.resources == SIM_RESOURCES
     assert config.electronics == BenchElectronics(amplifier_max_output_vpp=240.0)
     assert config.source == str(tmp_path / "bench.yaml")
+    assert config.stage_travel_mm == {"x": (0, 300), "y": (0, 200)}
 
 
 @pytest.mark.parametrize("content, field, allowed", [
     ("resources: [unclosed", "file", "not valid YAML at line "),
-    ("- just\n- a list\n", "top level", "electronics, resources, simulator, visa_library"),
-    ({**GOOD_BENCH, "amplifier": 20}, "amplifier", "electronics, resources, simulator, visa_library"),
+    ("- just\n- a list\n", "top level", "electronics, resources, simulator, stage_travel_mm, visa_library"),
+    ({**GOOD_BENCH, "amplifier": 20}, "amplifier", "electronics, resources, simulator, stage_travel_mm, visa_library"),
     ({**GOOD_BENCH, "visa_library": 3}, "visa_library", "should be a valid string"),
     ({**GOOD_BENCH, "resources": {"generator": "GPIB0::10::INSTR", "scope": "TCPIP0::1.2.3.4::INSTR"}},
      "resources.vibrometer", "is missing"),
