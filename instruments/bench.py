@@ -274,7 +274,10 @@ class Bench:
                                 self.clock if isinstance(self.clock, ServedSimulator) else None)
             driver.clear_status()
             driver.sleep = self.clock.sleep
-            self.drivers["stage"] = driver
+            self.drivers["stage"] = driver   # closed with the bench, whatever follows
+            problem = stated_travel_problem(self.config.stage_travel_mm, driver)
+            if problem:
+                raise BenchMismatch("stage", address, problem)
         return self.drivers["stage"]
 
     def check_errors(self) -> None:
@@ -408,10 +411,10 @@ def _stale_errors(driver: Instrument) -> list[tuple[int, str]]:
     return []
 
 
-def _report_lines(role: str, driver: Instrument, electronics: BenchElectronics
-                  ) -> tuple[list[str], list[str], dict[str, Any]]:
+def _report_lines(role: str, driver: Instrument, config: BenchConfig) -> tuple[list[str], list[str], dict[str, Any]]:
     """(lines to show, disagreements between the bench description and the hardware, the
     settings read as typed values, names with their units as everywhere in squeezebench)."""
+    electronics = config.electronics
     stale = _stale_errors(driver)
     lines = [f"    cleared {len(stale)} queued event(s): " + "; ".join(f"{c},{m!r}" for c, m in stale)] if stale \
         else ["    no queued errors"]
@@ -457,6 +460,9 @@ def _report_lines(role: str, driver: Instrument, electronics: BenchElectronics
         for axis in ("x", "y"):   # read once, shown and returned
             settings[axis] = driver.axis_settings(axis)
             lines.append(f"    {driver.describe_axis(axis, settings[axis])}")
+        travel = stated_travel_problem(config.stage_travel_mm, driver)
+        if travel:
+            problems.append(f"stage {travel}")
     return lines, problems, settings
 
 
@@ -491,6 +497,17 @@ class BenchCheck:
         return {**dataclasses.asdict(self), "passed": self.passed}
 
 
+def stated_travel_problem(stated: Mapping[str, tuple[float, float]] | None, stage: SMC100Stage) -> str | None:
+    """Where the bench file states more travel than the controllers' limits (SMC100 UM
+    SL/SR; None if it does not): `validate` passed a map against the file's figure."""
+    for axis, (low, high) in (stated or {}).items():
+        reported = stage.travel_mm[axis]
+        if low < reported[0] or high > reported[1]:
+            return (f"the bench file states the {axis} travel {low:g} to {high:g} mm, the controller's limits "
+                    f"(SL, SR) are {reported[0]:g} to {reported[1]:g} mm: correct stage_travel_mm")
+    return None
+
+
 def inspect_bench(config: BenchConfig, out: Callable[[str], None] = print) -> BenchCheck:
     """Open every instrument (the stage too when the bench names one); say its role,
     address, identification, the errors it had queued (read and cleared), main settings,
@@ -512,7 +529,7 @@ def inspect_bench(config: BenchConfig, out: Callable[[str], None] = print) -> Be
             address = config.resources[role]
             try:
                 driver = _open_role(resource_manager, role, address)
-                lines, disagreements, settings = _report_lines(role, driver, config.electronics)
+                lines, disagreements, settings = _report_lines(role, driver, config)
             except InstrumentError as exc:
                 result.instruments.append(InstrumentCheck(role, address, False, error=exc.message))
                 out(f"{role} at {address} did not answer as expected: {exc.message}")

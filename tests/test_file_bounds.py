@@ -133,6 +133,25 @@ def test_a_real_benchs_map_is_held_to_its_stage_by_validate_and_run_alike(tmp_pa
         _both_refuse(tmp_path, capsys, campaign, *words)
 
 
+def test_a_stated_travel_beyond_the_controllers_limits_stops_the_map_and_fails_check():
+    """`validate` trusts the bench file's travel; the stage, opened, says its own (SL/SR):
+    more stated than the controllers allow is a BenchMismatch for a run and for `check`."""
+    import dataclasses
+
+    from squeezebench.instruments.bench import inspect_bench
+    from squeezebench.instruments.errors import BenchMismatch
+
+    config = dataclasses.replace(sim_bench_config(paths.scenes_dir() / "large_plate.yaml"),
+                                 stage_travel_mm={"x": (0.0, 400.0), "y": (0.0, 200.0)})
+    with open_bench(config) as bench:
+        with pytest.raises(BenchMismatch, match="states the x travel 0 to 400 mm.*are 0 to 300 mm"):
+            bench.stage
+    found = inspect_bench(config, out=lambda line: None)
+    assert not found.passed and any("stage_travel_mm" in problem for problem in found.disagreements)
+    assert inspect_bench(dataclasses.replace(config, stage_travel_mm={"x": (0.0, 300.0), "y": (10.0, 150.0)}),
+                         out=lambda line: None).passed   # a narrower travel stated is kept to, not refused
+
+
 def test_the_stage_travel_stated_for_a_served_bench_is_the_simulated_stages():
     from squeezebench.instruments.served import served_bench_file
     from squeezebench.simbench.stage import TRAVEL_MM
