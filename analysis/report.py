@@ -1288,6 +1288,7 @@ def predicted_section(context: ReportContext) -> Section:
         f"Damping from physics: fitted on {damping.FIT_ON}, judged on the other builds", html_table(
             fit, f"{PLATE_MODEL_WORDS} {damping.TABLE_WORDS} ({fit['fitted_cushion_resistance_pa_s_per_m'].iloc[0]:.0f} "
                  f"Pa s/m), the other rows held out")
+        + html_table(damping.terms_table(), "each mechanism's loss factor beside the one the print implies")
         + html_table(damping.cross_check(), "the same fit on each build in turn, judged on every build"))
     figure = predicted_plates.large_plate_mode_figure(context.out_dir / "predicted_mode_large_plate.png")
     body += presentation.fold("The large plate's predicted working mode", context.figure(

@@ -154,3 +154,11 @@ def test_cross_check_fits_each_build_once():
     assert len(frame) == len(damping.BUILDS) ** 2
     assert (frame.groupby("fitted_on")["role"].apply(lambda r: (r == "fitted").sum()) == 1).all()
     assert (frame["fitted_cushion_resistance_pa_s_per_m"] >= 0).all()
+
+
+def test_the_terms_table_sums_the_mechanisms_it_shows():
+    frame = damping.terms_table()
+    parts = frame[["loss_aluminium", "loss_piezo", "loss_bond", "loss_radiation", "loss_cushion_fitted"]]
+    assert frame["loss_total"].to_numpy() == pytest.approx(parts.sum(axis=1).to_numpy())
+    fit = damping.fit_and_check().set_index("item")
+    assert (1 / frame.set_index("item")["loss_total"]).to_numpy() == pytest.approx(fit["q_fitted"].to_numpy())
