@@ -266,6 +266,7 @@ def _predictions() -> pd.DataFrame:
                     "predicted_half_wavelength_mm": modes.half_wavelength_m(k) * 1e3,
                     "modal_mass_g": nominal["modal_mass_kg"] * 1e3,
                     "force_factor_n_per_v": nominal["force_factor_n_per_v"],
+                    "clamped_capacitance_f": float(modes.clamped_capacitance_f[modes.powered].sum()),
                     "force_factor_u_placement_rel": 2 * u_place["force_factor_n_per_v"],
                     "bond_effectiveness": eta, "piezo_energy_share": float(modes.piezo_energy_share[k]),
                     "drive_u_rel": 2 * u_drive,
@@ -366,9 +367,10 @@ def large_plate_response() -> dict[str, float]:
 
 def loss_budget() -> pd.DataFrame:
     """Per paper plate: the Q its printed power and velocity imply through the model's modal
-    mass (`damping.implied_q`; the large plate's "1 um" read as pp), the loss terms without the
-    bond and per unit bond loss factor (1/Q is linear in it), and the Q with the bond's nominal
-    loss factor: what `damping.fit_and_check` fits and judges."""
+    mass (`damping.implied_q`; the large plate's "1 um" read as pp), each loss term at its
+    nominal (`damping.mode_loss_terms`) and the share of the printed power the powered piezos'
+    dielectric loss takes at the printed drive (`damping.dielectric_power_w`): what
+    `damping.fit_and_check` fits and judges."""
     from squeezebench.analysis import damping
 
     rows = []
@@ -381,12 +383,11 @@ def loss_budget() -> pd.DataFrame:
         else:
             velocity_pp = printed["printed_velocity_pp_mps"]
         implied = damping.implied_q(f, row["modal_mass_g"] * 1e-3, velocity_pp, printed["printed_power_w"])
-        without = row["loss_aluminium"] + row["loss_piezo"] + row["loss_radiation"]
-        per_eta = row["loss_bond"] / plate_modes.EPOXY.loss_factor
-        total = without + row["loss_bond"]
+        dielectric = damping.dielectric_power_w(f, row["clamped_capacitance_f"], printed["voltage_vpp"],
+                                                plate_modes.NCE41.tan_delta)
         rows.append({"table": row["table"], "item": row["item"], "implied_q": implied,
-                     "loss_without_bond": without, "bond_loss_per_eta": per_eta, "q_nominal": 1.0 / total,
-                     "radiation_share": row["loss_radiation"] / total, "bond_share_nominal": row["loss_bond"] / total})
+                     "dielectric_share_of_power": dielectric / printed["printed_power_w"],
+                     **{name: value for name, value in row.items() if name.startswith("loss_")}})
     return pd.DataFrame(rows)
 
 

@@ -214,6 +214,7 @@ def fold(summary: str, inner_html: str) -> str:
 
 #: Unit suffixes of squeezebench's column names, longest first, and how a person reads them.
 _UNIT_SUFFIXES = (("_pp_mps", "m/s pp"), ("_mps_per_v", "m/s per V"), ("_w_per_um2", "W per µm pp²"),
+                  ("_pa_s_per_m", "Pa s/m"),
                   ("_rel", "relative"),
                   ("_mps", "m/s"), ("_vpp", "V pp"), ("_hz", "Hz"), ("_var", "var"), ("_nf", "nF"),
                   ("_mm", "mm"), ("_rad", "rad"), ("_w", "W"), ("_m", "m"), ("_s", "s"), ("_g", "g"),

@@ -1285,10 +1285,11 @@ def predicted_section(context: ReportContext) -> Section:
                    "model's modal mass) over the model's: the factor each would have to move by"))
     fit = damping.fit_and_check()
     body += presentation.fold(
-        "Damping from physics: fitted on Table 3, judged on Table 4 and the large plate", html_table(
-            fit, f"{PLATE_MODEL_WORDS} Q from the aluminium's, the ceramic's (Qm) and the bond's losses weighted by their strain "
-                 f"energy, and radiation into air; the bond's loss factor fitted on Table 3 "
-                 f"({fit['fitted_bond_loss_factor'].iloc[0]:.3g}), the other rows held out"))
+        f"Damping from physics: fitted on {damping.FIT_ON}, judged on the other builds", html_table(
+            fit, f"{PLATE_MODEL_WORDS} {damping.TABLE_WORDS} ({fit['fitted_cushion_resistance_pa_s_per_m'].iloc[0]:.0f} "
+                 f"Pa s/m), the other rows held out")
+        + html_table(damping.terms_table(), "each mechanism's loss factor beside the one the print implies")
+        + html_table(damping.cross_check(), "the same fit on each build in turn, judged on every build"))
     figure = predicted_plates.large_plate_mode_figure(context.out_dir / "predicted_mode_large_plate.png")
     body += presentation.fold("The large plate's predicted working mode", context.figure(
         context.out_dir / "predicted_mode_large_plate.png",
