@@ -1,6 +1,6 @@
 """The simulated bench behind the instruments: scene, state, effects, clock, physics.
 
-The three simulated instruments (`simbench.devices`) read their settings from their
+The three simulated instruments (`simbench.devices.INSTRUMENTS`) read their settings from their
 pyvisa-sim state and ask this object for the physics: the generator's settings drive
 the plate, the scope's acquisitions see it, the vibrometer's range scales CH3.
 """
