@@ -21,8 +21,8 @@ from typing import ClassVar
 
 from pyvisa import constants, errors
 
-from squeezebench.simbench import effects as fx
 from squeezebench.simbench.clock import BusTiming
+from squeezebench.simbench.fault_effects import TruncatedPayload
 
 EOM = b"\n"
 
@@ -120,14 +120,14 @@ class SimulatedInstrument:
                 self._time_out(timeout_s)
             clock.advance_to(head.ready_s)
             payload = head.payload
-            head = self._replies[0] = payload if isinstance(payload, fx.TruncatedPayload) else bytearray(payload)
+            head = self._replies[0] = payload if isinstance(payload, TruncatedPayload) else bytearray(payload)
         chunk = bytes(head[:count])
         del head[:count]
         clock.advance(self.bus.message_s(len(chunk)))
         if head:
             return chunk, constants.StatusCode.success_max_count_read
         self._replies.popleft()
-        if isinstance(head, fx.TruncatedPayload):   # no END: the reader asks for the rest, which never comes
+        if isinstance(head, TruncatedPayload):   # no END: the reader asks for the rest, which never comes
             return chunk, constants.StatusCode.success_max_count_read
         return chunk, constants.StatusCode.success
 
