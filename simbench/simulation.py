@@ -16,7 +16,8 @@ import numpy as np
 from squeezebench.simbench import effects as fx
 from squeezebench.simbench import physics, traces
 from squeezebench.simbench.clock import VirtualClock
-from squeezebench.simbench.scene import Scene, load_scene
+from squeezebench.simbench.scene import load_scene
+from squeezebench.simbench.scene_model import Scene
 
 
 #: The state an operator is asked for when the calibration resistor replaces the plate

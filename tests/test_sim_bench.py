@@ -10,7 +10,7 @@ import pytest
 import pyvisa
 
 from squeezebench.simbench import physics
-from squeezebench.simbench.scene import SceneError
+from squeezebench.simbench.scene_model import SceneError
 from squeezebench.simbench.scope import SCOPE_REARM_S
 from test_sim_support import RawBench, sampled_truth, scene_file
 

@@ -15,7 +15,8 @@ from squeezebench.instruments.errors import ConnectionLost, GarbledReply, Instru
 from squeezebench.protocols.variants import SYSTEMATIC_EFFECTS
 from squeezebench.simbench import effects as fx
 from squeezebench.simbench import systematic_effects
-from squeezebench.simbench.scene import SceneError, load_scene
+from squeezebench.simbench.scene import load_scene
+from squeezebench.simbench.scene_model import SceneError
 from test_sim_support import RawBench, sampled_truth, scene_file
 
 F_HZ = 37180.0
