@@ -1,10 +1,13 @@
 """What the simulated instruments share: message transport, bench time and bus faults.
 
 Each instrument parses what it receives with its manual's grammar (`simbench.scpi` for
-the two IEEE 488.2 instruments, `simbench.scpi_device`; the controller's line protocol for
-the OFV-5000, `simbench.vibrometer`), keeps its settings in a state that starts as the
-manual's power-on state, and reports what it refuses the way its manual says. A refused
-query returns nothing: the reader waits out its VISA timeout, as on the real bus.
+the two IEEE 488.2 instruments, through `simbench.scpi_device`; the controller's line
+protocol for the OFV-5000, `simbench.vibrometer`), keeps its settings in a state that
+starts as the manual's power-on state, and reports what it refuses the way its manual
+says: the 33120A in its SCPI error queue (`SYST:ERR?`), the TDS 3054B in its Standard
+Event Status Register and event queue (`*ESR?`, `EVMsg?`, `ALLEv?`), the OFV-5000 with an
+`Error` line. A refused query returns nothing: the reader waits out its VISA timeout, as
+on the real bus.
 
 The simulator never looks at which driver talks to it. What it adds beyond the manuals:
 bench time for every message (bus latency and transfer), for what the instrument does
