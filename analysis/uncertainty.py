@@ -26,7 +26,6 @@ package (linear propagation, numerical derivatives of `analysis.model`).
 
 from __future__ import annotations
 
-import json
 import math
 from dataclasses import dataclass, replace
 
@@ -37,6 +36,7 @@ from scipy import special
 
 from squeezebench.analysis import model
 from squeezebench.analysis.calibration import Deskew, deskew_of_run, gain_weight
+from squeezebench.analysis.resonance_searches import SearchSetup, mechanical_q_from_sweep, search_setups
 from squeezebench.analysis.rundata import RunData
 from squeezebench.analysis.specifications import SPECIFICATIONS, VOLTAGE_PROBE_POLE_HZ, sheet_thickness_tolerance
 from squeezebench.analysis.tables import reduced_points, with_scope_fallback
@@ -285,43 +285,6 @@ def frequency_budget(point: dict) -> Budget:
     return Budget("frequency_hz", "Hz", value, (
         _noise(point["frequency_hz_u"]),
         _spec_term("scope time base", "scope_timebase", value)))
-
-
-def mechanical_q_from_sweep(frequency_hz: float, sweep: pd.DataFrame) -> float | None:
-    """The resonance's sharpness from the search's points around it (sweep and refinement).
-
-    On v = v0 / sqrt(1 + k^2 d^2) (d = f - f0, k = 2 Q / f0), 1/v^2 is a straight line
-    in d^2 with slope/intercept k^2: fitted on the points above a third of the peak
-    (where one mode dominates). None with fewer than three such points or no rise."""
-    near = sweep[sweep["velocity_pp_mps"] > sweep["velocity_pp_mps"].max() / 3.0]
-    if len(near) < 3:
-        return None
-    d2 = (near["generator_frequency_hz"].to_numpy() - frequency_hz) ** 2
-    slope, intercept = np.polyfit(d2, near["velocity_pp_mps"].to_numpy() ** -2.0, 1)
-    if not (slope > 0 and intercept > 0):
-        return None
-    return math.sqrt(slope / intercept) * frequency_hz / 2.0
-
-
-@dataclass(frozen=True)
-class SearchSetup:
-    """What a run's resonance search was set to (RUN_DIR/settings/<run>.json)."""
-
-    tolerance_hz: float
-    samples_per_period: float   # of the records the search read the velocity from
-
-
-def search_setups(run: RunData) -> dict[str, SearchSetup]:
-    """The search settings of every run of `run` that searched a resonance."""
-    setups = {}
-    for path in sorted((run.run_dir / "settings").glob("*.json")):
-        settings = json.loads(path.read_text(encoding="utf-8"))
-        search = settings.get("parameters", {}).get("search")
-        if search:
-            acquisition = settings["acquisition"]
-            setups[settings["run"]] = SearchSetup(float(search["tolerance_hz"]),
-                                                  acquisition["record_length"] / acquisition["periods_per_record"])
-    return setups
 
 
 def search_budgets(rows: pd.DataFrame, setups: dict[str, SearchSetup]) -> list[tuple[str, str, Budget]]:

@@ -29,7 +29,7 @@ from squeezebench.instruments.bench import sim_bench_config
 from squeezebench.protocols import campaign
 from squeezebench.protocols.parallel import map_unordered
 from squeezebench.workers import default_workers
-from squeezebench.simbench import devices
+from squeezebench.simbench import scpi_device
 
 COLUMNS = ["run_name", "step_id", "point_index", "generator_frequency_hz", "generator_amplitude_vpp",
            "scope_piezo_voltage_pp_v", "scope_power_w", "scope_velocity_pp_v", "vibrometer_scale_mps_per_v"]
@@ -39,7 +39,7 @@ def measured(task: tuple[str, str]) -> tuple[str, str, pd.DataFrame | str, list[
     """(campaign, start, its rows or why it failed, the commands refused) of one run."""
     name, start = task
     campaign.sim_bench_config = functools.partial(sim_bench_config, start=start)
-    with tempfile.TemporaryDirectory() as out, devices.recorded_refusals() as refused:
+    with tempfile.TemporaryDirectory() as out, scpi_device.recorded_refusals() as refused:
         try:
             run_dir = campaign.run_campaign(paths.campaigns_dir() / f"{name}.yaml", out_dir=Path(out) / "run",
                                             progress=False)

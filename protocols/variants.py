@@ -21,7 +21,7 @@ from squeezebench.yamlfiles import dump_yaml, load_strict
 #: frequency; near the plates' so the resistor's own L/R matters as it will.
 CALIBRATION_FREQUENCY_HZ = 37000.0
 
-#: The systematic effects of `simbench.effects` (scene vocabulary: names, not imports, as
+#: The systematic effects of `simbench.systematic_effects` (scene vocabulary: names, not imports, as
 #: protocols never import the simulator): the instruments' errors within specification.
 SYSTEMATIC_EFFECTS = ("scope_gain_error", "voltage_probe_error", "current_probe_gain_error", "vibrometer_scale_error",
                       "channel_skew", "current_probe_delay", "voltage_probe_compensation", "generator_frequency_error")
@@ -53,7 +53,7 @@ def _keep_runs(campaign_file: Path, keep: Callable[[dict], bool]) -> Path:
 
 
 #: How a simulated bench's errors are drawn (the `draw` of its systematic effects): within
-#: the specified limits as the budgets assume, or as the world may err (`effects.world_draw`).
+#: the specified limits as the budgets assume, or as the world may err (`systematic_effects.world_draw`).
 ERROR_MODELS = {"specified": 1, "world": 2}
 
 

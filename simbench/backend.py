@@ -20,7 +20,8 @@ from pyvisa_sim.highlevel import SimVisaLibrary
 
 from squeezebench import paths
 from squeezebench.simbench.clock import BUS_TIMINGS
-from squeezebench.simbench.devices import INSTRUMENTS, SimulatedInstrument, start_state
+from squeezebench.simbench.device_base import SimulatedInstrument
+from squeezebench.simbench.devices import INSTRUMENTS, start_state
 from squeezebench.simbench.scene import load_scene
 from squeezebench.simbench.simulation import SimulatedBench
 from squeezebench.simbench.stage import Stage

@@ -28,7 +28,7 @@ from scipy.interpolate import RegularGridInterpolator
 
 from squeezebench.analysis import plate_modes
 from squeezebench.simbench import predicted
-from squeezebench.simbench.scene import SceneError
+from squeezebench.simbench.scene_model import SceneError
 
 
 def working_mode(scene, state) -> tuple[plate_modes.PlateModes, int]:

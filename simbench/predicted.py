@@ -17,7 +17,7 @@ import pandas as pd
 
 from squeezebench.analysis import plate_modes
 from squeezebench.simbench import physics
-from squeezebench.simbench.scene import Actuators, Plate, Scene, State
+from squeezebench.simbench.scene_model import Actuators, Plate, Scene, State
 
 #: A replay's resonance further than this from the prediction is flagged: the model's
 #: measured spread on Tables 3-4 (tests/test_predicted_plates.py) is -2.6 % to +0.8 % and +4.9 %

@@ -38,31 +38,35 @@ the plate's modal mass. A calibration is read as the scope reads it: amplifier-o
 (CH1), CH1 x CH2 mean power and vibrometer velocity pp, so with the `shunt` or
 `dielectric_loss` effect on, the state's motional branch is calibrated through them.
 
-Whatever its origin, every state must describe a plate that can exist (`BOUNDS`): a scene
+Whatever its origin, every state must describe a plate that can exist (`scene_bounds.BOUNDS`): a scene
 whose calibration asks for more is refused at load, naming the bound and the values.
-Beyond that, a scene must describe the plate physics predicts (`PLAUSIBILITY`): q_mech in
+Beyond that, a scene must describe the plate physics predicts (`scene_bounds.PLAUSIBILITY`): q_mech in
 its material's range and, for a calibrated state, the resonance, force factor and modal
 mass of the plate model within their tolerances. A scene that reproduces a measurement the
 model does not explain says so, `replay: {reason: ...}`; it is then loaded, and `validate`,
 docs/scenes.md and the report show how far it departs and why.
+
+The `Scene` it returns and its parts are `simbench.scene_model`.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
-import numpy as np
 import pandas as pd
 import yaml
 
 from squeezebench.analysis import model
 from squeezebench.simbench import physics, transport_faults
-from squeezebench.simbench.transport_faults import TransportFault
 from squeezebench.simbench.effects import EFFECTS
-from squeezebench.errors import UserError
+from squeezebench.simbench.scene_bounds import PLAUSIBILITY, StateFigures, scene_figures
+from squeezebench.simbench.scene_mechanics import force_factor_n_per_v, modal_mass_kg
+from squeezebench.simbench.scene_model import (PAPER_MODEL_REFERENCE_VPP, Actuators, Calibration, Column, EffectSpec,
+                                               Electronics, MeasurementPoint, Mode, Piezo, Plate, Scene, SceneError,
+                                               State, _geometry)
 from squeezebench.lru import RecentlyUsed
 from squeezebench.yamlfiles import load_strict, yaml_problem
 
@@ -71,27 +75,6 @@ PREDICTED = "predicted"
 #: Readings of the paper's model a `paper_model` calibration may name.
 CONVENTIONS = {c.name: c for c in (model.PAPER_CONVENTION, model.AS_PRINTED_CONVENTION,
                                    model.PHYSICAL_CONVENTION, model.INFERRED_CONVENTION)}
-#: The paper's model is linear in V: a `paper_model` calibration is evaluated here, inside
-#: the Fig. 5 sweeps, and gives the same plate at any voltage.
-PAPER_MODEL_REFERENCE_VPP = 20.0
-#: What a plate that can exist obeys (checked on every state at load).
-MAX_SHUNT_SHARE = 0.10  # Sec. 2.1: the 2 ohm shunt took at most 10 % of the power
-MAX_POWER_FACTOR = 0.99  # a piezo load is capacitive: C0 always draws reactive current
-BOUNDS = {
-    "effective_coupling": "effective coupling <= the piezo material's k31",
-    "power_factor": f"power factor at resonance < {MAX_POWER_FACTOR:g}",
-    "modal_mass_ratio": "modal mass <= the mass of the plate with its piezos (not for a predicted state: the "
-                        "model's own mass, at a point that may move less than the peak)",
-    "shunt_share": f"shunt share of the power at resonance <= {MAX_SHUNT_SHARE:.0%} (Sec. 2.1)",
-    "positive": "C0, R_mech, force factor and modal mass > 0",
-}
-#: What a plate physics predicts obeys (checked on every state of a scene that is not a replay).
-PLAUSIBILITY = {
-    "q_mech_range": "q_mech within the resonator material's range for a free plate in air "
-                    "(physics.ResonatorMaterial.q_mech_range)",
-    "plate_model": "a calibrated state's resonance, force factor and modal mass within the plate model's "
-                   "tolerances (simbench.predicted)",
-}
 GENERATOR_LOADS = ("INF", "50")
 #: Effects that were part of the bench the calibration values were measured on: when a
 #: scene turns them on, its states are calibrated through them, so that the scope still
@@ -99,311 +82,6 @@ GENERATOR_LOADS = ("INF", "50")
 #: the published power). Other load effects (a neighbouring mode, heating) stay
 #: departures from the published plate.
 CALIBRATED_EFFECTS = ("shunt", "dielectric_loss")
-
-
-class SceneError(UserError):
-    """A scene file that cannot be used; the message names file, field and what is allowed."""
-
-
-@dataclass(frozen=True)
-class Plate:
-    name: str
-    material: physics.ResonatorMaterial
-    length_mm: float
-    width_mm: float
-    thickness_mm: float
-
-    @property
-    def mass_kg(self) -> float:
-        return self.material.density_kg_m3 * self.length_mm * self.width_mm * self.thickness_mm * 1e-9
-
-
-@dataclass(frozen=True)
-class Piezo:
-    length_mm: float  # b_p of Eq. 25: along the nodal lines
-    width_mm: float
-    thickness_mm: float
-    material: physics.PiezoMaterial
-
-    @property
-    def area_m2(self) -> float:
-        return self.length_mm * self.width_mm * 1e-6
-
-    @property
-    def mass_kg(self) -> float:
-        return self.material.density_kg_m3 * self.area_m2 * self.thickness_mm * 1e-3
-
-
-@dataclass(frozen=True)
-class Column:
-    name: str
-    position_mm: float  # centre of the column along the plate length, from one end
-
-
-@dataclass(frozen=True)
-class Actuators:
-    piezo: Piezo
-    piezos_per_column: int
-    columns: tuple[Column, ...]
-
-
-@dataclass(frozen=True)
-class Mode:
-    name: str
-    half_wavelength_mm: float
-
-
-@dataclass(frozen=True)
-class Calibration:
-    """The published (or model) measurement at resonance a state reproduces."""
-
-    voltage_vpp: float
-    velocity_pp_mps: float
-    power_w: float
-    form: str  # "velocity", "amplitude" or "paper_model"
-    reading: str = ""  # the paper_model's convention name
-
-
-@dataclass(frozen=True)
-class State:
-    """One condition of the plate: a cut, a set of powered columns..."""
-
-    name: str
-    description: str
-    resonance_frequency_hz: float
-    q_mech: float
-    powered_columns: tuple[str, ...]
-    n_powered_piezos: int
-    calibration: Calibration | None  # None: the branch follows from the physics alone
-    capacitance_f: float  # clamped capacitance of the powered piezos
-    branch: physics.MotionalBranch  # the working mode (calibrated, or from the physics)
-    q_mech_origin: str = "given"  # "given" or "modal mass" (derived from the plate)
-    plate_length_mm: float | None = None  # the plate's length in this state (a cut); None: uncut
-    #: resonance, modal mass and force factor from the plate model (simbench.predicted), not given
-    predicted: bool = False
-
-    def load(self) -> physics.PlateLoad:
-        """The plate as the amplifier sees it, with every effect off."""
-        return physics.PlateLoad(capacitance_f=self.capacitance_f, branches=(self.branch,))
-
-
-@dataclass(frozen=True)
-class Electronics:
-    amplifier_gain: float = 20.0
-    amplifier_max_output_vpp: float = 300.0
-    amplifier_bandwidth_hz: float = 500e3
-    amplifier_input_ohm: float = 1e6
-    shunt_ohm: float = 2.0
-    voltage_probe_attenuation: float = 100.0
-    current_probe_a_per_a: float = 1.0
-    generator_load: str = "INF"
-    #: The CH1 probe carries a coding resistor (TekProbe level I): the scope fixes its gain
-    #: at 1/voltage_probe_attenuation and names no model (CH<x>:ID? reads "").
-    voltage_probe_coded: bool = False
-
-    def amplifier(self) -> physics.Amplifier:
-        """The amplifier with every effect off (limits are the amplifier_limits effect)."""
-        return physics.Amplifier(gain=self.amplifier_gain, input_ohm=self.amplifier_input_ohm)
-
-
-@dataclass(frozen=True)
-class MeasurementPoint:
-    x_mm: float
-    y_mm: float
-    signal_level_percent: float = 80.0
-
-
-@dataclass(frozen=True)
-class EffectSpec:
-    name: str
-    parameters: dict[str, float]
-
-
-@dataclass(frozen=True)
-class Scene:
-    path: Path
-    plate: Plate
-    actuators: Actuators
-    mode: Mode
-    states: dict[str, State]
-    initial_state: str
-    electronics: Electronics
-    measurement_point: MeasurementPoint
-    effects: tuple[EffectSpec, ...]
-    seed: int
-    provenance: dict[str, str]
-    #: Why this scene reproduces a measurement rather than what physics predicts; None: it
-    #: describes a plate within `PLAUSIBILITY`.
-    replay_reason: str | None = None
-    #: Faults of a served bench's transport (`serve-sim`); the in-process bench has none.
-    transport_faults: tuple[TransportFault, ...] = ()
-
-    def state(self, name: str) -> State:
-        try:
-            return self.states[name]
-        except KeyError:
-            raise SceneError(f"{self.path}: states: no state {name!r}; "
-                             f"allowed: {', '.join(self.states)}") from None
-
-    def plate_in(self, state: State) -> Plate:
-        """The resonator as `state` has it (a cut state is shorter)."""
-        return replace(self.plate, length_mm=state.plate_length_mm or self.plate.length_mm)
-
-    def geometry(self, state: State) -> model.PlateGeometry:
-        """The half-wavelength section of the paper's Fig. 4 for `state`."""
-        return _geometry(self.plate, self.actuators.piezo, self.mode, state.n_powered_piezos,
-                         len(state.powered_columns))
-
-
-def _geometry(plate: Plate, piezo: Piezo, mode: Mode, n_powered: int, n_groups: int) -> model.PlateGeometry:
-    return model.PlateGeometry(
-        resonator_thickness_m=plate.thickness_mm * 1e-3, piezo_thickness_m=piezo.thickness_mm * 1e-3,
-        piezo_length_m=piezo.length_mm * 1e-3, half_wavelength_m=mode.half_wavelength_mm * 1e-3,
-        n_powered_piezos=n_powered, n_powered_groups=n_groups)
-
-
-# --- the plate's electromechanics from its physical parameters ---------------------------
-
-def _patch_extent_m(column: Column, piezo: Piezo) -> tuple[float, float]:
-    """Where a column's patches start and end along the plate (the piezo width lies along it)."""
-    return ((column.position_mm - piezo.width_mm / 2.0) * 1e-3, (column.position_mm + piezo.width_mm / 2.0) * 1e-3)
-
-
-def modal_mass_kg(plate: Plate, actuators: Actuators, mode: Mode) -> float:
-    """Mass of the (n, 0) mode with unit displacement at the antinodes: half the plate's
-    mass (the mean of cos^2) plus every bonded piezo weighted by the mode's mean square
-    over its patch (powered or not, a bonded patch moves with the plate)."""
-    half = mode.half_wavelength_mm * 1e-3
-    piezos = sum(actuators.piezos_per_column * actuators.piezo.mass_kg
-                 * physics.mean_square_mode(*_patch_extent_m(c, actuators.piezo), half) for c in actuators.columns)
-    return plate.mass_kg / 2.0 + piezos
-
-
-def assembly_mass_kg(plate: Plate, actuators: Actuators) -> float:
-    return plate.mass_kg + len(actuators.columns) * actuators.piezos_per_column * actuators.piezo.mass_kg
-
-
-def force_factor_n_per_v(plate: Plate, actuators: Actuators, mode: Mode, powered: tuple[str, ...]) -> float:
-    """n_c psi from the datasheet: every powered patch's pin force on the mode, each column
-    wired in phase with the mode's curvature under it (Eq. 1: A grows with n_c V)."""
-    piezo = actuators.piezo
-    piezo_young = 1.0 / piezo.material.s11e_m2_per_n
-    neutral = physics.neutral_axis_from_piezo_face_m(piezo.thickness_mm * 1e-3, piezo_young,
-                                                     plate.thickness_mm * 1e-3, plate.material.young_pa)
-    lever = neutral - piezo.thickness_mm * 1e-3 / 2.0
-    return sum(actuators.piezos_per_column * physics.piezo_force_factor_n_per_v(
-        piezo.material, piezo.length_mm * 1e-3, lever, *_patch_extent_m(c, piezo), mode.half_wavelength_mm * 1e-3)
-        for c in actuators.columns if c.name in powered)
-
-
-@dataclass(frozen=True)
-class StateFigures:
-    """What makes a state physically possible or not, at resonance."""
-
-    scene: str
-    state: str
-    origin: str  # "physical", or the calibration's form (and reading)
-    capacitance_nf: float
-    effective_coupling: float
-    material_k31: float
-    power_factor: float
-    modal_mass_g: float
-    plate_mass_g: float
-    shunt_share: float
-    shunt_share_detuned: float  # at the Fig. 2 50 % detuning, voltage doubled to regain v0
-    loss_w_per_um2: float  # plate power / (amplitude pp in um)^2
-    force_factor_vs_datasheet: float  # calibrated n_c psi over the pin-force value
-    q_mech: float
-    q_mech_range: tuple[float, float]  # the resonator material's
-
-    @property
-    def modal_mass_ratio(self) -> float:
-        return self.modal_mass_g / self.plate_mass_g
-
-    def violations(self) -> list[str]:
-        """Each bound of BOUNDS this state breaks, with the values."""
-        broken = []
-        if not all(v > 0 and math.isfinite(v) for v in (self.capacitance_nf, self.modal_mass_g,
-                                                          self.force_factor_vs_datasheet, self.q_mech)):
-            broken.append(f"{BOUNDS['positive']}: C0 {self.capacitance_nf:.4g} nF, modal mass "
-                          f"{self.modal_mass_g:.4g} g, q_mech {self.q_mech:.4g}")
-        if self.effective_coupling > self.material_k31:
-            broken.append(f"{BOUNDS['effective_coupling']}: k_eff {self.effective_coupling:.3f} > "
-                          f"k31 {self.material_k31:.3f}")
-        if self.power_factor >= MAX_POWER_FACTOR:
-            broken.append(f"{BOUNDS['power_factor']}: power factor {self.power_factor:.4f}")
-        # a predicted mass is the plate model's own, referred to the measurement point: above
-        # the plate's mass where the point moves less than the mode's peak, which is physics
-        if self.modal_mass_ratio > 1.0 and self.origin != "predicted":
-            broken.append(f"{BOUNDS['modal_mass_ratio']}: modal mass {self.modal_mass_g:.4g} g > "
-                          f"{self.plate_mass_g:.4g} g ({self.modal_mass_ratio:.3g} x)")
-        if self.shunt_share > MAX_SHUNT_SHARE:
-            broken.append(f"{BOUNDS['shunt_share']}: the shunt takes {self.shunt_share:.1%}")
-        return broken
-
-    def implausibilities(self) -> list[str]:
-        """The q_mech bound of PLAUSIBILITY, if this state breaks it (the plate model's bound
-        needs a solve: `_refuse_implausible` asks `simbench.predicted`)."""
-        low, high = self.q_mech_range
-        if low <= self.q_mech <= high:
-            return []
-        return [f"{PLAUSIBILITY['q_mech_range']}: q_mech {self.q_mech:.4g} outside {low:g} to {high:g}"]
-
-    def as_row(self) -> dict:
-        return {"scene": self.scene, "state": self.state, "origin": self.origin,
-                "c0_nf": self.capacitance_nf, "effective_coupling": self.effective_coupling,
-                "material_k31": self.material_k31, "power_factor": self.power_factor,
-                "modal_mass_g": self.modal_mass_g, "plate_mass_g": self.plate_mass_g,
-                "modal_mass_ratio": self.modal_mass_ratio, "shunt_share": self.shunt_share,
-                "shunt_share_detuned": self.shunt_share_detuned,
-                "loss_w_per_um2": self.loss_w_per_um2,
-                "force_factor_vs_datasheet": self.force_factor_vs_datasheet, "q_mech": self.q_mech}
-
-
-def state_figures(scene: "Scene", state: State) -> StateFigures:
-    """C0, coupling, power factor, modal mass, shunt share and loss of `state` at
-    resonance, on the scene's bench (its shunt in series, whether or not the `shunt`
-    effect is on: the paper's bench had it), at the calibration voltage (20 Vpp if none)."""
-    voltage_vpp = state.calibration.voltage_vpp if state.calibration else PAPER_MODEL_REFERENCE_VPP
-    load = physics.PlateLoad(capacitance_f=state.capacitance_f, branches=(state.branch,),
-                             series_ohm=scene.electronics.shunt_ohm)
-
-    def at(frequency_hz: float, amplitude_v: float) -> physics.SteadyState:
-        drive = physics.Drive(np.array([1]), np.array([amplitude_v + 0j]), 0.0)
-        return physics.solve_steady_state(load, drive, frequency_hz)
-
-    def shunt_share(steady: physics.SteadyState) -> float:
-        shunt_w = 0.5 * scene.electronics.shunt_ohm * abs(steady.current_phasor) ** 2
-        return shunt_w / steady.power_w if steady.power_w > 0 else math.inf
-
-    steady = at(state.branch.frequency_hz, voltage_vpp / 2.0)
-    current = abs(steady.current_phasor)
-    apparent = 0.5 * voltage_vpp / 2.0 * current
-    # Fig. 2: above resonance where |Z_mech| = 2 R_mech (q (r - 1/r) = sqrt(3)) the velocity
-    # halves, and twice the voltage regains it
-    x = math.sqrt(3.0) / state.q_mech
-    detuned = at(state.branch.frequency_hz * (x + math.sqrt(x * x + 4.0)) / 2.0, voltage_vpp)
-    amplitude_um = steady.amplitude_pp_m * 1e6
-    plate = scene.plate_in(state)
-    physical_psi = force_factor_n_per_v(plate, scene.actuators, scene.mode, state.powered_columns)
-    origin = "predicted" if state.predicted else "physical" if state.calibration is None else (
-        state.calibration.form + (f" ({state.calibration.reading})" if state.calibration.reading else ""))
-    return StateFigures(
-        scene=scene.path.stem, state=state.name, origin=origin, capacitance_nf=state.capacitance_f * 1e9,
-        effective_coupling=physics.effective_coupling(state.branch, state.capacitance_f),
-        material_k31=scene.actuators.piezo.material.k31,
-        power_factor=steady.power_w / apparent if apparent > 0 else 0.0,
-        modal_mass_g=physics.modal_mass_kg(state.branch) * 1e3,
-        plate_mass_g=assembly_mass_kg(plate, scene.actuators) * 1e3,
-        shunt_share=shunt_share(steady), shunt_share_detuned=shunt_share(detuned),
-        loss_w_per_um2=steady.plate_power_w / amplitude_um**2 if amplitude_um > 0 else math.inf,
-        force_factor_vs_datasheet=state.branch.force_factor_n_per_v / physical_psi if physical_psi > 0 else math.inf,
-        q_mech=state.q_mech, q_mech_range=scene.plate.material.q_mech_range)
-
-
-def scene_figures(scene: "Scene") -> list[StateFigures]:
-    return [state_figures(scene, state) for state in scene.states.values()]
-
 
 def scenes_table(paths: list[Path]) -> pd.DataFrame:
     """One row per (scene, state) of `paths`: the figures of `StateFigures.as_row`."""

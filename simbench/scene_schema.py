@@ -22,8 +22,9 @@ from pydantic import BaseModel, ConfigDict, Field
 from squeezebench.simbench import physics
 from squeezebench.simbench.effects import EFFECTS
 from squeezebench.simbench.transport_faults import FAULTS, ROLES
-from squeezebench.simbench.scene import (BOUNDS, CONVENTIONS, GENERATOR_LOADS, PAPER_MODEL_REFERENCE_VPP, PLAUSIBILITY,
-                                         Electronics, load_scene, scenes_table)
+from squeezebench.simbench.scene import CONVENTIONS, GENERATOR_LOADS, load_scene, scenes_table
+from squeezebench.simbench.scene_bounds import BOUNDS, PLAUSIBILITY
+from squeezebench.simbench.scene_model import PAPER_MODEL_REFERENCE_VPP, Electronics
 from squeezebench.simbench.predicted import (FORCE_FACTOR_TOLERANCE, FREQUENCY_TOLERANCE, MODAL_MASS_TOLERANCE,
                                              predictions_table)
 

@@ -34,7 +34,8 @@ import pyvisa
 from pyvisa import constants
 
 from squeezebench.simbench import line
-from squeezebench.simbench.scene import SceneError, load_scene
+from squeezebench.simbench.scene import load_scene
+from squeezebench.simbench.scene_model import SceneError
 from squeezebench.simbench.transport_faults import TransportFault
 from squeezebench.yamlfiles import read_yaml
 

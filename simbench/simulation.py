@@ -1,6 +1,6 @@
 """The simulated bench behind the instruments: scene, state, effects, clock, physics.
 
-The three simulated instruments (`simbench.devices`) read their settings from their
+The three simulated instruments (`simbench.devices.INSTRUMENTS`) read their settings from their
 pyvisa-sim state and ask this object for the physics: the generator's settings drive
 the plate, the scope's acquisitions see it, the vibrometer's range scales CH3.
 """
@@ -16,7 +16,8 @@ import numpy as np
 from squeezebench.simbench import effects as fx
 from squeezebench.simbench import physics, traces
 from squeezebench.simbench.clock import VirtualClock
-from squeezebench.simbench.scene import Scene, load_scene
+from squeezebench.simbench.scene import load_scene
+from squeezebench.simbench.scene_model import Scene
 
 
 #: The state an operator is asked for when the calibration resistor replaces the plate

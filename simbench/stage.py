@@ -19,7 +19,7 @@ from dataclasses import dataclass, field
 
 from squeezebench.analysis.cartography import move_time_s
 from squeezebench.simbench import command_tables
-from squeezebench.simbench.devices import SimulatedInstrument
+from squeezebench.simbench.device_base import SimulatedInstrument
 from squeezebench.simbench.modeshape import mode_shape
 
 #: Assumed figures of a typical SMC100 stage (no datasheet survives for this bench).

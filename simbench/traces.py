@@ -18,6 +18,7 @@ from scipy.special import ndtr
 
 from squeezebench.simbench import effects as fx
 from squeezebench.simbench import physics
+from squeezebench.simbench.effect_base import AcquisitionContext
 
 HORIZONTAL_DIVISIONS = 10
 
@@ -147,7 +148,7 @@ def screen(steady: physics.SteadyState, setup: ScopeSetup, sensor_gains: np.ndar
     reaches the scope inputs (probe attenuation, current probe A/A, 1 / decoder range)."""
     times = setup.times_s()
     probe = np.array([c.probe_gain for c in setup.channels])
-    ctx = fx.AcquisitionContext(
+    ctx = AcquisitionContext(
         record_times_s=times, start_s=start_s,
         acquisition_period_s=acquisition_period_s, averages=setup.averages,
         scale_per_div=np.array([c.scale_per_div for c in setup.channels]),

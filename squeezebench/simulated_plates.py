@@ -27,7 +27,8 @@ import pandas as pd
 from squeezebench.analysis import predicted_plates, presentation, report, tables
 from squeezebench.errors import UserError
 from squeezebench.simbench import predicted
-from squeezebench.simbench.scene import BOUNDS, load_scene, scenes_table
+from squeezebench.simbench.scene import load_scene, scenes_table
+from squeezebench.simbench.scene_bounds import BOUNDS
 
 
 def scenes_section(context: report.ReportContext) -> report.Section | None:

@@ -14,7 +14,8 @@ from hypothesis import strategies as st
 from squeezebench.analysis.cartography import homogeneity, modal_assurance, signed_amplitude
 from squeezebench.paths import scenes_dir
 from squeezebench.simbench.modeshape import mode_shape, working_mode
-from squeezebench.simbench.scene import MeasurementPoint, SceneError, load_scene
+from squeezebench.simbench.scene import load_scene
+from squeezebench.simbench.scene_model import MeasurementPoint, SceneError
 
 
 @pytest.fixture(scope="module")

@@ -17,7 +17,7 @@ import pyvisa
 from squeezebench import paths
 from squeezebench.instruments.bench import check_bench, sim_bench_config
 from squeezebench.protocols import campaign
-from squeezebench.simbench import devices
+from squeezebench.simbench import scpi_device
 
 STATES = 50
 CHUNKS = 5   # the states split so that parallel workers share them
@@ -94,7 +94,7 @@ def test_a_run_from_a_previous_users_state_measures_what_one_from_power_on_does(
                                                                                   monkeypatch):
     for seed in range(1 + chunk, STATES + 1, CHUNKS):
         start = f"previous-{seed}"
-        with devices.recorded_refusals() as refused:
+        with scpi_device.recorded_refusals() as refused:
             if seed % CHUNKS == 1:   # a tenth of them through `check` too (it opens as a run does)
                 lines: list[str] = []
                 assert check_bench(sim_bench_config(paths.default_scene(), start=start), out=lines.append) == 0, \

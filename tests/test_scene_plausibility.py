@@ -9,7 +9,9 @@ import pytest
 
 from squeezebench import paths
 from squeezebench.simbench.predicted import FORCE_FACTOR_TOLERANCE, MODAL_MASS_TOLERANCE
-from squeezebench.simbench.scene import SceneError, load_scene, scene_figures
+from squeezebench.simbench.scene import load_scene
+from squeezebench.simbench.scene_bounds import scene_figures
+from squeezebench.simbench.scene_model import SceneError
 from squeezebench.schemas import replay_departures
 from squeezebench.yamlfiles import dump_yaml, load_strict
 

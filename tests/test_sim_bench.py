@@ -9,8 +9,9 @@ import numpy as np
 import pytest
 import pyvisa
 
-from squeezebench.simbench import devices, physics
-from squeezebench.simbench.scene import SceneError
+from squeezebench.simbench import physics
+from squeezebench.simbench.scene_model import SceneError
+from squeezebench.simbench.scope import SCOPE_REARM_S
 from test_sim_support import RawBench, sampled_truth, scene_file
 
 F_HZ = 37180.0
@@ -85,7 +86,7 @@ def test_bench_clock_accounts_for_acquisitions(ideal):
     start_s = ideal.sim.clock.now_s()
     ideal.acquire()
     record_s = 10 * float(ideal.scope.query("HORIZONTAL:MAIN:SCALE?"))
-    expected_s = 16 * (record_s + devices.SCOPE_REARM_S)
+    expected_s = 16 * (record_s + SCOPE_REARM_S)
     spent_s = ideal.sim.clock.now_s() - start_s
     assert expected_s < spent_s < expected_s + 0.02  # plus a few bus messages
     ideal.sim.clock.sleep(2.5)

@@ -14,7 +14,7 @@ import pytest
 
 from squeezebench.simbench import command_coverage, scpi, state_only
 from squeezebench.simbench.command_tables import TABLE_OF_ROLE, Entry, table
-from squeezebench.simbench.devices import recorded_refusals
+from squeezebench.simbench.scpi_device import recorded_refusals
 from test_sim_support import RawBench, scene_file
 
 DOC = Path(__file__).resolve().parents[1] / "docs" / "instrument-commands.md"

@@ -14,7 +14,9 @@ from squeezebench.instruments.bench import open_bench, sim_bench_config
 from squeezebench.instruments.errors import ConnectionLost, GarbledReply, InstrumentError, InstrumentTimeout
 from squeezebench.protocols.variants import SYSTEMATIC_EFFECTS
 from squeezebench.simbench import effects as fx
-from squeezebench.simbench.scene import SceneError, load_scene
+from squeezebench.simbench import systematic_effects
+from squeezebench.simbench.scene import load_scene
+from squeezebench.simbench.scene_model import SceneError
 from test_sim_support import RawBench, sampled_truth, scene_file
 
 F_HZ = 37180.0
@@ -296,7 +298,7 @@ def systematic(tmp_path, name: str, **parameters) -> RawBench:
 
 
 def test_the_systematic_effects_protocols_name_are_the_simulators():
-    systematic = {name for name, cls in fx.EFFECTS.items() if issubclass(cls, fx.SystematicEffect)}
+    systematic = {name for name, cls in fx.EFFECTS.items() if issubclass(cls, systematic_effects.SystematicEffect)}
     assert set(SYSTEMATIC_EFFECTS) == systematic
 
 
@@ -443,7 +445,7 @@ def test_systematic_errors_are_drawn_once_per_bench(tmp_path):
 
 
 def test_a_bench_erring_as_the_world_errs_is_not_what_the_budgets_assume(tmp_path):
-    """draw: 2 (effects.world_draw): the current probe lags by about 8 ns on every bench
+    """draw: 2 (systematic_effects.world_draw): the current probe lags by about 8 ns on every bench
     (a sign the budget's +-10 ns rectangle does not know), the gains are normal (some
     beyond their limit) and about one error in 100 is out of specification."""
     delays = np.array([d["delay_s"] for d in _drawn_on_many_benches(tmp_path, "current_probe_delay", 2, range(300))])
@@ -452,8 +454,9 @@ def test_a_bench_erring_as_the_world_errs_is_not_what_the_budgets_assume(tmp_pat
     benches = _drawn_on_many_benches(tmp_path, "scope_gain_error", 2, range(300))
     gains = np.array([v for d in benches for v in d.values()]) / 0.02
     assert 0.03 < np.mean(np.abs(gains) > 1.0) < 0.2                 # some beyond the +-2 % limit
-    out_of_spec = np.isclose(np.abs(gains), fx.OUT_OF_SPEC_FACTOR)
-    assert out_of_spec.any() and out_of_spec.mean() == pytest.approx(fx.OUT_OF_SPEC_PROBABILITY, abs=0.01)
+    out_of_spec = np.isclose(np.abs(gains), systematic_effects.OUT_OF_SPEC_FACTOR)
+    assert out_of_spec.any() and out_of_spec.mean() == pytest.approx(systematic_effects.OUT_OF_SPEC_PROBABILITY,
+                                                                     abs=0.01)
     assert _drawn(tmp_path, "scope_gain_error", 2, 5) == _drawn(tmp_path, "scope_gain_error", 2, 5) == benches[5]
 
 

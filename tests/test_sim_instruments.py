@@ -11,7 +11,8 @@ import pytest
 import pyvisa
 
 from squeezebench import paths
-from squeezebench.simbench import devices, scpi
+from squeezebench.simbench import scpi
+from squeezebench.simbench.generator import modulated
 
 _TOKENS = itertools.count()
 TERMINATIONS = {"read_termination": "\n", "write_termination": "\n"}
@@ -90,16 +91,16 @@ def test_generator_runs_one_modulation_at_a_time(bench):
 
 
 def test_a_modulation_left_on_is_not_the_sine_a_point_assumes():
-    """Closed forms of devices.modulated: AM at 100 % depth averages half the amplitude
+    """Closed forms of generator.modulated: AM at 100 % depth averages half the amplitude
     over its 10 ms period, FM stays within its 100 Hz deviation, a one-cycle burst every
     10 ms drives a 37 kHz plate with 1/370 of its amplitude, a sweep never reaches it."""
     times_s = np.linspace(0.0, 0.1, 2001)[:-1]
-    am = [devices.modulated("AM", 37e3, 10.0, t)[1] for t in times_s]
+    am = [modulated("AM", 37e3, 10.0, t)[1] for t in times_s]
     assert np.mean(am) == pytest.approx(5.0, rel=1e-6) and max(am) <= 10.0
-    fm = [devices.modulated("FM", 37e3, 10.0, t)[0] for t in times_s]
+    fm = [modulated("FM", 37e3, 10.0, t)[0] for t in times_s]
     assert min(fm) >= 37e3 - 100.0 and max(fm) <= 37e3 + 100.0 and np.ptp(fm) > 190.0
-    assert devices.modulated("BM", 37e3, 10.0, 0.0)[1] == pytest.approx(10.0 / 370.0)
-    assert max(devices.modulated("SWE", 37e3, 10.0, t)[0] for t in times_s) <= 1e3
+    assert modulated("BM", 37e3, 10.0, 0.0)[1] == pytest.approx(10.0 / 370.0)
+    assert max(modulated("SWE", 37e3, 10.0, t)[0] for t in times_s) <= 1e3
 
 # -- Tektronix TDS 3054B ------------------------------------------------------------------------
 def test_scope_powers_on_as_appendix_d_says(bench):

@@ -10,7 +10,8 @@ import pytest
 
 from squeezebench.analysis import model
 from squeezebench.simbench import physics
-from squeezebench.simbench.scene import SceneError, covered_by_provenance, load_scene, numeric_field_paths
+from squeezebench.simbench.scene import covered_by_provenance, load_scene, numeric_field_paths
+from squeezebench.simbench.scene_model import SceneError
 from squeezebench import paths
 from squeezebench.yamlfiles import dump_yaml, load_strict
 from test_sim_support import RawBench, scene_file
@@ -217,7 +218,8 @@ def test_calibration_the_losses_cannot_reach_names_the_state(tmp_path):
 # -- plates that can exist, and the scene format's reference pages --------------------------
 
 def test_every_shipped_state_is_within_the_bounds_of_a_plate_that_can_exist():
-    from squeezebench.simbench.scene import MAX_POWER_FACTOR, MAX_SHUNT_SHARE, scenes_table
+    from squeezebench.simbench.scene import scenes_table
+    from squeezebench.simbench.scene_bounds import MAX_POWER_FACTOR, MAX_SHUNT_SHARE
 
     table = scenes_table(sorted(paths.scenes_dir().glob("*.yaml")))
     assert len(table) == len(STATES)

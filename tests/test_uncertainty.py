@@ -216,7 +216,7 @@ def _signed_slope_per_hz(points: pd.DataFrame) -> np.ndarray:
 def _predicted_rel_errors(points: pd.DataFrame, e: dict) -> tuple[np.ndarray, np.ndarray]:
     """(power, velocity) relative errors the bench's errors `e` give each point, in closed
     form: the gains multiply; a CH2 delay tau turns P into P cos(w tau) - Q_r sin(w tau)
-    (simbench.effects.ChannelSkew); the generator's frequency error moves the point along
+    (simbench.systematic_effects.ChannelSkew); the generator's frequency error moves the point along
     its resonance curve by d ln v/d f * f * eps (the power twice as much)."""
     tau = e["channel_skew.ch2_delay_s"] + e["current_probe_delay.delay_s"]
     omega_tau = 2 * np.pi * points["frequency_hz"].to_numpy() * tau
