@@ -127,6 +127,24 @@ def test_what_would_agree_inverts_the_printed_power_and_velocity():
         assert response["power_w_per_vpp2"] * v**2 == pytest.approx(frame.loc[item, "printed_power_w"])
 
 
+def test_the_large_plates_placement_curve_is_the_design_models_own():
+    """One placement curve: the report's inference reads `design.placement_rows` on the
+    paper's large plate as a design file, the same patches as the predictions' plate."""
+    from squeezebench.analysis import design
+
+    spec = predicted_plates.large_plate_design()
+    ours = sorted((p.bounds, p.powered) for p in spec.geometry().patches)
+    theirs = sorted((p.bounds, p.powered) for p in predicted_plates.large_plate().patches)
+    assert np.allclose([b for b, _ in ours], [b for b, _ in theirs]) and [p for _, p in ours] == [p for _, p in theirs]
+    curve = predicted_plates.large_plate_placement_curve(gaps_mm=(predicted_plates.EDGE_GAP_MM,)).iloc[0]
+    moved = spec.with_end_groups_at(predicted_plates.EDGE_GAP_MM)
+    point = design.operating_point(moved, modal=design.modal_part(moved, antinodes=21)).values
+    assert curve["voltage_vpp"] == pytest.approx(point["voltage_vpp"])
+    assert curve["force_factor_n_per_v"] == pytest.approx(point["force_factor_n_per_v"])
+    # the physics Q's voltage for the same amplitude goes as 1 / Q
+    assert curve["voltage_vpp_physics_q"] * curve["physics_q"] == pytest.approx(curve["voltage_vpp"] * 310.0)
+
+
 def test_an_inferred_edge_gap_is_where_the_curve_meets_the_implied_force_factor():
     curve = pd.DataFrame({"edge_gap_mm": [0.0, 1.0, 2.0], "force_factor_n_per_v": [0.1, 0.3, 0.7]})
     assert predicted_plates.implied_edge_gap_mm(0.5, curve) == pytest.approx(1.5)
