@@ -47,11 +47,23 @@ def test_f59_over_f75_is_within_2_percent_of_print():
     assert ratios.loc["f59/f75", "printed"] == pytest.approx(37180 / 37160)
 
 
+def test_the_f28_over_f75_miss_is_mostly_the_bare_plates_and_the_laminates_shear_a_tenth_of_it():
+    ratios = frequency_budget.same_sheet_ratios().set_index("ratio")
+    f28 = ratios.loc["f28/f75"]
+    # the bare plates already miss by +3 %: the model and the closed-form beam alike
+    assert f28["bare_plate_deviation"] == pytest.approx(f28["free_free_beam_deviation"], abs=0.002)
+    assert 0.025 < f28["bare_plate_deviation"] < 0.035
+    # the beam with the column, corrected at the bare plate's as the solver does, tracks the model
+    assert f28["beam_with_piezos_deviation"] == pytest.approx(f28["deviation"], abs=0.006)
+    # Timoshenko with the laminate's own shear (bond included) and rotary inertia: -0.3 to -0.8 %
+    assert -0.008 < f28["thick_laminate_beam_deviation"] - f28["beam_with_piezos_deviation"] < -0.003
+
+
 @pytest.mark.xfail(strict=True, reason="f28/f75 is +5.1 % off print: +3.0 % of it is the bare plates' length "
                                        "ratio (the model's and the free-free beam's closed form agree to 0.1 %, "
-                                       "frequency_budget.same_sheet_ratios), the column's +2.1 % would need eta "
-                                       "near 0.24, a bond far softer than an epoxy's; no modelled piezo or bond "
-                                       "term reaches the bare plates' share")
+                                       "frequency_budget.same_sheet_ratios), the laminate's own shear and rotary "
+                                       "inertia take 0.5 % off, and the column's +2.1 % would need eta near 0.24, a "
+                                       "bond far softer than an epoxy's: no modelled piezo or bond term reaches it")
 def test_f28_over_f75_is_within_2_percent_of_print():
     ratios = frequency_budget.same_sheet_ratios().set_index("ratio")
     assert abs(ratios.loc["f28/f75", "deviation"]) <= 0.02
