@@ -452,8 +452,9 @@ def _scaled_lumped(nominal: Lumped, moved: Lumped, scale: float) -> Lumped:
 
 #: Points of the placement curve between flush with the edges and half a wavelength in.
 PLACEMENT_POINTS = 10
-PLACEMENT_COLUMNS = ["edge_gap_mm", "frequency_hz", "interior_antinodes", "force_factor_n_per_v", "coupling_share",
-                     "voltage_vpp", "voltage_expanded_uncertainty", "power_w", "piezo_field_v_per_mm", "why_not"]
+PLACEMENT_COLUMNS = ["edge_gap_mm", "frequency_hz", "interior_antinodes", "modal_mass_g", "force_factor_n_per_v",
+                     "coupling_share", "mechanical_q", "physics_q", "voltage_vpp", "voltage_expanded_uncertainty",
+                     "mechanical_power_w", "power_w", "piezo_field_v_per_mm", "why_not"]
 
 
 def placement_range_mm(design: DesignFile, half_wavelength_mm: float) -> tuple[float, float]:
@@ -475,7 +476,16 @@ def placement_curve(physics: PhysicsPrediction, gaps_mm: np.ndarray | None = Non
         gaps_mm = np.linspace(*placement_range_mm(design, values["half_wavelength_mm"]), PLACEMENT_POINTS)
     rows = physics.budget[(physics.budget["output"] == "voltage_vpp") & (physics.budget["input"] != "placement_mm")]
     u_rel_others = COVERAGE_FACTOR * float(np.sqrt((rows["contribution"] ** 2).sum())) / values["voltage_vpp"]
-    tasks = [(design, values["interior_antinodes"], float(gap), u_rel_others) for gap in np.asarray(gaps_mm)]
+    return placement_rows(design, values["interior_antinodes"], gaps_mm, u_rel_others, mapper)
+
+
+def placement_rows(design: DesignFile, antinodes: int, gaps_mm, u_rel_others: float = 0.0,
+                   mapper: Callable | None = None) -> pd.DataFrame:
+    """`design` solved with its end groups at each distance from the edges in `gaps_mm` on
+    its `antinodes` mode, one row per distance in order, the voltage's U the relative
+    `u_rel_others` of it (`placement_curve`; the report's placement inference for the paper's
+    large plate, `predicted_plates.large_plate_placement_curve`, reads the same rows)."""
+    tasks = [(design, antinodes, float(gap), u_rel_others) for gap in np.asarray(gaps_mm)]
     mapper = mapper or (lambda function, items: ((item, function(item)) for item in items))
     out = sorted((row for _, row in mapper(placement_point, tasks)), key=lambda row: row["edge_gap_mm"])
     return pd.DataFrame(out, columns=PLACEMENT_COLUMNS)

@@ -55,21 +55,74 @@ def frequency_budget() -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
+def free_free_beam_frequency_hz(material: plate_modes.Isotropic, thickness_m: float, length_m: float,
+                                antinodes: int) -> float:
+    """Closed form: the free-free beam's elastic mode with `antinodes` antinodes between its
+    antinodes + 1 nodes, w = (beta_n / L)^2 sqrt(D / rho h) / 2 pi with cos(beta L) cosh(beta L) = 1
+    (plate modulus: a wide strip bends cylindrically), moved onto Mindlin's branch
+    (`plate_modes.thick_plate_frequency_hz`)."""
+    beta_l = plate_modes.free_free_beam_roots(antinodes)[-1]
+    d, mass, _ = plate_modes.laminate(material, thickness_m, material, 0.0)
+    thin = (beta_l / length_m) ** 2 * math.sqrt(d / mass) / (2 * math.pi)
+    return plate_modes.thick_plate_frequency_hz(thin, material, thickness_m)
+
+
+def beam_frequency_hz(geometry: plate_modes.PlateGeometry, antinodes: int, thick: bool) -> float:
+    """The plate with its piezos as a free-free beam (`plate_modes.beam_frequencies_hz`), its
+    elastic mode with `antinodes` antinodes (the count-th root from 100 Hz up): Euler-Bernoulli
+    moved onto Mindlin's branch at the bare plate's (as the solver corrects), or with `thick`
+    Timoshenko's with each section's own shear stiffness and rotary inertia, the laminate's
+    under a patch."""
+    top = 2.0 * predicted_plates._search_hz(geometry, antinodes)
+    roots = plate_modes.beam_frequencies_hz(geometry, f_min_hz=100.0, f_max_hz=top, thick=thick)
+    found = float(roots[antinodes - 1])
+    return found if thick else plate_modes.thick_plate_frequency_hz(found, plate_modes.ALUMINIUM_TABLE2,
+                                                                     geometry.thickness_m)
+
+
+def bare_plate_frequency_hz(geometry: plate_modes.PlateGeometry, antinodes: int) -> float:
+    """The model's (n, 0) mode of `antinodes` antinodes of the plate with its piezos taken off."""
+    bare = plate_modes.PlateGeometry(geometry.length_m, geometry.width_m, geometry.thickness_m)
+    near = predicted_plates._search_hz(bare, antinodes)
+    modes = plate_modes.solve_plate(bare, near_hz=near, band_rel=0.3)
+    return float(modes.frequencies_hz[predicted_plates.mode_with_antinodes(modes, antinodes, near)])
+
+
 def same_sheet_ratios() -> pd.DataFrame:
     """f59/f75 and f28/f75 (Table 3: one sheet, cut), model and print: thickness and alloy
-    cancel, what is left is the model's form (thick plate, bond, the plate's shape). With it,
-    the bond effectiveness eta that would close the gap, to first order (Rayleigh: the patches'
-    stiffening holds a share S_p of each mode's energy, so d ln f = S_p / 2 d ln eta and the
-    ratio moves by (S_p,item - S_p,75) / 2 d ln eta): what would have to move, not a fit."""
+    cancel, what is left is the model's form (thick plate, bond, the plate's shape). Beside it,
+    the same ratio of the bare plates (no piezo: the model's, and the free-free beam's closed
+    form), whose deviation no term of the patches can take away; the plates with their piezos
+    as beams, thick-plate corrected as the solver does (at the bare plate's) and Timoshenko's
+    with the laminate's own shear (bond included) and rotary inertia, whose difference is
+    what correcting the laminate, not the bare plate, would move; and the bond effectiveness
+    eta that would close the gap, to first order (Rayleigh: the patches' stiffening holds a
+    share S_p of each mode's energy, so d ln f = S_p / 2 d ln eta and the ratio moves by
+    (S_p,item - S_p,75) / 2 d ln eta): what would have to move, not a fit."""
     frame = predicted_plates.predictions().set_index("item")
     model_rows = predicted_plates._predictions().set_index("item")
+    plates = {item: (geometry, int(frame.loc[item, "predicted_antinodes"]))
+              for table, item, _, geometry, _, _ in predicted_plates.paper_plates() if table == "Table 3"}
+
+    def bare(item: str) -> tuple[float, float, float, float]:
+        geometry, antinodes = plates[item]
+        return (bare_plate_frequency_hz(geometry, antinodes),
+                free_free_beam_frequency_hz(plate_modes.ALUMINIUM_TABLE2, geometry.thickness_m, geometry.length_m,
+                                            antinodes),
+                beam_frequency_hz(geometry, antinodes, thick=False), beam_frequency_hz(geometry, antinodes, thick=True))
+
     rows = []
     for item in ("59", "28"):
         model = frame.loc[item, "predicted_frequency_hz"] / frame.loc["75", "predicted_frequency_hz"]
         printed = frame.loc[item, "printed_frequency_hz"] / frame.loc["75", "printed_frequency_hz"]
+        (bare_item, beam_item, thin_item, thick_item), (bare_75, beam_75, thin_75, thick_75) = bare(item), bare("75")
         lever = (model_rows.loc[item, "piezo_energy_share"] - model_rows.loc["75", "piezo_energy_share"]) / 2
         eta = model_rows.loc[item, "bond_effectiveness"]
         rows.append({"ratio": f"f{item}/f75", "model": model, "printed": printed, "deviation": model / printed - 1,
+                     "bare_plate_deviation": bare_item / bare_75 / printed - 1,
+                     "free_free_beam_deviation": beam_item / beam_75 / printed - 1,
+                     "beam_with_piezos_deviation": thin_item / thin_75 / printed - 1,
+                     "thick_laminate_beam_deviation": thick_item / thick_75 / printed - 1,
                      "bond_effectiveness": eta,
                      "bond_effectiveness_to_agree": eta * math.exp(math.log(printed / model) / lever)})
     return pd.DataFrame(rows)

@@ -698,38 +698,79 @@ def free_free_beam_roots(count: int) -> tuple[float, ...]:
                  for k in range(1, count + 1))
 
 
+def section_shear_and_rotary(layers: list[tuple[float, float, float, float]]) -> tuple[float, float]:
+    """Transverse shear stiffness S (N/m per metre of width, kappa G h for one layer) and rotary
+    inertia J (kg per metre: integral of rho (z - z_n)^2) of a layered section bending about its
+    neutral axis; `layers` (thickness m, plate modulus Pa, shear modulus Pa, density kg/m^3)
+    from one face. S from the shear stress the bending stress gradient carries (Jourawski:
+    tau(z) = Q / D integral_0^z E'(z) (z' - z_n) dz') with the shear energy's compliance
+    1 / S = integral tau^2 / (G Q^2) dz: 5 h G / 6 for a homogeneous layer (kappa = 5/6), and a
+    soft bond carries the whole shear flow across its thickness."""
+    tops = np.cumsum([t for t, _, _, _ in layers])
+    bottoms = tops - np.array([t for t, _, _, _ in layers])
+    moduli = np.array([q for _, q, _, _ in layers])
+    thickness = tops - bottoms
+    z_n = float((moduli * thickness * (tops + bottoms) / 2).sum() / (moduli * thickness).sum())
+    d = float((moduli * (thickness**3 / 12 + thickness * ((tops + bottoms) / 2 - z_n) ** 2)).sum())
+    compliance, flow, rotary = 0.0, 0.0, 0.0
+    for (t, q, g, rho), z0, z1 in zip(layers, bottoms, tops):
+        z = np.linspace(z0, z1, 201)
+        shear = (flow + q * ((z - z_n) ** 2 - (z0 - z_n) ** 2) / 2) / d   # tau per unit shear force
+        compliance += float(np.trapezoid(shear**2, z)) / g
+        flow += q * ((z1 - z_n) ** 2 - (z0 - z_n) ** 2) / 2
+        rotary += rho * (t**3 / 12 + t * ((z0 + z1) / 2 - z_n) ** 2)
+    return 1.0 / compliance, rotary
+
+
+def _shear_modulus_pa(material: Isotropic) -> float:
+    return material.young_pa / (2.0 * (1.0 + material.poisson))
+
+
 def beam_frequencies_hz(geometry: PlateGeometry, resonator: Isotropic = ALUMINIUM_TABLE2,
                         piezo: Piezo = NCE41, f_min_hz: float = 1e3, f_max_hz: float = 80e3,
-                        step_hz: float = 50.0, bond: Bond = EPOXY) -> np.ndarray:
+                        step_hz: float = 50.0, bond: Bond = EPOXY, thick: bool = False) -> np.ndarray:
     """Fast cross-check (in the spirit of the paper's ref. 001): the free-free (n, 0)
-    frequencies of the plate as an Euler-Bernoulli beam along its length, each section's
-    stiffness and mass per length summed across the width (plate moduli: a wide plate bends
-    cylindrically), patches with their bond (`bonded_section`) included; Euler-Bernoulli, so
-    Kirchhoff's frequencies (no thick-plate correction). Transfer matrices expm(A L) of EI w'''' = m w^2 w per
-    uniform segment; roots of the free-end determinant (M = V = 0 at both ends)."""
+    frequencies of the plate as a beam along its length, each section's stiffness and mass per
+    length summed across the width (plate moduli: a wide plate bends cylindrically), patches
+    with their bond (`bonded_section`) included. Euler-Bernoulli (Kirchhoff's frequencies, no
+    thick-plate correction), or with `thick` Timoshenko's: every section's own transverse shear
+    stiffness and rotary inertia (`section_shear_and_rotary`: the bare plate's, and under a
+    patch the laminate's of resonator, bond and piezo), the thick-plate physics the solver
+    corrects at the bare plate's only. Transfer matrices expm(A L) of the state (w, theta, M, Q),
+    w' = theta - Q / S, theta' = M / EI, M' = Q - w^2 J theta, Q' = w^2 m w per uniform segment
+    (S infinite and J = 0: Euler-Bernoulli); roots of the free-end determinant (M = Q = 0 at
+    both ends)."""
     from scipy.linalg import expm
     from scipy.optimize import brentq
 
     cuts = sorted({0.0, geometry.length_m, *[min(max(b, 0.0), geometry.length_m)
                                              for p in geometry.patches for b in p.bounds[:2]]})
-    d_bare, m_bare, _ = laminate(resonator, geometry.thickness_m, piezo, 0.0)
+    h = geometry.thickness_m
+    d_bare, m_bare, _ = laminate(resonator, h, piezo, 0.0)
+    bare_layer = (h, resonator.plate_modulus_pa, _shear_modulus_pa(resonator), resonator.density_kg_m3)
+    s_bare, j_bare = section_shear_and_rotary([bare_layer])
     segments = []
     for a, b in zip(cuts[:-1], cuts[1:]):
         mid = (a + b) / 2
-        ei, m = d_bare * geometry.width_m, m_bare * geometry.width_m
+        ei, m, s, j = d_bare * geometry.width_m, m_bare * geometry.width_m, s_bare * geometry.width_m, \
+            j_bare * geometry.width_m
         for p in geometry.patches:
             if p.bounds[0] < mid < p.bounds[1]:
-                d_lam, m_lam, _, _ = bonded_section(resonator, geometry.thickness_m, piezo, p.thickness_m, bond,
-                                                    p.length_x_m)
+                d_lam, m_lam, _, _ = bonded_section(resonator, h, piezo, p.thickness_m, bond, p.length_x_m)
                 ei += (d_lam - d_bare) * p.width_y_m
                 m += (m_lam - m_bare) * p.width_y_m
-        segments.append((b - a, ei, m))
+                layers = [bare_layer, (bond.thickness_m, 0.0, bond.shear_modulus_pa, bond.density_kg_m3),
+                          (p.thickness_m, piezo.plate_modulus_pa, _shear_modulus_pa(piezo), piezo.density_kg_m3)]
+                s_lam, j_lam = section_shear_and_rotary([layer for layer in layers if layer[0] > 0])
+                s += (s_lam - s_bare) * p.width_y_m
+                j += (j_lam - j_bare) * p.width_y_m
+        segments.append((b - a, ei, m, s if thick else math.inf, j if thick else 0.0))
 
     def determinant(f: float) -> float:
         w2 = (2 * np.pi * f) ** 2
         total = np.eye(4)
-        for length, ei, m in segments:
-            a = np.array([[0, 1, 0, 0], [0, 0, 1 / ei, 0], [0, 0, 0, 1], [m * w2, 0, 0, 0]])
+        for length, ei, m, s, j in segments:
+            a = np.array([[0, 1, 0, -1 / s], [0, 0, 1 / ei, 0], [0, -w2 * j, 0, 1], [m * w2, 0, 0, 0]])
             total = expm(a * length) @ total
         block = total[2:, :2]
         return float(np.linalg.det(block / np.abs(block).max()))

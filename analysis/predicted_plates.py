@@ -396,29 +396,50 @@ def loss_budget() -> pd.DataFrame:
 EDGE_GAPS_MM = (0.0, 0.5, 1.0, 1.5, 2.0, 2.5, 3.0, 3.5, 4.0, 5.0, 6.0)
 
 
-def large_plate_placement_curve(amplitude_pp_m: float = 1e-6, gaps_mm=EDGE_GAPS_MM) -> pd.DataFrame:
-    """The large plate's force factor, frequency, and the voltage (pp) and power that give
-    `amplitude_pp_m` at its centre, against the patches' distance from the edge, with the build's
-    `MECHANICAL_Q` and with the plate's own physics Q (`analysis.damping`, nominal bond loss)."""
-    from squeezebench.analysis import damping
+def large_plate_design(edge_gap_mm: float = EDGE_GAP_MM, amplitude_pp_m: float = 1e-6):
+    """The paper's large plate (`large_plate`) as a design file (`analysis.design_file`): the
+    same geometry, its end piezos `edge_gap_mm` from the edges +- `EDGE_GAP_TOLERANCE_MM`, the
+    (21, 0) mode, `amplitude_pp_m` at the centre and the build's `MECHANICAL_Q`; the amplifier
+    is the bench's NF HSA 4052 (300 Vpp)."""
+    from squeezebench.analysis.design_file import DesignFile
 
-    rows = []
-    for gap in gaps_mm:
-        geometry = large_plate(gap)
-        modes, k = _solve_working(geometry, STATED_ANTINODES["large"], None)
-        at = _at_centre(geometry, modes, k)
-        q_physics = damping.mechanical_q(damping.mode_loss_terms(
-            modes, k, plate_modes.ALUMINIUM_TABLE2, geometry.thickness_m, plate_modes.EPOXY.loss_factor))
-        row = {"edge_gap_mm": gap, "within_stated_range": abs(gap - EDGE_GAP_MM) <= EDGE_GAP_TOLERANCE_MM + 1e-9,
-               "frequency_hz": at["frequency_hz"], "force_factor_n_per_v": at["force_factor_n_per_v"],
-               "physics_q": q_physics}
-        for label, q in (("", MECHANICAL_Q), ("_physics_q", q_physics)):
-            response = response_per_volt(at["frequency_hz"], at["modal_mass_kg"], at["force_factor_n_per_v"], q)
-            volts = amplitude_pp_m / response["amplitude_pp_m_per_vpp"]
-            row[f"voltage_vpp{label}"] = volts
-            row[f"power_w{label}"] = response["power_w_per_vpp2"] * volts**2
-        rows.append(row)
-    return pd.DataFrame(rows)
+    q = lambda name: paper_value("large_plate", "large_plate", name)  # noqa: E731
+    geometry = large_plate(edge_gap_mm)
+    ys: dict[float, list[float]] = {}
+    for p in geometry.patches:
+        ys.setdefault(round(p.x_center_m / MM, 9), []).append(round(p.y_center_m / MM, 9))
+    groups = [{"name": f"x{x:g}", "x_mm": x, "y_mm": sorted(y), "x_tolerance_mm": EDGE_GAP_TOLERANCE_MM}
+              for x, y in ys.items()]
+    return DesignFile.model_validate({
+        "name": "large_plate",
+        "resonator": {"material": "aluminium_table2", "length_mm": q("resonator_length_mm"),
+                      "width_mm": q("resonator_width_mm"), "thickness_mm": q("resonator_thickness_mm")},
+        "piezo": {"material": "NCE41", "length_x_mm": q("piezo_width_mm"), "width_y_mm": q("piezo_length_mm"),
+                  "thickness_mm": q("piezo_thickness_mm")},
+        "groups": groups, "mode": {"interior_antinodes": STATED_ANTINODES["large"]},
+        "target": {"amplitude_pp_m": amplitude_pp_m, "at": "centre"},
+        "damping": {"mechanical_q": MECHANICAL_Q, "tolerance_rel": MECHANICAL_Q_TOLERANCE,
+                    "origin": "the build's one damping figure (predicted_plates.MECHANICAL_Q)"},
+        "amplifier": {"max_output_vpp": 300.0}})
+
+
+def large_plate_placement_curve(amplitude_pp_m: float = 1e-6, gaps_mm=EDGE_GAPS_MM) -> pd.DataFrame:
+    """The large plate's placement curve, as `design.placement_rows` solves any design's
+    (`large_plate_design`): frequency, modal mass and force factor at the centre, and the
+    voltage (pp) and power that give `amplitude_pp_m` there against the patches' distance from
+    the edge, with the build's `MECHANICAL_Q` and with the plate's own physics Q
+    (`analysis.damping`, nominal bond loss: the voltage goes as 1/Q at a given amplitude, the
+    mechanical power as 1/Q and the dielectric as the voltage squared)."""
+    from squeezebench.analysis import design
+
+    curve = design.placement_rows(large_plate_design(EDGE_GAP_MM, amplitude_pp_m), STATED_ANTINODES["large"],
+                                  gaps_mm)
+    ratio = curve["mechanical_q"] / curve["physics_q"]
+    curve["within_stated_range"] = (curve["edge_gap_mm"] - EDGE_GAP_MM).abs() <= EDGE_GAP_TOLERANCE_MM + 1e-9
+    curve["voltage_vpp_physics_q"] = curve["voltage_vpp"] * ratio
+    dielectric = curve["power_w"] - curve["mechanical_power_w"]
+    curve["power_w_physics_q"] = curve["mechanical_power_w"] * ratio + dielectric * ratio**2
+    return curve
 
 
 def implied_force_factor_n_per_v(voltage_vpp: float, velocity_pp_mps: float, power_w: float) -> float:

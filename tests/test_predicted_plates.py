@@ -47,10 +47,23 @@ def test_f59_over_f75_is_within_2_percent_of_print():
     assert ratios.loc["f59/f75", "printed"] == pytest.approx(37180 / 37160)
 
 
-@pytest.mark.xfail(strict=True, reason="f28/f75 is +5.1 % off print (was +5.9 %): the epoxy bond's shear lag "
-                                       "(eta 0.75) takes a quarter of the column's stiffening away; agreement "
-                                       "needs eta near 0.24 to first order (frequency_budget.same_sheet_ratios), "
-                                       "a bond far softer than an epoxy's, so a term the model lacks is likelier")
+def test_the_f28_over_f75_miss_is_mostly_the_bare_plates_and_the_laminates_shear_a_tenth_of_it():
+    ratios = frequency_budget.same_sheet_ratios().set_index("ratio")
+    f28 = ratios.loc["f28/f75"]
+    # the bare plates already miss by +3 %: the model and the closed-form beam alike
+    assert f28["bare_plate_deviation"] == pytest.approx(f28["free_free_beam_deviation"], abs=0.002)
+    assert 0.025 < f28["bare_plate_deviation"] < 0.035
+    # the beam with the column, corrected at the bare plate's as the solver does, tracks the model
+    assert f28["beam_with_piezos_deviation"] == pytest.approx(f28["deviation"], abs=0.006)
+    # Timoshenko with the laminate's own shear (bond included) and rotary inertia: -0.3 to -0.8 %
+    assert -0.008 < f28["thick_laminate_beam_deviation"] - f28["beam_with_piezos_deviation"] < -0.003
+
+
+@pytest.mark.xfail(strict=True, reason="f28/f75 is +5.1 % off print: +3.0 % of it is the bare plates' length "
+                                       "ratio (the model's and the free-free beam's closed form agree to 0.1 %, "
+                                       "frequency_budget.same_sheet_ratios), the laminate's own shear and rotary "
+                                       "inertia take 0.5 % off, and the column's +2.1 % would need eta near 0.24, a "
+                                       "bond far softer than an epoxy's: no modelled piezo or bond term reaches it")
 def test_f28_over_f75_is_within_2_percent_of_print():
     ratios = frequency_budget.same_sheet_ratios().set_index("ratio")
     assert abs(ratios.loc["f28/f75", "deviation"]) <= 0.02
@@ -125,6 +138,24 @@ def test_what_would_agree_inverts_the_printed_power_and_velocity():
         v = frame.loc[item, "voltage_vpp"]
         assert response["velocity_pp_mps_per_vpp"] * v == pytest.approx(frame.loc[item, "printed_velocity_pp_mps"])
         assert response["power_w_per_vpp2"] * v**2 == pytest.approx(frame.loc[item, "printed_power_w"])
+
+
+def test_the_large_plates_placement_curve_is_the_design_models_own():
+    """One placement curve: the report's inference reads `design.placement_rows` on the
+    paper's large plate as a design file, the same patches as the predictions' plate."""
+    from squeezebench.analysis import design
+
+    spec = predicted_plates.large_plate_design()
+    ours = sorted((p.bounds, p.powered) for p in spec.geometry().patches)
+    theirs = sorted((p.bounds, p.powered) for p in predicted_plates.large_plate().patches)
+    assert np.allclose([b for b, _ in ours], [b for b, _ in theirs]) and [p for _, p in ours] == [p for _, p in theirs]
+    curve = predicted_plates.large_plate_placement_curve(gaps_mm=(predicted_plates.EDGE_GAP_MM,)).iloc[0]
+    moved = spec.with_end_groups_at(predicted_plates.EDGE_GAP_MM)
+    point = design.operating_point(moved, modal=design.modal_part(moved, antinodes=21)).values
+    assert curve["voltage_vpp"] == pytest.approx(point["voltage_vpp"])
+    assert curve["force_factor_n_per_v"] == pytest.approx(point["force_factor_n_per_v"])
+    # the physics Q's voltage for the same amplitude goes as 1 / Q
+    assert curve["voltage_vpp_physics_q"] * curve["physics_q"] == pytest.approx(curve["voltage_vpp"] * 310.0)
 
 
 def test_an_inferred_edge_gap_is_where_the_curve_meets_the_implied_force_factor():
