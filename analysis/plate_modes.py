@@ -551,7 +551,7 @@ def stiffness_and_mass(basis, rigidity_per_element: np.ndarray, mass_per_element
     weight = rigidity_per_element[:, None] * dx
     full = np.matmul(hessians * np.tile(weight, 4)[:, None, :], hessians.transpose(0, 2, 1))
     laplacians = np.matmul(traces * weight[:, None, :], traces.transpose(0, 2, 1))
-    values = np.stack([f.value for f in fields]).transpose(1, 0, 2)   # (elements, n, points)
+    values = np.stack([f.get(0) for f in fields]).transpose(1, 0, 2)   # (elements, n, points)
     mass = np.matmul(values * (mass_per_element[:, None] * dx)[:, None, :], values.transpose(0, 2, 1))
     dofs = basis.element_dofs.T   # block (e, j, i) couples dof i (row) with dof j (column)
     rows = np.broadcast_to(dofs[:, None, :], (elements, n, n)).ravel()

@@ -220,7 +220,7 @@ class ReducedPlate:
         basis, mapping = self.basis, self.basis.mapping
         local = mapping.invF(points[:, :, None], tind=cells)
         fields = [basis.elem.gbasis(mapping, local, k, tind=cells)[0] for k in range(basis.Nbfun)]
-        values = np.array([f.value[:, 0] for f in fields])
+        values = np.array([f.get(0)[:, 0] for f in fields])
         hessians = np.array([f.hess[..., 0] for f in fields])
         dofs = basis.element_dofs[:, cells]
         mode_values, mode_hessians = self._at_points(values, hessians, dofs, self.vectors)

@@ -129,6 +129,17 @@ def write_report(run_dir: Path | str, workers: int | None = None, left_out: list
     return index
 
 
+def prepare() -> None:
+    """Compute now what the report reads from the model and the paper alone, never from a
+    run (the paper's plates predicted: most of a report's time; the search over readings),
+    cached for this process: `reproduce` does it while its study's last trials run."""
+    try:
+        predicted_plates.predictions()
+        readings.search_readings()
+    except UserError:
+        pass   # the sections say why, in their place
+
+
 def _left_out_section(left_out: list[str]) -> Section:
     """What the report was told to go on without (`--allow-missing`, `--allow-unverified`)."""
     items = "".join(f"<li>{html.escape(item)}</li>" for item in left_out)

@@ -1,7 +1,7 @@
 """Fast by default (issue 26; issue 17 before it): every figure in one run (not a test).
 
 1. `squeezebench reproduce` wall time with the default flags (workers: the cores this
-   process may use) and with one worker (goal, default flags, idle: <= 25 s);
+   process may use) and with one worker (goal, default flags: <= 20 reference units);
 2. the default run's study figures against those stored in study_reference.csv
    (`analysis.study.compare_figures`: the p95 errors within their Monte Carlo uncertainty),
    and the study alone (reproduce runs it beside the campaign) with the default workers
@@ -15,7 +15,8 @@
    reference units), from an empty plan cache, then again at the same target
    (`protocols.plan_cache`);
 7. the README's test command's suite, `python -m pytest -n auto` (goal <= 80 reference units;
-   `--skip-suite` leaves it out: it takes minutes and every core).
+   `--skip-suite` leaves it out: it takes minutes and every core; the full 200 stop-signal
+   bursts, which the suite samples 25 of, are `bench_stops.py`).
 
 Every wall time is printed in seconds and in reference units (`benchmarks/reference.py`:
 a fixed workload timed before and after the commands in this same run, their mean the

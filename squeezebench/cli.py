@@ -324,7 +324,7 @@ def _planned_steps(store) -> list[tuple[str, str]] | None:
 
 def cmd_reproduce(args: argparse.Namespace) -> int:
     import squeezebench.simulated_plates  # noqa: F401  (adds the simulated plates' section)
-    from squeezebench.analysis.report import write_report
+    from squeezebench.analysis.report import prepare, write_report
     from squeezebench.protocols.accuracy_study import run_study
     from squeezebench.protocols.campaign import run_campaign
     from squeezebench.protocols.parallel import Beside
@@ -343,6 +343,7 @@ def cmd_reproduce(args: argparse.Namespace) -> int:
     except BaseException:
         study.cancel()
         raise
+    prepare()   # the report's part that needs no run, here instead of waiting idle for the study
     study.finish()
     _run_coverage(args, run_dir, coverage_benches)
     index = write_report(run_dir, args.workers)
