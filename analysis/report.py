@@ -1199,7 +1199,7 @@ def _delay_flag(points: pd.DataFrame) -> str:
     if flagged.empty:
         return text
     where = ", ".join(sorted({f"{run} / {step}" for run, step in zip(flagged["run_name"], flagged["step_id"])}))
-    bound_ns = uncertainty.COVERAGE_FACTOR * uncertainty.delay_std_uncertainty_s() * 1e9
+    bound_ns = uncertainty.P95_FACTOR * uncertainty.delay_std_uncertainty_s() * 1e9
     return (f"<p class='banner'><b>Needs a deskew calibration:</b> {len(flagged)} point(s) ({html.escape(where)}) "
             f"have a power whose U (above {uncertainty.DELAY_FLAG_U_REL:.0%}) is mostly the CH2 delay, budgeted as "
             f"a bias bound of {bound_ns:.0f} ns: a current probe lags its voltage probe by a fixed delay of known "
