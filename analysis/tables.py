@@ -249,23 +249,25 @@ def _quantity_value(points: pd.DataFrame, quantity: str, constant_columns: dict[
 
 
 def _expanded(points: pd.DataFrame, column: str, estimate: Estimate) -> float:
-    """Expanded (k = 2) uncertainty of a mean of points from their whole budgets
+    """Expanded uncertainty of a mean of points from their whole budgets
     (analysis.uncertainty: noise and the instruments' specifications); the amplitude
     takes the velocity's relative budget. The noise averages down over the points, the
-    specifications' part (the same instruments for every point) does not. Without a
-    budget, k times the noise alone."""
+    specifications' part (the same instruments for every point) does not. k is the points'
+    own (`Budget.coverage_factor`, their median); without a budget, 2 times the noise alone."""
     # analysis.uncertainty reads reduced points through analysis.calibration, which imports
     # this module: imported here, once both are loaded.
     from squeezebench.analysis import uncertainty
 
     budgeted = "velocity_pp_mps" if column == "amplitude_pp_m" else column
     if budgeted in uncertainty.POINT_BUDGETS and points["power_w_u"].notna().all():
-        combined = uncertainty.with_expanded_uncertainties(points)[f"{budgeted}_u_combined"]
+        budgets = uncertainty.with_expanded_uncertainties(points)
+        combined = budgets[f"{budgeted}_u_combined"]
+        k = float((budgets[f"{budgeted}_U"] / combined).median())
         noise = points[f"{budgeted}_u"]
         if column == "amplitude_pp_m":
             combined, noise = (u / points["velocity_pp_mps"] * points["amplitude_pp_m"] for u in (combined, noise))
         shared = np.sqrt(np.clip(combined**2 - noise**2, 0.0, None))
-        return uncertainty.COVERAGE_FACTOR * mean_estimate(points[column], noise, shared).std_uncertainty
+        return k * mean_estimate(points[column], noise, shared).std_uncertainty
     return uncertainty.COVERAGE_FACTOR * estimate.std_uncertainty
 
 

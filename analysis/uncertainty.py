@@ -26,6 +26,7 @@ package (linear propagation, numerical derivatives of `analysis.model`).
 
 from __future__ import annotations
 
+import functools
 import json
 import math
 from dataclasses import dataclass, replace
@@ -33,7 +34,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 import pandas as pd
 import uncertainties
-from scipy import optimize, special
+from scipy import signal
 
 from squeezebench.analysis import model
 from squeezebench.analysis.calibration import Deskew, deskew_of_run, gain_weight
@@ -84,31 +85,35 @@ class Budget:
         return self.coverage_factor * self.std_uncertainty
 
     @property
-    def coverage_factor(self) -> float:
-        """k such that +-k u holds the value with COVERAGE_PROBABILITY under the budget's own
-        distribution (`coverage_probability`): 1.96 for a normal, down to 1.65 (0.95 sqrt(3))
-        when one rectangular term is the whole budget (GUM G.2.3 / G.6.5, the trapezoid of a
-        dominant rectangle; JCGM 101 5.3: k from the distribution itself, not 2 by default).
-        k = 2 over-covered the values whose budget is one specification's limit."""
-        return rectangle_plus_normal_factor(*self._rectangle_and_rest())
-
-    @property
     def dominant(self) -> Term:
         return max(self.terms, key=lambda t: t.std_uncertainty)
 
+    @property
+    def coverage_factor(self) -> float:
+        """k such that +-k u holds the value with COVERAGE_PROBABILITY under the budget's own
+        distribution (`budget_distribution`): 1.96 for a normal, down to 1.65 (0.95 sqrt(3))
+        when one rectangular term is the whole budget (GUM G.2.3 / G.6.5: a dominant
+        rectangle's trapezoid; JCGM 101 5.3: k from the distribution, not 2 by default).
+        k = 2 over-covered every value whose budget is one specification's limit."""
+        return budget_distribution(*self._shape()).factor(COVERAGE_PROBABILITY)
+
     def coverage_probability(self, k: float = COVERAGE_FACTOR) -> float:
         """The probability that +-k u holds the value under the budget's own distribution:
-        its largest rectangular term as the specifications state it, the rest
-        combined as a normal (GUM G.2: a sum of several terms tends to one). k = 2 gives 95 %
-        only near normal; where one rectangular term dominates it gives more (1 at most
-        for the rectangle alone once k u >= sqrt(3) u)."""
-        return rectangle_plus_normal_coverage(k * self.std_uncertainty, *self._rectangle_and_rest())
+        its rectangular terms as the specifications state them, the rest normal (GUM G.2:
+        a sum of several terms tends to one). k = 2 gives 95 % only near normal; where one
+        rectangular term dominates it gives more (1 at most for the rectangle alone once
+        k u >= sqrt(3) u)."""
+        return budget_distribution(*self._shape()).probability(k)
 
-    def _rectangle_and_rest(self) -> tuple[float, float]:
-        """(half-width of the largest rectangular term, standard deviation of the rest)."""
+    def _shape(self) -> tuple[tuple[float, ...], float]:
+        """The rectangles' half-widths and the rest's standard deviation, in units of u
+        (rounded: budgets of one shape share one distribution)."""
         u = self.std_uncertainty
-        rectangular = max((t.std_uncertainty for t in self.terms if t.is_rectangular), default=0.0)
-        return math.sqrt(3.0) * rectangular, math.sqrt(max(u**2 - rectangular**2, 0.0))
+        if u == 0.0:
+            return (), 1.0
+        rectangles = [math.sqrt(3.0) * t.std_uncertainty / u for t in self.terms if t.is_rectangular]
+        rest = math.sqrt(max(1.0 - sum(a * a / 3.0 for a in rectangles), 0.0))
+        return tuple(sorted(round(a, 3) for a in rectangles if a >= 1e-3)), round(rest, 3)
 
     def as_frame(self) -> pd.DataFrame:
         """One row per term, largest first, with its share of the combined variance."""
@@ -121,35 +126,48 @@ class Budget:
         return pd.DataFrame(rows, columns=BUDGET_COLUMNS)
 
 
-def rectangle_plus_normal_coverage(half_width: float, a: float, s: float) -> float:
-    """P(|R + N| <= half_width) for R uniform on +-a and N normal with standard deviation s:
-    the convolution's distribution function is F(x) = s / (2a) [G((x + a)/s) - G((x - a)/s)]
-    with G(t) = t Phi(t) + phi(t), an antiderivative of the normal Phi. (Phi is scipy's ndtr,
-    which scipy.stats.norm.cdf calls after tens of microseconds of argument handling: a
-    report asks for thousands of these.)"""
-    if a <= 1e-6 * s:   # the rectangle is nothing beside the normal (and the formula would cancel)
-        return float(2.0 * special.ndtr(half_width / s) - 1.0) if s > 0 else 1.0
-    if s <= 1e-6 * a:
-        return min(1.0, half_width / a)
+@dataclass(frozen=True)
+class Distribution:
+    """P(|X| <= x) on a grid of x >= 0, X in units of its standard deviation."""
 
-    def g(t: float) -> float:
-        return t * special.ndtr(t) + math.exp(-0.5 * t * t) / math.sqrt(2.0 * math.pi)
+    x: np.ndarray
+    covered: np.ndarray
 
-    def cdf(x: float) -> float:
-        return s / (2.0 * a) * (g((x + a) / s) - g((x - a) / s))
-    return float(cdf(half_width) - cdf(-half_width))
+    def probability(self, k: float) -> float:
+        return float(np.interp(k, self.x, self.covered))
+
+    def factor(self, probability: float) -> float:
+        """The smallest k with P(|X| <= k) >= probability."""
+        return float(self.x[min(int(np.searchsorted(self.covered, probability)), len(self.x) - 1)])
 
 
-def rectangle_plus_normal_factor(a: float, s: float, probability: float = COVERAGE_PROBABILITY) -> float:
-    """The k for which +-k u (u^2 = a^2 / 3 + s^2) holds `probability` of R + N, R uniform on
-    +-a, N normal with standard deviation s (`rectangle_plus_normal_coverage`): 0.95 sqrt(3)
-    = 1.65 for the rectangle alone, 1.96 for the normal alone, a little below 1.65 for a
-    rectangle with a trace of normal (its edges soften where the 95 % point lies)."""
-    u = math.sqrt(a * a / 3.0 + s * s)
-    if u == 0.0:
-        return COVERAGE_FACTOR
-    return float(optimize.brentq(lambda k: rectangle_plus_normal_coverage(k * u, a, s) - probability, 1.0, 3.0,
-                                 xtol=1e-6))
+#: Grid steps per unit of the standard deviation on which a budget's distribution is convolved.
+STEPS_PER_U = 2000
+
+
+@functools.lru_cache(maxsize=4096)
+def budget_distribution(rectangles: tuple[float, ...], rest: float) -> Distribution:
+    """The distribution of X = sum of R_i + N, R_i uniform on +-rectangles[i], N normal with
+    standard deviation `rest` (units of u, sum of variances 1), by numerical convolution on a
+    grid of 1 / STEPS_PER_U (JCGM 101 propagates distributions; here the sum of independent
+    inputs is a convolution, exact to the grid's step). Symmetric about 0."""
+    half = sum(rectangles) + 7.0 * rest + 1e-9
+    steps = int(math.ceil(half * STEPS_PER_U))
+    x = np.arange(-steps, steps + 1) / STEPS_PER_U
+    if rest > 0:
+        density = np.exp(-0.5 * (x / rest) ** 2)
+    else:
+        density = (x == 0).astype(float)
+    density /= density.sum()
+    for a in rectangles:
+        width = int(round(a * STEPS_PER_U))
+        if width:
+            density = signal.fftconvolve(density, np.full(2 * width + 1, 1.0 / (2 * width + 1)), mode="same")
+    density = np.clip(density, 0.0, None)
+    density /= density.sum()
+    centre = steps
+    covered = density[centre] + 2.0 * np.concatenate([[0.0], np.cumsum(density[centre + 1:])])
+    return Distribution(x[centre:] + 0.5 / STEPS_PER_U, np.minimum(covered, 1.0))
 
 
 def _spec_term(name: str, key: str, sensitivity: float) -> Term:
