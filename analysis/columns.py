@@ -96,7 +96,7 @@ COLUMNS: dict[str, tuple[str, str]] = {
     "loss_w_per_um2": ("W per um pp^2", "plate power over the squared amplitude (um pp)"),
     "force_factor_vs_datasheet": ("1", "calibrated force factor n_c psi over the datasheet pin-force value"),
     "q_mech": ("1", "mechanical quality factor of the working mode in the scene"),
-    "resonance_frequency_hz_U": ("Hz", "expanded uncertainty (k = 2) of resonance_frequency_hz"),
+    "resonance_frequency_hz_U": ("Hz", "expanded uncertainty (k for 95 % under its budget) of resonance_frequency_hz"),
     # report tables (analysis.tables)
     "table": ("", "paper table or figure the row belongs to"),
     "item": ("", "column of the paper's table (plate length, configuration, plate, estimate)"),
@@ -131,7 +131,8 @@ COLUMNS: dict[str, tuple[str, str]] = {
     "power_w": ("W", "electrical power into the piezos"),
     "power_resonance_w": ("W", "power at resonance P0 of the series"),
     "power_ratio": ("1", "Pt / P0 (Fig. 2)"),
-    "power_ratio_U": ("1", "expanded uncertainty (k = 2) of Pt / P0: noise and CH2 delay; the gains cancel"),
+    "power_ratio_U": ("1", "expanded uncertainty (k for 95 % under its budget) of Pt / P0: noise, CH2 delay, "
+                                "compensation, generator frequency; the gains cancel"),
     # per-plate readings and Table 5 under each reading (analysis.audit)
     "reading": ("", "reading of the paper's open conventions: 'paper' (the text's) or 'inferred' (analysis.readings)"),
     "q": ("1", "quality factor Q of the plate (Eq. 27)"),

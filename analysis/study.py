@@ -198,7 +198,7 @@ COVERAGE_BOOTSTRAP_DRAWS = 4000
 
 
 def coverage_table(points: pd.DataFrame) -> pd.DataFrame:
-    """Per error model and quantity: the fraction of values whose expanded uncertainty (k = 2)
+    """Per error model and quantity: the fraction of values whose expanded uncertainty
     covers the truth, pooled over the benches, with its bench-bootstrap 95 % interval. Every
     value of a bench shares that bench's errors, so the bench is the unit resampled (benches
     drawn with replacement, the pooled fraction of each resample; seeded): a bench is covered
@@ -227,7 +227,8 @@ def bench_bootstrap_interval(covered: np.ndarray, counts: np.ndarray, draws: int
 
 
 #: How a coverage study's benches erred, in words (protocols.variants.ERROR_MODELS).
-COVERAGE_MODELS = {"specified": "benches within specification", "world": "benches erring as the world errs"}
+COVERAGE_MODELS = {"specified": "benches within specification (instruments and plate tolerances)",
+                   "world": "benches erring as the world errs (instruments and plate tolerances)"}
 
 
 def coverage_lines(table: pd.DataFrame, quantity_words=str) -> list[str]:

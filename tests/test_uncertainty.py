@@ -290,7 +290,7 @@ def test_the_report_shows_expanded_uncertainties_and_budgets(erring_bench_points
     assert (summary["median_expanded_relative"] > 0).all()
     # the paper campaign's deskew run checks the gains: the current path's gain, checked, leads
     assert "current path gain (gain-checked)" in set(summary["dominant_term"])
-    assert "Uncertainty budgets (GUM, k = 2)" in (run_dir / "report" / "index.html").read_text()
+    assert "Uncertainty budgets (GUM, k for 95 %)" in (run_dir / "report" / "index.html").read_text()
     floors = pd.read_csv(run_dir / "report" / "uncertainty_floors.csv")
     assert set(floors["quantity"]) == {"power_w", "velocity_pp_mps"}
     assert (floors["floor_p95_rel"] > 0.02).all()   # the gains alone, whatever the averaging
