@@ -49,12 +49,16 @@ ERROR_PERCENTILE = 95.0
 
 
 def errors_on_bench(campaign_file: Path, bench_seed: int, work_dir: Path,
-                    error_model: str = "specified", quantities: tuple[str, ...] = QUANTITIES) -> pd.DataFrame:
+                    error_model: str = "specified", quantities: tuple[str, ...] = QUANTITIES,
+                    draw_plates: bool = False) -> pd.DataFrame:
     """Every stored point of the campaign run on bench `bench_seed` (its errors drawn under
     `error_model`, `variants.ERROR_MODELS`): relative error of each of `quantities` (of
     COVERAGE_QUANTITIES) against the truth, with its expanded uncertainty; and the bench
-    time. `work_dir` is scratch: the run there is not kept, so it is not made durable."""
-    plates = plate_draw_effects(bench_seed, error_model)   # the plates as built, drawn within their tolerances
+    time. With `draw_plates` the plates too are drawn within their tolerances, erring and
+    ideal benches alike (the coverage study; the accuracy study and the planner keep the
+    nominal plates their figures are about). `work_dir` is scratch: the run there is not
+    kept, so it is not made durable."""
+    plates = plate_draw_effects(bench_seed, error_model) if draw_plates else []
     erring = campaign_with_effects(campaign_file, work_dir / "erring",
                                    systematic_effects(bench_seed, error_model=error_model) + plates)
     campaign_with_effects(campaign_file, work_dir / "plain", plates)   # the same plates without the errors
@@ -209,10 +213,11 @@ def bench_time_by_run_s(run_dir: Path) -> dict[str, float]:
 
 
 def _errors_on_fresh_bench(campaign_file: Path, bench_seed: int, error_model: str = "specified",
-                           quantities: tuple[str, ...] = QUANTITIES) -> tuple[pd.DataFrame, float]:
+                           quantities: tuple[str, ...] = QUANTITIES,
+                           draw_plates: bool = False) -> tuple[pd.DataFrame, float]:
     """`errors_on_bench` in a temporary directory of its own (a worker shares no files)."""
     with tempfile.TemporaryDirectory(prefix=f"squeezebench-bench-{bench_seed}-") as tmp:
-        frame = errors_on_bench(Path(campaign_file), bench_seed, Path(tmp), error_model, quantities)
+        frame = errors_on_bench(Path(campaign_file), bench_seed, Path(tmp), error_model, quantities, draw_plates)
         return frame, frame.attrs["bench_time_s"]
 
 
@@ -235,7 +240,8 @@ def run_coverage_study(out_dir: Path, benches: int, campaign_file: Path | None =
     paper's by default) on benches 1..`benches` with errors drawn within specification
     (`error_model` "specified", what the budgets assume) or as the world may err ("world":
     normal, a probe lag of known sign, now and then an instrument out of specification),
-    every stored point scored. Each bench's rows go to
+    each bench's plates drawn within their tolerances under the same model, every stored
+    point scored. Each bench's rows go to
     OUT_DIR/study/<coverage_dir(error_model)>/bench_<k>.parquet as it completes (`resume`
     keeps those already there of the same campaign file); all of them to points.parquet
     beside them. Returns that path."""
@@ -255,7 +261,7 @@ def run_coverage_study(out_dir: Path, benches: int, campaign_file: Path | None =
     progress(f"coverage: {campaign_file.name} on {len(pending)} of {benches} simulated benches "
              f"(errors: {error_model})")
     job = functools.partial(_errors_on_fresh_bench, campaign_file, error_model=error_model,
-                            quantities=COVERAGE_QUANTITIES)
+                            quantities=COVERAGE_QUANTITIES, draw_plates=True)
     for seed, (frame, bench_time_s) in map_unordered(job, pending, workers, scheduler, "coverage"):
         write_frame_atomic(directory / f"bench_{seed}.parquet",
                            frame.assign(bench_time_s=bench_time_s, campaign=campaign_file.name, campaign_sha256=digest))

@@ -139,7 +139,8 @@ def test_the_coverage_study_scores_q_and_tan_theta_against_the_plate_as_drawn(tm
     data.pop("output_dir", None)
     campaign = tmp_path / "one_plate.yaml"
     campaign.write_text(dump_yaml(data))
-    scores = {seed: errors_on_bench(campaign, seed, tmp_path / f"bench{seed}", quantities=("q", "tan_theta"))
+    scores = {seed: errors_on_bench(campaign, seed, tmp_path / f"bench{seed}", quantities=("q", "tan_theta"),
+                                     draw_plates=True)
               .set_index("quantity") for seed in (1, 2)}
     for frame in scores.values():
         assert set(frame.index) == {"q", "tan_theta"}
