@@ -963,18 +963,20 @@ def _coverage_part(context: ReportContext) -> str:
     words = "; ".join(study.coverage_lines(table, _words_of))
     return ("<h3>Coverage of the expanded uncertainties</h3>"
             f"<p>{html.escape(campaign)} run on up to {table['benches'].max()} simulated benches (bench k: "
-            "errors drawn from seed k), every expanded uncertainty (k = 2, analysis.uncertainty) the report "
-            "prints on a stored point (power, velocity, amplitude), on Fig. 2's Pt/P0 and on each resonance "
-            "frequency compared with the truth at its setting. Benches 'within specification' "
+            "errors drawn from seed k), every expanded uncertainty (analysis.uncertainty) the report "
+            "prints on a stored point (power, velocity, amplitude), on Fig. 2's Pt/P0, on each resonance "
+            "frequency and on each characterised plate's Q and tan theta' compared with the truth at its setting; "
+            "each bench's plates are drawn within their geometry's and materials' tolerances (simbench.plate_draws), "
+            "and Q and tan theta' are scored against the plate as drawn, which the report reads with the nominal "
+            "inputs. Benches 'within specification' "
             "err as the budgets assume (uniformly within each limit); 'as the world errs' do not (normal "
             "errors, a current probe lagging by about 8 ns, one bench in 13 with an error beyond its "
             f"specification): the test a budget can fail. {html.escape(words)}. A bench's errors are "
             "shared by all its values, so a bench is covered almost wholly or hardly at all: the interval "
-            "resamples benches, and a handful of them decides it. Q and tan theta' are not scored: their "
-            "budgets are mostly the plates' geometry and material tolerances, which the simulated benches "
-            "do not draw.</p>"
+            "resamples benches, and a handful of them decides it. The map's homogeneity is not scored (the "
+            "studies leave map runs out).</p>"
             + presentation.fold("Coverage per quantity, as a table", html_table(
-                table, "Coverage of the expanded uncertainties (k = 2) over simulated benches "
+                table, "Coverage of the expanded uncertainties over simulated benches "
                        "(study_coverage.csv). Simulated bench.")))
 
 
@@ -1125,7 +1127,7 @@ def _uncertainties(context: ReportContext) -> uncertainty.RunUncertainties:
 
 
 def uncertainty_section(context: ReportContext) -> Section | None:
-    """Uncertainty budgets (GUM, k = 2)"""
+    """Uncertainty budgets (GUM, k for 95 %)"""
     found = _uncertainties(context)
     if found.points.empty:
         return None   # no stored records to budget (a study-only directory)
@@ -1163,9 +1165,9 @@ def uncertainty_section(context: ReportContext) -> Section | None:
                          "The whole budget of one point of each protocol (relative: the term's standard "
                          "uncertainty over the value; the point: uncertainty_budgets.csv). " + _bench_words(context))
               + "<p>Resonance frequencies found by the searches (the generator's setting there), "
-                "expanded (k = 2):</p>" + html_table(found.searches, "Resonance frequencies found, expanded (k = 2). " + _bench_words(context))
+                "expanded (k for 95 % under each budget):</p>" + html_table(found.searches, "Resonance frequencies found, expanded (k for 95 % under each budget). " + _bench_words(context))
               + "<p>Q and tan(theta') per plate with the geometry and material tolerances "
-                "(expanded, k = 2; floor: p95 relative error with the fits' noise gone):</p>"
+                "(expanded, k for 95 % under each budget; floor: p95 relative error with the fits' noise gone):</p>"
               + html_table(context.tables["uncertainty_q_tan_theta"], "Q and tan θ′ with tolerances. " + _bench_words(context))
               + "<p>Floor per run: the p95 relative error of power and velocity the instruments' "
                 "specified errors leave at the run's worst point, whatever the averaging:</p>"
@@ -1175,12 +1177,13 @@ def uncertainty_section(context: ReportContext) -> Section | None:
         f"(mostly {found.points[f'{q}_dominant'].mode().iat[0]})" for q in quantities if f"{q}_U" in found.points)
     coverage = "; ".join(f"{_words_of(q)} {_percent_range(found.points[f'{q}_U_coverage'])}"
                          for q in quantities if found.points[f"{q}_U_coverage"].notna().any())
-    return Section("Uncertainty budgets (GUM, k = 2)",
-                   "<p>Expanded uncertainties (k = 2) of every stored point: noise of the record (Type A) "
+    return Section("Uncertainty budgets (GUM, k for 95 %)",
+                   "<p>Expanded uncertainties of every stored point: noise of the record (Type A) "
                    f"and the instruments' specifications (Type B). Median relative U over the run: {html.escape(overall)}. "
-                   "k = 2 is the convention; under each budget's own distribution (its largest specification "
-                   "term rectangular, the rest normal) +-U holds the value with a probability of "
-                   f"{html.escape(coverage)}: above 95 % where one rectangular term dominates.</p>"
+                   "k is each budget's own: under its distribution (its specification terms rectangular, the "
+                   "rest normal, convolved) +-U holds the value with a probability of "
+                   f"{html.escape(coverage)}; k runs from 1.65 (one rectangle) to 1.96 (a normal), where k = 2 "
+                   "over-covered the values one specification dominates.</p>"
                    + deskew
                    + presentation.fold("Median relative U and dominant term per protocol",
                                        html_table(summary, "Median relative U and dominant term per protocol. " + _bench_words(context)))
@@ -1210,7 +1213,7 @@ def _delay_flag(points: pd.DataFrame) -> str:
     if flagged.empty:
         return text
     where = ", ".join(sorted({f"{run} / {step}" for run, step in zip(flagged["run_name"], flagged["step_id"])}))
-    bound_ns = uncertainty.COVERAGE_FACTOR * uncertainty.delay_std_uncertainty_s() * 1e9
+    bound_ns = uncertainty.P95_FACTOR * uncertainty.delay_std_uncertainty_s() * 1e9
     return (f"<p class='banner'><b>Needs a deskew calibration:</b> {len(flagged)} point(s) ({html.escape(where)}) "
             f"have a power whose U (above {uncertainty.DELAY_FLAG_U_REL:.0%}) is mostly the CH2 delay, budgeted as "
             f"a bias bound of {bound_ns:.0f} ns: a current probe lags its voltage probe by a fixed delay of known "

@@ -198,11 +198,13 @@ COVERAGE_BOOTSTRAP_DRAWS = 4000
 
 
 def coverage_table(points: pd.DataFrame) -> pd.DataFrame:
-    """Per error model and quantity: the fraction of values whose expanded uncertainty (k = 2)
+    """Per error model and quantity: the fraction of values whose expanded uncertainty
     covers the truth, pooled over the benches, with its bench-bootstrap 95 % interval. Every
     value of a bench shares that bench's errors, so the bench is the unit resampled (benches
     drawn with replacement, the pooled fraction of each resample; seeded): a bench is covered
-    nearly wholly or hardly at all, and few benches leave the fraction uncertain."""
+    nearly wholly or hardly at all, and few benches leave the fraction uncertain.
+    `p95_error_over_u`: the 95th percentile of |error| / U (below 1 where U over-covers: a U
+    that factor as wide would still cover 95 %)."""
     if "error_model" not in points:
         points = points.assign(error_model="specified")
     rows = []
@@ -213,7 +215,9 @@ def coverage_table(points: pd.DataFrame) -> pd.DataFrame:
                      "covered_fraction": float(group["covered"].mean()),
                      "coverage_interval_low": low, "coverage_interval_high": high,
                      "benches_fully_covered": int((by_bench["sum"] == by_bench["size"]).sum()),
-                     "median_rel_expanded_u": float(group["rel_expanded_u"].median())})
+                     "median_rel_expanded_u": float(group["rel_expanded_u"].median()),
+                     "p95_error_over_u": float(np.percentile(group["rel_error"].abs() / group["rel_expanded_u"],
+                                                             ERROR_PERCENTILE))})
     return pd.DataFrame(rows)
 
 
@@ -227,7 +231,8 @@ def bench_bootstrap_interval(covered: np.ndarray, counts: np.ndarray, draws: int
 
 
 #: How a coverage study's benches erred, in words (protocols.variants.ERROR_MODELS).
-COVERAGE_MODELS = {"specified": "benches within specification", "world": "benches erring as the world errs"}
+COVERAGE_MODELS = {"specified": "benches within specification (instruments and plate tolerances)",
+                   "world": "benches erring as the world errs (instruments and plate tolerances)"}
 
 
 def coverage_lines(table: pd.DataFrame, quantity_words=str) -> list[str]:
@@ -235,6 +240,7 @@ def coverage_lines(table: pd.DataFrame, quantity_words=str) -> list[str]:
     quantity, coverage, its bench-bootstrap interval, benches, error model."""
     return [f"{quantity_words(row.quantity)}: {row.covered_fraction:.1%} covered "
             f"(bench bootstrap 95 % interval {row.coverage_interval_low:.1%} to {row.coverage_interval_high:.1%}), "
+            f"p95 |error| / U {row.p95_error_over_u:.2f}, "
             f"{row.points} values on {row.benches} benches, {COVERAGE_MODELS.get(row.error_model, row.error_model)}"
             for row in table.itertuples()]
 

@@ -249,23 +249,25 @@ def _quantity_value(points: pd.DataFrame, quantity: str, constant_columns: dict[
 
 
 def _expanded(points: pd.DataFrame, column: str, estimate: Estimate) -> float:
-    """Expanded (k = 2) uncertainty of a mean of points from their whole budgets
+    """Expanded uncertainty of a mean of points from their whole budgets
     (analysis.uncertainty: noise and the instruments' specifications); the amplitude
     takes the velocity's relative budget. The noise averages down over the points, the
-    specifications' part (the same instruments for every point) does not. Without a
-    budget, k times the noise alone."""
+    specifications' part (the same instruments for every point) does not. k is the points'
+    own (`Budget.coverage_factor`, their median); without a budget, 2 times the noise alone."""
     # analysis.uncertainty reads reduced points through analysis.calibration, which imports
     # this module: imported here, once both are loaded.
     from squeezebench.analysis import uncertainty
 
     budgeted = "velocity_pp_mps" if column == "amplitude_pp_m" else column
     if budgeted in uncertainty.POINT_BUDGETS and points["power_w_u"].notna().all():
-        combined = uncertainty.with_expanded_uncertainties(points)[f"{budgeted}_u_combined"]
+        budgets = uncertainty.with_expanded_uncertainties(points)
+        combined = budgets[f"{budgeted}_u_combined"]
+        k = float((budgets[f"{budgeted}_U"] / combined).median())
         noise = points[f"{budgeted}_u"]
         if column == "amplitude_pp_m":
             combined, noise = (u / points["velocity_pp_mps"] * points["amplitude_pp_m"] for u in (combined, noise))
         shared = np.sqrt(np.clip(combined**2 - noise**2, 0.0, None))
-        return uncertainty.COVERAGE_FACTOR * mean_estimate(points[column], noise, shared).std_uncertainty
+        return k * mean_estimate(points[column], noise, shared).std_uncertainty
     return uncertainty.COVERAGE_FACTOR * estimate.std_uncertainty
 
 
@@ -704,8 +706,8 @@ def finish_table(frame: pd.DataFrame, value_columns=("value", "std_uncertainty",
 def detuning_table(run: RunData) -> pd.DataFrame:
     """Fig. 2 (Sec. 2.2): Pt / P0 per plate, velocity level and target velocity ratio,
     where P0 is the power at resonance (its own row has ratio 1) and Pt the power once v0
-    is regained (or at the stress point), with the ratio's expanded uncertainty (k = 2,
-    `uncertainty.power_ratio_std_uncertainty`: the gains cancel, the CH2 delay does not).
+    is regained (or at the stress point), with the ratio's expanded uncertainty
+    (`uncertainty.power_ratio_budget`: the gains cancel, the CH2 delay does not).
     Unreachable targets stay as rows with status 'not reachable'."""
     from squeezebench.analysis import uncertainty   # see _expanded
 
@@ -721,7 +723,7 @@ def detuning_table(run: RunData) -> pd.DataFrame:
             for ratio, target in group[group["detuning_phase"] == phase].groupby("target_velocity_ratio"):
                 reachable = bool(flag(target["reachable"], default=True).all()) if "reachable" in target else True
                 power = float(target["power_w"].mean())
-                ratio_u = uncertainty.power_ratio_std_uncertainty(target, at_resonance) \
+                ratio_expanded = uncertainty.power_ratio_budget(target, at_resonance).expanded_uncertainty \
                     if reachable and len(at_resonance) and "reactive_power_var" in target else math.nan
                 rows.append({"run_name": run_name, "plate": plate, "velocity_level_pp_mps": float(level),
                              "detuning_phase": phase,
@@ -732,7 +734,7 @@ def detuning_table(run: RunData) -> pd.DataFrame:
                              "power_w": power if reachable else math.nan,
                              "power_resonance_w": p0,
                              "power_ratio": power / p0 if reachable and p0 > 0 else math.nan,
-                             "power_ratio_U": uncertainty.COVERAGE_FACTOR * ratio_u,
+                             "power_ratio_U": ratio_expanded,
                              "status": "measured" if reachable else NOT_REACHABLE})
     return pd.DataFrame(rows, columns=["run_name", "plate", "velocity_level_pp_mps", "detuning_phase",
                                        "target_velocity_ratio", "frequency_hz", "voltage_vpp", "power_w",

@@ -26,13 +26,14 @@ package (linear propagation, numerical derivatives of `analysis.model`).
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass, replace
 
 import numpy as np
 import pandas as pd
 import uncertainties
-from scipy import special
+from scipy import signal
 
 from squeezebench.analysis import model
 from squeezebench.analysis.calibration import Deskew, deskew_of_run, gain_weight
@@ -42,6 +43,10 @@ from squeezebench.analysis.specifications import SPECIFICATIONS, VOLTAGE_PROBE_P
 from squeezebench.analysis.tables import reduced_points, with_scope_fallback
 
 COVERAGE_FACTOR = 2.0
+#: The coverage probability an expanded uncertainty is meant to reach (GUM 6.2.2).
+COVERAGE_PROBABILITY = 0.95
+#: |error| at the 95th percentile of a near-normal combined distribution, in standard uncertainties.
+P95_FACTOR = 1.96
 BUDGET_COLUMNS = ["quantity", "unit", "value", "term", "type", "std_uncertainty", "relative",
                   "share", "source"]
 
@@ -52,6 +57,13 @@ class Term:
     type: str  # "A" (statistics of this record) or "B" (specification, tolerance, setting)
     std_uncertainty: float  # in the unit of the budget's value
     source: str
+    #: A stated limit read as a rectangle (GUM 4.3.7): a Type B term unless it says otherwise
+    #: (a bias bound whose k-fold is the bound is no rectangle about zero).
+    rectangular: bool | None = None
+
+    @property
+    def is_rectangular(self) -> bool:
+        return self.type == "B" if self.rectangular is None else self.rectangular
 
 
 @dataclass(frozen=True)
@@ -69,23 +81,39 @@ class Budget:
 
     @property
     def expanded_uncertainty(self) -> float:
-        """k = 2: about 95 % coverage for a combined distribution near normal."""
-        return COVERAGE_FACTOR * self.std_uncertainty
+        """k u with k for 95 % under the budget's own distribution (`coverage_factor`)."""
+        return self.coverage_factor * self.std_uncertainty
 
     @property
     def dominant(self) -> Term:
         return max(self.terms, key=lambda t: t.std_uncertainty)
 
+    @property
+    def coverage_factor(self) -> float:
+        """k such that +-k u holds the value with COVERAGE_PROBABILITY under the budget's own
+        distribution (`budget_distribution`): 1.96 for a normal, down to 1.65 (0.95 sqrt(3))
+        when one rectangular term is the whole budget (GUM G.2.3 / G.6.5: a dominant
+        rectangle's trapezoid; JCGM 101 5.3: k from the distribution, not 2 by default).
+        k = 2 over-covered every value whose budget is one specification's limit."""
+        return budget_distribution(*self._shape()).factor(COVERAGE_PROBABILITY)
+
     def coverage_probability(self, k: float = COVERAGE_FACTOR) -> float:
         """The probability that +-k u holds the value under the budget's own distribution:
-        its largest Type B term rectangular (as the specifications state it), the rest
-        combined as a normal (GUM G.2: a sum of several terms tends to one). k = 2 gives 95 %
-        only near normal; where one rectangular term dominates it gives more (1 at most
-        for the rectangle alone once k u >= sqrt(3) u)."""
+        its rectangular terms as the specifications state them, the rest normal (GUM G.2:
+        a sum of several terms tends to one). k = 2 gives 95 % only near normal; where one
+        rectangular term dominates it gives more (1 at most for the rectangle alone once
+        k u >= sqrt(3) u)."""
+        return budget_distribution(*self._shape()).probability(k)
+
+    def _shape(self) -> tuple[tuple[float, ...], float]:
+        """The rectangles' half-widths and the rest's standard deviation, in units of u
+        (rounded: budgets of one shape share one distribution)."""
         u = self.std_uncertainty
-        rectangular = max((t.std_uncertainty for t in self.terms if t.type == "B"), default=0.0)
-        return rectangle_plus_normal_coverage(k * u, math.sqrt(3.0) * rectangular,
-                                              math.sqrt(max(u**2 - rectangular**2, 0.0)))
+        if u == 0.0:
+            return (), 1.0
+        rectangles = [math.sqrt(3.0) * t.std_uncertainty / u for t in self.terms if t.is_rectangular]
+        rest = math.sqrt(max(1.0 - sum(a * a / 3.0 for a in rectangles), 0.0))
+        return tuple(sorted(round(a, 3) for a in rectangles if a >= 1e-3)), round(rest, 3)
 
     def as_frame(self) -> pd.DataFrame:
         """One row per term, largest first, with its share of the combined variance."""
@@ -98,23 +126,48 @@ class Budget:
         return pd.DataFrame(rows, columns=BUDGET_COLUMNS)
 
 
-def rectangle_plus_normal_coverage(half_width: float, a: float, s: float) -> float:
-    """P(|R + N| <= half_width) for R uniform on +-a and N normal with standard deviation s:
-    the convolution's distribution function is F(x) = s / (2a) [G((x + a)/s) - G((x - a)/s)]
-    with G(t) = t Phi(t) + phi(t), an antiderivative of the normal Phi. (Phi is scipy's ndtr,
-    which scipy.stats.norm.cdf calls after tens of microseconds of argument handling: a
-    report asks for thousands of these.)"""
-    if a <= 1e-6 * s:   # the rectangle is nothing beside the normal (and the formula would cancel)
-        return float(2.0 * special.ndtr(half_width / s) - 1.0) if s > 0 else 1.0
-    if s <= 1e-6 * a:
-        return min(1.0, half_width / a)
+@dataclass(frozen=True)
+class Distribution:
+    """P(|X| <= x) on a grid of x >= 0, X in units of its standard deviation."""
 
-    def g(t: float) -> float:
-        return t * special.ndtr(t) + math.exp(-0.5 * t * t) / math.sqrt(2.0 * math.pi)
+    x: np.ndarray
+    covered: np.ndarray
 
-    def cdf(x: float) -> float:
-        return s / (2.0 * a) * (g((x + a) / s) - g((x - a) / s))
-    return float(cdf(half_width) - cdf(-half_width))
+    def probability(self, k: float) -> float:
+        return float(np.interp(k, self.x, self.covered))
+
+    def factor(self, probability: float) -> float:
+        """The smallest k with P(|X| <= k) >= probability."""
+        return float(self.x[min(int(np.searchsorted(self.covered, probability)), len(self.x) - 1)])
+
+
+#: Grid steps per unit of the standard deviation on which a budget's distribution is convolved.
+STEPS_PER_U = 2000
+
+
+@functools.lru_cache(maxsize=4096)
+def budget_distribution(rectangles: tuple[float, ...], rest: float) -> Distribution:
+    """The distribution of X = sum of R_i + N, R_i uniform on +-rectangles[i], N normal with
+    standard deviation `rest` (units of u, sum of variances 1), by numerical convolution on a
+    grid of 1 / STEPS_PER_U (JCGM 101 propagates distributions; here the sum of independent
+    inputs is a convolution, exact to the grid's step). Symmetric about 0."""
+    half = sum(rectangles) + 7.0 * rest + 1e-9
+    steps = int(math.ceil(half * STEPS_PER_U))
+    x = np.arange(-steps, steps + 1) / STEPS_PER_U
+    if rest > 0:
+        density = np.exp(-0.5 * (x / rest) ** 2)
+    else:
+        density = (x == 0).astype(float)
+    density /= density.sum()
+    for a in rectangles:
+        width = int(round(a * STEPS_PER_U))
+        if width:
+            density = signal.fftconvolve(density, np.full(2 * width + 1, 1.0 / (2 * width + 1)), mode="same")
+    density = np.clip(density, 0.0, None)
+    density /= density.sum()
+    centre = steps
+    covered = density[centre] + 2.0 * np.concatenate([[0.0], np.cumsum(density[centre + 1:])])
+    return Distribution(x[centre:] + 0.5 / STEPS_PER_U, np.minimum(covered, 1.0))
 
 
 def _spec_term(name: str, key: str, sensitivity: float) -> Term:
@@ -132,11 +185,18 @@ def delay_std_uncertainty_s() -> float:
     zero-mean spread. The current probe lags by a delay of known sign up to
     `current_probe_lag` (beyond its +-10 ns specification when its cable is long), and the
     scope's skew adds up to its limit: |tau| <= that sum, uncorrected. Carried in
-    quadrature as the standard uncertainty whose k-fold is the bound (u = bound / k), so a
-    U whose delay term dominates holds any delay within the bound, of either sign (the
-    former +-10 ns rectangle about zero missed a 17 ns lag at the Fig. 2c stress point)."""
+    quadrature as the standard uncertainty whose k-fold is the bound (u = bound / k, k the
+    normal's 1.96: the term is no rectangle, `delay_term`), so a U whose delay term
+    dominates holds any delay within the bound, of either sign (the former +-10 ns
+    rectangle about zero missed a 17 ns lag at the Fig. 2c stress point)."""
     bound_s = SPECIFICATIONS["current_probe_lag"].half_width + SPECIFICATIONS["scope_skew"].half_width
-    return bound_s / COVERAGE_FACTOR
+    return bound_s / P95_FACTOR
+
+
+def delay_term(sensitivity: float) -> Term:
+    """The uncorrected CH2 delay's bias bound in a budget, `sensitivity` per second."""
+    return Term("CH2 delay vs CH1 (skew, TCP202)", "B", abs(sensitivity) * delay_std_uncertainty_s(), DELAY_SOURCE,
+                rectangular=False)
 
 
 #: Where the uncorrected CH2 delay's bound comes from.
@@ -180,14 +240,19 @@ def needs_deskew(points: pd.DataFrame) -> pd.DataFrame:
     measures it and shrinks such a U to the rest of its budget."""
     if "power_w_U" not in points or "reactive_power_var" not in points:
         return points.iloc[0:0]
-    variance = (points["power_w_U"] / COVERAGE_FACTOR) ** 2
+    variance = points["power_w_u_combined"] ** 2
     delay_u = 2 * np.pi * points["frequency_hz"] * points["reactive_power_var"].abs() * delay_std_uncertainty_s()
     return points[(delay_u**2 > DELAY_FLAG_SHARE * variance)
                   & (points["power_w_U"] > DELAY_FLAG_U_REL * points["power_w"].abs())]
 
 
 def power_ratio_std_uncertainty(numerator: pd.DataFrame, denominator: pd.DataFrame) -> float:
-    """Standard uncertainty of R = mean P_t / mean P_0, two powers of one plate on one bench
+    """`power_ratio_budget`'s standard uncertainty."""
+    return power_ratio_budget(numerator, denominator).std_uncertainty
+
+
+def power_ratio_budget(numerator: pd.DataFrame, denominator: pd.DataFrame) -> Budget:
+    """Budget of R = mean P_t / mean P_0, two powers of one plate on one bench
     (Fig. 2's Pt/P0), from their reduced points.
 
     The gains (CH1, CH2, current probe, and a deskew's gain correction) multiply both
@@ -199,10 +264,9 @@ def power_ratio_std_uncertainty(numerator: pd.DataFrame, denominator: pd.DataFra
     (1.2 % at r = 0.8 for 20 ppm). The noise of each mean is its own (Type A):
     u(R)^2 / R^2 = u(P_t)^2 / P_t^2 + u(P_0)^2 / P_0^2 + (w_t Q'_t / P_t - w_0 Q'_0 / P_0)^2 u(tau)^2
                    + 4 (s_t f_t - s_0 f_0)^2 u(e)^2,
-    with u(tau) the deskew's when the points were corrected, else the specified one.
-    NaN when a point has no stored record to reduce."""
+    with u(tau) the deskew's when the points were corrected, else the specified bound's.
+    NaN terms when a point has no stored record to reduce."""
     applied = Deskew.applied_in(numerator)
-    delay_u_s = applied.std_uncertainty_s if applied is not None else delay_std_uncertainty_s()
     slopes = _slopes_of(numerator, denominator)
     parts = []
     for points in (numerator, denominator):
@@ -215,11 +279,16 @@ def power_ratio_std_uncertainty(numerator: pd.DataFrame, denominator: pd.DataFra
         pulling = 2.0 * float((slopes.loc[points.index] * setting_hz).mean())
         parts.append((power, noise / power, phase, lead, pulling))
     (p_t, noise_t, phase_t, lead_t, pull_t), (p_0, noise_0, phase_0, lead_0, pull_0) = parts
-    compensation_u = SPECIFICATIONS["voltage_probe_compensation"].std_uncertainty
-    frequency_u = SPECIFICATIONS["generator_frequency"].std_uncertainty
-    return abs(p_t / p_0) * math.sqrt(noise_t**2 + noise_0**2 + ((phase_t - phase_0) * delay_u_s) ** 2
-                                      + ((lead_t - lead_0) * compensation_u) ** 2
-                                      + ((pull_t - pull_0) * frequency_u) ** 2)
+    ratio = p_t / p_0
+    delay = (delay_term(ratio * (phase_t - phase_0)) if applied is None else
+             Term("CH2 delay after deskew", "B", abs(ratio * (phase_t - phase_0)) * applied.std_uncertainty_s,
+                  applied.source))
+    return Budget("power_ratio", "1", ratio, (
+        Term("noise of P_t (record fits)", "A", abs(ratio) * noise_t, "fit covariance of the stored records"),
+        Term("noise of P_0 (record fits)", "A", abs(ratio) * noise_0, "fit covariance of the stored records"),
+        delay,
+        _spec_term("voltage probe compensation (CH1 phase)", "voltage_probe_compensation", ratio * (lead_t - lead_0)),
+        _spec_term("generator frequency", "generator_frequency", ratio * (pull_t - pull_0))))
 
 
 def _slopes_of(numerator: pd.DataFrame, denominator: pd.DataFrame) -> pd.Series:
@@ -238,7 +307,7 @@ def power_budget(point: dict, deskew: Deskew | None = None) -> Budget:
     reactive = abs(float(point["reactive_power_var"]))
     omega_q = 2.0 * math.pi * float(point["frequency_hz"]) * reactive
     if deskew is None:
-        delay = Term("CH2 delay vs CH1 (skew, TCP202)", "B", omega_q * delay_std_uncertainty_s(), DELAY_SOURCE)
+        delay = delay_term(omega_q)
     else:
         delay = Term("CH2 delay after deskew", "B", omega_q * deskew.std_uncertainty_s, deskew.source)
     if deskew is None or deskew.gain_ratio is None:
@@ -365,8 +434,9 @@ def detuning_slope_per_hz(points: pd.DataFrame) -> pd.Series:
 
 
 def with_expanded_uncertainties(points: pd.DataFrame, deskew: Deskew | None = None) -> pd.DataFrame:
-    """Reduced points with, per budgeted quantity q, `q_u_combined`, `q_U` (k = 2) and
-    `q_dominant`; with a deskew the power is corrected (`Deskew.applied_to`), unless the
+    """Reduced points with, per budgeted quantity q, `q_u_combined`, `q_U` (k from the
+    budget's distribution, `Budget.coverage_factor`), `q_dominant` and `q_U_coverage`;
+    with a deskew the power is corrected (`Deskew.applied_to`), unless the
     points carry that correction already, whose budget is then theirs.
     Rows without a stored record (no reduction) keep NaN."""
     applied = Deskew.applied_in(points)
@@ -377,20 +447,22 @@ def with_expanded_uncertainties(points: pd.DataFrame, deskew: Deskew | None = No
     points = points.copy()
     points["detuning_slope_per_hz"] = detuning_slope_per_hz(points)
     for quantity in POINT_BUDGETS:
-        combined, dominant, coverage = [], [], []
+        combined, expanded, dominant, coverage = [], [], [], []
         for _, row in points.iterrows():
             row = row.to_dict()
             if not _has_reduction(row):
                 combined.append(math.nan)
+                expanded.append(math.nan)
                 dominant.append(None)
                 coverage.append(math.nan)
                 continue
             budget = point_budget(quantity, row, deskew)
             combined.append(budget.std_uncertainty)
+            expanded.append(budget.expanded_uncertainty)
             dominant.append(budget.dominant.name)
-            coverage.append(budget.coverage_probability())
+            coverage.append(budget.coverage_probability(budget.coverage_factor))
         points[f"{quantity}_u_combined"] = combined
-        points[f"{quantity}_U"] = COVERAGE_FACTOR * np.asarray(combined, dtype=float)
+        points[f"{quantity}_U"] = expanded
         points[f"{quantity}_dominant"] = dominant
         points[f"{quantity}_U_coverage"] = coverage
     return points
@@ -450,8 +522,6 @@ def run_uncertainties(run: RunData) -> RunUncertainties:
 
 
 # -- the floor: what no averaging removes --------------------------------------------------------
-#: |error| at the 95th percentile of a near-normal combined distribution, in standard uncertainties.
-P95_FACTOR = 1.96
 #: Budget terms a calibration protocol of this bench replaces by its own uncertainty.
 LIFTED_BY = {"CH2 delay vs CH1 (skew, TCP202)": "deskew_calibration"}
 #: What would lift the terms no protocol of this bench calibrates.
@@ -555,6 +625,25 @@ SHEET_THICKNESS_SOURCE = ("EN 485-4 Table 1, cold-rolled sheet up to 1000 mm wid
                           "from 0.8 to 1.2 mm, +-0.09 mm at 2 mm (specifications.sheet_thickness_tolerance)")
 
 
+def with_inputs(geometry: model.PlateGeometry, convention: model.Convention,
+                values: dict[str, float]) -> tuple[model.PlateGeometry, model.Convention]:
+    """The geometry and convention with the tolerated inputs (`tolerances_for`'s names) at
+    `values` (every one of them given)."""
+    shape = replace(geometry, **{k: values[k] for k in _GEOMETRY_FIELDS})
+    materials = replace(convention.materials, **{k: values[k] for k in _MATERIAL_FIELDS})
+    return shape, replace(convention, materials=materials)
+
+
+def with_deviations(geometry: model.PlateGeometry, convention: model.Convention,
+                    deviations_rel: dict[str, float]) -> tuple[model.PlateGeometry, model.Convention]:
+    """The plate as it is when its tolerated inputs depart from the nominal ones by
+    `deviations_rel` (relative, by `tolerances_for`'s names; a name left out: nominal)."""
+    nominal = {name: getattr(geometry, name) for name in _GEOMETRY_FIELDS}
+    nominal.update({name: getattr(convention.materials, name) for name in _MATERIAL_FIELDS})
+    return with_inputs(geometry, convention, {name: value * (1.0 + deviations_rel.get(name, 0.0))
+                                              for name, value in nominal.items()})
+
+
 def tolerances_for(geometry: model.PlateGeometry) -> dict[str, Tolerance]:
     """`TOLERANCES` and the resonator thickness's, its sheet's at the plate's nominal thickness."""
     return {"resonator_thickness_m": Tolerance(sheet_thickness_tolerance(geometry.resonator_thickness_m),
@@ -597,9 +686,7 @@ def model_budgets(amplitude: Budget, power: Budget, voltage: Budget, frequency_h
         inputs[name] = uncertainties.ufloat(value, abs(value) * tolerance.half_width_rel / math.sqrt(3.0), name)
 
     def build(values: dict[str, float]) -> tuple[model.PlateGeometry, model.Convention]:
-        shape = replace(geometry, **{k: values[k] for k in _GEOMETRY_FIELDS})
-        materials = replace(convention.materials, **{k: values[k] for k in _MATERIAL_FIELDS})
-        return shape, replace(convention, materials=materials)
+        return with_inputs(geometry, convention, values)
 
     names = list(inputs)
 
@@ -647,8 +734,7 @@ def characterisation_budgets(plate, convention: model.Convention, deskew: Deskew
         _spec_term("CH1 gain", "scope_gain", slope_a.value)))
     omega_ratio = float((2.0 * math.pi * points["frequency_hz"] * points["reactive_power_var"].abs()
                          / points["power_w"].abs()).mean())
-    delay = (Term("CH2 delay vs CH1 (skew, TCP202)", "B", abs(slope_p.value) * omega_ratio * delay_std_uncertainty_s(),
-                  DELAY_SOURCE) if deskew is None else
+    delay = (delay_term(slope_p.value * omega_ratio) if deskew is None else
              Term("CH2 delay after deskew", "B", abs(slope_p.value) * omega_ratio * deskew.std_uncertainty_s,
                   deskew.source))
     lead_ratio = float((points["reactive_power_var"].abs() / points["power_w"].abs()

@@ -26,33 +26,42 @@ import pandas as pd
 from scipy import optimize
 
 from squeezebench import paths
+from squeezebench.analysis import model
+from squeezebench.analysis.report import REPORT_CONVENTION
 from squeezebench.analysis.rundata import load_run
 from squeezebench.analysis.study import COVERAGE_FILE, STUDY_DIR, coverage_dir
-from squeezebench.analysis.tables import detuning_table
-from squeezebench.analysis.uncertainty import run_uncertainties
+from squeezebench.analysis.tables import characterise_plates, detuning_table, fit_line
+from squeezebench.analysis.uncertainty import COVERAGE_FACTOR, run_uncertainties, with_deviations
 from squeezebench.instruments.bench import open_bench, sim_bench_config
 from squeezebench.protocols.campaign import run_campaign
 from squeezebench.protocols.parallel import map_unordered
 from squeezebench.protocols.storage import sha256_file, write_frame_atomic
-from squeezebench.protocols.variants import campaign_with_effects, systematic_effects
+from squeezebench.protocols.variants import (PLATE_DRAW_EFFECT, campaign_with_effects, plate_draw_effects,
+                                             systematic_effects)
 
 QUANTITIES = ("power_w", "velocity_pp_mps")
 #: What the coverage study scores: every stored point's QUANTITIES and amplitude (Table 4; the
 #: velocity's relative budget), and the values the report derives with a U of their own:
-#: Fig. 2's Pt/P0 and each search's resonance frequency.
-COVERAGE_QUANTITIES = (*QUANTITIES, "amplitude_pp_m", "power_ratio", "resonance_frequency_hz")
+#: Fig. 2's Pt/P0, each search's resonance frequency, and each characterised plate's Q and
+#: tan theta' (Fig. 5, Table 5), against the plate as drawn within its tolerances.
+COVERAGE_QUANTITIES = (*QUANTITIES, "amplitude_pp_m", "power_ratio", "resonance_frequency_hz", "q", "tan_theta")
 ERROR_PERCENTILE = 95.0
 
 
 def errors_on_bench(campaign_file: Path, bench_seed: int, work_dir: Path,
-                    error_model: str = "specified", quantities: tuple[str, ...] = QUANTITIES) -> pd.DataFrame:
+                    error_model: str = "specified", quantities: tuple[str, ...] = QUANTITIES,
+                    draw_plates: bool = False) -> pd.DataFrame:
     """Every stored point of the campaign run on bench `bench_seed` (its errors drawn under
     `error_model`, `variants.ERROR_MODELS`): relative error of each of `quantities` (of
     COVERAGE_QUANTITIES) against the truth, with its expanded uncertainty; and the bench
-    time. `work_dir` is scratch: the run there is not kept, so it is not made durable."""
+    time. With `draw_plates` the plates too are drawn within their tolerances, erring and
+    ideal benches alike (the coverage study; the accuracy study and the planner keep the
+    nominal plates their figures are about). `work_dir` is scratch: the run there is not
+    kept, so it is not made durable."""
+    plates = plate_draw_effects(bench_seed, error_model) if draw_plates else []
     erring = campaign_with_effects(campaign_file, work_dir / "erring",
-                                   systematic_effects(bench_seed, error_model=error_model))
-    campaign_with_effects(campaign_file, work_dir / "plain", [])   # the same plates without the errors
+                                   systematic_effects(bench_seed, error_model=error_model) + plates)
+    campaign_with_effects(campaign_file, work_dir / "plain", plates)   # the same plates without the errors
     run_dir = run_campaign(erring, out_dir=work_dir / "run", progress=False, durable=False)
     run = load_run(run_dir)
     found = run_uncertainties(run)
@@ -68,6 +77,9 @@ def errors_on_bench(campaign_file: Path, bench_seed: int, work_dir: Path,
         rows += _power_ratios(run, points, truths)
     if "resonance_frequency_hz" in quantities:
         rows += _resonance_frequencies(run, found.searches, work_dir / "plain")
+    if {"q", "tan_theta"} & set(quantities):
+        rows += [row for row in _characterisations(run, points, truths, work_dir / "plain")
+                 if row["quantity"] in quantities]
     frame = pd.DataFrame(rows).assign(error_model=error_model, bench_seed=bench_seed)
     frame.attrs["bench_time_s"] = sum(bench_time_by_run_s(run_dir).values())
     return frame
@@ -115,8 +127,46 @@ def _truths(points: pd.DataFrame, plain_dir: Path) -> dict:
                 bench.generator.set_amplitude_vpp(float(point["generator_amplitude_vpp"]))
                 truth = simulated.truth()
                 truths[index] = {"power_w": truth.power_w, "velocity_pp_mps": truth.velocity_pp_mps,
-                                 "amplitude_pp_m": truth.velocity_pp_mps / (2.0 * np.pi * truth.frequency_hz)}
+                                 "amplitude_pp_m": truth.velocity_pp_mps / (2.0 * np.pi * truth.frequency_hz),
+                                 "piezo_voltage_vpp": truth.output_voltage_pp_v, "frequency_hz": truth.frequency_hz}
     return truths
+
+
+def _characterisations(run, points: pd.DataFrame, truths: dict, plain_dir: Path) -> list[dict]:
+    """Each characterised plate's Q and tan theta' as the report gives them
+    (`tables.characterise_plates` in the report's reading, U = k times the whole standard
+    uncertainty: fits, instruments, tolerances) scored against what the plate as drawn
+    really is: the same line fits on the ideal instruments' readings at the points'
+    settings (`truths` of `points`), read through Eqs. 27 and 25 with the plate's drawn geometry and
+    materials (`uncertainty.with_deviations`), where the report reads them with the nominal."""
+    if run.protocol("characterisation").empty:
+        return []
+    keys = ["run_name", "step_id", "point_index"]
+    index_of = {tuple(key): index for key, index in zip(points[keys].itertuples(index=False), points.index)}
+    rows = []
+    for name, plate in characterise_plates(run, REPORT_CONVENTION).items():
+        points = plate.points
+        truth = pd.DataFrame([truths[index_of[tuple(key)]] for key in points[keys].itertuples(index=False)],
+                             index=points.index)
+        geometry, convention = with_deviations(plate.geometry, REPORT_CONVENTION, _drawn_deviations(plain_dir, name))
+        amplitude = fit_line(truth["piezo_voltage_vpp"], truth["amplitude_pp_m"], points["amplitude_pp_m_u"],
+                             what=f"{name}: true amplitude vs voltage").slope.value
+        power = fit_line(truth["piezo_voltage_vpp"] ** 2, truth["power_w"], points["power_w_u"],
+                         what=f"{name}: true power vs voltage squared").slope.value
+        q = model.q_from_amplitude(amplitude, 1.0, geometry, convention)
+        tan_theta = model.tan_theta_from_power(power, 1.0, q, float(truth["frequency_hz"].mean()), geometry, convention)
+        first = points.iloc[0]
+        for quantity, true in (("q", q), ("tan_theta", tan_theta)):
+            estimate = getattr(plate, quantity)
+            rows.append(_scored(first, quantity, estimate.value, true, COVERAGE_FACTOR * estimate.std_uncertainty))
+    return rows
+
+
+def _drawn_deviations(plain_dir: Path, plate: str) -> dict[str, float]:
+    """How far the plate's inputs depart from nominal on this bench (none: not drawn)."""
+    with open_bench(sim_bench_config(plain_dir / f"{plate}.yaml")) as bench:
+        drawn = bench.resource_manager.visalib.bench.effects.get(PLATE_DRAW_EFFECT)
+        return {} if drawn is None else dict(drawn.deviations_rel)
 
 
 def _resonance_frequencies(run, searches: pd.DataFrame, plain_dir: Path) -> list[dict]:
@@ -163,10 +213,11 @@ def bench_time_by_run_s(run_dir: Path) -> dict[str, float]:
 
 
 def _errors_on_fresh_bench(campaign_file: Path, bench_seed: int, error_model: str = "specified",
-                           quantities: tuple[str, ...] = QUANTITIES) -> tuple[pd.DataFrame, float]:
+                           quantities: tuple[str, ...] = QUANTITIES,
+                           draw_plates: bool = False) -> tuple[pd.DataFrame, float]:
     """`errors_on_bench` in a temporary directory of its own (a worker shares no files)."""
     with tempfile.TemporaryDirectory(prefix=f"squeezebench-bench-{bench_seed}-") as tmp:
-        frame = errors_on_bench(Path(campaign_file), bench_seed, Path(tmp), error_model, quantities)
+        frame = errors_on_bench(Path(campaign_file), bench_seed, Path(tmp), error_model, quantities, draw_plates)
         return frame, frame.attrs["bench_time_s"]
 
 
@@ -189,7 +240,8 @@ def run_coverage_study(out_dir: Path, benches: int, campaign_file: Path | None =
     paper's by default) on benches 1..`benches` with errors drawn within specification
     (`error_model` "specified", what the budgets assume) or as the world may err ("world":
     normal, a probe lag of known sign, now and then an instrument out of specification),
-    every stored point scored. Each bench's rows go to
+    each bench's plates drawn within their tolerances under the same model, every stored
+    point scored. Each bench's rows go to
     OUT_DIR/study/<coverage_dir(error_model)>/bench_<k>.parquet as it completes (`resume`
     keeps those already there of the same campaign file); all of them to points.parquet
     beside them. Returns that path."""
@@ -209,7 +261,7 @@ def run_coverage_study(out_dir: Path, benches: int, campaign_file: Path | None =
     progress(f"coverage: {campaign_file.name} on {len(pending)} of {benches} simulated benches "
              f"(errors: {error_model})")
     job = functools.partial(_errors_on_fresh_bench, campaign_file, error_model=error_model,
-                            quantities=COVERAGE_QUANTITIES)
+                            quantities=COVERAGE_QUANTITIES, draw_plates=True)
     for seed, (frame, bench_time_s) in map_unordered(job, pending, workers, scheduler, "coverage"):
         write_frame_atomic(directory / f"bench_{seed}.parquet",
                            frame.assign(bench_time_s=bench_time_s, campaign=campaign_file.name, campaign_sha256=digest))

@@ -66,6 +66,17 @@ def systematic_effects(bench_seed: int, draw: bool = True, only: tuple[str, ...]
     return [{name: {"draw": mode, "bench_seed": int(bench_seed)}} for name in only]
 
 
+#: The plate drawn within its geometry's and materials' tolerances (`simbench.plate_draws`):
+#: what the budgets of Q and tan theta' claim to cover beside the instruments.
+PLATE_DRAW_EFFECT = "plate_tolerances"
+
+
+def plate_draw_effects(bench_seed: int, error_model: str = "specified") -> list[dict]:
+    """Scene `effects:` entry of the plates of bench `bench_seed` as built: each plate's
+    inputs drawn once within their tolerances under `error_model` (`ERROR_MODELS`)."""
+    return [{PLATE_DRAW_EFFECT: {"draw": ERROR_MODELS[error_model], "bench_seed": int(bench_seed)}}]
+
+
 def campaign_with_effects(campaign_file: Path, out_dir: Path, effects: list) -> Path:
     """Write `out_dir/<campaign>` whose every scene also lists `effects`, without its map
     runs (`MAP_PROTOCOLS`); return its path.

@@ -321,6 +321,8 @@ EFFECTS: dict[str, type[Effect]] = {cls.name: cls for cls in (
     Quantisation, Averaging, ClippedTrace, BusTimeout, GarbledReplyFault, TruncatedReplyFault,
     InstrumentErrorEntry, Disconnect, ScopeGainError, VoltageProbeError, CurrentProbeGainError, VibrometerScaleError,
     ChannelSkew, CurrentProbeDelay, VoltageProbeCompensation, GeneratorFrequencyError, StageBacklash, PlateOffset, PlateTilt)}
+# the plate drawn within its tolerances (a module of its own; it registers itself in EFFECTS)
+from squeezebench.simbench import plate_draws  # noqa: E402,F401
 
 
 # -- the digitiser ----------------------------------------------------------------------

@@ -48,7 +48,7 @@ class SystematicEffect(Effect):
         super().__init__(scene, **parameters)
         p = self.parameters
         if p["draw"]:
-            rng = np.random.default_rng([int(p["bench_seed"]), zlib.crc32(self.name.encode())])
+            rng = self.rng()
             if int(p["draw"]) == 2:
                 self.values = {k: world_draw(rng, self.world_bias, self.world_spread) * abs(p[k])
                                for k in self.errors}
@@ -56,6 +56,10 @@ class SystematicEffect(Effect):
                 self.values = {k: float(rng.uniform(-1.0, 1.0)) * abs(p[k]) for k in self.errors}
         else:
             self.values = {k: p[k] for k in self.errors}
+
+    def rng(self) -> np.random.Generator:
+        """The draw's stream: the bench's, the same for every plate it measures."""
+        return np.random.default_rng([int(self.parameters["bench_seed"]), zlib.crc32(self.name.encode())])
 
 
 #: How often an error of a `draw: 2` bench is beyond its specification, and how far (one

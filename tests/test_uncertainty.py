@@ -43,10 +43,11 @@ def test_power_budget_combines_specifications_and_names_the_dominant_term():
     terms = {t.name: t.std_uncertainty for t in budget.terms}
     assert terms["CH1 gain"] == pytest.approx(0.1 * 0.02 * RECT)
     assert terms["current probe gain"] == pytest.approx(0.1 * 0.03 * RECT)
-    delay_u = (20e-9 + 1e-9) / 2   # the lag's bias bound and the skew's limit, k u = bound (issue 46)
+    delay_u = (20e-9 + 1e-9) / 1.96   # the lag's bias bound and the skew's limit, k u = bound, k the normal's (issue 46)
     assert terms["CH2 delay vs CH1 (skew, TCP202)"] == pytest.approx(2 * math.pi * 37000 * 0.1 * delay_u)
     assert budget.std_uncertainty == pytest.approx(math.sqrt(sum(u**2 for u in terms.values())))
-    assert budget.expanded_uncertainty == pytest.approx(2 * budget.std_uncertainty)
+    assert budget.expanded_uncertainty == pytest.approx(budget.coverage_factor * budget.std_uncertainty)
+    assert 1.65 < budget.coverage_factor < 1.96   # rectangles of comparable size: nearer the normal's
     assert budget.dominant.name == "current probe gain"   # power factor 0.7
     # Fig. 2c: power factor 0.018, the delay dominates; after deskew it no longer does
     stressed = _point(power_w=0.12, reactive_power_var=-6.67)
@@ -289,7 +290,7 @@ def test_the_report_shows_expanded_uncertainties_and_budgets(erring_bench_points
     assert (summary["median_expanded_relative"] > 0).all()
     # the paper campaign's deskew run checks the gains: the current path's gain, checked, leads
     assert "current path gain (gain-checked)" in set(summary["dominant_term"])
-    assert "Uncertainty budgets (GUM, k = 2)" in (run_dir / "report" / "index.html").read_text()
+    assert "Uncertainty budgets (GUM, k for 95 %)" in (run_dir / "report" / "index.html").read_text()
     floors = pd.read_csv(run_dir / "report" / "uncertainty_floors.csv")
     assert set(floors["quantity"]) == {"power_w", "velocity_pp_mps"}
     assert (floors["floor_p95_rel"] > 0.02).all()   # the gains alone, whatever the averaging
@@ -367,8 +368,9 @@ def test_a_mean_of_repeats_of_one_point_keeps_its_shared_type_b_part():
     for n in (1, 2, 4):
         points = pd.DataFrame([point] * n)
         U = _expanded(points, "power_w", mean_estimate(points["power_w"], points["power_w_u"]))
-        assert U == pytest.approx(2 * math.hypot(2e-4 / math.sqrt(n), type_b), rel=1e-9)
-        assert U > 2 * type_b
+        k = budget.coverage_factor   # the points' own
+        assert U == pytest.approx(k * math.hypot(2e-4 / math.sqrt(n), type_b), rel=1e-9)
+        assert U > k * type_b
         expanded.append(U)
     assert expanded[0] == pytest.approx(budget.expanded_uncertainty, rel=1e-9)
     assert expanded[2] > 0.9 * expanded[0]   # not halved
