@@ -12,7 +12,7 @@ from hypothesis import strategies as st
 from squeezebench.analysis.specifications import VOLTAGE_PROBE_POLE_HZ, compensation_phase_rad
 from squeezebench.instruments.bench import open_bench, sim_bench_config
 from squeezebench.instruments.errors import ConnectionLost, GarbledReply, InstrumentError, InstrumentTimeout
-from squeezebench.protocols.variants import SYSTEMATIC_EFFECTS
+from squeezebench.protocols.variants import PLATE_DRAW_EFFECT, SYSTEMATIC_EFFECTS
 from squeezebench.simbench import effects as fx
 from squeezebench.simbench import systematic_effects
 from squeezebench.simbench.scene import load_scene
@@ -298,8 +298,9 @@ def systematic(tmp_path, name: str, **parameters) -> RawBench:
 
 
 def test_the_systematic_effects_protocols_name_are_the_simulators():
+    """The instruments' errors the studies draw, and the plate's (drawn apart: coverage only)."""
     systematic = {name for name, cls in fx.EFFECTS.items() if issubclass(cls, systematic_effects.SystematicEffect)}
-    assert set(SYSTEMATIC_EFFECTS) == systematic
+    assert set(SYSTEMATIC_EFFECTS) | {PLATE_DRAW_EFFECT} == systematic
 
 
 @pytest.mark.parametrize("name", SYSTEMATIC_EFFECTS)
@@ -417,6 +418,15 @@ def test_generator_frequency_error(tmp_path):
     assert bench.sim.truth().velocity_pp_mps == pytest.approx(moved.sim.truth().velocity_pp_mps, rel=1e-12)
     bench.acquire()
     assert bench.measure("CH1", "FREQ") == pytest.approx(F_HZ * (1 + 1e-3), rel=2e-5)   # the scope sees it
+
+
+def test_plate_tolerances(tmp_path, ideal):
+    """The plate at its tolerance limits (draw 0): the scope reads the drawn plate, not the
+    nominal one (the drawn plate's closed forms are tests/test_plate_draws.py's)."""
+    bench = bench_with(tmp_path, [{"plate_tolerances": {"draw": 0}}])
+    truth, got = bench.sim.truth(), readings(bench)
+    assert got["power"] == pytest.approx(truth.power_w, rel=1e-3)
+    assert abs(got["power"] / ideal["power"] - 1.0) > 0.02   # the limits move the power by several %
 
 
 def _drawn(tmp_path, name: str, draw: int, seed: int, scene: str = "one_column_1mm.yaml") -> dict[str, float]:
