@@ -5,7 +5,7 @@ simbench).
   pp, amplitude pp, frequency, each an `Estimate` (value, standard uncertainty).
 - `analysis.model`: the paper's Eqs. 12, 25, 27, 28, 29 under an explicit `Convention`.
 - `analysis.rundata`: `load_run(run_dir) -> RunData` (manifest, measurements, scenes).
-- `analysis.paper`: the paper's printed values (data/paper/*.csv) with their source.
+- `squeezebench.paper`: the paper's printed values (data/paper/*.csv) with their source.
 - `analysis.tables`: Tables 3, 4, 5 and Fig. 5 recomputed, beside the printed values.
 - `analysis.audit`: the paper's inconsistencies and the convention grid, computed.
 - `analysis.figures`: Figs. 2, 5, 8, 9 and resonance curves as PNG.

@@ -16,7 +16,7 @@ import numpy as np
 import pandas as pd
 
 from squeezebench.analysis import model, readings
-from squeezebench.analysis.paper import paper_source, paper_value
+from squeezebench.paper import paper_source, paper_value
 
 MATCH_REL = readings.MATCH_REL
 

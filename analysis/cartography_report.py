@@ -9,7 +9,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from squeezebench.analysis import cartography, predicted_plates
+from squeezebench.analysis import cartography
+from squeezebench.plates import predicted_plates
 from squeezebench.analysis.drawing import Drawing
 from squeezebench.analysis.presentation import fold, with_uncertainty
 

@@ -1,7 +1,7 @@
 """What a plate design will need, predicted before it is built (`squeezebench design`).
 
 Route (a), physics: the design's geometry and datasheets through the plate model
-(`analysis.plate_modes`): the working (n, 0) mode, its modal mass and the powered piezos'
+(`plates.plate_modes`): the working (n, 0) mode, its modal mass and the powered piezos'
 force factor referred to the plate's centre, and the one fitted figure, the build's
 mechanical Q. At resonance the plate is a Butterworth-Van Dyke branch seen from the piezos:
 
@@ -41,7 +41,8 @@ import numpy as np
 import pandas as pd
 from uncertainties import ufloat
 
-from squeezebench.analysis import cartography, damping, model, plate_modes, reduced_layouts, specifications
+from squeezebench.analysis import cartography, model
+from squeezebench.plates import damping, plate_modes, reduced_layouts, specifications
 from squeezebench.analysis.design_file import DesignFile
 from squeezebench.errors import UserError
 

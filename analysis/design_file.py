@@ -16,8 +16,8 @@ from typing import Literal, Optional, Union
 
 from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
 
-from squeezebench.analysis import plate_modes
-from squeezebench.analysis.specifications import sheet_thickness_tolerance
+from squeezebench.plates import plate_modes
+from squeezebench.plates.specifications import sheet_thickness_tolerance
 
 #: Materials a design may name instead of giving constants. aluminium_table2 is the paper's
 #: Table 2 aluminium; al_6061_t6 the ASM datasheet of 6061-T6 (68.9 GPa, 0.33, 2700 kg/m^3).
@@ -122,7 +122,7 @@ class Target(_Model):
 
 class Damping(_Model):
     """The plate's mechanical loss: the build's stated Q (one figure shared by every plate of
-    it), or Q from the physics of its losses (`analysis.damping`: aluminium, ceramic Qm, bond,
+    it), or Q from the physics of its losses (`plates.damping`: aluminium, ceramic Qm, bond,
     radiation into air, weighted by the mode's strain energy), when `source` is physics; then
     `tolerance_rel` is the spread of what the loss model leaves out and `mechanical_q` unused."""
 

@@ -19,7 +19,7 @@ import pandas as pd  # noqa: E402
 
 from squeezebench.analysis import presentation  # noqa: E402
 from squeezebench.analysis.design import COVERAGE_FACTOR, INPUTS, DesignAnswer, mean_edge_gap_mm  # noqa: E402
-from squeezebench.analysis.plate_modes import crossings  # noqa: E402
+from squeezebench.plates.plate_modes import crossings  # noqa: E402
 from squeezebench.analysis.figures import PAPER_STYLE, save_figure  # noqa: E402
 from squeezebench.analysis import page as html_page  # noqa: E402
 from squeezebench.analysis.report import cell_text, html_table  # noqa: E402
@@ -353,7 +353,7 @@ def assumptions(answer: DesignAnswer) -> str:
                  f"{d.piezo.tan_delta_at_max_field:g} at {d.piezo.max_field_v_per_mm:g} V/mm (field amplitude), linear "
                  "between them (NCE 41 datasheet); the field limit is that highest stated point</li>")
     items.append("<li><b>model</b>: Kirchhoff plate with bonded piezo laminate, free edges, scikit-fem Argyris elements "
-                 "(analysis/plate_modes.py); voltage, power and current from the mode's modal mass and force factor at the "
+                 "(plates/plate_modes.py); voltage, power and current from the mode's modal mass and force factor at the "
                  "plate's centre (analysis/design.py)</li>")
     if answer.paper_route is not None:
         r = answer.paper_route

@@ -28,12 +28,13 @@ import numpy as np
 import pandas as pd
 
 import squeezebench
-from squeezebench.analysis import (audit, cartography_report, columns, damping, figures, headline, measurement_model,
-                                   model, page, predicted_plates, presentation, provenance, readings, study, tables,
+from squeezebench.analysis import (audit, cartography_report, columns, figures, headline, measurement_model,
+                                   model, page, presentation, provenance, readings, study, tables,
                                    uncertainty)
+from squeezebench.plates import damping, predicted_plates
 from squeezebench.analysis.drawing import Drawing
 from squeezebench.analysis.tables import MissingDataError
-from squeezebench.analysis.paper import paper_value
+from squeezebench.paper import paper_value
 from squeezebench.analysis.rundata import RunData, load_run
 from squeezebench.errors import UserError
 from squeezebench.workers import default_workers
@@ -918,7 +919,7 @@ def _systematics_part(context: ReportContext, summary: pd.DataFrame, drawn: Path
                                 "its floors per point, drawn against bench time and as a table",
             reconciled + f"<p>Each trial is another simulated bench: scope gains, current-probe gain and delay, "
             "channel skew, vibrometer scale and generator frequency drawn once within their "
-            "specifications (analysis.specifications), the noise drawn anew. Averaging (and, for the "
+            "specifications (plates.specifications), the noise drawn anew. Averaging (and, for the "
             "search, a finer tolerance) lowers the noise until the bench's own errors, or what the "
             "search cannot resolve on the flat top of the peak, are all that is left. Floor (lowest p95 "
             "|relative error| over the benches at any setting), and the bench time per trial of the cheapest "
@@ -1264,7 +1265,7 @@ def readings_section(context: ReportContext) -> Section | None:
 #: The report, in order (the summary goes first, built last). Another package adds a
 #: section by appending a builder.
 def predicted_section(context: ReportContext) -> Section:
-    """What physics predicts (analysis.predicted_plates): no run data, no printed result in."""
+    """What physics predicts (plates.predicted_plates): no run data, no printed result in."""
     frame = predicted_plates.predictions()
     context.tables["predicted"] = frame
     shown = frame.assign(frequency_deviation=frame["frequency_deviation"].map(lambda d: f"{d:+.1%}"))

@@ -19,7 +19,7 @@ import pandas as pd
 from scipy import optimize
 
 from squeezebench.analysis import model, provenance
-from squeezebench.analysis.paper import paper_table, printed_step
+from squeezebench.paper import paper_table, printed_step
 from squeezebench.analysis.rundata import RunData
 from squeezebench.analysis.waveforms import Estimate, PointReduction, reduce_record
 from squeezebench.errors import UserError
@@ -344,9 +344,9 @@ def table4(run: RunData) -> pd.DataFrame:
 
 def with_prediction(frame: pd.DataFrame, table: str) -> pd.DataFrame:
     """`frame` with what physics predicts for the paper's plate beside each printed value it
-    can predict (analysis.predicted_plates: geometry and datasheets, no printed result in):
+    can predict (plates.predicted_plates: geometry and datasheets, no printed result in):
     predicted_value, predicted_expanded_uncertainty (k = 2) and predicted_difference from print."""
-    from squeezebench.analysis import predicted_plates   # the plate solver: only where a paper table is drawn
+    from squeezebench.plates import predicted_plates   # the plate solver: only where a paper table is drawn
 
     out = frame.merge(predicted_plates.tidy(table), on=["item", "quantity"], how="left")
     out["predicted_difference"] = [relative_difference(v, p) for v, p in zip(out["predicted_value"],
@@ -584,9 +584,9 @@ def table5(plates: dict[str, PlateCharacterisation], convention: model.Conventio
 def predicted_large_plate_q_tan(geometry: model.PlateGeometry,
                                 convention: model.Convention) -> dict[str, tuple[float, float]]:
     """What physics predicts the large plate's Q and tan theta' read as (`predicted_q_tan` of
-    analysis.predicted_plates' large plate). Both estimated and measured rows of Table 5 aim
+    plates.predicted_plates' large plate). Both estimated and measured rows of Table 5 aim
     at this plate."""
-    from squeezebench.analysis import predicted_plates   # the plate solver: only where a paper table is drawn
+    from squeezebench.plates import predicted_plates   # the plate solver: only where a paper table is drawn
 
     return predicted_q_tan(predicted_plates.large_plate_response(), geometry, convention)
 
@@ -599,7 +599,7 @@ def predicted_q_tan(response: dict[str, float], geometry: model.PlateGeometry,
     as a measured plate. U from the materials' and geometry's tolerances and the build's
     damping spread (`predicted_plates.response_relative_u`), or the response's own
     `amplitude_rel_U` where it carries one (the large plate's, with its placement and bond)."""
-    from squeezebench.analysis import predicted_plates
+    from squeezebench.plates import predicted_plates
 
     u = predicted_plates.response_relative_u(geometry.resonator_thickness_m)
     q = model.q_from_amplitude(response["amplitude_pp_m_per_vpp"], 1.0, geometry, convention)
@@ -633,7 +633,7 @@ def estimated_large_plate_power_w(plates: dict[str, PlateCharacterisation],
                                    large.geometry, convention) for v in voltages]
     else:   # no small plate to estimate from: the measured and predicted lines alone
         estimated = [math.nan] * len(voltages)
-    from squeezebench.analysis import predicted_plates   # the plate solver: only where a paper table is drawn
+    from squeezebench.plates import predicted_plates   # the plate solver: only where a paper table is drawn
 
     response = predicted_plates.large_plate_response()
     predicted = response["power_w_per_vpp2"] * voltages**2

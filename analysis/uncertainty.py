@@ -2,7 +2,7 @@
 
 A budget lists the standard uncertainties (k = 1) of one value: Type A from the record's
 noise (the reduction's fit covariance, `analysis.waveforms`), Type B from the
-instruments' specifications (`analysis.specifications`, rectangular) and from how the
+instruments' specifications (`plates.specifications`, rectangular) and from how the
 frequency was set. Terms are independent and add in quadrature (GUM 5.1.2, sensitivity
 coefficients evaluated at the measured point); the expanded uncertainty is k = 2 times
 the combined one; the dominant term is the largest.
@@ -38,7 +38,7 @@ from scipy import special
 from squeezebench.analysis import model
 from squeezebench.analysis.calibration import Deskew, deskew_of_run, gain_weight
 from squeezebench.analysis.rundata import RunData
-from squeezebench.analysis.specifications import SPECIFICATIONS, VOLTAGE_PROBE_POLE_HZ, sheet_thickness_tolerance
+from squeezebench.plates.specifications import SPECIFICATIONS, VOLTAGE_PROBE_POLE_HZ, sheet_thickness_tolerance
 from squeezebench.analysis.tables import reduced_points, with_scope_fallback
 
 COVERAGE_FACTOR = 2.0

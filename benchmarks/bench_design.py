@@ -4,7 +4,7 @@ What it times, in one run, on the parallel engine with the default workers:
 
 1. the physics route with its whole budget (one solve at nominal, one per structural
    tolerance on the same mesh);
-2. the sweep's layouts (`layouts.grid`, 216) by the reduced model (`analysis.reduced_layouts`: each worker
+2. the sweep's layouts (`layouts.grid`, 216) by the reduced model (`plates.reduced_layouts`: each worker
    builds the model once, then every layout), its check against the full solve on the
    sample (`analysis.layout_sweep`) with the worst deviation found, and the full solve of
    whole mesh families (every thickness of a placement), extrapolated to the whole sweep;

@@ -1,7 +1,7 @@
 """What physics predicts for a scene's plate, beside what the scene replays.
 
 A scene state's geometry and materials (never its resonance, calibration or q_mech) go
-through the plate model (`analysis.plate_modes`): the working (n, 0) mode's frequency,
+through the plate model (`plates.plate_modes`): the working (n, 0) mode's frequency,
 interior antinodes, nodal-line spacing, and the powered piezos' force factor and modal mass
 referred to the scene's measurement point. Beside them, the replayed (calibrated) values and
 their departure, so a replay scene that drifts from its physics says so (docs/scenes.md).
@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
-from squeezebench.analysis import plate_modes
+from squeezebench.plates import plate_modes
 from squeezebench.simbench import physics
 from squeezebench.simbench.scene import Scene, State
 

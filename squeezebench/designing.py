@@ -45,7 +45,7 @@ def characterised_plates(run_dirs: Iterable[str | Path], convention=None) -> dic
 
 
 def printed_values(plate: str | None) -> dict[str, float] | None:
-    from squeezebench.analysis.paper import paper_value
+    from squeezebench.paper import paper_value
 
     if plate is None:
         return None

@@ -24,7 +24,8 @@ import math
 
 import pandas as pd
 
-from squeezebench.analysis import predicted_plates, presentation, report, tables
+from squeezebench.plates import predicted_plates
+from squeezebench.analysis import presentation, report, tables
 from squeezebench.errors import UserError
 from squeezebench.simbench import predicted
 from squeezebench.simbench.scene import BOUNDS, load_scene, scenes_table

@@ -175,7 +175,7 @@ def test_the_headline_opens_the_report_and_ends_the_command(reported):
 def test_tables_3_and_4_carry_what_physics_predicts_beside_print(reported):
     """Each predicted cell is the plate model's number for the paper's plate (never the run's):
     beside the printed value, with U (k = 2) and its deviation from print."""
-    from squeezebench.analysis import predicted_plates
+    from squeezebench.plates import predicted_plates
 
     run_dir, index = reported
     predictions = predicted_plates.predictions().set_index(["table", "item"])
@@ -196,7 +196,7 @@ def test_the_predicted_responses_u_is_the_propagation_of_its_tolerances():
     every input rectangular within its tolerance but the sheet's thickness, triangular."""
     import numpy as np
 
-    from squeezebench.analysis import plate_modes, predicted_plates
+    from squeezebench.plates import plate_modes, predicted_plates
 
     rng = np.random.default_rng(7)
     t = plate_modes.relative_tolerances(2e-3)
@@ -215,7 +215,8 @@ def test_the_predicted_responses_u_is_the_propagation_of_its_tolerances():
 def test_table5s_physics_reads_the_predicted_plate_through_the_same_inversion(monkeypatch):
     """Q inverted from the predicted amplitude scales with the shared damping figure; tan theta'
     (P / (Q f)) does not: the damping cancels, which is why its U holds only d31's tolerance."""
-    from squeezebench.analysis import model, predicted_plates, tables
+    from squeezebench.analysis import model, tables
+    from squeezebench.plates import predicted_plates
 
     geometry = model.PlateGeometry(2e-3, 0.5e-3, 14e-3, 9e-3, n_powered_piezos=8, n_powered_groups=4)
     before = tables.predicted_large_plate_q_tan(geometry, model.PAPER_CONVENTION)

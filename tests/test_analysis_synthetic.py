@@ -15,7 +15,7 @@ import pyarrow.parquet as pq
 import pytest
 
 from squeezebench.analysis import model, tables
-from squeezebench.analysis.paper import paper_value
+from squeezebench.paper import paper_value
 from squeezebench.analysis.rundata import load_run
 from squeezebench.yamlfiles import dump_yaml
 

@@ -1,4 +1,4 @@
-"""Q from the physics of the losses (analysis.damping): closed forms, the modal strain energy
+"""Q from the physics of the losses (plates.damping): closed forms, the modal strain energy
 weighting, and the fit on one build judged on the others."""
 import math
 
@@ -7,7 +7,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from squeezebench.analysis import damping, plate_modes
+from squeezebench.plates import damping, plate_modes
 
 AL = plate_modes.ALUMINIUM_TABLE2
 

@@ -12,7 +12,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from squeezebench import cli
-from squeezebench.analysis import design, layouts, plate_modes, predicted_plates
+from squeezebench.analysis import design, layouts
+from squeezebench.plates import plate_modes, predicted_plates
 from squeezebench.analysis.design_file import DesignFile
 from squeezebench.errors import UserError
 from squeezebench.schemas import load_design_file
@@ -611,10 +612,10 @@ def test_design_command_draws_the_placement_curve(tmp_path, capsys):
 
 
 def test_q_from_the_loss_physics_replaces_the_stated_figure(strip_prediction):
-    """With damping.source physics the plate's Q is its losses' (`analysis.damping`): the budget
+    """With damping.source physics the plate's Q is its losses' (`plates.damping`): the budget
     carries the bond's loss factor and, by name, the losses outside the model instead of the
     build's stated Q; a stated design shows the physics' Q beside its own."""
-    from squeezebench.analysis import damping
+    from squeezebench.plates import damping
 
     physics = design.predict_physics(strip(damping={"source": "physics", "mechanical_q": None, "tolerance_rel": 0.2}))
     values = physics.nominal.values

@@ -9,8 +9,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from squeezebench.analysis import plate_modes
-from squeezebench.analysis.frequency_budget import SHEAR_COEFFICIENT, mindlin_factor
+from squeezebench.plates import plate_modes
+from squeezebench.plates.frequency_budget import SHEAR_COEFFICIENT, mindlin_factor
 
 
 def exact_mindlin_over_kirchhoff(kh: float, poisson: float, kappa: float = SHEAR_COEFFICIENT) -> float:

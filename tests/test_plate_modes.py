@@ -1,4 +1,4 @@
-"""The plate model (analysis.plate_modes) against closed forms and against the paper's printed
+"""The plate model (plates.plate_modes) against closed forms and against the paper's printed
 resonances (data/paper/table3.csv, table4.csv), from one shared parameter set: the paper's
 Table 2 aluminium (67.109 GPa, nu 0.34, 2790 kg/m^3) and NCE 41 (80 GPa, nu 0.33, 7900 kg/m^3),
 no per-plate parameter. The printed frequency only centres the mode search; the (n, 0)
@@ -11,10 +11,10 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from squeezebench.analysis.plate_modes import (ALUMINIUM_TABLE2, NCE41, Isotropic, PlateGeometry, beam_frequencies_hz, column,
+from squeezebench.plates.plate_modes import (ALUMINIUM_TABLE2, NCE41, Isotropic, PlateGeometry, beam_frequencies_hz, column,
                                   flexural_half_wavelength_m, free_free_beam_roots, laminate,
                                   solve_plate)
-from squeezebench.analysis import plate_modes, predicted_plates
+from squeezebench.plates import plate_modes, predicted_plates
 from squeezebench.paths import paper_values_dir
 
 MM = 1e-3
@@ -116,7 +116,7 @@ def test_the_beam_and_the_plate_agree_on_table4s_plates(n_columns):
 
 
 def test_flexural_frequency_and_half_wavelength_are_inverse():
-    from squeezebench.analysis.plate_modes import (ALUMINIUM_TABLE2, flexural_frequency_hz,
+    from squeezebench.plates.plate_modes import (ALUMINIUM_TABLE2, flexural_frequency_hz,
                                                    flexural_half_wavelength_m)
 
     for thickness_m, half_m in ((1e-3, 8e-3), (2e-3, 9.2e-3), (1.2e-3, 8.44e-3)):
@@ -125,11 +125,11 @@ def test_flexural_frequency_and_half_wavelength_are_inverse():
 
 
 def test_the_one_pass_argyris_basis_is_skfems_own_to_the_bit():
-    """analysis.argyris only reorders the work of skfem's global basis: every value, gradient
+    """plates.argyris only reorders the work of skfem's global basis: every value, gradient
     and Hessian, at quadrature points and at probed points, is bit-identical."""
     from skfem import Basis, ElementTriArgyris, MeshTri
 
-    from squeezebench.analysis.argyris import Argyris
+    from squeezebench.plates.argyris import Argyris
 
     mesh = MeshTri.init_tensor(np.linspace(0, 0.05, 6), np.array([0.0, 0.004, 0.02, 0.03]))
     ours, theirs = Basis(mesh, Argyris(), intorder=8), Basis(mesh, ElementTriArgyris(), intorder=8)
@@ -146,7 +146,7 @@ def test_the_batched_plate_matrices_are_skfems_assembly_to_roundoff():
     from skfem import Basis, BilinearForm, MeshTri, asm
     from skfem.helpers import dd, ddot, trace
 
-    from squeezebench.analysis.argyris import Argyris
+    from squeezebench.plates.argyris import Argyris
 
     mesh = MeshTri.init_tensor(np.linspace(0, 0.05, 7), np.array([0.0, 0.004, 0.02, 0.03]))
     basis = Basis(mesh, Argyris(), intorder=8)
@@ -170,7 +170,7 @@ def test_the_batched_plate_matrices_are_skfems_assembly_to_roundoff():
 
 
 def test_the_sheet_thickness_tolerance_follows_en_485_4():
-    from squeezebench.analysis.specifications import SHEET_THICKNESS_TOLERANCE_MM, sheet_thickness_tolerance
+    from squeezebench.plates.specifications import SHEET_THICKNESS_TOLERANCE_MM, sheet_thickness_tolerance
 
     # the paper's sheets: 1, 1.2 and 2 mm
     assert sheet_thickness_tolerance(1e-3) == pytest.approx(0.05)

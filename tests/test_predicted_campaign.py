@@ -6,7 +6,8 @@ import pandas as pd
 import pytest
 
 from squeezebench import paths
-from squeezebench.analysis import predicted_plates, provenance, tables
+from squeezebench.plates import predicted_plates
+from squeezebench.analysis import provenance, tables
 from squeezebench.analysis.rundata import load_run
 from squeezebench.cli import main
 from squeezebench.protocols.campaign import run_campaign

@@ -1,4 +1,4 @@
-"""The paper's plates as the model predicts them (analysis.predicted_plates): every printed
+"""The paper's plates as the model predicts them (plates.predicted_plates): every printed
 resonance within its U (k = 2) built from stated tolerances only, antinode counts exact, the
 same-sheet ratios, the modes chosen by physics, and no printed result, voltage or frequency
 read by a prediction."""
@@ -6,7 +6,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from squeezebench.analysis import frequency_budget, plate_modes, predicted_plates
+from squeezebench.plates import frequency_budget, plate_modes, predicted_plates
 from squeezebench.paths import paper_values_dir
 
 #: The paper's stated geometry and build: what a prediction is made from (everything else in

@@ -17,7 +17,7 @@ from squeezebench.analysis import model, tables
 from squeezebench.analysis.report import write_report
 from squeezebench.analysis.rundata import load_run
 from squeezebench.analysis.calibration import Deskew
-from squeezebench.analysis.specifications import SPECIFICATIONS, compensation_phase_rad
+from squeezebench.plates.specifications import SPECIFICATIONS, compensation_phase_rad
 from squeezebench.analysis.tables import characterise_plates, reduced_points
 from squeezebench.analysis.uncertainty import (
     Budget, Term, characterisation_budgets, detuning_slope_per_hz, example_budgets,

@@ -13,7 +13,7 @@ Each mechanism's loss factor weighted by its share of the working mode's strain 
 What is not modelled (the cushion the plates lie on, the leads) is not hidden in a tolerance:
 the bond's loss factor, the least known figure, is the one `fit_and_check` fits, on ONE build
 (Table 3), and the others (Table 4, the large plate) are judged with it, the table showing
-both. The predictions (`analysis.predicted_plates`) use the datasheet-class nominal, never the fit.
+both. The predictions (`plates.predicted_plates`) use the datasheet-class nominal, never the fit.
 """
 from __future__ import annotations
 
@@ -22,7 +22,7 @@ import math
 import numpy as np
 import pandas as pd
 
-from squeezebench.analysis import plate_modes
+from squeezebench.plates import plate_modes
 
 #: Air at 20 degC, 101.325 kPa: density (kg/m^3) and speed of sound (m/s).
 AIR_DENSITY_KG_M3 = 1.204
@@ -111,7 +111,7 @@ def fit_and_check(fit_on: str = "Table 3") -> pd.DataFrame:
     give each an implied Q through the model's modal mass) and every paper plate's Q predicted
     with it beside its implied Q: a `role` column says which rows were fitted and which are
     held out. Also the Q with the datasheet-class nominal (`plate_modes.EPOXY.loss_factor`)."""
-    from squeezebench.analysis import predicted_plates
+    from squeezebench.plates import predicted_plates
 
     frame = predicted_plates.loss_budget()
     fitted = fit_bond_loss_factor(frame[frame["table"] == fit_on])

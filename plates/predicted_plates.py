@@ -1,7 +1,7 @@
 """The paper's plates as the plate model sees them, and what it predicts beside the print.
 
 Geometry from the paper's stated dimensions (data/paper/*.csv); materials the one shared
-set of `analysis.plate_modes` (Table 2 aluminium, NCE 41); no per-plate parameter. Where the
+set of `plates.plate_modes` (Table 2 aluminium, NCE 41); no per-plate parameter. Where the
 text does not say where a column sits, the assumption is stated beside it (`LAYOUTS`).
 """
 from __future__ import annotations
@@ -14,8 +14,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from squeezebench.analysis import plate_modes
-from squeezebench.analysis.paper import paper_value
+from squeezebench.plates import plate_modes
+from squeezebench.paper import paper_value
 
 MM = 1e-3
 
@@ -90,7 +90,7 @@ def large_plate(edge_gap_mm: float = EDGE_GAP_MM) -> plate_modes.PlateGeometry:
 #: damping measurement that is not itself a compared result, the Fig. 2c stress case (37.6 V
 #: at 37180 Hz and 240 V at 37560 Hz give the same velocity, so |Z(37560)|/R = 240/37.6 ->
 #: q_mech = 310; Sec. 2.2). Within the plausible range for aluminium in air (hundreds to ~2000).
-#: `analysis.damping` predicts each plate's Q from its losses instead (`loss_budget`).
+#: `plates.damping` predicts each plate's Q from its losses instead (`loss_budget`).
 MECHANICAL_Q = 310.0
 
 
@@ -231,7 +231,7 @@ def _at_centre(geometry, modes, k) -> dict[str, float]:
 def _predictions() -> pd.DataFrame:
     """Per plate and per volt, from geometry, the stated modes and the datasheets only: no
     printed result, voltage or frequency is read (tests/test_predicted_plates.py perturbs each)."""
-    from squeezebench.analysis import damping
+    from squeezebench.plates import damping
 
     out = []
     uncut_hz = None
@@ -369,7 +369,7 @@ def loss_budget() -> pd.DataFrame:
     mass (`damping.implied_q`; the large plate's "1 um" read as pp), the loss terms without the
     bond and per unit bond loss factor (1/Q is linear in it), and the Q with the bond's nominal
     loss factor: what `damping.fit_and_check` fits and judges."""
-    from squeezebench.analysis import damping
+    from squeezebench.plates import damping
 
     rows = []
     for row in _predictions().to_dict("records"):
@@ -398,8 +398,8 @@ EDGE_GAPS_MM = (0.0, 0.5, 1.0, 1.5, 2.0, 2.5, 3.0, 3.5, 4.0, 5.0, 6.0)
 def large_plate_placement_curve(amplitude_pp_m: float = 1e-6, gaps_mm=EDGE_GAPS_MM) -> pd.DataFrame:
     """The large plate's force factor, frequency, and the voltage (pp) and power that give
     `amplitude_pp_m` at its centre, against the patches' distance from the edge, with the build's
-    `MECHANICAL_Q` and with the plate's own physics Q (`analysis.damping`, nominal bond loss)."""
-    from squeezebench.analysis import damping
+    `MECHANICAL_Q` and with the plate's own physics Q (`plates.damping`, nominal bond loss)."""
+    from squeezebench.plates import damping
 
     rows = []
     for gap in gaps_mm:
@@ -468,7 +468,7 @@ def what_would_agree(infer_placement: bool = True) -> pd.DataFrame:
     the force factor (implied / predicted; for the edge plates, with `infer_placement`, the
     edge gap that gives it: an INFERENCE, labelled so, from a sweep of solves) and the Q
     (implied / the build's `MECHANICAL_Q`)."""
-    from squeezebench.analysis import damping
+    from squeezebench.plates import damping
 
     rows = []
     for row in _predictions().to_dict("records"):
@@ -556,7 +556,7 @@ def working_shape(plate: str, near_hz: float, x_m, y_m) -> tuple[np.ndarray, flo
 def main() -> None:
     """The paper's plates predicted beside print, what would have to move, and the large
     plate's placement curve with what the print implies (`python -m
-    squeezebench.analysis.predicted_plates`)."""
+    squeezebench.plates.predicted_plates`)."""
     with pd.option_context("display.width", 220, "display.max_columns", 30, "display.float_format", "{:.4g}".format):
         for title, frame in (("predicted beside printed", predictions()),
                              ("what would have to move (INFERENCE for the edge gap)", what_would_agree()),

@@ -5,7 +5,7 @@ the report prints what it predicts beside the paper's values, so it lives in `an
 like `analysis.model` (docs/design.md, "The plate model").
 
 The plate is a Kirchhoff plate (scikit-fem's Argyris triangle, C1-conforming quintic, its
-basis built in one pass by `analysis.argyris`: 1.5
+basis built in one pass by `plates.argyris`: 1.5
 elements per flexural half-wave give the frequency to 0.1 %), free on all edges as the
 paper's plates lay on a cushion (Sec. 2.1). Where a piezo is bonded the section is a
 two-layer laminate: bending stiffness about the shifted neutral axis and mass per area of
@@ -46,7 +46,7 @@ from dataclasses import asdict, dataclass, field, replace
 import numpy as np
 from scipy.sparse.linalg import eigsh
 
-from squeezebench.analysis.specifications import MODEL_TOLERANCES, sheet_thickness_tolerance
+from squeezebench.plates.specifications import MODEL_TOLERANCES, sheet_thickness_tolerance
 from squeezebench.lru import RecentlyUsed
 
 EPSILON_0_F_PER_M = 8.8541878128e-12
@@ -301,7 +301,7 @@ class PlateModes:
     #: each patch's shear-lag effectiveness eta (`shear_lag_effectiveness`)
     bond_effectiveness: np.ndarray = field(repr=False, default=None)
     #: per mode, the share of its strain energy the patches add over the bare plate (the
-    #: piezo layers' share, for `analysis.damping`), and per patch the bond's energy over that
+    #: piezo layers' share, for `plates.damping`), and per patch the bond's energy over that
     piezo_energy_share: np.ndarray = field(repr=False, default=None)
     bond_energy_ratio: np.ndarray = field(repr=False, default=None)
     _probe: object = field(repr=False, default=None)  # points (2, N) -> mass-normalised deflections (N, modes)
@@ -612,7 +612,7 @@ def modes_from_vectors(geometry: PlateGeometry, resonator: Isotropic, piezo: Pie
     gx x gy and `probe(points)` anywhere; `sections` are the patches' `patch_sections`,
     `patch_laplacians[k, i]` is \\int_patch_i (phi_xx + phi_yy) dA of mode k and
     `added_energy[k]` phi_k^T K_added phi_k, the patches' added rigidity's share of
-    w_K^2. Shared by the full solve and reduced models of it (`analysis.reduced_layouts`)."""
+    w_K^2. Shared by the full solve and reduced models of it (`plates.reduced_layouts`)."""
     n = len(eigenvalues)
     shapes = (grid_probe @ vectors).T.reshape(n, len(gx), len(gy))
     flat = shapes.reshape(n, -1)

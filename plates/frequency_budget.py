@@ -1,7 +1,7 @@
 """Where the plate model's resonance misses come from: each paper plate's frequency taken
-apart, printed beside what the model gives (`python -m squeezebench.analysis.frequency_budget`).
+apart, printed beside what the model gives (`python -m squeezebench.plates.frequency_budget`).
 
-The model corrects two model-form terms a thin laminate lacks (`analysis.plate_modes`): the
+The model corrects two model-form terms a thin laminate lacks (`plates.plate_modes`): the
 thick-plate (Mindlin) shear and rotary inertia, -3 to -8 % here, and the epoxy bond's shear
 lag, which takes part of the patches' stiffening away. The budget shows each step from the
 thin plate with a rigid bond (the model before issue 45) to the model, every plate's U
@@ -14,7 +14,7 @@ import math
 
 import pandas as pd
 
-from squeezebench.analysis import plate_modes, predicted_plates
+from squeezebench.plates import plate_modes, predicted_plates
 
 SHEAR_COEFFICIENT = plate_modes.SHEAR_COEFFICIENT
 
