@@ -18,7 +18,7 @@ import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
 from squeezebench.analysis import presentation  # noqa: E402
-from squeezebench.analysis.design import COVERAGE_FACTOR, INPUTS, DesignAnswer, mean_edge_gap_mm  # noqa: E402
+from squeezebench.designing.design import COVERAGE_FACTOR, INPUTS, DesignAnswer, mean_edge_gap_mm  # noqa: E402
 from squeezebench.plates.plate_modes import crossings  # noqa: E402
 from squeezebench.analysis.figures import PAPER_STYLE, save_figure  # noqa: E402
 from squeezebench.analysis import page as html_page  # noqa: E402
@@ -354,7 +354,7 @@ def assumptions(answer: DesignAnswer) -> str:
                  "between them (NCE 41 datasheet); the field limit is that highest stated point</li>")
     items.append("<li><b>model</b>: Kirchhoff plate with bonded piezo laminate, free edges, scikit-fem Argyris elements "
                  "(plates/plate_modes.py); voltage, power and current from the mode's modal mass and force factor at the "
-                 "plate's centre (analysis/design.py)</li>")
+                 "plate's centre (designing/design.py)</li>")
     if answer.paper_route is not None:
         r = answer.paper_route
         items.append(f"<li><b>route (b)</b>: Q from {html.escape(r.template)} scaled by Eq. 29 to the design's "

@@ -95,7 +95,7 @@ MECHANICAL_Q = 310.0
 
 
 #: How far one plate's mechanical Q may stray from the build's `MECHANICAL_Q` (rectangular
-#: half-width; the design file's default spread, analysis.design_file).
+#: half-width; the design file's default spread, designing.design_file).
 MECHANICAL_Q_TOLERANCE = 0.30
 
 

@@ -26,7 +26,7 @@ A Ritz basis of smooth bare modes cannot bend more softly under a stiff patch, s
 a model, not the solve: `check` compares it with full solves of a sample of the sweep's
 layouts (frequency within `FREQUENCY_TOLERANCE_REL`, force factor within
 `FORCE_TOLERANCE_REL`), and a sweep whose sample misses is solved in full
-(`squeezebench.designing`).
+(`squeezebench.designing.workflow`).
 """
 from __future__ import annotations
 

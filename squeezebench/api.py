@@ -121,10 +121,10 @@ def characterisation(out_dir: str | Path, *, plate: Mapping[str, Any], search: M
 def design(plate: str | Path, *, from_runs: Sequence[str | Path] = (), measured: str | Path | None = None,
            measured_plate: str | None = None, layouts: bool = False, out_dir: str | Path | None = None,
            workers: int | None = None):
-    """A plate design's prediction (`analysis.design.DesignAnswer`), as `squeezebench design`
+    """A plate design's prediction (`designing.design.DesignAnswer`), as `squeezebench design`
     (the layout sweep only when `layouts`, a few minutes for a large plate); with `out_dir`,
     its page, design.json and tables are written there too."""
-    from squeezebench.designing import run_design, write_design
+    from squeezebench.designing.workflow import run_design, write_design
 
     answer = run_design(plate, from_runs=from_runs, measured=measured, measured_plate=measured_plate,
                         sweep=layouts, workers=workers)

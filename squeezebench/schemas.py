@@ -365,9 +365,9 @@ DESIGN_GUIDE = "docs/design-files.md"
 
 
 def load_design_file(path: str | Path):
-    """A plate to design (`analysis.design_file.DesignFile`); a problem is one line naming
+    """A plate to design (`designing.design_file.DesignFile`); a problem is one line naming
     the file, the field and what is wrong."""
-    from squeezebench.analysis.design_file import DesignFile   # the plate model's imports: only for a design
+    from squeezebench.designing.design_file import DesignFile   # the plate model's imports: only for a design
 
     path = Path(path)
     data = read_yaml(path)
@@ -435,7 +435,7 @@ def validate_file(path: Path) -> dict[str, Any]:
     if isinstance(data, dict) and "plate" in data:
         return {"file": str(path), "kind": "scene", "summary": "", "warnings": replay_departures(path)}
     if isinstance(data, dict) and "resonator" in data:
-        from squeezebench.analysis.design import predict_physics   # what `design` refuses, refused here too
+        from squeezebench.designing.design import predict_physics   # what `design` refuses, refused here too
 
         design = load_design_file(path)
         mode = predict_physics(design).nominal.values
@@ -449,7 +449,7 @@ def validate_file(path: Path) -> dict[str, Any]:
 
 # -- JSON Schemas -------------------------------------------------------------------------
 def json_schemas() -> dict[str, dict]:
-    from squeezebench.analysis.design_file import DesignFile
+    from squeezebench.designing.design_file import DesignFile
 
     return {"campaign.schema.json": CampaignFile.model_json_schema(),
             "bench.schema.json": BenchFile.model_json_schema(),

@@ -12,9 +12,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from squeezebench import cli
-from squeezebench.analysis import design, layouts
+from squeezebench.designing import design, layouts
 from squeezebench.plates import plate_modes, predicted_plates
-from squeezebench.analysis.design_file import DesignFile
+from squeezebench.designing.design_file import DesignFile
 from squeezebench.errors import UserError
 from squeezebench.schemas import load_design_file
 from squeezebench.yamlfiles import dump_yaml, load_strict
@@ -328,7 +328,7 @@ def test_design_built_on_the_simulated_bench_meets_its_prediction(tmp_path, caps
 
 
 def test_a_predicted_state_cannot_also_be_calibrated(tmp_path):
-    from squeezebench.designing import scene_from_design
+    from squeezebench.designing.workflow import scene_from_design
     from squeezebench.simbench.scene import SceneError, load_scene
 
     data = scene_from_design(strip())
@@ -344,7 +344,7 @@ def test_validate_says_where_a_replay_departs_from_the_model(capsys, tmp_path):
     depart from the plate model beyond the tolerances, and `validate` says so per state; a
     design's predicted scene has nothing to depart from."""
 
-    from squeezebench.designing import scene_from_design
+    from squeezebench.designing.workflow import scene_from_design
 
     path = tmp_path / "strip.yaml"
     path.write_text(dump_yaml(scene_from_design(strip())))
@@ -355,11 +355,11 @@ def test_validate_says_where_a_replay_departs_from_the_model(capsys, tmp_path):
 
 
 def test_transfer_study_on_one_drawn_build():
-    """One build of `squeezebench.design_transfer`: every plate drawn from geometry and
+    """One build of `squeezebench.designing.transfer`: every plate drawn from geometry and
     datasheets, built as a predicted scene and characterised on the simulated bench. The
     physics route lands within its U (a chain check); the paper's route is computed under
     both readings and its ratio to the measurement recorded, whatever it is."""
-    from squeezebench import design_transfer
+    from squeezebench.designing import transfer as design_transfer
 
     rows = pd.DataFrame(design_transfer.study_build(2))
     assert set(rows["route"]) == {"physics (a)", "small plates (b), paper reading",
@@ -378,7 +378,7 @@ def test_paper_route_from_the_small_plates_is_table5s_estimate(tmp_path):
     from squeezebench.analysis import tables
     from squeezebench.analysis.report import REPORT_CONVENTION
     from squeezebench.analysis.rundata import load_run
-    from squeezebench.designing import characterised_plates
+    from squeezebench.designing.workflow import characterised_plates
     from squeezebench.protocols.campaign import run_campaign
 
     paper = load_strict(paths.paper_campaign().read_text())
@@ -451,14 +451,14 @@ def test_a_file_with_three_mistakes_gets_three_messages_in_the_users_words(tmp_p
 @pytest.mark.parametrize("written, meant", [("Al 6061-T6", "al_6061_t6"), ("aluminum", "aluminium_table2"),
                                             ("ALUMINIUM", "aluminium_table2"), ("6061-T6", "al_6061_t6")])
 def test_materials_by_the_names_people_write(written, meant):
-    from squeezebench.analysis.design_file import RESONATOR_MATERIALS, material_name
+    from squeezebench.designing.design_file import RESONATOR_MATERIALS, material_name
 
     assert material_name(written, RESONATOR_MATERIALS) == meant
     assert material_name("nce-41", {"NCE41": None}) == "NCE41"
 
 
 def test_the_guides_material_table_shows_the_constants_the_model_uses():
-    from squeezebench.analysis.design_file import PIEZO_MATERIALS, RESONATOR_MATERIALS
+    from squeezebench.designing.design_file import PIEZO_MATERIALS, RESONATOR_MATERIALS
 
     guide = _guide()
     for material in (*RESONATOR_MATERIALS.values(), *PIEZO_MATERIALS.values()):

@@ -8,7 +8,7 @@ plate (two piezos at each corner). Every plate becomes a predicted scene of the 
 bench with its noise and the shunt, and is characterised by the paper's protocol. Then:
 
 - route (b), the paper's method: the small plates' Q and tan(theta') carried to the large
-  plate by Eqs. 25-29 (`analysis.design.predict_from_small_plates`), under each reading;
+  plate by Eqs. 25-29 (`designing.design.predict_from_small_plates`), under each reading;
 - route (a), physics: the large plate's design predicted from its geometry (on the
   simulated bench a chain check: the scene follows the same plate model);
 
@@ -25,10 +25,10 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from squeezebench.analysis import design as design_model
+from squeezebench.designing import design as design_model
 from squeezebench.analysis import model
-from squeezebench.analysis.design_file import DesignFile
-from squeezebench.designing import characterised_plates, write_build
+from squeezebench.designing.design_file import DesignFile
+from squeezebench.designing.workflow import characterised_plates, write_build
 
 READINGS = {"paper": model.PAPER_CONVENTION, "physical": model.PHYSICAL_CONVENTION}
 TARGET_AMPLITUDE_PP_M = 1e-6
@@ -162,12 +162,12 @@ def summary(frame: pd.DataFrame) -> pd.DataFrame:
 
 
 def main(argv: list[str] | None = None) -> int:
-    """python -m squeezebench.design_transfer [--builds N] [--workers N] [--out FILE.csv]"""
+    """python -m squeezebench.designing.transfer [--builds N] [--workers N] [--out FILE.csv]"""
     import argparse
 
     from squeezebench.workers import default_workers
 
-    parser = argparse.ArgumentParser(prog="python -m squeezebench.design_transfer", description=__doc__,
+    parser = argparse.ArgumentParser(prog="python -m squeezebench.designing.transfer", description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--builds", type=int, default=20)
     parser.add_argument("--workers", type=int, default=None)

@@ -43,7 +43,7 @@ from uncertainties import ufloat
 
 from squeezebench.analysis import cartography, model
 from squeezebench.plates import damping, plate_modes, reduced_layouts, specifications
-from squeezebench.analysis.design_file import DesignFile
+from squeezebench.designing.design_file import DesignFile
 from squeezebench.errors import UserError
 
 COVERAGE_FACTOR = 2.0

@@ -1,6 +1,6 @@
 """`squeezebench design PLATE`: what a plate will need, predicted before it is built.
 
-Reads the design file, predicts by physics (`analysis.design`), by the paper's method from
+Reads the design file, predicts by physics (`designing.design`), by the paper's method from
 characterised small plates when runs are given (`--from`), sets a characterisation of the
 built plate beside both (`--measured`), sweeps the piezo layouts on the parallel engine the
 study uses (`protocols.parallel`), and writes the page, design.json and the tables
@@ -19,8 +19,9 @@ import pandas as pd
 
 from squeezebench import paths
 from squeezebench.yamlfiles import dump_yaml
-from squeezebench.analysis import design as design_model
-from squeezebench.analysis import design_report, layouts
+from squeezebench.designing import design as design_model
+from squeezebench.analysis import design_report
+from squeezebench.designing import layouts
 from squeezebench.errors import UserError
 
 
@@ -232,9 +233,9 @@ def sweep_layouts(spec, values: dict, workers: int | None = None, scheduler: Any
                   grid: list | None = None) -> tuple[pd.DataFrame, str]:
     """The layout sweep (`layouts.grid` unless `grid` is given) at the design's working mode
     on the parallel engine: by the reduced model with its sample checked against the full
-    solve (`analysis.layout_sweep`), every layout in full if the check fails or `reduced` is
+    solve (`designing.layout_sweep`), every layout in full if the check fails or `reduced` is
     false. Returns the table and a sentence saying how it was solved."""
-    from squeezebench.analysis import layout_sweep
+    from squeezebench.designing import layout_sweep
     from squeezebench.protocols.parallel import map_unordered
     from squeezebench.workers import default_workers
 
