@@ -8,6 +8,6 @@ simbench).
 - `squeezebench.paper`: the paper's printed values (data/paper/*.csv) with their source.
 - `analysis.tables`: Tables 3, 4, 5 and Fig. 5 recomputed, beside the printed values.
 - `analysis.audit`: the paper's inconsistencies and the convention grid, computed.
-- `analysis.figures`: Figs. 2, 5, 8, 9 and resonance curves as PNG.
-- `analysis.report`: `write_report(run_dir) -> Path` (RUN_DIR/report/index.html).
+- `report.figures`: Figs. 2, 5, 8, 9 and resonance curves as PNG.
+- `report.run_report`: `write_report(run_dir) -> Path` (RUN_DIR/report/index.html).
 """

@@ -655,7 +655,7 @@ def predict_from_small_plates(physics: PhysicsPrediction, plates: dict,
     """Route (b) from `plates` (name -> `tables.PlateCharacterisation`, the small plates of
     one or more characterisation runs, characterised under `convention`: by default the
     report's reading; a plate as thick as the design is needed)."""
-    from squeezebench.analysis.report import REPORT_CONVENTION
+    from squeezebench.report.run_report import REPORT_CONVENTION
     from squeezebench.analysis.tables import LARGE_PLATE, mean_over_plates
 
     design, values = physics.design, physics.nominal.values

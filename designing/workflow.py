@@ -4,7 +4,7 @@ Reads the design file, predicts by physics (`designing.design`), by the paper's 
 characterised small plates when runs are given (`--from`), sets a characterisation of the
 built plate beside both (`--measured`), sweeps the piezo layouts on the parallel engine the
 study uses (`protocols.parallel`), and writes the page, design.json and the tables
-(`analysis.design_report`).
+(`report.design_report`).
 """
 from __future__ import annotations
 
@@ -20,7 +20,7 @@ import pandas as pd
 from squeezebench import paths
 from squeezebench.yamlfiles import dump_yaml
 from squeezebench.designing import design as design_model
-from squeezebench.analysis import design_report
+from squeezebench.report import design_report
 from squeezebench.designing import layouts
 from squeezebench.errors import UserError
 
@@ -29,7 +29,7 @@ def characterised_plates(run_dirs: Iterable[str | Path], convention=None) -> dic
     """Every plate the runs' characterisation protocol measured (name -> characterisation,
     under `convention`, by default the report's reading); a plate name in two runs is
     refused, not silently merged."""
-    from squeezebench.analysis.report import REPORT_CONVENTION
+    from squeezebench.report.run_report import REPORT_CONVENTION
     from squeezebench.analysis.rundata import load_run
     from squeezebench.analysis.tables import characterise_plates
 

@@ -228,7 +228,7 @@ class RunResults:
 
         run = load_stored_run(self.run_dir)
         if name == "table5":
-            from squeezebench.analysis.report import REPORT_CONVENTION
+            from squeezebench.report.run_report import REPORT_CONVENTION
 
             frame = tables.table5(tables.characterise_plates(run, REPORT_CONVENTION), REPORT_CONVENTION)
         else:
@@ -261,8 +261,8 @@ class RunResults:
     def report(self) -> Path:
         """Regenerate RUN_DIR/report/ from the stored data; the index.html path (the same
         report as `squeezebench report`, the simulated plates' section included)."""
-        import squeezebench.simulated_plates  # noqa: F401  (adds the simulated plates' section)
-        from squeezebench.analysis.report import write_report
+        import squeezebench.report.simulated_plates  # noqa: F401  (adds the simulated plates' section)
+        from squeezebench.report.run_report import write_report
 
         return write_report(self.run_dir)
 

@@ -129,7 +129,7 @@ def cmd_safe(args: argparse.Namespace) -> int:
 
 def cmd_run(args: argparse.Namespace) -> int:
     from squeezebench.protocols.campaign import load_campaign, run_campaign
-    from squeezebench.simulated_plates import check_powered_piezos
+    from squeezebench.report.simulated_plates import check_powered_piezos
 
     file = paths.shipped_of_kind(args.campaign, "campaigns")
     campaign = load_campaign(file, bench_file=args.bench)
@@ -173,8 +173,8 @@ def _map_headline(campaign, run_dir: Path) -> list[str]:
 
     if not any(run.protocol in MAP_PROTOCOLS for run in campaign.runs):
         return []
-    from squeezebench.analysis.cartography_report import map_summaries
-    from squeezebench.analysis.headline import map_lines
+    from squeezebench.report.cartography_report import map_summaries
+    from squeezebench.report.headline import map_lines
     from squeezebench.analysis.rundata import load_run
 
     summaries, _ = map_summaries(load_run(run_dir))
@@ -277,8 +277,8 @@ def _shipped(name: str, kind: str) -> Path | None:
 
 
 def cmd_report(args: argparse.Namespace) -> int:
-    import squeezebench.simulated_plates  # noqa: F401  (adds the simulated plates' section)
-    from squeezebench.analysis.report import write_report
+    import squeezebench.report.simulated_plates  # noqa: F401  (adds the simulated plates' section)
+    from squeezebench.report.run_report import write_report
     from squeezebench.protocols.storage import RunStore
 
     store = RunStore(Path(args.run_dir))
@@ -323,8 +323,8 @@ def _planned_steps(store) -> list[tuple[str, str]] | None:
 
 
 def cmd_reproduce(args: argparse.Namespace) -> int:
-    import squeezebench.simulated_plates  # noqa: F401  (adds the simulated plates' section)
-    from squeezebench.analysis.report import write_report
+    import squeezebench.report.simulated_plates  # noqa: F401  (adds the simulated plates' section)
+    from squeezebench.report.run_report import write_report
     from squeezebench.protocols.accuracy_study import run_study
     from squeezebench.protocols.campaign import run_campaign
     from squeezebench.protocols.parallel import Beside
@@ -352,7 +352,7 @@ def cmd_reproduce(args: argparse.Namespace) -> int:
 
 def _finished(index: Path) -> str:
     """What a person reads last: the report's headline, then where the report is."""
-    from squeezebench.analysis.report import HEADLINE_FILE
+    from squeezebench.report.run_report import HEADLINE_FILE
 
     return (index.parent / HEADLINE_FILE).read_text() + f"report written to {index}"
 
@@ -480,7 +480,7 @@ def cmd_design(args: argparse.Namespace) -> int:
     if args.plate is None:
         raise UserError("name a design file (or a shipped design), or start one with: squeezebench design "
                         "--template > my_plate.yaml")
-    from squeezebench.analysis.design_report import headline, payload
+    from squeezebench.report.design_report import headline, payload
     from squeezebench.designing.workflow import run_design, write_build, write_design
 
     answer = run_design(args.plate, from_runs=args.from_runs or (), measured=args.measured,

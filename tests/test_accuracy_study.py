@@ -10,7 +10,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from squeezebench.analysis import study
-from squeezebench.analysis.report import write_report
+from squeezebench.report.run_report import write_report
 from squeezebench import paths
 from squeezebench.protocols import accuracy_study
 from squeezebench.protocols.accuracy_study import AccuracyStudy, StudySettings, run_study

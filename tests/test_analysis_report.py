@@ -9,7 +9,7 @@ import shutil
 import pandas as pd
 import pytest
 
-from squeezebench.analysis import report
+from squeezebench.report import run_report as report
 from squeezebench.analysis.rundata import load_run
 from squeezebench.errors import UserError
 from test_analysis_synthetic import build_run

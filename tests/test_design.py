@@ -376,7 +376,7 @@ def test_paper_route_from_the_small_plates_is_table5s_estimate(tmp_path):
 
     from squeezebench import paths
     from squeezebench.analysis import tables
-    from squeezebench.analysis.report import REPORT_CONVENTION
+    from squeezebench.report.run_report import REPORT_CONVENTION
     from squeezebench.analysis.rundata import load_run
     from squeezebench.designing.workflow import characterised_plates
     from squeezebench.protocols.campaign import run_campaign
@@ -509,7 +509,7 @@ def test_placement_curve_says_where_the_piezos_drive_best(ends_prediction):
     relative = curve["voltage_expanded_uncertainty"] / curve["voltage_vpp"]
     assert relative.iloc[0] == pytest.approx(relative.iloc[1])
     answer = design.DesignAnswer(ends_prediction, placement=curve)
-    from squeezebench.analysis.design_report import placement_sentences
+    from squeezebench.report.design_report import placement_sentences
     words = " ".join(placement_sentences(answer))
     ratio = ends_prediction.nominal.values["voltage_vpp"] / curve["voltage_vpp"].min()
     assert f"divides the voltage by {ratio:.2g}" in words and "mm inward" in words

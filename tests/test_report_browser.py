@@ -16,9 +16,9 @@ from pathlib import Path
 
 import pytest
 
-import squeezebench.simulated_plates  # noqa: F401  (the report as the command line writes it)
+import squeezebench.report.simulated_plates  # noqa: F401  (the report as the command line writes it)
 from squeezebench import paths
-from squeezebench.analysis import report
+from squeezebench.report import run_report as report
 from squeezebench.protocols.campaign import run_campaign
 from squeezebench.yamlfiles import load_strict
 

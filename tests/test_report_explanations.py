@@ -8,7 +8,8 @@ from types import SimpleNamespace
 import numpy as np
 import pandas as pd
 
-from squeezebench.analysis import model, report, tables
+from squeezebench.analysis import model, tables
+from squeezebench.report import run_report as report
 
 GEOMETRY = model.PlateGeometry(2e-3, 0.5e-3, 9e-3, 9.5e-3, 4, 1)
 

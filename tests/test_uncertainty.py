@@ -14,7 +14,7 @@ from hypothesis import strategies as st
 
 from squeezebench import paths
 from squeezebench.analysis import model, tables
-from squeezebench.analysis.report import write_report
+from squeezebench.report.run_report import write_report
 from squeezebench.analysis.rundata import load_run
 from squeezebench.analysis.calibration import Deskew
 from squeezebench.plates.specifications import SPECIFICATIONS, compensation_phase_rad

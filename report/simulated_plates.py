@@ -4,7 +4,7 @@
   copied into RUN_DIR/inputs/, each state's C0, effective coupling, power factor, modal
   mass over plate mass, shunt share and loss per um^2 (`simbench.scene.scenes_table`),
   with the bounds every state was checked against at load. Importing this module appends
-  it to `analysis.report.SECTIONS` (the report's documented way to add one), which the
+  it to `report.run_report.SECTIONS` (the report's documented way to add one), which the
   command line and the API do before writing a report.
 - `physics_section`: what the plate model predicts each characterised plate's Q and
   tan theta' read as (Fig. 5 and the large plate), from its stored scene's geometry and
@@ -25,7 +25,8 @@ import math
 import pandas as pd
 
 from squeezebench.plates import predicted_plates
-from squeezebench.analysis import presentation, report, tables
+from squeezebench.report import presentation, run_report as report
+from squeezebench.analysis import tables
 from squeezebench.errors import UserError
 from squeezebench.simbench import predicted
 from squeezebench.simbench.scene import BOUNDS, load_scene, scenes_table

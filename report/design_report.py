@@ -1,7 +1,7 @@
 """The design page: the answer first, then the mode, the power curve, the layouts, the budget.
 
 Written by `squeezebench design` as DIR/index.html beside design.json and the CSV tables;
-the run report's page and style (`analysis.page`), readable on a laptop and a phone.
+the run report's page and style (`report.page`), readable on a laptop and a phone.
 """
 from __future__ import annotations
 
@@ -17,12 +17,12 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
-from squeezebench.analysis import presentation  # noqa: E402
+from squeezebench.report import presentation  # noqa: E402
 from squeezebench.designing.design import COVERAGE_FACTOR, INPUTS, DesignAnswer, mean_edge_gap_mm  # noqa: E402
 from squeezebench.plates.plate_modes import crossings  # noqa: E402
-from squeezebench.analysis.figures import PAPER_STYLE, save_figure  # noqa: E402
-from squeezebench.analysis import page as html_page  # noqa: E402
-from squeezebench.analysis.report import cell_text, html_table  # noqa: E402
+from squeezebench.report.figures import PAPER_STYLE, save_figure  # noqa: E402
+from squeezebench.report import page as html_page  # noqa: E402
+from squeezebench.report.run_report import cell_text, html_table  # noqa: E402
 
 FILES = {"page": "index.html", "json": "design.json", "budget": "budget.csv", "comparison": "comparison.csv",
          "layouts": "layouts.csv", "mode": "mode.png", "power": "power_voltage.png", "pareto": "layouts.png",

@@ -28,11 +28,12 @@ import numpy as np
 import pandas as pd
 
 import squeezebench
-from squeezebench.analysis import (audit, cartography_report, columns, figures, headline, measurement_model,
-                                   model, page, presentation, provenance, readings, study, tables,
+from squeezebench.analysis import (audit, columns, measurement_model,
+                                   model, provenance, readings, study, tables,
                                    uncertainty)
+from squeezebench.report import cartography_report, figures, headline, page, presentation
 from squeezebench.plates import damping, predicted_plates
-from squeezebench.analysis.drawing import Drawing
+from squeezebench.report.drawing import Drawing
 from squeezebench.analysis.tables import MissingDataError
 from squeezebench.paper import paper_value
 from squeezebench.analysis.rundata import RunData, load_run
