@@ -29,7 +29,7 @@ makes an infeasible design feasible.
 Route (b), the paper's method (Sec. 5): Q and tan(theta') measured on characterised small
 plates of the same build, Q scaled to the design's piezo by Eq. 29, tan(theta') the mean of
 the plates as thick as the resonator, then Eqs. 27 and 25 under the report's reading
-(`report.REPORT_CONVENTION`), at the frequency and lambda/2 route (a) predicts.
+(`analysis.model.REPORT_CONVENTION`), at the frequency and lambda/2 route (a) predicts.
 """
 from __future__ import annotations
 
@@ -655,7 +655,7 @@ def predict_from_small_plates(physics: PhysicsPrediction, plates: dict,
     """Route (b) from `plates` (name -> `tables.PlateCharacterisation`, the small plates of
     one or more characterisation runs, characterised under `convention`: by default the
     report's reading; a plate as thick as the design is needed)."""
-    from squeezebench.report.run_report import REPORT_CONVENTION
+    from squeezebench.analysis.model import REPORT_CONVENTION
     from squeezebench.analysis.tables import LARGE_PLATE, mean_over_plates
 
     design, values = physics.design, physics.nominal.values
@@ -764,7 +764,7 @@ class DesignAnswer:
     printed: dict[str, float] | None = None   # the paper's values for this plate, when it is one of its plates
     layouts: pd.DataFrame | None = None
     layouts_note: str = ""   # how the layouts were solved (reduced model checked, or in full)
-    #: every design this lab checked against its built plate (`designing.HISTORY_FILE`)
+    #: every design this lab checked against its built plate (`designing.workflow.HISTORY_FILE`)
     history: pd.DataFrame | None = None
     #: judged by `designing.run_design` (with the placement curve and the neighbouring modes)
     verdict: Verdict | None = None

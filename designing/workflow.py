@@ -3,8 +3,9 @@
 Reads the design file, predicts by physics (`designing.design`), by the paper's method from
 characterised small plates when runs are given (`--from`), sets a characterisation of the
 built plate beside both (`--measured`), sweeps the piezo layouts on the parallel engine the
-study uses (`protocols.parallel`), and writes the page, design.json and the tables
-(`report.design_report`).
+study uses (`protocols.parallel`), and records a built plate's comparison in the history.
+The page, design.json and the tables are the report's (`report.design_report.write_design`):
+this package never imports the report.
 """
 from __future__ import annotations
 
@@ -20,7 +21,6 @@ import pandas as pd
 from squeezebench import paths
 from squeezebench.yamlfiles import dump_yaml
 from squeezebench.designing import design as design_model
-from squeezebench.report import design_report
 from squeezebench.designing import layouts
 from squeezebench.errors import UserError
 
@@ -29,7 +29,7 @@ def characterised_plates(run_dirs: Iterable[str | Path], convention=None) -> dic
     """Every plate the runs' characterisation protocol measured (name -> characterisation,
     under `convention`, by default the report's reading); a plate name in two runs is
     refused, not silently merged."""
-    from squeezebench.report.run_report import REPORT_CONVENTION
+    from squeezebench.analysis.model import REPORT_CONVENTION
     from squeezebench.analysis.rundata import load_run
     from squeezebench.analysis.tables import characterise_plates
 
@@ -291,15 +291,3 @@ def record_measurement(answer: design_model.DesignAnswer, history: Path, measure
     history.parent.mkdir(parents=True, exist_ok=True)
     frame.to_csv(history, index=False)
     return frame
-
-
-def write_design(answer: design_model.DesignAnswer, out_dir: str | Path | None = None,
-                 measured_run: str | Path | None = None) -> tuple[Path, dict[str, str]]:
-    """The page and its files in `out_dir` (default designs/<name>); returns the folder and
-    the files. With the built plate's run, its comparison joins the history beside the
-    designs' folders (`HISTORY_FILE`), which the page shows."""
-    folder = Path(out_dir) if out_dir is not None else Path("designs") / answer.design.name
-    if measured_run is not None and answer.measured is not None:
-        history = record_measurement(answer, folder.parent / HISTORY_FILE, measured_run)
-        answer = replace(answer, history=history)
-    return folder, design_report.write(answer, folder)

@@ -8,6 +8,7 @@ from __future__ import annotations
 import html
 import json
 import math
+from dataclasses import replace
 from pathlib import Path
 
 import matplotlib
@@ -19,6 +20,7 @@ import pandas as pd  # noqa: E402
 
 from squeezebench.report import presentation  # noqa: E402
 from squeezebench.designing.design import COVERAGE_FACTOR, INPUTS, DesignAnswer, mean_edge_gap_mm  # noqa: E402
+from squeezebench.designing.workflow import HISTORY_FILE, record_measurement  # noqa: E402
 from squeezebench.plates.plate_modes import crossings  # noqa: E402
 from squeezebench.report.figures import PAPER_STYLE, save_figure  # noqa: E402
 from squeezebench.report import page as html_page  # noqa: E402
@@ -516,3 +518,15 @@ def page(answer: DesignAnswer, files: dict[str, str]) -> str:
     description = f"<p>{html.escape(d.description)}</p>" if d.description else ""
     return html_page.render(f"squeezebench design: {d.name}",
                             [html_page.PageSection(f"s{i}", t, t, b) for i, (t, b) in enumerate(sections)], description)
+
+
+def write_design(answer: DesignAnswer, out_dir: str | Path | None = None,
+                 measured_run: str | Path | None = None) -> tuple[Path, dict[str, str]]:
+    """The page and its files in `out_dir` (default designs/<name>); returns the folder and
+    the files. With the built plate's run, its comparison joins the history beside the
+    designs' folders (`HISTORY_FILE`), which the page shows."""
+    folder = Path(out_dir) if out_dir is not None else Path("designs") / answer.design.name
+    if measured_run is not None and answer.measured is not None:
+        history = record_measurement(answer, folder.parent / HISTORY_FILE, measured_run)
+        answer = replace(answer, history=history)
+    return folder, write(answer, folder)

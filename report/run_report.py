@@ -34,17 +34,13 @@ from squeezebench.analysis import (audit, columns, measurement_model,
 from squeezebench.report import cartography_report, figures, headline, page, presentation
 from squeezebench.plates import damping, predicted_plates
 from squeezebench.report.drawing import Drawing
+from squeezebench.analysis.model import REPORT_CONVENTION
 from squeezebench.analysis.tables import MissingDataError
 from squeezebench.paper import paper_value
 from squeezebench.analysis.rundata import RunData, load_run
 from squeezebench.errors import UserError
 from squeezebench.workers import default_workers
 
-#: The conventions every derived number of this report uses (the audit shows the others): the
-#: physical reading, Table 2's E_i as 67 GPa (printed 67109 Pa, a resonator without
-#: stiffness) with the text's own definitions (V and A peak-to-peak, n_c every powered
-#: piezo). The paper's Q and tan theta' need other readings; the readings section shows them.
-REPORT_CONVENTION = model.PHYSICAL_CONVENTION
 
 
 @dataclass

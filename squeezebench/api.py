@@ -124,7 +124,8 @@ def design(plate: str | Path, *, from_runs: Sequence[str | Path] = (), measured:
     """A plate design's prediction (`designing.design.DesignAnswer`), as `squeezebench design`
     (the layout sweep only when `layouts`, a few minutes for a large plate); with `out_dir`,
     its page, design.json and tables are written there too."""
-    from squeezebench.designing.workflow import run_design, write_design
+    from squeezebench.designing.workflow import run_design
+    from squeezebench.report.design_report import write_design
 
     answer = run_design(plate, from_runs=from_runs, measured=measured, measured_plate=measured_plate,
                         sweep=layouts, workers=workers)
@@ -228,7 +229,7 @@ class RunResults:
 
         run = load_stored_run(self.run_dir)
         if name == "table5":
-            from squeezebench.report.run_report import REPORT_CONVENTION
+            from squeezebench.analysis.model import REPORT_CONVENTION
 
             frame = tables.table5(tables.characterise_plates(run, REPORT_CONVENTION), REPORT_CONVENTION)
         else:

@@ -481,7 +481,8 @@ def cmd_design(args: argparse.Namespace) -> int:
         raise UserError("name a design file (or a shipped design), or start one with: squeezebench design "
                         "--template > my_plate.yaml")
     from squeezebench.report.design_report import headline, payload
-    from squeezebench.designing.workflow import run_design, write_build, write_design
+    from squeezebench.designing.workflow import run_design, write_build
+    from squeezebench.report.design_report import write_design
 
     answer = run_design(args.plate, from_runs=args.from_runs or (), measured=args.measured,
                         measured_plate=args.measured_plate, sweep=not args.no_layouts,
