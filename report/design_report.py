@@ -24,7 +24,7 @@ from squeezebench.designing.workflow import HISTORY_FILE, record_measurement  # 
 from squeezebench.plates.plate_modes import crossings  # noqa: E402
 from squeezebench.report.figures import PAPER_STYLE, save_figure  # noqa: E402
 from squeezebench.report import page as html_page  # noqa: E402
-from squeezebench.report.run_report import cell_text, html_table  # noqa: E402
+from squeezebench.report.section import cell_text, html_table  # noqa: E402
 
 FILES = {"page": "index.html", "json": "design.json", "budget": "budget.csv", "comparison": "comparison.csv",
          "layouts": "layouts.csv", "mode": "mode.png", "power": "power_voltage.png", "pareto": "layouts.png",

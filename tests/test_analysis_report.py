@@ -138,7 +138,7 @@ def test_a_run_without_the_papers_plates_is_reported_whole(tmp_path):
     geometry = _geometry(3e-3, 12e-3, 10e-3)
     shape = model.PlateGeometry(**geometry, n_powered_piezos=6)
     builder = RunBuilder(tmp_path / "lab")
-    convention = report.REPORT_CONVENTION
+    convention = model.REPORT_CONVENTION
     # Q takes the sign of Eq. 12's a under the reading (negative with E_i = 67 GPa), tan theta' the
     # sign that makes the power positive: the signs that give a plate that moves and takes power
     q_true = math.copysign(3.1, model.amplitude_pp_m(1.0, 10.0, shape, convention))

@@ -376,7 +376,7 @@ def test_paper_route_from_the_small_plates_is_table5s_estimate(tmp_path):
 
     from squeezebench import paths
     from squeezebench.analysis import tables
-    from squeezebench.report.run_report import REPORT_CONVENTION
+    from squeezebench.analysis.model import REPORT_CONVENTION
     from squeezebench.analysis.rundata import load_run
     from squeezebench.designing.workflow import characterised_plates
     from squeezebench.protocols.campaign import run_campaign

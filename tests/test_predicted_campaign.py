@@ -93,7 +93,8 @@ def test_a_predicted_plate_characterised_on_the_bench_reads_the_q_and_tan_theta_
     paths through one model, so they agree within 5 % and within their U; Table 5's physics
     line (the paper's stated geometry, not the scene's) lands within 5 % of the section's."""
     from squeezebench.report import simulated_plates
-    from squeezebench.report.run_report import REPORT_CONVENTION, ReportContext
+    from squeezebench.analysis.model import REPORT_CONVENTION
+    from squeezebench.report.section import ReportContext
 
     context = ReportContext(large_plate_run, tmp_path)
     rows = simulated_plates.physics_rows(context).set_index("quantity")
@@ -133,7 +134,7 @@ def test_a_replay_plate_is_set_beside_its_physics_and_its_departure_said(tmp_pat
     assert not 1 / 1.5 < ratio < 1.5 and not rows.loc["tan_theta", "agrees_with_prediction"]
     # the verdict is the plate's, not the reading's: under the inferred reading the values move, the ratios do not
     from squeezebench.analysis import model
-    from squeezebench.report.run_report import ReportContext
+    from squeezebench.report.section import ReportContext
 
     inferred = simulated_plates.physics_rows(ReportContext(load_run(run_dir), tmp_path,
                                                            convention=model.INFERRED_CONVENTION)).set_index("quantity")

@@ -9,7 +9,7 @@ import numpy as np
 import pandas as pd
 
 from squeezebench.analysis import model, tables
-from squeezebench.report import run_report as report
+from squeezebench.report import physics
 
 GEOMETRY = model.PlateGeometry(2e-3, 0.5e-3, 9e-3, 9.5e-3, 4, 1)
 
@@ -27,7 +27,7 @@ def plate(scatter_rel: float, frequency_moves_hz: float) -> tables.PlateCharacte
 
 def test_negative_tan_theta_and_a_large_chi2_are_explained():
     context = SimpleNamespace(convention=model.PAPER_CONVENTION)
-    text = report._surprises(context, {"p": plate(scatter_rel=0.01, frequency_moves_hz=5.0)})
+    text = physics._surprises(context, {"p": plate(scatter_rel=0.01, frequency_moves_hz=5.0)})
     assert "tan θ′ is negative for 1 of 1 plates" in text and "takes d31's sign" in text
     assert "a is −3.06" in text and "Q changes sign" in text
     assert "χ²/dof reaches" in text and "moved by up to 5.0 Hz" in text and "amplitude against voltage" in text
@@ -37,4 +37,4 @@ def test_tan_theta_has_d31s_sign_under_both_readings_and_exact_points_raise_no_c
     for convention in (model.PAPER_CONVENTION, model.PHYSICAL_CONVENTION):
         exact = tables.characterise_plate("p", plate(0.0, 0.0).points, GEOMETRY, convention)
         assert np.sign(exact.tan_theta.value) == np.sign(convention.materials.piezo_d31_c_per_n)
-        assert "χ²/dof" not in report._surprises(SimpleNamespace(convention=convention), {"p": exact})
+        assert "χ²/dof" not in physics._surprises(SimpleNamespace(convention=convention), {"p": exact})
