@@ -6,8 +6,10 @@ only (never instruments, protocols or simbench), and renders nothing (that is `r
   pp, amplitude pp, frequency, each an `Estimate` (value, standard uncertainty).
 - `analysis.model`: the paper's Eqs. 12, 25, 27, 28, 29 under an explicit `Convention`.
 - `analysis.calibration`: a deskew calibration run as corrections.
-- `analysis.tables`: Tables 3, 4, 5 and Fig. 5 recomputed, beside the printed values
-  (`squeezebench.paper`).
+- `analysis.tables`: Tables 3 and 4, the detuning and resonance tables recomputed, beside
+  the printed values (`squeezebench.paper`); the tables' common rows and fits.
+- `analysis.characterisation`: Fig. 5 and Table 5: each plate's Q and tan theta', the
+  large plate from the small ones.
 - `analysis.uncertainty`, `analysis.measurement_model`: each stated quantity's budget and
   its measurement model.
 - `analysis.audit`, `analysis.readings`: the paper's inconsistencies and the readings of

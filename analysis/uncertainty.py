@@ -551,7 +551,7 @@ def characterisation_floor(run: RunData, calibration: Deskew | None = None,
     of points lowers: the instruments' specifications, the geometry's and materials'
     tolerances), at the run's worst plate, with the term that dominates there; columns of
     `systematic_floor`. `calibration`: after that deskew (its uncertainty)."""
-    from squeezebench.analysis.tables import characterise_plates   # it imports this module
+    from squeezebench.analysis.characterisation import characterise_plates   # it imports this module
 
     columns = ["run_name", "quantity", "floor_p95_rel", "dominant_term", "lifted_by"]
     if run.protocol("characterisation").empty:

@@ -22,6 +22,9 @@ from squeezebench import paths
 from squeezebench.yamlfiles import dump_yaml
 from squeezebench.designing import design as design_model
 from squeezebench.designing import layouts
+from squeezebench.designing.answer import DesignAnswer, measured_point
+from squeezebench.designing.paper_route import predict_from_small_plates
+from squeezebench.designing.verdict import Verdict, cancellation, judge, neighbour_modes
 from squeezebench.errors import UserError
 
 
@@ -31,7 +34,7 @@ def characterised_plates(run_dirs: Iterable[str | Path], convention=None) -> dic
     refused, not silently merged."""
     from squeezebench.analysis.model import REPORT_CONVENTION
     from squeezebench.analysis.rundata import load_run
-    from squeezebench.analysis.tables import characterise_plates
+    from squeezebench.analysis.characterisation import characterise_plates
 
     plates: dict = {}
     for run_dir in run_dirs:
@@ -115,7 +118,7 @@ def scene_from_design(spec, seed: int = 1, mechanical_q: float | None = None) ->
     return data
 
 
-def characterisation_campaign(spec, answer: design_model.DesignAnswer, scene_file: str) -> dict:
+def characterisation_campaign(spec, answer: DesignAnswer, scene_file: str) -> dict:
     """The campaign that characterises the built plate (Sec. 5.3's protocol on the designed
     plate): a resonance search over +-3 % of the predicted frequency, fine enough for the
     build's Q, then 25 to 100 % of the voltage the target needs (within the amplifier and a
@@ -136,7 +139,7 @@ def characterisation_campaign(spec, answer: design_model.DesignAnswer, scene_fil
     }
 
 
-def write_build(answer: design_model.DesignAnswer, folder: str | Path, seed: int = 1) -> tuple[Path, Path]:
+def write_build(answer: DesignAnswer, folder: str | Path, seed: int = 1) -> tuple[Path, Path]:
     """The predicted scene of the design (its noise drawn from `seed`) and the campaign
     characterising it, in `folder`."""
     spec = answer.design
@@ -161,8 +164,8 @@ def predicted_antinodes(spec) -> int:
 
 def run_design(plate: str | Path, from_runs: Iterable[str | Path] = (), measured: str | Path | None = None,
                measured_plate: str | None = None, sweep: bool = True, workers: int | None = None,
-               scheduler: Any = None, allow_infeasible: bool = False) -> design_model.DesignAnswer:
-    """The design's answer; an infeasible one (`design.judge`) is refused with the nearest
+               scheduler: Any = None, allow_infeasible: bool = False) -> DesignAnswer:
+    """The design's answer; an infeasible one (`verdict.judge`) is refused with the nearest
     feasible change named, unless `allow_infeasible` (then it carries its red verdict). A
     mode the powered piezos cancel on is refused before its budget is solved. The layout
     sweep (`sweep`) is by the reduced model where it passes its check (`sweep_layouts`)."""
@@ -173,25 +176,25 @@ def run_design(plate: str | Path, from_runs: Iterable[str | Path] = (), measured
     spec = load_design_file(paths.design_file(plate))
     modal = design_model.modal_part(spec)
     neighbours = []
-    if design_model.cancellation(spec, modal.modes, modal.mode_index):
-        neighbours = design_model.neighbour_modes(spec, modal.modes.interior_antinodes(modal.mode_index))
+    if cancellation(spec, modal.modes, modal.mode_index):
+        neighbours = neighbour_modes(spec, modal.modes.interior_antinodes(modal.mode_index))
         if not allow_infeasible:
-            reason, change = design_model.cancellation(spec, modal.modes, modal.mode_index, neighbours)
-            _refuse(spec, design_model.Verdict("infeasible", (reason,), (change,)))
+            reason, change = cancellation(spec, modal.modes, modal.mode_index, neighbours)
+            _refuse(spec, Verdict("infeasible", (reason,), (change,)))
     physics = design_model.predict_physics(spec, modal=modal)
     placement = None
     if design_model.mean_edge_gap_mm(spec) is not None:
         placement = design_model.placement_curve(physics, mapper=lambda function, items: map_unordered(
             function, items, workers=workers or default_workers(), scheduler=scheduler, description="placements"))
-    verdict = design_model.judge(physics, placement, neighbours)
+    verdict = judge(physics, placement, neighbours)
     if verdict.status == "infeasible" and not allow_infeasible:
         _refuse(spec, verdict)
-    answer = design_model.DesignAnswer(physics, printed=printed_values(spec.paper_plate), verdict=verdict,
+    answer = DesignAnswer(physics, printed=printed_values(spec.paper_plate), verdict=verdict,
                                        placement=placement)
     from_runs = list(from_runs)
     if from_runs:
         try:
-            route = design_model.predict_from_small_plates(physics, characterised_plates(from_runs))
+            route = predict_from_small_plates(physics, characterised_plates(from_runs))
             answer = replace(answer, paper_route=route)
         except design_model.DesignError as exc:
             answer = replace(answer, paper_route_problem=str(exc))
@@ -203,7 +206,7 @@ def run_design(plate: str | Path, from_runs: Iterable[str | Path] = (), measured
         if name not in plates:
             raise UserError(f"{measured}: say which characterised plate is the built one with --measured-plate "
                             f"(one of: {', '.join(sorted(plates))})")
-        answer = replace(answer, measured=design_model.measured_point(physics, plates[name]))
+        answer = replace(answer, measured=measured_point(physics, plates[name]))
     if sweep:
         values = physics.nominal.values
         frame, note = sweep_layouts(spec, values, workers=workers, scheduler=scheduler)
@@ -212,7 +215,7 @@ def run_design(plate: str | Path, from_runs: Iterable[str | Path] = (), measured
     return answer
 
 
-def _refuse(spec, verdict: design_model.Verdict):
+def _refuse(spec, verdict: Verdict):
     raise design_model.DesignError(
         f"design {spec.name!r} is not an answer (infeasible): {'; '.join(verdict.reasons)}. Nearest feasible change: "
         f"{'; or '.join(verdict.changes) or 'none found'}. (--allow-infeasible shows it, marked infeasible)")
@@ -277,7 +280,7 @@ def sweep_layouts(spec, values: dict, workers: int | None = None, scheduler: Any
 HISTORY_FILE = "history.csv"
 
 
-def record_measurement(answer: design_model.DesignAnswer, history: Path, measured_run: str | Path) -> pd.DataFrame:
+def record_measurement(answer: DesignAnswer, history: Path, measured_run: str | Path) -> pd.DataFrame:
     """Append this design's prediction-against-measurement rows to `history` (CSV) and
     return the whole history: how a lab's designs fare against what it then built."""
     rows = answer.comparison()

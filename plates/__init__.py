@@ -5,6 +5,8 @@ scenes), the planner, the analysis and the design import it.
 
 - `plates.plate_modes`: the modal model (Argyris plate elements with Mindlin's correction,
   piezo patches on an epoxy bond): modes, modal mass, force factor, its tolerances.
+- `plates.laminate`: the materials, the two-layer laminate, the bond's shear lag, the
+  thick-plate (Mindlin) correction.
 - `plates.argyris`: scikit-fem's Argyris triangle with its global basis built in one pass.
 - `plates.specifications`: the bench's published accuracies and the materials' specified
   tolerances (the Type B inputs of every budget and of the model's tolerances).

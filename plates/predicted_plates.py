@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from squeezebench.plates import plate_modes
+from squeezebench.plates import laminate, plate_modes
 from squeezebench.paper import paper_value
 
 MM = 1e-3
@@ -100,15 +100,15 @@ MECHANICAL_Q_TOLERANCE = 0.30
 
 
 def _u(name: str, tolerances: dict[str, float]) -> float:
-    return plate_modes.relative_standard_uncertainty(name, tolerances[name])
+    return laminate.relative_standard_uncertainty(name, tolerances[name])
 
 
 def frequency_relative_u(thickness_m: float) -> float:
     """Expanded (k = 2) relative uncertainty of a predicted frequency of a plate of nominal
     `thickness_m` from the sheet's and the alloy family's tolerances (f ~ h sqrt(E / rho);
-    `plate_modes.relative_tolerances`, the thickness triangular). A plate's own terms (bond,
+    `laminate.relative_tolerances`, the thickness triangular). A plate's own terms (bond,
     placement) are added by `_predictions`."""
-    t = plate_modes.relative_tolerances(thickness_m)
+    t = laminate.relative_tolerances(thickness_m)
     return 2 * math.sqrt(_u("thickness_m", t) ** 2 + (_u("young_pa", t) / 2) ** 2
                          + (_u("density_kg_m3", t) / 2) ** 2)
 
@@ -116,12 +116,12 @@ def frequency_relative_u(thickness_m: float) -> float:
 def response_relative_u(thickness_m: float) -> dict[str, float]:
     """Expanded (k = 2) relative uncertainty of the predicted velocity and power at resonance at
     a given voltage of a plate of nominal `thickness_m`, in closed form from the tolerances
-    (`plate_modes.relative_tolerances`, the thickness triangular, the rest rectangular):
+    (`laminate.relative_tolerances`, the thickness triangular, the rest rectangular):
     v = F V q / (w M) and P = F^2 V^2 q / (2 w M), with F proportional to d31 and w M to
     h^2 sqrt(E rho) (f ~ h sqrt(E / rho), M ~ rho h); the force factor's own dependence on the
     resonator (the piezo's lever arm about the neutral axis) is left out, and a plate's own
     terms (bond, placement) are added by `_predictions`."""
-    t = plate_modes.relative_tolerances(thickness_m)
+    t = laminate.relative_tolerances(thickness_m)
     u = {name: _u(name, t) for name in t}
     u_q = MECHANICAL_Q_TOLERANCE / math.sqrt(3)
     u_omega_mass = math.hypot(2 * u["thickness_m"], u["young_pa"] / 2, u["density_kg_m3"] / 2)
@@ -137,13 +137,13 @@ def response_relative_u(thickness_m: float) -> dict[str, float]:
 def bond_effectiveness_range(geometry: plate_modes.PlateGeometry) -> tuple[float, float, float]:
     """The first patch's shear-lag effectiveness eta at the bond's nominal and at the two ends
     of its stated tolerances (thicker and softer: the least; thinner and stiffer: the most)."""
-    t = plate_modes.RELATIVE_TOLERANCES
+    t = laminate.RELATIVE_TOLERANCES
     p, bond = geometry.patches[0], plate_modes.EPOXY
 
     def eta(scale_t: float, scale_g: float) -> float:
         moved = dataclasses.replace(bond, thickness_m=bond.thickness_m * scale_t,
                                     shear_modulus_pa=bond.shear_modulus_pa * scale_g)
-        return plate_modes.shear_lag_effectiveness(plate_modes.ALUMINIUM_TABLE2, geometry.thickness_m,
+        return laminate.shear_lag_effectiveness(plate_modes.ALUMINIUM_TABLE2, geometry.thickness_m,
                                                    plate_modes.NCE41, p.thickness_m, moved, p.length_x_m)
 
     lo_t, lo_g = 1 + t["bond_thickness_m"], 1 - t["bond_shear_modulus_pa"]

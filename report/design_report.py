@@ -19,7 +19,8 @@ import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
 from squeezebench.report import presentation  # noqa: E402
-from squeezebench.designing.design import COVERAGE_FACTOR, INPUTS, DesignAnswer, mean_edge_gap_mm  # noqa: E402
+from squeezebench.designing.answer import DesignAnswer  # noqa: E402
+from squeezebench.designing.design import COVERAGE_FACTOR, INPUTS, mean_edge_gap_mm  # noqa: E402
 from squeezebench.designing.workflow import HISTORY_FILE, record_measurement  # noqa: E402
 from squeezebench.plates.plate_modes import crossings  # noqa: E402
 from squeezebench.report.figures import PAPER_STYLE, save_figure  # noqa: E402

@@ -12,7 +12,7 @@ from typing import Callable
 import numpy as np
 import pandas as pd
 
-from squeezebench.analysis import audit, model, provenance, tables
+from squeezebench.analysis import audit, characterisation, model, provenance, tables
 from squeezebench.report import figures, headline, presentation
 from squeezebench.plates import predicted_plates
 from squeezebench.paper import paper_value
@@ -204,11 +204,11 @@ def table5_section(context: ReportContext) -> Section | None:
     if context.run.protocol("characterisation").empty:
         return None   # characterisation_section says so
     plates = context.plates()
-    if tables.LARGE_PLATE not in plates:
-        context.absent.append(f"Table 5 and Figs. 8-9: the run has no characterisation of {tables.LARGE_PLATE}")
+    if characterisation.LARGE_PLATE not in plates:
+        context.absent.append(f"Table 5 and Figs. 8-9: the run has no characterisation of {characterisation.LARGE_PLATE}")
         return None
-    estimated = tables.TEMPLATE_SMALL_PLATE in plates
-    large = plates[tables.LARGE_PLATE]
+    estimated = characterisation.TEMPLATE_SMALL_PLATE in plates
+    large = plates[characterisation.LARGE_PLATE]
     response = predicted_plates.large_plate_response()
     printed_vpp = paper_value("large_plate", "large_plate", "voltage_vpp")
     physics_amplitude = (response["amplitude_pp_m_per_vpp"] * printed_vpp * 1e6,
@@ -225,7 +225,7 @@ def table5_section(context: ReportContext) -> Section | None:
         f"there. " + bench_words(context))
     if estimated:
         title = "Table 5: the large plate estimated from the small ones (Sec. 5.3)"
-        context.tables["table5"] = table5 = tables.finish_table(tables.table5(plates, context.convention))
+        context.tables["table5"] = table5 = tables.finish_table(characterisation.table5(plates, context.convention))
         body = _paper_table_html(
             context, "table5", title, table5, lambda item: f"{item} ({'Eq. 29 from small_plate_4' if item == 'estimated' else 'large_plate'})",
             "Estimated: Q of small_plate_4 carried to the large plate by Eq. 29, tan θ′ the mean of "
@@ -234,12 +234,12 @@ def table5_section(context: ReportContext) -> Section | None:
             _table5_by_materials(context), "Table 5 recomputed from the same fits under both readings of E_i "
             "(only a of Eqs. 25/27 changes). " + bench_words(context)) + fig8)
     else:
-        context.absent.append(f"Table 5: the run has no characterisation of {tables.TEMPLATE_SMALL_PLATE} "
+        context.absent.append(f"Table 5: the run has no characterisation of {characterisation.TEMPLATE_SMALL_PLATE} "
                               "to estimate the large plate from")
         title = "Figs. 8 and 9: the large plate (Sec. 5.3)"
         body = ("<p>The large plate's own voltage sweep; Table 5's estimate needs the small plates, which "
                 "this run did not characterise.</p>" + fig8)
-    power = tables.estimated_large_plate_power_w(plates, context.convention)
+    power = characterisation.estimated_large_plate_power_w(plates, context.convention)
     body += context.figure(
         context.draw(figures.fig9_power, power, context.out_dir / "fig9.png"),
         "Fig. 9 recomputed: power of the large plate against voltage pp squared, from its own sweep "
@@ -280,7 +280,7 @@ def _table5_by_materials(context: ReportContext) -> pd.DataFrame:
         name = ("E_i as printed (67109 Pa)" if materials is model.MATERIALS_AS_PRINTED
                 else f"E_i = {materials.resonator_young_pa / 1e9:g} GPa")
         convention = replace(context.convention, name=name, materials=materials)
-        frame = tables.table5(tables.characterise_plates(context.run, convention), convention)
+        frame = characterisation.table5(characterisation.characterise_plates(context.run, convention), convention)
         frames.append(pd.DataFrame({"reading": convention.name, "item": frame["item"],
                                     "quantity": frame["quantity"].map(presentation.header),
                                     "this run": frame["value"].map(lambda v: f"{v:.3f}"),

@@ -10,7 +10,7 @@ from dataclasses import replace
 
 import pandas as pd
 
-from squeezebench.analysis import model, tables, uncertainty
+from squeezebench.analysis import characterisation, model, tables, uncertainty
 from squeezebench.report import figures, presentation
 from squeezebench.plates import damping, predicted_plates
 from squeezebench.paper import paper_value
@@ -24,7 +24,7 @@ def characterisation_section(context: ReportContext) -> Section | None:
                               "'characterisation' is not in this run")
         return None
     plates = context.plates()
-    context.tables["fig5"] = tables.finish_table(tables.fig5_table(plates))
+    context.tables["fig5"] = tables.finish_table(characterisation.fig5_table(plates))
     surprising = _surprises(context, plates)
     body = ("<p>Every characterised plate of this run: Q from the slope of amplitude pp against "
             "voltage pp (Eq. 27), tan θ′ from the slope of power against voltage pp squared (Eq. 25) "
@@ -57,7 +57,7 @@ def characterisation_section(context: ReportContext) -> Section | None:
 SURPRISING_CHI2 = 3.0
 
 
-def _surprises(context: ReportContext, plates: dict[str, tables.PlateCharacterisation]) -> str:
+def _surprises(context: ReportContext, plates: dict[str, characterisation.PlateCharacterisation]) -> str:
     """The numbers of the plates' table a reader would stop at, explained from the run:
     negative tan θ′ (d31's sign, and Q's sign through Eq. 12's a under the reading) and a
     χ²/dof well above 1 (what the points scatter by, against what each point states)."""
@@ -107,7 +107,7 @@ def _surprises(context: ReportContext, plates: dict[str, tables.PlateCharacteris
     return "".join(f"<p>{line}</p>" for line in lines)
 
 
-def _plates_table(context: ReportContext, plates: dict[str, tables.PlateCharacterisation]) -> str:
+def _plates_table(context: ReportContext, plates: dict[str, characterisation.PlateCharacterisation]) -> str:
     rows = []
     for name, p in plates.items():
         a, w = p.amplitude_slope, p.power_slope

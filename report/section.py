@@ -14,7 +14,7 @@ from typing import Callable
 import numpy as np
 import pandas as pd
 
-from squeezebench.analysis import audit, model, provenance, tables, uncertainty
+from squeezebench.analysis import audit, characterisation, model, provenance, uncertainty
 from squeezebench.report import headline, presentation
 from squeezebench.report.drawing import Drawing
 from squeezebench.analysis.model import REPORT_CONVENTION
@@ -36,10 +36,10 @@ class ReportContext:
     figure_count: int = 0
     draw: Drawing = field(default_factory=lambda: Drawing(1))   # figure functions, maybe on other processes
 
-    def plates(self) -> dict[str, tables.PlateCharacterisation]:
+    def plates(self) -> dict[str, characterisation.PlateCharacterisation]:
         """Fig. 5 characterisation, computed once for the sections that share it."""
         if "plates" not in self.cache:
-            self.cache["plates"] = tables.characterise_plates(self.run, self.convention)
+            self.cache["plates"] = characterisation.characterise_plates(self.run, self.convention)
         return self.cache["plates"]
 
     def bench(self) -> str:

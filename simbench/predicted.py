@@ -28,7 +28,7 @@ FREQUENCY_TOLERANCE = 0.05
 #: piezo's in-plane ends otherwise ignored).
 FORCE_FACTOR_TOLERANCE = 0.15
 #: The modal mass referred to the measurement point: density +-1 % and the sheet's thickness
-#: +-4-5 % (`plate_modes.relative_tolerances`) move it less; the same idealisations as the
+#: +-4-5 % (`laminate.relative_tolerances`) move it less; the same idealisations as the
 #: force factor's, and a point near a nodal line moves it much, so the same 15 %.
 MODAL_MASS_TOLERANCE = 0.15
 

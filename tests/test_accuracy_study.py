@@ -15,7 +15,8 @@ from squeezebench import paths
 from squeezebench.protocols import accuracy_study
 from squeezebench.protocols.accuracy_study import AccuracyStudy, StudySettings, run_study
 from squeezebench.protocols.systematics_study import SystematicsSettings
-from squeezebench.cli import STUDY_EXPERIMENTS, main
+from squeezebench.cli import main
+from squeezebench.commands import STUDY_EXPERIMENTS
 from test_analysis_synthetic import build_run
 
 SMALL = StudySettings(

@@ -160,7 +160,7 @@ def test_a_run_without_the_papers_plates_is_reported_whole(tmp_path):
 
 def test_the_headline_opens_the_report_and_ends_the_command(reported):
     """The same lines atop the page (before any table) and printed by `report`, last before the path."""
-    from squeezebench import cli
+    from squeezebench import cli, commands
 
     run_dir, index = reported
     lines = (run_dir / "report" / report.HEADLINE_FILE).read_text().splitlines()
@@ -168,7 +168,7 @@ def test_the_headline_opens_the_report_and_ends_the_command(reported):
     assert lines[1].startswith("The chain is verified")   # the synthetic run's settings come back
     page = index.read_text()
     assert page.index("class='headline") < page.index("<table")
-    printed = cli._finished(index).splitlines()   # what report and reproduce print last
+    printed = commands._finished(index).splitlines()   # what report and reproduce print last
     assert printed[-len(lines) - 1:-1] == lines and printed[-1].startswith("report written to")
 
 
@@ -196,10 +196,10 @@ def test_the_predicted_responses_u_is_the_propagation_of_its_tolerances():
     every input rectangular within its tolerance but the sheet's thickness, triangular."""
     import numpy as np
 
-    from squeezebench.plates import plate_modes, predicted_plates
+    from squeezebench.plates import laminate, predicted_plates
 
     rng = np.random.default_rng(7)
-    t = plate_modes.relative_tolerances(2e-3)
+    t = laminate.relative_tolerances(2e-3)
     draw = {name: 1 + (rng.triangular(-half, 0, half, 400_000) if name == "thickness_m"
                        else rng.uniform(-half, half, 400_000)) for name, half in t.items()}
     q = 1 + rng.uniform(-predicted_plates.MECHANICAL_Q_TOLERANCE, predicted_plates.MECHANICAL_Q_TOLERANCE, 400_000)
@@ -215,15 +215,15 @@ def test_the_predicted_responses_u_is_the_propagation_of_its_tolerances():
 def test_table5s_physics_reads_the_predicted_plate_through_the_same_inversion(monkeypatch):
     """Q inverted from the predicted amplitude scales with the shared damping figure; tan theta'
     (P / (Q f)) does not: the damping cancels, which is why its U holds only d31's tolerance."""
-    from squeezebench.analysis import model, tables
+    from squeezebench.analysis import characterisation, model
     from squeezebench.plates import predicted_plates
 
     geometry = model.PlateGeometry(2e-3, 0.5e-3, 14e-3, 9e-3, n_powered_piezos=8, n_powered_groups=4)
-    before = tables.predicted_large_plate_q_tan(geometry, model.PAPER_CONVENTION)
+    before = characterisation.predicted_large_plate_q_tan(geometry, model.PAPER_CONVENTION)
     monkeypatch.setattr(predicted_plates, "MECHANICAL_Q", 2 * predicted_plates.MECHANICAL_Q)
     predicted_plates._predictions.cache_clear()
     try:
-        after = tables.predicted_large_plate_q_tan(geometry, model.PAPER_CONVENTION)
+        after = characterisation.predicted_large_plate_q_tan(geometry, model.PAPER_CONVENTION)
     finally:   # the shared Q back before the cache forgets, or the next call caches the doubled one
         monkeypatch.undo()
         predicted_plates._predictions.cache_clear()

@@ -134,7 +134,7 @@ def test_q_and_tan_theta_are_computed_from_the_deskewed_power(characterised):
     (not 2 % off), Q, which reads no power, is unchanged, and the budgets carry the
     calibration's delay term instead of the specified +-10 ns."""
     from squeezebench.analysis import model, uncertainty
-    from squeezebench.analysis.tables import characterise_plate, characterise_plates
+    from squeezebench.analysis.characterisation import characterise_plate, characterise_plates
 
     convention = model.PAPER_CONVENTION
     lag, none = (characterise_plates(load_run(characterised[bench]), convention)["small_plate_1"]

@@ -13,8 +13,11 @@ from hypothesis import strategies as st
 
 from squeezebench import cli
 from squeezebench.designing import design, layouts
-from squeezebench.plates import plate_modes, predicted_plates
+from squeezebench.plates import laminate, plate_modes, predicted_plates
 from squeezebench.designing.design_file import DesignFile
+from squeezebench.designing.answer import DesignAnswer
+from squeezebench.designing.paper_route import predict_from_small_plates
+from squeezebench.designing.verdict import judge
 from squeezebench.errors import UserError
 from squeezebench.schemas import load_design_file
 from squeezebench.yamlfiles import dump_yaml, load_strict
@@ -178,7 +181,7 @@ def test_the_thickness_tolerance_is_the_sheets_unless_stated():
     assert strip(resonator={"length_mm": 75, "width_mm": 41, "thickness_mm": 2}).tolerance(
         "thickness_m") == pytest.approx(0.045)
     assert DesignFile.model_validate({**STRIP, "tolerances": {"thickness_m": 0.01}}).tolerance("thickness_m") == 0.01
-    assert strip().tolerance("young_pa") == plate_modes.RELATIVE_TOLERANCES["young_pa"]
+    assert strip().tolerance("young_pa") == laminate.RELATIVE_TOLERANCES["young_pa"]
 
 
 def test_shipped_large_plate_reads_nothing_measured():
@@ -375,7 +378,7 @@ def test_paper_route_from_the_small_plates_is_table5s_estimate(tmp_path):
     Eq. 29, the mean tan(theta') of the 2 mm plates)."""
 
     from squeezebench import paths
-    from squeezebench.analysis import tables
+    from squeezebench.analysis import characterisation
     from squeezebench.analysis.model import REPORT_CONVENTION
     from squeezebench.analysis.rundata import load_run
     from squeezebench.designing.workflow import characterised_plates
@@ -391,10 +394,10 @@ def test_paper_route_from_the_small_plates_is_table5s_estimate(tmp_path):
     (tmp_path / "subset.yaml").write_text(dump_yaml(campaign))
     run_dir = run_campaign(tmp_path / "subset.yaml", out_dir=tmp_path / "run", progress=False)
 
-    estimate = tables.estimate_large_from_small(tables.characterise_plates(load_run(run_dir), REPORT_CONVENTION),
+    estimate = characterisation.estimate_large_from_small(characterisation.characterise_plates(load_run(run_dir), REPORT_CONVENTION),
                                                 REPORT_CONVENTION)
     spec = load_design_file(paths.design_file("large_plate"))
-    route = design.predict_from_small_plates(design.predict_physics(spec), characterised_plates([run_dir]))
+    route = predict_from_small_plates(design.predict_physics(spec), characterised_plates([run_dir]))
     assert route.template == "small_plate_4" and route.small_plates == ("small_plate_2", "small_plate_4")
     assert route.q.nominal_value == pytest.approx(estimate.q.value, rel=1e-12)
     assert route.q.std_dev == pytest.approx(estimate.q.std_uncertainty, rel=1e-12)
@@ -508,12 +511,12 @@ def test_placement_curve_says_where_the_piezos_drive_best(ends_prediction):
     assert curve["voltage_vpp"].iloc[0] > curve["voltage_vpp"].iloc[1]
     relative = curve["voltage_expanded_uncertainty"] / curve["voltage_vpp"]
     assert relative.iloc[0] == pytest.approx(relative.iloc[1])
-    answer = design.DesignAnswer(ends_prediction, placement=curve)
+    answer = DesignAnswer(ends_prediction, placement=curve)
     from squeezebench.report.design_report import placement_sentences
     words = " ".join(placement_sentences(answer))
     ratio = ends_prediction.nominal.values["voltage_vpp"] / curve["voltage_vpp"].min()
     assert f"divides the voltage by {ratio:.2g}" in words and "mm inward" in words
-    printed = design.DesignAnswer(ends_prediction, placement=curve,
+    printed = DesignAnswer(ends_prediction, placement=curve,
                                   printed={"voltage_vpp": float(curve["voltage_vpp"].mean()), "power_w": 1e3,
                                            "frequency_hz": 1.0})
     inferred = placement_sentences(printed)[-1]
@@ -536,7 +539,7 @@ def test_verdict_follows_the_limits_with_their_u(strip_prediction):
 
     def verdict(amplifier_vpp):
         spec = strip(amplifier={"max_output_vpp": amplifier_vpp})
-        return design.judge(replace(strip_prediction, design=spec))
+        return judge(replace(strip_prediction, design=spec))
     assert verdict(v + 2 * u).status == "feasible"
     marginal = verdict(v + u / 2)
     assert marginal.status == "marginal" and "within the U" in marginal.reasons[0]
@@ -544,7 +547,7 @@ def test_verdict_follows_the_limits_with_their_u(strip_prediction):
     assert refused.status == "infeasible" and "amplifier" in refused.reasons[0]
     assert refused.changes == (f"a target of at most {0.5:.3g} µm pp",)
     field = strip_prediction.nominal.values["piezo_field_v_per_mm"]
-    depoled = design.judge(replace(strip_prediction, design=strip(piezo={"max_field_v_per_mm": field / 4})))
+    depoled = judge(replace(strip_prediction, design=strip(piezo={"max_field_v_per_mm": field / 4})))
     assert depoled.status == "infeasible" and "the ceramic's field limit" in depoled.reasons[0]
     assert depoled.changes == (f"a target of at most {0.25:.3g} µm pp",)
 

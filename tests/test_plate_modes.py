@@ -15,6 +15,7 @@ from squeezebench.plates.plate_modes import (ALUMINIUM_TABLE2, NCE41, Isotropic,
                                   flexural_half_wavelength_m, free_free_beam_roots, laminate,
                                   solve_plate)
 from squeezebench.plates import plate_modes, predicted_plates
+from squeezebench.plates.laminate import RIGID_BOND, relative_tolerances, shear_lag_effectiveness
 from squeezebench.paths import paper_values_dir
 
 MM = 1e-3
@@ -182,20 +183,20 @@ def test_the_sheet_thickness_tolerance_follows_en_485_4():
     assert (rows[1:, 0] == rows[:-1, 1]).all() and (np.diff(rows[:, 2]) > 0).all()   # contiguous, widening
     with pytest.raises(ValueError, match="state the plate's thickness tolerance"):
         sheet_thickness_tolerance(8e-3)
-    assert plate_modes.relative_tolerances(1e-3)["thickness_m"] == sheet_thickness_tolerance(1e-3)
+    assert relative_tolerances(1e-3)["thickness_m"] == sheet_thickness_tolerance(1e-3)
 
 
 def test_a_rigid_bond_transfers_everything_and_a_compliant_one_less():
     stiff = dataclasses.replace(plate_modes.EPOXY, shear_modulus_pa=1e15)
     args = (ALUMINIUM_TABLE2, 1 * MM, NCE41, 0.5 * MM)
-    assert plate_modes.shear_lag_effectiveness(*args, plate_modes.RIGID_BOND, 5 * MM) == 1.0
-    assert plate_modes.shear_lag_effectiveness(*args, stiff, 5 * MM) == pytest.approx(1.0, abs=1e-3)
+    assert shear_lag_effectiveness(*args, RIGID_BOND, 5 * MM) == 1.0
+    assert shear_lag_effectiveness(*args, stiff, 5 * MM) == pytest.approx(1.0, abs=1e-3)
     assert plate_modes.bond_energy_ratio(*args, stiff, 5 * MM) == pytest.approx(0.0, abs=1e-3)
-    nominal = plate_modes.shear_lag_effectiveness(*args, plate_modes.EPOXY, 5 * MM)
+    nominal = shear_lag_effectiveness(*args, plate_modes.EPOXY, 5 * MM)
     assert 0.5 < nominal < 0.9   # a 40 um epoxy under a 5 mm patch: about three quarters
-    assert plate_modes.shear_lag_effectiveness(*args, plate_modes.EPOXY, 14 * MM) > nominal   # longer: less end loss
+    assert shear_lag_effectiveness(*args, plate_modes.EPOXY, 14 * MM) > nominal   # longer: less end loss
     thick = dataclasses.replace(plate_modes.EPOXY, thickness_m=80e-6)
-    assert plate_modes.shear_lag_effectiveness(*args, thick, 5 * MM) < nominal
+    assert shear_lag_effectiveness(*args, thick, 5 * MM) < nominal
 
 
 @given(length_mm=st.floats(1.0, 20.0), g_over_t=st.floats(1e12, 1e14))
@@ -210,7 +211,7 @@ def test_the_shear_lag_closed_forms_are_their_integrals(length_mm, g_over_t):
     x = np.linspace(-length_mm * MM / 2, length_mm * MM / 2, 20001)
     strain = 1 - np.cosh(gamma * x) / np.cosh(gamma * x[-1])
     eta = np.trapezoid(strain, x) / x[-1] / 2
-    assert plate_modes.shear_lag_effectiveness(*args) == pytest.approx(eta, rel=1e-5)
+    assert shear_lag_effectiveness(*args) == pytest.approx(eta, rel=1e-5)
     tau = ep_tp * np.gradient(strain, x)
     bond_energy = np.trapezoid(tau**2 / (2 * g_over_t), x)
     # over the rigid bond's piezo energy E_p' t_p l / 2, then over eta (the piezo's own energy)

@@ -7,7 +7,7 @@ import pytest
 
 from squeezebench import paths
 from squeezebench.plates import predicted_plates
-from squeezebench.analysis import provenance, tables
+from squeezebench.analysis import characterisation, provenance, tables
 from squeezebench.analysis.rundata import load_run
 from squeezebench.cli import main
 from squeezebench.protocols.campaign import run_campaign
@@ -104,7 +104,7 @@ def test_a_predicted_plate_characterised_on_the_bench_reads_the_q_and_tan_theta_
         row = rows.loc[quantity]
         # the force factor's mesh error, the shunt and the amplifier's roll-off, as for Table 4
         assert row["value_over_predicted"] == pytest.approx(1.0, abs=0.05), quantity
-    table5 = tables.predicted_large_plate_q_tan(context.plates()["large_plate"].geometry, context.convention)
+    table5 = characterisation.predicted_large_plate_q_tan(context.plates()["large_plate"].geometry, context.convention)
     assert table5["q"][0] == pytest.approx(rows.loc["q", "predicted_value"], rel=0.05)
     assert context.convention == REPORT_CONVENTION
 

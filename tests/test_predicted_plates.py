@@ -6,7 +6,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from squeezebench.plates import frequency_budget, plate_modes, predicted_plates
+from squeezebench.plates import frequency_budget, laminate, predicted_plates
 from squeezebench.paths import paper_values_dir
 
 #: The paper's stated geometry and build: what a prediction is made from (everything else in
@@ -137,7 +137,7 @@ def test_the_responses_u_is_the_propagation_of_its_tolerances_with_a_triangular_
     """The frequency's closed-form U against a Monte Carlo of f ~ h sqrt(E / rho), the sheet's
     thickness triangular within EN 485-4's limit, the alloy's E and rho rectangular."""
     rng = np.random.default_rng(5)
-    t = plate_modes.relative_tolerances(1e-3)
+    t = laminate.relative_tolerances(1e-3)
     h = 1 + rng.triangular(-t["thickness_m"], 0, t["thickness_m"], 400_000)
     e = 1 + rng.uniform(-t["young_pa"], t["young_pa"], 400_000)
     rho = 1 + rng.uniform(-t["density_kg_m3"], t["density_kg_m3"], 400_000)
