@@ -16,7 +16,7 @@ import numpy as np
 import pandas as pd
 
 from squeezebench.analysis import model, readings
-from squeezebench.analysis.paper import paper_source, paper_value
+from squeezebench.paper import paper_source, paper_value
 
 MATCH_REL = readings.MATCH_REL
 
@@ -209,16 +209,16 @@ def table5_under_readings(run, conventions=TABLE5_READINGS) -> pd.DataFrame:
     (P_estimated - P_measured) / P_measured over the large plate's voltages; its `printed`
     is the bound the paper claims for its size (below 10 %), not a value.
     """
-    from squeezebench.analysis import tables  # tables reads runs; the audit's findings do not
+    from squeezebench.analysis import characterisation  # it reads runs; the audit's findings do not
 
     rows = []
     for convention in conventions:
-        plates = tables.characterise_plates(run, convention)
-        for row in tables.table5(plates, convention).to_dict("records"):
+        plates = characterisation.characterise_plates(run, convention)
+        for row in characterisation.table5(plates, convention).to_dict("records"):
             rows.append({"reading": convention.name, "item": row["item"], "quantity": row["quantity"],
                          "value": row["value"], "printed": row["paper_value"],
                          "relative_difference": row["relative_difference"]})
-        power = tables.estimated_large_plate_power_w(plates, convention)
+        power = characterisation.estimated_large_plate_power_w(plates, convention)
         difference = float(np.mean(power["power_estimated_w"] / power["power_measured_w"] - 1.0))
         rows.append({"reading": convention.name, "item": "fig9", "quantity": "mean_power_difference",
                      "value": difference, "printed": MATCH_REL, "relative_difference": math.nan})
@@ -277,11 +277,11 @@ def printed_estimate_power_w(reading: readings.Reading) -> float:
 def plates_under_readings(run, conventions=TABLE5_READINGS) -> pd.DataFrame:
     """Q and tan theta' of every characterised plate of a run (the paper's, or a user's own)
     under each reading: one row per (plate, reading)."""
-    from squeezebench.analysis import tables
+    from squeezebench.analysis import characterisation
 
     rows = []
     for convention in conventions:
-        for name, plate in tables.characterise_plates(run, convention).items():
+        for name, plate in characterisation.characterise_plates(run, convention).items():
             rows.append({"plate": name, "reading": convention.name, "frequency_hz": plate.frequency_hz,
                          "q": plate.q.value, "q_u": plate.q.std_uncertainty,
                          "tan_theta": plate.tan_theta.value, "tan_theta_u": plate.tan_theta.std_uncertainty})

@@ -23,7 +23,7 @@ import numpy as np
 import pandas as pd
 
 from squeezebench.analysis.rundata import RunData
-from squeezebench.analysis.specifications import SPECIFICATIONS, Specification
+from squeezebench.plates.specifications import SPECIFICATIONS, Specification
 from squeezebench.analysis.tables import reduced_points
 from squeezebench.analysis.waveforms import Estimate
 

@@ -114,7 +114,7 @@ def width_uniformity(x_m: np.ndarray, signed: np.ndarray) -> float:
 
 def nodal_lines_m(x_m: np.ndarray, signed: np.ndarray) -> np.ndarray:
     """x of the sign changes of the width-averaged signed map (linear interpolation)."""
-    from squeezebench.analysis.plate_modes import sign_changes
+    from squeezebench.plates.plate_modes import sign_changes
 
     profile = pd.Series(np.asarray(signed, dtype=float)).groupby(np.round(np.asarray(x_m, dtype=float), 9)).mean()
     return sign_changes(profile.index.to_numpy(), profile.to_numpy())

@@ -113,7 +113,7 @@ COLUMNS: dict[str, tuple[str, str]] = {
     "tolerance": ("unit", "expanded_uncertainty plus half the printed value's last digit"),
     "agrees": ("", "|value - paper_value| <= tolerance"),
     "predicted_value": ("unit", "what the plate model predicts from geometry and datasheets, no printed result in: "
-                                "for the paper's plate in Tables 3-5 (analysis.predicted_plates), for the run's "
+                                "for the paper's plate in Tables 3-5 (plates.predicted_plates), for the run's "
                                 "scene plate in fig5_predicted.csv (simbench.predicted)"),
     "scene_kind": ("", "replay (a scene calibrated to reproduce printed numbers) or predicted (geometry and "
                        "datasheets only)"),
@@ -225,7 +225,7 @@ COLUMNS: dict[str, tuple[str, str]] = {
     "matches_table4_tan": ("", "Table 4 tan theta' reproduced within 10 %"),
     "log_misfit": ("1", "RMS of log10(computed / published) over the published numbers"),
     "all_within": ("1", "largest |ratio - 1| over the published numbers"),
-    # what the plate model predicts (analysis.predicted_plates)
+    # what the plate model predicts (plates.predicted_plates)
     "predicted_frequency_hz": ("Hz", "working (n, 0) mode's frequency predicted by the plate model from geometry and materials"),
     "predicted_frequency_u_hz": ("Hz", "expanded uncertainty (k = 2) of the prediction from material and thickness tolerances"),
     "printed_frequency_hz": ("Hz", "resonance frequency printed in the paper"),

@@ -109,6 +109,13 @@ AS_PRINTED_CONVENTION = Convention(
 #: Physical material constants, otherwise the paper's reading.
 PHYSICAL_CONVENTION = Convention(name="physical", materials=MATERIALS_PHYSICAL)
 
+#: The convention every derived number of the report and of a design from characterised
+#: plates uses (the audit shows the others): the physical reading, Table 2's E_i as 67 GPa
+#: (printed 67109 Pa, a resonator without stiffness) with the text's own definitions (V and A
+#: peak-to-peak, n_c every powered piezo). The paper's Q and tan theta' need other readings;
+#: the report's readings section shows them.
+REPORT_CONVENTION = PHYSICAL_CONVENTION
+
 #: The one family of readings that `analysis.readings.search_readings` finds reproducing
 #: Table 5's measured Q and tan(theta'), the ~1 um / 1.3 W point and Table 4's 1.2 mm
 #: mean at once: printed E_i, V peak-to-peak, Eq. 27's A zero-to-peak (the published

@@ -35,7 +35,7 @@ import numpy as np
 import pandas as pd
 
 from squeezebench.analysis import model
-from squeezebench.analysis.paper import paper_value
+from squeezebench.paper import paper_value
 
 MM = 1e-3
 #: A published number counts as reproduced within this relative difference (the paper

@@ -2,10 +2,11 @@
 
 A budget lists the standard uncertainties (k = 1) of one value: Type A from the record's
 noise (the reduction's fit covariance, `analysis.waveforms`), Type B from the
-instruments' specifications (`analysis.specifications`, rectangular) and from how the
+instruments' specifications (`plates.specifications`, rectangular) and from how the
 frequency was set. Terms are independent and add in quadrature (GUM 5.1.2, sensitivity
-coefficients evaluated at the measured point); the expanded uncertainty is k = 2 times
-the combined one; the dominant term is the largest.
+coefficients evaluated at the measured point); the expanded uncertainty is k times the
+combined one, k for 95 % under the budget's own distribution (`analysis.budgets`); the
+dominant term is the largest.
 
 What a stored point's value means: the reading the bench would give with ideal
 instruments at the point's recorded setting (generator frequency and voltage). The
@@ -26,149 +27,22 @@ package (linear propagation, numerical derivatives of `analysis.model`).
 
 from __future__ import annotations
 
-import functools
 import math
 from dataclasses import dataclass, replace
 
 import numpy as np
 import pandas as pd
 import uncertainties
-from scipy import signal
 
 from squeezebench.analysis import model
+# the budget's own names, read through this module by its users (report, tables, protocols)
+from squeezebench.analysis.budgets import (BUDGET_COLUMNS, COVERAGE_FACTOR, COVERAGE_PROBABILITY,  # noqa: F401
+                                           P95_FACTOR, Budget, Term)
 from squeezebench.analysis.calibration import Deskew, deskew_of_run, gain_weight
 from squeezebench.analysis.resonance_searches import SearchSetup, mechanical_q_from_sweep, search_setups
 from squeezebench.analysis.rundata import RunData
-from squeezebench.analysis.specifications import SPECIFICATIONS, VOLTAGE_PROBE_POLE_HZ, sheet_thickness_tolerance
+from squeezebench.plates.specifications import SPECIFICATIONS, VOLTAGE_PROBE_POLE_HZ, sheet_thickness_tolerance
 from squeezebench.analysis.tables import reduced_points, with_scope_fallback
-
-COVERAGE_FACTOR = 2.0
-#: The coverage probability an expanded uncertainty is meant to reach (GUM 6.2.2).
-COVERAGE_PROBABILITY = 0.95
-#: |error| at the 95th percentile of a near-normal combined distribution, in standard uncertainties.
-P95_FACTOR = 1.96
-BUDGET_COLUMNS = ["quantity", "unit", "value", "term", "type", "std_uncertainty", "relative",
-                  "share", "source"]
-
-
-@dataclass(frozen=True)
-class Term:
-    name: str
-    type: str  # "A" (statistics of this record) or "B" (specification, tolerance, setting)
-    std_uncertainty: float  # in the unit of the budget's value
-    source: str
-    #: A stated limit read as a rectangle (GUM 4.3.7): a Type B term unless it says otherwise
-    #: (a bias bound whose k-fold is the bound is no rectangle about zero).
-    rectangular: bool | None = None
-
-    @property
-    def is_rectangular(self) -> bool:
-        return self.type == "B" if self.rectangular is None else self.rectangular
-
-
-@dataclass(frozen=True)
-class Budget:
-    """The terms of one value; combined in quadrature (independent inputs)."""
-
-    quantity: str
-    unit: str
-    value: float
-    terms: tuple[Term, ...]
-
-    @property
-    def std_uncertainty(self) -> float:
-        return math.sqrt(sum(t.std_uncertainty**2 for t in self.terms))
-
-    @property
-    def expanded_uncertainty(self) -> float:
-        """k u with k for 95 % under the budget's own distribution (`coverage_factor`)."""
-        return self.coverage_factor * self.std_uncertainty
-
-    @property
-    def dominant(self) -> Term:
-        return max(self.terms, key=lambda t: t.std_uncertainty)
-
-    @property
-    def coverage_factor(self) -> float:
-        """k such that +-k u holds the value with COVERAGE_PROBABILITY under the budget's own
-        distribution (`budget_distribution`): 1.96 for a normal, down to 1.65 (0.95 sqrt(3))
-        when one rectangular term is the whole budget (GUM G.2.3 / G.6.5: a dominant
-        rectangle's trapezoid; JCGM 101 5.3: k from the distribution, not 2 by default).
-        k = 2 over-covered every value whose budget is one specification's limit."""
-        return budget_distribution(*self._shape()).factor(COVERAGE_PROBABILITY)
-
-    def coverage_probability(self, k: float = COVERAGE_FACTOR) -> float:
-        """The probability that +-k u holds the value under the budget's own distribution:
-        its rectangular terms as the specifications state them, the rest normal (GUM G.2:
-        a sum of several terms tends to one). k = 2 gives 95 % only near normal; where one
-        rectangular term dominates it gives more (1 at most for the rectangle alone once
-        k u >= sqrt(3) u)."""
-        return budget_distribution(*self._shape()).probability(k)
-
-    def _shape(self) -> tuple[tuple[float, ...], float]:
-        """The rectangles' half-widths and the rest's standard deviation, in units of u
-        (rounded: budgets of one shape share one distribution)."""
-        u = self.std_uncertainty
-        if u == 0.0:
-            return (), 1.0
-        rectangles = [math.sqrt(3.0) * t.std_uncertainty / u for t in self.terms if t.is_rectangular]
-        rest = math.sqrt(max(1.0 - sum(a * a / 3.0 for a in rectangles), 0.0))
-        return tuple(sorted(round(a, 3) for a in rectangles if a >= 1e-3)), round(rest, 3)
-
-    def as_frame(self) -> pd.DataFrame:
-        """One row per term, largest first, with its share of the combined variance."""
-        total = self.std_uncertainty**2 or 1.0
-        rows = [{"quantity": self.quantity, "unit": self.unit, "value": self.value, "term": t.name,
-                 "type": t.type, "std_uncertainty": t.std_uncertainty,
-                 "relative": t.std_uncertainty / abs(self.value) if self.value else math.nan,
-                 "share": t.std_uncertainty**2 / total, "source": t.source}
-                for t in sorted(self.terms, key=lambda t: -t.std_uncertainty)]
-        return pd.DataFrame(rows, columns=BUDGET_COLUMNS)
-
-
-@dataclass(frozen=True)
-class Distribution:
-    """P(|X| <= x) on a grid of x >= 0, X in units of its standard deviation."""
-
-    x: np.ndarray
-    covered: np.ndarray
-
-    def probability(self, k: float) -> float:
-        return float(np.interp(k, self.x, self.covered))
-
-    def factor(self, probability: float) -> float:
-        """The smallest k with P(|X| <= k) >= probability."""
-        return float(self.x[min(int(np.searchsorted(self.covered, probability)), len(self.x) - 1)])
-
-
-#: Grid steps per unit of the standard deviation on which a budget's distribution is convolved.
-STEPS_PER_U = 2000
-
-
-@functools.lru_cache(maxsize=4096)
-def budget_distribution(rectangles: tuple[float, ...], rest: float) -> Distribution:
-    """The distribution of X = sum of R_i + N, R_i uniform on +-rectangles[i], N normal with
-    standard deviation `rest` (units of u, sum of variances 1), by numerical convolution on a
-    grid of 1 / STEPS_PER_U (JCGM 101 propagates distributions; here the sum of independent
-    inputs is a convolution, exact to the grid's step). Symmetric about 0."""
-    half = sum(rectangles) + 7.0 * rest + 1e-9
-    steps = int(math.ceil(half * STEPS_PER_U))
-    x = np.arange(-steps, steps + 1) / STEPS_PER_U
-    if rest > 0:
-        density = np.exp(-0.5 * (x / rest) ** 2)
-    else:
-        density = (x == 0).astype(float)
-    density /= density.sum()
-    for a in rectangles:
-        width = int(round(a * STEPS_PER_U))
-        if width:
-            density = signal.fftconvolve(density, np.full(2 * width + 1, 1.0 / (2 * width + 1)), mode="same")
-    density = np.clip(density, 0.0, None)
-    density /= density.sum()
-    centre = steps
-    covered = density[centre] + 2.0 * np.concatenate([[0.0], np.cumsum(density[centre + 1:])])
-    return Distribution(x[centre:] + 0.5 / STEPS_PER_U, np.minimum(covered, 1.0))
-
 
 def _spec_term(name: str, key: str, sensitivity: float) -> Term:
     spec = SPECIFICATIONS[key]
@@ -584,7 +458,7 @@ def characterisation_floor(run: RunData, calibration: Deskew | None = None,
     of points lowers: the instruments' specifications, the geometry's and materials'
     tolerances), at the run's worst plate, with the term that dominates there; columns of
     `systematic_floor`. `calibration`: after that deskew (its uncertainty)."""
-    from squeezebench.analysis.tables import characterise_plates   # it imports this module
+    from squeezebench.analysis.characterisation import characterise_plates   # it imports this module
 
     columns = ["run_name", "quantity", "floor_p95_rel", "dominant_term", "lifted_by"]
     if run.protocol("characterisation").empty:
@@ -715,7 +589,7 @@ def model_budgets(amplitude: Budget, power: Budget, voltage: Budget, frequency_h
 def characterisation_budgets(plate, convention: model.Convention, deskew: Deskew | None = None,
                              tolerances: dict[str, Tolerance] | None = None,
                              with_fit: bool = True) -> tuple[Budget, Budget]:
-    """Budgets of a plate's Q and tan theta' (`analysis.tables.PlateCharacterisation`).
+    """Budgets of a plate's Q and tan theta' (`analysis.characterisation.PlateCharacterisation`).
 
     The slopes carry V = 1 Vpp (Eqs. 25 and 27 are linear in V and V^2): the amplitude
     slope reads g_CH3 g_decoder / g_V, the power slope g_CH2 g_probe / g_V (P carries

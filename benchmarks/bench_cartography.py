@@ -22,7 +22,7 @@ import time
 from pathlib import Path
 
 import reference  # noqa: E402  (benchmarks/, the script's own folder)
-from squeezebench.analysis.report import write_report
+from squeezebench.report.run_report import write_report
 from squeezebench.paths import campaigns_dir
 from squeezebench.protocols.campaign import load_campaign, run_campaign
 from squeezebench.protocols.cartography import map_bench_time_s

@@ -4,9 +4,9 @@ What it times, in one run, on the parallel engine with the default workers:
 
 1. the physics route with its whole budget (one solve at nominal, one per structural
    tolerance on the same mesh);
-2. the sweep's layouts (`layouts.grid`, 216) by the reduced model (`analysis.reduced_layouts`: each worker
+2. the sweep's layouts (`layouts.grid`, 216) by the reduced model (`plates.reduced_layouts`: each worker
    builds the model once, then every layout), its check against the full solve on the
-   sample (`analysis.layout_sweep`) with the worst deviation found, and the full solve of
+   sample (`designing.layout_sweep`) with the worst deviation found, and the full solve of
    whole mesh families (every thickness of a placement), extrapolated to the whole sweep;
 3. about 3,000 layouts with the placement as a variable (the sweep's other axes at 84 gaps
    between the end columns and the ends, over the sweep's range of gaps) by the reduced
@@ -30,7 +30,7 @@ import time
 import numpy as np
 
 import reference  # the script's own folder (benchmarks/)
-from squeezebench.analysis import design, layout_sweep, layouts
+from squeezebench.designing import design, layout_sweep, layouts
 from squeezebench.paths import design_file
 from squeezebench.protocols.parallel import map_unordered
 from squeezebench.schemas import load_design_file

@@ -14,8 +14,8 @@ import statistics
 import time
 
 import reference  # benchmarks/, the script's own folder
-from squeezebench.analysis import plate_modes
-from squeezebench.analysis.plate_modes import Patch, PlateGeometry, solve_plate
+from squeezebench.plates import plate_modes
+from squeezebench.plates.plate_modes import Patch, PlateGeometry, solve_plate
 
 MM = 1e-3
 

@@ -1,7 +1,7 @@
 """Speed of the pipeline (prints figures; not a test).
 
 1. `reproduce`: the paper campaign on the simulated bench into a temporary directory,
-   the accuracy study, then the report (analysis.report.write_report), in wall seconds.
+   the accuracy study, then the report (report.run_report.write_report), in wall seconds.
 2. Waveform reduction: analysis.waveforms.integer_period_mean_power_w on 10k samples
    against a bare numpy dot product of the same two arrays (goal: at most 3x slower;
    the reduction is three dot products, so it should stay within a small factor).
@@ -24,7 +24,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 import reference  # noqa: E402  (benchmarks/, the script's own folder)
-from squeezebench.analysis.report import write_report  # noqa: E402
+from squeezebench.report.run_report import write_report  # noqa: E402
 from squeezebench.analysis.waveforms import integer_period_mean_power_w  # noqa: E402
 from squeezebench.protocols.accuracy_study import run_study  # noqa: E402
 from squeezebench.protocols.campaign import run_campaign  # noqa: E402

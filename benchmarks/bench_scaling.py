@@ -54,7 +54,7 @@ sys.path.insert(0, str(ROOT / "benchmarks"))
 
 import reference  # noqa: E402
 from bench_simulator import acquire_and_fetch, best_of, idn_queries, open_bare_scope, prepared_scope  # noqa: E402
-from squeezebench import cli, paths  # noqa: E402
+from squeezebench import commands, paths  # noqa: E402
 from squeezebench.workers import default_workers  # noqa: E402
 from squeezebench.analysis import study  # noqa: E402
 from squeezebench.analysis.waveforms import reduce_point  # noqa: E402
@@ -109,7 +109,7 @@ def reproduce_s(workers: int | None) -> tuple[float, str, pd.DataFrame]:
 def study_s(workers: int) -> tuple[float, str]:
     """`squeezebench study` with reproduce's experiments only (in `reproduce` the study shares
     the cores with the campaign) on `workers`."""
-    experiments = [flag for name in cli.REPRODUCE_EXPERIMENTS for flag in ("--experiment", name)]
+    experiments = [flag for name in commands.REPRODUCE_EXPERIMENTS for flag in ("--experiment", name)]
     with tempfile.TemporaryDirectory(prefix="squeezebench-bench-") as tmp:
         return command_s(["study", "--out", tmp, "--quiet", "--workers", str(workers), *experiments])
 

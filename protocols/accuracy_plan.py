@@ -1,7 +1,7 @@
 """The floor a bench's specified errors put under a campaign, and what lifts it.
 
 Averaging, longer records and finer searches only shrink the noise. What stays is the
-instruments' specified errors (`analysis.specifications`): per run, the p95 relative
+instruments' specified errors (`plates.specifications`): per run, the p95 relative
 error they leave at its worst stored point is the run's floor
 (`analysis.uncertainty.systematic_floor`; Q and tan theta' of characterised plates:
 `characterisation_floor`, their tolerances mostly). A target below the floor cannot be planned

@@ -4,7 +4,7 @@ Each experiment varies the settings that cost bench time and scores every measur
 against the scene's closed-form truth (`SimulatedBench.resonance_truth`), with the cost
 read from the virtual bench clock. Measurements are reduced exactly as the report reduces
 stored waveforms (`analysis.waveforms.reduce_record`; Q and tan(theta') by
-`analysis.tables.characterise_plate`), so an error here is an error in the report.
+`analysis.characterisation.characterise_plate`), so an error here is an error in the report.
 
 Experiments (the scene, state and voltage of each are in `StudySettings`):
 - `averages`: sample mode and scope averaging 2..512 at resonance -> power, velocity, amplitude;

@@ -27,10 +27,11 @@ from scipy import optimize
 
 from squeezebench import paths
 from squeezebench.analysis import model
-from squeezebench.analysis.report import REPORT_CONVENTION
+from squeezebench.analysis.model import REPORT_CONVENTION
 from squeezebench.analysis.rundata import load_run
 from squeezebench.analysis.study import COVERAGE_FILE, STUDY_DIR, coverage_dir
-from squeezebench.analysis.tables import characterise_plates, detuning_table, fit_line
+from squeezebench.analysis.characterisation import characterise_plates
+from squeezebench.analysis.tables import detuning_table, fit_line
 from squeezebench.analysis.uncertainty import COVERAGE_FACTOR, run_uncertainties, with_deviations
 from squeezebench.instruments.bench import open_bench, sim_bench_config
 from squeezebench.protocols.campaign import run_campaign
@@ -134,7 +135,7 @@ def _truths(points: pd.DataFrame, plain_dir: Path) -> dict:
 
 def _characterisations(run, points: pd.DataFrame, truths: dict, plain_dir: Path) -> list[dict]:
     """Each characterised plate's Q and tan theta' as the report gives them
-    (`tables.characterise_plates` in the report's reading, U = k times the whole standard
+    (`characterisation.characterise_plates` in the report's reading, U = k times the whole standard
     uncertainty: fits, instruments, tolerances) scored against what the plate as drawn
     really is: the same line fits on the ideal instruments' readings at the points'
     settings (`truths` of `points`), read through Eqs. 27 and 25 with the plate's drawn geometry and

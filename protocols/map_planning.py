@@ -5,7 +5,7 @@ The figure planned is the touch area's coefficient of variation of the velocity 
 error has two parts, each computed:
 
 - sampling: a grid sees the mode only at its points. The plate model's working mode
-  (`analysis.predicted_plates.working_shape`, geometry and datasheets, as the report
+  (`plates.predicted_plates.working_shape`, geometry and datasheets, as the report
   compares a map with) is evaluated on each candidate grid of the run's area and on a
   0.5 mm grid of the same area, the continuum's stand-in; the difference of their
   coefficients of variation is the sampling error, the largest over four placements of
@@ -36,7 +36,7 @@ from typing import Any
 import numpy as np
 
 from squeezebench.analysis.cartography import homogeneity
-from squeezebench.analysis import predicted_plates
+from squeezebench.plates import predicted_plates
 from squeezebench.errors import UserError
 from squeezebench.protocols.campaign import Run, load_campaign
 from squeezebench.protocols.plan_cache import PlanCache

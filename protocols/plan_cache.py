@@ -34,7 +34,7 @@ CACHE_VARIABLE = "SQUEEZEBENCH_CACHE"
 CACHE_BYTES_LIMIT = 512 * 2**20
 #: The packages whose source decides a simulated measurement.
 SOURCE_PACKAGES = ("squeezebench", "squeezebench.instruments", "squeezebench.protocols",
-                   "squeezebench.analysis", "squeezebench.simbench")
+                   "squeezebench.analysis", "squeezebench.plates", "squeezebench.simbench")
 
 
 def cache_dir() -> Path | None:

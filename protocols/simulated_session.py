@@ -17,7 +17,7 @@ from typing import Callable, Iterator
 import pandas as pd
 
 from squeezebench.analysis import model
-from squeezebench.analysis.tables import PlateCharacterisation, characterise_plate
+from squeezebench.analysis.characterisation import PlateCharacterisation, characterise_plate
 from squeezebench.analysis.waveforms import PointReduction, reduce_record
 from squeezebench.instruments.bench import open_bench, sim_bench_config
 from squeezebench.protocols.acquisition import Acquisition, AcquisitionSettings, Point

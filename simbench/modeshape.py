@@ -1,6 +1,6 @@
 """The plate's working mode as a 2-D shape the simulated stage is scanned over.
 
-The shape is the finite-element modal model's (`analysis.plate_modes`, Kirchhoff plate
+The shape is the finite-element modal model's (`plates.plate_modes`, Kirchhoff plate
 with its bonded piezos): the scene's plate in its present state (a cut plate is solved
 again) as `simbench.predicted` describes it to the model, and of its modes the (n, 0)
 mode nearest the state's resonance frequency, the one the scene says it is driven in.
@@ -26,7 +26,7 @@ import numpy as np
 
 from scipy.interpolate import RegularGridInterpolator
 
-from squeezebench.analysis import plate_modes
+from squeezebench.plates import plate_modes
 from squeezebench.simbench import predicted
 from squeezebench.simbench.scene_model import SceneError
 

@@ -30,7 +30,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from squeezebench.analysis.specifications import MODEL_TOLERANCES
+from squeezebench.plates.specifications import MODEL_TOLERANCES
 from squeezebench.simbench import physics
 from squeezebench.simbench.effects import EFFECTS
 from squeezebench.simbench.systematic_effects import SystematicEffect
@@ -56,7 +56,7 @@ class PlateTolerances(SystematicEffect, errors=_model_tolerances()):
     stages = frozenset({"load"})
 
     def __init__(self, scene, **parameters: float) -> None:
-        from squeezebench.analysis.specifications import sheet_thickness_tolerance
+        from squeezebench.plates.specifications import sheet_thickness_tolerance
 
         if not parameters.get(RESONATOR_THICKNESS):
             parameters = {**parameters, RESONATOR_THICKNESS: sheet_thickness_tolerance(scene.plate.thickness_mm * 1e-3)}

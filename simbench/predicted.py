@@ -1,7 +1,7 @@
 """What physics predicts for a scene's plate, beside what the scene replays.
 
 A scene state's geometry and materials (never its resonance, calibration or q_mech) go
-through the plate model (`analysis.plate_modes`): the working (n, 0) mode's frequency,
+through the plate model (`plates.plate_modes`): the working (n, 0) mode's frequency,
 interior antinodes, nodal-line spacing, and the powered piezos' force factor and modal mass
 referred to the scene's measurement point. Beside them, the replayed (calibrated) values and
 their departure, so a replay scene that drifts from its physics says so (docs/scenes.md).
@@ -15,7 +15,7 @@ from typing import Sequence
 import numpy as np
 import pandas as pd
 
-from squeezebench.analysis import plate_modes
+from squeezebench.plates import plate_modes
 from squeezebench.simbench import physics
 from squeezebench.simbench.scene_model import Actuators, Plate, Scene, State
 
@@ -29,7 +29,7 @@ FREQUENCY_TOLERANCE = 0.05
 #: piezo's in-plane ends otherwise ignored).
 FORCE_FACTOR_TOLERANCE = 0.15
 #: The modal mass referred to the measurement point: density +-1 % and the sheet's thickness
-#: +-4-5 % (`plate_modes.relative_tolerances`) move it less; the same idealisations as the
+#: +-4-5 % (`laminate.relative_tolerances`) move it less; the same idealisations as the
 #: force factor's, and a point near a nodal line moves it much, so the same 15 %.
 MODAL_MASS_TOLERANCE = 0.15
 

@@ -245,7 +245,7 @@ def _refuse_implausible(reader: _Reader, scene: Scene, figures: list[StateFigure
 def flexural_frequency_hz(plate: Plate, mode: Mode) -> float:
     """The bare plate's frequency for bending waves of half-wavelength mode.half_wavelength_mm
     (`plate_modes.flexural_frequency_hz`): where a predicted state's mode is sought."""
-    from squeezebench.analysis import plate_modes   # its solver's imports: only for a predicted state
+    from squeezebench.plates import plate_modes   # its solver's imports: only for a predicted state
 
     m = plate.material
     return plate_modes.flexural_frequency_hz(plate_modes.Isotropic(m.young_pa, m.poisson, m.density_kg_m3),

@@ -320,7 +320,7 @@ def _predicted_beside_replay(scene_paths: list[Path]) -> list[str]:
                "departures": "replay departs"}
     lines = ["", "## Predicted beside replay", "",
              "Predicted: `simbench.predicted` puts each state's geometry and materials (never its "
-             "resonance, calibration or q_mech) through the plate model `analysis.plate_modes` "
+             "resonance, calibration or q_mech) through the plate model `plates.plate_modes` "
              "(free plate on Argyris elements with Mindlin's thick-plate correction, piezos as laminate "
              "patches on an epoxy bond); the working "
              "(n, 0) mode is searched near the replayed resonance. Force factor (powered piezos, "

@@ -10,7 +10,7 @@ from typing import ClassVar
 
 import numpy as np
 
-from squeezebench.analysis.specifications import SPECIFICATIONS, compensation_phase_rad
+from squeezebench.plates.specifications import SPECIFICATIONS, compensation_phase_rad
 from squeezebench.simbench import physics
 from squeezebench.simbench.effect_base import AcquisitionContext, Effect
 
@@ -19,7 +19,7 @@ class SystematicEffect(Effect):
     acquisition, unknown to whoever measures, and removable only by calibration.
 
     Each error parameter defaults to the instrument's specified limit
-    (`analysis.specifications`). With `draw: 1` the parameter is a half-width instead: the
+    (`plates.specifications`). With `draw: 1` the parameter is a half-width instead: the
     error is drawn once, uniformly in +-|value|, from `bench_seed`, as a real bench has one
     unknown set of errors within its specifications. Scenes naming the same `bench_seed`
     share the draw (the same instruments measure every plate); the accuracy study varies
@@ -105,7 +105,7 @@ class VoltageProbeError(_ChannelGains,
                         errors={"attenuation_rel": SPECIFICATIONS["voltage_probe_attenuation"].half_width}):
     """The voltage probe divides by its nominal attenuation / (1 + attenuation_rel): CH1
     sees (1 + attenuation_rel) times the amplifier output over the nominal ratio. Default
-    +-2 %, assumed (`analysis.specifications` says why); it adds to the scope's gain error."""
+    +-2 %, assumed (`plates.specifications` says why); it adds to the scope's gain error."""
 
     name = "voltage_probe_error"
 
@@ -152,7 +152,7 @@ class ChannelSkew(_ChannelDelay, errors={"ch2_delay_s": SPECIFICATIONS["scope_sk
     power becomes 0.5 Re(V conj(I) exp(j w tau)) = P cos(w tau) - Q_r sin(w tau), with
     Q_r = 0.5 Im(V conj I) (negative for the capacitive plate: a delay raises the power;
     phasor algebra). Default 1 ns, assumed: no TDS3000B figure was found (Tektronix
-    verifies +-50 to +-100 ps on its TDS 500B/600B/700A); `analysis.specifications`
+    verifies +-50 to +-100 ps on its TDS 500B/600B/700A); `plates.specifications`
     says why 1 ns."""
 
     name = "channel_skew"
@@ -180,7 +180,7 @@ class VoltageProbeCompensation(_ChannelDelay,
     mismatch_rel * f_pole / f at the plates' frequencies, a phase that falls with frequency
     where a delay's grows. Shown as CH1 advanced by phase / w at the drive frequency. Its gain
     part is the attenuation error at the working frequency (`voltage_probe_error`). Default
-    +-1 %, assumed (`analysis.specifications` says why)."""
+    +-1 %, assumed (`plates.specifications` says why)."""
 
     name = "voltage_probe_compensation"
 

@@ -121,10 +121,11 @@ def characterisation(out_dir: str | Path, *, plate: Mapping[str, Any], search: M
 def design(plate: str | Path, *, from_runs: Sequence[str | Path] = (), measured: str | Path | None = None,
            measured_plate: str | None = None, layouts: bool = False, out_dir: str | Path | None = None,
            workers: int | None = None):
-    """A plate design's prediction (`analysis.design.DesignAnswer`), as `squeezebench design`
+    """A plate design's prediction (`designing.answer.DesignAnswer`), as `squeezebench design`
     (the layout sweep only when `layouts`, a few minutes for a large plate); with `out_dir`,
     its page, design.json and tables are written there too."""
-    from squeezebench.designing import run_design, write_design
+    from squeezebench.designing.workflow import run_design
+    from squeezebench.report.design_report import write_design
 
     answer = run_design(plate, from_runs=from_runs, measured=measured, measured_plate=measured_plate,
                         sweep=layouts, workers=workers)
@@ -223,14 +224,14 @@ class RunResults:
         return self._paper_table("table5", wide)
 
     def _paper_table(self, name: str, wide: bool) -> pd.DataFrame:
-        from squeezebench.analysis import tables
+        from squeezebench.analysis import characterisation, tables
         from squeezebench.analysis.rundata import load_run as load_stored_run
 
         run = load_stored_run(self.run_dir)
         if name == "table5":
-            from squeezebench.analysis.report import REPORT_CONVENTION
+            from squeezebench.analysis.model import REPORT_CONVENTION
 
-            frame = tables.table5(tables.characterise_plates(run, REPORT_CONVENTION), REPORT_CONVENTION)
+            frame = characterisation.table5(characterisation.characterise_plates(run, REPORT_CONVENTION), REPORT_CONVENTION)
         else:
             frame = getattr(tables, name)(run)
         frame = tables.finish_table(frame)
@@ -261,8 +262,8 @@ class RunResults:
     def report(self) -> Path:
         """Regenerate RUN_DIR/report/ from the stored data; the index.html path (the same
         report as `squeezebench report`, the simulated plates' section included)."""
-        import squeezebench.simulated_plates  # noqa: F401  (adds the simulated plates' section)
-        from squeezebench.analysis.report import write_report
+        import squeezebench.report.simulated_plates  # noqa: F401  (adds the simulated plates' section)
+        from squeezebench.report.run_report import write_report
 
         return write_report(self.run_dir)
 

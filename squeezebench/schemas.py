@@ -396,11 +396,11 @@ DESIGN_GUIDE = "docs/design-files.md"
 
 
 def load_design_file(path: str | Path, characterised: Iterable[str] = ()):
-    """A plate to design (`analysis.design_file.DesignFile`); a problem is one line naming
+    """A plate to design (`designing.design_file.DesignFile`); a problem is one line naming
     the file, the field and what is wrong. `from_small_plates.template_plate` must name a
     plate the paper's route can read (`template_plates`, with the plates `characterised` in
     the runs `design --from` reads)."""
-    from squeezebench.analysis.design_file import DesignFile   # the plate model's imports: only for a design
+    from squeezebench.designing.design_file import DesignFile   # the plate model's imports: only for a design
 
     path = Path(path)
     data = read_yaml(path)
@@ -424,7 +424,7 @@ def template_plates(characterised: Iterable[str] = ()) -> list[str]:
     """The plates whose Q the paper's route (Eq. 29) may scale: the shipped scenes' plates
     but the large one it designs (a characterisation names a plate by its scene), and
     `characterised`, the plates of the runs given."""
-    from squeezebench.analysis.tables import LARGE_PLATE
+    from squeezebench.analysis.characterisation import LARGE_PLATE
 
     return sorted({name for name in paths.shipped_names("scenes") if name != LARGE_PLATE} | set(characterised))
 
@@ -457,12 +457,39 @@ def replay_departures(path: Path) -> list[str]:
 
 
 # -- checking any file -------------------------------------------------------------------
+def check_powered_piezos(campaign) -> None:
+    """Before `run`: raise a UserError at the first step whose plate's n_powered_piezos
+    differs from what its scene's state powers (n_c scales Q and tan theta'; a real bench
+    has no scene: nothing to check; a deskew calibration drives a resistor, no plate)."""
+    from squeezebench.simbench.scene import load_scene   # the campaign's scenes: only for run
+
+    for run in campaign.runs:
+        if run.protocol == "deskew_calibration":
+            continue
+        for step in run.steps():
+            scene_path = step.plate.scene or run.bench.scene
+            if scene_path is None:
+                continue
+            scene = load_scene(scene_path)
+            state = scene.state(step.plate.state or scene.initial_state)
+            if state.n_powered_piezos != step.plate.n_powered_piezos:
+                raise UserError(
+                    f"{campaign.file}: run {run.name!r}, step {step.step_id!r}: plate {step.plate.name!r} says "
+                    f"{step.plate.n_powered_piezos} powered piezos, but {scene_path.name} state {state.name!r} "
+                    f"powers {len(state.powered_columns)} columns x {scene.actuators.piezos_per_column} = "
+                    f"{state.n_powered_piezos} (n_c scales Q and tan theta'): correct n_powered_piezos")
+            if len(state.powered_columns) != step.plate.n_powered_columns:   # stored in every row
+                raise UserError(
+                    f"{campaign.file}: run {run.name!r}, step {step.step_id!r}: plate {step.plate.name!r} says "
+                    f"{step.plate.n_powered_columns} powered columns, but {scene_path.name} state {state.name!r} "
+                    f"powers {len(state.powered_columns)}: correct n_powered_columns")
+
+
 def load_checked_campaign(path: Path, bench_file: Path | None = None):
     """The campaign as `run` takes it (`protocols.campaign.load_campaign`), and each plate's
     powered piezos and columns against its scene's state: what `validate` and `run` both
     refuse (a plate of 8000 powered piezos passed `validate` and stopped `run`)."""
     from squeezebench.protocols.campaign import load_campaign
-    from squeezebench.simulated_plates import check_powered_piezos   # the simulated bench's plates
 
     campaign = load_campaign(path, bench_file=bench_file)
     check_powered_piezos(campaign)
@@ -494,7 +521,7 @@ def validate_file(path: Path) -> dict[str, Any]:
     if isinstance(data, dict) and "plate" in data:
         return {"file": str(path), "kind": "scene", "summary": "", "warnings": replay_departures(path)}
     if isinstance(data, dict) and "resonator" in data:
-        from squeezebench.analysis.design import predict_physics   # what `design` refuses, refused here too
+        from squeezebench.designing.design import predict_physics   # what `design` refuses, refused here too
 
         design = load_design_file(path)
         mode = predict_physics(design).nominal.values
@@ -508,7 +535,7 @@ def validate_file(path: Path) -> dict[str, Any]:
 
 # -- JSON Schemas -------------------------------------------------------------------------
 def json_schemas() -> dict[str, dict]:
-    from squeezebench.analysis.design_file import DesignFile
+    from squeezebench.designing.design_file import DesignFile
 
     return {"campaign.schema.json": CampaignFile.model_json_schema(),
             "bench.schema.json": BenchFile.model_json_schema(),

@@ -1,5 +1,5 @@
 """How many local processes a command uses when none is asked for: one answer for the
-trials (`protocols.parallel`) and the report's figures (`analysis.drawing`)."""
+trials (`protocols.parallel`) and the report's figures (`report.drawing`)."""
 
 from __future__ import annotations
 

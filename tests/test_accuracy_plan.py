@@ -10,7 +10,7 @@ import pytest
 
 from squeezebench import paths
 from squeezebench.analysis.calibration import gain_weight
-from squeezebench.analysis.specifications import SPECIFICATIONS
+from squeezebench.plates.specifications import SPECIFICATIONS
 from squeezebench.protocols.accuracy_plan import accuracy_floors
 
 QUICK = paths.campaigns_dir() / "quick.yaml"

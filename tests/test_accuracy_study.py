@@ -10,12 +10,13 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from squeezebench.analysis import study
-from squeezebench.analysis.report import write_report
+from squeezebench.report.run_report import write_report
 from squeezebench import paths
 from squeezebench.protocols import accuracy_study
 from squeezebench.protocols.accuracy_study import AccuracyStudy, StudySettings, run_study
 from squeezebench.protocols.systematics_study import SystematicsSettings
-from squeezebench.cli import STUDY_EXPERIMENTS, main
+from squeezebench.cli import main
+from squeezebench.commands import STUDY_EXPERIMENTS
 from test_analysis_synthetic import build_run
 
 SMALL = StudySettings(

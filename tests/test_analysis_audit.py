@@ -107,10 +107,11 @@ def test_table5_and_fig9_under_the_inferred_reading_meet_the_paper(characterisat
 def test_a_miss_made_by_mixing_readings_is_not_blamed_on_the_paper(characterisation_run, tmp_path):
     """The Fig. 5 scenes are built under the inferred reading; Table 5 is analysed under the
     report's (physical) one. The report's 'why' for Fig. 9's miss names that mix, not the paper."""
-    from squeezebench.analysis import report
+    from squeezebench.report import paper_tables
+    from squeezebench.report.section import ReportContext
 
-    context = report.ReportContext(run=characterisation_run, out_dir=tmp_path)
-    assert report._scene_readings(context) == {"inferred"}
-    anchor, why, _ = report._inferred_reading_explanation(context, "fig9", "", "power_w")
+    context = ReportContext(run=characterisation_run, out_dir=tmp_path)
+    assert paper_tables._scene_readings(context) == {"inferred"}
+    anchor, why, _ = paper_tables._inferred_reading_explanation(context, "fig9", "", "power_w")
     assert anchor == "readings" and "mixing two readings in this run, not from the paper" in why
     assert "is what disagrees with the paper's own numbers" not in why

@@ -5,7 +5,7 @@ from __future__ import annotations
 import pandas as pd
 import pytest
 
-from squeezebench.analysis.report import write_report
+from squeezebench.report.run_report import write_report
 from squeezebench.protocols.campaign import run_campaign
 from squeezebench import paths
 from squeezebench.yamlfiles import dump_yaml, load_strict

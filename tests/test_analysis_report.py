@@ -9,7 +9,7 @@ import shutil
 import pandas as pd
 import pytest
 
-from squeezebench.analysis import report
+from squeezebench.report import run_report as report
 from squeezebench.analysis.rundata import load_run
 from squeezebench.errors import UserError
 from test_analysis_synthetic import build_run
@@ -138,7 +138,7 @@ def test_a_run_without_the_papers_plates_is_reported_whole(tmp_path):
     geometry = _geometry(3e-3, 12e-3, 10e-3)
     shape = model.PlateGeometry(**geometry, n_powered_piezos=6)
     builder = RunBuilder(tmp_path / "lab")
-    convention = report.REPORT_CONVENTION
+    convention = model.REPORT_CONVENTION
     # Q takes the sign of Eq. 12's a under the reading (negative with E_i = 67 GPa), tan theta' the
     # sign that makes the power positive: the signs that give a plate that moves and takes power
     q_true = math.copysign(3.1, model.amplitude_pp_m(1.0, 10.0, shape, convention))
@@ -160,7 +160,7 @@ def test_a_run_without_the_papers_plates_is_reported_whole(tmp_path):
 
 def test_the_headline_opens_the_report_and_ends_the_command(reported):
     """The same lines atop the page (before any table) and printed by `report`, last before the path."""
-    from squeezebench import cli
+    from squeezebench import cli, commands
 
     run_dir, index = reported
     lines = (run_dir / "report" / report.HEADLINE_FILE).read_text().splitlines()
@@ -168,14 +168,14 @@ def test_the_headline_opens_the_report_and_ends_the_command(reported):
     assert lines[1].startswith("The chain is verified")   # the synthetic run's settings come back
     page = index.read_text()
     assert page.index("class='headline") < page.index("<table")
-    printed = cli._finished(index).splitlines()   # what report and reproduce print last
+    printed = commands._finished(index).splitlines()   # what report and reproduce print last
     assert printed[-len(lines) - 1:-1] == lines and printed[-1].startswith("report written to")
 
 
 def test_tables_3_and_4_carry_what_physics_predicts_beside_print(reported):
     """Each predicted cell is the plate model's number for the paper's plate (never the run's):
     beside the printed value, with U (k = 2) and its deviation from print."""
-    from squeezebench.analysis import predicted_plates
+    from squeezebench.plates import predicted_plates
 
     run_dir, index = reported
     predictions = predicted_plates.predictions().set_index(["table", "item"])
@@ -196,10 +196,10 @@ def test_the_predicted_responses_u_is_the_propagation_of_its_tolerances():
     every input rectangular within its tolerance but the sheet's thickness, triangular."""
     import numpy as np
 
-    from squeezebench.analysis import plate_modes, predicted_plates
+    from squeezebench.plates import laminate, predicted_plates
 
     rng = np.random.default_rng(7)
-    t = plate_modes.relative_tolerances(2e-3)
+    t = laminate.relative_tolerances(2e-3)
     draw = {name: 1 + (rng.triangular(-half, 0, half, 400_000) if name == "thickness_m"
                        else rng.uniform(-half, half, 400_000)) for name, half in t.items()}
     q = 1 + rng.uniform(-predicted_plates.MECHANICAL_Q_TOLERANCE, predicted_plates.MECHANICAL_Q_TOLERANCE, 400_000)
@@ -215,14 +215,15 @@ def test_the_predicted_responses_u_is_the_propagation_of_its_tolerances():
 def test_table5s_physics_reads_the_predicted_plate_through_the_same_inversion(monkeypatch):
     """Q inverted from the predicted amplitude scales with the shared damping figure; tan theta'
     (P / (Q f)) does not: the damping cancels, which is why its U holds only d31's tolerance."""
-    from squeezebench.analysis import model, predicted_plates, tables
+    from squeezebench.analysis import characterisation, model
+    from squeezebench.plates import predicted_plates
 
     geometry = model.PlateGeometry(2e-3, 0.5e-3, 14e-3, 9e-3, n_powered_piezos=8, n_powered_groups=4)
-    before = tables.predicted_large_plate_q_tan(geometry, model.PAPER_CONVENTION)
+    before = characterisation.predicted_large_plate_q_tan(geometry, model.PAPER_CONVENTION)
     monkeypatch.setattr(predicted_plates, "MECHANICAL_Q", 2 * predicted_plates.MECHANICAL_Q)
     predicted_plates._predictions.cache_clear()
     try:
-        after = tables.predicted_large_plate_q_tan(geometry, model.PAPER_CONVENTION)
+        after = characterisation.predicted_large_plate_q_tan(geometry, model.PAPER_CONVENTION)
     finally:   # the shared Q back before the cache forgets, or the next call caches the doubled one
         monkeypatch.undo()
         predicted_plates._predictions.cache_clear()

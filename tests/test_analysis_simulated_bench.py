@@ -14,7 +14,7 @@ import math
 import pandas as pd
 import pytest
 
-from squeezebench.analysis.report import write_report
+from squeezebench.report.run_report import write_report
 from squeezebench.analysis.rundata import load_run
 from squeezebench.analysis.tables import reduced_points
 from squeezebench.protocols.campaign import run_campaign

@@ -14,8 +14,8 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 import pytest
 
-from squeezebench.analysis import model, tables
-from squeezebench.analysis.paper import paper_value
+from squeezebench.analysis import characterisation, model, tables
+from squeezebench.paper import paper_value
 from squeezebench.analysis.rundata import load_run
 from squeezebench.yamlfiles import dump_yaml
 
@@ -203,11 +203,11 @@ def test_tables_3_and_4_recomputed_within_0p1_percent_noise_free(clean_run, tabl
 
 
 def test_characterisation_recovers_q_and_tan_theta(clean_run):
-    plates = tables.characterise_plates(load_run(clean_run), model.PAPER_CONVENTION)
+    plates = characterisation.characterise_plates(load_run(clean_run), model.PAPER_CONVENTION)
     for plate, (_, _, q, tan) in SMALL_PLATES.items():
         assert plates[plate].q.value == pytest.approx(q, rel=2e-3)
         assert plates[plate].tan_theta.value == pytest.approx(tan, rel=2e-3)
-    t5 = tables.table5(plates, model.PAPER_CONVENTION).set_index(["item", "quantity"])["value"]
+    t5 = characterisation.table5(plates, model.PAPER_CONVENTION).set_index(["item", "quantity"])["value"]
     assert t5["measured", "q"] == pytest.approx(1.48, rel=2e-3)
     assert t5["measured", "tan_theta"] == pytest.approx(-1.24, rel=2e-3)
     assert t5["estimated", "q"] == pytest.approx(2.34 * 9 / 14, rel=2e-3)  # Eq. 29, text's ratio

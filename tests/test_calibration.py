@@ -134,7 +134,7 @@ def test_q_and_tan_theta_are_computed_from_the_deskewed_power(characterised):
     (not 2 % off), Q, which reads no power, is unchanged, and the budgets carry the
     calibration's delay term instead of the specified +-10 ns."""
     from squeezebench.analysis import model, uncertainty
-    from squeezebench.analysis.tables import characterise_plate, characterise_plates
+    from squeezebench.analysis.characterisation import characterise_plate, characterise_plates
 
     convention = model.PAPER_CONVENTION
     lag, none = (characterise_plates(load_run(characterised[bench]), convention)["small_plate_1"]
@@ -158,7 +158,7 @@ def test_without_a_deskew_a_lagging_probe_leaves_the_stress_point_flagged(tmp_pa
     17 ns, no deskew run: every stored power's U holds its error (the delay's bias bound,
     issue 46; the former +-10 ns rectangle missed the stress point by 1.22 U), and the
     report says a deskew run would shrink the U the bound dominates."""
-    from squeezebench.analysis.report import write_report
+    from squeezebench.report.run_report import write_report
     from squeezebench.analysis.uncertainty import needs_deskew, run_uncertainties
 
     paper = load_strict(paths.paper_campaign().read_text())

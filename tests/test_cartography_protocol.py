@@ -137,7 +137,8 @@ def test_a_map_killed_anywhere_and_resumed_stores_the_rows_of_an_uninterrupted_o
 
 
 def test_the_maps_report_section_draws_it_and_describes_every_column(mapped, tmp_path):
-    from squeezebench.analysis import cartography_report, columns
+    from squeezebench.report import cartography_report
+    from squeezebench.analysis import columns
 
     _, run_dir, _ = mapped
     run = load_run(run_dir)

@@ -4,7 +4,7 @@ import sys
 
 import pytest
 
-from squeezebench import cli
+from squeezebench import cli, commands
 from squeezebench.errors import UserError
 
 
@@ -133,7 +133,7 @@ def test_run_says_which_powers_will_rest_on_an_unmeasured_probe_delay(monkeypatc
     assert "--target-rel-error X --write FILE" in err
     assert cli.main(["run", str(tmp_path / "mine.yaml"), "-q"]) == 0 and capsys.readouterr().err == ""
     own = campaign.load_campaign(paths.data_dir() / "examples" / "own_plate_campaign.yaml")
-    assert cli._declared_replays(own) == []   # a user's own plate is no replay
+    assert commands._declared_replays(own) == []   # a user's own plate is no replay
     for name, runs in (("deskewed", [calibration_run(37000.0, "one_column_1mm.yaml"), *data["runs"]]),
                        ("resonance_only", [{**r, "parameters": {**r["parameters"], "velocity_ratios": []}}
                                            if r["protocol"] == "detuning" else r for r in data["runs"]])):
@@ -192,7 +192,7 @@ def _reproduction_like(run_dir: Path, campaign: Path) -> None:
 def test_reproduce_replaces_its_own_earlier_output(tmp_path, capsys):
     out = tmp_path / "paper"
     _reproduction_like(out, paths.paper_campaign())
-    cli._clear_previous_reproduction(cli.build_parser().parse_args(["reproduce"]), out)
+    commands._clear_previous_reproduction(cli.build_parser().parse_args(["reproduce"]), out)
     assert [p.name for p in out.iterdir() if p.name != ".squeezebench.lock"] == []
     assert "replacing the previous reproduction" in capsys.readouterr().out
 
@@ -201,7 +201,7 @@ def test_reproduce_never_removes_another_run(tmp_path):
     out = tmp_path / "mine"
     _reproduction_like(out, paths.campaigns_dir() / "quick.yaml")
     with pytest.raises(UserError, match="not a reproduction"):
-        cli._clear_previous_reproduction(cli.build_parser().parse_args(["reproduce"]), out)
+        commands._clear_previous_reproduction(cli.build_parser().parse_args(["reproduce"]), out)
     assert (out / "study" / "trials.parquet").is_file()
 
 
@@ -281,7 +281,7 @@ def test_reproduce_stops_its_study_when_the_campaign_stops(tmp_path, monkeypatch
     monkeypatch.setattr(accuracy_study, "run_study", study)
     monkeypatch.setattr(campaign, "run_campaign", stopped_campaign)
     with pytest.raises(KeyboardInterrupt):
-        cli.cmd_reproduce(cli.build_parser().parse_args(["reproduce", "--out", str(tmp_path / "paper"), "-q"]))
+        commands.cmd_reproduce(cli.build_parser().parse_args(["reproduce", "--out", str(tmp_path / "paper"), "-q"]))
     assert seen == {"started": True, "stopped": True}
     assert not [t for t in threading.enumerate() if t.name == "beside"]
 

@@ -1,4 +1,4 @@
-"""Q from the physics of the losses (analysis.damping): closed forms, the modal strain energy
+"""Q from the physics of the losses (plates.damping): closed forms, the modal strain energy
 weighting, and the fit on one build judged on the others."""
 import math
 
@@ -8,7 +8,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from squeezebench.analysis import damping, plate_modes
+from squeezebench.plates import damping, plate_modes
 
 AL = plate_modes.ALUMINIUM_TABLE2
 
@@ -136,7 +136,7 @@ def test_fit_and_check_fits_on_one_build_and_holds_the_others_out():
 
 def test_the_fit_never_reads_the_rows_it_judges(monkeypatch):
     """Moving a held-out plate's implied Q moves its ratio, not the fitted resistance."""
-    from squeezebench.analysis import predicted_plates
+    from squeezebench.plates import predicted_plates
 
     budget = predicted_plates.loss_budget()
     moved = budget.assign(implied_q=np.where(budget["table"] == "Sec. 5", budget["implied_q"] * 3, budget["implied_q"]))

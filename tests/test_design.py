@@ -12,8 +12,12 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from squeezebench import cli
-from squeezebench.analysis import design, layouts, plate_modes, predicted_plates
-from squeezebench.analysis.design_file import DesignFile
+from squeezebench.designing import design, layouts
+from squeezebench.plates import laminate, plate_modes, predicted_plates
+from squeezebench.designing.design_file import DesignFile
+from squeezebench.designing.answer import DesignAnswer
+from squeezebench.designing.paper_route import predict_from_small_plates
+from squeezebench.designing.verdict import judge
 from squeezebench.errors import UserError
 from squeezebench.schemas import load_design_file
 from squeezebench.yamlfiles import dump_yaml, load_strict
@@ -179,7 +183,7 @@ def test_the_thickness_tolerance_is_the_sheets_unless_stated():
     assert strip(resonator={"length_mm": 75, "width_mm": 41, "thickness_mm": 2}).tolerance(
         "thickness_m") == pytest.approx(0.045)
     assert DesignFile.model_validate({**STRIP, "tolerances": {"thickness_m": 0.01}}).tolerance("thickness_m") == 0.01
-    assert strip().tolerance("young_pa") == plate_modes.RELATIVE_TOLERANCES["young_pa"]
+    assert strip().tolerance("young_pa") == laminate.RELATIVE_TOLERANCES["young_pa"]
 
 
 def test_shipped_large_plate_reads_nothing_measured():
@@ -329,7 +333,7 @@ def test_design_built_on_the_simulated_bench_meets_its_prediction(tmp_path, caps
 
 
 def test_a_predicted_state_cannot_also_be_calibrated(tmp_path):
-    from squeezebench.designing import scene_from_design
+    from squeezebench.designing.workflow import scene_from_design
     from squeezebench.simbench.scene import SceneError, load_scene
 
     data = scene_from_design(strip())
@@ -345,7 +349,7 @@ def test_validate_says_where_a_replay_departs_from_the_model(capsys, tmp_path):
     depart from the plate model beyond the tolerances, and `validate` says so per state; a
     design's predicted scene has nothing to depart from."""
 
-    from squeezebench.designing import scene_from_design
+    from squeezebench.designing.workflow import scene_from_design
 
     path = tmp_path / "strip.yaml"
     path.write_text(dump_yaml(scene_from_design(strip())))
@@ -357,11 +361,11 @@ def test_validate_says_where_a_replay_departs_from_the_model(capsys, tmp_path):
 
 
 def test_transfer_study_on_one_drawn_build():
-    """One build of `squeezebench.design_transfer`: every plate drawn from geometry and
+    """One build of `squeezebench.designing.transfer`: every plate drawn from geometry and
     datasheets, built as a predicted scene and characterised on the simulated bench. The
     physics route lands within its U (a chain check); the paper's route is computed under
     both readings and its ratio to the measurement recorded, whatever it is."""
-    from squeezebench import design_transfer
+    from squeezebench.designing import transfer as design_transfer
 
     rows = pd.DataFrame(design_transfer.study_build(2))
     assert set(rows["route"]) == {"physics (a)", "small plates (b), paper reading",
@@ -377,10 +381,10 @@ def test_paper_route_from_the_small_plates_is_table5s_estimate(tmp_path):
     Eq. 29, the mean tan(theta') of the 2 mm plates)."""
 
     from squeezebench import paths
-    from squeezebench.analysis import tables
-    from squeezebench.analysis.report import REPORT_CONVENTION
+    from squeezebench.analysis import characterisation
+    from squeezebench.analysis.model import REPORT_CONVENTION
     from squeezebench.analysis.rundata import load_run
-    from squeezebench.designing import characterised_plates
+    from squeezebench.designing.workflow import characterised_plates
     from squeezebench.protocols.campaign import run_campaign
 
     paper = load_strict(paths.paper_campaign().read_text())
@@ -393,10 +397,10 @@ def test_paper_route_from_the_small_plates_is_table5s_estimate(tmp_path):
     (tmp_path / "subset.yaml").write_text(dump_yaml(campaign))
     run_dir = run_campaign(tmp_path / "subset.yaml", out_dir=tmp_path / "run", progress=False)
 
-    estimate = tables.estimate_large_from_small(tables.characterise_plates(load_run(run_dir), REPORT_CONVENTION),
+    estimate = characterisation.estimate_large_from_small(characterisation.characterise_plates(load_run(run_dir), REPORT_CONVENTION),
                                                 REPORT_CONVENTION)
     spec = load_design_file(paths.design_file("large_plate"))
-    route = design.predict_from_small_plates(design.predict_physics(spec), characterised_plates([run_dir]))
+    route = predict_from_small_plates(design.predict_physics(spec), characterised_plates([run_dir]))
     assert route.template == "small_plate_4" and route.small_plates == ("small_plate_2", "small_plate_4")
     assert route.q.nominal_value == pytest.approx(estimate.q.value, rel=1e-12)
     assert route.q.std_dev == pytest.approx(estimate.q.std_uncertainty, rel=1e-12)
@@ -453,14 +457,14 @@ def test_a_file_with_three_mistakes_gets_three_messages_in_the_users_words(tmp_p
 @pytest.mark.parametrize("written, meant", [("Al 6061-T6", "al_6061_t6"), ("aluminum", "aluminium_table2"),
                                             ("ALUMINIUM", "aluminium_table2"), ("6061-T6", "al_6061_t6")])
 def test_materials_by_the_names_people_write(written, meant):
-    from squeezebench.analysis.design_file import RESONATOR_MATERIALS, material_name
+    from squeezebench.designing.design_file import RESONATOR_MATERIALS, material_name
 
     assert material_name(written, RESONATOR_MATERIALS) == meant
     assert material_name("nce-41", {"NCE41": None}) == "NCE41"
 
 
 def test_the_guides_material_table_shows_the_constants_the_model_uses():
-    from squeezebench.analysis.design_file import PIEZO_MATERIALS, RESONATOR_MATERIALS
+    from squeezebench.designing.design_file import PIEZO_MATERIALS, RESONATOR_MATERIALS
 
     guide = _guide()
     for material in (*RESONATOR_MATERIALS.values(), *PIEZO_MATERIALS.values()):
@@ -510,12 +514,12 @@ def test_placement_curve_says_where_the_piezos_drive_best(ends_prediction):
     assert curve["voltage_vpp"].iloc[0] > curve["voltage_vpp"].iloc[1]
     relative = curve["voltage_expanded_uncertainty"] / curve["voltage_vpp"]
     assert relative.iloc[0] == pytest.approx(relative.iloc[1])
-    answer = design.DesignAnswer(ends_prediction, placement=curve)
-    from squeezebench.analysis.design_report import placement_sentences
+    answer = DesignAnswer(ends_prediction, placement=curve)
+    from squeezebench.report.design_report import placement_sentences
     words = " ".join(placement_sentences(answer))
     ratio = ends_prediction.nominal.values["voltage_vpp"] / curve["voltage_vpp"].min()
     assert f"divides the voltage by {ratio:.2g}" in words and "mm inward" in words
-    printed = design.DesignAnswer(ends_prediction, placement=curve,
+    printed = DesignAnswer(ends_prediction, placement=curve,
                                   printed={"voltage_vpp": float(curve["voltage_vpp"].mean()), "power_w": 1e3,
                                            "frequency_hz": 1.0})
     inferred = placement_sentences(printed)[-1]
@@ -538,7 +542,7 @@ def test_verdict_follows_the_limits_with_their_u(strip_prediction):
 
     def verdict(amplifier_vpp):
         spec = strip(amplifier={"max_output_vpp": amplifier_vpp})
-        return design.judge(replace(strip_prediction, design=spec))
+        return judge(replace(strip_prediction, design=spec))
     assert verdict(v + 2 * u).status == "feasible"
     marginal = verdict(v + u / 2)
     assert marginal.status == "marginal" and "within the U" in marginal.reasons[0]
@@ -546,7 +550,7 @@ def test_verdict_follows_the_limits_with_their_u(strip_prediction):
     assert refused.status == "infeasible" and "amplifier" in refused.reasons[0]
     assert refused.changes == (f"a target of at most {0.5:.3g} µm pp",)
     field = strip_prediction.nominal.values["piezo_field_v_per_mm"]
-    depoled = design.judge(replace(strip_prediction, design=strip(piezo={"max_field_v_per_mm": field / 4})))
+    depoled = judge(replace(strip_prediction, design=strip(piezo={"max_field_v_per_mm": field / 4})))
     assert depoled.status == "infeasible" and "the ceramic's field limit" in depoled.reasons[0]
     assert depoled.changes == (f"a target of at most {0.25:.3g} µm pp",)
 
@@ -614,10 +618,10 @@ def test_design_command_draws_the_placement_curve(tmp_path, capsys):
 
 
 def test_q_from_the_loss_physics_replaces_the_stated_figure(strip_prediction):
-    """With damping.source physics the plate's Q is its losses' (`analysis.damping`): the budget
+    """With damping.source physics the plate's Q is its losses' (`plates.damping`): the budget
     carries the bond's loss factor and, by name, the losses outside the model instead of the
     build's stated Q; a stated design shows the physics' Q beside its own."""
-    from squeezebench.analysis import damping
+    from squeezebench.plates import damping
 
     physics = design.predict_physics(strip(damping={"source": "physics", "mechanical_q": None, "tolerance_rel": 0.2}))
     values = physics.nominal.values

@@ -10,8 +10,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from squeezebench.analysis import figures
-from squeezebench.analysis.drawing import Drawing
+from squeezebench.report import figures
+from squeezebench.report.drawing import Drawing
 
 
 def _power() -> pd.DataFrame:

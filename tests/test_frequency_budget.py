@@ -1,4 +1,4 @@
-"""The thick-plate correction the plate model applies (plate_modes.mindlin_frequency_ratio)
+"""The thick-plate correction the plate model applies (laminate.mindlin_frequency_ratio)
 against Mindlin's plate-strip dispersion solved independently here (numpy's polynomial roots of
 the unexpanded equation), its first-order expansion (frequency_budget.mindlin_factor), and the
 solver applying it to every mode."""
@@ -9,8 +9,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from squeezebench.analysis import frequency_budget, plate_modes, predicted_plates
-from squeezebench.analysis.frequency_budget import SHEAR_COEFFICIENT, mindlin_factor
+from squeezebench.plates import frequency_budget, laminate, plate_modes, predicted_plates
+from squeezebench.plates.frequency_budget import SHEAR_COEFFICIENT, mindlin_factor
 
 
 def exact_mindlin_over_kirchhoff(kh: float, poisson: float, kappa: float = SHEAR_COEFFICIENT) -> float:
@@ -47,7 +47,7 @@ def test_a_thicker_plate_or_a_shorter_wave_departs_more_from_kirchhoff():
 @settings(max_examples=40, deadline=None)
 @given(kh=st.floats(0.01, 1.5), poisson=st.floats(0.2, 0.45))
 def test_the_models_thick_plate_ratio_is_mindlins_dispersion(kh, poisson):
-    assert plate_modes.mindlin_frequency_ratio(kh, poisson) == pytest.approx(
+    assert laminate.mindlin_frequency_ratio(kh, poisson) == pytest.approx(
         exact_mindlin_over_kirchhoff(kh, poisson), rel=1e-9)
 
 
@@ -55,7 +55,7 @@ def test_the_thick_plate_bias_at_the_papers_wavelengths():
     """Kirchhoff is about 3 % high at 1 mm, 4 % at 1.2 mm and 8 % at 2 mm for these half-waves
     (issue 45's independent review: 2.9, 4.0, 7.8 %)."""
     for h_mm, half_mm, bias in ((1.0, 8.0, 0.029), (1.2, 8.0, 0.040), (2.0, 9.2, 0.078)):
-        ratio = plate_modes.mindlin_frequency_ratio(math.pi / half_mm * h_mm, 0.34)
+        ratio = laminate.mindlin_frequency_ratio(math.pi / half_mm * h_mm, 0.34)
         assert 1 / ratio - 1 == pytest.approx(bias, abs=0.007)
 
 

@@ -8,7 +8,7 @@ import math
 
 import pandas as pd
 
-from squeezebench.analysis.headline import Line, headline, opening, verdicts
+from squeezebench.report.headline import Line, headline, opening, verdicts
 from squeezebench.analysis.tables import ROUND_TRIP, finish_table
 
 
@@ -97,7 +97,7 @@ def test_physics_against_print_within_u_or_not():
 
 
 def test_a_map_is_read_in_um_pp_against_the_haptics_criterion_with_the_tables_rounding():
-    from squeezebench.analysis.headline import map_lines
+    from squeezebench.report.headline import map_lines
 
     maps = pd.DataFrame([{"run_name": "fig7", "n_touch_points": 350, "mean_velocity_pp_mps": 0.09824,
                           "mean_velocity_pp_mps_U": 0.00254, "mean_amplitude_pp_m": 2.984e-7,
@@ -111,7 +111,7 @@ def test_a_map_is_read_in_um_pp_against_the_haptics_criterion_with_the_tables_ro
 
 
 def test_no_number_is_shown_past_six_figures():
-    from squeezebench.analysis.presentation import with_uncertainty
+    from squeezebench.report.presentation import with_uncertainty
 
     assert with_uncertainty(45.275888133030989, 3.3e-14) == "45.2759 (U < 0.0001)"
     assert with_uncertainty(9.21847, 0.00067) == "9.21847 ± 0.00067"

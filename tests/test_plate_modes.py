@@ -1,4 +1,4 @@
-"""The plate model (analysis.plate_modes) against closed forms and against the paper's printed
+"""The plate model (plates.plate_modes) against closed forms and against the paper's printed
 resonances (data/paper/table3.csv, table4.csv), from one shared parameter set: the paper's
 Table 2 aluminium (67.109 GPa, nu 0.34, 2790 kg/m^3) and NCE 41 (80 GPa, nu 0.33, 7900 kg/m^3),
 no per-plate parameter. The printed frequency only centres the mode search; the (n, 0)
@@ -11,10 +11,11 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from squeezebench.analysis.plate_modes import (ALUMINIUM_TABLE2, NCE41, Isotropic, PlateGeometry, beam_frequencies_hz, column,
+from squeezebench.plates.plate_modes import (ALUMINIUM_TABLE2, NCE41, Isotropic, PlateGeometry, beam_frequencies_hz, column,
                                   flexural_half_wavelength_m, free_free_beam_roots, laminate,
                                   solve_plate)
-from squeezebench.analysis import plate_modes, predicted_plates
+from squeezebench.plates import plate_modes, predicted_plates
+from squeezebench.plates.laminate import RIGID_BOND, relative_tolerances, shear_lag_effectiveness
 from squeezebench.paths import paper_values_dir
 
 MM = 1e-3
@@ -144,7 +145,7 @@ def test_the_beam_and_the_plate_agree_on_table4s_plates(n_columns):
 
 
 def test_flexural_frequency_and_half_wavelength_are_inverse():
-    from squeezebench.analysis.plate_modes import (ALUMINIUM_TABLE2, flexural_frequency_hz,
+    from squeezebench.plates.plate_modes import (ALUMINIUM_TABLE2, flexural_frequency_hz,
                                                    flexural_half_wavelength_m)
 
     for thickness_m, half_m in ((1e-3, 8e-3), (2e-3, 9.2e-3), (1.2e-3, 8.44e-3)):
@@ -153,11 +154,11 @@ def test_flexural_frequency_and_half_wavelength_are_inverse():
 
 
 def test_the_one_pass_argyris_basis_is_skfems_own_to_the_bit():
-    """analysis.argyris only reorders the work of skfem's global basis: every value, gradient
+    """plates.argyris only reorders the work of skfem's global basis: every value, gradient
     and Hessian, at quadrature points and at probed points, is bit-identical."""
     from skfem import Basis, ElementTriArgyris, MeshTri
 
-    from squeezebench.analysis.argyris import Argyris
+    from squeezebench.plates.argyris import Argyris
 
     mesh = MeshTri.init_tensor(np.linspace(0, 0.05, 6), np.array([0.0, 0.004, 0.02, 0.03]))
     ours, theirs = Basis(mesh, Argyris(), intorder=8), Basis(mesh, ElementTriArgyris(), intorder=8)
@@ -174,7 +175,7 @@ def test_the_batched_plate_matrices_are_skfems_assembly_to_roundoff():
     from skfem import Basis, BilinearForm, MeshTri, asm
     from skfem.helpers import dd, ddot, trace
 
-    from squeezebench.analysis.argyris import Argyris
+    from squeezebench.plates.argyris import Argyris
 
     mesh = MeshTri.init_tensor(np.linspace(0, 0.05, 7), np.array([0.0, 0.004, 0.02, 0.03]))
     basis = Basis(mesh, Argyris(), intorder=8)
@@ -198,7 +199,7 @@ def test_the_batched_plate_matrices_are_skfems_assembly_to_roundoff():
 
 
 def test_the_sheet_thickness_tolerance_follows_en_485_4():
-    from squeezebench.analysis.specifications import SHEET_THICKNESS_TOLERANCE_MM, sheet_thickness_tolerance
+    from squeezebench.plates.specifications import SHEET_THICKNESS_TOLERANCE_MM, sheet_thickness_tolerance
 
     # the paper's sheets: 1, 1.2 and 2 mm
     assert sheet_thickness_tolerance(1e-3) == pytest.approx(0.05)
@@ -210,20 +211,20 @@ def test_the_sheet_thickness_tolerance_follows_en_485_4():
     assert (rows[1:, 0] == rows[:-1, 1]).all() and (np.diff(rows[:, 2]) > 0).all()   # contiguous, widening
     with pytest.raises(ValueError, match="state the plate's thickness tolerance"):
         sheet_thickness_tolerance(8e-3)
-    assert plate_modes.relative_tolerances(1e-3)["thickness_m"] == sheet_thickness_tolerance(1e-3)
+    assert relative_tolerances(1e-3)["thickness_m"] == sheet_thickness_tolerance(1e-3)
 
 
 def test_a_rigid_bond_transfers_everything_and_a_compliant_one_less():
     stiff = dataclasses.replace(plate_modes.EPOXY, shear_modulus_pa=1e15)
     args = (ALUMINIUM_TABLE2, 1 * MM, NCE41, 0.5 * MM)
-    assert plate_modes.shear_lag_effectiveness(*args, plate_modes.RIGID_BOND, 5 * MM) == 1.0
-    assert plate_modes.shear_lag_effectiveness(*args, stiff, 5 * MM) == pytest.approx(1.0, abs=1e-3)
+    assert shear_lag_effectiveness(*args, RIGID_BOND, 5 * MM) == 1.0
+    assert shear_lag_effectiveness(*args, stiff, 5 * MM) == pytest.approx(1.0, abs=1e-3)
     assert plate_modes.bond_energy_ratio(*args, stiff, 5 * MM) == pytest.approx(0.0, abs=1e-3)
-    nominal = plate_modes.shear_lag_effectiveness(*args, plate_modes.EPOXY, 5 * MM)
+    nominal = shear_lag_effectiveness(*args, plate_modes.EPOXY, 5 * MM)
     assert 0.5 < nominal < 0.9   # a 40 um epoxy under a 5 mm patch: about three quarters
-    assert plate_modes.shear_lag_effectiveness(*args, plate_modes.EPOXY, 14 * MM) > nominal   # longer: less end loss
+    assert shear_lag_effectiveness(*args, plate_modes.EPOXY, 14 * MM) > nominal   # longer: less end loss
     thick = dataclasses.replace(plate_modes.EPOXY, thickness_m=80e-6)
-    assert plate_modes.shear_lag_effectiveness(*args, thick, 5 * MM) < nominal
+    assert shear_lag_effectiveness(*args, thick, 5 * MM) < nominal
 
 
 @given(length_mm=st.floats(1.0, 20.0), g_over_t=st.floats(1e12, 1e14))
@@ -238,7 +239,7 @@ def test_the_shear_lag_closed_forms_are_their_integrals(length_mm, g_over_t):
     x = np.linspace(-length_mm * MM / 2, length_mm * MM / 2, 20001)
     strain = 1 - np.cosh(gamma * x) / np.cosh(gamma * x[-1])
     eta = np.trapezoid(strain, x) / x[-1] / 2
-    assert plate_modes.shear_lag_effectiveness(*args) == pytest.approx(eta, rel=1e-5)
+    assert shear_lag_effectiveness(*args) == pytest.approx(eta, rel=1e-5)
     tau = ep_tp * np.gradient(strain, x)
     bond_energy = np.trapezoid(tau**2 / (2 * g_over_t), x)
     # over the rigid bond's piezo energy E_p' t_p l / 2, then over eta (the piezo's own energy)

@@ -6,7 +6,8 @@ import pandas as pd
 import pytest
 
 from squeezebench import paths
-from squeezebench.analysis import predicted_plates, provenance, tables
+from squeezebench.plates import predicted_plates
+from squeezebench.analysis import characterisation, provenance, tables
 from squeezebench.analysis.rundata import load_run
 from squeezebench.cli import main
 from squeezebench.protocols.campaign import run_campaign
@@ -91,8 +92,9 @@ def test_a_predicted_plate_characterised_on_the_bench_reads_the_q_and_tan_theta_
     geometry through `predicted_plates.response_per_volt` and the same inversion) are two
     paths through one model, so they agree within 5 % and within their U; Table 5's physics
     line (the paper's stated geometry, not the scene's) lands within 5 % of the section's."""
-    from squeezebench import simulated_plates
-    from squeezebench.analysis.report import REPORT_CONVENTION, ReportContext
+    from squeezebench.report import simulated_plates
+    from squeezebench.analysis.model import REPORT_CONVENTION
+    from squeezebench.report.section import ReportContext
 
     context = ReportContext(large_plate_run, tmp_path)
     rows = simulated_plates.physics_rows(context).set_index("quantity")
@@ -102,7 +104,7 @@ def test_a_predicted_plate_characterised_on_the_bench_reads_the_q_and_tan_theta_
         row = rows.loc[quantity]
         # the force factor's mesh error, the shunt and the amplifier's roll-off, as for Table 4
         assert row["value_over_predicted"] == pytest.approx(1.0, abs=0.05), quantity
-    table5 = tables.predicted_large_plate_q_tan(context.plates()["large_plate"].geometry, context.convention)
+    table5 = characterisation.predicted_large_plate_q_tan(context.plates()["large_plate"].geometry, context.convention)
     assert table5["q"][0] == pytest.approx(rows.loc["q", "predicted_value"], rel=0.05)
     assert context.convention == REPORT_CONVENTION
 
@@ -112,8 +114,8 @@ def test_a_replay_plate_is_set_beside_its_physics_and_its_departure_said(tmp_pat
     section sets its Q and tan theta' beside the model's, calls it a replay, and marks the
     departure (tan theta' a third of the physics': the calibration's, not the model's; with the
     thick-plate correction the replay's 48.6 kHz lies nearest the (8, 0) mode its scene names)."""
-    from squeezebench import simulated_plates
-    from squeezebench.analysis.report import write_report
+    from squeezebench.report import simulated_plates
+    from squeezebench.report.run_report import write_report
 
     campaign = load_strict(paths.paper_campaign().read_text())
     run = next(r for r in campaign["runs"] if r["name"] == "fig5_small_plates")
@@ -132,7 +134,7 @@ def test_a_replay_plate_is_set_beside_its_physics_and_its_departure_said(tmp_pat
     assert not 1 / 1.5 < ratio < 1.5 and not rows.loc["tan_theta", "agrees_with_prediction"]
     # the verdict is the plate's, not the reading's: under the inferred reading the values move, the ratios do not
     from squeezebench.analysis import model
-    from squeezebench.analysis.report import ReportContext
+    from squeezebench.report.section import ReportContext
 
     inferred = simulated_plates.physics_rows(ReportContext(load_run(run_dir), tmp_path,
                                                            convention=model.INFERRED_CONVENTION)).set_index("quantity")

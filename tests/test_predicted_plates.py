@@ -1,4 +1,4 @@
-"""The paper's plates as the model predicts them (analysis.predicted_plates): every printed
+"""The paper's plates as the model predicts them (plates.predicted_plates): every printed
 resonance within its U (k = 2) built from stated tolerances only, antinode counts exact, the
 same-sheet ratios, the modes chosen by physics, and no printed result, voltage or frequency
 read by a prediction."""
@@ -6,7 +6,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from squeezebench.analysis import frequency_budget, plate_modes, predicted_plates
+from squeezebench.plates import frequency_budget, laminate, predicted_plates
 from squeezebench.paths import paper_values_dir
 
 #: The paper's stated geometry and build: what a prediction is made from (everything else in
@@ -128,7 +128,7 @@ def test_placement_is_in_the_edge_plates_u_and_not_in_the_centred_ones():
 def test_what_would_agree_inverts_the_printed_power_and_velocity():
     """The implied force factor and Q, put back through the model's one-mode response at the
     printed drive, give the printed velocity and power: the gap each input would have to close."""
-    agree = predicted_plates.what_would_agree(infer_placement=False).set_index("item")
+    agree = predicted_plates.what_would_agree().set_index("item")
     model = predicted_plates._predictions().set_index("item")
     frame = predicted_plates.predictions().set_index("item")
     for item in ("75", "1-column", "2-columns 2 powered"):
@@ -143,13 +143,13 @@ def test_what_would_agree_inverts_the_printed_power_and_velocity():
 def test_the_large_plates_placement_curve_is_the_design_models_own():
     """One placement curve: the report's inference reads `design.placement_rows` on the
     paper's large plate as a design file, the same patches as the predictions' plate."""
-    from squeezebench.analysis import design
+    from squeezebench.designing import design, paper_placement
 
-    spec = predicted_plates.large_plate_design()
+    spec = paper_placement.large_plate_design()
     ours = sorted((p.bounds, p.powered) for p in spec.geometry().patches)
     theirs = sorted((p.bounds, p.powered) for p in predicted_plates.large_plate().patches)
     assert np.allclose([b for b, _ in ours], [b for b, _ in theirs]) and [p for _, p in ours] == [p for _, p in theirs]
-    curve = predicted_plates.large_plate_placement_curve(gaps_mm=(predicted_plates.EDGE_GAP_MM,)).iloc[0]
+    curve = paper_placement.large_plate_placement_curve(gaps_mm=(predicted_plates.EDGE_GAP_MM,)).iloc[0]
     moved = spec.with_end_groups_at(predicted_plates.EDGE_GAP_MM)
     point = design.operating_point(moved, modal=design.modal_part(moved, antinodes=21)).values
     assert curve["voltage_vpp"] == pytest.approx(point["voltage_vpp"])
@@ -159,16 +159,18 @@ def test_the_large_plates_placement_curve_is_the_design_models_own():
 
 
 def test_an_inferred_edge_gap_is_where_the_curve_meets_the_implied_force_factor():
+    from squeezebench.designing.paper_placement import implied_edge_gap_mm
+
     curve = pd.DataFrame({"edge_gap_mm": [0.0, 1.0, 2.0], "force_factor_n_per_v": [0.1, 0.3, 0.7]})
-    assert predicted_plates.implied_edge_gap_mm(0.5, curve) == pytest.approx(1.5)
-    assert predicted_plates.implied_edge_gap_mm(0.9, curve) is None
+    assert implied_edge_gap_mm(0.5, curve) == pytest.approx(1.5)
+    assert implied_edge_gap_mm(0.9, curve) is None
 
 
 def test_the_responses_u_is_the_propagation_of_its_tolerances_with_a_triangular_sheet():
     """The frequency's closed-form U against a Monte Carlo of f ~ h sqrt(E / rho), the sheet's
     thickness triangular within EN 485-4's limit, the alloy's E and rho rectangular."""
     rng = np.random.default_rng(5)
-    t = plate_modes.relative_tolerances(1e-3)
+    t = laminate.relative_tolerances(1e-3)
     h = 1 + rng.triangular(-t["thickness_m"], 0, t["thickness_m"], 400_000)
     e = 1 + rng.uniform(-t["young_pa"], t["young_pa"], 400_000)
     rho = 1 + rng.uniform(-t["density_kg_m3"], t["density_kg_m3"], 400_000)

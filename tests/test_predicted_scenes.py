@@ -51,7 +51,7 @@ def test_a_scene_named_as_a_modelled_plate_is_the_plate_the_analysis_models():
     """A map of a scene's plate is compared with `predicted_plates.working_shape` of the plate
     it is named as (the report's MAC, the map planner's continuum): the two must be one plate.
     A flush patch and one 2 mm in differ by 0.94 in MAC on the large plate's (21, 0) mode."""
-    from squeezebench.analysis import predicted_plates
+    from squeezebench.plates import predicted_plates
 
     def bounds_mm(plate):
         return sorted(tuple(round(b * 1e3, 6) for b in p.bounds) for p in plate.patches)

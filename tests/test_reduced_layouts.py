@@ -10,8 +10,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from squeezebench import cli
-from squeezebench.analysis import design, layout_sweep, layouts, plate_modes, reduced_layouts
-from squeezebench.designing import sweep_layouts
+from squeezebench.designing import design, layout_sweep, layouts
+from squeezebench.plates import plate_modes, reduced_layouts
+from squeezebench.designing.workflow import sweep_layouts
 from squeezebench.yamlfiles import dump_yaml
 from test_design import STRIP, strip   # Table 3's plate as a design: 75 x 41 x 1 mm, four piezos mid-length
 

@@ -16,9 +16,10 @@ from pathlib import Path
 
 import pytest
 
-import squeezebench.simulated_plates  # noqa: F401  (the report as the command line writes it)
+import squeezebench.report.simulated_plates  # noqa: F401  (the report as the command line writes it)
 from squeezebench import paths
-from squeezebench.analysis import report
+from squeezebench.report import run_report as report
+from squeezebench.report import section
 from squeezebench.protocols.campaign import run_campaign
 from squeezebench.yamlfiles import load_strict
 
@@ -87,7 +88,7 @@ def test_the_dry_run_is_said_on_every_results_table(rendered):
     assert results
     for table in results:   # a table of the plate model's says so instead (no bench behind it)
         assert "Dry run: simulated bench." in table["caption"] or table["caption"].startswith(
-            report.PLATE_MODEL_WORDS), table["caption"]
+            section.PLATE_MODEL_WORDS), table["caption"]
 
 
 def test_the_first_screen_says_the_scenes_are_replays_and_the_appendix_why(index):

@@ -9,7 +9,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from squeezebench.analysis.specifications import VOLTAGE_PROBE_POLE_HZ, compensation_phase_rad
+from squeezebench.plates.specifications import VOLTAGE_PROBE_POLE_HZ, compensation_phase_rad
 from squeezebench.instruments.bench import open_bench, sim_bench_config
 from squeezebench.instruments.errors import ConnectionLost, GarbledReply, InstrumentError, InstrumentTimeout
 from squeezebench.protocols.variants import PLATE_DRAW_EFFECT, SYSTEMATIC_EFFECTS

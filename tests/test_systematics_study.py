@@ -146,11 +146,11 @@ def test_a_coverage_study_on_benches_erring_as_the_world_errs_is_stored_and_tabl
 
     import argparse
 
-    from squeezebench import cli
+    from squeezebench import cli, commands
     from squeezebench.protocols import bench_errors
 
     monkeypatch.setattr(bench_errors, "run_coverage_study", lambda *args, **kwargs: world)   # what it stored
-    cli._run_coverage(argparse.Namespace(resume=True, workers=1, scheduler=None, coverage_errors="world",
+    commands._run_coverage(argparse.Namespace(resume=True, workers=1, scheduler=None, coverage_errors="world",
                                          quiet=True), tmp_path, 2)
     printed = capsys.readouterr().out.splitlines()
     assert len(printed) == 5 and all(line.startswith("coverage: ") for line in printed)   # one per quantity

@@ -14,11 +14,12 @@ from hypothesis import strategies as st
 
 from squeezebench import paths
 from squeezebench.analysis import model, tables
-from squeezebench.analysis.report import write_report
+from squeezebench.report.run_report import write_report
 from squeezebench.analysis.rundata import load_run
 from squeezebench.analysis.calibration import Deskew
-from squeezebench.analysis.specifications import SPECIFICATIONS, compensation_phase_rad
-from squeezebench.analysis.tables import characterise_plates, reduced_points
+from squeezebench.plates.specifications import SPECIFICATIONS, compensation_phase_rad
+from squeezebench.analysis.tables import reduced_points
+from squeezebench.analysis.characterisation import characterise_plates
 from squeezebench.analysis.uncertainty import (
     Budget, Term, characterisation_budgets, detuning_slope_per_hz, example_budgets,
     model_budgets, power_budget, run_uncertainties, tolerances_for, velocity_budget, voltage_budget,
@@ -302,7 +303,7 @@ def test_q_and_tan_theta_budgets_of_the_characterised_plates(erring_bench_points
     _, _, run_dir = erring_bench_points
     run = load_run(run_dir)
     plates = characterise_plates(run, model.PAPER_CONVENTION)
-    deskew = Deskew.applied_in(tables._protocol_points(run, "characterisation"))   # as the tables read it
+    deskew = Deskew.applied_in(tables.protocol_points(run, "characterisation"))   # as the tables read it
     assert deskew is not None   # the paper campaign carries its deskew run
     assert len(plates) == 7
     for plate in plates.values():
@@ -338,7 +339,7 @@ def test_resonance_frequencies_are_covered_by_the_search_budget(erring_bench_poi
 def test_a_mean_over_plates_keeps_their_shared_uncertainty(erring_bench_points):
     """Averaging plates measured on one bench lowers their fits' scatter, not the bench's
     errors nor the stock's tolerances: the mean's u is at least their mean systematic u."""
-    from squeezebench.analysis.tables import mean_over_plates
+    from squeezebench.analysis.characterisation import mean_over_plates
 
     _, _, run_dir = erring_bench_points
     plates = [p for name, p in characterise_plates(load_run(run_dir), model.PAPER_CONVENTION).items()

@@ -20,7 +20,7 @@ from hypothesis import HealthCheck, Phase, given, settings
 from hypothesis import strategies as st
 
 from squeezebench import cli, paths
-from squeezebench.analysis import design as design_model
+from squeezebench.designing import design as design_model
 from squeezebench.protocols import campaign as campaign_module
 
 REFUSED, STOPPED = cli.EXIT_USER_ERROR, 130

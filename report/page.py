@@ -30,7 +30,7 @@ class PageSection:
 
 @functools.cache
 def _environment() -> jinja2.Environment:
-    return jinja2.Environment(loader=jinja2.PackageLoader("squeezebench.analysis", "templates"),
+    return jinja2.Environment(loader=jinja2.PackageLoader("squeezebench.report", "templates"),
                               autoescape=True, undefined=jinja2.StrictUndefined, keep_trailing_newline=True)
 
 

@@ -1,7 +1,7 @@
 """The paper's plates as the plate model sees them, and what it predicts beside the print.
 
 Geometry from the paper's stated dimensions (data/paper/*.csv); materials the one shared
-set of `analysis.plate_modes` (Table 2 aluminium, NCE 41); no per-plate parameter. Where the
+set of `plates.plate_modes` (Table 2 aluminium, NCE 41); no per-plate parameter. Where the
 text does not say where a column sits, the assumption is stated beside it (`LAYOUTS`).
 """
 from __future__ import annotations
@@ -14,8 +14,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from squeezebench.analysis import plate_modes
-from squeezebench.analysis.paper import paper_value
+from squeezebench.plates import laminate, plate_modes
+from squeezebench.paper import paper_value
 
 MM = 1e-3
 
@@ -90,25 +90,25 @@ def large_plate(edge_gap_mm: float = EDGE_GAP_MM) -> plate_modes.PlateGeometry:
 #: damping measurement that is not itself a compared result, the Fig. 2c stress case (37.6 V
 #: at 37180 Hz and 240 V at 37560 Hz give the same velocity, so |Z(37560)|/R = 240/37.6 ->
 #: q_mech = 310; Sec. 2.2). Within the plausible range for aluminium in air (hundreds to ~2000).
-#: `analysis.damping` predicts each plate's Q from its losses instead (`loss_budget`).
+#: `plates.damping` predicts each plate's Q from its losses instead (`loss_budget`).
 MECHANICAL_Q = 310.0
 
 
 #: How far one plate's mechanical Q may stray from the build's `MECHANICAL_Q` (rectangular
-#: half-width; the design file's default spread, analysis.design_file).
+#: half-width; the design file's default spread, designing.design_file).
 MECHANICAL_Q_TOLERANCE = 0.30
 
 
 def _u(name: str, tolerances: dict[str, float]) -> float:
-    return plate_modes.relative_standard_uncertainty(name, tolerances[name])
+    return laminate.relative_standard_uncertainty(name, tolerances[name])
 
 
 def frequency_relative_u(thickness_m: float) -> float:
     """Expanded (k = 2) relative uncertainty of a predicted frequency of a plate of nominal
     `thickness_m` from the sheet's and the alloy family's tolerances (f ~ h sqrt(E / rho);
-    `plate_modes.relative_tolerances`, the thickness triangular). A plate's own terms (bond,
+    `laminate.relative_tolerances`, the thickness triangular). A plate's own terms (bond,
     placement) are added by `_predictions`."""
-    t = plate_modes.relative_tolerances(thickness_m)
+    t = laminate.relative_tolerances(thickness_m)
     return 2 * math.sqrt(_u("thickness_m", t) ** 2 + (_u("young_pa", t) / 2) ** 2
                          + (_u("density_kg_m3", t) / 2) ** 2)
 
@@ -116,12 +116,12 @@ def frequency_relative_u(thickness_m: float) -> float:
 def response_relative_u(thickness_m: float) -> dict[str, float]:
     """Expanded (k = 2) relative uncertainty of the predicted velocity and power at resonance at
     a given voltage of a plate of nominal `thickness_m`, in closed form from the tolerances
-    (`plate_modes.relative_tolerances`, the thickness triangular, the rest rectangular):
+    (`laminate.relative_tolerances`, the thickness triangular, the rest rectangular):
     v = F V q / (w M) and P = F^2 V^2 q / (2 w M), with F proportional to d31 and w M to
     h^2 sqrt(E rho) (f ~ h sqrt(E / rho), M ~ rho h); the force factor's own dependence on the
     resonator (the piezo's lever arm about the neutral axis) is left out, and a plate's own
     terms (bond, placement) are added by `_predictions`."""
-    t = plate_modes.relative_tolerances(thickness_m)
+    t = laminate.relative_tolerances(thickness_m)
     u = {name: _u(name, t) for name in t}
     u_q = MECHANICAL_Q_TOLERANCE / math.sqrt(3)
     u_omega_mass = math.hypot(2 * u["thickness_m"], u["young_pa"] / 2, u["density_kg_m3"] / 2)
@@ -137,13 +137,13 @@ def response_relative_u(thickness_m: float) -> dict[str, float]:
 def bond_effectiveness_range(geometry: plate_modes.PlateGeometry) -> tuple[float, float, float]:
     """The first patch's shear-lag effectiveness eta at the bond's nominal and at the two ends
     of its stated tolerances (thicker and softer: the least; thinner and stiffer: the most)."""
-    t = plate_modes.RELATIVE_TOLERANCES
+    t = laminate.RELATIVE_TOLERANCES
     p, bond = geometry.patches[0], plate_modes.EPOXY
 
     def eta(scale_t: float, scale_g: float) -> float:
         moved = dataclasses.replace(bond, thickness_m=bond.thickness_m * scale_t,
                                     shear_modulus_pa=bond.shear_modulus_pa * scale_g)
-        return plate_modes.shear_lag_effectiveness(plate_modes.ALUMINIUM_TABLE2, geometry.thickness_m,
+        return laminate.shear_lag_effectiveness(plate_modes.ALUMINIUM_TABLE2, geometry.thickness_m,
                                                    plate_modes.NCE41, p.thickness_m, moved, p.length_x_m)
 
     lo_t, lo_g = 1 + t["bond_thickness_m"], 1 - t["bond_shear_modulus_pa"]
@@ -219,6 +219,12 @@ def _solve_working(geometry: plate_modes.PlateGeometry, antinodes: int | None, u
     return modes, _cut_plate_mode(modes, uncut_hz)
 
 
+def centre_response(geometry: plate_modes.PlateGeometry, antinodes: int) -> dict[str, float]:
+    """`geometry`'s mode with `antinodes` interior antinodes, referred to its centre
+    (`_at_centre`)."""
+    return _at_centre(geometry, *_solve_working(geometry, antinodes, None))
+
+
 def _at_centre(geometry, modes, k) -> dict[str, float]:
     """Frequency, modal mass and powered force factor referred to the plate's centre (where the
     paper measured, Sec. 2.3.1)."""
@@ -231,7 +237,7 @@ def _at_centre(geometry, modes, k) -> dict[str, float]:
 def _predictions() -> pd.DataFrame:
     """Per plate and per volt, from geometry, the stated modes and the datasheets only: no
     printed result, voltage or frequency is read (tests/test_predicted_plates.py perturbs each)."""
-    from squeezebench.analysis import damping
+    from squeezebench.plates import damping
 
     out = []
     uncut_hz = None
@@ -371,7 +377,7 @@ def loss_budget() -> pd.DataFrame:
     nominal (`damping.mode_loss_terms`) and the share of the printed power the powered piezos'
     dielectric loss takes at the printed drive (`damping.dielectric_power_w`): what
     `damping.fit_and_check` fits and judges."""
-    from squeezebench.analysis import damping
+    from squeezebench.plates import damping
 
     rows = []
     for row in _predictions().to_dict("records"):
@@ -391,57 +397,6 @@ def loss_budget() -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
-#: The edge gaps (mm) the placement curve and the inference sweep: the stated range and on
-#: to where the patch reaches the first nodal line of curvature.
-EDGE_GAPS_MM = (0.0, 0.5, 1.0, 1.5, 2.0, 2.5, 3.0, 3.5, 4.0, 5.0, 6.0)
-
-
-def large_plate_design(edge_gap_mm: float = EDGE_GAP_MM, amplitude_pp_m: float = 1e-6):
-    """The paper's large plate (`large_plate`) as a design file (`analysis.design_file`): the
-    same geometry, its end piezos `edge_gap_mm` from the edges +- `EDGE_GAP_TOLERANCE_MM`, the
-    (21, 0) mode, `amplitude_pp_m` at the centre and the build's `MECHANICAL_Q`; the amplifier
-    is the bench's NF HSA 4052 (300 Vpp)."""
-    from squeezebench.analysis.design_file import DesignFile
-
-    q = lambda name: paper_value("large_plate", "large_plate", name)  # noqa: E731
-    geometry = large_plate(edge_gap_mm)
-    ys: dict[float, list[float]] = {}
-    for p in geometry.patches:
-        ys.setdefault(round(p.x_center_m / MM, 9), []).append(round(p.y_center_m / MM, 9))
-    groups = [{"name": f"x{x:g}", "x_mm": x, "y_mm": sorted(y), "x_tolerance_mm": EDGE_GAP_TOLERANCE_MM}
-              for x, y in ys.items()]
-    return DesignFile.model_validate({
-        "name": "large_plate",
-        "resonator": {"material": "aluminium_table2", "length_mm": q("resonator_length_mm"),
-                      "width_mm": q("resonator_width_mm"), "thickness_mm": q("resonator_thickness_mm")},
-        "piezo": {"material": "NCE41", "length_x_mm": q("piezo_width_mm"), "width_y_mm": q("piezo_length_mm"),
-                  "thickness_mm": q("piezo_thickness_mm")},
-        "groups": groups, "mode": {"interior_antinodes": STATED_ANTINODES["large"]},
-        "target": {"amplitude_pp_m": amplitude_pp_m, "at": "centre"},
-        "damping": {"mechanical_q": MECHANICAL_Q, "tolerance_rel": MECHANICAL_Q_TOLERANCE,
-                    "origin": "the build's one damping figure (predicted_plates.MECHANICAL_Q)"},
-        "amplifier": {"max_output_vpp": 300.0}})
-
-
-def large_plate_placement_curve(amplitude_pp_m: float = 1e-6, gaps_mm=EDGE_GAPS_MM) -> pd.DataFrame:
-    """The large plate's placement curve, as `design.placement_rows` solves any design's
-    (`large_plate_design`): frequency, modal mass and force factor at the centre, and the
-    voltage (pp) and power that give `amplitude_pp_m` there against the patches' distance from
-    the edge, with the build's `MECHANICAL_Q` and with the plate's own physics Q
-    (`analysis.damping`, nominal bond loss: the voltage goes as 1/Q at a given amplitude, the
-    mechanical power as 1/Q and the dielectric as the voltage squared)."""
-    from squeezebench.analysis import design
-
-    curve = design.placement_rows(large_plate_design(EDGE_GAP_MM, amplitude_pp_m), STATED_ANTINODES["large"],
-                                  gaps_mm)
-    ratio = curve["mechanical_q"] / curve["physics_q"]
-    curve["within_stated_range"] = (curve["edge_gap_mm"] - EDGE_GAP_MM).abs() <= EDGE_GAP_TOLERANCE_MM + 1e-9
-    curve["voltage_vpp_physics_q"] = curve["voltage_vpp"] * ratio
-    dielectric = curve["power_w"] - curve["mechanical_power_w"]
-    curve["power_w_physics_q"] = curve["mechanical_power_w"] * ratio + dielectric * ratio**2
-    return curve
-
-
 def implied_force_factor_n_per_v(voltage_vpp: float, velocity_pp_mps: float, power_w: float) -> float:
     """The force factor a printed drive, velocity and power imply at resonance, model-free:
     the drive's force amplitude A V0 times the velocity amplitude v0 over two is the power, so
@@ -449,48 +404,13 @@ def implied_force_factor_n_per_v(voltage_vpp: float, velocity_pp_mps: float, pow
     return 2.0 * power_w / (voltage_vpp / 2.0 * velocity_pp_mps / 2.0)
 
 
-def implied_edge_gap_mm(target: float, curve: pd.DataFrame, column: str = "force_factor_n_per_v") -> float | None:
-    """INFERENCE, not an input: the first edge gap at which the model's `column` of `curve`
-    (against `edge_gap_mm`) reaches `target`, linear between swept gaps; None if no swept gap
-    reaches it. Never used to predict the numbers it is inferred from."""
-    found = plate_modes.crossings(curve["edge_gap_mm"], curve[column], target)
-    return found[0] if found else None
-
-
-def large_plate_placement_inference() -> pd.DataFrame:
-    """INFERENCE, labelled so: the edge gap the large plate's printed numbers imply on the
-    model's placement curve (`large_plate_placement_curve`, 1 um read as pp): the printed 32 Vpp
-    (with the build's Q and with the physics Q), the printed 1.3 W (likewise) and the force
-    factor the two imply together, model-free (`implied_force_factor_n_per_v`). Each row gives
-    the curve's range over the swept gaps, so a printed number no placement reaches says so."""
-    curve = large_plate_placement_curve()
-    q = lambda name: paper_value("large_plate", "large_plate", name)  # noqa: E731
-    f = float(curve["frequency_hz"].iloc[0])
-    velocity_pp = 2 * math.pi * f * q("amplitude_m")
-    targets = (("voltage_vpp", "printed voltage for 1 um pp, build Q", q("voltage_vpp")),
-               ("voltage_vpp_physics_q", "printed voltage for 1 um pp, physics Q", q("voltage_vpp")),
-               ("power_w", "printed power at 1 um pp, build Q", q("power_w")),
-               ("power_w_physics_q", "printed power at 1 um pp, physics Q", q("power_w")),
-               ("force_factor_n_per_v", "force factor implied by 32 Vpp, 1 um pp and 1.3 W",
-                implied_force_factor_n_per_v(q("voltage_vpp"), velocity_pp, q("power_w"))))
-    rows = []
-    for column, what, target in targets:
-        gap = implied_edge_gap_mm(target, curve, column)
-        rows.append({"printed": what, "target": target, "model_min": float(curve[column].min()),
-                     "model_max": float(curve[column].max()),
-                     "inferred_edge_gap_mm": np.nan if gap is None else gap,
-                     "status": "inference" if gap is not None else
-                     f"no gap in {curve['edge_gap_mm'].min():g}-{curve['edge_gap_mm'].max():g} mm reaches it"})
-    return pd.DataFrame(rows)
-
-
-def what_would_agree(infer_placement: bool = True) -> pd.DataFrame:
+def what_would_agree() -> pd.DataFrame:
     """For each paper plate, what the printed power and velocity imply beside what the model
     predicts, and so which input would have to move, and by how much, for the two to agree:
-    the force factor (implied / predicted; for the edge plates, with `infer_placement`, the
-    edge gap that gives it: an INFERENCE, labelled so, from a sweep of solves) and the Q
-    (implied / the build's `MECHANICAL_Q`)."""
-    from squeezebench.analysis import damping
+    the force factor (implied / predicted; the edge gap that would give it is the design
+    model's inference, `designing.paper_placement`) and the Q (implied / the build's
+    `MECHANICAL_Q`)."""
+    from squeezebench.plates import damping
 
     rows = []
     for row in _predictions().to_dict("records"):
@@ -502,29 +422,12 @@ def what_would_agree(infer_placement: bool = True) -> pd.DataFrame:
             velocity = printed["printed_velocity_pp_mps"]
         implied_force = implied_force_factor_n_per_v(v, velocity, printed["printed_power_w"])
         implied_q = damping.implied_q(f, row["modal_mass_g"] * 1e-3, velocity, printed["printed_power_w"])
-        gap = None
-        if infer_placement and row["table"] != "Table 3":
-            gap = implied_edge_gap_mm(implied_force, _edge_curve(row["item"]))
         rows.append({"table": row["table"], "item": row["item"],
                      "predicted_force_factor_n_per_v": row["force_factor_n_per_v"],
                      "implied_force_factor_n_per_v": implied_force,
                      "force_factor_ratio": implied_force / row["force_factor_n_per_v"],
                      "implied_q": implied_q, "q_ratio": implied_q / MECHANICAL_Q,
-                     "physics_q": row["damping_q"],
-                     "inferred_edge_gap_mm": gap if gap is not None else np.nan})
-    return pd.DataFrame(rows)
-
-
-@functools.cache
-def _edge_curve(item: str) -> pd.DataFrame:
-    """The powered force factor at the plate's centre against the edge gap, for an edge plate."""
-    if item == "large_plate":
-        return large_plate_placement_curve()
-    rows = []
-    for gap in EDGE_GAPS_MM:
-        geometry = table4_plate(item, gap)
-        at = _at_centre(geometry, *_solve_working(geometry, STATED_ANTINODES["76 mm plates"], None))
-        rows.append({"edge_gap_mm": gap, "force_factor_n_per_v": at["force_factor_n_per_v"]})
+                     "physics_q": row["damping_q"]})
     return pd.DataFrame(rows)
 
 
@@ -576,15 +479,12 @@ def working_shape(plate: str, near_hz: float, x_m, y_m) -> tuple[np.ndarray, flo
 
 
 def main() -> None:
-    """The paper's plates predicted beside print, what would have to move, and the large
-    plate's placement curve with what the print implies (`python -m
-    squeezebench.analysis.predicted_plates`)."""
+    """The paper's plates predicted beside print and what would have to move (`python -m
+    squeezebench.plates.predicted_plates`; the placement the print implies:
+    `python -m squeezebench.designing.paper_placement`)."""
     with pd.option_context("display.width", 220, "display.max_columns", 30, "display.float_format", "{:.4g}".format):
         for title, frame in (("predicted beside printed", predictions()),
-                             ("what would have to move (INFERENCE for the edge gap)", what_would_agree()),
-                             ("large plate against the patches' distance from the edge", large_plate_placement_curve()),
-                             ("the large plate's placement the print implies (INFERENCE)",
-                              large_plate_placement_inference())):
+                             ("what would have to move", what_would_agree())):
             print(f"\n{title}\n{frame.to_string(index=False)}")
 
 

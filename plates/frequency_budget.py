@@ -1,7 +1,7 @@
 """Where the plate model's resonance misses come from: each paper plate's frequency taken
-apart, printed beside what the model gives (`python -m squeezebench.analysis.frequency_budget`).
+apart, printed beside what the model gives (`python -m squeezebench.plates.frequency_budget`).
 
-The model corrects two model-form terms a thin laminate lacks (`analysis.plate_modes`): the
+The model corrects two model-form terms a thin laminate lacks (`plates.plate_modes`): the
 thick-plate (Mindlin) shear and rotary inertia, -3 to -8 % here, and the epoxy bond's shear
 lag, which takes part of the patches' stiffening away. The budget shows each step from the
 thin plate with a rigid bond (the model before issue 45) to the model, every plate's U
@@ -14,16 +14,16 @@ import math
 
 import pandas as pd
 
-from squeezebench.analysis import plate_modes, predicted_plates
+from squeezebench.plates import laminate, plate_modes, predicted_plates
 
-SHEAR_COEFFICIENT = plate_modes.SHEAR_COEFFICIENT
+SHEAR_COEFFICIENT = laminate.SHEAR_COEFFICIENT
 
 
 def mindlin_factor(thickness_m: float, half_wavelength_m: float, poisson: float,
                    shear_coefficient: float = SHEAR_COEFFICIENT) -> float:
     """First-order thick-plate factor on a Kirchhoff flexural frequency (Mindlin's shear
     deformation and rotary inertia): 1 - (k h)^2 / 24 (1 + 2 / (kappa (1 - nu))), k = pi / (lambda/2):
-    the expansion of `plate_modes.mindlin_frequency_ratio`, which the model applies."""
+    the expansion of `laminate.mindlin_frequency_ratio`, which the model applies."""
     kh = math.pi / half_wavelength_m * thickness_m
     return 1.0 - kh**2 / 24.0 * (1.0 + 2.0 / (shear_coefficient * (1.0 - poisson)))
 
@@ -39,7 +39,7 @@ def frequency_budget() -> pd.DataFrame:
         model_hz = float(predictions.loc[item, "predicted_frequency_hz"])
         # centred where the model's own (Kirchhoff) solve looked: the same mesh, the same family
         thin_hz = float(model.loc[item, "kirchhoff_frequency_hz"])
-        rigid = plate_modes.solve_plate(geometry, near_hz=thin_hz, band_rel=0.3, bond=plate_modes.RIGID_BOND,
+        rigid = plate_modes.solve_plate(geometry, near_hz=thin_hz, band_rel=0.3, bond=laminate.RIGID_BOND,
                                         thick_plate=False)
         k = predicted_plates.mode_with_antinodes(rigid, int(predictions.loc[item, "predicted_antinodes"]), thin_hz)
         values = {"thin_rigid_bond": float(rigid.frequencies_hz[k]),

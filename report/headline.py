@@ -19,7 +19,7 @@ import numpy as np
 import pandas as pd
 
 from squeezebench.analysis import provenance
-from squeezebench.analysis.presentation import DISPLAY, header, percent, with_uncertainty
+from squeezebench.report.presentation import DISPLAY, header, percent, with_uncertainty
 from squeezebench.analysis.tables import INPUT_ORIGINS, ROUND_TRIP, is_put_in
 
 #: The paper's tables a headline counts, in the order it names them.

@@ -8,7 +8,7 @@ plate (two piezos at each corner). Every plate becomes a predicted scene of the 
 bench with its noise and the shunt, and is characterised by the paper's protocol. Then:
 
 - route (b), the paper's method: the small plates' Q and tan(theta') carried to the large
-  plate by Eqs. 25-29 (`analysis.design.predict_from_small_plates`), under each reading;
+  plate by Eqs. 25-29 (`designing.paper_route.predict_from_small_plates`), under each reading;
 - route (a), physics: the large plate's design predicted from its geometry (on the
   simulated bench a chain check: the scene follows the same plate model);
 
@@ -25,10 +25,12 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from squeezebench.analysis import design as design_model
+from squeezebench.designing import design as design_model
 from squeezebench.analysis import model
-from squeezebench.analysis.design_file import DesignFile
-from squeezebench.designing import characterised_plates, write_build
+from squeezebench.designing.design_file import DesignFile
+from squeezebench.designing.answer import DesignAnswer, Measured, measured_point
+from squeezebench.designing.paper_route import predict_from_small_plates
+from squeezebench.designing.workflow import characterised_plates, write_build
 
 READINGS = {"paper": model.PAPER_CONVENTION, "physical": model.PHYSICAL_CONVENTION}
 TARGET_AMPLITUDE_PP_M = 1e-6
@@ -97,7 +99,7 @@ def _characterise(spec: DesignFile, folder: Path, seed: int) -> Path:
     """The spec built as a predicted scene and characterised on the simulated bench."""
     from squeezebench.protocols.campaign import run_campaign
 
-    _, campaign = write_build(design_model.DesignAnswer(design_model.predict_physics(spec)), folder, seed=seed)
+    _, campaign = write_build(DesignAnswer(design_model.predict_physics(spec)), folder, seed=seed)
     return run_campaign(campaign, out_dir=folder / f"run_{spec.name}", progress=False, say=lambda m: None,
                         durable=False)   # a temporary folder
 
@@ -128,8 +130,8 @@ def study_build(seed: int) -> list[dict]:
         rows = []
         for reading, convention in READINGS.items():
             built = characterised_plates([large_run], convention)["large"]
-            measured = design_model.measured_point(physics, built)
-            route = design_model.predict_from_small_plates(physics, characterised_plates(small_runs, convention),
+            measured = measured_point(physics, built)
+            route = predict_from_small_plates(physics, characterised_plates(small_runs, convention),
                                                            convention)
             rows.append(_row(build, f"small plates (b), {reading} reading", route.power_w.nominal_value,
                              2 * route.power_w.std_dev, measured))
@@ -138,7 +140,7 @@ def study_build(seed: int) -> list[dict]:
     return [{**row, "redrawn": redrawn} for row in rows]
 
 
-def _row(build: Build, route: str, value: float, u: float, measured: design_model.Measured) -> dict:
+def _row(build: Build, route: str, value: float, u: float, measured: Measured) -> dict:
     m, mu = measured.power_w.nominal_value, 2 * measured.power_w.std_dev
     return {"build": build.seed // 100, "seed": build.seed, "thickness_mm": build.thickness_mm, "mechanical_q": build.mechanical_q,
             "large_length_mm": build.large_length_mm, "route": route, "predicted_power_w": value,
@@ -162,12 +164,12 @@ def summary(frame: pd.DataFrame) -> pd.DataFrame:
 
 
 def main(argv: list[str] | None = None) -> int:
-    """python -m squeezebench.design_transfer [--builds N] [--workers N] [--out FILE.csv]"""
+    """python -m squeezebench.designing.transfer [--builds N] [--workers N] [--out FILE.csv]"""
     import argparse
 
     from squeezebench.workers import default_workers
 
-    parser = argparse.ArgumentParser(prog="python -m squeezebench.design_transfer", description=__doc__,
+    parser = argparse.ArgumentParser(prog="python -m squeezebench.designing.transfer", description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--builds", type=int, default=20)
     parser.add_argument("--workers", type=int, default=None)

@@ -26,7 +26,7 @@ A Ritz basis of smooth bare modes cannot bend more softly under a stiff patch, s
 a model, not the solve: `check` compares it with full solves of a sample of the sweep's
 layouts (frequency within `FREQUENCY_TOLERANCE_REL`, force factor within
 `FORCE_TOLERANCE_REL`), and a sweep whose sample misses is solved in full
-(`squeezebench.designing`).
+(`squeezebench.designing.workflow`).
 """
 from __future__ import annotations
 
@@ -37,8 +37,8 @@ import numpy as np
 from scipy.linalg import eigh
 from scipy.sparse.linalg import eigsh
 
-from squeezebench.analysis import plate_modes
-from squeezebench.analysis.plate_modes import Bond, Isotropic, Piezo, PlateGeometry
+from squeezebench.plates import plate_modes
+from squeezebench.plates.plate_modes import Bond, Isotropic, Piezo, PlateGeometry
 
 #: The reduced model answers for a layout if its working mode's frequency is within 0.2 %
 #: of the full solve's and its force factor within 2 % (issue 51).

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import pandas as pd
 
 from squeezebench.analysis import provenance
-from squeezebench.analysis.paper import paper_table, printed_step
+from squeezebench.paper import paper_table, printed_step
 from squeezebench.analysis.tables import ROUND_TRIP
 
 

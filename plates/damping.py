@@ -17,7 +17,7 @@ mass-normalised deflection squared over w (`surface_loss_factor`), R / (w rho h)
 The cushion's R is the least known figure (the foam, and how much of the face touches it, are
 not stated): `fit_and_check` fits it, on ONE build (Table 4), and judges the others (Table 3, the
 large plate) with it, the table showing both; `cross_check` repeats the fit on each build. The
-predictions (`analysis.predicted_plates`) use the closed-form nominal, never the fit.
+predictions (`plates.predicted_plates`) use the closed-form nominal, never the fit.
 
 The whole face in contact is the hypothesis the builds agree on: fitted on Table 4 it is
 about 5900 Pa s/m and the large plate, held out, lands within 15 % of its implied Q. Contact
@@ -32,7 +32,7 @@ import math
 import numpy as np
 import pandas as pd
 
-from squeezebench.analysis import plate_modes
+from squeezebench.plates import plate_modes
 
 #: Air at 20 degC, 101.325 kPa: density (kg/m^3) and speed of sound (m/s).
 AIR_DENSITY_KG_M3 = 1.204
@@ -188,10 +188,10 @@ def _budget() -> pd.DataFrame:
     """Per paper plate (`predicted_plates.loss_budget`): its implied Q, its loss without the
     cushion and the cushion's loss per unit resistance, and the force factor the print implies
     over the model's (`predicted_plates.what_would_agree`)."""
-    from squeezebench.analysis import predicted_plates
+    from squeezebench.plates import predicted_plates
 
     frame = predicted_plates.loss_budget()
-    agree = predicted_plates.what_would_agree(infer_placement=False)
+    agree = predicted_plates.what_would_agree()
     frame["force_factor_ratio"] = agree["force_factor_ratio"].to_numpy()
     frame["cushion_per_resistance"] = frame["loss_cushion"] / CUSHION_RESISTANCE_PA_S_PER_M
     frame["loss_without_cushion"] = frame[[f"loss_{name}" for name in ("aluminium", "piezo", "bond",

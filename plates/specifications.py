@@ -92,7 +92,7 @@ def compensation_phase_rad(mismatch_rel: float, frequency_hz: float) -> float:
     return float(phase) if phase.ndim == 0 else phase
 
 
-#: The plate model's inputs (`analysis.plate_modes.RELATIVE_TOLERANCES`): relative half-widths
+#: The plate model's inputs (`plates.plate_modes.RELATIVE_TOLERANCES`): relative half-widths
 #: of rectangular spreads about the nominal values (Table 2's aluminium, NCE 41, the epoxy bond).
 MODEL_TOLERANCES: dict[str, Specification] = {
     "young_pa": Specification(
@@ -116,7 +116,7 @@ MODEL_TOLERANCES: dict[str, Specification] = {
                   "+-50 % for the cure and temperature the paper does not state"),
     "bond_loss_factor": Specification(
         0.67, "1", "assumed: a glassy epoxy well below its glass transition has a shear loss factor of "
-                   "0.01-0.05 (0.03 +-67 %); fitted on one build in `analysis.damping.fit_and_check`"),
+                   "0.01-0.05 (0.03 +-67 %); fitted on one build in `plates.damping.fit_and_check`"),
 }
 
 #: How the sheet's thickness spreads within the standard's limits: triangular (GUM 4.3.9:

@@ -1,13 +1,14 @@
 """The design page: the answer first, then the mode, the power curve, the layouts, the budget.
 
 Written by `squeezebench design` as DIR/index.html beside design.json and the CSV tables;
-the run report's page and style (`analysis.page`), readable on a laptop and a phone.
+the run report's page and style (`report.page`), readable on a laptop and a phone.
 """
 from __future__ import annotations
 
 import html
 import json
 import math
+from dataclasses import replace
 from pathlib import Path
 
 import matplotlib
@@ -17,12 +18,14 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
-from squeezebench.analysis import presentation  # noqa: E402
-from squeezebench.analysis.design import COVERAGE_FACTOR, INPUTS, DesignAnswer, mean_edge_gap_mm  # noqa: E402
-from squeezebench.analysis.plate_modes import crossings  # noqa: E402
-from squeezebench.analysis.figures import PAPER_STYLE, save_figure  # noqa: E402
-from squeezebench.analysis import page as html_page  # noqa: E402
-from squeezebench.analysis.report import cell_text, html_table  # noqa: E402
+from squeezebench.report import presentation  # noqa: E402
+from squeezebench.designing.answer import DesignAnswer  # noqa: E402
+from squeezebench.designing.design import COVERAGE_FACTOR, INPUTS, mean_edge_gap_mm  # noqa: E402
+from squeezebench.designing.workflow import HISTORY_FILE, record_measurement  # noqa: E402
+from squeezebench.plates.plate_modes import crossings  # noqa: E402
+from squeezebench.report.figures import PAPER_STYLE, save_figure  # noqa: E402
+from squeezebench.report import page as html_page  # noqa: E402
+from squeezebench.report.section import cell_text, html_table  # noqa: E402
 
 FILES = {"page": "index.html", "json": "design.json", "budget": "budget.csv", "comparison": "comparison.csv",
          "layouts": "layouts.csv", "mode": "mode.png", "power": "power_voltage.png", "pareto": "layouts.png",
@@ -353,8 +356,8 @@ def assumptions(answer: DesignAnswer) -> str:
                  f"{d.piezo.tan_delta_at_max_field:g} at {d.piezo.max_field_v_per_mm:g} V/mm (field amplitude), linear "
                  "between them (NCE 41 datasheet); the field limit is that highest stated point</li>")
     items.append("<li><b>model</b>: Kirchhoff plate with bonded piezo laminate, free edges, scikit-fem Argyris elements "
-                 "(analysis/plate_modes.py); voltage, power and current from the mode's modal mass and force factor at the "
-                 "plate's centre (analysis/design.py)</li>")
+                 "(plates/plate_modes.py); voltage, power and current from the mode's modal mass and force factor at the "
+                 "plate's centre (designing/design.py)</li>")
     if answer.paper_route is not None:
         r = answer.paper_route
         items.append(f"<li><b>route (b)</b>: Q from {html.escape(r.template)} scaled by Eq. 29 to the design's "
@@ -516,3 +519,15 @@ def page(answer: DesignAnswer, files: dict[str, str]) -> str:
     description = f"<p>{html.escape(d.description)}</p>" if d.description else ""
     return html_page.render(f"squeezebench design: {d.name}",
                             [html_page.PageSection(f"s{i}", t, t, b) for i, (t, b) in enumerate(sections)], description)
+
+
+def write_design(answer: DesignAnswer, out_dir: str | Path | None = None,
+                 measured_run: str | Path | None = None) -> tuple[Path, dict[str, str]]:
+    """The page and its files in `out_dir` (default designs/<name>); returns the folder and
+    the files. With the built plate's run, its comparison joins the history beside the
+    designs' folders (`HISTORY_FILE`), which the page shows."""
+    folder = Path(out_dir) if out_dir is not None else Path("designs") / answer.design.name
+    if measured_run is not None and answer.measured is not None:
+        history = record_measurement(answer, folder.parent / HISTORY_FILE, measured_run)
+        answer = replace(answer, history=history)
+    return folder, write(answer, folder)

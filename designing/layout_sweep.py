@@ -1,12 +1,12 @@
 """A layout sweep's tasks on the reduced model, and its check against the full solve.
 
-`analysis.layouts` says what the layouts are and what a layout's row holds; here they are
-answered by the reduced model of their plate (`analysis.reduced_layouts`), in chunks
+`designing.layouts` says what the layouts are and what a layout's row holds; here they are
+answered by the reduced model of their plate (`plates.reduced_layouts`), in chunks
 (each worker builds the model once), and a sample of them is solved in full as well:
 the sweep keeps the reduced answers only if every sampled layout's working mode is within
 `reduced_layouts.FREQUENCY_TOLERANCE_REL` in frequency and `FORCE_TOLERANCE_REL` in force
 factor of its full solve (both refusing it counts as agreeing); otherwise its caller
-solves every layout in full and says so (`squeezebench.designing`).
+solves every layout in full and says so (`squeezebench.designing.workflow`).
 """
 from __future__ import annotations
 
@@ -15,9 +15,10 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
-from squeezebench.analysis import design as design_model
-from squeezebench.analysis import layouts, reduced_layouts
-from squeezebench.analysis.design_file import DesignFile
+from squeezebench.designing import design as design_model
+from squeezebench.designing import layouts
+from squeezebench.plates import reduced_layouts
+from squeezebench.designing.design_file import DesignFile
 
 #: The sample solved in full: 8 layouts and one more per 200, drawn with this seed.
 SAMPLE_SEED = 51

@@ -17,8 +17,8 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
-from squeezebench.analysis import design as design_model
-from squeezebench.analysis.design_file import DesignFile, Group
+from squeezebench.designing import design as design_model
+from squeezebench.designing.design_file import DesignFile, Group
 
 #: The sweep's axes (216 layouts, 72 meshes). Edge gaps are fractions of the working mode's
 #: half-wavelength between the plate's ends and the end columns' piezos (0: flush with the

@@ -1,10 +1,11 @@
 """`squeezebench design PLATE`: what a plate will need, predicted before it is built.
 
-Reads the design file, predicts by physics (`analysis.design`), by the paper's method from
+Reads the design file, predicts by physics (`designing.design`), by the paper's method from
 characterised small plates when runs are given (`--from`), sets a characterisation of the
 built plate beside both (`--measured`), sweeps the piezo layouts on the parallel engine the
-study uses (`protocols.parallel`), and writes the page, design.json and the tables
-(`analysis.design_report`).
+study uses (`protocols.parallel`), and records a built plate's comparison in the history.
+The page, design.json and the tables are the report's (`report.design_report.write_design`):
+this package never imports the report.
 """
 from __future__ import annotations
 
@@ -19,8 +20,11 @@ import pandas as pd
 
 from squeezebench import paths
 from squeezebench.yamlfiles import dump_yaml
-from squeezebench.analysis import design as design_model
-from squeezebench.analysis import design_report, layouts
+from squeezebench.designing import design as design_model
+from squeezebench.designing import layouts
+from squeezebench.designing.answer import DesignAnswer, measured_point
+from squeezebench.designing.paper_route import predict_from_small_plates
+from squeezebench.designing.verdict import Verdict, cancellation, judge, neighbour_modes
 from squeezebench.errors import UserError
 
 
@@ -28,9 +32,9 @@ def characterised_plates(run_dirs: Iterable[str | Path], convention=None) -> dic
     """Every plate the runs' characterisation protocol measured (name -> characterisation,
     under `convention`, by default the report's reading); a plate name in two runs is
     refused, not silently merged."""
-    from squeezebench.analysis.report import REPORT_CONVENTION
+    from squeezebench.analysis.model import REPORT_CONVENTION
     from squeezebench.analysis.rundata import load_run
-    from squeezebench.analysis.tables import characterise_plates
+    from squeezebench.analysis.characterisation import characterise_plates
 
     plates: dict = {}
     for run_dir in run_dirs:
@@ -45,7 +49,7 @@ def characterised_plates(run_dirs: Iterable[str | Path], convention=None) -> dic
 
 
 def printed_values(plate: str | None) -> dict[str, float] | None:
-    from squeezebench.analysis.paper import paper_value
+    from squeezebench.paper import paper_value
 
     if plate is None:
         return None
@@ -114,7 +118,7 @@ def scene_from_design(spec, seed: int = 1, mechanical_q: float | None = None) ->
     return data
 
 
-def characterisation_campaign(spec, answer: design_model.DesignAnswer, scene_file: str) -> dict:
+def characterisation_campaign(spec, answer: DesignAnswer, scene_file: str) -> dict:
     """The campaign that characterises the built plate (Sec. 5.3's protocol on the designed
     plate): a resonance search over +-3 % of the predicted frequency, fine enough for the
     build's Q, then 25 to 100 % of the voltage the target needs (within the amplifier and a
@@ -135,7 +139,7 @@ def characterisation_campaign(spec, answer: design_model.DesignAnswer, scene_fil
     }
 
 
-def write_build(answer: design_model.DesignAnswer, folder: str | Path, seed: int = 1) -> tuple[Path, Path]:
+def write_build(answer: DesignAnswer, folder: str | Path, seed: int = 1) -> tuple[Path, Path]:
     """The predicted scene of the design (its noise drawn from `seed`) and the campaign
     characterising it, in `folder`."""
     spec = answer.design
@@ -160,8 +164,8 @@ def predicted_antinodes(spec) -> int:
 
 def run_design(plate: str | Path, from_runs: Iterable[str | Path] = (), measured: str | Path | None = None,
                measured_plate: str | None = None, sweep: bool = True, workers: int | None = None,
-               scheduler: Any = None, allow_infeasible: bool = False) -> design_model.DesignAnswer:
-    """The design's answer; an infeasible one (`design.judge`) is refused with the nearest
+               scheduler: Any = None, allow_infeasible: bool = False) -> DesignAnswer:
+    """The design's answer; an infeasible one (`verdict.judge`) is refused with the nearest
     feasible change named, unless `allow_infeasible` (then it carries its red verdict). A
     mode the powered piezos cancel on is refused before its budget is solved. The layout
     sweep (`sweep`) is by the reduced model where it passes its check (`sweep_layouts`)."""
@@ -174,24 +178,24 @@ def run_design(plate: str | Path, from_runs: Iterable[str | Path] = (), measured
     spec = load_design_file(paths.design_file(plate), characterised=small_plates)
     modal = design_model.modal_part(spec)
     neighbours = []
-    if design_model.cancellation(spec, modal.modes, modal.mode_index):
-        neighbours = design_model.neighbour_modes(spec, modal.modes.interior_antinodes(modal.mode_index))
+    if cancellation(spec, modal.modes, modal.mode_index):
+        neighbours = neighbour_modes(spec, modal.modes.interior_antinodes(modal.mode_index))
         if not allow_infeasible:
-            reason, change = design_model.cancellation(spec, modal.modes, modal.mode_index, neighbours)
-            _refuse(spec, design_model.Verdict("infeasible", (reason,), (change,)))
+            reason, change = cancellation(spec, modal.modes, modal.mode_index, neighbours)
+            _refuse(spec, Verdict("infeasible", (reason,), (change,)))
     physics = design_model.predict_physics(spec, modal=modal)
     placement = None
     if design_model.mean_edge_gap_mm(spec) is not None:
         placement = design_model.placement_curve(physics, mapper=lambda function, items: map_unordered(
             function, items, workers=workers or default_workers(), scheduler=scheduler, description="placements"))
-    verdict = design_model.judge(physics, placement, neighbours)
+    verdict = judge(physics, placement, neighbours)
     if verdict.status == "infeasible" and not allow_infeasible:
         _refuse(spec, verdict)
-    answer = design_model.DesignAnswer(physics, printed=printed_values(spec.paper_plate), verdict=verdict,
+    answer = DesignAnswer(physics, printed=printed_values(spec.paper_plate), verdict=verdict,
                                        placement=placement)
     if from_runs:
         try:
-            route = design_model.predict_from_small_plates(physics, small_plates)
+            route = predict_from_small_plates(physics, small_plates)
             answer = replace(answer, paper_route=route)
         except design_model.DesignError as exc:
             answer = replace(answer, paper_route_problem=str(exc))
@@ -203,7 +207,7 @@ def run_design(plate: str | Path, from_runs: Iterable[str | Path] = (), measured
         if name not in plates:
             raise UserError(f"{measured}: say which characterised plate is the built one with --measured-plate "
                             f"(one of: {', '.join(sorted(plates))})")
-        answer = replace(answer, measured=design_model.measured_point(physics, plates[name]))
+        answer = replace(answer, measured=measured_point(physics, plates[name]))
     if sweep:
         values = physics.nominal.values
         frame, note = sweep_layouts(spec, values, workers=workers, scheduler=scheduler)
@@ -212,7 +216,7 @@ def run_design(plate: str | Path, from_runs: Iterable[str | Path] = (), measured
     return answer
 
 
-def _refuse(spec, verdict: design_model.Verdict):
+def _refuse(spec, verdict: Verdict):
     raise design_model.DesignError(
         f"design {spec.name!r} is not an answer (infeasible): {'; '.join(verdict.reasons)}. Nearest feasible change: "
         f"{'; or '.join(verdict.changes) or 'none found'}. (--allow-infeasible shows it, marked infeasible)")
@@ -233,9 +237,9 @@ def sweep_layouts(spec, values: dict, workers: int | None = None, scheduler: Any
                   grid: list | None = None) -> tuple[pd.DataFrame, str]:
     """The layout sweep (`layouts.grid` unless `grid` is given) at the design's working mode
     on the parallel engine: by the reduced model with its sample checked against the full
-    solve (`analysis.layout_sweep`), every layout in full if the check fails or `reduced` is
+    solve (`designing.layout_sweep`), every layout in full if the check fails or `reduced` is
     false. Returns the table and a sentence saying how it was solved."""
-    from squeezebench.analysis import layout_sweep
+    from squeezebench.designing import layout_sweep
     from squeezebench.protocols.parallel import map_unordered
     from squeezebench.workers import default_workers
 
@@ -277,7 +281,7 @@ def sweep_layouts(spec, values: dict, workers: int | None = None, scheduler: Any
 HISTORY_FILE = "history.csv"
 
 
-def record_measurement(answer: design_model.DesignAnswer, history: Path, measured_run: str | Path) -> pd.DataFrame:
+def record_measurement(answer: DesignAnswer, history: Path, measured_run: str | Path) -> pd.DataFrame:
     """Append this design's prediction-against-measurement rows to `history` (CSV) and
     return the whole history: how a lab's designs fare against what it then built."""
     rows = answer.comparison()
@@ -291,15 +295,3 @@ def record_measurement(answer: design_model.DesignAnswer, history: Path, measure
     history.parent.mkdir(parents=True, exist_ok=True)
     frame.to_csv(history, index=False)
     return frame
-
-
-def write_design(answer: design_model.DesignAnswer, out_dir: str | Path | None = None,
-                 measured_run: str | Path | None = None) -> tuple[Path, dict[str, str]]:
-    """The page and its files in `out_dir` (default designs/<name>); returns the folder and
-    the files. With the built plate's run, its comparison joins the history beside the
-    designs' folders (`HISTORY_FILE`), which the page shows."""
-    folder = Path(out_dir) if out_dir is not None else Path("designs") / answer.design.name
-    if measured_run is not None and answer.measured is not None:
-        history = record_measurement(answer, folder.parent / HISTORY_FILE, measured_run)
-        answer = replace(answer, history=history)
-    return folder, design_report.write(answer, folder)

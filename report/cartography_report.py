@@ -9,9 +9,10 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from squeezebench.analysis import cartography, predicted_plates
-from squeezebench.analysis.drawing import Drawing
-from squeezebench.analysis.presentation import fold, with_uncertainty
+from squeezebench.analysis import cartography
+from squeezebench.plates import predicted_plates
+from squeezebench.report.drawing import Drawing
+from squeezebench.report.presentation import fold, with_uncertainty
 
 
 def map_figure(points: pd.DataFrame, path: Path, plate: str) -> None:

@@ -1,6 +1,6 @@
 """The report's figures drawn in other processes while the report computes its next sections.
 
-A figure function (`analysis.figures`, `cartography_report.map_figure`) takes its data and
+A figure function (`report.figures`, `cartography_report.map_figure`) takes its data and
 the PNG's path and reads nothing else, so the report hands it to a worker and goes on: a
 third of a report's time is matplotlib, which otherwise leaves every core but one idle.
 The page is written only once every figure is (`Drawing.finish`). With one worker figures

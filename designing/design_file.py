@@ -16,8 +16,8 @@ from typing import Literal, Optional, Union
 
 from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
 
-from squeezebench.analysis import plate_modes
-from squeezebench.analysis.specifications import sheet_thickness_tolerance
+from squeezebench.plates import laminate, plate_modes
+from squeezebench.plates.specifications import sheet_thickness_tolerance
 
 #: Materials a design may name instead of giving constants. aluminium_table2 is the paper's
 #: Table 2 aluminium; al_6061_t6 the ASM datasheet of 6061-T6 (68.9 GPa, 0.33, 2700 kg/m^3).
@@ -122,7 +122,7 @@ class Target(_Model):
 
 class Damping(_Model):
     """The plate's mechanical loss: the build's stated Q (one figure shared by every plate of
-    it), or Q from the physics of its losses (`analysis.damping`: aluminium, ceramic Qm, bond,
+    it), or Q from the physics of its losses (`plates.damping`: aluminium, ceramic Qm, bond,
     radiation into air, weighted by the mode's strain energy), when `source` is physics; then
     `tolerance_rel` is the spread of what the loss model leaves out and `mechanical_q` unused."""
 
@@ -152,12 +152,12 @@ class TouchArea(_Model):
 class Tolerances(_Model):
     """Half-widths of rectangular spreads, relative (datasheet and stock tolerances)."""
 
-    young_pa: float = Field(plate_modes.RELATIVE_TOLERANCES["young_pa"], ge=0, lt=1)
-    density_kg_m3: float = Field(plate_modes.RELATIVE_TOLERANCES["density_kg_m3"], ge=0, lt=1)
+    young_pa: float = Field(laminate.RELATIVE_TOLERANCES["young_pa"], ge=0, lt=1)
+    density_kg_m3: float = Field(laminate.RELATIVE_TOLERANCES["density_kg_m3"], ge=0, lt=1)
     thickness_m: Optional[float] = Field(None, ge=0, lt=1, description="default: the rolled sheet's "
                                          "(EN 485-4, specifications.sheet_thickness_tolerance)")
-    d31_c_per_n: float = Field(plate_modes.RELATIVE_TOLERANCES["d31_c_per_n"], ge=0, lt=1)
-    relative_permittivity_t: float = Field(plate_modes.RELATIVE_TOLERANCES["relative_permittivity_t"], ge=0, lt=1)
+    d31_c_per_n: float = Field(laminate.RELATIVE_TOLERANCES["d31_c_per_n"], ge=0, lt=1)
+    relative_permittivity_t: float = Field(laminate.RELATIVE_TOLERANCES["relative_permittivity_t"], ge=0, lt=1)
     tan_delta: float = Field(0.3, ge=0, lt=1)
     #: Bonding tolerance along the length (mm, rectangular half-width, absolute): where a hand
     #: with a paper template puts a piezo, for a group that states none.

@@ -1,7 +1,7 @@
 """What a plate design will need, predicted before it is built (`squeezebench design`).
 
 Route (a), physics: the design's geometry and datasheets through the plate model
-(`analysis.plate_modes`): the working (n, 0) mode, its modal mass and the powered piezos'
+(`plates.plate_modes`): the working (n, 0) mode, its modal mass and the powered piezos'
 force factor referred to the plate's centre, and the one fitted figure, the build's
 mechanical Q. At resonance the plate is a Butterworth-Van Dyke branch seen from the piezos:
 
@@ -22,15 +22,17 @@ standard uncertainty (GUM 5.1.3, numerically): the budget says which inputs domi
 Where the piezos sit along the length decides the drive: near a free edge the mode's
 curvature, which the piezos couple to, falls to zero. `placement_curve` solves the design
 with its end groups at a range of distances from the edges, so a designer reads what moving
-them does; `judge` turns the answer into a verdict (feasible, marginal, infeasible) against
-the amplifier, the ceramic's field limit and the coupling, naming the nearest change that
-makes an infeasible design feasible.
+them does; `designing.verdict.judge` turns the answer into a verdict (feasible, marginal,
+infeasible) against the amplifier, the ceramic's field limit and the coupling, naming the
+nearest change that makes an infeasible design feasible.
 
-Route (b), the paper's method (Sec. 5): Q and tan(theta') measured on characterised small
-plates of the same build, Q scaled to the design's piezo by Eq. 29, tan(theta') the mean of
-the plates as thick as the resonator, then Eqs. 27 and 25 under the report's reading
-(`report.REPORT_CONVENTION`), at the frequency and lambda/2 route (a) predicts.
+Route (b), the paper's method (Sec. 5), is `designing.paper_route`: Q and tan(theta')
+measured on characterised small plates of the same build, Q scaled to the design's piezo by
+Eq. 29, tan(theta') the mean of the plates as thick as the resonator, then Eqs. 27 and 25
+under the report's reading (`analysis.model.REPORT_CONVENTION`), at the frequency and
+lambda/2 route (a) predicts. `designing.answer.DesignAnswer` holds both with the verdict.
 """
+
 from __future__ import annotations
 
 import math
@@ -39,25 +41,36 @@ from typing import Callable
 
 import numpy as np
 import pandas as pd
-from uncertainties import ufloat
 
-from squeezebench.analysis import cartography, damping, model, plate_modes, reduced_layouts, specifications
-from squeezebench.analysis.design_file import DesignFile
+from squeezebench.analysis import cartography
+from squeezebench.plates import laminate, damping, plate_modes, reduced_layouts, specifications
+from squeezebench.designing.design_file import DesignFile
 from squeezebench.errors import UserError
 
+
 COVERAGE_FACTOR = 2.0
+
+
 #: Whole width of the band of modes solved about a design's estimated frequency.
 SEARCH_BAND_REL = 0.10
+
+
 #: Touch-area grid for the homogeneity figures: points per half-wavelength along x.
 TOUCH_POINTS_PER_HALF_WAVE = 8
+
+
 #: A centre deflection below this share of the nearest antinode's (along the centre line,
 #: within half a wavelength) is too close to a nodal line for a target "at the centre": the
 #: prediction would hang on the node's exact place.
 MIN_CENTRE_SHARE = 0.5
+
+
 #: The powered piezos' net coupling to a mode (|sum of their force factors| over the sum of
 #: their magnitudes) below which they cancel on it: the drive then hangs on the few per cent
 #: by which the placement breaks the cancellation, and the voltage on nothing a lab controls.
 MIN_COUPLING_SHARE = 0.1
+
+
 #: Below this net coupling the powered piezos partly cancel: an answer, but a marginal one.
 PARTIAL_COUPLING_SHARE = 0.5
 
@@ -79,6 +92,8 @@ INPUTS = (
     ("bond_loss_factor", "bond's loss factor (Q from physics)", False),
     ("mechanical_q", "mechanical Q of the build", False),
 )
+
+
 #: The label of the Q input when Q comes from the loss physics: what the model leaves out.
 UNMODELLED_LOSS_LABEL = "mechanical Q: losses outside the loss model"
 
@@ -373,7 +388,7 @@ def predict_physics(design: DesignFile, modal: ModalPart | None = None) -> Physi
     """Route (a) with its budget: one solve at nominal (`modal`, when already solved), one per
     structural input moved by its standard uncertainty (t / sqrt 3 for a rectangular
     half-width t, t / sqrt 6 for the sheet's triangular thickness,
-    `plate_modes.relative_standard_uncertainty`; the end groups moved inward together by the
+    `laminate.relative_standard_uncertainty`; the end groups moved inward together by the
     placement's); the piezo's and the damping's inputs reuse the nominal solve."""
     modal = modal or modal_part(design)
     nominal = operating_point(design, modal=modal)
@@ -392,7 +407,7 @@ def predict_physics(design: DesignFile, modal: ModalPart | None = None) -> Physi
             tolerance_mm, u_mm = math.nan, math.nan
             if name == "mechanical_q" and design.damping.source == "physics":
                 label = UNMODELLED_LOSS_LABEL
-            u_rel = plate_modes.relative_standard_uncertainty(name, tolerance)   # the sheet's triangular
+            u_rel = laminate.relative_standard_uncertainty(name, tolerance)   # the sheet's triangular
             if u_rel == 0:
                 continue
             moved = modal_part(design, {name: 1 + u_rel}, antinodes=antinodes) if structural else modal
@@ -448,8 +463,6 @@ def _scaled_lumped(nominal: Lumped, moved: Lumped, scale: float) -> Lumped:
                      for k in nominal.__dataclass_fields__})
 
 
-# --- placement along the length ------------------------------------------------------------
-
 #: Points of the placement curve between flush with the edges and half a wavelength in.
 PLACEMENT_POINTS = 10
 PLACEMENT_COLUMNS = ["edge_gap_mm", "frequency_hz", "interior_antinodes", "modal_mass_g", "force_factor_n_per_v",
@@ -484,7 +497,7 @@ def placement_rows(design: DesignFile, antinodes: int, gaps_mm, u_rel_others: fl
     """`design` solved with its end groups at each distance from the edges in `gaps_mm` on
     its `antinodes` mode, one row per distance in order, the voltage's U the relative
     `u_rel_others` of it (`placement_curve`; the report's placement inference for the paper's
-    large plate, `predicted_plates.large_plate_placement_curve`, reads the same rows)."""
+    large plate, `paper_placement.large_plate_placement_curve`, reads the same rows)."""
     tasks = [(design, antinodes, float(gap), u_rel_others) for gap in np.asarray(gaps_mm)]
     mapper = mapper or (lambda function, items: ((item, function(item)) for item in items))
     out = sorted((row for _, row in mapper(placement_point, tasks)), key=lambda row: row["edge_gap_mm"])
@@ -511,285 +524,3 @@ def mean_edge_gap_mm(design: DesignFile) -> float | None:
     """The end groups' mean distance from their edges (None without end groups)."""
     gaps = [design.edge_gap_mm(g) for g in design.groups if design.is_end_group(g)]
     return float(np.mean(gaps)) if gaps else None
-
-
-# --- the verdict ----------------------------------------------------------------------------
-
-@dataclass(frozen=True)
-class Neighbour:
-    """A mode next to the design's by antinode count, as the design would drive it."""
-
-    interior_antinodes: int
-    frequency_hz: float
-    voltage_vpp: float
-    coupling_share: float
-
-
-def neighbour_modes(design: DesignFile, antinodes: int) -> list[Neighbour]:
-    """The modes with one antinode fewer and one more, each solved as the design's working
-    mode (a count the plate does not show cleanly is left out)."""
-    out = []
-    for count in (antinodes - 1, antinodes + 1):
-        if count < 1:
-            continue
-        candidate = DesignFile.model_validate({**design.model_dump(), "mode": {"interior_antinodes": count}})
-        try:
-            modal = modal_part(candidate, antinodes=count)
-            values = operating_point(candidate, modal=modal).values
-        except (DesignError, ValueError):
-            continue
-        if values["interior_antinodes"] == count:
-            out.append(Neighbour(count, values["frequency_hz"], values["voltage_vpp"], values["coupling_share"]))
-    return out
-
-
-def better_neighbour(design: DesignFile, neighbours: list[Neighbour]) -> Neighbour | None:
-    """Of the neighbours the powered piezos do not cancel on, the one nearest the frequency
-    the design asks for (the lower voltage between equals)."""
-    usable = [n for n in neighbours if n.coupling_share >= MIN_COUPLING_SHARE]
-    return min(usable, key=lambda n: (abs(n.frequency_hz - design.search_hz), n.voltage_vpp)) if usable else None
-
-
-@dataclass(frozen=True)
-class Verdict:
-    """Whether the answer is one a lab can build on: 'feasible', 'marginal' (a limit within
-    the answer's U) or 'infeasible', why, and the nearest changes that make it feasible."""
-
-    status: str
-    reasons: tuple[str, ...] = ()
-    changes: tuple[str, ...] = ()
-
-
-def cancellation(design: DesignFile, modes: plate_modes.PlateModes, k: int,
-                 neighbours: list[Neighbour] = ()) -> tuple[str, str] | None:
-    """Why mode k is no working mode when the powered piezos cancel on it, and the change to
-    make (the better of `neighbours`); None when they add."""
-    share = coupling_share(modes.force_factor_n_per_v[k, modes.powered])
-    if share >= MIN_COUPLING_SHARE:
-        return None
-    reason = (f"the powered piezos cancel on the {modes.interior_antinodes(k)}-antinode mode at "
-              f"{modes.frequencies_hz[k]:.0f} Hz (net coupling {share:.1%} of their sum), so its voltage hangs on "
-              "how unevenly they happen to be placed")
-    best = better_neighbour(design, list(neighbours))
-    change = (f"the {best.interior_antinodes}-antinode mode at {best.frequency_hz:.0f} Hz, where they add, needs "
-              f"about {best.voltage_vpp:.3g} Vpp (mode: {{interior_antinodes: {best.interior_antinodes}}})" if best
-              else "power only the groups on one side of the mode's middle, or move them so that they add")
-    return reason, change
-
-
-def _limits(physics: PhysicsPrediction) -> list[tuple[str, str, float, str, int]]:
-    """(what, output, limit, unit, power of the drive it grows with) for each stated limit."""
-    d = physics.design
-    limits = [("the amplifier's output", "voltage_vpp", d.amplifier.max_output_vpp, "Vpp", 1),
-              ("the ceramic's field limit", "piezo_field_v_per_mm", d.piezo.max_field_v_per_mm, "V/mm", 1)]
-    if d.amplifier.max_current_app:
-        limits.append(("the amplifier's current", "current_pp_a", d.amplifier.max_current_app, "A pp", 1))
-    if d.amplifier.max_power_w:
-        limits.append(("the amplifier's power", "power_w", d.amplifier.max_power_w, "W", 2))
-    return limits
-
-
-def judge(physics: PhysicsPrediction, curve: pd.DataFrame | None = None,
-          neighbours: list[Neighbour] = ()) -> Verdict:
-    """The design's verdict. Infeasible: the powered piezos cancel on the working mode, or the
-    target needs more than a limit allows (amplifier voltage, current or power, the
-    ceramic's field); marginal: a limit lies within the answer's U, or the piezos partly
-    cancel. The changes named: the
-    better neighbouring mode, the largest target the limits allow (voltage, field and current
-    grow as the target, power about as its square), and the placement along the length that
-    needs the least voltage when `curve` shows one within the limits."""
-    d, v, u = physics.design, physics.nominal.values, physics.expanded
-    infeasible, marginal, changes = [], [], []
-    cancelled = cancellation(d, physics.nominal.modes, physics.nominal.mode_index, neighbours)
-    if cancelled:
-        infeasible.append(cancelled[0])
-        changes.append(cancelled[1])
-    elif v["coupling_share"] < PARTIAL_COUPLING_SHARE:
-        marginal.append(f"the powered piezos partly cancel on the working mode (net coupling "
-                        f"{v['coupling_share']:.0%} of their sum): a small shift of one group moves the voltage much")
-    scale = 1.0
-    for what, output, limit, unit, power in _limits(physics):
-        value = v[output]
-        if value > limit:
-            infeasible.append(f"needs {value:.3g} {unit}, beyond {what} ({limit:g} {unit})")
-            scale = min(scale, (limit / value) ** (1 / power))
-        elif value + u[output] > limit:
-            marginal.append(f"{what} ({limit:g} {unit}) lies within the U of the {value:.3g} ± {u[output]:.2g} {unit} "
-                            "needed")
-    if scale < 1 and v["coupling_share"] >= MIN_COUPLING_SHARE:
-        target = d.target
-        wanted = (f"{target.amplitude_pp_m * scale * 1e6:.3g} µm pp" if target.amplitude_pp_m is not None
-                  else f"{target.velocity_pp_mps * scale:.3g} m/s pp")
-        changes.append(f"a target of at most {wanted}")
-        if curve is not None and curve["voltage_vpp"].notna().any():
-            best = curve.loc[curve["voltage_vpp"].idxmin()]
-            drive = best["voltage_vpp"] / v["voltage_vpp"]
-            if all(v[output] * drive <= limit for _, output, limit, _, power in _limits(physics) if power == 1):
-                changes.append(f"the end piezos {best['edge_gap_mm']:.1f} mm from the edges (about "
-                               f"{best['voltage_vpp']:.3g} Vpp)")
-    status = "infeasible" if infeasible else "marginal" if marginal else "feasible"
-    return Verdict(status, tuple(infeasible or marginal), tuple(changes))
-
-
-# --- route (b): the paper's method from characterised small plates ---------------------------
-
-@dataclass(frozen=True)
-class PaperRoute:
-    """Route (b)'s answer: Q and tan(theta') carried to the design, and what they give."""
-
-    q: object   # uncertainties' ufloat
-    tan_theta: object
-    voltage_vpp: object
-    power_w: object
-    amplitude_pp_m: float
-    template: str
-    small_plates: tuple[str, ...]
-    convention: model.Convention   # the reading the small plates were characterised and carried under
-    geometry: model.PlateGeometry
-
-    def power_at(self, voltage_vpp: np.ndarray, frequency_hz: float) -> tuple[np.ndarray, np.ndarray]:
-        """Eq. 25 against voltage: nominal and U (k = 2) from Q and tan(theta')."""
-        per_v2 = _eq25_per_v2(self.q, self.tan_theta, frequency_hz, self.geometry, self.convention)
-        return (per_v2.nominal_value * np.asarray(voltage_vpp) ** 2,
-                COVERAGE_FACTOR * per_v2.std_dev * np.asarray(voltage_vpp) ** 2)
-
-
-def _eq25_per_v2(q, tan_theta, frequency_hz, geometry: model.PlateGeometry, convention: model.Convention):
-    """Eq. 25's power per Vpp^2; linear in Q, tan(theta') and f, so ufloats pass through."""
-    return q * tan_theta * frequency_hz * model.power_w(1.0, 1.0, 1.0, 1.0, geometry, convention)
-
-
-def predict_from_small_plates(physics: PhysicsPrediction, plates: dict,
-                              convention: model.Convention | None = None) -> PaperRoute:
-    """Route (b) from `plates` (name -> `tables.PlateCharacterisation`, the small plates of
-    one or more characterisation runs, characterised under `convention`: by default the
-    report's reading; a plate as thick as the design is needed)."""
-    from squeezebench.analysis.report import REPORT_CONVENTION
-    from squeezebench.analysis.tables import LARGE_PLATE, mean_over_plates
-
-    design, values = physics.design, physics.nominal.values
-    convention = convention or REPORT_CONVENTION
-    thickness_m = design.resonator.thickness_mm * 1e-3
-    small = {n: p for n, p in plates.items() if n != LARGE_PLATE}
-    same = {n: p for n, p in small.items()
-            if math.isclose(p.geometry.resonator_thickness_m, thickness_m, rel_tol=1e-6)}
-    if not same:
-        found = ", ".join(f"{n} ({p.geometry.resonator_thickness_m * 1e3:g} mm)" for n, p in sorted(small.items()))
-        raise DesignError(f"route (b) needs a characterised small plate {design.resonator.thickness_mm:g} mm thick "
-                          f"like the design's resonator; the runs hold {found or 'none'}")
-    b_design = design.piezo.width_y_mm * 1e-3
-    template_name = design.from_small_plates.template_plate
-    if template_name is not None:
-        if template_name not in same:
-            raise DesignError(f"from_small_plates.template_plate {template_name!r} is not among the characterised "
-                              f"plates as thick as the design: {', '.join(sorted(same))}")
-        template = same[template_name]
-        q_small = ufloat(template.q.value, template.q.std_uncertainty)
-        b_small = template.geometry.piezo_length_m
-    else:
-        mean_q = mean_over_plates(list(same.values()), "q")
-        q_small = ufloat(mean_q.value, mean_q.std_uncertainty)
-        b_small = float(np.mean([p.geometry.piezo_length_m for p in same.values()]))
-        template_name = "mean of " + ", ".join(sorted(same))
-    tan = mean_over_plates(list(same.values()), "tan_theta")
-    q = q_small * model.q_large_from_small(1.0, b_design, b_small, as_printed=convention.eq29_as_printed)
-    geometry = model.PlateGeometry(
-        resonator_thickness_m=thickness_m, piezo_thickness_m=design.piezo.thickness_mm * 1e-3,
-        piezo_length_m=b_design, half_wavelength_m=values["half_wavelength_mm"] * 1e-3,
-        n_powered_piezos=design.n_powered_piezos, n_powered_groups=design.n_powered_groups)
-    frequency = ufloat(values["frequency_hz"], physics.expanded["frequency_hz"] / COVERAGE_FACTOR)
-    amplitude = values["amplitude_pp_m"]   # at the centre, where the paper's amplitudes are read
-    tan_theta = ufloat(tan.value, tan.std_uncertainty)
-    voltage = amplitude / (q * model.amplitude_pp_m(1.0, 1.0, geometry, convention))
-    power = _eq25_per_v2(q, tan_theta, frequency, geometry, convention) * voltage**2
-    return PaperRoute(q=q, tan_theta=tan_theta, voltage_vpp=voltage, power_w=power, amplitude_pp_m=amplitude,
-                      template=template_name, small_plates=tuple(sorted(same)), convention=convention,
-                      geometry=geometry)
-
-
-# --- closing the loop: the built plate, measured -----------------------------------------------
-
-@dataclass(frozen=True)
-class Measured:
-    plate: str
-    frequency_hz: float
-    voltage_vpp: object   # ufloat: the voltage the measured slope needs for the target amplitude
-    power_w: object
-    origin: str = ""   # provenance of the points: "measured" on a real bench, "simulated" or "predicted" on the simulated one
-
-
-def measured_point(physics: PhysicsPrediction, built) -> Measured:
-    """What a characterisation of the built plate (`tables.PlateCharacterisation`) says the
-    design needs: the target's centre amplitude over the measured amplitude slope, and the
-    measured power slope at that voltage."""
-    amplitude_slope = ufloat(built.amplitude_slope.slope.value, built.amplitude_slope.slope.std_uncertainty)
-    power_slope = ufloat(built.power_slope.slope.value, built.power_slope.slope.std_uncertainty)
-    voltage = physics.nominal.values["amplitude_pp_m"] / amplitude_slope
-    return Measured(built.plate, built.frequency_hz, voltage, power_slope * voltage**2, built.origin)
-
-
-def comparison(physics: PhysicsPrediction, paper: PaperRoute | None, measured: Measured | None,
-               printed: dict[str, float] | None = None) -> pd.DataFrame:
-    """One row per quantity and source: value, U (k = 2), and against the reference (the
-    measurement when there is one, else the printed value): deviation and whether the
-    reference lies within the prediction's U."""
-    v, U = physics.nominal.values, physics.expanded
-    rows = [("frequency_hz", "physics (a)", v["frequency_hz"], U["frequency_hz"]),
-            ("voltage_vpp", "physics (a)", v["voltage_vpp"], U["voltage_vpp"]),
-            ("power_w", "physics (a)", v["power_w"], U["power_w"])]
-    if paper is not None:
-        rows += [("voltage_vpp", "small plates (b)", paper.voltage_vpp.nominal_value,
-                  COVERAGE_FACTOR * paper.voltage_vpp.std_dev),
-                 ("power_w", "small plates (b)", paper.power_w.nominal_value, COVERAGE_FACTOR * paper.power_w.std_dev)]
-    reference = {}
-    if measured is not None:
-        reference = {"frequency_hz": (measured.frequency_hz, 0.0, f"measured ({measured.plate})"),
-                     "voltage_vpp": (measured.voltage_vpp.nominal_value, COVERAGE_FACTOR * measured.voltage_vpp.std_dev,
-                                     f"measured ({measured.plate})"),
-                     "power_w": (measured.power_w.nominal_value, COVERAGE_FACTOR * measured.power_w.std_dev,
-                                 f"measured ({measured.plate})")}
-    elif printed:
-        reference = {k: (value, 0.0, "printed in the paper") for k, value in printed.items()}
-    out = []
-    for quantity, source, value, u in rows:
-        ref = reference.get(quantity)
-        deviation = value / ref[0] - 1 if ref else math.nan
-        within = bool(abs(value - ref[0]) <= math.hypot(u, ref[1])) if ref else None
-        out.append({"quantity": quantity, "source": source, "value": value, "expanded_uncertainty": u,
-                    "reference": ref[2] if ref else "", "reference_value": ref[0] if ref else math.nan,
-                    "reference_expanded_uncertainty": ref[1] if ref else math.nan,
-                    "deviation": deviation, "within_u": within})
-    return pd.DataFrame(out)
-
-
-@dataclass(frozen=True)
-class DesignAnswer:
-    """Everything `squeezebench design` found for one design file."""
-
-    physics: PhysicsPrediction
-    paper_route: PaperRoute | None = None
-    paper_route_problem: str = ""   # why route (b) has no answer, when it has none
-    measured: Measured | None = None
-    printed: dict[str, float] | None = None   # the paper's values for this plate, when it is one of its plates
-    layouts: pd.DataFrame | None = None
-    layouts_note: str = ""   # how the layouts were solved (reduced model checked, or in full)
-    #: every design this lab checked against its built plate (`designing.HISTORY_FILE`)
-    history: pd.DataFrame | None = None
-    #: judged by `designing.run_design` (with the placement curve and the neighbouring modes)
-    verdict: Verdict | None = None
-    #: the design with its end groups at each distance from the edges (`placement_curve`)
-    placement: pd.DataFrame | None = None
-    #: the layout sweep's least-power layout on its Pareto front, with its own budget
-    best_layout: PhysicsPrediction | None = None
-
-    @property
-    def design(self) -> DesignFile:
-        return self.physics.design
-
-    def comparison(self) -> pd.DataFrame:
-        return comparison(self.physics, self.paper_route, self.measured, self.printed)
-
-    def judged(self) -> Verdict:
-        """The verdict given, or the one the physics alone gives (no changes from the
-        placement curve or the neighbouring modes)."""
-        return self.verdict or judge(self.physics, self.placement)

@@ -4,14 +4,12 @@
   copied into RUN_DIR/inputs/, each state's C0, effective coupling, power factor, modal
   mass over plate mass, shunt share and loss per um^2 (`simbench.scene.scenes_table`),
   with the bounds every state was checked against at load. Importing this module appends
-  it to `analysis.report.SECTIONS` (the report's documented way to add one), which the
+  it to `report.run_report.SECTIONS` (the report's documented way to add one), which the
   command line and the API do before writing a report.
 - `physics_section`: what the plate model predicts each characterised plate's Q and
   tan theta' read as (Fig. 5 and the large plate), from its stored scene's geometry and
   datasheets (`simbench.predicted`), beside what the run measured; inserted after the
   report's characterisation section.
-- `check_powered_piezos`: a campaign whose plate states another number of powered piezos
-  than its scene's state powers is refused before it runs (n_c scales Q and tan theta').
 
 It lives here, not in `analysis` or `protocols`, because both need the simulator's scenes
 and neither imports `simbench`.
@@ -24,8 +22,9 @@ import math
 
 import pandas as pd
 
-from squeezebench.analysis import predicted_plates, presentation, report, tables
-from squeezebench.errors import UserError
+from squeezebench.plates import predicted_plates
+from squeezebench.report import presentation, run_report as report
+from squeezebench.analysis import characterisation
 from squeezebench.simbench import predicted
 from squeezebench.simbench.scene import load_scene, scenes_table
 from squeezebench.simbench.scene_bounds import BOUNDS
@@ -74,7 +73,7 @@ def physics_rows(context: report.ReportContext) -> pd.DataFrame:
             prediction = predicted.predict(scene, state)
             response = predicted_plates.response_per_volt(prediction.frequency_hz, prediction.modal_mass_g * 1e-3,
                                                           prediction.force_factor_n_per_v)
-            expected = tables.predicted_q_tan(response, plate.geometry, context.convention)
+            expected = characterisation.predicted_q_tan(response, plate.geometry, context.convention)
         except ValueError as exc:   # no (n, 0) mode near the state's resonance; no force left (model.ModelGeometryError)
             not_predicted[name] = str(exc)
             continue
@@ -143,32 +142,6 @@ def _section(body: str) -> report.Section:
     # detail of Fig. 5's plates, plate by plate: reference, after the results
     return report.Section("What physics predicts for the characterised plates (Fig. 5)", body, "plates-physics",
                           appendix=True)
-
-
-def check_powered_piezos(campaign) -> None:
-    """Raise a UserError at the first step whose plate's n_powered_piezos differs from what
-    its scene's state powers (a real bench has no scene: nothing to check; a deskew
-    calibration drives a resistor, no plate)."""
-    for run in campaign.runs:
-        if run.protocol == "deskew_calibration":
-            continue
-        for step in run.steps():
-            scene_path = step.plate.scene or run.bench.scene
-            if scene_path is None:
-                continue
-            scene = load_scene(scene_path)
-            state = scene.state(step.plate.state or scene.initial_state)
-            if state.n_powered_piezos != step.plate.n_powered_piezos:
-                raise UserError(
-                    f"{campaign.file}: run {run.name!r}, step {step.step_id!r}: plate {step.plate.name!r} says "
-                    f"{step.plate.n_powered_piezos} powered piezos, but {scene_path.name} state {state.name!r} "
-                    f"powers {len(state.powered_columns)} columns x {scene.actuators.piezos_per_column} = "
-                    f"{state.n_powered_piezos} (n_c scales Q and tan theta'): correct n_powered_piezos")
-            if len(state.powered_columns) != step.plate.n_powered_columns:   # stored in every row
-                raise UserError(
-                    f"{campaign.file}: run {run.name!r}, step {step.step_id!r}: plate {step.plate.name!r} says "
-                    f"{step.plate.n_powered_columns} powered columns, but {scene_path.name} state {state.name!r} "
-                    f"powers {len(state.powered_columns)}: correct n_powered_columns")
 
 
 if scenes_section not in report.SECTIONS:

@@ -15,9 +15,10 @@ import numpy as np  # noqa: E402
 from matplotlib.ticker import FormatStrFormatter, NullFormatter  # noqa: E402
 import pandas as pd  # noqa: E402
 
-from squeezebench.analysis.paper import paper_table, paper_value  # noqa: E402
+from squeezebench.paper import paper_table, paper_value  # noqa: E402
 from squeezebench.analysis.study import systematics_point  # noqa: E402
-from squeezebench.analysis.tables import LineFit, PlateCharacterisation  # noqa: E402
+from squeezebench.analysis.tables import LineFit  # noqa: E402
+from squeezebench.analysis.characterisation import PlateCharacterisation
 
 #: Fixed metadata so that re-running the report gives byte-identical PNG files.
 _PNG_METADATA = {"Software": None}

@@ -1,0 +1,147 @@
+"""Where the paper's edge columns sit, inferred from its printed numbers through the design
+model: the large plate as a design file, its voltage and power against the end piezos'
+distance from the edges (`design.placement_rows`, the one placement curve), and the edge
+gap at which each edge plate's model meets the force factor its print implies.
+
+Every gap here is an INFERENCE, labelled so, and never an input of a prediction of the
+numbers it is inferred from (the predictions take `predicted_plates.EDGE_GAP_MM`).
+`python -m squeezebench.designing.paper_placement` prints them.
+"""
+from __future__ import annotations
+
+import functools
+import math
+
+import numpy as np
+import pandas as pd
+
+from squeezebench.designing import design
+from squeezebench.designing.design_file import DesignFile
+from squeezebench.paper import paper_value
+from squeezebench.plates import plate_modes, predicted_plates
+from squeezebench.plates.predicted_plates import (EDGE_GAP_MM, EDGE_GAP_TOLERANCE_MM, MECHANICAL_Q,
+                                                  MECHANICAL_Q_TOLERANCE, MM, STATED_ANTINODES,
+                                                  implied_force_factor_n_per_v, large_plate, table4_plate)
+
+
+#: The edge gaps (mm) the placement curve and the inference sweep: the stated range and on
+#: to where the patch reaches the first nodal line of curvature.
+EDGE_GAPS_MM = (0.0, 0.5, 1.0, 1.5, 2.0, 2.5, 3.0, 3.5, 4.0, 5.0, 6.0)
+
+
+def large_plate_design(edge_gap_mm: float = EDGE_GAP_MM, amplitude_pp_m: float = 1e-6):
+    """The paper's large plate (`predicted_plates.large_plate`) as a design file: the same
+    geometry, its end piezos `edge_gap_mm` from the edges +- `EDGE_GAP_TOLERANCE_MM`, the
+    (21, 0) mode, `amplitude_pp_m` at the centre and the build's `MECHANICAL_Q`; the amplifier
+    is the bench's NF HSA 4052 (300 Vpp)."""
+    q = lambda name: paper_value("large_plate", "large_plate", name)  # noqa: E731
+    geometry = large_plate(edge_gap_mm)
+    ys: dict[float, list[float]] = {}
+    for p in geometry.patches:
+        ys.setdefault(round(p.x_center_m / MM, 9), []).append(round(p.y_center_m / MM, 9))
+    groups = [{"name": f"x{x:g}", "x_mm": x, "y_mm": sorted(y), "x_tolerance_mm": EDGE_GAP_TOLERANCE_MM}
+              for x, y in ys.items()]
+    return DesignFile.model_validate({
+        "name": "large_plate",
+        "resonator": {"material": "aluminium_table2", "length_mm": q("resonator_length_mm"),
+                      "width_mm": q("resonator_width_mm"), "thickness_mm": q("resonator_thickness_mm")},
+        "piezo": {"material": "NCE41", "length_x_mm": q("piezo_width_mm"), "width_y_mm": q("piezo_length_mm"),
+                  "thickness_mm": q("piezo_thickness_mm")},
+        "groups": groups, "mode": {"interior_antinodes": STATED_ANTINODES["large"]},
+        "target": {"amplitude_pp_m": amplitude_pp_m, "at": "centre"},
+        "damping": {"mechanical_q": MECHANICAL_Q, "tolerance_rel": MECHANICAL_Q_TOLERANCE,
+                    "origin": "the build's one damping figure (predicted_plates.MECHANICAL_Q)"},
+        "amplifier": {"max_output_vpp": 300.0}})
+
+
+def large_plate_placement_curve(amplitude_pp_m: float = 1e-6, gaps_mm=EDGE_GAPS_MM) -> pd.DataFrame:
+    """The large plate's placement curve, as `design.placement_rows` solves any design's
+    (`large_plate_design`): frequency, modal mass and force factor at the centre, and the
+    voltage (pp) and power that give `amplitude_pp_m` there against the patches' distance from
+    the edge, with the build's `MECHANICAL_Q` and with the plate's own physics Q
+    (`plates.damping`, nominal losses: the voltage goes as 1/Q at a given amplitude, the
+    mechanical power as 1/Q and the dielectric as the voltage squared)."""
+    curve = design.placement_rows(large_plate_design(EDGE_GAP_MM, amplitude_pp_m), STATED_ANTINODES["large"],
+                                  gaps_mm)
+    ratio = curve["mechanical_q"] / curve["physics_q"]
+    curve["within_stated_range"] = (curve["edge_gap_mm"] - EDGE_GAP_MM).abs() <= EDGE_GAP_TOLERANCE_MM + 1e-9
+    curve["voltage_vpp_physics_q"] = curve["voltage_vpp"] * ratio
+    dielectric = curve["power_w"] - curve["mechanical_power_w"]
+    curve["power_w_physics_q"] = curve["mechanical_power_w"] * ratio + dielectric * ratio**2
+    return curve
+
+
+def implied_edge_gap_mm(target: float, curve: pd.DataFrame, column: str = "force_factor_n_per_v") -> float | None:
+    """INFERENCE, not an input: the first edge gap at which the model's `column` of `curve`
+    (against `edge_gap_mm`) reaches `target`, linear between swept gaps; None if no swept gap
+    reaches it. Never used to predict the numbers it is inferred from."""
+    found = plate_modes.crossings(curve["edge_gap_mm"], curve[column], target)
+    return found[0] if found else None
+
+
+def large_plate_placement_inference() -> pd.DataFrame:
+    """INFERENCE, labelled so: the edge gap the large plate's printed numbers imply on the
+    model's placement curve (`large_plate_placement_curve`, 1 um read as pp): the printed 32 Vpp
+    (with the build's Q and with the physics Q), the printed 1.3 W (likewise) and the force
+    factor the two imply together, model-free (`implied_force_factor_n_per_v`). Each row gives
+    the curve's range over the swept gaps, so a printed number no placement reaches says so."""
+    curve = large_plate_placement_curve()
+    q = lambda name: paper_value("large_plate", "large_plate", name)  # noqa: E731
+    f = float(curve["frequency_hz"].iloc[0])
+    velocity_pp = 2 * math.pi * f * q("amplitude_m")
+    targets = (("voltage_vpp", "printed voltage for 1 um pp, build Q", q("voltage_vpp")),
+               ("voltage_vpp_physics_q", "printed voltage for 1 um pp, physics Q", q("voltage_vpp")),
+               ("power_w", "printed power at 1 um pp, build Q", q("power_w")),
+               ("power_w_physics_q", "printed power at 1 um pp, physics Q", q("power_w")),
+               ("force_factor_n_per_v", "force factor implied by 32 Vpp, 1 um pp and 1.3 W",
+                implied_force_factor_n_per_v(q("voltage_vpp"), velocity_pp, q("power_w"))))
+    rows = []
+    for column, what, target in targets:
+        gap = implied_edge_gap_mm(target, curve, column)
+        rows.append({"printed": what, "target": target, "model_min": float(curve[column].min()),
+                     "model_max": float(curve[column].max()),
+                     "inferred_edge_gap_mm": np.nan if gap is None else gap,
+                     "status": "inference" if gap is not None else
+                     f"no gap in {curve['edge_gap_mm'].min():g}-{curve['edge_gap_mm'].max():g} mm reaches it"})
+    return pd.DataFrame(rows)
+
+def implied_edge_gaps() -> pd.DataFrame:
+    """`predicted_plates.what_would_agree` with, for each edge plate (Table 4, the large
+    plate), the edge gap at which the model's force factor meets the one its print implies
+    (`inferred_edge_gap_mm`, NaN where no swept gap reaches it or for Table 3's centred
+    columns)."""
+    agree = predicted_plates.what_would_agree()
+    gaps = []
+    for row in agree.to_dict("records"):
+        gap = None
+        if row["table"] != "Table 3":
+            gap = implied_edge_gap_mm(row["implied_force_factor_n_per_v"], edge_curve(row["item"]))
+        gaps.append(np.nan if gap is None else gap)
+    return agree.assign(inferred_edge_gap_mm=gaps)
+
+
+@functools.cache
+def edge_curve(item: str) -> pd.DataFrame:
+    """The powered force factor at the plate's centre against the edge gap, for an edge plate."""
+    if item == "large_plate":
+        return large_plate_placement_curve()
+    rows = []
+    for gap in EDGE_GAPS_MM:
+        geometry = table4_plate(item, gap)
+        at = predicted_plates.centre_response(geometry, STATED_ANTINODES["76 mm plates"])
+        rows.append({"edge_gap_mm": gap, "force_factor_n_per_v": at["force_factor_n_per_v"]})
+    return pd.DataFrame(rows)
+
+
+def main() -> None:
+    """The large plate's placement curve and the placements the print implies (INFERENCE)."""
+    with pd.option_context("display.width", 220, "display.max_columns", 30, "display.float_format", "{:.4g}".format):
+        for title, frame in (("what would have to move (INFERENCE for the edge gap)", implied_edge_gaps()),
+                             ("large plate against the patches' distance from the edge", large_plate_placement_curve()),
+                             ("the large plate's placement the print implies (INFERENCE)",
+                              large_plate_placement_inference())):
+            print(f"\n{title}\n{frame.to_string(index=False)}")
+
+
+if __name__ == "__main__":
+    main()
