@@ -39,6 +39,7 @@ from scipy.sparse.linalg import eigsh
 
 from squeezebench.analysis import plate_modes
 from squeezebench.analysis.plate_modes import Bond, Isotropic, Piezo, PlateGeometry
+from squeezebench.lru import RecentlyUsed
 
 #: The reduced model answers for a layout if its working mode's frequency is within 0.2 %
 #: of the full solve's and its force factor within 2 % (issue 51).
@@ -56,6 +57,10 @@ MIN_EDGE_GAP = 0.125
 CANDIDATE_UNIFORMITY = 0.5
 SETTLED_REL = 1e-3
 MAX_STEPS = 30
+#: Patches whose points and integrals a model keeps (about 2 MB each on the large plate's
+#: sweep mesh): a sweep's chunk in grid order needs a few tens at a time, and the 216-layout
+#: sweep's 156 rectangles all kept held 320 MB in each worker.
+PATCHES_KEPT = 96
 
 
 @dataclass(frozen=True)
@@ -188,13 +193,11 @@ class ReducedPlate:
         self._grid_modes = self.grid_probe @ self.vectors
         self.n_modes = plate_modes.mode_count(bare.geometry, bare.resonator, bare.piezo, bare.near_hz,
                                               bare.band_rel)
-        self._patches: dict[tuple[float, ...], PatchPoints] = {}
+        self._patches: RecentlyUsed[PatchPoints] = RecentlyUsed(PATCHES_KEPT)
 
     def patch_points(self, bounds: tuple[float, float, float, float]) -> PatchPoints:
         """The quadrature and integrals of the rectangle `bounds` (x0, x1, y0, y1), kept for the sweep."""
-        if bounds not in self._patches:
-            self._patches[bounds] = self._integrate(*bounds)
-        return self._patches[bounds]
+        return self._patches.get(bounds, lambda: self._integrate(*bounds))
 
     def _quadrature(self, x0: float, x1: float, y0: float, y1: float):
         """Points (2, Q), weights (Q) and elements (Q) of the rectangle cut into the triangles
