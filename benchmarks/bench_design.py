@@ -81,7 +81,7 @@ def timed(function, *args):
 def reduced_sweep(grid, spec, antinodes: int, workers: int):
     """The check on the sample, then every layout by the reduced model: (check s, sweep s,
     the check, layouts that fell back to the full solve)."""
-    checks, chunks = layout_sweep.tasks(grid, spec, antinodes, chunks=4 * workers)
+    checks, chunks = layout_sweep.tasks(grid, spec, antinodes, chunks=workers)
     check_s, checked = timed(lambda: [r for _, r in map_unordered(layout_sweep.run, checks, workers=workers)])
     sweep_s, results = timed(lambda: [r for _, r in map_unordered(layout_sweep.run, chunks, workers=workers)])
     rows = [row for chunk_rows, _ in results for row in chunk_rows]
