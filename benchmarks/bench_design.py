@@ -4,19 +4,24 @@ What it times, in one run, on the parallel engine with the default workers:
 
 1. the physics route with its whole budget (one solve at nominal, one per structural
    tolerance on the same mesh);
-2. the sweep's layouts (`layouts.grid`, 216) by the reduced model (`plates.reduced_layouts`: each worker
-   builds the model once, then every layout), its check against the full solve on the
-   sample (`designing.layout_sweep`) with the worst deviation found, and the full solve of
-   whole mesh families (every thickness of a placement), extrapolated to the whole sweep;
-3. about 3,000 layouts with the placement as a variable (the sweep's other axes at 84 gaps
-   between the end columns and the ends, over the sweep's range of gaps) by the reduced
-   model (`--skip-3000` skips it).
+2. 324 layouts (the sweep's axes, `layouts.grid`, at 9 gaps between the end columns and
+   the ends over the sweep's range of gaps: the goal's 300 in whole placements) by the
+   reduced model (`plates.reduced_layouts`: each worker builds the model once, then
+   every layout), its check against the full solve on the sample (`designing.layout_sweep`)
+   with the worst deviation found, and the full solve of whole mesh families (every
+   thickness of a placement), extrapolated to the 324;
+3. 3,024 layouts with the placement as a variable (84 gaps) by the reduced model
+   (`--skip-3000` skips it);
+4. the full solve's mesh convergence at the design's layout: its working mode's frequency
+   and force factor at 1.5 (the model's), 2.25 and 3 elements per flexural half-wave
+   (`--skip-mesh` skips it).
 
 Goals (issue 51, set for a 300-layout sweep): the sweep <= 20 reference units, 3,000 <= 200.
-Every time is printed in seconds and in reference units (`benchmarks/reference.py`), the reference measured before
-and after the timings in this run (their mean is the unit), with the load average beside.
+Every time is printed in seconds and in reference units (`benchmarks/reference.py`), the
+reference measured first in this run, each part as it ends with the load average beside;
+the reference measured again at the end says how the load moved meanwhile.
 
-Run: python benchmarks/bench_design.py [--families N] [--skip-3000]
+Run: python benchmarks/bench_design.py [--families N] [--skip-3000] [--skip-mesh]
 """
 
 from __future__ import annotations
@@ -31,6 +36,7 @@ import numpy as np
 
 import reference  # the script's own folder (benchmarks/)
 from squeezebench.designing import design, layout_sweep, layouts
+from squeezebench.plates import plate_modes
 from squeezebench.paths import design_file
 from squeezebench.protocols.parallel import map_unordered
 from squeezebench.schemas import load_design_file
@@ -38,17 +44,33 @@ from squeezebench.workers import default_workers
 
 GOAL_SWEEP_REF = 20.0
 GOAL_3000_REF = 200.0
-#: 84 gaps x the sweep's 36 other combinations: 3,024 layouts
-PLACEMENTS_HALF_WAVES = np.linspace(0.0, max(layouts.EDGE_GAPS_HALF_WAVES), 84)
+#: gaps x the sweep's 36 other combinations: 324 and 3,024 layouts
+SMALL_PLACEMENTS, LARGE_PLACEMENTS = 9, 84
+MESH_ELEMENTS_PER_HALF_WAVE = (1.5, 2.25, 3.0)
 
 
-def placement_grid(half_wavelength_mm: float, piezo_length_x_mm: float) -> list[layouts.Layout]:
-    """The sweep's axes with 84 gaps of the end columns from the ends instead of 6 (3,024 layouts)."""
+def placement_grid(half_wavelength_mm: float, piezo_length_x_mm: float, placements: int) -> list[layouts.Layout]:
+    """The sweep's axes with `placements` gaps of the end columns from the ends, evenly over
+    the sweep's range of gaps, instead of its 6 (36 layouts a gap)."""
     return [layouts.Layout(columns, round(piezo_length_x_mm / 2 + gap * half_wavelength_mm, 3), count,
                            arrangement, thickness)
             for columns, gap, count, arrangement, thickness in itertools.product(
-                layouts.COLUMNS, PLACEMENTS_HALF_WAVES, layouts.PIEZOS_PER_COLUMN, layouts.ARRANGEMENTS,
-                layouts.PIEZO_THICKNESSES_MM)]
+                layouts.COLUMNS, np.linspace(0.0, max(layouts.EDGE_GAPS_HALF_WAVES), placements),
+                layouts.PIEZOS_PER_COLUMN, layouts.ARRANGEMENTS, layouts.PIEZO_THICKNESSES_MM)]
+
+
+def mesh_convergence(spec) -> list[tuple[float, float, float, int]]:
+    """(elements per half-wave, working frequency Hz, its force factor N/V, its interior
+    antinodes) of the design's own layout solved in full on ever finer meshes."""
+    geometry = spec.geometry()
+    rows = []
+    for density in MESH_ELEMENTS_PER_HALF_WAVE:
+        modes = plate_modes.solve_plate(geometry, spec.resonator_material, spec.piezo_material, spec.search_hz,
+                                        elements_per_half_wave=density, band_rel=design.SEARCH_BAND_REL)
+        k = modes.working_mode(spec.search_hz)
+        rows.append((density, float(modes.frequencies_hz[k]), modes.coupling(k)["force_factor_n_per_v"],
+                     modes.interior_antinodes(k)))
+    return rows
 
 
 def timed(function, *args):
@@ -60,7 +82,7 @@ def timed(function, *args):
 def reduced_sweep(grid, spec, antinodes: int, workers: int):
     """The check on the sample, then every layout by the reduced model: (check s, sweep s,
     the check, layouts that fell back to the full solve)."""
-    checks, chunks = layout_sweep.tasks(grid, spec, antinodes, chunks=4 * workers)
+    checks, chunks = layout_sweep.tasks(grid, spec, antinodes, chunks=workers)
     check_s, checked = timed(lambda: [r for _, r in map_unordered(layout_sweep.run, checks, workers=workers)])
     sweep_s, results = timed(lambda: [r for _, r in map_unordered(layout_sweep.run, chunks, workers=workers)])
     rows = [row for chunk_rows, _ in results for row in chunk_rows]
@@ -68,51 +90,66 @@ def reduced_sweep(grid, spec, antinodes: int, workers: int):
     return check_s, sweep_s, layout_sweep.check(checked), sum(fallbacks for _, fallbacks in results)
 
 
+def load() -> str:
+    return f"load average (1 min) {os.getloadavg()[0]:.2f} on {os.cpu_count()} cores"
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--families", type=int, default=4, help="mesh families (one layout per piezo thickness each) solved in full")
     parser.add_argument("--skip-3000", action="store_true")
+    parser.add_argument("--skip-mesh", action="store_true")
     args = parser.parse_args()
-    before = reference.measure()
+    # each part printed as it ends (a loaded machine's run is long), in units of the
+    # reference measured first; the one measured last shows how the load moved meanwhile
+    unit = reference.measure()
     spec = load_design_file(design_file("large_plate"))
     workers = default_workers()
+    print(f"reference: {unit.line()}; {load()}, {workers} workers", flush=True)
     physics_s, physics = timed(design.predict_physics, spec)
+    print(f"physics route with its budget: {unit.both(physics_s)} ({len(physics.perturbed)} tolerance points)",
+          flush=True)
     values = physics.nominal.values
     antinodes = int(values["interior_antinodes"])
-    grid = layouts.grid(values["half_wavelength_mm"], spec.piezo.length_x_mm)
+    grid = placement_grid(values["half_wavelength_mm"], spec.piezo.length_x_mm, SMALL_PLACEMENTS)
     check_s, sweep_s, check, fallbacks = reduced_sweep(grid, spec, antinodes, workers)
+    total_s = check_s + sweep_s
+    print(f"{len(grid)} layouts, reduced model: {unit.both(sweep_s)} for all (each worker's model built once "
+          f"included; {fallbacks} fell back to the full solve), + check on {len(check.table)} sampled layouts "
+          f"{unit.both(check_s)}: total {unit.both(total_s)} (goal <= {GOAL_SWEEP_REF:.0f} ref: "
+          f"{'met' if unit.units(total_s) <= GOAL_SWEEP_REF else 'MISSED'}); {load()}", flush=True)
+    limits = layout_sweep.reduced_layouts
+    print(f"check against the full solve: {check.worst()}; limits {limits.FREQUENCY_TOLERANCE_REL:.1%} "
+          f"and {limits.FORCE_TOLERANCE_REL:.0%}: "
+          f"{'passed' if check.passed else 'MISSED, so `design` solves this sweep in full'}")
+    print(check.table.to_string(index=False, float_format=lambda v: f"{v:+.4%}"), flush=True)
     families = layouts.tasks(grid, spec, antinodes)
     chosen = [families[int(i)] for i in np.linspace(0, len(families) - 1, args.families).round()]
     full_s, _ = timed(lambda: list(map_unordered(layouts.evaluate_mesh_group, chosen, workers=workers)))
     solved = sum(len(task[0]) for task in chosen)
     full_sweep_s = full_s * len(grid) / solved
-    if not args.skip_3000:
-        big = placement_grid(values["half_wavelength_mm"], spec.piezo.length_x_mm)
-        big_check_s, big_sweep_s, big_check, big_fallbacks = reduced_sweep(big, spec, antinodes, workers)
-    after = reference.measure()
-    unit = reference.mean(before, after)
-    print(f"before: {before.line()}\nafter:  {after.line()}\nunit: their mean, {unit.seconds:.3f} s; "
-          f"load average (1 min) at the end {os.getloadavg()[0]:.2f} on {os.cpu_count()} cores, {workers} workers")
-    print(f"physics route with its budget: {unit.both(physics_s)} ({len(physics.perturbed)} tolerance points)")
-    total_s = check_s + sweep_s
-    print(f"{len(grid)} layouts, reduced model: {unit.both(sweep_s)} for all (each worker's model built once "
-          f"included; {fallbacks} fell back to the full solve), + check on {len(check.table)} sampled layouts "
-          f"{unit.both(check_s)}: total {unit.both(total_s)} (goal <= {GOAL_SWEEP_REF:.0f} ref: "
-          f"{'met' if unit.units(total_s) <= GOAL_SWEEP_REF else 'MISSED'})")
     print(f"{len(grid)} layouts, full solve: {unit.both(full_sweep_s)}, extrapolated from {solved} layouts "
           f"({len(chosen)} mesh families) solved in {unit.both(full_s)}; reduced model "
-          f"{full_sweep_s / total_s:.1f}x faster with its check")
-    limits = layout_sweep.reduced_layouts
-    print(f"check against the full solve: {check.worst()}; limits {limits.FREQUENCY_TOLERANCE_REL:.1%} "
-          f"and {limits.FORCE_TOLERANCE_REL:.0%}: "
-          f"{'passed' if check.passed else 'MISSED, so `design` solves this sweep in full'}")
-    print(check.table.to_string(index=False, float_format=lambda v: f"{v:+.4%}"))
+          f"{full_sweep_s / total_s:.1f}x faster with its check; {load()}", flush=True)
     if not args.skip_3000:
+        big = placement_grid(values["half_wavelength_mm"], spec.piezo.length_x_mm, LARGE_PLACEMENTS)
+        big_check_s, big_sweep_s, big_check, big_fallbacks = reduced_sweep(big, spec, antinodes, workers)
         big_total_s = big_check_s + big_sweep_s
-        print(f"{len(big)} layouts ({len(PLACEMENTS_HALF_WAVES)} placements), reduced model: {unit.both(big_sweep_s)} + check on "
+        print(f"{len(big)} layouts ({LARGE_PLACEMENTS} placements), reduced model: {unit.both(big_sweep_s)} + check on "
               f"{len(big_check.table)} {unit.both(big_check_s)}: total {unit.both(big_total_s)} "
               f"({big_fallbacks} fell back; goal <= {GOAL_3000_REF:.0f} ref: "
-              f"{'met' if unit.units(big_total_s) <= GOAL_3000_REF else 'MISSED'}); check: {big_check.worst()}")
+              f"{'met' if unit.units(big_total_s) <= GOAL_3000_REF else 'MISSED'}); check: {big_check.worst()}; "
+              f"{load()}", flush=True)
+    if not args.skip_mesh:
+        mesh_s, mesh = timed(mesh_convergence, spec)
+        finest = mesh[-1]
+        print(f"full solve's mesh convergence at the design's layout ({unit.both(mesh_s)}), against "
+              f"{finest[0]:g} elements per half-wave: " + "; ".join(
+                  f"{density:g}: frequency {frequency / finest[1] - 1:+.3%}, force factor {force / finest[2] - 1:+.2%}"
+                  for density, frequency, force, _ in mesh[:-1])
+              + f" (antinodes {', '.join(str(row[3]) for row in mesh)})", flush=True)
+    after = reference.measure()
+    print(f"reference at the end: {after.line()} ({after.seconds / unit.seconds:.2f}x the first); {load()}")
     return 0
 
 

@@ -83,7 +83,11 @@ def run(task: ReducedChunk | CheckedLayout):
 
 def tasks(grid: list[layouts.Layout], design: DesignFile, antinodes: int,
           chunks: int) -> tuple[list[CheckedLayout], list[ReducedChunk]]:
-    """The sample's checks (each a full solve and a reduced one), and the layouts in `chunks` chunks."""
+    """The sample's checks (each a full solve and a reduced one), and the layouts in `chunks`
+    chunks: one a worker, since a worker builds the model for its first chunk and loky
+    replaces a worker between tasks once it holds 300 MB more than after its first (the
+    large plate's model and its kept patches can), so a further chunk could pay the build
+    again (7 s idle)."""
     bare = bare_plate(design, grid, antinodes)
     size = max(1, -(-len(grid) // chunks))
     return ([CheckedLayout(grid[i], design, antinodes, bare) for i in sample(len(grid))],

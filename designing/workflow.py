@@ -255,7 +255,7 @@ def sweep_layouts(spec, values: dict, workers: int | None = None, scheduler: Any
     if not reduced:
         return layouts.finish(full(grid)), f"{len(grid)} layouts, each by the full solve"
     # the sample first: a model that misses its check costs the sample's reduced solves, not a sweep's
-    checks, chunks = layout_sweep.tasks(grid, spec, antinodes, chunks=4 * workers)
+    checks, chunks = layout_sweep.tasks(grid, spec, antinodes, chunks=workers)
     checked = [result for _, result in map_unordered(layout_sweep.run, checks, workers=workers, scheduler=scheduler,
                                                      description="layouts checked")]
     check = layout_sweep.check(checked)
