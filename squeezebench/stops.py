@@ -25,8 +25,9 @@ STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
 
 #: Stop signals received (their names), in order.
 _received: list[str] = []
-#: Nesting of `handled()` and of `deferred()`.
-_depth = {"handled": 0, "deferred": 0}
+#: Nesting of `handled()` and of `deferred()`; the stop signals that count as a first one
+#: (all but those an import lock's callback would have swallowed, `_swallowed_here`).
+_depth = {"handled": 0, "deferred": 0, "counted": 0}
 #: Code (functions) during which a stop signal is only recorded: the generator's bring-down.
 _PROTECTED: set[CodeType] = set()
 #: What the generator was last told, for the final message (see `generator_state`).
@@ -49,9 +50,20 @@ def _protected(frame) -> bool:
     return False
 
 
+def _swallowed_here(frame) -> bool:
+    """The signal arrived in an import lock's weakref callback (importlib's `cb`), where the
+    interpreter swallows an exception and prints it as "Exception ignored": raising there
+    would print a traceback and raise nothing. Recorded only: the next signal, or
+    `raise_if_stopped`, raises."""
+    return frame is not None and frame.f_code.co_name == "cb" and "importlib" in frame.f_code.co_filename
+
+
 def _on_stop(signum, frame) -> None:
     _received.append(signal.Signals(signum).name)
-    if len(_received) == 1 and not _depth["deferred"] and not _protected(frame):
+    if _swallowed_here(frame):
+        return
+    _depth["counted"] += 1
+    if _depth["counted"] == 1 and not _depth["deferred"] and not _protected(frame):
         raise KeyboardInterrupt(f"stopped by {_received[0]}")
 
 
@@ -74,6 +86,7 @@ def _install() -> dict[signal.Signals, object]:
     previous = {}
     if _depth["handled"] == 0:
         _received.clear()
+        _depth["counted"] = 0
         _generator["state"] = None
         for sig in STOP_SIGNALS:
             if signal.getsignal(sig) is not signal.SIG_IGN:   # nohup, a scheduler: the parent's choice stands
@@ -101,6 +114,7 @@ def handled() -> Iterator[None]:
             for sig, handler in previous.items():
                 signal.signal(sig, handler)
             _received.clear()
+            _depth["counted"] = 0
 
 
 def take_over() -> None:

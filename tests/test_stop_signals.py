@@ -17,6 +17,7 @@ import subprocess
 import sys
 import textwrap
 import time
+import types
 
 import pandas as pd
 import pytest
@@ -261,3 +262,19 @@ def test_the_entry_point_imports_nothing_heavy_before_it_takes_the_signals_over(
     loaded = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60).stdout.split()
     ours = {name for name in loaded if name.split(".")[0] not in sys.stdlib_module_names}
     assert ours == {"squeezebench", "squeezebench.__main__", "squeezebench.stops"}
+
+
+def test_a_signal_in_an_import_locks_callback_is_recorded_and_the_next_one_raises():
+    """The interpreter swallows an exception raised in importlib's weakref callback `cb` (and
+    prints "Exception ignored" with a traceback): a stop there is recorded, not raised, and
+    does not count as the first, so the next stop raises."""
+    namespace: dict = {}
+    exec(compile("def cb():\n    pass\n", "<frozen importlib._bootstrap>", "exec"), namespace)
+    in_callback = types.SimpleNamespace(f_code=namespace["cb"].__code__, f_back=None)
+    elsewhere = types.SimpleNamespace(f_code=test_nohup_ignored_sighup_does_not_stop_the_run.__code__, f_back=None)
+    with stops.handled():
+        stops._on_stop(signal.SIGTERM, in_callback)   # no raise
+        with pytest.raises(KeyboardInterrupt):
+            stops._on_stop(signal.SIGINT, elsewhere)
+        stops._on_stop(signal.SIGHUP, elsewhere)   # a later one is only recorded
+        assert stops.received() == ["SIGTERM", "SIGINT", "SIGHUP"]
