@@ -24,7 +24,7 @@ MM = 1e-3
 #: within the edge's first flexural half-wave (about 8-9 mm, a 5-6 mm patch and a gap up to
 #: 4 mm), gap 2 mm +-2 mm (rectangular). The force factor is very sensitive to it (the mode's
 #: curvature vanishes at a free edge), so it is an input with a range, carried in U, never
-#: chosen from a printed result (`implied_edge_gap_mm` states what the print implies).
+#: chosen from a printed result (`designing.paper_placement` states what the print implies).
 EDGE_GAP_MM = 2.0
 EDGE_GAP_TOLERANCE_MM = 2.0
 
