@@ -112,10 +112,11 @@ def same_sheet_ratios() -> pd.DataFrame:
                 beam_frequency_hz(geometry, antinodes, thick=False), beam_frequency_hz(geometry, antinodes, thick=True))
 
     rows = []
+    bare_75, beam_75, thin_75, thick_75 = bare("75")   # the denominator of both ratios, computed once
     for item in ("59", "28"):
         model = frame.loc[item, "predicted_frequency_hz"] / frame.loc["75", "predicted_frequency_hz"]
         printed = frame.loc[item, "printed_frequency_hz"] / frame.loc["75", "printed_frequency_hz"]
-        (bare_item, beam_item, thin_item, thick_item), (bare_75, beam_75, thin_75, thick_75) = bare(item), bare("75")
+        bare_item, beam_item, thin_item, thick_item = bare(item)
         lever = (model_rows.loc[item, "piezo_energy_share"] - model_rows.loc["75", "piezo_energy_share"]) / 2
         eta = model_rows.loc[item, "bond_effectiveness"]
         rows.append({"ratio": f"f{item}/f75", "model": model, "printed": printed, "deviation": model / printed - 1,
