@@ -39,7 +39,8 @@ from squeezebench.analysis import model
 from squeezebench.analysis.budgets import (BUDGET_COLUMNS, COVERAGE_FACTOR, COVERAGE_PROBABILITY,  # noqa: F401
                                            P95_FACTOR, Budget, Term)
 from squeezebench.analysis.calibration import Deskew, deskew_of_run, gain_weight
-from squeezebench.analysis.resonance_searches import SearchSetup, mechanical_q_from_sweep, search_setups
+from squeezebench.analysis.resonance_searches import (SEARCH_STOP_SPREAD, SearchSetup, mechanical_q_from_sweep,
+                                                      reading_scatter_rel, search_setups)
 from squeezebench.analysis.rundata import RunData
 from squeezebench.plates.specifications import SPECIFICATIONS, VOLTAGE_PROBE_POLE_HZ, sheet_thickness_tolerance
 from squeezebench.analysis.tables import reduced_points, with_scope_fallback
@@ -234,12 +235,13 @@ def search_budgets(rows: pd.DataFrame, setups: dict[str, SearchSetup]) -> list[t
     """(run, step, budget) of the resonance frequency of every search in `rows`
     (resonance_search rows, reduced).
 
-    Near the top v/v0 = 1 - x^2/2 (x = 2 Q (f - f0) / f0, Q from the sweep). The search
-    compares the scope's sampled peak-to-peak, which lies up to 1 - cos(pi/N) below the
-    true one for N samples per period depending on where the samples fall on the sine
-    (which moves with the velocity's phase, i.e. with f): the top is found only to
-    |x| < pi/N, a half-width f0 pi / (2 Q N) (rectangular). Noise of the velocity
-    (u_rel) adds |x| < 2 sqrt(u_rel).
+    The search stores the generator setting of its best reading. Near the top
+    v/v0 = 1 - x^2/2 (x = 2 Q (f - f0) / f0, Q from the sweep), so readings that scatter by
+    s (relative, `reading_scatter_rel`: noise, the ADC's step, where the samples fall on the
+    crest) stop the golden section at |x| ~ sqrt(s): normal, standard deviation
+    SEARCH_STOP_SPREAD sqrt(s) of the half-width f0 / (2 Q). Without enough readings on the
+    top s is the velocity's record-fit noise at the resonance found. The generator's error
+    moves the setting the search finds by -e f0; the final bracket holds the best reading.
     """
     budgets = []
     rows = with_scope_fallback(rows)   # the sweep kept the scope's velocities only
@@ -255,14 +257,14 @@ def search_budgets(rows: pd.DataFrame, setups: dict[str, SearchSetup]) -> list[t
                      Term("search bracket", "B", 0.5 * setup.tolerance_hz / math.sqrt(3.0),
                           "golden-section search: the final bracket's width (protocols.resonance)")]
             if q:
-                half_width = frequency_hz / (2.0 * q)
-                noise_rel = float(found["velocity_pp_mps_u"]) / float(found["velocity_pp_mps"])
-                terms += [Term("sampled peak-to-peak on the flat top", "B",
-                               half_width * math.pi / setup.samples_per_period / math.sqrt(3.0),
-                               f"max - min of {setup.samples_per_period:g} samples per period; Q {q:.0f} "
-                               "from the sweep"),
-                          Term("velocity noise on the flat top", "A", half_width * 2.0 * math.sqrt(noise_rel),
-                               "fit uncertainty of the velocity at the resonance found")]
+                scatter = reading_scatter_rel(sweep)
+                source = (f"{scatter:.1e} scatter of the readings on the top" if scatter is not None else
+                          "record-fit noise of the velocity at the resonance found")
+                if scatter is None:
+                    scatter = float(found["velocity_pp_mps_u"]) / float(found["velocity_pp_mps"])
+                terms.append(Term("velocity readings on the flat top", "A",
+                                  frequency_hz / (2.0 * q) * SEARCH_STOP_SPREAD * math.sqrt(scatter),
+                                  f"where the golden section stops: {source}; Q {q:.0f} from the sweep"))
             budgets.append((run_name, step_id, Budget("resonance_frequency_hz", "Hz", frequency_hz, tuple(terms))))
     return budgets
 

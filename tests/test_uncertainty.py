@@ -331,9 +331,10 @@ def test_resonance_frequencies_are_covered_by_the_search_budget(erring_bench_poi
         scene = load_scene(run_dir / "inputs" / f"{step['plate']}.yaml")
         state = scene.state(step["scene_state"] if isinstance(step["scene_state"], str) else scene.initial_state)
         covered.append(abs(row.resonance_frequency_hz - state.branch.frequency_hz) <= row.resonance_frequency_hz_U)
-    assert np.mean(covered) >= 0.95
-    # the sampled peak-to-peak the search compares, not the generator, limits it
-    assert (searches["dominant_term"] == "sampled peak-to-peak on the flat top").mean() > 0.5
+    # a 95 % U leaves about one search in 20 outside (a bound would leave none): 15 of 17 at least
+    assert sum(covered) >= 15
+    # the scatter of the readings the search compares, not the generator, limits it
+    assert (searches["dominant_term"] == "velocity readings on the flat top").mean() > 0.5
 
 
 def test_a_mean_over_plates_keeps_their_shared_uncertainty(erring_bench_points):
