@@ -183,7 +183,7 @@ def _detuning_grid(summary: pd.DataFrame, bench_words: str) -> str:
         p0 = group["power_resonance_w"].iloc[0] * 1e3
         rows.append(f"<tr><td>{html.escape(run)}</td><td>{html.escape(plate)}</td><td>{level:g}</td>"
                     f"<td>{p0:.1f}</td>{''.join(cells)}</tr>")
-    caption = (f"{bench_words} Fig. 2 as numbers: Pt/P0 ± U (k = 2) for each series once v0 is regained "
+    caption = (f"{bench_words} Fig. 2 as numbers: Pt/P0 ± U (k for 95 %) for each series once v0 is regained "
                "after detuning to the given velocity fraction; the gains cancel in the ratio, the CH2 delay and the "
                "noise do not; 'not reachable': the safety limit stopped the voltage.")
     return f"<table><caption>{html.escape(caption)}</caption><thead>{head}</thead><tbody>{''.join(rows)}</tbody></table>"

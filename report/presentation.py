@@ -223,7 +223,7 @@ _UNIT_SUFFIXES = (("_pp_mps", "m/s pp"), ("_mps_per_v", "m/s per V"), ("_w_per_u
 
 def label(name: str) -> str:
     """A column's code name as a table header a person reads: words, and the unit its
-    suffix carries in parentheses (`power_w_U` -> "power U, k = 2 (W)"). A header that is
+    suffix carries in parentheses (`power_w_U` -> "power U, 95 % (W)"). A header that is
     already words (spaces, symbols) is kept."""
     if not re.fullmatch(r"[a-z0-9_]+(_U|_u)?", name):
         return name
@@ -231,7 +231,7 @@ def label(name: str) -> str:
     if text.endswith("_dominant"):
         return label(text[:-len("_dominant")]).split(" (")[0] + ": dominant term"
     if text.endswith("_U"):
-        text, spread = text[:-2], " U, k = 2"
+        text, spread = text[:-2], " U, 95 %"
     elif text.endswith("_u"):
         text, spread = text[:-2], " u"
     if text.startswith("n_") and len(text) > 2:

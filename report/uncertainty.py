@@ -1,4 +1,4 @@
-"""The uncertainty sections: the run's budgets (GUM, k = 2) and the measurement model of
+"""The uncertainty sections: the run's budgets (GUM, k for 95 %) and the measurement model of
 every stated quantity.
 """
 
