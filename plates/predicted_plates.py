@@ -254,7 +254,7 @@ def _predictions() -> pd.DataFrame:
         u_bond_force = span / (2 * math.sqrt(3))
         u_place = {"frequency_hz": 0.0, "force_factor_n_per_v": 0.0, "modal_mass_kg": 0.0}
         if at_gap is not None:   # the edge gap's ends, each solved (the force factor is far from linear in it)
-            ends = [_at_centre(g, *_solve_working(g, antinodes, None))
+            ends = [centre_response(g, antinodes)
                     for g in (at_gap(EDGE_GAP_MM - EDGE_GAP_TOLERANCE_MM), at_gap(EDGE_GAP_MM + EDGE_GAP_TOLERANCE_MM))]
             u_place = {q: abs(ends[1][q] - ends[0][q]) / nominal[q] / (2 * math.sqrt(3)) for q in u_place}
         u_f = math.hypot(frequency_relative_u(geometry.thickness_m) / 2, u_bond_f, u_place["frequency_hz"])
