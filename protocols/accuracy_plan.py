@@ -83,6 +83,18 @@ class AccuracyFloors:
         own = {CALIBRATION_RUN: self.calibration_bench_time_s} if self.own_calibration else {}
         return {**own, **self.own_bench_time_s}
 
+    def scaled(self, factors: dict[str, float]) -> "AccuracyFloors":
+        """These floors with each quantity's multiplied by `factors[quantity]` (1 where it has
+        none), calibrated or not: the floors the specified errors would leave if the budgets
+        were that much narrower (`analysis.over_coverage.shrink_factors`: a budget whose U
+        over-covers by that factor puts its floor, the same budget's systematic part, that much
+        too high)."""
+        def scale(f: RunFloor) -> RunFloor:
+            factor = factors.get(f.quantity, 1.0)
+            return dataclasses.replace(f, floor_p95_rel=f.floor_p95_rel * factor,
+                                       calibrated_floor_p95_rel=f.calibrated_floor_p95_rel * factor)
+        return dataclasses.replace(self, floors=[scale(f) for f in self.floors])
+
     def planned_floor(self, run_name: str) -> float:
         return self.floor(run_name, self.calibrate)
 

@@ -309,6 +309,7 @@ class Plan:
     noise_scale: dict[str, float] = dataclasses.field(default_factory=dict)
     measurements: str = ""   # where the numbers came from (`PlanCache.words`)
     cache: dict = dataclasses.field(default_factory=dict)   # `PlanCache.as_dict`
+    over_coverage: "OverCoverageCost | None" = None   # what the budgets' surplus costs (`make_plan`)
 
     @property
     def calibrate(self) -> bool:
@@ -388,6 +389,8 @@ class Plan:
                 lines.append(f"  {name}: an earlier check missed; its noise may take {scale:g} of the floor's headroom")
             if not meets:
                 lines.append(f"  missed by {', '.join(self.missed_runs())} after {MAX_TIGHTENINGS} tightenings")
+        if self.over_coverage is not None:
+            lines += self.over_coverage.lines(self)
         return "\n".join(lines)
 
     def as_dict(self) -> dict:
@@ -408,15 +411,73 @@ class Plan:
                 "calibration_bench_time_s": {k: v for k, v in self.planned_s.items() if k not in self.settings_by_run},
                 "floors": self.floors.as_dict() if self.floors else None,
                 "cache": self.cache,
+                "over_coverage": None if self.over_coverage is None else self.over_coverage.as_dict(self),
                 "check": None if self.check is None else {
                     "benches": self.check_benches, "meets_target": self.meets_check,
                     "missed_runs": self.missed_runs(), "noise_scale": self.noise_scale,
                     "p95_abs_rel_error": self.check.to_dict(orient="records")}}
 
 
+@dataclasses.dataclass
+class OverCoverageCost:
+    """What the budgets' over-coverage on the world model costs a plan: the same choice
+    (`_choose`, the same noise measurements and check tightenings) with each over-covering
+    quantity's floors multiplied by its shrink factor (`AccuracyFloors.scaled`), so that more
+    of the target is left to the noise and cheaper settings meet it. The narrower plan is an
+    estimate: it is timed like any plan, not checked on erring benches."""
+
+    shrink_factors: dict[str, float]   # {quantity: p95 |error| / U}, `analysis.over_coverage.shrink_factors`
+    source: str                        # where they were read (a coverage study's run directory)
+    narrower: "Plan | None"            # None: no quantity over-covers
+
+    def saved_s(self, plan: "Plan") -> float:
+        """Bench time the narrower budgets would save on `plan` (what the surplus costs)."""
+        return plan.planned_total_s - self.narrower.planned_total_s if self.narrower else 0.0
+
+    def lines(self, plan: "Plan") -> list[str]:
+        where = f" (coverage study in {self.source})" if self.source else ""
+        if not self.narrower:
+            return [f"over-coverage on the world model{where}: no quantity over-covers; nothing to save"]
+        planned = {f.quantity for f in plan.floors.floors} if plan.floors else set()
+        factors = ", ".join(f"{q} {factor:.2f}{'' if q in planned else ' (no floor in this plan)'}"
+                            for q, factor in self.shrink_factors.items())
+        saved_s = self.saved_s(plan)
+        out = [f"over-coverage on the world model{where}: U could be this fraction of itself and still cover "
+               f"95 %: {factors}; with floors that much lower the plan would take "
+               f"{self.narrower.planned_total_s:.1f} s of bench time instead of {plan.planned_total_s:.1f} s: "
+               f"the over-coverage costs {saved_s:.1f} s ({saved_s / plan.planned_total_s:.1%})"
+               + ("" if self.narrower.reachable == plan.reachable else
+                  f"; the target would be {'reachable' if self.narrower.reachable else 'out of reach'}")]
+        if not self.narrower.reachable:
+            out.append("  the target is below a floor with the narrower budgets too: these times keep the noise "
+                       "under a third of each floor, they do not price the surplus")
+        if plan.calibrate and not self.narrower.calibrate:
+            out.append(f"  {CALIBRATION_RUN}: {plan.planned_s.get(CALIBRATION_RUN, 0.0):.1f} s no longer needed")
+        for name, setting in plan.settings_by_run.items():
+            narrower = self.narrower.settings_by_run[name]
+            if narrower != setting:
+                out.append(f"  {name}: floor {plan.floors.planned_floor(name):.2%} -> "
+                           f"{self.narrower.floors.planned_floor(name):.2%}, {setting.record_length} points x "
+                           f"{setting.averages} averages -> {narrower.record_length} x {narrower.averages}, "
+                           f"{plan.planned_s[name]:.1f} s -> {self.narrower.planned_s[name]:.1f} s")
+        return out
+
+    def as_dict(self, plan: "Plan") -> dict:
+        narrower = self.narrower
+        return {"shrink_factors": self.shrink_factors, "source": self.source,
+                "saved_bench_time_s": self.saved_s(plan),
+                "planned_bench_time_s": narrower.planned_total_s if narrower else plan.planned_total_s,
+                "reachable": narrower.reachable if narrower else plan.reachable,
+                "runs": [] if not narrower else [
+                    {"run": name, **dataclasses.asdict(setting), "floor_p95_rel": narrower.floors.planned_floor(name),
+                     "planned_bench_time_s": narrower.planned_s.get(name, 0.0)}
+                    for name, setting in narrower.settings_by_run.items()]}
+
+
 def make_plan(campaign_path: Path, target_rel_error: float, repeats: int = REPEATS,
               workers: int = 1, scheduler: Any = None, check_benches: int = CHECK_BENCHES,
-              cache: PlanCache | None = None, alongside: Sequence[functools.partial] = ()) -> Plan:
+              cache: PlanCache | None = None, alongside: Sequence[functools.partial] = (),
+              shrink_factors: dict[str, float] | None = None, shrink_source: str = "") -> Plan:
     """Measure the settings the plates' runs need (`SettingsStudy`), pick each run's, and
     time the campaign with the plan and with the baseline, on `workers` local processes or
     the Dask cluster at `scheduler` (the plan is the same either way). The floors the
@@ -424,7 +485,10 @@ def make_plan(campaign_path: Path, target_rel_error: float, repeats: int = REPEA
     calibrate; the plan is then checked on `check_benches` simulated benches with drawn
     errors (0: no check; none when the target is below the floor). What an earlier plan of
     the campaign measured is read from `cache` (default: the campaign's `plan_cache`); the
-    `alongside` jobs of `cache` (a caller's map plans) run in the same batch as the floors."""
+    `alongside` jobs of `cache` (a caller's map plans) run in the same batch as the floors.
+    With `shrink_factors` ({quantity: factor}, `analysis.over_coverage.shrink_factors`, read
+    from `shrink_source`) the plan also says what the budgets' over-coverage costs it
+    (`OverCoverageCost`)."""
     if not target_rel_error > 0:
         raise UserError(f"target relative error must be positive, got {target_rel_error!r}")
     campaign_path = Path(campaign_path)
@@ -465,9 +529,8 @@ def make_plan(campaign_path: Path, target_rel_error: float, repeats: int = REPEA
                        baseline_s, noise_scale, cache, workers, scheduler)
 
     plan = choose()
-    if not check_benches or floors.below_floor():
-        return plan
-    for tightenings in range(MAX_TIGHTENINGS + 1):
+    checks = MAX_TIGHTENINGS + 1 if check_benches and not floors.below_floor() else 0   # none: nothing reaches it
+    for tightenings in range(checks):
         plan.check, plan.check_benches = check_plan(campaign_path, plan, check_benches, workers,
                                                     scheduler, cache=cache), check_benches
         missed = plan.missed_runs()
@@ -482,6 +545,12 @@ def make_plan(campaign_path: Path, target_rel_error: float, repeats: int = REPEA
         else:
             noise_scale.update({name: noise_scale[name] / 2.0 for name in missed})
         plan = choose()
+    if shrink_factors is not None:   # the same choice with the narrower budgets' floors (not checked)
+        narrower = None if not shrink_factors else _choose(
+            campaign, campaign_path, target_rel_error, repeats, settings, plates_by_run,
+            floors.scaled(shrink_factors), baseline_s, noise_scale, cache, workers, scheduler)
+        plan.over_coverage = OverCoverageCost(dict(shrink_factors), shrink_source, narrower)
+        plan.measurements, plan.cache = cache.words(), cache.as_dict()
     return plan
 
 

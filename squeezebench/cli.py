@@ -228,6 +228,10 @@ def build_parser() -> argparse.ArgumentParser:
     plan.add_argument("--target-rel-error", type=_relative_error, default=0.01, help="relative error goal (default 0.01)")
     plan.add_argument("--write", type=Path, default=None, metavar="FILE",
                       help="also write the campaign with the planned settings to FILE")
+    plan.add_argument("--coverage", type=Path, default=None, metavar="RUN_DIR",
+                      help="a run directory holding a coverage study on the world model ('squeezebench study "
+                           "--out RUN_DIR --coverage-errors world'): also say what the budgets' over-coverage there "
+                           "costs in bench time")
     _add_parallel_options(plan)
     plan.set_defaults(func=cmd_plan)
 

@@ -426,6 +426,20 @@ def cmd_study(args: argparse.Namespace) -> int:
     return 0
 
 
+def _world_shrink_factors(run_dir: Path) -> dict[str, float]:
+    """{quantity: shrink factor} of the world-model coverage study stored in `run_dir`
+    (`analysis.over_coverage`); a run directory without one is refused."""
+    from squeezebench.analysis.over_coverage import WORLD, shrink_factors
+    from squeezebench.analysis.study import STUDY_DIR, coverage_dir, coverage_table, load_coverage
+
+    points = load_coverage(run_dir)
+    if points is None or WORLD not in set(points["error_model"]):
+        raise UserError(f"--coverage {run_dir}: no coverage study on the world model there "
+                        f"({Path(run_dir) / STUDY_DIR / coverage_dir(WORLD)}); 'squeezebench study --out {run_dir} "
+                        "--coverage-errors world' writes one")
+    return shrink_factors(coverage_table(points[points["error_model"] == WORLD]))
+
+
 def cmd_plan(args: argparse.Namespace) -> int:
     from squeezebench.protocols.campaign import load_campaign
     from squeezebench.protocols.map_planning import map_job, plan_map, write_planned_maps
@@ -437,6 +451,7 @@ def cmd_plan(args: argparse.Namespace) -> int:
         from squeezebench.protocols.storage import check_writable_file
 
         check_writable_file(args.write)
+    shrink = None if args.coverage is None else _world_shrink_factors(args.coverage)   # before minutes of planning
     if campaign != Path(args.campaign):
         say(args, f"campaign: {campaign} (shipped; no file named {args.campaign} here)")
     runs = load_campaign(campaign).runs
@@ -444,7 +459,8 @@ def cmd_plan(args: argparse.Namespace) -> int:
     map_runs = [run for run in runs if run.protocol in MAP_PROTOCOLS]
     plan = None if len(map_runs) == len(runs) else make_plan(
         campaign, args.target_rel_error, workers=args.workers, scheduler=args.scheduler, cache=cache,
-        alongside=[map_job(run, cache) for run in map_runs])   # on the same workers
+        alongside=[map_job(run, cache) for run in map_runs],   # on the same workers
+        shrink_factors=shrink, shrink_source=str(args.coverage or ""))
     maps = [plan_map(run, args.target_rel_error, cache=cache) for run in map_runs]
     written = None
     if args.write:

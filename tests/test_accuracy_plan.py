@@ -226,3 +226,70 @@ def test_a_plan_dearer_than_the_campaigns_own_settings_says_so():
     assert "dearer than the campaign's own settings: 3.0 s of bench time against 2.0 s (1.50 times)" in \
         plan({"detuning": 1.0, "cutting": 1.0})
     assert "dearer" not in plan({"detuning": 2.0, "cutting": 2.0})
+
+
+# -- what the budgets' over-coverage costs (analysis.over_coverage, OverCoverageCost) -------------
+def world_coverage_study(run_dir: Path, factor: float) -> Path:
+    """A world-model coverage study in RUN_DIR whose power U over-covers: normal errors on
+    400 benches, U = 1.96 sigma / `factor`, so p95 |error| / U is `factor` (closed form)."""
+    import numpy as np
+    import pandas as pd
+
+    errors = np.random.default_rng(5).normal(0.0, 0.01, 400)
+    u = 1.959964 * 0.01 / factor
+    directory = run_dir / "study" / "coverage_world"
+    directory.mkdir(parents=True)
+    pd.DataFrame({"error_model": "world", "quantity": "power_w", "bench_seed": np.arange(errors.size),
+                  "rel_error": errors, "rel_expanded_u": u, "covered": np.abs(errors) <= u}
+                 ).to_parquet(directory / "points.parquet")
+    return run_dir
+
+
+def test_a_narrower_power_budget_drops_the_calibration_the_plan_needs(user_quick):
+    """At 5.3 % the detuning run's power floor (5.8 %) needs the deskew calibration; with power
+    budgets half as wide the floors are under 3 %: no calibration, and the plan says what the
+    over-coverage costs (the calibration's bench time at least), run by run."""
+    from squeezebench.protocols.planning import CALIBRATION_RUN, make_plan
+
+    plan = make_plan(user_quick, 0.053, repeats=2, check_benches=0, shrink_factors={"power_w": 0.5},
+                     shrink_source="a study")
+    cost = plan.over_coverage
+    assert plan.calibrate and not cost.narrower.calibrate
+    assert [f.floor_p95_rel for f in cost.narrower.floors.floors] == pytest.approx(
+        [f.floor_p95_rel * (0.5 if f.quantity == "power_w" else 1.0) for f in plan.floors.floors])
+    assert cost.saved_s(plan) == pytest.approx(plan.planned_total_s - cost.narrower.planned_total_s)
+    assert cost.saved_s(plan) >= plan.planned_s[CALIBRATION_RUN] > 1.0
+    for name, setting in plan.settings_by_run.items():   # more of the target left to noise: never dearer
+        assert cost.narrower.settings_by_run[name].averages <= setting.averages
+    text = plan.table()
+    assert "over-coverage on the world model (coverage study in a study)" in text
+    assert f"the over-coverage costs {cost.saved_s(plan):.1f} s" in text and f"{CALIBRATION_RUN}: " in text
+    assert make_plan(user_quick, 0.053, repeats=2, check_benches=0, shrink_factors={}).table().endswith(
+        "no quantity over-covers; nothing to save")
+
+
+def test_plan_with_a_world_coverage_study_prices_its_over_coverage(tmp_path, monkeypatch, capsys, user_quick):
+    from squeezebench import cli
+    from squeezebench.protocols import planning
+
+    real = planning.make_plan
+    monkeypatch.setattr(planning, "make_plan",
+                        lambda path, target, **kw: real(path, target, repeats=2, **{**kw, "check_benches": 0}))
+    study = world_coverage_study(tmp_path / "study_run", factor=0.5)
+    assert cli.main(["plan", str(user_quick), "--target-rel-error", "0.053", "--coverage", str(study), "--json"]) == 0
+    data = json.loads(capsys.readouterr().out)["over_coverage"]
+    assert data["shrink_factors"]["power_w"] == pytest.approx(0.5, rel=0.1)
+    assert data["source"] == str(study) and data["reachable"] is True
+    assert data["saved_bench_time_s"] > 1.0   # the calibration, at least
+    assert {run["run"] for run in data["runs"]} == {"detuning", "cutting"}
+    assert cli.main(["plan", str(user_quick), "--target-rel-error", "0.053", "--coverage", str(study)]) == 0
+    assert "the over-coverage costs" in capsys.readouterr().out
+
+
+def test_plan_refuses_a_coverage_folder_without_a_world_study_before_planning(tmp_path, monkeypatch, capsys):
+    from squeezebench import cli
+    from squeezebench.protocols import planning
+
+    monkeypatch.setattr(planning, "make_plan", lambda *a, **kw: pytest.fail("planned before refusing"))
+    assert cli.main(["plan", str(QUICK), "--coverage", str(tmp_path)]) == 2
+    assert "no coverage study on the world model" in capsys.readouterr().err

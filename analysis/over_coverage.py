@@ -1,0 +1,44 @@
+"""Where an expanded uncertainty is wider than the errors need: by how much it could shrink.
+
+A budget treats each specification as a rectangle at its limit. On benches erring as the
+world errs (`study.COVERAGE_MODELS["world"]`: normal errors with half the limit as their
+standard deviation) the errors are smaller than that: a sum of many such terms spreads
+by sqrt(3)/2 = 0.87 of the budget's standard uncertainty (rectangle: limit / sqrt(3),
+GUM 4.3.7; world: limit / 2), so its U covers more than the 95 % it states. The factor
+U could be multiplied by and still cover 95 % is the 95th percentile of |error| / U over
+the coverage study's values (`study.coverage_table`'s `p95_error_over_u`): that fraction of
+values then lies within the narrower U. A quantity over-covers when its whole
+bench-bootstrap interval lies above 95 %: the surplus is then more than the few benches'
+luck. What the surplus costs in bench time is the planner's to say (`squeezebench plan
+--coverage RUN_DIR`): a floor that much lower leaves more of the target to the noise.
+"""
+
+from __future__ import annotations
+
+import pandas as pd
+
+#: The coverage each expanded uncertainty states.
+STATED_COVERAGE = 0.95
+#: The error model whose surplus is priced: the world's (the specified one is what the budgets assume).
+WORLD = "world"
+
+
+def shrink_factors(table: pd.DataFrame, error_model: str = WORLD) -> dict[str, float]:
+    """{quantity: factor} for each quantity of `table` (`study.coverage_table`) that
+    over-covers under `error_model`: its bench-bootstrap interval's lower end is above
+    `STATED_COVERAGE`, and the factor (p95 |error| / U, below 1) is what its U could be
+    multiplied by and still cover 95 %. Quantities that do not over-cover are left out."""
+    rows = table[(table["error_model"] == error_model) & (table["coverage_interval_low"] > STATED_COVERAGE)
+                 & (table["p95_error_over_u"] < 1.0)]
+    return {str(row.quantity): float(row.p95_error_over_u) for row in rows.itertuples()}
+
+
+def shrink_lines(table: pd.DataFrame, quantity_words=str, error_model: str = WORLD) -> list[str]:
+    """One line per quantity `shrink_factors` finds (what the report's coverage section and
+    `study` print): how far it over-covers and how much narrower its U could be."""
+    by_quantity = table[table["error_model"] == error_model].set_index("quantity")
+    return [f"{quantity_words(quantity)} over-covers on benches erring as the world errs "
+            f"({by_quantity.at[quantity, 'covered_fraction']:.1%}, interval from "
+            f"{by_quantity.at[quantity, 'coverage_interval_low']:.1%}): a U {factor:.2f} times as wide would still "
+            f"cover 95 %"
+            for quantity, factor in shrink_factors(table, error_model).items()]
