@@ -21,15 +21,19 @@ import pandas as pd
 STATED_COVERAGE = 0.95
 #: The error model whose surplus is priced: the world's (the specified one is what the budgets assume).
 WORLD = "world"
+#: Fewer benches say nothing of a surplus: a handful all covered gives the bench bootstrap an
+#: interval of [100 %, 100 %], and their p95 |error| / U is one bench's luck.
+MIN_BENCHES = 10
 
 
 def shrink_factors(table: pd.DataFrame, error_model: str = WORLD) -> dict[str, float]:
     """{quantity: factor} for each quantity of `table` (`study.coverage_table`) that
-    over-covers under `error_model`: its bench-bootstrap interval's lower end is above
-    `STATED_COVERAGE`, and the factor (p95 |error| / U, below 1) is what its U could be
-    multiplied by and still cover 95 %. Quantities that do not over-cover are left out."""
-    rows = table[(table["error_model"] == error_model) & (table["coverage_interval_low"] > STATED_COVERAGE)
-                 & (table["p95_error_over_u"] < 1.0)]
+    over-covers under `error_model`: scored on at least `MIN_BENCHES` benches, its
+    bench-bootstrap interval's lower end is above `STATED_COVERAGE`, and the factor (p95
+    |error| / U, below 1) is what its U could be multiplied by and still cover 95 %.
+    Quantities that do not over-cover are left out."""
+    rows = table[(table["error_model"] == error_model) & (table["benches"] >= MIN_BENCHES)
+                 & (table["coverage_interval_low"] > STATED_COVERAGE) & (table["p95_error_over_u"] < 1.0)]
     return {str(row.quantity): float(row.p95_error_over_u) for row in rows.itertuples()}
 
 

@@ -429,7 +429,7 @@ def cmd_study(args: argparse.Namespace) -> int:
 def _world_shrink_factors(run_dir: Path) -> dict[str, float]:
     """{quantity: shrink factor} of the world-model coverage study stored in `run_dir`
     (`analysis.over_coverage`); a run directory without one is refused."""
-    from squeezebench.analysis.over_coverage import WORLD, shrink_factors
+    from squeezebench.analysis.over_coverage import MIN_BENCHES, WORLD, shrink_factors
     from squeezebench.analysis.study import STUDY_DIR, coverage_dir, coverage_table, load_coverage
 
     points = load_coverage(run_dir)
@@ -437,7 +437,12 @@ def _world_shrink_factors(run_dir: Path) -> dict[str, float]:
         raise UserError(f"--coverage {run_dir}: no coverage study on the world model there "
                         f"({Path(run_dir) / STUDY_DIR / coverage_dir(WORLD)}); 'squeezebench study --out {run_dir} "
                         "--coverage-errors world' writes one")
-    return shrink_factors(coverage_table(points[points["error_model"] == WORLD]))
+    world = points[points["error_model"] == WORLD]
+    if world["bench_seed"].nunique() < MIN_BENCHES:
+        raise UserError(f"--coverage {run_dir}: its world coverage study has {world['bench_seed'].nunique()} benches; "
+                        f"an over-coverage needs at least {MIN_BENCHES} to be told from luck ('squeezebench study "
+                        f"--out {run_dir} --resume --coverage-errors world --coverage-benches 40' adds them)")
+    return shrink_factors(coverage_table(world))
 
 
 def cmd_plan(args: argparse.Namespace) -> int:

@@ -287,9 +287,16 @@ def test_plan_with_a_world_coverage_study_prices_its_over_coverage(tmp_path, mon
 
 
 def test_plan_refuses_a_coverage_folder_without_a_world_study_before_planning(tmp_path, monkeypatch, capsys):
+    import pandas as pd
+
     from squeezebench import cli
     from squeezebench.protocols import planning
 
     monkeypatch.setattr(planning, "make_plan", lambda *a, **kw: pytest.fail("planned before refusing"))
     assert cli.main(["plan", str(QUICK), "--coverage", str(tmp_path)]) == 2
     assert "no coverage study on the world model" in capsys.readouterr().err
+    few = world_coverage_study(tmp_path / "few", factor=0.5)
+    points = few / "study" / "coverage_world" / "points.parquet"
+    pd.read_parquet(points).head(3).to_parquet(points)   # three benches
+    assert cli.main(["plan", str(QUICK), "--coverage", str(few)]) == 2
+    assert "has 3 benches; an over-coverage needs at least 10" in capsys.readouterr().err

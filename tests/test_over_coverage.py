@@ -12,7 +12,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy import stats
 
-from squeezebench.analysis.over_coverage import shrink_factors, shrink_lines
+from squeezebench.analysis.over_coverage import MIN_BENCHES, shrink_factors, shrink_lines
 from squeezebench.analysis.study import coverage_table
 from squeezebench.protocols.accuracy_plan import AccuracyFloors, RunFloor
 
@@ -44,16 +44,17 @@ def test_normal_errors_under_a_rectangle_budget_over_cover_by_sqrt3_over_2():
 
 def test_a_u_that_covers_95_percent_or_less_has_no_surplus():
     """U = 1.96 sigma covers 95 % (its interval holds 95 %); 1.5 sigma under-covers: neither
-    is named, and rows of the specified model are not the world's."""
+    is named; rows of the specified model are not the world's, and a handful of benches all
+    covered is no surplus."""
     rng = np.random.default_rng(4)
     errors = rng.normal(0.0, 0.01, 4000)
     rows = pd.concat([coverage_rows(errors, Z95 * 0.01, "velocity_pp_mps"),
                       coverage_rows(errors, 1.5 * 0.01, "q"),
                       coverage_rows(errors, 3.0 * 0.01, "tan_theta", error_model="specified"),
                       coverage_rows(errors, 3.0 * 0.01, "power_w")], ignore_index=True)
-    table = coverage_table(rows)
+    table = coverage_table(pd.concat([rows, coverage_rows(errors[:MIN_BENCHES - 1], 3.0 * 0.01, "amplitude_pp_m")]))
     factors = shrink_factors(table)
-    assert set(factors) == {"power_w"}
+    assert set(factors) == {"power_w"}   # amplitude: all covered, but on too few benches to say
     assert factors["power_w"] == pytest.approx(Z95 / 3.0, rel=0.04)
     [line] = shrink_lines(table)
     assert line.startswith("power_w over-covers") and f"a U {factors['power_w']:.2f} times as wide" in line
