@@ -38,8 +38,8 @@ def shrink_factors(table: pd.DataFrame, error_model: str = WORLD) -> dict[str, f
 
 
 def shrink_lines(table: pd.DataFrame, quantity_words=str, error_model: str = WORLD) -> list[str]:
-    """One line per quantity `shrink_factors` finds (what the report's coverage section and
-    `study` print): how far it over-covers and how much narrower its U could be."""
+    """One line per quantity `shrink_factors` finds (what the report's coverage section
+    says): how far it over-covers and how much narrower its U could be."""
     by_quantity = table[table["error_model"] == error_model].set_index("quantity")
     return [f"{quantity_words(quantity)} over-covers on benches erring as the world errs "
             f"({by_quantity.at[quantity, 'covered_fraction']:.1%}, interval from "
