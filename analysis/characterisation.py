@@ -14,6 +14,7 @@ import numpy as np
 import pandas as pd
 
 from squeezebench.analysis import model, provenance
+from squeezebench.analysis.budgets import COVERAGE_FACTOR
 from squeezebench.paper import paper_table
 from squeezebench.analysis.rundata import RunData
 from squeezebench.analysis.waveforms import Estimate
@@ -279,8 +280,6 @@ def predicted_q_tan(response: dict[str, float], geometry: model.PlateGeometry,
 def _derived_row(table: str, item: str, quantity: str, value: Estimate, calibrated: dict[str, str]) -> dict:
     """A derived value (Q, tan theta'): its expanded uncertainty is k times its standard
     uncertainty (the whole budget when the plates were characterised from a run)."""
-    from squeezebench.analysis.uncertainty import COVERAGE_FACTOR   # see _expanded
-
     return {"table": table, "item": item, "quantity": quantity, "unit": UNITS[quantity],
             "value": value.value, "std_uncertainty": value.std_uncertainty,
             "expanded_uncertainty": COVERAGE_FACTOR * value.std_uncertainty, "scope_value": math.nan,

@@ -16,6 +16,7 @@ from dataclasses import dataclass
 import pandas as pd
 
 from squeezebench.analysis import uncertainty
+from squeezebench.analysis.budgets import Term
 from squeezebench.analysis.calibration import Deskew
 
 
@@ -66,12 +67,12 @@ NOT_BUDGETED = (
 )
 
 
-def _distribution(term: uncertainty.Term) -> str:
+def _distribution(term: Term) -> str:
     return "normal (Type A: the record's fit and scatter)" if term.type == "A" else \
         "rectangular (Type B: a stated limit +-a, u = a/sqrt(3))"
 
 
-def _correction(term: uncertainty.Term, deskew: Deskew | None) -> str:
+def _correction(term: Term, deskew: Deskew | None) -> str:
     if term.name.startswith("CH2 delay after deskew"):
         return f"corrected: tau = {deskew.delay_s * 1e9:.2f} ns measured by the run's deskew calibration"
     if term.name.startswith("CH2 delay"):
@@ -109,7 +110,7 @@ def model_table(point: dict, deskew: Deskew | None) -> pd.DataFrame:
             float("nan"), "one value per plate, from its nominal thickness: " + uncertainty.SHEET_THICKNESS_SOURCE)}
         for name, tolerance in {**sheet, **uncertainty.TOLERANCES}.items():
             rows.append({"quantity": quantity, "input": name, "type": "B",
-                         "distribution": _distribution(uncertainty.Term(name, "B", 0.0, "")),
+                         "distribution": _distribution(Term(name, "B", 0.0, "")),
                          "relative_std_uncertainty": tolerance.half_width_rel / 3**0.5,
                          "correction": "not corrected (sign unknown): budgeted at its limit",
                          "source": tolerance.source})

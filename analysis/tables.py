@@ -19,6 +19,7 @@ import pandas as pd
 from scipy import optimize
 
 from squeezebench.analysis import provenance
+from squeezebench.analysis.budgets import COVERAGE_FACTOR
 from squeezebench.paper import paper_table, printed_step
 from squeezebench.analysis.rundata import RunData
 from squeezebench.analysis.waveforms import Estimate, PointReduction, reduce_record
@@ -275,7 +276,7 @@ def _expanded(points: pd.DataFrame, column: str, estimate: Estimate) -> float:
             combined, noise = (u / points["velocity_pp_mps"] * points["amplitude_pp_m"] for u in (combined, noise))
         shared = np.sqrt(np.clip(combined**2 - noise**2, 0.0, None))
         return k * mean_estimate(points[column], noise, shared).std_uncertainty
-    return uncertainty.COVERAGE_FACTOR * estimate.std_uncertainty
+    return COVERAGE_FACTOR * estimate.std_uncertainty
 
 
 def _search_std_uncertainties(run: RunData) -> dict[tuple[str, str], float]:
@@ -294,8 +295,6 @@ def _with_search_uncertainty(row: dict, points: pd.DataFrame, searches: dict[tup
     generator: its uncertainty also takes how well the search found the resonance, in
     quadrature, from the largest of the points' searches (`searches`:
     `_search_std_uncertainties`)."""
-    from squeezebench.analysis.uncertainty import COVERAGE_FACTOR
-
     if not {"run_name", "step_id"} <= set(points):
         return {}
     found = [searches[key] for key in zip(points["run_name"], points["step_id"]) if key in searches]

@@ -35,9 +35,7 @@ import pandas as pd
 import uncertainties
 
 from squeezebench.analysis import model
-# the budget's own names, read through this module by its users (report, tables, protocols)
-from squeezebench.analysis.budgets import (BUDGET_COLUMNS, COVERAGE_FACTOR, COVERAGE_PROBABILITY,  # noqa: F401
-                                           P95_FACTOR, Budget, Term)
+from squeezebench.analysis.budgets import P95_FACTOR, Budget, Term
 from squeezebench.analysis.calibration import Deskew, deskew_of_run, gain_weight
 from squeezebench.analysis.resonance_searches import (SEARCH_STOP_SPREAD, SearchSetup, mechanical_q_from_sweep,
                                                       reading_scatter_rel, search_setups)

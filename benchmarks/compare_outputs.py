@@ -17,8 +17,8 @@ installed tree), replaced by `<SIDE>`; (2) ISO 8601 timestamps with a UTC offset
 `<UTC>`; (3) with `--module-renames`, the paths of the modules issue 49 moved
 (`MODULE_RENAMES`, e.g. `analysis.specifications` -> `plates.specifications`, also in
 slash form), rewritten to the new ones on both sides: a few explanations in the outputs
-name the module a number comes from (and the shipped data files, unchanged by the move,
-still name the old ones). Each file is reported with the normalisations it needed.
+name the module a number comes from (and the shipped data files named the old ones until
+they were brought up to date after the move). Each file is reported with the normalisations it needed.
 Nothing else is rewritten: any other difference shows. PNG figures are compared too
 (matplotlib writes no date into them).
 

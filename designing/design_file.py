@@ -9,7 +9,6 @@ reads and validates a file with one-line messages (file, field, what is allowed)
 """
 from __future__ import annotations
 
-import math
 import re
 
 from typing import Literal, Optional, Union

@@ -32,7 +32,8 @@ from squeezebench.analysis.rundata import load_run
 from squeezebench.analysis.study import COVERAGE_FILE, STUDY_DIR, coverage_dir
 from squeezebench.analysis.characterisation import characterise_plates
 from squeezebench.analysis.tables import detuning_table, fit_line
-from squeezebench.analysis.uncertainty import COVERAGE_FACTOR, run_uncertainties, with_deviations
+from squeezebench.analysis.budgets import COVERAGE_FACTOR
+from squeezebench.analysis.uncertainty import run_uncertainties, with_deviations
 from squeezebench.instruments.bench import open_bench, sim_bench_config
 from squeezebench.protocols.campaign import run_campaign
 from squeezebench.protocols.parallel import map_unordered

@@ -164,6 +164,11 @@ def point_trials(point: str, calibrated: bool, run: "TaskRun") -> None:
                      "velocity_pp_mps": (reduction.velocity_pp_mps.value, truth.velocity_pp_mps)})
 
 
+def _deskewed_power_w(correction: Deskew, points: pd.DataFrame) -> pd.Series:
+    """The points' power with a calibration's correction (`Deskew.corrected_power_w`)."""
+    return correction.corrected_power_w(points["power_w"], points["reactive_power_var"], points["frequency_hz"])
+
+
 def sweep_trials(calibrated: bool, run: "TaskRun") -> None:
     """Q and tan theta' of a Fig. 5 plate, characterised at resonance over the sweep's
     voltages, one trial per bench; the truth is the same characterisation of the plate
@@ -175,13 +180,8 @@ def sweep_trials(calibrated: bool, run: "TaskRun") -> None:
         geometry = plain.simulated.scene.geometry(plain.simulated.state)
         truth = characterise_at_resonance(plain, s.sweep_scene, voltages_vpp, geometry, measure=None)
     for repeat in range(s.repeats):
-        correct, calibration_s = None, 0.0
-        if calibrated:
-            correction, calibration_s = bench_calibration(run, repeat, limits)
-
-            def correct(points: pd.DataFrame, correction: Deskew = correction) -> pd.Series:
-                return correction.corrected_power_w(points["power_w"], points["reactive_power_var"],
-                                                    points["frequency_hz"])
+        correction, calibration_s = bench_calibration(run, repeat, limits) if calibrated else (None, 0.0)
+        correct = None if correction is None else functools.partial(_deskewed_power_w, correction)
         with erring_bench(run, repeat, limits) as session:
             start_s = session.now_s()
             acquisition = session.acquisition(run.acquisition_settings())

@@ -11,8 +11,8 @@ import pandas as pd
 
 from squeezebench.analysis import cartography
 from squeezebench.plates import predicted_plates
-from squeezebench.report.drawing import Drawing
 from squeezebench.report.presentation import fold, with_uncertainty
+from squeezebench.report.section import ReportContext, Section, html_table
 
 
 def map_figure(points: pd.DataFrame, path: Path, plate: str) -> None:
@@ -75,17 +75,20 @@ def map_summaries(run) -> tuple[pd.DataFrame, dict[str, pd.DataFrame]]:
 CRITERION_HEADER = f"V pp for {1e6 * cartography.HAPTICS_AMPLITUDE_PP_M:g} µm pp"
 
 
-def section_html(run, out_dir: Path, figure, html_table,
-                 draw: Drawing | None = None) -> tuple[str, pd.DataFrame, pd.DataFrame]:
-    """The section's body (per map, a sentence with the answer, the figure; then the numbers
-    of every map), the summaries and the reduced points; the maps drawn by `draw` (here by
-    default)."""
-    draw = draw or Drawing(1)
-    summaries, maps = map_summaries(run)
+def cartography_section(context: ReportContext) -> Section | None:
+    """Vibration map (Fig. 7)"""
+    if context.run.protocol("cartography").empty:
+        return None
+    summaries, maps = map_summaries(context.run)
     body = ""
+    if context.bench() == "simulated":
+        body = ("<p class='banner'>On the simulated bench the map is drawn from the same plate model it is "
+                "compared with: a modal assurance criterion near 1 shows the chain (stage, acquisition, phase) "
+                "keeps the shape, not that the model is right. A real plate's map is the test.</p>")
+    # per map, a sentence with the answer and the figure; then the numbers of every map
     for row in summaries.itertuples(index=False):
-        path = out_dir / f"map_{row.run_name}.png"
-        draw(map_figure, maps[row.run_name], path, row.plate)
+        path = context.out_dir / f"map_{row.run_name}.png"
+        context.draw(map_figure, maps[row.run_name], path, row.plate)
         mac = (f"; against the plate model's working mode ({row.predicted_mode_frequency_hz / 1e3:.2f} kHz, "
                f"predicted from geometry and datasheets) the modal assurance criterion is {row.mac_with_predicted:.3f}"
                if np.isfinite(row.mac_with_predicted) else "; the plate model does not know this plate")
@@ -100,10 +103,10 @@ def section_html(run, out_dir: Path, figure, html_table,
                  f"{row.n_nodal_lines} nodal lines {row.nodal_line_spacing_m * 1e3:.2f} mm apart; "
                  f"{row.width_uniformity:.1%} of the map's mean square is uniform across the width "
                  f"(the paper's \"uniform across the plate\", Sec. 5.2){mac}.</p>")
-        body += figure(path, f"Vibration map of {html.escape(row.plate)} (run {html.escape(row.run_name)}): velocity "
-                             "amplitude (left) and signed velocity (right: the phase against the piezo voltage "
-                             "gives the sign, so nodal lines are where the colour changes); outline and "
-                             "rectangles: the plate and its piezos. Measured; the paper's Fig. 7.")
+        body += context.figure(path, f"Vibration map of {html.escape(row.plate)} (run {html.escape(row.run_name)}): "
+                                     "velocity amplitude (left) and signed velocity (right: the phase against the piezo "
+                                     "voltage gives the sign, so nodal lines are where the colour changes); outline and "
+                                     "rectangles: the plate and its piezos. Measured; the paper's Fig. 7.")
     shown = summaries.assign(**{
         "mean velocity (m/s pp)": [with_uncertainty(m, u) for m, u in zip(summaries["mean_velocity_pp_mps"],
                                                                            summaries["mean_velocity_pp_mps_U"])],
@@ -125,4 +128,8 @@ def section_html(run, out_dir: Path, figure, html_table,
                  html_table(shown.rename(columns={"run_name": "map", "n_points": "points"}),
                             "homogeneity of each map's touch area, ± U (k = 2): the points' noise, and for velocities "
                             "the scale all points share (CH3 gain, decoder)"))
-    return body, summaries, pd.concat(maps.values(), ignore_index=True)
+    context.tables["map_summary"] = summaries
+    context.tables["map_points"] = pd.concat(maps.values(), ignore_index=True)
+    body += ("<p class='csv'>Machine-readable: <a href='map_summary.csv'>map_summary.csv</a>, "
+             "<a href='map_points.csv'>map_points.csv</a> (every point, reduced from its record).</p>")
+    return Section("Vibration map (Fig. 7)", body, "map")

@@ -10,7 +10,8 @@ from dataclasses import replace
 
 import pandas as pd
 
-from squeezebench.analysis import characterisation, model, tables, uncertainty
+from squeezebench.analysis import characterisation, model, tables
+from squeezebench.analysis.budgets import COVERAGE_FACTOR
 from squeezebench.report import figures, presentation
 from squeezebench.plates import damping, predicted_plates
 from squeezebench.paper import paper_value
@@ -113,8 +114,8 @@ def _plates_table(context: ReportContext, plates: dict[str, characterisation.Pla
         a, w = p.amplitude_slope, p.power_slope
         rows.append("<tr>" + "".join(f"<td>{c}</td>" for c in (
             html.escape(name), f"{p.geometry.resonator_thickness_m * 1e3:g}", f"{p.frequency_hz:.0f}",
-            presentation.with_uncertainty(p.q.value, uncertainty.COVERAGE_FACTOR * p.q.std_uncertainty),
-            presentation.with_uncertainty(p.tan_theta.value, uncertainty.COVERAGE_FACTOR * p.tan_theta.std_uncertainty),
+            presentation.with_uncertainty(p.q.value, COVERAGE_FACTOR * p.q.std_uncertainty),
+            presentation.with_uncertainty(p.tan_theta.value, COVERAGE_FACTOR * p.tan_theta.std_uncertainty),
             presentation.with_uncertainty(a.slope.value * 1e9, a.slope.std_uncertainty * 1e9),
             presentation.with_uncertainty(a.intercept.value * 1e9, a.intercept.std_uncertainty * 1e9),
             _chi2(a), presentation.with_uncertainty(w.slope.value * 1e6, w.slope.std_uncertainty * 1e6),

@@ -23,16 +23,17 @@ import pandas as pd
 
 from squeezebench.analysis import columns, readings
 from squeezebench.plates import predicted_plates
-from squeezebench.report import cartography_report, page
+from squeezebench.report import page
 from squeezebench.report.drawing import Drawing
 from squeezebench.analysis.rundata import load_run
 from squeezebench.errors import UserError
 from squeezebench.workers import default_workers
 from squeezebench.report.appendix import conventions_section, provenance_section
 from squeezebench.report.audit import audit_section, readings_section
+from squeezebench.report.cartography_report import cartography_section
 from squeezebench.report.paper_tables import table3_section, table4_section, table5_section
 from squeezebench.report.physics import characterisation_section, detuning_section, predicted_section, resonance_section
-from squeezebench.report.section import ReportContext, Section, SectionBuilder, html_table, slug
+from squeezebench.report.section import ReportContext, Section, SectionBuilder, slug
 from squeezebench.report.study import study_figures, hardcases_section, study_section
 from squeezebench.report.summary import summary_section
 from squeezebench.report.uncertainty import measurement_model_section, uncertainty_section
@@ -111,22 +112,6 @@ def _guarded(builder: SectionBuilder, context: ReportContext) -> Section | None:
     except UserError as exc:
         title = (builder.__doc__ or builder.__name__).strip().splitlines()[0]
         return Section(title, f"<p class='missing'>Not available: {html.escape(str(exc))}</p>")
-
-
-def cartography_section(context: ReportContext) -> Section | None:
-    """Vibration map (Fig. 7)"""
-    if context.run.protocol("cartography").empty:
-        return None
-    body, summary, points = cartography_report.section_html(context.run, context.out_dir, context.figure, html_table,
-                                                             context.draw)
-    if context.bench() == "simulated":
-        body = ("<p class='banner'>On the simulated bench the map is drawn from the same plate model it is "
-                "compared with: a modal assurance criterion near 1 shows the chain (stage, acquisition, phase) "
-                "keeps the shape, not that the model is right. A real plate's map is the test.</p>") + body
-    context.tables["map_summary"], context.tables["map_points"] = summary, points
-    body += ("<p class='csv'>Machine-readable: <a href='map_summary.csv'>map_summary.csv</a>, "
-             "<a href='map_points.csv'>map_points.csv</a> (every point, reduced from its record).</p>")
-    return Section("Vibration map (Fig. 7)", body, "map")
 
 
 SECTIONS: list[SectionBuilder] = [

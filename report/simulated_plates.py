@@ -24,13 +24,14 @@ import pandas as pd
 
 from squeezebench.plates import predicted_plates
 from squeezebench.report import presentation, run_report as report
+from squeezebench.report.section import ReportContext, Section, html_table
 from squeezebench.analysis import characterisation
 from squeezebench.simbench import predicted
 from squeezebench.simbench.scene import load_scene, scenes_table
 from squeezebench.simbench.scene_bounds import BOUNDS
 
 
-def scenes_section(context: report.ReportContext) -> report.Section | None:
+def scenes_section(context: ReportContext) -> Section | None:
     """Simulated plates: could they exist?"""
     inputs = context.run.run_dir / "inputs"
     files = sorted(inputs / name for name, data in context.run.scenes.items()
@@ -42,14 +43,14 @@ def scenes_section(context: report.ReportContext) -> report.Section | None:
     body = ("<p>The simulated plates of this run (SIMULATED: every measured number above comes from "
             "these scenes), at resonance on the scene's bench. Each state was checked at load against: "
             + html.escape("; ".join(BOUNDS.values())) + ". CSV: <a href='scenes.csv'>scenes.csv</a></p>"
-            + report.html_table(table, "The run's simulated plates at resonance. Dry run: simulated bench."))
-    return report.Section("Simulated plates: could they exist?", body, appendix=True)
+            + html_table(table, "The run's simulated plates at resonance. Dry run: simulated bench."))
+    return Section("Simulated plates: could they exist?", body, appendix=True)
 
 
 PHYSICS_FILE = "fig5_predicted.csv"
 
 
-def physics_rows(context: report.ReportContext) -> pd.DataFrame:
+def physics_rows(context: ReportContext) -> pd.DataFrame:
     """One row per (characterised plate, quantity): the measured Q or tan theta' with its U
     (k = 2) and origin, what the plate model predicts with its U, their ratio and whether the
     two agree within their combined U (columns as in report/columns.csv). The prediction
@@ -107,7 +108,7 @@ def _by_plate(frame: pd.DataFrame) -> pd.DataFrame:
     return pd.DataFrame(out)
 
 
-def physics_section(context: report.ReportContext) -> report.Section | None:
+def physics_section(context: ReportContext) -> Section | None:
     """What physics predicts for the characterised plates"""
     if not context.run.scenes or context.run.protocol("characterisation").empty:
         return None
@@ -131,16 +132,16 @@ def physics_section(context: report.ReportContext) -> report.Section | None:
                  "the paper's printed or summarised numbers: where they depart, the departure is that "
                  "calibration's distance from the plate as described (Fig. 5's layouts are assumed: the paper's "
                  "text does not give them).")
-    body += ("</p>" + report.html_table(_by_plate(frame), "Q and tan θ′ of each plate: this run against the "
+    body += ("</p>" + html_table(_by_plate(frame), "Q and tan θ′ of each plate: this run against the "
                                         "plate model's prediction, each ± U (k = 2).")
              + f"<p class='csv'>CSV, one row per plate and quantity: <a href='{PHYSICS_FILE}'>{PHYSICS_FILE}</a></p>"
              + missed)
     return _section(body)
 
 
-def _section(body: str) -> report.Section:
+def _section(body: str) -> Section:
     # detail of Fig. 5's plates, plate by plate: reference, after the results
-    return report.Section("What physics predicts for the characterised plates (Fig. 5)", body, "plates-physics",
+    return Section("What physics predicts for the characterised plates (Fig. 5)", body, "plates-physics",
                           appendix=True)
 
 

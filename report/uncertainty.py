@@ -9,6 +9,7 @@ import html
 import pandas as pd
 
 from squeezebench.analysis import measurement_model, uncertainty
+from squeezebench.analysis.budgets import P95_FACTOR
 from squeezebench.report import presentation
 from squeezebench.report.section import ReportContext, Section, bench_words, html_table, run_budgets, words_of
 
@@ -46,7 +47,7 @@ def uncertainty_section(context: ReportContext) -> Section | None:
                 plates.append({"plate": name, "quantity": budget.quantity, "value": budget.value,
                                "expanded_uncertainty": budget.expanded_uncertainty,
                                "dominant_term": budget.dominant.name,
-                               "floor_p95_rel": uncertainty.P95_FACTOR * floor.std_uncertainty / abs(floor.value)})
+                               "floor_p95_rel": P95_FACTOR * floor.std_uncertainty / abs(floor.value)})
     context.tables["uncertainty_q_tan_theta"] = pd.DataFrame(plates)
     context.tables["uncertainty_floors"] = uncertainty.systematic_floor(found.points, found.deskew)
     deskew = (_delay_flag(found.points) if found.deskew is None else
@@ -95,7 +96,7 @@ def _delay_flag(points: pd.DataFrame) -> str:
     if flagged.empty:
         return text
     where = ", ".join(sorted({f"{run} / {step}" for run, step in zip(flagged["run_name"], flagged["step_id"])}))
-    bound_ns = uncertainty.P95_FACTOR * uncertainty.delay_std_uncertainty_s() * 1e9
+    bound_ns = P95_FACTOR * uncertainty.delay_std_uncertainty_s() * 1e9
     return (f"<p class='banner'><b>Needs a deskew calibration:</b> {len(flagged)} point(s) ({html.escape(where)}) "
             f"have a power whose U (above {uncertainty.DELAY_FLAG_U_REL:.0%}) is mostly the CH2 delay, budgeted as "
             f"a bias bound of {bound_ns:.0f} ns: a current probe lags its voltage probe by a fixed delay of known "

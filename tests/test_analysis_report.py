@@ -160,7 +160,7 @@ def test_a_run_without_the_papers_plates_is_reported_whole(tmp_path):
 
 def test_the_headline_opens_the_report_and_ends_the_command(reported):
     """The same lines atop the page (before any table) and printed by `report`, last before the path."""
-    from squeezebench import cli, commands
+    from squeezebench import commands
 
     run_dir, index = reported
     lines = (run_dir / "report" / report.HEADLINE_FILE).read_text().splitlines()

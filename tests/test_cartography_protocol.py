@@ -137,14 +137,15 @@ def test_a_map_killed_anywhere_and_resumed_stores_the_rows_of_an_uninterrupted_o
 
 
 def test_the_maps_report_section_draws_it_and_describes_every_column(mapped, tmp_path):
-    from squeezebench.report import cartography_report
+    from squeezebench.report.cartography_report import cartography_section
+    from squeezebench.report.section import ReportContext
     from squeezebench.analysis import columns
 
     _, run_dir, _ = mapped
     run = load_run(run_dir)
-    body, summary, points = cartography_report.section_html(
-        run, tmp_path, lambda path, caption: f"<img src='{path.name}'><p>{caption}</p>",
-        lambda frame, caption: frame.to_html())
+    context = ReportContext(run=run, out_dir=tmp_path)
+    body = cartography_section(context).body_html
+    summary, points = context.tables["map_summary"], context.tables["map_points"]
     assert (tmp_path / "map_map.png").stat().st_size > 10_000
     assert "modal assurance criterion is 1.00" in body or "modal assurance criterion is 0.99" in body
     assert summary.loc[0, "mean_velocity_pp_mps_U"] > 2 * summary.loc[0, "mean_velocity_pp_mps"] * 0.01

@@ -3,7 +3,6 @@ weighting, and the fit on one build judged on the others."""
 import math
 
 import numpy as np
-import pandas as pd
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st

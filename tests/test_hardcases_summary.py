@@ -9,7 +9,7 @@ from types import SimpleNamespace
 
 import pandas as pd
 
-from squeezebench.report.run_report import hardcases_section
+from squeezebench.report.study import hardcases_section
 
 SCRIPT = Path(__file__).resolve().parents[1] / "benchmarks" / "hardcases_summary.py"
 

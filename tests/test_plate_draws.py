@@ -12,7 +12,8 @@ from hypothesis import strategies as st
 
 from squeezebench.analysis import model
 from squeezebench.plates.specifications import sheet_thickness_tolerance
-from squeezebench.analysis.uncertainty import Budget, Term, model_budgets, tolerances_for, with_deviations
+from squeezebench.analysis.budgets import Budget, Term
+from squeezebench.analysis.uncertainty import model_budgets, tolerances_for, with_deviations
 from squeezebench.instruments.bench import open_bench, sim_bench_config
 from squeezebench.protocols.variants import plate_draw_effects, scene_with_effects
 from squeezebench.simbench.plate_draws import PERMITTIVITY, PlateTolerances

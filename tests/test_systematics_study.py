@@ -146,7 +146,7 @@ def test_a_coverage_study_on_benches_erring_as_the_world_errs_is_stored_and_tabl
 
     import argparse
 
-    from squeezebench import cli, commands
+    from squeezebench import commands
     from squeezebench.protocols import bench_errors
 
     monkeypatch.setattr(bench_errors, "run_coverage_study", lambda *args, **kwargs: world)   # what it stored

@@ -20,8 +20,9 @@ from squeezebench.analysis.calibration import Deskew
 from squeezebench.plates.specifications import SPECIFICATIONS, compensation_phase_rad
 from squeezebench.analysis.tables import reduced_points
 from squeezebench.analysis.characterisation import characterise_plates
+from squeezebench.analysis.budgets import Budget, Term
 from squeezebench.analysis.uncertainty import (
-    Budget, Term, characterisation_budgets, detuning_slope_per_hz, example_budgets,
+    characterisation_budgets, detuning_slope_per_hz, example_budgets,
     model_budgets, power_budget, run_uncertainties, tolerances_for, velocity_budget, voltage_budget,
     with_expanded_uncertainties)
 from squeezebench.protocols.campaign import run_campaign
