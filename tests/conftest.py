@@ -84,14 +84,19 @@ def protocol():
 
 
 @pytest.fixture(scope="session", autouse=True)
-def fresh_plan_cache(tmp_path_factory):
-    """Plans of this session keep their measurements in a folder of its own: a test never
-    reads what a developer's plans (or another session's code) stored."""
-    from squeezebench.protocols.plan_cache import CACHE_VARIABLE
+def session_cache(tmp_path_factory):
+    """This session keeps what it computes on disk (`disk_cache`: plans' measurements, plate
+    solves) in a folder of its own, which its xdist workers share: a test never reads what a
+    developer's runs (or another session's code) stored, and the workers solve each of the
+    paper's plates once between them, not once each (the store's writes are atomic)."""
+    from squeezebench.disk_cache import CACHE_VARIABLE
 
+    base = tmp_path_factory.getbasetemp()
+    folder = (base.parent if os.environ.get("PYTEST_XDIST_WORKER") else base) / "squeezebench-cache"
+    folder.mkdir(parents=True, exist_ok=True)
     with pytest.MonkeyPatch.context() as patch:
-        patch.setenv(CACHE_VARIABLE, str(tmp_path_factory.mktemp("plan-cache")))
-        yield
+        patch.setenv(CACHE_VARIABLE, str(folder))
+        yield folder
 
 
 @pytest.fixture(scope="session", autouse=True)
