@@ -44,6 +44,7 @@ import hashlib
 import json
 import math
 from dataclasses import asdict, dataclass, field, replace
+from typing import Callable
 
 import numpy as np
 from scipy.sparse.linalg import eigsh
@@ -158,6 +159,8 @@ class PlateModes:
     _probe: object = field(repr=False, default=None)  # points (2, N) -> mass-normalised deflections (N, modes)
     _modal_force: np.ndarray = field(repr=False, default=None)  # Theta (modes, patches), mass-normalised
     _peak: np.ndarray = field(repr=False, default=None)  # mass-normalised deflection at each mode's peak
+    #: the solve's key in the disk cache (`stored_solves`); None for a plate solved otherwise
+    stored_key: str | None = field(repr=False, default=None)
 
     def shape_at(self, k: int, x_m, y_m) -> np.ndarray:
         """Mode k's deflection at the points (x, y), scaled as `shapes` (+1 at its largest),
@@ -429,9 +432,19 @@ def _solve(geometry, resonator, piezo, near_hz, n_modes, elements_per_half_wave,
         return _eigenpairs(geometry, resonator, piezo, near_hz, n_modes, sections, mesh, basis)
 
     found = stored_solves().get(stored_key, solved)
-    return modes_from_vectors(geometry, resonator, piezo, bond, thick_plate, sections, found["eigenvalues"],
-                              found["vectors"], gx, gy, grid_probe, probe, found["patch_laplacians"],
-                              found["added_energy"])
+    return replace(modes_from_vectors(geometry, resonator, piezo, bond, thick_plate, sections, found["eigenvalues"],
+                                      found["vectors"], gx, gy, grid_probe, probe, found["patch_laplacians"],
+                                      found["added_energy"]), stored_key=stored_key)
+
+
+def kept(modes: PlateModes, name: str, build: Callable[[], np.ndarray]) -> np.ndarray:
+    """A costly value derived from a solve (`name` says which, with everything it depends on
+    besides the solve and the plate model's code), kept on disk beside the solve
+    (`stored_solves`); built afresh for a plate solved otherwise (a reduced model's)."""
+    if modes.stored_key is None:
+        return np.asarray(build())
+    key = hashlib.sha256(f"{modes.stored_key}\0{name}".encode()).hexdigest()
+    return stored_solves().get(key, lambda: {"value": np.asarray(build())})["value"]
 
 
 def _eigenpairs(geometry, resonator, piezo, kirchhoff_hz, n_modes, sections, mesh, basis) -> dict[str, np.ndarray]:

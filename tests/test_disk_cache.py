@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from squeezebench.disk_cache import CACHE_VARIABLE, ArrayStore, arrays_digest
-from squeezebench.plates import plate_modes, predicted_plates
+from squeezebench.plates import damping, plate_modes, predicted_plates
 
 KEY = "a" * 64
 
@@ -79,8 +79,8 @@ def test_the_folder_stays_under_its_limit_the_least_recently_used_going(tmp_path
 
 def test_a_plate_solve_is_read_back_identical_and_a_corrupt_one_solved_again(tmp_path, monkeypatch):
     """The 28 mm cut plate (a small mesh): solved, then read by a process that has not solved
-    it (the in-process cache emptied, the eigen-solve forbidden), then solved again after its
-    file is damaged."""
+    it (the in-process cache emptied, the eigen-solve forbidden), with its face integral
+    (`damping`, kept beside it), then solved again after its file is damaged."""
     monkeypatch.setenv(CACHE_VARIABLE, str(tmp_path))
     geometry = predicted_plates.table3_plate("28")
 
@@ -89,20 +89,24 @@ def test_a_plate_solve_is_read_back_identical_and_a_corrupt_one_solved_again(tmp
         return plate_modes.solve_plate(geometry, near_hz=37e3, band_rel=0.3)
 
     solved = solve()
+    k = solved.working_mode(37e3)
+    face = damping.face_integral_m2_per_kg(solved, k)
     real_eigenpairs = plate_modes._eigenpairs
 
     def forbidden(*args):
-        raise AssertionError("solved again, not read")
+        raise AssertionError("computed again, not read")
 
     monkeypatch.setattr(plate_modes, "_eigenpairs", forbidden)
     read = solve()
+    with monkeypatch.context() as patch:   # the face integral's refined grid is not evaluated again either
+        patch.setattr(plate_modes.PlateModes, "shape_at", forbidden)
+        assert damping.face_integral_m2_per_kg(read, k) == face
     for name in ("frequencies_hz", "shapes", "modal_mass_kg", "force_factor_n_per_v", "uniformity",
                  "piezo_energy_share", "kirchhoff_frequencies_hz"):
         assert np.array_equal(getattr(read, name), getattr(solved, name)), name
-    k = read.working_mode(37e3)
     assert read.referred_to(k, 0.014, 0.02)[0] == solved.referred_to(k, 0.014, 0.02)[0]
 
-    [stored] = (tmp_path / "plates").glob("*.npz")
+    stored = plate_modes.stored_solves().path(read.stored_key)
     stored.write_bytes(stored.read_bytes()[:1000])
     calls = []
     monkeypatch.setattr(plate_modes, "_eigenpairs", lambda *args: calls.append(1) or real_eigenpairs(*args))
@@ -116,8 +120,8 @@ def test_other_solver_code_is_another_key(tmp_path, monkeypatch):
     monkeypatch.setenv(CACHE_VARIABLE, str(tmp_path))
     geometry = predicted_plates.table3_plate("28")
     plate_modes._CACHE.clear()
-    plate_modes.solve_plate(geometry, near_hz=37e3, band_rel=0.3)
+    first = plate_modes.solve_plate(geometry, near_hz=37e3, band_rel=0.3)
     monkeypatch.setattr(plate_modes, "solver_fingerprint", lambda: "other code")
     plate_modes._CACHE.clear()
-    plate_modes.solve_plate(geometry, near_hz=37e3, band_rel=0.3)
-    assert len(list((tmp_path / "plates").glob("*.npz"))) == 2
+    other = plate_modes.solve_plate(geometry, near_hz=37e3, band_rel=0.3)
+    assert len(list((tmp_path / "plates").glob("*.npz"))) == 2 and other.stored_key != first.stored_key
