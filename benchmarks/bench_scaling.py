@@ -98,20 +98,23 @@ def command_s(arguments: list[str], environment: dict[str, str] | None = None,
 
 
 def reproduce_s(workers: int | None) -> tuple[float, str, pd.DataFrame]:
-    """`squeezebench reproduce` (`--workers N` unless None: the default flags): its wall
-    seconds, the load average before it, and its study's figures."""
+    """`squeezebench reproduce` (`--workers N` unless None: the default flags) from an empty
+    cache: its wall seconds, the load average before it, and its study's figures."""
     flags = [] if workers is None else ["--workers", str(workers)]
     with tempfile.TemporaryDirectory(prefix="squeezebench-bench-") as tmp:
-        elapsed_s, before = command_s(["reproduce", "--out", str(Path(tmp) / "paper"), "--quiet", *flags])
+        # an empty cache (no plate solved by an earlier run): a first run on a fresh machine
+        elapsed_s, before = command_s(["reproduce", "--out", str(Path(tmp) / "paper"), "--quiet", *flags],
+                                      {CACHE_VARIABLE: str(Path(tmp) / "cache")})
         return elapsed_s, before, study.figures(study.load_trials(Path(tmp) / "paper"))
 
 
 def study_s(workers: int) -> tuple[float, str]:
     """`squeezebench study` with reproduce's experiments only (in `reproduce` the study shares
-    the cores with the campaign) on `workers`."""
+    the cores with the campaign) on `workers`, from an empty cache."""
     experiments = [flag for name in commands.REPRODUCE_EXPERIMENTS for flag in ("--experiment", name)]
     with tempfile.TemporaryDirectory(prefix="squeezebench-bench-") as tmp:
-        return command_s(["study", "--out", tmp, "--quiet", "--workers", str(workers), *experiments])
+        return command_s(["study", "--out", str(Path(tmp) / "study"), "--quiet", "--workers", str(workers),
+                          *experiments], {CACHE_VARIABLE: str(Path(tmp) / "cache")})
 
 
 def figures_against_reference(found: pd.DataFrame) -> str:

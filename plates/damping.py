@@ -121,11 +121,16 @@ def face_integral_m2_per_kg(modes: plate_modes.PlateModes, k: int, refine: int =
     """int phi^2 dA over the plate of mode k mass-normalised (int m phi^2 dA = 1): the shape
     scaled to its peak, evaluated from the elements on the solve's grid refined `refine` times
     (the grid itself, about 1.5 lines per half-wave, overstates it by 5-9 %), squared and
-    integrated, over the mass referred to that peak."""
-    x, y = (np.interp(np.arange((len(g) - 1) * refine + 1) / refine, np.arange(len(g)), g)
-            for g in (modes.x_m, modes.y_m))
-    shape = modes.shape_at(k, *np.meshgrid(x, y, indexing="ij"))
-    return float(np.trapezoid(np.trapezoid(shape**2, y, axis=1), x) / modes.modal_mass_kg[k])
+    integrated, over the mass referred to that peak. Kept beside the solve on disk
+    (`plate_modes.kept`): evaluating the elements at the refined grid takes longer than
+    the solve on the large plate."""
+    def integral() -> float:
+        x, y = (np.interp(np.arange((len(g) - 1) * refine + 1) / refine, np.arange(len(g)), g)
+                for g in (modes.x_m, modes.y_m))
+        shape = modes.shape_at(k, *np.meshgrid(x, y, indexing="ij"))
+        return float(np.trapezoid(np.trapezoid(shape**2, y, axis=1), x) / modes.modal_mass_kg[k])
+
+    return float(plate_modes.kept(modes, f"face integral of mode {k}, grid refined {refine} times", integral))
 
 
 def dielectric_power_w(frequency_hz: float, capacitance_f: float, voltage_pp: float, tan_delta: float) -> float:

@@ -44,10 +44,12 @@ import hashlib
 import json
 import math
 from dataclasses import asdict, dataclass, field, replace
+from typing import Callable
 
 import numpy as np
 from scipy.sparse.linalg import eigsh
 
+from squeezebench.disk_cache import ArrayStore, cache_dir, source_fingerprint
 from squeezebench.lru import RecentlyUsed
 from squeezebench.plates.laminate import (ALUMINIUM_TABLE2, EPOXY, EPSILON_0_F_PER_M, NCE41, Bond, Isotropic, Piezo,
                                           bond_energy_ratio, bonded_section, kirchhoff_frequency_hz, laminate,
@@ -157,6 +159,8 @@ class PlateModes:
     _probe: object = field(repr=False, default=None)  # points (2, N) -> mass-normalised deflections (N, modes)
     _modal_force: np.ndarray = field(repr=False, default=None)  # Theta (modes, patches), mass-normalised
     _peak: np.ndarray = field(repr=False, default=None)  # mass-normalised deflection at each mode's peak
+    #: the solve's key in the disk cache (`stored_solves`); None for a plate solved otherwise
+    stored_key: str | None = field(repr=False, default=None)
 
     def shape_at(self, k: int, x_m, y_m) -> np.ndarray:
         """Mode k's deflection at the points (x, y), scaled as `shapes` (+1 at its largest),
@@ -244,13 +248,37 @@ def _key(geometry: PlateGeometry, resonator: Isotropic, piezo: Piezo, near_hz: f
 #: their 86 plates twice with 16, 8 with 32.
 _CACHE: RecentlyUsed[PlateModes] = RecentlyUsed(32)
 
+#: The disk cache of solves (`stored_solves`) stays under this size: a stored solve is
+#: mostly its eigenvectors, about 0.2 MB for a 76 mm plate and 5 MB for the large one.
+STORED_SOLVES_BYTES_LIMIT = 256 * 2**20
+
+
+def stored_solves() -> ArrayStore:
+    """Solves kept on disk for the next process (`disk_cache`: `plates/` of its folder; none
+    with $SQUEEZEBENCH_CACHE=off): `reproduce`, its study's workers, a design sweep's workers
+    and the test suite's workers each solve the paper's plates otherwise (seconds each)."""
+    folder = cache_dir()
+    return ArrayStore(None if folder is None else folder / "plates", STORED_SOLVES_BYTES_LIMIT)
+
+
+@functools.cache
+def solver_fingerprint() -> str:
+    """What decides a solve besides its inputs: the plate model's source and the versions
+    of the libraries that solve it (a stored solve of other code is never read)."""
+    import scipy
+    import skfem
+
+    return f"{source_fingerprint(('squeezebench.plates',))} numpy {np.__version__} scipy {scipy.__version__} " \
+           f"scikit-fem {skfem.__version__}"
+
 
 def solve_plate(geometry: PlateGeometry, resonator: Isotropic = ALUMINIUM_TABLE2,
                 piezo: Piezo = NCE41, near_hz: float = 40e3, n_modes: int | None = None,
                 elements_per_half_wave: float = 1.5, mesh_half_wave_m: float | None = None,
                 band_rel: float = 0.16, bond: Bond = EPOXY, thick_plate: bool = True) -> PlateModes:
     """The `n_modes` modes nearest `near_hz` of `geometry` (cached by geometry, materials and
-    mesh: a campaign solves each plate once). The mesh size follows the bare plate's flexural
+    mesh: a campaign solves each plate once; kept on disk for other processes,
+    `stored_solves`). The mesh size follows the bare plate's flexural
     half-wavelength at `near_hz`, pi / (w^2 rho h / D)^(1/4). By default the modes cover
     about +-8 % of `near_hz` (a plate's modal density is S/2 sqrt(rho h / D) per hertz), so
     the (n, 0) neighbours, about 2/n apart in frequency, are in view (`band_rel` is that
@@ -263,8 +291,9 @@ def solve_plate(geometry: PlateGeometry, resonator: Isotropic = ALUMINIUM_TABLE2
         n_modes = mode_count(geometry, resonator, piezo, near_hz, band_rel)
     key = _key(geometry, resonator, piezo, near_hz, n_modes, elements_per_half_wave, mesh_half_wave_m, bond,
                thick_plate)
+    stored_key = hashlib.sha256(f"{solver_fingerprint()}\0{key}".encode()).hexdigest()
     return _CACHE.get(key, lambda: _solve(geometry, resonator, piezo, near_hz, n_modes, elements_per_half_wave,
-                                          mesh_half_wave_m, bond, thick_plate))
+                                          mesh_half_wave_m, bond, thick_plate, stored_key))
 
 
 def _thin_half_wavelength_m(material: Isotropic, thickness_m: float, kirchhoff_hz: float) -> float:
@@ -388,21 +417,48 @@ def stiffness_and_mass(basis, rigidity_per_element: np.ndarray, mass_per_element
             coo_matrix((mass.ravel(), (rows, columns)), shape=shape).tocsr())
 
 
-def _solve(geometry, resonator, piezo, near_hz, n_modes, elements_per_half_wave, mesh_half_wave_m=None,
-           bond: Bond = EPOXY, thick_plate: bool = True) -> PlateModes:
-    from skfem import LinearForm
-    from skfem.helpers import dd, trace
-
+def _solve(geometry, resonator, piezo, near_hz, n_modes, elements_per_half_wave, mesh_half_wave_m: float | None,
+           bond: Bond, thick_plate: bool, stored_key: str) -> PlateModes:
+    """The modes of `geometry` on its mesh: the eigenpairs and patch integrals
+    (`_eigenpairs`, nearly all a solve's time) read from the disk cache under `stored_key`
+    when a process solved them before (`stored_solves`), the rest made from them here."""
     # the eigenproblem is Kirchhoff's: look for its modes where their corrected frequencies fall near the drive
     near_hz = eigenproblem_hz(near_hz, resonator, geometry.thickness_m, thick_plate)
     x, y, gx, gy = mesh_lines(geometry, resonator, near_hz, elements_per_half_wave, mesh_half_wave_m)
     mesh, basis, grid_probe, probe = _discretisation(*(tuple(a.tolist()) for a in (x, y, gx, gy)))
-    centres = mesh.p[:, mesh.t].mean(axis=1)
+    sections = patch_sections(geometry, resonator, piezo, bond)
 
+    def solved() -> dict[str, np.ndarray]:
+        return _eigenpairs(geometry, resonator, piezo, near_hz, n_modes, sections, mesh, basis)
+
+    found = stored_solves().get(stored_key, solved)
+    return replace(modes_from_vectors(geometry, resonator, piezo, bond, thick_plate, sections, found["eigenvalues"],
+                                      found["vectors"], gx, gy, grid_probe, probe, found["patch_laplacians"],
+                                      found["added_energy"]), stored_key=stored_key)
+
+
+def kept(modes: PlateModes, name: str, build: Callable[[], np.ndarray]) -> np.ndarray:
+    """A costly value derived from a solve (`name` says which, with everything it depends on
+    besides the solve and the plate model's code), kept on disk beside the solve
+    (`stored_solves`); built afresh for a plate solved otherwise (a reduced model's)."""
+    if modes.stored_key is None:
+        return np.asarray(build())
+    key = hashlib.sha256(f"{modes.stored_key}\0{name}".encode()).hexdigest()
+    return stored_solves().get(key, lambda: {"value": np.asarray(build())})["value"]
+
+
+def _eigenpairs(geometry, resonator, piezo, kirchhoff_hz, n_modes, sections, mesh, basis) -> dict[str, np.ndarray]:
+    """The mass-normalised Kirchhoff eigenpairs nearest `kirchhoff_hz` of the plate with its
+    patches' `sections` (eigenvalues ascending, vectors (dofs, modes)), each mode's integral
+    of phi_xx + phi_yy over each patch and the patches' added rigidity's energy in it."""
+    from skfem import LinearForm
+    from skfem.helpers import dd, trace
+
+    centres = mesh.p[:, mesh.t].mean(axis=1)
     d_bare, mass_bare, _ = laminate(resonator, geometry.thickness_m, piezo, 0.0)
     d_e = np.full(mesh.nelements, d_bare)
     m_e = np.full(mesh.nelements, mass_bare)
-    inside, sections = [], patch_sections(geometry, resonator, piezo, bond)
+    inside = []
     for p, section in zip(geometry.patches, sections):
         x0, x1, y0, y1 = p.bounds
         mask = ((centres[0] > x0) & (centres[0] < x1) & (centres[1] > y0) & (centres[1] < y1))
@@ -414,7 +470,7 @@ def _solve(geometry, resonator, piezo, near_hz, n_modes, elements_per_half_wave,
         return trace(dd(v))
 
     k_mat, m_mat = stiffness_and_mass(basis, d_e, m_e, resonator.poisson)
-    sigma = (2 * np.pi * near_hz) ** 2
+    sigma = (2 * np.pi * kirchhoff_hz) ** 2
     n = min(n_modes, k_mat.shape[0] - 2)
     # a fixed start vector: ARPACK's random one would flip mode signs from run to run
     eigenvalues, vectors = eigsh(k_mat, k=n, M=m_mat, sigma=sigma, which="LM", tol=1e-9,
@@ -436,8 +492,8 @@ def _solve(geometry, resonator, piezo, near_hz, n_modes, elements_per_half_wave,
         added_energy = np.einsum("ij,ij->j", vectors, k_added @ vectors)
     else:
         added_energy = np.zeros(n)
-    return modes_from_vectors(geometry, resonator, piezo, bond, thick_plate, sections, eigenvalues, vectors,
-                              gx, gy, grid_probe, probe, laplacians, added_energy)
+    return {"eigenvalues": eigenvalues, "vectors": vectors, "patch_laplacians": laplacians,
+            "added_energy": added_energy}
 
 
 def eigenproblem_hz(near_hz: float, resonator: Isotropic, thickness_m: float, thick_plate: bool) -> float:

@@ -7,9 +7,9 @@ way to learn what a target costs, reads those instead of simulating them again, 
 only what it lacks (the planned campaign's bench time for settings not timed before, and
 always the check on erring benches).
 
-They are kept on joblib's `Memory` in $SQUEEZEBENCH_CACHE/plan (default
-$XDG_CACHE_HOME/squeezebench, else ~/.cache/squeezebench), each under the call's arguments
-and a fingerprint of all that decides it: the campaign file, every scene and bench file
+They are kept on joblib's `Memory` in `plan/` of squeezebench's cache folder
+(`disk_cache.cache_dir`: $SQUEEZEBENCH_CACHE, default $XDG_CACHE_HOME/squeezebench), each
+under the call's arguments and a fingerprint of all that decides it: the campaign file, every scene and bench file
 it names, and squeezebench's own source. A change to any of them is a new fingerprint, so
 nothing stale is ever read; the folder stays under CACHE_BYTES_LIMIT.
 SQUEEZEBENCH_CACHE=off measures everything afresh.
@@ -19,16 +19,15 @@ from __future__ import annotations
 
 import functools
 import hashlib
-import importlib
-import os
 from pathlib import Path
 from typing import Any, Callable
 
 import joblib
 
+from squeezebench import disk_cache
+from squeezebench.disk_cache import CACHE_VARIABLE, cache_dir
 from squeezebench.protocols.parallel import map_unordered
 
-CACHE_VARIABLE = "SQUEEZEBENCH_CACHE"
 #: The folder is kept under this size, the least recently used results going first (a
 #: plan of the paper campaign keeps about 5 MB; every change of the code starts a new set).
 CACHE_BYTES_LIMIT = 512 * 2**20
@@ -37,26 +36,9 @@ SOURCE_PACKAGES = ("squeezebench", "squeezebench.instruments", "squeezebench.pro
                    "squeezebench.analysis", "squeezebench.plates", "squeezebench.simbench")
 
 
-def cache_dir() -> Path | None:
-    """Where measurements are kept, or None when $SQUEEZEBENCH_CACHE is `off`."""
-    text = os.environ.get(CACHE_VARIABLE, "").strip()
-    if text.lower() == "off":
-        return None
-    if text:
-        return Path(text).expanduser()
-    return Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "squeezebench"
-
-
-@functools.cache
 def source_fingerprint() -> str:
-    """SHA-256 of squeezebench's Python source, file by file (names and bytes)."""
-    digest = hashlib.sha256()
-    for package in SOURCE_PACKAGES:
-        for folder in importlib.import_module(package).__path__:
-            for path in sorted(Path(folder).glob("*.py")):
-                digest.update(f"{package}/{path.name}\0".encode())
-                digest.update(path.read_bytes())
-    return digest.hexdigest()
+    """SHA-256 of squeezebench's Python source (`disk_cache.source_fingerprint`)."""
+    return disk_cache.source_fingerprint(SOURCE_PACKAGES)
 
 
 def fingerprint(files: list[Path]) -> str:

@@ -13,9 +13,12 @@ messages unsent fails the test, as does any message out of order.
 
 from __future__ import annotations
 
+import fcntl
+import json
 import os
 import tempfile
 from contextlib import contextmanager
+from pathlib import Path
 from typing import Any, Iterator
 
 import numpy as np
@@ -83,15 +86,26 @@ def protocol():
     return expected_protocol
 
 
-@pytest.fixture(scope="session", autouse=True)
-def fresh_plan_cache(tmp_path_factory):
-    """Plans of this session keep their measurements in a folder of its own: a test never
-    reads what a developer's plans (or another session's code) stored."""
-    from squeezebench.protocols.plan_cache import CACHE_VARIABLE
+def session_folder(tmp_path_factory) -> Path:
+    """A folder of this session that its xdist workers share (each worker's own temporary
+    folder sits in the session's)."""
+    base = tmp_path_factory.getbasetemp()
+    return base.parent if os.environ.get("PYTEST_XDIST_WORKER") else base
 
+
+@pytest.fixture(scope="session", autouse=True)
+def session_cache(tmp_path_factory):
+    """This session keeps what it computes on disk (`disk_cache`: plans' measurements, plate
+    solves) in a folder of its own, which its xdist workers share: a test never reads what a
+    developer's runs (or another session's code) stored, and the workers solve each of the
+    paper's plates once between them, not once each (the store's writes are atomic)."""
+    from squeezebench.disk_cache import CACHE_VARIABLE
+
+    folder = session_folder(tmp_path_factory) / "squeezebench-cache"
+    folder.mkdir(parents=True, exist_ok=True)
     with pytest.MonkeyPatch.context() as patch:
-        patch.setenv(CACHE_VARIABLE, str(tmp_path_factory.mktemp("plan-cache")))
-        yield
+        patch.setenv(CACHE_VARIABLE, str(folder))
+        yield folder
 
 
 @pytest.fixture(scope="session", autouse=True)
@@ -105,6 +119,48 @@ def _not_waiting_for_the_disk():
     with pytest.MonkeyPatch.context() as patch:
         patch.setattr(os, "fsync", lambda fd: None)
         yield
+
+
+@contextmanager
+def recorded_traffic() -> Iterator[dict[str, list[str]]]:
+    """{role: every message the drivers send meanwhile, in order}."""
+    from squeezebench.instruments import base
+
+    traffic: dict[str, list[str]] = {}
+    with pytest.MonkeyPatch.context() as patch:
+        for name in ("write", "query", "query_block"):
+            original = getattr(base.Instrument, name)
+
+            def recording(self, command, _original=original):
+                traffic.setdefault(self.role, []).append(command)
+                return _original(self, command)
+            patch.setattr(base.Instrument, name, recording)
+        yield traffic
+
+
+@pytest.fixture(scope="session")
+def paper_run(tmp_path_factory) -> tuple[Path, dict[str, list[str]]]:
+    """The shipped paper campaign run once per session on the simulated bench from power-on
+    (about 25 s on 2 cores), for the tests of its report and of its drivers' messages: its
+    run folder and {role: the messages its drivers sent}. The session's xdist workers share
+    it: the first to ask runs it under a file lock, the others wait for it and read it (the
+    traffic file, written last and atomically, says the run is whole)."""
+    from squeezebench import paths
+    from squeezebench.protocols.campaign import run_campaign
+
+    shared = session_folder(tmp_path_factory) / "paper-run"
+    shared.mkdir(parents=True, exist_ok=True)
+    done = shared / "traffic.json"
+    with open(shared / "lock", "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        if not done.exists():
+            attempt = Path(tempfile.mkdtemp(dir=shared, prefix="attempt-"))   # a failed one is left aside
+            with recorded_traffic() as traffic:
+                run_dir = run_campaign(paths.paper_campaign(), out_dir=attempt / "run", progress=False)
+            (attempt / "traffic.json").write_text(json.dumps({"run_dir": str(run_dir), "traffic": traffic}))
+            os.replace(attempt / "traffic.json", done)
+    stored = json.loads(done.read_text())
+    return Path(stored["run_dir"]), stored["traffic"]
 
 
 # Drive records (protocols.drive_record) outlive a process: this test process and its

@@ -71,8 +71,8 @@ def test_nothing_imports_the_command_line():
 
 def test_ground_modules_import_no_feature():
     """The ground of `squeezebench/` (errors, paths, yamlfiles, lru, workers, stops, terminal,
-    paper) imports no package above it: everything may import it."""
-    ground = ["errors", "paths", "yamlfiles", "lru", "workers", "stops", "terminal", "paper"]
+    paper, disk_cache) imports no package above it: everything may import it."""
+    ground = ["errors", "paths", "yamlfiles", "lru", "disk_cache", "workers", "stops", "terminal", "paper"]
     above = {"instruments", "simbench", "protocols", "analysis", "plates", "designing", "report", "cli", "api",
              "schemas", "liveplot"}
     wrong = sorted(f"{name}.py imports {module}" for name in ground

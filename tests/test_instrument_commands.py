@@ -11,9 +11,9 @@ from pathlib import Path
 
 import pandas as pd
 import pytest
+from conftest import recorded_traffic
 
 from squeezebench import paths
-from squeezebench.instruments import base
 from squeezebench.instruments.agilent33120a import Agilent33120A
 from squeezebench.instruments.bench import check_bench, sim_bench_config
 from squeezebench.instruments.ofv5000 import OFV5000
@@ -85,38 +85,33 @@ def test_units_are_split_with_their_full_headers():
     assert units('MATH:DEFINE "CH1*CH2"') == ['MATH:DEFINE "CH1*CH2"']
 
 
-CAMPAIGNS = ("quick.yaml", "paper.yaml")
+def measurements(run_dir: Path) -> pd.DataFrame:
+    return pd.concat([pd.read_parquet(p) for p in sorted((run_dir / "measurements").rglob("*.parquet"))])
 
 
 @pytest.fixture(scope="module")
-def runs(tmp_path_factory):
+def runs(tmp_path_factory, paper_run):
     """{start: (traffic {role: messages}, {campaign: measurements}, check's lines)} of the
-    quick and the paper campaign and `check`."""
+    quick campaign and `check` from each start, and the paper campaign from power-on (the
+    session's run, `paper_run`, which the report's tests also read)."""
     results = {}
-    with pytest.MonkeyPatch.context() as patch:
-        traffic: dict[str, list[str]] = {}
-        for name in ("write", "query", "query_block"):
-            original = getattr(base.Instrument, name)
-
-            def recording(self, command, _original=original):
-                traffic.setdefault(self.role, []).append(command)
-                return _original(self, command)
-            patch.setattr(base.Instrument, name, recording)
-        for start in ("power_on", "hostile"):
-            traffic.clear()
+    for start in ("power_on", "hostile"):
+        with recorded_traffic() as traffic, pytest.MonkeyPatch.context() as patch:
             patch.setattr(campaign, "sim_bench_config", functools.partial(sim_bench_config, start=start))
-            rows = {}
-            # the paper campaign from a hostile start would repeat 40 s of bench to show what
-            # quick shows (and test_previous_user_states, from five more starts): the same rows
-            for name in CAMPAIGNS if start == "power_on" else CAMPAIGNS[:1]:
-                run_dir = campaign.run_campaign(paths.campaigns_dir() / name,
-                                                out_dir=tmp_path_factory.mktemp(start) / name, progress=False)
-                rows[name] = pd.concat([pd.read_parquet(p)
-                                        for p in sorted((run_dir / "measurements").rglob("*.parquet"))])
+            run_dir = campaign.run_campaign(paths.campaigns_dir() / "quick.yaml",
+                                            out_dir=tmp_path_factory.mktemp(start) / "quick.yaml", progress=False)
+            rows = {"quick.yaml": measurements(run_dir)}
             lines: list[str] = []
             config = sim_bench_config(paths.default_scene(), start=start)
             assert check_bench(config, out=lines.append) == 0, "\n".join(lines)
             results[start] = ({role: list(messages) for role, messages in traffic.items()}, rows, lines)
+    # the paper campaign from a hostile start would repeat 40 s of bench to show what quick
+    # shows (and test_previous_user_states, from five more starts): the same rows
+    paper_dir, paper_traffic = paper_run
+    traffic, rows, _ = results["power_on"]
+    rows["paper.yaml"] = measurements(paper_dir)
+    for role, messages in paper_traffic.items():
+        traffic.setdefault(role, []).extend(messages)
     return results
 
 

@@ -119,10 +119,10 @@ MAX_FIGURES = 6
 
 
 @pytest.fixture(scope="module")
-def paper(tmp_path_factory):
-    """The whole paper campaign's report (about 25 s on 2 cores), measured at both widths."""
+def paper(paper_run):
+    """The whole paper campaign's report (the session's run, `paper_run`), measured at both widths."""
     make_screenshots.chromium()
-    run_dir = run_campaign(paths.paper_campaign(), out_dir=tmp_path_factory.mktemp("paper") / "run", progress=False)
+    run_dir, _ = paper_run
     index = report.write_report(run_dir)
     return {width: make_screenshots.measure(index, width) for width in WIDTHS}
 
