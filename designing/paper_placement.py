@@ -9,6 +9,7 @@ numbers it is inferred from (the predictions take `predicted_plates.EDGE_GAP_MM`
 """
 from __future__ import annotations
 
+import dataclasses
 import functools
 import math
 
@@ -113,6 +114,12 @@ REVIEW_FORCE_FACTORS_N_PER_V = {0.0: 0.38, 1.5: 0.76, 3.0: 1.03, 4.0: 1.10, 8.5:
 REVIEW_MODAL_MASS_G = 81.4
 
 
+#: A piezo thickness (m) at which the patches barely stiffen the plate (5 um of NCE 41 adds about
+#: 1 % to a 2 mm plate's bending stiffness, 0.5 mm doubles it) while their lever arm stays about
+#: the plate's half-thickness.
+UNSTIFFENED_PIEZO_M = 5e-6
+
+
 def voltage_decomposition(gaps_mm=tuple(REVIEW_FORCE_FACTORS_N_PER_V)) -> pd.DataFrame:
     """The large plate's voltage for 1 um pp at the centre, V_pp = w^2 M x_pp / (Q A)
     (`design.Lumped.voltage_vpp_for`), taken apart at each edge gap beside the review's
@@ -123,16 +130,28 @@ def voltage_decomposition(gaps_mm=tuple(REVIEW_FORCE_FACTORS_N_PER_V)) -> pd.Dat
     Q = `MECHANICAL_Q` (the design's Q when it was run, which with the thin-plate frequency of
     then gives its flush 83 Vpp), so ours over it is exactly the product of the three factor
     columns. Beside them the free-free beam's closed form (`plate_modes.free_free_beam_centre_drive`:
-    the bare plate's mode, piezos that do not stiffen it) with a rigid bond, as the review's."""
+    the bare plate's mode, piezos that do not stiffen it) with a rigid bond, as the review's, and
+    the full solve with the piezos made too thin to stiffen the plate (`UNSTIFFENED_PIEZO_M`),
+    their moment per volt kept the real ones' (e_eff z_m eta of the 0.5 mm piezo and its bond):
+    `stiffening_factor` is what the patches' own stiffness does to M / A, hence to the voltage."""
     curve = design.placement_rows(large_plate_design(), STATED_ANTINODES["large"], list(gaps_mm))
     geometry = large_plate(EDGE_GAP_MM)
     h, width, length = geometry.thickness_m, geometry.width_m, geometry.length_m
     patch = geometry.patches[0]
     _, _, z_rigid, _ = laminate.bonded_section(plate_modes.ALUMINIUM_TABLE2, h, plate_modes.NCE41, patch.thickness_m,
                                                laminate.RIGID_BOND, patch.length_x_m)
+    _, _, z_real, eta_real = laminate.bonded_section(plate_modes.ALUMINIUM_TABLE2, h, plate_modes.NCE41,
+                                                     patch.thickness_m, plate_modes.EPOXY, patch.length_x_m)
+    _, _, z_thin, eta_thin = laminate.bonded_section(plate_modes.ALUMINIUM_TABLE2, h, plate_modes.NCE41,
+                                                     UNSTIFFENED_PIEZO_M, plate_modes.EPOXY, patch.length_x_m)
     rows = []
     for row in curve.to_dict("records"):
         gap = row["edge_gap_mm"] * MM
+        thin = large_plate(row["edge_gap_mm"])
+        thin = dataclasses.replace(thin, patches=tuple(dataclasses.replace(p, thickness_m=UNSTIFFENED_PIEZO_M)
+                                                       for p in thin.patches))
+        unstiffened = predicted_plates.centre_response(thin, STATED_ANTINODES["large"])
+        unstiffened_force = unstiffened["force_factor_n_per_v"] * z_real * eta_real / (z_thin * eta_thin)
         spans = [(gap, gap + patch.length_x_m), (length - gap - patch.length_x_m, length - gap)] * (
             len(geometry.patches) // 2)
         beam_mass, beam_force = plate_modes.free_free_beam_centre_drive(
@@ -153,7 +172,13 @@ def voltage_decomposition(gaps_mm=tuple(REVIEW_FORCE_FACTORS_N_PER_V)) -> pd.Dat
             "force_factor_factor": review_force / row["force_factor_n_per_v"],
             "q_factor": MECHANICAL_Q / row["mechanical_q"], "convention_factor": 1.0,
             "voltage_ratio": row["voltage_vpp"] / review_voltage,
-            "beam_force_factor_rigid_n_per_v": beam_force, "beam_modal_mass_g": beam_mass * 1e3})
+            "beam_force_factor_rigid_n_per_v": beam_force, "beam_modal_mass_g": beam_mass * 1e3,
+            "unstiffened_modal_mass_g": unstiffened["modal_mass_kg"] * 1e3,
+            "unstiffened_force_factor_n_per_v": unstiffened_force,
+            # the epoxy's shear lag and lever arm against the review's rigid bond: A goes as z_m eta
+            "bond_moment_share": z_real * eta_real / z_rigid,
+            "stiffening_factor": row["modal_mass_g"] / row["force_factor_n_per_v"]
+            / (unstiffened["modal_mass_kg"] * 1e3 / unstiffened_force)})
     return pd.DataFrame(rows)
 
 

@@ -151,7 +151,7 @@ def _what_separates(answer: DesignAnswer, curve: pd.DataFrame) -> str:
     lowest = curve.loc[curve["voltage_vpp"].idxmin()]
     needed = lowest["voltage_vpp"] / answer.printed["voltage_vpp"]
     physics = lowest["voltage_vpp"] * lowest["mechanical_q"] / lowest["physics_q"]
-    return (f"What separates it: at {lowest['edge_gap_mm']:.1f} mm the voltage is w² M x / (Q A) with M "
+    return (f"What separates it: at {lowest['edge_gap_mm']:.1f} mm the voltage is ω² M x / (Q A) with M "
             f"{lowest['modal_mass_g']:.3g} g and A {lowest['force_factor_n_per_v']:.3g} N/V at the centre and Q "
             f"{lowest['mechanical_q']:.0f}, the target read as {_target_words(answer)} (read as an amplitude it doubles): "
             f"Q A / M would have to be {needed:.2f} times larger, e.g. Q {lowest['mechanical_q'] * needed:.0f} (the loss "

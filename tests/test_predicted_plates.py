@@ -211,3 +211,17 @@ def test_the_responses_u_is_the_propagation_of_its_tolerances_with_a_triangular_
     e = 1 + rng.uniform(-t["young_pa"], t["young_pa"], 400_000)
     rho = 1 + rng.uniform(-t["density_kg_m3"], t["density_kg_m3"], 400_000)
     assert 2 * np.std(h * np.sqrt(e / rho)) == pytest.approx(predicted_plates.frequency_relative_u(1e-3), rel=0.02)
+
+
+def test_the_large_plates_voltage_is_its_factors_beside_the_review():
+    """At 4 mm from the edges (issue 45's review: 1.10 N/V, 81.4 g): our voltage over the
+    review's is exactly mass x force factor x Q x convention; the patches' own stiffness and the
+    epoxy's shear lag each raise M / A (no factor of the model is the review's bare beam)."""
+    from squeezebench.designing.paper_placement import voltage_decomposition
+    row = voltage_decomposition((4.0,)).iloc[0]
+    product = row["mass_factor"] * row["force_factor_factor"] * row["q_factor"] * row["convention_factor"]
+    assert row["voltage_ratio"] == pytest.approx(product, rel=1e-12)
+    assert row["design_q"] == predicted_plates.MECHANICAL_Q and row["convention_factor"] == 1.0
+    assert row["stiffening_factor"] > 1.1 and row["bond_moment_share"] < 0.8
+    # the review's 4 mm force factor is the bare-mode beam's with a rigid bond, to a few per cent
+    assert row["review_force_factor_n_per_v"] == pytest.approx(row["beam_force_factor_rigid_n_per_v"], rel=0.05)
