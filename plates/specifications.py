@@ -143,10 +143,8 @@ def rectangles_95_half_width(a: float, b: float) -> float:
     x on a ramp is (a + b - x)^2 / (8 a b), on the plateau (a - x) / (2 a) (a >= b). One
     rectangle alone (b = 0) gives 0.95 a, i.e. k = 0.95 sqrt(3) = 1.65."""
     a, b = max(a, b), min(a, b)
-    if b == 0.0:
-        return 0.95 * a
-    on_ramp = a + b - math.sqrt(8 * a * b * 0.025)
-    return on_ramp if on_ramp >= a - b else 0.95 * a
+    # both ramps hold b / a of the whole: the 95 % point is on them once that is 5 % or more
+    return a + b - math.sqrt(8 * a * b * 0.025) if b >= 0.05 * a else 0.95 * a
 
 
 #: How the sheet's thickness spreads within the standard's limits: triangular (GUM 4.3.9:
