@@ -227,7 +227,7 @@ COLUMNS: dict[str, tuple[str, str]] = {
     "all_within": ("1", "largest |ratio - 1| over the published numbers"),
     # what the plate model predicts (plates.predicted_plates)
     "predicted_frequency_hz": ("Hz", "working (n, 0) mode's frequency predicted by the plate model from geometry and materials"),
-    "predicted_frequency_u_hz": ("Hz", "expanded uncertainty (k = 2) of the prediction from material and thickness tolerances"),
+    "predicted_frequency_u_hz": ("Hz", "expanded uncertainty (k = 2) of the prediction from the stated tolerances (sheet, alloy, bond, placement, a cut plate's length)"),
     "printed_frequency_hz": ("Hz", "resonance frequency printed in the paper"),
     "frequency_deviation": ("1", "predicted / printed - 1"),
     "predicted_antinodes": ("1", "interior antinodes of the predicted working mode"),

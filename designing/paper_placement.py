@@ -9,6 +9,7 @@ numbers it is inferred from (the predictions take `predicted_plates.EDGE_GAP_MM`
 """
 from __future__ import annotations
 
+import dataclasses
 import functools
 import math
 
@@ -18,7 +19,7 @@ import pandas as pd
 from squeezebench.designing import design
 from squeezebench.designing.design_file import DesignFile
 from squeezebench.paper import paper_value
-from squeezebench.plates import plate_modes, predicted_plates
+from squeezebench.plates import laminate, plate_modes, predicted_plates
 from squeezebench.plates.predicted_plates import (EDGE_GAP_MM, EDGE_GAP_TOLERANCE_MM, MECHANICAL_Q,
                                                   MECHANICAL_Q_TOLERANCE, MM, STATED_ANTINODES,
                                                   implied_force_factor_n_per_v, large_plate, table4_plate)
@@ -105,6 +106,82 @@ def large_plate_placement_inference() -> pd.DataFrame:
                      f"no gap in {curve['edge_gap_mm'].min():g}-{curve['edge_gap_mm'].max():g} mm reaches it"})
     return pd.DataFrame(rows)
 
+#: Issue 45's independent review (its own Argyris code, the same plate, a rigid bond): the large
+#: plate's force factor at the centre (N/V) against the patches' distance from the edges (mm),
+#: and its modal mass at the centre, stated for the flush placement only (g). A reference to
+#: compare with, never an input of the model.
+REVIEW_FORCE_FACTORS_N_PER_V = {0.0: 0.38, 1.5: 0.76, 3.0: 1.03, 4.0: 1.10, 8.5: 0.03}
+REVIEW_MODAL_MASS_G = 81.4
+
+
+#: A piezo thickness (m) at which the patches barely stiffen the plate (5 um of NCE 41 adds about
+#: 1 % to a 2 mm plate's bending stiffness, 0.5 mm doubles it) while their lever arm stays about
+#: the plate's half-thickness.
+UNSTIFFENED_PIEZO_M = 5e-6
+
+
+def voltage_decomposition(gaps_mm=tuple(REVIEW_FORCE_FACTORS_N_PER_V)) -> pd.DataFrame:
+    """The large plate's voltage for 1 um pp at the centre, V_pp = w^2 M x_pp / (Q A)
+    (`design.Lumped.voltage_vpp_for`), taken apart at each edge gap beside the review's
+    (`REVIEW_FORCE_FACTORS_N_PER_V`): our force factor A and modal mass M (both referred to the
+    centre), the Q the design uses (the build's `MECHANICAL_Q`) and the loss physics', and the
+    amplitude convention (1 um read as pp, the voltage pp, in both). The review's voltage is
+    evaluated at our frequency with its A, its flush M at every gap (the only one it states) and
+    Q = `MECHANICAL_Q` (the design's Q when it was run, which with the thin-plate frequency of
+    then gives its flush 83 Vpp), so ours over it is exactly the product of the three factor
+    columns. Beside them the free-free beam's closed form (`plate_modes.free_free_beam_centre_drive`:
+    the bare plate's mode, piezos that do not stiffen it) with a rigid bond, as the review's, and
+    the full solve with the piezos made too thin to stiffen the plate (`UNSTIFFENED_PIEZO_M`),
+    their moment per volt kept the real ones' (e_eff z_m eta of the 0.5 mm piezo and its bond):
+    `stiffening_factor` is what the patches' own stiffness does to M / A, hence to the voltage."""
+    curve = design.placement_rows(large_plate_design(), STATED_ANTINODES["large"], list(gaps_mm))
+    geometry = large_plate(EDGE_GAP_MM)
+    h, width, length = geometry.thickness_m, geometry.width_m, geometry.length_m
+    patch = geometry.patches[0]
+    _, _, z_rigid, _ = laminate.bonded_section(plate_modes.ALUMINIUM_TABLE2, h, plate_modes.NCE41, patch.thickness_m,
+                                               laminate.RIGID_BOND, patch.length_x_m)
+    _, _, z_real, eta_real = laminate.bonded_section(plate_modes.ALUMINIUM_TABLE2, h, plate_modes.NCE41,
+                                                     patch.thickness_m, plate_modes.EPOXY, patch.length_x_m)
+    _, _, z_thin, eta_thin = laminate.bonded_section(plate_modes.ALUMINIUM_TABLE2, h, plate_modes.NCE41,
+                                                     UNSTIFFENED_PIEZO_M, plate_modes.EPOXY, patch.length_x_m)
+    rows = []
+    for row in curve.to_dict("records"):
+        gap = row["edge_gap_mm"] * MM
+        thin = large_plate(row["edge_gap_mm"])
+        thin = dataclasses.replace(thin, patches=tuple(dataclasses.replace(p, thickness_m=UNSTIFFENED_PIEZO_M)
+                                                       for p in thin.patches))
+        unstiffened = predicted_plates.centre_response(thin, STATED_ANTINODES["large"])
+        unstiffened_force = unstiffened["force_factor_n_per_v"] * z_real * eta_real / (z_thin * eta_thin)
+        spans = [(gap, gap + patch.length_x_m), (length - gap - patch.length_x_m, length - gap)] * (
+            len(geometry.patches) // 2)
+        beam_mass, beam_force = plate_modes.free_free_beam_centre_drive(
+            plate_modes.ALUMINIUM_TABLE2, h, width, length, STATED_ANTINODES["large"], spans, patch.width_y_m,
+            plate_modes.NCE41.plate_e31_c_per_m2 * z_rigid)
+        review_force = REVIEW_FORCE_FACTORS_N_PER_V[row["edge_gap_mm"]]
+        omega = 2 * math.pi * row["frequency_hz"]
+        review_voltage = omega**2 * REVIEW_MODAL_MASS_G * 1e-3 * 1e-6 / (MECHANICAL_Q * review_force)
+        rows.append({
+            "edge_gap_mm": row["edge_gap_mm"], "frequency_hz": row["frequency_hz"],
+            "modal_mass_g": row["modal_mass_g"], "force_factor_n_per_v": row["force_factor_n_per_v"],
+            "design_q": row["mechanical_q"], "physics_q": row["physics_q"], "amplitude_reading": "1 um pp, Vpp",
+            "voltage_vpp": row["voltage_vpp"],
+            "voltage_vpp_physics_q": row["voltage_vpp"] * row["mechanical_q"] / row["physics_q"],
+            "review_force_factor_n_per_v": review_force, "review_modal_mass_g": REVIEW_MODAL_MASS_G,
+            "review_q": MECHANICAL_Q, "review_voltage_vpp": review_voltage,
+            "mass_factor": row["modal_mass_g"] / REVIEW_MODAL_MASS_G,
+            "force_factor_factor": review_force / row["force_factor_n_per_v"],
+            "q_factor": MECHANICAL_Q / row["mechanical_q"], "convention_factor": 1.0,
+            "voltage_ratio": row["voltage_vpp"] / review_voltage,
+            "beam_force_factor_rigid_n_per_v": beam_force, "beam_modal_mass_g": beam_mass * 1e3,
+            "unstiffened_modal_mass_g": unstiffened["modal_mass_kg"] * 1e3,
+            "unstiffened_force_factor_n_per_v": unstiffened_force,
+            # the epoxy's shear lag and lever arm against the review's rigid bond: A goes as z_m eta
+            "bond_moment_share": z_real * eta_real / z_rigid,
+            "stiffening_factor": row["modal_mass_g"] / row["force_factor_n_per_v"]
+            / (unstiffened["modal_mass_kg"] * 1e3 / unstiffened_force)})
+    return pd.DataFrame(rows)
+
+
 def implied_edge_gaps() -> pd.DataFrame:
     """`predicted_plates.what_would_agree` with, for each edge plate (Table 4, the large
     plate), the edge gap at which the model's force factor meets the one its print implies
@@ -139,7 +216,9 @@ def main() -> None:
         for title, frame in (("what would have to move (INFERENCE for the edge gap)", implied_edge_gaps()),
                              ("large plate against the patches' distance from the edge", large_plate_placement_curve()),
                              ("the large plate's placement the print implies (INFERENCE)",
-                              large_plate_placement_inference())):
+                              large_plate_placement_inference()),
+                             ("the large plate's voltage taken apart beside issue 45's review (V = w^2 M x / (Q A))",
+                              voltage_decomposition())):
             print(f"\n{title}\n{frame.to_string(index=False)}")
 
 

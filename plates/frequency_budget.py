@@ -14,7 +14,7 @@ import math
 
 import pandas as pd
 
-from squeezebench.plates import laminate, plate_modes, predicted_plates
+from squeezebench.plates import laminate, plate_modes, predicted_plates, specifications
 
 SHEAR_COEFFICIENT = laminate.SHEAR_COEFFICIENT
 
@@ -98,7 +98,11 @@ def same_sheet_ratios() -> pd.DataFrame:
     what correcting the laminate, not the bare plate, would move; and the bond effectiveness
     eta that would close the gap, to first order (Rayleigh: the patches' stiffening holds a
     share S_p of each mode's energy, so d ln f = S_p / 2 d ln eta and the ratio moves by
-    (S_p,item - S_p,75) / 2 d ln eta): what would have to move, not a fit."""
+    (S_p,item - S_p,75) / 2 d ln eta): what would have to move, not a fit. The two plates'
+    cut lengths (`specifications.cut_length_tolerance_mm`, each rectangular, independent) put a
+    term in the ratio's U, k for 95 % of their trapezoid (`rectangles_95_half_width`), and
+    `cut_length_to_agree_mm` is the plate's cut length at which the model's ratio would meet
+    print with the 75 mm plate held (f ~ L^-2): an inference, never an input of a prediction."""
     frame = predicted_plates.predictions().set_index("item")
     model_rows = predicted_plates._predictions().set_index("item")
     plates = {item: (geometry, int(frame.loc[item, "predicted_antinodes"]))
@@ -124,6 +128,10 @@ def same_sheet_ratios() -> pd.DataFrame:
                      "free_free_beam_deviation": beam_item / beam_75 / printed - 1,
                      "beam_with_piezos_deviation": thin_item / thin_75 / printed - 1,
                      "thick_laminate_beam_deviation": thick_item / thick_75 / printed - 1,
+                     "cut_length_u_rel": specifications.rectangles_95_half_width(
+                         *(2 * model_rows.loc[i, "cut_length_tolerance_mm"] * 1e-3 / plates[i][0].length_m
+                           for i in (item, "75"))),
+                     "cut_length_to_agree_mm": plates[item][0].length_m * 1e3 * math.sqrt(model / printed),
                      "bond_effectiveness": eta,
                      "bond_effectiveness_to_agree": eta * math.exp(math.log(printed / model) / lever)})
     return pd.DataFrame(rows)

@@ -580,6 +580,41 @@ def free_free_beam_roots(count: int) -> tuple[float, ...]:
                  for k in range(1, count + 1))
 
 
+def free_free_beam_shape(beta_l: float, length_m: float, x_m) -> tuple[np.ndarray, np.ndarray]:
+    """Closed form: the free-free Euler-Bernoulli mode of root `beta_l` (`free_free_beam_roots`)
+    and its slope at `x_m`, w = cosh bx + cos bx - s (sinh bx + sin bx),
+    s = (cosh bL - cos bL) / (sinh bL - sin bL), normalised so that integral_0^L w^2 dx = L (|w| = 2 at
+    the ends). The hyperbolic part is written with exponentials scaled by e^(bL) / 2, so a mode
+    of a few tens of antinodes keeps its digits."""
+    b, x = beta_l / length_m, np.asarray(x_m, dtype=float)
+    bx, e = b * x, np.exp
+    scale = 1.0 - e(-2 * beta_l) - 2 * math.sin(beta_l) * e(-beta_l)   # (sinh bL - sin bL) / (e^bL / 2)
+    grow, decay = e(bx - beta_l), e(-bx - beta_l)
+    hyperbolic = (e(-bx) - e(bx - 2 * beta_l) - (grow + decay) * math.sin(beta_l)
+                  + (grow - decay) * math.cos(beta_l)) / scale
+    hyperbolic_slope = (-(e(-bx) + e(bx - 2 * beta_l)) - (grow - decay) * math.sin(beta_l)
+                        + (grow + decay) * math.cos(beta_l)) / scale
+    s = (math.cosh(beta_l) - math.cos(beta_l)) / (math.sinh(beta_l) - math.sin(beta_l)) if beta_l < 700 else 1.0
+    return (hyperbolic + np.cos(bx) - s * np.sin(bx),
+            b * (hyperbolic_slope - np.sin(bx) - s * np.cos(bx)))
+
+
+def free_free_beam_centre_drive(material: Isotropic, thickness_m: float, width_m: float, length_m: float,
+                                antinodes: int, patch_x_m: list[tuple[float, float]],
+                                patch_width_m: float, moment_per_volt: float) -> tuple[float, float]:
+    """Closed form of the plate model's centre-referred modal mass (kg) and force factor (N/V)
+    for a plate bending as a free-free beam (`free_free_beam_shape`, the mode of `antinodes`
+    antinodes; exact for nu = 0) under piezos too thin to change the mode: M = rho h W L / w(L/2)^2
+    and A = sum_i m b [w'(x2_i) - w'(x1_i)] / w(L/2), each patch spanning `patch_x_m`'s (x1, x2),
+    `patch_width_m` wide, with bending moment per volt and width `moment_per_volt`
+    (e_eff z_m eta, `modes_from_vectors`). What the full solve reduces to where it can."""
+    beta_l = free_free_beam_roots(antinodes)[-1]
+    centre = float(free_free_beam_shape(beta_l, length_m, length_m / 2)[0])
+    slope = lambda x: float(free_free_beam_shape(beta_l, length_m, x)[1])  # noqa: E731
+    force = sum(moment_per_volt * patch_width_m * (slope(x2) - slope(x1)) for x1, x2 in patch_x_m) / centre
+    return material.density_kg_m3 * thickness_m * width_m * length_m / centre**2, abs(force)
+
+
 def section_shear_and_rotary(layers: list[tuple[float, float, float, float]]) -> tuple[float, float]:
     """Transverse shear stiffness S (N/m per metre of width, kappa G h for one layer) and rotary
     inertia J (kg per metre: integral of rho (z - z_n)^2) of a layered section bending about its

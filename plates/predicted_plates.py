@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from squeezebench.plates import laminate, plate_modes
+from squeezebench.plates import laminate, plate_modes, specifications
 from squeezebench.paper import paper_value
 
 MM = 1e-3
@@ -257,7 +257,11 @@ def _predictions() -> pd.DataFrame:
             ends = [centre_response(g, antinodes)
                     for g in (at_gap(EDGE_GAP_MM - EDGE_GAP_TOLERANCE_MM), at_gap(EDGE_GAP_MM + EDGE_GAP_TOLERANCE_MM))]
             u_place = {q: abs(ends[1][q] - ends[0][q]) / nominal[q] / (2 * math.sqrt(3)) for q in u_place}
-        u_f = math.hypot(frequency_relative_u(geometry.thickness_m) / 2, u_bond_f, u_place["frequency_hz"])
+        # a cut plate's length is the cut's (Table 3's plates; the others are stated sheets): a
+        # free-free mode of a given count rings at (beta_n / L)^2, so d ln f / d ln L = -2
+        cut_mm = specifications.cut_length_tolerance_mm(geometry.length_m / MM) if table == "Table 3" else 0.0
+        u_cut_f = 2 * cut_mm * MM / geometry.length_m / math.sqrt(3)
+        u_f = math.hypot(frequency_relative_u(geometry.thickness_m) / 2, u_bond_f, u_place["frequency_hz"], u_cut_f)
         base = response_relative_u(geometry.thickness_m)
         u_drive = math.hypot(u_bond_force, u_place["force_factor_n_per_v"], u_place["modal_mass_kg"])
         terms = damping.mode_loss_terms(modes, k, plate_modes.ALUMINIUM_TABLE2, geometry.thickness_m,
@@ -268,6 +272,9 @@ def _predictions() -> pd.DataFrame:
                     "predicted_frequency_u_hz": f * 2 * u_f,
                     "kirchhoff_frequency_hz": float(modes.kirchhoff_frequencies_hz[k]),
                     "frequency_u_bond_rel": 2 * u_bond_f, "frequency_u_placement_rel": 2 * u_place["frequency_hz"],
+                    "cut_length_tolerance_mm": cut_mm,
+                    # the cut's term alone, k for 95 % of its rectangle (0.95 sqrt 3)
+                    "frequency_u_cut_length_rel": 0.95 * math.sqrt(3) * u_cut_f,
                     "predicted_antinodes": modes.interior_antinodes(k),
                     "predicted_half_wavelength_mm": modes.half_wavelength_m(k) * 1e3,
                     "modal_mass_g": nominal["modal_mass_kg"] * 1e3,

@@ -119,6 +119,34 @@ MODEL_TOLERANCES: dict[str, Specification] = {
                    "0.01-0.05 (0.03 +-67 %); fitted on one build in `plates.damping.fit_and_check`"),
 }
 
+#: ISO 2768-1 (1989), Table 1, tolerance class c (coarse): permissible deviation (+-mm) of a
+#: linear size without an individual tolerance, by nominal size (over, up to and including; mm).
+#: Assumed for a plate cut to length in a lab (the paper's 59 and 28 mm plates were cut from
+#: the 75 mm one, Sec. 2.3.1, with no tolerance stated): a saw or shear cut deburred by hand, the
+#: class a drawing without tolerances gives to sheet-metal work; rectangular (nothing known
+#: beyond the limit, GUM 4.3.7).
+CUT_LENGTH_TOLERANCE_MM = ((0.5, 3.0, 0.2), (3.0, 6.0, 0.3), (6.0, 30.0, 0.5), (30.0, 120.0, 0.8),
+                           (120.0, 400.0, 1.2), (400.0, 1000.0, 2.0))
+
+
+def cut_length_tolerance_mm(length_mm: float) -> float:
+    """Half-width (mm) of a cut length `length_mm` (`CUT_LENGTH_TOLERANCE_MM`)."""
+    for low, high, half_width in CUT_LENGTH_TOLERANCE_MM:
+        if low < length_mm <= high:
+            return half_width
+    raise ValueError(f"no ISO 2768-1 class c tolerance for a length of {length_mm:g} mm")
+
+
+def rectangles_95_half_width(a: float, b: float) -> float:
+    """The half-width holding 95 % of the sum of two independent rectangular spreads +-a and
+    +-b: their trapezoid (GUM G.2.3), plateau +-|a - b|, ramps out to +-(a + b); the tail beyond
+    x on a ramp is (a + b - x)^2 / (8 a b), on the plateau (a - x) / (2 a) (a >= b). One
+    rectangle alone (b = 0) gives 0.95 a, i.e. k = 0.95 sqrt(3) = 1.65."""
+    a, b = max(a, b), min(a, b)
+    # both ramps hold b / a of the whole: the 95 % point is on them once that is 5 % or more
+    return a + b - math.sqrt(8 * a * b * 0.025) if b >= 0.05 * a else 0.95 * a
+
+
 #: How the sheet's thickness spreads within the standard's limits: triangular (GUM 4.3.9:
 #: values near the limits less likely than near the middle), u = a / sqrt(6). A mill rolls to the
 #: nominal gauge and the standard's limit is its acceptance bound, not the spread of its

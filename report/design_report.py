@@ -140,8 +140,23 @@ def _implied_placement(answer: DesignAnswer, curve: pd.DataFrame) -> str:
         voltage = (f"its {printed['voltage_vpp']:g} Vpp nowhere (the least is {lowest['voltage_vpp']:.3g} Vpp at "
                    f"{lowest['edge_gap_mm']:.1f} mm{span})")
     power = f"its {printed['power_w']:g} W at {where(at_power)}" if at_power else f"its {printed['power_w']:g} W nowhere"
-    return (f"Inference, not a prediction: on this curve the paper's build would have {voltage}, {power}; the paper "
+    text = (f"Inference, not a prediction: on this curve the paper's build would have {voltage}, {power}; the paper "
             "does not state the placement, and nothing here is chosen from its printed numbers.")
+    return text if at_voltage else f"{text} {_what_separates(answer, curve)}"
+
+
+def _what_separates(answer: DesignAnswer, curve: pd.DataFrame) -> str:
+    """Which factor of V_pp = w^2 M x_pp / (Q A) keeps the placement curve's least voltage from
+    the printed one, and by how much (the convention of the target's amplitude included)."""
+    lowest = curve.loc[curve["voltage_vpp"].idxmin()]
+    needed = lowest["voltage_vpp"] / answer.printed["voltage_vpp"]
+    physics = lowest["voltage_vpp"] * lowest["mechanical_q"] / lowest["physics_q"]
+    return (f"What separates it: at {lowest['edge_gap_mm']:.1f} mm the voltage is ω² M x / (Q A) with M "
+            f"{lowest['modal_mass_g']:.3g} g and A {lowest['force_factor_n_per_v']:.3g} N/V at the centre and Q "
+            f"{lowest['mechanical_q']:.0f}, the target read as {_target_words(answer)} (read as an amplitude it doubles): "
+            f"Q A / M would have to be {needed:.2f} times larger, e.g. Q {lowest['mechanical_q'] * needed:.0f} (the loss "
+            f"physics gives {lowest['physics_q']:.0f} there, {physics:.3g} Vpp) or A "
+            f"{lowest['force_factor_n_per_v'] * needed:.2g} N/V.")
 
 
 def _q_words(answer: DesignAnswer) -> str:

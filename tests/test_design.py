@@ -524,6 +524,12 @@ def test_placement_curve_says_where_the_piezos_drive_best(ends_prediction):
                                            "frequency_hz": 1.0})
     inferred = placement_sentences(printed)[-1]
     assert inferred.startswith("Inference, not a prediction") and "at 1.0 mm from the edges" in inferred
+    below = float(curve["voltage_vpp"].min()) / 1.5
+    unreached = placement_sentences(DesignAnswer(ends_prediction, placement=curve,
+                                                 printed={"voltage_vpp": below, "power_w": 1e3, "frequency_hz": 1.0}))[-1]
+    lowest = curve.loc[curve["voltage_vpp"].idxmin()]
+    assert "nowhere" in unreached and "would have to be 1.50 times larger" in unreached
+    assert f"Q {lowest['mechanical_q'] * 1.5:.0f}" in unreached
 
 
 @settings(max_examples=60, deadline=None)

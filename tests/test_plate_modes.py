@@ -245,3 +245,36 @@ def test_the_shear_lag_closed_forms_are_their_integrals(length_mm, g_over_t):
     # over the rigid bond's piezo energy E_p' t_p l / 2, then over eta (the piezo's own energy)
     expected = bond_energy / (ep_tp * x[-1]) / eta
     assert plate_modes.bond_energy_ratio(*args) == pytest.approx(expected, rel=1e-3)
+
+
+@pytest.mark.parametrize("gap_mm", [0.0, 3.0, 6.0])
+def test_a_thin_patch_drives_a_poisson_free_strip_as_the_free_free_beam_closed_form(gap_mm):
+    """With nu = 0 the (n, 0) mode is the free-free beam's exactly, and a piezo a few micrometres
+    thick leaves it so: the centre-referred modal mass and force factor the solver gives (the
+    quantities the design's voltage is made of, V = w^2 M x / (Q A)) are the closed form's
+    (`free_free_beam_centre_drive`), at the free edge and inward, where the curvature grows."""
+    metal = Isotropic(70e9, 0.0, 2700.0)
+    length, width, h, piezo_h, patch = 100 * MM, 6 * MM, 1 * MM, 2e-6, 5 * MM
+    spans = [(gap_mm * MM, gap_mm * MM + patch), (length - gap_mm * MM - patch, length - gap_mm * MM)]
+    geometry = PlateGeometry(length, width, h, tuple(plate_modes.Patch((a + b) / 2, width / 2, patch, width, piezo_h)
+                                                      for a, b in spans))
+    _, _, z_m, eta = plate_modes.bonded_section(metal, h, NCE41, piezo_h, RIGID_BOND, patch)
+    mass, force = plate_modes.free_free_beam_centre_drive(metal, h, width, length, 5, spans, width,
+                                                         NCE41.plate_e31_c_per_m2 * z_m * eta)
+    near = free_free_beam_roots(5)[-1] ** 2 / (2 * np.pi * length**2) * np.sqrt(70e9 * h**2 / (12 * 2700.0))
+    modes = solve_plate(geometry, metal, near_hz=near, n_modes=8, thick_plate=False, bond=RIGID_BOND)
+    k = predicted_plates.mode_with_antinodes(modes, 5, near)
+    solved_mass, forces = modes.referred_to(k, length / 2, width / 2)
+    assert solved_mass == pytest.approx(mass, rel=2e-3)
+    assert abs(forces.sum()) == pytest.approx(force, rel=0.015)
+
+
+def test_the_free_free_beam_shape_is_normalised_and_free_at_its_ends():
+    """integral w^2 = L and |w| = 2 at a free end, for a low and a high mode (the scaled
+    exponentials keep the 21-antinode mode's digits)."""
+    for antinodes in (3, 21):
+        beta_l = free_free_beam_roots(antinodes)[-1]
+        x = np.linspace(0, 0.2, 40001)
+        w, _ = plate_modes.free_free_beam_shape(beta_l, 0.2, x)
+        assert np.trapezoid(w**2, x) / 0.2 == pytest.approx(1.0, rel=1e-4)
+        assert abs(w[0]) == pytest.approx(2.0, rel=1e-9) and abs(w[-1]) == pytest.approx(2.0, rel=1e-9)

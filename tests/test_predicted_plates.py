@@ -28,10 +28,17 @@ def ratios():
     return frequency_budget.same_sheet_ratios().set_index("ratio")
 
 
-def test_every_printed_resonance_is_within_its_u_and_u_stays_below_6_percent(frame):
+def test_every_printed_resonance_is_within_its_u_and_u_stays_below_6_percent_but_for_a_cut(frame):
+    """U (k = 2) holds every printed resonance; without the cut plates' length term it stays
+    <= 6 %. With it (ISO 2768-1 class c, +-0.5 mm on 28 mm: +-3.4 % in frequency at 95 %) the
+    28 mm plate's U is 6.5 %: a cut short plate cannot be predicted to 6 % from its nominal length."""
     u_rel = frame["predicted_frequency_u_hz"] / frame["predicted_frequency_hz"]
-    assert (u_rel <= 0.06).all()
     assert (frame["frequency_deviation"].abs() <= u_rel).all(), frame[["item", "frequency_deviation"]]
+    model = predicted_plates._predictions().set_index("item").loc[frame["item"]]
+    cut_k2 = 2 * model["frequency_u_cut_length_rel"].to_numpy() / (0.95 * np.sqrt(3))
+    assert (np.sqrt(u_rel.to_numpy() ** 2 - cut_k2**2) <= 0.06).all()
+    assert (model.loc[["75", "59", "28"], "cut_length_tolerance_mm"] == [0.8, 0.8, 0.5]).all()
+    assert (model.drop(index=["75", "59", "28"])["cut_length_tolerance_mm"] == 0).all()
 
 
 def test_antinode_counts_are_exact_and_the_large_plates_spacing_is_its_design(frame):
@@ -68,9 +75,24 @@ def test_the_f28_over_f75_miss_is_mostly_the_bare_plates_and_the_laminates_shear
                                        "ratio (the model's and the free-free beam's closed form agree to 0.1 %, "
                                        "frequency_budget.same_sheet_ratios), the laminate's own shear and rotary "
                                        "inertia take 0.5 % off, and the column's +2.1 % would need eta near 0.24, a "
-                                       "bond far softer than an epoxy's: no modelled piezo or bond term reaches it")
+                                       "bond far softer than an epoxy's: no modelled piezo or bond term reaches it. "
+                                       "The two cuts' lengths (ISO 2768-1 class c, +-0.5 mm on 28, +-0.8 mm on 75) "
+                                       "hold +-4.5 % of the ratio at 95 %; the print would need the 28 mm plate cut "
+                                       "28.7 mm long (an inference, not an input)")
 def test_f28_over_f75_is_within_2_percent_of_print(ratios):
     assert abs(ratios.loc["f28/f75", "deviation"]) <= 0.02
+
+
+def test_the_cut_lengths_are_a_named_term_of_the_same_sheet_ratios(ratios):
+    """Each ratio's cut-length term is the trapezoid of its two cuts (f ~ L^-2), and the cut
+    length that would make the model's ratio meet print is stated beside it, +0.7 mm on 28 mm:
+    beyond the +-0.5 mm assumed."""
+    from squeezebench.plates import specifications
+    f28 = ratios.loc["f28/f75"]
+    assert f28["cut_length_u_rel"] == pytest.approx(specifications.rectangles_95_half_width(2 * 0.5 / 28, 2 * 0.8 / 75))
+    assert f28["cut_length_to_agree_mm"] == pytest.approx(28 * np.sqrt(1 + f28["deviation"]))
+    assert 0.5 < f28["cut_length_to_agree_mm"] - 28 < 1.0
+    assert abs(f28["deviation"]) > f28["cut_length_u_rel"]
 
 
 def _rows():
@@ -189,3 +211,17 @@ def test_the_responses_u_is_the_propagation_of_its_tolerances_with_a_triangular_
     e = 1 + rng.uniform(-t["young_pa"], t["young_pa"], 400_000)
     rho = 1 + rng.uniform(-t["density_kg_m3"], t["density_kg_m3"], 400_000)
     assert 2 * np.std(h * np.sqrt(e / rho)) == pytest.approx(predicted_plates.frequency_relative_u(1e-3), rel=0.02)
+
+
+def test_the_large_plates_voltage_is_its_factors_beside_the_review():
+    """At 4 mm from the edges (issue 45's review: 1.10 N/V, 81.4 g): our voltage over the
+    review's is exactly mass x force factor x Q x convention; the patches' own stiffness and the
+    epoxy's shear lag each raise M / A (no factor of the model is the review's bare beam)."""
+    from squeezebench.designing.paper_placement import voltage_decomposition
+    row = voltage_decomposition((4.0,)).iloc[0]
+    product = row["mass_factor"] * row["force_factor_factor"] * row["q_factor"] * row["convention_factor"]
+    assert row["voltage_ratio"] == pytest.approx(product, rel=1e-12)
+    assert row["design_q"] == predicted_plates.MECHANICAL_Q and row["convention_factor"] == 1.0
+    assert row["stiffening_factor"] > 1.1 and row["bond_moment_share"] < 0.8
+    # the review's 4 mm force factor is the bare-mode beam's with a rigid bond, to a few per cent
+    assert row["review_force_factor_n_per_v"] == pytest.approx(row["beam_force_factor_rigid_n_per_v"], rel=0.05)
