@@ -320,10 +320,10 @@ def with_expanded_uncertainties(points: pd.DataFrame, deskew: Deskew | None = No
         points = deskew.applied_to(points)
     points = points.copy()
     points["detuning_slope_per_hz"] = detuning_slope_per_hz(points)
+    rows = _rows(points)
     for quantity in POINT_BUDGETS:
         combined, expanded, dominant, coverage = [], [], [], []
-        for _, row in points.iterrows():
-            row = row.to_dict()
+        for row in rows:
             if not _has_reduction(row):
                 combined.append(math.nan)
                 expanded.append(math.nan)
@@ -340,6 +340,12 @@ def with_expanded_uncertainties(points: pd.DataFrame, deskew: Deskew | None = No
         points[f"{quantity}_dominant"] = dominant
         points[f"{quantity}_U_coverage"] = coverage
     return points
+
+
+def _rows(points: pd.DataFrame) -> list[dict]:
+    """Each point as a dict of its values, made once for every quantity's budgets (a
+    pandas row per point and quantity was most of the report's budget time)."""
+    return [row.to_dict() for _, row in points.iterrows()]
 
 
 def _has_reduction(row: dict) -> bool:
@@ -432,10 +438,10 @@ def systematic_floor(points: pd.DataFrame, calibration: Deskew | None = None) ->
     deskew = calibration
     rows = []
     for run_name, run_points in points.groupby("run_name", sort=False):
+        run_rows = _rows(run_points)
         for quantity in ("power_w", "velocity_pp_mps"):
             worst = None
-            for _, row in run_points.iterrows():
-                row = row.to_dict()
+            for row in run_rows:
                 if not _has_reduction(row):
                     continue
                 budget = point_budget(quantity, {**row, f"{quantity}_u": 0.0}, deskew)

@@ -25,6 +25,8 @@ from squeezebench.instruments.properties import controls_of
 TERMINATION = "\n"
 #: VISA timeout of ordinary commands; long operations raise it temporarily.
 DEFAULT_TIMEOUT_S = 2.0
+#: What a VISA operation fails with (`Instrument._failure` types each).
+_VISA_FAILURES = (VisaIOError, UnicodeDecodeError, OSError)
 
 
 class Instrument:
@@ -54,13 +56,20 @@ class Instrument:
         return {}
 
     # -- traffic -------------------------------------------------------------------------------
+    # write and query catch inline what `_visa` translates: they carry nearly every message
+    # of a campaign, a study or a plan, and a context manager per message cost more than
+    # the simulated instrument's answer to a setting.
     def write(self, command: str) -> None:
-        with self._visa(command):
+        try:
             self.resource.write(command)
+        except _VISA_FAILURES as exc:
+            raise self._failure(exc, command) from None
 
     def query(self, command: str) -> str:
-        with self._visa(command):
+        try:
             return self.resource.query(command).strip()
+        except _VISA_FAILURES as exc:
+            raise self._failure(exc, command) from None
 
     def query_block(self, command: str) -> np.ndarray:
         """An IEEE 488.2 definite-length block of big-endian signed 16-bit samples.
@@ -78,18 +87,22 @@ class Instrument:
     def _visa(self, operation: str) -> Iterator[None]:
         try:
             yield
-        except VisaIOError as exc:
+        except _VISA_FAILURES as exc:
+            raise self._failure(exc, operation) from None
+
+    def _failure(self, exc: Exception, operation: str) -> InstrumentError:
+        """The typed error of a VISA operation's failure."""
+        if isinstance(exc, VisaIOError):
             if exc.error_code == constants.StatusCode.error_timeout:
-                raise InstrumentTimeout(self.role, self.resource_name, operation,
-                                        self.resource.timeout / 1000.0) from None
+                return InstrumentTimeout(self.role, self.resource_name, operation, self.resource.timeout / 1000.0)
             if exc.error_code == constants.StatusCode.error_connection_lost:
-                raise ConnectionLost(self.role, self.resource_name, operation) from None
-            raise InstrumentError(self.role, self.resource_name,
-                                  f"VISA error during {operation!r}: {exc.description}") from None
-        except UnicodeDecodeError as exc:   # line noise instead of the instrument's text
-            raise GarbledReply(self.role, self.resource_name, operation, exc.object, "not ASCII text") from None
-        except OSError as exc:   # socket-based VISA backends (pyvisa-py TCPIP) lose links this way
-            raise ConnectionLost(self.role, self.resource_name, operation, str(exc)) from None
+                return ConnectionLost(self.role, self.resource_name, operation)
+            return InstrumentError(self.role, self.resource_name,
+                                   f"VISA error during {operation!r}: {exc.description}")
+        if isinstance(exc, UnicodeDecodeError):   # line noise instead of the instrument's text
+            return GarbledReply(self.role, self.resource_name, operation, exc.object, "not ASCII text")
+        # socket-based VISA backends (pyvisa-py TCPIP) lose links as an OSError
+        return ConnectionLost(self.role, self.resource_name, operation, str(exc))
 
     def device_clear(self) -> None:
         """IEEE 488.1 device clear (viClear): the instrument drops unread replies and

@@ -303,11 +303,31 @@ def _spellings(options: tuple[tuple[str, str], ...]) -> tuple[tuple[str, str, st
 
 def choice(text: str, options: dict[str, str], style: str) -> str:
     """A character program datum among `options` (manual spelling -> canonical value)."""
-    word = text.strip().upper()
-    for long, short, value in _spellings(tuple(options.items())):
+    return _match(text.strip().upper(), _spellings(tuple(options.items())), style)
+
+
+def _match(word: str, spellings: tuple[tuple[str, str, str], ...], style: str) -> str:
+    for long, short, value in spellings:
         if word in (short, long) or (style == PREFIX and long.startswith(word) and len(word) >= len(short)):
             return value
     raise illegal_parameter()
+
+
+class Choices:
+    """`choice` among fixed `options`, spelled out once: a setting's handler meets the same
+    few words tens of thousands of times in a campaign or a study, so each word accepted is
+    remembered with its value (at most every prefix of the long forms)."""
+
+    def __init__(self, options: dict[str, str], style: str) -> None:
+        self._spellings = _spellings(tuple(options.items()))
+        self._style = style
+        self._values: dict[str, str] = {}
+
+    def __call__(self, text: str) -> str:
+        value = self._values.get(text)
+        if value is None:
+            value = self._values[text] = _match(text.strip().upper(), self._spellings, self._style)
+        return value
 
 
 def boolean(text: str) -> bool:

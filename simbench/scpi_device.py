@@ -183,7 +183,8 @@ def _setting(key: str, parse: Callable, fmt: Callable[[object], str], *, per_cha
 
 
 def _choices(options: dict[str, str], style: str) -> Callable:
-    return lambda instrument, text, unit: scpi.choice(text, options, style)
+    table = scpi.Choices(options, style)
+    return lambda instrument, text, unit: table(text)
 
 def _flag(value: bool) -> str:
     return "1" if value else "0"

@@ -9,6 +9,8 @@ import itertools
 import numpy as np
 import pytest
 import pyvisa
+from hypothesis import given
+from hypothesis import strategies as st
 
 from squeezebench import paths
 from squeezebench.simbench import scpi
@@ -340,3 +342,21 @@ def test_a_50_ohm_input_halves_a_50_ohm_source_and_silences_a_passive_probe(benc
     s.query("*OPC?")
     assert measure(s, "CH3", "PK2PK") == pytest.approx(velocity_v / 2.0, rel=0.02)
     assert measure(s, "CH1", "PK2PK") < 0.01 * piezo_v   # what is left is a few ADC steps
+
+
+@given(st.text(alphabet="ABDEGIMNORSTUVXaegimnorstuvx :", max_size=12),
+       st.sampled_from([scpi.SCPI, scpi.PREFIX]))
+def test_a_settings_choice_table_accepts_and_refuses_what_choice_does(text, style):
+    """`scpi.Choices` (a setting handler's table, remembering the words it accepted) answers
+    every word as `scpi.choice` does, the second time too, and refuses the same ones."""
+    options = {"AVErage": "AVERAGE", "SAMple": "SAMPLE", "ENVelope": "ENVELOPE", "MINimum": "MINIMUM"}
+    table = scpi.Choices(options, style)
+    try:
+        expected = scpi.choice(text, options, style)
+    except scpi.ScpiError as exc:
+        for _ in range(2):
+            with pytest.raises(scpi.ScpiError) as refused:
+                table(text)
+            assert refused.value.code == exc.code
+    else:
+        assert table(text) == expected == table(text)
