@@ -94,6 +94,22 @@ def load() -> str:
     return f"load average (1 min) {os.getloadavg()[0]:.2f} on {os.cpu_count()} cores"
 
 
+def report_reduced(grid, placements: int, goal_ref: float, spec, antinodes: int, workers: int, unit):
+    """Time `grid` (`placements` gaps) by the reduced model with its check, print it, and
+    return (its total seconds, the check)."""
+    check_s, sweep_s, check, fallbacks = reduced_sweep(grid, spec, antinodes, workers)
+    total_s = check_s + sweep_s
+    limits = layout_sweep.reduced_layouts
+    print(f"{len(grid)} layouts ({placements} placements), reduced model: {unit.both(sweep_s)} for all (each "
+          f"worker's model built once included; {fallbacks} fell back to the full solve), + check on "
+          f"{len(check.table)} sampled layouts {unit.both(check_s)}: total {unit.both(total_s)} (goal <= "
+          f"{goal_ref:.0f} ref: {'met' if unit.units(total_s) <= goal_ref else 'MISSED'}); {load()}\n"
+          f"  check against the full solve: {check.worst()}; limits {limits.FREQUENCY_TOLERANCE_REL:.1%} and "
+          f"{limits.FORCE_TOLERANCE_REL:.0%}: "
+          f"{'passed' if check.passed else 'MISSED, so `design` solves this sweep in full'}", flush=True)
+    return total_s, check
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--families", type=int, default=4, help="mesh families (one layout per piezo thickness each) solved in full")
@@ -112,16 +128,7 @@ def main() -> int:
     values = physics.nominal.values
     antinodes = int(values["interior_antinodes"])
     grid = placement_grid(values["half_wavelength_mm"], spec.piezo.length_x_mm, SMALL_PLACEMENTS)
-    check_s, sweep_s, check, fallbacks = reduced_sweep(grid, spec, antinodes, workers)
-    total_s = check_s + sweep_s
-    print(f"{len(grid)} layouts, reduced model: {unit.both(sweep_s)} for all (each worker's model built once "
-          f"included; {fallbacks} fell back to the full solve), + check on {len(check.table)} sampled layouts "
-          f"{unit.both(check_s)}: total {unit.both(total_s)} (goal <= {GOAL_SWEEP_REF:.0f} ref: "
-          f"{'met' if unit.units(total_s) <= GOAL_SWEEP_REF else 'MISSED'}); {load()}", flush=True)
-    limits = layout_sweep.reduced_layouts
-    print(f"check against the full solve: {check.worst()}; limits {limits.FREQUENCY_TOLERANCE_REL:.1%} "
-          f"and {limits.FORCE_TOLERANCE_REL:.0%}: "
-          f"{'passed' if check.passed else 'MISSED, so `design` solves this sweep in full'}")
+    total_s, check = report_reduced(grid, SMALL_PLACEMENTS, GOAL_SWEEP_REF, spec, antinodes, workers, unit)
     print(check.table.to_string(index=False, float_format=lambda v: f"{v:+.4%}"), flush=True)
     families = layouts.tasks(grid, spec, antinodes)
     chosen = [families[int(i)] for i in np.linspace(0, len(families) - 1, args.families).round()]
@@ -133,13 +140,7 @@ def main() -> int:
           f"{full_sweep_s / total_s:.1f}x faster with its check; {load()}", flush=True)
     if not args.skip_3000:
         big = placement_grid(values["half_wavelength_mm"], spec.piezo.length_x_mm, LARGE_PLACEMENTS)
-        big_check_s, big_sweep_s, big_check, big_fallbacks = reduced_sweep(big, spec, antinodes, workers)
-        big_total_s = big_check_s + big_sweep_s
-        print(f"{len(big)} layouts ({LARGE_PLACEMENTS} placements), reduced model: {unit.both(big_sweep_s)} + check on "
-              f"{len(big_check.table)} {unit.both(big_check_s)}: total {unit.both(big_total_s)} "
-              f"({big_fallbacks} fell back; goal <= {GOAL_3000_REF:.0f} ref: "
-              f"{'met' if unit.units(big_total_s) <= GOAL_3000_REF else 'MISSED'}); check: {big_check.worst()}; "
-              f"{load()}", flush=True)
+        report_reduced(big, LARGE_PLACEMENTS, GOAL_3000_REF, spec, antinodes, workers, unit)
     if not args.skip_mesh:
         mesh_s, mesh = timed(mesh_convergence, spec)
         finest = mesh[-1]
