@@ -78,8 +78,8 @@ def test_a_patch_off_the_mesh_lines_is_integrated_exactly(strip_model):
     _, _, bare = strip_model
     model = reduced_layouts.reduced_plate(bare)
     x0, x1, y0, y1 = 0.0101, 0.0163, 0.0052, 0.0219
-    whole = model.patch_points((x0, x1, y0, y1))
-    left, right = model.patch_points((x0, 0.0137, y0, y1)), model.patch_points((0.0137, x1, y0, y1))
+    whole = model.patch_forms((x0, x1, y0, y1))
+    left, right = model.patch_forms((x0, 0.0137, y0, y1)), model.patch_forms((0.0137, x1, y0, y1))
     # curvature products are of degree 6, exact under the order-8 rule; the mass's degree 10
     # is not, as in the full solve's own elements (a part in 10^5)
     for name, rel in (("stiffness", 1e-9), ("laplacian", 1e-9), ("mass", 1e-4)):
