@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 
 import numpy as np
+import pandas as pd
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
@@ -13,6 +14,8 @@ from squeezebench import cli
 from squeezebench.designing import design, layout_sweep, layouts
 from squeezebench.plates import plate_modes, reduced_layouts
 from squeezebench.designing.workflow import sweep_layouts
+from squeezebench.paths import design_file
+from squeezebench.schemas import load_design_file
 from squeezebench.yamlfiles import dump_yaml
 from test_design import STRIP, strip   # Table 3's plate as a design: 75 x 41 x 1 mm, four piezos mid-length
 
@@ -203,3 +206,46 @@ def test_design_without_layouts_builds_no_reduced_model(tmp_path, capsys, monkey
     path.write_text(dump_yaml(STRIP))
     assert cli.main(["design", str(path), "--no-layouts", "--out", str(tmp_path / "out"), "--json"]) == 0
     assert json.loads(capsys.readouterr().out)["layouts"] is None
+
+
+@pytest.fixture(scope="module")
+def large_plate_placements():
+    """The large plate's end columns flush with the ends and 4 mm in, two piezos a column
+    in either arrangement, on one sweep mesh (a line near every patch edge of the four)."""
+    spec = load_design_file(design_file("large_plate"))
+    antinodes = spec.mode.interior_antinodes
+    flush = spec.piezo.length_x_mm / 2
+    grid = [layouts.Layout("ends", offset_mm, 2, arrangement, 0.5)
+            for offset_mm in (flush, flush + 4.0) for arrangement in layouts.ARRANGEMENTS]
+    return spec, antinodes, grid, layout_sweep.bare_plate(spec, grid, antinodes)
+
+
+@pytest.mark.parametrize("index", range(4))
+def test_on_a_sweeps_mesh_flush_and_inset_patches_are_within_the_checks_limits(large_plate_placements, index):
+    """A patch flush with the plate's end and one 4 mm in, answered by the reduced model
+    on the sweep's mesh (not the layout's own), against the full solve on the layout's
+    own mesh: frequency within 0.2 %, force factor within 2 %, what the sweep's check asks."""
+    spec, antinodes, grid, bare = large_plate_placements
+    layout = grid[index]
+    solve = reduced_layouts.Solver(bare)
+    full = layout_sweep._working_point(layout, spec, antinodes)
+    reduced = layout_sweep._working_point(layout, spec, antinodes, solve)
+    assert full is not None and reduced is not None
+    assert reduced["frequency_hz"] == pytest.approx(full["frequency_hz"], rel=reduced_layouts.FREQUENCY_TOLERANCE_REL)
+    assert reduced["force_factor_n_per_v"] == pytest.approx(full["force_factor_n_per_v"],
+                                                            rel=reduced_layouts.FORCE_TOLERANCE_REL)
+    assert solve.full_solves == 0
+
+
+def test_a_sweep_on_a_dask_cluster_is_the_local_sweep():
+    """The reduced model's sweep through `--scheduler`'s route (a Dask cluster in this
+    process) gives the table of the local one."""
+    distributed = pytest.importorskip("distributed")
+    spec = strip()
+    values, grid = _small_sweep(spec)
+    local, note = sweep_layouts(spec, values, workers=1, grid=grid)
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=False,
+                                  dashboard_address=None) as cluster:
+        on_cluster, cluster_note = sweep_layouts(spec, values, workers=2, scheduler=cluster, grid=grid)
+    assert cluster_note == note
+    pd.testing.assert_frame_equal(on_cluster, local)
