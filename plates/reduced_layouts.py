@@ -20,12 +20,18 @@ thick-plate correction, bond effectiveness and strain-energy shares to its eigen
 integrals over a patch are exact for any rectangle, on or off the mesh lines: each triangle
 the patch covers is clipped to it and integrated with the full solve's quadrature on the
 pieces, so a patch may sit anywhere on the plate. They depend only on the rectangle, so a
-sweep computes each once, and a layout costs an r x r eigenproblem (milliseconds).
+sweep computes each once, as local forms: the patch's stiffness per unit dD, mass per unit
+dm and \\int lap N dA on the few degrees of freedom its elements carry (`local_forms`).
 
-A Ritz basis of smooth bare modes cannot bend more softly under a stiff patch, so it is
-a model, not the solve: `check` compares it with full solves of a sample of the sweep's
-layouts (frequency within `FREQUENCY_TOLERANCE_REL`, force factor within
-`FORCE_TOLERANCE_REL`), and a sweep whose sample misses is solved in full
+A Ritz basis of smooth bare modes cannot bend more softly under a stiff patch, so the
+working-mode candidates are refined by Davidson steps (Morgan and Scott, SIAM J. Sci.
+Stat. Comput. 7, 1986: each step adds (K0 - sigma M0)^-1 of their residuals, with one
+factorisation for the whole sweep); a patch's part of a residual or of the grown Ritz
+matrices is its local forms times the basis vectors' rows on its degrees of freedom, so a
+step multiplies no global matrix but its new vectors. It is still a model on the sweep's
+mesh, not each layout's full solve on its own: `check` compares it with full solves of a
+sample of the sweep's layouts (frequency within `FREQUENCY_TOLERANCE_REL`, force factor
+within `FORCE_TOLERANCE_REL`), and a sweep whose sample misses is solved in full
 (`squeezebench.designing.workflow`).
 """
 from __future__ import annotations
@@ -60,9 +66,8 @@ MIN_EDGE_GAP = 0.5
 CANDIDATE_UNIFORMITY = 0.5
 SETTLED_REL = 1e-3
 MAX_STEPS = 30
-#: Patches whose points and integrals a model keeps (about 2 MB each on the large plate's
-#: sweep mesh): a sweep's chunk in grid order needs a few tens at a time, and the 216-layout
-#: sweep's 156 rectangles all kept held 320 MB in each worker.
+#: Patches whose local forms a model keeps (two l x l matrices, l the dofs a patch's
+#: elements carry): a sweep's chunk in grid order needs a few tens at a time.
 PATCHES_KEPT = 96
 
 

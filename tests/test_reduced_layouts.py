@@ -75,19 +75,41 @@ def test_on_the_full_solves_own_mesh_the_reduced_model_is_the_full_solve(strip_m
     np.testing.assert_allclose(reduced.bond_energy_ratio, full.bond_energy_ratio)
 
 
-def test_a_patch_off_the_mesh_lines_is_integrated_exactly(strip_model):
+@settings(max_examples=6, deadline=None, derandomize=True)
+@given(share=st.floats(0.05, 0.95))
+def test_a_patch_off_the_mesh_lines_is_integrated_exactly(strip_model, share):
     """A patch's integrals do not depend on how the mesh cuts it: its rectangle split in two
-    along a line through elements integrates to the same matrices as the whole."""
+    anywhere along a line through elements integrates to the same matrices as the whole."""
     _, _, bare = strip_model
     model = reduced_layouts.reduced_plate(bare)
     x0, x1, y0, y1 = 0.0101, 0.0163, 0.0052, 0.0219
+    split = x0 + share * (x1 - x0)
     whole = model.patch_forms((x0, x1, y0, y1))
-    left, right = model.patch_forms((x0, 0.0137, y0, y1)), model.patch_forms((0.0137, x1, y0, y1))
+    left, right = model.patch_forms((x0, split, y0, y1)), model.patch_forms((split, x1, y0, y1))
     # curvature products are of degree 6, exact under the order-8 rule; the mass's degree 10
     # is not, as in the full solve's own elements (a part in 10^5)
     for name, rel in (("stiffness", 1e-9), ("laplacian", 1e-9), ("mass", 1e-4)):
         np.testing.assert_allclose(getattr(left, name) + getattr(right, name), getattr(whole, name),
                                    rtol=rel, atol=rel * np.abs(getattr(whole, name)).max())
+
+
+def test_a_patch_on_the_mesh_lines_has_the_full_solves_matrices(strip_model):
+    """A patch covering whole elements: its local forms are the full solve's assembled
+    stiffness and mass (`plate_modes.stiffness_and_mass`) with rigidity and mass 1 on its
+    elements and 0 elsewhere, on the dofs it touches and nowhere else."""
+    _, geometry, bare = strip_model
+    model = reduced_layouts.reduced_plate(bare)
+    patch = geometry.patches[0]
+    forms = model.patch_forms(tuple(float(b) for b in patch.bounds))
+    x0, x1, y0, y1 = patch.bounds
+    centres = model.mesh.p[:, model.mesh.t].mean(axis=1)
+    inside = ((centres[0] > x0) & (centres[0] < x1) & (centres[1] > y0) & (centres[1] < y1)).astype(float)
+    stiffness, mass = plate_modes.stiffness_and_mass(model.basis, inside, inside, bare.resonator.poisson)
+    on = np.ix_(forms.dofs, forms.dofs)
+    np.testing.assert_allclose(forms.local_stiffness, stiffness[on].toarray(), rtol=0,
+                               atol=1e-9 * abs(stiffness).max())
+    np.testing.assert_allclose(forms.local_mass, mass[on].toarray(), rtol=0, atol=1e-9 * abs(mass).max())
+    assert abs(stiffness).sum() == pytest.approx(abs(stiffness[on]).sum(), rel=1e-12)
 
 
 def test_the_solver_answers_other_plates_by_the_full_solve(strip_model):
