@@ -2,6 +2,7 @@
 solve reproduced on the full solve's own mesh, and the sweep's check and fall-back."""
 from __future__ import annotations
 
+import collections
 import json
 
 import numpy as np
@@ -163,6 +164,18 @@ def test_on_a_layouts_own_mesh_the_reduced_model_is_within_the_checks_limits(str
         assert reduced["force_factor_n_per_v"] == pytest.approx(full["force_factor_n_per_v"],
                                                                 rel=reduced_layouts.FORCE_TOLERANCE_REL)
     assert solve.full_solves == 0
+
+
+def test_a_sweeps_chunks_hold_every_layout_once_and_share_the_centre_columns(strip_layouts):
+    """Two workers' chunks: every layout in exactly one, a place's layouts (columns and
+    distance from the ends) in one chunk, and layouts with a centre column in both."""
+    spec, antinodes, grid = strip_layouts
+    _, chunks = layout_sweep.tasks(grid, spec, antinodes, chunks=2)
+    assert len(chunks) == 2
+    assert collections.Counter(layout for chunk in chunks for layout in chunk.layouts) == collections.Counter(grid)
+    places = [{(layout.columns, layout.edge_offset_mm) for layout in chunk.layouts} for chunk in chunks]
+    assert not places[0] & places[1]
+    assert all(any(layout.columns == "ends_and_centre" for layout in chunk.layouts) for chunk in chunks)
 
 
 def test_the_check_fails_on_one_deviation_and_agrees_on_two_refusals():
