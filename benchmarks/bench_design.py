@@ -7,11 +7,12 @@ What it times, in one run, on the parallel engine with the default workers:
 2. 324 layouts (the sweep's axes, `layouts.grid`, at 9 gaps between the end columns and
    the ends over the sweep's range of gaps: the goal's 300 in whole placements) by the
    reduced model (`plates.reduced_layouts`: each worker builds the model once, then
-   every layout), its check against the full solve on the sample (`designing.layout_sweep`)
-   with the worst deviation found, and the full solve of whole mesh families (every
-   thickness of a placement), extrapolated to the 324;
+   every layout) with its check against the full solve on the sample, in one map as
+   `design` runs them (`designing.layout_sweep.sweep`), the worst deviation found, and the
+   full solve of whole mesh families (every thickness of a placement), extrapolated to
+   the 324;
 3. 3,024 layouts with the placement as a variable (84 gaps) by the reduced model
-   (`--skip-3000` skips it);
+   with its check, the same way (`--skip-3000` skips it);
 4. the full solve's mesh convergence at the design's layout: its working mode's frequency
    and force factor at 1.5 (the model's), 2.25 and 3 elements per flexural half-wave
    (`--skip-mesh` skips it).
@@ -79,35 +80,24 @@ def timed(function, *args):
     return time.perf_counter() - start, result
 
 
-def reduced_sweep(grid, spec, antinodes: int, workers: int):
-    """The check on the sample, then every layout by the reduced model: (check s, sweep s,
-    the check, layouts that fell back to the full solve)."""
-    checks, chunks = layout_sweep.tasks(grid, spec, antinodes, chunks=workers)
-    check_s, checked = timed(lambda: [r for _, r in map_unordered(layout_sweep.run, checks, workers=workers)])
-    sweep_s, results = timed(lambda: [r for _, r in map_unordered(layout_sweep.run, chunks, workers=workers)])
-    rows = [row for chunk_rows, _ in results for row in chunk_rows]
-    assert len(rows) == len(grid)
-    return check_s, sweep_s, layout_sweep.check(checked), sum(fallbacks for _, fallbacks in results)
-
-
 def load() -> str:
     return f"load average (1 min) {os.getloadavg()[0]:.2f} on {os.cpu_count()} cores"
 
 
 def report_reduced(grid, placements: int, goal_ref: float, spec, antinodes: int, workers: int, unit):
-    """Time `grid` (`placements` gaps) by the reduced model with its check, print it, and
-    return (its total seconds, the check)."""
-    check_s, sweep_s, check, fallbacks = reduced_sweep(grid, spec, antinodes, workers)
-    total_s = check_s + sweep_s
+    """Time `grid` (`placements` gaps) by the reduced model with its check on the sample, as
+    `design` runs it (`layout_sweep.sweep`: one map), print it, and return (seconds, check)."""
+    total_s, done = timed(layout_sweep.sweep, grid, spec, antinodes, workers)
+    assert len(done.rows) == len(grid)
     limits = layout_sweep.reduced_layouts
-    print(f"{len(grid)} layouts ({placements} placements), reduced model: {unit.both(sweep_s)} for all (each "
-          f"worker's model built once included; {fallbacks} fell back to the full solve), + check on "
-          f"{len(check.table)} sampled layouts {unit.both(check_s)}: total {unit.both(total_s)} (goal <= "
-          f"{goal_ref:.0f} ref: {'met' if unit.units(total_s) <= goal_ref else 'MISSED'}); {load()}\n"
-          f"  check against the full solve: {check.worst()}; limits {limits.FREQUENCY_TOLERANCE_REL:.1%} and "
+    print(f"{len(grid)} layouts ({placements} placements), reduced model with its check on {len(done.checked)} "
+          f"sampled layouts (each worker's model built once included; {done.fallbacks} fell back to the full "
+          f"solve): {unit.both(total_s)} (goal <= {goal_ref:.0f} ref: "
+          f"{'met' if unit.units(total_s) <= goal_ref else 'MISSED'}); {load()}\n"
+          f"  check against the full solve: {done.check.worst()}; limits {limits.FREQUENCY_TOLERANCE_REL:.1%} and "
           f"{limits.FORCE_TOLERANCE_REL:.0%}: "
-          f"{'passed' if check.passed else 'MISSED, so `design` solves this sweep in full'}", flush=True)
-    return total_s, check
+          f"{'passed' if done.check.passed else 'MISSED, so `design` solves this sweep in full'}", flush=True)
+    return total_s, done.check
 
 
 def main() -> int:
