@@ -7,11 +7,12 @@ What it times, in one run, on the parallel engine with the default workers:
 2. 324 layouts (the sweep's axes, `layouts.grid`, at 9 gaps between the end columns and
    the ends over the sweep's range of gaps: the goal's 300 in whole placements) by the
    reduced model (`plates.reduced_layouts`: each worker builds the model once, then
-   every layout), its check against the full solve on the sample (`designing.layout_sweep`)
-   with the worst deviation found, and the full solve of whole mesh families (every
-   thickness of a placement), extrapolated to the 324;
+   every layout) with its check against the full solve on the sample, in one map as
+   `design` runs them (`designing.layout_sweep.sweep`), the worst deviation found, and the
+   full solve of whole mesh families (every thickness of a placement), extrapolated to
+   the 324;
 3. 3,024 layouts with the placement as a variable (84 gaps) by the reduced model
-   (`--skip-3000` skips it);
+   with its check, the same way (`--skip-3000` skips it);
 4. the full solve's mesh convergence at the design's layout: its working mode's frequency
    and force factor at 1.5 (the model's), 2.25 and 3 elements per flexural half-wave
    (`--skip-mesh` skips it).
@@ -80,19 +81,24 @@ def timed(function, *args):
     return time.perf_counter() - start, result
 
 
-def reduced_sweep(grid, spec, antinodes: int, workers: int):
-    """The check on the sample, then every layout by the reduced model: (check s, sweep s,
-    the check, layouts that fell back to the full solve)."""
-    checks, chunks = layout_sweep.tasks(grid, spec, antinodes, chunks=workers)
-    check_s, checked = timed(lambda: [r for _, r in map_unordered(layout_sweep.run, checks, workers=workers)])
-    sweep_s, results = timed(lambda: [r for _, r in map_unordered(layout_sweep.run, chunks, workers=workers)])
-    rows = [row for chunk_rows, _ in results for row in chunk_rows]
-    assert len(rows) == len(grid)
-    return check_s, sweep_s, layout_sweep.check(checked), sum(fallbacks for _, fallbacks in results)
-
-
 def load() -> str:
     return f"load average (1 min) {os.getloadavg()[0]:.2f} on {os.cpu_count()} cores"
+
+
+def report_reduced(grid, placements: int, goal_ref: float, spec, antinodes: int, workers: int, unit):
+    """Time `grid` (`placements` gaps) by the reduced model with its check on the sample, as
+    `design` runs it (`layout_sweep.sweep`: one map), print it, and return (seconds, check)."""
+    total_s, done = timed(layout_sweep.sweep, grid, spec, antinodes, workers)
+    assert len(done.rows) == len(grid)
+    limits = layout_sweep.reduced_layouts
+    print(f"{len(grid)} layouts ({placements} placements), reduced model with its check on {len(done.checked)} "
+          f"sampled layouts (each worker's model built once included; {done.fallbacks} fell back to the full "
+          f"solve): {unit.both(total_s)} (goal <= {goal_ref:.0f} ref: "
+          f"{'met' if unit.units(total_s) <= goal_ref else 'MISSED'}); {load()}\n"
+          f"  check against the full solve: {done.check.worst()}; limits {limits.FREQUENCY_TOLERANCE_REL:.1%} and "
+          f"{limits.FORCE_TOLERANCE_REL:.0%}: "
+          f"{'passed' if done.check.passed else 'MISSED, so `design` solves this sweep in full'}", flush=True)
+    return total_s, done.check
 
 
 def main() -> int:
@@ -115,16 +121,7 @@ def main() -> int:
     values = physics.nominal.values
     antinodes = int(values["interior_antinodes"])
     grid = placement_grid(values["half_wavelength_mm"], spec.piezo.length_x_mm, SMALL_PLACEMENTS)
-    check_s, sweep_s, check, fallbacks = reduced_sweep(grid, spec, antinodes, workers)
-    total_s = check_s + sweep_s
-    print(f"{len(grid)} layouts, reduced model: {unit.both(sweep_s)} for all (each worker's model built once "
-          f"included; {fallbacks} fell back to the full solve), + check on {len(check.table)} sampled layouts "
-          f"{unit.both(check_s)}: total {unit.both(total_s)} (goal <= {GOAL_SWEEP_REF:.0f} ref: "
-          f"{'met' if unit.units(total_s) <= GOAL_SWEEP_REF else 'MISSED'}); {load()}", flush=True)
-    limits = layout_sweep.reduced_layouts
-    print(f"check against the full solve: {check.worst()}; limits {limits.FREQUENCY_TOLERANCE_REL:.1%} "
-          f"and {limits.FORCE_TOLERANCE_REL:.0%}: "
-          f"{'passed' if check.passed else 'MISSED, so `design` solves this sweep in full'}")
+    total_s, check = report_reduced(grid, SMALL_PLACEMENTS, GOAL_SWEEP_REF, spec, antinodes, workers, unit)
     print(check.table.to_string(index=False, float_format=lambda v: f"{v:+.4%}"), flush=True)
     families = layouts.tasks(grid, spec, antinodes)
     chosen = [families[int(i)] for i in np.linspace(0, len(families) - 1, args.families).round()]
@@ -136,13 +133,7 @@ def main() -> int:
           f"{full_sweep_s / total_s:.1f}x faster with its check; {load()}", flush=True)
     if not args.skip_3000:
         big = placement_grid(values["half_wavelength_mm"], spec.piezo.length_x_mm, LARGE_PLACEMENTS)
-        big_check_s, big_sweep_s, big_check, big_fallbacks = reduced_sweep(big, spec, antinodes, workers)
-        big_total_s = big_check_s + big_sweep_s
-        print(f"{len(big)} layouts ({LARGE_PLACEMENTS} placements), reduced model: {unit.both(big_sweep_s)} + check on "
-              f"{len(big_check.table)} {unit.both(big_check_s)}: total {unit.both(big_total_s)} "
-              f"({big_fallbacks} fell back; goal <= {GOAL_3000_REF:.0f} ref: "
-              f"{'met' if unit.units(big_total_s) <= GOAL_3000_REF else 'MISSED'}); check: {big_check.worst()}; "
-              f"{load()}", flush=True)
+        report_reduced(big, LARGE_PLACEMENTS, GOAL_3000_REF, spec, antinodes, workers, unit)
     if not args.skip_mesh:
         mesh_s, mesh = timed(mesh_convergence, spec)
         finest = mesh[-1]

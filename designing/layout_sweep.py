@@ -10,6 +10,7 @@ solves every layout in full and says so (`squeezebench.designing.workflow`).
 """
 from __future__ import annotations
 
+import itertools
 from dataclasses import dataclass
 
 import numpy as np
@@ -46,34 +47,34 @@ def _working_point(layout: layouts.Layout, design: DesignFile, antinodes: int, s
 
 @dataclass(frozen=True)
 class ReducedChunk:
-    """Layouts answered by the reduced model; runs to (rows, how many needed the full solve)."""
+    """Layouts answered by the reduced model; runs to (rows, how many needed the full solve,
+    the working points of those of them in `sampled`)."""
 
     layouts: tuple[layouts.Layout, ...]
     design: DesignFile
     antinodes: int
     bare: reduced_layouts.BarePlate
+    sampled: frozenset = frozenset()
 
-    def run(self) -> tuple[list[dict], int]:
+    def run(self) -> tuple[list[dict], int, dict]:
         solve = reduced_layouts.Solver(self.bare)
-        return [layouts.evaluate(layout, self.design, self.antinodes, solve=solve)
-                for layout in self.layouts], solve.full_solves
+        rows = [layouts.evaluate(layout, self.design, self.antinodes, solve=solve) for layout in self.layouts]
+        points = {layout: _working_point(layout, self.design, self.antinodes, solve)
+                  for layout in self.layouts if layout in self.sampled}
+        return rows, solve.full_solves, points
 
 
 @dataclass(frozen=True)
 class CheckedLayout:
-    """One sampled layout: its full solve's row, and both models' working points."""
+    """One sampled layout: its full solve's row and working point."""
 
     layout: layouts.Layout
     design: DesignFile
     antinodes: int
-    bare: reduced_layouts.BarePlate
 
     def run(self) -> dict:
-        row = layouts.evaluate(self.layout, self.design, self.antinodes)
-        return {"layout": self.layout, "row": row,
-                "full": _working_point(self.layout, self.design, self.antinodes),
-                "reduced": _working_point(self.layout, self.design, self.antinodes,
-                                          reduced_layouts.Solver(self.bare))}
+        return {"layout": self.layout, "row": layouts.evaluate(self.layout, self.design, self.antinodes),
+                "full": _working_point(self.layout, self.design, self.antinodes)}
 
 
 def run(task: ReducedChunk | CheckedLayout):
@@ -83,15 +84,55 @@ def run(task: ReducedChunk | CheckedLayout):
 
 def tasks(grid: list[layouts.Layout], design: DesignFile, antinodes: int,
           chunks: int) -> tuple[list[CheckedLayout], list[ReducedChunk]]:
-    """The sample's checks (each a full solve and a reduced one), and the layouts in `chunks`
-    chunks: one a worker, since a worker builds the model for its first chunk and loky
-    replaces a worker between tasks once it holds 300 MB more than after its first (the
-    large plate's model and its kept patches can), so a further chunk could pay the build
-    again (7 s idle)."""
+    """The sample's full solves, and the layouts in `chunks` chunks: one a worker, since a
+    worker builds the model for its first chunk and loky replaces a worker between tasks
+    once it holds 300 MB more than after its first (the large plate's model and its kept
+    patches can), so a further chunk could pay the build again (7 s idle). The grid's runs of
+    layouts with the same columns at the same place (whose patches share rectangles, so a
+    worker computes them once) are dealt to the chunks in turn: cut in order, one chunk would
+    hold every layout with a centre column, half as many patches again, and finish last."""
     bare = bare_plate(design, grid, antinodes)
-    size = max(1, -(-len(grid) // chunks))
-    return ([CheckedLayout(grid[i], design, antinodes, bare) for i in sample(len(grid))],
-            [ReducedChunk(tuple(grid[i:i + size]), design, antinodes, bare) for i in range(0, len(grid), size)])
+    sampled = frozenset(grid[i] for i in sample(len(grid)))
+    runs = [list(run) for _, run in itertools.groupby(grid, key=lambda layout: (layout.columns,
+                                                                               layout.edge_offset_mm))]
+    dealt = [tuple(layout for run in runs[i::chunks] for layout in run) for i in range(min(chunks, len(runs)))]
+    return ([CheckedLayout(grid[i], design, antinodes) for i in sample(len(grid))],
+            [ReducedChunk(chunk, design, antinodes, bare, sampled & frozenset(chunk)) for chunk in dealt])
+
+
+@dataclass(frozen=True)
+class Sweep:
+    """A sweep by the reduced model: its rows, how many layouts fell back to the full solve
+    where the model does not settle, and the sample's check (its rows by the full solve in
+    `checked`)."""
+
+    rows: list[dict]
+    fallbacks: int
+    checked: list[dict]
+    check: "Check"
+
+
+def sweep(grid: list[layouts.Layout], design: DesignFile, antinodes: int, workers: int, scheduler=None,
+          description: str = "layouts") -> Sweep:
+    """Every layout by the reduced model and the sample by the full solve, on the parallel
+    engine in one map: the chunks first (each worker builds the model once), then the
+    sample's full solves, which need no model and fill the workers' tails. The sampled
+    layouts' reduced answers come from their chunks. A sweep whose check misses has cost its
+    reduced solves, a few per cent of solving it in full."""
+    from squeezebench.protocols.parallel import map_unordered
+
+    checks, chunks = tasks(grid, design, antinodes, chunks=workers)
+    rows, fallbacks, reduced, full = [], 0, {}, []
+    for task, result in map_unordered(run, [*chunks, *checks], workers=workers, scheduler=scheduler,
+                                      description=description):
+        if isinstance(task, ReducedChunk):
+            rows.extend(result[0])
+            fallbacks += result[1]
+            reduced.update(result[2])
+        else:
+            full.append(result)
+    checked = [{**result, "reduced": reduced[result["layout"]]} for result in full]
+    return Sweep(rows, fallbacks, checked, check(checked))
 
 
 @dataclass(frozen=True)

@@ -254,26 +254,17 @@ def sweep_layouts(spec, values: dict, workers: int | None = None, scheduler: Any
 
     if not reduced:
         return layouts.finish(full(grid)), f"{len(grid)} layouts, each by the full solve"
-    # the sample first: a model that misses its check costs the sample's reduced solves, not a sweep's
-    checks, chunks = layout_sweep.tasks(grid, spec, antinodes, chunks=workers)
-    checked = [result for _, result in map_unordered(layout_sweep.run, checks, workers=workers, scheduler=scheduler,
-                                                     description="layouts checked")]
-    check = layout_sweep.check(checked)
-    if not check.passed:
-        sampled = {result["layout"] for result in checked}
-        rows = [result["row"] for result in checked] + full([layout for layout in grid if layout not in sampled])
+    done = layout_sweep.sweep(grid, spec, antinodes, workers, scheduler=scheduler)
+    if not done.check.passed:
+        sampled = {result["layout"] for result in done.checked}
+        rows = [result["row"] for result in done.checked] + full([layout for layout in grid if layout not in sampled])
         return layouts.finish(rows), (
             f"{len(grid)} layouts, each by the full solve: the reduced model missed its check against it "
-            f"({check.worst()}; limits {layout_sweep.reduced_layouts.FREQUENCY_TOLERANCE_REL:.1%} and "
+            f"({done.check.worst()}; limits {layout_sweep.reduced_layouts.FREQUENCY_TOLERANCE_REL:.1%} and "
             f"{layout_sweep.reduced_layouts.FORCE_TOLERANCE_REL:.0%})")
-    rows, fallbacks = [], 0
-    for _, (chunk_rows, chunk_fallbacks) in map_unordered(layout_sweep.run, chunks, workers=workers,
-                                                         scheduler=scheduler, description="layouts"):
-        rows.extend(chunk_rows)
-        fallbacks += chunk_fallbacks
-    extra = f"; {fallbacks} did not settle and were solved in full" if fallbacks else ""
-    return layouts.finish(rows), (f"{len(grid)} layouts by the reduced model{extra}; checked against the full "
-                                  f"solve on {len(checked)} of them: {check.worst()}")
+    extra = f"; {done.fallbacks} did not settle and were solved in full" if done.fallbacks else ""
+    return layouts.finish(done.rows), (f"{len(grid)} layouts by the reduced model{extra}; checked against the "
+                                       f"full solve on {len(done.checked)} of them: {done.check.worst()}")
 
 
 #: Beside the designs' folders: every design checked against its built plate, one row per

@@ -156,7 +156,7 @@ class PlateModes:
     #: piezo layers' share, for `plates.damping`), and per patch the bond's energy over that
     piezo_energy_share: np.ndarray = field(repr=False, default=None)
     bond_energy_ratio: np.ndarray = field(repr=False, default=None)
-    _probe: object = field(repr=False, default=None)  # points (2, N) -> mass-normalised deflections (N, modes)
+    _probe: object = field(repr=False, default=None)  # points (2, N), mode k -> mass-normalised deflections (N)
     _modal_force: np.ndarray = field(repr=False, default=None)  # Theta (modes, patches), mass-normalised
     _peak: np.ndarray = field(repr=False, default=None)  # mass-normalised deflection at each mode's peak
     #: the solve's key in the disk cache (`stored_solves`); None for a plate solved otherwise
@@ -169,12 +169,12 @@ class PlateModes:
         on = (x_m >= 0) & (x_m <= self.x_m[-1]) & (y_m >= 0) & (y_m <= self.y_m[-1])
         values = np.zeros(x_m.shape)
         if on.any():
-            values[on] = self._probe(np.vstack([x_m[on], y_m[on]]))[:, k] / self._peak[k]
+            values[on] = self._probe(np.vstack([x_m[on], y_m[on]]), k) / self._peak[k]
         return values
 
     def deflection_at(self, k: int, x_m: float, y_m: float) -> float:
         """Mode k's mass-normalised deflection (1/sqrt(kg)) at (x, y), from the elements."""
-        return float(self._probe(np.array([[x_m], [y_m]]))[0, k])
+        return float(self._probe(np.array([[x_m], [y_m]]), k)[0])
 
     def referred_to(self, k: int, x_m: float, y_m: float) -> tuple[float, np.ndarray]:
         """Modal mass (kg) and per-piezo force factors (N/V) of mode k referred to the point
@@ -552,7 +552,8 @@ def modes_from_vectors(geometry: PlateGeometry, resonator: Isotropic, piezo: Pie
         piezo_energy_share=piezo_share,
         bond_energy_ratio=np.array([bond_energy_ratio(resonator, geometry.thickness_m, piezo, p.thickness_m, bond,
                                                       p.length_x_m) for p in geometry.patches]),
-        _probe=lambda p: probe(p) @ vectors, _modal_force=theta, _peak=peak)
+        # one mode's column: the face integral's refined grid has tens of thousands of points
+        _probe=lambda p, k: probe(p) @ vectors[:, k], _modal_force=theta, _peak=peak)
 
 
 def sign_changes(x: np.ndarray, values: np.ndarray) -> np.ndarray:

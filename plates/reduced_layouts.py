@@ -20,12 +20,18 @@ thick-plate correction, bond effectiveness and strain-energy shares to its eigen
 integrals over a patch are exact for any rectangle, on or off the mesh lines: each triangle
 the patch covers is clipped to it and integrated with the full solve's quadrature on the
 pieces, so a patch may sit anywhere on the plate. They depend only on the rectangle, so a
-sweep computes each once, and a layout costs an r x r eigenproblem (milliseconds).
+sweep computes each once, as local forms: the patch's stiffness per unit dD, mass per unit
+dm and \\int lap N dA on the few degrees of freedom its elements carry (`local_forms`).
 
-A Ritz basis of smooth bare modes cannot bend more softly under a stiff patch, so it is
-a model, not the solve: `check` compares it with full solves of a sample of the sweep's
-layouts (frequency within `FREQUENCY_TOLERANCE_REL`, force factor within
-`FORCE_TOLERANCE_REL`), and a sweep whose sample misses is solved in full
+A Ritz basis of smooth bare modes cannot bend more softly under a stiff patch, so the
+working-mode candidates are refined by Davidson steps (Morgan and Scott, SIAM J. Sci.
+Stat. Comput. 7, 1986: each step adds (K0 - sigma M0)^-1 of their residuals, with one
+factorisation for the whole sweep); a patch's part of a residual or of the grown Ritz
+matrices is its local forms times the basis vectors' rows on its degrees of freedom, so a
+step multiplies no global matrix but its new vectors. It is still a model on the sweep's
+mesh, not each layout's full solve on its own: `check` compares it with full solves of a
+sample of the sweep's layouts (frequency within `FREQUENCY_TOLERANCE_REL`, force factor
+within `FORCE_TOLERANCE_REL`), and a sweep whose sample misses is solved in full
 (`squeezebench.designing.workflow`).
 """
 from __future__ import annotations
@@ -50,16 +56,18 @@ FORCE_TOLERANCE_REL = 0.02
 BASIS_BAND_REL = 0.2
 #: The full solve's quadrature order (`plate_modes._discretisation`), used on the clipped pieces.
 QUADRATURE_ORDER = 8
-#: Patch edges closer than this share of an element are meshed as one line.
-MIN_EDGE_GAP = 0.125
+#: Patch edges closer than this share of an element are meshed as one line. Slivers cost
+#: accuracy, not only time: at 1/8 of an element the sweep mesh's own answer was off the
+#: layouts' full solves by up to 4.7 % in force factor on the 3,024-layout sweep's sample;
+#: at half an element, 1.5 % (and the mesh has a third of the lines across the length).
+MIN_EDGE_GAP = 0.5
 #: Davidson refinement of the working-mode candidates (modes this even across the width):
 #: done when their w^2 and coupling integrals move by less than `SETTLED_REL` in a step.
 CANDIDATE_UNIFORMITY = 0.5
 SETTLED_REL = 1e-3
 MAX_STEPS = 30
-#: Patches whose points and integrals a model keeps (about 2 MB each on the large plate's
-#: sweep mesh): a sweep's chunk in grid order needs a few tens at a time, and the 216-layout
-#: sweep's 156 rectangles all kept held 320 MB in each worker.
+#: Patches whose local forms a model keeps (two l x l matrices, l the dofs a patch's
+#: elements carry): a sweep's chunk in grid order needs a few tens at a time.
 PATCHES_KEPT = 96
 
 
@@ -130,33 +138,39 @@ def clip_to_rectangle(polygon: np.ndarray, x0: float, x1: float, y0: float, y1: 
 
 
 @dataclass(frozen=True)
-class PatchPoints:
-    """A rectangle's quadrature on the mesh: weights (Q), the elements' basis functions'
-    values (functions, Q) and Hessians (functions, 2, 2, Q), their dofs (functions, Q), the
-    bare modes' values (Q, r) and Hessians (2, 2, Q, r) there, and the bare modes' integrals:
-    stiffness per unit dD (r, r), mass per unit dm (r, r), \\int lap phi dA (r)."""
+class PatchForms:
+    """A rectangle's bilinear forms on the degrees of freedom `dofs` (l) its elements carry:
+    stiffness per unit dD `local_stiffness` (l, l), mass per unit dm `local_mass` (l, l)
+    and \\int lap N dA `local_laplacian` (l); and the same on the bare modes: `stiffness`
+    (r, r), `mass` (r, r) and `laplacian` (r), \\int lap phi dA."""
 
-    weights: np.ndarray
-    values: np.ndarray
-    hessians: np.ndarray
     dofs: np.ndarray
-    mode_values: np.ndarray
-    mode_hessians: np.ndarray
+    local_stiffness: np.ndarray
+    local_mass: np.ndarray
+    local_laplacian: np.ndarray
     stiffness: np.ndarray
     mass: np.ndarray
     laplacian: np.ndarray
 
 
-def _integrals(weights: np.ndarray, nu: float, values_a, hessians_a, values_b, hessians_b):
-    """Stiffness per unit dD, mass per unit dm between two sets of functions given at the
-    points: the bilinear forms of `plate_modes.stiffness_and_mass`."""
-    weighted = hessians_a * weights[:, None]
-    laplacians_a = hessians_a[0, 0] + hessians_a[1, 1]
-    laplacians_b = hessians_b[0, 0] + hessians_b[1, 1]
-    # sum over i, j and the points as one matrix product
-    stiffness = ((1 - nu) * weighted.reshape(-1, weighted.shape[-1]).T @ hessians_b.reshape(-1, hessians_b.shape[-1])
-                 + nu * (laplacians_a * weights[:, None]).T @ laplacians_b)
-    return stiffness, (values_a * weights[:, None]).T @ values_b
+def local_forms(weights: np.ndarray, values: np.ndarray, hessians: np.ndarray, poisson: float,
+                local: np.ndarray, size: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The bilinear forms of `plate_modes.stiffness_and_mass` over quadrature points with
+    `weights` (Q), where the basis functions have `values` (functions, Q) and `hessians`
+    (functions, 2, 2, Q) and are the degrees of freedom `local` (functions, Q) of `size`:
+    D [(1 - nu) w,ij v,ij + nu lap w lap v] per unit D and w v per unit mass (size, size),
+    and \\int lap N dA (size), each point's 21 x 21 block added where its dofs are."""
+    laplacian = hessians[:, 0, 0] + hessians[:, 1, 1]
+    stiffness = ((1 - poisson) * np.einsum("aijq,bijq->qab", hessians, hessians)
+                 + poisson * np.einsum("aq,bq->qab", laplacian, laplacian)) * weights[:, None, None]
+    mass = np.einsum("aq,bq->qab", values, values) * weights[:, None, None]
+    where = (local.T[:, :, None] * size + local.T[:, None, :]).ravel()   # (Q, a, b) in the flat (size, size)
+
+    def assemble(terms):
+        return np.bincount(where, terms.ravel(), minlength=size * size).reshape(size, size)
+
+    return assemble(stiffness), assemble(mass), np.bincount(local.ravel(), (laplacian * weights).ravel(),
+                                                            minlength=size)
 
 
 class ReducedPlate:
@@ -193,10 +207,10 @@ class ReducedPlate:
         self._grid_modes = self.grid_probe @ self.vectors
         self.n_modes = plate_modes.mode_count(bare.geometry, bare.resonator, bare.piezo, bare.near_hz,
                                               bare.band_rel)
-        self._patches: RecentlyUsed[PatchPoints] = RecentlyUsed(PATCHES_KEPT)
+        self._patches: RecentlyUsed[PatchForms] = RecentlyUsed(PATCHES_KEPT)
 
-    def patch_points(self, bounds: tuple[float, float, float, float]) -> PatchPoints:
-        """The quadrature and integrals of the rectangle `bounds` (x0, x1, y0, y1), kept for the sweep."""
+    def patch_forms(self, bounds: tuple[float, float, float, float]) -> PatchForms:
+        """The bilinear forms of the rectangle `bounds` (x0, x1, y0, y1), kept for the sweep."""
         return self._patches.get(bounds, lambda: self._integrate(*bounds))
 
     def _quadrature(self, x0: float, x1: float, y0: float, y1: float):
@@ -224,43 +238,19 @@ class ReducedPlate:
             raise ValueError(f"a patch [{x0:.4g}, {x1:.4g}] x [{y0:.4g}, {y1:.4g}] m is off the plate")
         return np.hstack(points), np.concatenate(weights), np.concatenate(cells)
 
-    def _integrate(self, x0: float, x1: float, y0: float, y1: float) -> PatchPoints:
+    def _integrate(self, x0: float, x1: float, y0: float, y1: float) -> PatchForms:
         points, weights, cells = self._quadrature(x0, x1, y0, y1)
         basis, mapping = self.basis, self.basis.mapping
         local = mapping.invF(points[:, :, None], tind=cells)
         fields = [basis.elem.gbasis(mapping, local, k, tind=cells)[0] for k in range(basis.Nbfun)]
         values = np.array([f.get(0)[:, 0] for f in fields])
         hessians = np.array([f.hess[..., 0] for f in fields])
-        dofs = basis.element_dofs[:, cells]
-        mode_values, mode_hessians = self._at_points(values, hessians, dofs, self.vectors)
-        stiffness, mass = _integrals(weights, self.bare.resonator.poisson, mode_values, mode_hessians,
-                                     mode_values, mode_hessians)
-        laplacian = weights @ (mode_hessians[0, 0] + mode_hessians[1, 1])
-        return PatchPoints(weights, values, hessians, dofs, mode_values, mode_hessians, stiffness, mass, laplacian)
-
-    @staticmethod
-    def _at_points(values, hessians, dofs, vectors):
-        """Values (Q, r) and Hessians (2, 2, Q, r) of the global `vectors` (dofs, r) at the points."""
-        coefficients = vectors[dofs].transpose(1, 0, 2)   # (Q, functions, r)
-        # per point, (values; Hessians) (5, functions) times its coefficients: one batched product
-        at = np.matmul(np.concatenate([values[None], hessians.reshape(-1, 4, values.shape[1]).transpose(1, 0, 2)])
-                       .transpose(2, 0, 1), coefficients)   # (Q, 5, r)
-        return at[:, 0], at[:, 1:].transpose(1, 0, 2).reshape(2, 2, *at.shape[::2])
-
-    def _loads(self, parts, at, eigenvalues) -> np.ndarray:
-        """(dK - lambda dM) x of the patches for the vectors whose values and Hessians at
-        each patch's points are `at`, one lambda per vector: a global vector (dofs, c)."""
-        nu = self.bare.resonator.poisson
-        loads = np.zeros((self.stiffness.shape[0], len(eigenvalues)))
-        for (points, dd, dm), (v, h) in zip(parts, at):
-            per_function = (dd * ((1 - nu) * np.einsum("kijq,ijqc->kqc", points.hessians, h)
-                                  + nu * (points.hessians[:, 0, 0] + points.hessians[:, 1, 1])[..., None]
-                                  * (h[0, 0] + h[1, 1]))
-                            - dm * eigenvalues * points.values[..., None] * v) * points.weights[:, None]
-            for c in range(loads.shape[1]):
-                loads[:, c] += np.bincount(points.dofs.ravel(), per_function[..., c].ravel(),
-                                           minlength=loads.shape[0])
-        return loads
+        dofs, where = np.unique(basis.element_dofs[:, cells], return_inverse=True)
+        stiffness, mass, laplacian = local_forms(weights, values, hessians, self.bare.resonator.poisson,
+                                                 where.reshape(values.shape), len(dofs))
+        modes = self.vectors[dofs]
+        return PatchForms(dofs, stiffness, mass, laplacian, modes.T @ stiffness @ modes, modes.T @ mass @ modes,
+                          laplacian @ modes)
 
     def solve(self, geometry: PlateGeometry) -> plate_modes.PlateModes:
         """The modes of `geometry` (this plate with its patches) nearest the drive, as
@@ -271,10 +261,10 @@ class ReducedPlate:
         `NotConverged` if they do not in `MAX_STEPS`."""
         if not self.bare.fits(geometry):
             raise ValueError("the reduced model is of another plate")
-        bare, nu = self.bare, self.bare.resonator.poisson
+        bare = self.bare
         d0, m0, _ = plate_modes.laminate(bare.resonator, bare.thickness_m, bare.piezo, 0.0)
         sections = plate_modes.patch_sections(geometry, bare.resonator, bare.piezo, bare.bond)
-        parts = [(self.patch_points(tuple(float(b) for b in patch.bounds)), d - d0, m - m0)
+        parts = [(self.patch_forms(tuple(float(b) for b in patch.bounds)), d - d0, m - m0)
                  for patch, (d, m, _, _) in zip(geometry.patches, sections)]
         r = len(self.eigenvalues)
         # the Ritz matrices, grown by each step's new vectors (M0-orthonormal to all before,
@@ -284,7 +274,7 @@ class ReducedPlate:
         stiffness = np.diag(self.eigenvalues) + added_stiffness
         mass = np.eye(r) + sum(dm * p.mass for p, _, dm in parts)
         laplacians = np.array([p.laplacian for p, _, _ in parts]).reshape(len(parts), r)
-        at_points = [(p.mode_values, p.mode_hessians) for p, _, _ in parts]   # every basis vector's
+        rows = [self.vectors[p.dofs] for p, _, _ in parts]   # every basis vector on each patch's dofs
         added = np.zeros((self.stiffness.shape[0], 0))
         mass_added, stiffness_added = added, added   # M0 and K0 times the added vectors
         grid_basis = self._grid_modes   # the basis on the shape grid
@@ -310,13 +300,14 @@ class ReducedPlate:
             if step == MAX_STEPS:
                 raise NotConverged(f"the reduced model did not settle in {MAX_STEPS} steps")
             previous = figures
-            # residuals on the plate with its patches: (K - lambda M) x, the patches' part at their points
+            # residuals on the plate with its patches: (K - lambda M) x, K0 x and M0 x from the
+            # products kept (no product with the global matrices), the patches' part on their dofs
             lam, bare_part, added_part = eigenvalues[targets], coefficients[:r, targets], coefficients[r:, targets]
-            x = self.vectors @ bare_part + added @ added_part
-            at = [self._at_points(p.values, p.hessians, p.dofs, x) for p, _, _ in parts]
-            # K0 x and M0 x from the products kept: no product with the global matrices here
             residual = (self._mass_vectors @ (bare_part * (self.eigenvalues[:, None] - lam))
-                        + stiffness_added @ added_part - (mass_added @ added_part) * lam + self._loads(parts, at, lam))
+                        + stiffness_added @ added_part - (mass_added @ added_part) * lam)
+            for (p, dd, dm), there in zip(parts, rows):
+                x = there @ coefficients[:, targets]
+                residual[p.dofs] += dd * (p.local_stiffness @ x) - dm * (p.local_mass @ x) * lam
             direction = self._shifted.solve(residual)
             for _ in range(2):   # twice: orthogonal to roundoff
                 direction -= self.vectors @ (self._mass_vectors.T @ direction) + added @ (mass_added.T @ direction)
@@ -333,14 +324,15 @@ class ReducedPlate:
             cross_m, mass_k = np.zeros_like(cross_k), np.eye(direction.shape[1])
             cross_added, own_added = np.zeros_like(cross_k), np.zeros_like(stiffness_k)
             new_laplacians = np.zeros((len(parts), direction.shape[1]))
-            for i, ((points, dd, dm), (values, hessians)) in enumerate(zip(parts, at_points)):
-                new_values, new_hessians = self._at_points(points.values, points.hessians, points.dofs, direction)
-                k, m = _integrals(points.weights, nu, values, hessians, new_values, new_hessians)
-                own_k, own_m = _integrals(points.weights, nu, new_values, new_hessians, new_values, new_hessians)
+            for i, (p, dd, dm) in enumerate(parts):
+                new = direction[p.dofs]
+                k_new, m_new = p.local_stiffness @ new, p.local_mass @ new
+                k, m = rows[i].T @ k_new, rows[i].T @ m_new
+                own_k, own_m = new.T @ k_new, new.T @ m_new
                 cross_k, cross_m, cross_added = cross_k + dd * k, cross_m + dm * m, cross_added + dd * k
                 stiffness_k, mass_k, own_added = stiffness_k + dd * own_k, mass_k + dm * own_m, own_added + dd * own_k
-                at_points[i] = (np.hstack([values, new_values]), np.concatenate([hessians, new_hessians], axis=3))
-                new_laplacians[i] = points.weights @ (new_hessians[0, 0] + new_hessians[1, 1])
+                rows[i] = np.hstack([rows[i], new])
+                new_laplacians[i] = p.local_laplacian @ new
             stiffness = np.block([[stiffness, cross_k], [cross_k.T, stiffness_k]])
             mass = np.block([[mass, cross_m], [cross_m.T, mass_k]])
             added_stiffness = np.block([[added_stiffness, cross_added], [cross_added.T, own_added]])

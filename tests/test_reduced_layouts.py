@@ -2,9 +2,11 @@
 solve reproduced on the full solve's own mesh, and the sweep's check and fall-back."""
 from __future__ import annotations
 
+import collections
 import json
 
 import numpy as np
+import pandas as pd
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
@@ -13,6 +15,8 @@ from squeezebench import cli
 from squeezebench.designing import design, layout_sweep, layouts
 from squeezebench.plates import plate_modes, reduced_layouts
 from squeezebench.designing.workflow import sweep_layouts
+from squeezebench.paths import design_file
+from squeezebench.schemas import load_design_file
 from squeezebench.yamlfiles import dump_yaml
 from test_design import STRIP, strip   # Table 3's plate as a design: 75 x 41 x 1 mm, four piezos mid-length
 
@@ -72,19 +76,41 @@ def test_on_the_full_solves_own_mesh_the_reduced_model_is_the_full_solve(strip_m
     np.testing.assert_allclose(reduced.bond_energy_ratio, full.bond_energy_ratio)
 
 
-def test_a_patch_off_the_mesh_lines_is_integrated_exactly(strip_model):
+@settings(max_examples=6, deadline=None, derandomize=True)
+@given(share=st.floats(0.05, 0.95))
+def test_a_patch_off_the_mesh_lines_is_integrated_exactly(strip_model, share):
     """A patch's integrals do not depend on how the mesh cuts it: its rectangle split in two
-    along a line through elements integrates to the same matrices as the whole."""
+    anywhere along a line through elements integrates to the same matrices as the whole."""
     _, _, bare = strip_model
     model = reduced_layouts.reduced_plate(bare)
     x0, x1, y0, y1 = 0.0101, 0.0163, 0.0052, 0.0219
-    whole = model.patch_points((x0, x1, y0, y1))
-    left, right = model.patch_points((x0, 0.0137, y0, y1)), model.patch_points((0.0137, x1, y0, y1))
+    split = x0 + share * (x1 - x0)
+    whole = model.patch_forms((x0, x1, y0, y1))
+    left, right = model.patch_forms((x0, split, y0, y1)), model.patch_forms((split, x1, y0, y1))
     # curvature products are of degree 6, exact under the order-8 rule; the mass's degree 10
     # is not, as in the full solve's own elements (a part in 10^5)
     for name, rel in (("stiffness", 1e-9), ("laplacian", 1e-9), ("mass", 1e-4)):
         np.testing.assert_allclose(getattr(left, name) + getattr(right, name), getattr(whole, name),
                                    rtol=rel, atol=rel * np.abs(getattr(whole, name)).max())
+
+
+def test_a_patch_on_the_mesh_lines_has_the_full_solves_matrices(strip_model):
+    """A patch covering whole elements: its local forms are the full solve's assembled
+    stiffness and mass (`plate_modes.stiffness_and_mass`) with rigidity and mass 1 on its
+    elements and 0 elsewhere, on the dofs it touches and nowhere else."""
+    _, geometry, bare = strip_model
+    model = reduced_layouts.reduced_plate(bare)
+    patch = geometry.patches[0]
+    forms = model.patch_forms(tuple(float(b) for b in patch.bounds))
+    x0, x1, y0, y1 = patch.bounds
+    centres = model.mesh.p[:, model.mesh.t].mean(axis=1)
+    inside = ((centres[0] > x0) & (centres[0] < x1) & (centres[1] > y0) & (centres[1] < y1)).astype(float)
+    stiffness, mass = plate_modes.stiffness_and_mass(model.basis, inside, inside, bare.resonator.poisson)
+    on = np.ix_(forms.dofs, forms.dofs)
+    np.testing.assert_allclose(forms.local_stiffness, stiffness[on].toarray(), rtol=0,
+                               atol=1e-9 * abs(stiffness).max())
+    np.testing.assert_allclose(forms.local_mass, mass[on].toarray(), rtol=0, atol=1e-9 * abs(mass).max())
+    assert abs(stiffness).sum() == pytest.approx(abs(stiffness[on]).sum(), rel=1e-12)
 
 
 def test_the_solver_answers_other_plates_by_the_full_solve(strip_model):
@@ -138,6 +164,18 @@ def test_on_a_layouts_own_mesh_the_reduced_model_is_within_the_checks_limits(str
         assert reduced["force_factor_n_per_v"] == pytest.approx(full["force_factor_n_per_v"],
                                                                 rel=reduced_layouts.FORCE_TOLERANCE_REL)
     assert solve.full_solves == 0
+
+
+def test_a_sweeps_chunks_hold_every_layout_once_and_share_the_centre_columns(strip_layouts):
+    """Two workers' chunks: every layout in exactly one, a place's layouts (columns and
+    distance from the ends) in one chunk, and layouts with a centre column in both."""
+    spec, antinodes, grid = strip_layouts
+    _, chunks = layout_sweep.tasks(grid, spec, antinodes, chunks=2)
+    assert len(chunks) == 2
+    assert collections.Counter(layout for chunk in chunks for layout in chunk.layouts) == collections.Counter(grid)
+    places = [{(layout.columns, layout.edge_offset_mm) for layout in chunk.layouts} for chunk in chunks]
+    assert not places[0] & places[1]
+    assert all(any(layout.columns == "ends_and_centre" for layout in chunk.layouts) for chunk in chunks)
 
 
 def test_the_check_fails_on_one_deviation_and_agrees_on_two_refusals():
@@ -203,3 +241,46 @@ def test_design_without_layouts_builds_no_reduced_model(tmp_path, capsys, monkey
     path.write_text(dump_yaml(STRIP))
     assert cli.main(["design", str(path), "--no-layouts", "--out", str(tmp_path / "out"), "--json"]) == 0
     assert json.loads(capsys.readouterr().out)["layouts"] is None
+
+
+@pytest.fixture(scope="module")
+def large_plate_placements():
+    """The large plate's end columns flush with the ends and 4 mm in, two piezos a column
+    in either arrangement, on one sweep mesh (a line near every patch edge of the four)."""
+    spec = load_design_file(design_file("large_plate"))
+    antinodes = spec.mode.interior_antinodes
+    flush = spec.piezo.length_x_mm / 2
+    grid = [layouts.Layout("ends", offset_mm, 2, arrangement, 0.5)
+            for offset_mm in (flush, flush + 4.0) for arrangement in layouts.ARRANGEMENTS]
+    return spec, antinodes, grid, layout_sweep.bare_plate(spec, grid, antinodes)
+
+
+@pytest.mark.parametrize("index", range(4))
+def test_on_a_sweeps_mesh_flush_and_inset_patches_are_within_the_checks_limits(large_plate_placements, index):
+    """A patch flush with the plate's end and one 4 mm in, answered by the reduced model
+    on the sweep's mesh (not the layout's own), against the full solve on the layout's
+    own mesh: frequency within 0.2 %, force factor within 2 %, what the sweep's check asks."""
+    spec, antinodes, grid, bare = large_plate_placements
+    layout = grid[index]
+    solve = reduced_layouts.Solver(bare)
+    full = layout_sweep._working_point(layout, spec, antinodes)
+    reduced = layout_sweep._working_point(layout, spec, antinodes, solve)
+    assert full is not None and reduced is not None
+    assert reduced["frequency_hz"] == pytest.approx(full["frequency_hz"], rel=reduced_layouts.FREQUENCY_TOLERANCE_REL)
+    assert reduced["force_factor_n_per_v"] == pytest.approx(full["force_factor_n_per_v"],
+                                                            rel=reduced_layouts.FORCE_TOLERANCE_REL)
+    assert solve.full_solves == 0
+
+
+def test_a_sweep_on_a_dask_cluster_is_the_local_sweep():
+    """The reduced model's sweep through `--scheduler`'s route (a Dask cluster in this
+    process) gives the table of the local one."""
+    distributed = pytest.importorskip("distributed")
+    spec = strip()
+    values, grid = _small_sweep(spec)
+    local, note = sweep_layouts(spec, values, workers=1, grid=grid)
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=False,
+                                  dashboard_address=None) as cluster:
+        on_cluster, cluster_note = sweep_layouts(spec, values, workers=2, scheduler=cluster, grid=grid)
+    assert cluster_note == note
+    pd.testing.assert_frame_equal(on_cluster, local)
