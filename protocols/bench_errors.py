@@ -1,7 +1,7 @@
 """Total error of a campaign across simulated benches whose instruments err within spec.
 
 One simulated bench has one unknown set of systematic errors (`variants.systematic_effects`,
-drawn from its `bench_seed`). Running the campaign on several such benches and scoring
+drawn from its `bench_seed`) and its own reading noise (its scenes seeded with it). Running the campaign on several such benches and scoring
 every stored point against the scene's closed-form truth shows what a real bench can
 promise: noise averages away, the specified errors do not. A campaign that starts with
 the deskew calibration (`variants.with_calibration`) has its correction applied by the
@@ -57,11 +57,14 @@ def errors_on_bench(campaign_file: Path, bench_seed: int, work_dir: Path,
     COVERAGE_QUANTITIES) against the truth, with its expanded uncertainty; and the bench
     time. With `draw_plates` the plates too are drawn within their tolerances, erring and
     ideal benches alike (the coverage study; the accuracy study and the planner keep the
-    nominal plates their figures are about). `work_dir` is scratch: the run there is not
-    kept, so it is not made durable."""
+    nominal plates their figures are about). The erring bench reads its own noise too (its
+    scenes' seed is `bench_seed`): benches that shared one realisation of the noise would
+    score the same readings again, not independent ones. `work_dir` is scratch: the run
+    there is not kept, so it is not made durable."""
     plates = plate_draw_effects(bench_seed, error_model) if draw_plates else []
     erring = campaign_with_effects(campaign_file, work_dir / "erring",
-                                   systematic_effects(bench_seed, error_model=error_model) + plates)
+                                   systematic_effects(bench_seed, error_model=error_model) + plates,
+                                   noise_seed=bench_seed)
     campaign_with_effects(campaign_file, work_dir / "plain", plates)   # the same plates without the errors
     run_dir = run_campaign(erring, out_dir=work_dir / "run", progress=False, durable=False)
     run = load_run(run_dir)

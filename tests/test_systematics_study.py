@@ -5,6 +5,7 @@ at its bench time."""
 from __future__ import annotations
 
 import dataclasses
+from pathlib import Path
 
 import pandas as pd
 import pytest
@@ -183,3 +184,44 @@ def test_the_whole_campaign_on_erring_benches_scores_every_stored_point(tmp_path
     assert plain["p95_abs_rel_error"] > 0.005   # the benches' errors
     floors = floors_table(summary).set_index(["point", "quantity"])
     assert floors.loc[("campaign", "power_w"), "benches"] == 2
+
+
+def test_two_benches_read_their_own_noise(tmp_path, monkeypatch):
+    """Bench k's scenes carry seed k (`errors_on_bench`): two benches read different noise at
+    the same setting of the same plate, one bench reads its own again; a study scoring the
+    scene's one noise realisation on every bench would count the same readings N times."""
+    import numpy as np
+
+    from squeezebench import paths
+    from squeezebench.instruments.bench import open_bench, sim_bench_config
+    from squeezebench.protocols import bench_errors
+    from squeezebench.yamlfiles import load_strict
+
+    erring: dict[int, Path] = {}
+
+    class Stop(Exception):
+        pass
+
+    def capture(campaign, **kwargs):
+        erring[len(erring) + 1] = Path(campaign)
+        raise Stop
+
+    monkeypatch.setattr(bench_errors, "run_campaign", capture)
+    for seed in (1, 2):
+        with pytest.raises(Stop):
+            bench_errors.errors_on_bench(paths.campaigns_dir() / "quick.yaml", seed, tmp_path / f"bench{seed}")
+
+    def scene_of(seed: int) -> Path:
+        return Path(load_strict(erring[seed].read_text())["bench"]["scene"])
+
+    def reading(scene: Path):
+        with open_bench(sim_bench_config(scene)) as bench:
+            simulated = bench.resource_manager.visalib.bench
+            bench.generator.set_frequency(37000.0)
+            bench.generator.set_amplitude_vpp(1.0)
+            bench.scope.acquire()
+            return np.array(simulated.scope.record().values, dtype=float)
+
+    assert [load_strict(scene_of(seed).read_text())["seed"] for seed in (1, 2)] == [1, 2]
+    first, second, again = reading(scene_of(1)), reading(scene_of(2)), reading(scene_of(1))
+    assert np.abs(first - second).max() > 0 and np.array_equal(first, again)
