@@ -204,17 +204,26 @@ def coverage_table(points: pd.DataFrame) -> pd.DataFrame:
     drawn with replacement, the pooled fraction of each resample; seeded): a bench is covered
     nearly wholly or hardly at all, and few benches leave the fraction uncertain.
     `p95_error_over_u`: the 95th percentile of |error| / U (below 1 where U over-covers: a U
-    that factor as wide would still cover 95 %)."""
+    that factor as wide would still cover 95 %). `benches_beyond_specification`: benches with
+    an instrument erring beyond what its specification claims (`bench_errors._beyond_specification`;
+    the world's, now and then), and `covered_fraction_within_specification` the fraction over
+    the others: what the budgets promise."""
     if "error_model" not in points:
         points = points.assign(error_model="specified")
+    if "beyond_specification" not in points:   # stored before benches were told apart
+        points = points.assign(beyond_specification=False)
     rows = []
     for (model, quantity), group in points.groupby(["error_model", "quantity"], sort=False):
+        within = group[~group["beyond_specification"].astype(bool)]
         by_bench = group.groupby("bench_seed")["covered"].agg(["sum", "size"])
         low, high = bench_bootstrap_interval(by_bench["sum"].to_numpy(float), by_bench["size"].to_numpy(float))
         rows.append({"error_model": model, "quantity": quantity, "benches": len(by_bench), "points": len(group),
                      "covered_fraction": float(group["covered"].mean()),
                      "coverage_interval_low": low, "coverage_interval_high": high,
                      "benches_fully_covered": int((by_bench["sum"] == by_bench["size"]).sum()),
+                     "benches_beyond_specification": len(by_bench) - int(within["bench_seed"].nunique()),
+                     "covered_fraction_within_specification": float(within["covered"].mean()) if len(within)
+                     else float("nan"),
                      "median_rel_expanded_u": float(group["rel_expanded_u"].median()),
                      "p95_error_over_u": float(np.percentile(group["rel_error"].abs() / group["rel_expanded_u"],
                                                              ERROR_PERCENTILE))})
@@ -242,7 +251,16 @@ def coverage_lines(table: pd.DataFrame, quantity_words=str) -> list[str]:
             f"(bench bootstrap 95 % interval {row.coverage_interval_low:.1%} to {row.coverage_interval_high:.1%}), "
             f"p95 |error| / U {row.p95_error_over_u:.2f}, "
             f"{row.points} values on {row.benches} benches, {COVERAGE_MODELS.get(row.error_model, row.error_model)}"
-            for row in table.itertuples()]
+            + _beyond_words(row) for row in table.itertuples()]
+
+
+def _beyond_words(row) -> str:
+    """What the benches whose instruments err beyond their specification take from a row."""
+    if not getattr(row, "benches_beyond_specification", 0):
+        return ""
+    return (f"; {row.covered_fraction_within_specification:.1%} on the "
+            f"{row.benches - row.benches_beyond_specification} whose instruments are all within specification "
+            f"({row.benches_beyond_specification} have one beyond it, outside what the specifications claim)")
 
 
 def _setting(value) -> str:

@@ -38,6 +38,17 @@ def without_maps(campaign_file: Path) -> Path:
     return _keep_runs(campaign_file, lambda run: run.get("protocol") not in MAP_PROTOCOLS)
 
 
+def coarser_maps(campaign_file: Path, factor: float) -> Path:
+    """Rewrite the campaign file with each map run's grid step `factor` times its own (the
+    same area, fewer points)."""
+    data = load_strict(Path(campaign_file).read_text(encoding="utf-8"))
+    for run in data["runs"]:
+        if run.get("protocol") in MAP_PROTOCOLS:
+            run["parameters"]["grid"]["step_mm"] = float(run["parameters"]["grid"]["step_mm"]) * factor
+    Path(campaign_file).write_text(dump_yaml(data), encoding="utf-8")
+    return Path(campaign_file)
+
+
 def only_run(campaign_file: Path, name: str) -> Path:
     """Rewrite the campaign file with run `name` alone: each run opens a bench of its own,
     so it takes the same bench time alone as within the campaign (a planner times runs apart,
