@@ -166,6 +166,10 @@ COLUMNS: dict[str, tuple[str, str]] = {
     "calibrated_bench_time_s": ("s", "bench time per trial there, the calibration's included"),
     "covered_fraction": ("1", "values whose expanded uncertainty covers the truth, over all benches"),
     "benches_fully_covered": ("1", "benches on which every value is covered"),
+    "benches_beyond_specification": ("1", "benches with an instrument erring beyond the limit its budgets claim "
+                                          "(outside what the specifications claim; the world model's, now and then)"),
+    "covered_fraction_within_specification": ("1", "covered_fraction over the benches whose instruments are all "
+                                                   "within specification"),
     "coverage_interval_low": ("1", "bench-bootstrap 95 % interval of covered_fraction (benches resampled): low end"),
     "coverage_interval_high": ("1", "bench-bootstrap 95 % interval of covered_fraction (benches resampled): high end"),
     "median_rel_expanded_u": ("1", "median relative expanded uncertainty of the points (k for 95 % under each budget)"),

@@ -193,6 +193,40 @@ def load_coverage(run_dir: Path) -> pd.DataFrame | None:
                       for frame in frames], ignore_index=True)
 
 
+#: The design's predictions the report prints with a U (`plates.predicted_plates.predictions`,
+#: k = 2) that have a truth independent of the model: the paper's printed measurement of the
+#: same plate. Quantity -> (predicted, its U, printed) columns.
+DESIGN_PREDICTIONS = {
+    "predicted_frequency_hz": ("predicted_frequency_hz", "predicted_frequency_u_hz", "printed_frequency_hz"),
+    "predicted_velocity_pp_mps": ("predicted_velocity_pp_mps", "predicted_velocity_u_pp_mps", "printed_velocity_pp_mps"),
+    "predicted_power_w": ("predicted_power_w", "predicted_power_u_w", "printed_power_w"),
+}
+#: The error model of the design's rows: each plate is one unit, as a bench is.
+DESIGN_MODEL = "paper"
+
+
+def design_coverage_points() -> pd.DataFrame:
+    """Coverage rows of the design's predictions (`DESIGN_PREDICTIONS`) against the paper's
+    printed values, one per plate and quantity (a printed value the paper lacks is left out);
+    each plate is its own unit (`bench_seed`), the plate model's inputs being its own."""
+    from squeezebench.plates import predicted_plates
+
+    frame = predicted_plates.predictions()
+    rows = []
+    for unit, plate in enumerate(frame.to_dict("records"), start=1):
+        for quantity, (value, expanded, printed) in DESIGN_PREDICTIONS.items():
+            true = float(plate[printed])
+            if not np.isfinite(true):
+                continue
+            rows.append({"run_name": f"{plate['table']} {plate['item']}", "quantity": quantity,
+                         "measured_value": float(plate[value]), "true_value": true,
+                         "rel_error": float(plate[value]) / true - 1.0,
+                         "rel_expanded_u": float(plate[expanded]) / abs(true),
+                         "covered": abs(float(plate[value]) - true) <= float(plate[expanded]),
+                         "error_model": DESIGN_MODEL, "bench_seed": unit, "beyond_specification": False})
+    return pd.DataFrame(rows)
+
+
 #: Bench-bootstrap resamples of a coverage figure (seeded: a figure reads the same twice).
 COVERAGE_BOOTSTRAP_DRAWS = 4000
 
@@ -241,7 +275,9 @@ def bench_bootstrap_interval(covered: np.ndarray, counts: np.ndarray, draws: int
 
 #: How a coverage study's benches erred, in words (protocols.variants.ERROR_MODELS).
 COVERAGE_MODELS = {"specified": "benches within specification (instruments and plate tolerances)",
-                   "world": "benches erring as the world errs (instruments and plate tolerances)"}
+                   "world": "benches erring as the world errs (instruments and plate tolerances)",
+                   DESIGN_MODEL: "the paper's plates, the design's prediction against the printed measurement "
+                                 "(a 'bench' is a plate)"}
 
 
 def coverage_lines(table: pd.DataFrame, quantity_words=str) -> list[str]:

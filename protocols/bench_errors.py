@@ -39,7 +39,7 @@ from squeezebench.plates.specifications import SPECIFICATIONS
 from squeezebench.protocols.campaign import run_campaign
 from squeezebench.protocols.parallel import map_unordered
 from squeezebench.protocols.storage import sha256_file, write_frame_atomic
-from squeezebench.protocols.variants import (PLATE_DRAW_EFFECT, SYSTEMATIC_EFFECTS, campaign_with_effects,
+from squeezebench.protocols.variants import (MAP_PROTOCOLS, PLATE_DRAW_EFFECT, SYSTEMATIC_EFFECTS, campaign_with_effects,
                                              coarser_maps, plate_draw_effects, systematic_effects)
 
 QUANTITIES = ("power_w", "velocity_pp_mps")
@@ -83,7 +83,11 @@ def errors_on_bench(campaign_file: Path, bench_seed: int, work_dir: Path,
     run_dir = run_campaign(erring, out_dir=work_dir / "run", progress=False, durable=False)
     run = load_run(run_dir)
     found = run_uncertainties(run)
-    points = found.points
+    # a map's points and its centre's search are read where the stage put the spot, which the
+    # truth at the scene's measurement point does not describe: its homogeneity is scored instead
+    maps_run = set(run.protocol(MAP_PROTOCOLS[0])["run_name"]) if maps else set()
+    points = found.points[~found.points["run_name"].isin(maps_run)]
+    searches = found.searches[~found.searches["run_name"].isin(maps_run)] if len(found.searches) else found.searches
     truths = _truths(points, work_dir / "plain")
     rows = [_scored(point, quantity, point[quantity], truths[index][quantity], point[f"{quantity}_U"])
             for index, point in points.iterrows() for quantity in QUANTITIES if quantity in quantities]
@@ -94,7 +98,7 @@ def errors_on_bench(campaign_file: Path, bench_seed: int, work_dir: Path,
     if "power_ratio" in quantities:
         rows += _power_ratios(run, points, truths)
     if "resonance_frequency_hz" in quantities:
-        rows += _resonance_frequencies(run, found.searches, work_dir / "plain")
+        rows += _resonance_frequencies(run, searches, work_dir / "plain")
     if {"q", "tan_theta"} & set(quantities):
         rows += [row for row in _characterisations(run, points, truths, work_dir / "plain")
                  if row["quantity"] in quantities]
@@ -213,7 +217,7 @@ def _map_homogeneities(run, plain_dir: Path) -> list[dict]:
     `cartography.summarise_map`, U from the points' noise) scored against the same figures
     of what ideal instruments read at each mapped point: the plate without the errors driven
     at the point's generator setting, the spot where the stage put it."""
-    rows_of = run.protocol("cartography")
+    rows_of = run.protocol(MAP_PROTOCOLS[0])
     if rows_of.empty:
         return []
     truths = {}
