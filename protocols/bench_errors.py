@@ -325,8 +325,8 @@ def run_coverage_study(out_dir: Path, benches: int, campaign_file: Path | None =
     paper's by default) on benches 1..`benches` with errors drawn within specification
     (`error_model` "specified", what the budgets assume) or as the world may err ("world":
     normal, a probe lag of known sign, now and then an instrument out of specification),
-    each bench's plates drawn within their tolerances under the same model, every stored
-    point scored. Each bench's rows go to
+    each bench's plates drawn within their tolerances under the same model and its noise its
+    own, every stored point and each map's homogeneity (`MAP_QUANTITIES`) scored. Each bench's rows go to
     OUT_DIR/study/<coverage_dir(error_model)>/bench_<k>.parquet as it completes (`resume`
     keeps those already there of the same campaign file); all of them to points.parquet
     beside them. Returns that path."""
