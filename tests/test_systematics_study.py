@@ -254,3 +254,23 @@ def test_the_coverage_study_scores_the_maps_homogeneity_against_the_ideal_readin
     assert abs(cv["rel_error"]) < 1e-3 and bool(cv["covered"])
     assert not points["beyond_specification"].any()
     assert set(coverage_table(load_coverage(tmp_path))["quantity"]) == set(MAP_QUANTITIES)
+
+
+def test_benches_beyond_specification_are_counted_and_the_others_coverage_is_given_beside():
+    """A world bench whose instrument errs beyond its limit is outside what the budgets
+    claim: the table counts such benches and gives the coverage over the rest, and the line
+    says so; a table without them says nothing of it."""
+    from squeezebench.analysis.study import coverage_lines, coverage_table
+
+    rows = [{"quantity": "velocity_pp_mps", "bench_seed": seed, "covered": covered, "rel_error": 0.01,
+             "rel_expanded_u": 0.02, "error_model": "world", "beyond_specification": seed == 3}
+            for seed, covered in ((1, True), (1, True), (2, True), (2, False), (3, False), (3, False))]
+    table = coverage_table(pd.DataFrame(rows))
+    row = table.iloc[0]
+    assert row["covered_fraction"] == pytest.approx(3 / 6) and row["benches_beyond_specification"] == 1
+    assert row["covered_fraction_within_specification"] == pytest.approx(3 / 4)
+    line = coverage_lines(table)[0]
+    assert "75.0% on the 2 whose instruments are all within specification" in line
+    assert "outside what the specifications claim" in line
+    within = coverage_table(pd.DataFrame(rows).assign(beyond_specification=False))
+    assert "specification claim" not in coverage_lines(within)[0]
