@@ -47,10 +47,11 @@ QUANTITIES = ("power_w", "velocity_pp_mps")
 #: velocity's relative budget), and the values the report derives with a U of their own:
 #: Fig. 2's Pt/P0, each search's resonance frequency, and each characterised plate's Q and
 #: tan theta' (Fig. 5, Table 5), against the plate as drawn within its tolerances.
-#: A map's homogeneity figures (Fig. 7's table: coefficient of variation and area above the
-#: share of the peak, each with its U) against the same figures of the ideal readings at the
+#: A map's figures with a U (Fig. 7's table: coefficient of variation, area above the share
+#: of the peak, mean and peak velocity) against the same figures of the ideal readings at the
 #: map's points; scored when asked for, on the campaign's map runs (`MAP_PROTOCOLS`).
-MAP_QUANTITIES = ("map_coefficient_of_variation", "map_fraction_above_share")
+MAP_QUANTITIES = ("map_coefficient_of_variation", "map_fraction_above_share", "map_mean_velocity_pp_mps",
+                  "map_max_velocity_pp_mps")
 COVERAGE_QUANTITIES = (*QUANTITIES, "amplitude_pp_m", "power_ratio", "resonance_frequency_hz", "q", "tan_theta",
                        *MAP_QUANTITIES)
 #: The coverage study maps at this multiple of each map's grid step: a quarter of the points
@@ -240,10 +241,11 @@ def _map_homogeneities(run, plain_dir: Path) -> list[dict]:
                                      .itertuples(index=False)]), measured["share_of_peak"])
         where = {"run_name": run_name, "step_id": str(rows_of.loc[rows_of["run_name"] == run_name, "step_id"].iat[0]),
                  "point_index": 0}
-        scored += [_scored(where, "map_coefficient_of_variation", measured["coefficient_of_variation"],
-                           true.coefficient_of_variation, measured["coefficient_of_variation_U"]),
-                   _scored(where, "map_fraction_above_share", measured["fraction_above_share"],
-                           true.fraction_above_share, measured["fraction_above_share_U"])]
+        scored += [_scored(where, f"map_{figure}", measured[figure], true_value, measured[f"{figure}_U"])
+                   for figure, true_value in (("coefficient_of_variation", true.coefficient_of_variation),
+                                              ("fraction_above_share", true.fraction_above_share),
+                                              ("mean_velocity_pp_mps", true.mean),
+                                              ("max_velocity_pp_mps", true.maximum))]
     return scored
 
 
