@@ -22,6 +22,8 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
+from squeezebench.analysis.budgets import Budget, Term
+
 
 @dataclass(frozen=True)
 class Homogeneity:
@@ -120,14 +122,14 @@ def nodal_lines_m(x_m: np.ndarray, signed: np.ndarray) -> np.ndarray:
     return sign_changes(profile.index.to_numpy(), profile.to_numpy())
 
 
-def velocity_scale_rel_u() -> float:
-    """Relative standard uncertainty of the factor every velocity of a map shares (the Type
-    B terms of a point's velocity budget: CH3 gain and the decoder's scale). One bench, one
+def velocity_scale_terms(velocity: float) -> tuple:
+    """The Type B terms of a point's velocity budget (CH3 gain and the decoder's scale,
+    rectangles) at `velocity`: the factor every velocity of a map shares. One bench, one
     factor: it scales the map's mean and peak, never its shape or homogeneity."""
     from squeezebench.analysis.uncertainty import velocity_budget
 
-    unit = velocity_budget({"velocity_pp_mps": 1.0, "velocity_pp_mps_u": 0.0, "frequency_hz": 0.0})
-    return math.sqrt(sum(t.std_uncertainty**2 for t in unit.terms if t.type == "B"))
+    unit = velocity_budget({"velocity_pp_mps": velocity, "velocity_pp_mps_u": 0.0, "frequency_hz": 0.0})
+    return tuple(t for t in unit.terms if t.type == "B" and t.std_uncertainty > 0)
 
 
 #: The vibration amplitude a fingertip needs to feel the squeeze-film effect, about 1 µm pp
@@ -142,11 +144,12 @@ def amplitude_pp_m(velocity_pp_mps: float, frequency_hz: float) -> float:
 
 def summarise_map(points: pd.DataFrame, predicted: np.ndarray | None = None, share_of_peak: float = 0.5,
                   seed: int = 0) -> dict:
-    """The numbers a designer reads off one map, each with its expanded uncertainty (k = 2):
-    the points' own noise (their fits' standard uncertainties, drawn NOISE_DRAWS times,
-    seeded), and for the velocities (mean, peak) the scale all points share
-    (`velocity_scale_rel_u`), which does not average away. With `predicted` (the model's
-    shape at the same points) the modal assurance criterion of the signed map against it."""
+    """The numbers a designer reads off one map, each with its expanded uncertainty (k for
+    95 % under its budget's distribution, `budgets.Budget`): the points' own noise (their
+    fits' standard uncertainties, drawn NOISE_DRAWS times, seeded: normal), and for the
+    velocities (mean, peak) the scale all points share (`velocity_scale_terms`: rectangles),
+    which does not average away. With `predicted` (the model's shape at the same points)
+    the modal assurance criterion of the signed map against it."""
     touch = points[points["in_touch_area"]]
     amplitude = touch["velocity_pp_mps"].to_numpy()
     h = homogeneity(amplitude, share_of_peak)
@@ -154,18 +157,19 @@ def summarise_map(points: pd.DataFrame, predicted: np.ndarray | None = None, sha
     drawn = amplitude + rng.normal(size=(NOISE_DRAWS, amplitude.size)) * touch["velocity_pp_mps_u"].to_numpy()
     spread = [homogeneity(d, share_of_peak) for d in drawn]
 
-    def expanded(attribute: str, scale_rel_u: float = 0.0) -> float:
-        noise_u = float(np.std([getattr(s, attribute) for s in spread], ddof=1))
-        return 2 * math.hypot(noise_u, scale_rel_u * getattr(h, attribute))
-
-    scale_rel_u = velocity_scale_rel_u()
+    def expanded(attribute: str, scaled: bool = False) -> float:
+        noise = Term("points' noise", "A", float(np.std([getattr(s, attribute) for s in spread], ddof=1)),
+                     f"{NOISE_DRAWS} draws of the points' record-fit noise")
+        value = getattr(h, attribute)
+        shared = velocity_scale_terms(value) if scaled else ()
+        return Budget(attribute, "1", value, (noise, *shared)).expanded_uncertainty
 
     lines = nodal_lines_m(points["x_m"].to_numpy(), points["signed_velocity_pp_mps"].to_numpy())
     summary = {
         "n_points": len(points), "n_touch_points": h.n_points,
-        "mean_velocity_pp_mps": h.mean, "mean_velocity_pp_mps_U": expanded("mean", scale_rel_u),
+        "mean_velocity_pp_mps": h.mean, "mean_velocity_pp_mps_U": expanded("mean", scaled=True),
         "min_velocity_pp_mps": h.minimum, "max_velocity_pp_mps": h.maximum,
-        "max_velocity_pp_mps_U": expanded("maximum", scale_rel_u),
+        "max_velocity_pp_mps_U": expanded("maximum", scaled=True),
         "coefficient_of_variation": h.coefficient_of_variation,
         "coefficient_of_variation_U": expanded("coefficient_of_variation"),
         "share_of_peak": share_of_peak, "fraction_above_share": h.fraction_above_share,

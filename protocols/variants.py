@@ -38,6 +38,17 @@ def without_maps(campaign_file: Path) -> Path:
     return _keep_runs(campaign_file, lambda run: run.get("protocol") not in MAP_PROTOCOLS)
 
 
+def coarser_maps(campaign_file: Path, factor: float) -> Path:
+    """Rewrite the campaign file with each map run's grid step `factor` times its own (the
+    same area, fewer points)."""
+    data = load_strict(Path(campaign_file).read_text(encoding="utf-8"))
+    for run in data["runs"]:
+        if run.get("protocol") in MAP_PROTOCOLS:
+            run["parameters"]["grid"]["step_mm"] = float(run["parameters"]["grid"]["step_mm"]) * factor
+    Path(campaign_file).write_text(dump_yaml(data), encoding="utf-8")
+    return Path(campaign_file)
+
+
 def only_run(campaign_file: Path, name: str) -> Path:
     """Rewrite the campaign file with run `name` alone: each run opens a bench of its own,
     so it takes the same bench time alone as within the campaign (a planner times runs apart,
@@ -77,9 +88,11 @@ def plate_draw_effects(bench_seed: int, error_model: str = "specified") -> list[
     return [{PLATE_DRAW_EFFECT: {"draw": ERROR_MODELS[error_model], "bench_seed": int(bench_seed)}}]
 
 
-def campaign_with_effects(campaign_file: Path, out_dir: Path, effects: list) -> Path:
-    """Write `out_dir/<campaign>` whose every scene also lists `effects`, without its map
-    runs (`MAP_PROTOCOLS`); return its path.
+def campaign_with_effects(campaign_file: Path, out_dir: Path, effects: list, noise_seed: int | None = None,
+                          keep_maps: bool = False) -> Path:
+    """Write `out_dir/<campaign>` whose every scene also lists `effects` (and reads its noise
+    from `noise_seed`, when given: `scene_with_effects`), without its map runs
+    (`MAP_PROTOCOLS`) unless `keep_maps`; return its path.
 
     Scenes are found where the campaign runner finds them (`paths.scenes_dir()`, or an
     absolute path); effects a scene already lists keep its own parameters.
@@ -91,7 +104,7 @@ def campaign_with_effects(campaign_file: Path, out_dir: Path, effects: list) -> 
 
     def copy_scene(value: str) -> str:
         if value not in copies:
-            copies[value] = str(scene_with_effects(value, out_dir, effects).resolve())
+            copies[value] = str(scene_with_effects(value, out_dir, effects, noise_seed).resolve())
         return copies[value]
 
     def walk(node: Any) -> Any:
@@ -105,16 +118,20 @@ def campaign_with_effects(campaign_file: Path, out_dir: Path, effects: list) -> 
     campaign.pop("output_dir", None)
     target = out_dir / Path(campaign_file).name
     target.write_text(dump_yaml(campaign))
-    return without_maps(target)
+    return target if keep_maps else without_maps(target)
 
 
-def scene_with_effects(scene: str | Path, out_dir: Path, effects: list) -> Path:
+def scene_with_effects(scene: str | Path, out_dir: Path, effects: list, noise_seed: int | None = None) -> Path:
     """A copy of `scene` (a name in `paths.scenes_dir()` or a path) in `out_dir` that also
-    lists `effects`; effects it already lists keep its own parameters."""
+    lists `effects`; effects it already lists keep its own parameters. With `noise_seed` the
+    copy's `seed` (its reading noise's stream) is that: another bench is other readings, not
+    the scene's one realisation of them again."""
     source = Path(scene) if Path(scene).is_absolute() else paths.scenes_dir() / scene
     data = load_strict(source.read_text())
     listed = {_effect_name(e) for e in data.get("effects", [])}
     data["effects"] = list(data.get("effects", [])) + [e for e in effects if _effect_name(e) not in listed]
+    if noise_seed is not None:
+        data["seed"] = int(noise_seed)
     Path(out_dir).mkdir(parents=True, exist_ok=True)
     target = Path(out_dir) / source.name
     target.write_text(dump_yaml(data))

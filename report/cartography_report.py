@@ -126,7 +126,7 @@ def cartography_section(context: ReportContext) -> Section | None:
         "area above share of peak (%)", "width uniformity", "nodal-line spacing (mm)", "MAC with model"]]
     body += fold("Homogeneity of each map as numbers, with the voltage that reaches the haptics criterion",
                  html_table(shown.rename(columns={"run_name": "map", "n_points": "points"}),
-                            "homogeneity of each map's touch area, ± U (k = 2): the points' noise, and for velocities "
+                            "homogeneity of each map's touch area, ± U (k for 95 % under its budget): the points' noise, and for velocities "
                             "the scale all points share (CH3 gain, decoder)"))
     context.tables["map_summary"] = summaries
     context.tables["map_points"] = pd.concat(maps.values(), ignore_index=True)

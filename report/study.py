@@ -159,7 +159,7 @@ def _coverage_part(context: ReportContext) -> str:
         context.absent.append("Coverage of the uncertainties on erring benches: not run ('squeezebench study "
                               "--out RUN_DIR --resume' adds it: the paper campaign on 40 benches, a few minutes)")
         return ""
-    table = study.coverage_table(points)
+    table = study.coverage_table(pd.concat([points, study.design_coverage_points()], ignore_index=True))
     context.tables["study_coverage"] = table
     campaign = str(points["campaign"].iat[0]) if "campaign" in points else "the campaign"
     words = "; ".join(study.coverage_lines(table, words_of))
@@ -167,16 +167,22 @@ def _coverage_part(context: ReportContext) -> str:
             f"<p>{html.escape(campaign)} run on up to {table['benches'].max()} simulated benches (bench k: "
             "errors drawn from seed k), every expanded uncertainty (analysis.uncertainty) the report "
             "prints on a stored point (power, velocity, amplitude), on Fig. 2's Pt/P0, on each resonance "
-            "frequency and on each characterised plate's Q and tan theta' compared with the truth at its setting; "
-            "each bench's plates are drawn within their geometry's and materials' tolerances (simbench.plate_draws), "
-            "and Q and tan theta' are scored against the plate as drawn, which the report reads with the nominal "
-            "inputs. Benches 'within specification' "
-            "err as the budgets assume (uniformly within each limit); 'as the world errs' do not (normal "
-            "errors, a current probe lagging by about 8 ns, one bench in 13 with an error beyond its "
-            f"specification): the test a budget can fail. {html.escape(words)}. A bench's errors are "
+            "frequency, on each characterised plate's Q and tan theta' and on each map's figures "
+            "(coefficient of variation, area above the share of the peak, mean and peak velocity; the map at "
+            "twice its grid step) "
+            "compared with the truth at its setting; each bench reads its own noise, and its plates are drawn "
+            "within their geometry's and materials' tolerances (simbench.plate_draws): Q and tan theta' are "
+            "scored against the plate as drawn, which the report reads with the nominal inputs. Benches "
+            "'within specification' err as the budgets assume (uniformly within each limit); 'as the world "
+            "errs' do not (normal errors with half the limit as their spread, so about one in 20 beyond it, "
+            "a current probe lagging by about 8 ns, one error in 100 at 1.5 times its limit): the test a "
+            "budget can fail. A world bench with an instrument beyond its specification errs outside what "
+            "the specifications claim, and no budget built on them promises to cover it: each line gives "
+            "the coverage on the others too. The design's predictions (physics section, U with k = 2) are "
+            "scored against the paper's printed measurement of the same plate, a plate for a bench. "
+            f"{html.escape(words)}. A bench's errors are "
             "shared by all its values, so a bench is covered almost wholly or hardly at all: the interval "
-            "resamples benches, and a handful of them decides it. The map's homogeneity is not scored (the "
-            "studies leave map runs out).</p>"
+            "resamples benches, and a handful of them decides it.</p>"
             + presentation.fold("Coverage per quantity, as a table", html_table(
                 table, "Coverage of the expanded uncertainties over simulated benches "
                        "(study_coverage.csv). Simulated bench.")))

@@ -394,12 +394,14 @@ def _run_coverage(args: argparse.Namespace, out: Path, benches: int) -> None:
 
         import pandas as pd
 
-        from squeezebench.analysis.study import coverage_lines, coverage_table
+        from squeezebench.analysis.study import coverage_lines, coverage_table, design_coverage_points
 
         error_model = getattr(args, "coverage_errors", "specified")
         stored = run_coverage_study(out, benches, resume=args.resume, workers=args.workers, scheduler=args.scheduler,
                                     progress=lambda message: say(args, message), error_model=error_model)
-        for line in coverage_lines(coverage_table(pd.read_parquet(stored).assign(error_model=error_model))):
+        scored = pd.concat([pd.read_parquet(stored).assign(error_model=error_model), design_coverage_points()],
+                           ignore_index=True)   # the design's predictions against the paper's print
+        for line in coverage_lines(coverage_table(scored)):
             print(f"coverage: {line}", flush=True)
 
 
