@@ -27,7 +27,9 @@ def command(argv: list[str] | None = None) -> int:
         from squeezebench import cli
 
         status = cli.main(argv)
-    except KeyboardInterrupt:   # before the command's own handler could take it
+    except BaseException as exc:   # a stop before the command's own handler could take it
+        if stops.stop_in(exc) is None:
+            raise
         status = _interrupted()
     return EXIT_INTERRUPTED if stops.received() else status
 
@@ -37,8 +39,10 @@ def main(argv: list[str] | None = None) -> int:
         stops.take_over()   # inside: a signal between two of its installs raises here
         status = command(argv)
         stops.hold()   # a signal from here on cannot raise where nothing would catch it
-    except KeyboardInterrupt:   # the first signal, outside the command's own handlers
+    except BaseException as exc:   # the first signal, outside the command's own handlers
         stops.hold()
+        if stops.stop_in(exc) is None:
+            raise
         status = _interrupted()
     status = EXIT_INTERRUPTED if stops.received() else status
     # A signal recorded until here makes the status 130; one after it finds the signal

@@ -354,11 +354,14 @@ def main(argv: list[str] | None = None) -> int:
         if getattr(args, "json", False):
             emit_json({"command": args.command, "error": str(exc)})
         return EXIT_USER_ERROR
-    except KeyboardInterrupt as exc:
-        from squeezebench.stops import generator_state
+    except BaseException as exc:
+        from squeezebench.stops import generator_state, stop_in
 
+        stop = stop_in(exc)   # the stop itself, or a stop the interpreter wrapped in another error
+        if stop is None:
+            raise
         state = generator_state()
-        print(f"squeezebench {args.command}: interrupted ({exc or 'KeyboardInterrupt'}); "
+        print(f"squeezebench {args.command}: interrupted ({stop or 'KeyboardInterrupt'}); "
               f"{state + '; ' if state else ''}completed steps are stored, use --resume to continue",
               file=sys.stderr)
         return EXIT_INTERRUPTED

@@ -81,6 +81,21 @@ def raise_if_stopped() -> None:
         raise KeyboardInterrupt(f"stopped by {_received[0]}")
 
 
+def stop_in(exc: BaseException | None) -> KeyboardInterrupt | None:
+    """The stop's KeyboardInterrupt that `exc` is or wraps, else None: the interpreter re-raises an
+    exception from a descriptor's `__set_name__` as RuntimeError (Python 3.11; a class body
+    run by an import, such as numpy's `finfo`, can take the signal there, its cause the
+    stop), so the stop is looked for down the causes. Not the contexts: an error raised while
+    a stop was being handled (the generator lost during its bring-down) is that error."""
+    seen: set[int] = set()
+    while exc is not None and id(exc) not in seen:
+        if isinstance(exc, KeyboardInterrupt):
+            return exc
+        seen.add(id(exc))
+        exc = exc.__cause__
+    return None
+
+
 def _install() -> dict[signal.Signals, object]:
     """Every stop signal the process does not ignore to `_on_stop`; the dispositions replaced."""
     previous = {}
