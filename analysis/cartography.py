@@ -18,11 +18,13 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Callable
 
 import numpy as np
 import pandas as pd
 
 from squeezebench.analysis.budgets import Budget, Term
+from squeezebench.plates.specifications import SPECIFICATIONS
 
 
 @dataclass(frozen=True)
@@ -132,6 +134,55 @@ def velocity_scale_terms(velocity: float) -> tuple:
     return tuple(t for t in unit.terms if t.type == "B" and t.std_uncertainty > 0)
 
 
+def retuning_log_levels(setting_hz: np.ndarray, resonance_q: float, frequency_error_rel: float) -> np.ndarray:
+    """ln of the factor a generator frequency error e puts on each point's velocity when a
+    map's steps are driven at settings f_i of their own (each step re-tracks the resonance).
+
+    Near the top of v = v0 / sqrt(1 + k^2 (f - f0)^2), k = 2 Q / f0 (the curve
+    `resonance_searches.mechanical_q_from_sweep` fits), d ln v / d f = -k^2 (f - f0); the
+    error moves every drive by e f_i, so ln(v_i read / v_i at the setting) = -k^2 (f_i - f0) e f_i
+    to first order in e. Taken about the map's mean setting: the part every point shares
+    scales the map and leaves its shape alone; what is left is a level step between the
+    map's steps, as large as k^2 e f times their settings' spread (a few Hz), which the
+    homogeneity figures do feel."""
+    setting_hz = np.asarray(setting_hz, dtype=float)
+    k = 2.0 * resonance_q / float(setting_hz.mean())
+    return -(k**2) * (setting_hz - setting_hz.mean()) * frequency_error_rel * setting_hz
+
+
+def retuning_term(figure: Callable[[np.ndarray], float], amplitude: np.ndarray, setting_hz: np.ndarray,
+                  resonance_q: float) -> Term:
+    """Type B term of a map figure for the generator's frequency error (a rectangle,
+    `plates.specifications`) through the steps' level steps (`retuning_log_levels`): its
+    sensitivity by the central difference over +-the specified limit (GUM 5.1.3: a
+    sensitivity coefficient may be evaluated numerically), times the error's standard
+    uncertainty."""
+    spec = SPECIFICATIONS["generator_frequency"]
+    moved = [figure(amplitude * np.exp(retuning_log_levels(setting_hz, resonance_q, sign * spec.half_width)))
+             for sign in (1.0, -1.0)]
+    return Term("generator frequency (steps re-tuned)", "B",
+                abs(moved[0] - moved[1]) / (2.0 * spec.half_width) * spec.std_uncertainty, spec.source)
+
+
+def map_resonance_q(run, run_name: str) -> float | None:
+    """Q of the resonance the map's first step searched (its sweep at the reference point,
+    `resonance_searches.mechanical_q_from_sweep` about the strongest reading); None when
+    the run stored no sweep or the sweep shows no peak."""
+    from squeezebench.analysis import tables
+    from squeezebench.analysis.resonance_searches import mechanical_q_from_sweep
+
+    try:
+        sweeps = tables.resonance_sweeps(run)
+    except tables.MissingDataError:
+        return None
+    sweep = sweeps[sweeps["run_name"] == run_name]
+    if sweep.empty:
+        return None
+    first = sweep[sweep["step_id"] == sweep["step_id"].iloc[0]]
+    peak_hz = float(first.loc[first["velocity_pp_mps"].idxmax(), "generator_frequency_hz"])
+    return mechanical_q_from_sweep(peak_hz, first)
+
+
 #: The vibration amplitude a fingertip needs to feel the squeeze-film effect, about 1 µm pp
 #: (the paper's Sec. 1; its large plate is designed for it, Sec. 5): what a map is read against.
 HAPTICS_AMPLITUDE_PP_M = 1e-6
@@ -143,12 +194,14 @@ def amplitude_pp_m(velocity_pp_mps: float, frequency_hz: float) -> float:
 
 
 def summarise_map(points: pd.DataFrame, predicted: np.ndarray | None = None, share_of_peak: float = 0.5,
-                  seed: int = 0) -> dict:
+                  seed: int = 0, resonance_q: float | None = None) -> dict:
     """The numbers a designer reads off one map, each with its expanded uncertainty (k for
     95 % under its budget's distribution, `budgets.Budget`): the points' own noise (their
-    fits' standard uncertainties, drawn NOISE_DRAWS times, seeded: normal), and for the
+    fits' standard uncertainties, drawn NOISE_DRAWS times, seeded: normal), for the
     velocities (mean, peak) the scale all points share (`velocity_scale_terms`: rectangles),
-    which does not average away. With `predicted` (the model's shape at the same points)
+    which does not average away, and, given the resonance's `resonance_q` (`map_resonance_q`),
+    the generator's frequency error through the level steps between the map's re-tuned
+    steps (`retuning_term`). With `predicted` (the model's shape at the same points)
     the modal assurance criterion of the signed map against it."""
     touch = points[points["in_touch_area"]]
     amplitude = touch["velocity_pp_mps"].to_numpy()
@@ -162,6 +215,9 @@ def summarise_map(points: pd.DataFrame, predicted: np.ndarray | None = None, sha
                      f"{NOISE_DRAWS} draws of the points' record-fit noise")
         value = getattr(h, attribute)
         shared = velocity_scale_terms(value) if scaled else ()
+        if resonance_q is not None:
+            shared = (*shared, retuning_term(lambda v: getattr(homogeneity(v, share_of_peak), attribute), amplitude,
+                                             touch["generator_frequency_hz"].to_numpy(), resonance_q))
         return Budget(attribute, "1", value, (noise, *shared)).expanded_uncertainty
 
     lines = nodal_lines_m(points["x_m"].to_numpy(), points["signed_velocity_pp_mps"].to_numpy())

@@ -30,7 +30,7 @@ from squeezebench.analysis import model
 from squeezebench.analysis.model import REPORT_CONVENTION
 from squeezebench.analysis.rundata import load_run
 from squeezebench.analysis.study import COVERAGE_FILE, STUDY_DIR, coverage_dir
-from squeezebench.analysis.cartography import homogeneity, map_points, summarise_map
+from squeezebench.analysis.cartography import homogeneity, map_points, map_resonance_q, summarise_map
 from squeezebench.analysis.characterisation import characterise_plates
 from squeezebench.analysis.tables import detuning_table, fit_line
 from squeezebench.analysis.budgets import COVERAGE_FACTOR
@@ -237,7 +237,7 @@ def _map_homogeneities(run, plain_dir: Path) -> list[dict]:
     scored = []
     for run_name, points in map_points(run).groupby("run_name", sort=False):
         points = points.reset_index(drop=True)
-        measured = summarise_map(points)
+        measured = summarise_map(points, resonance_q=map_resonance_q(run, run_name))
         true = homogeneity(np.array([truths[(run_name, x, y)] for x, y in points.loc[points["in_touch_area"], ["x_m", "y_m"]]
                                      .itertuples(index=False)]), measured["share_of_peak"])
         where = {"run_name": run_name, "step_id": str(rows_of.loc[rows_of["run_name"] == run_name, "step_id"].iat[0]),

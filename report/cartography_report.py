@@ -57,7 +57,8 @@ def map_summaries(run) -> tuple[pd.DataFrame, dict[str, pd.DataFrame]]:
         one = one.reset_index(drop=True)
         frequency_hz = float(one["generator_frequency_hz"].median())
         predicted = predicted_plates.working_shape(plate, frequency_hz, one["x_m"].to_numpy(), one["y_m"].to_numpy())
-        summary = cartography.summarise_map(one, None if predicted is None else predicted[0])
+        summary = cartography.summarise_map(one, None if predicted is None else predicted[0],
+                                             resonance_q=cartography.map_resonance_q(run, run_name))
         voltage_vpp = float(one["piezo_voltage_setpoint_vpp"].median())
         amplitude = cartography.amplitude_pp_m(summary["mean_velocity_pp_mps"], frequency_hz)
         rows.append({"run_name": run_name, "plate": plate, "drive_frequency_hz": frequency_hz,
@@ -126,7 +127,8 @@ def cartography_section(context: ReportContext) -> Section | None:
         "area above share of peak (%)", "width uniformity", "nodal-line spacing (mm)", "MAC with model"]]
     body += fold("Homogeneity of each map as numbers, with the voltage that reaches the haptics criterion",
                  html_table(shown.rename(columns={"run_name": "map", "n_points": "points"}),
-                            "homogeneity of each map's touch area, ± U (k for 95 % under its budget): the points' noise, and for velocities "
+                            "homogeneity of each map's touch area, ± U (k for 95 % under its budget): the points' noise, the generator's "
+                            "frequency error through the level steps between the map's re-tuned steps, and for velocities "
                             "the scale all points share (CH3 gain, decoder)"))
     context.tables["map_summary"] = summaries
     context.tables["map_points"] = pd.concat(maps.values(), ignore_index=True)

@@ -166,7 +166,8 @@ class SimulatedBench:
         if self.effects.is_random:
             seed = traces.acquisition_seed(self._scene.seed, self.state_name,
                                            repr(self.generator.settings()),
-                                           self.acquisitions_since_generator_write)
+                                           self.acquisitions_since_generator_write,
+                                           repr(self.stage.point_mm()) if self.stage.used else None)
             rng = np.random.default_rng(seed)
         self.acquisitions_since_generator_write += 1
         return traces.record_of(shown, self.effects.digitizer_settings, rng)

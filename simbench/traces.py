@@ -105,11 +105,19 @@ def synthesize(steady: physics.SteadyState, times_s: np.ndarray,
     return np.stack([voltage, capacitive + forces @ branch, visibility @ branch])
 
 
-def acquisition_seed(scene_seed: int, state: str, generator_key: str, counter: int) -> np.random.SeedSequence:
+def acquisition_seed(scene_seed: int, state: str, generator_key: str, counter: int,
+                     spot_key: str | None = None) -> np.random.SeedSequence:
     """The random stream of one acquisition, from what defines it rather than from how
-    many came before: a resumed campaign draws exactly what an uninterrupted one did."""
-    return np.random.SeedSequence([scene_seed, zlib.crc32(state.encode()),
-                                   zlib.crc32(generator_key.encode()), counter])
+    many came before: a resumed campaign draws exactly what an uninterrupted one did.
+
+    `spot_key` names where the stage holds the spot once it has moved: without it, each
+    step of a map (its drive written afresh, the counter back at 0) driven at the setting
+    of an earlier step drew that step's noise again point for point, so points one step
+    apart in the visiting order (the same x) shared their noise, which a real bench's
+    points never do, and which a map's figures, propagated with independent points, do
+    not cover. A bench whose stage never moved keeps the stream it always had."""
+    keys = [scene_seed, zlib.crc32(state.encode()), zlib.crc32(generator_key.encode()), counter]
+    return np.random.SeedSequence(keys if spot_key is None else [*keys, zlib.crc32(spot_key.encode())])
 
 
 @dataclass

@@ -11,8 +11,10 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from squeezebench.analysis.cartography import homogeneity, modal_assurance, signed_amplitude
+from squeezebench.analysis.cartography import (homogeneity, modal_assurance, retuning_log_levels, retuning_term,
+                                               signed_amplitude)
 from squeezebench.paths import scenes_dir
+from squeezebench.plates.specifications import SPECIFICATIONS
 from squeezebench.simbench.modeshape import mode_shape, working_mode
 from squeezebench.simbench.scene import load_scene
 from squeezebench.simbench.scene_model import MeasurementPoint, SceneError
@@ -109,3 +111,35 @@ def test_mac_of_orthogonal_shapes_and_of_a_noisy_map():
     assert modal_assurance(noisy, mode) == pytest.approx(1 / 1.005, abs=0.004)
     with pytest.raises(ValueError, match="different points"):
         modal_assurance(mode, mode[:-1])
+
+
+def test_a_generator_error_steps_the_levels_of_re_tuned_steps_as_the_lorentzian_does():
+    # each step re-tracks the peak through a generator off by e: its settings sit near f0 / (1 + e),
+    # a few Hz apart; the plate answers at f (1 + e), ideal instruments at f
+    f0_hz, q, e = 52_400.0, 304.0, 2e-5
+    settings_hz = f0_hz / (1 + e) + np.array([-2.5, 0.0, 2.5, 1.0])
+    k = 2 * q / f0_hz
+
+    def velocity(f_hz):
+        return 1.0 / np.sqrt(1 + k**2 * (f_hz - f0_hz) ** 2)
+
+    exact = np.log(velocity(settings_hz * (1 + e)) / velocity(settings_hz))
+    modelled = retuning_log_levels(settings_hz, q, e)
+    # the part every point shares scales the map; the steps' differences are what is modelled
+    assert np.allclose(modelled - modelled.mean(), exact - exact.mean(), rtol=0, atol=1e-3 * np.ptp(exact))
+    assert np.ptp(exact) > 1e-4   # a level step the points' noise (about 1.5e-4 / sqrt(26) a step) would show
+
+
+def test_the_retuning_term_of_two_points_is_the_closed_form_sensitivity_times_the_specification():
+    # CV of two values a > b is (a - b) / (a + b); levels g_i = exp(lambda_i e) give
+    # dCV/de = 2 a b (lambda_1 - lambda_2) / (a + b)^2
+    a, b, q = 0.2, 0.1, 304.0
+    settings_hz = np.array([52_399.0, 52_403.0])
+    lam = retuning_log_levels(settings_hz, q, 1.0)
+    term = retuning_term(lambda v: homogeneity(v).coefficient_of_variation, np.array([a, b]), settings_hz, q)
+    expected = abs(2 * a * b * (lam[0] - lam[1]) / (a + b) ** 2) * SPECIFICATIONS["generator_frequency"].std_uncertainty
+    assert term.std_uncertainty == pytest.approx(expected, rel=1e-6)
+    assert term.type == "B" and term.is_rectangular
+    # one setting for every point: the error scales the map and leaves its homogeneity
+    flat = retuning_term(lambda v: homogeneity(v).coefficient_of_variation, np.array([a, b]), np.full(2, 52_400.0), q)
+    assert flat.std_uncertainty == pytest.approx(0.0, abs=1e-15)

@@ -162,3 +162,26 @@ def test_noise_is_reproducible_from_the_settings_not_from_history(tmp_path):
     resumed.drive(F_HZ, 1.88)
     assert np.array_equal(_noisy_record(resumed), first)
     assert np.array_equal(_noisy_record(resumed), second)
+
+
+def test_a_moved_spot_draws_noise_of_its_own_and_the_same_spot_the_same(tmp_path):
+    # A map writes its drive afresh at every step: were the spot not in the stream, a step at
+    # an earlier step's setting would draw that step's noise again, point for point. CH2 (the
+    # current) does not see the spot, so a difference between its records is the noise alone.
+    from squeezebench.instruments.smc100 import SMC100Stage
+
+    bench = RawBench(scene_file(tmp_path))
+    try:
+        bench.drive(F_HZ, 1.88)
+        bench.configure(F_HZ, averages=4)
+        stage = SMC100Stage(bench.rm.open_resource("ASRL2::INSTR"), poll_interval_s=0.01, sleep=bench.sim.clock.sleep)
+        stage.home()
+        records = []
+        for x_mm in (10.0, 20.0, 10.0):
+            stage.move_to_mm(x_mm, 5.0)
+            bench.drive(F_HZ, 1.88)   # the step's drive: the stream's counter starts again
+            records.append(_noisy_record(bench))
+        assert not np.array_equal(records[0], records[1])
+        assert np.array_equal(records[0], records[2])   # what defines it, not what came before
+    finally:
+        bench.close()
