@@ -367,7 +367,10 @@ def with_prediction(frame: pd.DataFrame, table: str) -> pd.DataFrame:
 def is_put_in(frame: pd.DataFrame) -> pd.Series:
     """Rows whose value the run was given: a campaign setting, a calibration input, or
     derived from calibration inputs (`calibrated_on` names them)."""
-    return frame["origin"].isin(INPUT_ORIGINS) | frame["calibrated_on"].map(lambda c: isinstance(c, str) and c != "")
+    # astype(bool): on no rows pandas 3 keeps the mapped column's string dtype, and `|` of
+    # booleans with strings is deprecated there (it will raise)
+    calibrated = frame["calibrated_on"].map(lambda c: isinstance(c, str) and c != "").astype(bool)
+    return frame["origin"].isin(INPUT_ORIGINS) | calibrated
 
 
 #: What a paper table's `item` is, as a wide table's first column names it.

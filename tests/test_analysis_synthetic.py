@@ -234,3 +234,16 @@ def test_missing_protocol_is_a_clear_error(tmp_path):
     run = load_run(build_run(tmp_path / "partial", protocols=("powered_columns",)))
     with pytest.raises(tables.MissingDataError, match="resonator_cutting"):
         tables.table3(run)
+
+
+@pytest.mark.filterwarnings("error")
+def test_rows_put_in_are_told_apart_on_no_rows_and_on_string_columns():
+    """A run with no stored values (or one calibration row) gives booleans, with no warning
+    from pandas' string dtype (pandas 3 deprecates `|` of booleans with strings)."""
+    from squeezebench.analysis.tables import INPUT_ORIGINS, is_put_in
+
+    empty = pd.DataFrame({"origin": pd.Series([], dtype=str), "calibrated_on": pd.Series([], dtype=str)})
+    assert is_put_in(empty).tolist() == []
+    rows = pd.DataFrame({"origin": ["measured", "measured", next(iter(INPUT_ORIGINS))],
+                         "calibrated_on": ["fig2c_stress", None, None]})
+    assert is_put_in(rows).tolist() == [True, False, True]
