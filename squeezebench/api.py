@@ -205,8 +205,12 @@ class RunResults:
             return frame
         wide = pd.DataFrame.from_dict({run: dict(zip(group["setting"], group["value"]))
                                        for run, group in frame.groupby("run_name", sort=False)}, orient="index")
-        # a column a list filled (a sweep's voltages) stays as it is; every other takes one type
-        wide = wide.infer_objects().convert_dtypes(convert_string=False, convert_integer=False)
+        # a column a list filled (a sweep's voltages) stays as it is; every other takes one type:
+        # numbers and words infer theirs, a flag some runs lack is a nullable boolean
+        wide = wide.infer_objects()
+        flags = [name for name, column in wide.items()
+                 if column.dtype == object and pd.api.types.infer_dtype(column, skipna=True) == "boolean"]
+        wide[flags] = wide[flags].astype("boolean")
         return wide.rename_axis("run_name").reset_index()
 
     def table3(self, wide: bool = False) -> pd.DataFrame:

@@ -110,3 +110,17 @@ def test_a_paper_table_in_the_shape_pandas_users_expect(tmp_path):
     assert len(wide) == tidy["item"].nunique() and len(measured)
     assert set(measured["status"]) <= {"round_trip", "measured"} and measured.loc[
         measured["status"] == "round_trip", "agrees"].isna().all()
+
+
+def test_each_setting_takes_one_type_and_a_flag_some_runs_lack_stays_a_flag(tmp_path):
+    (tmp_path / "settings").mkdir()
+    (tmp_path / "settings" / "sweep.json").write_text(json.dumps(
+        {"acquisition": {"averages": 16}, "safety": {"interlock": True}, "voltages_vpp": [10.0, 20.0], "mode": "slow"}))
+    (tmp_path / "settings" / "map.json").write_text(json.dumps(
+        {"acquisition": {"averages": 4}, "voltages_vpp": [5.0], "mode": "fast"}))
+    settings = api.load_run(tmp_path).settings()
+    assert settings["run_name"].tolist() == ["map", "sweep"]   # in file-name order
+    assert settings["acquisition.averages"].dtype == "int64"
+    assert settings["safety.interlock"].dtype == "boolean" and settings["safety.interlock"].isna().sum() == 1
+    assert settings["voltages_vpp"].tolist() == [[5.0], [10.0, 20.0]]
+    assert settings["mode"].tolist() == ["fast", "slow"]
