@@ -84,10 +84,11 @@ def write_report(run_dir: Path | str, workers: int | None = None, left_out: list
 
 def solve_ahead(workers: int | None = None) -> Future | None:
     """Start solving the paper's plates for a report to come, on its drawing process (none
-    with one worker, or with the disk cache off; `workers` as `write_report`'s): the solves are kept in the disk cache
-    (`squeezebench.disk_cache`), where `prepare` in this process reads them instead of
-    solving them (most of a report's time). They depend on the paper's dimensions and the
-    datasheets only, never on a run, so `reproduce` starts them with its campaign."""
+    with one worker, or with the disk cache off; `workers` as `write_report`'s). The solves
+    are kept in the disk cache (`squeezebench.disk_cache`), where `prepare` in this process
+    reads them instead of solving them (most of a report's time). They depend on the
+    paper's dimensions and the datasheets only, never on a run, so `reproduce` starts them
+    with its campaign."""
     if cache_dir() is None:
         return None
     return drawing.beside(workers or default_workers(), _solve_paper_plates)
@@ -104,14 +105,13 @@ def prepare(ahead: Future | None = None) -> None:
     cached for this process: `reproduce` does it while its study's last trials run. With
     `ahead` (`solve_ahead`'s), the plates another process is solving are waited for and
     read, not solved twice (solved here if that process failed)."""
+    with contextlib.suppress(UserError):   # the sections say why, in their place
+        readings.search_readings()   # first: the plates solved `ahead` may still be coming
     if ahead is not None:
         with contextlib.suppress(Exception):
             ahead.result()
-    try:
+    with contextlib.suppress(UserError):
         predicted_plates.predictions()
-        readings.search_readings()
-    except UserError:
-        pass   # the sections say why, in their place
 
 
 def _left_out_section(left_out: list[str]) -> Section:
