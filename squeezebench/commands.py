@@ -338,11 +338,11 @@ def cmd_reproduce(args: argparse.Namespace) -> int:
     try:
         run_dir = run_campaign(paths.paper_campaign(), resume=args.resume, out_dir=args.out,
                                progress=show_progress(args), on_step=study.start)
-    except BaseException:
+        prepare(plates)   # the report's part that needs no run, here instead of waiting idle for the study
+    except BaseException:   # a stop: neither the study nor the plates' process may outlive it
         study.cancel()
         stop_beside(plates)
         raise
-    prepare(plates)   # the report's part that needs no run, here instead of waiting idle for the study
     study.finish()
     _run_coverage(args, run_dir, coverage_benches)
     index = write_report(run_dir, args.workers)
