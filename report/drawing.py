@@ -5,7 +5,9 @@ the PNG's path and reads nothing else, so the report hands it to a worker and go
 third of a report's time is matplotlib, which otherwise leaves every core but one idle.
 The page is written only once every figure is (`Drawing.finish`). With one worker figures
 are drawn in place, as before; the PNGs are the same bytes either way, so a figure whose
-process died (killed, out of memory) is drawn again here rather than lost.
+process died (killed, out of memory) is drawn again here rather than lost. `beside` hands
+the same processes work a later report reads (`run_report.solve_ahead`), so that they
+start once and are busy while this process runs something else.
 """
 
 from __future__ import annotations
@@ -30,6 +32,27 @@ def _executor(size: int, fresh: bool = False) -> ProcessPoolExecutor:
         # loky's processes: spawned, not forked, so safe beside the threads of a busy parent
         _EXECUTOR = (size, ProcessPoolExecutor(max_workers=size))
     return _EXECUTOR[1]
+
+
+def beside(workers: int, function: Callable[[], Any]) -> Future | None:
+    """`function()` now on the drawing processes of a `Drawing(workers)` to come (None with
+    one worker: there is none beside this process)."""
+    if workers < 2:
+        return None
+    try:
+        return _executor(workers - 1).submit(function)
+    except BrokenExecutor:   # a process of an earlier report died
+        return _executor(workers - 1, fresh=True).submit(function)
+
+
+def stop_beside(work: Future | None) -> None:
+    """Drop `beside` work this process no longer waits for (it stops): one not started is
+    cancelled, a running one is ended with the drawing processes (the interpreter would
+    wait for it at exit); a later report gets new ones."""
+    global _EXECUTOR
+    if work is not None and not work.cancel() and not work.done() and _EXECUTOR is not None:
+        _EXECUTOR[1].shutdown(wait=False, kill_workers=True)
+        _EXECUTOR = None
 
 
 class Drawing:

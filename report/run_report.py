@@ -16,14 +16,17 @@ copy of the run gives identical tables.
 
 from __future__ import annotations
 
+import contextlib
 import html
+from concurrent.futures import Future
 from pathlib import Path
 
 import pandas as pd
 
 from squeezebench.analysis import columns, readings
 from squeezebench.plates import predicted_plates
-from squeezebench.report import page
+from squeezebench.disk_cache import cache_dir
+from squeezebench.report import drawing, page
 from squeezebench.report.drawing import Drawing
 from squeezebench.analysis.rundata import load_run
 from squeezebench.errors import UserError
@@ -79,15 +82,36 @@ def write_report(run_dir: Path | str, workers: int | None = None, left_out: list
     return index
 
 
-def prepare() -> None:
+def solve_ahead(workers: int | None = None) -> Future | None:
+    """Start solving the paper's plates for a report to come, on its drawing process (none
+    with one worker, or with the disk cache off; `workers` as `write_report`'s). The solves
+    are kept in the disk cache (`squeezebench.disk_cache`), where `prepare` in this process
+    reads them instead of solving them (most of a report's time). They depend on the
+    paper's dimensions and the datasheets only, never on a run, so `reproduce` starts them
+    with its campaign."""
+    if cache_dir() is None:
+        return None
+    return drawing.beside(workers or default_workers(), _solve_paper_plates)
+
+
+def _solve_paper_plates() -> None:
+    with contextlib.suppress(UserError):   # the sections say why, in their place
+        predicted_plates.predictions()
+
+
+def prepare(ahead: Future | None = None) -> None:
     """Compute now what the report reads from the model and the paper alone, never from a
     run (the paper's plates predicted: most of a report's time; the search over readings),
-    cached for this process: `reproduce` does it while its study's last trials run."""
-    try:
+    cached for this process: `reproduce` does it while its study's last trials run. With
+    `ahead` (`solve_ahead`'s), the plates another process is solving are waited for and
+    read, not solved twice (solved here if that process failed)."""
+    with contextlib.suppress(UserError):   # the sections say why, in their place
+        readings.search_readings()   # first: the plates solved `ahead` may still be coming
+    if ahead is not None:
+        with contextlib.suppress(Exception):
+            ahead.result()
+    with contextlib.suppress(UserError):
         predicted_plates.predictions()
-        readings.search_readings()
-    except UserError:
-        pass   # the sections say why, in their place
 
 
 def _left_out_section(left_out: list[str]) -> Section:

@@ -319,7 +319,8 @@ def _planned_steps(store) -> list[tuple[str, str]] | None:
 
 def cmd_reproduce(args: argparse.Namespace) -> int:
     import squeezebench.report.simulated_plates  # noqa: F401  (adds the simulated plates' section)
-    from squeezebench.report.run_report import prepare, write_report
+    from squeezebench.report.drawing import stop_beside
+    from squeezebench.report.run_report import prepare, solve_ahead, write_report
     from squeezebench.protocols.accuracy_study import run_study
     from squeezebench.protocols.campaign import run_campaign
     from squeezebench.protocols.parallel import Beside
@@ -327,6 +328,8 @@ def cmd_reproduce(args: argparse.Namespace) -> int:
     coverage_benches = _coverage_benches(args)
     if not args.resume:
         _clear_previous_reproduction(args, args.out)
+    # The report's plate predictions need no run: solved on its drawing process meanwhile.
+    plates = solve_ahead(args.workers)
     # The study reads only shipped scenes: its trials run on the workers while the campaign
     # runs here, from the campaign's first stored step (its run directory made) on.
     study = Beside(lambda stop: None if args.no_study else run_study(
@@ -335,10 +338,11 @@ def cmd_reproduce(args: argparse.Namespace) -> int:
     try:
         run_dir = run_campaign(paths.paper_campaign(), resume=args.resume, out_dir=args.out,
                                progress=show_progress(args), on_step=study.start)
-    except BaseException:
+        prepare(plates)   # the report's part that needs no run, here instead of waiting idle for the study
+    except BaseException:   # a stop: neither the study nor the plates' process may outlive it
         study.cancel()
+        stop_beside(plates)
         raise
-    prepare()   # the report's part that needs no run, here instead of waiting idle for the study
     study.finish()
     _run_coverage(args, run_dir, coverage_benches)
     index = write_report(run_dir, args.workers)

@@ -267,6 +267,7 @@ def test_reproduce_stops_its_study_when_the_campaign_stops(tmp_path, monkeypatch
     import threading
 
     from squeezebench.protocols import accuracy_study, campaign
+    from squeezebench.report import drawing, run_report
 
     seen = {}
 
@@ -278,11 +279,15 @@ def test_reproduce_stops_its_study_when_the_campaign_stops(tmp_path, monkeypatch
         on_step({"run": "fig2a_one_column", "step": "resonance"})
         raise KeyboardInterrupt
 
+    ahead = object()   # the report's plates, solving on its drawing process: stopped too
+
     monkeypatch.setattr(accuracy_study, "run_study", study)
     monkeypatch.setattr(campaign, "run_campaign", stopped_campaign)
+    monkeypatch.setattr(run_report, "solve_ahead", lambda workers: ahead)
+    monkeypatch.setattr(drawing, "stop_beside", lambda work: seen.update(plates_stopped=work is ahead))
     with pytest.raises(KeyboardInterrupt):
         commands.cmd_reproduce(cli.build_parser().parse_args(["reproduce", "--out", str(tmp_path / "paper"), "-q"]))
-    assert seen == {"started": True, "stopped": True}
+    assert seen == {"started": True, "stopped": True, "plates_stopped": True}
     assert not [t for t in threading.enumerate() if t.name == "beside"]
 
 

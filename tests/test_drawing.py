@@ -78,3 +78,52 @@ def test_figures_no_worker_has_started_are_drawn_here_at_finish(tmp_path):
     drawing.finish()
     drawers = [int(path.read_text()) for path in paths]   # each drawn once, by someone
     assert drawers[-1] == os.getpid()   # the last handed out cannot have been started
+
+
+def _pid() -> int:
+    return os.getpid()
+
+
+def _sleeps() -> None:
+    import time
+
+    time.sleep(60)
+
+
+def test_work_beside_runs_on_the_drawing_process_a_later_report_uses(tmp_path):
+    from squeezebench.report.drawing import beside
+
+    assert beside(1, _pid) is None   # one worker: nothing beside this process
+    work = beside(2, _pid)
+    assert work.result(timeout=60) != os.getpid()
+    drawing = Drawing(2)
+    drawing(_drawn_by, None, tmp_path / "figure.png")   # drawn by the same process, not a new one
+    drawing.finish()
+    assert int((tmp_path / "figure.png").read_text()) in (work.result(), os.getpid())
+
+
+def test_work_beside_stopped_while_running_ends_at_once_and_the_next_report_gets_new_processes(tmp_path):
+    import time
+
+    from squeezebench.report.drawing import beside, stop_beside
+
+    work = beside(2, _sleeps)
+    while not work.running():   # started: it cannot be cancelled, only ended with its process
+        time.sleep(0.01)
+    start_s = time.perf_counter()
+    stop_beside(work)
+    assert time.perf_counter() - start_s < 5
+    stop_beside(None)   # nothing handed out: nothing to stop
+    drawing = Drawing(2)
+    drawing(figures.fig9_power, _power(), tmp_path / "after.png")
+    drawing.finish()
+    assert (tmp_path / "after.png").stat().st_size > 10_000
+
+
+def test_plates_are_solved_ahead_only_where_a_report_can_read_them(monkeypatch):
+    from squeezebench.disk_cache import CACHE_VARIABLE
+    from squeezebench.report.run_report import solve_ahead
+
+    assert solve_ahead(1) is None   # no drawing process
+    monkeypatch.setenv(CACHE_VARIABLE, "off")
+    assert solve_ahead(2) is None   # kept nowhere: the report would solve them again
