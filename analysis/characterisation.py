@@ -129,7 +129,14 @@ def characterise_plate(plate: str, points: pd.DataFrame, geometry: model.PlateGe
 def characterise_plates(run: RunData, convention: model.Convention) -> dict[str, PlateCharacterisation]:
     """Fig. 5 for every plate of the characterisation protocol (small plates and the large
     one), Q and tan(theta') with their whole budgets (`analysis.uncertainty`: the fits, the
-    instruments' specifications, the geometry's and materials' tolerances)."""
+    instruments' specifications, the geometry's and materials' tolerances). Computed once
+    per run and convention (`RunData.characterisations`); each call gets its own dict."""
+    if convention not in run.characterisations:
+        run.characterisations[convention] = _characterise_plates(run, convention)
+    return dict(run.characterisations[convention])
+
+
+def _characterise_plates(run: RunData, convention: model.Convention) -> dict[str, PlateCharacterisation]:
     from squeezebench.analysis import uncertainty   # see _expanded
     from squeezebench.analysis.calibration import Deskew
 

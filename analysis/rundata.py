@@ -54,6 +54,9 @@ class RunData:
     input_sha256: dict[str, str] = field(default_factory=dict)  # recomputed, for provenance
     #: waveform file -> reduced row, filled by analysis.tables so every table sees one reduction
     reductions: dict[str, dict] = field(default_factory=dict, repr=False)
+    #: convention -> every plate's characterisation, filled by analysis.characterisation: the
+    #: report's sections and its readings audit ask for the same few conventions a dozen times
+    characterisations: dict[object, dict] = field(default_factory=dict, repr=False)
 
     def protocol(self, name: str) -> pd.DataFrame:
         """The measurement rows of one protocol (empty frame when it was not run)."""

@@ -15,8 +15,10 @@ Tables 3-4 at 390 px. `measure` is also what the browser test
 from __future__ import annotations
 
 import argparse
+import html
 import json
 import os
+import re
 import shutil
 import subprocess
 import tempfile
@@ -34,7 +36,8 @@ window.addEventListener('load', () => {
   const box = el => { const r = el.getBoundingClientRect();
     return {left: r.left, right: r.right, width: r.width, top: r.top + window.scrollY, height: r.height}; };
   const appendix = document.querySelector('section.appendix');
-  const out = {viewport: document.documentElement.clientWidth,
+  const out = {frame_width: window.frameElement ? Number(window.frameElement.dataset.width) : null,
+               viewport: document.documentElement.clientWidth,
                scroll_width: document.documentElement.scrollWidth,
                page_height: document.documentElement.scrollHeight,
                appendix_top: appendix ? box(appendix).top : document.documentElement.scrollHeight,
@@ -80,36 +83,50 @@ def _run_chromium(arguments: list[str], timeout_s: float = 120.0) -> str:
     return done.stdout
 
 
-def _framed(page: Path, width_px: int, height_px: int) -> Path:
-    """An outer page holding `page` in an iframe `width_px` wide: the report's own viewport."""
-    frame = page.with_name(f".frame{width_px}.html")
-    frame.write_text(f"<!DOCTYPE html><html><body style='margin:0'><iframe src='{page.name}' "
-                     f"style='width:{width_px}px;height:{height_px}px;border:0;display:block'></iframe></body></html>")
+def _framed(page: Path, widths_px: tuple[int, ...], height_px: int) -> Path:
+    """An outer page holding `page` in one iframe per width, side by side, each exactly as
+    wide as its screen: the report's own viewports."""
+    frame = page.with_name(f".frame{'-'.join(map(str, widths_px))}.html")
+    frames = "".join(f"<iframe src='{page.name}' data-width='{width_px}' style='width:{width_px}px;"
+                     f"height:{height_px}px;border:0;display:inline-block;vertical-align:top'></iframe>"
+                     for width_px in widths_px)
+    frame.write_text(f"<!DOCTYPE html><html><body style='margin:0;white-space:nowrap'>{frames}</body></html>")
     return frame
 
 
 def measure(index: Path, width_px: int = WIDTH_PX) -> dict:
     """Boxes of the rendered report in a `width_px` viewport (see _MEASURE_JS)."""
+    return measure_widths(index, (width_px,))[width_px]
+
+
+def measure_widths(index: Path, widths_px: tuple[int, ...]) -> dict[int, dict]:
+    """{width: `measure` at that width}, every width in one Chromium (a start of the browser
+    is most of a measurement's time)."""
     index = Path(index)
     probe = index.with_name(".measure.html")   # beside index.html, so its images resolve
     probe.write_text(index.read_text().replace("</body>", _MEASURE_JS + "</body>"))
-    frame = _framed(probe, width_px, 1000)
+    frame = _framed(probe, widths_px, 1000)
     try:
-        dom = _run_chromium([f"--window-size={max(width_px, 500) + 20},1100", "--virtual-time-budget=10000",
-                             "--dump-dom", frame.as_uri()])
+        dom = _run_chromium([f"--window-size={sum(max(w, 500) for w in widths_px) + 20},1100",
+                             "--virtual-time-budget=10000", "--dump-dom", frame.as_uri()])
     finally:
         probe.unlink()
         frame.unlink()
-    start = dom.index("<pre id=\"measurements\">") + len("<pre id=\"measurements\">")
-    text = dom[start:dom.index("</pre>", start)]
-    return json.loads(text.replace("&amp;", "&").replace("&lt;", "<").replace("&gt;", ">").replace("&quot;", '"'))
+    measured = {}
+    for text in re.findall(r'<pre id="measurements">(.*?)</pre>', dom, flags=re.DOTALL):
+        boxes = json.loads(html.unescape(text))
+        measured[boxes.pop("frame_width")] = boxes
+    missing = set(widths_px) - set(measured)
+    if missing:
+        raise RuntimeError(f"Chromium measured no page at {sorted(missing)} px")
+    return measured
 
 
 def _page_image(index: Path, width_px: int, height_px: int):
     """The whole report at `width_px` as one image."""
     from PIL import Image   # Pillow comes with matplotlib
 
-    frame = _framed(Path(index), width_px, height_px)
+    frame = _framed(Path(index), (width_px,), height_px)
     try:
         with tempfile.TemporaryDirectory() as tmp:
             page = Path(tmp) / "page.png"

@@ -172,3 +172,30 @@ os.environ.setdefault("SQUEEZEBENCH_STATE", tempfile.mkdtemp(prefix="squeezebenc
 @pytest.fixture(autouse=True)
 def _own_drive_records(tmp_path_factory, monkeypatch):
     monkeypatch.setenv("SQUEEZEBENCH_STATE", str(tmp_path_factory.mktemp("state")))
+
+
+#: The modules that take longest in the README's suite (`pytest -n auto`, issue 51's 2-core
+#: machine), longest first. With `-n` each module runs whole on one worker (`--dist
+#: loadscope`) in the order collected (`--no-loadscope-reorder`, pyproject): these start
+#: first and the many short modules fill in behind them, so no worker idles through the end
+#: while the other runs a long module it took last. The paper campaign's two readers
+#: (`paper_run`) start apart: the second finds the run made rather than waiting on its lock.
+LONG_MODULES = ("test_uncertainty.py", "test_instrument_commands.py", "test_realio.py", "test_accuracy_study.py",
+                "test_report_browser.py", "test_stop_signals.py", "test_systematics_study.py",
+                "test_stop_bursts.py", "test_accuracy_plan.py", "test_misdescribed_benches.py",
+                "test_previous_user_states.py", "test_analysis_report.py")
+
+
+def pytest_collection_modifyitems(items):
+    """The long modules first, in LONG_MODULES' order; then the rest as xdist's own
+    reordering puts them, the modules with the most tests first (a module's tests keep
+    their order)."""
+    counts: dict[str, int] = {}
+    for item in items:
+        counts[item.path.name] = counts.get(item.path.name, 0) + 1
+
+    def rank(item) -> tuple[int, int]:
+        name = item.path.name
+        return (LONG_MODULES.index(name), 0) if name in LONG_MODULES else (len(LONG_MODULES), -counts[name])
+
+    items.sort(key=rank)   # stable: the modules of one count, and each module's tests, keep their order

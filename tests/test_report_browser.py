@@ -42,7 +42,7 @@ def index(tmp_path_factory):
 
 @pytest.fixture(scope="module")
 def widths(index):
-    return {width: make_screenshots.measure(index, width) for width in WIDTHS}
+    return make_screenshots.measure_widths(index, WIDTHS)
 
 
 @pytest.fixture(scope="module")
@@ -124,7 +124,7 @@ def paper(paper_run):
     make_screenshots.chromium()
     run_dir, _ = paper_run
     index = report.write_report(run_dir)
-    return {width: make_screenshots.measure(index, width) for width in WIDTHS}
+    return make_screenshots.measure_widths(index, WIDTHS)
 
 
 def test_the_papers_results_end_within_nine_laptop_and_fifteen_phone_screens(paper):
