@@ -375,7 +375,9 @@ def _probes(basis, points: np.ndarray, chunk: int = 1024):
     5,100-point shape grid 0.85 s in chunks of 2048, 0.5 s of 1024, 1.1 s of 256)."""
     from scipy.sparse import vstack
 
-    return vstack([basis.probes(points[:, i:i + chunk]) for i in range(0, points.shape[1], chunk)]).tocsr()
+    from .argyris import probes
+
+    return vstack([probes(basis, points[:, i:i + chunk]) for i in range(0, points.shape[1], chunk)]).tocsr()
 
 
 def flexural_frequency_hz(material: Isotropic, thickness_m: float, half_wavelength_m: float) -> float:

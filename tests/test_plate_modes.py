@@ -155,10 +155,11 @@ def test_flexural_frequency_and_half_wavelength_are_inverse():
 
 def test_the_one_pass_argyris_basis_is_skfems_own_to_the_bit():
     """plates.argyris only reorders the work of skfem's global basis: every value, gradient
-    and Hessian, at quadrature points and at probed points, is bit-identical."""
+    and Hessian, at quadrature points and at probed points, is bit-identical, and so is its
+    values-only probe."""
     from skfem import Basis, ElementTriArgyris, MeshTri
 
-    from squeezebench.plates.argyris import Argyris
+    from squeezebench.plates.argyris import Argyris, probes
 
     mesh = MeshTri.init_tensor(np.linspace(0, 0.05, 6), np.array([0.0, 0.004, 0.02, 0.03]))
     ours, theirs = Basis(mesh, Argyris(), intorder=8), Basis(mesh, ElementTriArgyris(), intorder=8)
@@ -167,6 +168,7 @@ def test_the_one_pass_argyris_basis_is_skfems_own_to_the_bit():
             assert np.array_equal(mine[0].get(part), skfems[0].get(part))
     points = np.random.default_rng(3).uniform([0, 0], [0.05, 0.03], (40, 2)).T
     assert (ours.probes(points) != theirs.probes(points)).nnz == 0
+    assert (probes(ours, points) != theirs.probes(points)).nnz == 0
 
 
 def test_the_batched_plate_matrices_are_skfems_assembly_to_roundoff():
