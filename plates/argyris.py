@@ -76,13 +76,15 @@ class Argyris(ElementTriArgyris):
         return total
 
 
-def probes(basis, points: np.ndarray):
+def probes(basis, points: np.ndarray, cells: np.ndarray | None = None):
     """skfem's `CellBasis.probes(points)` for a basis of `Argyris` (scalar): the matrix that
     takes a solution vector to its values at points (2, N), bit-identical, from the values
-    alone (`Argyris.values`) where skfem builds every derivative too."""
+    alone (`Argyris.values`) where skfem builds every derivative too. `cells` are the
+    elements the points lie in (skfem's element finder if None)."""
     from scipy.sparse import coo_matrix
 
-    cells = basis.mesh.element_finder(mapping=basis.mapping)(*points)
+    if cells is None:
+        cells = basis.mesh.element_finder(mapping=basis.mapping)(*points)
     reference = basis.mapping.invF(points[:, :, np.newaxis], tind=cells)
     phis = basis.elem.values(basis.mapping, reference, cells)
     rows = np.tile(np.arange(points.shape[1], dtype=np.int32), basis.Nbfun)
