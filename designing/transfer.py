@@ -28,7 +28,7 @@ import pandas as pd
 from squeezebench.designing import design as design_model
 from squeezebench.analysis import model
 from squeezebench.designing.design_file import DesignFile
-from squeezebench.designing.answer import DesignAnswer, Measured, measured_point
+from squeezebench.designing.answer import Measured, measured_point
 from squeezebench.designing.paper_route import predict_from_small_plates
 from squeezebench.designing.workflow import characterised_plates, write_build
 
@@ -95,11 +95,12 @@ def designs(build: Build) -> tuple[list[DesignFile], DesignFile]:
     return small, large
 
 
-def _characterise(spec: DesignFile, folder: Path, seed: int) -> Path:
-    """The spec built as a predicted scene and characterised on the simulated bench."""
+def _characterise(spec: DesignFile, values: dict, folder: Path, seed: int) -> Path:
+    """The spec built as a predicted scene (from its nominal working point's `values`) and
+    characterised on the simulated bench."""
     from squeezebench.protocols.campaign import run_campaign
 
-    _, campaign = write_build(DesignAnswer(design_model.predict_physics(spec)), folder, seed=seed)
+    _, campaign = write_build(spec, values, folder, seed=seed)
     return run_campaign(campaign, out_dir=folder / f"run_{spec.name}", progress=False, say=lambda m: None,
                         durable=False)   # a temporary folder
 
@@ -125,8 +126,10 @@ def study_build(seed: int) -> list[dict]:
     build, small, large, physics, redrawn = _clean_build(seed)
     with tempfile.TemporaryDirectory() as tmp:
         folder = Path(tmp)
-        small_runs = [_characterise(spec, folder, seed * 10 + i) for i, spec in enumerate(small)]
-        large_run = _characterise(large, folder, seed * 10 + 9)
+        # the small plates' budgets are not used (route (b) reads their measurements): their nominal points only
+        small_runs = [_characterise(spec, design_model.operating_point(spec).values, folder, seed * 10 + i)
+                      for i, spec in enumerate(small)]
+        large_run = _characterise(large, physics.nominal.values, folder, seed * 10 + 9)
         rows = []
         for reading, convention in READINGS.items():
             built = characterised_plates([large_run], convention)["large"]

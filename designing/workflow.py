@@ -118,12 +118,12 @@ def scene_from_design(spec, seed: int = 1, mechanical_q: float | None = None) ->
     return data
 
 
-def characterisation_campaign(spec, answer: DesignAnswer, scene_file: str) -> dict:
+def characterisation_campaign(spec, values: dict, scene_file: str) -> dict:
     """The campaign that characterises the built plate (Sec. 5.3's protocol on the designed
     plate): a resonance search over +-3 % of the predicted frequency, fine enough for the
     build's Q, then 25 to 100 % of the voltage the target needs (within the amplifier and a
-    100 Vpp safety limit). On a real bench, `bench: {file: ...}` replaces the scene."""
-    values = answer.physics.nominal.values
+    100 Vpp safety limit), from the design's nominal working point's `values`
+    (`design.OperatingPoint.values`). On a real bench, `bench: {file: ...}` replaces the scene."""
     frequency = values["frequency_hz"]
     top = min(values["voltage_vpp"], spec.amplifier.max_output_vpp, 100.0)
     points = max(31, math.ceil(0.12 * values["mechanical_q"]) + 1)   # steps <= half the bandwidth f/Q
@@ -139,18 +139,18 @@ def characterisation_campaign(spec, answer: DesignAnswer, scene_file: str) -> di
     }
 
 
-def write_build(answer: DesignAnswer, folder: str | Path, seed: int = 1) -> tuple[Path, Path]:
-    """The predicted scene of the design (its noise drawn from `seed`) and the campaign
-    characterising it, in `folder`."""
-    spec = answer.design
+def write_build(spec, values: dict, folder: str | Path, seed: int = 1) -> tuple[Path, Path]:
+    """The predicted scene of the design `spec` (its noise drawn from `seed`) and the campaign
+    characterising it, in `folder`, from its nominal working point's `values` (the answer's
+    `physics.nominal.values`: a build needs no budget)."""
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
     scene = folder / f"{spec.name}.yaml"
-    data = scene_from_design(spec, seed=seed, mechanical_q=answer.physics.nominal.values["mechanical_q"])
+    data = scene_from_design(spec, seed=seed, mechanical_q=values["mechanical_q"])
     scene.write_text("# Predicted by `squeezebench design` from the design file: nothing measured is read.\n"
                      + dump_yaml(data), encoding="utf-8")
     campaign = folder / f"{spec.name}_characterisation.yaml"
-    campaign.write_text(dump_yaml(characterisation_campaign(spec, answer, scene.name)),
+    campaign.write_text(dump_yaml(characterisation_campaign(spec, values, scene.name)),
                         encoding="utf-8")
     return scene, campaign
 

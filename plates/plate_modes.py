@@ -352,6 +352,7 @@ def _discretisation(x: tuple[float, ...], y: tuple[float, ...], gx: tuple[float,
 
     mesh = MeshTri.init_tensor(np.array(x), np.array(y))
     basis = Basis(mesh, Argyris(), intorder=8)
+    find = tensor_finder(mesh, basis.mapping, np.array(x), np.array(y))
     points = np.array(np.meshgrid(np.array(gx), np.array(gy), indexing="ij")).reshape(2, -1)
     probes: dict[bytes, object] = {}
 
@@ -362,20 +363,47 @@ def _discretisation(x: tuple[float, ...], y: tuple[float, ...], gx: tuple[float,
         if key not in probes:
             if len(probes) > 32:
                 probes.clear()
-            probes[key] = _probes(basis, p)
+            probes[key] = _probes(basis, p, find)
         return probes[key]
 
-    return mesh, basis, _probes(basis, points), probe
+    return mesh, basis, _probes(basis, points, find), probe
 
 
-def _probes(basis, points: np.ndarray, chunk: int = 1024):
-    """`basis.probes(points)` a chunk at a time: skfem's element finder and the Argyris
-    basis's evaluation grow faster than the number of points (the large plate's 1 mm shape
-    table, 27,700 points: 5.8 s and 1.4 GB at once, 2.5 s and 0.1 GB in chunks of 1024; its
-    5,100-point shape grid 0.85 s in chunks of 2048, 0.5 s of 1024, 1.1 s of 256)."""
+def tensor_finder(mesh, mapping, x: np.ndarray, y: np.ndarray) -> Callable[[np.ndarray], np.ndarray]:
+    """The element each of points (2, N) lies in, on `MeshTri.init_tensor(x, y)`: its
+    rectangle by bisection of the mesh lines, then whichever of the rectangle's two
+    triangles holds it (the larger least barycentric coordinate, so a point on their
+    diagonal or just off the plate by roundoff gets one). skfem's `element_finder` tests
+    each point against the elements of five nearest centres of every point asked at once,
+    a cost that grows as the square of the points."""
+    centres = mesh.p[:, mesh.t].mean(axis=1)
+    rectangles = (np.searchsorted(x, centres[0]) - 1) * (len(y) - 1) + np.searchsorted(y, centres[1]) - 1
+    pairs = np.argsort(rectangles, kind="stable").reshape(-1, 2)   # row r: rectangle r's two triangles
+    assert np.array_equal(np.sort(rectangles), np.repeat(np.arange(len(pairs)), 2)), "not a tensor mesh"
+
+    def find(points: np.ndarray) -> np.ndarray:
+        i = np.clip(np.searchsorted(x, points[0], side="right") - 1, 0, len(x) - 2)
+        j = np.clip(np.searchsorted(y, points[1], side="right") - 1, 0, len(y) - 2)
+        candidates = pairs[i * (len(y) - 1) + j]
+        least = []
+        for side in (0, 1):
+            u, v = mapping.invF(points[:, :, np.newaxis], tind=candidates[:, side])[:, :, 0]
+            least.append(np.minimum(np.minimum(u, v), 1 - u - v))
+        return np.where(least[0] >= least[1], candidates[:, 0], candidates[:, 1])
+    return find
+
+
+def _probes(basis, points: np.ndarray, find: Callable[[np.ndarray], np.ndarray], chunk: int = 1024):
+    """`basis.probes(points)` (`argyris.probes`, its elements by `find`) a chunk at a time:
+    the Argyris basis's evaluation holds each point's 21 x 21 coefficients (the large
+    plate's 1 mm shape table, 27,700 points: 1.4 GB at once with skfem's own probes, 0.1 GB
+    in chunks of 1024)."""
     from scipy.sparse import vstack
 
-    return vstack([basis.probes(points[:, i:i + chunk]) for i in range(0, points.shape[1], chunk)]).tocsr()
+    from .argyris import probes
+
+    return vstack([probes(basis, points[:, i:i + chunk], find(points[:, i:i + chunk]))
+                   for i in range(0, points.shape[1], chunk)]).tocsr()
 
 
 def flexural_frequency_hz(material: Isotropic, thickness_m: float, half_wavelength_m: float) -> float:

@@ -513,7 +513,7 @@ def cmd_design(args: argparse.Namespace) -> int:
     folder, files = write_design(answer, args.out, measured_run=args.measured)
     build = {}
     if args.write_build is not None:
-        scene, campaign = write_build(answer, args.write_build)
+        scene, campaign = write_build(answer.design, answer.physics.nominal.values, args.write_build)
         build = {"scene": str(scene), "campaign": str(campaign)}
     if args.json:   # design.json's document, as written beside the page
         emit_json(payload(answer, files) | {"out": str(folder), "build": build})

@@ -162,8 +162,9 @@ def test_the_stage_travel_stated_for_a_served_bench_is_the_simulated_stages():
     assert written["stage_travel_mm"] == {"x": list(TRAVEL_MM["1"]), "y": list(TRAVEL_MM["2"])}
 
 
-def _design(tmp_path, **changes) -> str:
-    data = yaml.safe_load((paths.designs_dir() / "large_plate.yaml").read_text())
+def _design(tmp_path, base=None, **changes) -> str:
+    """The shipped large plate's design file (or the file `base`) with `changes`."""
+    data = yaml.safe_load((base or paths.designs_dir() / "large_plate.yaml").read_text())
     data.update(changes)
     path = tmp_path / "design.yaml"
     path.write_text(yaml.safe_dump(data))
@@ -268,13 +269,16 @@ def test_any_map_validate_accepts_the_run_accepts_point_by_point(tmp_path, capsy
 
 
 def _two_groups(tmp_path, dx_mm: float, dy_mm: float) -> tuple[str, bool]:
-    """A design with group B placed (dx, dy) from group A, and whether their piezos share
-    area (|dx| < length and |dy| < width)."""
-    data = yaml.safe_load((paths.designs_dir() / "large_plate.yaml").read_text())
+    """The design template (120 x 60 x 1.5 mm, the guide's plate: a third of the large
+    plate's elements to solve where `validate` accepts) with group B placed (dx, dy) from
+    group A at the plate's centre, and whether their piezos share area (|dx| < length and
+    |dy| < width)."""
+    template = paths.design_template()
+    data = yaml.safe_load(template.read_text())
     length_mm, width_mm = data["piezo"]["length_x_mm"], data["piezo"]["width_y_mm"]
-    x_mm, y_mm = 60.0, 60.0
-    design = _design(tmp_path, groups=[{"name": "A", "x_mm": x_mm, "y_mm": [y_mm]},
-                                       {"name": "B", "x_mm": x_mm + dx_mm, "y_mm": [y_mm + dy_mm]}])
+    x_mm, y_mm = data["resonator"]["length_mm"] / 2, data["resonator"]["width_mm"] / 2
+    design = _design(tmp_path, base=template, groups=[{"name": "A", "x_mm": x_mm, "y_mm": [y_mm]},
+                                                      {"name": "B", "x_mm": x_mm + dx_mm, "y_mm": [y_mm + dy_mm]}])
     return design, abs(dx_mm) < length_mm and abs(dy_mm) < width_mm
 
 
@@ -283,8 +287,8 @@ def _two_groups(tmp_path, dx_mm: float, dy_mm: float) -> tuple[str, bool]:
 def test_two_groups_are_refused_exactly_when_their_piezos_overlap(tmp_path, dx_mm, dy_mm):
     """Refused by the design files' validator (the one `validate` and `design` both call),
     exactly when the two rectangles share area. Through the validator, not the command: an
-    accepted file would go on to the large plate's physics and its budget (about five
-    solves of the large plate per example); the command's own answers are the next test's."""
+    accepted file would go on to the plate's physics and its budget (about four
+    solves of the plate per example); the command's own answers are the next test's."""
     design, overlap = _two_groups(tmp_path, dx_mm, dy_mm)
     if overlap:
         with pytest.raises(UserError, match="groups 'A' and 'B'"):
@@ -296,7 +300,7 @@ def test_two_groups_are_refused_exactly_when_their_piezos_overlap(tmp_path, dx_m
 @pytest.mark.parametrize("dx_mm, dy_mm", [(5.9, 0.0), (6.0, 0.0), (0.0, 13.9)])
 def test_validate_refuses_overlapping_groups_and_accepts_touching_ones(tmp_path, capsys, dx_mm, dy_mm):
     """`validate` at the rule's edges: 0.1 mm of overlap refused naming both groups, piezos
-    that only touch accepted (the large plate's physics solved for them)."""
+    that only touch accepted (the plate's physics solved for them)."""
     design, overlap = _two_groups(tmp_path, dx_mm, dy_mm)
     assert cli.main(["validate", design, "-q"]) == (cli.EXIT_USER_ERROR if overlap else 0)
     if overlap:

@@ -155,10 +155,11 @@ def test_flexural_frequency_and_half_wavelength_are_inverse():
 
 def test_the_one_pass_argyris_basis_is_skfems_own_to_the_bit():
     """plates.argyris only reorders the work of skfem's global basis: every value, gradient
-    and Hessian, at quadrature points and at probed points, is bit-identical."""
+    and Hessian, at quadrature points and at probed points, is bit-identical, and so is its
+    values-only probe."""
     from skfem import Basis, ElementTriArgyris, MeshTri
 
-    from squeezebench.plates.argyris import Argyris
+    from squeezebench.plates.argyris import Argyris, probes
 
     mesh = MeshTri.init_tensor(np.linspace(0, 0.05, 6), np.array([0.0, 0.004, 0.02, 0.03]))
     ours, theirs = Basis(mesh, Argyris(), intorder=8), Basis(mesh, ElementTriArgyris(), intorder=8)
@@ -167,6 +168,31 @@ def test_the_one_pass_argyris_basis_is_skfems_own_to_the_bit():
             assert np.array_equal(mine[0].get(part), skfems[0].get(part))
     points = np.random.default_rng(3).uniform([0, 0], [0.05, 0.03], (40, 2)).T
     assert (ours.probes(points) != theirs.probes(points)).nnz == 0
+    assert (probes(ours, points) != theirs.probes(points)).nnz == 0
+
+
+def test_the_tensor_finder_finds_skfems_elements_and_one_for_a_point_on_their_edges():
+    """Off the mesh lines a point lies in one element, the one skfem's finder names; on a
+    line, a vertex or the plate's edge (and a hair outside it) in an element that holds it,
+    so the probe is skfem's there to roundoff (the element is C1)."""
+    from skfem import Basis, MeshTri
+
+    from squeezebench.plates.argyris import Argyris, probes
+
+    x, y = np.array([0.0, 0.004, 0.011, 0.03, 0.05]), np.array([0.0, 0.004, 0.02, 0.03])
+    mesh = MeshTri.init_tensor(x, y)
+    basis = Basis(mesh, Argyris(), intorder=8)
+    find = plate_modes.tensor_finder(mesh, basis.mapping, x, y)
+    inside = np.random.default_rng(5).uniform([0, 0], [0.05, 0.03], (200, 2)).T
+    assert np.array_equal(find(inside), mesh.element_finder(mapping=basis.mapping)(*inside))
+    on_lines = np.array(np.meshgrid(np.linspace(0, 0.05, 21), np.linspace(0, 0.03, 13), indexing="ij")).reshape(2, -1)
+    on_lines = np.hstack([on_lines, [[0.05 + 1e-15, 0.002], [0.01, -1e-15]]])
+    reference = basis.mapping.invF(on_lines[:, :, None], tind=find(on_lines))[:, :, 0]
+    assert (np.minimum(np.minimum(*reference), 1 - reference.sum(axis=0)) > -1e-9).all()
+    vector = np.random.default_rng(6).normal(size=basis.N)
+    on_plate = np.clip(on_lines.T, 0, [0.05, 0.03]).T   # skfem's finder refuses a point outside
+    np.testing.assert_allclose(probes(basis, on_lines, find(on_lines)) @ vector, basis.probes(on_plate) @ vector,
+                               rtol=1e-9, atol=1e-9 * np.abs(vector).max())
 
 
 def test_the_batched_plate_matrices_are_skfems_assembly_to_roundoff():
