@@ -288,14 +288,33 @@ def solve_plate(geometry: PlateGeometry, resonator: Isotropic = ALUMINIUM_TABLE2
     fixes that mesh size instead: solves of one plate whose materials move by their
     tolerances then share one mesh, so their differences are physics, not remeshing.
     `bond` is the adhesive under every patch (`RIGID_BOND`: the classical laminate);
-    `thick_plate` False leaves the frequencies Kirchhoff's."""
+    `thick_plate` False leaves the frequencies Kirchhoff's. Plates that differ only in which
+    patches are powered, or in their names, share one solve (`mechanical`)."""
     if n_modes is None:
         n_modes = mode_count(geometry, resonator, piezo, near_hz, band_rel)
-    key = _key(geometry, resonator, piezo, near_hz, n_modes, elements_per_half_wave, mesh_half_wave_m, bond,
-               thick_plate)
-    stored_key = hashlib.sha256(f"{solver_fingerprint()}\0{key}".encode()).hexdigest()
-    return _CACHE.get(key, lambda: _solve(geometry, resonator, piezo, near_hz, n_modes, elements_per_half_wave,
-                                          mesh_half_wave_m, bond, thick_plate, stored_key))
+
+    def key(plate: PlateGeometry) -> str:
+        return _key(plate, resonator, piezo, near_hz, n_modes, elements_per_half_wave, mesh_half_wave_m, bond,
+                    thick_plate)
+
+    plate = mechanical(geometry)
+    stored_key = hashlib.sha256(f"{solver_fingerprint()}\0{key(plate)}".encode()).hexdigest()
+
+    def solved() -> PlateModes:
+        return _CACHE.get(key(plate), lambda: _solve(plate, resonator, piezo, near_hz, n_modes, elements_per_half_wave,
+                                                     mesh_half_wave_m, bond, thick_plate, stored_key))
+
+    if plate == geometry:
+        return solved()
+    powered = np.array([p.powered for p in geometry.patches], dtype=bool)
+    return _CACHE.get(key(geometry), lambda: replace(solved(), powered=powered))
+
+
+def mechanical(geometry: PlateGeometry) -> PlateGeometry:
+    """`geometry` as its eigenproblem sees it: every patch powered and unnamed (a patch
+    stiffens, weighs and couples alike whether a drive is wired to it; `PlateModes.powered`
+    only says which patches' forces a drive sums)."""
+    return replace(geometry, patches=tuple(replace(p, powered=True, name="") for p in geometry.patches))
 
 
 def _thin_half_wavelength_m(material: Isotropic, thickness_m: float, kirchhoff_hz: float) -> float:
