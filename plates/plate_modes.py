@@ -274,15 +274,10 @@ def solver_fingerprint() -> str:
            f"scikit-fem {skfem.__version__}"
 
 
-#: The band a solve covers by default (whole width, relative to the drive): about +-8 %, the
-#: (n, 0) neighbours in view (`solve_plate`).
-BAND_REL = 0.16
-
-
 def solve_plate(geometry: PlateGeometry, resonator: Isotropic = ALUMINIUM_TABLE2,
                 piezo: Piezo = NCE41, near_hz: float = 40e3, n_modes: int | None = None,
                 elements_per_half_wave: float = 1.5, mesh_half_wave_m: float | None = None,
-                band_rel: float = BAND_REL, bond: Bond = EPOXY, thick_plate: bool = True) -> PlateModes:
+                band_rel: float = 0.16, bond: Bond = EPOXY, thick_plate: bool = True) -> PlateModes:
     """The `n_modes` modes nearest `near_hz` of `geometry` (cached by geometry, materials and
     mesh: a campaign solves each plate once; kept on disk for other processes,
     `stored_solves`). The mesh size follows the bare plate's flexural

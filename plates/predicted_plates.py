@@ -211,7 +211,7 @@ def _cut_plate_mode(modes: plate_modes.PlateModes, uncut_hz: float) -> int:
 #: The modes a working mode is chosen among: those within this whole band (relative) about
 #: where it is sought (`plate_modes.mode_count`), so a stated mode's estimate may miss by 15 %.
 SEARCH_BAND_REL = 0.3
-#: A mode is first sought among this many modes nearest where it is sought (ARPACK's work
+#: A stated mode is first sought among this many modes nearest its estimate (ARPACK's work
 #: grows with the square of the modes asked for: the large plate's 71-mode band took 5.0
 #: CPU-s, 12 modes 0.5 s, 6 modes 0.35 s), the band widened only if they do not show it
 #: (`_shows_nearest`). Six show each paper plate's stated mode at once: its estimate is
@@ -220,42 +220,33 @@ FIRST_MODES = 6
 
 
 def _shows_nearest(modes: plate_modes.PlateModes, k: int, near_hz: float) -> bool:
-    """Whether every mode of the plate nearer `near_hz` than mode k is among those solved, so
-    that a family's member nearest `near_hz` among them is the nearest of all the plate's:
-    the solve's modes are those nearest its shift, a run of the spectrum without a gap (the
-    thick-plate correction keeps their order), so it holds if the run reaches past k's
-    distance on both sides."""
+    """Whether mode k is the (n, 0) mode of its count nearest `near_hz` among all the plate's
+    modes, not only among those solved: the solve's modes are those nearest its shift, a run
+    of the spectrum without a gap (and the thick-plate correction keeps their order), so every
+    mode nearer `near_hz` than k is in it if the run reaches past k's distance on both sides."""
     distance = abs(modes.frequencies_hz[k] - near_hz)
     return bool(modes.frequencies_hz.min() < near_hz - distance and modes.frequencies_hz.max() > near_hz + distance)
 
 
-def _solve_nearest(geometry: plate_modes.PlateGeometry, near_hz: float, choose, band_rel: float):
-    """The plate's solution and the mode `choose(modes)` picks: the mode of a family (each
-    mode in it or not by itself) nearest `near_hz`, ValueError if none is solved. The same
-    mode as the solve of the whole band `band_rel` about `near_hz` picks, sought in
-    `FIRST_MODES` modes and twice as many until they show it (`_shows_nearest`), the whole
-    band the last resort."""
-    band = plate_modes.mode_count(geometry, plate_modes.ALUMINIUM_TABLE2, plate_modes.NCE41, near_hz, band_rel)
-    n_modes = min(FIRST_MODES, band)
-    while n_modes < band:
-        modes = plate_modes.solve_plate(geometry, near_hz=near_hz, n_modes=n_modes)
-        try:
-            k = choose(modes)
-        except ValueError:   # none of the family in view yet
-            k = None
-        if k is not None and _shows_nearest(modes, k, near_hz):
-            return modes, k
-        n_modes = min(2 * n_modes, band)
-    modes = plate_modes.solve_plate(geometry, near_hz=near_hz, n_modes=band)
-    return modes, choose(modes)
-
-
 def _solve_stated(geometry: plate_modes.PlateGeometry, antinodes: int):
     """The plate's solution and the index of its mode of `antinodes` stated antinodes
-    (`mode_with_antinodes` about `_search_hz` among the modes of `SEARCH_BAND_REL`,
-    `_solve_nearest`)."""
+    (`mode_with_antinodes` about `_search_hz` among the modes of `SEARCH_BAND_REL`): the same
+    mode as that band's solve gives, sought in `FIRST_MODES` modes and twice as many until they
+    show it (`_shows_nearest`), the whole band the last resort."""
     near = _search_hz(geometry, antinodes)
-    return _solve_nearest(geometry, near, lambda modes: mode_with_antinodes(modes, antinodes, near), SEARCH_BAND_REL)
+    band = plate_modes.mode_count(geometry, plate_modes.ALUMINIUM_TABLE2, plate_modes.NCE41, near, SEARCH_BAND_REL)
+    n_modes = min(FIRST_MODES, band)
+    while n_modes < band:
+        modes = plate_modes.solve_plate(geometry, near_hz=near, n_modes=n_modes)
+        try:
+            k = mode_with_antinodes(modes, antinodes, near)
+        except ValueError:   # none of that count in view yet
+            k = None
+        if k is not None and _shows_nearest(modes, k, near):
+            return modes, k
+        n_modes = min(2 * n_modes, band)
+    modes = plate_modes.solve_plate(geometry, near_hz=near, n_modes=band)
+    return modes, mode_with_antinodes(modes, antinodes, near)
 
 
 def _solve_working(geometry: plate_modes.PlateGeometry, antinodes: int | None, uncut_hz: float | None):
@@ -528,9 +519,8 @@ def working_shape(plate: str, near_hz: float, x_m, y_m) -> tuple[np.ndarray, flo
     the model does not know."""
     if plate not in GEOMETRIES:
         return None
-    # `working_mode` among a default solve's band, from as few modes as show it
-    modes, k = _solve_nearest(GEOMETRIES[plate](), near_hz, lambda solved: solved.working_mode(near_hz),
-                              plate_modes.BAND_REL)
+    modes = plate_modes.solve_plate(GEOMETRIES[plate](), near_hz=near_hz)
+    k = modes.working_mode(near_hz)
     return modes.shape_at(k, x_m, y_m), float(modes.frequencies_hz[k])
 
 

@@ -169,22 +169,6 @@ def test_a_stated_mode_sought_in_fewer_modes_is_the_one_the_whole_band_gives(mon
         modes, int(np.argmax(modes.frequencies_hz)), near)
 
 
-def test_the_working_mode_sought_in_fewer_modes_is_the_one_the_whole_band_gives(monkeypatch):
-    """`working_shape`'s choice (the (n, 0) mode nearest the drive, `PlateModes.working_mode`)
-    from 2, 4, ... modes is the one among the whole default band, at a drive between modes."""
-    from squeezebench.plates import plate_modes
-
-    monkeypatch.setattr(predicted_plates, "FIRST_MODES", 2)
-    geometry = predicted_plates.table4_plate("1-column")
-    for near_hz in (40e3, 45.5e3):
-        whole = plate_modes.solve_plate(geometry, near_hz=near_hz)
-        k = whole.working_mode(near_hz)
-        modes, j = predicted_plates._solve_nearest(geometry, near_hz, lambda solved: solved.working_mode(near_hz),
-                                                   plate_modes.BAND_REL)
-        assert len(modes.frequencies_hz) <= len(whole.frequencies_hz)
-        assert modes.frequencies_hz[j] == pytest.approx(whole.frequencies_hz[k], rel=1e-9)
-
-
 def test_the_drive_voltage_only_scales_the_responses(frame):
     per_volt = predicted_plates._predictions().set_index("item")
     for row in frame.itertuples():
