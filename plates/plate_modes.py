@@ -44,7 +44,6 @@ import hashlib
 import json
 import math
 from dataclasses import asdict, dataclass, field, replace
-from typing import Callable
 
 import numpy as np
 from scipy.sparse.linalg import eigsh
@@ -156,6 +155,9 @@ class PlateModes:
     #: piezo layers' share, for `plates.damping`), and per patch the bond's energy over that
     piezo_energy_share: np.ndarray = field(repr=False, default=None)
     bond_energy_ratio: np.ndarray = field(repr=False, default=None)
+    #: per mode, int phi^2 dA over the plate of the mass-normalised mode (m^2/kg; the face
+    #: losses' weight, `plates.damping`), None for a plate solved otherwise (a reduced model's)
+    face_integral_m2_per_kg: np.ndarray | None = field(repr=False, default=None)
     _probe: object = field(repr=False, default=None)  # points (2, N), mode k -> mass-normalised deflections (N)
     _modal_force: np.ndarray = field(repr=False, default=None)  # Theta (modes, patches), mass-normalised
     _peak: np.ndarray = field(repr=False, default=None)  # mass-normalised deflection at each mode's peak
@@ -286,14 +288,33 @@ def solve_plate(geometry: PlateGeometry, resonator: Isotropic = ALUMINIUM_TABLE2
     fixes that mesh size instead: solves of one plate whose materials move by their
     tolerances then share one mesh, so their differences are physics, not remeshing.
     `bond` is the adhesive under every patch (`RIGID_BOND`: the classical laminate);
-    `thick_plate` False leaves the frequencies Kirchhoff's."""
+    `thick_plate` False leaves the frequencies Kirchhoff's. Plates that differ only in which
+    patches are powered, or in their names, share one solve (`mechanical`)."""
     if n_modes is None:
         n_modes = mode_count(geometry, resonator, piezo, near_hz, band_rel)
-    key = _key(geometry, resonator, piezo, near_hz, n_modes, elements_per_half_wave, mesh_half_wave_m, bond,
-               thick_plate)
-    stored_key = hashlib.sha256(f"{solver_fingerprint()}\0{key}".encode()).hexdigest()
-    return _CACHE.get(key, lambda: _solve(geometry, resonator, piezo, near_hz, n_modes, elements_per_half_wave,
-                                          mesh_half_wave_m, bond, thick_plate, stored_key))
+
+    def key(plate: PlateGeometry) -> str:
+        return _key(plate, resonator, piezo, near_hz, n_modes, elements_per_half_wave, mesh_half_wave_m, bond,
+                    thick_plate)
+
+    plate = mechanical(geometry)
+    stored_key = hashlib.sha256(f"{solver_fingerprint()}\0{key(plate)}".encode()).hexdigest()
+
+    def solved() -> PlateModes:
+        return _CACHE.get(key(plate), lambda: _solve(plate, resonator, piezo, near_hz, n_modes, elements_per_half_wave,
+                                                     mesh_half_wave_m, bond, thick_plate, stored_key))
+
+    if plate == geometry:
+        return solved()
+    powered = np.array([p.powered for p in geometry.patches], dtype=bool)
+    return _CACHE.get(key(geometry), lambda: replace(solved(), powered=powered))
+
+
+def mechanical(geometry: PlateGeometry) -> PlateGeometry:
+    """`geometry` as its eigenproblem sees it: every patch powered and unnamed (a patch
+    stiffens, weighs and couples alike whether a drive is wired to it; `PlateModes.powered`
+    only says which patches' forces a drive sums)."""
+    return replace(geometry, patches=tuple(replace(p, powered=True, name="") for p in geometry.patches))
 
 
 def _thin_half_wavelength_m(material: Isotropic, thickness_m: float, kirchhoff_hz: float) -> float:
@@ -462,23 +483,14 @@ def _solve(geometry, resonator, piezo, near_hz, n_modes, elements_per_half_wave,
     found = stored_solves().get(stored_key, solved)
     return replace(modes_from_vectors(geometry, resonator, piezo, bond, thick_plate, sections, found["eigenvalues"],
                                       found["vectors"], gx, gy, grid_probe, probe, found["patch_laplacians"],
-                                      found["added_energy"]), stored_key=stored_key)
-
-
-def kept(modes: PlateModes, name: str, build: Callable[[], np.ndarray]) -> np.ndarray:
-    """A costly value derived from a solve (`name` says which, with everything it depends on
-    besides the solve and the plate model's code), kept on disk beside the solve
-    (`stored_solves`); built afresh for a plate solved otherwise (a reduced model's)."""
-    if modes.stored_key is None:
-        return np.asarray(build())
-    key = hashlib.sha256(f"{modes.stored_key}\0{name}".encode()).hexdigest()
-    return stored_solves().get(key, lambda: {"value": np.asarray(build())})["value"]
+                                      found["added_energy"], found["face_integrals"]), stored_key=stored_key)
 
 
 def _eigenpairs(geometry, resonator, piezo, kirchhoff_hz, n_modes, sections, mesh, basis) -> dict[str, np.ndarray]:
     """The mass-normalised Kirchhoff eigenpairs nearest `kirchhoff_hz` of the plate with its
     patches' `sections` (eigenvalues ascending, vectors (dofs, modes)), each mode's integral
-    of phi_xx + phi_yy over each patch and the patches' added rigidity's energy in it."""
+    of phi_xx + phi_yy over each patch, the patches' added rigidity's energy in it and its face
+    integral int phi^2 dA (m^2/kg, `PlateModes.face_integral_m2_per_kg`)."""
     from skfem import LinearForm
     from skfem.helpers import dd, trace
 
@@ -514,14 +526,12 @@ def _eigenpairs(geometry, resonator, piezo, kirchhoff_hz, n_modes, sections, mes
                                 * np.tile(mask, basis.Nbfun)).todefault()
         laplacians[:, i] = b @ vectors
     added = np.where(np.any(inside, axis=0), d_e - d_bare, 0.0) if inside else np.zeros(mesh.nelements)
-    if added.any():
-        # the patches' added rigidity alone: its energy in each mass-normalised mode
-        k_added, _ = stiffness_and_mass(basis, added, m_e, resonator.poisson)
-        added_energy = np.einsum("ij,ij->j", vectors, k_added @ vectors)
-    else:
-        added_energy = np.zeros(n)
+    # the patches' added rigidity alone (its energy in each mass-normalised mode), and the same
+    # assembly's mass form at 1 kg/m^2: int phi^2 dA of each mode, exact on the elements
+    k_added, unit_mass = stiffness_and_mass(basis, added, np.ones(mesh.nelements), resonator.poisson)
     return {"eigenvalues": eigenvalues, "vectors": vectors, "patch_laplacians": laplacians,
-            "added_energy": added_energy}
+            "added_energy": np.einsum("ij,ij->j", vectors, k_added @ vectors),
+            "face_integrals": np.einsum("ij,ij->j", vectors, unit_mass @ vectors)}
 
 
 def eigenproblem_hz(near_hz: float, resonator: Isotropic, thickness_m: float, thick_plate: bool) -> float:
@@ -540,13 +550,15 @@ def patch_sections(geometry: PlateGeometry, resonator: Isotropic, piezo: Piezo,
 def modes_from_vectors(geometry: PlateGeometry, resonator: Isotropic, piezo: Piezo, bond: Bond, thick_plate: bool,
                        sections: list, eigenvalues: np.ndarray, vectors: np.ndarray, gx: np.ndarray,
                        gy: np.ndarray, grid_probe, probe, patch_laplacians: np.ndarray,
-                       added_energy: np.ndarray) -> PlateModes:
+                       added_energy: np.ndarray, face_integrals: np.ndarray | None = None) -> PlateModes:
     """The `PlateModes` of mass-normalised Kirchhoff eigenpairs (eigenvalues w_K^2 ascending,
     vectors (dofs, modes)) on a basis whose `grid_probe` evaluates them on the shape grid
     gx x gy and `probe(points)` anywhere; `sections` are the patches' `patch_sections`,
     `patch_laplacians[k, i]` is \\int_patch_i (phi_xx + phi_yy) dA of mode k and
     `added_energy[k]` phi_k^T K_added phi_k, the patches' added rigidity's share of
-    w_K^2. Shared by the full solve and reduced models of it (`plates.reduced_layouts`)."""
+    w_K^2; `face_integrals[k]` int phi_k^2 dA where the solve has it (None: `plates.damping`
+    integrates the shape instead). Shared by the full solve and reduced models of it
+    (`plates.reduced_layouts`)."""
     n = len(eigenvalues)
     shapes = (grid_probe @ vectors).T.reshape(n, len(gx), len(gy))
     flat = shapes.reshape(n, -1)
@@ -580,8 +592,9 @@ def modes_from_vectors(geometry: PlateGeometry, resonator: Isotropic, piezo: Pie
         piezo_energy_share=piezo_share,
         bond_energy_ratio=np.array([bond_energy_ratio(resonator, geometry.thickness_m, piezo, p.thickness_m, bond,
                                                       p.length_x_m) for p in geometry.patches]),
-        # one mode's column: the face integral's refined grid has tens of thousands of points
-        _probe=lambda p, k: probe(p) @ vectors[:, k], _modal_force=theta, _peak=peak)
+        # one mode's column: a figure's or a reduced model's face integral's grid has tens of thousands of points
+        _probe=lambda p, k: probe(p) @ vectors[:, k], _modal_force=theta, _peak=peak,
+        face_integral_m2_per_kg=face_integrals)
 
 
 def sign_changes(x: np.ndarray, values: np.ndarray) -> np.ndarray:

@@ -1,5 +1,6 @@
 """Q from the physics of the losses (plates.damping): closed forms, the modal strain energy
 weighting, and the fit on one build judged on the others."""
+import dataclasses
 import math
 
 import numpy as np
@@ -7,7 +8,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from squeezebench.plates import damping, plate_modes
+from squeezebench.plates import damping, plate_modes, predicted_plates
 
 AL = plate_modes.ALUMINIUM_TABLE2
 
@@ -89,6 +90,19 @@ def test_the_face_integral_of_a_bare_plate_mode_is_one_over_rho_h():
     modes = plate_modes.solve_plate(geometry, near_hz=40e3)
     k = modes.working_mode(40e3, min_uniformity=0.0)
     assert damping.face_integral_m2_per_kg(modes, k) == pytest.approx(1 / (2790.0 * 1e-3), rel=0.02)
+
+
+def test_the_solves_face_integral_is_what_the_refined_shape_grid_converges_to():
+    """A patched plate's exact int phi^2 dA (the mode's quadratic form with the unit mass
+    matrix) is the limit of the shape integrated on ever finer grids (a reduced model's way):
+    the trapezoid's error falls as the grid step squared, a quarter per halving."""
+    modes = plate_modes.solve_plate(predicted_plates.table3_plate("28"), near_hz=37e3, band_rel=0.3)
+    k = modes.working_mode(37e3)
+    exact = damping.face_integral_m2_per_kg(modes, k)
+    shape_only = dataclasses.replace(modes, face_integral_m2_per_kg=None)
+    errors = [damping.face_integral_m2_per_kg(shape_only, k, refine) / exact - 1 for refine in (4, 8)]
+    assert 0 < errors[1] < errors[0] < 1e-2
+    assert errors[1] / errors[0] == pytest.approx(0.25, abs=0.01)
 
 
 @given(f=st.floats(20e3, 60e3), c=st.floats(1e-10, 1e-8), v=st.floats(1.0, 300.0), tan=st.floats(1e-3, 0.05))

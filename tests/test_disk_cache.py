@@ -80,7 +80,7 @@ def test_the_folder_stays_under_its_limit_the_least_recently_used_going(tmp_path
 def test_a_plate_solve_is_read_back_identical_and_a_corrupt_one_solved_again(tmp_path, monkeypatch):
     """The 28 mm cut plate (a small mesh): solved, then read by a process that has not solved
     it (the in-process cache emptied, the eigen-solve forbidden), with its face integral
-    (`damping`, kept beside it), then solved again after its file is damaged."""
+    (`damping`, stored with the solve), then solved again after its file is damaged."""
     monkeypatch.setenv(CACHE_VARIABLE, str(tmp_path))
     geometry = predicted_plates.table3_plate("28")
 
@@ -98,7 +98,7 @@ def test_a_plate_solve_is_read_back_identical_and_a_corrupt_one_solved_again(tmp
 
     monkeypatch.setattr(plate_modes, "_eigenpairs", forbidden)
     read = solve()
-    with monkeypatch.context() as patch:   # the face integral's refined grid is not evaluated again either
+    with monkeypatch.context() as patch:   # the face integral is read, not integrated over the shape
         patch.setattr(plate_modes.PlateModes, "shape_at", forbidden)
         assert damping.face_integral_m2_per_kg(read, k) == face
     for name in ("frequencies_hz", "shapes", "modal_mass_kg", "force_factor_n_per_v", "uniformity",

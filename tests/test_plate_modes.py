@@ -61,6 +61,25 @@ def test_a_solution_is_cached_by_geometry_and_materials():
     assert solve_plate(plate, stiffer, near_hz=30e3) is not solve_plate(plate, near_hz=30e3)
 
 
+def test_plates_differing_only_in_what_is_powered_share_one_solve(monkeypatch):
+    """Which patches a drive is wired to, and their names, change no eigenpair: one solve,
+    each plate keeping its own powered set (so its own summed force factor), each cached."""
+    solves = []
+    solve = plate_modes._solve
+    monkeypatch.setattr(plate_modes, "_solve", lambda *args: solves.append(args[0]) or solve(*args))
+    columns = (column(4.5 * MM, 41 * MM, 5 * MM, 9 * MM, 0.5 * MM, 4, name="one")
+               + column(71.5 * MM, 41 * MM, 5 * MM, 9 * MM, 0.5 * MM, 4, powered=False, name="two"))
+    one = PlateGeometry(76 * MM, 41 * MM, 1.2 * MM, columns)
+    both = dataclasses.replace(one, patches=tuple(dataclasses.replace(p, powered=True) for p in columns))
+    first, second = solve_plate(one, near_hz=43e3, n_modes=6), solve_plate(both, near_hz=43e3, n_modes=6)
+    assert len(solves) == 1 and all(p.powered and not p.name for p in solves[0].patches)
+    assert list(first.powered) == [True] * 4 + [False] * 4 and second.powered.all()
+    assert np.array_equal(first.force_factor_n_per_v, second.force_factor_n_per_v)
+    k = first.working_mode(43e3)
+    assert first.coupling(k)["force_factor_n_per_v"] != second.coupling(k)["force_factor_n_per_v"]
+    assert solve_plate(one, near_hz=43e3, n_modes=6) is first and solve_plate(both, near_hz=43e3, n_modes=6) is second
+
+
 def test_the_nodal_line_spacing_is_the_flexural_half_wavelength():
     plate = PlateGeometry(76 * MM, 41 * MM, 1.2 * MM)
     modes = solve_plate(plate, near_hz=44e3)

@@ -146,6 +146,29 @@ def test_the_59_mm_plate_keeps_its_mode_when_its_printed_frequency_moves(monkeyp
         predicted_plates._predictions.cache_clear()
 
 
+def test_a_stated_mode_sought_in_fewer_modes_is_the_one_the_whole_band_gives(monkeypatch):
+    """Started from 2 modes, the search widens (2, 4, 8) until its modes reach past the chosen
+    one's distance from the estimate on both sides, and stops short of the whole band of 12
+    with the mode that band's solve chooses: the same eigenpair, solved to ARPACK's tolerance."""
+    from squeezebench.plates import plate_modes
+
+    geometry = predicted_plates.table4_plate("2-columns 1 powered")
+    near = predicted_plates._search_hz(geometry, 9)
+    whole = plate_modes.solve_plate(geometry, near_hz=near, band_rel=predicted_plates.SEARCH_BAND_REL)
+    k = predicted_plates.mode_with_antinodes(whole, 9, near)
+    asked = []
+    solve = plate_modes.solve_plate
+    monkeypatch.setattr(plate_modes, "solve_plate", lambda g, **options: asked.append(options["n_modes"]) or solve(
+        g, **options))
+    monkeypatch.setattr(predicted_plates, "FIRST_MODES", 2)
+    modes, j = predicted_plates._solve_stated(geometry, 9)
+    assert asked == [2, 4, 8] and len(whole.frequencies_hz) == 12
+    assert modes.frequencies_hz[j] == pytest.approx(whole.frequencies_hz[k], rel=1e-9)
+    assert modes.referred_to(j, 0.038, 0.0205)[0] == pytest.approx(whole.referred_to(k, 0.038, 0.0205)[0], rel=1e-6)
+    assert predicted_plates._shows_nearest(modes, j, near) and not predicted_plates._shows_nearest(
+        modes, int(np.argmax(modes.frequencies_hz)), near)
+
+
 def test_the_drive_voltage_only_scales_the_responses(frame):
     per_volt = predicted_plates._predictions().set_index("item")
     for row in frame.itertuples():
