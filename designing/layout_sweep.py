@@ -58,9 +58,11 @@ class ReducedChunk:
 
     def run(self) -> tuple[list[dict], int, dict]:
         solve = reduced_layouts.Solver(self.bare)
-        rows = [layouts.evaluate(layout, self.design, self.antinodes, solve=solve) for layout in self.layouts]
-        points = {layout: _working_point(layout, self.design, self.antinodes, solve)
-                  for layout in self.layouts if layout in self.sampled}
+        rows, points = [], {}
+        for layout in self.layouts:
+            rows.append(layouts.evaluate(layout, self.design, self.antinodes, solve=solve))
+            if layout in self.sampled:   # right after its row, from the modes the solver keeps
+                points[layout] = _working_point(layout, self.design, self.antinodes, solve)
         return rows, solve.full_solves, points
 
 
