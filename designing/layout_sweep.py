@@ -10,7 +10,6 @@ solves every layout in full and says so (`squeezebench.designing.workflow`).
 """
 from __future__ import annotations
 
-import itertools
 from dataclasses import dataclass
 
 import numpy as np
@@ -58,9 +57,11 @@ class ReducedChunk:
 
     def run(self) -> tuple[list[dict], int, dict]:
         solve = reduced_layouts.Solver(self.bare)
-        rows = [layouts.evaluate(layout, self.design, self.antinodes, solve=solve) for layout in self.layouts]
-        points = {layout: _working_point(layout, self.design, self.antinodes, solve)
-                  for layout in self.layouts if layout in self.sampled}
+        rows, points = [], {}
+        for layout in self.layouts:
+            rows.append(layouts.evaluate(layout, self.design, self.antinodes, solve=solve))
+            if layout in self.sampled:   # right after its row, from the modes the solver keeps
+                points[layout] = _working_point(layout, self.design, self.antinodes, solve)
         return rows, solve.full_solves, points
 
 
@@ -87,14 +88,22 @@ def tasks(grid: list[layouts.Layout], design: DesignFile, antinodes: int,
     """The sample's full solves, and the layouts in `chunks` chunks: one a worker, since a
     worker builds the model for its first chunk and loky replaces a worker between tasks
     once it holds 300 MB more than after its first (the large plate's model and its kept
-    patches can), so a further chunk could pay the build again (7 s idle). The grid's runs of
-    layouts with the same columns at the same place (whose patches share rectangles, so a
-    worker computes them once) are dealt to the chunks in turn: cut in order, one chunk would
-    hold every layout with a centre column, half as many patches again, and finish last."""
+    patches can), so a further chunk could pay the build again (7 s idle). The layouts whose
+    end columns are the same rectangles (the same place, piezos per column and arrangement;
+    with or without a centre column, every thickness) go to one chunk, one after the other,
+    so a worker computes those rectangles' forms once; these groups are dealt to the chunks
+    in turn, by piezos per column and arrangement first, so every chunk gets as many
+    layouts of each (a layout's work grows with its patches). Dealt by place and columns
+    instead, a place's two column sets fell to two workers whenever the places were odd in
+    number, and both computed its end columns' forms (456 instead of 328 on the
+    324-layout sweep)."""
     bare = bare_plate(design, grid, antinodes)
     sampled = frozenset(grid[i] for i in sample(len(grid)))
-    runs = [list(run) for _, run in itertools.groupby(grid, key=lambda layout: (layout.columns,
-                                                                               layout.edge_offset_mm))]
+    groups: dict[tuple, list[layouts.Layout]] = {}
+    for layout in sorted(grid, key=lambda layout: (layout.piezos_per_column, layout.arrangement,
+                                                   layout.edge_offset_mm)):
+        groups.setdefault((layout.piezos_per_column, layout.arrangement, layout.edge_offset_mm), []).append(layout)
+    runs = list(groups.values())
     dealt = [tuple(layout for run in runs[i::chunks] for layout in run) for i in range(min(chunks, len(runs)))]
     return ([CheckedLayout(grid[i], design, antinodes) for i in sample(len(grid))],
             [ReducedChunk(chunk, design, antinodes, bare, sampled & frozenset(chunk)) for chunk in dealt])

@@ -205,9 +205,19 @@ class ReducedPlate:
         self.eigenvalues, self.vectors = eigenvalues[order], vectors[:, order]
         self._mass_vectors = self.mass @ self.vectors   # M0 phi; K0 phi = M0 phi w^2
         self._grid_modes = self.grid_probe @ self.vectors
+        # their Gram matrices on the shape grid, of the values and of the means across the width:
+        # a mode's share of deflection even across the width (`PlateModes.uniformity`) is the
+        # ratio of its quadratic forms in the second and the first
+        self._grid_means = self._width_means(self._grid_modes)
+        self._grid_grams = (self._grid_modes.T @ self._grid_modes, self._grid_means.T @ self._grid_means)
         self.n_modes = plate_modes.mode_count(bare.geometry, bare.resonator, bare.piezo, bare.near_hz,
                                               bare.band_rel)
         self._patches: RecentlyUsed[PatchForms] = RecentlyUsed(PATCHES_KEPT)
+
+    def _width_means(self, grid: np.ndarray) -> np.ndarray:
+        """Basis vectors' values on the shape grid (points, vectors) averaged across the
+        width, times the square root of its points (lengthwise points, vectors)."""
+        return np.sqrt(len(self._gy)) * grid.reshape(len(self._gx), len(self._gy), -1).mean(axis=1)
 
     def patch_forms(self, bounds: tuple[float, float, float, float]) -> PatchForms:
         """The bilinear forms of the rectangle `bounds` (x0, x1, y0, y1), kept for the sweep."""
@@ -277,7 +287,8 @@ class ReducedPlate:
         rows = [self.vectors[p.dofs] for p, _, _ in parts]   # every basis vector on each patch's dofs
         added = np.zeros((self.stiffness.shape[0], 0))
         mass_added, stiffness_added = added, added   # M0 and K0 times the added vectors
-        grid_basis = self._grid_modes   # the basis on the shape grid
+        grid_basis, grid_means = self._grid_modes, self._grid_means   # the basis on the shape grid
+        grid_gram, mean_gram = self._grid_grams
         previous = None
         for step in range(MAX_STEPS + 1):
             eigenvalues, coefficients = eigh(stiffness, mass)
@@ -288,8 +299,9 @@ class ReducedPlate:
             added_energy = np.einsum("ij,ij->j", coefficients, added_stiffness @ coefficients)
             if not parts:
                 break
-            shapes = (grid_basis @ coefficients).reshape(len(self._gx), len(self._gy), -1)
-            uniformity = (shapes.mean(axis=1) ** 2).sum(axis=0) * len(self._gy) / (shapes**2).sum(axis=(0, 1))
+            # each mode's share of deflection even across the width (`_grid_grams`)
+            uniformity = (np.einsum("ij,ij->j", coefficients, mean_gram @ coefficients)
+                          / np.einsum("ij,ij->j", coefficients, grid_gram @ coefficients))
             targets = np.nonzero(uniformity >= CANDIDATE_UNIFORMITY)[0]
             if targets.size == 0:
                 targets = np.array([int(np.argmin(abs(eigenvalues - self.sigma)))])
@@ -300,11 +312,12 @@ class ReducedPlate:
             if step == MAX_STEPS:
                 raise NotConverged(f"the reduced model did not settle in {MAX_STEPS} steps")
             previous = figures
-            # residuals on the plate with its patches: (K - lambda M) x, K0 x and M0 x from the
+            # residuals on the plate with its patches, (K - lambda M) x, less their bare modes' part
+            # M0 phi (w^2 - lambda) c: (K0 - sigma M0)^-1 takes that to phi (w^2 - lambda) / (w^2 - sigma) c,
+            # which the projection below removes. K0 x and M0 x of the added vectors from the
             # products kept (no product with the global matrices), the patches' part on their dofs
-            lam, bare_part, added_part = eigenvalues[targets], coefficients[:r, targets], coefficients[r:, targets]
-            residual = (self._mass_vectors @ (bare_part * (self.eigenvalues[:, None] - lam))
-                        + stiffness_added @ added_part - (mass_added @ added_part) * lam)
+            lam, added_part = eigenvalues[targets], coefficients[r:, targets]
+            residual = stiffness_added @ added_part - (mass_added @ added_part) * lam
             for (p, dd, dm), there in zip(parts, rows):
                 x = there @ coefficients[:, targets]
                 residual[p.dofs] += dd * (p.local_stiffness @ x) - dm * (p.local_mass @ x) * lam
@@ -340,7 +353,12 @@ class ReducedPlate:
             added = np.hstack([added, direction])
             mass_added = np.hstack([mass_added, mass_direction])
             stiffness_added = np.hstack([stiffness_added, stiffness_direction])
-            grid_basis = np.hstack([grid_basis, self.grid_probe @ direction])
+            grid_direction = self.grid_probe @ direction
+            mean_direction = self._width_means(grid_direction)
+            cross_grid, cross_mean = grid_basis.T @ grid_direction, grid_means.T @ mean_direction
+            grid_gram = np.block([[grid_gram, cross_grid], [cross_grid.T, grid_direction.T @ grid_direction]])
+            mean_gram = np.block([[mean_gram, cross_mean], [cross_mean.T, mean_direction.T @ mean_direction]])
+            grid_basis, grid_means = np.hstack([grid_basis, grid_direction]), np.hstack([grid_means, mean_direction])
         vectors = self.vectors @ coefficients[:r] + added @ coefficients[r:]
         return plate_modes.modes_from_vectors(geometry, bare.resonator, bare.piezo, bare.bond, bare.thick_plate,
                                               sections, eigenvalues, vectors, self._gx, self._gy, self.grid_probe,
@@ -371,11 +389,13 @@ class Solver:
     """A stand-in for `plate_modes.solve_plate` that answers from the reduced model of
     `bare` for plates it is (same plate, materials, drive and mesh) and by the full solve
     for any other (a tolerance's moved materials) or where the model does not settle;
-    `full_solves` counts those."""
+    `full_solves` counts those. The last plate answered by the model is kept: a sweep asks
+    for a sampled layout's working point right after its row."""
 
     def __init__(self, bare: BarePlate):
         self.bare = bare
         self.full_solves = 0
+        self._last: tuple[PlateGeometry, plate_modes.PlateModes] | None = None
 
     def __call__(self, geometry: PlateGeometry, resonator: Isotropic = plate_modes.ALUMINIUM_TABLE2,
                  piezo: Piezo = plate_modes.NCE41, near_hz: float = 40e3, n_modes: int | None = None,
@@ -387,8 +407,11 @@ class Solver:
                          band_rel=band_rel, elements_per_half_wave=elements_per_half_wave,
                          mesh_half_wave_m=mesh_half_wave_m, bond=bond, thick_plate=thick_plate)
         if wanted == self.bare and n_modes is None:
+            if self._last is not None and self._last[0] == geometry:
+                return self._last[1]
             try:
-                return reduced_plate(self.bare).solve(geometry)
+                self._last = (geometry, reduced_plate(self.bare).solve(geometry))
+                return self._last[1]
             except NotConverged:
                 pass
         self.full_solves += 1

@@ -143,3 +143,22 @@ def test_the_retuning_term_of_two_points_is_the_closed_form_sensitivity_times_th
     # one setting for every point: the error scales the map and leaves its homogeneity
     flat = retuning_term(lambda v: homogeneity(v).coefficient_of_variation, np.array([a, b]), np.full(2, 52_400.0), q)
     assert flat.std_uncertainty == pytest.approx(0.0, abs=1e-15)
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.integers(2, 12), st.integers(2, 9), st.floats(0.0, 1.0), st.integers(0, 2**32 - 1))
+def test_width_uniformity_is_the_width_averaged_share_of_the_mean_square(columns, rows, mix, seed):
+    """A map w(x, y) = f(x) + mix g(x) h(y), h of zero mean across the width: the
+    width-averaged part is f, so the share is sum f^2 / (sum f^2 + mix^2 sum (g h)^2),
+    1 for a deflection that does not vary across the width, in any order of the points."""
+    from squeezebench.analysis.cartography import width_uniformity
+
+    rng = np.random.default_rng(seed)
+    f, g, h = rng.normal(size=columns), rng.normal(size=columns), rng.normal(size=rows)
+    h -= h.mean()
+    x = np.repeat(np.linspace(0.0, 0.1, columns), rows)
+    w = np.repeat(f, rows) + mix * np.outer(g, h).ravel()
+    expected = rows * (f**2).sum() / (w**2).sum()
+    order = rng.permutation(x.size)
+    assert width_uniformity(x[order], w[order]) == pytest.approx(expected, rel=1e-9)
+    assert width_uniformity(x, np.repeat(f, rows)) == pytest.approx(1.0, rel=1e-12)

@@ -166,15 +166,18 @@ def test_on_a_layouts_own_mesh_the_reduced_model_is_within_the_checks_limits(str
     assert solve.full_solves == 0
 
 
-def test_a_sweeps_chunks_hold_every_layout_once_and_share_the_centre_columns(strip_layouts):
-    """Two workers' chunks: every layout in exactly one, a place's layouts (columns and
-    distance from the ends) in one chunk, and layouts with a centre column in both."""
+def test_a_sweeps_chunks_hold_every_layout_once_and_share_the_end_columns(strip_layouts):
+    """Two workers' chunks: every layout in exactly one, the layouts with the same end
+    columns (place, piezos per column, arrangement; with or without a centre column) in one
+    chunk, as many layouts in each, and layouts with a centre column in both."""
     spec, antinodes, grid = strip_layouts
     _, chunks = layout_sweep.tasks(grid, spec, antinodes, chunks=2)
     assert len(chunks) == 2
     assert collections.Counter(layout for chunk in chunks for layout in chunk.layouts) == collections.Counter(grid)
-    places = [{(layout.columns, layout.edge_offset_mm) for layout in chunk.layouts} for chunk in chunks]
-    assert not places[0] & places[1]
+    ends = [{(layout.edge_offset_mm, layout.piezos_per_column, layout.arrangement) for layout in chunk.layouts}
+            for chunk in chunks]
+    assert not ends[0] & ends[1]
+    assert abs(len(chunks[0].layouts) - len(chunks[1].layouts)) <= max(len(chunk.layouts) for chunk in chunks) // 10
     assert all(any(layout.columns == "ends_and_centre" for layout in chunk.layouts) for chunk in chunks)
 
 
