@@ -44,6 +44,7 @@ import hashlib
 import json
 import math
 from dataclasses import asdict, dataclass, field, replace
+from typing import Callable
 
 import numpy as np
 from scipy.sparse.linalg import eigsh
