@@ -64,8 +64,8 @@ def crossings_per_line(x_m: np.ndarray, y_m: np.ndarray, above: np.ndarray) -> t
     """Neighbouring grid points on either side of a threshold (`above`), counted in each row
     (pairs along x at the same y) and in each column (along y): a contour passes between
     each such pair. Neighbours are points one grid step apart (the smallest spacing)."""
-    frame = pd.DataFrame({"x": np.round(np.asarray(x_m, dtype=float), 9), "y": np.round(np.asarray(y_m, dtype=float), 9),
-                          "above": np.asarray(above, dtype=int)})
+    frame = pd.DataFrame({"x": np.round(np.asarray(x_m, dtype=float), 9),
+                          "y": np.round(np.asarray(y_m, dtype=float), 9), "above": np.asarray(above, dtype=int)})
     counts = []
     for along, across in (("x", "y"), ("y", "x")):
         spacing = np.diff(np.unique(frame[along]))

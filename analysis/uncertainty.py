@@ -234,8 +234,8 @@ def search_budgets(rows: pd.DataFrame, setups: dict[str, SearchSetup]) -> list[t
     """(run, step, budget) of the resonance frequency of every search in `rows`
     (resonance_search rows, reduced).
 
-    The search stores the vertex of the parabola its readings on the peak's top trace in
-    1/v^2 (`resonance_searches.peak_of_readings`): its Type A term is that fit's, from the
+    The search stores where the driven mode's 1/v^2 fitted to its readings on the peak's top
+    is least (`resonance_searches.peak_of_readings`): its Type A term is that fit's, from the
     readings' own residuals (their noise, the ADC's step, and what of the peak's shape a
     parabola misses). A search stored at one of its readings' frequencies (no top to fit,
     or a run from before the fit) stored its best reading: near the top v/v0 = 1 - x^2/2
@@ -257,8 +257,8 @@ def search_budgets(rows: pd.DataFrame, setups: dict[str, SearchSetup]) -> list[t
             fit = peak_of_readings(sweep["generator_frequency_hz"], sweep["velocity_pp_mps"]) if len(sweep) else None
             if fit is not None and not np.isin(frequency_hz, sweep["generator_frequency_hz"].to_numpy()):
                 terms.append(Term("resonance fit on the top", "A", fit.std_uncertainty_hz,
-                                  f"vertex of 1/v^2 over the {int(np.sum(sweep['velocity_pp_mps'] >= PEAK_FIT_SHARE * sweep['velocity_pp_mps'].max()))} "
-                                  f"readings above {PEAK_FIT_SHARE:.0%} of the peak"))
+                                  f"the driven mode's 1/v^2 fitted to the readings above {PEAK_FIT_SHARE:.0%} "
+                                  "of the peak (resonance_searches.peak_of_readings)"))
             else:
                 terms += _best_reading_terms(found, sweep, setup)
             budgets.append((run_name, step_id, Budget("resonance_frequency_hz", "Hz", frequency_hz, tuple(terms))))

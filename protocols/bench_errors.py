@@ -259,7 +259,8 @@ def _map_homogeneities(run, plain_dir: Path) -> list[dict]:
     for run_name, points in map_points(run).groupby("run_name", sort=False):
         points = points.reset_index(drop=True)
         measured = summarise_map(points, resonance_q=map_resonance_q(run, run_name))
-        touch = [(run_name, x, y) for x, y in points.loc[points["in_touch_area"], ["x_m", "y_m"]].itertuples(index=False)]
+        touch = [(run_name, x, y)
+                 for x, y in points.loc[points["in_touch_area"], ["x_m", "y_m"]].itertuples(index=False)]
         true = homogeneity(np.array([truths[key] for key in touch]), measured["share_of_peak"])
         cell_values = np.concatenate([cells[key] for key in touch])
         true_area = (float(np.mean(cell_values >= true.share_of_peak * true.maximum)) if cell_values.size

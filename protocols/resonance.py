@@ -4,10 +4,11 @@ sinusoidal signal was set at the resonance frequency of each tactile plate"; Sec
 
 The resonance is the frequency of the largest vibration velocity. A coarse sweep finds
 the grid point nearest the peak; a golden-section search on the velocity then narrows
-the bracket around it, and the resonance is read from all the readings on the peak's top
-(`analysis.resonance_searches.peak_of_readings`), not from the largest one alone. Golden section needs only a single maximum in the bracket, not a
-smooth or wide one: a peak a few hertz wide (mechanical Q of 10^4) between two coarse
-points still has monotonic flanks, so the largest coarse point brackets it. The search
+the bracket around it, and the resonance is read from all the readings on the peak's
+top (`analysis.resonance_searches.peak_of_readings`), not from the largest one alone.
+Golden section needs only a single maximum in the bracket, not a smooth or wide one: a
+peak a few hertz wide (mechanical Q of 10^4) between two coarse points still has
+monotonic flanks, so the largest coarse point brackets it. The search
 runs on a scaled variable u in [0, 1] over the bracket, so its tolerance is independent
 of the frequency's magnitude.
 

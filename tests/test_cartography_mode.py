@@ -161,7 +161,8 @@ def _sampled_mode(rng, kind: str, points_per_half_wave: float, n_x: int = 13, n_
     x, y = np.meshgrid(np.arange(n_x, dtype=float), np.arange(n_y, dtype=float))
     sampled = shape(x, y)
     offsets = (np.arange(refine) + 0.5) / refine - 0.5
-    fine_x, fine_y = np.meshgrid((np.arange(n_x)[:, None] + offsets).ravel(), (np.arange(n_y)[:, None] + offsets).ravel())
+    fine_x, fine_y = np.meshgrid((np.arange(n_x)[:, None] + offsets).ravel(),
+                                 (np.arange(n_y)[:, None] + offsets).ravel())
     true_fraction = float(np.mean(shape(fine_x, fine_y) >= 0.5 * sampled.max()))
     return x.ravel(), y.ravel(), sampled.ravel(), true_fraction
 

@@ -27,9 +27,10 @@ GENERATOR_LIMIT_REL = SPECIFICATIONS["generator_frequency"].half_width
 
 
 def _searches(scatter_rel: float, count: int, seed: int, half_width_hz: float, step_rel: float = 0.0,
-              generator_limit_rel: float = 0.0, f0_hz: float | None = None) -> tuple[pd.DataFrame, dict[str, float], dict[str, float]]:
-    """`count` searches of driven modes (Q = f0 / (2 `half_width_hz`)) at random f0, their readings scattered by `scatter_rel`
-    (relative, normal) and rounded to `step_rel` of the peak (`f0_hz` fixes the peaks); the generator puts out its
+              generator_limit_rel: float = 0.0,
+              f0_hz: float | None = None) -> tuple[pd.DataFrame, dict[str, float], dict[str, float]]:
+    """`count` searches of driven modes (Q = f0 / (2 `half_width_hz`)) at random f0, their
+    readings scattered by `scatter_rel` (relative, normal) and rounded to `step_rel` of the peak (`f0_hz` fixes the peaks); the generator puts out its
     setting times 1 + e, e uniform within +-`generator_limit_rel`. The rows a run stores, each
     search's true resonance f0 (what an ideal generator's setting would be) and the setting of
     its largest reading."""
