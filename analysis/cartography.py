@@ -36,7 +36,7 @@ class Homogeneity:
     maximum: float
     coefficient_of_variation: float   # standard deviation / mean, population (ddof 0)
     share_of_peak: float              # the stated share of the peak amplitude
-    fraction_above_share: float       # fraction of the points (= of the area on a regular grid) above it
+    fraction_above_share: float       # fraction of the points above it: of the area, to a grid step (`grid_area_term`)
     n_points: int
 
 
@@ -58,6 +58,44 @@ def homogeneity(amplitude: np.ndarray, share_of_peak: float = 0.5) -> Homogeneit
                        share_of_peak=share_of_peak,
                        fraction_above_share=float(np.mean(values >= share_of_peak * values.max())),
                        n_points=int(values.size))
+
+
+def crossings_per_line(x_m: np.ndarray, y_m: np.ndarray, above: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Neighbouring grid points on either side of a threshold (`above`), counted in each row
+    (pairs along x at the same y) and in each column (along y): a contour passes between
+    each such pair. Neighbours are points one grid step apart (the smallest spacing)."""
+    frame = pd.DataFrame({"x": np.round(np.asarray(x_m, dtype=float), 9),
+                          "y": np.round(np.asarray(y_m, dtype=float), 9), "above": np.asarray(above, dtype=int)})
+    counts = []
+    for along, across in (("x", "y"), ("y", "x")):
+        spacing = np.diff(np.unique(frame[along]))
+        ordered = frame.sort_values([across, along])
+        neighbours = (ordered[across].diff() == 0) & (ordered[along].diff() <= 1.5 * spacing.min(initial=np.inf))
+        crossed = neighbours & (ordered["above"].diff() != 0)
+        counts.append(crossed.groupby(ordered[across]).sum().to_numpy())
+    return counts[0], counts[1]
+
+
+def grid_area_term(x_m: np.ndarray, y_m: np.ndarray, amplitude: np.ndarray, share_of_peak: float) -> Term:
+    """Type B term of the area above `share_of_peak` of the peak read as the fraction of the
+    grid's points above it. Integrated row by row, a row's length above the threshold is
+    off by where each of its contours lies between the two points it runs between, which
+    the count puts half-way: a rectangle of half a cell (GUM F.2.2.1, a resolution of one
+    step). A row's contours are different contours, at unrelated places on the grid: their
+    errors add in quadrature; a contour runs on from row to row, so the rows' errors add
+    linearly (GUM 5.2.2, r = 1). Counted along the axis that gives the larger term (a
+    contour along the rows shows in the columns). Tested on cosine mode shapes 2 to 4
+    points per half-wavelength (tests/test_cartography_mode.py): it holds 95 % of an (n, 0)
+    mode's errors and more of a 2-D one. It leaves out a mode whose half-wavelength is a
+    whole number of steps (all contours misplaced alike) and a grid under two points per
+    half-wavelength, which can miss contours altogether."""
+    values = np.abs(np.asarray(amplitude, dtype=float))
+    per_line = crossings_per_line(x_m, y_m, values >= share_of_peak * values.max())
+    along = max(range(2), key=lambda axis: np.sqrt(per_line[axis]).sum())
+    u = float(np.sqrt(per_line[along] / 12.0).sum()) / values.size
+    return Term("grid (contours between points)", "B", u,
+                f"{int(per_line[along].sum())} contour crossings between neighbouring points along "
+                f"{'xy'[along]}, half a cell each")
 
 
 def modal_assurance(measured: np.ndarray, predicted: np.ndarray) -> float:
@@ -205,7 +243,10 @@ def summarise_map(points: pd.DataFrame, predicted: np.ndarray | None = None, sha
     velocities (mean, peak) the scale all points share (`velocity_scale_terms`: rectangles),
     which does not average away, and, given the resonance's `resonance_q` (`map_resonance_q`),
     the generator's frequency error through the level steps between the map's re-tuned
-    steps (`retuning_term`). With `predicted` (the model's shape at the same points)
+    steps (`retuning_term`), and for the area above the share of the peak the grid's
+    placing of its contours (`grid_area_term`): that figure is the area of the touch area
+    where the vibration reaches the share of the mapped peak, which the fraction of the
+    points estimates to a cell per contour crossing. With `predicted` (the model's shape at the same points)
     the modal assurance criterion of the signed map against it."""
     touch = points[points["in_touch_area"]]
     amplitude = touch["velocity_pp_mps"].to_numpy()
@@ -214,11 +255,11 @@ def summarise_map(points: pd.DataFrame, predicted: np.ndarray | None = None, sha
     drawn = amplitude + rng.normal(size=(NOISE_DRAWS, amplitude.size)) * touch["velocity_pp_mps_u"].to_numpy()
     spread = [homogeneity(d, share_of_peak) for d in drawn]
 
-    def expanded(attribute: str, scaled: bool = False) -> float:
+    def expanded(attribute: str, scaled: bool = False, own: tuple = ()) -> float:
         noise = Term("points' noise", "A", float(np.std([getattr(s, attribute) for s in spread], ddof=1)),
                      f"{NOISE_DRAWS} draws of the points' record-fit noise")
         value = getattr(h, attribute)
-        shared = velocity_scale_terms(value) if scaled else ()
+        shared = (*own, *velocity_scale_terms(value)) if scaled else own
         if resonance_q is not None:
             shared = (*shared, retuning_term(lambda v: getattr(homogeneity(v, share_of_peak), attribute), amplitude,
                                              touch["generator_frequency_hz"].to_numpy(), resonance_q))
@@ -233,7 +274,8 @@ def summarise_map(points: pd.DataFrame, predicted: np.ndarray | None = None, sha
         "coefficient_of_variation": h.coefficient_of_variation,
         "coefficient_of_variation_U": expanded("coefficient_of_variation"),
         "share_of_peak": share_of_peak, "fraction_above_share": h.fraction_above_share,
-        "fraction_above_share_U": expanded("fraction_above_share"),
+        "fraction_above_share_U": expanded("fraction_above_share", own=(
+            grid_area_term(touch["x_m"].to_numpy(), touch["y_m"].to_numpy(), amplitude, share_of_peak),)),
         "width_uniformity": width_uniformity(touch["x_m"].to_numpy(), touch["signed_velocity_pp_mps"].to_numpy()),
         "n_nodal_lines": len(lines),
         "nodal_line_spacing_m": float(np.diff(lines).mean()) if len(lines) >= 2 else float("nan"),

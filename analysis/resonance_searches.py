@@ -31,6 +31,91 @@ def mechanical_q_from_sweep(frequency_hz: float, sweep: pd.DataFrame) -> float |
     return math.sqrt(slope / intercept) * frequency_hz / 2.0
 
 
+#: The resonance's top on which `peak_of_readings` fits the search's readings: above this
+#: share of the largest (|x| < 0.75), where one mode dominates the response.
+PEAK_FIT_SHARE = 0.8
+
+
+@dataclass(frozen=True)
+class PeakFit:
+    """Where the search's readings put the resonance, the standard uncertainty of that from
+    their own scatter (Type A), and what the fit's covariance misses of it
+    (`lack_of_fit_hz`, Type A: see `peak_of_readings`)."""
+
+    frequency_hz: float
+    std_uncertainty_hz: float
+    lack_of_fit_hz: float = 0.0
+
+
+def peak_of_readings(frequency_hz, velocity) -> PeakFit | None:
+    """The resonance frequency as the minimum of the driven mode's 1/v^2 fitted to the
+    readings above PEAK_FIT_SHARE of the largest.
+
+    A mode driven by a force of constant amplitude moves with v = v0 / sqrt(1 + x^2),
+    x = Q (f / f0 - f0 / f) (its velocity's closed form, exact for one degree of freedom),
+    so 1/v^2 = a + b f^2 + c / f^2 is linear in its three coefficients and least at
+    f0 = (c / b)^(1/4). Every reading on the top tells where the peak is, where the largest
+    single reading only says which of the readings tied on the flat top the search kept: a
+    scope's step of 1e-3 of a reading leaves tens of hertz tied on a Q 300 peak, and which
+    of them the golden section keeps is fixed by the peak's place among the coarse steps (the
+    same plate lands off by the same hertz search after search). A parabola in f instead of
+    the closed form misplaces a Q 40 peak by about 1 Hz (its x^3 term). Weighted for readings
+    of equal relative scatter (sigma(1/v^2) = 2 s / v^2); the vertex's u from the fit's
+    covariance scaled by its residuals (first-order propagation, GUM 5.1.2).
+
+    That u assumes every reading errs alike and independently. One reading off by more than
+    the rest moves a vertex fitted on a few readings far more than the residuals' mean
+    square says, the more so at the window's edge (its leverage): on small plate 6 (Q 40) the
+    search's second golden reading comes out 0.25 % low on every bench, noise-free instruments
+    too (its piezo voltage with it), and moves the vertex 2-3 Hz against a u of 0.5 Hz. The
+    delete-one jackknife of the vertex (Efron & Stein; consistent with the covariance when
+    the readings err alike) sees that: `lack_of_fit_hz` is what its standard deviation adds
+    to the covariance's in quadrature, sqrt(max(u_jk^2 - u^2, 0)), so undistorted readings
+    add about nothing. None with fewer than five readings (two degrees of freedom), no
+    minimum, or a minimum outside the fitted readings (no top to fit: the caller keeps the
+    largest reading)."""
+    frequency_hz, velocity = np.asarray(frequency_hz, dtype=float), np.asarray(velocity, dtype=float)
+    finite = np.isfinite(velocity) & (velocity > 0)
+    frequency_hz, velocity = frequency_hz[finite], velocity[finite]
+    if len(velocity) == 0:
+        return None
+    top = velocity >= PEAK_FIT_SHARE * velocity.max()
+    if np.unique(frequency_hz[top]).size < 5:
+        return None
+    frequency_hz, velocity = frequency_hz[top], velocity[top]
+    fit = _vertex_of_top(frequency_hz, velocity)
+    if fit is None or not frequency_hz.min() <= fit[0] <= frequency_hz.max():
+        return None
+    peak_hz, u_hz = fit
+    leave_one_out = [_vertex_of_top(np.delete(frequency_hz, i), np.delete(velocity, i)) for i in range(len(velocity))]
+    vertices_hz = np.array([vertex[0] for vertex in leave_one_out if vertex is not None])
+    n = len(vertices_hz)
+    jackknife_hz = math.sqrt((n - 1) / n * np.sum((vertices_hz - vertices_hz.mean()) ** 2))
+    return PeakFit(peak_hz, u_hz, math.sqrt(max(jackknife_hz**2 - u_hz**2, 0.0)))
+
+
+def _vertex_of_top(frequency_hz: np.ndarray, velocity: np.ndarray) -> tuple[float, float] | None:
+    """The vertex of 1/v^2 = a + b f^2 + c / f^2 fitted to readings already on the top, and
+    its u from the residual-scaled covariance (`peak_of_readings`); None with fewer than
+    four readings or no minimum."""
+    if np.unique(frequency_hz).size < 4:
+        return None
+    centre_hz = frequency_hz.mean()
+    u = (frequency_hz / centre_hz) ** 2   # conditions the fit: u within a few per cent of 1
+    weight = velocity**2   # 1 / sigma(1/v^2) up to a constant
+    design = np.column_stack([np.ones_like(u), u - 1.0, 1.0 / u - 1.0]) * weight[:, None]
+    target = velocity**-2.0 * weight
+    coefficients, *_ = np.linalg.lstsq(design, target, rcond=None)
+    residuals = target - design @ coefficients
+    covariance = np.linalg.inv(design.T @ design) * (residuals @ residuals) / (len(u) - 3)
+    _, b, c = coefficients
+    if not (b > 0 and c > 0):
+        return None
+    peak_hz = centre_hz * (c / b) ** 0.25
+    gradient = np.array([0.0, -peak_hz / (4.0 * b), peak_hz / (4.0 * c)])
+    return float(peak_hz), float(math.sqrt(max(gradient @ covariance @ gradient, 0.0)))
+
+
 #: The top on which the search's readings are compared with a parabola, as a fraction of
 #: the largest reading: there the curve's quartic term (3 x^4 / 8 of v0) stays below 1e-4.
 TOP = 0.98

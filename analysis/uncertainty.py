@@ -37,8 +37,9 @@ import uncertainties
 from squeezebench.analysis import model
 from squeezebench.analysis.budgets import P95_FACTOR, Budget, Term
 from squeezebench.analysis.calibration import Deskew, deskew_of_run, gain_weight
-from squeezebench.analysis.resonance_searches import (SEARCH_STOP_SPREAD, SearchSetup, mechanical_q_from_sweep,
-                                                      reading_scatter_rel, search_setups)
+from squeezebench.analysis.resonance_searches import (PEAK_FIT_SHARE, SEARCH_STOP_SPREAD, SearchSetup,
+                                                      mechanical_q_from_sweep, peak_of_readings, reading_scatter_rel,
+                                                      search_setups)
 from squeezebench.analysis.rundata import RunData
 from squeezebench.plates.specifications import SPECIFICATIONS, VOLTAGE_PROBE_POLE_HZ, sheet_thickness_tolerance
 from squeezebench.analysis.tables import reduced_points, with_scope_fallback
@@ -233,13 +234,17 @@ def search_budgets(rows: pd.DataFrame, setups: dict[str, SearchSetup]) -> list[t
     """(run, step, budget) of the resonance frequency of every search in `rows`
     (resonance_search rows, reduced).
 
-    The search stores the generator setting of its best reading. Near the top
-    v/v0 = 1 - x^2/2 (x = 2 Q (f - f0) / f0, Q from the sweep), so readings that scatter by
-    s (relative, `reading_scatter_rel`: noise, the ADC's step, where the samples fall on the
-    crest) stop the golden section at |x| ~ sqrt(s): normal, standard deviation
-    SEARCH_STOP_SPREAD sqrt(s) of the half-width f0 / (2 Q). Without enough readings on the
-    top s is the velocity's record-fit noise at the resonance found. The generator's error
-    moves the setting the search finds by -e f0; the final bracket holds the best reading.
+    The search stores where the driven mode's 1/v^2 fitted to its readings on the peak's top
+    is least (`resonance_searches.peak_of_readings`): its Type A term is that fit's, from the
+    readings' own residuals (their noise, the ADC's step, and what of the peak's shape a
+    parabola misses), and its lack of fit: what the delete-one jackknife of the vertex adds to
+    that (one reading off by more than the rest, which the residuals' mean square dilutes).
+    A search stored at one of its readings' frequencies (no top to fit, or a run from before
+    the fit) stored its best reading: near the top v/v0 = 1 - x^2/2
+    (x = 2 Q (f - f0) / f0, Q from the sweep), so readings that scatter by s (relative,
+    `reading_scatter_rel`) stop the golden section at |x| ~ sqrt(s): normal, standard
+    deviation SEARCH_STOP_SPREAD sqrt(s) of the half-width f0 / (2 Q), and the final
+    bracket holds it. The generator's error moves the setting the search finds by -e f0.
     """
     budgets = []
     rows = with_scope_fallback(rows)   # the sweep kept the scope's velocities only
@@ -250,21 +255,38 @@ def search_budgets(rows: pd.DataFrame, setups: dict[str, SearchSetup]) -> list[t
             if setup is None or not _has_reduction(found.to_dict()):
                 continue
             frequency_hz = float(found["resonance_frequency_hz"])
-            q = mechanical_q_from_sweep(frequency_hz, sweep) if len(sweep) else None
-            terms = [_spec_term("generator frequency", "generator_frequency", frequency_hz),
-                     Term("search bracket", "B", 0.5 * setup.tolerance_hz / math.sqrt(3.0),
-                          "golden-section search: the final bracket's width (protocols.resonance)")]
-            if q:
-                scatter = reading_scatter_rel(sweep)
-                source = (f"{scatter:.1e} scatter of the readings on the top" if scatter is not None else
-                          "record-fit noise of the velocity at the resonance found")
-                if scatter is None:
-                    scatter = float(found["velocity_pp_mps_u"]) / float(found["velocity_pp_mps"])
-                terms.append(Term("velocity readings on the flat top", "A",
-                                  frequency_hz / (2.0 * q) * SEARCH_STOP_SPREAD * math.sqrt(scatter),
-                                  f"where the golden section stops: {source}; Q {q:.0f} from the sweep"))
+            terms = [_spec_term("generator frequency", "generator_frequency", frequency_hz)]
+            fit = peak_of_readings(sweep["generator_frequency_hz"], sweep["velocity_pp_mps"]) if len(sweep) else None
+            if fit is not None and not np.isin(frequency_hz, sweep["generator_frequency_hz"].to_numpy()):
+                terms.append(Term("resonance fit on the top", "A", fit.std_uncertainty_hz,
+                                  f"the driven mode's 1/v^2 fitted to the readings above {PEAK_FIT_SHARE:.0%} "
+                                  "of the peak (resonance_searches.peak_of_readings)"))
+                terms.append(Term("resonance fit: lack of fit", "A", fit.lack_of_fit_hz,
+                                  "what the delete-one jackknife of the fit's vertex adds to its covariance "
+                                  "(one reading off by more than the rest)"))
+            else:
+                terms += _best_reading_terms(found, sweep, setup)
             budgets.append((run_name, step_id, Budget("resonance_frequency_hz", "Hz", frequency_hz, tuple(terms))))
     return budgets
+
+
+def _best_reading_terms(found: pd.Series, sweep: pd.DataFrame, setup: SearchSetup) -> list[Term]:
+    """Where a search stored its best reading: the final bracket, and where the golden
+    section stops on the readings' scatter (`search_budgets`)."""
+    frequency_hz = float(found["resonance_frequency_hz"])
+    terms = [Term("search bracket", "B", 0.5 * setup.tolerance_hz / math.sqrt(3.0),
+                  "golden-section search: the final bracket's width (protocols.resonance)")]
+    q = mechanical_q_from_sweep(frequency_hz, sweep) if len(sweep) else None
+    if q:
+        scatter = reading_scatter_rel(sweep)
+        source = (f"{scatter:.1e} scatter of the readings on the top" if scatter is not None else
+                  "record-fit noise of the velocity at the resonance found")
+        if scatter is None:
+            scatter = float(found["velocity_pp_mps_u"]) / float(found["velocity_pp_mps"])
+        terms.append(Term("velocity readings on the flat top", "A",
+                          frequency_hz / (2.0 * q) * SEARCH_STOP_SPREAD * math.sqrt(scatter),
+                          f"where the golden section stops: {source}; Q {q:.0f} from the sweep"))
+    return terms
 
 
 def run_search_budgets(run: RunData) -> list[tuple[str, str, Budget]]:

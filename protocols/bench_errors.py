@@ -50,7 +50,8 @@ QUANTITIES = ("power_w", "velocity_pp_mps")
 #: tan theta' (Fig. 5, Table 5), against the plate as drawn within its tolerances.
 #: A map's figures with a U (Fig. 7's table: coefficient of variation, area above the share
 #: of the peak, mean and peak velocity) against the same figures of the ideal readings at the
-#: map's points; scored when asked for, on the campaign's map runs (`MAP_PROTOCOLS`).
+#: map's points (the area against the ideal vibration over the points' cells); scored when
+#: asked for, on the campaign's map runs (`MAP_PROTOCOLS`).
 MAP_QUANTITIES = ("map_coefficient_of_variation", "map_fraction_above_share", "map_mean_velocity_pp_mps",
                   "map_max_velocity_pp_mps")
 COVERAGE_QUANTITIES = (*QUANTITIES, "amplitude_pp_m", "power_ratio", "resonance_frequency_hz", "q", "tan_theta",
@@ -214,16 +215,27 @@ def _characterisations(run, points: pd.DataFrame, truths: dict, plain_dir: Path)
     return rows
 
 
+#: Points per axis at which the coverage study samples each mapped point's cell for the
+#: continuous area above the share of the peak (`_map_homogeneities`): 3 x 3 over a cell.
+CELL_SAMPLES = 3
+
+
 def _map_homogeneities(run, plain_dir: Path) -> list[dict]:
     """Each map's homogeneity figures as the report gives them (`cartography_report.map_summaries`:
-    `cartography.summarise_map`, U from the points' noise) scored against the same figures
-    of what ideal instruments read at each mapped point: the plate without the errors driven
-    at the point's generator setting, the spot where the stage put it."""
+    `cartography.summarise_map`, U from the points' noise and shared scale) scored against
+    the same figures of what ideal instruments read at each mapped point: the plate without
+    the errors driven at the point's generator setting, the spot where the stage put it.
+    The area above the share of the peak is what the report says it is, an area: the ideal
+    vibration over each point's cell (CELL_SAMPLES^2 spots at that point's setting) against
+    the share of the ideal readings' peak at the mapped points."""
     rows_of = run.protocol(MAP_PROTOCOLS[0])
     if rows_of.empty:
         return []
-    truths = {}
+    truths, cells = {}, {}
     for plate, group in rows_of.groupby("plate", sort=False):
+        step_m = {axis: np.diff(np.unique(np.round(group[axis].to_numpy(), 9))).min(initial=np.inf)
+                  for axis in ("x_m", "y_m")}
+        offsets = (np.arange(CELL_SAMPLES) + 0.5) / CELL_SAMPLES - 0.5
         with open_bench(sim_bench_config(plain_dir / f"{plate}.yaml")) as bench:
             simulated = bench.resource_manager.visalib.bench
             bench.stage.home()
@@ -232,19 +244,32 @@ def _map_homogeneities(run, plain_dir: Path) -> list[dict]:
                     simulated.set_state(row.scene_state)
                 bench.generator.set_frequency(float(row.generator_frequency_hz))
                 bench.generator.set_amplitude_vpp(float(row.generator_amplitude_vpp))
-                bench.stage.move_to_mm(1e3 * row.x_m, 1e3 * row.y_m)
-                truths[(row.run_name, row.x_m, row.y_m)] = simulated.truth().velocity_pp_mps * abs(simulated.stage.spot_gain())
+                velocity = simulated.truth().velocity_pp_mps
+
+                def at(x_m: float, y_m: float) -> float:
+                    bench.stage.move_to_mm(1e3 * x_m, 1e3 * y_m)
+                    return velocity * abs(simulated.stage.spot_gain())
+
+                key = (row.run_name, row.x_m, row.y_m)
+                truths[key] = at(row.x_m, row.y_m)
+                if row.in_touch_area:
+                    cells[key] = [at(row.x_m + dx * step_m["x_m"], row.y_m + dy * step_m["y_m"])
+                                  for dx in offsets for dy in offsets if np.isfinite(step_m["x_m"] + step_m["y_m"])]
     scored = []
     for run_name, points in map_points(run).groupby("run_name", sort=False):
         points = points.reset_index(drop=True)
         measured = summarise_map(points, resonance_q=map_resonance_q(run, run_name))
-        true = homogeneity(np.array([truths[(run_name, x, y)] for x, y in points.loc[points["in_touch_area"], ["x_m", "y_m"]]
-                                     .itertuples(index=False)]), measured["share_of_peak"])
+        touch = [(run_name, x, y)
+                 for x, y in points.loc[points["in_touch_area"], ["x_m", "y_m"]].itertuples(index=False)]
+        true = homogeneity(np.array([truths[key] for key in touch]), measured["share_of_peak"])
+        cell_values = np.concatenate([cells[key] for key in touch])
+        true_area = (float(np.mean(cell_values >= true.share_of_peak * true.maximum)) if cell_values.size
+                     else true.fraction_above_share)
         where = {"run_name": run_name, "step_id": str(rows_of.loc[rows_of["run_name"] == run_name, "step_id"].iat[0]),
                  "point_index": 0}
         scored += [_scored(where, f"map_{figure}", measured[figure], true_value, measured[f"{figure}_U"])
                    for figure, true_value in (("coefficient_of_variation", true.coefficient_of_variation),
-                                              ("fraction_above_share", true.fraction_above_share),
+                                              ("fraction_above_share", true_area),
                                               ("mean_velocity_pp_mps", true.mean),
                                               ("max_velocity_pp_mps", true.maximum))]
     return scored

@@ -4,9 +4,11 @@ sinusoidal signal was set at the resonance frequency of each tactile plate"; Sec
 
 The resonance is the frequency of the largest vibration velocity. A coarse sweep finds
 the grid point nearest the peak; a golden-section search on the velocity then narrows
-the bracket around it. Golden section needs only a single maximum in the bracket, not a
-smooth or wide one: a peak a few hertz wide (mechanical Q of 10^4) between two coarse
-points still has monotonic flanks, so the largest coarse point brackets it. The search
+the bracket around it, and the resonance is read from all the readings on the peak's
+top (`analysis.resonance_searches.peak_of_readings`), not from the largest one alone.
+Golden section needs only a single maximum in the bracket, not a smooth or wide one: a
+peak a few hertz wide (mechanical Q of 10^4) between two coarse points still has
+monotonic flanks, so the largest coarse point brackets it. The search
 runs on a scaled variable u in [0, 1] over the bracket, so its tolerance is independent
 of the frequency's magnitude.
 
@@ -20,6 +22,7 @@ import math
 from dataclasses import dataclass, replace
 from typing import Callable
 
+from squeezebench.analysis.resonance_searches import peak_of_readings
 from squeezebench.protocols.acquisition import Point
 from squeezebench.protocols.steps import Plate, Step, StepContext
 from squeezebench.errors import UserError
@@ -79,6 +82,13 @@ class _VelocityProbe:
         frequency_hz = max(self._velocity, key=self._velocity.__getitem__)
         return frequency_hz, self._velocity[frequency_hz]
 
+    def peak(self) -> tuple[float, float]:
+        """The resonance the readings' top puts the peak at (the best reading's frequency where
+        they hold no top to fit), and the largest velocity read."""
+        best_hz, velocity_pp_mps = self.best()
+        fit = peak_of_readings(list(self._velocity), list(self._velocity.values()))
+        return (best_hz if fit is None else fit.frequency_hz), velocity_pp_mps
+
 
 def golden_section_maximum(velocity: Callable[[float], float], low_hz: float, high_hz: float,
                            tolerance_hz: float) -> None:
@@ -103,7 +113,9 @@ def golden_section_maximum(velocity: Callable[[float], float], low_hz: float, hi
 
 
 def find_resonance(measure_at: Callable[[float], Point], search: SearchSettings) -> Resonance:
-    """Coarse sweep over [start_hz, stop_hz], then golden section around its maximum."""
+    """Coarse sweep over [start_hz, stop_hz], then golden section around its maximum; the
+    resonance is the vertex of the readings' top (`_VelocityProbe.peak`), the velocity the
+    largest read."""
     probe = _VelocityProbe(measure_at)
     step_hz = (search.stop_hz - search.start_hz) / (search.points - 1)
     grid_hz = [search.start_hz + i * step_hz for i in range(search.points)]
@@ -114,7 +126,7 @@ def find_resonance(measure_at: Callable[[float], Point], search: SearchSettings)
             f"the velocity maximum is at the edge ({grid_hz[peak]:.1f} Hz) of the search range "
             f"[{search.start_hz:.1f}, {search.stop_hz:.1f}] Hz; widen or move the range")
     golden_section_maximum(probe, grid_hz[peak - 1], grid_hz[peak + 1], search.tolerance_hz)
-    frequency_hz, velocity_pp_mps = probe.best()
+    frequency_hz, velocity_pp_mps = probe.peak()
     return Resonance(frequency_hz, velocity_pp_mps, probe.points)
 
 

@@ -4,6 +4,7 @@ modal assurance criterion."""
 
 from __future__ import annotations
 
+import math
 from dataclasses import replace
 
 import numpy as np
@@ -11,7 +12,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from squeezebench.analysis.cartography import (homogeneity, modal_assurance, retuning_log_levels, retuning_term,
+from squeezebench.analysis.cartography import (crossings_per_line, grid_area_term, homogeneity, modal_assurance,
+                                               retuning_log_levels, retuning_term,
                                                signed_amplitude)
 from squeezebench.paths import scenes_dir
 from squeezebench.plates.specifications import SPECIFICATIONS
@@ -162,3 +164,67 @@ def test_width_uniformity_is_the_width_averaged_share_of_the_mean_square(columns
     order = rng.permutation(x.size)
     assert width_uniformity(x[order], w[order]) == pytest.approx(expected, rel=1e-9)
     assert width_uniformity(x, np.repeat(f, rows)) == pytest.approx(1.0, rel=1e-12)
+
+
+def _sampled_mode(rng, kind: str, points_per_half_wave: float, n_x: int = 13, n_y: int = 7, refine: int = 24):
+    """A cosine mode shape |cos(k x + a)| ((n, 0): contours across the grid's rows),
+    |cos(k x + a) cos(0.7 k y + b)| (2-D) or a plane wave at a random angle, sampled on a
+    unit grid; and the area fraction where the continuous shape reaches half the grid's
+    peak, integrated on a grid `refine` times finer over the same cells."""
+    k = math.pi * points_per_half_wave ** -1.0
+    a, b, angle = rng.uniform(0, 2 * math.pi), rng.uniform(0, 2 * math.pi), rng.uniform(0, math.pi)
+    shapes = {"n0": lambda x, y: np.abs(np.cos(k * x + a)),
+              "2d": lambda x, y: np.abs(np.cos(k * x + a) * np.cos(0.7 * k * y + b)),
+              "plane": lambda x, y: np.abs(np.cos(k * (x * math.cos(angle) + y * math.sin(angle)) + a))}
+    shape = shapes[kind]
+    x, y = np.meshgrid(np.arange(n_x, dtype=float), np.arange(n_y, dtype=float))
+    sampled = shape(x, y)
+    offsets = (np.arange(refine) + 0.5) / refine - 0.5
+    fine_x, fine_y = np.meshgrid((np.arange(n_x)[:, None] + offsets).ravel(),
+                                 (np.arange(n_y)[:, None] + offsets).ravel())
+    true_fraction = float(np.mean(shape(fine_x, fine_y) >= 0.5 * sampled.max()))
+    return x.ravel(), y.ravel(), sampled.ravel(), true_fraction
+
+
+@pytest.mark.parametrize("kind, least, tight", [("n0", 0.93, True), ("2d", 0.95, False), ("plane", 0.95, False)])
+def test_the_grids_area_term_covers_the_continuous_area_of_a_cosine_mode(kind, least, tight):
+    """The fraction of the grid's points above half the peak against the continuous area of
+    the same mode shape (the peak as mapped), grids of 2 to 4 points per half-wavelength at
+    random phases (300 of each, seeded): the term's U (k = 1.96) holds the quantisation's
+    error about 95 % of the time for an (n, 0) mode (contours across every row, 94.7 %
+    here), more where the contours' errors cancel along them (a 2-D mode, 97.7 %; a slanted
+    wave, 99.7 %, U 17 times its median error: the term cannot tell a slanted contour's
+    cancelling errors from an (n, 0) mode's adding ones)."""
+    rng = np.random.default_rng(46)
+    errors, expanded = [], []
+    for _ in range(300):
+        x, y, sampled, true_fraction = _sampled_mode(rng, kind, rng.uniform(2.0, 4.0))
+        errors.append(homogeneity(sampled).fraction_above_share - true_fraction)
+        expanded.append(1.96 * grid_area_term(x, y, sampled, 0.5).std_uncertainty)
+    errors, expanded = np.abs(errors), np.array(expanded)
+    assert np.mean(errors <= expanded) >= least
+    assert np.median(errors) > 0.005   # the grid's error is real: a U of 0 would miss it
+    if tight:   # where the rows' errors do add, the term is no loose bound
+        assert np.median(expanded) < 4.0 * np.median(errors)
+
+
+def test_a_whole_number_of_points_per_half_wavelength_is_outside_the_term():
+    """An (n, 0) mode four points per half-wavelength: every contour falls at the same place
+    between its two points and the errors add up, which a term that adds a row's contours in
+    quadrature does not hold (the docstring's stated limit): seen here, so it stays stated."""
+    rng = np.random.default_rng(3)
+    ratios = [abs(homogeneity(sampled).fraction_above_share - true_fraction)
+              / (1.96 * grid_area_term(x, y, sampled, 0.5).std_uncertainty)
+              for x, y, sampled, true_fraction in (_sampled_mode(rng, "n0", 4.0) for _ in range(50))]
+    assert np.mean(np.array(ratios) <= 1.0) < 0.9
+
+
+def test_crossings_are_counted_per_row_and_per_column():
+    x, y = np.meshgrid(np.arange(4.0), np.arange(3.0))
+    above = x >= 2.0   # a contour between the second and third column, in every row
+    rows, columns = crossings_per_line(x.ravel(), y.ravel(), above.ravel())
+    assert rows.tolist() == [1, 1, 1] and columns.tolist() == [0, 0, 0, 0]
+    rows, columns = crossings_per_line(y.ravel(), x.ravel(), above.ravel())
+    assert rows.tolist() == [0, 0, 0, 0] and columns.tolist() == [1, 1, 1]
+    term = grid_area_term(x.ravel(), y.ravel(), np.where(above, 1.0, 0.1).ravel(), 0.5)
+    assert term.std_uncertainty == pytest.approx(3 * math.sqrt(1 / 12) / 12)   # three rows alike, one contour each

@@ -14,12 +14,13 @@ from squeezebench.protocols.resonance import (ResonanceError, SearchSettings, fi
 
 
 def lorentzian(f0_hz, q_mech, peak_pp_mps=0.2, noise_rel=0.0, seed=0):
-    """|H| of a single mode: what a velocity reading near resonance looks like, with
+    """|H| of a single driven mode (x = Q (f / f0 - f0 / f), exact for one degree of freedom,
+    where 2 Q (f - f0) / f0 is its first order): what a velocity reading near resonance looks like, with
     `noise_rel` of it drawn afresh at each reading, in the order read; the clock counts readings."""
     rng, clock = np.random.default_rng(seed), itertools.count(1)
 
     def measure_at(frequency_hz):
-        detuning = 2.0 * q_mech * (frequency_hz - f0_hz) / f0_hz
+        detuning = q_mech * (frequency_hz / f0_hz - f0_hz / frequency_hz)
         velocity = peak_pp_mps / math.sqrt(1.0 + detuning ** 2) * (1.0 + noise_rel * rng.standard_normal())
         return Point(frequency_hz, 0.5, 20.0, 10.0, 16, 500, 0.0, velocity, 10.0, 0.01,
                      frequency_hz, 1.0, float(next(clock)))

@@ -104,7 +104,9 @@ def test_characterisation_tracks_a_heating_plate_with_cheap_averaging(tmp_path):
         per_volt = sweep["scope_velocity_pp_v"] * sweep["vibrometer_scale_mps_per_v"] / sweep["piezo_voltage_setpoint_vpp"]
         on_resonance[tracking_averages] = (per_volt / per_volt.iloc[0]).to_numpy()
     assert bench_time_s[4] < 0.5 * bench_time_s[None]
-    for tracking_averages, ratios in on_resonance.items():
-        # the flat top, in the noise: which noise a point gets depends on the tracking path,
-        # and a 5e-5 change of the generator amplitude moved one ratio from 0.9985 to 0.9937
-        assert ratios == pytest.approx(1.0, abs=1e-2), tracking_averages
+    # the first point follows the search's fit of the peak's top, on the peak; a tracking at
+    # 256 averages takes 45 s per voltage while the plate warms under it and lags the drift
+    # (0.985 at 60 and 75 V), a cheap one keeps up (within 1e-3)
+    assert on_resonance[4] == pytest.approx(1.0, abs=1e-2)
+    assert on_resonance[None] == pytest.approx(1.0, abs=3e-2)
+    assert np.abs(on_resonance[4] - 1.0).max() <= np.abs(on_resonance[None] - 1.0).max()

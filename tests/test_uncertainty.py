@@ -334,8 +334,9 @@ def test_resonance_frequencies_are_covered_by_the_search_budget(erring_bench_poi
         covered.append(abs(row.resonance_frequency_hz - state.branch.frequency_hz) <= row.resonance_frequency_hz_U)
     # a 95 % U leaves about one search in 20 outside (a bound would leave none): 15 of 17 at least
     assert sum(covered) >= 15
-    # the scatter of the readings the search compares, not the generator, limits it
-    assert (searches["dominant_term"] == "velocity readings on the flat top").mean() > 0.5
+    # the readings' top fitted, the generator's 20 ppm limits most searches, not where they stopped
+    assert (searches["dominant_term"] == "generator frequency").mean() > 0.5
+    assert not (searches["dominant_term"] == "velocity readings on the flat top").any()
 
 
 def test_a_mean_over_plates_keeps_their_shared_uncertainty(erring_bench_points):
