@@ -86,13 +86,16 @@ def stop_in(exc: BaseException | None) -> KeyboardInterrupt | None:
     exception from a descriptor's `__set_name__` as RuntimeError (Python 3.11; a class body
     run by an import, such as numpy's `finfo`, can take the signal there, its cause the
     stop), so the stop is looked for down the causes. Not the contexts: an error raised while
-    a stop was being handled (the generator lost during its bring-down) is that error."""
+    a stop was being handled (the generator lost during its bring-down) is that error. Except
+    an ImportError: a stop that cut an extension module's import short leaves it unloadable in
+    this process (numpy 2: "cannot load module more than once per process"), so the
+    bring-down's own import of it fails because of the stop, and is the stop's."""
     seen: set[int] = set()
     while exc is not None and id(exc) not in seen:
         if isinstance(exc, KeyboardInterrupt):
             return exc
         seen.add(id(exc))
-        exc = exc.__cause__
+        exc = exc.__cause__ or (exc.__context__ if isinstance(exc, ImportError) else None)
     return None
 
 

@@ -317,3 +317,47 @@ def test_a_stop_wrapped_by_the_interpreter_is_still_a_stop(monkeypatch, capsys):
         assert entry.command([]) == 130
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "squeezebench run: interrupted (stopped by SIGINT)" in err
+
+
+def _stop_cutting_an_extensions_import(tmp_path):
+    """A stop landing while an extension module initialises (it then refuses a second load,
+    as numpy 2's do), and a bring-down that imports it again, as the start-up burst test met
+    in numpy.linalg."""
+    (tmp_path / "once_only.py").write_text(
+        "import sys\n"
+        "if getattr(sys, '_once_only_loaded', False):\n"
+        "    raise ImportError('cannot load module more than once per process')\n"
+        "sys._once_only_loaded = True\n"
+        "raise KeyboardInterrupt('stopped by SIGTERM')\n")
+
+    def command():
+        try:
+            import once_only  # noqa: F401
+        finally:   # the bring-down needs the module again
+            import once_only  # noqa: F401,F811
+    return command
+
+
+def test_an_import_a_stop_cut_short_fails_again_as_the_stop(tmp_path, monkeypatch, capsys):
+    """The second import's ImportError is raised while the stop is handled, its context the
+    stop: the entry point exits 130 with one line, where any other error met while a stop
+    was handled stays that error."""
+    monkeypatch.syspath_prepend(str(tmp_path))
+    monkeypatch.delattr(sys, "_once_only_loaded", raising=False)
+    command = _stop_cutting_an_extensions_import(tmp_path)
+    with pytest.raises(ImportError) as raised:
+        command()
+    assert stops.stop_in(raised.value) is not None
+    assert stops.stop_in(ImportError("no stop behind it")) is None
+
+    import squeezebench.__main__ as entry
+    from squeezebench import cli
+
+    monkeypatch.delattr(sys, "_once_only_loaded")
+    monkeypatch.delitem(sys.modules, "once_only", raising=False)
+    monkeypatch.setattr(cli, "build_parser", lambda: types.SimpleNamespace(
+        parse_args=lambda argv: types.SimpleNamespace(command="run", func=lambda args: command())))
+    with stops.handled():
+        assert entry.command([]) == 130
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "squeezebench run: interrupted (stopped by SIGTERM)" in err
