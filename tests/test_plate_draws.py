@@ -147,5 +147,7 @@ def test_the_coverage_study_scores_q_and_tan_theta_against_the_plate_as_drawn(tm
         assert set(frame.index) == {"q", "tan_theta"}
         assert (frame["rel_expanded_u"] > 0.05).all()   # the tolerances' terms, not the fits alone
     for quantity in ("q", "tan_theta"):
-        assert scores[1].loc[quantity, "true_value"] == pytest.approx(scores[2].loc[quantity, "true_value"], rel=1e-3)
+        # the truths are the ideal readings at each bench's own drive, set where its search's
+        # noisy readings put the resonance (a few hertz apart on a Q 300 peak: 0.1-0.2 %)
+        assert scores[1].loc[quantity, "true_value"] == pytest.approx(scores[2].loc[quantity, "true_value"], rel=5e-3)
         assert abs(scores[1].loc[quantity, "rel_error"] - scores[2].loc[quantity, "rel_error"]) > 0.01
