@@ -308,15 +308,20 @@ def test_a_stop_wrapped_by_the_interpreter_is_still_a_stop(monkeypatch, capsys):
     except OSError as lost:
         assert stops.stop_in(lost) is None
 
+    status, err = _through_the_entry_point(monkeypatch, capsys, _stop_in_a_class_body)
+    assert status == 130 and err.count("\n") == 1 and "squeezebench run: interrupted (stopped by SIGINT)" in err
+
+
+def _through_the_entry_point(monkeypatch, capsys, command) -> tuple[int, str]:
+    """The entry point's status and standard error for a `run` whose work is `command()`."""
     import squeezebench.__main__ as entry
     from squeezebench import cli
 
     monkeypatch.setattr(cli, "build_parser", lambda: types.SimpleNamespace(
-        parse_args=lambda argv: types.SimpleNamespace(command="run", func=lambda args: _stop_in_a_class_body())))
+        parse_args=lambda argv: types.SimpleNamespace(command="run", func=lambda args: command())))
     with stops.handled():
-        assert entry.command([]) == 130
-    err = capsys.readouterr().err
-    assert err.count("\n") == 1 and "squeezebench run: interrupted (stopped by SIGINT)" in err
+        status = entry.command([])
+    return status, capsys.readouterr().err
 
 
 def _stop_cutting_an_extensions_import(tmp_path):
@@ -350,14 +355,7 @@ def test_an_import_a_stop_cut_short_fails_again_as_the_stop(tmp_path, monkeypatc
     assert stops.stop_in(raised.value) is not None
     assert stops.stop_in(ImportError("no stop behind it")) is None
 
-    import squeezebench.__main__ as entry
-    from squeezebench import cli
-
     monkeypatch.delattr(sys, "_once_only_loaded")
     monkeypatch.delitem(sys.modules, "once_only", raising=False)
-    monkeypatch.setattr(cli, "build_parser", lambda: types.SimpleNamespace(
-        parse_args=lambda argv: types.SimpleNamespace(command="run", func=lambda args: command())))
-    with stops.handled():
-        assert entry.command([]) == 130
-    err = capsys.readouterr().err
-    assert err.count("\n") == 1 and "squeezebench run: interrupted (stopped by SIGTERM)" in err
+    status, err = _through_the_entry_point(monkeypatch, capsys, command)
+    assert status == 130 and err.count("\n") == 1 and "squeezebench run: interrupted (stopped by SIGTERM)" in err
