@@ -98,6 +98,49 @@ def grid_area_term(x_m: np.ndarray, y_m: np.ndarray, amplitude: np.ndarray, shar
                 f"{'xy'[along]}, half a cell each")
 
 
+#: Spots per axis over a cell at which `grid_cv_term` reads the field linearly between the
+#: points: enough that the reading is the piecewise-linear field's (6 and 10 give the same term).
+LINEAR_SAMPLES = 8
+
+
+def grid_cv_term(x_m: np.ndarray, y_m: np.ndarray, amplitude: np.ndarray) -> Term:
+    """Type B term of the coefficient of variation read from the grid's points for that of
+    the vibration over their cells. The grid's value treats each point as its whole cell
+    (the nearest-point reading of the field); the piecewise-linear reading between the same
+    points (bilinear, LINEAR_SAMPLES^2 spots per cell, a point's value past the touch area's
+    edge) is as defensible a reading of what lies between them, and the points cannot tell
+    which is nearer the vibration: the change from one to the other is the half-width of a
+    rectangle about the grid's value (GUM 4.3.7, bounds and no more), its standard
+    uncertainty half-width / sqrt 3. The error is the sum of every cell's, so it is taken
+    as normal (GUM G.2), not as one rectangle. Tested on cosine mode shapes 2 to 4 points
+    per half-wavelength at random phases (tests/test_cartography_mode.py): U (k = 1.96)
+    holds 95 % of an (n, 0) mode's errors and more of a 2-D or slanted one. It
+    leaves out a grid under two points per half-wavelength, whose points may all read alike
+    (an (n, 0) mode at two points per half-wavelength, a quarter-wave off its antinodes)."""
+    frame = pd.DataFrame({"x": np.round(np.asarray(x_m, dtype=float), 9),
+                          "y": np.round(np.asarray(y_m, dtype=float), 9), "v": np.abs(np.asarray(amplitude, dtype=float))})
+    grid = frame.pivot_table(index="y", columns="x", values="v").to_numpy()
+    filled = ~np.isnan(grid)
+
+    def toward(values: np.ndarray, shift: int, axis: int) -> np.ndarray:
+        """Each point's neighbour one step along `axis` (the point itself past the edge)."""
+        moved = np.roll(values, -shift, axis=axis)
+        edge = [slice(None)] * 2
+        edge[axis] = slice(-1, None) if shift > 0 else slice(0, 1)
+        moved[tuple(edge)] = np.nan
+        return np.where(np.isnan(moved), values, moved)
+
+    def along(values: np.ndarray, offset: float, axis: int) -> np.ndarray:
+        return values + abs(offset) * (toward(values, int(np.sign(offset)) or 1, axis) - values)
+
+    offsets = (np.arange(LINEAR_SAMPLES) + 0.5) / LINEAR_SAMPLES - 0.5
+    linear = np.concatenate([along(along(grid, dx, 1), dy, 0)[filled] for dx in offsets for dy in offsets])
+    half_width = abs(homogeneity(linear).coefficient_of_variation - homogeneity(grid[filled]).coefficient_of_variation)
+    return Term("grid (field between points)", "B", half_width / math.sqrt(3.0),
+                f"nearest-point vs linear reading between the points ({LINEAR_SAMPLES}x{LINEAR_SAMPLES} per cell)",
+                rectangular=False)
+
+
 def modal_assurance(measured: np.ndarray, predicted: np.ndarray) -> float:
     """MAC = |m^H p|^2 / ((m^H m)(p^H p)) of two shapes at the same points, real or complex;
     1 for proportional shapes whatever the scale, 0 for orthogonal ones."""
@@ -246,7 +289,9 @@ def summarise_map(points: pd.DataFrame, predicted: np.ndarray | None = None, sha
     steps (`retuning_term`), and for the area above the share of the peak the grid's
     placing of its contours (`grid_area_term`): that figure is the area of the touch area
     where the vibration reaches the share of the mapped peak, which the fraction of the
-    points estimates to a cell per contour crossing. With `predicted` (the model's shape at the same points)
+    points estimates to a cell per contour crossing; likewise the coefficient of variation
+    is the vibration's over the touch area, which the points' estimates to the field
+    between them (`grid_cv_term`). With `predicted` (the model's shape at the same points)
     the modal assurance criterion of the signed map against it."""
     touch = points[points["in_touch_area"]]
     amplitude = touch["velocity_pp_mps"].to_numpy()
@@ -272,7 +317,8 @@ def summarise_map(points: pd.DataFrame, predicted: np.ndarray | None = None, sha
         "min_velocity_pp_mps": h.minimum, "max_velocity_pp_mps": h.maximum,
         "max_velocity_pp_mps_U": expanded("maximum", scaled=True),
         "coefficient_of_variation": h.coefficient_of_variation,
-        "coefficient_of_variation_U": expanded("coefficient_of_variation"),
+        "coefficient_of_variation_U": expanded("coefficient_of_variation", own=(
+            grid_cv_term(touch["x_m"].to_numpy(), touch["y_m"].to_numpy(), amplitude),)),
         "share_of_peak": share_of_peak, "fraction_above_share": h.fraction_above_share,
         "fraction_above_share_U": expanded("fraction_above_share", own=(
             grid_area_term(touch["x_m"].to_numpy(), touch["y_m"].to_numpy(), amplitude, share_of_peak),)),

@@ -128,8 +128,9 @@ def cartography_section(context: ReportContext) -> Section | None:
     body += fold("Homogeneity of each map as numbers, with the voltage that reaches the haptics criterion",
                  html_table(shown.rename(columns={"run_name": "map", "n_points": "points"}),
                             "homogeneity of each map's touch area, ± U (k for 95 % under its budget): the points' noise, the generator's "
-                            "frequency error through the level steps between the map's re-tuned steps, and for velocities "
-                            "the scale all points share (CH3 gain, decoder)"))
+                            "frequency error through the level steps between the map's re-tuned steps, for velocities "
+                            "the scale all points share (CH3 gain, decoder), and for the coefficient of variation and "
+                            "the area the grid's reading of the vibration between its points"))
     context.tables["map_summary"] = summaries
     context.tables["map_points"] = pd.concat(maps.values(), ignore_index=True)
     body += ("<p class='csv'>Machine-readable: <a href='map_summary.csv'>map_summary.csv</a>, "

@@ -242,8 +242,8 @@ def test_two_benches_read_their_own_noise(tmp_path, monkeypatch):
 def test_the_coverage_study_scores_the_maps_homogeneity_against_the_ideal_readings(tmp_path):
     """A campaign's map is run on the erring bench (at twice its step) and its homogeneity
     figures, each with the U the report prints, are scored against those of the ideal
-    instruments at the mapped points, the area above half the peak against the ideal
-    vibration over the points' cells; the table has their rows."""
+    instruments at the mapped points, the area above half the peak and the coefficient of
+    variation against the ideal vibration over the points' cells; the table has their rows."""
     import shutil
 
     from squeezebench import paths
@@ -258,8 +258,10 @@ def test_the_coverage_study_scores_the_maps_homogeneity_against_the_ideal_readin
     points = load_coverage(tmp_path).set_index("quantity")
     assert set(points.index) == set(MAP_QUANTITIES)
     cv = points.loc["map_coefficient_of_variation"]
-    assert 0.3 < cv["true_value"] < 0.7 and 0 < cv["rel_expanded_u"] < 1e-3   # the noise's U, a tiny one
-    assert abs(cv["rel_error"]) < 1e-3 and bool(cv["covered"])
+    # the coefficient of variation: the grid's is not the vibration's over the cells, by more
+    # than the points' noise alone (U < 1e-3 of it) allows (-0.6 % here); its U with the grid's term holds it
+    assert 0.3 < cv["true_value"] < 0.7 and 1e-3 < abs(cv["rel_error"]) < cv["rel_expanded_u"] < 0.3
+    assert bool(cv["covered"])
     # the area: the grid's fraction of points is not the mode's area, and its U says by how much
     area = points.loc["map_fraction_above_share"]
     assert area["true_value"] != area["measured_value"] and 0.02 < area["rel_expanded_u"] < 0.3
