@@ -103,6 +103,12 @@ def grid_area_term(x_m: np.ndarray, y_m: np.ndarray, amplitude: np.ndarray, shar
 LINEAR_SAMPLES = 8
 
 
+def cell_offsets(samples: int) -> np.ndarray:
+    """Where `samples` evenly spread spots lie across a grid point's cell along one axis, in
+    grid steps from the point (the midpoint rule's: -1/2 < offset < 1/2)."""
+    return (np.arange(samples) + 0.5) / samples - 0.5
+
+
 def grid_cv_term(x_m: np.ndarray, y_m: np.ndarray, amplitude: np.ndarray) -> Term:
     """Type B term of the coefficient of variation read from the grid's points for that of
     the vibration over their cells. The grid's value treats each point as its whole cell
@@ -133,7 +139,7 @@ def grid_cv_term(x_m: np.ndarray, y_m: np.ndarray, amplitude: np.ndarray) -> Ter
     def along(values: np.ndarray, offset: float, axis: int) -> np.ndarray:
         return values + abs(offset) * (toward(values, int(np.sign(offset)) or 1, axis) - values)
 
-    offsets = (np.arange(LINEAR_SAMPLES) + 0.5) / LINEAR_SAMPLES - 0.5
+    offsets = cell_offsets(LINEAR_SAMPLES)
     linear = np.concatenate([along(along(grid, dx, 1), dy, 0)[filled] for dx in offsets for dy in offsets])
     half_width = abs(homogeneity(linear).coefficient_of_variation - homogeneity(grid[filled]).coefficient_of_variation)
     return Term("grid (field between points)", "B", half_width / math.sqrt(3.0),

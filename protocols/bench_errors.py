@@ -30,7 +30,8 @@ from squeezebench.analysis import model
 from squeezebench.analysis.model import REPORT_CONVENTION
 from squeezebench.analysis.rundata import load_run
 from squeezebench.analysis.study import COVERAGE_FILE, STUDY_DIR, coverage_dir
-from squeezebench.analysis.cartography import homogeneity, map_points, map_resonance_q, summarise_map
+from squeezebench.analysis.cartography import (cell_offsets, homogeneity, map_points, map_resonance_q,
+                                               summarise_map)
 from squeezebench.analysis.characterisation import characterise_plates
 from squeezebench.analysis.tables import detuning_table, fit_line
 from squeezebench.analysis.budgets import COVERAGE_FACTOR
@@ -224,7 +225,7 @@ CELL_SAMPLES = 3
 
 def _map_homogeneities(run, plain_dir: Path) -> list[dict]:
     """Each map's homogeneity figures as the report gives them (`cartography_report.map_summaries`:
-    `cartography.summarise_map`, U from the points' noise and shared scale) scored against
+    `cartography.summarise_map`, each with the U of its budget) scored against
     the same figures of what ideal instruments read at each mapped point: the plate without
     the errors driven at the point's generator setting, the spot where the stage put it.
     The area above the share of the peak and the coefficient of variation are what the
@@ -238,7 +239,8 @@ def _map_homogeneities(run, plain_dir: Path) -> list[dict]:
     for plate, group in rows_of.groupby("plate", sort=False):
         step_m = {axis: np.diff(np.unique(np.round(group[axis].to_numpy(), 9))).min(initial=np.inf)
                   for axis in ("x_m", "y_m")}
-        offsets = (np.arange(CELL_SAMPLES) + 0.5) / CELL_SAMPLES - 0.5
+        # a map of one row or one column has no cell to sample across
+        offsets = cell_offsets(CELL_SAMPLES) if np.isfinite(step_m["x_m"] + step_m["y_m"]) else np.array([])
         with open_bench(sim_bench_config(plain_dir / f"{plate}.yaml")) as bench:
             simulated = bench.resource_manager.visalib.bench
             bench.stage.home()
@@ -257,7 +259,7 @@ def _map_homogeneities(run, plain_dir: Path) -> list[dict]:
                 truths[key] = at(row.x_m, row.y_m)
                 if row.in_touch_area:
                     cells[key] = [at(row.x_m + dx * step_m["x_m"], row.y_m + dy * step_m["y_m"])
-                                  for dx in offsets for dy in offsets if np.isfinite(step_m["x_m"] + step_m["y_m"])]
+                                  for dx in offsets for dy in offsets]
     scored = []
     for run_name, points in map_points(run).groupby("run_name", sort=False):
         points = points.reset_index(drop=True)

@@ -12,9 +12,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from squeezebench.analysis.cartography import (crossings_per_line, grid_area_term, grid_cv_term, homogeneity,
-                                               modal_assurance,
-                                               retuning_log_levels, retuning_term,
+from squeezebench.analysis.cartography import (cell_offsets, crossings_per_line, grid_area_term, grid_cv_term,
+                                               homogeneity, modal_assurance, retuning_log_levels, retuning_term,
                                                signed_amplitude)
 from squeezebench.paths import scenes_dir
 from squeezebench.plates.specifications import SPECIFICATIONS
@@ -179,7 +178,7 @@ def _sampled_mode(rng, kind: str, points_per_half_wave: float, n_x: int = 13, n_
     shape = shapes[kind]
     x, y = np.meshgrid(np.arange(n_x, dtype=float), np.arange(n_y, dtype=float))
     sampled = shape(x, y)
-    offsets = (np.arange(refine) + 0.5) / refine - 0.5
+    offsets = cell_offsets(refine)
     fine_x, fine_y = np.meshgrid((np.arange(n_x)[:, None] + offsets).ravel(),
                                  (np.arange(n_y)[:, None] + offsets).ravel())
     return x.ravel(), y.ravel(), sampled.ravel(), shape(fine_x, fine_y).ravel()
