@@ -98,15 +98,18 @@ def tasks(grid: list[layouts.Layout], design: DesignFile, antinodes: int,
     number, and both computed its end columns' forms (456 instead of 328 on the
     324-layout sweep)."""
     bare = bare_plate(design, grid, antinodes)
-    sampled = frozenset(grid[i] for i in sample(len(grid)))
+    sampled = [grid[i] for i in sample(len(grid))]
+
+    def end_columns(layout: layouts.Layout) -> tuple:
+        return layout.piezos_per_column, layout.arrangement, layout.edge_offset_mm
+
     groups: dict[tuple, list[layouts.Layout]] = {}
-    for layout in sorted(grid, key=lambda layout: (layout.piezos_per_column, layout.arrangement,
-                                                   layout.edge_offset_mm)):
-        groups.setdefault((layout.piezos_per_column, layout.arrangement, layout.edge_offset_mm), []).append(layout)
+    for layout in sorted(grid, key=end_columns):
+        groups.setdefault(end_columns(layout), []).append(layout)
     runs = list(groups.values())
     dealt = [tuple(layout for run in runs[i::chunks] for layout in run) for i in range(min(chunks, len(runs)))]
-    return ([CheckedLayout(grid[i], design, antinodes) for i in sample(len(grid))],
-            [ReducedChunk(chunk, design, antinodes, bare, sampled & frozenset(chunk)) for chunk in dealt])
+    return ([CheckedLayout(layout, design, antinodes) for layout in sampled],
+            [ReducedChunk(chunk, design, antinodes, bare, frozenset(sampled) & frozenset(chunk)) for chunk in dealt])
 
 
 @dataclass(frozen=True)
