@@ -138,12 +138,16 @@ def voltage_decomposition(gaps_mm=tuple(REVIEW_FORCE_FACTORS_N_PER_V)) -> pd.Dat
     geometry = large_plate(EDGE_GAP_MM)
     h, width, length = geometry.thickness_m, geometry.width_m, geometry.length_m
     patch = geometry.patches[0]
-    _, _, z_rigid, _ = laminate.bonded_section(plate_modes.ALUMINIUM_TABLE2, h, plate_modes.NCE41, patch.thickness_m,
-                                               laminate.RIGID_BOND, patch.length_x_m)
-    _, _, z_real, eta_real = laminate.bonded_section(plate_modes.ALUMINIUM_TABLE2, h, plate_modes.NCE41,
-                                                     patch.thickness_m, plate_modes.EPOXY, patch.length_x_m)
-    _, _, z_thin, eta_thin = laminate.bonded_section(plate_modes.ALUMINIUM_TABLE2, h, plate_modes.NCE41,
-                                                     UNSTIFFENED_PIEZO_M, plate_modes.EPOXY, patch.length_x_m)
+
+    def lever_and_effectiveness(piezo_m: float, bond) -> tuple[float, float]:
+        """The lever arm z_m and shear-lag effectiveness eta of a patch of that thickness on that bond."""
+        _, _, z_m, eta = laminate.bonded_section(plate_modes.ALUMINIUM_TABLE2, h, plate_modes.NCE41, piezo_m, bond,
+                                                 patch.length_x_m)
+        return z_m, eta
+
+    z_rigid, _ = lever_and_effectiveness(patch.thickness_m, laminate.RIGID_BOND)
+    z_real, eta_real = lever_and_effectiveness(patch.thickness_m, plate_modes.EPOXY)
+    z_thin, eta_thin = lever_and_effectiveness(UNSTIFFENED_PIEZO_M, plate_modes.EPOXY)
     rows = []
     for row in curve.to_dict("records"):
         gap = row["edge_gap_mm"] * MM
