@@ -24,12 +24,15 @@ from __future__ import annotations
 
 import json
 import logging
+import math
 from dataclasses import dataclass, field
 from typing import Any
 
+import numpy as np
 import pandas as pd
 
 from squeezebench.instruments.errors import ClippedTraceError
+from squeezebench.instruments.tds3054b import HORIZONTAL_SCALES_S_PER_DIV, RECORD_LENGTHS
 from squeezebench.protocols.safety import DriveController, MeasuredVoltageError
 from squeezebench.errors import UserError
 
@@ -43,6 +46,45 @@ PIEZO_CHANNEL, CURRENT_CHANNEL, VELOCITY_CHANNEL = 1, 2, 3
 CLIP_GROWTH = 4.0
 #: Divisions a trace's extent from the screen's centre may fill (the 2 % edge and noise left).
 EXTENT_FILL_DIVISIONS = 7.0
+
+
+#: Largest share by which a search's reading may fall short of the crest for want of a
+#: sample near it (`crest_shortfall_rel`). The readings a search compares are fitted for the
+#: resonance (`analysis.resonance_searches.peak_of_readings`), where one reading 0.25 % low
+#: moved a Q 40 plate's vertex 2.6 Hz: at 2e-4 a reading moves it 0.2 Hz at most, under a
+#: quarter of the generator's 20 ppm (0.9 Hz at 44 kHz), the largest term of its budget.
+SEARCH_CREST_SHORTFALL = 2e-4
+#: The widest step between the 1-2-4 time bases: a record asked for P periods holds up to
+#: this many times P (`Acquisition._set_horizontal` takes the next time base up).
+TIME_BASE_STEP = max(b / a for a, b in zip(HORIZONTAL_SCALES_S_PER_DIV, HORIZONTAL_SCALES_S_PER_DIV[1:]))
+
+
+def crest_shortfall_rel(samples_per_period: float) -> float:
+    """Largest relative amount by which the highest sample of a sine sampled at least
+    `samples_per_period` times a period falls short of its crest (its peak-to-peak likewise).
+
+    Sample k sits at the phase k f dt of a period (mod 1), wherever the trigger falls between
+    samples, and consecutive samples are f dt = 1 / samples_per_period apart: no gap between
+    the phases the record visits is wider, and a crest in the middle of a gap g is read at
+    cos(pi g) of itself. Over many periods the phases usually fill the gaps, but not where
+    f dt is near a fraction p/q of small q: the samples then visit q phases only, however many
+    periods the record holds (44118 Hz at 2 us: f dt = 3/34, 34 phases, up to 0.42 % low)."""
+    return 1.0 - math.cos(math.pi / samples_per_period)
+
+
+def search_record_length(settings: "AcquisitionSettings") -> int:
+    """Points per record of a search's readings (`Acquisition.measure_at`): the campaign's
+    record length, or the shortest longer one, whose crest shortfall cannot exceed
+    SEARCH_CREST_SHORTFALL at any frequency (the longest where none is that fine). The time
+    base leaves N / (TIME_BASE_STEP P) samples per period at least (`crest_shortfall_rel`):
+    4.9 % for 500 points of 20 periods, 1.2e-4 for 10000. One length for the whole search: a
+    reading's noise lifts its extremes more the more samples it holds (about 0.1 % between
+    500 and 10000 at 16 averages), which a search switching records between its readings
+    would read as a distortion of the peak."""
+    longer = [n for n in RECORD_LENGTHS if n >= settings.record_length]
+    fine = [n for n in longer
+            if crest_shortfall_rel(n / (TIME_BASE_STEP * settings.periods_per_record)) <= SEARCH_CREST_SHORTFALL]
+    return min(fine) if fine else max(longer)
 
 
 class RangingError(UserError):
@@ -66,7 +108,7 @@ class AcquisitionSettings:
         if self.averages < 1 or self.averages > 512 or self.averages & (self.averages - 1):
             raise ValueError(f"averages must be 1 (sample mode) or a power of two in 2..512, "
                              f"got {self.averages!r}")
-        if self.record_length not in (500, 10000):
+        if self.record_length not in RECORD_LENGTHS:
             raise ValueError(f"record_length must be 500 or 10000, got {self.record_length!r}")
         if not self.periods_per_record > 0 or self.settle_s < 0:
             raise ValueError("periods_per_record must be positive and settle_s not negative")
@@ -109,6 +151,7 @@ class Acquisition:
         # The installed decoder's ranges, as the controller lists them (they differ between models).
         self._vibrometer_ranges = dict(bench.vibrometer.ranges_mps_per_v)
         self._vibrometer_scale = max(self._vibrometer_ranges.values())
+        self._record_length: int | None = None   # as last set on the scope
         self.reset_ranges()
 
     def reset_ranges(self) -> None:
@@ -139,6 +182,7 @@ class Acquisition:
         scope.set_math_product()
         self.bench.vibrometer.prepare_for_measurement()
         scope.set_record_length(self.settings.record_length)
+        self._record_length = self.settings.record_length
         scope.set_averaging(self.settings.averages)
         # The finest/coarsest scale depends on the probe gain just set; ranging stays inside it.
         self._scale_limits = {channel: scope.channel(channel).scale_range_per_div()
@@ -146,14 +190,20 @@ class Acquisition:
 
     # -- measuring ------------------------------------------------------------------------
     def measure_at(self, frequency_hz: float) -> Point:
-        """Set the drive frequency and measure without keeping waveforms (searches)."""
+        """Set the drive frequency and measure without keeping waveforms: a search's reading,
+        on the record that reads its crest closely enough (`search_record_length`)."""
         self.drive.set_frequency(frequency_hz)
-        return self.measure(keep_waveforms=False)
+        return self.measure(keep_waveforms=False, record_length=search_record_length(self.settings))
 
-    def measure(self, keep_waveforms: bool = True) -> Point:
-        """Acquire one point at the present drive, re-ranging until nothing clips."""
+    def measure(self, keep_waveforms: bool = True, record_length: int | None = None) -> Point:
+        """Acquire one point at the present drive, re-ranging until nothing clips, on a record
+        of `record_length` points (default: the campaign's)."""
         settings, scope = self.settings, self.bench.scope
         piezo_vpp = self.drive.piezo_voltage_vpp
+        record_length = record_length or settings.record_length
+        if record_length != self._record_length:
+            scope.set_record_length(record_length)
+            self._record_length = record_length
         self._set_horizontal(self.drive.frequency_hz)
         pp, extents, waveforms = self._acquire_in_range(piezo_vpp, keep_waveforms)
         point = Point(
@@ -162,7 +212,7 @@ class Acquisition:
             amplifier_gain=self.drive.amplifier_gain,
             piezo_voltage_setpoint_vpp=piezo_vpp,
             averages=settings.averages,
-            record_length=settings.record_length,
+            record_length=record_length,
             scope_power_w=scope.measure("MATH", "MEAN"),
             scope_velocity_pp_v=pp[VELOCITY_CHANNEL],
             scope_piezo_voltage_pp_v=pp[PIEZO_CHANNEL],
@@ -297,7 +347,7 @@ class Acquisition:
         if scale_s != self._horizontal_scale_s:
             self._horizontal_set_s = self.bench.scope.set_horizontal_scale(scale_s)
             self._horizontal_scale_s = scale_s
-        self.bench.scope.gate_whole_periods(frequency_hz, self._horizontal_set_s, self.settings.record_length)
+        self.bench.scope.gate_whole_periods(frequency_hz, self._horizontal_set_s, self._record_length)
 
     def _fetch_waveforms(self) -> tuple[pd.DataFrame, dict[str, Any]]:
         scope = self.bench.scope
