@@ -38,13 +38,11 @@ PEAK_FIT_SHARE = 0.8
 
 @dataclass(frozen=True)
 class PeakFit:
-    """Where the search's readings put the resonance, the standard uncertainty of that from
-    their own scatter (Type A), and what the fit's covariance misses of it
-    (`lack_of_fit_hz`, Type A: see `peak_of_readings`)."""
+    """Where the search's readings put the resonance, and the standard uncertainty of that
+    from their own scatter (Type A)."""
 
     frequency_hz: float
     std_uncertainty_hz: float
-    lack_of_fit_hz: float = 0.0
 
 
 def peak_of_readings(frequency_hz, velocity) -> PeakFit | None:
@@ -61,17 +59,17 @@ def peak_of_readings(frequency_hz, velocity) -> PeakFit | None:
     same plate lands off by the same hertz search after search). A parabola in f instead of
     the closed form misplaces a Q 40 peak by about 1 Hz (its x^3 term). Weighted for readings
     of equal relative scatter (sigma(1/v^2) = 2 s / v^2); the vertex's u from the fit's
-    covariance scaled by its residuals (first-order propagation, GUM 5.1.2).
+    covariance scaled by its residuals (first-order propagation, GUM 5.1.2), so a misfit that
+    shows in the residuals widens it.
 
-    That u assumes every reading errs alike and independently. One reading off by more than
-    the rest moves a vertex fitted on a few readings far more than the residuals' mean
-    square says, the more so at the window's edge (its leverage): on small plate 6 (Q 40) the
-    search's second golden reading comes out 0.25 % low on every bench, noise-free instruments
-    too (its piezo voltage with it), and moves the vertex 2-3 Hz against a u of 0.5 Hz. The
-    delete-one jackknife of the vertex (Efron & Stein; consistent with the covariance when
-    the readings err alike) sees that: `lack_of_fit_hz` is what its standard deviation adds
-    to the covariance's in quadrature, sqrt(max(u_jk^2 - u^2, 0)), so undistorted readings
-    add about nothing. None with fewer than five readings (two degrees of freedom), no
+    That u holds for readings that err alike and independently, as the search's do when each
+    is read on a record that finds its crest (`protocols.acquisition.search_record_length`:
+    one reading read 0.25 % low for want of a sample near its crest moved small plate 6's
+    vertex 2.6 Hz). A delete-one jackknife of the vertex added on top of it (as a lack-of-fit
+    term) over-states the variance (Efron & Stein 1981: in expectation it is at least the
+    variance), most where a few readings at the top's edge carry the fit, as a golden
+    section's readings, crowded where it stopped, leave them: it doubled small plates 3-5's U
+    with nothing distorted. None with fewer than five readings (two degrees of freedom), no
     minimum, or a minimum outside the fitted readings (no top to fit: the caller keeps the
     largest reading)."""
     frequency_hz, velocity = np.asarray(frequency_hz, dtype=float), np.asarray(velocity, dtype=float)
@@ -83,23 +81,6 @@ def peak_of_readings(frequency_hz, velocity) -> PeakFit | None:
     if np.unique(frequency_hz[top]).size < 5:
         return None
     frequency_hz, velocity = frequency_hz[top], velocity[top]
-    fit = _vertex_of_top(frequency_hz, velocity)
-    if fit is None or not frequency_hz.min() <= fit[0] <= frequency_hz.max():
-        return None
-    peak_hz, u_hz = fit
-    leave_one_out = [_vertex_of_top(np.delete(frequency_hz, i), np.delete(velocity, i)) for i in range(len(velocity))]
-    vertices_hz = np.array([vertex[0] for vertex in leave_one_out if vertex is not None])
-    n = len(vertices_hz)
-    jackknife_hz = math.sqrt((n - 1) / n * np.sum((vertices_hz - vertices_hz.mean()) ** 2))
-    return PeakFit(peak_hz, u_hz, math.sqrt(max(jackknife_hz**2 - u_hz**2, 0.0)))
-
-
-def _vertex_of_top(frequency_hz: np.ndarray, velocity: np.ndarray) -> tuple[float, float] | None:
-    """The vertex of 1/v^2 = a + b f^2 + c / f^2 fitted to readings already on the top, and
-    its u from the residual-scaled covariance (`peak_of_readings`); None with fewer than
-    four readings or no minimum."""
-    if np.unique(frequency_hz).size < 4:
-        return None
     centre_hz = frequency_hz.mean()
     u = (frequency_hz / centre_hz) ** 2   # conditions the fit: u within a few per cent of 1
     weight = velocity**2   # 1 / sigma(1/v^2) up to a constant
@@ -112,8 +93,10 @@ def _vertex_of_top(frequency_hz: np.ndarray, velocity: np.ndarray) -> tuple[floa
     if not (b > 0 and c > 0):
         return None
     peak_hz = centre_hz * (c / b) ** 0.25
+    if not frequency_hz.min() <= peak_hz <= frequency_hz.max():
+        return None
     gradient = np.array([0.0, -peak_hz / (4.0 * b), peak_hz / (4.0 * c)])
-    return float(peak_hz), float(math.sqrt(max(gradient @ covariance @ gradient, 0.0)))
+    return PeakFit(float(peak_hz), float(math.sqrt(max(gradient @ covariance @ gradient, 0.0))))
 
 
 #: The top on which the search's readings are compared with a parabola, as a fraction of

@@ -236,9 +236,8 @@ def search_budgets(rows: pd.DataFrame, setups: dict[str, SearchSetup]) -> list[t
 
     The search stores where the driven mode's 1/v^2 fitted to its readings on the peak's top
     is least (`resonance_searches.peak_of_readings`): its Type A term is that fit's, from the
-    readings' own residuals (their noise, the ADC's step, and what of the peak's shape a
-    parabola misses), and its lack of fit: what the delete-one jackknife of the vertex adds to
-    that (one reading off by more than the rest, which the residuals' mean square dilutes).
+    readings' own residuals (their noise, the ADC's step, and what of the peak's shape the
+    closed form misses).
     A search stored at one of its readings' frequencies (no top to fit, or a run from before
     the fit) stored its best reading: near the top v/v0 = 1 - x^2/2
     (x = 2 Q (f - f0) / f0, Q from the sweep), so readings that scatter by s (relative,
@@ -261,9 +260,6 @@ def search_budgets(rows: pd.DataFrame, setups: dict[str, SearchSetup]) -> list[t
                 terms.append(Term("resonance fit on the top", "A", fit.std_uncertainty_hz,
                                   f"the driven mode's 1/v^2 fitted to the readings above {PEAK_FIT_SHARE:.0%} "
                                   "of the peak (resonance_searches.peak_of_readings)"))
-                terms.append(Term("resonance fit: lack of fit", "A", fit.lack_of_fit_hz,
-                                  "what the delete-one jackknife of the fit's vertex adds to its covariance "
-                                  "(one reading off by more than the rest)"))
             else:
                 terms += _best_reading_terms(found, sweep, setup)
             budgets.append((run_name, step_id, Budget("resonance_frequency_hz", "Hz", frequency_hz, tuple(terms))))

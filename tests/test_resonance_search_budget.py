@@ -8,19 +8,16 @@ generator erring within its specification; stored and budgeted as a run would be
 from __future__ import annotations
 
 import math
-from dataclasses import replace
 from types import SimpleNamespace
 
 import numpy as np
 import pandas as pd
 
-from squeezebench.analysis.budgets import Budget
 from squeezebench.analysis.resonance_searches import SEARCH_STOP_SPREAD, SearchSetup, reading_scatter_rel
 from squeezebench.analysis.uncertainty import search_budgets
 from squeezebench.plates.specifications import SPECIFICATIONS
 from squeezebench.protocols.resonance import SearchSettings, find_resonance
 
-LACK_OF_FIT = "resonance fit: lack of fit"
 SEARCH = SearchSettings(start_hz=36000.0, stop_hz=38500.0, points=26)   # the paper campaign's
 #: f0 / (2 Q) of the 37.18 kHz plate (Q about 320): a 1e-3 step leaves tens of hertz tied on its top
 PLATE_HALF_WIDTH_HZ = 58.0
@@ -106,57 +103,42 @@ def test_the_search_budget_covers_the_fitted_resonance_95_percent_of_the_time():
     budgets = search_budgets(rows, {"searches": SearchSetup(tolerance_hz=SEARCH.tolerance_hz)})
     assert len(budgets) == 300
     assert {term.name for _, _, budget in budgets for term in budget.terms} == {
-        "generator frequency", "resonance fit on the top", LACK_OF_FIT}
+        "generator frequency", "resonance fit on the top"}
     ratios = np.array([abs(budget.value - truths[step]) / budget.expanded_uncertainty for _, step, budget in budgets])
     # 300 searches: 95 % +- 1.3 % (binomial)
     assert 0.92 <= np.mean(ratios <= 1.0) <= 0.98
 
 
 #: Small plate 6's search in the paper campaign: a Q 40 peak (half-width 550 Hz) at 43.9 kHz
-#: on a 500 Hz sweep; its second golden reading (the 63rd) read 0.25 % low on the bench
+#: on a 500 Hz sweep
 SMALL_PLATE_SEARCH = SearchSettings(start_hz=30000.0, stop_hz=60000.0, points=61)
 
 
-def _plate_6_searches(distortion: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """200 of small plate 6's searches, its 63rd reading times `distortion`, the generator
-    erring within its specification: each fitted resonance's error, its U, and the U without
-    the lack-of-fit term (Hz)."""
+def _plate_6_searches(distortion: float) -> tuple[np.ndarray, np.ndarray]:
+    """200 of small plate 6's searches, its 63rd reading (the second golden one) times
+    `distortion`, the generator erring within its specification: each fitted resonance's
+    error and its U (Hz)."""
     rows, truths, _ = _searches(scatter_rel=3e-4, count=200, seed=6, half_width_hz=550.0, step_rel=2e-4,
                                 generator_limit_rel=GENERATOR_LIMIT_REL, search=SMALL_PLATE_SEARCH,
                                 f0_range_hz=(43800.0, 43990.0), distorted=(62, distortion))
     budgets = search_budgets(rows, {"searches": SearchSetup(tolerance_hz=SMALL_PLATE_SEARCH.tolerance_hz)})
     error_hz = np.array([budget.value - truths[step] for _, step, budget in budgets])
     expanded_hz = np.array([budget.expanded_uncertainty for _, _, budget in budgets])
-    without_hz = np.array([_without_lack_of_fit(budget).expanded_uncertainty for _, _, budget in budgets])
-    return error_hz, expanded_hz, without_hz
+    return error_hz, expanded_hz
 
 
-def _without_lack_of_fit(budget: Budget) -> Budget:
-    return replace(budget, terms=tuple(term for term in budget.terms if term.name != LACK_OF_FIT))
-
-
-def test_one_reading_off_by_more_than_the_rest_is_covered_by_the_lack_of_fit():
-    """One reading 0.25 % low on a Q 40 top moves the fitted vertex 1-3 Hz, which the fit's
-    residual-scaled covariance does not see (its U covers about a third of the searches);
-    the jackknife's term does."""
-    error_hz, expanded_hz, without_hz = _plate_6_searches(0.9975)
-    assert error_hz.mean() < -1.0
-    assert np.mean(np.abs(error_hz) <= without_hz) < 0.5
-    assert np.mean(np.abs(error_hz) <= expanded_hz) >= 0.95
-
-
-def test_the_lack_of_fit_term_leaves_undistorted_readings_nearly_as_they_were():
-    """Undistorted readings: the term widens the U by a few tens of per cent at most in the
-    median, and the budget still covers about 95 % (not far more)."""
-    error_hz, expanded_hz, without_hz = _plate_6_searches(1.0)
+def test_a_wide_peaks_budget_covers_readings_that_err_alike_not_one_read_low():
+    """On a Q 40 top read with equal relative scatter the fit's covariance and the generator
+    cover the fitted resonance about 95 % of the time (200 searches: +-1.5 %), not far more.
+    One reading 0.25 % low (as a record with no sample near the crest read small plate 6's
+    second golden reading: `protocols.acquisition.search_record_length`) moves the vertex
+    1-3 Hz, which no budget of readings that err alike covers."""
+    error_hz, expanded_hz = _plate_6_searches(1.0)
     assert abs(error_hz.mean()) < 0.1
-    assert np.median(expanded_hz / without_hz) < 1.3
-    assert 0.94 <= np.mean(np.abs(error_hz) <= expanded_hz) <= 0.995
-    rows, truths, _ = _searches(scatter_rel=1e-3, count=200, seed=7, half_width_hz=PLATE_HALF_WIDTH_HZ,
-                                step_rel=PLATE_STEP_REL, generator_limit_rel=GENERATOR_LIMIT_REL)
-    budgets = search_budgets(rows, {"searches": SearchSetup(tolerance_hz=SEARCH.tolerance_hz)})
-    assert np.median([budget.expanded_uncertainty / _without_lack_of_fit(budget).expanded_uncertainty
-                      for _, _, budget in budgets]) < 1.2
+    assert 0.92 <= np.mean(np.abs(error_hz) <= expanded_hz) <= 0.98
+    error_hz, expanded_hz = _plate_6_searches(0.9975)
+    assert error_hz.mean() < -1.0
+    assert np.mean(np.abs(error_hz) <= expanded_hz) < 0.5
 
 
 def test_the_fits_u_is_what_the_fitted_resonance_scatters_by():

@@ -121,8 +121,7 @@ def test_the_coverage_study_scores_every_stored_point_and_resumes_by_bench(tmp_p
     # the readings tied on it, which put the 37.18 kHz plate 3.5 Hz low, about 1 U), the
     # search is off by the generator's 20 ppm and hundredths of a hertz
     assert searches["covered"].sum() >= 5 and (searches["rel_error"].abs() <= 1.2 * searches["rel_expanded_u"]).all()
-    # the generator's 20 ppm (k about 1.65-1.96: 2.5e-5) with the fit's terms: the jackknife's
-    # lack of fit widens a quantised flat top's U by up to about 1.6
+    # the generator's 20 ppm (k about 1.65-1.96: 2.5e-5) with the fit's own u
     assert (searches["rel_expanded_u"] < 4.5e-5).all()
     assert (searches["rel_error"].abs() < 1e-3).all()   # Hz on 37 kHz: the ideal generator's peak, found
     table = coverage_table(points).set_index("quantity")
