@@ -12,7 +12,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from squeezebench.analysis.budgets import ERROR_MODELS, SPECIFIED, WORLD, Budget, Term
+from squeezebench.analysis.budgets import ERROR_MODELS, P95_FACTOR, SPECIFIED, WORLD, Budget, Term
 from squeezebench.plates.specifications import WORLD_READING
 
 DRAWS = 400_000
@@ -84,3 +84,15 @@ def test_the_worlds_coverage_of_plus_minus_k_u_is_the_convolutions(rectangular_u
 def test_an_unknown_error_model_is_refused():
     with pytest.raises(ValueError, match="unknown error model"):
         Budget("x", "1", 1.0, (Term("spec", "B", 0.01, "a limit"),)).coverage_probability(2.0, "lab")
+
+
+@settings(max_examples=30, deadline=None)
+@given(st.lists(st.floats(0.0, 3.0), min_size=1, max_size=4), st.floats(0.0, 3.0))
+def test_the_planners_floor_bounds_every_u_the_budget_states(limits_u, normal_u):
+    """The planner's floors are P95_FACTOR u (`uncertainty.systematic_floor`): no k, under
+    either model, exceeds the normal's, so a floor is never below the U the report prints."""
+    if sum(limits_u) + normal_u < 1e-3:
+        return
+    budget = Budget("x", "1", 1.0, (*(Term(f"limit {i}", "B", u, "a limit") for i, u in enumerate(limits_u)),
+                                    Term("noise", "A", normal_u, "fit")))
+    assert budget.coverage_factor <= P95_FACTOR + 2e-3
