@@ -1,7 +1,9 @@
 """A GUM budget of one value: its terms, their combination in quadrature, and the coverage
-factor k for 95 % under the budget's own distribution (its rectangular terms convolved with
-the normal rest), not k = 2 by default. `analysis.uncertainty` builds the stored values'
-budgets from these.
+factor k for 95 % under every error model the budget claims to cover, from the budget's own
+terms: its rectangular terms (stated limits) as the specifications state them, convolved with
+the normal rest, and as the world reads a limit (`plates.specifications.WORLD_READING`: normal
+with half the limit as its spread, now and then beyond it). Not k = 2 by default.
+`analysis.uncertainty` builds the stored values' budgets from these.
 """
 
 from __future__ import annotations
@@ -13,12 +15,18 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
+from squeezebench.plates.specifications import WORLD_READING
+
 #: The conventional k (GUM 6.3.3), kept for the coverage a budget would have with it.
 COVERAGE_FACTOR = 2.0
 #: The coverage probability an expanded uncertainty is meant to reach (GUM 6.2.2).
 COVERAGE_PROBABILITY = 0.95
 #: |error| at the 95th percentile of a near-normal combined distribution, in standard uncertainties.
 P95_FACTOR = 1.96
+#: The error models a U claims to cover: its stated limits as rectangles (GUM 4.3.7, what the
+#: specifications state) and as the world reads them (`WORLD_READING`). k holds 95 % under both.
+SPECIFIED, WORLD = "specified", "world"
+ERROR_MODELS = (SPECIFIED, WORLD)
 BUDGET_COLUMNS = ["quantity", "unit", "value", "term", "type", "std_uncertainty", "relative",
                   "share", "source"]
 
@@ -62,20 +70,23 @@ class Budget:
 
     @property
     def coverage_factor(self) -> float:
-        """k such that +-k u holds the value with COVERAGE_PROBABILITY under the budget's own
-        distribution (`budget_distribution`): 1.96 for a normal, down to 1.65 (0.95 sqrt(3))
-        when one rectangular term is the whole budget (GUM G.2.3 / G.6.5: a dominant
-        rectangle's trapezoid; JCGM 101 5.3: k from the distribution, not 2 by default).
-        k = 2 over-covered every value whose budget is one specification's limit."""
-        return budget_distribution(*self._shape()).factor(COVERAGE_PROBABILITY)
+        """The smallest k such that +-k u holds the value with COVERAGE_PROBABILITY under every
+        error model in ERROR_MODELS (`shape_coverage_factor`). Under the specified rectangles
+        alone k runs from 1.96 for a normal down to 1.65 (0.95 sqrt(3)) when one rectangle is
+        the whole budget (GUM G.2.3 / G.6.5; JCGM 101 5.3: k from the distribution, not 2 by
+        default); but a limit read as the world reads it (normal, half the limit as spread, one
+        in 100 at 1.5 times it) leaves that 1.65 covering 93.3 %, so such a budget takes the
+        world's 1.78, and a budget of normal terms keeps 1.96."""
+        return shape_coverage_factor(self._shape())
 
-    def coverage_probability(self, k: float = COVERAGE_FACTOR) -> float:
-        """The probability that +-k u holds the value under the budget's own distribution:
-        its rectangular terms as the specifications state them, the rest normal (GUM G.2:
-        a sum of several terms tends to one). k = 2 gives 95 % only near normal; where one
-        rectangular term dominates it gives more (1 at most for the rectangle alone once
-        k u >= sqrt(3) u)."""
-        return budget_distribution(*self._shape()).probability(k)
+    def coverage_probability(self, k: float = COVERAGE_FACTOR, error_model: str = SPECIFIED) -> float:
+        """The probability that +-k u holds the value under the budget's distribution in
+        `error_model` (`budget_distribution`): its rectangular terms as the specifications
+        state them or as the world reads their limits, the rest normal (GUM G.2: a sum of
+        several terms tends to one). k = 2 gives 95 % only near normal; where one rectangular
+        term dominates it gives more under the specifications (1 at most for the rectangle
+        alone once k u >= sqrt(3) u)."""
+        return budget_distribution(*self._shape(), error_model).probability(k)
 
     def _shape(self) -> tuple[tuple[float, ...], float]:
         """The rectangles' half-widths and the rest's standard deviation, in units of u
@@ -118,16 +129,35 @@ STEPS_PER_U = 2000
 
 
 @functools.lru_cache(maxsize=4096)
-def budget_distribution(rectangles: tuple[float, ...], rest: float) -> Distribution:
-    """The distribution of X = sum of R_i + N, R_i uniform on +-rectangles[i], N normal with
-    standard deviation `rest` (units of u, sum of variances 1), by numerical convolution on a
-    grid of 1 / STEPS_PER_U (JCGM 101 propagates distributions; here the sum of independent
-    inputs is a convolution, exact to the grid's step). Symmetric about 0."""
-    # Imported here: scipy.signal (with the scipy.stats it loads) is about 0.5 CPU-s to
-    # import, which every study and plan worker importing this module paid and none used.
-    from scipy.signal import fftconvolve
+def shape_coverage_factor(shape: tuple[tuple[float, ...], float]) -> float:
+    """The smallest k giving COVERAGE_PROBABILITY under every one of ERROR_MODELS for a
+    budget of `shape` (`Budget._shape`): the largest of their 95 % factors. Only the factor
+    is kept of the world's distribution: its grid reaches 3.5 times the rectangles' sum, and
+    a study worker meets thousands of shapes (the specified one stays cached for
+    `Budget.coverage_probability`)."""
+    return max((budget_distribution if model == SPECIFIED else convolved_distribution)(*shape, model)
+               .factor(COVERAGE_PROBABILITY) for model in ERROR_MODELS)
 
-    half = sum(rectangles) + 7.0 * rest + 1e-9
+
+@functools.lru_cache(maxsize=4096)
+def budget_distribution(rectangles: tuple[float, ...], rest: float, error_model: str = SPECIFIED) -> Distribution:
+    """`convolved_distribution`, cached (budgets of one shape share one distribution)."""
+    return convolved_distribution(rectangles, rest, error_model)
+
+
+def convolved_distribution(rectangles: tuple[float, ...], rest: float, error_model: str = SPECIFIED) -> Distribution:
+    """The distribution of X = sum of R_i + N, N normal with standard deviation `rest`, R_i
+    the i-th stated limit +-rectangles[i] (units of u; the specified variances sum to 1) as
+    `error_model` reads it: SPECIFIED uniform on +-a (GUM 4.3.7); WORLD as instruments err
+    (`WORLD_READING`): normal with standard deviation spread a, but with probability
+    out_of_spec_probability at +-out_of_spec_factor a (`world_convolved`). By numerical
+    convolution on a grid of 1 / STEPS_PER_U (JCGM 101 propagates distributions; the sum of
+    independent inputs is a convolution, exact to the grid's step). Symmetric about 0."""
+    if error_model not in ERROR_MODELS:
+        raise ValueError(f"unknown error model {error_model!r}: one of {', '.join(ERROR_MODELS)}")
+    reach = (1.0 if error_model == SPECIFIED
+             else max(7.0 * WORLD_READING.spread, WORLD_READING.out_of_spec_factor))
+    half = reach * sum(rectangles) + 7.0 * rest + 1e-9
     steps = int(math.ceil(half * STEPS_PER_U))
     x = np.arange(-steps, steps + 1) / STEPS_PER_U
     if rest > 0:
@@ -136,11 +166,45 @@ def budget_distribution(rectangles: tuple[float, ...], rest: float) -> Distribut
         density = (x == 0).astype(float)
     density /= density.sum()
     for a in rectangles:
-        width = int(round(a * STEPS_PER_U))
-        if width:
-            density = fftconvolve(density, np.full(2 * width + 1, 1.0 / (2 * width + 1)), mode="same")
+        if error_model == SPECIFIED:
+            width = int(round(a * STEPS_PER_U))
+            if width:
+                density = _convolved(density, np.full(2 * width + 1, 1.0 / (2 * width + 1)))
+        else:
+            density = world_convolved(density, a)
     density = np.clip(density, 0.0, None)
     density /= density.sum()
     centre = steps
     covered = density[centre] + 2.0 * np.concatenate([[0.0], np.cumsum(density[centre + 1:])])
     return Distribution(x[centre:] + 0.5 / STEPS_PER_U, np.minimum(covered, 1.0))
+
+
+def _convolved(density: np.ndarray, kernel: np.ndarray) -> np.ndarray:
+    """`density` convolved with a centred `kernel`, on the same grid."""
+    # Imported here: scipy.signal (with the scipy.stats it loads) is about 0.5 CPU-s to
+    # import, which every study and plan worker importing this module paid and none used.
+    from scipy.signal import fftconvolve
+
+    return fftconvolve(density, kernel, mode="same")
+
+
+def world_convolved(density: np.ndarray, a: float) -> np.ndarray:
+    """`density` (on the grid of 1 / STEPS_PER_U, room enough at its ends) convolved with a
+    limit +-a as the world reads it (`WORLD_READING`): (1 - p) N(0, (spread a)^2) + p/2 at
+    each of +-factor a."""
+    sigma = WORLD_READING.spread * a
+    reach = int(math.ceil(7.0 * sigma * STEPS_PER_U))
+    if reach:
+        kernel = np.exp(-0.5 * (np.arange(-reach, reach + 1) / (sigma * STEPS_PER_U)) ** 2)
+        within = _convolved(density, kernel / kernel.sum())
+    else:
+        within = density
+    shift = int(round(WORLD_READING.out_of_spec_factor * a * STEPS_PER_U))
+    beyond = np.zeros_like(density)
+    if shift:
+        beyond[shift:] += density[:-shift]
+        beyond[:-shift] += density[shift:]
+    else:
+        beyond = 2.0 * density
+    p = WORLD_READING.out_of_spec_probability
+    return (1.0 - p) * within + 0.5 * p * beyond

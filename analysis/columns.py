@@ -106,7 +106,7 @@ COLUMNS: dict[str, tuple[str, str]] = {
     "unit": ("", "SI unit of value, uncertainties and paper_value"),
     "value": ("unit", "this run's value"),
     "std_uncertainty": ("unit", "standard uncertainty (k = 1) of value from the record fits"),
-    "expanded_uncertainty": ("unit", "expanded uncertainty (k for 95 % under its budget's distribution; Table 5: k = 2) of value: its whole budget (noise, instrument "
+    "expanded_uncertainty": ("unit", "expanded uncertainty (k for 95 % under its budget's distribution, its limits as specified and as the world reads them; Table 5: k = 2) of value: its whole budget (noise, instrument "
                                      "specifications; for Q and tan theta' also the geometry and NCE 41 tolerances)"),
     "scope_value": ("unit", "the scope's on-line number for the same quantity (cross-check)"),
     "paper_value": ("unit", "value printed in the paper"),
@@ -188,7 +188,8 @@ COLUMNS: dict[str, tuple[str, str]] = {
     "frequency_hz_U": ("Hz", "expanded uncertainty (k for 95 % under its budget's distribution) of frequency_hz"),
     "frequency_hz_dominant": ("", "dominant term of frequency_hz's budget"),
     **{f"{quantity}_U_coverage": ("1", f"probability that +-U holds {quantity} under its budget's own distribution "
-                                       "(largest specification term rectangular, the rest normal)")
+                                       "as the specifications state it (specification terms rectangular, the rest "
+                                       "normal); k holds 95 % under the world's reading of the limits too")
        for quantity in ("power_w", "velocity_pp_mps", "piezo_voltage_vpp", "frequency_hz")},
     "points": ("1", "stored points budgeted"),
     "median_expanded_relative": ("1", "median of U / |value| over the points"),

@@ -1,10 +1,11 @@
 """Where an expanded uncertainty is wider than the errors need: by how much it could shrink.
 
-A budget treats each specification as a rectangle at its limit. On benches erring as the
-world errs (`study.COVERAGE_MODELS["world"]`: normal errors with half the limit as their
-standard deviation) the errors are smaller than that: a sum of many such terms spreads
-by sqrt(3)/2 = 0.87 of the budget's standard uncertainty (rectangle: limit / sqrt(3),
-GUM 4.3.7; world: limit / 2), so its U covers more than the 95 % it states. The factor
+A budget's k holds 95 % both with each specification a rectangle at its limit and as the
+world reads the limit (`budgets.ERROR_MODELS`). Where the rectangles set k (a sum of several
+comparable terms), the world's errors (`study.COVERAGE_MODELS["world"]`: normal with half the
+limit as their standard deviation) are smaller than that: such a sum spreads by
+sqrt(3)/2 = 0.87 of the budget's standard uncertainty (rectangle: limit / sqrt(3), GUM 4.3.7;
+world: limit / 2), so its U covers more than the 95 % it states there. The factor
 U could be multiplied by and still cover 95 % is the 95th percentile of |error| / U over
 the coverage study's values (`study.coverage_table`'s `p95_error_over_u`): that fraction of
 values then lies within the narrower U. A quantity over-covers when its whole

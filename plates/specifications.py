@@ -75,6 +75,28 @@ SPECIFICATIONS: dict[str, Specification] = {
 }
 
 
+@dataclass(frozen=True)
+class WorldReading:
+    """What a stated limit +-a means on a real bench, against the rectangle the budgets take
+    for it (GUM 4.3.7): instruments and parts err normally about their nominal value, a
+    limit being an acceptance bound a few standard deviations out rather than an edge of
+    equally likely values, and now and then one errs beyond its limit (a probe dropped once,
+    a scope overdue for calibration, a sheet from another mill). Fractions of the limit.
+    One source for the simulated world's benches (`simbench.systematic_effects.world_draw`)
+    and for the budgets' coverage factor under that world (`analysis.budgets`)."""
+
+    #: Standard deviation of an error within specification: half the limit, so about one
+    #: unbiased instrument in 20 is beyond it.
+    spread: float = 0.5
+    #: How often an error is beyond its limit (one bench in 13 has one: eight errors a bench) ...
+    out_of_spec_probability: float = 0.01
+    #: ... and how far: this many times its limit, either sign.
+    out_of_spec_factor: float = 1.5
+
+
+WORLD_READING = WorldReading()
+
+
 #: Pole of the voltage probe's compensated divider, R_tip C_tip: tens of megohms with a few
 #: picofarads (a 100:1 high-voltage probe's tip) make about 0.1 ms. Assumed, as the probe is.
 #: Well below the plates' 30-50 kHz, where a compensation mismatch d is a phase lead

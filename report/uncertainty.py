@@ -74,10 +74,12 @@ def uncertainty_section(context: ReportContext) -> Section | None:
     return Section("Uncertainty budgets (GUM, k for 95 %)",
                    "<p>Expanded uncertainties of every stored point: noise of the record (Type A) "
                    f"and the instruments' specifications (Type B). Median relative U over the run: {html.escape(overall)}. "
-                   "k is each budget's own: under its distribution (its specification terms rectangular, the "
-                   "rest normal, convolved) +-U holds the value with a probability of "
-                   f"{html.escape(coverage)}; k runs from 1.65 (one rectangle) to 1.96 (a normal), where k = 2 "
-                   "over-covered the values one specification dominates.</p>"
+                   "k is each budget's own, the smallest that holds 95 % under both error models it claims "
+                   "to cover: its specification terms rectangular as stated, and as the world reads a limit "
+                   "(normal with half the limit as spread, one in 100 at 1.5 times it), the rest normal, "
+                   "convolved. Under the specifications +-U holds the value with a probability of "
+                   f"{html.escape(coverage)}; k runs from 1.78 (one rectangle, where the specifications' own "
+                   "1.65 covers 93.3 % of the world's errors) to 1.96 (a normal).</p>"
                    + deskew
                    + presentation.fold("Median relative U and dominant term per protocol",
                                        html_table(summary, "Median relative U and dominant term per protocol. " + bench_words(context)))

@@ -10,7 +10,7 @@ from typing import ClassVar
 
 import numpy as np
 
-from squeezebench.plates.specifications import SPECIFICATIONS, compensation_phase_rad
+from squeezebench.plates.specifications import SPECIFICATIONS, WORLD_READING, compensation_phase_rad
 from squeezebench.simbench import physics
 from squeezebench.simbench.effect_base import AcquisitionContext, Effect
 
@@ -32,9 +32,11 @@ class SystematicEffect(Effect):
     """
 
     errors: ClassVar[tuple[str, ...]] = ()
-    #: The error's typical value and spread as fractions of the limit (`world_draw`).
+    #: The error's typical value and spread as fractions of the limit (`world_draw`): the
+    #: world's reading of a limit (`specifications.WORLD_READING`) unless the instrument's
+    #: data sheet gives the error a known sign.
     world_bias: ClassVar[float] = 0.0
-    world_spread: ClassVar[float] = 0.5
+    world_spread: ClassVar[float] = WORLD_READING.spread
 
     def __init_subclass__(cls, errors: dict[str, float] | None = None, **kwargs) -> None:
         """`errors`: the error parameters and their default (specified) magnitudes."""
@@ -62,20 +64,14 @@ class SystematicEffect(Effect):
         return np.random.default_rng([int(self.parameters["bench_seed"]), zlib.crc32(self.name.encode())])
 
 
-#: How often an error of a `draw: 2` bench is beyond its specification, and how far (one
-#: bench in 13 has one: eight errors per bench).
-OUT_OF_SPEC_PROBABILITY = 0.01
-OUT_OF_SPEC_FACTOR = 1.5
-
-
 def world_draw(rng: np.random.Generator, bias: float, spread: float) -> float:
     """An error as a fraction of its specified limit, drawn as instruments err rather than
-    as a budget assumes: normal around `bias` with standard deviation `spread` (half the
-    limit puts about 5 % of unbiased instruments beyond it), and with probability
-    OUT_OF_SPEC_PROBABILITY out of specification, OUT_OF_SPEC_FACTOR times its limit with
-    a random sign (a probe dropped once, a scope overdue for calibration)."""
-    if rng.uniform() < OUT_OF_SPEC_PROBABILITY:
-        return OUT_OF_SPEC_FACTOR * (1.0 if rng.uniform() < 0.5 else -1.0)
+    as a budget assumes (`specifications.WORLD_READING`): normal around `bias` with standard
+    deviation `spread` (half the limit puts about 5 % of unbiased instruments beyond it), and
+    with probability `out_of_spec_probability` out of specification, `out_of_spec_factor`
+    times its limit with a random sign (a probe dropped once, a scope overdue for calibration)."""
+    if rng.uniform() < WORLD_READING.out_of_spec_probability:
+        return WORLD_READING.out_of_spec_factor * (1.0 if rng.uniform() < 0.5 else -1.0)
     return float(rng.normal(bias, spread))
 
 

@@ -3,12 +3,8 @@ that scores Q and tan theta' against it."""
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 import pytest
-from hypothesis import given, settings
-from hypothesis import strategies as st
 
 from squeezebench.analysis import model
 from squeezebench.plates.specifications import sheet_thickness_tolerance
@@ -97,32 +93,6 @@ def test_every_drawn_tolerance_of_the_model_is_a_term_of_q_and_tan_thetas_budget
     drawn = set(PlateTolerances.errors) - {PERMITTIVITY}
     for budget in (q, tan):
         assert drawn <= {term.name for term in budget.terms}
-
-
-def test_k_is_the_95_percent_factor_of_the_rectangle_and_the_normal():
-    normal = Budget("x", "1", 1.0, (Term("noise", "A", 0.01, "fit"),))
-    assert normal.coverage_factor == pytest.approx(1.959964, abs=1e-3)
-    two_limits = Budget("x", "1", 1.0, (Term("CH3", "B", 0.02, "a limit"), Term("decoder", "B", 0.01, "a limit")))
-    assert 0.95 * math.sqrt(3.0) < two_limits.coverage_factor < 1.96   # their trapezoid
-    one_limit = Budget("x", "1", 1.0, (Term("spec", "B", 0.01, "a limit"),))
-    assert one_limit.expanded_uncertainty == pytest.approx(0.95 * 0.01 * math.sqrt(3.0), rel=1e-3)   # = 0.95 a
-    bound = Budget("x", "1", 1.0, (Term("delay", "B", 0.01, "a bias bound", rectangular=False),))
-    assert bound.coverage_factor == pytest.approx(1.96, abs=1e-3)   # a bound is no rectangle about zero
-
-
-@settings(max_examples=25, deadline=None)
-@given(st.floats(0.0, 3.0), st.floats(0.0, 3.0), st.floats(0.0, 3.0))
-def test_plus_minus_k_u_holds_95_percent_of_a_monte_carlo_of_the_budgets_own_distribution(first_u, second_u,
-                                                                                         normal_u):
-    """Two rectangles (CH3's gain and the decoder's scale) and a normal: whatever their sizes."""
-    if first_u + second_u + normal_u < 1e-3:
-        return
-    budget = Budget("x", "1", 1.0, (Term("spec", "B", first_u, "a limit"), Term("other", "B", second_u, "a limit"),
-                                    Term("noise", "A", normal_u, "fit")))
-    rng = np.random.default_rng(11)
-    draws = (rng.uniform(-1, 1, 400_000) * math.sqrt(3) * first_u + rng.uniform(-1, 1, 400_000) * math.sqrt(3) * second_u
-             + rng.normal(0, normal_u, 400_000))
-    assert float(np.mean(np.abs(draws) <= budget.expanded_uncertainty)) == pytest.approx(0.95, abs=0.003)
 
 
 def test_the_coverage_study_scores_q_and_tan_theta_against_the_plate_as_drawn(tmp_path):

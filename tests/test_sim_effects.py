@@ -9,7 +9,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from squeezebench.plates.specifications import VOLTAGE_PROBE_POLE_HZ, compensation_phase_rad
+from squeezebench.plates.specifications import VOLTAGE_PROBE_POLE_HZ, WORLD_READING, compensation_phase_rad
 from squeezebench.instruments.bench import open_bench, sim_bench_config
 from squeezebench.instruments.errors import ConnectionLost, GarbledReply, InstrumentError, InstrumentTimeout
 from squeezebench.protocols.variants import PLATE_DRAW_EFFECT, SYSTEMATIC_EFFECTS
@@ -464,9 +464,8 @@ def test_a_bench_erring_as_the_world_errs_is_not_what_the_budgets_assume(tmp_pat
     benches = _drawn_on_many_benches(tmp_path, "scope_gain_error", 2, range(300))
     gains = np.array([v for d in benches for v in d.values()]) / 0.02
     assert 0.03 < np.mean(np.abs(gains) > 1.0) < 0.2                 # some beyond the +-2 % limit
-    out_of_spec = np.isclose(np.abs(gains), systematic_effects.OUT_OF_SPEC_FACTOR)
-    assert out_of_spec.any() and out_of_spec.mean() == pytest.approx(systematic_effects.OUT_OF_SPEC_PROBABILITY,
-                                                                     abs=0.01)
+    out_of_spec = np.isclose(np.abs(gains), WORLD_READING.out_of_spec_factor)
+    assert out_of_spec.any() and out_of_spec.mean() == pytest.approx(WORLD_READING.out_of_spec_probability, abs=0.01)
     assert _drawn(tmp_path, "scope_gain_error", 2, 5) == _drawn(tmp_path, "scope_gain_error", 2, 5) == benches[5]
 
 

@@ -1,0 +1,98 @@
+"""A budget's coverage factor (`analysis.budgets`): the smallest k holding 95 % under every
+error model it claims to cover, its stated limits as the specifications state them
+(rectangles) and as the world reads them (`specifications.WORLD_READING`), each checked
+against a seeded Monte Carlo of that model drawn here, not through the convolution."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from squeezebench.analysis.budgets import ERROR_MODELS, P95_FACTOR, SPECIFIED, WORLD, Budget, Term
+from squeezebench.plates.specifications import WORLD_READING
+
+DRAWS = 400_000
+
+
+def limit_draws(rng: np.random.Generator, a: float, error_model: str) -> np.ndarray:
+    """DRAWS errors of a limit +-a under `error_model`: uniform within it, or as the world errs
+    (normal with standard deviation spread a, and with probability p at +-factor a)."""
+    if error_model == SPECIFIED:
+        return rng.uniform(-a, a, DRAWS)
+    beyond = rng.uniform(size=DRAWS) < WORLD_READING.out_of_spec_probability
+    signs = np.where(rng.uniform(size=DRAWS) < 0.5, -1.0, 1.0)
+    return np.where(beyond, signs * WORLD_READING.out_of_spec_factor * a, rng.normal(0.0, WORLD_READING.spread * a, DRAWS))
+
+
+def covered(budget: Budget, error_model: str, seed: int = 11) -> float:
+    """Monte Carlo share of |sum of the budget's errors| <= its U under `error_model`:
+    rectangular terms as limits +-sqrt(3) u, the rest normal."""
+    rng = np.random.default_rng(seed)
+    errors = sum((limit_draws(rng, math.sqrt(3.0) * t.std_uncertainty, error_model) if t.is_rectangular
+                  else rng.normal(0.0, t.std_uncertainty, DRAWS)) for t in budget.terms)
+    return float(np.mean(np.abs(errors) <= budget.expanded_uncertainty))
+
+
+def test_one_limit_covers_the_worlds_errors_too():
+    """A value that is one specification's limit (the generator's 20 ppm on a resonance
+    frequency): the rectangle's own k, 0.95 sqrt(3) = 1.65, covers 93.3 % of the world's errors
+    (normal, spread a / 2, 1 % at 1.5 a); k now holds 95 % of those: 0.99 P(|Z| <= 2 k u / a) = 0.95,
+    k = sqrt(3) z / 2 with z the normal's 1 - 0.05 / 0.99 / 2 point (2.051), 1.776."""
+    one_limit = Budget("x", "1", 1.0, (Term("generator frequency", "B", 0.01, "a limit"),))
+    assert covered(one_limit, WORLD) == pytest.approx(0.95, abs=0.002)
+    assert one_limit.coverage_factor == pytest.approx(math.sqrt(3.0) * 2.0510 / 2.0, abs=2e-3)
+    assert covered(one_limit, SPECIFIED) == 1.0   # k u beyond the rectangle's edge
+    assert one_limit.coverage_probability(0.95 * math.sqrt(3.0), WORLD) == pytest.approx(0.933, abs=1e-3)
+
+
+def test_a_normal_budget_keeps_the_normals_k():
+    """Noise and a bias bound are normal in both models: k = 1.96."""
+    for term in (Term("noise", "A", 0.01, "fit"), Term("delay", "B", 0.01, "a bias bound", rectangular=False)):
+        assert Budget("x", "1", 1.0, (term,)).coverage_factor == pytest.approx(1.959964, abs=1e-3)
+
+
+@settings(max_examples=20, deadline=None)
+@given(st.floats(0.0, 3.0), st.floats(0.0, 3.0), st.floats(0.0, 3.0))
+def test_k_is_the_smallest_factor_holding_95_percent_under_every_error_model(first_u, second_u, normal_u):
+    """Two limits (CH3's gain and the decoder's scale) and a normal, whatever their sizes:
+    +-U holds at least 95 % of a Monte Carlo of each model, and just 95 % of the one that
+    sets k (the smallest such k), within the Monte Carlo's and the grid's error."""
+    if first_u + second_u + normal_u < 1e-3:
+        return
+    budget = Budget("x", "1", 1.0, (Term("spec", "B", first_u, "a limit"), Term("other", "B", second_u, "a limit"),
+                                    Term("noise", "A", normal_u, "fit")))
+    shares = [covered(budget, model) for model in ERROR_MODELS]
+    assert min(shares) == pytest.approx(0.95, abs=0.003)
+    assert all(share >= 0.947 for share in shares)
+
+
+@settings(max_examples=15, deadline=None)
+@given(st.floats(0.0, 3.0), st.floats(0.05, 3.0), st.floats(1.0, 3.0))
+def test_the_worlds_coverage_of_plus_minus_k_u_is_the_convolutions(rectangular_u, normal_u, k):
+    """Budget.coverage_probability under the world model against a Monte Carlo of it."""
+    budget = Budget("x", "1", 1.0, (Term("spec", "B", rectangular_u, "a limit"), Term("noise", "A", normal_u, "fit")))
+    rng = np.random.default_rng(7)
+    errors = limit_draws(rng, math.sqrt(3.0) * rectangular_u, WORLD) + rng.normal(0.0, normal_u, DRAWS)
+    expected = float(np.mean(np.abs(errors) <= k * budget.std_uncertainty))
+    assert budget.coverage_probability(k, WORLD) == pytest.approx(expected, abs=0.005)
+
+
+def test_an_unknown_error_model_is_refused():
+    with pytest.raises(ValueError, match="unknown error model"):
+        Budget("x", "1", 1.0, (Term("spec", "B", 0.01, "a limit"),)).coverage_probability(2.0, "lab")
+
+
+@settings(max_examples=30, deadline=None)
+@given(st.lists(st.floats(0.0, 3.0), min_size=1, max_size=4), st.floats(0.0, 3.0))
+def test_the_planners_floor_bounds_every_u_the_budget_states(limits_u, normal_u):
+    """The planner's floors are P95_FACTOR u (`uncertainty.systematic_floor`): no k, under
+    either model, exceeds the normal's, so a floor is never below the U the report prints."""
+    if sum(limits_u) + normal_u < 1e-3:
+        return
+    budget = Budget("x", "1", 1.0, (*(Term(f"limit {i}", "B", u, "a limit") for i, u in enumerate(limits_u)),
+                                    Term("noise", "A", normal_u, "fit")))
+    assert budget.coverage_factor <= P95_FACTOR + 2e-3
