@@ -74,6 +74,26 @@ def peak_of_readings(frequency_hz, velocity) -> PeakFit | None:
     add about nothing. None with fewer than five readings (two degrees of freedom), no
     minimum, or a minimum outside the fitted readings (no top to fit: the caller keeps the
     largest reading)."""
+    fitted = _fitted_top(frequency_hz, velocity)
+    if fitted is None:
+        return None
+    frequency_hz, velocity, (peak_hz, u_hz) = fitted
+    vertices_hz = _delete_one_vertices(frequency_hz, velocity)
+    n = len(vertices_hz)
+    jackknife_hz = math.sqrt((n - 1) / n * np.sum((vertices_hz - vertices_hz.mean()) ** 2))
+    return PeakFit(peak_hz, u_hz, math.sqrt(max(jackknife_hz**2 - u_hz**2, 0.0)))
+
+
+def resonance_of_readings(frequency_hz, velocity) -> float | None:
+    """Where `peak_of_readings` puts the resonance, without its uncertainties (all a search
+    needs: its jackknife is most of the fit's cost); None where that is None."""
+    fitted = _fitted_top(frequency_hz, velocity)
+    return None if fitted is None else fitted[2][0]
+
+
+def _fitted_top(frequency_hz, velocity) -> tuple[np.ndarray, np.ndarray, tuple[float, float]] | None:
+    """The readings on the top (frequencies, velocities) and their vertex with its u
+    (`_vertex_of_top`); None where `peak_of_readings` says so."""
     frequency_hz, velocity = np.asarray(frequency_hz, dtype=float), np.asarray(velocity, dtype=float)
     finite = np.isfinite(velocity) & (velocity > 0)
     frequency_hz, velocity = frequency_hz[finite], velocity[finite]
@@ -86,12 +106,31 @@ def peak_of_readings(frequency_hz, velocity) -> PeakFit | None:
     fit = _vertex_of_top(frequency_hz, velocity)
     if fit is None or not frequency_hz.min() <= fit[0] <= frequency_hz.max():
         return None
-    peak_hz, u_hz = fit
-    leave_one_out = [_vertex_of_top(np.delete(frequency_hz, i), np.delete(velocity, i)) for i in range(len(velocity))]
-    vertices_hz = np.array([vertex[0] for vertex in leave_one_out if vertex is not None])
-    n = len(vertices_hz)
-    jackknife_hz = math.sqrt((n - 1) / n * np.sum((vertices_hz - vertices_hz.mean()) ** 2))
-    return PeakFit(peak_hz, u_hz, math.sqrt(max(jackknife_hz**2 - u_hz**2, 0.0)))
+    return frequency_hz, velocity, fit
+
+
+def _weighted_system(frequency_hz: np.ndarray, velocity: np.ndarray, centre_hz: float) -> tuple[np.ndarray, np.ndarray]:
+    """The weighted least-squares system (design, target) of 1/v^2 = a + b f^2 + c / f^2 in
+    u = (f / centre)^2, which conditions it (u within a few per cent of 1); weighted for
+    readings of equal relative scatter (sigma(1/v^2) = 2 s / v^2, up to a constant)."""
+    u = (frequency_hz / centre_hz) ** 2
+    weight = velocity**2
+    return np.column_stack([np.ones_like(u), u - 1.0, 1.0 / u - 1.0]) * weight[:, None], velocity**-2.0 * weight
+
+
+def _delete_one_vertices(frequency_hz: np.ndarray, velocity: np.ndarray) -> np.ndarray:
+    """The vertex of each fit leaving one reading out (those with a minimum), solved together:
+    a reading left out is a row of zeros (it weighs nothing), and the vertex does not depend
+    on the centre the fit is written about, so every fit shares the whole top's. The top
+    holds five frequencies or more, so each fit keeps four."""
+    centre_hz = frequency_hz.mean()
+    design, target = _weighted_system(frequency_hz, velocity, centre_hz)
+    kept = 1.0 - np.eye(len(target))
+    q, r = np.linalg.qr(design[None, :, :] * kept[:, :, None])
+    coefficients = np.linalg.solve(r, np.einsum("kij,ki->kj", q, target[None, :] * kept)[:, :, None])[:, :, 0]
+    b, c = coefficients[:, 1], coefficients[:, 2]
+    minimum = (b > 0) & (c > 0)
+    return centre_hz * (c[minimum] / b[minimum]) ** 0.25
 
 
 def _vertex_of_top(frequency_hz: np.ndarray, velocity: np.ndarray) -> tuple[float, float] | None:
@@ -101,13 +140,10 @@ def _vertex_of_top(frequency_hz: np.ndarray, velocity: np.ndarray) -> tuple[floa
     if np.unique(frequency_hz).size < 4:
         return None
     centre_hz = frequency_hz.mean()
-    u = (frequency_hz / centre_hz) ** 2   # conditions the fit: u within a few per cent of 1
-    weight = velocity**2   # 1 / sigma(1/v^2) up to a constant
-    design = np.column_stack([np.ones_like(u), u - 1.0, 1.0 / u - 1.0]) * weight[:, None]
-    target = velocity**-2.0 * weight
+    design, target = _weighted_system(frequency_hz, velocity, centre_hz)
     coefficients, *_ = np.linalg.lstsq(design, target, rcond=None)
     residuals = target - design @ coefficients
-    covariance = np.linalg.inv(design.T @ design) * (residuals @ residuals) / (len(u) - 3)
+    covariance = np.linalg.inv(design.T @ design) * (residuals @ residuals) / (len(target) - 3)
     _, b, c = coefficients
     if not (b > 0 and c > 0):
         return None

@@ -22,7 +22,7 @@ import math
 from dataclasses import dataclass, replace
 from typing import Callable
 
-from squeezebench.analysis.resonance_searches import peak_of_readings
+from squeezebench.analysis.resonance_searches import resonance_of_readings
 from squeezebench.protocols.acquisition import Point
 from squeezebench.protocols.steps import Plate, Step, StepContext
 from squeezebench.errors import UserError
@@ -86,8 +86,8 @@ class _VelocityProbe:
         """The resonance the readings' top puts the peak at (the best reading's frequency where
         they hold no top to fit), and the largest velocity read."""
         best_hz, velocity_pp_mps = self.best()
-        fit = peak_of_readings(list(self._velocity), list(self._velocity.values()))
-        return (best_hz if fit is None else fit.frequency_hz), velocity_pp_mps
+        fitted_hz = resonance_of_readings(list(self._velocity), list(self._velocity.values()))
+        return (best_hz if fitted_hz is None else fitted_hz), velocity_pp_mps
 
 
 def golden_section_maximum(velocity: Callable[[float], float], low_hz: float, high_hz: float,
