@@ -246,27 +246,36 @@ def search_budgets(rows: pd.DataFrame, setups: dict[str, SearchSetup]) -> list[t
     bracket holds it. The generator's error moves the setting the search finds by -e f0.
     """
     budgets = []
-    rows = with_scope_fallback(rows)   # the sweep kept the scope's velocities only
-    for (run_name, step_id), step in rows.groupby(["run_name", "step_id"], sort=False):
+    rows = with_scope_fallback(rows).reset_index(drop=True)   # the sweep kept the scope's velocities only
+    # each step's rows by position, read as arrays and dicts: a frame per step (and per row)
+    # was most of the budgets' time on a run of many short searches
+    steps: dict[tuple[str, str], list[int]] = {}
+    for position, key in enumerate(zip(rows["run_name"], rows["step_id"])):
+        steps.setdefault(key, []).append(position)
+    records = rows.to_dict("records")
+    is_sweep = rows["sweep"].astype(bool).to_numpy()
+    setting_hz = rows["generator_frequency_hz"].to_numpy(float, na_value=np.nan)
+    velocity = rows["velocity_pp_mps"].to_numpy(float, na_value=np.nan)
+    for (run_name, step_id), positions in steps.items():
         setup = setups.get(run_name)
-        sweep = step[step["sweep"].astype(bool)]
-        for _, found in step[~step["sweep"].astype(bool)].iterrows():
-            if setup is None or not _has_reduction(found.to_dict()):
+        in_sweep = [p for p in positions if is_sweep[p]]
+        for found in (records[p] for p in positions if not is_sweep[p]):
+            if setup is None or not _has_reduction(found):
                 continue
             frequency_hz = float(found["resonance_frequency_hz"])
             terms = [_spec_term("generator frequency", "generator_frequency", frequency_hz)]
-            fit = peak_of_readings(sweep["generator_frequency_hz"], sweep["velocity_pp_mps"]) if len(sweep) else None
-            if fit is not None and not np.isin(frequency_hz, sweep["generator_frequency_hz"].to_numpy()):
+            fit = peak_of_readings(setting_hz[in_sweep], velocity[in_sweep]) if in_sweep else None
+            if fit is not None and not np.isin(frequency_hz, setting_hz[in_sweep]):
                 terms.append(Term("resonance fit on the top", "A", fit.std_uncertainty_hz,
                                   f"the driven mode's 1/v^2 fitted to the readings above {PEAK_FIT_SHARE:.0%} "
                                   "of the peak (resonance_searches.peak_of_readings)"))
             else:
-                terms += _best_reading_terms(found, sweep, setup)
+                terms += _best_reading_terms(found, rows.iloc[in_sweep], setup)
             budgets.append((run_name, step_id, Budget("resonance_frequency_hz", "Hz", frequency_hz, tuple(terms))))
     return budgets
 
 
-def _best_reading_terms(found: pd.Series, sweep: pd.DataFrame, setup: SearchSetup) -> list[Term]:
+def _best_reading_terms(found: dict, sweep: pd.DataFrame, setup: SearchSetup) -> list[Term]:
     """Where a search stored its best reading: the final bracket, and where the golden
     section stops on the readings' scatter (`search_budgets`)."""
     frequency_hz = float(found["resonance_frequency_hz"])

@@ -478,7 +478,18 @@ def what_would_agree() -> pd.DataFrame:
 
 
 def large_plate_mode_figure(path: Path) -> dict:
-    """The large plate's predicted working mode, drawn to `path`; returns its figures."""
+    """The large plate's predicted working mode, drawn to `path`; returns its figures. Drawn
+    once per process (it depends on the model alone): every report of a process writes the
+    same PNG, and a test session writes dozens."""
+    png, figures = _large_plate_mode_png()
+    path.write_bytes(png)
+    return dict(figures)
+
+
+@functools.cache
+def _large_plate_mode_png() -> tuple[bytes, dict]:
+    import io
+
     import matplotlib
 
     matplotlib.use("Agg")
@@ -496,11 +507,12 @@ def large_plate_mode_figure(path: Path) -> dict:
     ax.set_title(f"predicted mode at {modes.frequencies_hz[k]:.0f} Hz "
                  f"({modes.interior_antinodes(k)} interior antinodes)")
     fig.colorbar(image, ax=ax, label="deflection / largest")
-    fig.savefig(path, dpi=100, bbox_inches="tight")
+    png = io.BytesIO()
+    fig.savefig(png, format="png", dpi=100, bbox_inches="tight")
     plt.close(fig)
-    return {"frequency_hz": float(modes.frequencies_hz[k]),
-            "interior_antinodes": modes.interior_antinodes(k),
-            "half_wavelength_mm": modes.half_wavelength_m(k) * 1e3}
+    return png.getvalue(), {"frequency_hz": float(modes.frequencies_hz[k]),
+                            "interior_antinodes": modes.interior_antinodes(k),
+                            "half_wavelength_mm": modes.half_wavelength_m(k) * 1e3}
 
 
 def modes_patches(geometry: plate_modes.PlateGeometry) -> list[tuple[tuple[float, float], float, float]]:
