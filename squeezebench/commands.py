@@ -452,6 +452,10 @@ def _world_shrink_factors(run_dir: Path) -> dict[str, float]:
 
 
 def cmd_plan(args: argparse.Namespace) -> int:
+    from squeezebench.protocols import parallel
+
+    if args.scheduler is None:   # the workers import the plan's code while this process does
+        parallel.warm(args.workers, "squeezebench.protocols.planning")
     from squeezebench.protocols.campaign import load_campaign
     from squeezebench.protocols.map_planning import map_job, plan_map, write_planned_maps
     from squeezebench.protocols.planning import campaign_cache, make_plan, plan_text, write_planned_campaign
