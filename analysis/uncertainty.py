@@ -340,11 +340,7 @@ def with_expanded_uncertainties(points: pd.DataFrame, deskew: Deskew | None = No
     with a deskew the power is corrected (`Deskew.applied_to`), unless the
     points carry that correction already, whose budget is then theirs.
     Rows without a stored record (no reduction) keep NaN."""
-    applied = Deskew.applied_in(points)
-    if applied is not None:
-        deskew = applied
-    elif deskew is not None and "reactive_power_var" in points:
-        points = deskew.applied_to(points)
+    points, deskew = deskewed(points, deskew)
     points = points.copy()
     points["detuning_slope_per_hz"] = detuning_slope_per_hz(points)
     rows = _rows(points)
@@ -367,6 +363,18 @@ def with_expanded_uncertainties(points: pd.DataFrame, deskew: Deskew | None = No
         points[f"{quantity}_dominant"] = dominant
         points[f"{quantity}_U_coverage"] = coverage
     return points
+
+
+def deskewed(points: pd.DataFrame, deskew: Deskew | None) -> tuple[pd.DataFrame, Deskew | None]:
+    """Reduced points with their power corrected by `deskew` (`Deskew.applied_to`), and the
+    deskew their budgets take: the correction the points carry already if they do (they
+    are then returned as they are)."""
+    applied = Deskew.applied_in(points)
+    if applied is not None:
+        return points, applied
+    if deskew is not None and "reactive_power_var" in points:
+        return deskew.applied_to(points), deskew
+    return points, deskew
 
 
 def _rows(points: pd.DataFrame) -> list[dict]:
@@ -412,14 +420,23 @@ class RunUncertainties:
     searches: pd.DataFrame   # one row per resonance search: value, expanded U, dominant term
 
 
-def run_uncertainties(run: RunData) -> RunUncertainties:
-    """Budgets of a run's stored points, corrected by its own deskew calibration if any."""
+def stored_points(run: RunData) -> tuple[pd.DataFrame | None, Deskew | None]:
+    """A run's reduced stored points, its deskew calibration's own left out (None: nothing
+    stored), and that calibration (None: the run has none); the powers not corrected yet
+    (`deskewed` corrects them)."""
     deskew = deskew_of_run(run)
     rows = run.measurements
     if rows.empty or "waveform_file" not in rows:
-        return RunUncertainties(pd.DataFrame(), pd.DataFrame(), deskew, pd.DataFrame())
+        return None, deskew
     points = reduced_points(run, rows[rows["waveform_file"].notna()])
-    points = points[points["protocol"] != "deskew_calibration"]
+    return points[points["protocol"] != "deskew_calibration"], deskew
+
+
+def run_uncertainties(run: RunData) -> RunUncertainties:
+    """Budgets of a run's stored points, corrected by its own deskew calibration if any."""
+    points, deskew = stored_points(run)
+    if points is None:
+        return RunUncertainties(pd.DataFrame(), pd.DataFrame(), deskew, pd.DataFrame())
     searches = pd.DataFrame([
         {"run_name": run_name, "step_id": step_id, "resonance_frequency_hz": budget.value,
          "resonance_frequency_hz_U": budget.expanded_uncertainty, "dominant_term": budget.dominant.name}

@@ -23,7 +23,8 @@ from pathlib import Path
 import pandas as pd
 
 from squeezebench.analysis.rundata import load_run
-from squeezebench.analysis.uncertainty import REFERENCE_FOR, characterisation_floor, run_uncertainties, systematic_floor
+from squeezebench.analysis.uncertainty import (REFERENCE_FOR, characterisation_floor, deskewed, stored_points,
+                                               systematic_floor)
 from squeezebench.protocols.bench_errors import bench_time_by_run_s
 from squeezebench.protocols.variants import carries_calibration, with_calibration, without_maps
 from squeezebench.protocols.campaign import run_campaign
@@ -156,17 +157,20 @@ def measure_floors(campaign_path: Path) -> tuple[list[RunFloor], dict[str, float
         variant = without_maps(with_calibration(Path(campaign_path), Path(tmp) / Path(campaign_path).name))
         run_dir = run_campaign(variant, out_dir=Path(tmp) / "run", progress=False, durable=False)
         run = load_run(run_dir)
-        found = run_uncertainties(run)
+        # the powers as the report's budgets correct them; the floors need no budget's
+        # expanded uncertainty (`run_uncertainties` convolves a distribution for each)
+        stored, deskew = stored_points(run)
+        points, _ = deskewed(stored, deskew)
         times_s = bench_time_by_run_s(run_dir)
         # Q and tan theta' of the characterised plates: floors of their own (tolerances, mostly)
-        plain = pd.concat([systematic_floor(found.points), characterisation_floor(run)]).set_index(
+        plain = pd.concat([systematic_floor(points), characterisation_floor(run)]).set_index(
             ["run_name", "quantity"])
-        deskewed = pd.concat([systematic_floor(found.points, found.deskew),
-                              characterisation_floor(run, found.deskew)]).set_index(["run_name", "quantity"])
-    deskew_u_s = found.deskew.std_uncertainty_s
+        calibrated = pd.concat([systematic_floor(points, deskew),
+                                characterisation_floor(run, deskew)]).set_index(["run_name", "quantity"])
+    deskew_u_s = deskew.std_uncertainty_s
     floors = [RunFloor(run, quantity, float(row["floor_p95_rel"]), row["dominant_term"],
-                       float(deskewed.loc[(run, quantity), "floor_p95_rel"]),
-                       deskewed.loc[(run, quantity), "dominant_term"])
+                       float(calibrated.loc[(run, quantity), "floor_p95_rel"]),
+                       calibrated.loc[(run, quantity), "dominant_term"])
               for (run, quantity), row in plain.iterrows() if quantity in QUANTITIES]
     calibration_s = times_s.pop(CALIBRATION_RUN)
     return floors, times_s, calibration_s, deskew_u_s

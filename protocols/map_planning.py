@@ -35,7 +35,7 @@ from typing import Any
 
 import numpy as np
 
-from squeezebench.analysis.cartography import homogeneity
+from squeezebench.analysis.cartography import coefficients_of_variation, homogeneity
 from squeezebench.plates import predicted_plates
 from squeezebench.errors import UserError
 from squeezebench.protocols.campaign import Run, load_campaign
@@ -163,8 +163,7 @@ def map_candidates(run: Run, seed: int = 0) -> tuple[float, list[MapCandidate], 
         points = dataclasses.replace(params.grid, step_mm=step_mm).points_mm()
         amplitude, cv, sampling = sampled(step_mm)
         draws = amplitude * (1.0 + noise_rel[averages] * rng.normal(size=(NOISE_DRAWS, amplitude.size)))
-        cvs = [homogeneity(d).coefficient_of_variation for d in draws]
-        noise = 2.0 * float(np.std(cvs, ddof=1)) / continuum_cv
+        noise = 2.0 * float(np.std(coefficients_of_variation(draws), ddof=1)) / continuum_cv
         bench_s = map_bench_time_s(points, (0.0, 0.0), params.stage_velocity_mm_per_s, acceleration_mm_per_s2,
                                    settle_s=params.settle_s, acquisition_s=acquisition_s[averages])
         return MapCandidate(step_mm, averages, len(points), float(cv), float(sampling), noise, bench_s)

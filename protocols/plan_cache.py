@@ -50,6 +50,17 @@ def fingerprint(files: list[Path]) -> str:
     return digest.hexdigest()
 
 
+def holds_nothing() -> bool:
+    """Whether no measurement of any plan is kept (none stored yet, the cache off or not
+    writable): a plan then simulates every one, on its workers; with something kept it may
+    read all it needs."""
+    location = cache_dir()
+    try:
+        return location is None or not joblib.Memory(location / "plan", verbose=0).store_backend.get_items()
+    except OSError:   # no writable cache folder: a plan keeps and reads nothing (`PlanCache`)
+        return True
+
+
 def _keyed(fingerprint: str, function: Callable[..., Any], *args: Any) -> Any:
     """function(*args); `fingerprint` is only part of the cache's key."""
     return function(*args)

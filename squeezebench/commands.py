@@ -452,6 +452,11 @@ def _world_shrink_factors(run_dir: Path) -> dict[str, float]:
 
 
 def cmd_plan(args: argparse.Namespace) -> int:
+    from squeezebench.protocols import parallel, plan_cache
+
+    # nothing kept: all is simulated, on the workers, which import its code while this process does
+    if args.scheduler is None and plan_cache.holds_nothing():
+        parallel.warm(args.workers, "squeezebench.protocols.planning")
     from squeezebench.protocols.campaign import load_campaign
     from squeezebench.protocols.map_planning import map_job, plan_map, write_planned_maps
     from squeezebench.protocols.planning import campaign_cache, make_plan, plan_text, write_planned_campaign

@@ -12,9 +12,9 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from squeezebench.analysis.cartography import (cell_offsets, crossings_per_line, grid_area_term, grid_cv_term,
-                                               homogeneity, modal_assurance, retuning_log_levels, retuning_term,
-                                               signed_amplitude)
+from squeezebench.analysis.cartography import (cell_offsets, coefficients_of_variation, crossings_per_line,
+                                               grid_area_term, grid_cv_term, homogeneity, modal_assurance,
+                                               retuning_log_levels, retuning_term, signed_amplitude)
 from squeezebench.paths import scenes_dir
 from squeezebench.plates.specifications import SPECIFICATIONS
 from squeezebench.simbench.modeshape import mode_shape, working_mode
@@ -87,6 +87,17 @@ def test_homogeneity_numbers_of_a_known_set():
     assert h.fraction_above_share == 0.5                      # 3 and 4 are >= 2.8
     with pytest.raises(ValueError, match="share_of_peak"):
         homogeneity(np.ones(3), share_of_peak=1.5)
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.integers(1, 3000), st.integers(1, 12), st.floats(1e-3, 1.0), st.integers(0, 2**32 - 1))
+def test_coefficients_of_variation_are_homogeneity_s_to_the_last_bit(points, draws, spread, seed):
+    """The Monte Carlo of a map plan takes every draw's CV at once; the plan must not move."""
+    rng = np.random.default_rng(seed)
+    amplitudes = rng.uniform(0.0, 1.0, points) * (1.0 + spread * rng.standard_normal((draws, points)))
+    amplitudes[0] = 0.0 if draws > 1 else amplitudes[0]   # a row without vibration: CV infinite, as homogeneity's
+    expected = [homogeneity(row).coefficient_of_variation for row in amplitudes]
+    assert coefficients_of_variation(amplitudes).tolist() == expected
 
 
 def test_signed_amplitude_turns_antiphase_into_a_sign():

@@ -68,6 +68,19 @@ def test_off_measures_everything_and_keeps_nothing(tmp_path, monkeypatch):
     assert "all 1 simulated now" in cache.words()
 
 
+def test_only_a_cache_without_plans_says_everything_is_to_simulate(tmp_path, cache_folder, monkeypatch):
+    """`plan` starts its workers early on that word alone: with a plan kept it may read all."""
+    inputs = tmp_path / "scene.yaml"
+    inputs.write_text("seed: 1\n")
+    assert plan_cache.holds_nothing()   # no folder yet
+    PlanCache([inputs])
+    assert plan_cache.holds_nothing()   # opened, nothing kept
+    PlanCache([inputs]).call(measured, 1)
+    assert not plan_cache.holds_nothing()
+    monkeypatch.setenv(CACHE_VARIABLE, "off")
+    assert plan_cache.holds_nothing()
+
+
 def test_the_default_folder_is_the_users_cache(monkeypatch, tmp_path):
     monkeypatch.delenv(CACHE_VARIABLE)
     monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
