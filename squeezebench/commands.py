@@ -24,6 +24,8 @@ STUDY_EXPERIMENTS = ("averages", "record", "search", "settle", "sweep", "heating
                        for suffix in ("", "_calibrated")),
                      "systematics_search", "systematics_campaign", "systematics_campaign_calibrated",
                      "systematics_sweep", "systematics_sweep_calibrated")
+#: protocols.accuracy_study.StudySettings.repeats, spelled here for `--help` likewise.
+STUDY_REPEATS = 6
 
 
 #: `reproduce` leaves out the study's slowest experiments (the whole campaign per bench, a
