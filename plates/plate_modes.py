@@ -39,6 +39,7 @@ powered set. All SI units.
 
 from __future__ import annotations
 
+import copy
 import functools
 import hashlib
 import json
@@ -164,6 +165,8 @@ class PlateModes:
     _peak: np.ndarray = field(repr=False, default=None)  # mass-normalised deflection at each mode's peak
     #: the solve's key in the disk cache (`stored_solves`); None for a plate solved otherwise
     stored_key: str | None = field(repr=False, default=None)
+    #: about what keeping it in memory costs (its arrays, its eigenvectors and its probe's basis)
+    held_bytes: int = field(repr=False, default=0)
 
     def shape_at(self, k: int, x_m, y_m) -> np.ndarray:
         """Mode k's deflection at the points (x, y), scaled as `shapes` (+1 at its largest),
@@ -246,10 +249,13 @@ def _key(geometry: PlateGeometry, resonator: Isotropic, piezo: Piezo, near_hz: f
 
 
 #: Solved plates: a campaign's few plates stay, a layout sweep's hundreds (each solved
-#: once) do not pile up in a worker's memory (a small plate with its mesh is about 15 MB,
-#: the large one 50 MB). 32: the test suite's design and prediction modules solved 17 of
-#: their 86 plates twice with 16, 8 with 32.
-_CACHE: RecentlyUsed[PlateModes] = RecentlyUsed(32)
+#: once) do not pile up in a worker's memory. 32: the test suite's design and prediction
+#: modules solved 17 of their 86 plates twice with 16, 8 with 32. And at most 96 MB as
+#: `held_bytes` counts them (the large plate about 11 MB, a 76 mm one about 1 MB): 32 large
+#: plates held 1.5 GB, and a worker of loky's (the parallel engine's) that grows 300 MB
+#: past its size after its first task is retired as leaking, with "A worker stopped while
+#: some jobs were given to the executor" when tasks wait, and started again from nothing.
+_CACHE: RecentlyUsed[PlateModes] = RecentlyUsed(32, max_bytes=96 * 2**20, weigh=lambda modes: modes.held_bytes)
 
 #: The disk cache of solves (`stored_solves`) stays under this size: a stored solve is
 #: mostly its eigenvectors, about 0.2 MB for a 76 mm plate and 5 MB for the large one.
@@ -377,6 +383,10 @@ def _discretisation(x: tuple[float, ...], y: tuple[float, ...], gx: tuple[float,
     find = tensor_finder(mesh, basis.mapping, np.array(x), np.array(y))
     points = np.array(np.meshgrid(np.array(gx), np.array(gy), indexing="ij")).reshape(2, -1)
     probes: dict[bytes, object] = {}
+    # What probing reads of the basis, without its functions' derivatives at the quadrature
+    # points (the large plate: 33 MB of its 46): every plate solved on this mesh keeps its
+    # probe, and the probe this, long after the basis has left this cache.
+    probing = ProbingBasis(basis)
 
     def probe(p: np.ndarray):
         """The basis evaluated at points p (2, N), kept: a sweep asks for the same touch grid
@@ -385,10 +395,27 @@ def _discretisation(x: tuple[float, ...], y: tuple[float, ...], gx: tuple[float,
         if key not in probes:
             if len(probes) > 32:
                 probes.clear()
-            probes[key] = _probes(basis, p, find)
+            probes[key] = _probes(probing, p, find)
         return probes[key]
 
-    return mesh, basis, _probes(basis, points, find), probe
+    probe.held_bytes = probing.nbytes
+    return mesh, basis, _probes(probing, points, find), probe
+
+
+class ProbingBasis:
+    """What `argyris.probes` reads of a basis (mesh, mapping, dofs, the element's inverse
+    Vandermonde matrices), without the basis functions it evaluated for assembly."""
+
+    def __init__(self, basis) -> None:
+        self.mesh, self.mapping, self.element_dofs = basis.mesh, basis.mapping, basis.element_dofs
+        self.Nbfun, self.N = basis.Nbfun, basis.N
+        self.elem = copy.copy(basis.elem)
+        self.elem._kept = (None, None, None)   # the copy keeps no evaluated functions
+
+    @property
+    def nbytes(self) -> int:
+        mapping = [value for value in vars(self.mapping).values() if isinstance(value, np.ndarray)]
+        return sum(a.nbytes for a in [self.elem.V, self.element_dofs, self.mesh.p, self.mesh.t, *mapping])
 
 
 def tensor_finder(mesh, mapping, x: np.ndarray, y: np.ndarray) -> Callable[[np.ndarray], np.ndarray]:
@@ -595,7 +622,8 @@ def modes_from_vectors(geometry: PlateGeometry, resonator: Isotropic, piezo: Pie
                                                       p.length_x_m) for p in geometry.patches]),
         # one mode's column: a figure's or a reduced model's face integral's grid has tens of thousands of points
         _probe=lambda p, k: probe(p) @ vectors[:, k], _modal_force=theta, _peak=peak,
-        face_integral_m2_per_kg=face_integrals)
+        face_integral_m2_per_kg=face_integrals,
+        held_bytes=vectors.nbytes + scaled.nbytes + getattr(probe, "held_bytes", 0))
 
 
 def sign_changes(x: np.ndarray, values: np.ndarray) -> np.ndarray:

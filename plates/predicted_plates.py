@@ -525,13 +525,21 @@ def modes_patches(geometry: plate_modes.PlateGeometry) -> list[tuple[tuple[float
 GEOMETRIES = {"large_plate": large_plate}
 
 
+def known_plate_modes(plate: str, near_hz: float) -> plate_modes.PlateModes | None:
+    """The model's modes of `plate` near `near_hz` (solved once: `plate_modes.solve_plate`
+    keeps them), None for a plate the model does not know: what `working_shape` reads."""
+    if plate not in GEOMETRIES:
+        return None
+    return plate_modes.solve_plate(GEOMETRIES[plate](), near_hz=near_hz)
+
+
 def working_shape(plate: str, near_hz: float, x_m, y_m) -> tuple[np.ndarray, float] | None:
     """The model's working mode of `plate` (the (n, 0) mode nearest `near_hz`) at the
     points (x, y), scaled +1 at its largest, and that mode's frequency; None for a plate
     the model does not know."""
-    if plate not in GEOMETRIES:
+    modes = known_plate_modes(plate, near_hz)
+    if modes is None:
         return None
-    modes = plate_modes.solve_plate(GEOMETRIES[plate](), near_hz=near_hz)
     k = modes.working_mode(near_hz)
     return modes.shape_at(k, x_m, y_m), float(modes.frequencies_hz[k])
 

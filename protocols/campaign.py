@@ -134,6 +134,12 @@ def _scenes_in(value: Any) -> list[Path]:
     return []
 
 
+def mapped_scenes(path: Path) -> list[Path]:
+    """The scenes the campaign's maps (protocol 'cartography') scan on the simulated bench."""
+    return list(dict.fromkeys(run.bench.scene for run in load_campaign(path).runs
+                              if run.protocol == "cartography" and run.bench.scene is not None))
+
+
 def load_campaign(path: Path, bench_file: Path | None = None) -> Campaign:
     """Read and validate a campaign file, every scene and bench file it uses, and every
     voltage, frequency and count it will request (before any bench opens); every

@@ -10,6 +10,7 @@ import numpy as np
 import pandas as pd
 
 from squeezebench.analysis import cartography
+from squeezebench.disk_cache import cache_dir
 from squeezebench.plates import predicted_plates
 from squeezebench.report.presentation import fold, with_uncertainty
 from squeezebench.report.section import ReportContext, Section, html_table
@@ -48,6 +49,23 @@ def map_figure(points: pd.DataFrame, path: Path, plate: str) -> None:
     plt.close(fig)
 
 
+def _drive_frequency_hz(points: pd.DataFrame) -> float:
+    """The frequency a map was driven at (the model's mode is looked for near it)."""
+    return float(points["generator_frequency_hz"].median())
+
+
+def solve_ahead(context: ReportContext) -> None:
+    """Hand the model's solve of each mapped plate to the drawing processes (`Drawing.ahead`)
+    from the stored rows alone, before the map's points are reduced: it is kept in the disk
+    cache, where `map_summaries` reads it instead of solving it here (none without the cache)."""
+    rows = context.run.protocol("cartography")
+    if rows.empty or cache_dir() is None:
+        return
+    for (_, plate), one in rows.groupby(["run_name", "plate"], sort=False):
+        if plate in predicted_plates.GEOMETRIES:
+            context.draw.ahead(predicted_plates.known_plate_modes, plate, _drive_frequency_hz(one))
+
+
 def map_summaries(run) -> tuple[pd.DataFrame, dict[str, pd.DataFrame]]:
     """One summary row per mapped run (cartography.summarise_map, with the model's
     prediction where it knows the plate), and each run's reduced points."""
@@ -55,7 +73,7 @@ def map_summaries(run) -> tuple[pd.DataFrame, dict[str, pd.DataFrame]]:
     rows, maps = [], {}
     for (run_name, plate), one in points.groupby(["run_name", "plate"], sort=False):
         one = one.reset_index(drop=True)
-        frequency_hz = float(one["generator_frequency_hz"].median())
+        frequency_hz = _drive_frequency_hz(one)
         predicted = predicted_plates.working_shape(plate, frequency_hz, one["x_m"].to_numpy(), one["y_m"].to_numpy())
         summary = cartography.summarise_map(one, None if predicted is None else predicted[0],
                                              resonance_q=cartography.map_resonance_q(run, run_name))
@@ -80,6 +98,7 @@ def cartography_section(context: ReportContext) -> Section | None:
     """Vibration map (Fig. 7)"""
     if context.run.protocol("cartography").empty:
         return None
+    context.draw.wait_ahead()   # the plates `solve_ahead` handed out: read, not solved twice
     summaries, maps = map_summaries(context.run)
     body = ""
     if context.bench() == "simulated":

@@ -12,6 +12,7 @@ start once and are busy while this process runs something else.
 
 from __future__ import annotations
 
+import contextlib
 from concurrent.futures import BrokenExecutor, Future
 from pathlib import Path
 from typing import Any, Callable
@@ -64,6 +65,7 @@ class Drawing:
         self._size = workers - 1
         self._executor = _executor(self._size) if workers > 1 else None
         self._pending: list[tuple[Future, tuple]] = []   # (future, the call it runs)
+        self._ahead: list[Future] = []
 
     def __call__(self, function: Callable[..., Any], data: Any, path: Path, *more: Any) -> Path:
         """`function(data, path, *more)`, now or on a worker; returns `path`."""
@@ -78,6 +80,24 @@ class Drawing:
             future = self._executor.submit(*call)
         self._pending.append((future, call))
         return path
+
+    def ahead(self, function: Callable[..., Any], *arguments: Any) -> None:
+        """`function(*arguments)` on a drawing process for what it leaves behind (a solve
+        in the disk cache) that this process reads later, after `wait_ahead`; nothing with
+        one worker (this process computes it where it needs it)."""
+        if self._executor is None:
+            return
+        try:
+            self._ahead.append(self._executor.submit(function, *arguments))
+        except BrokenExecutor:   # a process of an earlier report died: this process does it
+            pass
+
+    def wait_ahead(self) -> None:
+        """Wait for the `ahead` work; one that failed is left to this process to meet."""
+        ahead, self._ahead = self._ahead, []
+        for future in ahead:
+            with contextlib.suppress(Exception):
+                future.result()
 
     def finish(self) -> None:
         """Wait for every figure handed out; one that failed raises here. This process has
@@ -105,7 +125,7 @@ class Drawing:
                 _executor(self._size, fresh=True)
 
     def cancel(self) -> None:
-        """Drop the figures not started yet (the report stopped)."""
-        for future, _ in self._pending:
+        """Drop the figures and the `ahead` work not started yet (the report stopped)."""
+        for future in [future for future, _ in self._pending] + self._ahead:
             future.cancel()
-        self._pending = []
+        self._pending, self._ahead = [], []

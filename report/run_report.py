@@ -33,7 +33,7 @@ from squeezebench.errors import UserError
 from squeezebench.workers import default_workers
 from squeezebench.report.appendix import conventions_section, provenance_section
 from squeezebench.report.audit import audit_section, readings_section
-from squeezebench.report.cartography_report import cartography_section
+from squeezebench.report.cartography_report import cartography_section, solve_ahead as solve_map_plates_ahead
 from squeezebench.report.paper_tables import table3_section, table4_section, table5_section
 from squeezebench.report.physics import characterisation_section, detuning_section, predicted_section, resonance_section
 from squeezebench.report.section import ReportContext, Section, SectionBuilder, slug
@@ -60,6 +60,7 @@ def write_report(run_dir: Path | str, workers: int | None = None, left_out: list
     context = ReportContext(run=run, out_dir=out_dir, draw=Drawing(workers or default_workers()))
     builders = [b for b in SECTIONS if b is not provenance_section] + [provenance_section]   # appendix last
     try:
+        solve_map_plates_ahead(context)   # the map section waits for it: handed out before the figures
         try:
             study_figures(context)   # the longest to draw: handed out first
         except UserError:

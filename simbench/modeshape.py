@@ -39,6 +39,17 @@ def working_mode(scene, state) -> tuple[plate_modes.PlateModes, int]:
     return modes, modes.working_mode(state.resonance_frequency_hz)
 
 
+def solve_ahead(scene_paths: list) -> None:
+    """Solve the working mode of each scene's initial state now (kept in the disk cache), for
+    a campaign whose maps read them later on another process (`reproduce`: its drawing
+    process, while the campaign's first runs measure)."""
+    from squeezebench.simbench.scene import load_scene
+
+    for path in scene_paths:
+        scene = load_scene(path)
+        working_mode(scene, scene.state(scene.initial_state))
+
+
 TABLE_STEP_M = 0.5e-3
 _TABLES: dict[tuple[int, int], tuple[plate_modes.PlateModes, RegularGridInterpolator]] = {}
 

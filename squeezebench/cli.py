@@ -20,7 +20,7 @@ from typing import NoReturn
 
 from squeezebench import __version__, paths
 from squeezebench.errors import UserError
-from squeezebench.commands import (EXIT_INTERRUPTED, EXIT_USER_ERROR, STUDY_EXPERIMENTS, cmd_check, cmd_design, cmd_list,
+from squeezebench.commands import (EXIT_INTERRUPTED, EXIT_USER_ERROR, STUDY_EXPERIMENTS, STUDY_REPEATS, cmd_check, cmd_design, cmd_list,
                                    cmd_plan, cmd_report, cmd_reproduce, cmd_run, cmd_safe, cmd_serve_sim, cmd_study,
                                    cmd_validate, emit_json)
 
@@ -207,8 +207,8 @@ def build_parser() -> argparse.ArgumentParser:
     study = add("study", help="accuracy against bench time on the simulated bench")
     study.add_argument("--out", type=Path, default=Path("runs/study"),
                        help="run directory; trials go to OUT/study/ (default: runs/study)")
-    study.add_argument("--repeats", type=int, default=8,
-                       help="trials per configuration; for the systematics_* experiments, benches (default 8)")
+    study.add_argument("--repeats", type=int, default=STUDY_REPEATS,
+                       help=f"trials per configuration; for the systematics_* experiments, benches (default {STUDY_REPEATS})")
     study.add_argument("--experiment", action="append", choices=STUDY_EXPERIMENTS, metavar="NAME",
                        help="run only this experiment (repeatable; default: all): " + ", ".join(STUDY_EXPERIMENTS))
     study.add_argument("--resume", action="store_true", help="keep experiments and benches already stored")

@@ -16,7 +16,7 @@ from squeezebench.protocols import accuracy_study
 from squeezebench.protocols.accuracy_study import AccuracyStudy, StudySettings, run_study
 from squeezebench.protocols.systematics_study import SystematicsSettings
 from squeezebench.cli import main
-from squeezebench.commands import STUDY_EXPERIMENTS
+from squeezebench.commands import STUDY_EXPERIMENTS, STUDY_REPEATS
 from test_analysis_synthetic import build_run
 
 SMALL = StudySettings(
@@ -117,6 +117,7 @@ def test_resume_keeps_stored_experiments_and_other_settings_start_over(tmp_path)
 
 def test_cli_study_runs_one_experiment_and_report_shows_it(tmp_path, capsys):
     assert STUDY_EXPERIMENTS == AccuracyStudy.EXPERIMENTS   # spelled twice: keep them one
+    assert STUDY_REPEATS == StudySettings().repeats
     assert main(["study", "--out", str(tmp_path), "--repeats", "2", "--experiment", "settle"]) == 0
     assert (tmp_path / "study" / "settle.parquet").is_file()
     assert main(["report", str(tmp_path)]) == 0   # what `study` tells the user to run

@@ -279,3 +279,25 @@ def test_crossings_are_counted_per_row_and_per_column():
     assert rows.tolist() == [0, 0, 0, 0] and columns.tolist() == [1, 1, 1]
     term = grid_area_term(x.ravel(), y.ravel(), np.where(above, 1.0, 0.1).ravel(), 0.5)
     assert term.std_uncertainty == pytest.approx(3 * math.sqrt(1 / 12) / 12)   # three rows alike, one contour each
+
+
+def test_the_paper_campaigns_map_plate_solved_ahead_is_read_by_the_bench(tmp_path, monkeypatch, large):
+    """`reproduce` solves the working mode its map scans on another process before the
+    campaign reaches the map (`commands._solve_maps`): the bench's stage then reads it from
+    the disk cache, solving nothing, and gets the same mode."""
+    from squeezebench import paths
+    from squeezebench.commands import _solve_maps
+    from squeezebench.disk_cache import CACHE_VARIABLE
+    from squeezebench.plates import plate_modes
+    from squeezebench.protocols.campaign import mapped_scenes
+
+    scene, state = large
+    assert mapped_scenes(paths.paper_campaign()) == [scenes_dir() / "large_plate.yaml"]
+    monkeypatch.setenv(CACHE_VARIABLE, str(tmp_path))
+    plate_modes._CACHE.clear()
+    _solve_maps(paths.paper_campaign())
+    solved, k = working_mode(scene, state)
+    plate_modes._CACHE.clear()   # another process: only the disk cache is shared
+    monkeypatch.setattr(plate_modes, "_eigenpairs", lambda *a, **kw: pytest.fail("solved again"))
+    read, k_read = working_mode(scene, state)
+    assert k_read == k and np.array_equal(read.shapes, solved.shapes)

@@ -151,3 +151,29 @@ def test_the_maps_report_section_draws_it_and_describes_every_column(mapped, tmp
     assert summary.loc[0, "mean_velocity_pp_mps_U"] > 2 * summary.loc[0, "mean_velocity_pp_mps"] * 0.01
     described = columns.dictionary([run.measurements, summary, points])
     assert not (described["meaning"] == "not described").any(), described[described["meaning"] == "not described"]
+
+
+def test_the_maps_plate_solved_ahead_on_a_drawing_process_is_read_not_solved_again(mapped, tmp_path, monkeypatch):
+    """`solve_ahead` hands the mapped plate's solve to a drawing process, which leaves it in
+    the disk cache; the section then reads it (this process never solves an eigenproblem)
+    and says what it says when it solves the plate itself."""
+    from squeezebench.disk_cache import CACHE_VARIABLE
+    from squeezebench.plates import plate_modes
+    from squeezebench.report import drawing
+    from squeezebench.report.cartography_report import cartography_section, solve_ahead
+    from squeezebench.report.section import ReportContext
+
+    _, run_dir, _ = mapped
+    monkeypatch.setenv(CACHE_VARIABLE, "off")
+    plate_modes._CACHE.clear()
+    solved_here = cartography_section(ReportContext(run=load_run(run_dir), out_dir=tmp_path)).body_html
+    monkeypatch.setenv(CACHE_VARIABLE, str(tmp_path / "cache"))
+    drawing._executor(1, fresh=True)   # drawing processes that see this cache
+    plate_modes._CACHE.clear()
+    monkeypatch.setattr(plate_modes, "_eigenpairs", lambda *a, **k: pytest.fail("solved again in this process"))
+    context = ReportContext(run=load_run(run_dir), out_dir=tmp_path, draw=drawing.Drawing(2))
+    solve_ahead(context)
+    assert cartography_section(context).body_html == solved_here
+    context.draw.finish()
+    monkeypatch.undo()
+    drawing._executor(1, fresh=True)   # later reports' processes see their own cache again

@@ -279,15 +279,17 @@ def test_reproduce_stops_its_study_when_the_campaign_stops(tmp_path, monkeypatch
         on_step({"run": "fig2a_one_column", "step": "resonance"})
         raise KeyboardInterrupt
 
-    ahead = object()   # the report's plates, solving on its drawing process: stopped too
+    maps, ahead = object(), object()   # the maps' and the report's plates, solving on its drawing process: stopped too
+    stopped_beside = []
 
     monkeypatch.setattr(accuracy_study, "run_study", study)
     monkeypatch.setattr(campaign, "run_campaign", stopped_campaign)
+    monkeypatch.setattr(commands, "_solve_maps_ahead", lambda workers: maps)
     monkeypatch.setattr(run_report, "solve_ahead", lambda workers: ahead)
-    monkeypatch.setattr(drawing, "stop_beside", lambda work: seen.update(plates_stopped=work is ahead))
+    monkeypatch.setattr(drawing, "stop_beside", stopped_beside.append)
     with pytest.raises(KeyboardInterrupt):
         commands.cmd_reproduce(cli.build_parser().parse_args(["reproduce", "--out", str(tmp_path / "paper"), "-q"]))
-    assert seen == {"started": True, "stopped": True, "plates_stopped": True}
+    assert seen == {"started": True, "stopped": True} and stopped_beside == [maps, ahead]
     assert not [t for t in threading.enumerate() if t.name == "beside"]
 
 

@@ -127,3 +127,30 @@ def test_plates_are_solved_ahead_only_where_a_report_can_read_them(monkeypatch):
     assert solve_ahead(1) is None   # no drawing process
     monkeypatch.setenv(CACHE_VARIABLE, "off")
     assert solve_ahead(2) is None   # kept nowhere: the report would solve them again
+
+
+def _leaves_pid(path):
+    import time
+
+    time.sleep(0.2)
+    Path(path).write_text(str(os.getpid()))
+
+
+def test_work_handed_ahead_runs_on_a_drawing_process_and_is_waited_for(tmp_path):
+    """`ahead` work (a report's plate solve, left in the disk cache) runs on a drawing
+    process; `wait_ahead` returns once it is done; with one worker nothing is handed out
+    (the report computes it where it needs it)."""
+    drawing = Drawing(2)
+    drawing.ahead(_leaves_pid, tmp_path / "ahead.txt")
+    drawing.wait_ahead()
+    assert int((tmp_path / "ahead.txt").read_text()) != os.getpid()
+    alone = Drawing(1)
+    alone.ahead(_leaves_pid, tmp_path / "alone.txt")
+    alone.wait_ahead()
+    assert not (tmp_path / "alone.txt").exists()
+
+
+def test_work_ahead_that_fails_is_left_to_the_report(tmp_path):
+    drawing = Drawing(2)
+    drawing.ahead(_leaves_pid, tmp_path / "missing" / "ahead.txt")   # its folder does not exist
+    drawing.wait_ahead()   # nothing raised: the section that needs it meets the error itself

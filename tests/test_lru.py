@@ -51,3 +51,22 @@ def test_two_threads_building_one_key_get_the_same_value():
 def test_a_size_below_one_is_refused():
     with pytest.raises(ValueError, match="at least 1"):
         RecentlyUsed(0)
+
+
+@given(limit=st.integers(1, 20), weights=st.lists(st.tuples(st.integers(0, 6), st.integers(1, 12)), max_size=40))
+def test_with_a_byte_limit_it_drops_the_least_recent_until_the_rest_fit(limit, weights):
+    """Against a model: the most recent keys whose weights sum within the limit (the newest
+    always, whatever it weighs), at most `size` of them."""
+    cache, model = RecentlyUsed(4, max_bytes=limit, weigh=lambda value: value[1]), []   # (key, weight)
+    for key, weight in weights:
+        kept = cache.get(key, lambda: (key, weight))
+        model = [entry for entry in model if entry[0] != key] + [kept]
+        while len(model) > 4 or (len(model) > 1 and sum(w for _, w in model) > limit):
+            model.pop(0)
+        assert len(cache) == len(model) and cache.bytes == sum(w for _, w in model)
+        assert cache.bytes <= limit or len(cache) == 1
+
+
+def test_a_byte_limit_needs_a_weight():
+    with pytest.raises(ValueError, match="together"):
+        RecentlyUsed(2, max_bytes=10)
