@@ -246,6 +246,8 @@ def search_budgets(rows: pd.DataFrame, setups: dict[str, SearchSetup]) -> list[t
     bracket holds it. The generator's error moves the setting the search finds by -e f0.
     """
     budgets = []
+    if rows.empty:   # a run that searched nothing stores none of the columns read below
+        return budgets
     rows = with_scope_fallback(rows).reset_index(drop=True)   # the sweep kept the scope's velocities only
     # each step's rows by position, read as arrays and dicts: a frame per step (and per row)
     # was most of the budgets' time on a run of many short searches

@@ -7,6 +7,7 @@ dependency. Pure AST, nothing imported.
 from __future__ import annotations
 
 import ast
+import functools
 from pathlib import Path
 
 import pytest
@@ -27,7 +28,8 @@ FORBIDDEN = {
 }
 
 
-def imported_modules(path: Path) -> set[str]:
+@functools.cache   # each file is read by several tests: parsed once
+def imported_modules(path: Path) -> frozenset[str]:
     """Every absolute `squeezebench...` module a file imports (from-imports by their module
     and by each imported name, since `from squeezebench import cli` imports a module)."""
     found = set()
@@ -37,7 +39,7 @@ def imported_modules(path: Path) -> set[str]:
         elif isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
             found.add(node.module)
             found.update(f"{node.module}.{alias.name}" for alias in node.names)
-    return {name for name in found if name == "squeezebench" or name.startswith("squeezebench.")}
+    return frozenset(name for name in found if name == "squeezebench" or name.startswith("squeezebench."))
 
 
 def part_of(module: str) -> str | None:
