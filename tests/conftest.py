@@ -16,7 +16,6 @@ from __future__ import annotations
 import fcntl
 import json
 import os
-import sys
 import tempfile
 from contextlib import contextmanager
 from pathlib import Path
@@ -30,12 +29,6 @@ from pyvisa.util import from_ieee_block
 
 TIMEOUT = object()
 CLEAR = "<device clear>"
-
-# The suite keeps what it compiles, as Python does by default, where PYTHONDONTWRITEBYTECODE
-# says not to: pytest rewrites every test module's asserts on import, and each xdist worker
-# collecting all of them anew took half its collection's CPU (3.4 of 7 CPU-s on issue 51's
-# machine); the processes the tests start read the compiled modules too.
-sys.dont_write_bytecode = False
 
 
 class ProtocolResource:
