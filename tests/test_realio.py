@@ -18,6 +18,7 @@ import yaml
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from conftest import recorded_traffic
 from squeezebench import cli, paths
 from squeezebench.instruments.bench import sim_bench_config
 from squeezebench.instruments.served import served_bench_file
@@ -31,6 +32,36 @@ pytest.importorskip("pyvisa_py")
 pytest.importorskip("serial")
 
 SCENE = paths.input_file("one_column_1mm")
+#: quick's three kinds of step (the deskew's long averaged records, a detuning, a cut) at
+#: fewer points and a coarser search: half of quick's messages, each of which a served
+#: bench carries over a socket or a pty, in the same order and kinds.
+CAMPAIGN = """
+name: served
+bench: {scene: one_column_1mm.yaml}
+acquisition: {averages: 4, record_length: 500, periods_per_record: 10, settle_s: 0.5}
+safety: {max_piezo_voltage_vpp: 100, ramp_step_vpp: 10, ramp_dwell_s: 0.01}
+runs:
+  - name: deskew_calibration
+    protocol: deskew_calibration
+    plate: {n_powered_columns: 1, n_powered_piezos: 1}
+    acquisition: {averages: 16, record_length: 10000}
+    parameters: {frequency_hz: 37000.0}
+  - name: detuning
+    protocol: detuning
+    plate: {n_powered_columns: 1, n_powered_piezos: 4}
+    parameters:
+      search: {start_hz: 36000, stop_hz: 38500, points: 4, tolerance_hz: 50}
+      velocity_levels_pp_mps: [0.25]
+      velocity_ratios: [0.5]
+  - name: cutting
+    protocol: resonator_cutting
+    plate: {n_powered_columns: 1, n_powered_piezos: 4}
+    parameters:
+      piezo_voltage_vpp: 20
+      search: {start_hz: 36000, stop_hz: 38500, points: 4, tolerance_hz: 50}
+      lengths:
+        - {plate_length_mm: 75, state: 75x41, n_antinodes: 9}
+"""
 #: What differs by design between a served and an in-process run: the bench's provenance.
 PROVENANCE = ["bench", "bench_input", "bench_input_sha256"]
 
@@ -74,10 +105,25 @@ def rows(run_dir: Path) -> dict[str, pd.DataFrame]:
 
 
 @pytest.fixture(scope="module")
-def in_process(tmp_path_factory) -> dict[str, pd.DataFrame]:
-    """The quick campaign on the in-process simulated bench."""
+def campaign(tmp_path_factory) -> Path:
+    path = tmp_path_factory.mktemp("campaign") / "served.yaml"
+    path.write_text(CAMPAIGN)
+    return path
+
+
+@pytest.fixture(scope="module")
+def in_process_run(campaign, tmp_path_factory) -> tuple[dict[str, pd.DataFrame], dict[str, list[str]]]:
+    """The campaign on the in-process simulated bench: its rows and {role: the messages its
+    drivers sent}."""
     folder = tmp_path_factory.mktemp("in_process")
-    return rows(run_campaign(paths.campaign_file("quick"), out_dir=folder / "run", progress=False))
+    with recorded_traffic() as traffic:
+        run_dir = run_campaign(campaign, out_dir=folder / "run", progress=False)
+    return rows(run_dir), traffic
+
+
+@pytest.fixture(scope="module")
+def in_process(in_process_run) -> dict[str, pd.DataFrame]:
+    return in_process_run[0]
 
 
 def test_the_fixture_refuses_a_real_backend_opening_a_lab_address():
@@ -96,12 +142,11 @@ def test_serve_sim_listens_on_the_loopback_only():
         TcpPort(lambda data: [], host="0.0.0.0")
 
 
-def test_quick_over_pyvisa_py_has_the_simulated_benchs_rows(in_process, tmp_path):
+def test_a_campaign_over_pyvisa_py_has_the_simulated_benchs_rows(campaign, in_process, tmp_path):
     with ServedSim(SCENE, computing_allowance_s=30) as sim:   # a loaded machine computes slowly
         bench = served_bench(sim, tmp_path)
         assert cli.main(["check", "--bench", str(bench), "-q"]) == 0
-        served = rows(run_campaign(paths.campaign_file("quick"), out_dir=tmp_path / "run", progress=False,
-                                   bench_file=bench))
+        served = rows(run_campaign(campaign, out_dir=tmp_path / "run", progress=False, bench_file=bench))
     assert list(served) == list(in_process)
     for name, expected in in_process.items():
         pd.testing.assert_frame_equal(served[name], expected, check_exact=True, obj=name)
@@ -113,20 +158,21 @@ def faulty_scene(folder: Path, faults: list[dict]) -> Path:
     return path
 
 
-def test_replies_in_random_chunks_are_joined_and_change_no_row(in_process, tmp_path):
+def test_replies_in_random_chunks_are_joined_and_change_no_row(campaign, in_process_run, tmp_path):
+    in_process, traffic = in_process_run
     scene = faulty_scene(tmp_path, [{"fault": "chunked_reply", "instrument": "scope", "max_chunk_bytes": 50,
                                      "max_pause_s": 1e-4}])
     with ServedSim(scene, computing_allowance_s=30) as sim:
         bench = served_bench(sim, tmp_path)
-        served = rows(run_campaign(paths.campaign_file("quick"), out_dir=tmp_path / "run", progress=False,
-                                   bench_file=bench))
-        assert sim.served.faults[0].seen > 1000   # every reply of the scope came in pieces
+        served = rows(run_campaign(campaign, out_dir=tmp_path / "run", progress=False, bench_file=bench))
+        # every reply of the scope came in pieces: one per query the drivers send it
+        assert sim.served.faults[0].seen == sum("?" in message for message in traffic["scope"])
     for name, expected in in_process.items():
         pd.testing.assert_frame_equal(served[name], expected, check_exact=True, obj=name)
 
 
 @pytest.mark.parametrize("fault, expected", [
-    ({"fault": "slow_trickle", "instrument": "scope", "query": "ACQUIRE:MODE?", "occurrence": 150, "bytes_per_s": 0.2},
+    ({"fault": "slow_trickle", "instrument": "scope", "query": "ACQUIRE:MODE?", "occurrence": 90, "bytes_per_s": 0.2},
      r"scope \(TCPIP0?::127\.0\.0\.1::\d+::SOCKET\): no answer to ACQUIRE:MODE\?.* within 2 s"),
     ({"fault": "missing_termination", "instrument": "generator", "query": "VOLT:OFFS?", "occurrence": 20},
      r"generator \(ASRL/dev/pts/\d+::INSTR\): no answer to .*VOLT:OFFS\?.* within"),
@@ -135,16 +181,16 @@ def test_replies_in_random_chunks_are_joined_and_change_no_row(in_process, tmp_p
     ({"fault": "framing_error", "instrument": "generator", "query": "VOLT:OFFS?", "occurrence": 20},
      r"generator \(ASRL/dev/pts/\d+::INSTR\): unexpected reply b?'\\x00.*VOLT:OFFS\?"),
 ], ids=lambda value: value["fault"] if isinstance(value, dict) else "")
-def test_a_transport_fault_stops_with_one_message_and_resume_completes(in_process, tmp_path, capsys, fault,
-                                                                       expected):
+def test_a_transport_fault_stops_with_one_message_and_resume_completes(campaign, in_process, tmp_path, capsys,
+                                                                       fault, expected):
     scene = faulty_scene(tmp_path, [fault])
     out = tmp_path / "run"
     with ServedSim(scene) as sim:
         bench = str(served_bench(sim, tmp_path))
-        assert cli.main(["run", "quick", "--bench", bench, "--out", str(out), "-q"]) == 2
+        assert cli.main(["run", str(campaign), "--bench", bench, "--out", str(out), "-q"]) == 2
         message = capsys.readouterr().err.strip()
         stored = rows(out)
-        assert cli.main(["run", "quick", "--bench", bench, "--out", str(out), "--resume", "-q"]) == 0
+        assert cli.main(["run", str(campaign), "--bench", bench, "--out", str(out), "--resume", "-q"]) == 0
     assert len(message.splitlines()) == 1, message
     assert re.search(expected, message), message
     assert stored, "the fault came after some steps were stored"
