@@ -19,6 +19,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from conftest import recorded_traffic
+from small_quick import small_quick
 from squeezebench import cli, paths
 from squeezebench.instruments.bench import sim_bench_config
 from squeezebench.instruments.served import served_bench_file
@@ -32,36 +33,6 @@ pytest.importorskip("pyvisa_py")
 pytest.importorskip("serial")
 
 SCENE = paths.input_file("one_column_1mm")
-#: quick's three kinds of step (the deskew's long averaged records, a detuning, a cut) at
-#: fewer points and a coarser search: half of quick's messages, each of which a served
-#: bench carries over a socket or a pty, in the same order and kinds.
-CAMPAIGN = """
-name: served
-bench: {scene: one_column_1mm.yaml}
-acquisition: {averages: 4, record_length: 500, periods_per_record: 10, settle_s: 0.5}
-safety: {max_piezo_voltage_vpp: 100, ramp_step_vpp: 10, ramp_dwell_s: 0.01}
-runs:
-  - name: deskew_calibration
-    protocol: deskew_calibration
-    plate: {n_powered_columns: 1, n_powered_piezos: 1}
-    acquisition: {averages: 16, record_length: 10000}
-    parameters: {frequency_hz: 37000.0}
-  - name: detuning
-    protocol: detuning
-    plate: {n_powered_columns: 1, n_powered_piezos: 4}
-    parameters:
-      search: {start_hz: 36000, stop_hz: 38500, points: 4, tolerance_hz: 50}
-      velocity_levels_pp_mps: [0.25]
-      velocity_ratios: [0.5]
-  - name: cutting
-    protocol: resonator_cutting
-    plate: {n_powered_columns: 1, n_powered_piezos: 4}
-    parameters:
-      piezo_voltage_vpp: 20
-      search: {start_hz: 36000, stop_hz: 38500, points: 4, tolerance_hz: 50}
-      lengths:
-        - {plate_length_mm: 75, state: 75x41, n_antinodes: 9}
-"""
 #: What differs by design between a served and an in-process run: the bench's provenance.
 PROVENANCE = ["bench", "bench_input", "bench_input_sha256"]
 
@@ -106,9 +77,9 @@ def rows(run_dir: Path) -> dict[str, pd.DataFrame]:
 
 @pytest.fixture(scope="module")
 def campaign(tmp_path_factory) -> Path:
-    path = tmp_path_factory.mktemp("campaign") / "served.yaml"
-    path.write_text(CAMPAIGN)
-    return path
+    """quick's kinds of step at half its messages, each of which a served bench carries over
+    a socket or a pty."""
+    return small_quick(tmp_path_factory.mktemp("campaign"))
 
 
 @pytest.fixture(scope="module")
