@@ -23,6 +23,7 @@ import pandas as pd
 import pytest
 from pyvisa.resources import MessageBasedResource
 
+from small_quick import SMALL_QUICK_STEPS, small_quick
 from squeezebench import stops
 from squeezebench.instruments.errors import ConnectionLost
 from squeezebench.protocols.campaign import run_campaign
@@ -240,7 +241,8 @@ def test_a_stop_signal_at_any_moment_of_start_up_exits_130_without_a_traceback(t
 
 def test_nohup_ignored_sighup_does_not_stop_the_run(tmp_path):
     """A parent that ignores SIGHUP (nohup, a scheduler) keeps it ignored: the run completes."""
-    process = subprocess.Popen(["nohup", *_command("run", "quick.yaml", "--out", str(tmp_path / "run"), "-q")],
+    campaign = str(small_quick(tmp_path / "campaign"))
+    process = subprocess.Popen(["nohup", *_command("run", campaign, "--out", str(tmp_path / "run"), "-q")],
                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     for delay_s in (0.2, 0.8, 1.5, 2.5):   # start-up, bench open, steps
         try:
@@ -250,7 +252,7 @@ def test_nohup_ignored_sighup_does_not_stop_the_run(tmp_path):
             process.send_signal(signal.SIGHUP)
     out, err = process.communicate(timeout=120)
     assert process.returncode == 0, err
-    assert len(RunStore(tmp_path / "run").journal()) == 7   # every step of quick, its deskew run's included
+    assert len(RunStore(tmp_path / "run").journal()) == SMALL_QUICK_STEPS   # every step, the deskew run's included
 
 
 def test_the_entry_point_imports_nothing_heavy_before_it_takes_the_signals_over():
