@@ -4,24 +4,31 @@ campaign through real processes or a real transport, where every message is paid
 
 The runs are quick's, in its order: the deskew with its 10,000-point averaged records, a
 detuning and a resonator cut, at 4 search points and a 50 Hz search tolerance (1,704
-messages where quick sends 3,744), on quick's scene and acquisition.
+messages where quick sends 3,744), on quick's scene and acquisition. Without the deskew
+(`MEASURING_RUNS`) it is the previous users' campaign (test_previous_user_states).
 """
 
 from __future__ import annotations
 
 from pathlib import Path
 
-SMALL_QUICK = """
+#: The campaign's settings: quick's.
+HEADER = """
 name: small_quick
 bench: {scene: one_column_1mm.yaml}
 acquisition: {averages: 4, record_length: 500, periods_per_record: 10, settle_s: 0.5}
 safety: {max_piezo_voltage_vpp: 100, ramp_step_vpp: 10, ramp_dwell_s: 0.01}
 runs:
+"""
+DESKEW_RUN = """
   - name: deskew_calibration
     protocol: deskew_calibration
     plate: {n_powered_columns: 1, n_powered_piezos: 1}
     acquisition: {averages: 16, record_length: 10000}
     parameters: {frequency_hz: 37000.0}
+"""
+#: quick's two kinds of measuring step, one each.
+MEASURING_RUNS = """
   - name: detuning
     protocol: detuning
     plate: {n_powered_columns: 1, n_powered_piezos: 4}
@@ -38,6 +45,7 @@ runs:
       lengths:
         - {plate_length_mm: 75, state: 75x41, n_antinodes: 9}
 """
+SMALL_QUICK = HEADER + DESKEW_RUN + MEASURING_RUNS
 #: The steps it stores: the deskew's, the detuning's three, the cut's.
 SMALL_QUICK_STEPS = 5
 
