@@ -4,7 +4,7 @@ not a test: the whole paper campaign takes half a minute of one core per state).
 Each state is `simbench.devices.previous_user_start` with its seed: every setting of the
 simulated instruments drawn among the values their manuals allow. A state passes when the
 campaign's rows equal those measured from power-on and neither the generator nor the scope
-refused a command on the way. tests/test_previous_user_states.py runs 50 states through a
+refused a command on the way. tests/test_previous_user_states.py runs 25 states through a
 small campaign of the same steps on every test run; this is the full-size check.
 
 Run: python benchmarks/bench_previous_users.py [--states 50] [--campaigns quick paper]

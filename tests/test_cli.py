@@ -216,10 +216,26 @@ def test_version_after_any_subcommand(command, capsys):
 
 def test_validate_accepts_shipped_names_as_run_does(capsys, tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)   # nothing called quick here: the shipped files answer
-    assert cli.main(["validate", "quick", "paper.yaml", "large_plate", "lab_example"]) == 0
+    assert cli.main(["validate", "quick", "paper.yaml", "one_column_1mm", "lab_example"]) == 0
     out = capsys.readouterr().out
     assert "valid campaign" in out and "valid scene" in out and "valid bench" in out
     assert cli.main(["validate", "no_such_thing"]) == 2
+
+
+def test_validate_checks_every_shipped_file_of_an_ambiguous_name(capsys, tmp_path, monkeypatch):
+    """`validate large_plate` means the shipped scene and the shipped design, each checked and
+    the ambiguity said once. Which files are checked is what this asks, not what checking
+    them finds: that is the large plate's physics (its solves, tens of seconds of one core),
+    which test_design's `validate --scene large_plate` and its design's prediction read."""
+    from squeezebench import schemas
+
+    monkeypatch.chdir(tmp_path)
+    checked = []
+    monkeypatch.setattr(schemas, "validate_file", lambda path: checked.append(path) or
+                        {"file": str(path), "kind": path.parent.name, "summary": "", "warnings": []})
+    assert cli.main(["validate", "large_plate"]) == 0
+    assert checked == [paths.scenes_dir() / "large_plate.yaml", paths.designs_dir() / "large_plate.yaml"]
+    assert "2 shipped files are called large_plate: the scene and the design" in capsys.readouterr().err
 
 
 @pytest.mark.parametrize("argv", [["plan", "--json"], ["check", "--json", "--no-such-flag"]])
@@ -237,8 +253,10 @@ def test_piped_output_arrives_line_by_line(tmp_path):
     read while the run is still going."""
     import subprocess
 
-    process = subprocess.Popen([sys.executable, "-m", "squeezebench", "run", "quick", "--out", str(tmp_path / "run")],
-                               stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
+    from small_quick import small_quick
+
+    process = subprocess.Popen([sys.executable, "-m", "squeezebench", "run", str(small_quick(tmp_path / "campaign")),
+                                "--out", str(tmp_path / "run")], stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
     try:
         first = process.stdout.readline()
         still_running = process.poll() is None

@@ -1,10 +1,13 @@
 """Whatever state a previous user left the bench in, a run measures what it measures from
-power-on: 50 states drawn at random among the settings the instruments' manuals allow
+power-on: 25 states drawn at random among the settings the instruments' manuals allow
 (`simbench.devices.previous_user_start`: input impedance, offsets, verbose off, math,
 trigger, modulation, filters, the stage), each through a small campaign of the quick
-campaign's two kinds of step (and a tenth of them through `check`), compared row for row with the power-on run, with
-no command refused on the way. `benchmarks/bench_previous_users.py` runs the whole quick
-and paper campaigns the same way."""
+campaign's two kinds of step (and a fifth of them through `check`), compared row for row
+with the power-on run, with no command refused on the way. Among these 25 every one of the
+instruments' 76 settings takes each value it takes among the first 50 states, but for two
+of the scope's settings' rarest values (an averaging count, a measurement type) and the
+continuous ones. `benchmarks/bench_previous_users.py` runs 50 states (or as many as asked)
+through the whole quick and paper campaigns the same way."""
 
 from __future__ import annotations
 
@@ -14,37 +17,17 @@ import pandas as pd
 import pytest
 import pyvisa
 
+import small_quick
 from squeezebench import paths
 from squeezebench.instruments.bench import check_bench, sim_bench_config
 from squeezebench.protocols import campaign
 from squeezebench.simbench import scpi_device
 
-STATES = 50
+STATES = 25
 CHUNKS = 5   # the states split so that parallel workers share them
 COLUMNS = ["run_name", "step_id", "point_index", "generator_frequency_hz", "generator_amplitude_vpp",
            "scope_piezo_voltage_pp_v", "scope_power_w", "scope_velocity_pp_v", "vibrometer_scale_mps_per_v"]
-CAMPAIGN = """
-name: previous_user
-bench: {scene: one_column_1mm.yaml}
-acquisition: {averages: 4, record_length: 500, periods_per_record: 10, settle_s: 0.5}
-safety: {max_piezo_voltage_vpp: 100, ramp_step_vpp: 10, ramp_dwell_s: 0.01}
-runs:
-  - name: detuning
-    protocol: detuning
-    plate: {n_powered_columns: 1, n_powered_piezos: 4}
-    parameters:
-      search: {start_hz: 36000, stop_hz: 38500, points: 4, tolerance_hz: 50}
-      velocity_levels_pp_mps: [0.25]
-      velocity_ratios: [0.5]
-  - name: cutting
-    protocol: resonator_cutting
-    plate: {n_powered_columns: 1, n_powered_piezos: 4}
-    parameters:
-      piezo_voltage_vpp: 20
-      search: {start_hz: 36000, stop_hz: 38500, points: 4, tolerance_hz: 50}
-      lengths:
-        - {plate_length_mm: 75, state: 75x41, n_antinodes: 9}
-"""
+CAMPAIGN = small_quick.HEADER + small_quick.MEASURING_RUNS   # quick's two kinds of measuring step
 
 
 def measure(start: str, tmp_path, monkeypatch) -> pd.DataFrame:

@@ -2,9 +2,10 @@
 and a seeded randomized kill-and-resume test with real processes (SIGKILL, SIGTERM).
 
 In-process tests send the signal to this process at the k-th instrument write, so it
-lands mid-command-sequence; the subprocess test kills a real `squeezebench run` the same
-way (a small wrapper patches the PyVISA write, below every driver) and, for SIGKILL, also
-inside the storage window between a step's files and its journal line.
+lands mid-command-sequence; the subprocess test kills real processes running `squeezebench
+run` the same way (children of a small wrapper that patches the PyVISA write, below every
+driver) and, for SIGKILL, also inside the storage window between a step's files and its
+journal line.
 """
 
 from __future__ import annotations
@@ -23,6 +24,7 @@ import pandas as pd
 import pytest
 from pyvisa.resources import MessageBasedResource
 
+from small_quick import SMALL_QUICK_STEPS, small_quick
 from squeezebench import stops
 from squeezebench.instruments.errors import ConnectionLost
 from squeezebench.protocols.campaign import run_campaign
@@ -126,23 +128,28 @@ def test_a_lost_generator_is_said_in_capitals(reference, tmp_path, monkeypatch, 
     assert "GENERATOR OUTPUT STATE UNKNOWN" in (tmp_path / "run" / "log.txt").read_text()
 
 
-#: Runs `squeezebench run` and kills itself with SIGNAL at instrument write WRITE_AT (or,
-#: for "journal", right after the journal append number WRITE_AT, or "files", after the
-#: step files and before the journal line); prints the last generator amplitude written.
+#: Runs `squeezebench run` in a child process per trial (SIGNAL, WHERE, AT), which kills
+#: itself with SIGNAL at instrument write AT ("write") or after the step files of step AT
+#: and before its journal line ("files"); reports each child's exit status, the last
+#: generator amplitude it wrote and its standard error. The children are forked from one
+#: process that has run the campaign once: each is a real process with its own files and
+#: locks that dies as a run would, without paying the interpreter's start and the run's
+#: imports again (a second apiece, the most of what a trial cost).
 KILLER = textwrap.dedent("""
-    import atexit, json, os, re, signal, sys
+    import json, os, re, signal, sys
     from pyvisa.resources import MessageBasedResource
     from squeezebench import cli
     from squeezebench.protocols.storage import RunStore
 
-    sig, where, at = int(sys.argv[1]), sys.argv[2], int(sys.argv[3])
-    state = {"writes": 0, "steps": 0, "amplitude": None}
+    campaign, out, trials = sys.argv[1], sys.argv[2], json.loads(sys.argv[3])
+    trial = {"sig": None, "where": None, "at": None}
+    state = {}
     write, write_step = MessageBasedResource.write, RunStore.write_step
 
     def tapped(resource, message, *args, **kwargs):
         state["writes"] += 1
-        if where == "write" and state["writes"] == at:
-            os.kill(os.getpid(), sig)
+        if trial["where"] == "write" and state["writes"] == trial["at"]:
+            os.kill(os.getpid(), trial["sig"])
         result = write(resource, message, *args, **kwargs)
         match = re.match(r"^VOLT ([-+0-9.eE]+)$", message)
         if match:
@@ -152,15 +159,33 @@ KILLER = textwrap.dedent("""
     def files_then_kill(self, *args, **kwargs):
         result = write_step(self, *args, **kwargs)
         state["steps"] += 1
-        if where == "files" and state["steps"] == at:
-            os.kill(os.getpid(), sig)
+        if trial["where"] == "files" and state["steps"] == trial["at"]:
+            os.kill(os.getpid(), trial["sig"])
         return result
 
     MessageBasedResource.write, RunStore.write_step = tapped, files_then_kill
-    atexit.register(lambda: print(json.dumps(state), flush=True))
-    status = cli.main(["run", sys.argv[4], "--out", sys.argv[5], "--resume"])
-    print(json.dumps(state), flush=True)
-    sys.exit(status)
+
+    def run(run_dir):
+        state.update(writes=0, steps=0, amplitude=None)
+        return cli.main(["run", campaign, "--out", run_dir, "--resume"])
+
+    assert run(f"{out}/warm") == 0   # the modules a run imports as it goes, loaded for every child
+    results = []
+    for index, (sig, where, at) in enumerate(trials):
+        report, err = f"{out}/trial{index}.json", f"{out}/trial{index}.err"
+        pid = os.fork()
+        if pid == 0:
+            os.dup2(os.open(err, os.O_WRONLY | os.O_CREAT | os.O_TRUNC), 2)
+            os.dup2(os.open(os.devnull, os.O_WRONLY), 1)
+            trial.update(sig=sig, where=where, at=at)
+            status = run(f"{out}/trial{index}")
+            with open(report, "w") as handle:
+                json.dump(state, handle)
+            sys.exit(status)
+        _, wait_status = os.waitpid(pid, 0)
+        results.append({"status": os.waitstatus_to_exitcode(wait_status), "err": open(err).read(),
+                        "state": json.load(open(report)) if os.path.exists(report) else None})
+    print(json.dumps(results))
     """)
 
 
@@ -170,19 +195,21 @@ def test_randomized_real_kills_then_resume_lose_and_duplicate_nothing(reference,
     script.write_text(KILLER)
     rng = random.Random(18)
     n_steps = expected.groupby(["run_name", "step_id"]).ngroups
-    # each way a process dies once: a process start and a resume apiece, the test's whole cost
-    trials = [(signal.SIGKILL, "write"), (signal.SIGKILL, "files"), (signal.SIGTERM, "write")]
-    for trial, (sig, where) in enumerate(trials):
+    # each way a process dies once: a child process and a resume apiece
+    ways = [(signal.SIGKILL, "write"), (signal.SIGKILL, "files"), (signal.SIGTERM, "write")]
+    trials = [(int(sig), where, rng.randrange(1, n_steps) if where == "files" else rng.randrange(1, n_writes))
+              for sig, where in ways]
+    done = subprocess.run([sys.executable, str(script), str(campaign), str(tmp_path), json.dumps(trials)],
+                          capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr[-3000:]
+    results = json.loads(done.stdout.strip().splitlines()[-1])
+    for trial, ((sig, where, at), result) in enumerate(zip(trials, results, strict=True)):
         run_dir = tmp_path / f"trial{trial}"
-        at = rng.randrange(1, n_steps) if where == "files" else rng.randrange(1, n_writes)
-        done = subprocess.run([sys.executable, str(script), str(int(sig)), where, str(at), str(campaign),
-                               str(run_dir)], capture_output=True, text=True, timeout=120)
         if sig == signal.SIGKILL:
-            assert done.returncode == -signal.SIGKILL, done.stderr
+            assert result["status"] == -signal.SIGKILL, result
         else:
-            assert done.returncode == 130, done.stderr
-            state = json.loads(done.stdout.strip().splitlines()[-1])
-            assert _is_minimum(state["amplitude"]), state
+            assert result["status"] == 130, result
+            assert _is_minimum(result["state"]["amplitude"]), result
         run_campaign(campaign, resume=True, out_dir=run_dir, progress=False, say=lambda message: None)
         rows = read_measurements(run_dir)
         keys = rows[["run_name", "step_id", "point_index"]]
@@ -240,7 +267,8 @@ def test_a_stop_signal_at_any_moment_of_start_up_exits_130_without_a_traceback(t
 
 def test_nohup_ignored_sighup_does_not_stop_the_run(tmp_path):
     """A parent that ignores SIGHUP (nohup, a scheduler) keeps it ignored: the run completes."""
-    process = subprocess.Popen(["nohup", *_command("run", "quick.yaml", "--out", str(tmp_path / "run"), "-q")],
+    campaign = str(small_quick(tmp_path / "campaign"))
+    process = subprocess.Popen(["nohup", *_command("run", campaign, "--out", str(tmp_path / "run"), "-q")],
                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     for delay_s in (0.2, 0.8, 1.5, 2.5):   # start-up, bench open, steps
         try:
@@ -250,7 +278,7 @@ def test_nohup_ignored_sighup_does_not_stop_the_run(tmp_path):
             process.send_signal(signal.SIGHUP)
     out, err = process.communicate(timeout=120)
     assert process.returncode == 0, err
-    assert len(RunStore(tmp_path / "run").journal()) == 7   # every step of quick, its deskew run's included
+    assert len(RunStore(tmp_path / "run").journal()) == SMALL_QUICK_STEPS   # every step, the deskew run's included
 
 
 def test_the_entry_point_imports_nothing_heavy_before_it_takes_the_signals_over():
