@@ -80,7 +80,10 @@ def search_record_length(settings: "AcquisitionSettings") -> int:
     4.9 % for 500 points of 20 periods, 1.2e-4 for 10000. One length for the whole search: a
     reading's noise lifts its extremes more the more samples it holds (about 0.1 % between
     500 and 10000 at 16 averages), which a search switching records between its readings
-    would read as a distortion of the peak."""
+    would read as a distortion of the peak. Keeping the campaign's 500 points and asking for
+    fewer periods cannot bound it: the crest bound's 157 samples a period leave room for 3.18
+    periods at most, the scope's FREQ needs two rising crossings in its whole-period gate (two
+    periods), and the 1-2-4 time base steps by up to 2.5 (44118 Hz: 1.76 or 4.41 periods)."""
     longer = [n for n in RECORD_LENGTHS if n >= settings.record_length]
     fine = [n for n in longer
             if crest_shortfall_rel(n / (TIME_BASE_STEP * settings.periods_per_record)) <= SEARCH_CREST_SHORTFALL]

@@ -9,9 +9,11 @@ import pytest
 from hypothesis import given, settings, strategies as st
 
 from squeezebench import paths
-from squeezebench.protocols.acquisition import (TIME_BASE_STEP, AcquisitionSettings, Point, crest_shortfall_rel,
-                                                search_record_length)
+from squeezebench.instruments.tds3054b import HORIZONTAL_SCALES_S_PER_DIV
+from squeezebench.protocols.acquisition import (SEARCH_CREST_SHORTFALL, TIME_BASE_STEP, AcquisitionSettings, Point,
+                                                crest_shortfall_rel, search_record_length)
 from squeezebench.protocols.simulated_session import open_simulated
+from squeezebench.simbench.traces import crossing_frequency_hz, whole_periods
 from squeezebench.yamlfiles import dump_yaml, load_strict
 from squeezebench.protocols.resonance import (ResonanceError, SearchSettings, find_resonance, stopped_at,
                                               track_resonance)
@@ -91,6 +93,27 @@ def test_a_search_reads_on_a_record_that_finds_the_crest():
     assert crest_shortfall_rel(500 / (TIME_BASE_STEP * 20)) == pytest.approx(1 - math.cos(math.pi / 10))
     assert search_record_length(AcquisitionSettings(record_length=500, periods_per_record=20)) == 10000
     assert search_record_length(AcquisitionSettings(record_length=500, periods_per_record=0.5)) == 500
+
+
+def test_no_time_base_keeps_a_500_point_search_reading_within_the_crest_bound():
+    """Why a search does not keep the campaign's 500 points and ask for fewer periods instead:
+    the scope's FREQ needs two rising crossings in its whole-period gate, so two periods in
+    the record, and 500 points hold the crest bound's 157 samples a period up to 3.18
+    periods, a window narrower than the time base's 2.5 step. At small plate 6's 44118 Hz
+    4 us/div holds 1.76 periods (no frequency), 10 us/div 4.41: 113 samples a period, up to
+    3.8e-4 low. 10000 points of the campaign's 20 periods hold 200 a period anywhere."""
+    frequency_hz = 44_118.03
+    for periods, found in ((1.76, False), (2.2, True)):
+        times_s = (np.arange(500) - 250) * periods / frequency_hz / 500
+        gate = whole_periods(times_s, frequency_hz)
+        trace = np.sin(2 * math.pi * frequency_hz * times_s)
+        assert math.isfinite(crossing_frequency_hz(trace[gate], times_s[gate])) is found
+    needed = math.pi / math.acos(1 - SEARCH_CREST_SHORTFALL)
+    assert 500 / needed < 2 * TIME_BASE_STEP
+    fewest = min(p for p in (10 * scale * frequency_hz for scale in HORIZONTAL_SCALES_S_PER_DIV) if p >= 2)
+    assert fewest == pytest.approx(4.4118, rel=1e-4)
+    assert crest_shortfall_rel(500 / fewest) > SEARCH_CREST_SHORTFALL
+    assert crest_shortfall_rel(10000 / (TIME_BASE_STEP * 20)) <= SEARCH_CREST_SHORTFALL
 
 
 def test_small_plate_6_is_found_where_it_resonates_on_a_noise_free_bench(tmp_path):
