@@ -163,6 +163,25 @@ def paper_run(tmp_path_factory) -> tuple[Path, dict[str, list[str]]]:
     return Path(stored["run_dir"]), stored["traffic"]
 
 
+@pytest.fixture(scope="session")
+def paper_report(tmp_path_factory, paper_run) -> Path:
+    """The report of the session's paper run as the command line writes it (with the
+    simulated plates' section): its index.html. Written once for the session's workers under
+    paper_run's lock (a marker, written last, says it is whole): the browser's tests and the
+    uncertainty report's read the same page, which is some 8 CPU-s to write."""
+    import squeezebench.report.simulated_plates  # noqa: F401  (the report as `report` writes it)
+    from squeezebench.report.run_report import write_report
+
+    run_dir, _ = paper_run
+    shared = session_folder(tmp_path_factory) / "paper-run"
+    with open(shared / "lock", "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        if not (shared / "report-written").exists():
+            write_report(run_dir)
+            (shared / "report-written").touch()
+    return run_dir / "report" / "index.html"
+
+
 # Drive records (protocols.drive_record) outlive a process: this test process and its
 # children keep theirs out of the user's state folder, and each test has its own, so a run
 # one test kills does not tell another test's bench it was left driven.
