@@ -197,9 +197,10 @@ def _own_drive_records(tmp_path_factory, monkeypatch):
 #: machine), longest first. With `-n` each module runs whole on one worker (`--dist
 #: loadscope`) in the order collected (`--no-loadscope-reorder`, pyproject): these start
 #: first and the many short modules fill in behind them, so no worker idles through the end
-#: while the other runs a long module it took last. The paper campaign's two readers
-#: (`paper_run`) start apart: the second finds the run made rather than waiting on its lock.
-LONG_MODULES = ("test_uncertainty.py", "test_instrument_commands.py", "test_realio.py", "test_accuracy_study.py",
+#: while the other runs a long module it took last. The paper campaign's three readers
+#: (`paper_run`, `paper_report`) start apart: the first makes it while the other worker runs
+#: real I/O and the study, and the later ones find it made rather than waiting on its lock.
+LONG_MODULES = ("test_instrument_commands.py", "test_realio.py", "test_accuracy_study.py", "test_uncertainty.py",
                 "test_report_browser.py", "test_stop_signals.py", "test_systematics_study.py",
                 "test_stop_bursts.py", "test_accuracy_plan.py", "test_misdescribed_benches.py",
                 "test_previous_user_states.py", "test_analysis_report.py")
