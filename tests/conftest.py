@@ -163,6 +163,25 @@ def paper_run(tmp_path_factory) -> tuple[Path, dict[str, list[str]]]:
     return Path(stored["run_dir"]), stored["traffic"]
 
 
+@pytest.fixture(scope="session")
+def paper_report(tmp_path_factory, paper_run) -> Path:
+    """The report of the session's paper run as the command line writes it (with the
+    simulated plates' section): its index.html. Written once for the session's workers under
+    paper_run's lock (a marker, written last, says it is whole): the browser's tests and the
+    uncertainty report's read the same page, which is some 8 CPU-s to write."""
+    import squeezebench.report.simulated_plates  # noqa: F401  (the report as `report` writes it)
+    from squeezebench.report.run_report import write_report
+
+    run_dir, _ = paper_run
+    shared = session_folder(tmp_path_factory) / "paper-run"
+    with open(shared / "lock", "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        if not (shared / "report-written").exists():
+            write_report(run_dir)
+            (shared / "report-written").touch()
+    return run_dir / "report" / "index.html"
+
+
 # Drive records (protocols.drive_record) outlive a process: this test process and its
 # children keep theirs out of the user's state folder, and each test has its own, so a run
 # one test kills does not tell another test's bench it was left driven.
@@ -178,9 +197,10 @@ def _own_drive_records(tmp_path_factory, monkeypatch):
 #: machine), longest first. With `-n` each module runs whole on one worker (`--dist
 #: loadscope`) in the order collected (`--no-loadscope-reorder`, pyproject): these start
 #: first and the many short modules fill in behind them, so no worker idles through the end
-#: while the other runs a long module it took last. The paper campaign's two readers
-#: (`paper_run`) start apart: the second finds the run made rather than waiting on its lock.
-LONG_MODULES = ("test_uncertainty.py", "test_instrument_commands.py", "test_accuracy_study.py", "test_realio.py",
+#: while the other runs a long module it took last. The paper campaign's three readers
+#: (`paper_run`, `paper_report`) start apart: the first makes it while the other worker runs
+#: the study and real I/O, and the later ones find it made rather than waiting on its lock.
+LONG_MODULES = ("test_instrument_commands.py", "test_accuracy_study.py", "test_realio.py", "test_uncertainty.py",
                 "test_report_browser.py", "test_stop_signals.py", "test_systematics_study.py",
                 "test_accuracy_plan.py", "test_misdescribed_benches.py", "test_stop_bursts.py",
                 "test_previous_user_states.py", "test_analysis_report.py")

@@ -57,10 +57,19 @@ def test_missing_or_empty_run_dir_is_a_user_error(tmp_path):
         report.write_report(tmp_path / "empty")
 
 
-def test_partial_run_says_what_is_missing(tmp_path):
-    run_dir = build_run(tmp_path / "partial", protocols=("powered_columns",))
-    index = report.write_report(run_dir)
-    text = index.read_text()
+@pytest.fixture(scope="module")
+def partial(tmp_path_factory):
+    """A run of one protocol with a hard-case summary beside it, and its report's text: a
+    partial run and an optional section in one report (some 4 CPU-s each)."""
+    run_dir = build_run(tmp_path_factory.mktemp("partial") / "run", protocols=("powered_columns",))
+    (run_dir / "hardcases").mkdir()
+    pd.DataFrame({"case": ["pf_0.001"], "passed": [True]}).to_csv(run_dir / "hardcases" / "summary.csv",
+                                                                  index=False)
+    return run_dir, report.write_report(run_dir).read_text()
+
+
+def test_partial_run_says_what_is_missing(partial):
+    run_dir, text = partial
     assert "protocol &#x27;resonator_cutting&#x27; is not in this run" in text
     table3 = pd.read_csv(run_dir / "report" / "table3.csv")
     assert set(table3["status"]) == {"not measured"}
@@ -71,12 +80,8 @@ def test_partial_run_says_what_is_missing(tmp_path):
     assert set(table5["status"]) == {"not measured"}
 
 
-def test_optional_sections_plug_in(tmp_path):
-    run_dir = build_run(tmp_path / "with_extras", protocols=("powered_columns",))
-    (run_dir / "hardcases").mkdir()
-    pd.DataFrame({"case": ["pf_0.001"], "passed": [True]}).to_csv(run_dir / "hardcases" / "summary.csv",
-                                                                  index=False)
-    text = report.write_report(run_dir).read_text()
+def test_optional_sections_plug_in(partial):
+    _, text = partial
     assert "pf_0.001" in text
     assert "no study/ folder" in text   # left out, and said so in the summary
 

@@ -25,7 +25,7 @@ def widths(tmp_path_factory):
     folder = tmp_path_factory.mktemp("design")
     (folder / "ends.yaml").write_text(dump_yaml(ENDS))
     assert cli.main(["design", str(folder / "ends.yaml"), "--no-layouts", "--out", str(folder / "page"), "-q"]) == 0
-    return {width: make_screenshots.measure(folder / "page" / "index.html", width) for width in WIDTHS}
+    return make_screenshots.measure_widths(folder / "page" / "index.html", WIDTHS)   # one Chromium for both
 
 
 @pytest.mark.parametrize("width", WIDTHS)

@@ -119,12 +119,10 @@ MAX_FIGURES = 6
 
 
 @pytest.fixture(scope="module")
-def paper(paper_run):
-    """The whole paper campaign's report (the session's run, `paper_run`), measured at both widths."""
+def paper(paper_report):
+    """The whole paper campaign's report (the session's, `paper_report`), measured at both widths."""
     make_screenshots.chromium()
-    run_dir, _ = paper_run
-    index = report.write_report(run_dir)
-    return make_screenshots.measure_widths(index, WIDTHS)
+    return make_screenshots.measure_widths(paper_report, WIDTHS)
 
 
 def test_the_papers_results_end_within_nine_laptop_and_fifteen_phone_screens(paper):

@@ -14,7 +14,6 @@ from hypothesis import strategies as st
 
 from squeezebench import paths
 from squeezebench.analysis import model, tables
-from squeezebench.report.run_report import write_report
 from squeezebench.analysis.rundata import load_run
 from squeezebench.analysis.calibration import Deskew
 from squeezebench.plates.specifications import SPECIFICATIONS, compensation_phase_rad
@@ -165,6 +164,13 @@ def test_q_and_tan_theta_uncertainties_equal_a_monte_carlo_over_the_shared_input
 
 
 # -- coverage on a bench with systematic errors ---------------------------------------------
+def _plate_records(run) -> pd.DataFrame:
+    """The run's recorded points on its plates (the deskew run's read a calibration
+    resistor, whose truth no plate scene gives)."""
+    return run.measurements[run.measurements["waveform_file"].notna()
+                            & (run.measurements["protocol"] != "deskew_calibration")]
+
+
 @pytest.fixture(scope="module")
 def erring_bench_points(tmp_path_factory):
     """The paper campaign on a bench whose errors are drawn within the specifications."""
@@ -172,10 +178,7 @@ def erring_bench_points(tmp_path_factory):
     campaign = campaign_with_effects(paths.paper_campaign(), tmp / "inputs", systematic_effects(bench_seed=2))
     run_dir = run_campaign(campaign, out_dir=tmp / "run", progress=False)
     run = load_run(run_dir)
-    # the deskew run's points read a calibration resistor, whose truth no plate scene gives
-    recorded = run.measurements[run.measurements["waveform_file"].notna()
-                                & (run.measurements["protocol"] != "deskew_calibration")]
-    points = reduced_points(run, recorded)
+    points = reduced_points(run, _plate_records(run))
     truths = []
     for point in points.to_dict("records"):
         scene = load_scene(run_dir / "inputs" / f"{point['plate']}.yaml")
@@ -284,15 +287,16 @@ def test_example_budgets_show_one_point_per_protocol(erring_bench_points):
     assert SPECIFICATIONS["current_probe_gain"].source in set(table["source"])
 
 
-def test_the_report_shows_expanded_uncertainties_and_budgets(erring_bench_points):
-    points, _, run_dir = erring_bench_points
-    write_report(run_dir)
+def test_the_report_shows_expanded_uncertainties_and_budgets(paper_run, paper_report):
+    """The paper campaign's report (the session's, on the bench from power-on, which the
+    browser's tests read too: the budgets are the specifications', whatever the bench drew)."""
+    run_dir, _ = paper_run
     summary = pd.read_csv(run_dir / "report" / "uncertainty_summary.csv")
-    assert set(summary["protocol"]) == set(points["protocol"])
+    assert set(summary["protocol"]) == set(_plate_records(load_run(run_dir))["protocol"])
     assert (summary["median_expanded_relative"] > 0).all()
     # the paper campaign's deskew run checks the gains: the current path's gain, checked, leads
     assert "current path gain (gain-checked)" in set(summary["dominant_term"])
-    assert "Uncertainty budgets (GUM, k for 95 %)" in (run_dir / "report" / "index.html").read_text()
+    assert "Uncertainty budgets (GUM, k for 95 %)" in paper_report.read_text()
     floors = pd.read_csv(run_dir / "report" / "uncertainty_floors.csv")
     assert set(floors["quantity"]) == {"power_w", "velocity_pp_mps"}
     assert (floors["floor_p95_rel"] > 0.02).all()   # the gains alone, whatever the averaging
