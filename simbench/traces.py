@@ -75,10 +75,14 @@ class Record:
     setup: ScopeSetup
     values: np.ndarray  # (3, n): CH1, CH2, CH3
     frequency_hz: float
+    #: CH1 * CH2, worked out once: the scope measures it several times per record.
+    _math: np.ndarray | None = field(default=None, init=False, repr=False, compare=False)
 
     def trace(self, source: str) -> np.ndarray:
         if source == "MATH":
-            return self.values[0] * self.values[1]
+            if self._math is None:
+                self._math = self.values[0] * self.values[1]
+            return self._math
         return self.values[int(source[2:]) - 1]
 
 
