@@ -255,9 +255,9 @@ def sum_of_records(signal: np.ndarray, sigma: float, averages: int,
         position = (steps - np.floor(steps)) * STEP_PHASES
         index = np.minimum(position.astype(np.intp), STEP_PHASES - 1)
         weight = position - index
-        rest, after = 1.0 - weight, index + 1
-        mean = steps + mean_offset[index] * rest + mean_offset[after] * weight
-        variance = step_variance[index] * rest + step_variance[after] * weight
+        rest, after = 1.0 - weight, index + 1   # take: the same gather as [index], faster
+        mean = steps + mean_offset.take(index) * rest + mean_offset.take(after) * weight
+        variance = step_variance.take(index) * rest + step_variance.take(after) * weight
         near = ~far
         if near.any():
             lowest, highest = round(fx.ADC_MIN_DIV / lsb), round(fx.ADC_MAX_DIV / lsb)   # the clip's levels
