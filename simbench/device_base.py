@@ -69,6 +69,9 @@ class SimulatedInstrument:
     # -- what the VISA library calls ------------------------------------------------------
     def write(self, data: bytes) -> None:
         self.bench.clock.advance(self.bus.message_s(len(data)))
+        if not self._input and data.find(EOM) == len(data) - 1 >= 0:   # one whole message, the usual case
+            self._receive(bytes(data[:-1]).rstrip(b"\r"))
+            return
         self._input += data
         while EOM in self._input:
             end = self._input.index(EOM)

@@ -75,10 +75,14 @@ class Record:
     setup: ScopeSetup
     values: np.ndarray  # (3, n): CH1, CH2, CH3
     frequency_hz: float
+    #: CH1 * CH2, worked out once: the scope measures it several times per record.
+    _math: np.ndarray | None = field(default=None, init=False, repr=False, compare=False)
 
     def trace(self, source: str) -> np.ndarray:
         if source == "MATH":
-            return self.values[0] * self.values[1]
+            if self._math is None:
+                self._math = self.values[0] * self.values[1]
+            return self._math
         return self.values[int(source[2:]) - 1]
 
 
@@ -251,16 +255,18 @@ def sum_of_records(signal: np.ndarray, sigma: float, averages: int,
         position = (steps - np.floor(steps)) * STEP_PHASES
         index = np.minimum(position.astype(np.intp), STEP_PHASES - 1)
         weight = position - index
-        mean = steps + mean_offset[index] * (1.0 - weight) + mean_offset[index + 1] * weight
-        variance = step_variance[index] * (1.0 - weight) + step_variance[index + 1] * weight
+        rest, after = 1.0 - weight, index + 1   # take: the same gather as [index], faster
+        mean = steps + mean_offset.take(index) * rest + mean_offset.take(after) * weight
+        variance = step_variance.take(index) * rest + step_variance.take(after) * weight
         near = ~far
         if near.any():
             lowest, highest = round(fx.ADC_MIN_DIV / lsb), round(fx.ADC_MAX_DIV / lsb)   # the clip's levels
             mean[near], variance[near] = _level_moments(steps[near], sigma / lsb, lowest, highest)
     # The sum of N records is a whole number of steps: a normal rounded to that
     # lattice, narrowed by the rounding's 1/12 (Sheppard's correction).
-    spread = np.sqrt(np.maximum(averages * variance - 1.0 / 12.0, 0.0))
-    direct = (averages * variance >= MIN_SPREAD_LSB**2) | (variance == 0.0)
+    summed_variance = averages * variance
+    spread = np.sqrt(np.maximum(summed_variance - 1.0 / 12.0, 0.0))
+    direct = (summed_variance >= MIN_SPREAD_LSB**2) | (variance == 0.0)
     return SumOfRecords(averages * mean, spread, direct, quantised=True)
 
 
@@ -292,9 +298,12 @@ def average_of_records(signal: np.ndarray, sigma: float, averages: int, settings
     if sigma == 0:   # every record is the same
         return _quantise(_quantise(_clip(signal), lsb), settings.average_lsb_div)
     sums = sums or sum_of_records(signal, sigma, averages, settings)
-    total = sums.centre + sums.spread * rng.standard_normal(signal.size)
+    # In place (the same operations, so the same bits): one array instead of three.
+    total = rng.standard_normal(signal.size)
+    total *= sums.spread
+    total += sums.centre
     if sums.quantised:
-        total = np.round(total)
+        np.round(total, out=total)
     drawn = ~sums.direct
     if drawn.any():
         total[drawn] = _sum_of_records(signal[drawn], sigma, averages, lsb, rng)
@@ -315,11 +324,13 @@ def _kept_average(total: np.ndarray, averages: int, settings: fx.DigitizerSettin
     if average_lsb is None:
         return total * (lsb / averages)
     mean = total * (round(lsb / average_lsb) / averages)   # in average steps, exact
-    kept = np.floor(mean + 0.5)
+    kept = mean + 0.5
+    np.floor(kept, out=kept)
     ties = np.flatnonzero(kept - mean == 0.5)
     if ties.size:
         kept[ties] -= rng.integers(0, 2, size=ties.size)
-    return kept * average_lsb
+    kept *= average_lsb
+    return kept
 
 
 #: Phases within a step at which `_step_moments` tabulates: linear interpolation between
@@ -369,8 +380,16 @@ def _sum_of_records(signal: np.ndarray, sigma: float, averages: int, lsb: float 
     block = max(1, 2_000_000 // max(1, signal.size))
     for first in range(0, averages, block):
         count = min(block, averages - first)
-        records = _clip(signal[None, :] + sigma * rng.standard_normal((count, signal.size)))
-        total += (records if lsb is None else np.round(records / lsb)).sum(axis=0)
+        # In place, the same operations in the same order (the same bits): the draws'
+        # block is the only array of its size (records dominate a direct draw's cost).
+        records = rng.standard_normal((count, signal.size))
+        records *= sigma
+        records += signal
+        np.clip(records, fx.ADC_MIN_DIV, fx.ADC_MAX_DIV, out=records)
+        if lsb is not None:
+            records /= lsb
+            np.round(records, out=records)
+        total += records.sum(axis=0)
     return total
 
 
