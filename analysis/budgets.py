@@ -15,6 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
+from squeezebench.lru import RecentlyUsed
 from squeezebench.plates.specifications import WORLD_READING
 
 #: The conventional k (GUM 6.3.3), kept for the coverage a budget would have with it.
@@ -139,10 +140,20 @@ def shape_coverage_factor(shape: tuple[tuple[float, ...], float]) -> float:
                .factor(COVERAGE_PROBABILITY) for model in ERROR_MODELS)
 
 
-@functools.lru_cache(maxsize=4096)
+#: Distributions built lately, by shape and error model: budgets of one shape share one. By
+#: bytes: a distribution's grid holds 0.1-0.3 MB, and the shapes of a coverage study's bench
+#: are its own (its drawn errors and plates set the terms), so an entry-count bound of
+#: 4096 let a study worker grow by some 20 MB a bench towards 0.5-1 GB, past the 300 MB over
+#: its size at which loky retires a worker as leaking ("A worker stopped while some jobs
+#: were given to the executor"). 32 MB keeps a bench's few hundred shapes' recent ones.
+_DISTRIBUTIONS: RecentlyUsed[Distribution] = RecentlyUsed(
+    4096, max_bytes=32 * 2**20, weigh=lambda distribution: distribution.x.nbytes + distribution.covered.nbytes)
+
+
 def budget_distribution(rectangles: tuple[float, ...], rest: float, error_model: str = SPECIFIED) -> Distribution:
-    """`convolved_distribution`, cached (budgets of one shape share one distribution)."""
-    return convolved_distribution(rectangles, rest, error_model)
+    """`convolved_distribution`, cached (`_DISTRIBUTIONS`)."""
+    return _DISTRIBUTIONS.get((rectangles, rest, error_model),
+                              lambda: convolved_distribution(rectangles, rest, error_model))
 
 
 def convolved_distribution(rectangles: tuple[float, ...], rest: float, error_model: str = SPECIFIED) -> Distribution:
