@@ -62,7 +62,7 @@ class Budget:
 
     @property
     def expanded_uncertainty(self) -> float:
-        """k u with k for 95 % under the budget's own distribution (`coverage_factor`)."""
+        """k u with k for 95 % under every error model the budget claims (`coverage_factor`)."""
         return self.coverage_factor * self.std_uncertainty
 
     @property

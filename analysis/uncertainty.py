@@ -5,7 +5,7 @@ noise (the reduction's fit covariance, `analysis.waveforms`), Type B from the
 instruments' specifications (`plates.specifications`, rectangular) and from how the
 frequency was set. Terms are independent and add in quadrature (GUM 5.1.2, sensitivity
 coefficients evaluated at the measured point); the expanded uncertainty is k times the
-combined one, k for 95 % under the budget's own distribution (`analysis.budgets`); the
+combined one, k for 95 % under every error model the budget claims (`analysis.budgets`); the
 dominant term is the largest.
 
 What a stored point's value means: the reading the bench would give with ideal

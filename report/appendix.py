@@ -28,7 +28,7 @@ def conventions_section(context: ReportContext) -> Section:
         "Power: mean of v i over the largest integer number of periods after DC removal (the paper's "
         "MATH channel), cross-checked by a sine fit. Velocity pp: twice the fitted sine amplitude. "
         "Amplitude pp = velocity pp / (2 pi f).",
-        "Uncertainties: U is the expanded uncertainty (k for 95 % under the budget's own distribution) of the "
+        "Uncertainties: U is the expanded uncertainty (k for 95 % under the budget's limits read as rectangles and as the world reads them, analysis.budgets) of the "
         "whole budget of each point "
         "(record noise and the instruments' specifications, analysis.uncertainty); Q and tan theta' "
         "add their fits' uncertainty and the geometry's and NCE 41's tolerances (the systematic parts are "

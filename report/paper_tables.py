@@ -170,7 +170,7 @@ def _paper_table_html(context: ReportContext, name: str, title: str, frame: pd.D
     physics = ("physics: what the plate model predicts for the paper's plate from geometry and datasheets "
                "± U (k = 2) and its deviation from print (no printed result in; see What physics predicts); "
                if "predicted_value" in frame and frame["predicted_value"].notna().any() else "")
-    k_words = "k = 2" if name == "table5" else "k for 95 % under each budget's own distribution"
+    k_words = "k = 2" if name == "table5" else "k for 95 % under each budget's limits read as rectangles and as the world reads them"
     caption = (f"{html.escape(title)}. {bench_words(context)} Each cell: this run ± U ({k_words}, {budget}), "
                "the printed value and the deviation; ✓ within, ✗ outside "
                f"U plus half the printed last digit, {presentation.ROUND_TRIP_MARK}: a printed value the run was "
