@@ -10,7 +10,6 @@ import numpy as np
 import pandas as pd
 
 from squeezebench.analysis import cartography
-from squeezebench.disk_cache import cache_dir
 from squeezebench.plates import predicted_plates
 from squeezebench.report.presentation import fold, with_uncertainty
 from squeezebench.report.section import ReportContext, Section, html_table
@@ -59,7 +58,7 @@ def solve_ahead(context: ReportContext) -> None:
     from the stored rows alone, before the map's points are reduced: it is kept in the disk
     cache, where `map_summaries` reads it instead of solving it here (none without the cache)."""
     rows = context.run.protocol("cartography")
-    if rows.empty or cache_dir() is None:
+    if rows.empty:
         return
     for (_, plate), one in rows.groupby(["run_name", "plate"], sort=False):
         if plate in predicted_plates.GEOMETRIES:

@@ -19,6 +19,8 @@ from typing import Any, Callable
 
 from joblib.externals.loky import ProcessPoolExecutor
 
+from squeezebench.disk_cache import cache_dir
+
 #: The drawing processes, kept for the next report of this process (a second report, a test
 #: session): (size, executor). Not joblib's reusable executor, which the trials resize.
 _EXECUTOR: tuple[int, ProcessPoolExecutor] | None = None
@@ -36,9 +38,11 @@ def _executor(size: int, fresh: bool = False) -> ProcessPoolExecutor:
 
 
 def beside(workers: int, function: Callable[[], Any]) -> Future | None:
-    """`function()` now on the drawing processes of a `Drawing(workers)` to come (None with
-    one worker: there is none beside this process)."""
-    if workers < 2:
+    """`function()` now on the drawing processes of a `Drawing(workers)` to come, for what it
+    leaves in the disk cache (a solve) that this process reads later. None with one worker
+    (there is none beside this process) or with the disk cache off (nothing it did would
+    reach this process)."""
+    if workers < 2 or cache_dir() is None:
         return None
     try:
         return _executor(workers - 1).submit(function)
@@ -84,8 +88,8 @@ class Drawing:
     def ahead(self, function: Callable[..., Any], *arguments: Any) -> None:
         """`function(*arguments)` on a drawing process for what it leaves behind (a solve
         in the disk cache) that this process reads later, after `wait_ahead`; nothing with
-        one worker (this process computes it where it needs it)."""
-        if self._executor is None:
+        one worker or the disk cache off (this process computes it where it needs it)."""
+        if self._executor is None or cache_dir() is None:
             return
         try:
             self._ahead.append(self._executor.submit(function, *arguments))

@@ -25,7 +25,6 @@ import pandas as pd
 
 from squeezebench.analysis import columns, readings
 from squeezebench.plates import predicted_plates
-from squeezebench.disk_cache import cache_dir
 from squeezebench.report import drawing, page
 from squeezebench.report.drawing import Drawing
 from squeezebench.analysis.rundata import load_run
@@ -90,8 +89,6 @@ def solve_ahead(workers: int | None = None) -> Future | None:
     reads them instead of solving them (most of a report's time). They depend on the
     paper's dimensions and the datasheets only, never on a run, so `reproduce` starts them
     with its campaign."""
-    if cache_dir() is None:
-        return None
     return drawing.beside(workers or default_workers(), _solve_paper_plates)
 
 

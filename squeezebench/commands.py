@@ -362,11 +362,8 @@ def _solve_maps_ahead(workers: int):
     without the disk cache or a second worker."""
     import functools
 
-    from squeezebench.disk_cache import cache_dir
     from squeezebench.report.drawing import beside
 
-    if cache_dir() is None:
-        return None
     return beside(workers, functools.partial(_solve_maps, paths.paper_campaign()))
 
 
