@@ -102,3 +102,13 @@ def test_the_velocitys_u_covers_the_simulated_benches_as_its_budget_claims(scene
     expected = budget.coverage_probability(budget.coverage_factor, error_model)
     assert expected >= 0.95 - 1e-3
     assert share == pytest.approx(expected, abs=4.5 * math.sqrt(expected * (1.0 - expected) / BENCHES))
+
+
+def test_a_benchs_velocity_errors_are_one_draw_for_all_its_plates(tmp_path):
+    """The study's bench bootstrap takes the benches, not the values, as its trials: every
+    plate a bench measures reads through the same drawn CH3 gain, decoder scale and generator
+    (a coverage study's misses come by whole benches), and another bench draws anew."""
+    scenes = [load_scene(scene_file(tmp_path, name, effects=[])) for name in ("one_column_1mm.yaml", "large_plate.yaml")]
+    for name in VELOCITY_ERRORS:
+        one, other = ([effect.values for effect in drawn(scene, name, WORLD, range(1, 4))] for scene in scenes)
+        assert one == other and one[0] != one[1]
