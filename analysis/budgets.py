@@ -194,8 +194,8 @@ class WorldMixture:
 
     def probability(self, k: float) -> float:
         """P(|X| <= k) of the components kept: at most `dropped` below the whole's."""
-        # Imported here, as `_convolved` imports scipy.signal: workers that never ask for k
-        # do not pay scipy.special's import.
+        # Imported here: scipy.special is some 0.4 CPU-s to import, which every study and plan
+        # worker importing this module would pay, most never asking for a k.
         from scipy.special import ndtr
 
         with np.errstate(divide="ignore", invalid="ignore"):
@@ -252,7 +252,7 @@ def convolved_distribution(rectangles: tuple[float, ...], rest: float) -> Distri
     for a in rectangles:
         width = int(round(a * STEPS_PER_U))
         if width:
-            density = _convolved(density, np.full(2 * width + 1, 1.0 / (2 * width + 1)))
+            density = _box_convolved(density, width)
     density = np.clip(density, 0.0, None)
     density /= density.sum()
     centre = steps
@@ -260,10 +260,9 @@ def convolved_distribution(rectangles: tuple[float, ...], rest: float) -> Distri
     return Distribution(x[centre:] + 0.5 / STEPS_PER_U, np.minimum(covered, 1.0))
 
 
-def _convolved(density: np.ndarray, kernel: np.ndarray) -> np.ndarray:
-    """`density` convolved with a centred `kernel`, on the same grid."""
-    # Imported here: scipy.signal (with the scipy.stats it loads) is about 0.5 CPU-s to
-    # import, which every study and plan worker importing this module paid and none used.
-    from scipy.signal import fftconvolve
-
-    return fftconvolve(density, kernel, mode="same")
+def _box_convolved(density: np.ndarray, width: int) -> np.ndarray:
+    """`density` convolved with a centred box of 2 width + 1 equal weights summing to 1, on
+    the same grid: a moving mean by cumulative sums, O(n) where an FFT is O(n log n), and
+    the same values to rounding (some 1e-12 on the grid's coverage)."""
+    summed = np.cumsum(np.concatenate([np.zeros(width + 1), density, np.zeros(width)]))
+    return (summed[2 * width + 1:] - summed[:len(density)]) / (2 * width + 1)

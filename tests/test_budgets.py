@@ -169,7 +169,7 @@ def test_the_distributions_kept_stay_bounded_over_many_benches_shapes():
     def budget(limit_u: float) -> Budget:
         return Budget("x", "1", 1.0, (Term("spec", "B", limit_u, "a limit"), Term("noise", "A", 1.0, "fit")))
 
-    budget(0.1).coverage_probability(2.0)   # the convolution's import (scipy.signal) is no growth
+    budget(0.1).coverage_probability(2.0)   # what a first call sets up once is no growth
     gc.collect()
     tracemalloc.start()
     try:
