@@ -15,7 +15,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from squeezebench.analysis.budgets import (COVERAGE_PROBABILITY, ERROR_MODELS, P95_FACTOR, SPECIFIED, WORLD,
-                                           WORLD_DROPPED_MAX, Budget, Term, WorldMixture)
+                                           WORLD_DROPPED_MAX, Budget, Term, WorldMixture, _box_convolved)
 from squeezebench.plates.specifications import WORLD_READING
 
 DRAWS = 400_000
@@ -141,6 +141,16 @@ def test_the_worlds_closed_form_is_the_fine_grids_convolution(limits_u, normal_u
     assert mixture.factor(COVERAGE_PROBABILITY) == pytest.approx(grid_k, abs=CLOSED_FORM_K_TOLERANCE)
     assert budget.coverage_probability(k, WORLD) == pytest.approx(float(np.interp(k, x, held)),
                                                                  abs=CLOSED_FORM_COVERAGE_TOLERANCE)
+
+
+@settings(max_examples=30, deadline=None)
+@given(st.lists(st.floats(0.0, 1.0), min_size=1, max_size=60), st.integers(0, 40))
+def test_a_specified_rectangle_is_the_grids_moving_mean(values, width):
+    """The specified grid's rectangle (`_box_convolved`) is the centred convolution with 2 w + 1
+    equal weights, zero beyond the grid's ends, whatever the width against the grid."""
+    density = np.array(values)
+    expected = np.convolve(density, np.full(2 * width + 1, 1.0 / (2 * width + 1)))[width:width + len(density)]
+    assert np.allclose(_box_convolved(density, width), expected, rtol=0.0, atol=1e-12)
 
 
 def test_an_unknown_error_model_is_refused():
