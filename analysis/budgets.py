@@ -1,14 +1,16 @@
 """A GUM budget of one value: its terms, their combination in quadrature, and the coverage
 factor k for 95 % under every error model the budget claims to cover, from the budget's own
 terms: its rectangular terms (stated limits) as the specifications state them, convolved with
-the normal rest, and as the world reads a limit (`plates.specifications.WORLD_READING`: normal
-with half the limit as its spread, now and then beyond it). Not k = 2 by default.
+the normal rest on a grid, and as the world reads a limit (`plates.specifications.WORLD_READING`:
+normal with half the limit as its spread, now and then beyond it), a mixture of normals in
+closed form. Not k = 2 by default.
 `analysis.uncertainty` builds the stored values' budgets from these.
 """
 
 from __future__ import annotations
 
 import functools
+import itertools
 import math
 from dataclasses import dataclass
 
@@ -82,12 +84,16 @@ class Budget:
 
     def coverage_probability(self, k: float = COVERAGE_FACTOR, error_model: str = SPECIFIED) -> float:
         """The probability that +-k u holds the value under the budget's distribution in
-        `error_model` (`budget_distribution`): its rectangular terms as the specifications
-        state them or as the world reads their limits, the rest normal (GUM G.2: a sum of
+        `error_model`: its rectangular terms as the specifications state them
+        (`budget_distribution`) or as the world reads their limits (`WorldMixture`), the rest normal (GUM G.2: a sum of
         several terms tends to one). k = 2 gives 95 % only near normal; where one rectangular
         term dominates it gives more under the specifications (1 at most for the rectangle
         alone once k u >= sqrt(3) u)."""
-        return budget_distribution(*self._shape(), error_model).probability(k)
+        if error_model == WORLD:
+            return WorldMixture.of(*self._shape()).probability(k)
+        if error_model == SPECIFIED:
+            return budget_distribution(*self._shape()).probability(k)
+        raise ValueError(f"unknown error model {error_model!r}: one of {', '.join(ERROR_MODELS)}")
 
     def _shape(self) -> tuple[tuple[float, ...], float]:
         """The rectangles' half-widths and the rest's standard deviation, in units of u
@@ -125,22 +131,96 @@ class Distribution:
         return float(self.x[min(int(np.searchsorted(self.covered, probability)), len(self.x) - 1)])
 
 
-#: Grid steps per unit of the standard deviation on which a budget's distribution is convolved.
+#: Grid steps per unit of the standard deviation on which a budget's specified distribution is convolved.
 STEPS_PER_U = 2000
 
 
 @functools.lru_cache(maxsize=4096)
 def shape_coverage_factor(shape: tuple[tuple[float, ...], float]) -> float:
     """The smallest k giving COVERAGE_PROBABILITY under every one of ERROR_MODELS for a
-    budget of `shape` (`Budget._shape`): the largest of their 95 % factors. Only the factor
-    is kept of the world's distribution: its grid reaches 3.5 times the rectangles' sum, and
-    a study worker meets thousands of shapes (the specified one stays cached for
-    `Budget.coverage_probability`)."""
-    return max((budget_distribution if model == SPECIFIED else convolved_distribution)(*shape, model)
-               .factor(COVERAGE_PROBABILITY) for model in ERROR_MODELS)
+    budget of `shape` (`Budget._shape`): the largest of their 95 % factors, the specified
+    one from its convolved grid (kept for `Budget.coverage_probability`), the world's in
+    closed form (`world_coverage_factor`)."""
+    return max(budget_distribution(*shape).factor(COVERAGE_PROBABILITY),
+               world_coverage_factor(*shape, COVERAGE_PROBABILITY))
 
 
-#: Distributions built lately, by shape and error model: budgets of one shape share one. By
+#: The largest share of the world's error distribution a `WorldMixture` may leave out: its
+#: coverage is then the whole's to within this and never above it, so its k is never below
+#: the whole's, and above it by at most this over |X|'s density at k (of order 0.1 at 95 %:
+#: some 1e-7, where the specified grid's step is 5e-4).
+WORLD_DROPPED_MAX = 1e-8
+
+
+@dataclass(frozen=True)
+class WorldMixture:
+    """The world's distribution of X = sum of R_i + N (`WORLD_READING`; units of u): each
+    limit +-a_i is normal with standard deviation spread a_i with probability 1 - p, else at
+    +-factor a_i (p / 2 each), N normal with standard deviation `rest`; so X is a mixture of
+    normals, one for each choice of the limits beyond their bounds and their signs, with the
+    mean the sum of their +-factor a_i and the variance rest^2 plus the others' (spread a_i)^2.
+    3^n of them for n limits: those with more than `beyond_max` limits beyond are left out,
+    weighing `dropped` (the binomial tail P(B(n, p) > beyond_max) <= WORLD_DROPPED_MAX)."""
+
+    weights: np.ndarray
+    means: np.ndarray
+    sigmas: np.ndarray
+    dropped: float
+
+    @classmethod
+    def of(cls, rectangles: tuple[float, ...], rest: float) -> WorldMixture:
+        p, factor = WORLD_READING.out_of_spec_probability, WORLD_READING.out_of_spec_factor
+        n = len(rectangles)
+        beyond_max, dropped = n, 0.0
+        while beyond_max > 0:
+            tail = sum(math.comb(n, m) * p**m * (1.0 - p) ** (n - m) for m in range(beyond_max, n + 1))
+            if tail > WORLD_DROPPED_MAX:
+                break
+            beyond_max, dropped = beyond_max - 1, tail
+        limits = np.asarray(rectangles, dtype=float)
+        weights, means, sigmas = [], [], []
+        for m in range(beyond_max + 1):
+            beyond = limits[np.array(list(itertools.combinations(range(n), m)), dtype=int).reshape(math.comb(n, m), m)]
+            signs = np.array(list(itertools.product((-1.0, 1.0), repeat=m))).reshape(2**m, m)
+            variance = rest**2 + WORLD_READING.spread**2 * (np.sum(limits**2) - np.sum(beyond**2, axis=1))
+            means.append((factor * beyond @ signs.T).ravel())
+            sigmas.append(np.repeat(np.sqrt(np.maximum(variance, 0.0)), len(signs)))
+            weights.append(np.full(len(means[-1]), (1.0 - p) ** (n - m) * (0.5 * p) ** m))
+        # P(|X| <= k) is the same for a component and its mirror, and equal limits make equal
+        # components: one of each (|mean|, sigma), with their weights summed, holds the same.
+        distinct, which = np.unique(np.round(np.column_stack([np.abs(np.concatenate(means)), np.concatenate(sigmas)]),
+                                             12), axis=0, return_inverse=True)
+        return cls(np.bincount(which.ravel(), weights=np.concatenate(weights)), distinct[:, 0], distinct[:, 1], dropped)
+
+    def probability(self, k: float) -> float:
+        """P(|X| <= k) of the components kept: at most `dropped` below the whole's."""
+        # Imported here: scipy.special is some 0.4 CPU-s to import, which every study and plan
+        # worker importing this module would pay, most never asking for a k.
+        from scipy.special import ndtr
+
+        with np.errstate(divide="ignore", invalid="ignore"):
+            held = np.where(self.sigmas > 0.0,
+                            ndtr((k - self.means) / self.sigmas) - ndtr((-k - self.means) / self.sigmas),
+                            np.abs(self.means) <= k)   # all limits beyond and no rest: a point
+        return float(np.dot(self.weights, held))
+
+    def factor(self, probability: float) -> float:
+        """The smallest k with P(|X| <= k) >= probability, to 1e-10 (Brent's method on the
+        kept components, whose coverage never exceeds the whole's: so no smaller than the
+        whole's k, and above it by at most `dropped` over the density there)."""
+        from scipy.optimize import brentq
+
+        reach = float(np.max(np.abs(self.means) + 8.0 * self.sigmas))
+        return float(brentq(lambda k: self.probability(k) - probability, 0.0, reach, xtol=1e-10))
+
+
+def world_coverage_factor(rectangles: tuple[float, ...], rest: float, probability: float) -> float:
+    """The world's 95 % factor of a budget's shape (`WorldMixture`)."""
+    return WorldMixture.of(rectangles, rest).factor(probability)
+
+
+#: Specified distributions built lately, by shape: budgets of one shape share one (its k, then
+#: `Budget.coverage_probability` of that k, in `uncertainty.with_expanded_uncertainties`). By
 #: bytes: a distribution's grid holds 0.1-0.3 MB, and the shapes of a coverage study's bench
 #: are its own (its drawn errors and plates set the terms), so an entry-count bound of
 #: 4096 let a study worker grow by some 20 MB a bench towards 0.5-1 GB, past the 300 MB over
@@ -150,25 +230,18 @@ _DISTRIBUTIONS: RecentlyUsed[Distribution] = RecentlyUsed(
     4096, max_bytes=32 * 2**20, weigh=lambda distribution: distribution.x.nbytes + distribution.covered.nbytes)
 
 
-def budget_distribution(rectangles: tuple[float, ...], rest: float, error_model: str = SPECIFIED) -> Distribution:
+def budget_distribution(rectangles: tuple[float, ...], rest: float) -> Distribution:
     """`convolved_distribution`, cached (`_DISTRIBUTIONS`)."""
-    return _DISTRIBUTIONS.get((rectangles, rest, error_model),
-                              lambda: convolved_distribution(rectangles, rest, error_model))
+    return _DISTRIBUTIONS.get((rectangles, rest), lambda: convolved_distribution(rectangles, rest))
 
 
-def convolved_distribution(rectangles: tuple[float, ...], rest: float, error_model: str = SPECIFIED) -> Distribution:
+def convolved_distribution(rectangles: tuple[float, ...], rest: float) -> Distribution:
     """The distribution of X = sum of R_i + N, N normal with standard deviation `rest`, R_i
-    the i-th stated limit +-rectangles[i] (units of u; the specified variances sum to 1) as
-    `error_model` reads it: SPECIFIED uniform on +-a (GUM 4.3.7); WORLD as instruments err
-    (`WORLD_READING`): normal with standard deviation spread a, but with probability
-    out_of_spec_probability at +-out_of_spec_factor a (`world_convolved`). By numerical
-    convolution on a grid of 1 / STEPS_PER_U (JCGM 101 propagates distributions; the sum of
-    independent inputs is a convolution, exact to the grid's step). Symmetric about 0."""
-    if error_model not in ERROR_MODELS:
-        raise ValueError(f"unknown error model {error_model!r}: one of {', '.join(ERROR_MODELS)}")
-    reach = (1.0 if error_model == SPECIFIED
-             else max(7.0 * WORLD_READING.spread, WORLD_READING.out_of_spec_factor))
-    half = reach * sum(rectangles) + 7.0 * rest + 1e-9
+    uniform on +-rectangles[i] (GUM 4.3.7: the stated limits as the specifications state
+    them; units of u, the variances summing to 1). By numerical convolution on a grid of
+    1 / STEPS_PER_U (JCGM 101 propagates distributions; the sum of independent inputs is a
+    convolution, exact to the grid's step). Symmetric about 0."""
+    half = sum(rectangles) + 7.0 * rest + 1e-9
     steps = int(math.ceil(half * STEPS_PER_U))
     x = np.arange(-steps, steps + 1) / STEPS_PER_U
     if rest > 0:
@@ -177,12 +250,9 @@ def convolved_distribution(rectangles: tuple[float, ...], rest: float, error_mod
         density = (x == 0).astype(float)
     density /= density.sum()
     for a in rectangles:
-        if error_model == SPECIFIED:
-            width = int(round(a * STEPS_PER_U))
-            if width:
-                density = _convolved(density, np.full(2 * width + 1, 1.0 / (2 * width + 1)))
-        else:
-            density = world_convolved(density, a)
+        width = int(round(a * STEPS_PER_U))
+        if width:
+            density = _box_convolved(density, width)
     density = np.clip(density, 0.0, None)
     density /= density.sum()
     centre = steps
@@ -190,32 +260,9 @@ def convolved_distribution(rectangles: tuple[float, ...], rest: float, error_mod
     return Distribution(x[centre:] + 0.5 / STEPS_PER_U, np.minimum(covered, 1.0))
 
 
-def _convolved(density: np.ndarray, kernel: np.ndarray) -> np.ndarray:
-    """`density` convolved with a centred `kernel`, on the same grid."""
-    # Imported here: scipy.signal (with the scipy.stats it loads) is about 0.5 CPU-s to
-    # import, which every study and plan worker importing this module paid and none used.
-    from scipy.signal import fftconvolve
-
-    return fftconvolve(density, kernel, mode="same")
-
-
-def world_convolved(density: np.ndarray, a: float) -> np.ndarray:
-    """`density` (on the grid of 1 / STEPS_PER_U, room enough at its ends) convolved with a
-    limit +-a as the world reads it (`WORLD_READING`): (1 - p) N(0, (spread a)^2) + p/2 at
-    each of +-factor a."""
-    sigma = WORLD_READING.spread * a
-    reach = int(math.ceil(7.0 * sigma * STEPS_PER_U))
-    if reach:
-        kernel = np.exp(-0.5 * (np.arange(-reach, reach + 1) / (sigma * STEPS_PER_U)) ** 2)
-        within = _convolved(density, kernel / kernel.sum())
-    else:
-        within = density
-    shift = int(round(WORLD_READING.out_of_spec_factor * a * STEPS_PER_U))
-    beyond = np.zeros_like(density)
-    if shift:
-        beyond[shift:] += density[:-shift]
-        beyond[:-shift] += density[shift:]
-    else:
-        beyond = 2.0 * density
-    p = WORLD_READING.out_of_spec_probability
-    return (1.0 - p) * within + 0.5 * p * beyond
+def _box_convolved(density: np.ndarray, width: int) -> np.ndarray:
+    """`density` convolved with a centred box of 2 width + 1 equal weights summing to 1, on
+    the same grid: a moving mean by cumulative sums, O(n) where an FFT is O(n log n), and
+    the same values to rounding (2e-14 on the coverage of the paper report's shapes)."""
+    summed = np.cumsum(np.concatenate([np.zeros(width + 1), density, np.zeros(width)]))
+    return (summed[2 * width + 1:] - summed[:len(density)]) / (2 * width + 1)
