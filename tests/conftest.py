@@ -212,6 +212,17 @@ def quick_report(tmp_path_factory, quick_run) -> Path:
     return _report_once(tmp_path_factory, "quick-report", quick_run[0])
 
 
+@pytest.fixture(scope="session")
+def small_study(tmp_path_factory) -> Path:
+    """The accuracy study at its smallest (`small_study.SMALL`, every experiment), run once
+    for the session's workers (`made_once`): the folder holding its study/."""
+    from small_study import SMALL
+
+    from squeezebench.protocols.accuracy_study import run_study
+
+    return made_once(tmp_path_factory, "small-study", lambda folder: run_study(folder, SMALL, progress=lambda m: None))
+
+
 # Drive records (protocols.drive_record) outlive a process: this test process and its
 # children keep theirs out of the user's state folder, and each test has its own, so a run
 # one test kills does not tell another test's bench it was left driven.
