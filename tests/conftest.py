@@ -19,7 +19,7 @@ import os
 import tempfile
 from contextlib import contextmanager
 from pathlib import Path
-from typing import Any, Iterator
+from typing import Any, Callable, Iterator
 
 import numpy as np
 import pytest
@@ -138,48 +138,89 @@ def recorded_traffic() -> Iterator[dict[str, list[str]]]:
         yield traffic
 
 
-@pytest.fixture(scope="session")
-def paper_run(tmp_path_factory) -> tuple[Path, dict[str, list[str]]]:
-    """The shipped paper campaign run once per session on the simulated bench from power-on
-    (about 25 s on 2 cores), for the tests of its report and of its drivers' messages: its
-    run folder and {role: the messages its drivers sent}. The session's xdist workers share
-    it: the first to ask runs it under a file lock, the others wait for it and read it (the
-    traffic file, written last and atomically, says the run is whole)."""
-    from squeezebench import paths
-    from squeezebench.protocols.campaign import run_campaign
-
-    shared = session_folder(tmp_path_factory) / "paper-run"
+def made_once(tmp_path_factory, name: str, make: Callable[[Path], None]) -> Path:
+    """A folder of this session filled once for all its xdist workers by `make(folder)`:
+    the first worker to ask makes it under a file lock, the others wait for it and read
+    it. A marker, written last and atomically, names the whole one; a failed attempt is
+    left aside unnamed and the next to ask makes it again."""
+    shared = session_folder(tmp_path_factory) / name
     shared.mkdir(parents=True, exist_ok=True)
-    done = shared / "traffic.json"
+    done = shared / "made"
     with open(shared / "lock", "w") as lock:
         fcntl.flock(lock, fcntl.LOCK_EX)
         if not done.exists():
-            attempt = Path(tempfile.mkdtemp(dir=shared, prefix="attempt-"))   # a failed one is left aside
-            with recorded_traffic() as traffic:
-                run_dir = run_campaign(paths.paper_campaign(), out_dir=attempt / "run", progress=False)
-            (attempt / "traffic.json").write_text(json.dumps({"run_dir": str(run_dir), "traffic": traffic}))
-            os.replace(attempt / "traffic.json", done)
-    stored = json.loads(done.read_text())
-    return Path(stored["run_dir"]), stored["traffic"]
+            attempt = Path(tempfile.mkdtemp(dir=shared, prefix="attempt-"))
+            make(attempt)
+            (attempt / "made").write_text(attempt.name)
+            os.replace(attempt / "made", done)
+    return shared / done.read_text()
+
+
+def _campaign_run(tmp_path_factory, name: str, campaign: Path) -> tuple[Path, dict[str, list[str]]]:
+    """The campaign run once per session on the simulated bench from power-on, shared by
+    the session's workers (`made_once`): its run folder and {role: the messages its drivers
+    sent}."""
+    from squeezebench.protocols.campaign import run_campaign
+
+    def make(folder: Path) -> None:
+        with recorded_traffic() as traffic:
+            run_campaign(campaign, out_dir=folder / "run", progress=False)
+        (folder / "traffic.json").write_text(json.dumps(traffic))
+
+    folder = made_once(tmp_path_factory, name, make)
+    return folder / "run", json.loads((folder / "traffic.json").read_text())
+
+
+def _report_once(tmp_path_factory, name: str, run_dir: Path) -> Path:
+    """The report of a session's run as the command line writes it (with the simulated
+    plates' section), written once for the session's workers: its index.html."""
+    import squeezebench.report.simulated_plates  # noqa: F401  (the report as `report` writes it)
+    from squeezebench.report.run_report import write_report
+
+    made_once(tmp_path_factory, name, lambda folder: write_report(run_dir))
+    return run_dir / "report" / "index.html"
+
+
+@pytest.fixture(scope="session")
+def paper_run(tmp_path_factory) -> tuple[Path, dict[str, list[str]]]:
+    """The shipped paper campaign from power-on (about 25 s on 2 cores), for the tests of
+    its report, of its drivers' messages and of its runs' analysis (`_campaign_run`)."""
+    from squeezebench import paths
+
+    return _campaign_run(tmp_path_factory, "paper-run", paths.paper_campaign())
 
 
 @pytest.fixture(scope="session")
 def paper_report(tmp_path_factory, paper_run) -> Path:
-    """The report of the session's paper run as the command line writes it (with the
-    simulated plates' section): its index.html. Written once for the session's workers under
-    paper_run's lock (a marker, written last, says it is whole): the browser's tests and the
-    uncertainty report's read the same page, which is some 8 CPU-s to write."""
-    import squeezebench.report.simulated_plates  # noqa: F401  (the report as `report` writes it)
-    from squeezebench.report.run_report import write_report
+    """The paper run's report (`_report_once`): the browser's tests and the uncertainty
+    report's read the same page, which is some 8 CPU-s to write."""
+    return _report_once(tmp_path_factory, "paper-report", paper_run[0])
 
-    run_dir, _ = paper_run
-    shared = session_folder(tmp_path_factory) / "paper-run"
-    with open(shared / "lock", "w") as lock:
-        fcntl.flock(lock, fcntl.LOCK_EX)
-        if not (shared / "report-written").exists():
-            write_report(run_dir)
-            (shared / "report-written").touch()
-    return run_dir / "report" / "index.html"
+
+@pytest.fixture(scope="session")
+def quick_run(tmp_path_factory) -> tuple[Path, dict[str, list[str]]]:
+    """The shipped quick campaign from power-on (`_campaign_run`): the drivers' messages
+    and the browser's report read the same run."""
+    from squeezebench import paths
+
+    return _campaign_run(tmp_path_factory, "quick-run", paths.campaigns_dir() / "quick.yaml")
+
+
+@pytest.fixture(scope="session")
+def quick_report(tmp_path_factory, quick_run) -> Path:
+    """The quick run's report (`_report_once`)."""
+    return _report_once(tmp_path_factory, "quick-report", quick_run[0])
+
+
+@pytest.fixture(scope="session")
+def small_study(tmp_path_factory) -> Path:
+    """The accuracy study at its smallest (`small_study.SMALL`, every experiment), run once
+    for the session's workers (`made_once`): the folder holding its study/."""
+    from small_study import SMALL
+
+    from squeezebench.protocols.accuracy_study import run_study
+
+    return made_once(tmp_path_factory, "small-study", lambda folder: run_study(folder, SMALL, progress=lambda m: None))
 
 
 # Drive records (protocols.drive_record) outlive a process: this test process and its

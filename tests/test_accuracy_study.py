@@ -14,32 +14,15 @@ from squeezebench.report.run_report import write_report
 from squeezebench import paths
 from squeezebench.protocols import accuracy_study
 from squeezebench.protocols.accuracy_study import AccuracyStudy, StudySettings, run_study
-from squeezebench.protocols.systematics_study import SystematicsSettings
 from squeezebench.cli import main
 from squeezebench.commands import STUDY_EXPERIMENTS, STUDY_REPEATS
+from small_study import SMALL
 from test_analysis_synthetic import build_run
 
-#: Two repeats, the fewest a study takes: each figure the tests below compare moved by under
-#: 4 % from four repeats' (the sweep's Q by 40 %, still 28 times inside its limit), every one
-#: at least 2.5 times inside its limit; the fixture's study takes 6.2 CPU-s, not 9.6.
-SMALL = StudySettings(
-    repeats=2, averages=(1, 512), periods_per_record=(2.0, 20.0), record_lengths=(500,),
-    search_points=(11,), search_tolerances_hz=(1.0,), search_averages=(16,), settle_s=(0.0, 0.2),
-    sweep_voltage_counts=(3,), sweep_averages=(16,), heating_averages=(2, 512), heating_points=4,
-    systematics=SystematicsSettings(averages=(4,), sweep_averages=(4,), sweep_voltages=3, search_tolerances_hz=(1.0,),
-                                    campaign="quick.yaml", campaign_averages=(4,)))
-
 
 @pytest.fixture(scope="module")
-def run_dir(tmp_path_factory):
-    out = tmp_path_factory.mktemp("study")
-    run_study(out, SMALL, progress=lambda message: None)
-    return out
-
-
-@pytest.fixture(scope="module")
-def summary(run_dir):
-    return study.summarise(study.load_trials(run_dir))
+def summary(small_study):
+    return study.summarise(study.load_trials(small_study))
 
 
 def p95(summary, experiment, quantity, **knobs):
@@ -50,8 +33,8 @@ def p95(summary, experiment, quantity, **knobs):
     return float(rows["p95_abs_rel_error"].iloc[0])
 
 
-def test_trials_are_tidy_and_complete(run_dir):
-    trials = study.load_trials(run_dir)
+def test_trials_are_tidy_and_complete(small_study):
+    trials = study.load_trials(small_study)
     assert set(trials["experiment"]) == set(STUDY_EXPERIMENTS)
     assert {*study.KNOBS, "repeat", "bench_time_s", "quantity", "measured_value", "true_value", "rel_error"} <= set(trials)
     numbers = trials.select_dtypes("number")
@@ -60,7 +43,7 @@ def test_trials_are_tidy_and_complete(run_dir):
     assert set(trials["quantity"]) == {"power_w", "velocity_pp_mps", "amplitude_pp_m",
                                        "resonance_frequency_hz", "q", "tan_theta"}
     # the scenes as run are stored beside the trials
-    assert (run_dir / "study" / "inputs" / "one_column_1mm+heating_drift.yaml").is_file()
+    assert (small_study / "study" / "inputs" / "one_column_1mm+heating_drift.yaml").is_file()
 
 
 def test_averaging_buys_accuracy_with_bench_time(summary):
@@ -87,9 +70,9 @@ def test_search_and_sweep_recover_the_truth(summary):
     assert p95(summary, "sweep", "tan_theta") < 1e-3
 
 
-def test_report_shows_the_study(run_dir, tmp_path):
+def test_report_shows_the_study(small_study, tmp_path):
     campaign_run = build_run(tmp_path / "run", protocols=("powered_columns", "resonator_cutting"))
-    shutil.copytree(run_dir / "study", campaign_run / "study")
+    shutil.copytree(small_study / "study", campaign_run / "study")
     text = write_report(campaign_run).read_text()
     assert "Settings on each Pareto front" in text and "Heating drift" in text
     report_dir = campaign_run / "report"

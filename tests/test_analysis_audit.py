@@ -8,7 +8,6 @@ import pandas as pd
 import pytest
 
 from squeezebench.analysis import audit, readings
-from squeezebench.yamlfiles import dump_yaml, load_strict
 
 
 @pytest.fixture(scope="module")
@@ -68,19 +67,14 @@ def test_convention_grid_states_which_reading_matches_what():
 
 
 @pytest.fixture(scope="module")
-def characterisation_run(tmp_path_factory):
-    """The paper campaign's Fig. 5 and Figs. 8-9 runs on the shipped (simulated) scenes."""
-
-    from squeezebench import paths
+def characterisation_run(paper_run):
+    """The paper campaign's Fig. 5 and Figs. 8-9 runs on the shipped (simulated) scenes: the
+    session's paper run (`paper_run`), whose characterisation runs these are, not a second
+    run of them."""
     from squeezebench.analysis.rundata import load_run
-    from squeezebench.protocols.campaign import run_campaign
 
-    out = tmp_path_factory.mktemp("characterisation")
-    campaign = load_strict(paths.paper_campaign().read_text())
-    campaign["runs"] = [r for r in campaign["runs"] if r["protocol"] == "characterisation"]
-    campaign["name"] = "characterisation"
-    (out / "c.yaml").write_text(dump_yaml(campaign))
-    return load_run(run_campaign(out / "c.yaml", out_dir=out / "run"))
+    run_dir, _ = paper_run
+    return load_run(run_dir)
 
 
 def test_table5_and_fig9_under_the_inferred_reading_meet_the_paper(characterisation_run):

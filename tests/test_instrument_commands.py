@@ -90,21 +90,28 @@ def measurements(run_dir: Path) -> pd.DataFrame:
 
 
 @pytest.fixture(scope="module")
-def runs(tmp_path_factory, paper_run):
+def runs(tmp_path_factory, quick_run, paper_run):
     """{start: (traffic {role: messages}, {campaign: measurements}, check's lines)} of the
     quick campaign and `check` from each start, and the paper campaign from power-on (the
-    session's run, `paper_run`, which the report's tests also read)."""
+    session's runs from power-on, `quick_run` and `paper_run`, which the reports' tests also
+    read)."""
     results = {}
     for start in ("power_on", "hostile"):
-        with recorded_traffic() as traffic, pytest.MonkeyPatch.context() as patch:
-            patch.setattr(campaign, "sim_bench_config", functools.partial(sim_bench_config, start=start))
-            run_dir = campaign.run_campaign(paths.campaigns_dir() / "quick.yaml",
-                                            out_dir=tmp_path_factory.mktemp(start) / "quick.yaml", progress=False)
-            rows = {"quick.yaml": measurements(run_dir)}
-            lines: list[str] = []
-            config = sim_bench_config(paths.default_scene(), start=start)
-            assert check_bench(config, out=lines.append) == 0, "\n".join(lines)
-            results[start] = ({role: list(messages) for role, messages in traffic.items()}, rows, lines)
+        if start == "power_on":
+            run_dir, quick_traffic = quick_run
+        else:
+            with recorded_traffic() as quick_traffic, pytest.MonkeyPatch.context() as patch:
+                patch.setattr(campaign, "sim_bench_config", functools.partial(sim_bench_config, start=start))
+                run_dir = campaign.run_campaign(paths.campaigns_dir() / "quick.yaml",
+                                                out_dir=tmp_path_factory.mktemp(start) / "quick.yaml", progress=False)
+        traffic = {role: list(messages) for role, messages in quick_traffic.items()}
+        lines: list[str] = []
+        with recorded_traffic() as check_traffic:
+            assert check_bench(sim_bench_config(paths.default_scene(), start=start), out=lines.append) == 0, \
+                "\n".join(lines)
+        for role, messages in check_traffic.items():
+            traffic.setdefault(role, []).extend(messages)
+        results[start] = (traffic, {"quick.yaml": measurements(run_dir)}, lines)
     # the paper campaign from a hostile start would repeat 40 s of bench to show what quick
     # shows (and test_previous_user_states, from five more starts): the same rows
     paper_dir, paper_traffic = paper_run

@@ -16,11 +16,8 @@ from pathlib import Path
 
 import pytest
 
-import squeezebench.report.simulated_plates  # noqa: F401  (the report as the command line writes it)
 from squeezebench import paths
-from squeezebench.report import run_report as report
 from squeezebench.report import section
-from squeezebench.protocols.campaign import run_campaign
 from squeezebench.yamlfiles import load_strict
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "docs"))
@@ -33,11 +30,10 @@ WIDTHS = (make_screenshots.WIDTH_PX, make_screenshots.PHONE_WIDTH_PX)
 
 
 @pytest.fixture(scope="module")
-def index(tmp_path_factory):
+def index(quick_report):
+    """The report of the session's quick run (`quick_report`)."""
     make_screenshots.chromium()   # FileNotFoundError (a failure, not a skip) without a browser
-    run_dir = run_campaign(paths.campaigns_dir() / "quick.yaml", out_dir=tmp_path_factory.mktemp("quick") / "run",
-                           progress=False)
-    return report.write_report(run_dir)
+    return quick_report
 
 
 @pytest.fixture(scope="module")

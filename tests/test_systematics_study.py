@@ -178,14 +178,14 @@ def test_a_negative_number_of_benches_is_refused(tmp_path, capsys):
     assert not (tmp_path / "study").exists()   # refused before anything ran
 
 
-def test_the_whole_campaign_on_erring_benches_scores_every_stored_point(tmp_path):
+def test_the_whole_campaign_on_erring_benches_scores_every_stored_point(small_study):
     """`systematics_campaign`: every stored point of the campaign per averaging, with and
-    without the calibration, whose bench time the campaign then pays."""
-    settings = StudySettings(repeats=2, systematics=SystematicsSettings(campaign="quick.yaml",
-                                                                        campaign_averages=(1, 16)))
-    run_study(tmp_path, settings, ("systematics_campaign", "systematics_campaign_calibrated"),
-              progress=lambda message: None)
-    summary = summarise(load_trials(tmp_path))
+    without the calibration, whose bench time the campaign then pays (the session's small
+    study: quick at 1 and 16 averages on two benches)."""
+    from small_study import SMALL
+
+    assert SMALL.systematics.campaign == "quick.yaml" and SMALL.systematics.campaign_averages == (1, 16)
+    summary = summarise(load_trials(small_study))
     plain = _at(summary, "systematics_campaign", "power_w", 16)
     calibrated = _at(summary, "systematics_campaign_calibrated", "power_w", 16)
     assert plain["n_repeats"] == 2 and plain["n_trials"] >= 2 * 10   # every stored point (10 each) of two benches
