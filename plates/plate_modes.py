@@ -369,24 +369,41 @@ def flexural_half_wavelength_m(material: Isotropic, thickness_m: float, frequenc
     return _thin_half_wavelength_m(material, thickness_m, kirchhoff_frequency_hz(frequency_hz, material, thickness_m))
 
 
+#: One point per element (the reference triangle's centroid): the quadrature of the basis
+#: probing is read from, which evaluates no function anywhere else.
+_CENTROID = (np.array([[1.0 / 3.0], [1.0 / 3.0]]), np.array([0.5]))
+
+
 @functools.lru_cache(maxsize=2)   # a basis of a large plate holds tens of MB: the current mesh and one more
 def _discretisation(x: tuple[float, ...], y: tuple[float, ...], gx: tuple[float, ...], gy: tuple[float, ...]):
-    """Mesh, Argyris basis and the probe of the shape grid (gx x gy) for mesh lines x, y:
-    most of a solve's time, and the same for plates that differ only in materials or
-    thicknesses (a layout sweep's thickness variants, a tolerance's nearby solve)."""
+    """Mesh, Argyris basis (a function: built on its first call) and the probe of the shape
+    grid (gx x gy) for mesh lines x, y: most of a solve's time, and the same for plates that
+    differ only in materials or thicknesses (a layout sweep's thickness variants, a
+    tolerance's nearby solve).
+
+    Only an assembly needs the basis's functions and derivatives at the quadrature points
+    (about four fifths of this discretisation's time): a solve read from the disk cache
+    (`stored_solves`) probes, which reads the mesh's mapping, dofs and inverse Vandermonde
+    matrices alone, the same whatever the quadrature; so they come from a basis on one point
+    per element, and the assembly's is built when a solve asks for it."""
     from skfem import Basis, MeshTri
 
     from .argyris import Argyris
 
     mesh = MeshTri.init_tensor(np.array(x), np.array(y))
-    basis = Basis(mesh, Argyris(), intorder=8)
-    find = tensor_finder(mesh, basis.mapping, np.array(x), np.array(y))
-    points = np.array(np.meshgrid(np.array(gx), np.array(gy), indexing="ij")).reshape(2, -1)
-    probes: dict[bytes, object] = {}
     # What probing reads of the basis, without its functions' derivatives at the quadrature
     # points (the large plate: 33 MB of its 46): every plate solved on this mesh keeps its
     # probe, and the probe this, long after the basis has left this cache.
-    probing = ProbingBasis(basis)
+    probing = ProbingBasis(Basis(mesh, Argyris(), quadrature=_CENTROID))
+    find = tensor_finder(mesh, probing.mapping, np.array(x), np.array(y))
+    points = np.array(np.meshgrid(np.array(gx), np.array(gy), indexing="ij")).reshape(2, -1)
+    probes: dict[bytes, object] = {}
+
+    @functools.cache
+    def basis():
+        """The assembly's basis (its element a copy of probing's: the Vandermonde matrices
+        already inverted)."""
+        return Basis(mesh, copy.copy(probing.elem), intorder=8)
 
     def probe(p: np.ndarray):
         """The basis evaluated at points p (2, N), kept: a sweep asks for the same touch grid
@@ -506,7 +523,7 @@ def _solve(geometry, resonator, piezo, near_hz, n_modes, elements_per_half_wave,
     sections = patch_sections(geometry, resonator, piezo, bond)
 
     def solved() -> dict[str, np.ndarray]:
-        return _eigenpairs(geometry, resonator, piezo, near_hz, n_modes, sections, mesh, basis)
+        return _eigenpairs(geometry, resonator, piezo, near_hz, n_modes, sections, mesh, basis())
 
     found = stored_solves().get(stored_key, solved)
     return replace(modes_from_vectors(geometry, resonator, piezo, bond, thick_plate, sections, found["eigenvalues"],

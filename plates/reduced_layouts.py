@@ -187,8 +187,9 @@ class ReducedPlate:
                                               bare.elements_per_half_wave, bare.mesh_half_wave_m,
                                               bare.x_edges_m, bare.y_edges_m)
         self._gx, self._gy = gx, gy
-        self.mesh, self.basis, self.grid_probe, self.probe = plate_modes._discretisation(
+        self.mesh, basis, self.grid_probe, self.probe = plate_modes._discretisation(
             *(tuple(a.tolist()) for a in (x, y, gx, gy)))
+        self.basis = basis()
         d0, m0, _ = plate_modes.laminate(bare.resonator, bare.thickness_m, bare.piezo, 0.0)
         self.stiffness, self.mass = plate_modes.stiffness_and_mass(
             self.basis, np.full(self.mesh.nelements, d0), np.full(self.mesh.nelements, m0), bare.resonator.poisson)

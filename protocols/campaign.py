@@ -140,6 +140,13 @@ def mapped_scenes(path: Path) -> list[Path]:
                               if run.protocol == "cartography" and run.bench.scene is not None))
 
 
+def characterised_scenes(path: Path) -> list[Path]:
+    """The scenes of the plates the campaign's characterisation runs measure on the simulated
+    bench (a run's report predicts each one's Q and tan theta' from its working mode)."""
+    return list(dict.fromkeys(scene for run in load_campaign(path).runs if run.protocol == "characterisation"
+                              and run.bench.scene is not None for scene in run.input_files()))
+
+
 def load_campaign(path: Path, bench_file: Path | None = None) -> Campaign:
     """Read and validate a campaign file, every scene and bench file it uses, and every
     voltage, frequency and count it will request (before any bench opens); every

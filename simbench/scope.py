@@ -378,9 +378,7 @@ class Scope(ScpiInstrument):
             setting = (channel, self.state["offset", channel], self.state["scale", channel],
                        self.state["position", channel])
             if setting not in self._clipped[1]:
-                screen = (record.trace(f"CH{channel}") - setting[1]) / setting[2] + setting[3]
-                self._clipped[1][setting] = (bool(np.any(screen >= fx.ADC_MAX_DIV - 1e-9)),
-                                             bool(np.any(screen <= fx.ADC_MIN_DIV + 1e-9)))
+                self._clipped[1][setting] = traces.reaches_limits(record.trace(f"CH{channel}"), *setting[1:])
             channel_high, channel_low = self._clipped[1][setting]
             high, low = high or channel_high, low or channel_low
         if high and low:

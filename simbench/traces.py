@@ -416,6 +416,17 @@ def _couple(values: np.ndarray, setup: ScopeSetup, frequency_hz: float) -> np.nd
     return values
 
 
+def reaches_limits(trace: np.ndarray, offset: float, scale_per_div: float,
+                   position_div: float) -> tuple[bool, bool]:
+    """Whether `trace` (channel units) shown at this vertical setting reaches the ADC's top,
+    and its bottom (within 1e-9 division): the clipping of TDS PM Table 3-5. A screen
+    position rises with the value (the scale is positive, and rounding keeps that order), so
+    the extremes' positions are the positions' extremes: two values are placed, not the
+    record."""
+    highest, lowest = (np.array([trace.max(), trace.min()]) - offset) / scale_per_div + position_div
+    return bool(highest >= fx.ADC_MAX_DIV - 1e-9), bool(lowest <= fx.ADC_MIN_DIV + 1e-9)
+
+
 def whole_periods(times_s: np.ndarray, frequency_hz: float, first_only: bool = False) -> slice:
     """Samples covering the largest whole number of periods from the record start
     (or only the first period)."""

@@ -358,8 +358,9 @@ def cmd_reproduce(args: argparse.Namespace) -> int:
 def _solve_maps_ahead(workers: int):
     """The working modes the paper campaign's maps scan, solved on the report's drawing
     process into the disk cache (`_solve_maps`): on this process they were the campaign's
-    one plate solve (about 2 CPU-s), on its critical path once the study ends first. None
-    without the disk cache or a second worker."""
+    one plate solve (about 2 CPU-s), on its critical path once the study ends first. Then
+    those of the plates it characterises, which the report predicts at its end, when this
+    process is the last one working. None without the disk cache or a second worker."""
     import functools
 
     from squeezebench.report.drawing import beside
@@ -368,11 +369,12 @@ def _solve_maps_ahead(workers: int):
 
 
 def _solve_maps(campaign: Path) -> None:
-    """On the drawing process: what `simbench.modeshape` solves for the campaign's maps."""
-    from squeezebench.protocols.campaign import mapped_scenes
+    """On the drawing process: what `simbench.modeshape` solves for the campaign's maps, then
+    for its characterised plates (`simbench.predicted.predict` solves the same)."""
+    from squeezebench.protocols.campaign import characterised_scenes, mapped_scenes
     from squeezebench.simbench import modeshape
 
-    modeshape.solve_ahead(mapped_scenes(campaign))
+    modeshape.solve_ahead(list(dict.fromkeys([*mapped_scenes(campaign), *characterised_scenes(campaign)])))
 
 
 def _finished(index: Path) -> str:

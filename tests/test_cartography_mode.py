@@ -284,7 +284,8 @@ def test_crossings_are_counted_per_row_and_per_column():
 def test_the_paper_campaigns_map_plate_solved_ahead_is_read_by_the_bench(tmp_path, monkeypatch, large):
     """`reproduce` solves the working mode its map scans on another process before the
     campaign reaches the map (`commands._solve_maps`): the bench's stage then reads it from
-    the disk cache, solving nothing, and gets the same mode."""
+    the disk cache, solving nothing, and gets the same mode; so does the report's prediction
+    of each plate the campaign characterises."""
     from squeezebench import paths
     from squeezebench.commands import _solve_maps
     from squeezebench.disk_cache import CACHE_VARIABLE
@@ -301,3 +302,11 @@ def test_the_paper_campaigns_map_plate_solved_ahead_is_read_by_the_bench(tmp_pat
     monkeypatch.setattr(plate_modes, "_eigenpairs", lambda *a, **kw: pytest.fail("solved again"))
     read, k_read = working_mode(scene, state)
     assert k_read == k and np.array_equal(read.shapes, solved.shapes)
+    # the characterised plates too, which the report predicts at its end (`report.simulated_plates`)
+    from squeezebench.protocols.campaign import characterised_scenes
+    from squeezebench.simbench import predicted
+
+    assert len(characterised_scenes(paths.paper_campaign())) == 7
+    for path in characterised_scenes(paths.paper_campaign()):
+        small = load_scene(path)
+        assert predicted.predict(small, small.state(small.initial_state)).frequency_hz > 0

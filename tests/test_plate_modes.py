@@ -85,6 +85,33 @@ def test_a_kept_solve_holds_about_what_it_says_and_not_its_basis_functions(monke
     assert modes.shape_at(0, [0.01], [0.01]).shape == (1,)   # its probe still answers
 
 
+def test_a_solve_read_from_the_disk_cache_assembles_nothing_and_is_the_assembled_one_to_the_bit(monkeypatch,
+                                                                                                  tmp_path):
+    """A process reading a solve another stored (`stored_solves`: reproduce's report, the
+    campaign's maps) probes it and assembles nothing: no basis at the assembly's quadrature
+    (most of a discretisation's time) is built, and every frequency and shape is the
+    assembling solve's, bit for bit."""
+    import skfem
+
+    monkeypatch.setenv("SQUEEZEBENCH_CACHE", str(tmp_path))
+    plate = _one_column_1mm(75)
+
+    def fresh_process():
+        plate_modes._CACHE.clear()
+        plate_modes._discretisation.cache_clear()
+        return solve_plate(plate, near_hz=40e3, n_modes=12, elements_per_half_wave=1.3)
+
+    assembled = fresh_process()
+    bases = []
+    monkeypatch.setattr(skfem, "Basis", lambda *args, **kwargs: bases.append(kwargs) or skfem.CellBasis(*args, **kwargs))
+    read = fresh_process()
+    assert bases and not any("intorder" in kwargs for kwargs in bases)
+    x_m, y_m = np.meshgrid(np.linspace(0.0, 75 * MM, 31), np.linspace(0.0, plate.width_m, 7))
+    assert np.array_equal(read.frequencies_hz, assembled.frequencies_hz)
+    for k in range(len(read.frequencies_hz)):
+        assert np.array_equal(read.shape_at(k, x_m, y_m), assembled.shape_at(k, x_m, y_m))
+
+
 def test_plates_differing_only_in_what_is_powered_share_one_solve(monkeypatch):
     """Which patches a drive is wired to, and their names, change no eigenpair: one solve,
     each plate keeping its own powered set (so its own summed force factor), each cached."""

@@ -70,6 +70,31 @@ def test_a_run_is_fsynced_unless_it_is_a_temporary_one(completed, tmp_path, monk
     assert RunStore(run_dir).verify() == []
 
 
+def test_a_durable_step_syncs_each_waveform_once_and_its_folders_once(tmp_path, monkeypatch):
+    """A step's waveforms are staged in a hidden folder renamed whole: each file is fsynced
+    and none renamed on its own, the staging folder is fsynced once (not once per file),
+    and the rename of it is fsynced before the step's table (and then its journal line)."""
+    import pandas as pd
+
+    store = RunStore(tmp_path / "run")
+    synced, renamed = [], []
+    real_fsync, real_replace = os.fsync, os.replace
+    monkeypatch.setattr(os, "fsync", lambda fd: synced.append(Path(os.readlink(f"/proc/self/fd/{fd}")))
+                        or real_fsync(fd))
+    monkeypatch.setattr(os, "replace", lambda a, b: renamed.append((Path(a), Path(b))) or real_replace(a, b))
+    frame = pd.DataFrame({"time_s": [0.0, 1e-6], "piezo_voltage_v": [0.0, 1.0]})
+    files = store.write_step("sweep", "s01", [{"point_index": i} for i in range(3)],
+                             {i: (frame, {"point": i}) for i in range(3)})
+    folder = tmp_path / "run" / "waveforms" / "sweep"
+    staging = folder / ".s01.partial"
+    assert [b for _, b in renamed] == [folder / "s01", tmp_path / "run" / "measurements" / "sweep" / "s01.parquet"]
+    assert synced[:5] == [staging / "0000.parquet", staging / "0001.parquet", staging / "0002.parquet", staging,
+                          folder]
+    table = tmp_path / "run" / "measurements" / "sweep"
+    assert [path.parent for path in synced[5:]] == [table, table.parent]   # its temporary file, then its folder
+    assert set(files) == {"measurements/sweep/s01.parquet", *(f"waveforms/sweep/s01/{i:04d}.parquet" for i in range(3))}
+
+
 def test_journal_entries_carry_the_checksums_of_their_files(run):
     _, run_dir = run
     for entry in RunStore(run_dir).journal():

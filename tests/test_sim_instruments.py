@@ -13,7 +13,8 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from squeezebench import paths
-from squeezebench.simbench import scpi
+from squeezebench.simbench import effects as fx
+from squeezebench.simbench import scpi, traces
 from squeezebench.simbench.generator import modulated
 
 _TOKENS = itertools.count()
@@ -236,6 +237,20 @@ def test_a_clipped_channel_has_no_measurement(bench):
     assert measure(s, "CH1", "MAXIMUM") == 9.91e37
     assert s.query("*ESR?") == "16"
     assert s.query("ALLEV?").startswith('2227,"Positive and Negative Clipping')
+
+
+@given(st.lists(st.floats(-1.2, 1.2), min_size=1, max_size=40), st.floats(1e-3, 1e3), st.floats(-5.0, 5.0),
+       st.floats(-2.0, 2.0), st.sampled_from([0.0, 1e-9, 1e-12, 2e-16]))
+def test_clipping_is_read_from_the_extremes_as_from_every_sample(fractions, scale, position_div, offset, nudge_div):
+    """`traces.reaches_limits` places the trace's two extremes on the screen: the same
+    verdict as placing every sample (a position rises with the value), for samples on, just
+    inside and just past the ADC limits' tolerance."""
+    edges = [fx.ADC_MAX_DIV - nudge_div, fx.ADC_MIN_DIV + nudge_div]
+    divisions = np.array([f * fx.ADC_MAX_DIV for f in fractions] + edges[:len(fractions) % 3])
+    trace = (divisions - position_div) * scale + offset * scale
+    screen = (trace - offset * scale) / scale + position_div
+    every_sample = (bool(np.any(screen >= fx.ADC_MAX_DIV - 1e-9)), bool(np.any(screen <= fx.ADC_MIN_DIV + 1e-9)))
+    assert traces.reaches_limits(trace, offset * scale, scale, position_div) == every_sample
 
 
 def test_reset_restores_appendix_d_but_keeps_the_event_queue(bench):
