@@ -134,9 +134,9 @@ def test_small_plate_6_is_found_where_it_resonates_on_a_noise_free_bench(tmp_pat
     assert found.frequency_hz == pytest.approx(resonance_hz, abs=0.05)
 
 
-#: The expanded uncertainty the budget gives each search (the coverage study of 40 benches,
-#: seeds 1-40): its error is judged against it.
-SEARCHES_U_HZ = {"small_plate_3": 1.75, "table4_configuration_2": 0.96}
+#: The expanded uncertainty the budget gives each search on the coverage study's benches
+#: (seeds 1-10, both error models; mostly the generator's 20 ppm): its error is judged against it.
+SEARCHES_U_HZ = {"small_plate_3": 1.05, "table4_configuration_2": 0.93}
 
 
 @pytest.mark.parametrize("name, scene, state, search", [
@@ -148,8 +148,8 @@ def test_searches_read_through_the_scopes_noise_and_step_land_on_the_mode(tmp_pa
     ADC step (the scenes' own effects, four noise seeds). A peak-to-peak errs by a fixed share
     of a division, so a reading that fills fewer divisions errs more: the coarse reading below
     the peak, read at a quarter of the scale after a clip (2 divisions against 6), read 0.5-0.7 %
-    high and put small plate 3 1.1 Hz low (0.6 U) and Table 4's second configuration 0.6 Hz
-    low (0.6 U), bench after bench. Every reading held at the same fill, no bench is off by a
+    high and put small plate 3 1.1 Hz low (1 U) and Table 4's second configuration 0.6 Hz
+    low (0.7 U), bench after bench. Every reading held at the same fill, no bench is off by a
     third of U, and the mean over benches is within a tenth of it."""
     text = load_strict((paths.scenes_dir() / scene).read_text(encoding="utf-8"))
     acquisition_settings = AcquisitionSettings(averages=16, record_length=500, periods_per_record=20, settle_s=0.5)
