@@ -17,7 +17,9 @@ starts with no expectation and a coarse range. A clipped channel (ClippedTraceEr
 a trace at the screen edge) is re-ranged coarser and acquired again; a trace using less
 than `min_fill_divisions` is re-ranged finer once, because ADC steps of a barely visible
 trace would dominate the power. The vibrometer's decoder range is chosen the same way
-from the expected velocity.
+from the expected velocity. A search's reading is re-ranged once more where its velocity
+trace fills the screen off what it asks for (SEARCH_FILL_TOLERANCE): a peak-to-peak errs by a
+fixed share of a division, so readings compared at different fills would err differently.
 """
 
 from __future__ import annotations
@@ -56,6 +58,20 @@ SEARCH_CREST_SHORTFALL = 2e-4
 #: The widest step between the 1-2-4 time bases: a record asked for P periods holds up to
 #: this many times P (`Acquisition._set_horizontal` takes the next time base up).
 TIME_BASE_STEP = max(b / a for a, b in zip(HORIZONTAL_SCALES_S_PER_DIV, HORIZONTAL_SCALES_S_PER_DIV[1:]))
+#: How far a search's velocity trace may fill the screen off the scale the reading itself
+#: asks for (`Acquisition._scale_for`) before it is re-ranged and read again. A peak-to-peak
+#: errs by a fixed share of a division, whatever the signal: the noise lifts both extremes
+#: (about 0.014 division at the scope's 0.01 division rms and 16 averages), and the
+#: undithered ADC step rounds each one. Read at 2 divisions instead of 6, a reading errs
+#: three times as much (+0.7 % against +0.23 %): the coarse reading just below a peak, read
+#: after a clip at a quarter of the scale, put the fitted resonance 1 Hz low on small plate
+#: 3 and 0.66 Hz low on Table 4's second configuration, search after search. Within +-10 %
+#: of the same fill, the readings a search compares err by the same share to within a tenth
+#: of it (+-0.02 % of a reading at 16 averages, under the 0.05 % their noise scatters them),
+#: and a common share the fit absorbs (a factor leaves the vertex of 1/v^2 where it is,
+#: `analysis.resonance_searches.peak_of_readings`). At +-5 % the searches land no closer
+#: and read a fifth more often.
+SEARCH_FILL_TOLERANCE = 0.10
 
 
 def crest_shortfall_rel(samples_per_period: float) -> float:
@@ -195,11 +211,15 @@ class Acquisition:
         """Set the drive frequency and measure without keeping waveforms: a search's reading,
         on the record that reads its crest closely enough (`search_record_length`)."""
         self.drive.set_frequency(frequency_hz)
-        return self.measure(keep_waveforms=False, record_length=search_record_length(self.settings))
+        return self.measure(keep_waveforms=False, record_length=search_record_length(self.settings),
+                            velocity_fill_tolerance=SEARCH_FILL_TOLERANCE)
 
-    def measure(self, keep_waveforms: bool = True, record_length: int | None = None) -> Point:
+    def measure(self, keep_waveforms: bool = True, record_length: int | None = None,
+                velocity_fill_tolerance: float | None = None) -> Point:
         """Acquire one point at the present drive, re-ranging until nothing clips, on a record
-        of `record_length` points (default: the campaign's)."""
+        of `record_length` points (default: the campaign's); with `velocity_fill_tolerance`,
+        until the velocity trace fills the screen as its own reading asks to within that share
+        (once: re-ranged on what it read, it does)."""
         settings, scope = self.settings, self.bench.scope
         piezo_vpp = self.drive.piezo_voltage_vpp
         record_length = record_length or settings.record_length
@@ -207,7 +227,7 @@ class Acquisition:
             scope.set_record_length(record_length)
             self._record_length = record_length
         self._set_horizontal(self.drive.frequency_hz)
-        pp, extents, waveforms = self._acquire_in_range(piezo_vpp, keep_waveforms)
+        pp, extents, waveforms = self._acquire_in_range(piezo_vpp, keep_waveforms, velocity_fill_tolerance)
         point = Point(
             generator_frequency_hz=self.drive.frequency_hz,
             generator_amplitude_vpp=self.drive.generator_amplitude_vpp,
@@ -235,9 +255,9 @@ class Acquisition:
         self._velocity_pp_mps_per_vpp = point.velocity_pp_mps / piezo_vpp
         return point
 
-    def _acquire_in_range(self, piezo_vpp: float, keep_waveforms: bool):
-        """Acquire until no channel clips or is too faint; return pp and extent per
-        channel, and the waveforms."""
+    def _acquire_in_range(self, piezo_vpp: float, keep_waveforms: bool, velocity_fill_tolerance: float | None):
+        """Acquire until no channel clips or is too faint (nor, with `velocity_fill_tolerance`,
+        the velocity off its fill); return pp and extent per channel, and the waveforms."""
         settings, scope = self.settings, self.bench.scope
         self._vibrometer_scale = self._set_vibrometer_range(
             self._expected(self._velocity_pp_mps_per_vpp, piezo_vpp))
@@ -285,6 +305,10 @@ class Acquisition:
                 elif channel not in refined and pp[channel] < settings.min_fill_divisions * scale:
                     refined.add(channel)
                     rerange[channel] = (pp[channel], extents[channel], "too faint")
+                elif (channel == VELOCITY_CHANNEL and velocity_fill_tolerance is not None and channel not in refined
+                      and abs(scale / self._scale_for(pp[channel], extents[channel]) - 1.0) > velocity_fill_tolerance):
+                    refined.add(channel)
+                    rerange[channel] = (pp[channel], extents[channel], "off its search fill")
             if not rerange:
                 try:
                     return pp, extents, (self._fetch_waveforms() if keep_waveforms else None)

@@ -37,6 +37,9 @@ class Effect:
     stages: ClassVar[frozenset[str]] = frozenset()
     #: True when two acquisitions at the same settings differ (the record cannot be reused).
     varies_per_acquisition: ClassVar[bool] = False
+    #: True when its signals depend on the channels' vertical scales (`ctx.scale_per_div`):
+    #: a re-ranged acquisition cannot keep the signals of the last one (`traces.placed_anew`).
+    reads_vertical_scale: ClassVar[bool] = False
     #: A fault (issue 7) rather than a property of a healthy bench.
     fault: ClassVar[bool] = False
 

@@ -369,6 +369,8 @@ class EffectPipeline:
         self.screen_varies = bool(self._motion) or any(e.varies_per_acquisition for e in effects)
         #: Acquisitions at the same settings may differ: no record can be reused.
         self.varies = self.is_random or self.screen_varies
+        #: A signal depends on the vertical scales: a re-ranged acquisition synthesises anew.
+        self.signals_read_vertical_scale = any(e.reads_vertical_scale for e in self.by_stage["signals"])
         self.bus = self.by_stage["bus"]
 
     @property

@@ -21,6 +21,7 @@ class ClippedTrace(Effect):
     limits = {"at_acquisition": (1.0, math.inf), "count": (1.0, math.inf), "height_div": (6.0, math.inf)}
     stages = frozenset({"signals"})
     varies_per_acquisition = True
+    reads_vertical_scale = True   # its spike is a height in divisions
     fault = True
 
     def __init__(self, scene, **parameters: float) -> None:

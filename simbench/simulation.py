@@ -153,10 +153,14 @@ class SimulatedBench:
         """
         steady, gains = self.steady_state(), self.sensor_gains()
         key = (self._steady_cache[0], setup, tuple(gains))
-        if self.effects.screen_varies or self._screen_cache[0] != key:
-            self._screen_cache = (key, traces.screen(
-                steady, setup, gains, self.vibrometer.range_mps_per_v(), self.effects,
-                self.clock.now_s(), acquisition_period_s))
+        last_key, last = self._screen_cache
+        if self.effects.screen_varies or last_key != key:
+            range_mps_per_v, now_s = self.vibrometer.range_mps_per_v(), self.clock.now_s()
+            # a channel re-ranged at the same drive: the last screen's signals, placed anew
+            shown = None if self.effects.screen_varies or last_key is None or last_key[::2] != key[::2] \
+                else traces.placed_anew(last, setup, self.effects, range_mps_per_v, now_s, acquisition_period_s)
+            self._screen_cache = (key, shown or traces.screen(steady, setup, gains, range_mps_per_v, self.effects,
+                                                              now_s, acquisition_period_s))
         shown = self._screen_cache[1]
         if not self.effects.varies:
             if self._record_cache[0] != key:

@@ -11,7 +11,7 @@ from __future__ import annotations
 import functools
 import math
 import zlib
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from scipy.special import ndtr
@@ -138,6 +138,8 @@ class Screen:
     signal_div: np.ndarray      # (3, n)
     noise_div_rms: np.ndarray   # (3,)
     sums: dict = field(default_factory=dict)
+    #: The signals in channel units before they are placed on the screen (3, n).
+    channel_values: np.ndarray | None = field(default=None, repr=False)
 
     def values(self, divisions: np.ndarray) -> np.ndarray:
         """Channel values of screen positions (3, n)."""
@@ -152,19 +154,24 @@ def _screen_placement(setup: ScopeSetup) -> tuple[np.ndarray, np.ndarray, np.nda
                  for name in ("position_div", "scale_per_div", "offset"))
 
 
+def _context(setup: ScopeSetup, vibrometer_range_mps_per_v: float, start_s: float,
+             acquisition_period_s: float) -> AcquisitionContext:
+    return AcquisitionContext(
+        record_times_s=setup.times_s(), start_s=start_s,
+        acquisition_period_s=acquisition_period_s, averages=setup.averages,
+        scale_per_div=np.array([c.scale_per_div for c in setup.channels]),
+        display_gain=1.0 / np.array([c.probe_gain for c in setup.channels]),
+        vibrometer_range_mps_per_v=vibrometer_range_mps_per_v)
+
+
 def screen(steady: physics.SteadyState, setup: ScopeSetup, sensor_gains: np.ndarray,
            vibrometer_range_mps_per_v: float, pipeline: fx.EffectPipeline, start_s: float,
            acquisition_period_s: float) -> Screen:
     """What one (possibly averaged) acquisition of the three channels shows through the
     effects before the digitiser. `sensor_gains` turn the physical signals into what
     reaches the scope inputs (probe attenuation, current probe A/A, 1 / decoder range)."""
-    times = setup.times_s()
-    probe = np.array([c.probe_gain for c in setup.channels])
-    ctx = AcquisitionContext(
-        record_times_s=times, start_s=start_s,
-        acquisition_period_s=acquisition_period_s, averages=setup.averages,
-        scale_per_div=np.array([c.scale_per_div for c in setup.channels]),
-        display_gain=1.0 / probe, vibrometer_range_mps_per_v=vibrometer_range_mps_per_v)
+    ctx = _context(setup, vibrometer_range_mps_per_v, start_s, acquisition_period_s)
+    times = ctx.record_times_s
     fundamentals = pipeline.motion(steady.branch_velocity_phasors_mps[:, :1], ctx) \
         if pipeline.has_motion else None
     signals = synthesize(steady, times, fundamentals)
@@ -177,7 +184,38 @@ def screen(steady: physics.SteadyState, setup: ScopeSetup, sensor_gains: np.ndar
     channel_values = _couple(signals * ctx.display_gain[:, None], setup, steady.frequency_hz)
     position, scale, offset = _screen_placement(setup)
     signal_div = (channel_values - offset) / scale + position
-    return Screen(setup, steady.frequency_hz, signal_div, pipeline.noise_div_rms(ctx))
+    return Screen(setup, steady.frequency_hz, signal_div, pipeline.noise_div_rms(ctx), channel_values=channel_values)
+
+
+def _unplaced(setup: ScopeSetup) -> ScopeSetup:
+    """`setup` without where its channels sit on the screen (scale, position, offset)."""
+    return replace(setup, channels=tuple(replace(c, scale_per_div=1.0, position_div=0.0, offset=0.0)
+                                         for c in setup.channels))
+
+
+def placed_anew(shown: Screen, setup: ScopeSetup, pipeline: fx.EffectPipeline,
+                vibrometer_range_mps_per_v: float, start_s: float, acquisition_period_s: float) -> Screen | None:
+    """`shown`'s signals on the screen of `setup`, when `setup` differs from `shown.setup` in
+    where the channels sit only (CH<x>:SCAle, POSition, OFFSet: a channel re-ranged) and the
+    signals do not depend on that (`EffectPipeline.signals_read_vertical_scale`); None
+    otherwise. The signals are not synthesised again, and a channel whose place and noise
+    are unchanged keeps its row and its sums of records: the numbers `screen` would compute
+    afresh, element by element, so the digitiser draws the same record."""
+    if (shown.channel_values is None or pipeline.signals_read_vertical_scale
+            or _unplaced(setup) != _unplaced(shown.setup)):
+        return None
+    noise_div_rms = pipeline.noise_div_rms(_context(setup, vibrometer_range_mps_per_v, start_s, acquisition_period_s))
+    position, scale, offset = _screen_placement(setup)
+    old_position, old_scale, old_offset = _screen_placement(shown.setup)
+    signal_div, sums = shown.signal_div.copy(), {}
+    for ch in range(len(setup.channels)):
+        if (position[ch, 0], scale[ch, 0], offset[ch, 0], noise_div_rms[ch]) == \
+                (old_position[ch, 0], old_scale[ch, 0], old_offset[ch, 0], shown.noise_div_rms[ch]):
+            if ch in shown.sums:
+                sums[ch] = shown.sums[ch]
+        else:
+            signal_div[ch] = (shown.channel_values[ch] - offset[ch]) / scale[ch] + position[ch]
+    return Screen(setup, shown.frequency_hz, signal_div, noise_div_rms, sums, shown.channel_values)
 
 
 def record_of(shown: Screen, settings: fx.DigitizerSettings, rng: np.random.Generator | None) -> Record:

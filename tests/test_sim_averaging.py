@@ -127,3 +127,41 @@ def test_a_bench_reuses_a_screen_only_while_its_settings_and_drive_stay():
         bench.generator.set_frequency(37100.0)
         bench.scope.acquire()
         assert simulated._screen_cache[1] is not first
+
+
+@pytest.mark.parametrize("effects", [["scope_noise", "quantisation", "averaging", "dc_offset", "vibrometer_noise"],
+                                     ["scope_noise", "quantisation", "averaging", "clipped_trace"]])
+def test_a_re_ranged_channel_draws_the_record_a_fresh_screen_draws(tmp_path, monkeypatch, effects):
+    """A channel re-ranged at the same drive keeps the last screen's signals and the other
+    channels' rows and sums (`traces.placed_anew`): every record is, bit for bit, what
+    computing the screen afresh draws; an effect whose signals read the scale (a clipped
+    trace's spike is a height in divisions) has its screen computed afresh."""
+    from squeezebench import paths
+    from squeezebench.protocols.acquisition import AcquisitionSettings
+    from squeezebench.protocols.simulated_session import open_simulated
+    from squeezebench.yamlfiles import dump_yaml, load_strict
+
+    scene = load_strict(paths.default_scene().read_text(encoding="utf-8"))
+    (tmp_path / "scene.yaml").write_text(dump_yaml({**scene, "effects": effects}), encoding="utf-8")
+
+    def records(placed_anew):
+        monkeypatch.setattr(traces, "placed_anew", placed_anew)
+        kept, reused = [], []
+        with open_simulated(tmp_path / "scene.yaml", None, 0.5) as session:
+            session.acquisition(AcquisitionSettings(averages=16))   # configures the scope
+            session.drive.set_piezo_voltage(10.0)
+            session.drive.set_frequency(37000.0)
+            scope = session.bench.scope
+            for scale_v_per_div in (2.0, 1.0, 1.0, 0.5):
+                scope.set_vertical_scales({1: 2.0, 2: 0.5, 3: scale_v_per_div})
+                scope.acquire()
+                kept.append(np.stack([scope.fetch_waveform(ch).values for ch in (1, 2, 3)]))
+                reused.append(session.simulated._screen_cache[1].channel_values)
+        return kept, reused
+
+    placed, placed_channels = records(traces.placed_anew)
+    fresh, fresh_channels = records(lambda *args, **kwargs: None)
+    for a, b in zip(placed, fresh):
+        np.testing.assert_array_equal(a, b)
+    assert (placed_channels[3] is placed_channels[0]) == ("clipped_trace" not in effects)
+    assert fresh_channels[3] is not fresh_channels[0]
