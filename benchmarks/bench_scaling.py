@@ -89,17 +89,26 @@ def command_s(arguments: list[str], environment: dict[str, str] | None = None,
     (the minute before, so partly the previous command) and the CPU seconds other processes
     took while it ran (0.0-0.4 measured here with nothing else running; a busy loop beside a
     3.8 s plan showed 3.2)."""
+    elapsed_s, figures, _ = command_output(arguments, environment, allowed, module)
+    return elapsed_s, figures
+
+
+def command_output(arguments: list[str], environment: dict[str, str] | None = None,
+                   allowed: tuple[int, ...] = (0,), module: str = "squeezebench",
+                   python: str = sys.executable) -> tuple[float, str, str]:
+    """`command_s` and what the command printed on stdout; `python` runs it (another
+    checkout's environment: `bench_plan_cold.py --against`)."""
     before = load()
     busy_s, own_s = machine_busy_s(), sum(os.times()[2:4])   # the children's user and system time
     start_s = time.perf_counter()
-    done = subprocess.run([sys.executable, "-m", module, *arguments], capture_output=True, text=True,
+    done = subprocess.run([python, "-m", module, *arguments], capture_output=True, text=True,
                           env={**os.environ, **(environment or {})}, cwd=ROOT)
     elapsed_s = time.perf_counter() - start_s
     own_s = sum(os.times()[2:4]) - own_s
     others_s = (machine_busy_s() - busy_s) - own_s
     if done.returncode not in allowed:
         raise SystemExit(f"{module} {' '.join(arguments)} exited with {done.returncode}: {done.stderr}")
-    return elapsed_s, f"{own_s:.1f} CPU-s; {before}, other processes {max(others_s, 0.0):.1f} CPU-s"
+    return elapsed_s, f"{own_s:.1f} CPU-s; {before}, other processes {max(others_s, 0.0):.1f} CPU-s", done.stdout
 
 
 def reproduce_s(workers: int | None) -> tuple[float, str, pd.DataFrame]:

@@ -28,6 +28,7 @@ from squeezebench.analysis.uncertainty import (REFERENCE_FOR, characterisation_f
 from squeezebench.protocols.bench_errors import bench_time_by_run_s
 from squeezebench.protocols.variants import carries_calibration, with_calibration, without_maps
 from squeezebench.protocols.campaign import run_campaign
+from squeezebench.errors import UserError
 
 CALIBRATION_RUN = "deskew_calibration"
 QUANTITIES = ("power_w", "velocity_pp_mps", "q", "tan_theta")
@@ -160,6 +161,10 @@ def measure_floors(campaign_path: Path) -> tuple[list[RunFloor], dict[str, float
         # the powers as the report's budgets correct them; the floors need no budget's
         # expanded uncertainty (`run_uncertainties` convolves a distribution for each)
         stored, deskew = stored_points(run)
+        if stored is None:   # no floor without a point to read it at: said here, not as a crash in the budgets
+            raise UserError(f"{Path(campaign_path).name}: its run on the simulated bench stored no measured point "
+                            "(no step kept its waveforms), so the floors the instruments' specified errors leave "
+                            "cannot be read; the planner needs runs that store points")
         points, _ = deskewed(stored, deskew)
         times_s = bench_time_by_run_s(run_dir)
         # Q and tan theta' of the characterised plates: floors of their own (tolerances, mostly)

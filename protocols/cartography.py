@@ -237,8 +237,22 @@ def map_bench_time_s(points_mm: np.ndarray, start_mm: tuple[float, float], veloc
                      acceleration_mm_per_s2: float, settle_s: float, acquisition_s: float) -> float:
     """Bench time of a map: for each point the slower axis's move from the previous point
     (the axes move together), then the settling wait and the acquisition."""
+    return map_time_s(map_moves_s(points_mm, start_mm, velocity_mm_per_s, acceleration_mm_per_s2), len(points_mm),
+                      settle_s, acquisition_s)
+
+
+def map_moves_s(points_mm: np.ndarray, start_mm: tuple[float, float], velocity_mm_per_s: float,
+                acceleration_mm_per_s2: float) -> float:
+    """The stage's part of a map's bench time: for each point the slower axis's move from the
+    previous one. It depends on the grid alone: a plan pricing several averagings of one
+    grid computes it once (`map_time_s` adds the rest)."""
     path = np.vstack([np.asarray(start_mm, dtype=float), np.asarray(points_mm, dtype=float)])
     steps = np.abs(np.diff(path, axis=0))
-    moves = [max(move_time_s(dx, velocity_mm_per_s, acceleration_mm_per_s2),
-                 move_time_s(dy, velocity_mm_per_s, acceleration_mm_per_s2)) for dx, dy in steps]
-    return float(np.sum(moves) + len(steps) * (settle_s + acquisition_s))
+    return float(np.sum([max(move_time_s(dx, velocity_mm_per_s, acceleration_mm_per_s2),
+                              move_time_s(dy, velocity_mm_per_s, acceleration_mm_per_s2)) for dx, dy in steps]))
+
+
+def map_time_s(moves_s: float, n_points: int, settle_s: float, acquisition_s: float) -> float:
+    """Bench time of a map of `n_points` whose moves take `moves_s` (`map_moves_s`): at each
+    point the settling wait and the acquisition after the move."""
+    return float(moves_s + n_points * (settle_s + acquisition_s))

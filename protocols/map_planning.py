@@ -41,7 +41,7 @@ from squeezebench.errors import UserError
 from squeezebench.protocols.campaign import Run, load_campaign
 from squeezebench.protocols.plan_cache import PlanCache
 from squeezebench.protocols import cartography
-from squeezebench.protocols.cartography import map_bench_time_s
+from squeezebench.protocols.cartography import map_moves_s, map_time_s
 from squeezebench.protocols.simulated_session import open_simulated, reduce_point
 from squeezebench.protocols.variants import MAP_PROTOCOLS
 from squeezebench.yamlfiles import dump_yaml, load_strict
@@ -148,25 +148,27 @@ def map_candidates(run: Run, seed: int = 0) -> tuple[float, list[MapCandidate], 
     continuum_cv = homogeneity(np.abs(_touch_shape(run, CONTINUUM_STEP_MM, frequency_hz))).coefficient_of_variation
     rng = np.random.default_rng(seed)
 
-    placements: dict[float, tuple[np.ndarray, float, float]] = {}
+    placements: dict[float, tuple[np.ndarray, float, float, int, float]] = {}
 
-    def sampled(step_mm: float) -> tuple[np.ndarray, float, float]:
-        """The grid as written at `step_mm`: its amplitudes, CV, and the worst sampling error."""
+    def sampled(step_mm: float) -> tuple[np.ndarray, float, float, int, float]:
+        """The grid as written at `step_mm`: its amplitudes, CV, the worst sampling error, its
+        points and the stage's moves between them (the same at every averaging)."""
         if step_mm not in placements:
             shapes = [np.abs(_touch_shape(run, step_mm, frequency_hz, shift_mm=step_mm * q / 4)) for q in range(4)]
             errors = [homogeneity(shape).coefficient_of_variation / continuum_cv - 1.0 for shape in shapes]
             worst = errors[int(np.argmax(np.abs(errors)))]
-            placements[step_mm] = shapes[0], homogeneity(shapes[0]).coefficient_of_variation, worst
+            points = dataclasses.replace(params.grid, step_mm=step_mm).points_mm()
+            placements[step_mm] = (shapes[0], homogeneity(shapes[0]).coefficient_of_variation, worst, len(points),
+                                   map_moves_s(points, (0.0, 0.0), params.stage_velocity_mm_per_s,
+                                               acceleration_mm_per_s2))
         return placements[step_mm]
 
     def candidate(step_mm: float, averages: int) -> MapCandidate:
-        points = dataclasses.replace(params.grid, step_mm=step_mm).points_mm()
-        amplitude, cv, sampling = sampled(step_mm)
+        amplitude, cv, sampling, n_points, moves_s = sampled(step_mm)
         draws = amplitude * (1.0 + noise_rel[averages] * rng.normal(size=(NOISE_DRAWS, amplitude.size)))
         noise = 2.0 * float(np.std(coefficients_of_variation(draws), ddof=1)) / continuum_cv
-        bench_s = map_bench_time_s(points, (0.0, 0.0), params.stage_velocity_mm_per_s, acceleration_mm_per_s2,
-                                   settle_s=params.settle_s, acquisition_s=acquisition_s[averages])
-        return MapCandidate(step_mm, averages, len(points), float(cv), float(sampling), noise, bench_s)
+        bench_s = map_time_s(moves_s, n_points, params.settle_s, acquisition_s[averages])
+        return MapCandidate(step_mm, averages, n_points, float(cv), float(sampling), noise, bench_s)
 
     candidates = [candidate(step, averages) for step in STEPS_MM for averages in AVERAGES]
     as_written = next((c for c in candidates if c.step_mm == params.grid.step_mm

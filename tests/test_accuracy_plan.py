@@ -228,6 +228,25 @@ def test_a_plan_dearer_than_the_campaigns_own_settings_says_so():
     assert "dearer" not in plan({"detuning": 2.0, "cutting": 2.0})
 
 
+def test_a_floors_run_that_stored_no_point_is_refused_with_the_cause(tmp_path, monkeypatch):
+    """`stored_points` finds nothing when no step kept a waveform: one message saying so, not
+    a crash in the budgets. The calibration alone is the quickest run to read it from."""
+    import yaml
+
+    from squeezebench.errors import UserError
+    from squeezebench.protocols import accuracy_plan
+
+    data = yaml.safe_load(QUICK.read_text(encoding="utf-8"))
+    data["runs"] = [run for run in data["runs"] if run["protocol"] == "deskew_calibration"]
+    campaign = tmp_path / "calibration_only.yaml"
+    campaign.write_text(yaml.safe_dump(data), encoding="utf-8")
+    assert accuracy_plan.measure_floors(campaign)[0] == []   # a run storing points: read, no floor among them
+    monkeypatch.setattr(accuracy_plan, "stored_points", lambda run: (None, None))
+    with pytest.raises(UserError, match=r"calibration_only.yaml: its run on the simulated bench stored no "
+                                        r"measured point .* cannot be read"):
+        accuracy_plan.measure_floors(campaign)
+
+
 # -- what the budgets' over-coverage costs (analysis.over_coverage, OverCoverageCost) -------------
 def world_coverage_study(run_dir: Path, factor: float) -> Path:
     """A world-model coverage study in RUN_DIR whose power U over-covers: normal errors on

@@ -45,6 +45,24 @@ def test_more_averages_cost_more_and_lower_the_noise(planned):
         assert len({c.sampling_error_rel for c in row}) == 1   # the grid, not the averaging, samples
 
 
+def test_each_candidates_bench_time_is_its_whole_map_priced_alone(planned):
+    """A plan prices a grid's moves once for all its averagings: to the last bit what
+    pricing each candidate's map whole (`map_bench_time_s`) gives."""
+    import dataclasses
+
+    from squeezebench.protocols.cartography import map_bench_time_s
+    from squeezebench.protocols.map_planning import _point_noise
+
+    campaign, plan = planned
+    run = map_runs(campaign)[0]
+    _, acquisition_s, _, acceleration_mm_per_s2 = _point_noise(run)
+    for c in plan.candidates:
+        points = dataclasses.replace(run.parameters.grid, step_mm=c.step_mm).points_mm()
+        assert c.bench_time_s == map_bench_time_s(points, (0.0, 0.0), run.parameters.stage_velocity_mm_per_s,
+                                                  acceleration_mm_per_s2, run.parameters.settle_s,
+                                                  acquisition_s[c.averages])
+
+
 def test_a_map_run_as_planned_measures_the_homogeneity_within_the_target(planned, tmp_path):
     """The claim checked where it matters: the planned grid, run on the simulated bench
     with its noise, gives a coefficient of variation within the target of the continuum's."""
