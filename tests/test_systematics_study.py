@@ -106,7 +106,10 @@ def test_the_coverage_study_scores_every_stored_point_and_resumes_by_bench(tmp_p
     from squeezebench.protocols.bench_errors import run_coverage_study
 
     quick = paths.campaigns_dir() / "quick.yaml"
-    path = run_coverage_study(tmp_path, 2, quick)
+    path = run_coverage_study(tmp_path, 1, quick)
+    first = (path.parent / "bench_1.parquet").stat().st_mtime_ns
+    run_coverage_study(tmp_path, 2, quick, resume=True)   # one more bench; the first kept
+    assert (path.parent / "bench_1.parquet").stat().st_mtime_ns == first
     points = load_coverage(tmp_path)
     assert path.is_file() and set(points["bench_seed"]) == {1, 2}
     assert set(points["quantity"]) == {"power_w", "velocity_pp_mps", "amplitude_pp_m", "power_ratio",
@@ -128,22 +131,20 @@ def test_the_coverage_study_scores_every_stored_point_and_resumes_by_bench(tmp_p
     assert table.loc["power_w", "benches"] == 2
     assert table.loc["power_w", "covered_fraction"] == pytest.approx(points[points["quantity"] == "power_w"]
                                                                      ["covered"].mean())
-    first = (path.parent / "bench_1.parquet").stat().st_mtime_ns
-    run_coverage_study(tmp_path, 3, quick, resume=True)   # one more bench; the first two kept
-    assert (path.parent / "bench_1.parquet").stat().st_mtime_ns == first
-    assert set(load_coverage(tmp_path)["bench_seed"]) == {1, 2, 3}
 
 
 def test_a_coverage_study_on_benches_erring_as_the_world_errs_is_stored_and_tabled_beside(tmp_path, monkeypatch,
                                                                                           capsys):
     """The 'world' error model (normal errors, a probe lag of known sign, now and then an
     instrument out of specification) runs beside the specified one; the table has a row
-    per model and quantity, each with its benches' interval, and `study` prints them."""
-    from squeezebench import paths
+    per model and quantity, each with its benches' interval, and `study` prints them. The
+    campaign is quick's three kinds of step at a fraction of its points (`small_quick`): what
+    is checked is where each model's rows go and how they are tabled and said, not how many."""
+    import small_quick
     from squeezebench.analysis.study import coverage_table, load_coverage
     from squeezebench.protocols.bench_errors import run_coverage_study
 
-    quick = paths.campaigns_dir() / "quick.yaml"
+    quick = small_quick.small_quick(tmp_path / "campaign")
     world = run_coverage_study(tmp_path, 2, quick, error_model="world")
     specified = run_coverage_study(tmp_path, 1, quick)
     assert world.parent != specified.parent
@@ -180,12 +181,17 @@ def test_a_negative_number_of_benches_is_refused(tmp_path, capsys):
 
 def test_the_whole_campaign_on_erring_benches_scores_every_stored_point(tmp_path):
     """`systematics_campaign`: every stored point of the campaign per averaging, with and
-    without the calibration, whose bench time the campaign then pays."""
-    settings = StudySettings(repeats=2, systematics=SystematicsSettings(campaign="quick.yaml",
-                                                                        campaign_averages=(1, 16)))
-    run_study(tmp_path, settings, ("systematics_campaign", "systematics_campaign_calibrated"),
-              progress=lambda message: None)
-    summary = summarise(load_trials(tmp_path))
+    without the calibration, whose bench time the campaign then pays. The calibrated
+    campaign runs at the one averaging it is compared at (a study of its own: the settings
+    are a study's)."""
+    def study(name: str, averages: tuple[int, ...]) -> pd.DataFrame:
+        settings = StudySettings(repeats=2, systematics=SystematicsSettings(campaign="quick.yaml",
+                                                                            campaign_averages=averages))
+        run_study(tmp_path / name, settings, (name,), progress=lambda message: None)
+        return load_trials(tmp_path / name)
+
+    summary = summarise(pd.concat([study("systematics_campaign", (1, 16)),
+                                   study("systematics_campaign_calibrated", (16,))], ignore_index=True))
     plain = _at(summary, "systematics_campaign", "power_w", 16)
     calibrated = _at(summary, "systematics_campaign_calibrated", "power_w", 16)
     assert plain["n_repeats"] == 2 and plain["n_trials"] >= 2 * 10   # every stored point (10 each) of two benches
