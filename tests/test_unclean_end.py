@@ -24,9 +24,8 @@ from squeezebench.protocols.drive_record import left_driven, record_file
 KILLER = textwrap.dedent("""
     import json, os, re, signal, sys
     from pyvisa.resources import MessageBasedResource
-    from squeezebench import cli, commands
-    from squeezebench.instruments import bench
-    from squeezebench.protocols import campaign as _
+    from squeezebench import cli
+    import squeezebench.commands, squeezebench.protocols.campaign   # what a run imports: once, for every child
     write = MessageBasedResource.write
     trial = {"n": 0, "at": None, "said": None}
 
