@@ -86,15 +86,16 @@ def test_deskew_corrects_the_fig2c_stress_power(calibrated_run):
 
 
 def test_errors_on_erring_benches_with_and_without_calibration(tmp_path):
-    """The quick campaign on two erring benches: expanded uncertainties cover the truth,
-    and the calibration's bench time is part of the campaign's."""
+    """quick's three kinds of step (`small_quick`, with its calibration) on two erring
+    benches: expanded uncertainties cover the truth, and the calibration's bench time is
+    part of the campaign's."""
+    import small_quick
     from squeezebench.protocols.bench_errors import errors_on_benches, p95_by_run
     from squeezebench.protocols.variants import with_calibration, without_calibration
 
-    quick = paths.campaigns_dir() / "quick.yaml"   # ships with its calibration
-    (tmp_path / "plain.yaml").write_text(quick.read_text())
-    plain = errors_on_benches(without_calibration(tmp_path / "plain.yaml"), range(1, 3))
-    calibrated = errors_on_benches(with_calibration(quick, tmp_path / "quick.yaml", 37000.0), range(1, 3))
+    quick = small_quick.small_quick(tmp_path)   # with its calibration, as quick ships
+    plain = errors_on_benches(without_calibration(small_quick.small_quick(tmp_path / "plain")), range(1, 3))
+    calibrated = errors_on_benches(with_calibration(quick, tmp_path / "calibrated.yaml", 37000.0), range(1, 3))
     for errors in (plain, calibrated):
         assert errors["covered"].mean() >= 0.95
         assert set(errors["bench_seed"]) == {1, 2}

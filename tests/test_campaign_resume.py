@@ -67,13 +67,6 @@ def reference(tmp_path_factory):
     return campaign, read_measurements(run_dir), counter.count
 
 
-def reference_rows(folder):
-    """The rows of an uninterrupted, fault-free run of the small campaign, made in `folder`."""
-    folder.mkdir()
-    return read_measurements(run_campaign(small_campaign(folder), out_dir=folder / "run",
-                                          progress=False, say=lambda message: None))
-
-
 def assert_same_rows(actual: pd.DataFrame, expected: pd.DataFrame) -> None:
     assert len(actual) == len(expected)
     pd.testing.assert_frame_equal(actual, expected, check_exact=True)
@@ -156,7 +149,8 @@ def test_a_new_run_refuses_an_existing_directory(reference, tmp_path):
         run_campaign(campaign, out_dir=tmp_path / "once")
 
 
-def test_a_cut_prompt_without_a_terminal_stops_cleanly_and_resumes_with_operator_done(tmp_path, monkeypatch, capsys):
+def test_a_cut_prompt_without_a_terminal_stops_cleanly_and_resumes_with_operator_done(reference, tmp_path, monkeypatch,
+                                                                                     capsys):
     """An unattended run (standard input closed) reaches the resonator cut: exit 2 with the
     action named, the drive at minimum, the steps before stored; once the plate is cut,
     `run --resume --operator-done` continues where no terminal is, and stores exactly the
@@ -165,7 +159,7 @@ def test_a_cut_prompt_without_a_terminal_stops_cleanly_and_resumes_with_operator
     from squeezebench.instruments import bench as bench_module
     from squeezebench.instruments.errors import OperatorUnavailable
 
-    expected = reference_rows(tmp_path / "reference")
+    _, expected, _ = reference   # the same campaign, uninterrupted
     folder = tmp_path / "unattended"
     folder.mkdir()
     campaign = small_campaign(folder)

@@ -156,7 +156,8 @@ def test_the_maps_report_section_draws_it_and_describes_every_column(mapped, tmp
 def test_the_maps_plate_solved_ahead_on_a_drawing_process_is_read_not_solved_again(mapped, tmp_path, monkeypatch):
     """`solve_ahead` hands the mapped plate's solve to a drawing process, which leaves it in
     the disk cache; the section then reads it (this process never solves an eigenproblem)
-    and says what it says when it solves the plate itself."""
+    and says what it says from this session's own solve of the plate (the map's run solved
+    it: solving it again here would only repeat that)."""
     from squeezebench.disk_cache import CACHE_VARIABLE
     from squeezebench.plates import plate_modes
     from squeezebench.report import drawing
@@ -164,8 +165,6 @@ def test_the_maps_plate_solved_ahead_on_a_drawing_process_is_read_not_solved_aga
     from squeezebench.report.section import ReportContext
 
     _, run_dir, _ = mapped
-    monkeypatch.setenv(CACHE_VARIABLE, "off")
-    plate_modes._CACHE.clear()
     solved_here = cartography_section(ReportContext(run=load_run(run_dir), out_dir=tmp_path)).body_html
     monkeypatch.setenv(CACHE_VARIABLE, str(tmp_path / "cache"))
     drawing._executor(1, fresh=True)   # drawing processes that see this cache

@@ -19,10 +19,14 @@ from squeezebench.protocols.accuracy_plan import AccuracyFloors, RunFloor
 Z95 = stats.norm.ppf(0.975)   # 1.95996: |N(0, sigma)| is below Z95 sigma 95 % of the time
 
 
-def coverage_rows(rel_errors: np.ndarray, rel_expanded_u: float, quantity: str, error_model: str = "world"
-                  ) -> pd.DataFrame:
-    """Coverage rows as `bench_errors.errors_on_bench` stores them: one value per bench."""
-    return pd.DataFrame({"error_model": error_model, "quantity": quantity, "bench_seed": np.arange(len(rel_errors)),
+def coverage_rows(rel_errors: np.ndarray, rel_expanded_u: float, quantity: str, error_model: str = "world",
+                  benches: int | None = None) -> pd.DataFrame:
+    """Coverage rows as `bench_errors.errors_on_bench` stores them: one value per bench, or
+    the values shared among `benches` benches, as a bench's stored points share it."""
+    seeds = np.arange(len(rel_errors))
+    if benches is not None:
+        seeds = seeds * benches // len(rel_errors)
+    return pd.DataFrame({"error_model": error_model, "quantity": quantity, "bench_seed": seeds,
                          "rel_error": rel_errors, "rel_expanded_u": rel_expanded_u,
                          "covered": np.abs(rel_errors) <= rel_expanded_u})
 
@@ -31,12 +35,14 @@ def test_normal_errors_under_a_rectangle_budget_over_cover_by_sqrt3_over_2():
     """Six specified errors, each budgeted as a rectangle at its limit L_i (u_i = L_i / sqrt 3,
     U = 1.96 u for their near-normal sum), drawn as the world model draws them (normal,
     sigma_i = L_i / 2): the sum's spread is sqrt(3) / 2 of the budget's u, so a U that
-    factor as wide covers 95 %."""
+    factor as wide covers 95 %. The 20,000 sums (the factor to 2 %) are 100 values on each of
+    200 benches: the bench bootstrap resamples benches, 20,000 of them cost it 100 times more."""
     rng = np.random.default_rng(3)
     limits = np.array([0.02, 0.01, 0.015, 0.005, 0.01, 0.03])
     errors = rng.normal(0.0, limits / 2.0, size=(20000, limits.size)).sum(axis=1)
     u = Z95 * math.sqrt(np.sum(limits**2) / 3.0)
-    table = coverage_table(coverage_rows(errors, u, "power_w"))
+    table = coverage_table(coverage_rows(errors, u, "power_w", benches=200))
+    assert table.loc[0, "benches"] == 200
     factor = shrink_factors(table)["power_w"]
     assert factor == pytest.approx(math.sqrt(3.0) / 2.0, rel=0.02)
     assert np.mean(np.abs(errors) <= factor * u) == pytest.approx(0.95, abs=0.002)   # still covers 95 %
@@ -48,10 +54,10 @@ def test_a_u_that_covers_95_percent_or_less_has_no_surplus():
     covered is no surplus."""
     rng = np.random.default_rng(4)
     errors = rng.normal(0.0, 0.01, 4000)
-    rows = pd.concat([coverage_rows(errors, Z95 * 0.01, "velocity_pp_mps"),
-                      coverage_rows(errors, 1.5 * 0.01, "q"),
-                      coverage_rows(errors, 3.0 * 0.01, "tan_theta", error_model="specified"),
-                      coverage_rows(errors, 3.0 * 0.01, "power_w")], ignore_index=True)
+    rows = pd.concat([coverage_rows(errors, Z95 * 0.01, "velocity_pp_mps", benches=200),
+                      coverage_rows(errors, 1.5 * 0.01, "q", benches=200),
+                      coverage_rows(errors, 3.0 * 0.01, "tan_theta", error_model="specified", benches=200),
+                      coverage_rows(errors, 3.0 * 0.01, "power_w", benches=200)], ignore_index=True)
     table = coverage_table(pd.concat([rows, coverage_rows(errors[:MIN_BENCHES - 1], 3.0 * 0.01, "amplitude_pp_m")]))
     factors = shrink_factors(table)
     assert set(factors) == {"power_w"}   # amplitude: all covered, but on too few benches to say

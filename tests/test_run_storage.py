@@ -267,12 +267,11 @@ def test_a_malformed_journal_entry_is_quarantined_not_obeyed(run):
     assert os.path.getsize(run_dir / "journal.jsonl") > 0
 
 
-def test_a_fixed_bench_lets_a_stopped_run_continue(tmp_path, capsys):
+def test_a_fixed_bench_lets_a_stopped_run_continue(completed, tmp_path, capsys):
     """A scene fault (the scope drops off the bus) stops the run; the operator removes it
     from the scene. Resume refuses the changed file unless told; told, it continues, the
     manifest keeps both versions and the journal says which steps used which."""
     from squeezebench.instruments.errors import ConnectionLost
-    from test_campaign_resume import reference_rows
     from test_protocols_support import noise_free_scene
 
     campaign = small_campaign(tmp_path, effects=[{"disconnect": {"at_message": 1200, "instrument": 2}}])
@@ -297,4 +296,4 @@ def test_a_fixed_bench_lets_a_stopped_run_continue(tmp_path, capsys):
     rows = read_measurements(run_dir)   # each row names the scene version that produced it
     assert set(rows["bench_input_sha256"]) == {v["sha256"] for v in versions}
     assert_frame_equal_rows(rows.drop(columns="bench_input_sha256"),
-                            reference_rows(tmp_path / "reference").drop(columns="bench_input_sha256"))
+                            read_measurements(completed[1]).drop(columns="bench_input_sha256"))   # uninterrupted

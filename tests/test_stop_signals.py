@@ -255,6 +255,7 @@ def test_a_stop_signal_at_any_moment_of_start_up_exits_130_without_a_traceback(t
         while not _entry_point_started(process.pid):
             assert time.monotonic() < deadline and process.poll() is None, \
                 "the command never took its stop signals over before it ended"
+            time.sleep(0.002)   # a spinning poll takes a core from the starting command
         time.sleep(rng.uniform(0.02, 0.4))
         burst = [sig, *(rng.choice(stops.STOP_SIGNALS) for _ in range(rng.randint(1, 9)))]
         for later in burst:   # a burst, as a shell's Ctrl-C repeated or a supervisor's TERM then HUP
