@@ -12,6 +12,7 @@ from squeezebench import paths
 from squeezebench.analysis.calibration import gain_weight
 from squeezebench.plates.specifications import SPECIFICATIONS
 from squeezebench.protocols.accuracy_plan import accuracy_floors
+from small_quick import HEADER, MEASURING_RUNS
 
 QUICK = paths.campaigns_dir() / "quick.yaml"
 
@@ -71,9 +72,16 @@ def test_the_deskew_calibration_lifts_the_delay_term_at_its_cost(floors, user_qu
 
 # -- the planner with the floor (protocols.planning) -------------------------------------------
 @pytest.fixture(scope="module")
-def relaxed_plan(user_quick):
+def relaxed_plan(tmp_path_factory):
+    """Planned and checked on quick's two kinds of measuring step at a few search points
+    (`small_quick` without its calibration, as a user may write it): the check's 8 benches
+    are most of the plan's time, and each runs the whole campaign. Its power p95 on those
+    benches (about 6.8 %) stays near the 8 % target, so an erring check still shows."""
     from squeezebench.protocols.planning import make_plan
-    return make_plan(user_quick, 0.08, repeats=2, check_benches=8)
+
+    campaign = tmp_path_factory.mktemp("user_small") / "small_quick.yaml"
+    campaign.write_text(HEADER + MEASURING_RUNS, encoding="utf-8")
+    return make_plan(campaign, 0.08, repeats=2, check_benches=8)
 
 
 def test_a_reachable_target_is_planned_and_checked_on_eight_erring_benches(relaxed_plan):
@@ -89,9 +97,9 @@ def test_a_reachable_target_is_planned_and_checked_on_eight_erring_benches(relax
     assert data["own_bench_time_s"] == pytest.approx(sum(plan.own_s.values()))
     assert data["check"]["benches"] == 8 and data["floors"]["below_floor"] == []
     # what the plan read or simulated: the settings' first round (all a target of 8 % needs)
-    # on 3 plates and operating points, the floors, the two runs' baseline and plan, the 8
-    # checked benches
-    assert data["cache"]["read"] + data["cache"]["simulated"] == 3 + 1 + 2 + 2 + 8
+    # on 2 plates and operating points (the detuning's, the one cut's), the floors, the two
+    # runs' baseline and plan, the 8 checked benches
+    assert data["cache"]["read"] + data["cache"]["simulated"] == 2 + 1 + 2 + 2 + 8
 
 
 def test_a_target_below_the_floor_is_said_with_its_dominant_term(user_quick):
