@@ -423,7 +423,7 @@ def _sum_of_records(signal: np.ndarray, sigma: float, averages: int, lsb: float 
         records = rng.standard_normal((count, signal.size))
         records *= sigma
         records += signal
-        np.clip(records, fx.ADC_MIN_DIV, fx.ADC_MAX_DIV, out=records)
+        _clip(records, out=records)
         if lsb is not None:
             records /= lsb
             np.round(records, out=records)
@@ -431,8 +431,8 @@ def _sum_of_records(signal: np.ndarray, sigma: float, averages: int, lsb: float 
     return total
 
 
-def _clip(divisions: np.ndarray) -> np.ndarray:
-    return np.clip(divisions, fx.ADC_MIN_DIV, fx.ADC_MAX_DIV)
+def _clip(divisions: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
+    return np.clip(divisions, fx.ADC_MIN_DIV, fx.ADC_MAX_DIV, out=out)
 
 
 def _quantise(divisions: np.ndarray, lsb_div: float | None) -> np.ndarray:
