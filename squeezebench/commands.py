@@ -332,7 +332,7 @@ def cmd_reproduce(args: argparse.Namespace) -> int:
         _clear_previous_reproduction(args, args.out)
     # The plates the campaign's maps and the report's predictions need no run: solved on the
     # report's drawing process meanwhile, the maps' first (the campaign waits for neither).
-    maps = _solve_maps_ahead(args.workers)
+    campaign_plates = _solve_campaign_plates_ahead(args.workers)
     plates = solve_ahead(args.workers)
     # The study reads only shipped scenes: its trials run on the workers while the campaign
     # runs here, from the campaign's first stored step (its run directory made) on.
@@ -345,7 +345,7 @@ def cmd_reproduce(args: argparse.Namespace) -> int:
         prepare(plates)   # the report's part that needs no run, here instead of waiting idle for the study
     except BaseException:   # a stop: neither the study nor the plates' process may outlive it
         study.cancel()
-        stop_beside(maps)
+        stop_beside(campaign_plates)
         stop_beside(plates)
         raise
     study.finish()
@@ -355,9 +355,9 @@ def cmd_reproduce(args: argparse.Namespace) -> int:
     return 0
 
 
-def _solve_maps_ahead(workers: int):
+def _solve_campaign_plates_ahead(workers: int):
     """The working modes the paper campaign's maps scan, solved on the report's drawing
-    process into the disk cache (`_solve_maps`): on this process they were the campaign's
+    process into the disk cache (`_solve_campaign_plates`): on this process they were the campaign's
     one plate solve (about 2 CPU-s), on its critical path once the study ends first. Then
     those of the plates it characterises, which the report predicts at its end, when this
     process is the last one working. None without the disk cache or a second worker."""
@@ -365,10 +365,10 @@ def _solve_maps_ahead(workers: int):
 
     from squeezebench.report.drawing import beside
 
-    return beside(workers, functools.partial(_solve_maps, paths.paper_campaign()))
+    return beside(workers, functools.partial(_solve_campaign_plates, paths.paper_campaign()))
 
 
-def _solve_maps(campaign: Path) -> None:
+def _solve_campaign_plates(campaign: Path) -> None:
     """On the drawing process: what `simbench.modeshape` solves for the campaign's maps, then
     for its characterised plates (`simbench.predicted.predict` solves the same)."""
     from squeezebench.protocols.campaign import characterised_scenes, mapped_scenes

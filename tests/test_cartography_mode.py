@@ -283,11 +283,11 @@ def test_crossings_are_counted_per_row_and_per_column():
 
 def test_the_paper_campaigns_map_plate_solved_ahead_is_read_by_the_bench(tmp_path, monkeypatch, large):
     """`reproduce` solves the working mode its map scans on another process before the
-    campaign reaches the map (`commands._solve_maps`): the bench's stage then reads it from
+    campaign reaches the map (`commands._solve_campaign_plates`): the bench's stage then reads it from
     the disk cache, solving nothing, and gets the same mode; so does the report's prediction
     of each plate the campaign characterises."""
     from squeezebench import paths
-    from squeezebench.commands import _solve_maps
+    from squeezebench.commands import _solve_campaign_plates
     from squeezebench.disk_cache import CACHE_VARIABLE
     from squeezebench.plates import plate_modes
     from squeezebench.protocols.campaign import mapped_scenes
@@ -296,7 +296,7 @@ def test_the_paper_campaigns_map_plate_solved_ahead_is_read_by_the_bench(tmp_pat
     assert mapped_scenes(paths.paper_campaign()) == [scenes_dir() / "large_plate.yaml"]
     monkeypatch.setenv(CACHE_VARIABLE, str(tmp_path))
     plate_modes._CACHE.clear()
-    _solve_maps(paths.paper_campaign())
+    _solve_campaign_plates(paths.paper_campaign())
     solved, k = working_mode(scene, state)
     plate_modes._CACHE.clear()   # another process: only the disk cache is shared
     monkeypatch.setattr(plate_modes, "_eigenpairs", lambda *a, **kw: pytest.fail("solved again"))

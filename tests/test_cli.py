@@ -309,7 +309,7 @@ def test_reproduce_stops_its_study_when_the_campaign_stops(tmp_path, monkeypatch
 
     monkeypatch.setattr(accuracy_study, "run_study", study)
     monkeypatch.setattr(campaign, "run_campaign", stopped_campaign)
-    monkeypatch.setattr(commands, "_solve_maps_ahead", lambda workers: maps)
+    monkeypatch.setattr(commands, "_solve_campaign_plates_ahead", lambda workers: maps)
     monkeypatch.setattr(run_report, "solve_ahead", lambda workers: ahead)
     monkeypatch.setattr(drawing, "stop_beside", stopped_beside.append)
     with pytest.raises(KeyboardInterrupt):
