@@ -1,0 +1,137 @@
+"""Fig. 2's Pt/P0 and the searches' resonance frequencies on a stored coverage study: why do
+they over-cover within specification? (issue 46; prints figures, not a test)
+
+Both are mostly the generator's frequency error, one +-20 ppm limit. For each value of the
+campaign (run, step) across the study's benches:
+
+1. The bench's drawn generator error, rebuilt from its bench seed through the simulator's own
+   effect (`world_coverage.drawn_terms`' approach), and the value's relative error fitted on
+   it: its sensitivity a (the generator's term is |a| times the limit, a rectangle), the
+   offset and the residual's spread (noise, the other instruments, the plate as drawn).
+2. The budget such a value would have were every term exactly right: the rectangle |a| 20 ppm
+   and the residual as a normal Type A term, with k by the budgets' own rule
+   (`Budget.coverage_factor`: the largest of the specified and the world's 95 % factors). The
+   stored U over that exact U says whether a term of the stored budget is mis-sized (1: none).
+3. The coverage expected of the stored U under the errors as they are (the fitted sensitivity,
+   offset and residual; the generator drawn on many benches as the study's error model draws
+   it), with the spread of a study of as many benches as the stored one: is the observed
+   coverage that, or sampling?
+4. What the k rule costs: the same exact budgets with the specified model's own k, their
+   expected coverage within specification and under the world's draw.
+
+Run: python benchmarks/generator_coverage.py STUDY_DIR [--benches 20000]
+(STUDY_DIR holds coverage/ and/or coverage_world/, e.g. OUT/study after `squeezebench study --out OUT`.)
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+from scipy.special import ndtr
+
+from squeezebench import paths
+from squeezebench.analysis.budgets import COVERAGE_PROBABILITY, SPECIFIED, WORLD, Budget, Term, budget_distribution
+from squeezebench.analysis.study import coverage_dir
+from squeezebench.plates.specifications import SPECIFICATIONS
+from squeezebench.protocols.variants import ERROR_MODELS
+from squeezebench.simbench import effects as fx
+from squeezebench.simbench.scene import load_scene
+
+QUANTITIES = ("power_ratio", "resonance_frequency_hz")
+GENERATOR = "generator_frequency_error"
+LIMIT_REL = SPECIFICATIONS["generator_frequency"].half_width
+
+
+def generator_errors(error_model: str, seeds) -> pd.Series:
+    """Each bench's drawn generator frequency error (relative), as the simulator draws it."""
+    scene = load_scene(paths.scenes_dir() / "one_column_1mm.yaml")
+    draw = ERROR_MODELS[error_model]
+    return pd.Series([fx.EFFECTS[GENERATOR](scene, draw=draw, bench_seed=int(seed)).values["frequency_rel"]
+                      for seed in seeds], index=pd.Index(seeds, name="bench_seed"), name="generator")
+
+
+def decomposed(study: pd.DataFrame, generator: pd.Series) -> pd.DataFrame:
+    """One row per value of the campaign: its sensitivity to the generator's error, offset,
+    residual spread, median stored U (relative), count, and the exact budget's U (both k)."""
+    x = study.join(generator, on="bench_seed")
+    benches = x["bench_seed"].nunique()
+    rows = []
+    for (run_name, step_id), value in x.groupby(["run_name", "step_id"]):
+        design = np.column_stack([value["generator"], np.ones(len(value))])
+        (slope, offset), *_ = np.linalg.lstsq(design, value["rel_error"].to_numpy(), rcond=None)
+        residual = float(np.std(value["rel_error"] - design @ (slope, offset), ddof=2))
+        exact = Budget("exact", "1", 1.0, (Term("generator", "B", abs(slope) * LIMIT_REL / np.sqrt(3.0), ""),
+                                           Term("residual", "A", residual, "")))
+        k_specified = budget_distribution(*exact._shape()).factor(COVERAGE_PROBABILITY)
+        rows.append({"run_name": run_name, "step_id": step_id, "weight": len(value) / benches,
+                     "sensitivity": slope, "offset": offset, "residual": residual,
+                     "stored_U": float(value["rel_expanded_u"].median()),
+                     "exact_U": exact.expanded_uncertainty, "k": exact.coverage_factor,
+                     "specified_U": k_specified * exact.std_uncertainty, "k_specified": k_specified,
+                     "observed": float(value["covered"].mean())})
+    return pd.DataFrame(rows)
+
+
+def bench_coverage(values: pd.DataFrame, u_column: str, generator: np.ndarray) -> np.ndarray:
+    """Each drawn bench's share of `values` whose U (`u_column`) covers its error: the
+    generator's term at the bench's draw, the offset, the residual integrated as a normal."""
+    share = np.zeros(len(generator))
+    for v in values.itertuples():
+        error = v.offset + v.sensitivity * generator
+        c, noise = getattr(v, u_column), max(v.residual, 1e-12)
+        share += v.weight * (ndtr((c - error) / noise) - ndtr((-c - error) / noise))
+    return share / values["weight"].sum()
+
+
+def study_range(per_bench: np.ndarray, benches: int, rng: np.random.Generator) -> tuple[float, float]:
+    """The 95 % range of a study of `benches` benches drawn from `per_bench`."""
+    studies = per_bench[rng.integers(0, len(per_bench), size=(20_000, benches))].mean(axis=1)
+    return tuple(np.percentile(studies, [2.5, 97.5]))
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("study_dir", type=Path)
+    parser.add_argument("--benches", type=int, default=20_000, help="drawn benches for the expectations")
+    args = parser.parse_args()
+    rng = np.random.default_rng(46)
+    drawn = {model: generator_errors(model, range(10_000_001, 10_000_001 + args.benches)).to_numpy()
+             for model in ERROR_MODELS}
+    for error_model in ERROR_MODELS:
+        files = sorted((args.study_dir / coverage_dir(error_model)).glob("bench_*.parquet"))
+        if not files:
+            continue
+        study = pd.concat([pd.read_parquet(f) for f in files], ignore_index=True)
+        seeds = sorted(study["bench_seed"].unique())
+        generator = generator_errors(error_model, seeds)
+        print(f"\n== {error_model}: {len(seeds)} benches")
+        for quantity in QUANTITIES:
+            values = decomposed(study[study["quantity"] == quantity], generator)
+            observed = float(study.loc[study["quantity"] == quantity, "covered"].mean())
+            expected = bench_coverage(values, "stored_U", drawn[error_model])
+            low, high = study_range(expected, len(seeds), rng)
+            ratio = values["stored_U"] / values["exact_U"]
+            print(f"{quantity}: observed {observed:.2%}; expected of the stored U {expected.mean():.2%}, a "
+                  f"{len(seeds)}-bench study within {low:.1%}-{high:.1%}")
+            print(f"    stored U / exact budget's U (same k rule): median {ratio.median():.3f}, "
+                  f"range {ratio.min():.3f}-{ratio.max():.3f}; generator's share of the exact variance "
+                  f"{np.median((values['sensitivity'] * LIMIT_REL) ** 2 / 3 / ((values['sensitivity'] * LIMIT_REL) ** 2 / 3 + values['residual'] ** 2)):.0%} (median); "
+                  f"k {values['k'].median():.3f} where the specified model alone takes {values['k_specified'].median():.3f}")
+            if error_model == SPECIFIED:
+                exact = {model: bench_coverage(values, "exact_U", drawn[model]).mean() for model in ERROR_MODELS}
+                alone = {model: bench_coverage(values, "specified_U", drawn[model]).mean() for model in ERROR_MODELS}
+                print(f"    exact budgets with the k rule: {exact[SPECIFIED]:.2%} within specification, "
+                      f"{exact[WORLD]:.2%} as the world errs; with the specified k alone: "
+                      f"{alone[SPECIFIED]:.2%} and {alone[WORLD]:.2%}")
+                worst = values.assign(ratio=ratio).sort_values("observed", ascending=False)
+                print(worst[["run_name", "step_id", "sensitivity", "offset", "residual", "stored_U", "exact_U",
+                             "observed"]].to_string(index=False, float_format=lambda f: f"{f:.4g}"))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
