@@ -18,8 +18,11 @@ campaign (run, step) across the study's benches:
    coverage that, or sampling?
 4. What the k rule costs: the same exact budgets with the specified model's own k, their
    expected coverage within specification and under the world's draw.
+5. With --budgets-of-bench SEED, term by term: the campaign run once on that specified bench
+   (some 10 CPU-s) and each value's stored budget, its generator term against the fitted
+   sensitivity's, its other terms against the residual.
 
-Run: python benchmarks/generator_coverage.py STUDY_DIR [--benches 20000]
+Run: python benchmarks/generator_coverage.py STUDY_DIR [--benches 20000] [--budgets-of-bench 1]
 (STUDY_DIR holds coverage/ and/or coverage_world/, e.g. OUT/study after `squeezebench study --out OUT`.)
 """
 
@@ -27,6 +30,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+import tempfile
 from pathlib import Path
 
 import numpy as np
@@ -34,10 +38,15 @@ import pandas as pd
 from scipy.special import ndtr
 
 from squeezebench import paths
+from squeezebench.analysis import uncertainty
 from squeezebench.analysis.budgets import COVERAGE_PROBABILITY, SPECIFIED, WORLD, Budget, Term, budget_distribution
+from squeezebench.analysis.rundata import load_run
 from squeezebench.analysis.study import coverage_dir
+from squeezebench.analysis.tables import protocol_points, with_scope_fallback
 from squeezebench.plates.specifications import SPECIFICATIONS
-from squeezebench.protocols.variants import ERROR_MODELS
+from squeezebench.protocols.campaign import run_campaign
+from squeezebench.protocols.variants import (ERROR_MODELS, campaign_with_effects, plate_draw_effects,
+                                             systematic_effects)
 from squeezebench.simbench import effects as fx
 from squeezebench.simbench.scene import load_scene
 
@@ -93,11 +102,39 @@ def study_range(per_bench: np.ndarray, benches: int, rng: np.random.Generator) -
     return tuple(np.percentile(studies, [2.5, 97.5]))
 
 
+def stored_budgets(seed: int) -> pd.DataFrame:
+    """The paper campaign on specified bench `seed` (its errors, plates and noise as the
+    study draws them): each Pt/P0 and search frequency's budget, relative to its value, split
+    into the generator's term and the rest, by (run, step) as the study stores them."""
+    with tempfile.TemporaryDirectory(prefix="generator-coverage-") as tmp:
+        erring = campaign_with_effects(paths.paper_campaign(), Path(tmp) / "erring",
+                                       systematic_effects(seed) + plate_draw_effects(seed), noise_seed=seed)
+        run = load_run(run_campaign(erring, out_dir=Path(tmp) / "run", progress=False, durable=False))
+        rows = []
+        points = with_scope_fallback(protocol_points(run, "detuning"))
+        for _, level in points.groupby(["run_name", "velocity_level_pp_mps"]):
+            at_resonance = level[level["detuning_phase"] == "resonance"]
+            for _, target in level[level["detuning_phase"].isin(("regained", "stress"))].groupby("target_velocity_ratio"):
+                rows.append(("power_ratio", target["run_name"].iat[0], target["step_id"].iat[0],
+                             uncertainty.power_ratio_budget(target, at_resonance)))
+        rows += [("resonance_frequency_hz", run_name, step_id, budget)
+                 for run_name, step_id, budget in uncertainty.run_search_budgets(run)]
+    return pd.DataFrame([{"quantity": quantity, "run_name": run_name, "step_id": step_id,
+                          "claimed_generator": next(t.std_uncertainty for t in b.terms if t.name == "generator frequency")
+                          / abs(b.value),
+                          "claimed_rest": np.sqrt(sum(t.std_uncertainty ** 2 for t in b.terms
+                                                      if t.name != "generator frequency")) / abs(b.value),
+                          "claimed_k": b.coverage_factor}
+                         for quantity, run_name, step_id, b in rows])
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("study_dir", type=Path)
     parser.add_argument("--benches", type=int, default=20_000, help="drawn benches for the expectations")
+    parser.add_argument("--budgets-of-bench", type=int, help="compare the budgets of this specified bench term by term")
     args = parser.parse_args()
+    claimed = stored_budgets(args.budgets_of_bench) if args.budgets_of_bench else None
     rng = np.random.default_rng(46)
     drawn = {model: generator_errors(model, range(10_000_001, 10_000_001 + args.benches)).to_numpy()
              for model in ERROR_MODELS}
@@ -117,19 +154,31 @@ def main() -> int:
             ratio = values["stored_U"] / values["exact_U"]
             print(f"{quantity}: observed {observed:.2%}; expected of the stored U {expected.mean():.2%}, a "
                   f"{len(seeds)}-bench study within {low:.1%}-{high:.1%}")
+            generator_variance = (values["sensitivity"] * LIMIT_REL) ** 2 / 3.0
+            share = generator_variance / (generator_variance + values["residual"] ** 2)
             print(f"    stored U / exact budget's U (same k rule): median {ratio.median():.3f}, "
                   f"range {ratio.min():.3f}-{ratio.max():.3f}; generator's share of the exact variance "
-                  f"{np.median((values['sensitivity'] * LIMIT_REL) ** 2 / 3 / ((values['sensitivity'] * LIMIT_REL) ** 2 / 3 + values['residual'] ** 2)):.0%} (median); "
-                  f"k {values['k'].median():.3f} where the specified model alone takes {values['k_specified'].median():.3f}")
+                  f"{share.median():.0%} (median); k {values['k'].median():.3f} where the specified model alone "
+                  f"takes {values['k_specified'].median():.3f}")
             if error_model == SPECIFIED:
                 exact = {model: bench_coverage(values, "exact_U", drawn[model]).mean() for model in ERROR_MODELS}
                 alone = {model: bench_coverage(values, "specified_U", drawn[model]).mean() for model in ERROR_MODELS}
                 print(f"    exact budgets with the k rule: {exact[SPECIFIED]:.2%} within specification, "
                       f"{exact[WORLD]:.2%} as the world errs; with the specified k alone: "
                       f"{alone[SPECIFIED]:.2%} and {alone[WORLD]:.2%}")
-                worst = values.assign(ratio=ratio).sort_values("observed", ascending=False)
-                print(worst[["run_name", "step_id", "sensitivity", "offset", "residual", "stored_U", "exact_U",
-                             "observed"]].to_string(index=False, float_format=lambda f: f"{f:.4g}"))
+                table = values.assign(stored_over_exact=ratio,
+                                      offset_z=values["offset"] / (values["residual"] / np.sqrt(values["weight"] * len(seeds))))
+                columns = ["run_name", "step_id", "sensitivity", "offset", "offset_z", "residual", "stored_over_exact",
+                           "observed"]
+                if claimed is not None:
+                    table = table.merge(claimed[claimed["quantity"] == quantity], on=["run_name", "step_id"], how="left")
+                    # the generator's term over the one its fitted sensitivity gives; the rest over the residual
+                    table["generator_claimed_over_fitted"] = table["claimed_generator"] / (
+                        table["sensitivity"].abs() * LIMIT_REL / np.sqrt(3.0))
+                    table["rest_claimed_over_residual"] = table["claimed_rest"] / table["residual"]
+                    columns += ["generator_claimed_over_fitted", "rest_claimed_over_residual", "claimed_k"]
+                print(table.sort_values("observed", ascending=False)[columns].to_string(
+                    index=False, float_format=lambda f: f"{f:.4g}"))
     return 0
 
 
