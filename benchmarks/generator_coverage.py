@@ -18,6 +18,9 @@ campaign (run, step) across the study's benches:
    coverage that, or sampling?
 4. What the k rule costs: the same exact budgets with the specified model's own k, their
    expected coverage within specification and under the world's draw.
+   And how often a study of 40 or 120 such benches has its bench-bootstrap interval
+   (`study.bench_bootstrap_interval`) reach 95 % (a bench's values covered binomially at its
+   expected share: they share its generator error, their residuals taken as independent).
 5. With --budgets-of-bench SEED, term by term: the campaign run once on that specified bench
    (some 10 CPU-s) and each value's stored budget, its generator term against the fitted
    sensitivity's, its other terms against the residual.
@@ -41,7 +44,7 @@ from squeezebench import paths
 from squeezebench.analysis import uncertainty
 from squeezebench.analysis.budgets import COVERAGE_PROBABILITY, SPECIFIED, WORLD, Budget, Term, budget_distribution
 from squeezebench.analysis.rundata import load_run
-from squeezebench.analysis.study import coverage_dir
+from squeezebench.analysis.study import bench_bootstrap_interval, coverage_dir
 from squeezebench.analysis.tables import protocol_points, with_scope_fallback
 from squeezebench.plates.specifications import SPECIFICATIONS
 from squeezebench.protocols.campaign import run_campaign
@@ -100,6 +103,19 @@ def study_range(per_bench: np.ndarray, benches: int, rng: np.random.Generator) -
     """The 95 % range of a study of `benches` benches drawn from `per_bench`."""
     studies = per_bench[rng.integers(0, len(per_bench), size=(20_000, benches))].mean(axis=1)
     return tuple(np.percentile(studies, [2.5, 97.5]))
+
+
+def interval_reaches_95(per_bench: np.ndarray, values: int, benches: int, rng: np.random.Generator,
+                        studies: int = 400) -> float:
+    """The share of studies of `benches` benches drawn from `per_bench` (`values` values
+    each) whose bench-bootstrap interval holds 95 %."""
+    reached = 0
+    for _ in range(studies):
+        covered = rng.binomial(values, per_bench[rng.integers(0, len(per_bench), size=benches)])
+        low, high = bench_bootstrap_interval(covered, np.full(benches, values), draws=1000,
+                                             seed=int(rng.integers(2**31)))
+        reached += low <= COVERAGE_PROBABILITY <= high
+    return reached / studies
 
 
 def stored_budgets(seed: int) -> pd.DataFrame:
@@ -161,6 +177,10 @@ def main() -> int:
                   f"{share.median():.0%} (median); k {values['k'].median():.3f} where the specified model alone "
                   f"takes {values['k_specified'].median():.3f}")
             if error_model == SPECIFIED:
+                n = int(round(values["weight"].sum()))
+                print(f"    a study's bench-bootstrap interval reaches 95 %: on 40 benches "
+                      f"{interval_reaches_95(expected, n, 40, rng):.0%} of the time, on 120 "
+                      f"{interval_reaches_95(expected, n, 120, rng):.0%}")
                 exact = {model: bench_coverage(values, "exact_U", drawn[model]).mean() for model in ERROR_MODELS}
                 alone = {model: bench_coverage(values, "specified_U", drawn[model]).mean() for model in ERROR_MODELS}
                 print(f"    exact budgets with the k rule: {exact[SPECIFIED]:.2%} within specification, "
