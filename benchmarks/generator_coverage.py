@@ -25,7 +25,11 @@ campaign (run, step) across the study's benches:
    (some 10 CPU-s) and each value's stored budget, its generator term against the fitted
    sensitivity's, its other terms against the residual.
 
-Run: python benchmarks/generator_coverage.py STUDY_DIR [--benches 20000] [--budgets-of-bench 1]
+6. With --clean-bench SEED, where Pt/P0's offsets come from: the campaign run once on that
+   bench's plates with no instrument error drawn (its noise its own), each Fig. 2 point's
+   power and velocity against the truth, by run, phase and target ratio.
+
+Run: python benchmarks/generator_coverage.py STUDY_DIR [--benches 20000] [--budgets-of-bench 1] [--clean-bench 1]
 (STUDY_DIR holds coverage/ and/or coverage_world/, e.g. OUT/study after `squeezebench study --out OUT`.)
 """
 
@@ -47,6 +51,7 @@ from squeezebench.analysis.rundata import load_run
 from squeezebench.analysis.study import bench_bootstrap_interval, coverage_dir
 from squeezebench.analysis.tables import protocol_points, with_scope_fallback
 from squeezebench.plates.specifications import SPECIFICATIONS
+from squeezebench.protocols.bench_errors import _truths
 from squeezebench.protocols.campaign import run_campaign
 from squeezebench.protocols.variants import (ERROR_MODELS, campaign_with_effects, plate_draw_effects,
                                              systematic_effects)
@@ -144,11 +149,33 @@ def stored_budgets(seed: int) -> pd.DataFrame:
                          for quantity, run_name, step_id, b in rows])
 
 
+def clean_bench_errors(seed: int) -> pd.DataFrame:
+    """Fig. 2's points read on bench `seed`'s plates without any instrument error: their
+    power's and velocity's mean relative error against the truth (`bench_errors`' own), and
+    their reactive to real power, by run, phase and target ratio."""
+    with tempfile.TemporaryDirectory(prefix="generator-coverage-clean-") as tmp:
+        plates = plate_draw_effects(seed)
+        clean = campaign_with_effects(paths.paper_campaign(), Path(tmp) / "clean", plates, noise_seed=seed)
+        campaign_with_effects(paths.paper_campaign(), Path(tmp) / "plain", plates)
+        run = load_run(run_campaign(clean, out_dir=Path(tmp) / "run", progress=False, durable=False))
+        points = uncertainty.run_uncertainties(run).points
+        points = points[points["protocol"] == "detuning"]
+        truths = _truths(points, Path(tmp) / "plain")
+    errors = points.assign(
+        power_error=points["power_w"] / [truths[i]["power_w"] for i in points.index] - 1.0,
+        velocity_error=points["velocity_pp_mps"] / [truths[i]["velocity_pp_mps"] for i in points.index] - 1.0,
+        reactive_over_real=points["reactive_power_var"] / points["power_w"],
+        power_u_rel=points["power_w_u"] / points["power_w"])
+    return errors.groupby(["run_name", "detuning_phase", "target_velocity_ratio"])[
+        ["power_error", "velocity_error", "reactive_over_real", "power_u_rel"]].mean().reset_index()
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("study_dir", type=Path)
     parser.add_argument("--benches", type=int, default=20_000, help="drawn benches for the expectations")
     parser.add_argument("--budgets-of-bench", type=int, help="compare the budgets of this specified bench term by term")
+    parser.add_argument("--clean-bench", type=int, help="read Fig. 2 on this bench's plates with no instrument error")
     args = parser.parse_args()
     claimed = stored_budgets(args.budgets_of_bench) if args.budgets_of_bench else None
     rng = np.random.default_rng(46)
@@ -199,6 +226,9 @@ def main() -> int:
                     columns += ["generator_claimed_over_fitted", "rest_claimed_over_residual", "claimed_k"]
                 print(table.sort_values("observed", ascending=False)[columns].to_string(
                     index=False, float_format=lambda f: f"{f:.4g}"))
+    if args.clean_bench:
+        print(f"\n== Fig. 2 on bench {args.clean_bench}'s plates, no instrument error: mean relative errors")
+        print(clean_bench_errors(args.clean_bench).to_string(index=False, float_format=lambda f: f"{f:.3g}"))
     return 0
 
 
