@@ -174,7 +174,8 @@ def test_the_drive_voltage_only_scales_the_responses(frame):
     for row in frame.itertuples():
         assert row.predicted_velocity_pp_mps == pytest.approx(
             per_volt.loc[row.item, "velocity_pp_mps_per_vpp"] * row.voltage_vpp)
-        assert row.predicted_power_w == pytest.approx(per_volt.loc[row.item, "power_w_per_vpp2"] * row.voltage_vpp**2)
+        assert row.predicted_mechanical_power_w == pytest.approx(
+            per_volt.loc[row.item, "power_w_per_vpp2"] * row.voltage_vpp**2)
 
 
 def test_placement_is_in_the_edge_plates_u_and_not_in_the_centred_ones():
