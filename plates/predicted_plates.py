@@ -130,6 +130,8 @@ def response_relative_u(thickness_m: float) -> dict[str, float]:
     return {"velocity_pp_mps": 2 * math.hypot(u["d31_c_per_n"], u_q, u_omega_mass),
             "amplitude_pp_m": 2 * math.hypot(u["d31_c_per_n"], u_q, u_omega2_mass),
             "power_w": 2 * math.hypot(2 * u["d31_c_per_n"], u_q, u_omega_mass),
+            # at a given velocity P = w M v0^2 / (2 q): the force factor (d31) drops out
+            "power_at_velocity_w": 2 * math.hypot(u_q, u_omega_mass),
             # tan theta' inverted through Eqs. 27 and 25 goes as P / (A f) ~ F: q, M and w cancel
             "tan_theta": 2 * u["d31_c_per_n"]}
 
@@ -326,6 +328,7 @@ def _predictions() -> pd.DataFrame:
                     "velocity_u_rel": 2 * math.hypot(base["velocity_pp_mps"] / 2, u_drive),
                     "power_w_per_vpp2": response["power_w_per_vpp2"],
                     "power_u_rel": 2 * math.hypot(base["power_w"] / 2, 2 * u_drive),
+                    "power_at_velocity_u_rel": 2 * math.hypot(base["power_at_velocity_w"] / 2, u_place["modal_mass_kg"]),
                     "damping_q": damping.mechanical_q(terms),
                     **{f"loss_{name}": value for name, value in terms.items()}})
     return pd.DataFrame(out)
@@ -380,7 +383,13 @@ def _at_printed_drive() -> pd.DataFrame:
                      # the dielectric term's own tolerance (tan delta) is left out: it is under 1 % of the power
                      "power_u_tolerances_rel": row["power_u_rel"] * mechanical / (mechanical + dielectric),
                      "printed_power_w": printed["printed_power_w"]})
-    return pd.DataFrame(rows)
+    frame = pd.DataFrame(rows)
+    velocity = [printed_velocity_pp_mps(row.table, row.item, row.predicted_frequency_hz) for row in frame.itertuples()]
+    frame["predicted_power_at_printed_velocity_w"] = (
+        frame["predicted_mechanical_power_w"] * (velocity / frame["predicted_velocity_pp_mps"]) ** 2
+        + frame["predicted_dielectric_power_w"])
+    frame["power_at_velocity_u_tolerances_rel"] = _predictions()["power_at_velocity_u_rel"].to_numpy()
+    return frame
 
 
 #: The build the drive's model-form term is sized on (`drive_model_form`); the others judge it
@@ -451,9 +460,13 @@ def predictions(fit_on: str = DRIVE_FIT_ON) -> pd.DataFrame:
     velocity and input power (mechanical with the one shared `MECHANICAL_Q`, plus dielectric)
     at resonance at the printed drive voltage, each with U (k = 2): the stated tolerances'
     (placement and bond included) and the drive's model-form term sized on the build `fit_on`
-    (`drive_model_form`) in quadrature. The model is solved once per process from geometry and
-    the stated modes (`_predictions`); printed values set beside it, the drive voltage scales it,
-    and only the `fit_on` build's printed velocity and power size the model-form term."""
+    (`drive_model_form`) in quadrature. And the power the plate takes at its printed velocity
+    (the power a lab needs for the amplitude it wants, Eq. 28's reading: w M v0^2 / (2 q) plus
+    the dielectric loss at the printed drive), whose U has no force factor in it: the Q spread,
+    w M and placement's tolerances and the term's Q part. The model is solved once per process
+    from geometry and the stated modes (`_predictions`); printed values set beside it, the drive
+    voltage (and for the last, the printed velocity) scales it, and only the `fit_on` build's
+    printed velocity and power size the model-form term."""
     frame = _at_printed_drive()
     form = drive_model_form(fit_on)
     velocity_rel = np.hypot(frame.pop("velocity_u_tolerances_rel"), log_term_expanded_rel(form["u_velocity_ln"]))
@@ -461,13 +474,16 @@ def predictions(fit_on: str = DRIVE_FIT_ON) -> pd.DataFrame:
     frame.insert(frame.columns.get_loc("printed_velocity_pp_mps"), "predicted_velocity_u_pp_mps",
                  frame["predicted_velocity_pp_mps"] * velocity_rel)
     frame.insert(frame.columns.get_loc("printed_power_w"), "predicted_power_u_w", frame["predicted_power_w"] * power_rel)
+    at_velocity_rel = np.hypot(frame.pop("power_at_velocity_u_tolerances_rel"), log_term_expanded_rel(form["u_q_ln"]))
+    frame["predicted_power_at_printed_velocity_u_w"] = frame["predicted_power_at_printed_velocity_w"] * at_velocity_rel
     return frame
 
 
 def drive_cross_check() -> pd.DataFrame:
     """The drive's model-form term sized on each build in turn (`drive_model_form`) and judged on
     every build: per (fitted build, judged build) the term's size, and how many of the judged
-    build's printed velocities and powers the predictions' U then holds (`role` "fitted" where
+    build's printed velocities and powers (at the printed voltage, and at the printed velocity)
+    the predictions' U then holds (`role` "fitted" where
     the two builds are one: an in-sample figure, not a test)."""
     rows = []
     for fit_on in DRIVE_BUILDS:
@@ -480,7 +496,9 @@ def drive_cross_check() -> pd.DataFrame:
                    "power_u_model_form_rel": log_term_expanded_rel(form["u_power_ln"])}
             for name, value, u, printed in (("velocity", "predicted_velocity_pp_mps", "predicted_velocity_u_pp_mps",
                                              "printed_velocity_pp_mps"),
-                                            ("power", "predicted_power_w", "predicted_power_u_w", "printed_power_w")):
+                                            ("power", "predicted_power_w", "predicted_power_u_w", "printed_power_w"),
+                                            ("power_at_velocity", "predicted_power_at_printed_velocity_w",
+                                             "predicted_power_at_printed_velocity_u_w", "printed_power_w")):
                 scored = part[np.isfinite(part[printed])]
                 ratio = (scored[value] - scored[printed]).abs() / scored[u]
                 row[f"{name}_covered"] = int((ratio <= 1).sum())

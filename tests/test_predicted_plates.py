@@ -327,7 +327,8 @@ def test_the_drive_term_fitted_on_table_3_is_judged_on_the_other_builds():
 
 def test_the_u_of_a_held_out_build_does_not_read_its_own_printed_values(monkeypatch):
     """Table 4's and the large plate's printed velocities and powers moved: with the term sized on
-    Table 3, no predicted value or U moves (only their own printed columns do)."""
+    Table 3, no predicted value or U moves (only their own printed columns do, and the power at
+    the printed velocity, which that velocity sets as the printed voltage sets the others)."""
     reference = predicted_plates.predictions()
     original = predicted_plates.paper_value
 
@@ -338,6 +339,26 @@ def test_the_u_of_a_held_out_build_does_not_read_its_own_printed_values(monkeypa
 
     monkeypatch.setattr(predicted_plates, "paper_value", moved)
     frame = predicted_plates.predictions()
-    predicted = [c for c in frame.columns if c.startswith("predicted_")]
+    predicted = [c for c in frame.columns if c.startswith("predicted_") and "at_printed_velocity" not in c]
     pd.testing.assert_frame_equal(frame[predicted], reference[predicted])
     assert not frame["printed_power_w"].equals(reference["printed_power_w"])
+
+
+def test_the_power_at_the_printed_velocity_is_the_modal_resistances_and_carries_no_force_factor(frame):
+    """P = (w M / q) v0^2 / 2 + the dielectric loss (v0 = v_pp / 2; the large plate's 1 um read as
+    pp), and its U has no d31 or drive term in it: the Q spread, w M and placement, and the
+    drive term's Q part."""
+    model = predicted_plates._predictions().set_index("item")
+    form = predicted_plates.drive_model_form()
+    for row in frame.itertuples():
+        v0 = predicted_plates.printed_velocity_pp_mps(row.table, row.item, row.predicted_frequency_hz) / 2
+        resistance = 2 * math.pi * row.predicted_frequency_hz * model.loc[row.item, "modal_mass_g"] * 1e-3 / 310.0
+        assert row.predicted_power_at_printed_velocity_w == pytest.approx(
+            resistance * v0**2 / 2 + row.predicted_dielectric_power_w)
+        rel = row.predicted_power_at_printed_velocity_u_w / row.predicted_power_at_printed_velocity_w
+        assert rel == pytest.approx(math.hypot(model.loc[row.item, "power_at_velocity_u_rel"],
+                                               math.expm1(2 * form["u_q_ln"])))
+    large = frame.set_index("item").loc["large_plate"]
+    assert large.predicted_power_at_printed_velocity_w == pytest.approx(
+        2 * math.pi * large.predicted_frequency_hz * model.loc["large_plate", "modal_mass_g"] * 1e-3 / 310.0
+        * (math.pi * large.predicted_frequency_hz * 1e-6) ** 2 / 2 + large.predicted_dielectric_power_w)
