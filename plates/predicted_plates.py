@@ -454,6 +454,16 @@ def log_term_expanded_rel(u_ln: float, k: float = 2.0) -> float:
     return math.expm1(k * u_ln)
 
 
+def drive_term_rel(fit_on: str = DRIVE_FIT_ON) -> dict[str, float]:
+    """The drive's model-form term sized on `fit_on` (`drive_model_form`) as relative expanded
+    uncertainties (k = 2, `log_term_expanded_rel`) of a response at a given voltage going as
+    A Q (velocity, amplitude), as A^2 Q (mechanical power), and of one going as 1 / Q (the power
+    at a given velocity)."""
+    form = drive_model_form(fit_on)
+    return {"velocity": log_term_expanded_rel(form["u_velocity_ln"]), "power": log_term_expanded_rel(form["u_power_ln"]),
+            "power_at_velocity": log_term_expanded_rel(form["u_q_ln"])}
+
+
 def predictions(fit_on: str = DRIVE_FIT_ON) -> pd.DataFrame:
     """Predicted beside printed for Tables 3-4 and the large plate: frequency (and its U:
     sheet, alloy, bond and placement), deviation, interior antinodes, nodal-line spacing, and
@@ -468,13 +478,13 @@ def predictions(fit_on: str = DRIVE_FIT_ON) -> pd.DataFrame:
     voltage (and for the last, the printed velocity) scales it, and only the `fit_on` build's
     printed velocity and power size the model-form term."""
     frame = _at_printed_drive()
-    form = drive_model_form(fit_on)
-    velocity_rel = np.hypot(frame.pop("velocity_u_tolerances_rel"), log_term_expanded_rel(form["u_velocity_ln"]))
-    power_rel = np.hypot(frame.pop("power_u_tolerances_rel"), log_term_expanded_rel(form["u_power_ln"]))
+    term = drive_term_rel(fit_on)
+    velocity_rel = np.hypot(frame.pop("velocity_u_tolerances_rel"), term["velocity"])
+    power_rel = np.hypot(frame.pop("power_u_tolerances_rel"), term["power"])
     frame.insert(frame.columns.get_loc("printed_velocity_pp_mps"), "predicted_velocity_u_pp_mps",
                  frame["predicted_velocity_pp_mps"] * velocity_rel)
     frame.insert(frame.columns.get_loc("printed_power_w"), "predicted_power_u_w", frame["predicted_power_w"] * power_rel)
-    at_velocity_rel = np.hypot(frame.pop("power_at_velocity_u_tolerances_rel"), log_term_expanded_rel(form["u_q_ln"]))
+    at_velocity_rel = np.hypot(frame.pop("power_at_velocity_u_tolerances_rel"), term["power_at_velocity"])
     frame["predicted_power_at_printed_velocity_u_w"] = frame["predicted_power_at_printed_velocity_w"] * at_velocity_rel
     return frame
 
@@ -520,8 +530,9 @@ PREDICTED_QUANTITIES = {
 def tidy(table: str) -> pd.DataFrame:
     """One row per (item, quantity) of the paper's `table` ("Table 3", "Table 4") the model
     predicts: predicted_value and predicted_expanded_uncertainty (k = 2, NaN for a count). Table 4's amplitude is
-    the predicted velocity over w."""
+    the predicted velocity over w, its U the velocity's drive term with its own tolerances."""
     frame = predictions().merge(_predictions()[["item", "drive_u_rel"]], on="item")
+    term = drive_term_rel()
     rows = []
     for row in frame[frame["table"] == table].to_dict("records"):
         for quantity, (value, u) in PREDICTED_QUANTITIES.items():
@@ -530,23 +541,31 @@ def tidy(table: str) -> pd.DataFrame:
         amplitude = row["predicted_velocity_pp_mps"] / (2 * math.pi * row["predicted_frequency_hz"])
         base = response_relative_u(row["resonator_thickness_mm"] * MM)["amplitude_pp_m"]
         rows.append({"item": row["item"], "quantity": "amplitude_pp_m", "predicted_value": amplitude,
-                     "predicted_expanded_uncertainty": amplitude * math.hypot(base, row["drive_u_rel"])})
+                     "predicted_expanded_uncertainty": amplitude * math.hypot(base, row["drive_u_rel"], term["velocity"])})
     return pd.DataFrame(rows, columns=["item", "quantity", "predicted_value", "predicted_expanded_uncertainty"])
 
 
 def large_plate_response() -> dict[str, float]:
     """The large plate at its predicted working mode, per volt: amplitude pp per Vpp at its
     centre and power per Vpp^2 (both linear in the drive: Eqs. 25 and 27 are, and so is the
-    plate), each with its relative U (k = 2, the placement and bond terms included), and the
-    frequency; what Figs. 8 and 9 and Table 5 show beside the measured lines."""
+    plate), each with its relative U (k = 2, the placement and bond terms and the drive's
+    model-form term, `drive_term_rel`, included), and the frequency; what Figs. 8 and 9 and
+    Table 5 show beside the measured lines. The power is the input: mechanical plus the
+    powered piezos' dielectric loss (as `predictions`)."""
+    from squeezebench.plates import damping
+
     row = _predictions().set_index("item").loc["large_plate"]
     u = response_relative_u(row["resonator_thickness_mm"] * MM)
+    term = drive_term_rel()
     omega = 2 * math.pi * row["predicted_frequency_hz"]
+    mechanical = float(row["power_w_per_vpp2"])
+    dielectric = damping.dielectric_power_w(row["predicted_frequency_hz"], row["clamped_capacitance_f"], 1.0,
+                                            plate_modes.NCE41.tan_delta)
     return {"frequency_hz": float(row["predicted_frequency_hz"]),
             "amplitude_pp_m_per_vpp": float(row["velocity_pp_mps_per_vpp"] / omega),
-            "amplitude_rel_U": math.hypot(u["amplitude_pp_m"], row["drive_u_rel"]),
-            "power_w_per_vpp2": float(row["power_w_per_vpp2"]),
-            "power_rel_U": float(row["power_u_rel"])}
+            "amplitude_rel_U": math.hypot(u["amplitude_pp_m"], row["drive_u_rel"], term["velocity"]),
+            "power_w_per_vpp2": mechanical + dielectric,
+            "power_rel_U": math.hypot(float(row["power_u_rel"]) * mechanical / (mechanical + dielectric), term["power"])}
 
 
 def loss_budget() -> pd.DataFrame:
