@@ -242,10 +242,14 @@ COLUMNS: dict[str, tuple[str, str]] = {
     "predicted_half_wavelength_mm": ("mm", "mean spacing of the predicted mode's interior nodal lines"),
     "printed_half_wavelength_mm": ("mm", "half-wavelength stated in the paper (empty: not stated)"),
     "predicted_velocity_pp_mps": ("m/s pp", "velocity at the plate centre at resonance at the printed voltage, predicted (shared q_mech)"),
-    "predicted_velocity_u_pp_mps": ("m/s pp", "expanded uncertainty (k = 2) of the predicted velocity: d31, damping spread, material and thickness tolerances"),
+    "predicted_velocity_u_pp_mps": ("m/s pp", "expanded uncertainty (k = 2) of the predicted velocity: d31, damping spread, material, thickness, bond and placement tolerances, and the drive's model-form term (force factor and Q) sized on one build (plates.predicted_plates.drive_model_form)"),
     "printed_velocity_pp_mps": ("m/s pp", "velocity printed in the paper (empty: not printed)"),
-    "predicted_power_w": ("W", "power at resonance at the printed voltage, predicted (mechanical loss only)"),
-    "predicted_power_u_w": ("W", "expanded uncertainty (k = 2) of the predicted power: d31, damping spread, material and thickness tolerances"),
+    "predicted_mechanical_power_w": ("W", "mechanical power at resonance at the printed voltage, predicted (shared q_mech)"),
+    "predicted_dielectric_power_w": ("W", "the powered piezos' dielectric loss at the printed voltage (NCE 41 low-field tan delta)"),
+    "predicted_power_w": ("W", "electrical input power at resonance at the printed voltage, predicted: mechanical plus dielectric"),
+    "predicted_power_u_w": ("W", "expanded uncertainty (k = 2) of the predicted power: d31, damping spread, material, thickness, bond and placement tolerances, and the drive's model-form term (force factor squared and Q) sized on one build (plates.predicted_plates.drive_model_form)"),
+    "predicted_power_at_printed_velocity_w": ("W", "electrical input power at resonance at the printed velocity (the large plate: 1 um read as pp), predicted: mechanical w M v0^2 / (2 q_mech) plus dielectric; no force factor in it"),
+    "predicted_power_at_printed_velocity_u_w": ("W", "expanded uncertainty (k = 2) of the power at the printed velocity: damping spread, w M and placement tolerances, and the drive's model-form term's Q part sized on one build"),
     "printed_power_w": ("W", "power printed in the paper"),
 }
 

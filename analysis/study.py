@@ -200,6 +200,8 @@ DESIGN_PREDICTIONS = {
     "predicted_frequency_hz": ("predicted_frequency_hz", "predicted_frequency_u_hz", "printed_frequency_hz"),
     "predicted_velocity_pp_mps": ("predicted_velocity_pp_mps", "predicted_velocity_u_pp_mps", "printed_velocity_pp_mps"),
     "predicted_power_w": ("predicted_power_w", "predicted_power_u_w", "printed_power_w"),
+    "predicted_power_at_printed_velocity_w": ("predicted_power_at_printed_velocity_w",
+                                              "predicted_power_at_printed_velocity_u_w", "printed_power_w"),
 }
 #: The error model of the design's rows: each plate is one unit, as a bench is.
 DESIGN_MODEL = "paper"

@@ -163,30 +163,41 @@ def _within(predicted: pd.DataFrame, name: str, printed: str) -> tuple[int, int,
 
 
 def _u_column(name: str) -> str:
-    """predicted.csv names U after the quantity, before its unit: frequency_hz -> frequency_u_hz."""
-    quantity, _, unit = name.partition("_")
+    """predicted.csv names U after the quantity, before its unit: frequency_hz -> frequency_u_hz,
+    velocity_pp_mps -> velocity_u_pp_mps, power_at_printed_velocity_w -> ..._velocity_u_w."""
+    quantity, _, unit = name.rpartition("_")
+    if quantity.endswith("_pp"):   # pp belongs to the unit
+        quantity, unit = quantity.removesuffix("_pp"), f"pp_{unit}"
     return f"predicted_{quantity}_u_{unit}"
 
 
 def _physics_line(predicted: pd.DataFrame | None) -> Line | None:
-    """What the plate model (geometry and datasheets, nothing printed in) predicts against
-    print: resonance frequency, velocity at the printed voltage, power; within U or not."""
+    """What the plate model (geometry and datasheets; the drive's model-form term in the
+    velocity's and power's U sized on one build's print) predicts against print: resonance
+    frequency, velocity at the printed voltage, power at the printed voltage and at the printed
+    velocity; within U or not, the worst miss and the widest U, so a U that holds every plate
+    only by being wide says so."""
     if predicted is None or predicted.empty:
         return None
     said = []
     for name, printed, words in (("frequency_hz", "printed_frequency_hz", "resonance frequency"),
                                  ("velocity_pp_mps", "printed_velocity_pp_mps", "velocity at the printed voltage"),
-                                 ("power_w", "printed_power_w", "power")):
+                                 ("power_w", "printed_power_w", "power"),
+                                 ("power_at_printed_velocity_w", "printed_power_w", "power at the printed velocity")):
         if f"predicted_{name}" not in predicted or printed not in predicted:
             continue
         within, total, ratio = _within(predicted, name, printed)
         if total:
             worst = ratio.iloc[int(np.argmax(np.abs(np.log(ratio.to_numpy()))))]
-            said.append(f"{words} {within} of {total}{' plates' if not said else ''} (worst {percent(worst - 1)})")
+            scored = predicted[predicted[printed].notna()]
+            widest = (scored[_u_column(name)] / scored[f"predicted_{name}"]).abs().max()
+            said.append(f"{words} {within} of {total}{' plates' if not said else ''} "
+                        f"(worst {percent(worst - 1)}, U up to {percent(widest).lstrip('+')})")
     if not said:
         return None
-    return Line("Physics against print (the plate model from geometry and datasheets alone; within its U, "
-                "k = 2): " + "; ".join(said) + ".", "#predicted", "physics")
+    return Line("Physics against print (the plate model from geometry and datasheets; within its U, k = 2, "
+                "the velocity's and power's U with the drive term sized on Table 3's print): " + "; ".join(said)
+                + ".", "#predicted", "physics")
 
 
 def map_lines(maps: pd.DataFrame | None) -> list[Line]:

@@ -90,7 +90,8 @@ def test_physics_against_print_within_u_or_not():
                               "printed_power_w": [0.1, 0.1, 0.1, math.nan],
                               "predicted_power_w": [0.1, 0.05, 0.3, 0.2], "predicted_power_u_w": [0.02] * 4})
     line = next(line for line in opening("simulated", 1, 1, {**TABLES, "predicted": predicted}) if line.kind == "physics")
-    assert "resonance frequency 3 of 4 plates (worst +9.6 %); power 1 of 3 (worst +200 %)" in line.text
+    assert ("resonance frequency 3 of 4 plates (worst +9.6 %, U up to 5.1 %); power 1 of 3 (worst +200 %, "
+            "U up to 40.0 %)") in line.text
     assert line.href == "#predicted"
     # a run that measured none of the paper's plates (a map alone) is not told about them
     assert not any(line.kind == "physics" for line in opening("simulated", 1, 1, {"predicted": predicted}))
