@@ -66,7 +66,7 @@ class PointReduction:
     frequency_hz: Estimate
     n_periods: int  # periods in the integer-period window
     piezo_voltage_vpp: Estimate  # from the sine fit
-    power_w: Estimate  # integer-period mean of v i after DC removal (the paper's method)
+    power_w: Estimate  # integer-period mean of v i after DC removal (the paper's method), window bias corrected
     power_fit_w: Estimate  # (A_v A_i + B_v B_i)/2 from the sine fits: the cross-check
     reactive_power_var: Estimate  # 0.5 Im(V conj I) from the sine fits: what a CH2 delay turns into power
     velocity_pp_mps: Estimate  # 2 x fitted amplitude
@@ -426,12 +426,17 @@ def reactive_power_from_fits_var(voltage: SineFit, current: SineFit) -> Estimate
 
 def integer_period_power(time_s, voltage_v, current_a, voltage_fit: SineFit,
                          current_fit: SineFit, *, basis: _SineBasis | None = None) -> tuple[Estimate, int]:
-    """The scope's integer-period mean with its uncertainty (Sec. 2.1).
+    """The scope's integer-period mean (Sec. 2.1), corrected for its window's discretisation
+    bias, with its uncertainty.
 
-    Two components: the scatter of the sample products about the fitted product (noise,
-    quantisation) divided by the window length, and the window's own discretisation
-    bias, which the fitted model gives exactly (the window sum of the model product
-    minus its true mean: non-zero when a period is not a whole number of samples).
+    The window's sum of samples is not the product's true mean when a period is not a whole
+    number of samples: the product's component at twice the drive frequency leaves a
+    remainder, a larger share of the mean the smaller the power factor (a detuned point).
+    The fitted model gives that bias exactly (the window sum of the model product minus the
+    model's true mean), so it is subtracted as a known systematic effect (GUM 3.2.4) rather
+    than counted as an uncertainty; counted, it left every detuned power reading low by a
+    fixed share on every bench. What remains is the scatter of the sample products about the
+    fitted product (noise, quantisation) over the window length.
     """
     t = as_samples("time_s", time_s)
     v = as_samples("piezo_voltage_v", voltage_v)
@@ -453,7 +458,7 @@ def integer_period_power(time_s, voltage_v, current_a, voltage_fit: SineFit,
     window_bias = model_window_mean - power_from_fits_w(voltage_fit, current_fit).value
     scatter = (v - weights @ v / exact) * (i - weights @ i / exact) - v_model_ac * i_model_ac
     noise_var = float(weights @ scatter**2) / exact / exact
-    return Estimate(value, math.sqrt(noise_var + window_bias**2)), n_periods
+    return Estimate(value - window_bias, math.sqrt(noise_var)), n_periods
 
 
 def reduce_point(time_s, piezo_voltage_v, current_a, vibrometer_output_v,
