@@ -57,12 +57,28 @@ def solve_ahead(context: ReportContext) -> None:
     """Hand the model's solve of each mapped plate to the drawing processes (`Drawing.ahead`)
     from the stored rows alone, before the map's points are reduced: it is kept in the disk
     cache, where `map_summaries` reads it instead of solving it here (none without the cache)."""
-    rows = context.run.protocol("cartography")
+    for plate, frequency_hz in _mapped_plates(context.run.protocol("cartography")):
+        context.draw.ahead(predicted_plates.known_plate_modes, plate, frequency_hz)
+
+
+def _mapped_plates(rows: pd.DataFrame) -> list[tuple[str, float]]:
+    """(plate, drive frequency) of each map in the map rows whose plate the model knows:
+    the solves `map_summaries` reads."""
     if rows.empty:
-        return
-    for (_, plate), one in rows.groupby(["run_name", "plate"], sort=False):
-        if plate in predicted_plates.GEOMETRIES:
-            context.draw.ahead(predicted_plates.known_plate_modes, plate, _drive_frequency_hz(one))
+        return []
+    return [(plate, _drive_frequency_hz(one)) for (_, plate), one in rows.groupby(["run_name", "plate"], sort=False)
+            if plate in predicted_plates.GEOMETRIES]
+
+
+def solve_stored_map(run_dir: Path, run_name: str) -> None:
+    """On a drawing process while a campaign goes on (`reproduce`): the model's solve of a map
+    run's plate, from the rows it stored, left in the disk cache for the report's
+    `solve_ahead`, which then reads it instead of solving it while the figures wait."""
+    from squeezebench.analysis.rundata import read_measurements
+
+    rows = read_measurements(sorted((Path(run_dir) / "measurements" / run_name).glob("*.parquet")))
+    for plate, frequency_hz in _mapped_plates(rows):
+        predicted_plates.known_plate_modes(plate, frequency_hz)
 
 
 def map_summaries(run) -> tuple[pd.DataFrame, dict[str, pd.DataFrame]]:

@@ -8,7 +8,9 @@ The solution is cached by geometry and materials, so a map solves its plate once
 
 A spot is read from the working mode tabulated once per plate on a 0.5 mm grid and
 interpolated cubically (the elements' own evaluation costs ~50 ms a point, most of a
-1,300-point map; the table costs ~1 s once). The table departs from the elements by below
+1,300-point map; the table costs ~1 s once, kept in the disk cache beside its solve, so
+`reproduce` tabulates it on the process that solved the plate, whose elements are built,
+not on the campaign's). The table departs from the elements by below
 1e-4 of the peak over 99.8 % of the large plate (20,000 random points), up to 2e-4 within
 2 mm of a free edge, where the mode's evanescent edge field and the patches' curvature jump
 bend faster than a cubic follows; a 1 mm grid left 2.4 % of the plate above 1e-4 (measured
@@ -22,9 +24,12 @@ plate keeps its centre, so the measurement point moves by half the cut in its fr
 
 from __future__ import annotations
 
+import hashlib
+from pathlib import Path
+
 import numpy as np
 
-from scipy.interpolate import RegularGridInterpolator
+from scipy.interpolate import NdBSpline, RegularGridInterpolator
 
 from squeezebench.plates import plate_modes
 from squeezebench.simbench import predicted
@@ -40,14 +45,14 @@ def working_mode(scene, state) -> tuple[plate_modes.PlateModes, int]:
 
 
 def solve_ahead(scene_paths: list) -> None:
-    """Solve the working mode of each scene's initial state now (kept in the disk cache), for
-    a campaign whose maps read them later on another process (`reproduce`: its drawing
-    process, while the campaign's first runs measure)."""
+    """Solve the working mode of each scene's initial state now and tabulate it (both kept in
+    the disk cache), for a campaign whose maps read them later on another process
+    (`reproduce`: its drawing process, while the campaign's first runs measure)."""
     from squeezebench.simbench.scene import load_scene
 
     for path in scene_paths:
         scene = load_scene(path)
-        working_mode(scene, scene.state(scene.initial_state))
+        _table(*working_mode(scene, scene.state(scene.initial_state)))
 
 
 TABLE_STEP_M = 0.5e-3
@@ -60,10 +65,38 @@ def _table(modes: plate_modes.PlateModes, k: int) -> RegularGridInterpolator:
     if key not in _TABLES:
         x_m = np.linspace(0.0, modes.x_m[-1], int(np.ceil(modes.x_m[-1] / TABLE_STEP_M)) + 1)
         y_m = np.linspace(0.0, modes.y_m[-1], int(np.ceil(modes.y_m[-1] / TABLE_STEP_M)) + 1)
-        values = modes.shape_at(k, *np.meshgrid(x_m, y_m, indexing="ij"))
-        _TABLES[key] = modes, RegularGridInterpolator((x_m, y_m), values, method="cubic",
-                                                      bounds_error=False, fill_value=0.0)
+
+        def tabulated() -> dict[str, np.ndarray]:
+            values = modes.shape_at(k, *np.meshgrid(x_m, y_m, indexing="ij"))
+            spline = RegularGridInterpolator((x_m, y_m), values, method="cubic")._spline
+            return {"values": values, "coefficients": spline.c, "knots_x": spline.t[0], "knots_y": spline.t[1]}
+
+        # a solve the disk cache does not hold (it is off): nor its table
+        table = tabulated() if modes.stored_key is None else \
+            plate_modes.stored_solves().get(_table_key(modes.stored_key, k), tabulated)
+        spline = NdBSpline((table["knots_x"], table["knots_y"]), table["coefficients"], 3)
+        _TABLES[key] = modes, _SolvedCubic((x_m, y_m), table["values"], spline)
     return _TABLES[key][1]
+
+
+class _SolvedCubic(RegularGridInterpolator):
+    """The cubic interpolator of a table whose spline coefficients are already solved (an
+    iterative solve over the whole grid, most of the table's cost): kept in the disk cache
+    with it, and read like any cubic `RegularGridInterpolator` (0 off the grid)."""
+
+    def __init__(self, points, values, spline: NdBSpline) -> None:
+        self._solved = spline
+        super().__init__(points, values, method="cubic", bounds_error=False, fill_value=0.0)
+
+    def _construct_spline(self, method, solver=None, **solver_args) -> NdBSpline:
+        return self._solved
+
+
+def _table_key(stored_key: str, k: int) -> str:
+    """The disk cache's key of mode k's table of the solve kept under `stored_key` (whose
+    key covers the plate model's code): the grid's step and this module's code decide the rest."""
+    source = hashlib.sha256(Path(__file__).read_bytes()).hexdigest()
+    return hashlib.sha256(f"{stored_key}\0mode table\0{k}\0{TABLE_STEP_M!r}\0{source}".encode()).hexdigest()
 
 
 #: Below this share of the mode's largest deflection the scene's measurement point is too

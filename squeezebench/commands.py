@@ -339,20 +339,55 @@ def cmd_reproduce(args: argparse.Namespace) -> int:
     study = Beside(lambda stop: None if args.no_study else run_study(
         args.out, experiments=REPRODUCE_EXPERIMENTS, resume=args.resume, progress=lambda message: say(args, message),
         workers=args.workers, scheduler=args.scheduler, stop=stop, bar=False))
+    maps = _StoredMapsAhead(args.out, args.workers)
+
+    def on_step(entry: dict) -> None:
+        study.start()
+        maps.step(entry)
+
     try:
         run_dir = run_campaign(paths.paper_campaign(), resume=args.resume, out_dir=args.out,
-                               progress=show_progress(args), on_step=study.start)
+                               progress=show_progress(args), on_step=on_step)
+        maps.step({})   # a map that was the campaign's last run
         prepare(plates)   # the report's part that needs no run, here instead of waiting idle for the study
     except BaseException:   # a stop: neither the study nor the plates' process may outlive it
         study.cancel()
-        stop_beside(campaign_plates)
-        stop_beside(plates)
+        for work in (campaign_plates, plates, *maps.handed):
+            stop_beside(work)
         raise
     study.finish()
     _run_coverage(args, run_dir, coverage_benches)
     index = write_report(run_dir, args.workers)
     say(args, f"run stored in {run_dir}\n" + _finished(index))
     return 0
+
+
+class _StoredMapsAhead:
+    """Watches the campaign's steps; once a map run's last step is stored (the next step is
+    another run's), its plate's solve at the map's drive frequency goes to the report's
+    drawing process (`cartography_report.solve_stored_map`), idle by then in the campaign's
+    last runs, instead of being the first thing the report's figures wait for there."""
+
+    def __init__(self, run_dir: Path, workers: int) -> None:
+        from squeezebench.protocols.campaign import load_campaign
+        from squeezebench.protocols.variants import MAP_PROTOCOLS
+
+        self._run_dir, self._workers = Path(run_dir), workers
+        self._maps = {run.name for run in load_campaign(paths.paper_campaign()).runs if run.protocol in MAP_PROTOCOLS}
+        self._current: str | None = None
+        self.handed: list = []   # the futures handed out (a stop ends them)
+
+    def step(self, entry: dict) -> None:
+        """`entry`: a stored step's journal entry; an empty one once the campaign ends."""
+        import functools
+
+        from squeezebench.report.cartography_report import solve_stored_map
+        from squeezebench.report.drawing import beside
+
+        run = entry.get("run")
+        if self._current in self._maps and run != self._current:
+            self.handed.append(beside(self._workers, functools.partial(solve_stored_map, self._run_dir, self._current)))
+        self._current = run
 
 
 def _solve_campaign_plates_ahead(workers: int):

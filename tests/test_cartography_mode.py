@@ -310,3 +310,33 @@ def test_the_paper_campaigns_map_plate_solved_ahead_is_read_by_the_bench(tmp_pat
     for path in characterised_scenes(paths.paper_campaign()):
         small = load_scene(path)
         assert predicted.predict(small, small.state(small.initial_state)).frequency_hz > 0
+
+
+def test_the_table_kept_on_disk_is_read_back_bit_for_bit_without_evaluating_the_elements(large, tmp_path, monkeypatch):
+    """`reproduce` tabulates the map's working mode (and solves its spline) on the process
+    that solved the plate; the campaign's process reads both instead, and interpolates to
+    the last bit as a cubic `RegularGridInterpolator` of the elements' values does."""
+    from scipy.interpolate import RegularGridInterpolator
+
+    from squeezebench.plates import plate_modes
+    from squeezebench.simbench import modeshape
+
+    scene, state = large
+    monkeypatch.setenv("SQUEEZEBENCH_CACHE", str(tmp_path))
+    monkeypatch.setattr(modeshape, "_TABLES", {})
+    modes, k = working_mode(scene, state)
+    if modes.stored_key is None:   # solved before this test's cache: the same solve, kept here now
+        modes = replace(modes, stored_key="0" * 64)
+    built = modeshape._table(modes, k)
+    assert len(list((tmp_path / "plates").glob("*.npz"))) == 1
+    x_m, y_m = built.grid
+    plain = RegularGridInterpolator((x_m, y_m), modes.shape_at(k, *np.meshgrid(x_m, y_m, indexing="ij")),
+                                    method="cubic", bounds_error=False, fill_value=0.0)
+
+    monkeypatch.setattr(modeshape, "_TABLES", {})
+    monkeypatch.setattr(plate_modes.PlateModes, "shape_at", lambda *_: pytest.fail("the elements evaluated again"))
+    read = modeshape._table(modes, k)
+    rng = np.random.default_rng(5)
+    points = np.column_stack([rng.uniform(-0.01, x_m[-1] + 0.01, 500), rng.uniform(-0.01, y_m[-1] + 0.01, 500)])
+    assert np.array_equal(read(points), plain(points)) and np.array_equal(built(points), plain(points))
+    assert modeshape._table_key(modes.stored_key, k + 1) != modeshape._table_key(modes.stored_key, k)

@@ -176,3 +176,45 @@ def test_the_maps_plate_solved_ahead_on_a_drawing_process_is_read_not_solved_aga
     context.draw.finish()
     monkeypatch.undo()
     drawing._executor(1, fresh=True)   # later reports' processes see their own cache again
+
+
+def test_a_stored_maps_plate_solved_during_the_campaign_is_the_solve_the_report_reads(mapped, tmp_path, monkeypatch):
+    """`reproduce` solves a map run's plate from its stored rows once the run ends
+    (`solve_stored_map`, on the drawing process); the report's map section then reads that
+    solve (no eigenproblem solved again) and says the same as from its own."""
+    from squeezebench.disk_cache import CACHE_VARIABLE
+    from squeezebench.plates import plate_modes
+    from squeezebench.report.cartography_report import cartography_section, solve_stored_map
+    from squeezebench.report.section import ReportContext
+
+    _, run_dir, _ = mapped
+    run = load_run(run_dir)
+    solved_here = cartography_section(ReportContext(run=run, out_dir=tmp_path)).body_html
+    monkeypatch.setenv(CACHE_VARIABLE, str(tmp_path / "cache"))
+    plate_modes._CACHE.clear()
+    solve_stored_map(run_dir, run.protocol("cartography")["run_name"].iloc[0])
+    assert len(list((tmp_path / "cache" / "plates").glob("*.npz"))) == 1
+    plate_modes._CACHE.clear()
+    monkeypatch.setattr(plate_modes, "_eigenpairs", lambda *a, **k: pytest.fail("solved again"))
+    assert cartography_section(ReportContext(run=load_run(run_dir), out_dir=tmp_path)).body_html == solved_here
+
+
+def test_reproduce_hands_a_map_runs_solve_out_once_its_last_step_is_stored(tmp_path, monkeypatch):
+    """The paper campaign's map run is handed out when the next run's first step is stored,
+    once, and after the campaign when it was the last run."""
+    from squeezebench.commands import _StoredMapsAhead
+    from squeezebench.report import drawing
+
+    handed = []
+    monkeypatch.setattr(drawing, "beside", lambda workers, work: handed.append(work.args) or None)
+    maps = _StoredMapsAhead(tmp_path, 2)
+    for run in ("fig5_small_plates", "fig7_large_plate_map", "fig7_large_plate_map"):
+        maps.step({"run": run})
+    assert handed == []
+    maps.step({"run": "fig8_9_large_plate"})
+    maps.step({"run": "fig8_9_large_plate"})
+    assert handed == [(tmp_path, "fig7_large_plate_map")]
+    last = _StoredMapsAhead(tmp_path, 2)
+    last.step({"run": "fig7_large_plate_map"})
+    last.step({})
+    assert handed[1:] == [(tmp_path, "fig7_large_plate_map")] and last.handed == [None]

@@ -301,20 +301,23 @@ def test_reproduce_stops_its_study_when_the_campaign_stops(tmp_path, monkeypatch
         seen["stopped"] = stop.wait(timeout=10)
 
     def stopped_campaign(path, on_step=None, **kwargs):
-        on_step({"run": "fig2a_one_column", "step": "resonance"})
+        on_step({"run": "fig7_large_plate_map", "step": "rows_000"})
+        on_step({"run": "fig8_9_large_plate", "step": "resonance"})   # the map's plate handed out
         raise KeyboardInterrupt
 
     maps, ahead = object(), object()   # the maps' and the report's plates, solving on its drawing process: stopped too
+    stored_map = object()   # the stored map's plate likewise
     stopped_beside = []
 
     monkeypatch.setattr(accuracy_study, "run_study", study)
     monkeypatch.setattr(campaign, "run_campaign", stopped_campaign)
     monkeypatch.setattr(commands, "_solve_campaign_plates_ahead", lambda workers: maps)
     monkeypatch.setattr(run_report, "solve_ahead", lambda workers: ahead)
+    monkeypatch.setattr(drawing, "beside", lambda workers, work: stored_map)
     monkeypatch.setattr(drawing, "stop_beside", stopped_beside.append)
     with pytest.raises(KeyboardInterrupt):
         commands.cmd_reproduce(cli.build_parser().parse_args(["reproduce", "--out", str(tmp_path / "paper"), "-q"]))
-    assert seen == {"started": True, "stopped": True} and stopped_beside == [maps, ahead]
+    assert seen == {"started": True, "stopped": True} and stopped_beside == [maps, ahead, stored_map]
     assert not [t for t in threading.enumerate() if t.name == "beside"]
 
 
