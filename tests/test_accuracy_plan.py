@@ -72,16 +72,23 @@ def test_the_deskew_calibration_lifts_the_delay_term_at_its_cost(floors, user_qu
 
 # -- the planner with the floor (protocols.planning) -------------------------------------------
 @pytest.fixture(scope="module")
-def relaxed_plan(tmp_path_factory):
-    """Planned and checked on quick's two kinds of measuring step at a few search points
-    (`small_quick` without its calibration, as a user may write it): the check's 8 benches
-    are most of the plan's time, and each runs the whole campaign. Its power p95 on those
-    benches (about 6.8 %) stays near the 8 % target, so an erring check still shows."""
-    from squeezebench.protocols.planning import make_plan
-
+def user_small_quick(tmp_path_factory) -> Path:
+    """quick's two kinds of measuring step at a few search points (`small_quick` without
+    its calibration, as a user may write it): what the planner's tests plan, its plans'
+    measurements simulated once for the module (the session's plan cache)."""
     campaign = tmp_path_factory.mktemp("user_small") / "small_quick.yaml"
     campaign.write_text(HEADER + MEASURING_RUNS, encoding="utf-8")
-    return make_plan(campaign, 0.08, repeats=2, check_benches=8)
+    return campaign
+
+
+@pytest.fixture(scope="module")
+def relaxed_plan(user_small_quick):
+    """Planned and checked on `user_small_quick`: the check's 8 benches are most of the
+    plan's time, and each runs the whole campaign. Its power p95 on those benches (about
+    6.8 %) stays near the 8 % target, so an erring check still shows."""
+    from squeezebench.protocols.planning import make_plan
+
+    return make_plan(user_small_quick, 0.08, repeats=2, check_benches=8)
 
 
 def test_a_reachable_target_is_planned_and_checked_on_eight_erring_benches(relaxed_plan):
@@ -102,9 +109,9 @@ def test_a_reachable_target_is_planned_and_checked_on_eight_erring_benches(relax
     assert data["cache"]["read"] + data["cache"]["simulated"] == 2 + 1 + 2 + 2 + 8
 
 
-def test_a_target_below_the_floor_is_said_with_its_dominant_term(user_quick):
+def test_a_target_below_the_floor_is_said_with_its_dominant_term(user_small_quick):
     from squeezebench.protocols.planning import make_plan
-    plan = make_plan(user_quick, 0.01, repeats=2, check_benches=8)
+    plan = make_plan(user_small_quick, 0.01, repeats=2, check_benches=8)
     assert plan.check is None   # nothing to check: no setting reaches it
     table = plan.table()
     assert "below the reachable floor" in table and "current probe gain" in table
