@@ -1,28 +1,17 @@
-"""End to end on the simulated bench: the paper campaign's Table 4 run, then the report."""
+"""End to end on the simulated bench: the paper campaign, then its report, read at Table 4
+(the session's paper run and report, `paper_run` and `paper_report`, which the other
+readers of that run share: a second run of its Table 4 and a second report would only
+repeat them)."""
 
 from __future__ import annotations
 
 import pandas as pd
-import pytest
-
-from squeezebench.report.run_report import write_report
-from squeezebench.protocols.campaign import run_campaign
-from squeezebench import paths
-from squeezebench.yamlfiles import dump_yaml, load_strict
 
 TABLE4_RUN = "table4_powered_columns"
 
 
-def test_table4_campaign_then_report(tmp_path):
-    campaign = load_strict(paths.paper_campaign().read_text())
-    campaign["runs"] = [run for run in campaign["runs"] if run["name"] == TABLE4_RUN]
-    if not campaign["runs"]:
-        pytest.skip(f"the paper campaign has no run named {TABLE4_RUN}")
-    campaign["name"] = "e2e"
-    campaign_file = tmp_path / "e2e.yaml"
-    campaign_file.write_text(dump_yaml(campaign))
-    run_dir = run_campaign(campaign_file, out_dir=tmp_path / "run")
-    write_report(run_dir)
+def test_table4_campaign_then_report(paper_run, paper_report):
+    run_dir, _ = paper_run
     table4 = pd.read_csv(run_dir / "report" / "table4.csv")
     assert set(table4["status"]) == {"round_trip"}   # its scenes replay the printed points
     power = table4[table4["quantity"] == "power_w"]
@@ -33,5 +22,7 @@ def test_table4_campaign_then_report(tmp_path):
     # frequency's U holds each search's own (uncertainty_resonances.csv), not only the scope's
     frequency = table4[table4["quantity"] == "frequency_hz"].set_index("item")
     searches = pd.read_csv(run_dir / "report" / "uncertainty_resonances.csv")
+    searches = searches[searches["run_name"] == TABLE4_RUN]
+    assert len(searches) == len(frequency) == 3   # one search per configuration
     for configuration, search_u_hz in zip(frequency.index, searches["resonance_frequency_hz_U"]):
         assert frequency.loc[configuration, "expanded_uncertainty"] >= search_u_hz

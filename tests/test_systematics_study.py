@@ -16,6 +16,8 @@ from squeezebench.plates.specifications import SPECIFICATIONS
 from squeezebench.protocols.accuracy_study import StudySettings, run_study
 from squeezebench.protocols.systematics_study import SystematicsSettings
 
+from small_quick import small_quick
+
 EXPERIMENTS = (*(f"systematics_{point}{suffix}" for point in ("table3", "stress", "sweep")
                   for suffix in ("", "_calibrated")), "systematics_search")
 
@@ -139,13 +141,12 @@ def test_a_coverage_study_on_benches_erring_as_the_world_errs_is_stored_and_tabl
     """The 'world' error model (normal errors, a probe lag of known sign, now and then an
     instrument out of specification) runs beside the specified one; the table has a row
     per model and quantity, each with its benches' interval, and `study` prints them."""
-    from squeezebench import paths
     from squeezebench.analysis.study import coverage_table, load_coverage
     from squeezebench.protocols.bench_errors import run_coverage_study
 
-    quick = paths.campaigns_dir() / "quick.yaml"
-    world = run_coverage_study(tmp_path, 2, quick, error_model="world")
-    specified = run_coverage_study(tmp_path, 1, quick)
+    campaign = small_quick(tmp_path / "campaign")   # quick's three kinds of step, every quantity a U is given for
+    world = run_coverage_study(tmp_path, 2, campaign, error_model="world")
+    specified = run_coverage_study(tmp_path, 1, campaign)
     assert world.parent != specified.parent
     points = load_coverage(tmp_path)
     assert set(points["error_model"]) == {"world", "specified"}
