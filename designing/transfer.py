@@ -113,11 +113,12 @@ MAX_DRAWS = 4
 def _clean_build(seed: int):
     for draw in range(MAX_DRAWS):
         build = Build.draw(seed * 100 + draw)
-        try:
+        try:   # a large plate whose mode the placement decides is one a designer would redraw too
             small, large = designs(build)
+            physics = design_model.predict_physics(large)
         except design_model.DesignError:
             continue
-        return build, small, large, design_model.predict_physics(large), draw
+        return build, small, large, physics, draw
     raise design_model.DesignError(f"build {seed}: no clean working mode in {MAX_DRAWS} draws")
 
 
