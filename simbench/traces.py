@@ -361,7 +361,15 @@ def _kept_average(total: np.ndarray, averages: int, settings: fx.DigitizerSettin
         return _quantise(total / averages, average_lsb)
     if average_lsb is None:
         return total * (lsb / averages)
-    mean = total * (round(lsb / average_lsb) / averages)   # in average steps, exact
+    steps_per_sample_step = round(lsb / average_lsb)
+    mean = total * (steps_per_sample_step / averages)   # in average steps, exact
+    if steps_per_sample_step % averages == 0:
+        # N no more than the steps' ratio (16 averages of 8-bit samples in 13 bits): the
+        # mean is whole average steps, there is nothing to round and no tie. Adding 0
+        # turns the -0.0 of a rounded-down sum into the +0.0 the rounding gives.
+        mean += 0.0
+        mean *= average_lsb
+        return mean
     kept = mean + 0.5
     np.floor(kept, out=kept)
     ties = np.flatnonzero(kept - mean == 0.5)
