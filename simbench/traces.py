@@ -278,34 +278,59 @@ class SumOfRecords:
 def sum_of_records(signal: np.ndarray, sigma: float, averages: int,
                    settings: fx.DigitizerSettings) -> SumOfRecords:
     """The distribution `average_of_records` draws the sum of `averages` records of
-    `signal` + N(0, sigma^2) from (sigma > 0); see there."""
+    `signal` + N(0, sigma^2) from (sigma > 0); see there. Computed in place where the
+    arrays allow, the same operations in the same order (the same bits): a screen's
+    first record, its sums not yet kept, spends much of its time here."""
     lsb = settings.sample_lsb_div
     reach = NOISE_REACH_SIGMA * sigma
-    far = (signal >= fx.ADC_MIN_DIV + reach) & (signal <= fx.ADC_MAX_DIV - reach)
+    low, high = fx.ADC_MIN_DIV + reach, fx.ADC_MAX_DIV - reach
+    # A usual record stays clear of the clip everywhere, which its two extremes tell.
+    all_far = bool(signal.min() >= low and signal.max() <= high)
     if lsb is None:
+        far = np.ones(signal.shape, bool) if all_far else (signal >= low) & (signal <= high)
         return SumOfRecords(averages * signal, sigma * math.sqrt(averages), far, quantised=False)
     steps = signal / lsb   # one record's mean and variance, in sample steps
-    if sigma >= settings.dither_threshold_lsb * lsb and far.all():
-        mean, variance = steps, np.full_like(steps, (sigma / lsb) ** 2 + 1.0 / 12.0)
-    else:
-        mean_offset, step_variance = _step_moments(sigma / lsb)
-        # Linear interpolation on the uniform phase grid, by index (np.interp searches).
-        position = (steps - np.floor(steps)) * STEP_PHASES
-        index = np.minimum(position.astype(np.intp), STEP_PHASES - 1)
-        weight = position - index
-        rest, after = 1.0 - weight, index + 1   # take: the same gather as [index], faster
-        mean = steps + mean_offset.take(index) * rest + mean_offset.take(after) * weight
-        variance = step_variance.take(index) * rest + step_variance.take(after) * weight
-        near = ~far
-        if near.any():
-            lowest, highest = round(fx.ADC_MIN_DIV / lsb), round(fx.ADC_MAX_DIV / lsb)   # the clip's levels
-            mean[near], variance[near] = _level_moments(steps[near], sigma / lsb, lowest, highest)
+    if sigma >= settings.dither_threshold_lsb * lsb and all_far:
+        # Dithered: every sample has the same variance, so the sum has one spread.
+        variance = (sigma / lsb) ** 2 + 1.0 / 12.0
+        summed_variance = averages * variance
+        direct = np.full(steps.shape, summed_variance >= MIN_SPREAD_LSB**2 or variance == 0.0)
+        steps *= averages
+        return SumOfRecords(steps, math.sqrt(max(summed_variance - 1.0 / 12.0, 0.0)), direct, quantised=True)
+    mean_offset, step_variance = _step_moments(sigma / lsb)
+    # Linear interpolation on the uniform phase grid, by index (np.interp searches).
+    weight = np.floor(steps)
+    np.subtract(steps, weight, out=weight)
+    weight *= STEP_PHASES   # the position on the grid, less its index below
+    index = weight.astype(np.intp)
+    np.minimum(index, STEP_PHASES - 1, out=index)
+    weight -= index
+    rest, after = 1.0 - weight, index + 1   # take: the same gather as [index], faster
+    mean = mean_offset.take(index)
+    mean *= rest
+    mean += steps
+    upper = mean_offset.take(after)
+    upper *= weight
+    mean += upper
+    variance = step_variance.take(index)
+    variance *= rest
+    step_variance.take(after, out=upper)
+    upper *= weight
+    variance += upper
+    if not all_far:
+        near = ~((signal >= low) & (signal <= high))
+        lowest, highest = round(fx.ADC_MIN_DIV / lsb), round(fx.ADC_MAX_DIV / lsb)   # the clip's levels
+        mean[near], variance[near] = _level_moments(steps[near], sigma / lsb, lowest, highest)
     # The sum of N records is a whole number of steps: a normal rounded to that
     # lattice, narrowed by the rounding's 1/12 (Sheppard's correction).
     summed_variance = averages * variance
-    spread = np.sqrt(np.maximum(summed_variance - 1.0 / 12.0, 0.0))
-    direct = (summed_variance >= MIN_SPREAD_LSB**2) | (variance == 0.0)
-    return SumOfRecords(averages * mean, spread, direct, quantised=True)
+    direct = summed_variance >= MIN_SPREAD_LSB**2
+    direct |= variance == 0.0
+    spread = np.subtract(summed_variance, 1.0 / 12.0, out=summed_variance)
+    np.maximum(spread, 0.0, out=spread)
+    np.sqrt(spread, out=spread)
+    mean *= averages
+    return SumOfRecords(mean, spread, direct, quantised=True)
 
 
 def average_of_records(signal: np.ndarray, sigma: float, averages: int, settings: fx.DigitizerSettings,
