@@ -16,6 +16,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 from scipy.special import ndtr
 
+from squeezebench.lru import RecentlyUsed
 from squeezebench.simbench import effects as fx
 from squeezebench.simbench import physics
 from squeezebench.simbench.effect_base import AcquisitionContext
@@ -109,6 +110,29 @@ def synthesize(steady: physics.SteadyState, times_s: np.ndarray,
     return np.stack([voltage, capacitive + forces @ branch, visibility @ branch])
 
 
+#: The steady signals of the last few drives and time bases (3 x 10,000 samples: 240 kB
+#: each): a screen synthesised anew at a drive already shown (another vibrometer range or
+#: spot, a channel's input impedance, a search's return to its best frequency) reuses them.
+_SYNTHESIZED: RecentlyUsed[np.ndarray] = RecentlyUsed(16)
+
+
+def _steady_signals(steady: physics.SteadyState, setup: ScopeSetup) -> np.ndarray:
+    """`synthesize(steady, setup.times_s())`, read-only, kept by what it depends on: the
+    steady state's phasors and its branches' gains, and the time base."""
+    velocity = steady.branch_velocity_phasors_mps
+    key = (steady.frequency_hz, steady.orders.tobytes(), steady.output_voltage_phasors_v.tobytes(),
+           steady.output_dc_v, steady.capacitive_current_phasors_a.tobytes(), velocity.shape, velocity.tobytes(),
+           tuple((b.force_factor_n_per_v, b.visibility) for b in steady.branches),
+           setup.first_sample_s, setup.sample_interval_s, setup.record_length)
+
+    def build() -> np.ndarray:
+        signals = synthesize(steady, setup.times_s())
+        signals.flags.writeable = False
+        return signals
+
+    return _SYNTHESIZED.get(key, build)
+
+
 def acquisition_seed(scene_seed: int, state: str, generator_key: str, counter: int,
                      spot_key: str | None = None) -> np.random.SeedSequence:
     """The random stream of one acquisition, from what defines it rather than from how
@@ -174,9 +198,10 @@ def screen(steady: physics.SteadyState, setup: ScopeSetup, sensor_gains: np.ndar
     times = ctx.record_times_s
     fundamentals = pipeline.motion(steady.branch_velocity_phasors_mps[:, :1], ctx) \
         if pipeline.has_motion else None
-    signals = synthesize(steady, times, fundamentals)
+    signals = synthesize(steady, times, fundamentals) if fundamentals is not None else _steady_signals(steady, setup)
     delays_s = pipeline.channel_delays_s(steady.frequency_hz)
     if delays_s is not None:   # a delayed channel shows its signal from tau earlier
+        signals = signals.copy()
         for ch in np.flatnonzero(delays_s):
             signals[ch] = synthesize(steady, times - delays_s[ch], fundamentals)[ch]
     signals = signals * (sensor_gains * np.array([c.input_gain for c in setup.channels]))[:, None]
