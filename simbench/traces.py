@@ -166,9 +166,12 @@ class Screen:
     channel_values: np.ndarray | None = field(default=None, repr=False)
 
     def values(self, divisions: np.ndarray) -> np.ndarray:
-        """Channel values of screen positions (3, n)."""
+        """Channel values of screen positions (3, n), in place of `divisions`."""
         position, scale, offset = _screen_placement(self.setup)
-        return (divisions - position) * scale + offset
+        divisions -= position
+        divisions *= scale
+        divisions += offset
+        return divisions
 
 
 def _screen_placement(setup: ScopeSetup) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -273,7 +276,7 @@ def digitize(screen_div: np.ndarray, noise_div_rms: np.ndarray, averages: int,
     """Screen positions (divisions) of the record the scope keeps, per channel: clipped
     at the ADC limits and quantised, in sample mode or as an average of `averages`.
     `sums` keeps each channel's `SumOfRecords` for the next record of the same screen."""
-    out = np.empty_like(screen_div)
+    out = np.empty(screen_div.shape)   # C order: a row is one channel's record
     averaged = settings.averaging and averages > 1
     sums = {} if sums is None else sums
     for ch, (signal, sigma) in enumerate(zip(screen_div, noise_div_rms)):
@@ -281,10 +284,18 @@ def digitize(screen_div: np.ndarray, noise_div_rms: np.ndarray, averages: int,
             if sigma > 0 and ch not in sums:
                 sums[ch] = sum_of_records(signal, sigma, averages, settings)
             out[ch] = average_of_records(signal, sigma, averages, settings, rng, sums.get(ch))
+        elif sigma > 0:   # in the record's own row, the same operations (the same bits)
+            noisy = rng.standard_normal(out=out[ch])
+            noisy *= sigma
+            noisy += signal
+            _clip(noisy, out=noisy)
+            if settings.sample_lsb_div is not None:
+                noisy /= settings.sample_lsb_div
+                np.round(noisy, out=noisy)
+                noisy *= settings.sample_lsb_div
         else:
-            noisy = signal + sigma * rng.standard_normal(signal.size) if sigma > 0 else signal
-            out[ch] = _quantise(_clip(noisy), settings.sample_lsb_div)
-    return _clip(out)
+            out[ch] = _quantise(_clip(signal), settings.sample_lsb_div)
+    return _clip(out, out=out)
 
 
 @dataclass(frozen=True)
