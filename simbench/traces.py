@@ -283,7 +283,7 @@ def digitize(screen_div: np.ndarray, noise_div_rms: np.ndarray, averages: int,
         if averaged:
             if sigma > 0 and ch not in sums:
                 sums[ch] = sum_of_records(signal, sigma, averages, settings)
-            out[ch] = average_of_records(signal, sigma, averages, settings, rng, sums.get(ch))
+            average_of_records(signal, sigma, averages, settings, rng, sums.get(ch), out=out[ch])
         elif sigma > 0:   # in the record's own row, the same operations (the same bits)
             noisy = rng.standard_normal(out=out[ch])
             noisy *= sigma
@@ -309,6 +309,12 @@ class SumOfRecords:
     spread: np.ndarray | float
     direct: np.ndarray   # bool per sample
     quantised: bool
+
+    @functools.cached_property
+    def drawn(self) -> np.ndarray:
+        """The samples whose records are drawn one by one (indices): every record of the
+        screen asks."""
+        return np.flatnonzero(~self.direct)
 
 
 def sum_of_records(signal: np.ndarray, sigma: float, averages: int,
@@ -370,7 +376,8 @@ def sum_of_records(signal: np.ndarray, sigma: float, averages: int,
 
 
 def average_of_records(signal: np.ndarray, sigma: float, averages: int, settings: fx.DigitizerSettings,
-                       rng: np.random.Generator | None, sums: SumOfRecords | None = None) -> np.ndarray:
+                       rng: np.random.Generator | None, sums: SumOfRecords | None = None,
+                       out: np.ndarray | None = None) -> np.ndarray:
     """The mean of `averages` records, each `signal` + N(0, sigma^2) clipped at the ADC
     limits and quantised to the sample step, without drawing them where statistics allow
     (`sums`: `sum_of_records` of these arguments, computed here if not given).
@@ -391,22 +398,29 @@ def average_of_records(signal: np.ndarray, sigma: float, averages: int, settings
       (dithered quantisation, error below exp(-2 pi^2) of a step).
     Elsewhere (few averages, noise far below a step, near the clip unquantised) the N
     records of those samples are drawn and quantised one by one. The scope keeps the
-    mean rounded to its average step (`_kept_average`).
+    mean rounded to its average step (`_kept_average`), in `out` if given (C order).
     """
     lsb = settings.sample_lsb_div
     if sigma == 0:   # every record is the same
-        return _quantise(_quantise(_clip(signal), lsb), settings.average_lsb_div)
+        return _into(out, _quantise(_quantise(_clip(signal), lsb), settings.average_lsb_div))
     sums = sums or sum_of_records(signal, sigma, averages, settings)
     # In place (the same operations, so the same bits): one array instead of three.
-    total = rng.standard_normal(signal.size)
+    total = rng.standard_normal(signal.size, out=out)
     total *= sums.spread
     total += sums.centre
     if sums.quantised:
         np.round(total, out=total)
-    drawn = ~sums.direct
-    if drawn.any():
-        total[drawn] = _sum_of_records(signal[drawn], sigma, averages, lsb, rng)
-    return _kept_average(total, averages, settings, rng)
+    if sums.drawn.size:
+        total[sums.drawn] = _sum_of_records(signal[sums.drawn], sigma, averages, lsb, rng)
+    return _into(out, _kept_average(total, averages, settings, rng))
+
+
+def _into(out: np.ndarray | None, values: np.ndarray) -> np.ndarray:
+    """`values`, in `out` if given."""
+    if out is None or values is out:
+        return values
+    out[...] = values
+    return out
 
 
 def _kept_average(total: np.ndarray, averages: int, settings: fx.DigitizerSettings,
@@ -416,14 +430,17 @@ def _kept_average(total: np.ndarray, averages: int, settings: fx.DigitizerSettin
     powers of two of the ADC span, so the mean in average steps is exact and often lands
     half-way: a tie goes either way with equal chance, keeping the kept average an
     unbiased reading of the sum (ties to even, or up, would tie the rounding's error to
-    the signal, a bias in the power of a weak power factor)."""
+    the signal, a bias in the power of a weak power factor). In place of `total` where
+    the kept average needs no rounding."""
     lsb, average_lsb = settings.sample_lsb_div, settings.average_lsb_div
     if lsb is None:
         return _quantise(total / averages, average_lsb)
     if average_lsb is None:
-        return total * (lsb / averages)
+        total *= lsb / averages
+        return total
     steps_per_sample_step = round(lsb / average_lsb)
-    mean = total * (steps_per_sample_step / averages)   # in average steps, exact
+    mean = total
+    mean *= steps_per_sample_step / averages   # in average steps, exact
     if steps_per_sample_step % averages == 0:
         # N no more than the steps' ratio (16 averages of 8-bit samples in 13 bits): the
         # mean is whole average steps, there is nothing to round and no tie. Adding 0
