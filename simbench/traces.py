@@ -96,7 +96,7 @@ def synthesize(steady: physics.SteadyState, times_s: np.ndarray,
     """
     omega = 2.0 * math.pi * steady.frequency_hz
     trigger_s = (-0.5 * math.pi - np.angle(steady.output_voltage_phasors_v[0])) / omega
-    rotation = np.exp(1j * omega * (times_s + trigger_s))
+    rotation = _rotation(omega, float(trigger_s), times_s)
     orders = steady.orders
     harmonics = rotation[None, :] if len(orders) == 1 else rotation[None, :] ** orders[:, None]
     voltage = np.real(steady.output_voltage_phasors_v @ harmonics) + steady.output_dc_v
@@ -131,6 +131,24 @@ def _steady_signals(steady: physics.SteadyState, setup: ScopeSetup) -> np.ndarra
         return signals
 
     return _SYNTHESIZED.get(key, build)
+
+
+#: The fundamental's rotation of the last few drive frequencies (and trigger phases) on a
+#: shared time base: a voltage sweep or a map at one frequency changes the phasors only.
+_ROTATIONS: RecentlyUsed[tuple[np.ndarray, np.ndarray]] = RecentlyUsed(8)
+
+
+def _rotation(omega: float, trigger_s: float, times_s: np.ndarray) -> np.ndarray:
+    """exp(i omega (t + trigger_s)) at `times_s`; kept when `times_s` is a shared, read-only
+    time base (`ScopeSetup.times_s`). The entry holds that array, so its id names it."""
+    def build() -> tuple[np.ndarray, np.ndarray]:
+        rotation = np.exp(1j * omega * (times_s + trigger_s))
+        rotation.flags.writeable = False
+        return times_s, rotation
+
+    if times_s.flags.writeable:
+        return build()[1]
+    return _ROTATIONS.get((omega, trigger_s, id(times_s)), build)[1]
 
 
 def acquisition_seed(scene_seed: int, state: str, generator_key: str, counter: int,
