@@ -111,8 +111,9 @@ def synthesize(steady: physics.SteadyState, times_s: np.ndarray,
 
 
 #: The steady signals of the last few drives and time bases (3 x 10,000 samples: 240 kB
-#: each): a screen synthesised anew at a drive already shown (another vibrometer range or
-#: spot, a channel's input impedance, a search's return to its best frequency) reuses them.
+#: each): a screen synthesised anew at a drive already shown (another vibrometer range, a
+#: channel's input impedance, a search's return to its best frequency) reuses them (901 of
+#: the cold paper plan's 6,386 screens; a larger cache finds few more).
 _SYNTHESIZED: RecentlyUsed[np.ndarray] = RecentlyUsed(16)
 
 
@@ -133,9 +134,12 @@ def _steady_signals(steady: physics.SteadyState, setup: ScopeSetup) -> np.ndarra
     return _SYNTHESIZED.get(key, build)
 
 
-#: The fundamental's rotation of the last few drive frequencies (and trigger phases) on a
-#: shared time base: a voltage sweep or a map at one frequency changes the phasors only.
-_ROTATIONS: RecentlyUsed[tuple[np.ndarray, np.ndarray]] = RecentlyUsed(8)
+#: The fundamental's rotation of the last drive frequencies (and trigger phases) on a shared
+#: time base, at most 32 MB (200 of 10,000 samples): a voltage sweep or a map at one frequency
+#: changes the phasors only, and a plan's runs of one campaign return to its frequencies
+#: (the cold paper plan computes 3,206 rotations for 5,485 syntheses so, 5,360 keeping 8).
+_ROTATIONS: RecentlyUsed[tuple[np.ndarray, np.ndarray]] = RecentlyUsed(256, max_bytes=32 << 20,
+                                                                     weigh=lambda kept: kept[1].nbytes)
 
 
 def _rotation(omega: float, trigger_s: float, times_s: np.ndarray) -> np.ndarray:
