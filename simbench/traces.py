@@ -16,6 +16,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 from scipy.special import ndtr
 
+from squeezebench.lru import RecentlyUsed
 from squeezebench.simbench import effects as fx
 from squeezebench.simbench import physics
 from squeezebench.simbench.effect_base import AcquisitionContext
@@ -95,7 +96,7 @@ def synthesize(steady: physics.SteadyState, times_s: np.ndarray,
     """
     omega = 2.0 * math.pi * steady.frequency_hz
     trigger_s = (-0.5 * math.pi - np.angle(steady.output_voltage_phasors_v[0])) / omega
-    rotation = np.exp(1j * omega * (times_s + trigger_s))
+    rotation = _rotation(omega, float(trigger_s), times_s)
     orders = steady.orders
     harmonics = rotation[None, :] if len(orders) == 1 else rotation[None, :] ** orders[:, None]
     voltage = np.real(steady.output_voltage_phasors_v @ harmonics) + steady.output_dc_v
@@ -107,6 +108,51 @@ def synthesize(steady: physics.SteadyState, times_s: np.ndarray,
     forces = np.array([b.force_factor_n_per_v for b in steady.branches])
     visibility = np.array([b.visibility for b in steady.branches])
     return np.stack([voltage, capacitive + forces @ branch, visibility @ branch])
+
+
+#: The steady signals of the last few drives and time bases (3 x 10,000 samples: 240 kB
+#: each): a screen synthesised anew at a drive already shown (another vibrometer range, a
+#: channel's input impedance, a search's return to its best frequency) reuses them (901 of
+#: the cold paper plan's 6,386 screens; a larger cache finds few more).
+_SYNTHESIZED: RecentlyUsed[np.ndarray] = RecentlyUsed(16)
+
+
+def _steady_signals(steady: physics.SteadyState, setup: ScopeSetup) -> np.ndarray:
+    """`synthesize(steady, setup.times_s())`, read-only, kept by what it depends on: the
+    steady state's phasors and its branches' gains, and the time base."""
+    velocity = steady.branch_velocity_phasors_mps
+    key = (steady.frequency_hz, steady.orders.tobytes(), steady.output_voltage_phasors_v.tobytes(),
+           steady.output_dc_v, steady.capacitive_current_phasors_a.tobytes(), velocity.shape, velocity.tobytes(),
+           tuple((b.force_factor_n_per_v, b.visibility) for b in steady.branches),
+           setup.first_sample_s, setup.sample_interval_s, setup.record_length)
+
+    def build() -> np.ndarray:
+        signals = synthesize(steady, setup.times_s())
+        signals.flags.writeable = False
+        return signals
+
+    return _SYNTHESIZED.get(key, build)
+
+
+#: The fundamental's rotation of the last drive frequencies (and trigger phases) on a shared
+#: time base, at most 32 MB (200 of 10,000 samples): a voltage sweep or a map at one frequency
+#: changes the phasors only, and a plan's runs of one campaign return to its frequencies
+#: (the cold paper plan computes 3,206 rotations for 5,485 syntheses so, 5,360 keeping 8).
+_ROTATIONS: RecentlyUsed[tuple[np.ndarray, np.ndarray]] = RecentlyUsed(256, max_bytes=32 << 20,
+                                                                     weigh=lambda kept: kept[1].nbytes)
+
+
+def _rotation(omega: float, trigger_s: float, times_s: np.ndarray) -> np.ndarray:
+    """exp(i omega (t + trigger_s)) at `times_s`; kept when `times_s` is a shared, read-only
+    time base (`ScopeSetup.times_s`). The entry holds that array, so its id names it."""
+    def build() -> tuple[np.ndarray, np.ndarray]:
+        rotation = np.exp(1j * omega * (times_s + trigger_s))
+        rotation.flags.writeable = False
+        return times_s, rotation
+
+    if times_s.flags.writeable:
+        return build()[1]
+    return _ROTATIONS.get((omega, trigger_s, id(times_s)), build)[1]
 
 
 def acquisition_seed(scene_seed: int, state: str, generator_key: str, counter: int,
@@ -142,9 +188,12 @@ class Screen:
     channel_values: np.ndarray | None = field(default=None, repr=False)
 
     def values(self, divisions: np.ndarray) -> np.ndarray:
-        """Channel values of screen positions (3, n)."""
+        """Channel values of screen positions (3, n), in place of `divisions`."""
         position, scale, offset = _screen_placement(self.setup)
-        return (divisions - position) * scale + offset
+        divisions -= position
+        divisions *= scale
+        divisions += offset
+        return divisions
 
 
 def _screen_placement(setup: ScopeSetup) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -174,9 +223,10 @@ def screen(steady: physics.SteadyState, setup: ScopeSetup, sensor_gains: np.ndar
     times = ctx.record_times_s
     fundamentals = pipeline.motion(steady.branch_velocity_phasors_mps[:, :1], ctx) \
         if pipeline.has_motion else None
-    signals = synthesize(steady, times, fundamentals)
+    signals = synthesize(steady, times, fundamentals) if fundamentals is not None else _steady_signals(steady, setup)
     delays_s = pipeline.channel_delays_s(steady.frequency_hz)
     if delays_s is not None:   # a delayed channel shows its signal from tau earlier
+        signals = signals.copy()
         for ch in np.flatnonzero(delays_s):
             signals[ch] = synthesize(steady, times - delays_s[ch], fundamentals)[ch]
     signals = signals * (sensor_gains * np.array([c.input_gain for c in setup.channels]))[:, None]
@@ -248,18 +298,26 @@ def digitize(screen_div: np.ndarray, noise_div_rms: np.ndarray, averages: int,
     """Screen positions (divisions) of the record the scope keeps, per channel: clipped
     at the ADC limits and quantised, in sample mode or as an average of `averages`.
     `sums` keeps each channel's `SumOfRecords` for the next record of the same screen."""
-    out = np.empty_like(screen_div)
+    out = np.empty(screen_div.shape)   # C order: a row is one channel's record
     averaged = settings.averaging and averages > 1
     sums = {} if sums is None else sums
     for ch, (signal, sigma) in enumerate(zip(screen_div, noise_div_rms)):
         if averaged:
             if sigma > 0 and ch not in sums:
                 sums[ch] = sum_of_records(signal, sigma, averages, settings)
-            out[ch] = average_of_records(signal, sigma, averages, settings, rng, sums.get(ch))
+            average_of_records(signal, sigma, averages, settings, rng, sums.get(ch), out=out[ch])
+        elif sigma > 0:   # in the record's own row, the same operations (the same bits)
+            noisy = rng.standard_normal(out=out[ch])
+            noisy *= sigma
+            noisy += signal
+            _clip(noisy, out=noisy)
+            if settings.sample_lsb_div is not None:
+                noisy /= settings.sample_lsb_div
+                np.round(noisy, out=noisy)
+                noisy *= settings.sample_lsb_div
         else:
-            noisy = signal + sigma * rng.standard_normal(signal.size) if sigma > 0 else signal
-            out[ch] = _quantise(_clip(noisy), settings.sample_lsb_div)
-    return _clip(out)
+            out[ch] = _quantise(_clip(signal), settings.sample_lsb_div)
+    return _clip(out, out=out)
 
 
 @dataclass(frozen=True)
@@ -274,42 +332,74 @@ class SumOfRecords:
     direct: np.ndarray   # bool per sample
     quantised: bool
 
+    @functools.cached_property
+    def drawn(self) -> np.ndarray:
+        """The samples whose records are drawn one by one (indices): every record of the
+        screen asks."""
+        return np.flatnonzero(~self.direct)
+
 
 def sum_of_records(signal: np.ndarray, sigma: float, averages: int,
                    settings: fx.DigitizerSettings) -> SumOfRecords:
     """The distribution `average_of_records` draws the sum of `averages` records of
-    `signal` + N(0, sigma^2) from (sigma > 0); see there."""
+    `signal` + N(0, sigma^2) from (sigma > 0); see there. Computed in place where the
+    arrays allow, the same operations in the same order (the same bits): a screen's
+    first record, its sums not yet kept, spends much of its time here."""
     lsb = settings.sample_lsb_div
     reach = NOISE_REACH_SIGMA * sigma
-    far = (signal >= fx.ADC_MIN_DIV + reach) & (signal <= fx.ADC_MAX_DIV - reach)
+    low, high = fx.ADC_MIN_DIV + reach, fx.ADC_MAX_DIV - reach
+    # A usual record stays clear of the clip everywhere, which its two extremes tell.
+    all_far = bool(signal.min() >= low and signal.max() <= high)
     if lsb is None:
+        far = np.ones(signal.shape, bool) if all_far else (signal >= low) & (signal <= high)
         return SumOfRecords(averages * signal, sigma * math.sqrt(averages), far, quantised=False)
     steps = signal / lsb   # one record's mean and variance, in sample steps
-    if sigma >= settings.dither_threshold_lsb * lsb and far.all():
-        mean, variance = steps, np.full_like(steps, (sigma / lsb) ** 2 + 1.0 / 12.0)
-    else:
-        mean_offset, step_variance = _step_moments(sigma / lsb)
-        # Linear interpolation on the uniform phase grid, by index (np.interp searches).
-        position = (steps - np.floor(steps)) * STEP_PHASES
-        index = np.minimum(position.astype(np.intp), STEP_PHASES - 1)
-        weight = position - index
-        rest, after = 1.0 - weight, index + 1   # take: the same gather as [index], faster
-        mean = steps + mean_offset.take(index) * rest + mean_offset.take(after) * weight
-        variance = step_variance.take(index) * rest + step_variance.take(after) * weight
-        near = ~far
-        if near.any():
-            lowest, highest = round(fx.ADC_MIN_DIV / lsb), round(fx.ADC_MAX_DIV / lsb)   # the clip's levels
-            mean[near], variance[near] = _level_moments(steps[near], sigma / lsb, lowest, highest)
+    if sigma >= settings.dither_threshold_lsb * lsb and all_far:
+        # Dithered: every sample has the same variance, so the sum has one spread.
+        variance = (sigma / lsb) ** 2 + 1.0 / 12.0
+        summed_variance = averages * variance
+        direct = np.full(steps.shape, summed_variance >= MIN_SPREAD_LSB**2 or variance == 0.0)
+        steps *= averages
+        return SumOfRecords(steps, math.sqrt(max(summed_variance - 1.0 / 12.0, 0.0)), direct, quantised=True)
+    mean_offset, step_variance = _step_moments(sigma / lsb)
+    # Linear interpolation on the uniform phase grid, by index (np.interp searches).
+    weight = np.floor(steps)
+    np.subtract(steps, weight, out=weight)
+    weight *= STEP_PHASES   # the position on the grid, less its index below
+    index = weight.astype(np.intp)
+    np.minimum(index, STEP_PHASES - 1, out=index)
+    weight -= index
+    rest, after = 1.0 - weight, index + 1   # take: the same gather as [index], faster
+    mean = mean_offset.take(index)
+    mean *= rest
+    mean += steps
+    upper = mean_offset.take(after)
+    upper *= weight
+    mean += upper
+    variance = step_variance.take(index)
+    variance *= rest
+    step_variance.take(after, out=upper)
+    upper *= weight
+    variance += upper
+    if not all_far:
+        near = ~((signal >= low) & (signal <= high))
+        lowest, highest = round(fx.ADC_MIN_DIV / lsb), round(fx.ADC_MAX_DIV / lsb)   # the clip's levels
+        mean[near], variance[near] = _level_moments(steps[near], sigma / lsb, lowest, highest)
     # The sum of N records is a whole number of steps: a normal rounded to that
     # lattice, narrowed by the rounding's 1/12 (Sheppard's correction).
     summed_variance = averages * variance
-    spread = np.sqrt(np.maximum(summed_variance - 1.0 / 12.0, 0.0))
-    direct = (summed_variance >= MIN_SPREAD_LSB**2) | (variance == 0.0)
-    return SumOfRecords(averages * mean, spread, direct, quantised=True)
+    direct = summed_variance >= MIN_SPREAD_LSB**2
+    direct |= variance == 0.0
+    spread = np.subtract(summed_variance, 1.0 / 12.0, out=summed_variance)
+    np.maximum(spread, 0.0, out=spread)
+    np.sqrt(spread, out=spread)
+    mean *= averages
+    return SumOfRecords(mean, spread, direct, quantised=True)
 
 
 def average_of_records(signal: np.ndarray, sigma: float, averages: int, settings: fx.DigitizerSettings,
-                       rng: np.random.Generator | None, sums: SumOfRecords | None = None) -> np.ndarray:
+                       rng: np.random.Generator | None, sums: SumOfRecords | None = None,
+                       out: np.ndarray | None = None) -> np.ndarray:
     """The mean of `averages` records, each `signal` + N(0, sigma^2) clipped at the ADC
     limits and quantised to the sample step, without drawing them where statistics allow
     (`sums`: `sum_of_records` of these arguments, computed here if not given).
@@ -330,22 +420,29 @@ def average_of_records(signal: np.ndarray, sigma: float, averages: int, settings
       (dithered quantisation, error below exp(-2 pi^2) of a step).
     Elsewhere (few averages, noise far below a step, near the clip unquantised) the N
     records of those samples are drawn and quantised one by one. The scope keeps the
-    mean rounded to its average step (`_kept_average`).
+    mean rounded to its average step (`_kept_average`), in `out` if given (C order).
     """
     lsb = settings.sample_lsb_div
     if sigma == 0:   # every record is the same
-        return _quantise(_quantise(_clip(signal), lsb), settings.average_lsb_div)
+        return _into(out, _quantise(_quantise(_clip(signal), lsb), settings.average_lsb_div))
     sums = sums or sum_of_records(signal, sigma, averages, settings)
     # In place (the same operations, so the same bits): one array instead of three.
-    total = rng.standard_normal(signal.size)
+    total = rng.standard_normal(signal.size, out=out)
     total *= sums.spread
     total += sums.centre
     if sums.quantised:
         np.round(total, out=total)
-    drawn = ~sums.direct
-    if drawn.any():
-        total[drawn] = _sum_of_records(signal[drawn], sigma, averages, lsb, rng)
-    return _kept_average(total, averages, settings, rng)
+    if sums.drawn.size:
+        total[sums.drawn] = _sum_of_records(signal[sums.drawn], sigma, averages, lsb, rng)
+    return _into(out, _kept_average(total, averages, settings, rng))
+
+
+def _into(out: np.ndarray | None, values: np.ndarray) -> np.ndarray:
+    """`values`, in `out` if given."""
+    if out is None or values is out:
+        return values
+    out[...] = values
+    return out
 
 
 def _kept_average(total: np.ndarray, averages: int, settings: fx.DigitizerSettings,
@@ -355,13 +452,24 @@ def _kept_average(total: np.ndarray, averages: int, settings: fx.DigitizerSettin
     powers of two of the ADC span, so the mean in average steps is exact and often lands
     half-way: a tie goes either way with equal chance, keeping the kept average an
     unbiased reading of the sum (ties to even, or up, would tie the rounding's error to
-    the signal, a bias in the power of a weak power factor)."""
+    the signal, a bias in the power of a weak power factor). In place of `total` where
+    the kept average needs no rounding."""
     lsb, average_lsb = settings.sample_lsb_div, settings.average_lsb_div
     if lsb is None:
         return _quantise(total / averages, average_lsb)
     if average_lsb is None:
-        return total * (lsb / averages)
-    mean = total * (round(lsb / average_lsb) / averages)   # in average steps, exact
+        total *= lsb / averages
+        return total
+    steps_per_sample_step = round(lsb / average_lsb)
+    mean = total
+    mean *= steps_per_sample_step / averages   # in average steps, exact
+    if steps_per_sample_step % averages == 0:
+        # N no more than the steps' ratio (16 averages of 8-bit samples in 13 bits): the
+        # mean is whole average steps, there is nothing to round and no tie. Adding 0
+        # turns the -0.0 of a rounded-down sum into the +0.0 the rounding gives.
+        mean += 0.0
+        mean *= average_lsb
+        return mean
     kept = mean + 0.5
     np.floor(kept, out=kept)
     ties = np.flatnonzero(kept - mean == 0.5)

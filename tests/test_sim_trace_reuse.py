@@ -1,0 +1,57 @@
+"""What simbench.traces keeps between acquisitions (a drive's signals, the fundamental's
+rotation) and the shortcuts of the kept average give the numbers computing afresh gives,
+bit for bit."""
+
+import numpy as np
+import pytest
+
+from squeezebench.simbench import effects as fx
+from squeezebench.simbench import physics, traces
+
+SETTINGS = fx.DigitizerSettings(sample_lsb_div=fx.ADC_SPAN_DIV / 2**9, average_lsb_div=fx.ADC_SPAN_DIV / 2**14,
+                                averaging=True)
+CHANNEL = traces.ChannelSetup(scale_per_div=1.0, position_div=0.0, coupling="DC", probe_gain=1.0)
+SETUP = traces.ScopeSetup(channels=(CHANNEL,) * 3, horizontal_scale_s=4e-5, record_length=10000, averages=16)
+
+
+def steady(frequency_hz: float, amplitude_v: float) -> physics.SteadyState:
+    """One plate mode driven by a sine of `amplitude_v` (amplitude) at `frequency_hz`."""
+    load = physics.PlateLoad(capacitance_f=20e-9, branches=(physics.MotionalBranch(
+        frequency_hz=30e3, q_mech=200.0, force_factor_n_per_v=0.05, resistance_ns_per_m=0.4, visibility=0.8),))
+    drive = physics.Drive(np.array([1]), np.array([amplitude_v * np.exp(0.3j)]), 0.0)
+    return physics.solve_steady_state(load, drive, frequency_hz)
+
+
+def test_a_drive_shown_again_reuses_its_signals_which_are_a_fresh_synthesis():
+    first = traces._steady_signals(steady(30e3, 10.0), SETUP)
+    again = traces._steady_signals(steady(30e3, 10.0), SETUP)   # the same drive, solved anew
+    assert again is first and not first.flags.writeable
+    assert np.array_equal(first, traces.synthesize(steady(30e3, 10.0), SETUP.times_s().copy()))
+    other = traces._steady_signals(steady(30.1e3, 10.0), SETUP)
+    assert not np.array_equal(other, first)
+
+
+def test_a_kept_rotation_gives_what_computing_it_afresh_gives():
+    """Another amplitude at one frequency keeps the rotation, not the signals; a writable
+    time base (not a shared one) is computed afresh every time."""
+    times_s = SETUP.times_s()
+    traces.synthesize(steady(29.9e3, 5.0), times_s)
+    kept = traces.synthesize(steady(29.9e3, 7.0), times_s)
+    assert np.array_equal(kept, traces.synthesize(steady(29.9e3, 7.0), times_s.copy()))
+    # the amplifier's output scales with the drive: the kept rotation is that frequency's
+    assert np.allclose(kept[0], 7.0 / 5.0 * traces.synthesize(steady(29.9e3, 5.0), times_s)[0], rtol=1e-12, atol=0)
+
+
+@pytest.mark.parametrize("averages", [2, 4, 8, 16, 32])
+def test_a_kept_average_of_whole_average_steps_is_the_rounded_mean(averages):
+    """Up to the steps' ratio (32 here) the mean is whole average steps: the shortcut gives
+    what rounding it gives, +0.0 for a -0.0 sum, and draws nothing for ties."""
+    rng = np.random.default_rng(7)
+    total = np.round(rng.normal(0.0, 40.0, 2000))
+    total[:3] = (-0.0, 0.0, -1.0)
+    ratio = round(SETTINGS.sample_lsb_div / SETTINGS.average_lsb_div)
+    expected = np.floor(total * (ratio / averages) + 0.5) * SETTINGS.average_lsb_div
+    state = rng.bit_generator.state
+    kept = traces._kept_average(total.copy(), averages, SETTINGS, rng)
+    assert np.array_equal(kept, expected) and np.array_equal(np.signbit(kept), np.signbit(expected))
+    assert rng.bit_generator.state == state
