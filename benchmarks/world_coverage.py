@@ -13,14 +13,18 @@ For each error model the study holds (`squeezebench study --coverage-errors ...`
    bench simulation), each stored value's U (relative to its reading, as the budget
    sizes it) and noise; the spread of a study of as many benches as the stored one (values on
    one bench share its draw, so benches, not values, are the trials), and how often such a
-   study reads at most the observed coverage.
+   study reads at most the observed coverage. Beside it, what the study's own benches' drawn
+   terms give through the same decomposition (it matching the observed says the bench
+   simulation adds nothing the terms miss: a shortfall is then its seeds' draw), and with
+   --predict-benches N what the study's seeds 1..N will read, from their draws alone: a study
+   always takes seeds 1..N, so its table reads those benches' luck, before any is simulated.
 4. What the budgets claim: `Budget.coverage_probability` of the velocity's budget at its k;
    and what a margin for the study's size would cost: the k at which a study of that many
    benches reads 95 % or more 19 times in 20 (a bench's values all covered or all missed, as
    they nearly are: at most 5 % of the benches may miss), its U against today's and its
    coverage within specification.
 
-Run: python benchmarks/world_coverage.py STUDY_DIR [--benches 100000]
+Run: python benchmarks/world_coverage.py STUDY_DIR [--benches 100000] [--predict-benches 240]
 (STUDY_DIR holds coverage/ and/or coverage_world/, e.g. OUT/study after `squeezebench study --out OUT`.)
 """
 
@@ -45,7 +49,7 @@ from squeezebench.protocols.variants import ERROR_MODELS
 from squeezebench.simbench import effects as fx
 from squeezebench.simbench.scene import load_scene
 
-QUANTITIES = ("velocity_pp_mps", "amplitude_pp_m", "map_mean_velocity_pp_mps")
+QUANTITIES = ("velocity_pp_mps", "amplitude_pp_m", "map_mean_velocity_pp_mps", "map_max_velocity_pp_mps")
 #: The simulated errors a velocity carries (effect: its error parameter), as its budget's terms.
 TERMS = {"scope_gain_error": "ch3_rel", "vibrometer_scale_error": "scale_rel",
          "generator_frequency_error": "frequency_rel"}
@@ -102,6 +106,8 @@ def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("study_dir", type=Path)
     parser.add_argument("--benches", type=int, default=100_000, help="drawn benches for the expectation")
+    parser.add_argument("--predict-benches", type=int, default=0, metavar="N",
+                        help="also give what a study of seeds 1..N reads, from their drawn terms alone")
     args = parser.parse_args()
     claim = velocity_budget({"velocity_pp_mps": 1.0, "velocity_pp_mps_u": 1e-3, "frequency_hz": 40e3})
     print(f"velocity budget (CH3 gain, decoder scale, noise 0.1 %): k {claim.coverage_factor:.3f}, "
@@ -117,6 +123,7 @@ def main() -> int:
         started = time.process_time()
         many = drawn_terms(error_model, range(10_000_001, 10_000_001 + args.benches))
         terms = drawn_terms(error_model, seeds)
+        ahead = drawn_terms(error_model, range(1, args.predict_benches + 1)) if args.predict_benches else None
         print(f"\n== {error_model}: {len(seeds)} benches in the study; {args.benches} benches drawn "
               f"({time.process_time() - started:.0f} CPU-s); the budget claims "
               f"{claim.coverage_probability(claim.coverage_factor, error_model):.2%}")
@@ -131,6 +138,12 @@ def main() -> int:
                   f"95 % within {low:.1%}-{high:.1%}, P(<= observed) {np.mean(studies <= observed + 1e-12):.2f}, "
                   f"P(< 95 %) {np.mean(studies < 0.95 - 1e-12):.2f}; noise left after the drawn terms "
                   f"{template['noise'].median():.3%} (median), worst residual / U {template['worst_residual_over_u'].max():.2f}")
+            observed_by_bench = values.groupby("bench_seed")["covered"].mean().reindex(seeds).to_numpy()
+            own = bench_coverage(template, terms)
+            print(f"    the study's own benches' drawn terms give {own.mean():.2%} (a bench's share within "
+                  f"{np.max(np.abs(own - observed_by_bench)):.1%} of its observed one)"
+                  + (f"; seeds 1-{args.predict_benches}: {bench_coverage(template, ahead).mean():.2%}"
+                     if ahead is not None else ""))
             if error_model == WORLD and quantity == QUANTITIES[0]:
                 k = margin_k(claim, len(seeds))
                 print(f"    a margin for {len(seeds)} benches: k {k:.3f} covering {claim.coverage_probability(k, WORLD):.1%} "
