@@ -88,7 +88,8 @@ class WorldReading:
     #: Standard deviation of an error within specification: half the limit, so about one
     #: unbiased instrument in 20 is beyond it.
     spread: float = 0.5
-    #: How often an error is beyond its limit (one bench in 13 has one: eight errors a bench) ...
+    #: How often an error is beyond its limit (each of a bench's errors on its own: with ten
+    #: instrument errors about one bench in ten has one) ...
     out_of_spec_probability: float = 0.01
     #: ... and how far: this many times its limit, either sign.
     out_of_spec_factor: float = 1.5
