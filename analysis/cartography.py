@@ -22,6 +22,7 @@ from typing import Callable
 
 import numpy as np
 import pandas as pd
+from scipy.interpolate import RegularGridInterpolator
 
 from squeezebench.analysis.budgets import Budget, Term
 from squeezebench.plates.specifications import SPECIFICATIONS
@@ -36,7 +37,7 @@ class Homogeneity:
     maximum: float
     coefficient_of_variation: float   # standard deviation / mean, population (ddof 0)
     share_of_peak: float              # the stated share of the peak amplitude
-    fraction_above_share: float       # fraction of the points above it: of the area, to a grid step (`grid_area_term`)
+    fraction_above_share: float       # fraction of the points above it: of the area, to `grid_term`
     n_points: int
 
 
@@ -69,47 +70,13 @@ def coefficients_of_variation(amplitudes: np.ndarray) -> np.ndarray:
     return np.divide(std, mean, out=np.full(mean.shape, np.inf), where=mean > 0)
 
 
-def crossings_per_line(x_m: np.ndarray, y_m: np.ndarray, above: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Neighbouring grid points on either side of a threshold (`above`), counted in each row
-    (pairs along x at the same y) and in each column (along y): a contour passes between
-    each such pair. Neighbours are points one grid step apart (the smallest spacing)."""
-    frame = pd.DataFrame({"x": np.round(np.asarray(x_m, dtype=float), 9),
-                          "y": np.round(np.asarray(y_m, dtype=float), 9), "above": np.asarray(above, dtype=int)})
-    counts = []
-    for along, across in (("x", "y"), ("y", "x")):
-        spacing = np.diff(np.unique(frame[along]))
-        ordered = frame.sort_values([across, along])
-        neighbours = (ordered[across].diff() == 0) & (ordered[along].diff() <= 1.5 * spacing.min(initial=np.inf))
-        crossed = neighbours & (ordered["above"].diff() != 0)
-        counts.append(crossed.groupby(ordered[across]).sum().to_numpy())
-    return counts[0], counts[1]
-
-
-def grid_area_term(x_m: np.ndarray, y_m: np.ndarray, amplitude: np.ndarray, share_of_peak: float) -> Term:
-    """Type B term of the area above `share_of_peak` of the peak read as the fraction of the
-    grid's points above it. Integrated row by row, a row's length above the threshold is
-    off by where each of its contours lies between the two points it runs between, which
-    the count puts half-way: a rectangle of half a cell (GUM F.2.2.1, a resolution of one
-    step). A row's contours are different contours, at unrelated places on the grid: their
-    errors add in quadrature; a contour runs on from row to row, so the rows' errors add
-    linearly (GUM 5.2.2, r = 1). Counted along the axis that gives the larger term (a
-    contour along the rows shows in the columns). Tested on cosine mode shapes 2 to 4
-    points per half-wavelength (tests/test_cartography_mode.py): it holds 95 % of an (n, 0)
-    mode's errors and more of a 2-D one. It leaves out a mode whose half-wavelength is a
-    whole number of steps (all contours misplaced alike) and a grid under two points per
-    half-wavelength, which can miss contours altogether."""
-    values = np.abs(np.asarray(amplitude, dtype=float))
-    per_line = crossings_per_line(x_m, y_m, values >= share_of_peak * values.max())
-    along = max(range(2), key=lambda axis: np.sqrt(per_line[axis]).sum())
-    u = float(np.sqrt(per_line[along] / 12.0).sum()) / values.size
-    return Term("grid (contours between points)", "B", u,
-                f"{int(per_line[along].sum())} contour crossings between neighbouring points along "
-                f"{'xy'[along]}, half a cell each")
-
-
-#: Spots per axis over a cell at which `grid_cv_term` reads the field linearly between the
-#: points: enough that the reading is the piecewise-linear field's (6 and 10 give the same term).
-LINEAR_SAMPLES = 8
+#: Spots per axis over a grid point's cell at which `field_readings` reads the field between
+#: the points (the midpoint rule over the interpolated field: 6 and 10 give the same figures).
+READING_SAMPLES = 8
+#: The readings of the field between the points, each with the points it needs along every
+#: axis it interpolates: bilinear, and the tensor-product cubic spline (scipy's
+#: `RegularGridInterpolator`); `field_readings` takes every one the grid allows.
+READING_ORDERS = (("linear", 2), ("cubic", 4))
 
 
 def cell_offsets(samples: int) -> np.ndarray:
@@ -118,42 +85,86 @@ def cell_offsets(samples: int) -> np.ndarray:
     return (np.arange(samples) + 0.5) / samples - 0.5
 
 
-def grid_cv_term(x_m: np.ndarray, y_m: np.ndarray, amplitude: np.ndarray) -> Term:
-    """Type B term of the coefficient of variation read from the grid's points for that of
-    the vibration over their cells. The grid's value treats each point as its whole cell
-    (the nearest-point reading of the field); the piecewise-linear reading between the same
-    points (bilinear, LINEAR_SAMPLES^2 spots per cell, a point's value past the touch area's
-    edge) is as defensible a reading of what lies between them, and the points cannot tell
-    which is nearer the vibration: the change from one to the other is the half-width of a
-    rectangle about the grid's value (GUM 4.3.7, bounds and no more), its standard
-    uncertainty half-width / sqrt 3. The error is the sum of every cell's, so it is taken
-    as normal (GUM G.2), not as one rectangle. Tested on cosine mode shapes 2 to 4 points
-    per half-wavelength at random phases (tests/test_cartography_mode.py): U (k = 1.96)
-    holds 95 % of an (n, 0) mode's errors and more of a 2-D or slanted one. It
-    leaves out a grid under two points per half-wavelength, whose points may all read alike
-    (an (n, 0) mode at two points per half-wavelength, a quarter-wave off its antinodes)."""
+@dataclass(frozen=True)
+class FieldReading:
+    """The touch area's coefficient of variation and area above the share of the points'
+    peak, read from the field between the grid's points by `method` (`field_readings`)."""
+
+    coefficient_of_variation: float
+    fraction_above_share: float
+    method: str   # of READING_ORDERS
+
+
+def _read_between(x_m: np.ndarray, y_m: np.ndarray, signed: np.ndarray, method: str) -> np.ndarray:
+    """|field| at READING_SAMPLES^2 spots over each point's cell, the signed field read by
+    `method` between the points (extrapolated past the outer points by the edge's own
+    polynomial). A missing grid point takes its row's, then its column's, nearest value."""
     frame = pd.DataFrame({"x": np.round(np.asarray(x_m, dtype=float), 9),
-                          "y": np.round(np.asarray(y_m, dtype=float), 9), "v": np.abs(np.asarray(amplitude, dtype=float))})
-    grid = frame.pivot_table(index="y", columns="x", values="v").to_numpy()
-    filled = ~np.isnan(grid)
+                          "y": np.round(np.asarray(y_m, dtype=float), 9), "v": np.asarray(signed, dtype=float)})
+    table = frame.pivot_table(index="x", columns="y", values="v")
+    filled = table.notna().to_numpy()
+    grid = table.ffill(axis=0).bfill(axis=0).ffill(axis=1).bfill(axis=1).to_numpy()
+    axes = [np.asarray(axis, dtype=float) for axis in (table.index, table.columns)]
+    spread = [len(axis) > 1 for axis in axes]   # a single row or column has no cell to read across
+    kept = tuple(axis for axis, wide in zip(axes, spread) if wide)
+    reader = RegularGridInterpolator(kept, grid.reshape([len(axis) for axis in kept]), method=method,
+                                     bounds_error=False, fill_value=None)
+    offsets = cell_offsets(READING_SAMPLES)
+    centres = [mesh[filled] for mesh in np.meshgrid(*axes, indexing="ij")]
+    spots = [(centre[:, None] + offsets[None, :] * np.diff(axis).min()) if wide else centre[:, None]
+             for centre, axis, wide in zip(centres, axes, spread)]
+    if all(spread):
+        spots = [np.repeat(spots[0], READING_SAMPLES, axis=1), np.tile(spots[1], (1, READING_SAMPLES))]
+    wide_spots = [spot.ravel() for spot, wide in zip(spots, spread) if wide]
+    return np.abs(reader(np.stack(wide_spots, axis=-1)))
 
-    def toward(values: np.ndarray, shift: int, axis: int) -> np.ndarray:
-        """Each point's neighbour one step along `axis` (the point itself past the edge)."""
-        moved = np.roll(values, -shift, axis=axis)
-        edge = [slice(None)] * 2
-        edge[axis] = slice(-1, None) if shift > 0 else slice(0, 1)
-        moved[tuple(edge)] = np.nan
-        return np.where(np.isnan(moved), values, moved)
 
-    def along(values: np.ndarray, offset: float, axis: int) -> np.ndarray:
-        return values + abs(offset) * (toward(values, int(np.sign(offset)) or 1, axis) - values)
+def field_readings(x_m: np.ndarray, y_m: np.ndarray, signed: np.ndarray, share_of_peak: float) -> list[FieldReading]:
+    """The coefficient of variation and the area above `share_of_peak` of the points' peak
+    of the vibration over the grid points' cells, read from the field between the points
+    by each of READING_ORDERS the grid allows (none for a single point): a plate's mode
+    shape is smooth in its signed deflection (its amplitude alone has a kink at each nodal
+    line), so the signed map is interpolated and its magnitude taken at
+    READING_SAMPLES^2 spots over each cell."""
+    points = [len(np.unique(np.round(np.asarray(axis, dtype=float), 9))) for axis in (x_m, y_m)]
+    if points == [1, 1]:
+        return []
+    threshold = share_of_peak * np.abs(np.asarray(signed, dtype=float)).max()
+    readings = []
+    for method, least in READING_ORDERS:
+        if all(n >= least or n == 1 for n in points):
+            spots = _read_between(x_m, y_m, signed, method)
+            readings.append(FieldReading(homogeneity(spots).coefficient_of_variation,
+                                         float(np.mean(spots >= threshold)), method))
+    return readings
 
-    offsets = cell_offsets(LINEAR_SAMPLES)
-    linear = np.concatenate([along(along(grid, dx, 1), dy, 0)[filled] for dx in offsets for dy in offsets])
-    half_width = abs(homogeneity(linear).coefficient_of_variation - homogeneity(grid[filled]).coefficient_of_variation)
-    return Term("grid (field between points)", "B", half_width / math.sqrt(3.0),
-                f"nearest-point vs linear reading between the points ({LINEAR_SAMPLES}x{LINEAR_SAMPLES} per cell)",
-                rectangular=False)
+
+def grid_term(points_figure: float, field_figures: list[float], methods: list[str]) -> Term:
+    """Type B term of a homogeneity figure read as the grid's points' (each point standing
+    for its whole cell) for the vibration over the cells. Each reading of the field between
+    the points (`field_readings`: linear, cubic) estimates the points' error by its change
+    from their figure; the term is the root mean square of those changes, taken as the
+    standard deviation of the points' error, normal (GUM 4.3.1: a Type B evaluation from the
+    information at hand; F.2.4.5: a correction not applied is carried in the uncertainty),
+    not as a bound. The points' error is the same on every map of that field on that grid
+    (a bias of the grid's registration on the mode, not noise); no correction is applied
+    since neither reading's own error is known to be the smaller on a real plate's mode: on
+    the large plate's 4 mm map each reading is about as far from the mode as the points, and
+    at some registrations one of them agrees with the points by chance (the cubic alone
+    left U a fifth of the error there), which the mean of both squares does not.
+
+    Tested at random phases on cosine mode shapes 2 to 4 points per half-wavelength and on
+    the large plate's mode at registrations across a cell (tests/test_cartography_mode.py):
+    U (k = 1.96) holds 99 % of the points' errors and more, about twice the median error
+    for an (n, 0) or 2-D mode, four to six times for a slanted wave's, and at most 2.5 times
+    the largest on the large plate's (the nearest-vs-linear rectangle it replaced was twelve
+    times it). It does not hold a grid under two points per half-wavelength, whose points
+    read an aliased field that no interpolation between them recovers."""
+    changes = np.asarray(field_figures, dtype=float) - points_figure
+    u = float(np.sqrt(np.mean(changes**2))) if changes.size else 0.0
+    return Term("grid (field between points)", "B", u,
+                f"the points' figure vs the {' and '.join(methods) or 'no'} reading of the signed field between "
+                "them, root mean square, as a standard deviation", rectangular=False)
 
 
 def modal_assurance(measured: np.ndarray, predicted: np.ndarray) -> float:
@@ -301,12 +312,9 @@ def summarise_map(points: pd.DataFrame, predicted: np.ndarray | None = None, sha
     velocities (mean, peak) the scale all points share (`velocity_scale_terms`: rectangles),
     which does not average away, and, given the resonance's `resonance_q` (`map_resonance_q`),
     the generator's frequency error through the level steps between the map's re-tuned
-    steps (`retuning_term`), and for the area above the share of the peak the grid's
-    placing of its contours (`grid_area_term`): that figure is the area of the touch area
-    where the vibration reaches the share of the mapped peak, which the fraction of the
-    points estimates to a cell per contour crossing; likewise the coefficient of variation
-    is the vibration's over the touch area, which the points' estimates to the field
-    between them (`grid_cv_term`). With `predicted` (the model's shape at the same points)
+    steps (`retuning_term`). The coefficient of variation and the area above the share of
+    the mapped peak are the vibration's over the touch area, which the points' figures
+    estimate to the changes to the field read between them (`grid_term`). With `predicted` (the model's shape at the same points)
     the modal assurance criterion of the signed map against it."""
     touch = points[points["in_touch_area"]]
     amplitude = touch["velocity_pp_mps"].to_numpy()
@@ -314,6 +322,14 @@ def summarise_map(points: pd.DataFrame, predicted: np.ndarray | None = None, sha
     rng = np.random.default_rng(seed)
     drawn = amplitude + rng.normal(size=(NOISE_DRAWS, amplitude.size)) * touch["velocity_pp_mps_u"].to_numpy()
     spread = [homogeneity(d, share_of_peak) for d in drawn]
+
+    # the points' own amplitudes with the mode's sign: a phase off 0 or pi is no smaller vibration
+    readings = field_readings(touch["x_m"].to_numpy(), touch["y_m"].to_numpy(),
+                              np.copysign(amplitude, touch["signed_velocity_pp_mps"].to_numpy()), share_of_peak)
+
+    def between(attribute: str) -> tuple:
+        return (grid_term(getattr(h, attribute), [getattr(r, attribute) for r in readings],
+                          [r.method for r in readings]),)
 
     def expanded(attribute: str, scaled: bool = False, own: tuple = ()) -> float:
         noise = Term("points' noise", "A", float(np.std([getattr(s, attribute) for s in spread], ddof=1)),
@@ -332,11 +348,9 @@ def summarise_map(points: pd.DataFrame, predicted: np.ndarray | None = None, sha
         "min_velocity_pp_mps": h.minimum, "max_velocity_pp_mps": h.maximum,
         "max_velocity_pp_mps_U": expanded("maximum", scaled=True),
         "coefficient_of_variation": h.coefficient_of_variation,
-        "coefficient_of_variation_U": expanded("coefficient_of_variation", own=(
-            grid_cv_term(touch["x_m"].to_numpy(), touch["y_m"].to_numpy(), amplitude),)),
+        "coefficient_of_variation_U": expanded("coefficient_of_variation", own=between("coefficient_of_variation")),
         "share_of_peak": share_of_peak, "fraction_above_share": h.fraction_above_share,
-        "fraction_above_share_U": expanded("fraction_above_share", own=(
-            grid_area_term(touch["x_m"].to_numpy(), touch["y_m"].to_numpy(), amplitude, share_of_peak),)),
+        "fraction_above_share_U": expanded("fraction_above_share", own=between("fraction_above_share")),
         "width_uniformity": width_uniformity(touch["x_m"].to_numpy(), touch["signed_velocity_pp_mps"].to_numpy()),
         "n_nodal_lines": len(lines),
         "nodal_line_spacing_m": float(np.diff(lines).mean()) if len(lines) >= 2 else float("nan"),

@@ -79,7 +79,7 @@ COLUMNS: dict[str, tuple[str, str]] = {
     "fraction_above_share": ("1", "share of the touch area at or above share_of_peak of the largest amplitude, "
                                   "as the share of its points"),
     "fraction_above_share_U": ("1", "expanded uncertainty (k for 95 % under its budget) of fraction_above_share "
-                                    "(points' noise, the grid's placing of the contours)"),
+                                    "(points' noise, the grid against the field between its points)"),
     "width_uniformity": ("1", "share of the map's mean square in its width-averaged part: 1 for an (n, 0) mode"),
     "n_nodal_lines": ("1", "sign changes of the width-averaged signed map along x"),
     "nodal_line_spacing_m": ("m", "mean spacing of those nodal lines (half a flexural wavelength)"),
