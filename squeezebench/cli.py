@@ -218,7 +218,7 @@ def build_parser() -> argparse.ArgumentParser:
                             "about 20 s of one core per bench)")
     study.add_argument("--coverage-errors", choices=("specified", "world"), default="specified",
                        help="how the coverage study's benches err: 'specified' (uniformly within the limits, as "
-                            "the budgets assume) or 'world' (normal, a current probe lagging ~8 ns, 1 % of errors "
+                            "the budgets assume) or 'world' (normal, a current probe lagging ~8 ns, 1 %% of errors "
                             "at 1.5 times their limit); stored side by side, the report shows both")
     _add_parallel_options(study)
     study.set_defaults(func=cmd_study)
