@@ -200,7 +200,7 @@ def build_parser() -> argparse.ArgumentParser:
     reproduce.add_argument("--coverage-benches", type=int, default=0, metavar="N",
                            help="also run the paper campaign on N simulated benches with errors drawn within "
                                 "specification and check the uncertainties' coverage (default 0: not run; "
-                                "about 20 s of one core per bench)")
+                                "about 12 s of one core per bench)")
     _add_parallel_options(reproduce)
     reproduce.set_defaults(func=cmd_reproduce)
 
@@ -215,7 +215,7 @@ def build_parser() -> argparse.ArgumentParser:
     study.add_argument("--coverage-benches", type=int, default=None, metavar="N",
                        help="run the paper campaign on N simulated benches with errors drawn within specification "
                             "and check the uncertainties' coverage (default 40, or 0 with --experiment; "
-                            "about 20 s of one core per bench)")
+                            "about 12 s of one core per bench)")
     study.add_argument("--coverage-errors", choices=("specified", "world"), default="specified",
                        help="how the coverage study's benches err: 'specified' (uniformly within the limits, as "
                             "the budgets assume) or 'world' (normal, a current probe lagging ~8 ns, 1 %% of errors "
