@@ -43,7 +43,7 @@ import numpy as np
 import pandas as pd
 
 from squeezebench.analysis import cartography
-from squeezebench.plates import laminate, damping, plate_modes, reduced_layouts, specifications
+from squeezebench.plates import laminate, damping, plate_modes, predicted_plates, reduced_layouts, specifications
 from squeezebench.designing.design_file import DesignFile
 from squeezebench.errors import UserError
 
@@ -96,6 +96,8 @@ INPUTS = (
 
 #: The label of the Q input when Q comes from the loss physics: what the model leaves out.
 UNMODELLED_LOSS_LABEL = "mechanical Q: losses outside the loss model"
+#: The label of the Q input when a stated Q spreads as the paper's builds' realised Q does.
+PAPER_BUILDS_Q_LABEL = "mechanical Q of the build: the paper's builds' spread (log-normal; u of ln Q)"
 
 
 @dataclass(frozen=True)
@@ -402,6 +404,10 @@ def predict_physics(design: DesignFile, modal: ModalPart | None = None) -> Physi
             if u_mm == 0:
                 continue
             point = _placement_step(design, tolerance_mm, antinodes, nominal)
+        elif name == "mechanical_q" and design.damping.spread == "paper_builds":
+            u_rel, tolerance_mm, u_mm = predicted_plates.drive_model_form()["u_q_ln"], math.nan, math.nan
+            tolerance, label = predicted_plates.log_term_expanded_rel(u_rel), PAPER_BUILDS_Q_LABEL
+            point = _log_normal_step(design, u_rel, modal, nominal)
         else:
             tolerance = _tolerance(design, name)
             tolerance_mm, u_mm = math.nan, math.nan
@@ -434,6 +440,22 @@ def _tolerance(design: DesignFile, name: str) -> float:
     if name == "bond_loss_factor":
         return specifications.MODEL_TOLERANCES["bond_loss_factor"].half_width if design.damping.source == "physics" else 0.0
     return design.tolerance(name)
+
+
+def _log_normal_step(design: DesignFile, u_ln: float, modal: ModalPart, nominal: OperatingPoint) -> OperatingPoint:
+    """The working point with Q moved by one standard uncertainty `u_ln` of ln Q, as
+    `predicted_plates.log_term_expanded_rel` sizes a log-normal term: solved at Q exp(+k u) and
+    Q exp(-k u), each output's change taken from the side it moves more (the k-interval in ln
+    mapped back, widened to the symmetric one) over k; the branch moved 1/k of the way to the
+    upper Q, on which a response at a given voltage (going as Q) moves more."""
+    up, down = (operating_point(design, {"mechanical_q": math.exp(sign * COVERAGE_FACTOR * u_ln)}, modal=modal)
+                for sign in (1, -1))
+
+    def moved(key: str) -> float:
+        rise, fall = up.values[key] - nominal.values[key], down.values[key] - nominal.values[key]
+        return nominal.values[key] + (rise if abs(rise) >= abs(fall) else fall) / COVERAGE_FACTOR
+    values = {k: (moved(k) if k in UNCERTAIN else x) for k, x in up.values.items()}
+    return replace(up, values=values, lumped=_scaled_lumped(nominal.lumped, up.lumped, 1 / COVERAGE_FACTOR))
 
 
 def _placement_step(design: DesignFile, tolerance_mm: float, antinodes: int,

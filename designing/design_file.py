@@ -123,17 +123,25 @@ class Damping(_Model):
     """The plate's mechanical loss: the build's stated Q (one figure shared by every plate of
     it), or Q from the physics of its losses (`plates.damping`: aluminium, ceramic Qm, bond,
     radiation into air, weighted by the mode's strain energy), when `source` is physics; then
-    `tolerance_rel` is the spread of what the loss model leaves out and `mechanical_q` unused."""
+    `tolerance_rel` is the spread of what the loss model leaves out and `mechanical_q` unused.
+    A stated Q spreads by `tolerance_rel` (rectangular), or, with `spread: paper_builds` for a Q
+    taken from a build of the paper, by what the paper's builds show of their realised Q
+    (log-normal, sized on one build and judged on the others:
+    `plates.predicted_plates.drive_model_form`); then `tolerance_rel` is unused."""
 
     source: Literal["stated", "physics"] = "stated"
     mechanical_q: Optional[float] = Field(None, gt=1, lt=1e5)
     tolerance_rel: float = Field(0.3, ge=0, lt=1, description="half-width of a rectangular spread")
+    spread: Literal["rectangular", "paper_builds"] = "rectangular"
     origin: str = Field(min_length=1)
 
     @model_validator(mode="after")
     def _stated_q_given(self) -> "Damping":
         if self.source == "stated" and self.mechanical_q is None:
             raise ValueError("give mechanical_q, or source: physics for Q from the plate's losses")
+        if self.source == "physics" and self.spread == "paper_builds":
+            raise ValueError("spread: paper_builds is the spread of a Q stated from the paper's builds; "
+                             "with source: physics give tolerance_rel for the losses outside the model")
         return self
 
 

@@ -165,7 +165,9 @@ def _q_words(answer: DesignAnswer) -> str:
     if d.damping.source == "physics":
         return (f"mechanical Q {_pm(answer, 'mechanical_q', 2)} from the plate's losses (aluminium, ceramic, bond, "
                 f"radiation), ± {d.damping.tolerance_rel:.0%} for losses outside that model")
-    return (f"mechanical Q {d.damping.mechanical_q:g} ± {d.damping.tolerance_rel:.0%}, the build's stated figure; "
+    spread = (f"{answer.physics.expanded['mechanical_q'] / v['mechanical_q']:.0%} (log-normal, as the paper's builds "
+              "realise it)" if d.damping.spread == "paper_builds" else f"{d.damping.tolerance_rel:.0%}")
+    return (f"mechanical Q {d.damping.mechanical_q:g} ± {spread}, the build's stated figure; "
             f"the loss physics gives {v['physics_q']:.0f} for this plate")
 
 

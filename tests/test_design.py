@@ -193,7 +193,7 @@ def test_shipped_large_plate_reads_nothing_measured():
 
     spec = load_design_file(paths.design_file("large_plate"))
     assert spec.mode.near_hz is None and spec.mode.interior_antinodes == 21
-    assert spec.damping.mechanical_q == predicted_plates.MECHANICAL_Q
+    assert spec.damping.mechanical_q == predicted_plates.MECHANICAL_Q and spec.damping.spread == "paper_builds"
     assert spec.n_powered_piezos == 8 and spec.n_powered_groups == 4
 
 
@@ -638,3 +638,24 @@ def test_q_from_the_loss_physics_replaces_the_stated_figure(strip_prediction):
     assert "bond_loss_factor" not in set(strip_prediction.budget["input"])
     with pytest.raises(ValueError, match="give mechanical_q, or source: physics"):
         strip(damping={"mechanical_q": None})
+
+
+def test_a_q_from_the_papers_builds_spreads_as_they_realise_it(strip_prediction):
+    """With spread: paper_builds the stated Q's term is log-normal with the u of ln Q the paper's
+    builds show (`predicted_plates.drive_model_form`) and sized as `log_term_expanded_rel`
+    sizes one: the voltage at the target goes as 1 / Q, so its U from Q alone is
+    V (exp(k u) - 1), and Q's own U is Q (exp(k u) - 1); the other inputs' terms are unchanged."""
+    paper = design.predict_physics(strip(damping={"mechanical_q": 310, "spread": "paper_builds", "origin": "test"}))
+    u_ln = predicted_plates.drive_model_form()["u_q_ln"]
+    expanded_rel = predicted_plates.log_term_expanded_rel(u_ln)
+    rows = paper.budget[paper.budget["input"] == "mechanical_q"].set_index("output")
+    v = paper.nominal.values
+    for output in ("voltage_vpp", "mechanical_q"):
+        assert abs(rows.loc[output, "contribution"]) * design.COVERAGE_FACTOR == pytest.approx(
+            v[output] * expanded_rel, rel=1e-9)
+    assert rows["input_label"].iloc[0] == design.PAPER_BUILDS_Q_LABEL and rows["input_u_rel"].iloc[0] == u_ln
+    others = paper.budget[paper.budget["input"] != "mechanical_q"].reset_index(drop=True)
+    stated = strip_prediction.budget[strip_prediction.budget["input"] != "mechanical_q"].reset_index(drop=True)
+    pd.testing.assert_frame_equal(others, stated)
+    with pytest.raises(ValueError, match="spread: paper_builds is the spread of a Q stated"):
+        strip(damping={"source": "physics", "mechanical_q": None, "spread": "paper_builds"})
