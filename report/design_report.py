@@ -332,7 +332,7 @@ def budget_table(answer: DesignAnswer, output: str) -> pd.DataFrame:
     absolute = rows["tolerance_rel"].isna()   # the placement's, in mm
     return pd.DataFrame({
         "input": rows["input_label"],
-        "tolerance (±, rectangular)": [f"{mm:g} mm" if a else presentation.percent(t).lstrip("+")
+        "tolerance (±, rectangular unless the input names another)": [f"{mm:g} mm" if a else presentation.percent(t).lstrip("+")
                                        for a, t, mm in zip(absolute, rows["tolerance_rel"], rows["tolerance_mm"])],
         "u of the input": [f"{mm:.2f} mm" if a else f"{x:.2%}"
                            for a, x, mm in zip(absolute, rows["input_u_rel"], rows["input_u_mm"])],
@@ -360,7 +360,8 @@ def _plain(value: float, u: float) -> str:
 def assumptions(answer: DesignAnswer) -> str:
     d = answer.design
     items = [f"<li><b>{html.escape(k)}</b>: {html.escape(v)}</li>" for k, v in d.provenance.items()]
-    items.append(f"<li><b>damping</b>: {html.escape(_q_words(answer))} (rectangular): "
+    shape = "" if d.damping.spread == "paper_builds" else " (rectangular)"   # the words name a log-normal one
+    items.append(f"<li><b>damping</b>: {html.escape(_q_words(answer))}{shape}: "
                  f"{html.escape(d.damping.origin)}</li>")
     sheet = " (the rolled sheet's, EN 485-4)" if d.tolerances.thickness_m is None else ""
     items.append("<li><b>tolerances</b> (rectangular half-widths): " + ", ".join(
