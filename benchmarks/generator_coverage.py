@@ -5,7 +5,7 @@ Both are mostly the generator's frequency error, one +-20 ppm limit. For each va
 campaign (run, step) across the study's benches:
 
 1. The bench's drawn generator error, rebuilt from its bench seed through the simulator's own
-   effect (`world_coverage.drawn_terms`' approach), and the value's relative error fitted on
+   effect (`world_coverage.drawn_terms`), and the value's relative error fitted on
    it: its sensitivity a (the generator's term is |a| times the limit, a rectangle), the
    offset and the residual's spread (noise, the other instruments, the plate as drawn).
 2. The budget such a value would have were every term exactly right: the rectangle |a| 20 ppm
@@ -46,19 +46,23 @@ import numpy as np
 import pandas as pd
 from scipy.special import ndtr
 
-from squeezebench import paths
-from squeezebench.analysis import uncertainty
-from squeezebench.analysis.budgets import COVERAGE_PROBABILITY, SPECIFIED, WORLD, Budget, Term, budget_distribution
-from squeezebench.analysis.rundata import load_run
-from squeezebench.analysis.study import bench_bootstrap_interval, coverage_dir
-from squeezebench.analysis.tables import protocol_points, with_scope_fallback
-from squeezebench.plates.specifications import SPECIFICATIONS
-from squeezebench.protocols.bench_errors import _truths
-from squeezebench.protocols.campaign import run_campaign
-from squeezebench.protocols.variants import (ERROR_MODELS, campaign_with_effects, plate_draw_effects,
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT / "benchmarks"))
+
+from world_coverage import drawn_terms, stored_benches  # noqa: E402
+
+from squeezebench import paths  # noqa: E402
+from squeezebench.analysis import uncertainty  # noqa: E402
+from squeezebench.analysis.budgets import (COVERAGE_PROBABILITY, SPECIFIED, WORLD, Budget, Term,  # noqa: E402
+                                           budget_distribution)
+from squeezebench.analysis.rundata import load_run  # noqa: E402
+from squeezebench.analysis.study import bench_bootstrap_interval  # noqa: E402
+from squeezebench.analysis.tables import protocol_points, with_scope_fallback  # noqa: E402
+from squeezebench.plates.specifications import SPECIFICATIONS  # noqa: E402
+from squeezebench.protocols.bench_errors import _truths  # noqa: E402
+from squeezebench.protocols.campaign import run_campaign  # noqa: E402
+from squeezebench.protocols.variants import (ERROR_MODELS, campaign_with_effects, plate_draw_effects,  # noqa: E402
                                              systematic_effects)
-from squeezebench.simbench import effects as fx
-from squeezebench.simbench.scene import load_scene
 
 QUANTITIES = ("power_ratio", "resonance_frequency_hz")
 GENERATOR = "generator_frequency_error"
@@ -67,10 +71,7 @@ LIMIT_REL = SPECIFICATIONS["generator_frequency"].half_width
 
 def generator_errors(error_model: str, seeds) -> pd.Series:
     """Each bench's drawn generator frequency error (relative), as the simulator draws it."""
-    scene = load_scene(paths.scenes_dir() / "one_column_1mm.yaml")
-    draw = ERROR_MODELS[error_model]
-    return pd.Series([fx.EFFECTS[GENERATOR](scene, draw=draw, bench_seed=int(seed)).values["frequency_rel"]
-                      for seed in seeds], index=pd.Index(seeds, name="bench_seed"), name="generator")
+    return drawn_terms(error_model, seeds, (GENERATOR,))[GENERATOR].rename("generator")
 
 
 def decomposed(study: pd.DataFrame, generator: pd.Series) -> pd.DataFrame:
@@ -185,10 +186,9 @@ def main() -> int:
     drawn = {model: generator_errors(model, range(10_000_001, 10_000_001 + args.benches)).to_numpy()
              for model in ERROR_MODELS}
     for error_model in ERROR_MODELS:
-        files = sorted((args.study_dir / coverage_dir(error_model)).glob("bench_*.parquet"))
-        if not files:
+        study = stored_benches(args.study_dir, error_model)
+        if study is None:
             continue
-        study = pd.concat([pd.read_parquet(f) for f in files], ignore_index=True)
         seeds = sorted(study["bench_seed"].unique())
         generator = generator_errors(error_model, seeds)
         print(f"\n== {error_model}: {len(seeds)} benches")

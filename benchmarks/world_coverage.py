@@ -55,12 +55,19 @@ TERMS = {"scope_gain_error": "ch3_rel", "vibrometer_scale_error": "scale_rel",
          "generator_frequency_error": "frequency_rel"}
 
 
-def drawn_terms(error_model: str, seeds) -> pd.DataFrame:
-    """Each bench's drawn velocity errors (columns: the effects), as the simulator draws them."""
+def drawn_terms(error_model: str, seeds, names=tuple(TERMS)) -> pd.DataFrame:
+    """Each bench's drawn errors of the effects `names` (columns; a velocity's by default), as
+    the simulator draws them."""
     scene = load_scene(paths.scenes_dir() / "one_column_1mm.yaml")
     draw = ERROR_MODELS[error_model]
-    return pd.DataFrame({name: [fx.EFFECTS[name](scene, draw=draw, bench_seed=int(seed)).values[key] for seed in seeds]
-                         for name, key in TERMS.items()}, index=pd.Index(seeds, name="bench_seed"))
+    return pd.DataFrame({name: [fx.EFFECTS[name](scene, draw=draw, bench_seed=int(seed)).values[TERMS[name]]
+                                for seed in seeds] for name in names}, index=pd.Index(seeds, name="bench_seed"))
+
+
+def stored_benches(study_dir: Path, error_model: str) -> pd.DataFrame | None:
+    """The coverage study's rows under `error_model`, bench by bench (None: it ran none)."""
+    files = sorted((study_dir / coverage_dir(error_model)).glob("bench_*.parquet"))
+    return pd.concat([pd.read_parquet(f) for f in files], ignore_index=True) if files else None
 
 
 def decomposed(study: pd.DataFrame, terms: pd.DataFrame) -> tuple[pd.DataFrame, pd.DataFrame]:
@@ -114,11 +121,9 @@ def main() -> int:
           f"U {claim.expanded_uncertainty:.2%}")
     rng = np.random.default_rng(46)
     for error_model in ERROR_MODELS:
-        directory = args.study_dir / coverage_dir(error_model)
-        files = sorted(directory.glob("bench_*.parquet"))
-        if not files:
+        study = stored_benches(args.study_dir, error_model)
+        if study is None:
             continue
-        study = pd.concat([pd.read_parquet(f) for f in files], ignore_index=True)
         seeds = sorted(study["bench_seed"].unique())
         started = time.process_time()
         many = drawn_terms(error_model, range(10_000_001, 10_000_001 + args.benches))
