@@ -139,6 +139,24 @@ def dielectric_power_w(frequency_hz: float, capacitance_f: float, voltage_pp: fl
     return 2 * math.pi * frequency_hz * capacitance_f * (voltage_pp / 2) ** 2 * tan_delta / 2
 
 
+#: The piezos' loss tangent growing with the field, tan = tan_ref (E / E_ref)^exponent, as the
+#: simulated bench's `dielectric_loss` effect takes it when a scene names it without values:
+#: fitted on the paper's Fig. 2c stress case (Sec. 2.2; the effect's docstring has the
+#: arithmetic). One source for the simulator and for the budgets that read a stored scene.
+DIELECTRIC_LOSS_DEFAULTS = {"tan_delta_at_reference": 0.002735, "reference_field_amplitude_v_per_mm": 240.0,
+                            "exponent": 1.0}
+
+
+def field_tan_delta(voltage_amplitude_v, piezo_thickness_m: float, tan_delta_at_reference: float,
+                    reference_field_amplitude_v_per_m: float, exponent: float):
+    """tan(delta) of a piezo at field amplitude E = V0 / t: tan_ref (E / E_ref)^exponent. A loss
+    tangent linear in the field (exponent 1) is the Rayleigh law of ferroelectric hysteresis (loss
+    per cycle growing as E^3); exponent 0 is a constant tan(delta). With it the dielectric power
+    `dielectric_power_w` goes as f V0^(2 + exponent)."""
+    field_v_per_m = voltage_amplitude_v / piezo_thickness_m
+    return tan_delta_at_reference * (field_v_per_m / reference_field_amplitude_v_per_m) ** exponent
+
+
 def loss_terms(piezo_energy_share: float, bond_energy_ratio: float, frequency_hz: float,
                material: plate_modes.Isotropic, thickness_m: float, bond_loss_factor: float,
                piezo_mechanical_q: float = NCE41_MECHANICAL_Q,

@@ -34,6 +34,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from squeezebench.plates import damping
 from squeezebench.simbench import physics
 from squeezebench.simbench.effect_base import CHANNELS, VIBROMETER_CHANNEL, AcquisitionContext, Effect
 from squeezebench.simbench.fault_effects import (BusTimeout, ClippedTrace, Disconnect, GarbledReplyFault,
@@ -66,8 +67,7 @@ class DielectricLossEffect(Effect):
     """
 
     name = "dielectric_loss"
-    defaults = {"tan_delta_at_reference": 0.002735, "reference_field_amplitude_v_per_mm": 240.0,
-                "exponent": 1.0}
+    defaults = damping.DIELECTRIC_LOSS_DEFAULTS
     stages = frozenset({"load"})
 
     def load(self, load: physics.PlateLoad) -> physics.PlateLoad:

@@ -22,6 +22,8 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from squeezebench.plates import damping
+
 EPSILON_0_F_PER_M = 8.8541878128e-12
 
 #: Orders of the harmonics a clipped amplifier output is expanded into (odd and even: a
@@ -371,9 +373,8 @@ class DielectricLoss:
     piezo_thickness_m: float
 
     def tan_delta(self, voltage_amplitude_v: float) -> float:
-        field_v_per_m = voltage_amplitude_v / self.piezo_thickness_m
-        return self.tan_delta_at_reference * (
-            field_v_per_m / self.reference_field_amplitude_v_per_m) ** self.exponent
+        return damping.field_tan_delta(voltage_amplitude_v, self.piezo_thickness_m, self.tan_delta_at_reference,
+                                       self.reference_field_amplitude_v_per_m, self.exponent)
 
 
 @dataclass(frozen=True)
