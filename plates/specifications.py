@@ -72,6 +72,11 @@ SPECIFICATIONS: dict[str, Specification] = {
     "generator_frequency": Specification(
         20e-6, "1", "HP/Agilent 33120A User's Guide, Specifications: frequency accuracy 10 ppm "
                     "(90 days), 20 ppm (1 year); the one-year figure"),
+    "generator_amplitude": Specification(
+        0.02, "1", "HP/Agilent 33120A User's Guide, Specifications: amplitude accuracy +-1 % of the setting "
+                   "(+-1 mVpp) at 1 kHz, and sine flatness +-1 % below 100 kHz relative to 1 kHz; the two added "
+                   "at the plates' 30-50 kHz. Only a loss not going as V^2 (the piezos' dielectric loss) "
+                   "keeps it in Fig. 2's Pt/P0"),
 }
 
 

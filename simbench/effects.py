@@ -41,7 +41,8 @@ from squeezebench.simbench.fault_effects import (BusTimeout, ClippedTrace, Disco
                                                  InstrumentErrorEntry, TruncatedReplyFault)
 from squeezebench.simbench.spot_effects import PlateOffset, PlateTilt, Spot, StageBacklash
 from squeezebench.simbench.systematic_effects import (ChannelSkew, CurrentProbeDelay, CurrentProbeGainError,
-                                                      GeneratorFrequencyError, ScopeGainError, VibrometerScaleError,
+                                                      GeneratorAmplitudeError, GeneratorFrequencyError, ScopeGainError,
+                                                      VibrometerScaleError,
                                                       VoltageProbeCompensation, VoltageProbeError)
 
 
@@ -320,7 +321,8 @@ EFFECTS: dict[str, type[Effect]] = {cls.name: cls for cls in (
     SettlingTransient, DcOffset, VibrometerRange, ScopeNoise, VibrometerNoise,
     Quantisation, Averaging, ClippedTrace, BusTimeout, GarbledReplyFault, TruncatedReplyFault,
     InstrumentErrorEntry, Disconnect, ScopeGainError, VoltageProbeError, CurrentProbeGainError, VibrometerScaleError,
-    ChannelSkew, CurrentProbeDelay, VoltageProbeCompensation, GeneratorFrequencyError, StageBacklash, PlateOffset, PlateTilt)}
+    ChannelSkew, CurrentProbeDelay, VoltageProbeCompensation, GeneratorFrequencyError, GeneratorAmplitudeError,
+    StageBacklash, PlateOffset, PlateTilt)}
 # the plate drawn within its tolerances (a module of its own; it registers itself in EFFECTS)
 from squeezebench.simbench import plate_draws  # noqa: E402,F401
 

@@ -420,6 +420,15 @@ def test_generator_frequency_error(tmp_path):
     assert bench.measure("CH1", "FREQ") == pytest.approx(F_HZ * (1 + 1e-3), rel=2e-5)   # the scope sees it
 
 
+def test_generator_amplitude_error(tmp_path):
+    bench = bench_with(tmp_path, [{"generator_amplitude_error": {"amplitude_rel": 0.02}}])
+    raised = bench_with(tmp_path, [], generator_vpp=GENERATOR_VPP * 1.02)
+    assert float(bench.generator.query("VOLT?")) == pytest.approx(GENERATOR_VPP)   # answers the setting
+    assert bench.sim.truth().output_voltage_pp_v == pytest.approx(raised.sim.truth().output_voltage_pp_v, rel=1e-12)
+    assert bench.sim.truth().power_w == pytest.approx(raised.sim.truth().power_w, rel=1e-12)
+    assert bench.sim.truth().output_voltage_pp_v > 1.019 * bench_with(tmp_path, []).sim.truth().output_voltage_pp_v
+
+
 def test_plate_tolerances(tmp_path, ideal):
     """The plate at its tolerance limits (draw 0): the scope reads the drawn plate, not the
     nominal one (the drawn plate's closed forms are tests/test_plate_draws.py's)."""
