@@ -114,7 +114,9 @@ def model_table(point: dict, deskew: Deskew | None) -> pd.DataFrame:
                          "relative_std_uncertainty": tolerance.half_width_rel / 3**0.5,
                          "correction": "not corrected (sign unknown): budgeted at its limit",
                          "source": tolerance.source})
-    rows.append({"quantity": "power_ratio", "input": "noise of each mean; CH2 delay through w Q'/P at both points",
+    rows.append({"quantity": "power_ratio", "input": "noise of each mean; CH2 delay through w Q'/P at both points; "
+                 "the generator's frequency and amplitude through each power's share on the resonance and its "
+                 "dielectric share (analysis.dielectric)",
                  "type": "A and B", "distribution": "as listed for power_w",
                  "relative_std_uncertainty": float("nan"),
                  "correction": "the deskew's, when the run has one; the gains cancel",

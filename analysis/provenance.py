@@ -66,7 +66,7 @@ def point_origin(rows: pd.DataFrame, manifest: dict | None = None, scenes: dict 
     kind = bench_kind(rows, manifest)
     if kind == "simulated" and scenes and not rows.empty and all(
             _state_of(scenes, scene, state).get("resonance_frequency_hz") == "predicted"
-            for (scene, state), _ in rows.groupby([_scene_column(rows), _state_column(rows)], dropna=False)):
+            for (scene, state), _ in rows.groupby([scene_files(rows), _state_column(rows)], dropna=False)):
         return PREDICTED
     return {"real": MEASURED, "simulated": SIMULATED}.get(kind, kind)
 
@@ -92,7 +92,7 @@ def calibrated_on(run: RunData, rows: pd.DataFrame) -> dict[str, str]:
     if rows.empty or bench_kind(rows, run.manifest) != "simulated":
         return {}
     direct: dict[str, list[str]] = {}
-    for (scene_name, state_name), _ in rows.groupby([_scene_column(rows), _state_column(rows)],
+    for (scene_name, state_name), _ in rows.groupby([scene_files(rows), _state_column(rows)],
                                                     dropna=False, sort=True):
         scene = run.scenes.get(scene_name, {})
         state_key = state_name if isinstance(state_name, str) and state_name else scene.get("initial_state")
@@ -126,7 +126,7 @@ def _calibration_items(state: dict):
                     yield key, float(value)
 
 
-def _scene_column(rows: pd.DataFrame) -> pd.Series:
+def scene_files(rows: pd.DataFrame) -> pd.Series:
     """The scene file each row ran on (its inputs/ copy name); older rows: the plate's name."""
     if "bench_input" in rows:
         return rows["bench_input"].map(lambda p: str(p).removeprefix("inputs/"))

@@ -430,9 +430,9 @@ def detuning_table(run: RunData) -> pd.DataFrame:
     is regained (or at the stress point), with the ratio's expanded uncertainty
     (`uncertainty.power_ratio_budget`: the gains cancel, the CH2 delay does not).
     Unreachable targets stay as rows with status 'not reachable'."""
-    from squeezebench.analysis import uncertainty   # see _expanded
+    from squeezebench.analysis import dielectric, uncertainty   # see _expanded
 
-    points = with_scope_fallback(protocol_points(run, "detuning"))
+    points = dielectric.with_dielectric_power(with_scope_fallback(protocol_points(run, "detuning")), run.scenes)
     rows = []
     # One campaign run is one series of Fig. 2 (the stress point is a run of its own on
     # the same plate, with its own resonance power).

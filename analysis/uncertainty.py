@@ -34,7 +34,7 @@ import numpy as np
 import pandas as pd
 import uncertainties
 
-from squeezebench.analysis import model
+from squeezebench.analysis import dielectric, model
 from squeezebench.analysis.budgets import P95_FACTOR, Budget, Term
 from squeezebench.analysis.calibration import Deskew, deskew_of_run, gain_weight
 from squeezebench.analysis.resonance_searches import (PEAK_FIT_SHARE, SEARCH_STOP_SPREAD, SearchSetup,
@@ -120,6 +120,39 @@ def needs_deskew(points: pd.DataFrame) -> pd.DataFrame:
                   & (points["power_w_U"] > DELAY_FLAG_U_REL * points["power_w"].abs())]
 
 
+def generator_sensitivities(slope_per_hz, frequency_hz, dielectric_share, dielectric_voltage_exponent=3.0):
+    """(d ln P / d e, d ln P / d a) of an electrical power read at the generator's frequency
+    f (1 + e) and amplitude V (1 + a), numbers or arrays. P = M + D: the motional part M goes as
+    V^2 v(f)^2 / V^2, along the resonance (`detuning_slope_per_hz`: s = d ln v / d f, signed);
+    the piezos' dielectric loss D = w C0 V0^2 tan(delta) / 2 goes as f V^m, m = 2 + n for a
+    tan(delta) ~ E^n (`analysis.dielectric`, `plates.damping.field_tan_delta`), and not with
+    the resonance. With its share d = D / P:
+        d ln P / d e = (1 - d) 2 s f + d,        d ln P / d a = 2 (1 - d) + m d;
+    d = 0 (the whole power on the resonance) gives 2 s f and 2, the form without the loss."""
+    mechanical = 1.0 - dielectric_share
+    return (mechanical * 2.0 * slope_per_hz * frequency_hz + dielectric_share,
+            2.0 * mechanical + dielectric_voltage_exponent * dielectric_share)
+
+
+def _dielectric_share(points: pd.DataFrame | dict) -> tuple:
+    """Each point's dielectric share of its power and its voltage exponent
+    (`dielectric.with_dielectric_power`), 0 and 2 where it has no estimate, and whether every
+    point has one."""
+    power = np.asarray(points["power_w"], dtype=float)
+    loss = np.asarray(points.get("dielectric_power_w", np.full_like(power, np.nan)), dtype=float)
+    exponent = np.asarray(points.get("dielectric_voltage_exponent", np.full_like(power, 2.0)), dtype=float)
+    described = bool(np.all(np.isfinite(loss)))
+    return (np.where(np.isfinite(loss), loss / power, 0.0), np.where(np.isfinite(exponent), exponent, 2.0),
+            described)
+
+
+def _generator_frequency_term(sensitivity: float, described: bool) -> Term:
+    """The generator's frequency error in a budget; where a point on the slope has no
+    estimate of its dielectric share, the source says the conservative reading was taken."""
+    term = _spec_term("generator frequency", "generator_frequency", sensitivity)
+    return term if described or sensitivity == 0 else replace(term, source=f"{term.source}; {dielectric.NOT_DESCRIBED}")
+
+
 def power_ratio_std_uncertainty(numerator: pd.DataFrame, denominator: pd.DataFrame) -> float:
     """`power_ratio_budget`'s standard uncertainty."""
     return power_ratio_budget(numerator, denominator).std_uncertainty
@@ -133,16 +166,20 @@ def power_ratio_budget(numerator: pd.DataFrame, denominator: pd.DataFrame) -> Bu
     powers alike and cancel. The CH2 delay does not: a delay tau adds Q' w tau to each
     power, so dR/R = (w_t Q'_t / P_t - w_0 Q'_0 / P_0) tau, small at resonance (Q' ~ 0)
     and not at a detuned point. Nor does the generator's frequency error e: P_0 sits on the
-    resonance's flat top, P_t on its slope, where a power moves by 2 s f e (s = |d ln v / d f|,
-    `detuning_slope_per_hz`; P ~ v^2 at one voltage), so dR/R = 2 (s_t f_t - s_0 f_0) e
-    (1.2 % at r = 0.8 for 20 ppm). The noise of each mean is its own (Type A):
+    resonance's flat top, P_t on its slope, and each power moves by its own
+    `generator_sensitivities`, S_e = (1 - d) 2 s f + d with d its dielectric share
+    (`analysis.dielectric`: larger at P_t, read at a higher voltage; 0 without an estimate,
+    the conservative reading): dR/R = (S_e,t - S_e,0) e (1.2 % at r = 0.8 for 20 ppm with d = 0).
+    The generator's amplitude error a cancels in the motional parts (both go as V^2) but not
+    in the dielectric ones (V^(2+n)): dR/R = (S_a,t - S_a,0) a = n (d_t - d_0) a. The noise of
+    each mean is its own (Type A):
     u(R)^2 / R^2 = u(P_t)^2 / P_t^2 + u(P_0)^2 / P_0^2 + (w_t Q'_t / P_t - w_0 Q'_0 / P_0)^2 u(tau)^2
-                   + 4 (s_t f_t - s_0 f_0)^2 u(e)^2,
+                   + (S_e,t - S_e,0)^2 u(e)^2 + (S_a,t - S_a,0)^2 u(a)^2,
     with u(tau) the deskew's when the points were corrected, else the specified bound's.
     NaN terms when a point has no stored record to reduce."""
     applied = Deskew.applied_in(numerator)
     slopes = _slopes_of(numerator, denominator)
-    parts = []
+    parts, described = [], True
     for points in (numerator, denominator):
         power = float(points["power_w"].mean())
         noise = float(np.sqrt(np.sum(points["power_w_u"] ** 2))) / len(points)
@@ -150,9 +187,12 @@ def power_ratio_budget(numerator: pd.DataFrame, denominator: pd.DataFrame) -> Bu
         lead = float((points["reactive_power_var"]
                       * compensation_phase_per_mismatch(points["frequency_hz"], applied)).mean()) / power
         setting_hz = points["generator_frequency_hz"] if "generator_frequency_hz" in points else points["frequency_hz"]
-        pulling = 2.0 * float((slopes.loc[points.index] * setting_hz).mean())
-        parts.append((power, noise / power, phase, lead, pulling))
-    (p_t, noise_t, phase_t, lead_t, pull_t), (p_0, noise_0, phase_0, lead_0, pull_0) = parts
+        share, exponent, known = _dielectric_share(points)
+        to_frequency, to_amplitude = generator_sensitivities(slopes.loc[points.index].to_numpy(float),
+                                                             setting_hz.to_numpy(float), share, exponent)
+        described &= known or not np.any(slopes.loc[points.index].to_numpy(float))
+        parts.append((power, noise / power, phase, lead, float(np.mean(to_frequency)), float(np.mean(to_amplitude))))
+    (p_t, noise_t, phase_t, lead_t, pull_t, gain_t), (p_0, noise_0, phase_0, lead_0, pull_0, gain_0) = parts
     ratio = p_t / p_0
     delay = (delay_term(ratio * (phase_t - phase_0)) if applied is None else
              Term("CH2 delay after deskew", "B", abs(ratio * (phase_t - phase_0)) * applied.std_uncertainty_s,
@@ -162,7 +202,8 @@ def power_ratio_budget(numerator: pd.DataFrame, denominator: pd.DataFrame) -> Bu
         Term("noise of P_0 (record fits)", "A", abs(ratio) * noise_0, "fit covariance of the stored records"),
         delay,
         _spec_term("voltage probe compensation (CH1 phase)", "voltage_probe_compensation", ratio * (lead_t - lead_0)),
-        _spec_term("generator frequency", "generator_frequency", ratio * (pull_t - pull_0))))
+        _generator_frequency_term(ratio * (pull_t - pull_0), described),
+        _spec_term("generator amplitude", "generator_amplitude", ratio * (gain_t - gain_0))))
 
 
 def _slopes_of(numerator: pd.DataFrame, denominator: pd.DataFrame) -> pd.Series:
@@ -201,8 +242,17 @@ def power_budget(point: dict, deskew: Deskew | None = None) -> Budget:
     return Budget("power_w", "W", value, (
         _noise(point["power_w_u"]), *gains, delay,
         compensation_term(reactive * float(compensation_phase_per_mismatch(point["frequency_hz"], deskew)), deskew),
-        _spec_term("generator frequency", "generator_frequency",
-                   2.0 * value * point.get("detuning_slope_per_hz", 0.0) * float(point["frequency_hz"]))))
+        _power_generator_term(point)))
+
+
+def _power_generator_term(point: dict) -> Term:
+    """A stored power's generator-frequency term: `generator_sensitivities` at the point's
+    slope and dielectric share (the whole power on the resonance without an estimate)."""
+    share, exponent, described = _dielectric_share({key: [point.get(key, math.nan)] for key in
+                                                    ("power_w", "dielectric_power_w", "dielectric_voltage_exponent")})
+    slope = point.get("detuning_slope_per_hz", 0.0)
+    to_frequency, _ = generator_sensitivities(slope, float(point["frequency_hz"]), float(share[0]), float(exponent[0]))
+    return _generator_frequency_term(float(point["power_w"]) * to_frequency, described or not slope)
 
 
 def velocity_budget(point: dict) -> Budget:
@@ -313,11 +363,12 @@ def point_budget(quantity: str, point: dict, deskew: Deskew | None = None) -> Bu
 
 
 def detuning_slope_per_hz(points: pd.DataFrame) -> pd.Series:
-    """|d ln v / d f| at each point from the resonance curve of its own run and level.
+    """d ln v / d f at each point from the resonance curve of its own run and level
+    (signed: negative above the resonance, where the velocity falls as f rises).
 
     A detuned point at velocity ratio r = v/v0 sits at x = 2 Q (f - f0)/f0 with
-    r^2 = 1/(1 + x^2); the Lorentzian's slope there is x^2/(1 + x^2)/|f - f0| =
-    (1 - r^2)/|f - f0|, with f0 the run's resonance at the same velocity level. Points
+    r^2 = 1/(1 + x^2); the Lorentzian's slope there is -x^2/(1 + x^2)/(f - f0) =
+    -(1 - r^2)/(f - f0), with f0 the run's resonance at the same velocity level. Points
     at resonance (or without a level) have slope 0 (the curve is flat at its top).
     """
     slope = pd.Series(0.0, index=points.index)
@@ -330,9 +381,9 @@ def detuning_slope_per_hz(points: pd.DataFrame) -> pd.Series:
         key = (row.get("run_name"), row.get("velocity_level_pp_mps"))
         if not isinstance(ratio, (int, float)) or not 0 < ratio < 1 or key not in f0.index:
             continue
-        offset_hz = abs(float(row["generator_frequency_hz"]) - float(f0[key]))
-        if offset_hz > 0:
-            slope[index] = (1.0 - ratio**2) / offset_hz
+        offset_hz = float(row["generator_frequency_hz"]) - float(f0[key])
+        if offset_hz != 0:
+            slope[index] = -(1.0 - ratio**2) / offset_hz
     return slope
 
 
@@ -431,7 +482,7 @@ def stored_points(run: RunData) -> tuple[pd.DataFrame | None, Deskew | None]:
     if rows.empty or "waveform_file" not in rows:
         return None, deskew
     points = reduced_points(run, rows[rows["waveform_file"].notna()])
-    return points[points["protocol"] != "deskew_calibration"], deskew
+    return dielectric.with_dielectric_power(points[points["protocol"] != "deskew_calibration"], run.scenes), deskew
 
 
 def run_uncertainties(run: RunData) -> RunUncertainties:

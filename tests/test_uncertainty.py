@@ -93,13 +93,13 @@ def test_detuning_slope_is_the_lorentzian_flank():
         "target_velocity_ratio": [1.0, 0.5, 0.5],
         "generator_frequency_hz": [37000.0, 37100.0, 37100.0]})
     slope = detuning_slope_per_hz(points)
-    assert list(slope) == pytest.approx([0.0, 0.75 / 100.0, 0.75 / 100.0])
+    assert list(slope) == pytest.approx([0.0, -0.75 / 100.0, -0.75 / 100.0])   # v falls above f0
     # the closed form: d ln v / d f of 1 / sqrt(1 + x^2), x = 2 Q (f - f0) / f0, at r = 0.5
     q, f0 = 300.0, 37000.0
     x = math.sqrt(1 / 0.25 - 1)
     f = f0 * (1 + x / (2 * q))
     ln_v = lambda freq: -0.5 * math.log(1 + (2 * q * (freq - f0) / f0) ** 2)  # noqa: E731
-    assert abs((ln_v(f + 1e-3) - ln_v(f - 1e-3)) / 2e-3) == pytest.approx(0.75 / (f - f0), rel=1e-6)
+    assert (ln_v(f + 1e-3) - ln_v(f - 1e-3)) / 2e-3 == pytest.approx(-0.75 / (f - f0), rel=1e-6)
 
 
 def test_q_and_tan_theta_propagate_the_tolerances():
@@ -209,16 +209,6 @@ def _drawn_errors(run_dir) -> dict[str, float]:
             for key, value in getattr(effect, "values", {}).items()}
 
 
-def _signed_slope_per_hz(points: pd.DataFrame) -> np.ndarray:
-    """d ln v / d f at each point: the budget's |slope|, negative above the run's resonance."""
-    at_resonance = points[points["detuning_phase"] == "resonance"]
-    f0 = at_resonance.groupby(["run_name", "velocity_level_pp_mps"])["generator_frequency_hz"].first()
-    keys = list(zip(points["run_name"], points["velocity_level_pp_mps"]))
-    f0_hz = np.array([f0.get(key, np.nan) for key in keys], dtype=float)
-    side = np.nan_to_num(np.sign(points["generator_frequency_hz"].to_numpy() - f0_hz))
-    return -side * points["detuning_slope_per_hz"].to_numpy()
-
-
 def _predicted_rel_errors(points: pd.DataFrame, e: dict) -> tuple[np.ndarray, np.ndarray]:
     """(power, velocity) relative errors the bench's errors `e` give each point, in closed
     form: the gains multiply; a CH2 delay tau turns P into P cos(w tau) - Q_r sin(w tau)
@@ -226,7 +216,7 @@ def _predicted_rel_errors(points: pd.DataFrame, e: dict) -> tuple[np.ndarray, np
     its resonance curve by d ln v/d f * f * eps (the power twice as much)."""
     tau = e["channel_skew.ch2_delay_s"] + e["current_probe_delay.delay_s"]
     omega_tau = 2 * np.pi * points["frequency_hz"].to_numpy() * tau
-    along = _signed_slope_per_hz(points) * points["generator_frequency_hz"].to_numpy() \
+    along = points["detuning_slope_per_hz"].to_numpy() * points["generator_frequency_hz"].to_numpy() \
         * e["generator_frequency_error.frequency_rel"]
     omega_tau = omega_tau + compensation_phase_rad(e["voltage_probe_compensation.mismatch_rel"],
                                                    points["frequency_hz"].to_numpy())   # a CH1 lead acts as a CH2 delay
