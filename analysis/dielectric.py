@@ -14,10 +14,12 @@ moves it otherwise than P0 (`uncertainty.power_ratio_budget`). Both factors from
 - tan(delta)'s law from the scene copy the run stored (inputs/): its `dielectric_loss`
   effect, values over `damping.DIELECTRIC_LOSS_DEFAULTS` as the simulator takes them, and
   the piezos' thickness; a scene without that effect describes loss-free piezos (share 0).
+  A bench without a scene (a real one) has the law its campaign states for the plate
+  (`protocols.steps.PiezoLoss`, stored with every row: `STATED_COLUMNS`).
 
-A point whose run stored no scene (a real bench's bench file) or no reading at resonance has
-no estimate (NaN): its budgets take the whole power as following the resonance, which gives
-the larger generator-frequency term (`NOT_DESCRIBED` says so in the term's source).
+A point with neither, or whose run and level hold no reading at resonance, has no estimate
+(NaN): its budgets take the whole power as following the resonance, which gives the larger
+generator-frequency term (`NOT_DESCRIBED` says so in the term's source).
 """
 
 from __future__ import annotations
@@ -57,6 +59,22 @@ def loss_law(scene: dict) -> dict[str, float] | None:
             "exponent": float(law["exponent"]), "piezo_thickness_m": float(thickness_mm) * 1e-3}
 
 
+#: The row columns of a law the campaign states (`protocols.steps.PiezoLoss.as_row`), in
+#: the order of `damping.field_tan_delta`'s: thickness (mm), tan_ref, E_ref (V/mm), exponent.
+STATED_COLUMNS = ("piezo_thickness_mm", "piezo_tan_delta_at_reference", "piezo_loss_reference_field_v_per_mm",
+                  "piezo_loss_exponent")
+
+
+def stated_law(row: dict) -> dict[str, float] | None:
+    """The law a campaign stated for the row's plate (None: it stated none)."""
+    values = [row.get(column) for column in STATED_COLUMNS]
+    if not all(isinstance(v, (int, float)) and math.isfinite(v) for v in values):
+        return None
+    thickness_mm, tan_delta, field_v_per_mm, exponent = map(float, values)
+    return {"tan_delta_at_reference": tan_delta, "reference_field_amplitude_v_per_m": field_v_per_mm * 1e3,
+            "exponent": exponent, "piezo_thickness_m": thickness_mm * 1e-3}
+
+
 def clamped_capacitance_f(reactive_power_var: float, frequency_hz: float, voltage_vpp: float) -> float:
     """C0 from a reading at resonance, where the reactive power is the capacitance's alone:
     |Q_r| = w C0 V0^2 / 2, V0 = V_pp / 2."""
@@ -74,7 +92,8 @@ def dielectric_power_w(law: dict[str, float], capacitance_f: float, frequency_hz
 def with_dielectric_power(points: pd.DataFrame, scenes: dict[str, dict]) -> pd.DataFrame:
     """`points` with `dielectric_power_w` (NaN without an estimate, module docstring) and
     `dielectric_voltage_exponent` (2 + n: d ln P_d / d ln V) for every point of a detuning run
-    whose run and level hold a reading at resonance and whose scene copy is in `scenes`."""
+    whose run and level hold a reading at resonance and whose law is known: its scene copy in
+    `scenes`, else the one its campaign stated."""
     out = points.copy()
     out["dielectric_power_w"] = math.nan
     out["dielectric_voltage_exponent"] = math.nan
@@ -88,7 +107,7 @@ def with_dielectric_power(points: pd.DataFrame, scenes: dict[str, dict]) -> pd.D
                                               float(group["piezo_voltage_vpp"].mean()))
                    for key, group in at_resonance.groupby(["run_name", "velocity_level_pp_mps"])}
     for index, row in out.iterrows():
-        law = loss_law(scenes.get(scene_files[index], {}))
+        law = loss_law(scenes.get(scene_files[index], {})) or stated_law(row.to_dict())
         c0 = capacitance.get((row["run_name"], row["velocity_level_pp_mps"]))
         if law is None or c0 is None or not np.isfinite(row["piezo_voltage_vpp"]):
             continue

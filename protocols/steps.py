@@ -14,8 +14,37 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable
 
+from squeezebench.plates.damping import DIELECTRIC_LOSS_DEFAULTS
 from squeezebench.protocols.acquisition import Acquisition, Point
 from squeezebench.protocols.safety import DriveController
+
+
+@dataclass(frozen=True, kw_only=True)
+class PiezoLoss:
+    """The piezos' dielectric loss as the campaign states it (a real bench: a simulated
+    bench's scene describes its own): tan(delta) = tan_delta_at_reference (E / E_ref)^exponent
+    at the field amplitude E = V0 / piezo thickness (`plates.damping.field_tan_delta`; the
+    exponent 0 is a constant tan(delta), e.g. the datasheet's low-field figure). Stored with
+    every row of the plate, so Fig. 2's budget can tell the part of the power that does not
+    follow the resonance (`analysis.dielectric`)."""
+
+    piezo_thickness_mm: float
+    tan_delta_at_reference: float
+    reference_field_amplitude_v_per_mm: float = DIELECTRIC_LOSS_DEFAULTS["reference_field_amplitude_v_per_mm"]
+    exponent: float = DIELECTRIC_LOSS_DEFAULTS["exponent"]
+
+    def __post_init__(self) -> None:
+        if not (self.piezo_thickness_mm > 0 and self.reference_field_amplitude_v_per_mm > 0):
+            raise ValueError("piezo_thickness_mm and reference_field_amplitude_v_per_mm must be positive")
+        if not (self.tan_delta_at_reference >= 0 and self.exponent >= 0):
+            raise ValueError("tan_delta_at_reference and exponent must be zero or positive")
+
+    def as_row(self) -> dict[str, float]:
+        """The stored columns (`analysis.columns`)."""
+        return {"piezo_thickness_mm": self.piezo_thickness_mm,
+                "piezo_tan_delta_at_reference": self.tan_delta_at_reference,
+                "piezo_loss_reference_field_v_per_mm": self.reference_field_amplitude_v_per_mm,
+                "piezo_loss_exponent": self.exponent}
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -34,6 +63,7 @@ class Plate:
     scene: Path | None = None
     state: str | None = None
     instruction: str | None = None
+    piezo_loss: PiezoLoss | None = None   # None: the scene's (simulated), or not stated
 
     def __post_init__(self) -> None:
         if not self.name:
@@ -112,6 +142,7 @@ class StepContext:
             "scope_frequency_hz": point.scope_frequency_hz,
             "waveform_file": waveform_file,
             "bench_time_s": self.bench_time_s(point.clock_s),
+            **(plate.piezo_loss.as_row() if plate.piezo_loss is not None else {}),
         }
         row.update(columns)
         self.rows.append(row)

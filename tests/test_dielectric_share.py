@@ -187,3 +187,35 @@ def test_pt_over_p0_on_an_erring_bench_is_within_its_u(tmp_path):
     amplitude = next(t for t in budget.terms if t.name == "generator amplitude")
     assert amplitude.std_uncertainty > 0.5 * share * SPECIFICATIONS["generator_amplitude"].std_uncertainty \
         * budget.value
+
+
+def test_a_campaign_states_the_loss_for_a_bench_without_a_scene(tmp_path):
+    """A real bench's run has no scene copy: the law its campaign states for the plate
+    (`plate.piezo_loss`) is stored with every row and gives the scene's estimate; a
+    malformed one is one message naming the field."""
+    from squeezebench.protocols.campaign import CampaignError, load_campaign
+
+    stated = {"piezo_thickness_mm": PIEZO_THICKNESS_MM, "tan_delta_at_reference": 0.002735, "exponent": 1.0}
+    run = {"name": "fig2", "protocol": "detuning", "bench": {"scene": "one_column_1mm.yaml"},
+           "plate": {"n_powered_columns": 1, "n_powered_piezos": 4, "piezo_loss": stated},
+           "parameters": {"search": {"start_hz": 36500, "stop_hz": 38000, "points": 16},
+                          "velocity_levels_pp_mps": [0.25], "velocity_ratios": [0.8]}}
+    path = tmp_path / "c.yaml"
+    path.write_text(dump_yaml({"name": "c", "runs": [run]}))
+    plate = load_campaign(path).runs[0].plate
+    row = plate.piezo_loss.as_row()
+    assert row["piezo_loss_reference_field_v_per_mm"] == 240.0   # the simulator's default field
+    stored = load_run(run_campaign(path, out_dir=tmp_path / "run", progress=False, durable=False))
+    points = run_uncertainties(stored).points
+    assert (points[list(dielectric.STATED_COLUMNS)] == list(row.values())).all(axis=None)
+    without_scene = dielectric.with_dielectric_power(points.drop(columns=["dielectric_power_w"]), {})
+    assert without_scene["dielectric_power_w"].notna().sum() == 3   # P0, the detuned and the regained point
+    run["plate"]["piezo_loss"] = {**stated, "tan_delta_at_reference": -1.0}
+    path.write_text(dump_yaml({"name": "c", "runs": [run]}))
+    with pytest.raises(CampaignError, match="piezo_loss"):
+        load_campaign(path)
+    from_scene, _, _ = _fig2_points(_scene(0.002735))
+    unknown, resonance, _ = _fig2_points(None)
+    from_campaign = dielectric.with_dielectric_power(pd.concat([resonance, unknown]).assign(**row), {})
+    assert from_campaign["dielectric_power_w"].iat[1] == pytest.approx(from_scene["dielectric_power_w"].iat[0],
+                                                                       rel=1e-12)
