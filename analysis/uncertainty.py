@@ -120,10 +120,11 @@ def needs_deskew(points: pd.DataFrame) -> pd.DataFrame:
                   & (points["power_w_U"] > DELAY_FLAG_U_REL * points["power_w"].abs())]
 
 
-def generator_sensitivities(slope_per_hz, frequency_hz, dielectric_share, dielectric_voltage_exponent=3.0):
+def generator_sensitivities(slope_per_hz, frequency_hz, dielectric_share, dielectric_voltage_exponent):
     """(d ln P / d e, d ln P / d a) of an electrical power read at the generator's frequency
-    f (1 + e) and amplitude V (1 + a), numbers or arrays. P = M + D: the motional part M goes as
-    V^2 v(f)^2 / V^2, along the resonance (`detuning_slope_per_hz`: s = d ln v / d f, signed);
+    f (1 + e) and amplitude V (1 + a), numbers or arrays. P = M + D: the motional part
+    M = R v^2 / 2 follows the velocity, v ~ V along the resonance (`detuning_slope_per_hz`:
+    s = d ln v / d f, signed);
     the piezos' dielectric loss D = w C0 V0^2 tan(delta) / 2 goes as f V^m, m = 2 + n for a
     tan(delta) ~ E^n (`analysis.dielectric`, `plates.damping.field_tan_delta`), and not with
     the resonance. With its share d = D / P:
