@@ -183,9 +183,11 @@ def test_the_drive_voltage_only_scales_the_responses(frame):
 
 
 def test_placement_is_in_the_edge_plates_u_and_not_in_the_centred_ones():
+    """The edge piezos sit on the first half-wave's curvature maximum (`half_wave_edge_gap_mm`), so
+    +-1 mm moves their force factor by a few per cent, not the tens of per cent of 2 +- 2 mm."""
     per_volt = predicted_plates._predictions().set_index("item")
     assert (per_volt.loc[["75", "59", "28"], "force_factor_u_placement_rel"] == 0).all()
-    assert (per_volt.loc[["1-column", "large_plate"], "force_factor_u_placement_rel"] > 0.1).all()
+    assert (per_volt.loc[["1-column", "large_plate"], "force_factor_u_placement_rel"].between(0.03, 0.15)).all()
     assert (per_volt["velocity_u_rel"] > per_volt["force_factor_u_placement_rel"]).all()
 
 
@@ -213,8 +215,9 @@ def test_the_large_plates_placement_curve_is_the_design_models_own():
     ours = sorted((p.bounds, p.powered) for p in spec.geometry().patches)
     theirs = sorted((p.bounds, p.powered) for p in predicted_plates.large_plate().patches)
     assert np.allclose([b for b, _ in ours], [b for b, _ in theirs]) and [p for _, p in ours] == [p for _, p in theirs]
-    curve = paper_placement.large_plate_placement_curve(gaps_mm=(predicted_plates.EDGE_GAP_MM,)).iloc[0]
-    moved = spec.with_end_groups_at(predicted_plates.EDGE_GAP_MM)
+    gap = predicted_plates.large_plate().patches[0].bounds[0] / predicted_plates.MM
+    curve = paper_placement.large_plate_placement_curve(gaps_mm=(gap,)).iloc[0]
+    moved = spec.with_end_groups_at(gap)
     point = design.operating_point(moved, modal=design.modal_part(moved, antinodes=21)).values
     assert curve["voltage_vpp"] == pytest.approx(point["voltage_vpp"])
     assert curve["force_factor_n_per_v"] == pytest.approx(point["force_factor_n_per_v"])
@@ -322,7 +325,7 @@ def test_the_drive_term_fitted_on_table_3_is_judged_on_the_other_builds():
     assert (table3["power_covered"] == table3["power_scored"]).all()
     assert (table3["velocity_covered"] == table3["velocity_scored"]).all()
     table4 = check[(check["fitted_on"] == "Table 4") & (check["judged"] == "Sec. 5")].iloc[0]
-    assert table4["power_covered"] == 0 and table4["power_max_error_over_u"] > 2
+    assert table4["power_covered"] == 0 and table4["power_max_error_over_u"] > 1.5
 
 
 def test_the_u_of_a_held_out_build_does_not_read_its_own_printed_values(monkeypatch):
