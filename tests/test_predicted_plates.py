@@ -385,3 +385,42 @@ def test_the_half_wave_rule_puts_the_edge_piezo_where_the_solve_drives_the_mode_
     curve = paper_placement.edge_curve("1-column")
     at_rule = predicted_plates.centre_response(geometry, 9)["force_factor_n_per_v"]
     assert at_rule >= 0.95 * curve["force_factor_n_per_v"].max()
+
+
+@pytest.mark.parametrize("velocity_factor, voltage_factor", [(2.0, 1.0), (1.0, 2.0), (0.5, 2.0)])
+def test_a_reading_moves_the_mismatch_as_its_closed_form_says(monkeypatch, velocity_factor, voltage_factor):
+    """The docs' reading rows: the mismatch recomputed with the printed velocity and drive scaled
+    moves by `drive_candidates.reading_shift` (exactly for the velocity; the drive's dielectric
+    share, under 1 % of the printed power, bends it slightly)."""
+    from squeezebench.plates import drive_candidates
+
+    before = predicted_plates.drive_mismatch()
+    printed, velocity = predicted_plates._printed, predicted_plates.printed_velocity_pp_mps
+    monkeypatch.setattr(predicted_plates, "_printed",
+                        lambda table, item: printed(table, item) | {"voltage_vpp": printed(table, item)["voltage_vpp"]
+                                                                    * voltage_factor})
+    monkeypatch.setattr(predicted_plates, "printed_velocity_pp_mps",
+                        lambda table, item, f: velocity(table, item, f) * velocity_factor)
+    after = predicted_plates.drive_mismatch()
+    d_a, d_q = drive_candidates.reading_shift(velocity_factor, voltage_factor)
+    moved_a = after["ln_force_factor_ratio"] - before["ln_force_factor_ratio"]
+    moved_q = after["ln_q_ratio"] - before["ln_q_ratio"]
+    assert np.allclose(moved_a, d_a, atol=0.03) and np.allclose(moved_q, d_q, atol=0.03)
+    if voltage_factor == 1.0:
+        assert np.allclose(moved_a, d_a, atol=1e-12) and np.allclose(moved_q, d_q, atol=1e-12)
+
+
+def test_the_candidates_the_docs_quote_a_shared_bond_moves_both_builds_alike_and_the_spot_barely():
+    """docs/design.md's solved rows: a rigid or a ten times more compliant bond moves Table 3's and
+    Table 4's force-factor mismatch by the same factor within 5 %, so no shared bond parts them;
+    reading the velocity 2 mm off the centre moves it under 5 %."""
+    from squeezebench.plates import drive_candidates
+
+    frame = drive_candidates.candidates()
+    for bond in ("bond rigid", "bond ten times more compliant"):
+        shifts = frame.loc[frame["candidate"] == bond, "d_ln_force_factor"].to_numpy()
+        assert len(shifts) == 2 and abs(shifts[0] - shifts[1]) < 0.05
+    spot = frame[frame["candidate"].str.startswith("velocity read 2 mm")]
+    assert (abs(spot["force_factor_ratio_times"] - 1) < 0.05).all()
+    readings = frame[frame["candidate"].str.contains("read as amplitude")]
+    assert np.allclose(readings["force_factor_ratio_times"], 0.5)
