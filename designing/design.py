@@ -92,7 +92,7 @@ INPUTS = (
     ("bond_loss_factor", "bond's loss factor (Q from physics)", False),
     ("mechanical_q", "mechanical Q of the build", False),
     # the force factor the paper's builds realise beyond the model's (`predicted_plates.drive_model_form`):
-    # a design whose Q spreads as theirs rests its voltage on the model's force factor as theirs did
+    # every design's voltage rests on the model's force factor, as their predictions did
     ("build_force_factor", "force factor of the build", False),
 )
 
@@ -102,7 +102,7 @@ UNMODELLED_LOSS_LABEL = "mechanical Q: losses outside the loss model"
 #: The label of the Q input when a stated Q spreads as the paper's builds' realised Q does.
 PAPER_BUILDS_Q_LABEL = "mechanical Q of the build: the paper's builds' spread (log-normal; u of ln Q)"
 #: The label of the force factor's model-form input (with spread: paper_builds).
-PAPER_BUILDS_FORCE_LABEL = ("force factor of the build: the paper's builds' spread over the model's (log-normal; "
+PAPER_BUILDS_FORCE_LABEL = ("force factor of the build: what the paper's builds realise over the model's (log-normal; "
                             "u of ln A; measure the build's force factor to remove it)")
 
 
@@ -410,17 +410,17 @@ def predict_physics(design: DesignFile, modal: ModalPart | None = None) -> Physi
             if u_mm == 0:
                 continue
             point = _placement_step(design, tolerance_mm, antinodes, nominal)
-        elif name in ("mechanical_q", "build_force_factor") and design.damping.spread == "paper_builds":
-            # the two parts of the builds' term as two rows: their correlation (negative on Table 3)
-            # is left out, which widens the voltage's U (it goes as 1 / (A Q))
+        elif name == "build_force_factor" or (name == "mechanical_q" and design.damping.spread == "paper_builds"):
+            # the model-form term's two parts as two rows: the force factor's on every design (no
+            # physics explains the builds' departure from the model's, docs/design.md), the Q's
+            # where the Q is the builds'; their correlation (negative on Table 3) is left out,
+            # which widens the voltage's U (it goes as 1 / (A Q))
             form = predicted_plates.drive_model_form()
             u_rel = form["u_q_ln"] if name == "mechanical_q" else form["u_force_factor_ln"]
             tolerance_mm, u_mm = math.nan, math.nan
             tolerance = predicted_plates.log_term_expanded_rel(u_rel)
             label = PAPER_BUILDS_Q_LABEL if name == "mechanical_q" else PAPER_BUILDS_FORCE_LABEL
             point = _log_normal_step(design, name, u_rel, modal, nominal)
-        elif name == "build_force_factor":
-            continue   # a design with its own Q states its build; the model's force factor stands
         else:
             tolerance = _tolerance(design, name)
             tolerance_mm, u_mm = math.nan, math.nan

@@ -384,10 +384,9 @@ def assumptions(answer: DesignAnswer) -> str:
         f"{label} ±{d.tolerance(name):.1%}" + (sheet if name == "thickness_m" else "")
         for name, label, _ in INPUTS
         if name not in ("mechanical_q", "placement_mm", "bond_loss_factor", "build_force_factor")) + "</li>")
-    if d.damping.spread == "paper_builds":
-        items.append("<li><b>force factor</b>: the model's, spread as the force factor the paper's builds realise "
-                     "over it (log-normal; plates.predicted_plates.drive_model_form): measure the built plate's to "
-                     "remove it</li>")
+    items.append("<li><b>force factor</b>: the model's, spread as the force factor the paper's builds realise "
+                 "over it (log-normal, sized on Table 3's plates, judged on the others): measure the built plate's "
+                 "to remove it</li>")
     items.append(f"<li><b>placement</b>: each end group within ±{d.placement_tolerance_mm:g} mm along the length "
                  "(rectangular; the bonding tolerance unless a group states its own), all moved together in the "
                  "budget, as one template or jig places them</li>")
