@@ -54,7 +54,8 @@ STATED_ANTINODES = {"76 mm plates": 9, "large": 21}
 LAYOUTS = {
     "table3": ((38.0,), "assumed: the one column sits mid-length, since the plate was cut "
                         "symmetrically to 28 mm and still driven (Sec. 2.3.1); at the centre's curvature "
-                        "maximum its +-0.5 mm bonding tolerance moves nothing to first order"),
+                        "maximum its +-0.5 mm bonding tolerance moves nothing to first order (to second, "
+                        "the force factor by about 3 %: 13 % at 1 mm, plates.drive_candidates)"),
     "table4": ((), "Fig. 3 caption: piezos glued at the edges; each edge piezo centred on the first half-wave "
                    f"from the edge (the paper's rule, half_wave_edge_gap_mm) +- {HALF_WAVE_TOLERANCE_MM:g} mm"),
     "large": ((), "Sec. 5.2: two piezos at each corner (along the short edges); each centred on the first "
