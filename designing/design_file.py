@@ -127,7 +127,8 @@ class Damping(_Model):
     A stated Q spreads by `tolerance_rel` (rectangular), or, with `spread: paper_builds` for a Q
     taken from a build of the paper, by what the paper's builds show of their realised Q
     (log-normal, sized on one build and judged on the others:
-    `plates.predicted_plates.drive_model_form`); then `tolerance_rel` is unused."""
+    `plates.predicted_plates.drive_model_form`; the force factor they realise over the
+    model's is a term of every design's budget); then `tolerance_rel` is unused."""
 
     source: Literal["stated", "physics"] = "stated"
     mechanical_q: Optional[float] = Field(None, gt=1, lt=1e5)

@@ -4,7 +4,8 @@ distance from the edges (`design.placement_rows`, the one placement curve), and 
 gap at which each edge plate's model meets the force factor its print implies.
 
 Every gap here is an INFERENCE, labelled so, and never an input of a prediction of the
-numbers it is inferred from (the predictions take `predicted_plates.EDGE_GAP_MM`).
+numbers it is inferred from (the predictions take the half-wave rule's,
+`predicted_plates.half_wave_edge_gap_mm`).
 `python -m squeezebench.designing.paper_placement` prints them.
 """
 from __future__ import annotations
@@ -20,8 +21,7 @@ from squeezebench.designing import design
 from squeezebench.designing.design_file import DesignFile
 from squeezebench.paper import paper_value
 from squeezebench.plates import laminate, plate_modes, predicted_plates
-from squeezebench.plates.predicted_plates import (EDGE_GAP_MM, EDGE_GAP_TOLERANCE_MM, MECHANICAL_Q, MM,
-                                                  STATED_ANTINODES,
+from squeezebench.plates.predicted_plates import (HALF_WAVE_TOLERANCE_MM, MECHANICAL_Q, MM, STATED_ANTINODES,
                                                   implied_force_factor_n_per_v, large_plate, table4_plate)
 
 
@@ -30,9 +30,10 @@ from squeezebench.plates.predicted_plates import (EDGE_GAP_MM, EDGE_GAP_TOLERANC
 EDGE_GAPS_MM = (0.0, 0.5, 1.0, 1.5, 2.0, 2.5, 3.0, 3.5, 4.0, 5.0, 6.0)
 
 
-def large_plate_design(edge_gap_mm: float = EDGE_GAP_MM, amplitude_pp_m: float = 1e-6):
+def large_plate_design(edge_gap_mm: float | None = None, amplitude_pp_m: float = 1e-6):
     """The paper's large plate (`predicted_plates.large_plate`) as a design file: the same
-    geometry, its end piezos `edge_gap_mm` from the edges +- `EDGE_GAP_TOLERANCE_MM`, the
+    geometry, its end piezos `edge_gap_mm` from the edges (None: the half-wave rule's) +-
+    `HALF_WAVE_TOLERANCE_MM`, the
     (21, 0) mode, `amplitude_pp_m` at the centre and the build's `MECHANICAL_Q` with the paper's
     builds' spread; the amplifier is the bench's NF HSA 4052 (300 Vpp)."""
     q = lambda name: paper_value("large_plate", "large_plate", name)  # noqa: E731
@@ -40,7 +41,7 @@ def large_plate_design(edge_gap_mm: float = EDGE_GAP_MM, amplitude_pp_m: float =
     ys: dict[float, list[float]] = {}
     for p in geometry.patches:
         ys.setdefault(round(p.x_center_m / MM, 9), []).append(round(p.y_center_m / MM, 9))
-    groups = [{"name": f"x{x:g}", "x_mm": x, "y_mm": sorted(y), "x_tolerance_mm": EDGE_GAP_TOLERANCE_MM}
+    groups = [{"name": f"x{x:g}", "x_mm": x, "y_mm": sorted(y), "x_tolerance_mm": HALF_WAVE_TOLERANCE_MM}
               for x, y in ys.items()]
     return DesignFile.model_validate({
         "name": "large_plate",
@@ -63,10 +64,10 @@ def large_plate_placement_curve(amplitude_pp_m: float = 1e-6, gaps_mm=EDGE_GAPS_
     the edge, with the build's `MECHANICAL_Q` and with the plate's own physics Q
     (`plates.damping`, nominal losses: the voltage goes as 1/Q at a given amplitude, the
     mechanical power as 1/Q and the dielectric as the voltage squared)."""
-    curve = design.placement_rows(large_plate_design(EDGE_GAP_MM, amplitude_pp_m), STATED_ANTINODES["large"],
-                                  gaps_mm)
+    curve = design.placement_rows(large_plate_design(None, amplitude_pp_m), STATED_ANTINODES["large"], gaps_mm)
     ratio = curve["mechanical_q"] / curve["physics_q"]
-    curve["within_stated_range"] = (curve["edge_gap_mm"] - EDGE_GAP_MM).abs() <= EDGE_GAP_TOLERANCE_MM + 1e-9
+    nominal = large_plate().patches[0].bounds[0] / MM
+    curve["within_stated_range"] = (curve["edge_gap_mm"] - nominal).abs() <= HALF_WAVE_TOLERANCE_MM + 1e-9
     curve["voltage_vpp_physics_q"] = curve["voltage_vpp"] * ratio
     dielectric = curve["power_w"] - curve["mechanical_power_w"]
     curve["power_w_physics_q"] = curve["mechanical_power_w"] * ratio + dielectric * ratio**2
@@ -136,7 +137,7 @@ def voltage_decomposition(gaps_mm=tuple(REVIEW_FORCE_FACTORS_N_PER_V)) -> pd.Dat
     their moment per volt kept the real ones' (e_eff z_m eta of the 0.5 mm piezo and its bond):
     `stiffening_factor` is what the patches' own stiffness does to M / A, hence to the voltage."""
     curve = design.placement_rows(large_plate_design(), STATED_ANTINODES["large"], list(gaps_mm))
-    geometry = large_plate(EDGE_GAP_MM)
+    geometry = large_plate()
     h, width, length = geometry.thickness_m, geometry.width_m, geometry.length_m
     patch = geometry.patches[0]
 

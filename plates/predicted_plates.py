@@ -19,33 +19,48 @@ from squeezebench.paper import paper_value
 
 MM = 1e-3
 
-#: How far the edge columns' outer sides sit from the free edge (mm): the paper says only
-#: "glued at the edges" (Fig. 3) and "at the four corners" (Sec. 5.2). Assumed: the patch lies
-#: within the edge's first flexural half-wave (about 8-9 mm, a 5-6 mm patch and a gap up to
-#: 4 mm), gap 2 mm +-2 mm (rectangular). The force factor is very sensitive to it (the mode's
-#: curvature vanishes at a free edge), so it is an input with a range, carried in U, never
-#: chosen from a printed result (`designing.paper_placement` states what the print implies).
-EDGE_GAP_MM = 2.0
-EDGE_GAP_TOLERANCE_MM = 2.0
+#: Where the edge columns sit the paper does not say ("glued at the edges", Fig. 3; "at the four
+#: corners", Sec. 5.2); its rule places them (`half_wave_edge_gap_mm`). How far an edge piezo
+#: may sit from where the rule puts it (mm, rectangular half-width): hand bonding to a mark
+#: (+-0.5 mm, as Table 3's column) and the rule's own ambiguity, the bare beam's nodal lines
+#: against the loaded plate's (0.5 mm on Table 4's plate: its first half-wave's centre 6.3 mm
+#: from the edge on the beam, 6.8 mm in the solve).
+HALF_WAVE_TOLERANCE_MM = 1.0
 
-#: Column layouts (x of each column's centre, mm, at the nominal edge gap) and why.
-LAYOUTS = {
-    "table3": ((38.0,), "assumed: the one column sits mid-length, since the plate was cut "
-                        "symmetrically to 28 mm and still driven (Sec. 2.3.1); at the centre's curvature "
-                        "maximum its +-0.5 mm bonding tolerance moves nothing to first order"),
-    "table4": ((EDGE_GAP_MM + 2.5, 76.0 - EDGE_GAP_MM - 2.5),
-               f"Fig. 3 caption: piezos glued at the edges; assumed {EDGE_GAP_MM:g} +- {EDGE_GAP_TOLERANCE_MM:g} mm "
-               "from the edge to the patch"),
-    "large": ((EDGE_GAP_MM + 3.0, 198.0 - EDGE_GAP_MM - 3.0),
-              f"Sec. 5.2: two piezos at each corner (along the short edges); assumed {EDGE_GAP_MM:g} +- "
-              f"{EDGE_GAP_TOLERANCE_MM:g} mm from the edge to the patch"),
-}
+
+def half_wave_edge_gap_mm(length_mm: float, antinodes: int, piezo_x_mm: float) -> float:
+    """The edge gap at which an end piezo `piezo_x_mm` long sits centred on the first half-wave
+    from the free edge, between the first two nodal lines of the free-free beam mode of
+    `antinodes` interior antinodes on a plate `length_mm` long (`plate_modes.free_free_beam_shape`,
+    closed form; the nodes depend on the count and the length only). The paper's design rule,
+    not a printed result: each piezo drives one half-wave section between nodal lines, its
+    width "close to" lambda/2 (Sec. 2.2; Sec. 3.2's lambda/2 section, Eq. 26 zero at both its
+    ends), and the large plate's lambda/2 was designed to its piezos (Sec. 5.2). Table 4's plate:
+    3.80 mm (nodes 2.64 and 9.96 mm); the large plate: 4.26 mm (3.04 and 11.47 mm)."""
+    beta_l = plate_modes.free_free_beam_roots(antinodes)[-1]
+    x_mm = np.linspace(0.0, length_mm / 2, 100_001)
+    nodes = plate_modes.sign_changes(x_mm, plate_modes.free_free_beam_shape(beta_l, length_mm, x_mm)[0])
+    return float((nodes[0] + nodes[1]) / 2 - piezo_x_mm / 2)
+
 
 #: The mode each plate is driven in, as the text describes the plate (never a printed
 #: result): "All plates worked at the (9, 0) mode" (Sec. 2.1), the large plate's (21, 0)
 #: mode (Sec. 5.3.1). A cut plate's mode is not stated as a design: it is the (n, 0) mode
 #: its centre column drives nearest the uncut plate's (`_cut_plate_mode`).
 STATED_ANTINODES = {"76 mm plates": 9, "large": 21}
+
+#: Column layouts (x of each centred column's centre, mm) and why; the edge columns' place
+#: follows from the mode (`half_wave_edge_gap_mm`).
+LAYOUTS = {
+    "table3": ((38.0,), "assumed: the one column sits mid-length, since the plate was cut "
+                        "symmetrically to 28 mm and still driven (Sec. 2.3.1); at the centre's curvature "
+                        "maximum its +-0.5 mm bonding tolerance moves nothing to first order (to second, "
+                        "the force factor by about 3 %: 13 % at 1 mm, plates.drive_candidates)"),
+    "table4": ((), "Fig. 3 caption: piezos glued at the edges; each edge piezo centred on the first half-wave "
+                   f"from the edge (the paper's rule, half_wave_edge_gap_mm) +- {HALF_WAVE_TOLERANCE_MM:g} mm"),
+    "large": ((), "Sec. 5.2: two piezos at each corner (along the short edges); each centred on the first "
+                  f"half-wave from the edge (half_wave_edge_gap_mm) +- {HALF_WAVE_TOLERANCE_MM:g} mm"),
+}
 
 
 def _columns(x_mm: tuple[float, ...], width_mm: float, per: int, powered: int) -> tuple:
@@ -65,10 +80,14 @@ def table3_plate(label: str) -> plate_modes.PlateGeometry:
     return plate.cut_to(float(label) * MM)
 
 
-def table4_plate(label: str, edge_gap_mm: float = EDGE_GAP_MM) -> plate_modes.PlateGeometry:
+def table4_plate(label: str, edge_gap_mm: float | None = None) -> plate_modes.PlateGeometry:
+    """Table 4's plate `label`, its edge columns `edge_gap_mm` from the edges (None: the
+    half-wave rule's, `half_wave_edge_gap_mm`)."""
     width = paper_value("table4", "plate", "resonator_width_mm")
     length = paper_value("table4", "plate", "resonator_length_mm")
     piezo_x = paper_value("table4", "plate", "piezo_width_mm")
+    if edge_gap_mm is None:
+        edge_gap_mm = half_wave_edge_gap_mm(length, STATED_ANTINODES["76 mm plates"], piezo_x)
     n_columns = int(paper_value("table4", label, "n_columns"))
     xs = (edge_gap_mm + piezo_x / 2, length - edge_gap_mm - piezo_x / 2)
     return plate_modes.PlateGeometry(
@@ -76,9 +95,13 @@ def table4_plate(label: str, edge_gap_mm: float = EDGE_GAP_MM) -> plate_modes.Pl
         _columns(xs[:n_columns], width, 4, int(paper_value("table4", label, "n_powered_columns"))))
 
 
-def large_plate(edge_gap_mm: float = EDGE_GAP_MM) -> plate_modes.PlateGeometry:
+def large_plate(edge_gap_mm: float | None = None) -> plate_modes.PlateGeometry:
+    """The large plate, its corner piezos `edge_gap_mm` from the short edges (None: the
+    half-wave rule's, `half_wave_edge_gap_mm`)."""
     q = lambda name: paper_value("large_plate", "large_plate", name)  # noqa: E731
     width, length, piezo_x = q("resonator_width_mm"), q("resonator_length_mm"), q("piezo_width_mm")
+    if edge_gap_mm is None:
+        edge_gap_mm = half_wave_edge_gap_mm(length, STATED_ANTINODES["large"], piezo_x)
     patches = tuple(plate_modes.Patch(x * MM, y * MM, piezo_x * MM,
                                       q("piezo_length_mm") * MM, q("piezo_thickness_mm") * MM, True, "corner")
                     for x in (edge_gap_mm + piezo_x / 2, length - edge_gap_mm - piezo_x / 2)
@@ -295,8 +318,8 @@ def _predictions() -> pd.DataFrame:
         u_bond_force = span / (2 * math.sqrt(3))
         u_place = {"frequency_hz": 0.0, "force_factor_n_per_v": 0.0, "modal_mass_kg": 0.0}
         if at_gap is not None:   # the edge gap's ends, each solved (the force factor is far from linear in it)
-            ends = [centre_response(g, antinodes)
-                    for g in (at_gap(EDGE_GAP_MM - EDGE_GAP_TOLERANCE_MM), at_gap(EDGE_GAP_MM + EDGE_GAP_TOLERANCE_MM))]
+            gap = geometry.patches[0].bounds[0] / MM   # the first column is the one at x = 0's edge
+            ends = [centre_response(at_gap(gap + side * HALF_WAVE_TOLERANCE_MM), antinodes) for side in (-1, 1)]
             u_place = {q: abs(ends[1][q] - ends[0][q]) / nominal[q] / (2 * math.sqrt(3)) for q in u_place}
         # a cut plate's length is the cut's (Table 3's plates; the others are stated sheets): a
         # free-free mode of a given count rings at (beta_n / L)^2, so d ln f / d ln L = -2

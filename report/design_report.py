@@ -55,6 +55,9 @@ def headline(answer: DesignAnswer) -> list[str]:
              f"{d.name} needs {_pm(answer, 'voltage_vpp')} Vpp and {_pm(answer, 'power_w')} W for "
              f"{_target_words(answer)}, from physics (working mode {_pm(answer, 'frequency_hz', 2)} Hz, "
              f"{v['interior_antinodes']} antinodes; {_q_words(answer)})."]
+    act = _act_on(answer.physics)
+    if act:
+        lines.append(act)
     limits = [f"amplifier {v['voltage_vpp'] / d.amplifier.max_output_vpp:.0%} of its {d.amplifier.max_output_vpp:g} Vpp",
               f"piezo field {v['piezo_field_v_per_mm']:.0f} of {d.piezo.max_field_v_per_mm:g} V/mm"]
     if d.amplifier.max_current_app:
@@ -192,7 +195,20 @@ def _layouts_sentence(answer: DesignAnswer) -> str:
 
 
 def _pm_of(physics, quantity: str, digits: int = 2) -> str:
-    return presentation.with_uncertainty(physics.nominal.values[quantity], physics.expanded[quantity], digits)
+    return presentation.with_uncertainty_or_range(physics.nominal.values[quantity], physics.expanded[quantity], digits)
+
+
+def _act_on(physics, quantities=("voltage_vpp", "power_w")) -> str | None:
+    """Where a quantity's U reaches its value (shown as a range), the input to act on: its
+    budget's largest term, in words; None when every one is a value +- U."""
+    wide = [q for q in quantities if physics.expanded[q] >= physics.nominal.values[q] > 0]
+    if not wide:
+        return None
+    rows = physics.budget[physics.budget["output"].isin(wide)]
+    top = rows.loc[rows["contribution_abs"].idxmax()]
+    return (f"The {' and '.join(presentation.label(q).split(' (')[0] for q in wide)} can only be given as a range: "
+            f"their U is mostly {top['input_label']}. Act on it: characterise the built plate (its resonance at a "
+            "known drive gives its force factor and Q) and give the run to design --measured.")
 
 
 def _layout_words(row) -> str:
@@ -366,7 +382,11 @@ def assumptions(answer: DesignAnswer) -> str:
     sheet = " (the rolled sheet's, EN 485-4)" if d.tolerances.thickness_m is None else ""
     items.append("<li><b>tolerances</b> (rectangular half-widths): " + ", ".join(
         f"{label} ±{d.tolerance(name):.1%}" + (sheet if name == "thickness_m" else "")
-        for name, label, _ in INPUTS if name not in ("mechanical_q", "placement_mm", "bond_loss_factor")) + "</li>")
+        for name, label, _ in INPUTS
+        if name not in ("mechanical_q", "placement_mm", "bond_loss_factor", "build_force_factor")) + "</li>")
+    items.append("<li><b>force factor</b>: the model's, spread as the force factor the paper's builds realise "
+                 "over it (log-normal, sized on Table 3's plates, judged on the others): measure the built plate's "
+                 "to remove it</li>")
     items.append(f"<li><b>placement</b>: each end group within ±{d.placement_tolerance_mm:g} mm along the length "
                  "(rectangular; the bonding tolerance unless a group states its own), all moved together in the "
                  "budget, as one template or jig places them</li>")

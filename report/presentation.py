@@ -198,6 +198,23 @@ def with_uncertainty(value: float, u: float, digits: int = 2, unit: str = "") ->
     return f"{value:.{places}f} ± {u:.{places}f}{unit}".replace("-", "−")
 
 
+def with_uncertainty_or_range(value: float, u: float, digits: int = 2, unit: str = "") -> str:
+    """`with_uncertainty`, or, where U reaches the (positive) value itself, the factor interval
+    "value (value / F to value x F)" with F = 1 + U / value: "56 +- 70" would put zero and below
+    inside, which no voltage or power can be; read as a log-normal quantity whose relative U is
+    exp(k u) - 1 (`plates.predicted_plates.log_term_expanded_rel`), its k-interval is value / F
+    to value F."""
+    if not (value > 0 and math.isfinite(u) and u >= value):
+        return with_uncertainty(value, u, digits, unit)
+    factor = 1 + u / value
+    unit = f" {unit}" if unit else ""
+
+    def figures(x: float) -> str:   # `digits` significant figures, never an exponent
+        places = digits - 1 - math.floor(math.log10(x))
+        return f"{round(x, places):.{max(places, 0)}f}"
+    return f"{figures(value)}{unit} (x/÷ {figures(factor)}: {figures(value / factor)} to {figures(value * factor)}{unit})"
+
+
 def percent(fraction: float) -> str:
     """A relative difference in %, two significant digits below 1 % (never "+0.0 %"), at
     most three from 1 % on ("+96.0 %", "−1061 %")."""

@@ -144,7 +144,8 @@ def test_budget_rows_name_every_input(strip_prediction):
     # inputs that do not enter a quantity contribute exactly nothing to it
     frequency = budget[budget["output"] == "frequency_hz"].set_index("input")["contribution"]
     assert (frequency[["d31_c_per_n", "relative_permittivity_t", "tan_delta", "mechanical_q"]] == 0).all()
-    assert strip_prediction.dominant("voltage_vpp") == "mechanical Q of the build"
+    # the model-form force factor (a factor exp(2 u) = 5.6 at k = 2) outweighs the stated Q's +-30 %
+    assert strip_prediction.dominant("voltage_vpp") == design.PAPER_BUILDS_FORCE_LABEL
 
 
 def test_centre_on_a_nodal_line_is_refused():
@@ -644,7 +645,8 @@ def test_a_q_from_the_papers_builds_spreads_as_they_realise_it(strip_prediction)
     """With spread: paper_builds the stated Q's term is log-normal with the u of ln Q the paper's
     builds show (`predicted_plates.drive_model_form`) and sized as `log_term_expanded_rel`
     sizes one: the voltage at the target goes as 1 / Q, so its U from Q alone is
-    V (exp(k u) - 1), and Q's own U is Q (exp(k u) - 1); the other inputs' terms are unchanged."""
+    V (exp(k u) - 1), and Q's own U is Q (exp(k u) - 1); the force factor's part likewise as its
+    own row; the other inputs' terms are unchanged."""
     paper = design.predict_physics(strip(damping={"mechanical_q": 310, "spread": "paper_builds", "origin": "test"}))
     u_ln = predicted_plates.drive_model_form()["u_q_ln"]
     expanded_rel = predicted_plates.log_term_expanded_rel(u_ln)
@@ -654,6 +656,21 @@ def test_a_q_from_the_papers_builds_spreads_as_they_realise_it(strip_prediction)
         assert abs(rows.loc[output, "contribution"]) * design.COVERAGE_FACTOR == pytest.approx(
             v[output] * expanded_rel, rel=1e-9)
     assert rows["input_label"].iloc[0] == design.PAPER_BUILDS_Q_LABEL and rows["input_u_rel"].iloc[0] == u_ln
+    # the voltage at the target goes as 1 / A too: the builds' force-factor part is its own row
+    u_force = predicted_plates.drive_model_form()["u_force_factor_ln"]
+    force = paper.budget[paper.budget["input"] == "build_force_factor"].set_index("output")
+    assert abs(force.loc["voltage_vpp", "contribution"]) * design.COVERAGE_FACTOR == pytest.approx(
+        v["voltage_vpp"] * predicted_plates.log_term_expanded_rel(u_force), rel=1e-9)
+    assert force["input_label"].iloc[0] == design.PAPER_BUILDS_FORCE_LABEL and force["input_u_rel"].iloc[0] == u_force
+    # a voltage whose U passes its value is a range, and the headline names what to measure
+    assert paper.expanded["voltage_vpp"] > v["voltage_vpp"]
+    from squeezebench.report import design_report
+
+    lines = design_report.headline(DesignAnswer(paper))
+    assert " (x/÷ " in lines[1].split(" Vpp")[0] and "±" not in lines[1].split(" Vpp")[0]
+    assert design.PAPER_BUILDS_FORCE_LABEL in lines[2] and "design --measured" in lines[2]
+    # every other row, the force factor's among them (a design with its own Q rests its voltage on
+    # the model's force factor all the same), is the stated-Q design's
     others = paper.budget[paper.budget["input"] != "mechanical_q"].reset_index(drop=True)
     stated = strip_prediction.budget[strip_prediction.budget["input"] != "mechanical_q"].reset_index(drop=True)
     pd.testing.assert_frame_equal(others, stated)

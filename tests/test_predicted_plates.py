@@ -183,9 +183,11 @@ def test_the_drive_voltage_only_scales_the_responses(frame):
 
 
 def test_placement_is_in_the_edge_plates_u_and_not_in_the_centred_ones():
+    """The edge piezos sit on the first half-wave's curvature maximum (`half_wave_edge_gap_mm`), so
+    +-1 mm moves their force factor by a few per cent, not the tens of per cent of 2 +- 2 mm."""
     per_volt = predicted_plates._predictions().set_index("item")
     assert (per_volt.loc[["75", "59", "28"], "force_factor_u_placement_rel"] == 0).all()
-    assert (per_volt.loc[["1-column", "large_plate"], "force_factor_u_placement_rel"] > 0.1).all()
+    assert (per_volt.loc[["1-column", "large_plate"], "force_factor_u_placement_rel"].between(0.03, 0.15)).all()
     assert (per_volt["velocity_u_rel"] > per_volt["force_factor_u_placement_rel"]).all()
 
 
@@ -213,8 +215,9 @@ def test_the_large_plates_placement_curve_is_the_design_models_own():
     ours = sorted((p.bounds, p.powered) for p in spec.geometry().patches)
     theirs = sorted((p.bounds, p.powered) for p in predicted_plates.large_plate().patches)
     assert np.allclose([b for b, _ in ours], [b for b, _ in theirs]) and [p for _, p in ours] == [p for _, p in theirs]
-    curve = paper_placement.large_plate_placement_curve(gaps_mm=(predicted_plates.EDGE_GAP_MM,)).iloc[0]
-    moved = spec.with_end_groups_at(predicted_plates.EDGE_GAP_MM)
+    gap = predicted_plates.large_plate().patches[0].bounds[0] / predicted_plates.MM
+    curve = paper_placement.large_plate_placement_curve(gaps_mm=(gap,)).iloc[0]
+    moved = spec.with_end_groups_at(gap)
     point = design.operating_point(moved, modal=design.modal_part(moved, antinodes=21)).values
     assert curve["voltage_vpp"] == pytest.approx(point["voltage_vpp"])
     assert curve["force_factor_n_per_v"] == pytest.approx(point["force_factor_n_per_v"])
@@ -322,7 +325,7 @@ def test_the_drive_term_fitted_on_table_3_is_judged_on_the_other_builds():
     assert (table3["power_covered"] == table3["power_scored"]).all()
     assert (table3["velocity_covered"] == table3["velocity_scored"]).all()
     table4 = check[(check["fitted_on"] == "Table 4") & (check["judged"] == "Sec. 5")].iloc[0]
-    assert table4["power_covered"] == 0 and table4["power_max_error_over_u"] > 2
+    assert table4["power_covered"] == 0 and table4["power_max_error_over_u"] > 1.5
 
 
 def test_the_u_of_a_held_out_build_does_not_read_its_own_printed_values(monkeypatch):
@@ -362,3 +365,62 @@ def test_the_power_at_the_printed_velocity_is_the_modal_resistances_and_carries_
     assert large.predicted_power_at_printed_velocity_w == pytest.approx(
         2 * math.pi * large.predicted_frequency_hz * model.loc["large_plate", "modal_mass_g"] * 1e-3 / 310.0
         * (math.pi * large.predicted_frequency_hz * 1e-6) ** 2 / 2 + large.predicted_dielectric_power_w)
+
+
+def test_the_half_wave_rule_puts_the_edge_piezo_where_the_solve_drives_the_mode_best():
+    """The edge gap comes from the free-free beam's nodes (closed form), not from any print: on
+    Table 4's plate the solve's own first half-wave (the loaded plate's nodal lines) is centred
+    within 0.6 mm of the rule's patch centre (the ambiguity its +-1 mm holds), and the solve's
+    force factor there is within 5 % of its best over the gaps 0-8 mm, so the +-1 mm moves it
+    by a few per cent where 2 +- 2 mm moved it by tens."""
+    from squeezebench.designing import paper_placement
+
+    gap = predicted_plates.half_wave_edge_gap_mm(76.0, 9, 5.0)
+    assert gap == pytest.approx(3.804, abs=1e-3)
+    geometry = predicted_plates.table4_plate("1-column")
+    assert geometry.patches[0].bounds[0] / predicted_plates.MM == pytest.approx(gap)
+    modes, k = predicted_plates._solve_working(geometry, 9, None)
+    lines_mm = modes.nodal_lines_m(k) / predicted_plates.MM
+    assert (lines_mm[0] + lines_mm[1]) / 2 == pytest.approx(gap + 2.5, abs=0.6)
+    curve = paper_placement.edge_curve("1-column")
+    at_rule = predicted_plates.centre_response(geometry, 9)["force_factor_n_per_v"]
+    assert at_rule >= 0.95 * curve["force_factor_n_per_v"].max()
+
+
+@pytest.mark.parametrize("velocity_factor, voltage_factor", [(2.0, 1.0), (1.0, 2.0), (0.5, 2.0)])
+def test_a_reading_moves_the_mismatch_as_its_closed_form_says(monkeypatch, velocity_factor, voltage_factor):
+    """The docs' reading rows: the mismatch recomputed with the printed velocity and drive scaled
+    moves by `drive_candidates.reading_shift` (exactly for the velocity; the drive's dielectric
+    share, under 1 % of the printed power, bends it slightly)."""
+    from squeezebench.plates import drive_candidates
+
+    before = predicted_plates.drive_mismatch()
+    printed, velocity = predicted_plates._printed, predicted_plates.printed_velocity_pp_mps
+    monkeypatch.setattr(predicted_plates, "_printed",
+                        lambda table, item: printed(table, item) | {"voltage_vpp": printed(table, item)["voltage_vpp"]
+                                                                    * voltage_factor})
+    monkeypatch.setattr(predicted_plates, "printed_velocity_pp_mps",
+                        lambda table, item, f: velocity(table, item, f) * velocity_factor)
+    after = predicted_plates.drive_mismatch()
+    d_a, d_q = drive_candidates.reading_shift(velocity_factor, voltage_factor)
+    moved_a = after["ln_force_factor_ratio"] - before["ln_force_factor_ratio"]
+    moved_q = after["ln_q_ratio"] - before["ln_q_ratio"]
+    assert np.allclose(moved_a, d_a, atol=0.03) and np.allclose(moved_q, d_q, atol=0.03)
+    if voltage_factor == 1.0:
+        assert np.allclose(moved_a, d_a, atol=1e-12) and np.allclose(moved_q, d_q, atol=1e-12)
+
+
+def test_the_candidates_the_docs_quote_a_shared_bond_moves_both_builds_alike_and_the_spot_barely():
+    """docs/design.md's solved rows: a rigid or a ten times more compliant bond moves Table 3's and
+    Table 4's force-factor mismatch by the same factor within 5 %, so no shared bond parts them;
+    reading the velocity 2 mm off the centre moves it under 5 %."""
+    from squeezebench.plates import drive_candidates
+
+    frame = drive_candidates.candidates()
+    for bond in ("bond rigid", "bond ten times more compliant"):
+        shifts = frame.loc[frame["candidate"] == bond, "d_ln_force_factor"].to_numpy()
+        assert len(shifts) == 2 and abs(shifts[0] - shifts[1]) < 0.05
+    spot = frame[frame["candidate"].str.startswith("velocity read 2 mm")]
+    assert (abs(spot["force_factor_ratio_times"] - 1) < 0.05).all()
+    readings = frame[frame["candidate"].str.contains("read as amplitude")]
+    assert np.allclose(readings["force_factor_ratio_times"], 0.5)

@@ -1,6 +1,6 @@
 """The shipped input files (scenes, designs, campaigns, benches, the paper's values) say where
 an assumed number comes from by naming a module of this package, or one of its names
-(`plates.predicted_plates.EDGE_GAP_MM`, `plates/damping.py`). A module that moves leaves
+(`plates.predicted_plates.MECHANICAL_Q`, `plates/damping.py`). A module that moves leaves
 those words pointing nowhere: every one must still import and hold the name it cites."""
 
 from __future__ import annotations
