@@ -70,12 +70,13 @@ def coefficients_of_variation(amplitudes: np.ndarray) -> np.ndarray:
     return np.divide(std, mean, out=np.full(mean.shape, np.inf), where=mean > 0)
 
 
-#: Spots per axis over a grid point's cell at which `field_readings` reads the field between
-#: the points (the midpoint rule over the interpolated field: 6 and 10 give the same figures).
+#: Spots per axis over a grid point's cell at which `cell_readings` reads the field between
+#: the points (the midpoint rule over the interpolated field: 6 and 10 give the same figures),
+#: and so the sub-step shifts per axis at which `shifted_grid_errors` places the grid.
 READING_SAMPLES = 8
 #: The readings of the field between the points, each with the points it needs along every
 #: axis it interpolates: bilinear, and the tensor-product cubic spline (scipy's
-#: `RegularGridInterpolator`); `field_readings` takes every one the grid allows.
+#: `RegularGridInterpolator`); `cell_readings` takes the smoothest the grid allows.
 READING_ORDERS = (("linear", 2), ("cubic", 4))
 
 
@@ -86,19 +87,20 @@ def cell_offsets(samples: int) -> np.ndarray:
 
 
 @dataclass(frozen=True)
-class FieldReading:
-    """The touch area's coefficient of variation and area above the share of the points'
-    peak, read from the field between the grid's points by `method` (`field_readings`)."""
+class CellReadings:
+    """|field| over every grid point's cell, read from the signed field between the points
+    (`cell_readings`): one row per point, one column per spot of its cell, the same spot
+    of every cell in one column."""
 
-    coefficient_of_variation: float
-    fraction_above_share: float
+    values: np.ndarray
     method: str   # of READING_ORDERS
 
 
 def _read_between(x_m: np.ndarray, y_m: np.ndarray, signed: np.ndarray, method: str) -> np.ndarray:
-    """|field| at READING_SAMPLES^2 spots over each point's cell, the signed field read by
-    `method` between the points (extrapolated past the outer points by the edge's own
-    polynomial). A missing grid point takes its row's, then its column's, nearest value."""
+    """|field| at READING_SAMPLES spots per wide axis over each point's cell (points x spots,
+    the x offset the slower), the signed field read by `method` between the points
+    (extrapolated past the outer points by the edge's own polynomial). A missing grid point
+    takes its row's, then its column's, nearest value."""
     frame = pd.DataFrame({"x": np.round(np.asarray(x_m, dtype=float), 9),
                           "y": np.round(np.asarray(y_m, dtype=float), 9), "v": np.asarray(signed, dtype=float)})
     table = frame.pivot_table(index="x", columns="y", values="v")
@@ -115,56 +117,79 @@ def _read_between(x_m: np.ndarray, y_m: np.ndarray, signed: np.ndarray, method: 
              for centre, axis, wide in zip(centres, axes, spread)]
     if all(spread):
         spots = [np.repeat(spots[0], READING_SAMPLES, axis=1), np.tile(spots[1], (1, READING_SAMPLES))]
-    wide_spots = [spot.ravel() for spot, wide in zip(spots, spread) if wide]
+    wide_spots = [spot for spot, wide in zip(spots, spread) if wide]
     return np.abs(reader(np.stack(wide_spots, axis=-1)))
 
 
-def field_readings(x_m: np.ndarray, y_m: np.ndarray, signed: np.ndarray, share_of_peak: float) -> list[FieldReading]:
-    """The coefficient of variation and the area above `share_of_peak` of the points' peak
-    of the vibration over the grid points' cells, read from the field between the points
-    by each of READING_ORDERS the grid allows (none for a single point): a plate's mode
-    shape is smooth in its signed deflection (its amplitude alone has a kink at each nodal
-    line), so the signed map is interpolated and its magnitude taken at
-    READING_SAMPLES^2 spots over each cell."""
+def cell_readings(x_m: np.ndarray, y_m: np.ndarray, signed: np.ndarray) -> CellReadings | None:
+    """The vibration over the grid points' cells, read from the field between the points by
+    the smoothest of READING_ORDERS the grid allows (None for a single point, which has no
+    cell to read across): a plate's mode shape is smooth in its signed deflection (its
+    amplitude alone has a kink at each nodal line), so the signed map is interpolated and
+    its magnitude taken at READING_SAMPLES spots per axis over each cell."""
     points = [len(np.unique(np.round(np.asarray(axis, dtype=float), 9))) for axis in (x_m, y_m)]
     if points == [1, 1]:
-        return []
-    threshold = share_of_peak * np.abs(np.asarray(signed, dtype=float)).max()
-    readings = []
-    for method, least in READING_ORDERS:
-        if all(n >= least or n == 1 for n in points):
-            spots = _read_between(x_m, y_m, signed, method)
-            readings.append(FieldReading(homogeneity(spots).coefficient_of_variation,
-                                         float(np.mean(spots >= threshold)), method))
-    return readings
+        return None
+    method = [name for name, least in READING_ORDERS if all(n >= least or n == 1 for n in points)][-1]
+    return CellReadings(_read_between(x_m, y_m, signed, method), method)
 
 
-def grid_term(points_figure: float, field_figures: list[float], methods: list[str]) -> Term:
-    """Type B term of a homogeneity figure read as the grid's points' (each point standing
-    for its whole cell) for the vibration over the cells. Each reading of the field between
-    the points (`field_readings`: linear, cubic) estimates the points' error by its change
-    from their figure; the term is the root mean square of those changes, taken as the
-    standard deviation of the points' error, normal (GUM 4.3.1: a Type B evaluation from the
-    information at hand; F.2.4.5: a correction not applied is carried in the uncertainty),
-    not as a bound. The points' error is the same on every map of that field on that grid
-    (a bias of the grid's registration on the mode, not noise); no correction is applied
-    since neither reading's own error is known to be the smaller on a real plate's mode: on
-    the large plate's 4 mm map each reading is about as far from the mode as the points, and
-    at some registrations one of them agrees with the points by chance (the cubic alone
-    left U a fifth of the error there), which the mean of both squares does not.
+def grid_error(attribute: str, share_of_peak: float) -> Callable[[np.ndarray, np.ndarray], float]:
+    """The error of homogeneity figure `attribute` read as a grid's points' (`homogeneity`,
+    each point standing for its cell) against the same figure of the vibration over their
+    cells, as a function of (points' amplitudes, the cells' amplitudes). The area above the
+    share of the peak is the cells' above the share of the points' peak, as a map reads it."""
+    def error(points: np.ndarray, cells: np.ndarray) -> float:
+        read = homogeneity(points, share_of_peak)
+        if attribute == "fraction_above_share":
+            return read.fraction_above_share - float(np.mean(cells >= share_of_peak * read.maximum))
+        return getattr(read, attribute) - getattr(homogeneity(cells, share_of_peak), attribute)
+    return error
 
-    Tested at random phases on cosine mode shapes 2 to 4 points per half-wavelength and on
-    the large plate's mode at registrations across a cell (tests/test_cartography_mode.py):
-    U (k = 1.96) holds 99 % of the points' errors and more, about twice the median error
-    for an (n, 0) or 2-D mode, four to six times for a slanted wave's, and at most 2.5 times
-    the largest on the large plate's (the nearest-vs-linear rectangle it replaced was twelve
-    times it). It does not hold a grid under two points per half-wavelength, whose points
-    read an aliased field that no interpolation between them recovers."""
-    changes = np.asarray(field_figures, dtype=float) - points_figure
-    u = float(np.sqrt(np.mean(changes**2))) if changes.size else 0.0
-    return Term("grid (field between points)", "B", u,
-                f"the points' figure vs the {' and '.join(methods) or 'no'} reading of the signed field between "
-                "them, root mean square, as a standard deviation", rectangular=False)
+
+def shifted_grid_errors(readings: CellReadings, error: Callable[[np.ndarray, np.ndarray], float]) -> np.ndarray:
+    """`error` (e.g. `grid_error`) of the grid shifted by each sub-step offset across a cell
+    (READING_SAMPLES per axis), read off the field between the points: column j of
+    `readings` is where the grid's points would be, shifted by spot j's offset; all the
+    columns together are the vibration over the cells."""
+    values = readings.values
+    return np.array([error(values[:, j], values.ravel()) for j in range(values.shape[1])])
+
+
+def grid_term(errors: np.ndarray, method: str) -> Term:
+    """Type B term of a homogeneity figure for not knowing where the grid fell on the mode.
+
+    A map reads the vibration over the touch area at its grid's points, each standing for
+    its cell; the figure those points give differs from the vibration's over the cells by an
+    error that depends on where the grid lands on the mode (an aliasing error: a standing
+    wave's sampled mean square is off by a cosine of the grid's offset along it), and the
+    grid's place is not known: the plate is aligned on the stage by eye, to a millimetre or
+    so, and the mode's phase along the plate is not known to the analysis at all. `errors`
+    are that error for the grid placed at every sub-step offset across a cell
+    (`shifted_grid_errors`, read off the measured field's own smooth reconstruction), so
+    their root mean square is the standard deviation of the error of a grid at an unknown
+    place (GUM 4.3.1: a Type B evaluation from the information at hand; F.2.4.5: a
+    correction not applied is carried in the uncertainty), taken as normal. No correction
+    is applied: which offset the grid had is what is not known.
+
+    Checked (tests/test_cartography_mode.py): on a standing wave the shifted grids' errors
+    are the closed form's (a sampled sin^2 mean is off by a cosine of the offset) and the
+    term their root mean square. On the large plate's mode it is 1.3-1.7 times the true
+    errors' spread across a cell, the most at the paper campaign's 4 mm grid (2.4 points
+    per half-wave), where the cubic reading between the points is itself off. A CV's error
+    across offsets is nearly a cosine of the offset, within about sqrt(2) standard
+    deviations, so its U over-covers; the area above the share of the peak jumps by whole
+    columns of points as they cross the threshold, which the reading smooths, and at
+    registrations where the columns cross in pairs (a grid symmetric about a symmetric
+    mode) its error is beyond U. It does not hold a grid under two points per
+    half-wavelength, whose points read an aliased field that no interpolation between them
+    recovers."""
+    errors = np.asarray(errors, dtype=float)
+    u = float(np.sqrt(np.mean(errors**2))) if errors.size else 0.0
+    return Term("grid (where it fell on the mode)", "B", u,
+                f"the points' figure vs the field's over their cells, the grid shifted across a cell "
+                f"({errors.size} offsets, the {method or 'no'} reading between the points), root mean square, "
+                "as a standard deviation", rectangular=False)
 
 
 def modal_assurance(measured: np.ndarray, predicted: np.ndarray) -> float:
@@ -314,7 +339,7 @@ def summarise_map(points: pd.DataFrame, predicted: np.ndarray | None = None, sha
     the generator's frequency error through the level steps between the map's re-tuned
     steps (`retuning_term`). The coefficient of variation and the area above the share of
     the mapped peak are the vibration's over the touch area, which the points' figures
-    estimate to the changes to the field read between them (`grid_term`). With `predicted` (the model's shape at the same points)
+    estimate to the spread of their error over where the grid fell (`grid_term`). With `predicted` (the model's shape at the same points)
     the modal assurance criterion of the signed map against it."""
     touch = points[points["in_touch_area"]]
     amplitude = touch["velocity_pp_mps"].to_numpy()
@@ -324,12 +349,13 @@ def summarise_map(points: pd.DataFrame, predicted: np.ndarray | None = None, sha
     spread = [homogeneity(d, share_of_peak) for d in drawn]
 
     # the points' own amplitudes with the mode's sign: a phase off 0 or pi is no smaller vibration
-    readings = field_readings(touch["x_m"].to_numpy(), touch["y_m"].to_numpy(),
-                              np.copysign(amplitude, touch["signed_velocity_pp_mps"].to_numpy()), share_of_peak)
+    readings = cell_readings(touch["x_m"].to_numpy(), touch["y_m"].to_numpy(),
+                             np.copysign(amplitude, touch["signed_velocity_pp_mps"].to_numpy()))
 
     def between(attribute: str) -> tuple:
-        return (grid_term(getattr(h, attribute), [getattr(r, attribute) for r in readings],
-                          [r.method for r in readings]),)
+        if readings is None:
+            return (grid_term(np.array([]), ""),)
+        return (grid_term(shifted_grid_errors(readings, grid_error(attribute, share_of_peak)), readings.method),)
 
     def expanded(attribute: str, scaled: bool = False, own: tuple = ()) -> float:
         noise = Term("points' noise", "A", float(np.std([getattr(s, attribute) for s in spread], ddof=1)),

@@ -69,6 +69,12 @@ SPECIFICATIONS: dict[str, Specification] = {
     "scope_timebase": Specification(
         20e-6, "1", "TDS3000B Series User Manual, App. A: sample rate and delay time accuracy +-20 ppm "
                     "(the frequency a record's fit measures; not simulated)"),
+    "plate_placement": Specification(
+        1.0, "mm", "assumed: the paper does not say how its map's grid was registered on the plate; a plate "
+                   "laid on its mount by hand and the grid's origin set by jogging the laser spot onto the "
+                   "plate's corner by eye lands within about +-1 mm per axis (the visible spot and the edge's "
+                   "burr are each a few tenths of a millimetre); the stage's own repeatability (micrometres, "
+                   "an SMC100-class stage) is far below it. Per axis, the plate's rotation left out"),
     "generator_frequency": Specification(
         20e-6, "1", "HP/Agilent 33120A User's Guide, Specifications: frequency accuracy 10 ppm "
                     "(90 days), 20 ppm (1 year); the one-year figure"),

@@ -229,7 +229,9 @@ def _map_homogeneities(run, plain_dir: Path) -> list[dict]:
     """Each map's homogeneity figures as the report gives them (`cartography_report.map_summaries`:
     `cartography.summarise_map`, each with the U of its budget) scored against
     the same figures of what ideal instruments read at each mapped point: the plate without
-    the errors driven at the point's generator setting, the spot where the stage put it.
+    the errors driven at the point's generator setting, the spot where the stage put it on
+    the plate as this bench placed it (`variants.plate_draw_effects`: the grid lands on the
+    mode where the mounting put it, the error the grid's term claims to cover).
     The area above the share of the peak and the coefficient of variation are what the
     report says they are, the vibration's over the touch area: the ideal vibration over each
     point's cell (CELL_SAMPLES^2 spots at that point's setting); the area against the share

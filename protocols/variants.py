@@ -80,12 +80,19 @@ def systematic_effects(bench_seed: int, draw: bool = True, only: tuple[str, ...]
 #: The plate drawn within its geometry's and materials' tolerances (`simbench.plate_draws`):
 #: what the budgets of Q and tan theta' claim to cover beside the instruments.
 PLATE_DRAW_EFFECT = "plate_tolerances"
+#: The plate placed on the stage within the alignment a lab reaches by eye
+#: (`simbench.spot_effects.PlatePlacement`): where a map's grid lands on the mode, which the
+#: grid's term of its homogeneity figures (`analysis.cartography.grid_term`) claims to cover.
+PLATE_PLACEMENT_EFFECT = "plate_placement"
 
 
 def plate_draw_effects(bench_seed: int, error_model: str = "specified") -> list[dict]:
-    """Scene `effects:` entry of the plates of bench `bench_seed` as built: each plate's
-    inputs drawn once within their tolerances under `error_model` (`ERROR_MODELS`)."""
-    return [{PLATE_DRAW_EFFECT: {"draw": ERROR_MODELS[error_model], "bench_seed": int(bench_seed)}}]
+    """Scene `effects:` entries of the plates of bench `bench_seed` as built and mounted:
+    each plate's inputs drawn once within their tolerances, and its placement on the stage
+    within the alignment, under `error_model` (`ERROR_MODELS`). The placement acts on maps
+    alone (a stage that never moves reads the scene's point)."""
+    draw = {"draw": ERROR_MODELS[error_model], "bench_seed": int(bench_seed)}
+    return [{PLATE_DRAW_EFFECT: dict(draw)}, {PLATE_PLACEMENT_EFFECT: dict(draw)}]
 
 
 def campaign_with_effects(campaign_file: Path, out_dir: Path, effects: list, noise_seed: int | None = None,

@@ -13,7 +13,8 @@ acts at one or more stages of the simulation:
 - `timing`: a channel's delay at the drive frequency (skew, current-probe delay, a voltage
   probe's compensation phase);
 - `spot`: where the vibrometer's laser meets the plate when the x-y stage moves it
-  (backlash, a plate off the stage's zero or rotated, a tilted plate);
+  (backlash, a plate off the stage's zero or rotated, one bench's placement of it, a tilted
+  plate);
 - `bus`: faults of the instruments and their link (timeouts, garbled or truncated
   replies, error-queue entries, a disconnect), for testing what a campaign does on a
   bad day.
@@ -39,7 +40,7 @@ from squeezebench.simbench import physics
 from squeezebench.simbench.effect_base import CHANNELS, VIBROMETER_CHANNEL, AcquisitionContext, Effect
 from squeezebench.simbench.fault_effects import (BusTimeout, ClippedTrace, Disconnect, GarbledReplyFault,
                                                  InstrumentErrorEntry, TruncatedReplyFault)
-from squeezebench.simbench.spot_effects import PlateOffset, PlateTilt, Spot, StageBacklash
+from squeezebench.simbench.spot_effects import PlateOffset, PlatePlacement, PlateTilt, Spot, StageBacklash
 from squeezebench.simbench.systematic_effects import (ChannelSkew, CurrentProbeDelay, CurrentProbeGainError,
                                                       GeneratorAmplitudeError, GeneratorFrequencyError, ScopeGainError,
                                                       VibrometerScaleError,
@@ -322,7 +323,7 @@ EFFECTS: dict[str, type[Effect]] = {cls.name: cls for cls in (
     Quantisation, Averaging, ClippedTrace, BusTimeout, GarbledReplyFault, TruncatedReplyFault,
     InstrumentErrorEntry, Disconnect, ScopeGainError, VoltageProbeError, CurrentProbeGainError, VibrometerScaleError,
     ChannelSkew, CurrentProbeDelay, VoltageProbeCompensation, GeneratorFrequencyError, GeneratorAmplitudeError,
-    StageBacklash, PlateOffset, PlateTilt)}
+    StageBacklash, PlateOffset, PlatePlacement, PlateTilt)}
 # the plate drawn within its tolerances (a module of its own; it registers itself in EFFECTS)
 from squeezebench.simbench import plate_draws  # noqa: E402,F401
 
@@ -359,8 +360,8 @@ class EffectPipeline:
         self._motion = [e.motion for e in self.by_stage["motion"]]
         self._signals = [e.signals for e in self.by_stage["signals"]]
         self._noise = [e.noise_div_rms for e in self.by_stage["noise"]]
-        # carriage (backlash), then stage frame to plate frame, then the tilted surface
-        order = {"stage_backlash": 0, "plate_offset": 1, "plate_tilt": 2}
+        # carriage (backlash), then stage frame to plate frame (as set, as mounted), then the tilted surface
+        order = {"stage_backlash": 0, "plate_offset": 1, "plate_placement": 2, "plate_tilt": 3}
         self._spot = [e.spot for e in sorted(self.by_stage["spot"], key=lambda e: order[e.name])]
         self.digitizer_settings = DigitizerSettings()
         for effect in self.by_stage["digitizer"]:

@@ -25,7 +25,6 @@ departure is `deviations_rel`: what the plate really is, for whoever scores agai
 
 from __future__ import annotations
 
-import zlib
 from dataclasses import replace
 
 import numpy as np
@@ -54,6 +53,7 @@ class PlateTolerances(SystematicEffect, errors=_model_tolerances()):
 
     name = "plate_tolerances"
     stages = frozenset({"load"})
+    per_plate = True   # one draw per plate and bench
 
     def __init__(self, scene, **parameters: float) -> None:
         from squeezebench.plates.specifications import sheet_thickness_tolerance
@@ -67,12 +67,6 @@ class PlateTolerances(SystematicEffect, errors=_model_tolerances()):
         piezo = self.deviations_rel
         self.capacitance_ratio = ((1.0 + piezo[PERMITTIVITY]) * (1.0 + piezo["piezo_length_m"])
                                   / (1.0 + piezo["piezo_thickness_m"]))
-
-    def rng(self) -> np.random.Generator:
-        """One draw per plate and bench: every scene of the same plate (its cuts, its runs)
-        shares it, another plate on the same bench has its own."""
-        return np.random.default_rng([int(self.parameters["bench_seed"]), zlib.crc32(self.name.encode()),
-                                      zlib.crc32(self.scene.plate.name.encode())])
 
     def load(self, load: physics.PlateLoad) -> physics.PlateLoad:
         if load.capacitance_f == 0.0:   # the calibration resistor in the plate's place: no plate to draw

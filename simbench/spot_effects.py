@@ -1,5 +1,6 @@
 """Where the vibrometer's laser meets the plate when the x-y stage moves it: the stage's
-backlash, a plate off the stage's zero or rotated, a tilted plate.
+backlash, a plate off the stage's zero or rotated (as set, or as mounted on one bench), a
+tilted plate.
 """
 
 from __future__ import annotations
@@ -7,7 +8,9 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, replace
 
+from squeezebench.plates.specifications import SPECIFICATIONS
 from squeezebench.simbench.effect_base import Effect
+from squeezebench.simbench.systematic_effects import SystematicEffect
 
 @dataclass(frozen=True)
 class Spot:
@@ -54,6 +57,24 @@ class PlateOffset(Effect):
         dx, dy = spot.x_mm - p["x_mm"], spot.y_mm - p["y_mm"]
         return replace(spot, x_mm=math.cos(angle) * dx + math.sin(angle) * dy,
                        y_mm=-math.sin(angle) * dx + math.cos(angle) * dy)
+
+
+class PlatePlacement(SystematicEffect, errors=dict.fromkeys(("x_mm", "y_mm"),
+                                                           SPECIFICATIONS["plate_placement"].half_width)):
+    """Where one bench's mounting put the plate under the stage's frame: its corner at
+    (x_mm, y_mm), within the alignment a lab reaches by eye (+-1 mm per axis,
+    `specifications.SPECIFICATIONS["plate_placement"]`). What varies from bench to bench in
+    a map is where its grid lands on the mode: with `draw: 1` each plate's offset is drawn
+    once per bench, uniformly within the limits, with `draw: 2` as the world errs
+    (`systematic_effects.world_draw`); `draw: 0` puts the corner at the limits. Off unless
+    a scene names it: a stage that never moves (no map) reads the scene's point anyway."""
+
+    name = "plate_placement"
+    stages = frozenset({"spot"})
+    per_plate = True   # each plate is mounted on its own
+
+    def spot(self, spot: Spot, directions: tuple[int, int]) -> Spot:
+        return replace(spot, x_mm=spot.x_mm - self.values["x_mm"], y_mm=spot.y_mm - self.values["y_mm"])
 
 
 class PlateTilt(Effect):

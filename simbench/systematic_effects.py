@@ -59,9 +59,18 @@ class SystematicEffect(Effect):
         else:
             self.values = {k: p[k] for k in self.errors}
 
+    #: True when each plate has its own draw on a bench (its build, its mounting) rather
+    #: than one the bench's instruments share across every plate they measure.
+    per_plate: ClassVar[bool] = False
+
     def rng(self) -> np.random.Generator:
-        """The draw's stream: the bench's, the same for every plate it measures."""
-        return np.random.default_rng([int(self.parameters["bench_seed"]), zlib.crc32(self.name.encode())])
+        """The draw's stream: the bench's, the same for every plate it measures, or with
+        `per_plate` the plate's on that bench (every scene of the plate, its cuts and runs,
+        shares it; another plate on the same bench has its own)."""
+        key = [int(self.parameters["bench_seed"]), zlib.crc32(self.name.encode())]
+        if self.per_plate:
+            key.append(zlib.crc32(self.scene.plate.name.encode()))
+        return np.random.default_rng(key)
 
 
 def world_draw(rng: np.random.Generator, bias: float, spread: float) -> float:

@@ -12,7 +12,7 @@ from hypothesis import strategies as st
 from squeezebench.plates.specifications import VOLTAGE_PROBE_POLE_HZ, WORLD_READING, compensation_phase_rad
 from squeezebench.instruments.bench import open_bench, sim_bench_config
 from squeezebench.instruments.errors import ConnectionLost, GarbledReply, InstrumentError, InstrumentTimeout
-from squeezebench.protocols.variants import PLATE_DRAW_EFFECT, SYSTEMATIC_EFFECTS
+from squeezebench.protocols.variants import PLATE_DRAW_EFFECT, PLATE_PLACEMENT_EFFECT, SYSTEMATIC_EFFECTS
 from squeezebench.simbench import effects as fx
 from squeezebench.simbench import systematic_effects
 from squeezebench.simbench.scene import load_scene
@@ -298,9 +298,10 @@ def systematic(tmp_path, name: str, **parameters) -> RawBench:
 
 
 def test_the_systematic_effects_protocols_name_are_the_simulators():
-    """The instruments' errors the studies draw, and the plate's (drawn apart: coverage only)."""
+    """The instruments' errors the studies draw, and the plate's build and placement (drawn
+    apart: coverage only)."""
     systematic = {name for name, cls in fx.EFFECTS.items() if issubclass(cls, systematic_effects.SystematicEffect)}
-    assert set(SYSTEMATIC_EFFECTS) | {PLATE_DRAW_EFFECT} == systematic
+    assert set(SYSTEMATIC_EFFECTS) | {PLATE_DRAW_EFFECT, PLATE_PLACEMENT_EFFECT} == systematic
 
 
 @pytest.mark.parametrize("name", SYSTEMATIC_EFFECTS)
@@ -535,6 +536,27 @@ def test_plate_offset(tmp_path):
         assert _gain(bench) == 0.0
     finally:
         rm.close()
+
+
+def test_plate_placement(tmp_path):
+    """The plate's corner sits where this bench's mounting put it (the grid lands shifted on
+    the mode): at the limits with draw 0, and drawn once per plate and bench within +-1 mm
+    with draw 1, the same for every scene of the plate."""
+    from squeezebench import paths
+    from squeezebench.simbench.spot_effects import PlatePlacement
+
+    rm, bench, stage = _spot_bench(tmp_path, [{"plate_placement": {"draw": 0}}])
+    try:
+        stage.move_to_mm(120.0, 40.0)
+        assert _gain(bench) == pytest.approx(_shape(bench, 119.0, 39.0), rel=1e-9)
+    finally:
+        rm.close()
+    large, small = (load_scene(paths.scenes_dir() / name) for name in ("large_plate.yaml", "small_plate_1.yaml"))
+    drawn = [PlatePlacement(large, draw=1, bench_seed=seed).values for seed in range(1, 200)]
+    offsets = np.array([[v["x_mm"], v["y_mm"]] for v in drawn])
+    assert np.abs(offsets).max() <= 1.0 and np.abs(offsets).max() > 0.95 and abs(offsets.mean()) < 0.1
+    assert PlatePlacement(large, draw=1, bench_seed=7).values == drawn[6]
+    assert PlatePlacement(small, draw=1, bench_seed=7).values != drawn[6]
 
 
 def test_plate_tilt(tmp_path):
