@@ -181,18 +181,29 @@ def test_the_maps_plate_solved_ahead_on_a_drawing_process_is_read_not_solved_aga
 def test_a_stored_maps_plate_solved_during_the_campaign_is_the_solve_the_report_reads(mapped, tmp_path, monkeypatch):
     """`reproduce` solves a map run's plate from its stored rows once the run ends
     (`solve_stored_map`, on the drawing process); the report's map section then reads that
-    solve (no eigenproblem solved again) and says the same as from its own."""
+    solve (no eigenproblem solved again) and says the same as from its own. What is tested
+    is where the solve goes: its eigenpairs are the ones this session's solve of the plate
+    stored (the same key), not a second 8 CPU-s eigenproblem of the same plate."""
     from squeezebench.disk_cache import CACHE_VARIABLE
     from squeezebench.plates import plate_modes
+    from squeezebench.plates.predicted_plates import known_plate_modes
     from squeezebench.report.cartography_report import cartography_section, solve_stored_map
     from squeezebench.report.section import ReportContext
 
     _, run_dir, _ = mapped
     run = load_run(run_dir)
-    solved_here = cartography_section(ReportContext(run=run, out_dir=tmp_path)).body_html
+    context = ReportContext(run=run, out_dir=tmp_path)
+    solved_here = cartography_section(context).body_html
+    summary = context.tables["map_summary"].iloc[0]
+    kept = plate_modes.stored_solves().read(known_plate_modes(summary["plate"],
+                                                              summary["drive_frequency_hz"]).stored_key)
+    solve, solves = plate_modes._eigenpairs, []
+    monkeypatch.setattr(plate_modes, "_eigenpairs",
+                        lambda *a, **k: solves.append(a) or (solve(*a, **k) if kept is None else kept))
     monkeypatch.setenv(CACHE_VARIABLE, str(tmp_path / "cache"))
     plate_modes._CACHE.clear()
     solve_stored_map(run_dir, run.protocol("cartography")["run_name"].iloc[0])
+    assert len(solves) == 1   # solved here, once, into the new cache
     assert len(list((tmp_path / "cache" / "plates").glob("*.npz"))) == 1
     plate_modes._CACHE.clear()
     monkeypatch.setattr(plate_modes, "_eigenpairs", lambda *a, **k: pytest.fail("solved again"))
