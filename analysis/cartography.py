@@ -96,17 +96,45 @@ class CellReadings:
     method: str   # of READING_ORDERS
 
 
-def _read_between(x_m: np.ndarray, y_m: np.ndarray, signed: np.ndarray, method: str) -> np.ndarray:
+def _point_grid(x_m: np.ndarray, y_m: np.ndarray, signed: np.ndarray) -> tuple[list[np.ndarray], np.ndarray, np.ndarray]:
+    """The points as a table over their x (rows) and y (columns) values, both sorted: its
+    axes, the signed field at each cell (the mean of the points there; NaN readings count as
+    missing) and which cells a point filled. A missing point takes its column's previous,
+    then next, value along x, then its row's along y. In NumPy: a pandas pivot table took
+    13 ms, most of a reading's time, and a map's grid term reads two fields per map."""
+    x, y = (np.round(np.asarray(axis, dtype=float), 9) for axis in (x_m, y_m))
+    v = np.asarray(signed, dtype=float)
+    read = ~np.isnan(v)
+    (xs, row), (ys, column) = (np.unique(axis[read], return_inverse=True) for axis in (x, y))
+    cell = row * ys.size + column
+    counts = np.bincount(cell, minlength=xs.size * ys.size).reshape(xs.size, ys.size)
+    sums = np.bincount(cell, weights=v[read], minlength=xs.size * ys.size).reshape(xs.size, ys.size)
+    filled = counts > 0
+    grid = np.divide(sums, counts, out=np.full(sums.shape, np.nan), where=filled)
+    for axis in (0, 1):
+        grid = _backward_filled(_forward_filled(grid, axis), axis)
+    # read-only, as pandas handed its table over: scipy's linear reader then takes the NumPy
+    # path the map figures were computed on (its compiled path differs in the last bit)
+    grid.flags.writeable = False
+    return [xs, ys], grid, filled
+
+
+def _forward_filled(grid: np.ndarray, axis: int) -> np.ndarray:
+    """`grid` with each NaN taking the last value before it along `axis` (pandas' ffill)."""
+    index = np.where(np.isnan(grid), 0, np.arange(grid.shape[axis]).reshape([-1 if a == axis else 1 for a in (0, 1)]))
+    return np.take_along_axis(grid, np.maximum.accumulate(index, axis=axis), axis=axis)
+
+
+def _backward_filled(grid: np.ndarray, axis: int) -> np.ndarray:
+    """`grid` with each NaN taking the first value after it along `axis` (pandas' bfill)."""
+    return np.flip(_forward_filled(np.flip(grid, axis), axis), axis)
+
+
+def _read_between(axes: list[np.ndarray], grid: np.ndarray, filled: np.ndarray, method: str) -> np.ndarray:
     """|field| at READING_SAMPLES spots per wide axis over each point's cell (points x spots,
-    the x offset the slower), the signed field read by `method` between the points
-    (extrapolated past the outer points by the edge's own polynomial). A missing grid point
-    takes its row's, then its column's, nearest value."""
-    frame = pd.DataFrame({"x": np.round(np.asarray(x_m, dtype=float), 9),
-                          "y": np.round(np.asarray(y_m, dtype=float), 9), "v": np.asarray(signed, dtype=float)})
-    table = frame.pivot_table(index="x", columns="y", values="v")
-    filled = table.notna().to_numpy()
-    grid = table.ffill(axis=0).bfill(axis=0).ffill(axis=1).bfill(axis=1).to_numpy()
-    axes = [np.asarray(axis, dtype=float) for axis in (table.index, table.columns)]
+    the x offset the slower; the points as `_point_grid` tables them), the signed field read
+    by `method` between the points (extrapolated past the outer points by the
+    edge's own polynomial)."""
     spread = [len(axis) > 1 for axis in axes]   # a single row or column has no cell to read across
     kept = tuple(axis for axis, wide in zip(axes, spread) if wide)
     reader = RegularGridInterpolator(kept, grid.reshape([len(axis) for axis in kept]), method=method,
@@ -131,7 +159,7 @@ def cell_readings(x_m: np.ndarray, y_m: np.ndarray, signed: np.ndarray) -> CellR
     if points == [1, 1]:
         return None
     method = [name for name, least in READING_ORDERS if all(n >= least or n == 1 for n in points)][-1]
-    return CellReadings(_read_between(x_m, y_m, signed, method), method)
+    return CellReadings(_read_between(*_point_grid(x_m, y_m, signed), method), method)
 
 
 def grid_error(attribute: str, share_of_peak: float) -> Callable[[np.ndarray, np.ndarray], float]:

@@ -44,7 +44,7 @@ import functools
 import hashlib
 import json
 import math
-from dataclasses import asdict, dataclass, field, replace
+from dataclasses import dataclass, field, fields, is_dataclass, replace
 from typing import Callable
 
 import numpy as np
@@ -242,10 +242,21 @@ def _grid(length: float, extra: list[float], target: float) -> np.ndarray:
 def _key(geometry: PlateGeometry, resonator: Isotropic, piezo: Piezo, near_hz: float,
          n_modes: int, elements_per_half_wave: float, mesh_half_wave_m: float | None, bond: Bond,
          thick_plate: bool) -> str:
-    text = json.dumps([asdict(geometry), asdict(resonator), asdict(piezo), near_hz, n_modes,
-                       elements_per_half_wave, mesh_half_wave_m, asdict(bond), thick_plate],
+    text = json.dumps([_plain(geometry), _plain(resonator), _plain(piezo), near_hz, n_modes,
+                       elements_per_half_wave, mesh_half_wave_m, _plain(bond), thick_plate],
                       sort_keys=True, default=float)
     return hashlib.sha256(text.encode()).hexdigest()
+
+
+def _plain(value):
+    """`value` as `dataclasses.asdict` hands it to JSON (a dataclass as the dict of its fields,
+    a tuple as a list), without asdict's deep copy of every field: the simulated stage reads
+    the solved plate at every spot it moves to, and asdict made most of a read's 1 ms."""
+    if is_dataclass(value):
+        return {f.name: _plain(getattr(value, f.name)) for f in fields(value)}
+    if isinstance(value, (tuple, list)):
+        return [_plain(item) for item in value]
+    return value
 
 
 #: Solved plates: a campaign's few plates stay, a layout sweep's hundreds (each solved
@@ -305,11 +316,12 @@ def solve_plate(geometry: PlateGeometry, resonator: Isotropic = ALUMINIUM_TABLE2
                     thick_plate)
 
     plate = mechanical(geometry)
-    stored_key = hashlib.sha256(f"{solver_fingerprint()}\0{key(plate)}".encode()).hexdigest()
 
     def solved() -> PlateModes:
-        return _CACHE.get(key(plate), lambda: _solve(plate, resonator, piezo, near_hz, n_modes, elements_per_half_wave,
-                                                     mesh_half_wave_m, bond, thick_plate, stored_key))
+        plate_key = key(plate)   # one key a read: the stored solve's is made only to solve
+        return _CACHE.get(plate_key, lambda: _solve(
+            plate, resonator, piezo, near_hz, n_modes, elements_per_half_wave, mesh_half_wave_m, bond, thick_plate,
+            hashlib.sha256(f"{solver_fingerprint()}\0{plate_key}".encode()).hexdigest()))
 
     if plate == geometry:
         return solved()

@@ -299,14 +299,14 @@ def test_the_grids_term_misses_the_area_of_the_paper_maps_own_symmetric_registra
     """A known shortfall, kept in sight: the paper's 4 mm grid as laid out (x = 51 + 4 n, 25
     columns symmetric about the plate's centre, 99 mm) meets the (21, 0) mode symmetrically,
     so the columns cross half the points' peak in pairs and the area's error jumps two
-    columns (2 / 25 of the area) at a time: at this registration and at 0.5 mm from it
-    the area's |error| is above its U (k = 1.96) alone, while the CV's holds. The cubic
+    columns (2 / 25 of the area) at a time: at this registration the area's |error| is
+    above its U (k = 1.96) alone, while the CV's holds (0.5 mm from it, with the end piezos
+    on their half-wave, both hold: the miss is the registration's own). The cubic
     reading between 2.4 points per half-wave smooths the peak that sets the threshold, so
     the shifted grids read smaller jumps; the coverage study, whose benches place the
     plate within +-1 mm of this registration, scores what that costs."""
-    for dx in (0.0, 0.5):
-        error, u = _large_plate_map(large, 4.0, dx)
-        assert abs(error[0]) < 1.96 * u[0] and abs(error[1]) > 1.96 * u[1]
+    error, u = _large_plate_map(large, 4.0, 0.0)
+    assert abs(error[0]) < 1.96 * u[0] and abs(error[1]) > 1.96 * u[1]
 
 
 def test_the_cell_readings_of_a_linear_field_are_the_continuous_uniform_distribution():

@@ -136,24 +136,34 @@ def test_a_map_killed_anywhere_and_resumed_stores_the_rows_of_an_uninterrupted_o
         assert_same_rows(read_measurements(out), expected)
 
 
-def test_the_maps_report_section_draws_it_and_describes_every_column(mapped, tmp_path):
+@pytest.fixture(scope="module")
+def section(mapped, tmp_path_factory):
+    """(context, body) of the map's report section as a report without drawing processes
+    writes it, from this session's own solve of the plate: what the section's test reads,
+    and what a section reading a solve another process left in the disk cache must say."""
     from squeezebench.report.cartography_report import cartography_section
     from squeezebench.report.section import ReportContext
-    from squeezebench.analysis import columns
 
     _, run_dir, _ = mapped
-    run = load_run(run_dir)
-    context = ReportContext(run=run, out_dir=tmp_path)
-    body = cartography_section(context).body_html
+    context = ReportContext(run=load_run(run_dir), out_dir=tmp_path_factory.mktemp("section"))
+    return context, cartography_section(context).body_html
+
+
+def test_the_maps_report_section_draws_it_and_describes_every_column(section):
+    from squeezebench.analysis import columns
+
+    context, body = section
+    run = context.run
     summary, points = context.tables["map_summary"], context.tables["map_points"]
-    assert (tmp_path / "map_map.png").stat().st_size > 10_000
+    assert (context.out_dir / "map_map.png").stat().st_size > 10_000
     assert "modal assurance criterion is 1.00" in body or "modal assurance criterion is 0.99" in body
     assert summary.loc[0, "mean_velocity_pp_mps_U"] > 2 * summary.loc[0, "mean_velocity_pp_mps"] * 0.01
     described = columns.dictionary([run.measurements, summary, points])
     assert not (described["meaning"] == "not described").any(), described[described["meaning"] == "not described"]
 
 
-def test_the_maps_plate_solved_ahead_on_a_drawing_process_is_read_not_solved_again(mapped, tmp_path, monkeypatch):
+def test_the_maps_plate_solved_ahead_on_a_drawing_process_is_read_not_solved_again(mapped, section, tmp_path,
+                                                                                    monkeypatch):
     """`solve_ahead` hands the mapped plate's solve to a drawing process, which leaves it in
     the disk cache; the section then reads it (this process never solves an eigenproblem)
     and says what it says from this session's own solve of the plate (the map's run solved
@@ -165,7 +175,7 @@ def test_the_maps_plate_solved_ahead_on_a_drawing_process_is_read_not_solved_aga
     from squeezebench.report.section import ReportContext
 
     _, run_dir, _ = mapped
-    solved_here = cartography_section(ReportContext(run=load_run(run_dir), out_dir=tmp_path)).body_html
+    _, solved_here = section
     monkeypatch.setenv(CACHE_VARIABLE, str(tmp_path / "cache"))
     drawing._executor(1, fresh=True)   # drawing processes that see this cache
     plate_modes._CACHE.clear()
@@ -178,21 +188,32 @@ def test_the_maps_plate_solved_ahead_on_a_drawing_process_is_read_not_solved_aga
     drawing._executor(1, fresh=True)   # later reports' processes see their own cache again
 
 
-def test_a_stored_maps_plate_solved_during_the_campaign_is_the_solve_the_report_reads(mapped, tmp_path, monkeypatch):
+def test_a_stored_maps_plate_solved_during_the_campaign_is_the_solve_the_report_reads(mapped, section, tmp_path,
+                                                                                     monkeypatch):
     """`reproduce` solves a map run's plate from its stored rows once the run ends
     (`solve_stored_map`, on the drawing process); the report's map section then reads that
-    solve (no eigenproblem solved again) and says the same as from its own."""
+    solve (no eigenproblem solved again) and says the same as from its own. What is tested
+    is where the solve goes: its eigenpairs are the ones this session's solve of the plate
+    stored (the same key), not a second 8 CPU-s eigenproblem of the same plate."""
     from squeezebench.disk_cache import CACHE_VARIABLE
     from squeezebench.plates import plate_modes
+    from squeezebench.plates.predicted_plates import known_plate_modes
     from squeezebench.report.cartography_report import cartography_section, solve_stored_map
     from squeezebench.report.section import ReportContext
 
     _, run_dir, _ = mapped
     run = load_run(run_dir)
-    solved_here = cartography_section(ReportContext(run=run, out_dir=tmp_path)).body_html
+    context, solved_here = section
+    summary = context.tables["map_summary"].iloc[0]
+    kept = plate_modes.stored_solves().read(known_plate_modes(summary["plate"],
+                                                              summary["drive_frequency_hz"]).stored_key)
+    solve, solves = plate_modes._eigenpairs, []
+    monkeypatch.setattr(plate_modes, "_eigenpairs",
+                        lambda *a, **k: solves.append(a) or (solve(*a, **k) if kept is None else kept))
     monkeypatch.setenv(CACHE_VARIABLE, str(tmp_path / "cache"))
     plate_modes._CACHE.clear()
     solve_stored_map(run_dir, run.protocol("cartography")["run_name"].iloc[0])
+    assert len(solves) == 1   # solved here, once, into the new cache
     assert len(list((tmp_path / "cache" / "plates").glob("*.npz"))) == 1
     plate_modes._CACHE.clear()
     monkeypatch.setattr(plate_modes, "_eigenpairs", lambda *a, **k: pytest.fail("solved again"))
