@@ -176,6 +176,14 @@ def acquisition_seed(scene_seed: int, state: str, generator_key: str, counter: i
     return np.random.SeedSequence(keys if spot_key is None else [*keys, zlib.crc32(spot_key.encode())])
 
 
+def acquisition_rng(seed: np.random.SeedSequence) -> np.random.Generator:
+    """The generator an acquisition draws its noise from (`acquisition_seed`). SFC64 rather
+    than numpy's default PCG64: a normal costs about a fifth less CPU with it, and drawing
+    normals is most of what an averaged acquisition costs; it passes the same statistical
+    test batteries (numpy.random's notes on its bit generators)."""
+    return np.random.Generator(np.random.SFC64(seed))
+
+
 @dataclass
 class Screen:
     """An acquisition before the digitiser draws its noise: the noise-free signals on the
@@ -432,14 +440,17 @@ def average_of_records(signal: np.ndarray, sigma: float, averages: int, settings
     if sigma == 0:   # every record is the same
         return _into(out, _quantise(_quantise(_clip(signal), lsb), settings.average_lsb_div))
     sums = sums or sum_of_records(signal, sigma, averages, settings)
-    # In place (the same operations, so the same bits): one array instead of three.
-    total = rng.standard_normal(signal.size, out=out)
-    total *= sums.spread
-    total += sums.centre
-    if sums.quantised:
-        np.round(total, out=total)
-    if sums.drawn.size:
-        total[sums.drawn] = _sum_of_records(signal[sums.drawn], sigma, averages, lsb, rng)
+    if sums.drawn.size == signal.size:   # no sample's sum is drawn directly (few averages, weak noise)
+        total = _into(out, _sum_of_records(signal, sigma, averages, lsb, rng))
+    else:
+        # In place (the same operations, so the same bits): one array instead of three.
+        total = rng.standard_normal(signal.size, out=out)
+        total *= sums.spread
+        total += sums.centre
+        if sums.quantised:
+            np.round(total, out=total)
+        if sums.drawn.size:
+            total[sums.drawn] = _sum_of_records(signal[sums.drawn], sigma, averages, lsb, rng)
     return _into(out, _kept_average(total, averages, settings, rng))
 
 
