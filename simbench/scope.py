@@ -390,16 +390,18 @@ class Scope(ScpiInstrument):
                 (2229, "Measurement error, Negative Clipping")
         return None
 
-    def _extremes(self, record: traces.Record, source: str, trace: np.ndarray | None = None) -> tuple[float, float]:
+    def _extremes(self, record: traces.Record, source: str, trace: np.ndarray | None = None,
+                  gate: slice = slice(None)) -> tuple[float, float]:
         """(lowest, highest) of `source` (CH1-CH3, or MATH as now defined, with its `trace`)
-        in `record`: its trigger, its clipping check and its extreme and frequency
-        measurements each read them, so they are worked out once per record."""
+        in `record`, within `gate`: its trigger, its clipping check and its extreme and
+        frequency measurements each read them, so they are worked out once per record."""
         if self._extremes_kept[0] is not record:
             self._extremes_kept = (record, {})
         key = (source, self.state["math_define"], self.state["math_type"]) if source == "MATH" else source
+        key = (key, gate.start, gate.stop)
         kept = self._extremes_kept[1]
         if key not in kept:
-            kept[key] = traces.extremes_of(record.trace(source) if trace is None else trace)
+            kept[key] = traces.extremes_of((record.trace(source) if trace is None else trace)[gate])
         return kept[key]
 
     def _measurement(self, unit: Unit) -> bytes:
@@ -424,8 +426,7 @@ class Scope(ScpiInstrument):
             self.event(2206, "Measurement error, Invalid gate")
             return NO_VALUE
         kind = _SIMULATED_MEASUREMENTS[kind]
-        extremes = self._extremes(record, source, trace) \
-            if kind in traces.EXTREME_KINDS and gate == slice(None) else None
+        extremes = self._extremes(record, source, trace, gate) if kind in traces.EXTREME_KINDS else None
         value = traces.measure(traces.Record(record.setup, trace[None, gate], record.frequency_hz), "CH1",
                                kind, extremes)
         if not math.isfinite(value):

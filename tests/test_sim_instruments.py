@@ -210,11 +210,11 @@ def test_math_exists_only_in_the_mode_it_was_defined_in(bench):
     assert measure(s, "MATH", "MEAN") != pytest.approx(power_w, rel=0.1)
 
 
-def test_extreme_measurements_are_the_records_extremes_in_every_math_definition(bench):
+def test_extreme_measurements_are_the_records_extremes_in_every_math_definition_and_gate(bench):
     """The extremes a record's trigger, clipping check and measurements share are its own:
     MAXIMUM, MINIMUM, PK2 of a channel and of MATH as defined now (a redefinition between
-    two queries of one record is read anew) equal the transferred trace's, and a second
-    acquisition's are its own."""
+    two queries of one record is read anew), over the record and within a cursor gate,
+    equal the transferred trace's, and a second acquisition's are its own."""
     s = bench["scope"]
     drive(bench)
     setup(s)
@@ -226,6 +226,9 @@ def test_extreme_measurements_are_the_records_extremes_in_every_math_definition(
         counts = s.query_binary_values("CURVE?", datatype="h", is_big_endian=True, container=np.array)
         return (counts - y_off) * y_mult + y_zero
 
+    # the cursor gate: the record's first half (500 samples over 10 divisions, trigger centred)
+    record_s = 10.0 * float(s.query("HORIZONTAL:MAIN:SCALE?"))
+    s.write(f"CURSOR:FUNCTION VBARS;VBARS:POSITION1 {-record_s / 2.0!r};POSITION2 {-record_s / 1000.0 * 1.5!r}")
     readings = []
     for _ in range(2):
         s.write("ACQUIRE:STATE RUN")
@@ -233,15 +236,17 @@ def test_extreme_measurements_are_the_records_extremes_in_every_math_definition(
         for define in ("CH1*CH2", "CH1-CH2"):
             s.write(f'MATH:DEFINE "{define}"')
             for source in ("CH3", "MATH"):
-                trace = transferred(source)
-                high, low, pp = (measure(s, source, kind) for kind in ("MAXIMUM", "MINIMUM", "PK2"))
-                # to the transfer's resolution (16-bit counts of the same values)
-                step = (trace.max() - trace.min()) / 2**14
-                assert high == pytest.approx(trace.max(), abs=step) and low == pytest.approx(trace.min(), abs=step)
-                assert pp == pytest.approx(high - low, rel=1e-11)   # replies carry 13 digits
-                readings.append((high, low))
-    assert readings[0] != readings[1]   # MATH redefined: CH1*CH2 and CH1-CH2 differ
-    assert readings[:4] != readings[4:]   # the second acquisition drew noise of its own
+                for gating, gated in (("OFF", slice(None)), ("CURSOR", slice(0, 250))):
+                    s.write(f"MEASUREMENT:GATING {gating}")
+                    trace = transferred(source)[gated]
+                    high, low, pp = (measure(s, source, kind) for kind in ("MAXIMUM", "MINIMUM", "PK2"))
+                    # to the transfer's resolution (16-bit counts of the same values)
+                    step = (trace.max() - trace.min()) / 2**14
+                    assert high == pytest.approx(trace.max(), abs=step) and low == pytest.approx(trace.min(), abs=step)
+                    assert pp == pytest.approx(high - low, rel=1e-11)   # replies carry 13 digits
+                    readings.append((high, low))
+    assert readings[2] != readings[6]   # MATH redefined: CH1*CH2 and CH1-CH2 differ
+    assert readings[:8] != readings[8:]   # the second acquisition drew noise of its own
 
 
 def test_averaging_needs_the_trigger_on_the_driven_signal(bench):
