@@ -82,7 +82,7 @@ class Scope(ScpiInstrument):
         # A record's clipping per channel setting, and the last gate: every measurement of
         # an acquisition asks for the same (six extremes, a mean and a frequency per point).
         self._clipped: tuple = (None, {})
-        self._extremes_kept: tuple = (None, {})   # (record, {source: (lowest, highest)}): `_extremes`
+        self._extremes_kept: tuple = (None, {})   # (record, {(source, gate): (lowest, highest)}): `_extremes`
         self._gated: tuple = (None, None)
 
     # -- status and events (TDS PM Section 3) ------------------------------------------------
