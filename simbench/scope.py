@@ -82,6 +82,7 @@ class Scope(ScpiInstrument):
         # A record's clipping per channel setting, and the last gate: every measurement of
         # an acquisition asks for the same (six extremes, a mean and a frequency per point).
         self._clipped: tuple = (None, {})
+        self._extremes_kept: tuple = (None, {})   # (record, {(source, gate): (lowest, highest)}): `_extremes`
         self._gated: tuple = (None, None)
 
     # -- status and events (TDS PM Section 3) ------------------------------------------------
@@ -307,8 +308,8 @@ class Scope(ScpiInstrument):
         source = s["trigger_source"]
         if s["trigger_type"] != "EDGE" or source not in ("CH1", "CH2", "CH3"):
             return False
-        trace = record.trace(source)
-        return float(trace.min()) < s["trigger_level"] < float(trace.max())
+        lowest, highest = self._extremes(record, source)
+        return lowest < s["trigger_level"] < highest
 
     def _untriggered(self, record: traces.Record) -> traces.Record:
         """AUTO mode without a trigger: each waveform starts at a random phase of the
@@ -378,7 +379,8 @@ class Scope(ScpiInstrument):
             setting = (channel, self.state["offset", channel], self.state["scale", channel],
                        self.state["position", channel])
             if setting not in self._clipped[1]:
-                self._clipped[1][setting] = traces.reaches_limits(record.trace(f"CH{channel}"), *setting[1:])
+                self._clipped[1][setting] = traces.reaches_limits(self._extremes(record, f"CH{channel}"),
+                                                                  *setting[1:])
             channel_high, channel_low = self._clipped[1][setting]
             high, low = high or channel_high, low or channel_low
         if high and low:
@@ -387,6 +389,20 @@ class Scope(ScpiInstrument):
             return (2228, "Measurement error, Positive Clipping") if high else \
                 (2229, "Measurement error, Negative Clipping")
         return None
+
+    def _extremes(self, record: traces.Record, source: str, trace: np.ndarray | None = None,
+                  gate: slice = slice(None)) -> tuple[float, float]:
+        """(lowest, highest) of `source` (CH1-CH3, or MATH as now defined, with its `trace`)
+        in `record`, within `gate`: its trigger, its clipping check and its extreme and
+        frequency measurements each read them, so they are worked out once per record."""
+        if self._extremes_kept[0] is not record:
+            self._extremes_kept = (record, {})
+        key = (source, self.state["math_define"], self.state["math_type"]) if source == "MATH" else source
+        key = (key, gate.start, gate.stop)
+        kept = self._extremes_kept[1]
+        if key not in kept:
+            kept[key] = traces.extremes_of((record.trace(source) if trace is None else trace)[gate])
+        return kept[key]
 
     def _measurement(self, unit: Unit) -> bytes:
         """MEASUrement:IMMed:VALue? (TDS PM p. 2-213): 9.91E37 and the reason in the
@@ -409,8 +425,10 @@ class Scope(ScpiInstrument):
         if gate is None:
             self.event(2206, "Measurement error, Invalid gate")
             return NO_VALUE
+        kind = _SIMULATED_MEASUREMENTS[kind]
+        extremes = self._extremes(record, source, trace, gate) if kind in traces.EXTREME_KINDS else None
         value = traces.measure(traces.Record(record.setup, trace[None, gate], record.frequency_hz), "CH1",
-                               _SIMULATED_MEASUREMENTS[kind])
+                               kind, extremes)
         if not math.isfinite(value):
             self.event(2202, "Measurement error, No period found")
             return NO_VALUE

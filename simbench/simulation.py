@@ -172,7 +172,7 @@ class SimulatedBench:
                                            repr(self.generator.settings()),
                                            self.acquisitions_since_generator_write,
                                            repr(self.stage.point_mm()) if self.stage.used else None)
-            rng = np.random.default_rng(seed)
+            rng = traces.acquisition_rng(seed)
         self.acquisitions_since_generator_write += 1
         return traces.record_of(shown, self.effects.digitizer_settings, rng)
 

@@ -210,6 +210,45 @@ def test_math_exists_only_in_the_mode_it_was_defined_in(bench):
     assert measure(s, "MATH", "MEAN") != pytest.approx(power_w, rel=0.1)
 
 
+def test_extreme_measurements_are_the_records_extremes_in_every_math_definition_and_gate(bench):
+    """The extremes a record's trigger, clipping check and measurements share are its own:
+    MAXIMUM, MINIMUM, PK2 of a channel and of MATH as defined now (a redefinition between
+    two queries of one record is read anew), over the record and within a cursor gate,
+    equal the transferred trace's, and a second acquisition's are its own."""
+    s = bench["scope"]
+    drive(bench)
+    setup(s)
+
+    def transferred(source: str) -> np.ndarray:
+        s.write(f"DATA:SOURCE {source};ENCDG RIBINARY;WIDTH 2;START 1;STOP 500")
+        preamble = s.query("WFMPRE?").split(";")   # YMULT, YZERO, YOFF: fields 13 to 15
+        y_mult, y_zero, y_off = (float(field) for field in preamble[12:15])
+        counts = s.query_binary_values("CURVE?", datatype="h", is_big_endian=True, container=np.array)
+        return (counts - y_off) * y_mult + y_zero
+
+    # the cursor gate: the record's first half (500 samples over 10 divisions, trigger centred)
+    record_s = 10.0 * float(s.query("HORIZONTAL:MAIN:SCALE?"))
+    s.write(f"CURSOR:FUNCTION VBARS;VBARS:POSITION1 {-record_s / 2.0!r};POSITION2 {-record_s / 1000.0 * 1.5!r}")
+    readings = []
+    for _ in range(2):
+        s.write("ACQUIRE:STATE RUN")
+        s.query("*OPC?")
+        for define in ("CH1*CH2", "CH1-CH2"):
+            s.write(f'MATH:DEFINE "{define}"')
+            for source in ("CH3", "MATH"):
+                for gating, gated in (("OFF", slice(None)), ("CURSOR", slice(0, 250))):
+                    s.write(f"MEASUREMENT:GATING {gating}")
+                    trace = transferred(source)[gated]
+                    high, low, pp = (measure(s, source, kind) for kind in ("MAXIMUM", "MINIMUM", "PK2"))
+                    # to the transfer's resolution (16-bit counts of the same values)
+                    step = (trace.max() - trace.min()) / 2**14
+                    assert high == pytest.approx(trace.max(), abs=step) and low == pytest.approx(trace.min(), abs=step)
+                    assert pp == pytest.approx(high - low, rel=1e-11)   # replies carry 13 digits
+                    readings.append((high, low))
+    assert readings[2] != readings[6]   # MATH redefined: CH1*CH2 and CH1-CH2 differ
+    assert readings[:8] != readings[8:]   # the second acquisition drew noise of its own
+
+
 def test_averaging_needs_the_trigger_on_the_driven_signal(bench):
     s = bench["scope"]
     drive(bench)
@@ -242,7 +281,7 @@ def test_a_clipped_channel_has_no_measurement(bench):
 @given(st.lists(st.floats(-1.2, 1.2), min_size=1, max_size=40), st.floats(1e-3, 1e3), st.floats(-5.0, 5.0),
        st.floats(-2.0, 2.0), st.sampled_from([0.0, 1e-9, 1e-12, 2e-16]))
 def test_clipping_is_read_from_the_extremes_as_from_every_sample(fractions, scale, position_div, offset, nudge_div):
-    """`traces.reaches_limits` places the trace's two extremes on the screen: the same
+    """`traces.reaches_limits` places the trace's two extremes (`extremes_of`) on the screen: the same
     verdict as placing every sample (a position rises with the value), for samples on, just
     inside and just past the ADC limits' tolerance."""
     edges = [fx.ADC_MAX_DIV - nudge_div, fx.ADC_MIN_DIV + nudge_div]
@@ -250,7 +289,7 @@ def test_clipping_is_read_from_the_extremes_as_from_every_sample(fractions, scal
     trace = (divisions - position_div) * scale + offset * scale
     screen = (trace - offset * scale) / scale + position_div
     every_sample = (bool(np.any(screen >= fx.ADC_MAX_DIV - 1e-9)), bool(np.any(screen <= fx.ADC_MIN_DIV + 1e-9)))
-    assert traces.reaches_limits(trace, offset * scale, scale, position_div) == every_sample
+    assert traces.reaches_limits(traces.extremes_of(trace), offset * scale, scale, position_div) == every_sample
 
 
 def test_reset_restores_appendix_d_but_keeps_the_event_queue(bench):
