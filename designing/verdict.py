@@ -115,7 +115,7 @@ def judge(physics: PhysicsPrediction, curve: pd.DataFrame | None = None,
             # a U past the value is a log-normal range value / F to value F, F = 1 + U / value (its top is
             # value + U all the same): "56 +- 260 Vpp" would hold voltages below zero
             needed = (f"{value:.3g} ± {u[output]:.2g} {unit}" if u[output] < value else
-                      f"{value:.3g} {unit} (x/÷ {1 + u[output] / value:.2g}: up to {value + u[output]:.3g} {unit})")
+                      f"{value:.3g} {unit} (×/÷ {1 + u[output] / value:.2g}: up to {value + u[output]:.3g} {unit})")
             marginal.append(f"{what} ({limit:g} {unit}) lies within the U of the {needed} needed")
     if scale < 1 and v["coupling_share"] >= MIN_COUPLING_SHARE:
         target = d.target

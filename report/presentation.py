@@ -212,7 +212,7 @@ def with_uncertainty_or_range(value: float, u: float, digits: int = 2, unit: str
     def figures(x: float) -> str:   # `digits` significant figures, never an exponent
         places = digits - 1 - math.floor(math.log10(x))
         return f"{round(x, places):.{max(places, 0)}f}"
-    return f"{figures(value)}{unit} (x/÷ {figures(factor)}: {figures(value / factor)} to {figures(value * factor)}{unit})"
+    return f"{figures(value)}{unit} (×/÷ {figures(factor)}: {figures(value / factor)} to {figures(value * factor)}{unit})"
 
 
 def percent(fraction: float) -> str:

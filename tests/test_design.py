@@ -667,7 +667,7 @@ def test_a_q_from_the_papers_builds_spreads_as_they_realise_it(strip_prediction)
     from squeezebench.report import design_report
 
     lines = design_report.headline(DesignAnswer(paper))
-    assert " (x/÷ " in lines[1].split(" Vpp")[0] and "±" not in lines[1].split(" Vpp")[0]
+    assert " (×/÷ " in lines[1].split(" Vpp")[0] and "±" not in lines[1].split(" Vpp")[0]
     assert design.PAPER_BUILDS_FORCE_LABEL in lines[2] and "design --measured" in lines[2]
     # every other row, the force factor's among them (a design with its own Q rests its voltage on
     # the model's force factor all the same), is the stated-Q design's

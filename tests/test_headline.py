@@ -125,8 +125,8 @@ def test_a_u_past_its_value_is_shown_as_a_factor_range_never_as_value_plus_minus
     log-normal k-interval value / F to value F, F = 1 + U / value; below it, value +- U."""
     from squeezebench.report.presentation import with_uncertainty, with_uncertainty_or_range
 
-    assert with_uncertainty_or_range(56.0, 70.0, unit="Vpp") == "56 Vpp (x/÷ 2.2: 25 to 130 Vpp)"
-    assert with_uncertainty_or_range(45.2, 212.0) == "45 (x/÷ 5.7: 7.9 to 260)"
+    assert with_uncertainty_or_range(56.0, 70.0, unit="Vpp") == "56 Vpp (×/÷ 2.2: 25 to 130 Vpp)"
+    assert with_uncertainty_or_range(45.2, 212.0) == "45 (×/÷ 5.7: 7.9 to 260)"
     assert with_uncertainty_or_range(56.0, 20.0) == with_uncertainty(56.0, 20.0) == "56 ± 20"
     assert with_uncertainty_or_range(-3.0, 5.0) == with_uncertainty(-3.0, 5.0)   # a signed value keeps +- U
 
