@@ -69,8 +69,8 @@ def headline(answer: DesignAnswer) -> list[str]:
     route = answer.paper_route
     if route is not None:
         lines.append(f"The paper's method from {len(route.small_plates)} characterised small plates: "
-                     f"{presentation.with_uncertainty(route.voltage_vpp.nominal_value, COVERAGE_FACTOR * route.voltage_vpp.std_dev)} Vpp "
-                     f"and {presentation.with_uncertainty(route.power_w.nominal_value, COVERAGE_FACTOR * route.power_w.std_dev)} W.")
+                     f"{presentation.with_uncertainty_or_range(route.voltage_vpp.nominal_value, COVERAGE_FACTOR * route.voltage_vpp.std_dev, unit='Vpp')} "
+                     f"and {presentation.with_uncertainty_or_range(route.power_w.nominal_value, COVERAGE_FACTOR * route.power_w.std_dev, unit='W')}.")
     elif answer.paper_route_problem:
         lines.append(f"The paper's method: no answer ({answer.paper_route_problem}).")
     comparison = answer.comparison()
@@ -337,7 +337,7 @@ _VALUE_ROWS = (("frequency_hz", "working mode frequency", "Hz"), ("half_waveleng
 
 def values_table(answer: DesignAnswer) -> pd.DataFrame:
     v, u = answer.physics.nominal.values, answer.physics.expanded
-    return pd.DataFrame([{"quantity": words, "unit": unit, "predicted": presentation.with_uncertainty(v[key], u[key]),
+    return pd.DataFrame([{"quantity": words, "unit": unit, "predicted": presentation.with_uncertainty_or_range(v[key], u[key]),
                           "dominant input": answer.physics.dominant(key) if u[key] > 0 else "none"}
                          for key, words, unit in _VALUE_ROWS])
 
@@ -361,7 +361,7 @@ def comparison_table(answer: DesignAnswer) -> pd.DataFrame:
     frame = answer.comparison()
     return pd.DataFrame({
         "quantity": [presentation.label(q) for q in frame["quantity"]], "route": frame["source"],
-        "predicted ± U": [presentation.with_uncertainty(a, b) for a, b in zip(frame["value"], frame["expanded_uncertainty"])],
+        "predicted ± U": [presentation.with_uncertainty_or_range(a, b) for a, b in zip(frame["value"], frame["expanded_uncertainty"])],
         "reference": [f"{_plain(a, b)} ({r})" if r else "none"
                       for a, b, r in zip(frame["reference_value"], frame["reference_expanded_uncertainty"], frame["reference"])],
         "deviation": [presentation.percent(d) if math.isfinite(d) else "" for d in frame["deviation"]],

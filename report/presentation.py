@@ -116,13 +116,17 @@ def cell(row: pd.Series, places: int | None, explain_href: str | None = None) ->
 
 
 def _physics(row: pd.Series, quantity: str, places: int | None) -> str:
-    """The plate model's prediction for the paper's plate, ± U to two significant digits,
-    and its deviation from print; '' where the model predicts nothing for this cell."""
+    """The plate model's prediction for the paper's plate, ± U to two significant digits (as
+    a factor range where U reaches the value, `with_uncertainty_or_range`), and its deviation
+    from print; '' where the model predicts nothing for this cell."""
     predicted = row.get("predicted_value")
     if not (isinstance(predicted, (int, float)) and math.isfinite(predicted)):
         return ""
     u = row.get("predicted_expanded_uncertainty")
-    if isinstance(u, (int, float)) and math.isfinite(u) and u > 0 and quantity in DISPLAY:
+    if isinstance(u, (int, float)) and math.isfinite(u) and u >= predicted > 0 and quantity in DISPLAY:
+        scale = DISPLAY[quantity].scale
+        shown = with_uncertainty_or_range(predicted * scale, u * scale).replace("-", "−")
+    elif isinstance(u, (int, float)) and math.isfinite(u) and u > 0 and quantity in DISPLAY:
         u_places = 1 - math.floor(math.log10(u * DISPLAY[quantity].scale))
         shown = f"{number(predicted, quantity, u_places)} ± {number(u, quantity, u_places)}"
     else:

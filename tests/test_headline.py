@@ -131,6 +131,17 @@ def test_a_u_past_its_value_is_shown_as_a_factor_range_never_as_value_plus_minus
     assert with_uncertainty_or_range(-3.0, 5.0) == with_uncertainty(-3.0, 5.0)   # a signed value keeps +- U
 
 
+def test_the_paper_tables_physics_cell_shows_a_u_past_its_value_as_a_range_in_display_units():
+    """Table 3's power cell: the model's 0.15 W with a U of 3.6 W (its drive term) reads as a
+    factor range in mW, never "150 ± 3600"; a U below the value keeps its ± form."""
+    from squeezebench.report.presentation import _physics
+
+    wide = _physics(pd.Series({"predicted_value": 0.15, "predicted_expanded_uncertainty": 3.6}), "power_w", None)
+    assert "150 (×/÷ 25: 6.0 to 3800)" in wide and "±" not in wide
+    narrow = _physics(pd.Series({"predicted_value": 0.15, "predicted_expanded_uncertainty": 0.03}), "power_w", None)
+    assert "150 ± 30" in narrow
+
+
 def test_a_run_without_paper_tables_says_only_what_ran_in_the_singular():
     assert headline("real", 1, 1, {}) == ["Measured on a real bench: 1 stored point from 1 campaign run."]
 
