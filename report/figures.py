@@ -178,11 +178,16 @@ PHYSICS_STYLE = {"color": "tab:green", "lw": 1.2}
 
 
 def _physics_band(ax, x, y, u, label: str) -> None:
-    """What the plate model predicts, a line with its U (k = 2) as a band."""
+    """What the plate model predicts, a line with its U (k = 2) as a band: y - U to y + U, or
+    where U reaches a positive y, the factor interval y / F to y F, F = 1 + U / y (as
+    `presentation.with_uncertainty_or_range` writes it): a band through zero would draw
+    negative powers and amplitudes."""
     order = np.argsort(np.asarray(x))
-    x, y, u = (np.asarray(a)[order] for a in (x, y, u))
+    x, y, u = (np.asarray(a, dtype=float)[order] for a in (x, y, u))
     ax.plot(x, y, "-", label=label, **PHYSICS_STYLE)
-    ax.fill_between(x, y - u, y + u, color=PHYSICS_STYLE["color"], alpha=0.15, lw=0)
+    past = (u >= y) & (y > 0)
+    lower = np.where(past, y**2 / np.where(past, y + u, 1.0), y - u)
+    ax.fill_between(x, lower, y + u, color=PHYSICS_STYLE["color"], alpha=0.15, lw=0)
 
 
 def fig8_amplitude(large: PlateCharacterisation, path: Path, physics_m_per_vpp: tuple[float, float] | None = None) -> Path:
@@ -196,7 +201,7 @@ def fig8_amplitude(large: PlateCharacterisation, path: Path, physics_m_per_vpp: 
     if physics_m_per_vpp is not None:
         slope, rel_u = physics_m_per_vpp
         v = np.linspace(0.0, float(points["piezo_voltage_vpp"].max()), 20)
-        _physics_band(ax, v, slope * v * 1e6, rel_u * slope * v * 1e6, "physics: plate model ± U")
+        _physics_band(ax, v, slope * v * 1e6, rel_u * slope * v * 1e6, "physics: plate model, U (k = 2)")
     ax.plot([paper_value("large_plate", "large_plate", "voltage_vpp")],
             [paper_value("large_plate", "large_plate", "amplitude_m") * 1e6], label="paper, Sec. 5.3.2", **PAPER_STYLE)
     ax.legend(fontsize=8, loc="lower right")
@@ -214,7 +219,7 @@ def fig9_power(power: pd.DataFrame, path: Path) -> Path:
     ax.plot(v2, power["power_measured_w"], "o", label="this run: large plate's sweep")
     if power["power_estimated_w"].notna().any():
         ax.plot(v2, power["power_estimated_w"], "s--", label="this run: estimated from small plates (Eqs. 25, 29)")
-    _physics_band(ax, v2, power["power_predicted_w"], power["power_predicted_U_w"], "physics: plate model ± U")
+    _physics_band(ax, v2, power["power_predicted_w"], power["power_predicted_U_w"], "physics: plate model, U (k = 2)")
     ax.plot([paper_value("large_plate", "large_plate", "voltage_vpp") ** 2],
             [paper_value("large_plate", "large_plate", "power_w")], label="paper, Sec. 5.3.2", **PAPER_STYLE)
     ax.set_xlabel("voltage squared (Vpp²)")

@@ -221,8 +221,8 @@ def table5_section(context: ReportContext) -> Section | None:
                      (response["amplitude_pp_m_per_vpp"], response["amplitude_rel_U"])),
         "Fig. 8 recomputed: amplitude pp of the large plate against voltage pp, with the fitted line "
         f"(intercept kept) and residuals. The paper reports about {paper_value('large_plate', 'large_plate', 'amplitude_m') * 1e6:g} µm "
-        f"at {printed_vpp:g} Vpp (★). Physics (the plate model, no printed result in; green, ± U "
-        f"k = 2) predicts {physics_amplitude[0]:.2f} ± {physics_amplitude[1]:.2f} µm pp at the plate's centre "
+        f"at {printed_vpp:g} Vpp (★). Physics (the plate model, no printed result in; green, U "
+        f"k = 2) predicts {presentation.with_uncertainty_or_range(*physics_amplitude, unit='µm pp')} at the plate's centre "
         f"there. " + bench_words(context))
     if estimated:
         title = "Table 5: the large plate estimated from the small ones (Sec. 5.3)"
@@ -248,8 +248,8 @@ def table5_section(context: ReportContext) -> Section | None:
            if estimated else "(●). ")
         + f"The paper reports {paper_value('large_plate', 'large_plate', 'power_w'):g} W at "
         f"{printed_vpp:g} Vpp (★) and an estimate within "
-        f"10 % of the measurement. Physics (green, ± U k = 2, one damping figure shared by every plate) "
-        f"predicts {physics_power[0]:.2f} ± {physics_power[1]:.2f} W there. " + bench_words(context))
+        f"10 % of the measurement. Physics (green, U k = 2, one damping figure shared by every plate) "
+        f"predicts {presentation.with_uncertainty_or_range(*physics_power, unit='W')} there. " + bench_words(context))
     if not estimated:
         return Section(title, body, "table5")
     error = float(np.mean(np.abs(power["power_estimated_w"] / power["power_measured_w"] - 1.0)))

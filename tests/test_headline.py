@@ -142,6 +142,28 @@ def test_the_paper_tables_physics_cell_shows_a_u_past_its_value_as_a_range_in_di
     assert "150 ± 30" in narrow
 
 
+def test_the_figures_physics_band_never_reaches_below_zero_where_u_passes_the_value():
+    """Fig. 9's band with U 24 times the power (its drive term): y / F to y F, F = 1 + U / y, as
+    the cells write it, not y - U (negative watts); with U below the value, y - U to y + U."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    import numpy as np
+    from squeezebench.report.figures import _physics_band
+
+    x = np.array([0.0, 400.0, 1600.0])
+    for rel_u, low in ((24.0, 1 / 25), (0.5, 0.5)):
+        fig, ax = plt.subplots()
+        y = 1e-3 * x
+        _physics_band(ax, x, y, rel_u * y, "physics")
+        band = ax.collections[0].get_paths()[0].vertices
+        plt.close(fig)
+        at_end = band[np.isclose(band[:, 0], 1600.0), 1]
+        assert band[:, 1].min() >= 0.0
+        assert np.allclose(np.unique(np.round(at_end, 12)), [1.6 * low, 1.6 * (1 + rel_u)])
+
+
 def test_a_run_without_paper_tables_says_only_what_ran_in_the_singular():
     assert headline("real", 1, 1, {}) == ["Measured on a real bench: 1 stored point from 1 campaign run."]
 
