@@ -410,7 +410,7 @@ def assumptions(answer: DesignAnswer) -> str:
 def payload(answer: DesignAnswer, files: dict[str, str]) -> dict:
     """design.json: what the page says, for scripts (every number with its U, k = 2)."""
     v, u = answer.physics.nominal.values, answer.physics.expanded
-    physics = {k: {"value": float(x), "expanded_uncertainty": u.get(k)} for k, x in v.items()}
+    physics = {k: _with_u(float(x), u.get(k)) for k, x in v.items()}
     route = answer.paper_route
     verdict = answer.judged()
     return {
@@ -419,8 +419,8 @@ def payload(answer: DesignAnswer, files: dict[str, str]) -> dict:
         "placement": _placement_payload(answer),
         "best_layout": None if answer.best_layout is None else {
             "edge_gap_mm": mean_edge_gap_mm(answer.best_layout.design),
-            **{k: {"value": answer.best_layout.nominal.values[k],
-                   "expanded_uncertainty": answer.best_layout.expanded[k]} for k in ("voltage_vpp", "power_w")}},
+            **{k: _with_u(answer.best_layout.nominal.values[k], answer.best_layout.expanded[k])
+               for k in ("voltage_vpp", "power_w")}},
         "target": answer.design.target.model_dump(), "coverage_factor": COVERAGE_FACTOR,
         "physics": physics,
         "dominant_inputs": {k: answer.physics.dominant(k) for k in BUDGET_OUTPUTS},
@@ -461,8 +461,18 @@ def _placement_payload(answer: DesignAnswer) -> dict | None:
             "implied_by_printed": implied}
 
 
+def _with_u(value: float, u: float | None) -> dict:
+    """A number for scripts: its value, its U (k = 2) and the interval they stand for
+    (`presentation.coverage_interval`: the factor interval where U passes the value, as the
+    page writes it)."""
+    if u is None or not math.isfinite(u):
+        return {"value": value, "expanded_uncertainty": u}
+    low, high = presentation.coverage_interval(value, u)
+    return {"value": value, "expanded_uncertainty": u, "interval": [float(low), float(high)]}
+
+
 def _uf(value) -> dict:
-    return {"value": value.nominal_value, "expanded_uncertainty": COVERAGE_FACTOR * value.std_dev}
+    return _with_u(value.nominal_value, COVERAGE_FACTOR * value.std_dev)
 
 
 def write(answer: DesignAnswer, out_dir: Path) -> dict[str, str]:

@@ -27,8 +27,6 @@ from __future__ import annotations
 
 from dataclasses import replace
 
-import numpy as np
-
 from squeezebench.plates.specifications import MODEL_TOLERANCES
 from squeezebench.simbench import physics
 from squeezebench.simbench.effects import EFFECTS

@@ -20,7 +20,7 @@ from squeezebench.designing.paper_route import predict_from_small_plates
 from squeezebench.designing.verdict import judge
 from squeezebench.errors import UserError
 from squeezebench.schemas import load_design_file
-from squeezebench.yamlfiles import dump_yaml, load_strict
+from squeezebench.yamlfiles import dump_yaml
 
 #: Table 3's plate (75 x 41 x 1 mm, one column of four piezos mid-length) as a design.
 STRIP = {
@@ -255,6 +255,13 @@ def test_design_command_writes_page_json_and_tables(tmp_path, capsys):
     assert payload["command"] == "design" and payload["design"] == "strip"
     voltage = payload["physics"]["voltage_vpp"]
     assert voltage["value"] > 0 and voltage["expanded_uncertainty"] > 0
+    # the force factor's model-form term puts the voltage's U past its value: scripts get the
+    # factor interval the page writes, never value - U below zero; a frequency keeps +- U
+    v, u = voltage["value"], voltage["expanded_uncertainty"]
+    assert u > v and voltage["interval"] == pytest.approx([v * v / (v + u), v + u])
+    frequency = payload["physics"]["frequency_hz"]
+    assert frequency["interval"] == pytest.approx([frequency["value"] - frequency["expanded_uncertainty"],
+                                                   frequency["value"] + frequency["expanded_uncertainty"]])
     assert payload["headline"][1].startswith("strip needs ")
     assert payload["verdict"] == {"status": "feasible", "reasons": [], "changes": []}
     assert payload["headline"][0] == "Verdict: feasible."
