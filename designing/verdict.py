@@ -8,7 +8,7 @@ from dataclasses import dataclass
 
 import pandas as pd
 
-from squeezebench.plates import plate_modes
+from squeezebench.plates import plate_modes, predicted_plates
 from squeezebench.designing.design_file import DesignFile
 from squeezebench.designing.design import DesignError, MIN_COUPLING_SHARE, PARTIAL_COUPLING_SHARE, PhysicsPrediction, coupling_share, modal_part, operating_point
 
@@ -112,10 +112,10 @@ def judge(physics: PhysicsPrediction, curve: pd.DataFrame | None = None,
             infeasible.append(f"needs {value:.3g} {unit}, beyond {what} ({limit:g} {unit})")
             scale = min(scale, (limit / value) ** (1 / power))
         elif value + u[output] > limit:
-            # a U past the value is a log-normal range value / F to value F, F = 1 + U / value (its top is
-            # value + U all the same): "56 +- 260 Vpp" would hold voltages below zero
-            needed = (f"{value:.3g} ± {u[output]:.2g} {unit}" if u[output] < value else
-                      f"{value:.3g} {unit} (×/÷ {1 + u[output] / value:.2g}: up to {value + u[output]:.3g} {unit})")
+            # a U past the value is a range (`expanded_interval`): "56 +- 260 Vpp" would hold voltages below zero
+            low, high = (float(end) for end in predicted_plates.expanded_interval(value, u[output]))
+            needed = (f"{value:.3g} ± {u[output]:.2g} {unit}" if low == value - u[output] else
+                      f"{value:.3g} {unit} (×/÷ {high / value:.2g}: up to {high:.3g} {unit})")
             marginal.append(f"{what} ({limit:g} {unit}) lies within the U of the {needed} needed")
     if scale < 1 and v["coupling_share"] >= MIN_COUPLING_SHARE:
         target = d.target

@@ -477,6 +477,19 @@ def log_term_expanded_rel(u_ln: float, k: float = 2.0) -> float:
     return math.expm1(k * u_ln)
 
 
+def expanded_interval(value, u):
+    """The interval a value and its U (k = 2) stand for, numbers or arrays: value - U to
+    value + U, or, where U reaches a positive value, the factor interval value / F to value F
+    with F = 1 + U / value (the upper end is value + U either way): a positive quantity whose
+    relative U is exp(k u) - 1 (`log_term_expanded_rel`, a log-normal one) has that
+    k-interval, and value - U would put zero and below inside, which no voltage, power or
+    amplitude can be."""
+    value, u = np.asarray(value, dtype=float), np.asarray(u, dtype=float)
+    past = (u >= value) & (value > 0)
+    low = np.where(past, value**2 / np.where(past, value + u, 1.0), value - u)
+    return low, value + u
+
+
 def drive_term_rel(fit_on: str = DRIVE_FIT_ON) -> dict[str, float]:
     """The drive's model-form term sized on `fit_on` (`drive_model_form`) as relative expanded
     uncertainties (k = 2, `log_term_expanded_rel`) of a response at a given voltage going as

@@ -22,6 +22,7 @@ from squeezebench.report import presentation  # noqa: E402
 from squeezebench.designing.answer import DesignAnswer  # noqa: E402
 from squeezebench.designing.design import COVERAGE_FACTOR, INPUTS, mean_edge_gap_mm  # noqa: E402
 from squeezebench.designing.workflow import HISTORY_FILE, record_measurement  # noqa: E402
+from squeezebench.plates import predicted_plates  # noqa: E402
 from squeezebench.plates.plate_modes import crossings  # noqa: E402
 from squeezebench.report.figures import PAPER_STYLE, save_figure  # noqa: E402
 from squeezebench.report import page as html_page  # noqa: E402
@@ -463,11 +464,11 @@ def _placement_payload(answer: DesignAnswer) -> dict | None:
 
 def _with_u(value: float, u: float | None) -> dict:
     """A number for scripts: its value, its U (k = 2) and the interval they stand for
-    (`presentation.coverage_interval`: the factor interval where U passes the value, as the
+    (`predicted_plates.expanded_interval`: the factor interval where U passes the value, as the
     page writes it)."""
     if u is None or not math.isfinite(u):
         return {"value": value, "expanded_uncertainty": u}
-    low, high = presentation.coverage_interval(value, u)
+    low, high = predicted_plates.expanded_interval(value, u)
     return {"value": value, "expanded_uncertainty": u, "interval": [float(low), float(high)]}
 
 

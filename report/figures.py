@@ -19,7 +19,7 @@ from squeezebench.paper import paper_table, paper_value  # noqa: E402
 from squeezebench.analysis.study import systematics_point  # noqa: E402
 from squeezebench.analysis.tables import LineFit  # noqa: E402
 from squeezebench.analysis.characterisation import PlateCharacterisation
-from squeezebench.report.presentation import coverage_interval
+from squeezebench.plates.predicted_plates import expanded_interval
 
 #: Fixed metadata so that re-running the report gives byte-identical PNG files.
 _PNG_METADATA = {"Software": None}
@@ -180,12 +180,12 @@ PHYSICS_STYLE = {"color": "tab:green", "lw": 1.2}
 
 def _physics_band(ax, x, y, u, label: str) -> None:
     """What the plate model predicts, a line with its U (k = 2) as a band, the interval each
-    point stands for (`presentation.coverage_interval`: never through zero where U passes
+    point stands for (`predicted_plates.expanded_interval`: never through zero where U passes
     the value, which would draw negative powers and amplitudes)."""
     order = np.argsort(np.asarray(x))
     x, y, u = (np.asarray(a, dtype=float)[order] for a in (x, y, u))
     ax.plot(x, y, "-", label=label, **PHYSICS_STYLE)
-    ax.fill_between(x, *coverage_interval(y, u), color=PHYSICS_STYLE["color"], alpha=0.15, lw=0)
+    ax.fill_between(x, *expanded_interval(y, u), color=PHYSICS_STYLE["color"], alpha=0.15, lw=0)
 
 
 def fig8_amplitude(large: PlateCharacterisation, path: Path, physics_m_per_vpp: tuple[float, float] | None = None) -> Path:

@@ -11,11 +11,11 @@ import math
 import re
 from dataclasses import dataclass
 
-import numpy as np
 import pandas as pd
 
 from squeezebench.analysis import provenance
 from squeezebench.paper import paper_table, printed_step
+from squeezebench.plates.predicted_plates import expanded_interval
 from squeezebench.analysis.tables import ROUND_TRIP
 
 
@@ -203,25 +203,12 @@ def with_uncertainty(value: float, u: float, digits: int = 2, unit: str = "") ->
     return f"{value:.{places}f} ± {u:.{places}f}{unit}".replace("-", "−")
 
 
-def coverage_interval(value, u):
-    """The interval a value and its U (k = 2) stand for, numbers or arrays: value - U to
-    value + U, or, where U reaches a positive value, the factor interval value / F to value F
-    with F = 1 + U / value (the upper end is value + U either way): a positive quantity whose
-    relative U is exp(k u) - 1 (`plates.predicted_plates.log_term_expanded_rel`, a log-normal
-    one) has that k-interval, and value - U would put zero and below inside, which no voltage,
-    power or amplitude can be."""
-    value, u = np.asarray(value, dtype=float), np.asarray(u, dtype=float)
-    past = (u >= value) & (value > 0)
-    low = np.where(past, value**2 / np.where(past, value + u, 1.0), value - u)
-    return low, value + u
-
-
 def with_uncertainty_or_range(value: float, u: float, digits: int = 2, unit: str = "") -> str:
-    """`with_uncertainty`, or, where U reaches the (positive) value itself, its
-    `coverage_interval` as "value (×/÷ F: value / F to value F)"."""
+    """`with_uncertainty`, or, where U reaches the (positive) value itself, its interval
+    (`predicted_plates.expanded_interval`) as "value (×/÷ F: value / F to value F)"."""
     if not (value > 0 and math.isfinite(u) and u >= value):
         return with_uncertainty(value, u, digits, unit)
-    low, high = (float(end) for end in coverage_interval(value, u))
+    low, high = (float(end) for end in expanded_interval(value, u))
     unit = f" {unit}" if unit else ""
 
     def figures(x: float) -> str:   # `digits` significant figures, never an exponent

@@ -207,7 +207,6 @@ class GeneratorFrequencyError(SystematicEffect,
         return replace(settings, frequency_hz=settings.frequency_hz * (1.0 + self.values["frequency_rel"]))
 
 
-
 class GeneratorAmplitudeError(Effect):
     """The 33120A puts out (1 + amplitude_rel) times the amplitude it is set to (and answers
     VOLT? with the setting). Default +2 %: its amplitude accuracy and flatness at the plates'
