@@ -224,7 +224,8 @@ def design_coverage_points() -> pd.DataFrame:
                          "measured_value": float(plate[value]), "true_value": true,
                          "rel_error": float(plate[value]) / true - 1.0,
                          "rel_expanded_u": float(plate[expanded]) / abs(true),
-                         "covered": abs(float(plate[value]) - true) <= float(plate[expanded]),
+                         "covered": predicted_plates.within_expanded_interval(true, float(plate[value]),
+                                                                              float(plate[expanded])),
                          "error_model": DESIGN_MODEL, "bench_seed": unit, "beyond_specification": False})
     return pd.DataFrame(rows)
 

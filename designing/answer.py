@@ -14,6 +14,7 @@ from squeezebench.designing.design_file import DesignFile
 from squeezebench.designing.design import COVERAGE_FACTOR, PhysicsPrediction
 from squeezebench.designing.paper_route import PaperRoute
 from squeezebench.designing.verdict import Verdict, judge
+from squeezebench.plates import predicted_plates
 
 
 @dataclass(frozen=True)
@@ -39,7 +40,8 @@ def comparison(physics: PhysicsPrediction, paper: PaperRoute | None, measured: M
                printed: dict[str, float] | None = None) -> pd.DataFrame:
     """One row per quantity and source: value, U (k = 2), and against the reference (the
     measurement when there is one, else the printed value): deviation and whether the
-    reference lies within the prediction's U."""
+    reference lies within U: in the interval the value and the combined U, hypot(U, the
+    reference's U), stand for (`predicted_plates.within_expanded_interval`)."""
     v, U = physics.nominal.values, physics.expanded
     rows = [("frequency_hz", "physics (a)", v["frequency_hz"], U["frequency_hz"]),
             ("voltage_vpp", "physics (a)", v["voltage_vpp"], U["voltage_vpp"]),
@@ -61,7 +63,7 @@ def comparison(physics: PhysicsPrediction, paper: PaperRoute | None, measured: M
     for quantity, source, value, u in rows:
         ref = reference.get(quantity)
         deviation = value / ref[0] - 1 if ref else math.nan
-        within = bool(abs(value - ref[0]) <= math.hypot(u, ref[1])) if ref else None
+        within = predicted_plates.within_expanded_interval(ref[0], value, math.hypot(u, ref[1])) if ref else None
         out.append({"quantity": quantity, "source": source, "value": value, "expanded_uncertainty": u,
                     "reference": ref[2] if ref else "", "reference_value": ref[0] if ref else math.nan,
                     "reference_expanded_uncertainty": ref[1] if ref else math.nan,

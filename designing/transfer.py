@@ -31,6 +31,7 @@ from squeezebench.designing.design_file import DesignFile
 from squeezebench.designing.answer import Measured, measured_point
 from squeezebench.designing.paper_route import predict_from_small_plates
 from squeezebench.designing.workflow import characterised_plates, write_build
+from squeezebench.plates import predicted_plates
 
 READINGS = {"paper": model.PAPER_CONVENTION, "physical": model.PHYSICAL_CONVENTION}
 TARGET_AMPLITUDE_PP_M = 1e-6
@@ -149,7 +150,7 @@ def _row(build: Build, route: str, value: float, u: float, measured: Measured) -
     return {"build": build.seed // 100, "seed": build.seed, "thickness_mm": build.thickness_mm, "mechanical_q": build.mechanical_q,
             "large_length_mm": build.large_length_mm, "route": route, "predicted_power_w": value,
             "predicted_power_w_U": u, "measured_power_w": m, "measured_power_w_U": mu,
-            "ratio": value / m, "covered": bool(abs(value - m) <= math.hypot(u, mu))}
+            "ratio": value / m, "covered": predicted_plates.within_expanded_interval(m, value, math.hypot(u, mu))}
 
 
 def run_study(n_builds: int = 20, workers: int = 1, first_seed: int = 1) -> pd.DataFrame:

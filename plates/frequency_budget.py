@@ -50,7 +50,8 @@ def frequency_budget() -> pd.DataFrame:
         for name, value in values.items():
             row[f"{name}_frequency_hz"] = value
             row[f"{name}_deviation"] = value / printed_hz - 1.0
-        row["within_U"] = abs(row["model_deviation"]) <= row["model_frequency_U_rel"]
+        row["within_U"] = predicted_plates.within_expanded_interval(
+            printed_hz, model_hz, float(predictions.loc[item, "predicted_frequency_u_hz"]))
         rows.append(row)
     return pd.DataFrame(rows)
 

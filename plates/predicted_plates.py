@@ -490,6 +490,19 @@ def expanded_interval(value, u):
     return low, value + u
 
 
+def within_expanded_interval(truth, value, u):
+    """Whether `truth` lies in the interval `value` and its U stand for (`expanded_interval`,
+    ends included), numbers (a bool) or arrays: every "within U" verdict, so a verdict says
+    what the page shows. Not |truth - value| <= U: where U reaches a positive value, a truth
+    between value - U and value / F (F = 1 + U / value) is outside the factor interval. A
+    verdict on two uncertain numbers passes U = hypot(U_value, U_truth), the U of their
+    difference (GUM 5.1.2), whose interval a truth without U reduces to."""
+    low, high = expanded_interval(value, u)
+    truth = np.asarray(truth, dtype=float)
+    inside = (low <= truth) & (truth <= high)
+    return bool(inside) if inside.ndim == 0 else inside
+
+
 def drive_term_rel(fit_on: str = DRIVE_FIT_ON) -> dict[str, float]:
     """The drive's model-form term sized on `fit_on` (`drive_model_form`) as relative expanded
     uncertainties (k = 2, `log_term_expanded_rel`) of a response at a given voltage going as
@@ -529,8 +542,8 @@ def drive_cross_check() -> pd.DataFrame:
     """The drive's model-form term sized on each build in turn (`drive_model_form`) and judged on
     every build: per (fitted build, judged build) the term's size, and how many of the judged
     build's printed velocities and powers (at the printed voltage, and at the printed velocity)
-    the predictions' U then holds (`role` "fitted" where
-    the two builds are one: an in-sample figure, not a test)."""
+    the predictions' U then holds (`within_expanded_interval`), and the largest |error| / U
+    (`role` "fitted" where the two builds are one: an in-sample figure, not a test)."""
     rows = []
     for fit_on in DRIVE_BUILDS:
         form = drive_model_form(fit_on)
@@ -547,7 +560,7 @@ def drive_cross_check() -> pd.DataFrame:
                                              "predicted_power_at_printed_velocity_u_w", "printed_power_w")):
                 scored = part[np.isfinite(part[printed])]
                 ratio = (scored[value] - scored[printed]).abs() / scored[u]
-                row[f"{name}_covered"] = int((ratio <= 1).sum())
+                row[f"{name}_covered"] = int(within_expanded_interval(scored[printed], scored[value], scored[u]).sum())
                 row[f"{name}_scored"] = len(scored)
                 row[f"{name}_max_error_over_u"] = float(ratio.max()) if len(scored) else math.nan
             rows.append(row)

@@ -137,9 +137,9 @@ def _implied_placement(answer: DesignAnswer, curve: pd.DataFrame) -> str:
     if at_voltage:
         voltage = f"its {printed['voltage_vpp']:g} Vpp at {where(at_voltage)}"
     else:
-        within = curve[(curve["voltage_vpp"] - printed["voltage_vpp"]).abs() <= curve["voltage_expanded_uncertainty"]]
+        within = edge_gaps_within_u(curve, printed["voltage_vpp"])
         lowest = curve.loc[curve["voltage_vpp"].idxmin()]
-        lo, hi = (within["edge_gap_mm"].min(), within["edge_gap_mm"].max()) if len(within) else (None, None)
+        lo, hi = (min(within), max(within)) if within else (None, None)
         span = "" if lo is None else f"; within its U at {lo:.1f} mm" if lo == hi else f"; within U from {lo:.1f} to {hi:.1f} mm"
         voltage = (f"its {printed['voltage_vpp']:g} Vpp nowhere (the least is {lowest['voltage_vpp']:.3g} Vpp at "
                    f"{lowest['edge_gap_mm']:.1f} mm{span})")
@@ -147,6 +147,15 @@ def _implied_placement(answer: DesignAnswer, curve: pd.DataFrame) -> str:
     text = (f"Inference, not a prediction: on this curve the paper's build would have {voltage}, {power}; the paper "
             "does not state the placement, and nothing here is chosen from its printed numbers.")
     return text if at_voltage else f"{text} {_what_separates(answer, curve)}"
+
+
+def edge_gaps_within_u(curve: pd.DataFrame, voltage_vpp: float) -> list[float]:
+    """The placement curve's edge gaps whose voltage and U (k = 2) hold `voltage_vpp`: in the
+    interval the page shows (`predicted_plates.within_expanded_interval`), the factor one where
+    U passes the voltage."""
+    held = predicted_plates.within_expanded_interval(voltage_vpp, curve["voltage_vpp"],
+                                                     curve["voltage_expanded_uncertainty"])
+    return [float(gap) for gap in curve.loc[held, "edge_gap_mm"]]
 
 
 def _what_separates(answer: DesignAnswer, curve: pd.DataFrame) -> str:
@@ -449,8 +458,7 @@ def _placement_payload(answer: DesignAnswer) -> dict | None:
         implied = {"inference": True,
                    "voltage_vpp": {"printed": answer.printed["voltage_vpp"], "edge_gap_mm": crossings(
                        ok["edge_gap_mm"], ok["voltage_vpp"], answer.printed["voltage_vpp"]),
-                       "within_u_edge_gap_mm": ok.loc[(ok["voltage_vpp"] - answer.printed["voltage_vpp"]).abs()
-                                                      <= ok["voltage_expanded_uncertainty"], "edge_gap_mm"].tolist()},
+                       "within_u_edge_gap_mm": edge_gaps_within_u(ok, answer.printed["voltage_vpp"])},
                    "power_w": {"printed": answer.printed["power_w"], "edge_gap_mm": crossings(
                        ok["edge_gap_mm"], ok["power_w"], answer.printed["power_w"])}}
     least = ok.loc[ok["voltage_vpp"].idxmin()] if len(ok) else None

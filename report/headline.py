@@ -21,6 +21,7 @@ import pandas as pd
 from squeezebench.analysis import provenance
 from squeezebench.report.presentation import DISPLAY, header, percent, with_uncertainty
 from squeezebench.analysis.tables import INPUT_ORIGINS, ROUND_TRIP, is_put_in
+from squeezebench.plates.predicted_plates import within_expanded_interval
 
 #: The paper's tables a headline counts, in the order it names them.
 PAPER_TABLES = {"table3": "Table 3", "table4": "Table 4", "table5": "Table 5"}
@@ -158,8 +159,8 @@ def _within(predicted: pd.DataFrame, name: str, printed: str) -> tuple[int, int,
     """How many printed values of one quantity the model puts within its U, of how many,
     and the model / print ratios."""
     rows = predicted[predicted[printed].notna() & predicted[f"predicted_{name}"].notna()]
-    difference = (rows[f"predicted_{name}"] - rows[printed]).abs()
-    return int((difference <= rows[_u_column(name)]).sum()), len(rows), rows[f"predicted_{name}"] / rows[printed]
+    within = within_expanded_interval(rows[printed], rows[f"predicted_{name}"], rows[_u_column(name)])
+    return int(within.sum()), len(rows), rows[f"predicted_{name}"] / rows[printed]
 
 
 def _u_column(name: str) -> str:

@@ -86,8 +86,8 @@ def physics_rows(context: ReportContext) -> pd.DataFrame:
                          "unit": "1", "value": measured.value, "expanded_uncertainty": u_measured,
                          "origin": plate.origin, "predicted_value": value, "predicted_expanded_uncertainty": u_predicted,
                          "value_over_predicted": measured.value / value if value else math.nan,
-                         "agrees_with_prediction": bool(abs(measured.value - value)
-                                                        <= math.hypot(u_measured, u_predicted))})
+                         "agrees_with_prediction": predicted_plates.within_expanded_interval(
+                             measured.value, value, math.hypot(u_measured, u_predicted))})
     frame = pd.DataFrame(rows)
     frame.attrs["not_predicted"] = not_predicted
     return frame
@@ -101,7 +101,8 @@ def _by_plate(frame: pd.DataFrame) -> pd.DataFrame:
         for quantity, name in (("q", "Q"), ("tan_theta", "tan θ′")):
             r = rows[rows["quantity"] == quantity].iloc[0]
             row[f"{name}: this run"] = presentation.with_uncertainty(r["value"], r["expanded_uncertainty"])
-            row[f"{name}: physics"] = presentation.with_uncertainty(r["predicted_value"], r["predicted_expanded_uncertainty"])
+            row[f"{name}: physics"] = presentation.with_uncertainty_or_range(r["predicted_value"],
+                                                                             r["predicted_expanded_uncertainty"])
             row[f"{name}: run / physics"] = r["value_over_predicted"]
         row["both within U"] = "✓" if rows["agrees_with_prediction"].all() else "✗"
         out.append(row)

@@ -150,3 +150,27 @@ def test_a_replay_plate_is_set_beside_its_physics_and_its_departure_said(tmp_pat
     monkeypatch.setattr(predicted, "predict", unsolvable)
     section = simulated_plates.physics_section(ReportContext(load_run(run_dir), tmp_path))
     assert "small_plate_4: not predicted (no (n, 0) mode among 12 modes" in section.body_html
+
+
+def test_a_physics_u_past_its_value_agrees_only_within_its_factor_interval(large_plate_run, tmp_path, monkeypatch):
+    """The physics section's verdict is the interval it shows (`within_expanded_interval`): a
+    prediction ten times the measured value with U thirty times it is shown as a factor range
+    (F = 4, the interval 2.5 to 40 times the prediction's value over ten), which the measured Q
+    (positive under the inferred reading) lies below, though within value +- U; tan theta',
+    negative under that reading, keeps value +- U."""
+    from squeezebench.analysis import model
+    from squeezebench.report import simulated_plates
+    from squeezebench.report.section import ReportContext
+
+    real = characterisation.predicted_q_tan
+
+    def inflated(*args):
+        return {quantity: (10 * value, 30 * abs(value)) for quantity, (value, _) in real(*args).items()}
+    monkeypatch.setattr(characterisation, "predicted_q_tan", inflated)
+    rows = simulated_plates.physics_rows(ReportContext(large_plate_run, tmp_path,
+                                                       convention=model.INFERRED_CONVENTION)).set_index("quantity")
+    assert rows.at["q", "value"] > 0 > rows.at["tan_theta", "value"]
+    assert (rows["value"] - rows["predicted_value"]).abs().le(rows["predicted_expanded_uncertainty"]).all()
+    assert not rows.at["q", "agrees_with_prediction"] and rows.at["tan_theta", "agrees_with_prediction"]
+    shown = simulated_plates._by_plate(rows.reset_index()).iloc[0]
+    assert "×/÷ 4.0" in shown["Q: physics"] and "±" in shown["tan θ′: physics"]
