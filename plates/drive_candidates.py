@@ -42,13 +42,6 @@ def _moved_patches(geometry: plate_modes.PlateGeometry, dx_m: float) -> plate_mo
                                                        for p in geometry.patches))
 
 
-def _with_bond(geometry: plate_modes.PlateGeometry, antinodes: int, bond: laminate.Bond) -> dict[str, float]:
-    """`predicted_plates.centre_response` on another bond (the stated mode, the same search)."""
-    near = predicted_plates._search_hz(geometry, antinodes)
-    modes = plate_modes.solve_plate(geometry, near_hz=near, band_rel=predicted_plates.SEARCH_BAND_REL, bond=bond)
-    return predicted_plates._at_centre(geometry, modes, predicted_plates.mode_with_antinodes(modes, antinodes, near))
-
-
 def candidates() -> pd.DataFrame:
     """Per candidate and plate (Table 3's 75 mm, Table 4's 1-column): the shift each gives the
     mismatch, d ln A and d ln Q, and the factors exp(d) they multiply A_bench / A and Q_bench / Q
@@ -70,7 +63,7 @@ def candidates() -> pd.DataFrame:
     soft = dataclasses.replace(plate_modes.EPOXY, shear_modulus_pa=plate_modes.EPOXY.shear_modulus_pa / 10)
     for label, bond in (("bond rigid", laminate.RIGID_BOND), ("bond ten times more compliant", soft)):
         for plate, geometry in plates.items():
-            add(label, plate, model_shift(nominal[plate], _with_bond(geometry, n, bond)))
+            add(label, plate, model_shift(nominal[plate], predicted_plates.centre_response(geometry, n, bond)))
     for dx_mm in (1.0, 2.0):
         moved = predicted_plates.centre_response(_moved_patches(plates["Table 3 75"], dx_mm * MM), n)
         add(f"Table 3's column {dx_mm:g} mm off mid-length", "Table 3 75", model_shift(nominal["Table 3 75"], moved))

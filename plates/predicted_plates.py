@@ -253,8 +253,8 @@ def _shows_nearest(modes: plate_modes.PlateModes, k: int, near_hz: float) -> boo
     return bool(modes.frequencies_hz.min() < near_hz - distance and modes.frequencies_hz.max() > near_hz + distance)
 
 
-def _solve_stated(geometry: plate_modes.PlateGeometry, antinodes: int):
-    """The plate's solution and the index of its mode of `antinodes` stated antinodes
+def _solve_stated(geometry: plate_modes.PlateGeometry, antinodes: int, bond: laminate.Bond = plate_modes.EPOXY):
+    """The plate's solution on `bond` and the index of its mode of `antinodes` stated antinodes
     (`mode_with_antinodes` about `_search_hz` among the modes of `SEARCH_BAND_REL`): the same
     mode as that band's solve gives, sought in `FIRST_MODES` modes and twice as many until they
     show it (`_shows_nearest`), the whole band the last resort."""
@@ -262,7 +262,7 @@ def _solve_stated(geometry: plate_modes.PlateGeometry, antinodes: int):
     band = plate_modes.mode_count(geometry, plate_modes.ALUMINIUM_TABLE2, plate_modes.NCE41, near, SEARCH_BAND_REL)
     n_modes = min(FIRST_MODES, band)
     while n_modes < band:
-        modes = plate_modes.solve_plate(geometry, near_hz=near, n_modes=n_modes)
+        modes = plate_modes.solve_plate(geometry, near_hz=near, n_modes=n_modes, bond=bond)
         try:
             k = mode_with_antinodes(modes, antinodes, near)
         except ValueError:   # none of that count in view yet
@@ -270,7 +270,7 @@ def _solve_stated(geometry: plate_modes.PlateGeometry, antinodes: int):
         if k is not None and _shows_nearest(modes, k, near):
             return modes, k
         n_modes = min(2 * n_modes, band)
-    modes = plate_modes.solve_plate(geometry, near_hz=near, n_modes=band)
+    modes = plate_modes.solve_plate(geometry, near_hz=near, n_modes=band, bond=bond)
     return modes, mode_with_antinodes(modes, antinodes, near)
 
 
@@ -283,10 +283,12 @@ def _solve_working(geometry: plate_modes.PlateGeometry, antinodes: int | None, u
     return modes, _cut_plate_mode(modes, uncut_hz)
 
 
-def centre_response(geometry: plate_modes.PlateGeometry, antinodes: int) -> dict[str, float]:
-    """`geometry`'s mode with `antinodes` interior antinodes, referred to its centre
-    (`_at_centre`)."""
-    return _at_centre(geometry, *_solve_working(geometry, antinodes, None))
+def centre_response(geometry: plate_modes.PlateGeometry, antinodes: int,
+                    bond: laminate.Bond = plate_modes.EPOXY) -> dict[str, float]:
+    """`geometry`'s mode with `antinodes` interior antinodes on `bond` (the epoxy every paper
+    plate is glued with, unless a candidate cause tries another: `drive_candidates`), referred
+    to its centre (`_at_centre`)."""
+    return _at_centre(geometry, *_solve_stated(geometry, antinodes, bond))
 
 
 def _at_centre(geometry, modes, k) -> dict[str, float]:
