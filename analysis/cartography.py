@@ -162,26 +162,35 @@ def cell_readings(x_m: np.ndarray, y_m: np.ndarray, signed: np.ndarray) -> CellR
     return CellReadings(_read_between(*_point_grid(x_m, y_m, signed), method), method)
 
 
-def grid_error(attribute: str, share_of_peak: float) -> Callable[[np.ndarray, np.ndarray], float]:
+GridError = Callable[[np.ndarray], Callable[[np.ndarray], float]]
+
+
+def grid_error(attribute: str, share_of_peak: float) -> GridError:
     """The error of homogeneity figure `attribute` read as a grid's points' (`homogeneity`,
     each point standing for its cell) against the same figure of the vibration over their
-    cells, as a function of (points' amplitudes, the cells' amplitudes). The area above the
-    share of the peak is the cells' above the share of the points' peak, as a map reads it."""
-    def error(points: np.ndarray, cells: np.ndarray) -> float:
-        read = homogeneity(points, share_of_peak)
+    cells: given the cells' amplitudes, a function of the points' amplitudes. The cells'
+    figure is one per map, whatever the grid's offset, so it is computed once; the area above
+    the share of the peak is the cells' above the share of each grid's own peak, as a map
+    reads it, so that comparison is made per grid."""
+    def against(cells: np.ndarray) -> Callable[[np.ndarray], float]:
         if attribute == "fraction_above_share":
-            return read.fraction_above_share - float(np.mean(cells >= share_of_peak * read.maximum))
-        return getattr(read, attribute) - getattr(homogeneity(cells, share_of_peak), attribute)
-    return error
+            def error(points: np.ndarray) -> float:
+                read = homogeneity(points, share_of_peak)
+                return read.fraction_above_share - float(np.mean(cells >= share_of_peak * read.maximum))
+            return error
+        figure = getattr(homogeneity(cells, share_of_peak), attribute)
+        return lambda points: getattr(homogeneity(points, share_of_peak), attribute) - figure
+    return against
 
 
-def shifted_grid_errors(readings: CellReadings, error: Callable[[np.ndarray, np.ndarray], float]) -> np.ndarray:
+def shifted_grid_errors(readings: CellReadings, error: GridError) -> np.ndarray:
     """`error` (e.g. `grid_error`) of the grid shifted by each sub-step offset across a cell
     (READING_SAMPLES per axis), read off the field between the points: column j of
     `readings` is where the grid's points would be, shifted by spot j's offset; all the
     columns together are the vibration over the cells."""
     values = readings.values
-    return np.array([error(values[:, j], values.ravel()) for j in range(values.shape[1])])
+    of_points = error(values.ravel())
+    return np.array([of_points(values[:, j]) for j in range(values.shape[1])])
 
 
 def grid_term(errors: np.ndarray, method: str) -> Term:

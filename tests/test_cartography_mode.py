@@ -231,13 +231,34 @@ def test_the_shifted_grids_errors_of_a_standing_waves_sampled_mean_square_are_th
     assume(amplitude > 0.02)   # a grid of nearly whole half-waves has no aliasing error to find
     x, y = np.meshgrid(x0 + np.arange(n, dtype=float), np.arange(6.0))
     readings = cell_readings(x.ravel(), y.ravel(), np.cos(k * x).ravel())
-    mean_square = lambda points, cells: float(np.mean(points**2) - np.mean(cells**2))   # noqa: E731
+    mean_square = lambda cells: lambda points: float(np.mean(points**2) - np.mean(cells**2))   # noqa: E731
     found = shifted_grid_errors(readings, mean_square).reshape(8, 8)   # (x offset, y offset)
     assert readings.method == "cubic" and np.allclose(found, found[:, :1], atol=1e-12)   # no y dependence
     closed = _sin2_mean_offset_errors(n, k, x0, cell_offsets(8))
     assert np.abs(found[:, 0] - closed).max() <= 0.15 * amplitude + 0.003
     u = grid_term(found.ravel(), readings.method).std_uncertainty
     assert u == pytest.approx(float(np.sqrt(np.mean(closed**2))), abs=0.1 * amplitude + 0.002)
+
+
+def test_the_cells_figure_is_computed_once_per_map_to_the_same_bits():
+    """`grid_error` takes the cells' CV (or any figure but the area, whose cells are counted
+    against each grid's own peak) once per map: the shifted grids' errors and the term are,
+    to the last bit, those of the figure recomputed at every offset (a seeded map, 14 x 9
+    points, a two-dimensional cosine mode with noise)."""
+    rng = np.random.default_rng(7)
+    x, y = np.meshgrid(np.arange(14.0), np.arange(9.0))
+    signed = np.cos(2 * np.pi * x / 4.5 + 0.3) * np.cos(np.pi * y / 15) + rng.normal(0, 0.01, x.shape)
+    readings = cell_readings(x.ravel(), y.ravel(), signed.ravel())
+    values = readings.values
+    for figure in ("coefficient_of_variation", "mean", "fraction_above_share"):
+        every_offset = []
+        for j in range(values.shape[1]):
+            read, cells = homogeneity(values[:, j], 0.5), homogeneity(values.ravel(), 0.5)
+            every_offset.append(read.fraction_above_share - float(np.mean(values.ravel() >= 0.5 * read.maximum))
+                                if figure == "fraction_above_share" else getattr(read, figure) - getattr(cells, figure))
+        found = shifted_grid_errors(readings, grid_error(figure, 0.5))
+        assert found.tolist() == every_offset and np.abs(found).max() > 0, figure
+        assert grid_term(found, "cubic").std_uncertainty == grid_term(np.array(every_offset), "cubic").std_uncertainty
 
 
 @pytest.mark.parametrize("kind", ["n0", "2d", "plane"])
@@ -253,7 +274,7 @@ def test_the_grids_term_covers_the_continuous_figures_of_a_cosine_mode_as_a_stan
         x, y, sampled, fine = _sampled_mode(rng, kind, rng.uniform(2.0, 4.0))
         readings = cell_readings(x, y, sampled)
         for figure in FIGURES:
-            errors[figure].append(abs(grid_error(figure, 0.5)(np.abs(sampled), fine)))
+            errors[figure].append(abs(grid_error(figure, 0.5)(fine)(np.abs(sampled))))
             expanded[figure].append(1.96 * _grid_u(readings, figure))
     assert not grid_term(np.ones(3), "cubic").is_rectangular   # a standard deviation: normal, k = 1.96
     for figure in FIGURES:
@@ -273,7 +294,7 @@ def _large_plate_map(large, step_mm: float, dx_mm: float, dy_mm: float = 0.0) ->
     spots = cell_offsets(8) * step_mm
     cells = np.abs(np.concatenate([mode_shape(scene, state, x + a, y + b).ravel() for a in spots for b in spots]))
     readings = cell_readings(x.ravel(), y.ravel(), signed)
-    return ([grid_error(figure, 0.5)(np.abs(signed), cells) for figure in FIGURES],
+    return ([grid_error(figure, 0.5)(cells)(np.abs(signed)) for figure in FIGURES],
             [_grid_u(readings, figure) for figure in FIGURES])
 
 
