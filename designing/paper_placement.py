@@ -5,7 +5,7 @@ gap at which each edge plate's model meets the force factor its print implies.
 
 Every gap here is an INFERENCE, labelled so, and never an input of a prediction of the
 numbers it is inferred from (the predictions take the half-wave rule's,
-`predicted_plates.half_wave_edge_gap_mm`).
+`predicted_plates.rule_edge_gap_mm`).
 `python -m squeezebench.designing.paper_placement` prints them.
 """
 from __future__ import annotations
@@ -66,7 +66,7 @@ def large_plate_placement_curve(amplitude_pp_m: float = 1e-6, gaps_mm=EDGE_GAPS_
     mechanical power as 1/Q and the dielectric as the voltage squared)."""
     curve = design.placement_rows(large_plate_design(None, amplitude_pp_m), STATED_ANTINODES["large"], gaps_mm)
     ratio = curve["mechanical_q"] / curve["physics_q"]
-    nominal = large_plate().patches[0].bounds[0] / MM
+    nominal = predicted_plates.rule_edge_gap_mm("large")
     curve["within_stated_range"] = (curve["edge_gap_mm"] - nominal).abs() <= HALF_WAVE_TOLERANCE_MM + 1e-9
     curve["voltage_vpp_physics_q"] = curve["voltage_vpp"] * ratio
     dielectric = curve["power_w"] - curve["mechanical_power_w"]

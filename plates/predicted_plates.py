@@ -63,6 +63,22 @@ LAYOUTS = {
 }
 
 
+#: The paper's plates whose columns sit at the edges (`LAYOUTS` keys): where their sizes are
+#: printed and the mode each is driven in.
+EDGE_PLATES = {"table4": ("table4", "plate", STATED_ANTINODES["76 mm plates"]),
+               "large": ("large_plate", "large_plate", STATED_ANTINODES["large"])}
+
+
+def rule_edge_gap_mm(layout: str) -> float:
+    """The edge gap the half-wave rule (`half_wave_edge_gap_mm`) gives the edge columns of the
+    paper's plate `layout` ("table4" or "large", `EDGE_PLATES`): from its printed length and
+    piezo width and its stated mode. The one way to the nominal gap: the plates are built at it
+    and the placement's tolerance is taken about it."""
+    source, item, antinodes = EDGE_PLATES[layout]
+    return half_wave_edge_gap_mm(paper_value(source, item, "resonator_length_mm"), antinodes,
+                                 paper_value(source, item, "piezo_width_mm"))
+
+
 def _columns(x_mm: tuple[float, ...], width_mm: float, per: int, powered: int) -> tuple:
     patches = ()
     for i, x in enumerate(x_mm):
@@ -82,12 +98,12 @@ def table3_plate(label: str) -> plate_modes.PlateGeometry:
 
 def table4_plate(label: str, edge_gap_mm: float | None = None) -> plate_modes.PlateGeometry:
     """Table 4's plate `label`, its edge columns `edge_gap_mm` from the edges (None: the
-    half-wave rule's, `half_wave_edge_gap_mm`)."""
+    half-wave rule's, `rule_edge_gap_mm`)."""
     width = paper_value("table4", "plate", "resonator_width_mm")
     length = paper_value("table4", "plate", "resonator_length_mm")
     piezo_x = paper_value("table4", "plate", "piezo_width_mm")
     if edge_gap_mm is None:
-        edge_gap_mm = half_wave_edge_gap_mm(length, STATED_ANTINODES["76 mm plates"], piezo_x)
+        edge_gap_mm = rule_edge_gap_mm("table4")
     n_columns = int(paper_value("table4", label, "n_columns"))
     xs = (edge_gap_mm + piezo_x / 2, length - edge_gap_mm - piezo_x / 2)
     return plate_modes.PlateGeometry(
@@ -97,11 +113,11 @@ def table4_plate(label: str, edge_gap_mm: float | None = None) -> plate_modes.Pl
 
 def large_plate(edge_gap_mm: float | None = None) -> plate_modes.PlateGeometry:
     """The large plate, its corner piezos `edge_gap_mm` from the short edges (None: the
-    half-wave rule's, `half_wave_edge_gap_mm`)."""
+    half-wave rule's, `rule_edge_gap_mm`)."""
     q = lambda name: paper_value("large_plate", "large_plate", name)  # noqa: E731
     width, length, piezo_x = q("resonator_width_mm"), q("resonator_length_mm"), q("piezo_width_mm")
     if edge_gap_mm is None:
-        edge_gap_mm = half_wave_edge_gap_mm(length, STATED_ANTINODES["large"], piezo_x)
+        edge_gap_mm = rule_edge_gap_mm("large")
     patches = tuple(plate_modes.Patch(x * MM, y * MM, piezo_x * MM,
                                       q("piezo_length_mm") * MM, q("piezo_thickness_mm") * MM, True, "corner")
                     for x in (edge_gap_mm + piezo_x / 2, length - edge_gap_mm - piezo_x / 2)
@@ -191,16 +207,17 @@ def response_per_volt(frequency_hz: float, modal_mass_kg: float, force_factor_n_
 
 
 def paper_plates():
-    """Each paper plate the model predicts: (table, item, label, geometry, edge-gap geometry
-    or None (a function of the gap in mm, for the plates whose columns sit at an edge), the
-    stated antinodes or None for a cut plate)."""
+    """Each paper plate the model predicts: (table, item, label, geometry, edge placement or
+    None (for the plates whose columns sit at an edge: the geometry as a function of the gap in
+    mm, and the rule's gap it is built at, `rule_edge_gap_mm`), the stated antinodes or None
+    for a cut plate)."""
     for label in ("75", "59", "28"):
         yield ("Table 3", label, f"{label} x 41 x 1 mm", table3_plate(label), None,
                STATED_ANTINODES["76 mm plates"] if label == "75" else None)
     for label in ("1-column", "2-columns 1 powered", "2-columns 2 powered"):
-        yield ("Table 4", label, label, table4_plate(label), functools.partial(table4_plate, label),
-               STATED_ANTINODES["76 mm plates"])
-    yield ("Sec. 5", "large_plate", "large plate 198 x 138 x 2 mm", large_plate(), large_plate,
+        yield ("Table 4", label, label, table4_plate(label),
+               (functools.partial(table4_plate, label), rule_edge_gap_mm("table4")), STATED_ANTINODES["76 mm plates"])
+    yield ("Sec. 5", "large_plate", "large plate 198 x 138 x 2 mm", large_plate(), (large_plate, rule_edge_gap_mm("large")),
            STATED_ANTINODES["large"])
 
 
@@ -307,7 +324,7 @@ def _predictions() -> pd.DataFrame:
 
     out = []
     uncut_hz = None
-    for table, item, plate_label, geometry, at_gap, antinodes in paper_plates():
+    for table, item, plate_label, geometry, placement, antinodes in paper_plates():
         modes, k = _solve_working(geometry, antinodes, uncut_hz)
         if table == "Table 3" and antinodes is not None:
             uncut_hz = float(modes.frequencies_hz[k])
@@ -319,8 +336,8 @@ def _predictions() -> pd.DataFrame:
         u_bond_f = 0.5 * float(modes.piezo_energy_share[k]) * span / (2 * math.sqrt(3))
         u_bond_force = span / (2 * math.sqrt(3))
         u_place = {"frequency_hz": 0.0, "force_factor_n_per_v": 0.0, "modal_mass_kg": 0.0}
-        if at_gap is not None:   # the edge gap's ends, each solved (the force factor is far from linear in it)
-            gap = geometry.patches[0].bounds[0] / MM   # the first column is the one at x = 0's edge
+        if placement is not None:   # the edge gap's ends, each solved (the force factor is far from linear in it)
+            at_gap, gap = placement
             ends = [centre_response(at_gap(gap + side * HALF_WAVE_TOLERANCE_MM), antinodes) for side in (-1, 1)]
             u_place = {q: abs(ends[1][q] - ends[0][q]) / nominal[q] / (2 * math.sqrt(3)) for q in u_place}
         # a cut plate's length is the cut's (Table 3's plates; the others are stated sheets): a

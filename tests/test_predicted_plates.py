@@ -215,7 +215,7 @@ def test_the_large_plates_placement_curve_is_the_design_models_own():
     ours = sorted((p.bounds, p.powered) for p in spec.geometry().patches)
     theirs = sorted((p.bounds, p.powered) for p in predicted_plates.large_plate().patches)
     assert np.allclose([b for b, _ in ours], [b for b, _ in theirs]) and [p for _, p in ours] == [p for _, p in theirs]
-    gap = predicted_plates.large_plate().patches[0].bounds[0] / predicted_plates.MM
+    gap = predicted_plates.rule_edge_gap_mm("large")
     curve = paper_placement.large_plate_placement_curve(gaps_mm=(gap,)).iloc[0]
     moved = spec.with_end_groups_at(gap)
     point = design.operating_point(moved, modal=design.modal_part(moved, antinodes=21)).values
@@ -375,10 +375,10 @@ def test_the_half_wave_rule_puts_the_edge_piezo_where_the_solve_drives_the_mode_
     by a few per cent where 2 +- 2 mm moved it by tens."""
     from squeezebench.designing import paper_placement
 
-    gap = predicted_plates.half_wave_edge_gap_mm(76.0, 9, 5.0)
-    assert gap == pytest.approx(3.804, abs=1e-3)
+    gap = predicted_plates.rule_edge_gap_mm("table4")
+    assert gap == predicted_plates.half_wave_edge_gap_mm(76.0, 9, 5.0) == pytest.approx(3.804, abs=1e-3)
     geometry = predicted_plates.table4_plate("1-column")
-    assert geometry.patches[0].bounds[0] / predicted_plates.MM == pytest.approx(gap)
+    assert geometry.patches[0].bounds[0] / predicted_plates.MM == pytest.approx(gap)   # built at the rule's gap
     modes, k = predicted_plates._solve_working(geometry, 9, None)
     lines_mm = modes.nodal_lines_m(k) / predicted_plates.MM
     assert (lines_mm[0] + lines_mm[1]) / 2 == pytest.approx(gap + 2.5, abs=0.6)
