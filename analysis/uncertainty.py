@@ -34,7 +34,7 @@ import numpy as np
 import pandas as pd
 import uncertainties
 
-from squeezebench.analysis import dielectric, model
+from squeezebench.analysis import dielectric, model, resonance_drift
 from squeezebench.analysis.budgets import P95_FACTOR, Budget, Term
 from squeezebench.analysis.calibration import Deskew, deskew_of_run, gain_weight
 from squeezebench.analysis.resonance_searches import (PEAK_FIT_SHARE, SEARCH_STOP_SPREAD, SearchSetup,
@@ -172,14 +172,24 @@ def power_ratio_budget(numerator: pd.DataFrame, denominator: pd.DataFrame) -> Bu
     (`analysis.dielectric`: larger at P_t, read at a higher voltage; 0 without an estimate,
     the conservative reading): dR/R = (S_e,t - S_e,0) e (1.2 % at r = 0.8 for 20 ppm with d = 0).
     The generator's amplitude error a cancels in the motional parts (both go as V^2) but not
-    in the dielectric ones (V^(2+n)): dR/R = (S_a,t - S_a,0) a = n (d_t - d_0) a. The noise of
-    each mean is its own (Type A):
+    in the dielectric ones (V^(2+n)): dR/R = (S_a,t - S_a,0) a = n (d_t - d_0) a. Nor does the
+    resonance's drift: a point read when the plate's resonance had moved by delta from where
+    it was mounted reads the curve displaced, a frequency error -delta / f on the part that
+    follows it: |dR/R| <= (1 - d_t) 2 |s_t| B_t + (B_0 / h)^2, B the bound on |delta| at each
+    reading (`analysis.resonance_drift`: from the run's dated readings of its resonance, Type
+    A; Type B where it holds one), P_0 set on the re-centred resonance and on the flat top
+    (1 / h^2 = s_t^2 / (r^2 (1 - r^2)) at P_t's velocity ratio r), carried as a bias bound,
+    u(drift) = bound / 1.96 (`_resonance_drift_term`). The noise of each mean is its own (Type A):
     u(R)^2 / R^2 = u(P_t)^2 / P_t^2 + u(P_0)^2 / P_0^2 + (w_t Q'_t / P_t - w_0 Q'_0 / P_0)^2 u(tau)^2
-                   + (S_e,t - S_e,0)^2 u(e)^2 + (S_a,t - S_a,0)^2 u(a)^2,
+                   + (S_e,t - S_e,0)^2 u(e)^2 + (S_a,t - S_a,0)^2 u(a)^2 + u(drift)^2 / R^2,
     with u(tau) the deskew's when the points were corrected, else the specified bound's.
-    NaN terms when a point has no stored record to reduce."""
+    Points without `resonance_drift_hz` get it from their own P0 rows (no search: a single
+    reading is the Type B rate). NaN terms when a point has no stored record to reduce."""
     applied = Deskew.applied_in(numerator)
     slopes = _slopes_of(numerator, denominator)
+    if "resonance_drift_hz" not in numerator or "resonance_drift_hz" not in denominator:
+        both = resonance_drift.with_resonance_drift(pd.concat([numerator, denominator]))
+        numerator, denominator = both.iloc[:len(numerator)], both.iloc[len(numerator):]
     parts, described = [], True
     for points in (numerator, denominator):
         power = float(points["power_w"].mean())
@@ -195,6 +205,7 @@ def power_ratio_budget(numerator: pd.DataFrame, denominator: pd.DataFrame) -> Bu
         parts.append((power, noise / power, phase, lead, float(np.mean(to_frequency)), float(np.mean(to_amplitude))))
     (p_t, noise_t, phase_t, lead_t, pull_t, gain_t), (p_0, noise_0, phase_0, lead_0, pull_0, gain_0) = parts
     ratio = p_t / p_0
+    drift = _resonance_drift_term(ratio, numerator, denominator, slopes)
     delay = (delay_term(ratio * (phase_t - phase_0)) if applied is None else
              Term("CH2 delay after deskew", "B", abs(ratio * (phase_t - phase_0)) * applied.std_uncertainty_s,
                   applied.source))
@@ -204,7 +215,32 @@ def power_ratio_budget(numerator: pd.DataFrame, denominator: pd.DataFrame) -> Bu
         delay,
         _spec_term("voltage probe compensation (CH1 phase)", "voltage_probe_compensation", ratio * (lead_t - lead_0)),
         _generator_frequency_term(ratio * (pull_t - pull_0), described),
-        _spec_term("generator amplitude", "generator_amplitude", ratio * (gain_t - gain_0))))
+        _spec_term("generator amplitude", "generator_amplitude", ratio * (gain_t - gain_0)), drift))
+
+
+def _resonance_drift_term(ratio: float, numerator: pd.DataFrame, denominator: pd.DataFrame,
+                          slopes: pd.Series) -> Term:
+    """The resonance's drift in R = P_t / P_0 (`power_ratio_budget`), a bias bound from each
+    point's `resonance_drift_hz` B (`analysis.resonance_drift`): on the slope the part of the
+    power that follows the resonance moves by (1 - d) 2 |s| B, on the flat top by (B / h)^2,
+    1 / h^2 = s_t^2 / (r^2 (1 - r^2)) the Lorentzian's curvature at P_t's ratio r."""
+    slope_t = slopes.loc[numerator.index].to_numpy(float)
+    ratio_t = numerator["target_velocity_ratio"].to_numpy(float) if "target_velocity_ratio" in numerator else \
+        np.full(len(numerator), np.nan)
+    inside = (ratio_t > 0) & (ratio_t < 1)
+    curvature = float(np.mean(np.where(inside, slope_t**2 / np.where(inside, ratio_t**2 * (1 - ratio_t**2), 1.0),
+                                       0.0)))
+    bound_rel = 0.0
+    for points in (numerator, denominator):
+        share, _, _ = _dielectric_share(points)
+        slope = slopes.loc[points.index].to_numpy(float)
+        drift_hz = points["resonance_drift_hz"].to_numpy(float)
+        bound_rel += float(np.mean((1.0 - share) * 2.0 * np.abs(slope) * drift_hz
+                                   + np.where(slope == 0, curvature * drift_hz**2, 0.0)))
+    sources = dict.fromkeys(pd.concat([numerator, denominator])["resonance_drift_source"])
+    return Term("resonance drift (plate warming, room)", "A" if all(s.startswith("Type A") for s in sources) else "B",
+                abs(ratio) * bound_rel / P95_FACTOR, "bias bound (k u = bound): " + "; ".join(sources),
+                rectangular=False)
 
 
 def _slopes_of(numerator: pd.DataFrame, denominator: pd.DataFrame) -> pd.Series:
