@@ -120,19 +120,24 @@ def needs_deskew(points: pd.DataFrame) -> pd.DataFrame:
                   & (points["power_w_U"] > DELAY_FLAG_U_REL * points["power_w"].abs())]
 
 
-def generator_sensitivities(slope_per_hz, frequency_hz, dielectric_share, dielectric_voltage_exponent):
+def generator_sensitivities(slope_per_hz, frequency_hz, dielectric_share, dielectric_voltage_exponent,
+                            shunt_share=0.0, cross_share=0.0, cross_exponent=1.0):
     """(d ln P / d e, d ln P / d a) of an electrical power read at the generator's frequency
-    f (1 + e) and amplitude V (1 + a), numbers or arrays. P = M + D: the motional part
-    M = R v^2 / 2 follows the velocity, v ~ V along the resonance (`detuning_slope_per_hz`:
-    s = d ln v / d f, signed);
+    f (1 + e) and amplitude V (1 + a), numbers or arrays. P = M + D + S_C + S_x: the motional
+    part M = R v^2 / 2 (with the shunt's R_s |I_m|^2 / 2) follows the velocity, v ~ V along the
+    resonance (`detuning_slope_per_hz`: s = d ln v / d f, signed);
     the piezos' dielectric loss D = w C0 V0^2 tan(delta) / 2 goes as f V^m, m = 2 + n for a
     tan(delta) ~ E^n (`analysis.dielectric`, `plates.damping.field_tan_delta`), and not with
-    the resonance. With its share d = D / P:
-        d ln P / d e = (1 - d) 2 s f + d,        d ln P / d a = 2 (1 - d) + m d;
-    d = 0 (the whole power on the resonance) gives 2 s f and 2, the form without the loss."""
-    mechanical = 1.0 - dielectric_share
-    return (mechanical * 2.0 * slope_per_hz * frequency_hz + dielectric_share,
-            2.0 * mechanical + dielectric_voltage_exponent * dielectric_share)
+    the resonance; nor the shunt's loss from the capacitive current, S_C = R_s (w C0 V0)^2 / 2,
+    as f^2 V^2; the cross term S_x = -2 R_s w C0 x P_m as V^2 and, besides the resonance's
+    2 s f, as f^e_x, e_x = 1 + f / (f - f0) (`dielectric.shunt_cross_power_w`). With the shares
+    d = D / P, d_C = S_C / P, d_x = S_x / P:
+        d ln P / d e = (1 - d - d_C) 2 s f + d + 2 d_C + d_x e_x,     d ln P / d a = 2 (1 - d) + m d;
+    d = d_C = d_x = 0 (the whole power on the resonance) gives 2 s f and 2, the form without them."""
+    resonant = 1.0 - dielectric_share - shunt_share
+    return (resonant * 2.0 * slope_per_hz * frequency_hz + dielectric_share + 2.0 * shunt_share
+            + cross_share * cross_exponent,
+            2.0 * (1.0 - dielectric_share) + dielectric_voltage_exponent * dielectric_share)
 
 
 def _dielectric_share(points: pd.DataFrame | dict) -> tuple:
@@ -145,6 +150,19 @@ def _dielectric_share(points: pd.DataFrame | dict) -> tuple:
     described = bool(np.all(np.isfinite(loss)))
     return (np.where(np.isfinite(loss), loss / power, 0.0), np.where(np.isfinite(exponent), exponent, 2.0),
             described)
+
+
+def _shunt_shares(points: pd.DataFrame | dict) -> dict[str, np.ndarray]:
+    """Each point's shunt shares as `generator_sensitivities` takes them (its keywords): the
+    capacitive current's loss and the cross term over the power, and that term's exponent;
+    0, 0 and 1 where the run stores no shunt (the whole shunt loss on the resonance)."""
+    power = np.asarray(points["power_w"], dtype=float)
+    nothing = np.full_like(power, np.nan)
+    values = {column: np.asarray(points.get(column, nothing), dtype=float) for column in dielectric.SHUNT_COLUMNS}
+    known = np.isfinite(values["shunt_capacitive_power_w"])
+    return {"shunt_share": np.where(known, values["shunt_capacitive_power_w"] / power, 0.0),
+            "cross_share": np.where(known, values["shunt_cross_power_w"] / power, 0.0),
+            "cross_exponent": np.where(known, values["shunt_cross_frequency_exponent"], 1.0)}
 
 
 def _generator_frequency_term(sensitivity: float, described: bool) -> Term:
@@ -168,9 +186,11 @@ def power_ratio_budget(numerator: pd.DataFrame, denominator: pd.DataFrame) -> Bu
     power, so dR/R = (w_t Q'_t / P_t - w_0 Q'_0 / P_0) tau, small at resonance (Q' ~ 0)
     and not at a detuned point. Nor does the generator's frequency error e: P_0 sits on the
     resonance's flat top, P_t on its slope, and each power moves by its own
-    `generator_sensitivities`, S_e = (1 - d) 2 s f + d with d its dielectric share
-    (`analysis.dielectric`: larger at P_t, read at a higher voltage; 0 without an estimate,
-    the conservative reading): dR/R = (S_e,t - S_e,0) e (1.2 % at r = 0.8 for 20 ppm with d = 0).
+    `generator_sensitivities`, S_e = (1 - d - d_C) 2 s f + d + 2 d_C + d_x e_x with d its
+    dielectric share and d_C, d_x the series shunt's loss from the piezos' capacitive current
+    and its cross term with the motional one (`analysis.dielectric`: larger at P_t, read at a
+    higher voltage; 0 without an estimate, the conservative reading):
+    dR/R = (S_e,t - S_e,0) e (1.2 % at r = 0.8 for 20 ppm with no shares).
     The generator's amplitude error a cancels in the motional parts (both go as V^2) but not
     in the dielectric ones (V^(2+n)): dR/R = (S_a,t - S_a,0) a = n (d_t - d_0) a. Nor does the
     resonance's drift: a point read when the plate's resonance had moved by delta from where
@@ -200,7 +220,8 @@ def power_ratio_budget(numerator: pd.DataFrame, denominator: pd.DataFrame) -> Bu
         setting_hz = points["generator_frequency_hz"] if "generator_frequency_hz" in points else points["frequency_hz"]
         share, exponent, known = _dielectric_share(points)
         to_frequency, to_amplitude = generator_sensitivities(slopes.loc[points.index].to_numpy(float),
-                                                             setting_hz.to_numpy(float), share, exponent)
+                                                             setting_hz.to_numpy(float), share, exponent,
+                                                             **_shunt_shares(points))
         described &= known or not np.any(slopes.loc[points.index].to_numpy(float))
         parts.append((power, noise / power, phase, lead, float(np.mean(to_frequency)), float(np.mean(to_amplitude))))
     (p_t, noise_t, phase_t, lead_t, pull_t, gain_t), (p_0, noise_0, phase_0, lead_0, pull_0, gain_0) = parts
@@ -222,7 +243,8 @@ def _resonance_drift_term(ratio: float, numerator: pd.DataFrame, denominator: pd
                           slopes: pd.Series) -> Term:
     """The resonance's drift in R = P_t / P_0 (`power_ratio_budget`), a bias bound from each
     point's `resonance_drift_hz` B (`analysis.resonance_drift`): on the slope the part of the
-    power that follows the resonance moves by (1 - d) 2 |s| B, on the flat top by (B / h)^2,
+    power that follows the resonance moves by (1 - d - d_C) 2 |s| B (and the shunt's cross
+    term by d_x (2 s + 1 / (f - f0)) B, `generator_sensitivities`), on the flat top by (B / h)^2,
     1 / h^2 = s_t^2 / (r^2 (1 - r^2)) the Lorentzian's curvature at P_t's ratio r."""
     slope_t = slopes.loc[numerator.index].to_numpy(float)
     ratio_t = numerator["target_velocity_ratio"].to_numpy(float) if "target_velocity_ratio" in numerator else \
@@ -233,10 +255,13 @@ def _resonance_drift_term(ratio: float, numerator: pd.DataFrame, denominator: pd
     bound_rel = 0.0
     for points in (numerator, denominator):
         share, _, _ = _dielectric_share(points)
+        shunt = _shunt_shares(points)
         slope = slopes.loc[points.index].to_numpy(float)
+        # d ln P / d f0: the resonant part's -2 s, the cross term's -(2 s + 1 / (f - f0))
+        per_hz = ((1.0 - share - shunt["shunt_share"]) * 2.0 * slope
+                  + shunt["cross_share"] * (shunt["cross_exponent"] - 1.0) / points["frequency_hz"].to_numpy(float))
         drift_hz = points["resonance_drift_hz"].to_numpy(float)
-        bound_rel += float(np.mean((1.0 - share) * 2.0 * np.abs(slope) * drift_hz
-                                   + np.where(slope == 0, curvature * drift_hz**2, 0.0)))
+        bound_rel += float(np.mean(np.abs(per_hz) * drift_hz + np.where(slope == 0, curvature * drift_hz**2, 0.0)))
     sources = dict.fromkeys(pd.concat([numerator, denominator])["resonance_drift_source"])
     return Term("resonance drift (plate warming, room)", "A" if all(s.startswith("Type A") for s in sources) else "B",
                 abs(ratio) * bound_rel / P95_FACTOR, "bias bound (k u = bound): " + "; ".join(sources),
@@ -285,10 +310,12 @@ def power_budget(point: dict, deskew: Deskew | None = None) -> Budget:
 def _power_generator_term(point: dict) -> Term:
     """A stored power's generator-frequency term: `generator_sensitivities` at the point's
     slope and dielectric share (the whole power on the resonance without an estimate)."""
-    share, exponent, described = _dielectric_share({key: [point.get(key, math.nan)] for key in
-                                                    ("power_w", "dielectric_power_w", "dielectric_voltage_exponent")})
+    one = {key: [point.get(key, math.nan)] for key in
+           ("power_w", "dielectric_power_w", "dielectric_voltage_exponent", *dielectric.SHUNT_COLUMNS)}
+    share, exponent, described = _dielectric_share(one)
     slope = point.get("detuning_slope_per_hz", 0.0)
-    to_frequency, _ = generator_sensitivities(slope, float(point["frequency_hz"]), float(share[0]), float(exponent[0]))
+    to_frequency, _ = generator_sensitivities(slope, float(point["frequency_hz"]), float(share[0]), float(exponent[0]),
+                                              **{k: float(v[0]) for k, v in _shunt_shares(one).items()})
     return _generator_frequency_term(float(point["power_w"]) * to_frequency, described or not slope)
 
 
