@@ -42,7 +42,7 @@ from squeezebench.analysis.resonance_searches import (PEAK_FIT_SHARE, SEARCH_STO
                                                       search_setups)
 from squeezebench.analysis.rundata import RunData
 from squeezebench.plates.specifications import SPECIFICATIONS, VOLTAGE_PROBE_POLE_HZ, sheet_thickness_tolerance
-from squeezebench.analysis.tables import reduced_points, with_scope_fallback
+from squeezebench.analysis.tables import reduced_points, resonance_search_points, with_scope_fallback
 
 def _spec_term(name: str, key: str, sensitivity: float) -> Term:
     spec = SPECIFICATIONS[key]
@@ -242,10 +242,9 @@ def power_ratio_budget(numerator: pd.DataFrame, denominator: pd.DataFrame) -> Bu
 def _resonance_drift_term(ratio: float, numerator: pd.DataFrame, denominator: pd.DataFrame,
                           slopes: pd.Series) -> Term:
     """The resonance's drift in R = P_t / P_0 (`power_ratio_budget`), a bias bound from each
-    point's `resonance_drift_hz` B (`analysis.resonance_drift`): on the slope the part of the
-    power that follows the resonance moves by (1 - d - d_C) 2 |s| B (and the shunt's cross
-    term by d_x (2 s + 1 / (f - f0)) B, `generator_sensitivities`), on the flat top by (B / h)^2,
-    1 / h^2 = s_t^2 / (r^2 (1 - r^2)) the Lorentzian's curvature at P_t's ratio r."""
+    point's `resonance_drift_hz` B (`analysis.resonance_drift`): on the slope the power moves by
+    `_power_drift_per_hz` B, on the flat top by (B / h)^2, 1 / h^2 = s_t^2 / (r^2 (1 - r^2))
+    the Lorentzian's curvature at P_t's ratio r."""
     slope_t = slopes.loc[numerator.index].to_numpy(float)
     ratio_t = numerator["target_velocity_ratio"].to_numpy(float) if "target_velocity_ratio" in numerator else \
         np.full(len(numerator), np.nan)
@@ -254,18 +253,42 @@ def _resonance_drift_term(ratio: float, numerator: pd.DataFrame, denominator: pd
                                        0.0)))
     bound_rel = 0.0
     for points in (numerator, denominator):
-        share, _, _ = _dielectric_share(points)
-        shunt = _shunt_shares(points)
         slope = slopes.loc[points.index].to_numpy(float)
-        # d ln P / d f0: the resonant part's -2 s, the cross term's -(2 s + 1 / (f - f0))
-        per_hz = ((1.0 - share - shunt["shunt_share"]) * 2.0 * slope
-                  + shunt["cross_share"] * (shunt["cross_exponent"] - 1.0) / points["frequency_hz"].to_numpy(float))
         drift_hz = points["resonance_drift_hz"].to_numpy(float)
-        bound_rel += float(np.mean(np.abs(per_hz) * drift_hz + np.where(slope == 0, curvature * drift_hz**2, 0.0)))
-    sources = dict.fromkeys(pd.concat([numerator, denominator])["resonance_drift_source"])
-    return Term("resonance drift (plate warming, room)", "A" if all(s.startswith("Type A") for s in sources) else "B",
-                abs(ratio) * bound_rel / P95_FACTOR, "bias bound (k u = bound): " + "; ".join(sources),
-                rectangular=False)
+        bound_rel += float(np.mean(_power_drift_per_hz(points, slope) * drift_hz
+                                   + np.where(slope == 0, curvature * drift_hz**2, 0.0)))
+    return drift_term(ratio * bound_rel, pd.concat([numerator, denominator])["resonance_drift_source"])
+
+
+#: The name of the resonance's drift in a budget.
+DRIFT_TERM = "resonance drift (plate warming, room)"
+
+
+def drift_term(bound: float, sources) -> Term:
+    """The resonance's drift in a budget: a bias bound (k u = bound, no rectangle), Type A
+    when every bound came from the run's own readings (`analysis.resonance_drift`)."""
+    sources = list(dict.fromkeys(sources))
+    return Term(DRIFT_TERM, "A" if all(s.startswith("Type A") for s in sources) else "B",
+                abs(bound) / P95_FACTOR, "bias bound (k u = bound): " + "; ".join(sources), rectangular=False)
+
+
+def _power_drift_per_hz(points: pd.DataFrame | dict, slope) -> np.ndarray:
+    """|d ln P / d f0| of each point's power: the resonant part's 2 s (the dielectric share d
+    and the shunt's capacitive one d_C do not follow the resonance) and the shunt's cross
+    term's 2 s + 1 / (f - f0) (`generator_sensitivities`)."""
+    share, _, _ = _dielectric_share(points)
+    shunt = _shunt_shares(points)
+    return np.abs((1.0 - share - shunt["shunt_share"]) * 2.0 * np.asarray(slope, dtype=float)
+                  + shunt["cross_share"] * (shunt["cross_exponent"] - 1.0)
+                  / np.asarray(points["frequency_hz"], dtype=float))
+
+
+def _point_drift_terms(point: dict, value: float, per_hz: float) -> tuple[Term, ...]:
+    """A stored point's drift term (none where it carries no estimate): `per_hz` |d ln / d f0|."""
+    drift_hz = point.get("resonance_drift_hz")
+    if not isinstance(drift_hz, (int, float)) or not math.isfinite(drift_hz):
+        return ()
+    return (drift_term(value * per_hz * drift_hz, [point["resonance_drift_source"]]),)
 
 
 def _slopes_of(numerator: pd.DataFrame, denominator: pd.DataFrame) -> pd.Series:
@@ -304,14 +327,24 @@ def power_budget(point: dict, deskew: Deskew | None = None) -> Budget:
     return Budget("power_w", "W", value, (
         _noise(point["power_w_u"]), *gains, delay,
         compensation_term(reactive * float(compensation_phase_per_mismatch(point["frequency_hz"], deskew)), deskew),
-        _power_generator_term(point)))
+        _power_generator_term(point), *_power_drift_terms(point)))
+
+
+def _power_drift_terms(point: dict) -> tuple[Term, ...]:
+    """A stored power's resonance-drift term (`_point_drift_terms`)."""
+    one = {key: [point.get(key, math.nan)] for key in ("power_w", "frequency_hz", *_SHARE_COLUMNS)}
+    per_hz = float(_power_drift_per_hz(one, [point.get("detuning_slope_per_hz", 0.0)])[0])
+    return _point_drift_terms(point, float(point["power_w"]), per_hz)
+
+
+#: The columns a point's shares are read from (`analysis.dielectric`).
+_SHARE_COLUMNS = ("dielectric_power_w", "dielectric_voltage_exponent", *dielectric.SHUNT_COLUMNS)
 
 
 def _power_generator_term(point: dict) -> Term:
     """A stored power's generator-frequency term: `generator_sensitivities` at the point's
     slope and dielectric share (the whole power on the resonance without an estimate)."""
-    one = {key: [point.get(key, math.nan)] for key in
-           ("power_w", "dielectric_power_w", "dielectric_voltage_exponent", *dielectric.SHUNT_COLUMNS)}
+    one = {key: [point.get(key, math.nan)] for key in ("power_w", *_SHARE_COLUMNS)}
     share, exponent, described = _dielectric_share(one)
     slope = point.get("detuning_slope_per_hz", 0.0)
     to_frequency, _ = generator_sensitivities(slope, float(point["frequency_hz"]), float(share[0]), float(exponent[0]),
@@ -326,7 +359,8 @@ def velocity_budget(point: dict) -> Budget:
         _spec_term("CH3 gain", "scope_gain", value),
         _spec_term("vibrometer decoder scale", "vibrometer_scale", value),
         _spec_term("generator frequency", "generator_frequency",
-                   value * point.get("detuning_slope_per_hz", 0.0) * float(point["frequency_hz"]))))
+                   value * point.get("detuning_slope_per_hz", 0.0) * float(point["frequency_hz"])),
+        *_point_drift_terms(point, value, abs(point.get("detuning_slope_per_hz", 0.0)))))
 
 
 def voltage_budget(point: dict) -> Budget:
@@ -546,7 +580,12 @@ def stored_points(run: RunData) -> tuple[pd.DataFrame | None, Deskew | None]:
     if rows.empty or "waveform_file" not in rows:
         return None, deskew
     points = reduced_points(run, rows[rows["waveform_file"].notna()])
-    return dielectric.with_dielectric_power(points[points["protocol"] != "deskew_calibration"], run.scenes), deskew
+    points = dielectric.with_dielectric_power(points[points["protocol"] != "deskew_calibration"], run.scenes)
+    fig2 = points["protocol"] == "detuning"
+    if fig2.any():   # a warming plate moves its resonance under Fig. 2's slope (`analysis.resonance_drift`)
+        drifts = resonance_drift.with_resonance_drift(points[fig2], resonance_search_points(run))
+        points = pd.concat([drifts, points[~fig2]]).loc[points.index]
+    return points, deskew
 
 
 def run_uncertainties(run: RunData) -> RunUncertainties:

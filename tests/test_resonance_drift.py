@@ -17,7 +17,7 @@ from squeezebench.analysis import resonance_drift
 from squeezebench.analysis.budgets import P95_FACTOR, Budget
 from squeezebench.analysis.rundata import load_run
 from squeezebench.analysis.tables import detuning_table
-from squeezebench.analysis.uncertainty import power_ratio_budget, run_uncertainties
+from squeezebench.analysis.uncertainty import DRIFT_TERM, power_ratio_budget, run_uncertainties
 from squeezebench.protocols.bench_errors import _power_ratios, _truths
 from squeezebench.protocols.campaign import run_campaign
 from squeezebench.protocols.variants import campaign_with_effects
@@ -25,7 +25,6 @@ from squeezebench.yamlfiles import dump_yaml, load_strict
 
 F0_HZ, Q_MECH = 37180.0, 300.0
 HALF_WIDTH_HZ = F0_HZ / (2.0 * Q_MECH)
-DRIFT_TERM = "resonance drift (plate warming, room)"
 
 
 def _lorentzian(frequency_hz: float, resonance_hz: float = F0_HZ) -> float:
@@ -118,7 +117,8 @@ def test_pt_over_p0_on_a_warming_plate_is_within_its_u_only_with_the_drift_term(
     its drive (`heating_drift`; its instruments ideal, its noise its own): the resonance falls
     by Hz while the run measures, Pt on the slope reads a few per cent low against the plate as
     mounted at the recorded setting. With the drift term every Pt/P0 is within U; without it
-    (the same budget less that term) the hotter level's is not."""
+    (the same budget less that term) neither is; each stored power and velocity is within its
+    own U, which carries the drift through the slope too."""
     paper = load_strict(paths.paper_campaign().read_text())
     fig2a = next(run for run in paper["runs"] if run["name"] == "fig2a_one_column")
     fig2a["parameters"].update(velocity_levels_pp_mps=[0.25, 0.375], velocity_ratios=[0.8])
@@ -131,7 +131,11 @@ def test_pt_over_p0_on_a_warming_plate_is_within_its_u_only_with_the_drift_term(
     run = load_run(run_campaign(erring, out_dir=tmp_path / "run", progress=False, durable=False))
     points = run_uncertainties(run).points
     points = points[points["protocol"] == "detuning"]
-    scored = pd.DataFrame(_power_ratios(run, points, _truths(points, tmp_path / "plain")))
+    truths = _truths(points, tmp_path / "plain")
+    for quantity in ("power_w", "velocity_pp_mps"):   # each stored point carries the drift too
+        error = points[quantity] - pd.Series({index: truth[quantity] for index, truth in truths.items()})
+        assert (error.abs() <= points[f"{quantity}_U"]).all(), (quantity, error / points[f"{quantity}_U"])
+    scored = pd.DataFrame(_power_ratios(run, points, truths))
     assert len(scored) == 2 and scored["covered"].all(), scored[["step_id", "rel_error", "rel_expanded_u"]]
     assert scored["rel_error"].min() < -0.03   # the warming shows
     table = detuning_table(run)
