@@ -628,7 +628,8 @@ REFERENCE_FOR = {
 
 def systematic_floor(points: pd.DataFrame, calibration: Deskew | None = None) -> pd.DataFrame:
     """Per (run, quantity): the p95 relative error the instruments' specified errors leave
-    when the noise is averaged away (Type A set to zero), at the run's worst point, with
+    when the noise is averaged away (Type A set to zero; the plate's resonance drift, which
+    the run's own readings bound and no setting does, left out), at the run's worst point, with
     the term that dominates there and the calibration that would lift it (if any).
 
     `calibration`: the floor after that calibration (its uncertainties; its values do not matter).
@@ -644,7 +645,8 @@ def systematic_floor(points: pd.DataFrame, calibration: Deskew | None = None) ->
             for row in run_rows:
                 if not _has_reduction(row):
                     continue
-                budget = point_budget(quantity, {**row, f"{quantity}_u": 0.0}, deskew)
+                # the instruments' floor: the plate's drift is the run's, not the settings' (`_point_drift_terms`)
+                budget = point_budget(quantity, {**row, f"{quantity}_u": 0.0, "resonance_drift_hz": math.nan}, deskew)
                 relative = budget.std_uncertainty / abs(budget.value)
                 if worst is None or relative > worst[0]:
                     worst = (relative, budget)
