@@ -14,11 +14,13 @@ on the re-centred resonance, is off the mounted plate's by its setting's offset,
 Type A, from the run's dated readings of its resonance: its search's (the plate as mounted,
 at the search's low drive: the reference) and each Fig. 2 level's re-centring before P0
 (`tracked_resonance_frequency_hz`, the vertex of its readings' top, with that fit's u, at its
-readings' mean time). Between two readings the resonance is interpolated linearly; after the
-last it goes on at the steepest rate seen between two readings (a plate warms fastest just
-after its drive rose). The bound at a point is |drift| + 1.96 u(drift): the reference's u and
-the bracketing readings' larger one in quadrature, and after the last reading the steepest
-rate's own u times the time since. A run stored before the re-centrings were recorded has its
+readings' mean time; its best reading, where P0 is set, where that strays less, as on a top
+far wider than the re-centring's steps). Between two readings the resonance is interpolated linearly; after the
+last it goes on at the steepest rate per watt the readings resolve, times the last reading's
+power (a plate warms at up to its power over its heat capacity, fastest just after its drive
+rose; where no interval resolves a rate, the best-measured one's). The bound at a point is
+|drift| + 1.96 u(drift): the reference's u and the bracketing readings' larger one in
+quadrature, and after the last reading that rate's own u times the time since. A run stored before the re-centrings were recorded has its
 P0 settings as readings, dated by P0's end: the best reading of a golden section on a flat
 top, scattering by h SEARCH_STOP_SPREAD sqrt(s) (s the search's readings' relative scatter,
 Q the search sweep's, `resonance_searches`); the source says so.
@@ -106,15 +108,37 @@ def _readings(points: pd.DataFrame, searches: pd.DataFrame) -> tuple[pd.DataFram
     tracked = all(column in at_resonance for column in _COLUMNS) and bool(
         at_resonance["tracked_resonance_frequency_hz"].notna().all())
     power_w = at_resonance.get("power_w", pd.Series(math.nan, index=at_resonance.index))
-    if tracked:
-        rows += list(zip(*(at_resonance[column] for column in _COLUMNS[:2]),
-                         at_resonance[_COLUMNS[2]].fillna(best_u), power_w))
+    if tracked:   # the fit's vertex, or the best reading P0 is set at where that strays less (a broad top)
+        fit_u = at_resonance[_COLUMNS[2]].fillna(math.inf).to_numpy(float)
+        vertex = fit_u <= (best_u if np.isfinite(best_u) else math.inf)
+        rows += list(zip(at_resonance[_COLUMNS[0]],
+                         np.where(vertex, at_resonance[_COLUMNS[1]], at_resonance["generator_frequency_hz"]),
+                         np.where(vertex, fit_u, best_u), power_w))
     else:
         rows += [(t, f, best_u, p) for t, f, p in zip(at_resonance["bench_time_s"],
                                                       at_resonance["generator_frequency_hz"], power_w)]
     readings = pd.DataFrame(rows, columns=["time_s", "frequency_hz", "u_hz", "power_w"], dtype=float)
     readings = readings[np.isfinite(readings["time_s"]) & np.isfinite(readings["frequency_hz"])]
+    readings["u_hz"] = readings["u_hz"].fillna(0.0)   # a scatter the search cannot tell: the estimate alone
     return readings.sort_values("time_s", kind="stable").reset_index(drop=True), tracked
+
+
+def _rate_after(readings: pd.DataFrame) -> tuple[float, float]:
+    """The resonance's rate after the last reading (Hz/s) and its u: a plate warms at up to
+    its power over its heat capacity, fastest when cold, so each interval's rate is taken per
+    watt of its readings' mean power, and the steepest the readings resolve (|rate| - 1.96 u
+    largest) times the last reading's power goes on; where they resolve none, the
+    best-measured one (a plate that does not warm: its u alone). Without the readings' powers,
+    the rates as they are."""
+    times, frequencies, u_hz, power_w = (readings[c].to_numpy() for c in ("time_s", "frequency_hz", "u_hz", "power_w"))
+    spans_s = np.maximum(np.diff(times), 1e-9)
+    rates, rates_u = np.diff(frequencies) / spans_s, np.hypot(u_hz[1:], u_hz[:-1]) / spans_s
+    scale = power_w[-1] / (0.5 * (power_w[1:] + power_w[:-1]))   # the last reading's power over each interval's
+    if np.all(np.isfinite(scale) & (scale > 0)):
+        rates, rates_u = rates * scale, rates_u * scale
+    resolved = np.abs(rates) - P95_FACTOR * rates_u
+    chosen = int(np.argmax(resolved)) if np.max(resolved) > 0 else int(np.argmin(rates_u))
+    return float(rates[chosen]), float(rates_u[chosen])
 
 
 def _drift_bounds(points: pd.DataFrame, searches: pd.DataFrame) -> tuple[np.ndarray, str]:
@@ -124,24 +148,12 @@ def _drift_bounds(points: pd.DataFrame, searches: pd.DataFrame) -> tuple[np.ndar
     if readings.empty or not np.all(np.isfinite(at_s)):
         return np.zeros(len(points)), NOT_DATED
     times, frequencies, u_hz = (readings[c].to_numpy() for c in ("time_s", "frequency_hz", "u_hz"))
-    u_hz = np.nan_to_num(u_hz)   # a reading whose scatter the search cannot tell: its estimate alone
     if len(times) < 2:
         return FALLBACK_DRIFT_RATE_REL_PER_S * frequencies[0] * np.maximum(at_s - times[0], 0.0), FALLBACK_SOURCE
-    rates = np.diff(frequencies) / np.maximum(np.diff(times), 1e-9)
-    rates_u = np.hypot(u_hz[1:], u_hz[:-1]) / np.maximum(np.diff(times), 1e-9)
-    # a plate warms at up to its power over its heat capacity: after the last reading the
-    # resonance goes on at the steepest rate per watt the readings resolve (|rate| - 1.96 u
-    # largest; each interval at its readings' mean power) times the last reading's power
-    power_w = readings["power_w"].to_numpy()
-    per_interval_w = 0.5 * (power_w[1:] + power_w[:-1])
-    if np.all(np.isfinite(per_interval_w) & (per_interval_w > 0)) and np.isfinite(power_w[-1]):
-        scale = power_w[-1] / per_interval_w
-        rates, rates_u = rates * scale, rates_u * scale
-    steep = int(np.argmax(np.abs(rates) - P95_FACTOR * rates_u))
-    rate_u = rates_u[steep]
+    rate, rate_u = _rate_after(readings)
     after = np.searchsorted(times, at_s, side="right")   # readings at or before each point
     beyond_s = np.maximum(at_s - times[-1], 0.0)
-    drift_hz = np.where(beyond_s > 0, abs(frequencies[-1] - frequencies[0]) + abs(rates[steep]) * beyond_s,
+    drift_hz = np.where(beyond_s > 0, abs(frequencies[-1] - frequencies[0]) + abs(rate) * beyond_s,
                         np.abs(np.interp(at_s, times, frequencies) - frequencies[0]))
     u_at = np.where(beyond_s > 0, np.hypot(u_hz[-1], rate_u * beyond_s),
                     np.maximum(u_hz[np.clip(after - 1, 0, len(times) - 1)], u_hz[np.clip(after, 0, len(times) - 1)]))
@@ -151,6 +163,6 @@ def _drift_bounds(points: pd.DataFrame, searches: pd.DataFrame) -> tuple[np.ndar
     u_at = np.where(at_resonance, 0.0, u_at)
     source = (f"Type A, the run's {len(times)} dated readings of its resonance (search, re-centrings), from the "
               f"first (u {u_hz[0]:.2f} Hz): |drift| + {P95_FACTOR} u, readings' u {np.max(u_hz[1:]):.2f} Hz at most; "
-              f"after the last reading at the steepest rate seen, {abs(rates[steep]):.3f} Hz/s"
+              f"after the last reading at {abs(rate):.3f} +- {rate_u:.3f} Hz/s (the steepest per watt resolved)"
               + ("" if tracked else UNTRACKED))
     return drift_hz + P95_FACTOR * np.hypot(u_hz[0], u_at), source
