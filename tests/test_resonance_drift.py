@@ -16,7 +16,7 @@ from squeezebench import paths
 from squeezebench.analysis import resonance_drift
 from squeezebench.analysis.budgets import P95_FACTOR, Budget
 from squeezebench.analysis.rundata import load_run
-from squeezebench.analysis.tables import detuning_table
+from squeezebench.analysis.tables import detuning_points, detuning_table
 from squeezebench.analysis.uncertainty import DRIFT_TERM, power_ratio_budget, run_uncertainties
 from squeezebench.protocols.bench_errors import _power_ratios, _truths
 from squeezebench.protocols.campaign import run_campaign
@@ -153,11 +153,7 @@ def test_pt_over_p0_on_a_warming_plate_is_within_its_u_only_with_the_drift_term(
 
 def _budget_of(run, level: float) -> Budget:
     """The Pt/P0 budget of `level`'s regained point, as the detuning table builds it."""
-    from squeezebench.analysis import dielectric, tables
-
-    points = dielectric.with_dielectric_power(tables.with_scope_fallback(tables.protocol_points(run, "detuning")),
-                                              run.scenes)
-    points = resonance_drift.with_resonance_drift(points, tables.resonance_search_points(run))
+    points = detuning_points(run)
     level_points = points[points["velocity_level_pp_mps"] == level]
     return power_ratio_budget(level_points[level_points["detuning_phase"] == "regained"],
                               level_points[level_points["detuning_phase"] == "resonance"])
