@@ -11,6 +11,8 @@ import math
 import numpy as np
 import pandas as pd
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from squeezebench import paths
 from squeezebench.analysis import resonance_drift
@@ -71,6 +73,30 @@ def test_the_drift_bound_interpolates_between_readings_and_goes_on_at_the_steepe
     rate, rate_u = 0.02 * 0.04 / 0.025, math.hypot(u, u) / 100.0 * 0.04 / 0.025
     assert bound[3] == pytest.approx(2.0 + rate * 20.0 + P95_FACTOR * math.hypot(u, math.hypot(u, rate_u * 20.0)))
     assert points["resonance_drift_source"].str.startswith("Type A").all()
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.floats(-0.1, 0.1), st.lists(st.floats(10.0, 60.0), min_size=2, max_size=4), st.floats(0.0, 60.0),
+       st.floats(0.0, 0.5))
+def test_a_steady_drift_read_exactly_is_bounded_by_itself_and_a_scattered_one_from_above(rate, gaps, after_s,
+                                                                                          scatter_hz):
+    """Readings of a resonance falling or rising at a steady rate at one power: without
+    scatter the bound at any later reading is the drift itself, between readings and after
+    the last; readings that scatter by u widen it by 1.96 u or more, never narrow it."""
+    times = 100.0 + np.cumsum([0.0, *gaps])
+    levels = [_row("resonance", 1.0, F0_HZ + rate * (t - times[0]), t + 1.0, 0.1 * (i + 1),
+                   **_tracked(t, F0_HZ + rate * (t - times[0]), scatter_hz), power_w_override=0.05)
+              for i, t in enumerate(times)]
+    at_s = times[-1] - 0.5 * gaps[-1] + np.array([0.0, 0.5 * gaps[-1] + after_s])
+    pt = [_row("regained", 0.8, F0_HZ + 50.0, t, 0.1) for t in at_s]
+    frame = pd.DataFrame(levels + pt)
+    frame = frame.assign(power_w=frame["power_w_override"].fillna(frame["power_w"])).drop(columns="power_w_override")
+    bound = resonance_drift.with_resonance_drift(frame)["resonance_drift_hz"].to_numpy()[len(levels):]
+    drift = np.abs(rate * (at_s - times[0]))
+    if scatter_hz == 0:
+        assert bound == pytest.approx(drift, abs=1e-9)
+    else:
+        assert np.all(bound >= drift + P95_FACTOR * scatter_hz - 1e-9)
 
 
 def test_pt_over_p0_carries_the_drift_through_the_slope_and_p0_through_the_flat_tops_curvature():
