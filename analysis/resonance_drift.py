@@ -15,15 +15,18 @@ Type A, from the run's dated readings of its resonance: its search's (the plate 
 at the search's low drive: the reference) and each Fig. 2 level's re-centring before P0
 (`tracked_resonance_frequency_hz`, the vertex of its readings' top, with that fit's u, at its
 readings' mean time; its best reading, where P0 is set, where that strays less, as on a top
-far wider than the re-centring's steps). Between two readings the resonance is interpolated linearly; after the
+far wider than the re-centring's steps). Between two readings the drift is the larger of theirs
+(a plate that warms under a rising drive drifts one way; a line between them lagged the
+warming on seeded benches: the later reading is at the next, higher, level); after the
 last it goes on at the steepest rate per watt the readings resolve, times the last reading's
 power (a plate warms at up to its power over its heat capacity, fastest just after its drive
 rose; where no interval resolves a rate, the best-measured one's). The bound at a point is
 |drift| + 1.96 u(drift): the reference's u and the bracketing readings' larger one in
-quadrature, and after the last reading that rate's own u times the time since. A run stored before the re-centrings were recorded has its
-P0 settings as readings, dated by P0's end: the best reading of a golden section on a flat
-top, scattering by h SEARCH_STOP_SPREAD sqrt(s) (s the search's readings' relative scatter,
-Q the search sweep's, `resonance_searches`); the source says so.
+quadrature, and after the last reading that rate's own u times the time since. A run stored
+before the re-centrings were recorded has its P0 settings as readings, dated by P0's end: the
+best reading of a golden section on a flat top, scattering by h SEARCH_STOP_SPREAD sqrt(s) (s
+the search's readings' relative scatter, Q the search sweep's, `resonance_searches`); the
+source says so.
 
 Type B where the run holds no repeated reading of its resonance (a single dated one):
 FALLBACK_DRIFT_RATE_REL_PER_S times the time since that reading. A point without a stored
@@ -154,7 +157,8 @@ def _drift_bounds(points: pd.DataFrame, searches: pd.DataFrame) -> tuple[np.ndar
     after = np.searchsorted(times, at_s, side="right")   # readings at or before each point
     beyond_s = np.maximum(at_s - times[-1], 0.0)
     drift_hz = np.where(beyond_s > 0, abs(frequencies[-1] - frequencies[0]) + abs(rate) * beyond_s,
-                        np.abs(np.interp(at_s, times, frequencies) - frequencies[0]))
+                        np.maximum(np.abs(frequencies[np.clip(after - 1, 0, len(times) - 1)] - frequencies[0]),
+                                   np.abs(frequencies[np.clip(after, 0, len(times) - 1)] - frequencies[0])))
     u_at = np.where(beyond_s > 0, np.hypot(u_hz[-1], rate_u * beyond_s),
                     np.maximum(u_hz[np.clip(after - 1, 0, len(times) - 1)], u_hz[np.clip(after, 0, len(times) - 1)]))
     # P0 is read at its setting: the mounted plate's resonance is off it by the setting's offset
