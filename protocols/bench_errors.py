@@ -9,8 +9,7 @@ analysis and its bench time counted, as a real campaign would.
 
 The truth of a point is the reading ideal instruments give at its recorded setting
 (`analysis.uncertainty`): the scene without the systematic effects, driven at the
-point's generator frequency and amplitude, read through the open bench's simulator, on the
-plate as mounted (the erring bench's Fig. 2 plates warm under their drive: `FIG2_EFFECTS`).
+point's generator frequency and amplitude, read through the open bench's simulator.
 """
 
 from __future__ import annotations
@@ -43,8 +42,7 @@ from squeezebench.protocols.campaign import run_campaign
 from squeezebench.protocols.parallel import map_unordered
 from squeezebench.protocols.storage import sha256_file, write_frame_atomic
 from squeezebench.protocols.variants import (MAP_PROTOCOLS, PLATE_DRAW_EFFECT, SYSTEMATIC_EFFECTS, campaign_with_effects,
-                                             coarser_maps, plate_draw_effects, systematic_effects,
-                                             with_protocol_effects)
+                                             coarser_maps, plate_draw_effects, systematic_effects)
 
 QUANTITIES = ("power_w", "velocity_pp_mps")
 #: What the coverage study scores: every stored point's QUANTITIES and amplitude (Table 4; the
@@ -67,12 +65,6 @@ COVERAGE_QUANTITIES = (*QUANTITIES, "amplitude_pp_m", "power_ratio", "resonance_
 #: so a coarser map would score a grid outside the term's stated use.
 MAP_STEP_FACTOR = 1.0
 ERROR_PERCENTILE = 95.0
-#: What the erring benches' Fig. 2 runs add to their scenes: the plate warms under its drive
-#: (0.1 W in the 76 x 41 x 1 mm one-column plate, 0.6 W in the nine-column one: 1.6 and 10 K at
-#: equilibrium, two minutes' time constant, the resonance 2e-4 lower per kelvin against a 60 Hz
-#: half-width), as a real one does; their budgets claim to cover its drift
-#: (`analysis.resonance_drift`). The truths stay the plate as mounted.
-FIG2_PROTOCOL, FIG2_EFFECTS = "detuning", ("heating_drift",)
 
 
 def errors_on_bench(campaign_file: Path, bench_seed: int, work_dir: Path,
@@ -92,7 +84,6 @@ def errors_on_bench(campaign_file: Path, bench_seed: int, work_dir: Path,
     erring = campaign_with_effects(campaign_file, work_dir / "erring",
                                    systematic_effects(bench_seed, error_model=error_model) + plates,
                                    noise_seed=bench_seed, keep_maps=maps)
-    with_protocol_effects(erring, FIG2_PROTOCOL, list(FIG2_EFFECTS))
     if maps:
         coarser_maps(erring, MAP_STEP_FACTOR)
     campaign_with_effects(campaign_file, work_dir / "plain", plates)   # the same plates without the errors

@@ -128,31 +128,11 @@ def campaign_with_effects(campaign_file: Path, out_dir: Path, effects: list, noi
     return target if keep_maps else without_maps(target)
 
 
-def with_protocol_effects(campaign_file: Path, protocol: str, effects: list) -> Path:
-    """Rewrite the campaign file so that its runs of `protocol` mount a copy of their scene
-    that also lists `effects` (`<scene>+<effect>.yaml` beside the file), keeping their plate's
-    name: the other runs' plates, and the truths read by that name, stay as they were."""
-    campaign_file = Path(campaign_file)
-    data = load_strict(campaign_file.read_text())
-    suffix = "+".join(_effect_name(e) for e in effects)
-    for run in data["runs"]:
-        bench = run.get("bench") or data.get("bench") or {}
-        if run.get("protocol") != protocol or not isinstance(bench.get("scene"), str):
-            continue
-        source = Path(bench["scene"]) if Path(bench["scene"]).is_absolute() else paths.scenes_dir() / bench["scene"]
-        target = scene_with_effects(source, campaign_file.parent, effects, name=f"{source.stem}+{suffix}.yaml")
-        run["bench"] = {**bench, "scene": str(target.resolve())}
-        run["plate"] = {"name": source.stem, **(run.get("plate") or {})}
-    campaign_file.write_text(dump_yaml(data))
-    return campaign_file
-
-
-def scene_with_effects(scene: str | Path, out_dir: Path, effects: list, noise_seed: int | None = None,
-                       name: str | None = None) -> Path:
-    """A copy of `scene` (a name in `paths.scenes_dir()` or a path) in `out_dir` (as `name`,
-    by default its own) that also lists `effects`; effects it already lists keep its own
-    parameters. With `noise_seed` the copy's `seed` (its reading noise's stream) is that:
-    another bench is other readings, not the scene's one realisation of them again."""
+def scene_with_effects(scene: str | Path, out_dir: Path, effects: list, noise_seed: int | None = None) -> Path:
+    """A copy of `scene` (a name in `paths.scenes_dir()` or a path) in `out_dir` that also
+    lists `effects`; effects it already lists keep its own parameters. With `noise_seed` the
+    copy's `seed` (its reading noise's stream) is that: another bench is other readings, not
+    the scene's one realisation of them again."""
     source = Path(scene) if Path(scene).is_absolute() else paths.scenes_dir() / scene
     data = load_strict(source.read_text())
     listed = {_effect_name(e) for e in data.get("effects", [])}
@@ -160,7 +140,7 @@ def scene_with_effects(scene: str | Path, out_dir: Path, effects: list, noise_se
     if noise_seed is not None:
         data["seed"] = int(noise_seed)
     Path(out_dir).mkdir(parents=True, exist_ok=True)
-    target = Path(out_dir) / (name or source.name)
+    target = Path(out_dir) / source.name
     target.write_text(dump_yaml(data))
     return target
 

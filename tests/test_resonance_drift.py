@@ -7,7 +7,6 @@ with it."""
 from __future__ import annotations
 
 import math
-from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -185,24 +184,3 @@ def _budget_of(run, level: float) -> Budget:
     level_points = points[points["velocity_level_pp_mps"] == level]
     return power_ratio_budget(level_points[level_points["detuning_phase"] == "regained"],
                               level_points[level_points["detuning_phase"] == "resonance"])
-
-
-def test_the_coverage_studys_benches_warm_the_fig2_plates_only(tmp_path):
-    """The erring benches of the coverage study mount Fig. 2's plates with `heating_drift` (a
-    copy of their scene, the plate's name kept, so the truths read the plate as mounted), and
-    every other run's scene as it was."""
-    from squeezebench.protocols.bench_errors import FIG2_EFFECTS, FIG2_PROTOCOL
-    from squeezebench.protocols.campaign import load_campaign
-    from squeezebench.protocols.variants import with_protocol_effects
-
-    paper = load_strict(paths.paper_campaign().read_text())
-    paper["runs"] = [run for run in paper["runs"] if run["name"] in ("fig2a_one_column", "table3_cutting")]
-    source = tmp_path / "paper.yaml"
-    source.write_text(dump_yaml(paper))
-    erring = campaign_with_effects(source, tmp_path / "erring", [])
-    runs = {run.name: run for run in load_campaign(with_protocol_effects(erring, FIG2_PROTOCOL,
-                                                                         list(FIG2_EFFECTS))).runs}
-    warming, cut = runs["fig2a_one_column"], runs["table3_cutting"]
-    assert warming.protocol == FIG2_PROTOCOL and warming.plate.name == cut.plate.name == "one_column_1mm"
-    effects = lambda run: load_strict(Path(run.bench.scene).read_text())["effects"]  # noqa: E731
-    assert "heating_drift" in effects(warming) and "heating_drift" not in effects(cut)
