@@ -44,6 +44,10 @@ COLUMNS: dict[str, tuple[str, str]] = {
     "bench_input_sha256": ("", "sha256 of that file"),
     "instrument_ids": ("", "JSON: role -> the instrument's identification reply"),
     "resonance_frequency_hz": ("Hz", "resonance found by the search"),
+    "tracked_resonance_frequency_hz": ("Hz", "resonance as the re-centring before a Fig. 2 P0 read it (the "
+                                             "vertex of its readings' top; P0 is set at its best reading)"),
+    "tracked_resonance_frequency_hz_u": ("Hz", "standard uncertainty of tracked_resonance_frequency_hz (the fit's)"),
+    "tracked_resonance_bench_time_s": ("s", "mean bench time of that re-centring's readings"),
     "sweep": ("", "true for a point of the resonance search's frequency sweep"),
     "velocity_level_pp_mps": ("m/s pp", "velocity level v0 of a detuning series (Fig. 2)"),
     "target_velocity_ratio": ("1", "velocity fraction reached by detuning before regaining v0"),

@@ -1,4 +1,5 @@
-"""The part of a stored power that does not follow the resonance: the piezos' dielectric loss.
+"""The parts of a stored power that do not follow the resonance: the piezos' dielectric loss,
+and the series shunt's loss from their capacitive current.
 
 The scope reads the electrical power in (Sec. 2.1): the motional branch's, which follows the
 resonance's Lorentzian (P ~ v^2 at one voltage), plus the clamped capacitance's loss
@@ -20,6 +21,17 @@ moves it otherwise than P0 (`uncertainty.power_ratio_budget`). Both factors from
 A point with neither, or whose run and level hold no reading at resonance, has no estimate
 (NaN): its budgets take the whole power as following the resonance, which gives the larger
 generator-frequency term (`NOT_DESCRIBED` says so in the term's source).
+
+The power is read through the series shunt R_s (Sec. 2.1: CH1 at the amplifier's output), so
+it holds R_s |I|^2 / 2 with I = I_m + I_C, the motional current and the capacitive one,
+I_C = j w C0 V0. Its parts: R_s |I_m|^2 / 2 goes as v^2, with the resonance;
+R_s (w C0 V0)^2 / 2 as f^2 V^2 (`shunt_capacitive_power_w`), not with it; and the cross term
+R_s Re(I_m I_C*) = -2 R_s w C0 x P_m (`shunt_cross_power_w`), x = 2 Q (f - f0) / f0 signed
+(x^2 = 1 / r^2 - 1 at a point's velocity ratio r), as f x P_m: d ln / d ln f = 1 + f / (f - f0)
+besides the resonance's 2 s f. C0 is the level's (above); R_s the scene copy's where it names
+the `shunt` effect (0 where it does not: the simulated plate then has none), a bench file's
+`electronics.shunt_ohm`; a point without both has no estimate and its whole shunt loss counts
+as following the resonance (1.4 % of Fig. 2a's Pt at r = 0.5, 75 Vpp).
 """
 
 from __future__ import annotations
@@ -34,6 +46,8 @@ from squeezebench.plates import damping
 
 #: The scene effect that describes the piezos' dielectric loss (simbench's name for it).
 DIELECTRIC_LOSS_EFFECT = "dielectric_loss"
+#: The scene effect that puts the series shunt in the simulated bench.
+SHUNT_EFFECT = "shunt"
 #: What a budget says of a point without an estimate.
 NOT_DESCRIBED = ("no stored description of the piezos' dielectric loss (no scene copy with the run, or no "
                  "reading at resonance): the whole power is taken to follow the resonance, the larger "
@@ -89,29 +103,87 @@ def dielectric_power_w(law: dict[str, float], capacitance_f: float, frequency_hz
     return damping.dielectric_power_w(frequency_hz, capacitance_f, voltage_vpp, tan_delta)
 
 
+def shunt_ohm(stored: dict) -> float | None:
+    """The series shunt a run's powers were read through, from its stored scene or bench file
+    (module docstring); None where the copy does not say."""
+    electronics = stored.get("electronics") if isinstance(stored, dict) else None
+    value = electronics.get("shunt_ohm") if isinstance(electronics, dict) else None
+    if not isinstance(value, (int, float)) or not value >= 0:
+        return None
+    if "actuators" in stored:   # a scene: the simulator has the shunt only where it is named
+        named = [e if isinstance(e, str) else next(iter(e), None) for e in stored.get("effects") or []]
+        return float(value) if SHUNT_EFFECT in named else 0.0
+    return float(value)
+
+
+def shunt_capacitive_power_w(shunt_ohm: float, capacitance_f: float, frequency_hz: float, voltage_vpp: float) -> float:
+    """R_s |I_C|^2 / 2, I_C = w C0 V0 (V0 = V_pp / 2): the shunt's loss from the capacitive current."""
+    return 0.5 * shunt_ohm * (2.0 * math.pi * frequency_hz * capacitance_f * voltage_vpp / 2.0) ** 2
+
+
+def shunt_cross_power_w(shunt_ohm: float, capacitance_f: float, frequency_hz: float, detuning_x: float,
+                        resonant_power_w: float) -> float:
+    """R_s Re(I_m I_C*) = -2 R_s w C0 x P_m, P_m the motional power: Y_m = G / (1 + j x) puts
+    Re(Y_m (-j w C0)) = -w C0 x G / (1 + x^2) = -2 w C0 x P_m / V0^2. `resonant_power_w`: the
+    part of the power that goes as v^2 (P_m and the shunt's R_s |I_m|^2 / 2, 1 + R_s G of it)."""
+    return -2.0 * shunt_ohm * 2.0 * math.pi * frequency_hz * capacitance_f * detuning_x * resonant_power_w
+
+
 def with_dielectric_power(points: pd.DataFrame, scenes: dict[str, dict]) -> pd.DataFrame:
     """`points` with `dielectric_power_w` (NaN without an estimate, module docstring) and
     `dielectric_voltage_exponent` (2 + n: d ln P_d / d ln V) for every point of a detuning run
     whose run and level hold a reading at resonance and whose law is known: its scene copy in
-    `scenes`, else the one its campaign stated."""
+    `scenes`, else the one its campaign stated; and the shunt's parts, `shunt_capacitive_power_w`,
+    `shunt_cross_power_w` and `shunt_cross_frequency_exponent` (1 + f / (f - f0)), where the
+    stored copy gives the shunt (NaN where not)."""
     out = points.copy()
-    out["dielectric_power_w"] = math.nan
-    out["dielectric_voltage_exponent"] = math.nan
+    for column in ("dielectric_power_w", "dielectric_voltage_exponent", *SHUNT_COLUMNS):
+        out[column] = math.nan
     needed = {"detuning_phase", "velocity_level_pp_mps", "reactive_power_var", "piezo_voltage_vpp", "frequency_hz"}
     if out.empty or not needed <= set(out.columns):
         return out
     scene_files = provenance.scene_files(out)
     at_resonance = out[(out["detuning_phase"] == "resonance") & out["reactive_power_var"].notna()]
+    levels = at_resonance.groupby(["run_name", "velocity_level_pp_mps"])
     capacitance = {key: clamped_capacitance_f(float(group["reactive_power_var"].mean()),
                                               float(group["frequency_hz"].mean()),
                                               float(group["piezo_voltage_vpp"].mean()))
-                   for key, group in at_resonance.groupby(["run_name", "velocity_level_pp_mps"])}
+                   for key, group in levels}
+    resonance_hz = levels["frequency_hz"].mean().to_dict()
     for index, row in out.iterrows():
-        law = loss_law(scenes.get(scene_files[index], {})) or stated_law(row.to_dict())
-        c0 = capacitance.get((row["run_name"], row["velocity_level_pp_mps"]))
-        if law is None or c0 is None or not np.isfinite(row["piezo_voltage_vpp"]):
+        stored = scenes.get(scene_files[index], {})
+        law = loss_law(stored) or stated_law(row.to_dict())
+        key = (row["run_name"], row["velocity_level_pp_mps"])
+        c0 = capacitance.get(key)
+        if c0 is None or not np.isfinite(row["piezo_voltage_vpp"]):
             continue
-        out.at[index, "dielectric_power_w"] = dielectric_power_w(law, c0, float(row["frequency_hz"]),
-                                                                 float(row["piezo_voltage_vpp"]))
-        out.at[index, "dielectric_voltage_exponent"] = 2.0 + law["exponent"]
+        frequency_hz, voltage_vpp = float(row["frequency_hz"]), float(row["piezo_voltage_vpp"])
+        loss_w = math.nan
+        if law is not None:
+            loss_w = dielectric_power_w(law, c0, frequency_hz, voltage_vpp)
+            out.at[index, "dielectric_power_w"] = loss_w
+            out.at[index, "dielectric_voltage_exponent"] = 2.0 + law["exponent"]
+        ohm = shunt_ohm(stored)
+        if ohm is not None:
+            out.loc[index, list(SHUNT_COLUMNS)] = _shunt_parts(ohm, c0, row, resonance_hz[key], loss_w)
     return out
+
+
+#: The shunt's parts `with_dielectric_power` adds.
+SHUNT_COLUMNS = ("shunt_capacitive_power_w", "shunt_cross_power_w", "shunt_cross_frequency_exponent")
+
+
+def _shunt_parts(ohm: float, c0: float, row: pd.Series, resonance_hz: float, loss_w: float) -> list[float]:
+    """A point's shunt loss from the capacitive current, its cross term and that term's
+    frequency exponent; x from the point's velocity ratio (0 at resonance), the resonant part
+    of its power what the rest leaves."""
+    frequency_hz, voltage_vpp = float(row["frequency_hz"]), float(row["piezo_voltage_vpp"])
+    capacitive_w = shunt_capacitive_power_w(ohm, c0, frequency_hz, voltage_vpp)
+    ratio, offset_hz = row.get("target_velocity_ratio"), frequency_hz - resonance_hz
+    if row["detuning_phase"] == "resonance" or not isinstance(ratio, (int, float)) or not 0 < ratio < 1 \
+            or offset_hz == 0:
+        return [capacitive_w, 0.0, 1.0]
+    x = math.copysign(math.sqrt(1.0 / ratio**2 - 1.0), offset_hz)
+    per_resonant = shunt_cross_power_w(ohm, c0, frequency_hz, x, 1.0)   # cross = per_resonant * P_m
+    resonant_w = (float(row["power_w"]) - np.nan_to_num(loss_w) - capacitive_w) / (1.0 + per_resonant)
+    return [capacitive_w, per_resonant * resonant_w, 1.0 + frequency_hz / offset_hz]

@@ -55,7 +55,8 @@ MEASURANDS: dict[str, Measurand] = {
     "power_ratio": Measurand(
         "Pt / P0 of Fig. 2: the power once the velocity v0 is regained after detuning, over the power at "
         "resonance at the same v0, on the same plate and bench.",
-        "R = mean P_t / mean P_0; the gains cancel, the CH2 delay does not "
+        "R = mean P_t / mean P_0; the gains cancel, the CH2 delay, the generator's frequency and the "
+        "resonance's drift do not "
         "(uncertainty.power_ratio_std_uncertainty)"),
 }
 
@@ -115,8 +116,9 @@ def model_table(point: dict, deskew: Deskew | None) -> pd.DataFrame:
                          "correction": "not corrected (sign unknown): budgeted at its limit",
                          "source": tolerance.source})
     rows.append({"quantity": "power_ratio", "input": "noise of each mean; CH2 delay through w Q'/P at both points; "
-                 "the generator's frequency and amplitude through each power's share on the resonance and its "
-                 "dielectric share (analysis.dielectric)",
+                 "the generator's frequency and amplitude through each power's share on the resonance, its "
+                 "dielectric share and the shunt's loss from the capacitive current (analysis.dielectric); the "
+                 "resonance's drift between the readings, a bias bound (analysis.resonance_drift)",
                  "type": "A and B", "distribution": "as listed for power_w",
                  "relative_std_uncertainty": float("nan"),
                  "correction": "the deskew's, when the run has one; the gains cancel",

@@ -430,9 +430,9 @@ def detuning_table(run: RunData) -> pd.DataFrame:
     is regained (or at the stress point), with the ratio's expanded uncertainty
     (`uncertainty.power_ratio_budget`: the gains cancel, the CH2 delay does not).
     Unreachable targets stay as rows with status 'not reachable'."""
-    from squeezebench.analysis import dielectric, uncertainty   # see _expanded
+    from squeezebench.analysis import uncertainty   # see _expanded
 
-    points = dielectric.with_dielectric_power(with_scope_fallback(protocol_points(run, "detuning")), run.scenes)
+    points = detuning_points(run)
     rows = []
     # One campaign run is one series of Fig. 2 (the stress point is a run of its own on
     # the same plate, with its own resonance power).
@@ -460,6 +460,23 @@ def detuning_table(run: RunData) -> pd.DataFrame:
     return pd.DataFrame(rows, columns=["run_name", "plate", "velocity_level_pp_mps", "detuning_phase",
                                        "target_velocity_ratio", "frequency_hz", "voltage_vpp", "power_w",
                                        "power_resonance_w", "power_ratio", "power_ratio_U", "status"])
+
+
+def detuning_points(run: RunData) -> pd.DataFrame:
+    """Fig. 2's points as their budgets read them: reduced, with each power's parts that do
+    not follow the resonance (`dielectric`) and the resonance's drift at each reading
+    (`resonance_drift`)."""
+    from squeezebench.analysis import dielectric, resonance_drift   # they read points through this module
+
+    points = dielectric.with_dielectric_power(with_scope_fallback(protocol_points(run, "detuning")), run.scenes)
+    return resonance_drift.with_resonance_drift(points, resonance_search_points(run))
+
+
+def resonance_search_points(run: RunData) -> pd.DataFrame | None:
+    """Every resonance search's rows (sweep and found), reduced where they kept a record and
+    the scope's readings elsewhere; None when the run searched nothing."""
+    rows = run.protocol("resonance_search")
+    return None if rows.empty else with_scope_fallback(reduced_points(run, rows))
 
 
 def resonance_sweeps(run: RunData) -> pd.DataFrame:

@@ -34,7 +34,7 @@ import numpy as np
 import pandas as pd
 import uncertainties
 
-from squeezebench.analysis import dielectric, model
+from squeezebench.analysis import dielectric, model, resonance_drift
 from squeezebench.analysis.budgets import P95_FACTOR, Budget, Term
 from squeezebench.analysis.calibration import Deskew, deskew_of_run, gain_weight
 from squeezebench.analysis.resonance_searches import (PEAK_FIT_SHARE, SEARCH_STOP_SPREAD, SearchSetup,
@@ -42,7 +42,7 @@ from squeezebench.analysis.resonance_searches import (PEAK_FIT_SHARE, SEARCH_STO
                                                       search_setups)
 from squeezebench.analysis.rundata import RunData
 from squeezebench.plates.specifications import SPECIFICATIONS, VOLTAGE_PROBE_POLE_HZ, sheet_thickness_tolerance
-from squeezebench.analysis.tables import reduced_points, with_scope_fallback
+from squeezebench.analysis.tables import reduced_points, resonance_search_points, with_scope_fallback
 
 def _spec_term(name: str, key: str, sensitivity: float) -> Term:
     spec = SPECIFICATIONS[key]
@@ -120,19 +120,24 @@ def needs_deskew(points: pd.DataFrame) -> pd.DataFrame:
                   & (points["power_w_U"] > DELAY_FLAG_U_REL * points["power_w"].abs())]
 
 
-def generator_sensitivities(slope_per_hz, frequency_hz, dielectric_share, dielectric_voltage_exponent):
+def generator_sensitivities(slope_per_hz, frequency_hz, dielectric_share, dielectric_voltage_exponent,
+                            shunt_share=0.0, cross_share=0.0, cross_exponent=1.0):
     """(d ln P / d e, d ln P / d a) of an electrical power read at the generator's frequency
-    f (1 + e) and amplitude V (1 + a), numbers or arrays. P = M + D: the motional part
-    M = R v^2 / 2 follows the velocity, v ~ V along the resonance (`detuning_slope_per_hz`:
-    s = d ln v / d f, signed);
+    f (1 + e) and amplitude V (1 + a), numbers or arrays. P = M + D + S_C + S_x: the motional
+    part M = R v^2 / 2 (with the shunt's R_s |I_m|^2 / 2) follows the velocity, v ~ V along the
+    resonance (`detuning_slope_per_hz`: s = d ln v / d f, signed);
     the piezos' dielectric loss D = w C0 V0^2 tan(delta) / 2 goes as f V^m, m = 2 + n for a
     tan(delta) ~ E^n (`analysis.dielectric`, `plates.damping.field_tan_delta`), and not with
-    the resonance. With its share d = D / P:
-        d ln P / d e = (1 - d) 2 s f + d,        d ln P / d a = 2 (1 - d) + m d;
-    d = 0 (the whole power on the resonance) gives 2 s f and 2, the form without the loss."""
-    mechanical = 1.0 - dielectric_share
-    return (mechanical * 2.0 * slope_per_hz * frequency_hz + dielectric_share,
-            2.0 * mechanical + dielectric_voltage_exponent * dielectric_share)
+    the resonance; nor the shunt's loss from the capacitive current, S_C = R_s (w C0 V0)^2 / 2,
+    as f^2 V^2; the cross term S_x = -2 R_s w C0 x P_m as V^2 and, besides the resonance's
+    2 s f, as f^e_x, e_x = 1 + f / (f - f0) (`dielectric.shunt_cross_power_w`). With the shares
+    d = D / P, d_C = S_C / P, d_x = S_x / P:
+        d ln P / d e = (1 - d - d_C) 2 s f + d + 2 d_C + d_x e_x,     d ln P / d a = 2 (1 - d) + m d;
+    d = d_C = d_x = 0 (the whole power on the resonance) gives 2 s f and 2, the form without them."""
+    resonant = 1.0 - dielectric_share - shunt_share
+    return (resonant * 2.0 * slope_per_hz * frequency_hz + dielectric_share + 2.0 * shunt_share
+            + cross_share * cross_exponent,
+            2.0 * (1.0 - dielectric_share) + dielectric_voltage_exponent * dielectric_share)
 
 
 def _dielectric_share(points: pd.DataFrame | dict) -> tuple:
@@ -145,6 +150,19 @@ def _dielectric_share(points: pd.DataFrame | dict) -> tuple:
     described = bool(np.all(np.isfinite(loss)))
     return (np.where(np.isfinite(loss), loss / power, 0.0), np.where(np.isfinite(exponent), exponent, 2.0),
             described)
+
+
+def _shunt_shares(points: pd.DataFrame | dict) -> dict[str, np.ndarray]:
+    """Each point's shunt shares as `generator_sensitivities` takes them (its keywords): the
+    capacitive current's loss and the cross term over the power, and that term's exponent;
+    0, 0 and 1 where the run stores no shunt (the whole shunt loss on the resonance)."""
+    power = np.asarray(points["power_w"], dtype=float)
+    nothing = np.full_like(power, np.nan)
+    values = {column: np.asarray(points.get(column, nothing), dtype=float) for column in dielectric.SHUNT_COLUMNS}
+    known = np.isfinite(values["shunt_capacitive_power_w"])
+    return {"shunt_share": np.where(known, values["shunt_capacitive_power_w"] / power, 0.0),
+            "cross_share": np.where(known, values["shunt_cross_power_w"] / power, 0.0),
+            "cross_exponent": np.where(known, values["shunt_cross_frequency_exponent"], 1.0)}
 
 
 def _generator_frequency_term(sensitivity: float, described: bool) -> Term:
@@ -168,18 +186,30 @@ def power_ratio_budget(numerator: pd.DataFrame, denominator: pd.DataFrame) -> Bu
     power, so dR/R = (w_t Q'_t / P_t - w_0 Q'_0 / P_0) tau, small at resonance (Q' ~ 0)
     and not at a detuned point. Nor does the generator's frequency error e: P_0 sits on the
     resonance's flat top, P_t on its slope, and each power moves by its own
-    `generator_sensitivities`, S_e = (1 - d) 2 s f + d with d its dielectric share
-    (`analysis.dielectric`: larger at P_t, read at a higher voltage; 0 without an estimate,
-    the conservative reading): dR/R = (S_e,t - S_e,0) e (1.2 % at r = 0.8 for 20 ppm with d = 0).
+    `generator_sensitivities`, S_e = (1 - d - d_C) 2 s f + d + 2 d_C + d_x e_x with d its
+    dielectric share and d_C, d_x the series shunt's loss from the piezos' capacitive current
+    and its cross term with the motional one (`analysis.dielectric`: larger at P_t, read at a
+    higher voltage; 0 without an estimate, the conservative reading):
+    dR/R = (S_e,t - S_e,0) e (1.2 % at r = 0.8 for 20 ppm with no shares).
     The generator's amplitude error a cancels in the motional parts (both go as V^2) but not
-    in the dielectric ones (V^(2+n)): dR/R = (S_a,t - S_a,0) a = n (d_t - d_0) a. The noise of
-    each mean is its own (Type A):
+    in the dielectric ones (V^(2+n)): dR/R = (S_a,t - S_a,0) a = n (d_t - d_0) a. Nor does the
+    resonance's drift: a point read when the plate's resonance had moved by delta from where
+    it was mounted reads the curve displaced, a frequency error -delta / f on the part that
+    follows it: |dR/R| <= (1 - d_t) 2 |s_t| B_t + (B_0 / h)^2, B the bound on |delta| at each
+    reading (`analysis.resonance_drift`: from the run's dated readings of its resonance, Type
+    A; Type B where it holds one), P_0 set on the re-centred resonance and on the flat top
+    (1 / h^2 = s_t^2 / (r^2 (1 - r^2)) at P_t's velocity ratio r), carried as a bias bound,
+    u(drift) = bound / 1.96 (`_resonance_drift_term`). The noise of each mean is its own (Type A):
     u(R)^2 / R^2 = u(P_t)^2 / P_t^2 + u(P_0)^2 / P_0^2 + (w_t Q'_t / P_t - w_0 Q'_0 / P_0)^2 u(tau)^2
-                   + (S_e,t - S_e,0)^2 u(e)^2 + (S_a,t - S_a,0)^2 u(a)^2,
+                   + (S_e,t - S_e,0)^2 u(e)^2 + (S_a,t - S_a,0)^2 u(a)^2 + u(drift)^2 / R^2,
     with u(tau) the deskew's when the points were corrected, else the specified bound's.
-    NaN terms when a point has no stored record to reduce."""
+    Points without `resonance_drift_hz` get it from their own P0 rows (no search: a single
+    reading is the Type B rate). NaN terms when a point has no stored record to reduce."""
     applied = Deskew.applied_in(numerator)
     slopes = _slopes_of(numerator, denominator)
+    if "resonance_drift_hz" not in numerator or "resonance_drift_hz" not in denominator:
+        both = resonance_drift.with_resonance_drift(pd.concat([numerator, denominator]))
+        numerator, denominator = both.iloc[:len(numerator)], both.iloc[len(numerator):]
     parts, described = [], True
     for points in (numerator, denominator):
         power = float(points["power_w"].mean())
@@ -190,11 +220,13 @@ def power_ratio_budget(numerator: pd.DataFrame, denominator: pd.DataFrame) -> Bu
         setting_hz = points["generator_frequency_hz"] if "generator_frequency_hz" in points else points["frequency_hz"]
         share, exponent, known = _dielectric_share(points)
         to_frequency, to_amplitude = generator_sensitivities(slopes.loc[points.index].to_numpy(float),
-                                                             setting_hz.to_numpy(float), share, exponent)
+                                                             setting_hz.to_numpy(float), share, exponent,
+                                                             **_shunt_shares(points))
         described &= known or not np.any(slopes.loc[points.index].to_numpy(float))
         parts.append((power, noise / power, phase, lead, float(np.mean(to_frequency)), float(np.mean(to_amplitude))))
     (p_t, noise_t, phase_t, lead_t, pull_t, gain_t), (p_0, noise_0, phase_0, lead_0, pull_0, gain_0) = parts
     ratio = p_t / p_0
+    drift = _resonance_drift_term(ratio, numerator, denominator, slopes)
     delay = (delay_term(ratio * (phase_t - phase_0)) if applied is None else
              Term("CH2 delay after deskew", "B", abs(ratio * (phase_t - phase_0)) * applied.std_uncertainty_s,
                   applied.source))
@@ -204,7 +236,59 @@ def power_ratio_budget(numerator: pd.DataFrame, denominator: pd.DataFrame) -> Bu
         delay,
         _spec_term("voltage probe compensation (CH1 phase)", "voltage_probe_compensation", ratio * (lead_t - lead_0)),
         _generator_frequency_term(ratio * (pull_t - pull_0), described),
-        _spec_term("generator amplitude", "generator_amplitude", ratio * (gain_t - gain_0))))
+        _spec_term("generator amplitude", "generator_amplitude", ratio * (gain_t - gain_0)), drift))
+
+
+def _resonance_drift_term(ratio: float, numerator: pd.DataFrame, denominator: pd.DataFrame,
+                          slopes: pd.Series) -> Term:
+    """The resonance's drift in R = P_t / P_0 (`power_ratio_budget`), a bias bound from each
+    point's `resonance_drift_hz` B (`analysis.resonance_drift`): on the slope the power moves by
+    `_power_drift_per_hz` B, on the flat top by (B / h)^2, 1 / h^2 = s_t^2 / (r^2 (1 - r^2))
+    the Lorentzian's curvature at P_t's ratio r."""
+    slope_t = slopes.loc[numerator.index].to_numpy(float)
+    ratio_t = numerator["target_velocity_ratio"].to_numpy(float) if "target_velocity_ratio" in numerator else \
+        np.full(len(numerator), np.nan)
+    inside = (ratio_t > 0) & (ratio_t < 1)
+    curvature = float(np.mean(np.where(inside, slope_t**2 / np.where(inside, ratio_t**2 * (1 - ratio_t**2), 1.0),
+                                       0.0)))
+    bound_rel = 0.0
+    for points in (numerator, denominator):
+        slope = slopes.loc[points.index].to_numpy(float)
+        drift_hz = points["resonance_drift_hz"].to_numpy(float)
+        bound_rel += float(np.mean(_power_drift_per_hz(points, slope) * drift_hz
+                                   + np.where(slope == 0, curvature * drift_hz**2, 0.0)))
+    return drift_term(ratio * bound_rel, pd.concat([numerator, denominator])["resonance_drift_source"])
+
+
+#: The name of the resonance's drift in a budget.
+DRIFT_TERM = "resonance drift (plate warming, room)"
+
+
+def drift_term(bound: float, sources) -> Term:
+    """The resonance's drift in a budget: a bias bound (k u = bound, no rectangle), Type A
+    when every bound came from the run's own readings (`analysis.resonance_drift`)."""
+    sources = list(dict.fromkeys(sources))
+    return Term(DRIFT_TERM, "A" if all(s.startswith("Type A") for s in sources) else "B",
+                abs(bound) / P95_FACTOR, "bias bound (k u = bound): " + "; ".join(sources), rectangular=False)
+
+
+def _power_drift_per_hz(points: pd.DataFrame | dict, slope) -> np.ndarray:
+    """|d ln P / d f0| of each point's power: the resonant part's 2 s (the dielectric share d
+    and the shunt's capacitive one d_C do not follow the resonance) and the shunt's cross
+    term's 2 s + 1 / (f - f0) (`generator_sensitivities`)."""
+    share, _, _ = _dielectric_share(points)
+    shunt = _shunt_shares(points)
+    return np.abs((1.0 - share - shunt["shunt_share"]) * 2.0 * np.asarray(slope, dtype=float)
+                  + shunt["cross_share"] * (shunt["cross_exponent"] - 1.0)
+                  / np.asarray(points["frequency_hz"], dtype=float))
+
+
+def _point_drift_terms(point: dict, value: float, per_hz: float) -> tuple[Term, ...]:
+    """A stored point's drift term (none where it carries no estimate): `per_hz` |d ln / d f0|."""
+    drift_hz = point.get("resonance_drift_hz")
+    if not isinstance(drift_hz, (int, float)) or not math.isfinite(drift_hz):
+        return ()
+    return (drift_term(value * per_hz * drift_hz, [point["resonance_drift_source"]]),)
 
 
 def _slopes_of(numerator: pd.DataFrame, denominator: pd.DataFrame) -> pd.Series:
@@ -243,16 +327,28 @@ def power_budget(point: dict, deskew: Deskew | None = None) -> Budget:
     return Budget("power_w", "W", value, (
         _noise(point["power_w_u"]), *gains, delay,
         compensation_term(reactive * float(compensation_phase_per_mismatch(point["frequency_hz"], deskew)), deskew),
-        _power_generator_term(point)))
+        _power_generator_term(point), *_power_drift_terms(point)))
+
+
+def _power_drift_terms(point: dict) -> tuple[Term, ...]:
+    """A stored power's resonance-drift term (`_point_drift_terms`)."""
+    one = {key: [point.get(key, math.nan)] for key in ("power_w", "frequency_hz", *_SHARE_COLUMNS)}
+    per_hz = float(_power_drift_per_hz(one, [point.get("detuning_slope_per_hz", 0.0)])[0])
+    return _point_drift_terms(point, float(point["power_w"]), per_hz)
+
+
+#: The columns a point's shares are read from (`analysis.dielectric`).
+_SHARE_COLUMNS = ("dielectric_power_w", "dielectric_voltage_exponent", *dielectric.SHUNT_COLUMNS)
 
 
 def _power_generator_term(point: dict) -> Term:
     """A stored power's generator-frequency term: `generator_sensitivities` at the point's
     slope and dielectric share (the whole power on the resonance without an estimate)."""
-    share, exponent, described = _dielectric_share({key: [point.get(key, math.nan)] for key in
-                                                    ("power_w", "dielectric_power_w", "dielectric_voltage_exponent")})
+    one = {key: [point.get(key, math.nan)] for key in ("power_w", *_SHARE_COLUMNS)}
+    share, exponent, described = _dielectric_share(one)
     slope = point.get("detuning_slope_per_hz", 0.0)
-    to_frequency, _ = generator_sensitivities(slope, float(point["frequency_hz"]), float(share[0]), float(exponent[0]))
+    to_frequency, _ = generator_sensitivities(slope, float(point["frequency_hz"]), float(share[0]), float(exponent[0]),
+                                              **{k: float(v[0]) for k, v in _shunt_shares(one).items()})
     return _generator_frequency_term(float(point["power_w"]) * to_frequency, described or not slope)
 
 
@@ -263,7 +359,8 @@ def velocity_budget(point: dict) -> Budget:
         _spec_term("CH3 gain", "scope_gain", value),
         _spec_term("vibrometer decoder scale", "vibrometer_scale", value),
         _spec_term("generator frequency", "generator_frequency",
-                   value * point.get("detuning_slope_per_hz", 0.0) * float(point["frequency_hz"]))))
+                   value * point.get("detuning_slope_per_hz", 0.0) * float(point["frequency_hz"])),
+        *_point_drift_terms(point, value, abs(point.get("detuning_slope_per_hz", 0.0)))))
 
 
 def voltage_budget(point: dict) -> Budget:
@@ -483,7 +580,12 @@ def stored_points(run: RunData) -> tuple[pd.DataFrame | None, Deskew | None]:
     if rows.empty or "waveform_file" not in rows:
         return None, deskew
     points = reduced_points(run, rows[rows["waveform_file"].notna()])
-    return dielectric.with_dielectric_power(points[points["protocol"] != "deskew_calibration"], run.scenes), deskew
+    points = dielectric.with_dielectric_power(points[points["protocol"] != "deskew_calibration"], run.scenes)
+    fig2 = points["protocol"] == "detuning"
+    if fig2.any():   # a warming plate moves its resonance under Fig. 2's slope (`analysis.resonance_drift`)
+        drifts = resonance_drift.with_resonance_drift(points[fig2], resonance_search_points(run))
+        points = pd.concat([drifts, points[~fig2]]).loc[points.index]
+    return points, deskew
 
 
 def run_uncertainties(run: RunData) -> RunUncertainties:
@@ -526,7 +628,8 @@ REFERENCE_FOR = {
 
 def systematic_floor(points: pd.DataFrame, calibration: Deskew | None = None) -> pd.DataFrame:
     """Per (run, quantity): the p95 relative error the instruments' specified errors leave
-    when the noise is averaged away (Type A set to zero), at the run's worst point, with
+    when the noise is averaged away (Type A set to zero; the plate's resonance drift, which
+    the run's own readings bound and no setting does, left out), at the run's worst point, with
     the term that dominates there and the calibration that would lift it (if any).
 
     `calibration`: the floor after that calibration (its uncertainties; its values do not matter).
@@ -542,7 +645,8 @@ def systematic_floor(points: pd.DataFrame, calibration: Deskew | None = None) ->
             for row in run_rows:
                 if not _has_reduction(row):
                     continue
-                budget = point_budget(quantity, {**row, f"{quantity}_u": 0.0}, deskew)
+                # the instruments' floor: the plate's drift is the run's, not the settings' (`_point_drift_terms`)
+                budget = point_budget(quantity, {**row, f"{quantity}_u": 0.0, "resonance_drift_hz": math.nan}, deskew)
                 relative = budget.std_uncertainty / abs(budget.value)
                 if worst is None or relative > worst[0]:
                     worst = (relative, budget)

@@ -55,10 +55,9 @@ from squeezebench import paths  # noqa: E402
 from squeezebench.analysis import uncertainty  # noqa: E402
 from squeezebench.analysis.budgets import (COVERAGE_PROBABILITY, SPECIFIED, WORLD, Budget, Term,  # noqa: E402
                                            budget_distribution)
-from squeezebench.analysis.dielectric import with_dielectric_power  # noqa: E402
 from squeezebench.analysis.rundata import load_run  # noqa: E402
 from squeezebench.analysis.study import bench_bootstrap_interval  # noqa: E402
-from squeezebench.analysis.tables import protocol_points, with_scope_fallback  # noqa: E402
+from squeezebench.analysis.tables import detuning_points  # noqa: E402
 from squeezebench.plates.specifications import SPECIFICATIONS  # noqa: E402
 from squeezebench.protocols.bench_errors import _truths  # noqa: E402
 from squeezebench.protocols.campaign import run_campaign  # noqa: E402
@@ -136,7 +135,7 @@ def stored_budgets(seed: int) -> pd.DataFrame:
                                        systematic_effects(seed) + plate_draw_effects(seed), noise_seed=seed)
         run = load_run(run_campaign(erring, out_dir=Path(tmp) / "run", progress=False, durable=False))
         rows = []
-        points = with_dielectric_power(with_scope_fallback(protocol_points(run, "detuning")), run.scenes)
+        points = detuning_points(run)
         for _, level in points.groupby(["run_name", "velocity_level_pp_mps"]):
             at_resonance = level[level["detuning_phase"] == "resonance"]
             for _, target in level[level["detuning_phase"].isin(("regained", "stress"))].groupby("target_velocity_ratio"):

@@ -22,8 +22,11 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+import numpy as np
+
+from squeezebench.analysis.resonance_searches import peak_of_readings
 from squeezebench.protocols import resonance as resonance_protocol
-from squeezebench.protocols.resonance import SearchSettings, track_resonance
+from squeezebench.protocols.resonance import Resonance, SearchSettings, track_resonance
 from squeezebench.protocols.steps import Plate, Step, StepContext
 
 PROTOCOL = "detuning"
@@ -79,17 +82,32 @@ def _at_resonance(ctx: StepContext, params: Parameters, level_pp_mps: float) -> 
     for _ in range(3):  # the resonance may shift with drive level: re-centre, re-adjust
         ctx.drive.set_frequency(frequency_hz)
         voltage_vpp = _regain(ctx, params, voltage_vpp, level_pp_mps).piezo_voltage_setpoint_vpp
-        shift_hz = track_resonance(ctx.acquisition.measure_at, frequency_hz, params.search).frequency_hz - frequency_hz
+        tracked = track_resonance(ctx.acquisition.measure_at, frequency_hz, params.search)
+        shift_hz = tracked.frequency_hz - frequency_hz
         frequency_hz += shift_hz
         if abs(shift_hz) <= params.search.tolerance_hz:
             break
     ctx.drive.set_frequency(frequency_hz)
     point = _regain(ctx, params, voltage_vpp, level_pp_mps)
     ctx.record(point, velocity_level_pp_mps=level_pp_mps, target_velocity_ratio=1.0,
-               detuning_phase="resonance", reachable=_within(point.velocity_pp_mps, level_pp_mps, params))
+               detuning_phase="resonance", reachable=_within(point.velocity_pp_mps, level_pp_mps, params),
+               **_tracked_reading(ctx, tracked))
     ctx.updates[_level_key(level_pp_mps)] = {
         "resonance_frequency_hz": frequency_hz, "piezo_voltage_vpp": point.piezo_voltage_setpoint_vpp,
         "v0_pp_mps": point.velocity_pp_mps, "p0_w": point.scope_power_w}
+
+
+def _tracked_reading(ctx: StepContext, tracked: Resonance) -> dict[str, float]:
+    """The last re-centring as a dated reading of the resonance, for the drift between P0 and
+    Pt (`analysis.resonance_drift`): the vertex its readings' top puts the peak at, with that
+    fit's u (the best reading, which P0 is set at, scatters several times more on a flat
+    top), dated by its readings' mean time (the plate drifts under them). NaN u where they
+    hold no top to fit."""
+    fit = peak_of_readings([p.generator_frequency_hz for p in tracked.points],
+                           [p.velocity_pp_mps for p in tracked.points])
+    return {"tracked_resonance_frequency_hz": tracked.frequency_hz if fit is None else fit.frequency_hz,
+            "tracked_resonance_frequency_hz_u": math.nan if fit is None else fit.std_uncertainty_hz,
+            "tracked_resonance_bench_time_s": float(np.mean([ctx.bench_time_s(p.clock_s) for p in tracked.points]))}
 
 
 def _detune_and_regain(ctx: StepContext, params: Parameters, level_pp_mps: float, ratio: float,

@@ -1,0 +1,172 @@
+"""How far a plate's resonance had moved when each Fig. 2 point was read, from the run's own
+readings of it.
+
+A plate's resonance moves while a run measures it: the plate warms under its drive (the
+modulus falls, the resonance with its square root: about -2e-4 per kelvin for aluminium) and
+with the room. A stored value means the plate as mounted (`analysis.uncertainty`: the reading
+at the point's recorded setting), so a point read when the resonance had moved by delta reads
+the resonance curve displaced by delta: on its slope (Fig. 2's Pt) that is a generator
+frequency error of -delta / f on the part of the power that follows the resonance; P0, set
+on the re-centred resonance, is off the mounted plate's by its setting's offset, a change of
+(offset / h)^2 only on the flat top, h = f / (2 Q) the half-width
+(`uncertainty.power_ratio_budget`).
+
+Type A, from the run's dated readings of its resonance: its search's (the plate as mounted,
+at the search's low drive: the reference) and each Fig. 2 level's re-centring before P0
+(`tracked_resonance_frequency_hz`, the vertex of its readings' top, with that fit's u, at its
+readings' mean time; its best reading, where P0 is set, where that strays less, as on a top
+far wider than the re-centring's steps). Between two readings the drift is the larger of theirs
+(a plate that warms under a rising drive drifts one way; a line between them lagged the
+warming on seeded benches: the later reading is at the next, higher, level); after the
+last it goes on at the steepest rate per watt the readings resolve, times the last reading's
+power (a plate warms at up to its power over its heat capacity, fastest just after its drive
+rose; where no interval resolves a rate, the best-measured one's). The bound at a point is
+|drift| + 1.96 u(drift): the reference's u and the bracketing readings' larger one in
+quadrature, and after the last reading that rate's own u times the time since. A run stored
+before the re-centrings were recorded has its P0 settings as readings, dated by P0's end: the
+best reading of a golden section on a flat top, scattering by h SEARCH_STOP_SPREAD sqrt(s) (s
+the search's readings' relative scatter, Q the search sweep's, `resonance_searches`); the
+source says so.
+
+Type B where the run holds no repeated reading of its resonance (a single dated one):
+FALLBACK_DRIFT_RATE_REL_PER_S times the time since that reading. A point without a stored
+time has no estimate: drift 0, and the source says so.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pandas as pd
+
+from squeezebench.analysis.budgets import P95_FACTOR
+from squeezebench.analysis.resonance_searches import (SEARCH_STOP_SPREAD, mechanical_q_from_sweep, peak_of_readings,
+                                                      reading_scatter_rel)
+
+#: Relative resonance drift per second where a run holds a single reading of its resonance:
+#: the frequency's temperature coefficient times an assumed warming rate.
+FALLBACK_DRIFT_RATE_REL_PER_S = 2e-4 * 1.0 / 60.0
+FALLBACK_SOURCE = ("Type B, no repeated reading of the resonance in the run: -2e-4 per K (aluminium's "
+                   "modulus falls about 4e-4/K, the resonance with its square root) times an assumed warming "
+                   "of up to 1 K per minute under drive, over the time since the run's first reading")
+NOT_DATED = "no reading times stored: the resonance's drift is not estimated"
+#: A run stored before the re-centrings were recorded.
+UNTRACKED = ("; re-centrings read from P0's settings dated by P0's end (a run stored before "
+             "tracked_resonance_frequency_hz): best readings on a flat top, a few seconds late")
+_COLUMNS = ("tracked_resonance_bench_time_s", "tracked_resonance_frequency_hz", "tracked_resonance_frequency_hz_u")
+
+
+def with_resonance_drift(points: pd.DataFrame, searches: pd.DataFrame | None = None) -> pd.DataFrame:
+    """`points` (Fig. 2 points, any runs) with `resonance_drift_hz`, a bound on how far the
+    resonance had moved from the run's first reading of it when each point was read (a P0 row:
+    its setting's offset), and `resonance_drift_source`. `searches`: the runs'
+    resonance_search rows (sweep and found, velocities reduced or the scope's): the reference
+    reading, and the scatter and Q of a best reading; without them, the runs' re-centrings
+    are the only readings."""
+    out = points.copy()
+    out["resonance_drift_hz"] = 0.0
+    out["resonance_drift_source"] = NOT_DATED
+    if out.empty or "bench_time_s" not in out or "run_name" not in out:
+        return out
+    searches = pd.DataFrame(columns=["run_name"]) if searches is None else searches
+    for run_name, group in out.groupby("run_name", sort=False):
+        bounds, source = _drift_bounds(group, searches[searches["run_name"] == run_name])
+        out.loc[group.index, "resonance_drift_hz"] = bounds
+        out.loc[group.index, "resonance_drift_source"] = source
+    return out
+
+
+def best_reading_scatter_hz(frequency_hz: float, searches: pd.DataFrame) -> float:
+    """How far a golden section's best reading on the flat top strays (Hz): the stop spread
+    with the search's readings' scatter and Q (`resonance_searches`); NaN where the search
+    holds too few readings to tell."""
+    sweep = _sweep(searches)
+    scatter = reading_scatter_rel(sweep) if len(sweep) else None
+    q = mechanical_q_from_sweep(frequency_hz, sweep) if len(sweep) else None
+    if scatter is None or not q:
+        return math.nan
+    return frequency_hz / (2.0 * q) * SEARCH_STOP_SPREAD * math.sqrt(scatter)
+
+
+def _sweep(searches: pd.DataFrame) -> pd.DataFrame:
+    if "sweep" not in searches or "velocity_pp_mps" not in searches:
+        return searches.iloc[0:0]
+    return searches[searches["sweep"].astype(bool)]
+
+
+def _readings(points: pd.DataFrame, searches: pd.DataFrame) -> tuple[pd.DataFrame, bool]:
+    """The run's dated readings of its resonance (time_s, frequency_hz, u_hz), in time order,
+    and whether its re-centrings were recorded as such."""
+    best_u = best_reading_scatter_hz(float(points["generator_frequency_hz"].iloc[0]), searches)
+    rows = []
+    if "sweep" in searches:
+        sweep = _sweep(searches)
+        fit = peak_of_readings(sweep["generator_frequency_hz"], sweep["velocity_pp_mps"]) if len(sweep) else None
+        for found in searches[~searches["sweep"].astype(bool)].itertuples():
+            fitted = fit is not None and not np.isin(found.resonance_frequency_hz, sweep["generator_frequency_hz"])
+            rows.append((found.bench_time_s, found.resonance_frequency_hz, fit.std_uncertainty_hz if fitted else best_u,
+                         getattr(found, "power_w", math.nan)))
+    at_resonance = points[points["detuning_phase"] == "resonance"] if "detuning_phase" in points else points.iloc[0:0]
+    tracked = all(column in at_resonance for column in _COLUMNS) and bool(
+        at_resonance["tracked_resonance_frequency_hz"].notna().all())
+    power_w = at_resonance.get("power_w", pd.Series(math.nan, index=at_resonance.index))
+    if tracked:   # the fit's vertex, or the best reading P0 is set at where that strays less (a broad top)
+        fit_u = at_resonance[_COLUMNS[2]].fillna(math.inf).to_numpy(float)
+        vertex = fit_u <= (best_u if np.isfinite(best_u) else math.inf)
+        rows += list(zip(at_resonance[_COLUMNS[0]],
+                         np.where(vertex, at_resonance[_COLUMNS[1]], at_resonance["generator_frequency_hz"]),
+                         np.where(vertex, fit_u, best_u), power_w))
+    else:
+        rows += [(t, f, best_u, p) for t, f, p in zip(at_resonance["bench_time_s"],
+                                                      at_resonance["generator_frequency_hz"], power_w)]
+    readings = pd.DataFrame(rows, columns=["time_s", "frequency_hz", "u_hz", "power_w"], dtype=float)
+    readings = readings[np.isfinite(readings["time_s"]) & np.isfinite(readings["frequency_hz"])]
+    readings["u_hz"] = readings["u_hz"].fillna(0.0)   # a scatter the search cannot tell: the estimate alone
+    return readings.sort_values("time_s", kind="stable").reset_index(drop=True), tracked
+
+
+def _rate_after(readings: pd.DataFrame) -> tuple[float, float]:
+    """The resonance's rate after the last reading (Hz/s) and its u: a plate warms at up to
+    its power over its heat capacity, fastest when cold, so each interval's rate is taken per
+    watt of its readings' mean power, and the steepest the readings resolve (|rate| - 1.96 u
+    largest) times the last reading's power goes on; where they resolve none, the
+    best-measured one (a plate that does not warm: its u alone). Without the readings' powers,
+    the rates as they are."""
+    times, frequencies, u_hz, power_w = (readings[c].to_numpy() for c in ("time_s", "frequency_hz", "u_hz", "power_w"))
+    spans_s = np.maximum(np.diff(times), 1e-9)
+    rates, rates_u = np.diff(frequencies) / spans_s, np.hypot(u_hz[1:], u_hz[:-1]) / spans_s
+    scale = power_w[-1] / (0.5 * (power_w[1:] + power_w[:-1]))   # the last reading's power over each interval's
+    if np.all(np.isfinite(scale) & (scale > 0)):
+        rates, rates_u = rates * scale, rates_u * scale
+    resolved = np.abs(rates) - P95_FACTOR * rates_u
+    chosen = int(np.argmax(resolved)) if np.max(resolved) > 0 else int(np.argmin(rates_u))
+    return float(rates[chosen]), float(rates_u[chosen])
+
+
+def _drift_bounds(points: pd.DataFrame, searches: pd.DataFrame) -> tuple[np.ndarray, str]:
+    """Each point's bound on |drift| (Hz) and the source of the bounds, for one run."""
+    readings, tracked = _readings(points, searches)
+    at_s = points["bench_time_s"].to_numpy(float)
+    if readings.empty or not np.all(np.isfinite(at_s)):
+        return np.zeros(len(points)), NOT_DATED
+    times, frequencies, u_hz = (readings[c].to_numpy() for c in ("time_s", "frequency_hz", "u_hz"))
+    if len(times) < 2:
+        return FALLBACK_DRIFT_RATE_REL_PER_S * frequencies[0] * np.maximum(at_s - times[0], 0.0), FALLBACK_SOURCE
+    rate, rate_u = _rate_after(readings)
+    after = np.searchsorted(times, at_s, side="right")   # readings at or before each point
+    beyond_s = np.maximum(at_s - times[-1], 0.0)
+    drift_hz = np.where(beyond_s > 0, abs(frequencies[-1] - frequencies[0]) + abs(rate) * beyond_s,
+                        np.maximum(np.abs(frequencies[np.clip(after - 1, 0, len(times) - 1)] - frequencies[0]),
+                                   np.abs(frequencies[np.clip(after, 0, len(times) - 1)] - frequencies[0])))
+    u_at = np.where(beyond_s > 0, np.hypot(u_hz[-1], rate_u * beyond_s),
+                    np.maximum(u_hz[np.clip(after - 1, 0, len(times) - 1)], u_hz[np.clip(after, 0, len(times) - 1)]))
+    # P0 is read at its setting: the mounted plate's resonance is off it by the setting's offset
+    at_resonance = (points["detuning_phase"] == "resonance").to_numpy() if "detuning_phase" in points else False
+    drift_hz = np.where(at_resonance, np.abs(points["generator_frequency_hz"].to_numpy(float) - frequencies[0]), drift_hz)
+    u_at = np.where(at_resonance, 0.0, u_at)
+    source = (f"Type A, the run's {len(times)} dated readings of its resonance (search, re-centrings), from the "
+              f"first (u {u_hz[0]:.2f} Hz): |drift| + {P95_FACTOR} u, readings' u {np.max(u_hz[1:]):.2f} Hz at most; "
+              f"after the last reading at {abs(rate):.3f} +- {rate_u:.3f} Hz/s (the steepest per watt resolved)"
+              + ("" if tracked else UNTRACKED))
+    return drift_hz + P95_FACTOR * np.hypot(u_hz[0], u_at), source

@@ -1,0 +1,186 @@
+"""Fig. 2's Pt/P0 on a plate whose resonance drifts while it is measured (issue 46): the bound
+on the drift from the run's dated readings of its resonance in closed form, the Type B rate
+where a run reads it once, and a seeded simulated bench whose plate warms under its drive
+(`heating_drift`), where the ratio's error is outside its U without the term and within it
+with it."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pandas as pd
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from squeezebench import paths
+from squeezebench.analysis import resonance_drift
+from squeezebench.analysis.budgets import P95_FACTOR, Budget
+from squeezebench.analysis.rundata import load_run
+from squeezebench.analysis.tables import detuning_points, detuning_table
+from squeezebench.analysis.uncertainty import DRIFT_TERM, power_ratio_budget, run_uncertainties
+from squeezebench.protocols.bench_errors import _power_ratios, _truths
+from squeezebench.protocols.campaign import run_campaign
+from squeezebench.protocols.variants import campaign_with_effects
+from squeezebench.yamlfiles import dump_yaml, load_strict
+
+F0_HZ, Q_MECH = 37180.0, 300.0
+HALF_WIDTH_HZ = F0_HZ / (2.0 * Q_MECH)
+
+
+def _lorentzian(frequency_hz: float, resonance_hz: float = F0_HZ) -> float:
+    return 1.0 / (1.0 + ((frequency_hz - resonance_hz) / HALF_WIDTH_HZ) ** 2)
+
+
+def _row(phase: str, ratio: float, frequency_hz: float, time_s: float, level: float = 0.25, **columns) -> dict:
+    return {"run_name": "fig2a", "detuning_phase": phase, "target_velocity_ratio": ratio,
+            "velocity_level_pp_mps": level, "generator_frequency_hz": frequency_hz, "frequency_hz": frequency_hz,
+            "bench_time_s": time_s, "power_w": _lorentzian(frequency_hz), "power_w_u": 0.0,
+            "reactive_power_var": 0.0, **columns}
+
+
+def _tracked(time_s: float, frequency_hz: float, u_hz: float) -> dict:
+    return {"tracked_resonance_bench_time_s": time_s, "tracked_resonance_frequency_hz": frequency_hz,
+            "tracked_resonance_frequency_hz_u": u_hz}
+
+
+def _two_levels() -> pd.DataFrame:
+    """Two levels' P0 (re-centred at 100 s and 200 s: the resonance fell 2 Hz) and a Pt at
+    r = 0.8 on each, one between the re-centrings, one after the last."""
+    detuned_hz = F0_HZ + 0.75 * HALF_WIDTH_HZ   # r = 0.8: x = sqrt(1 / r^2 - 1) = 0.75
+    return pd.DataFrame([
+        _row("resonance", 1.0, F0_HZ, 101.0, 0.125, **_tracked(100.0, 37179.8, 0.1), power_w_override=0.01),
+        _row("regained", 0.8, detuned_hz, 150.0, 0.125),
+        _row("resonance", 1.0, 37177.9, 201.0, 0.25, **_tracked(200.0, 37177.8, 0.1), power_w_override=0.04),
+        _row("regained", 0.8, detuned_hz, 220.0, 0.25)]).pipe(
+            lambda f: f.assign(power_w=f["power_w_override"].fillna(f["power_w"])).drop(columns="power_w_override"))
+
+
+def test_the_drift_bound_interpolates_between_readings_and_goes_on_at_the_steepest_rate_per_watt():
+    """Between the re-centrings the drift is the larger of theirs, after the last it goes on at
+    the steepest rate per watt times the last reading's power; each bound adds 1.96 u of the
+    readings it rests on, and a P0 is off the mounted plate by its setting's offset."""
+    points = resonance_drift.with_resonance_drift(_two_levels())
+    bound = points["resonance_drift_hz"].to_numpy()
+    u = 0.1
+    # P0 rows: the setting's offset from the first reading, 1.96 u of that reading
+    assert bound[0] == pytest.approx(0.2 + P95_FACTOR * u)
+    assert bound[2] == pytest.approx(1.9 + P95_FACTOR * u)
+    # between the readings: the later one's 2 Hz, with the reference's and the bracketing readings' u
+    assert bound[1] == pytest.approx(2.0 + P95_FACTOR * math.hypot(u, u))
+    # 20 s after the last: -2 Hz in 100 s at 25 mW mean, run on at 40 mW
+    rate, rate_u = 0.02 * 0.04 / 0.025, math.hypot(u, u) / 100.0 * 0.04 / 0.025
+    assert bound[3] == pytest.approx(2.0 + rate * 20.0 + P95_FACTOR * math.hypot(u, math.hypot(u, rate_u * 20.0)))
+    assert points["resonance_drift_source"].str.startswith("Type A").all()
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.floats(-0.1, 0.1), st.lists(st.floats(10.0, 60.0), min_size=2, max_size=4), st.floats(0.0, 60.0),
+       st.floats(0.0, 0.5))
+def test_a_steady_drift_read_exactly_is_bounded_by_itself_and_a_scattered_one_from_above(rate, gaps, after_s,
+                                                                                          scatter_hz):
+    """Readings of a resonance falling or rising at a steady rate at one power: without
+    scatter the bound after the last reading is the drift itself, between two readings the
+    later one's at most; readings that scatter by u widen it by 1.96 u or more, never narrow it."""
+    times = 100.0 + np.cumsum([0.0, *gaps])
+    levels = [_row("resonance", 1.0, F0_HZ + rate * (t - times[0]), t + 1.0, 0.1 * (i + 1),
+                   **_tracked(t, F0_HZ + rate * (t - times[0]), scatter_hz), power_w_override=0.05)
+              for i, t in enumerate(times)]
+    at_s = times[-1] - 0.5 * gaps[-1] + np.array([0.0, 0.5 * gaps[-1] + after_s])
+    pt = [_row("regained", 0.8, F0_HZ + 50.0, t, 0.1) for t in at_s]
+    frame = pd.DataFrame(levels + pt)
+    frame = frame.assign(power_w=frame["power_w_override"].fillna(frame["power_w"])).drop(columns="power_w_override")
+    bound = resonance_drift.with_resonance_drift(frame)["resonance_drift_hz"].to_numpy()[len(levels):]
+    drift = np.abs(rate * (at_s - times[0]))
+    if scatter_hz == 0:
+        assert bound[1] == pytest.approx(drift[1], abs=1e-9)
+        assert drift[0] - 1e-9 <= bound[0] <= abs(rate * (times[-1] - times[0])) + 1e-9
+    else:
+        assert np.all(bound >= drift + P95_FACTOR * scatter_hz - 1e-9)
+
+
+def test_pt_over_p0_carries_the_drift_through_the_slope_and_p0_through_the_flat_tops_curvature():
+    """The ratio's term is the bias bound R ((1 - d) 2 |s| B_t + (B_0 / h)^2) / 1.96, h the
+    half-width the Pt point's slope and ratio give; a Lorentzian displaced by B_t moves
+    Pt by 2 |s| B_t to first order, P0 by (B_0 / h)^2."""
+    points = resonance_drift.with_resonance_drift(_two_levels())
+    target, resonance = points.iloc[[1]], points.iloc[[0]]
+    budget = power_ratio_budget(target, resonance)
+    term = next(t for t in budget.terms if t.name == DRIFT_TERM)
+    offset_hz = target["generator_frequency_hz"].iat[0] - resonance["generator_frequency_hz"].iat[0]
+    slope = (1 - 0.8**2) / offset_hz   # |d ln v / d f| of the Lorentzian at r = 0.8
+    curvature = slope**2 / (0.8**2 * (1 - 0.8**2))
+    b_t, b_0 = target["resonance_drift_hz"].iat[0], resonance["resonance_drift_hz"].iat[0]
+    assert term.std_uncertainty == pytest.approx(budget.value * (2 * slope * b_t + curvature * b_0**2) / P95_FACTOR,
+                                                 rel=1e-9)
+    assert not term.is_rectangular and term.type == "A"
+    # against the Lorentzian displaced (a warming plate's falls): Pt's power per hertz, P0's by its offset
+    pt = target["generator_frequency_hz"].iat[0]
+    assert 2 * slope == pytest.approx(-math.log(_lorentzian(pt, F0_HZ - 1e-3) / _lorentzian(pt)) / 1e-3, rel=1e-3)
+    assert curvature * b_0**2 == pytest.approx(-math.log(_lorentzian(F0_HZ, F0_HZ - b_0)), rel=1e-3)
+
+
+def test_a_single_reading_takes_the_stated_rate_and_an_undated_frame_says_it_has_no_estimate():
+    """One re-centring and no search: Type B, the stated rate times the time since it, named
+    in the term; a run stored before the re-centrings were recorded reads its P0 settings and
+    says so; points without times carry no drift and say that."""
+    one = _two_levels().iloc[:2]
+    points = resonance_drift.with_resonance_drift(one)
+    assert points["resonance_drift_hz"].iat[1] == pytest.approx(
+        resonance_drift.FALLBACK_DRIFT_RATE_REL_PER_S * 37179.8 * (150.0 - 100.0))
+    term = next(t for t in power_ratio_budget(points.iloc[[1]], points.iloc[[0]]).terms if t.name == DRIFT_TERM)
+    assert term.type == "B" and resonance_drift.FALLBACK_SOURCE in term.source and term.std_uncertainty > 0
+    old = _two_levels().drop(columns=["tracked_resonance_bench_time_s", "tracked_resonance_frequency_hz",
+                                      "tracked_resonance_frequency_hz_u"])
+    assert resonance_drift.UNTRACKED in resonance_drift.with_resonance_drift(old)["resonance_drift_source"].iat[0]
+    undated = resonance_drift.with_resonance_drift(_two_levels().drop(columns="bench_time_s"))
+    assert (undated["resonance_drift_hz"] == 0).all()
+    assert (undated["resonance_drift_source"] == resonance_drift.NOT_DATED).all()
+
+
+def test_pt_over_p0_on_a_warming_plate_is_within_its_u_only_with_the_drift_term(tmp_path):
+    """The paper's Fig. 2a run (two levels, r = 0.8) on a seeded bench whose plate warms under
+    its drive (`heating_drift`; its instruments ideal, its noise its own): the resonance falls
+    by Hz while the run measures, Pt on the slope reads a few per cent low against the plate as
+    mounted at the recorded setting. With the drift term every Pt/P0 is within U; without it
+    (the same budget less that term) neither is; each stored power and velocity is within its
+    own U, which carries the drift through the slope too."""
+    paper = load_strict(paths.paper_campaign().read_text())
+    fig2a = next(run for run in paper["runs"] if run["name"] == "fig2a_one_column")
+    fig2a["parameters"].update(velocity_levels_pp_mps=[0.25, 0.375], velocity_ratios=[0.8])
+    paper["runs"] = [fig2a]
+    source = tmp_path / "fig2a.yaml"
+    source.write_text(dump_yaml(paper))
+    warming = campaign_with_effects(source, tmp_path / "warming", ["heating_drift"])
+    erring = campaign_with_effects(warming, tmp_path / "erring", [], noise_seed=7)
+    campaign_with_effects(warming, tmp_path / "plain", [])
+    run = load_run(run_campaign(erring, out_dir=tmp_path / "run", progress=False, durable=False))
+    points = run_uncertainties(run).points
+    points = points[points["protocol"] == "detuning"]
+    truths = _truths(points, tmp_path / "plain")
+    for quantity in ("power_w", "velocity_pp_mps"):   # each stored point carries the drift too
+        error = points[quantity] - pd.Series({index: truth[quantity] for index, truth in truths.items()})
+        assert (error.abs() <= points[f"{quantity}_U"]).all(), (quantity, error / points[f"{quantity}_U"])
+    scored = pd.DataFrame(_power_ratios(run, points, truths))
+    assert len(scored) == 2 and scored["covered"].all(), scored[["step_id", "rel_error", "rel_expanded_u"]]
+    assert scored["rel_error"].min() < -0.03   # the warming shows
+    table = detuning_table(run)
+    regained = table[table["detuning_phase"] == "regained"].reset_index(drop=True)
+    without = []
+    for row in regained.itertuples():
+        budget = _budget_of(run, row.velocity_level_pp_mps)
+        kept = Budget(budget.quantity, budget.unit, budget.value, tuple(t for t in budget.terms if t.name != DRIFT_TERM))
+        assert budget.expanded_uncertainty == pytest.approx(row.power_ratio_U, rel=1e-9)
+        without.append(kept.expanded_uncertainty / budget.value)
+    errors = scored.set_index("step_id").loc[["level_0p25_ratio_0p8", "level_0p375_ratio_0p8"], "rel_error"].abs()
+    assert np.all(errors.to_numpy() > np.array(without)) and errors.iat[1] > 2 * without[1]   # outside without it
+    assert np.all(errors.to_numpy() <= regained["power_ratio_U"] / regained["power_ratio"])
+
+
+def _budget_of(run, level: float) -> Budget:
+    """The Pt/P0 budget of `level`'s regained point, as the detuning table builds it."""
+    points = detuning_points(run)
+    level_points = points[points["velocity_level_pp_mps"] == level]
+    return power_ratio_budget(level_points[level_points["detuning_phase"] == "regained"],
+                              level_points[level_points["detuning_phase"] == "resonance"])
