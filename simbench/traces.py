@@ -341,8 +341,8 @@ class SumOfRecords:
     the records one by one elsewhere. It depends on the signal, the noise and N only, so
     the records of one screen share it."""
 
-    centre: np.ndarray
-    spread: np.ndarray | float
+    centre: np.ndarray | None   # None (and `spread` too) where no sample is direct
+    spread: np.ndarray | float | None
     direct: np.ndarray   # bool per sample
     quantised: bool
 
@@ -376,6 +376,11 @@ def sum_of_records(signal: np.ndarray, sigma: float, averages: int,
         steps *= averages
         return SumOfRecords(steps, math.sqrt(max(summed_variance - 1.0 / 12.0, 0.0)), direct, quantised=True)
     mean_offset, step_variance = _step_moments(sigma / lsb)
+    if all_far and not _some_sum_is_direct(sigma / lsb, averages):
+        # Every record is drawn (few averages of noise within a step or so: 4 or 8 of the
+        # search's): the per-sample moments below would only tell so, at a third of the cost
+        # of drawing the records.
+        return SumOfRecords(None, None, np.zeros(steps.shape, bool), quantised=True)
     # Linear interpolation on the uniform phase grid, by index (np.interp searches).
     weight = np.floor(steps)
     np.subtract(steps, weight, out=weight)
@@ -509,6 +514,18 @@ def _step_moments(sigma_steps: float) -> tuple[np.ndarray, np.ndarray]:
     grid = np.linspace(0.0, 1.0, STEP_PHASES + 1)
     mean, variance = _level_moments(grid, sigma_steps)
     return mean - grid, variance
+
+
+@functools.lru_cache(maxsize=256)
+def _some_sum_is_direct(sigma_steps: float, averages: int) -> bool:
+    """Whether the sum of `averages` records of a sample away from the clip can be drawn
+    directly (`sum_of_records`: N v >= MIN_SPREAD_LSB^2, or v = 0) at some phase within a
+    step. A sample's v is interpolated between two of `_step_moments`' tabulated values,
+    with weights summing to one: it is no more than their largest (the margin covers the
+    rounding) and no less than half their smallest, which must not be 0."""
+    _, step_variance = _step_moments(sigma_steps)
+    return bool(averages * float(step_variance.max()) * (1.0 + 1e-9) >= MIN_SPREAD_LSB**2
+                or float(step_variance.min()) <= 1e-300)
 
 
 def _level_moments(steps: np.ndarray, sigma_steps: float, lowest: int | None = None,

@@ -3,9 +3,12 @@ every record: the reduced power and velocity have the same mean and spread over 
 with quantisation, noise (above and below a step) and the clip in play."""
 
 import math
+from unittest import mock
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from squeezebench.analysis.waveforms import fit_sine, integer_period_mean_power_w
 from squeezebench.simbench import effects as fx
@@ -90,6 +93,34 @@ def test_moments_of_a_quantised_record_are_exact():
     np.testing.assert_allclose(mean, draws.mean(axis=1), atol=5e-3)
     np.testing.assert_allclose(variance, draws.var(axis=1), atol=5e-3)
     assert variance[-1] == 0.0 and mean[-1] == 256.0   # held at the clip
+
+
+@settings(max_examples=60, deadline=None)
+@given(sigma_steps=st.floats(0.05, 1.2), averages=st.integers(1, 80), seed=st.integers(0, 2**32 - 1))
+def test_sums_said_to_be_drawn_record_by_record_have_no_direct_sample(sigma_steps, averages, seed):
+    """Where `_some_sum_is_direct` says no sample's sum is direct, `sum_of_records` skips
+    their moments: working them out must find no direct sample, on any signal clear of the clip."""
+    signal = np.random.default_rng(seed).uniform(-3.0, 3.0, 4000)
+    said_direct = traces._some_sum_is_direct(sigma_steps, averages)
+    with mock.patch.object(traces, "_some_sum_is_direct", lambda *_: True):   # the moments, always
+        full = traces.sum_of_records(signal, sigma_steps * STEP_DIV, averages, fx.DigitizerSettings(
+            sample_lsb_div=STEP_DIV, average_lsb_div=SETTINGS.average_lsb_div, averaging=True,
+            dither_threshold_lsb=math.inf))   # keeps the per-sample moments in play at every noise
+    if not said_direct:
+        assert not full.direct.any()
+
+
+@pytest.mark.parametrize("averages", [4, 8])
+def test_records_drawn_record_by_record_are_drawn_as_before(monkeypatch, averages):
+    """Half a step of noise, 4 or 8 averages (the search's): no sum is direct, so its moments
+    are skipped, and the records are exactly those the full computation draws."""
+    signals = screen(2000, 3.5)
+    noise_div = np.full(3, 0.5 * STEP_DIV)
+    assert not traces._some_sum_is_direct(0.5, averages)
+    lean = traces.digitize(signals, noise_div, averages, SETTINGS, np.random.default_rng(3))
+    monkeypatch.setattr(traces, "_some_sum_is_direct", lambda sigma_steps, n: True)
+    full = traces.digitize(signals, noise_div, averages, SETTINGS, np.random.default_rng(3))
+    np.testing.assert_array_equal(lean, full)
 
 
 def test_an_effect_that_is_off_costs_nothing_and_no_noise_is_exact():
