@@ -201,6 +201,17 @@ class Screen:
     #: The signals in channel units before they are placed on the screen (3, n).
     channel_values: np.ndarray | None = field(default=None, repr=False)
 
+    def keep_sums_of(self, earlier: "Screen") -> None:
+        """Take `earlier`'s sums of records for each channel showing exactly what it showed
+        (its row and noise, the same number of averages): what `sum_of_records` depends on,
+        besides the digitiser's settings, which a bench keeps until a new plate is mounted."""
+        if earlier.setup.averages != self.setup.averages:
+            return
+        for ch, sums in earlier.sums.items():
+            if (ch not in self.sums and self.noise_div_rms[ch] == earlier.noise_div_rms[ch]
+                    and np.array_equal(self.signal_div[ch], earlier.signal_div[ch])):
+                self.sums[ch] = sums
+
     def values(self, divisions: np.ndarray) -> np.ndarray:
         """Channel values of screen positions (3, n), in place of `divisions`."""
         position, scale, offset = _screen_placement(self.setup)

@@ -196,3 +196,35 @@ def test_a_re_ranged_channel_draws_the_record_a_fresh_screen_draws(tmp_path, mon
         np.testing.assert_array_equal(a, b)
     assert (placed_channels[3] is placed_channels[0]) == ("clipped_trace" not in effects)
     assert fresh_channels[3] is not fresh_channels[0]
+
+
+def test_another_vibrometer_range_keeps_the_other_channels_sums(tmp_path, monkeypatch):
+    """A search re-ranges the vibrometer at the same drive: the screen is computed afresh,
+    but CH1 and CH2 show what they showed, so their sums of records are the last screen's
+    (`Screen.keep_sums_of`), and every record is, bit for bit, what fresh sums draw."""
+    from squeezebench import paths
+    from squeezebench.protocols.acquisition import AcquisitionSettings
+    from squeezebench.protocols.simulated_session import open_simulated
+
+    def records(keep_sums_of):
+        monkeypatch.setattr(traces.Screen, "keep_sums_of", keep_sums_of)
+        kept, screens = [], []
+        with open_simulated(paths.default_scene(), None, 0.5) as session:
+            session.acquisition(AcquisitionSettings(averages=16))   # configures the scope
+            session.drive.set_piezo_voltage(10.0)
+            session.drive.set_frequency(37000.0)
+            vibrometer, scope = session.bench.vibrometer, session.bench.scope
+            for name in list(vibrometer.ranges_mps_per_v)[:3]:
+                vibrometer.set_range(name)
+                scope.acquire()
+                kept.append(np.stack([scope.fetch_waveform(ch, allow_clipped=True).values for ch in (1, 2, 3)]))
+                screens.append(session.simulated._screen_cache[1])
+        return kept, screens
+
+    shared, shared_screens = records(traces.Screen.keep_sums_of)
+    fresh, fresh_screens = records(lambda self, earlier: None)
+    for a, b in zip(shared, fresh):
+        np.testing.assert_array_equal(a, b)
+    first, last = shared_screens[0], shared_screens[-1]
+    assert last is not first and all(last.sums[ch] is first.sums[ch] for ch in (0, 1)) and last.sums[2] is not first.sums[2]
+    assert all(fresh_screens[-1].sums[ch] is not fresh_screens[0].sums[ch] for ch in range(3))
