@@ -159,8 +159,11 @@ class SimulatedBench:
             # a channel re-ranged at the same drive: the last screen's signals, placed anew
             shown = None if self.effects.screen_varies or last_key is None or last_key[::2] != key[::2] \
                 else traces.placed_anew(last, setup, self.effects, range_mps_per_v, now_s, acquisition_period_s)
-            self._screen_cache = (key, shown or traces.screen(steady, setup, gains, range_mps_per_v, self.effects,
-                                                              now_s, acquisition_period_s))
+            if shown is None:
+                shown = traces.screen(steady, setup, gains, range_mps_per_v, self.effects, now_s, acquisition_period_s)
+                if last is not None:   # another vibrometer range leaves CH1 and CH2 as they were
+                    shown.keep_sums_of(last)
+            self._screen_cache = (key, shown)
         shown = self._screen_cache[1]
         if not self.effects.varies:
             if self._record_cache[0] != key:

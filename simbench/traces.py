@@ -146,19 +146,39 @@ def _rotation(omega: float, trigger_s: float, times_s: np.ndarray) -> np.ndarray
     """exp(i omega (t + trigger_s)) at `times_s`; kept when `times_s` is a shared, read-only
     time base (`ScopeSetup.times_s`). The entry holds that array, so its id names it."""
     def build() -> tuple[np.ndarray, np.ndarray]:
-        # cos + i sin of the real phase, which is what np.exp(1j * phase) works out (its real
-        # part is 0: e^0 = 1 scales nothing), at half the cost: a complex exp of 10,000
-        # samples was the largest single cost of synthesising a new drive.
-        phase = omega * (times_s + trigger_s)
-        rotation = np.empty(phase.shape, complex)
-        np.cos(phase, out=rotation.real)
-        np.sin(phase, out=rotation.imag)
+        rotation = _uniform_rotation(omega, trigger_s, times_s)
         rotation.flags.writeable = False
         return times_s, rotation
 
     if times_s.flags.writeable:
         return build()[1]
     return _ROTATIONS.get((omega, trigger_s, id(times_s)), build)[1]
+
+
+def _cis(phase: np.ndarray) -> np.ndarray:
+    """cos + i sin of a real phase: what np.exp(1j * phase) works out (its real part is 0:
+    e^0 = 1 scales nothing), at half the cost."""
+    rotation = np.empty(phase.shape, complex)
+    np.cos(phase, out=rotation.real)
+    np.sin(phase, out=rotation.imag)
+    return rotation
+
+
+def _uniform_rotation(omega: float, trigger_s: float, times_s: np.ndarray) -> np.ndarray:
+    """exp(i omega (t + trigger_s)) at `times_s`, evenly spaced (a record's time base, or it
+    shifted by a channel's delay): in blocks of about sqrt(n) samples, each block's first
+    phase from its own time and the phase steps within a block from the spacing, so a
+    record of n samples costs 2 sqrt(n) sines and cosines and n complex products instead
+    of n of each (a record's rotation was the largest single cost of a new drive). It
+    departs from the sample-by-sample cos + i sin by ~1e-14: the phase's own rounding."""
+    n = times_s.size
+    block = max(1, math.isqrt(max(n - 1, 0)) + 1)
+    if n < 2 * block:   # too short to gain
+        return _cis(omega * (times_s + trigger_s))
+    step_s = (times_s[-1] - times_s[0]) / (n - 1)
+    firsts = _cis(omega * (times_s[::block] + trigger_s))
+    within = _cis(omega * step_s * np.arange(block))
+    return (firsts[:, None] * within[None, :]).ravel()[:n]
 
 
 def acquisition_seed(scene_seed: int, state: str, generator_key: str, counter: int,
@@ -200,6 +220,17 @@ class Screen:
     sums: dict = field(default_factory=dict)
     #: The signals in channel units before they are placed on the screen (3, n).
     channel_values: np.ndarray | None = field(default=None, repr=False)
+
+    def keep_sums_of(self, earlier: "Screen") -> None:
+        """Take `earlier`'s sums of records for each channel showing exactly what it showed
+        (its row and noise, the same number of averages): what `sum_of_records` depends on,
+        besides the digitiser's settings, which a bench keeps until a new plate is mounted."""
+        if earlier.setup.averages != self.setup.averages:
+            return
+        for ch, sums in earlier.sums.items():
+            if (ch not in self.sums and self.noise_div_rms[ch] == earlier.noise_div_rms[ch]
+                    and np.array_equal(self.signal_div[ch], earlier.signal_div[ch])):
+                self.sums[ch] = sums
 
     def values(self, divisions: np.ndarray) -> np.ndarray:
         """Channel values of screen positions (3, n), in place of `divisions`."""
@@ -341,8 +372,8 @@ class SumOfRecords:
     the records one by one elsewhere. It depends on the signal, the noise and N only, so
     the records of one screen share it."""
 
-    centre: np.ndarray
-    spread: np.ndarray | float
+    centre: np.ndarray | None   # None (and `spread` too) where no sample is direct
+    spread: np.ndarray | float | None
     direct: np.ndarray   # bool per sample
     quantised: bool
 
@@ -376,6 +407,11 @@ def sum_of_records(signal: np.ndarray, sigma: float, averages: int,
         steps *= averages
         return SumOfRecords(steps, math.sqrt(max(summed_variance - 1.0 / 12.0, 0.0)), direct, quantised=True)
     mean_offset, step_variance = _step_moments(sigma / lsb)
+    if all_far and not _some_sum_is_direct(sigma / lsb, averages):
+        # Every record is drawn (few averages of noise within a step or so: 4 or 8 of the
+        # search's): the per-sample moments below would only tell so, at a third of the cost
+        # of drawing the records.
+        return SumOfRecords(None, None, np.zeros(steps.shape, bool), quantised=True)
     # Linear interpolation on the uniform phase grid, by index (np.interp searches).
     weight = np.floor(steps)
     np.subtract(steps, weight, out=weight)
@@ -509,6 +545,18 @@ def _step_moments(sigma_steps: float) -> tuple[np.ndarray, np.ndarray]:
     grid = np.linspace(0.0, 1.0, STEP_PHASES + 1)
     mean, variance = _level_moments(grid, sigma_steps)
     return mean - grid, variance
+
+
+@functools.lru_cache(maxsize=256)
+def _some_sum_is_direct(sigma_steps: float, averages: int) -> bool:
+    """Whether the sum of `averages` records of a sample away from the clip can be drawn
+    directly (`sum_of_records`: N v >= MIN_SPREAD_LSB^2, or v = 0) at some phase within a
+    step. A sample's v is interpolated between two of `_step_moments`' tabulated values,
+    with weights summing to one: it is no more than their largest (the margin covers the
+    rounding) and no less than half their smallest, which must not be 0."""
+    _, step_variance = _step_moments(sigma_steps)
+    return bool(averages * float(step_variance.max()) * (1.0 + 1e-9) >= MIN_SPREAD_LSB**2
+                or float(step_variance.min()) <= 1e-300)
 
 
 def _level_moments(steps: np.ndarray, sigma_steps: float, lowest: int | None = None,

@@ -3,9 +3,12 @@ every record: the reduced power and velocity have the same mean and spread over 
 with quantisation, noise (above and below a step) and the clip in play."""
 
 import math
+from unittest import mock
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from squeezebench.analysis.waveforms import fit_sine, integer_period_mean_power_w
 from squeezebench.simbench import effects as fx
@@ -92,6 +95,34 @@ def test_moments_of_a_quantised_record_are_exact():
     assert variance[-1] == 0.0 and mean[-1] == 256.0   # held at the clip
 
 
+@settings(max_examples=60, deadline=None)
+@given(sigma_steps=st.floats(0.05, 1.2), averages=st.integers(1, 80), seed=st.integers(0, 2**32 - 1))
+def test_sums_said_to_be_drawn_record_by_record_have_no_direct_sample(sigma_steps, averages, seed):
+    """Where `_some_sum_is_direct` says no sample's sum is direct, `sum_of_records` skips
+    their moments: working them out must find no direct sample, on any signal clear of the clip."""
+    signal = np.random.default_rng(seed).uniform(-3.0, 3.0, 4000)
+    said_direct = traces._some_sum_is_direct(sigma_steps, averages)
+    with mock.patch.object(traces, "_some_sum_is_direct", lambda *_: True):   # the moments, always
+        full = traces.sum_of_records(signal, sigma_steps * STEP_DIV, averages, fx.DigitizerSettings(
+            sample_lsb_div=STEP_DIV, average_lsb_div=SETTINGS.average_lsb_div, averaging=True,
+            dither_threshold_lsb=math.inf))   # keeps the per-sample moments in play at every noise
+    if not said_direct:
+        assert not full.direct.any()
+
+
+@pytest.mark.parametrize("averages", [4, 8])
+def test_records_drawn_record_by_record_are_drawn_as_before(monkeypatch, averages):
+    """Half a step of noise, 4 or 8 averages (the search's): no sum is direct, so its moments
+    are skipped, and the records are exactly those the full computation draws."""
+    signals = screen(2000, 3.5)
+    noise_div = np.full(3, 0.5 * STEP_DIV)
+    assert not traces._some_sum_is_direct(0.5, averages)
+    lean = traces.digitize(signals, noise_div, averages, SETTINGS, np.random.default_rng(3))
+    monkeypatch.setattr(traces, "_some_sum_is_direct", lambda sigma_steps, n: True)
+    full = traces.digitize(signals, noise_div, averages, SETTINGS, np.random.default_rng(3))
+    np.testing.assert_array_equal(lean, full)
+
+
 def test_an_effect_that_is_off_costs_nothing_and_no_noise_is_exact():
     signals = screen(500, 3.5)
     quiet = traces.digitize(signals, np.zeros(3), 512, SETTINGS, rng=None)   # no random draw at all
@@ -165,3 +196,35 @@ def test_a_re_ranged_channel_draws_the_record_a_fresh_screen_draws(tmp_path, mon
         np.testing.assert_array_equal(a, b)
     assert (placed_channels[3] is placed_channels[0]) == ("clipped_trace" not in effects)
     assert fresh_channels[3] is not fresh_channels[0]
+
+
+def test_another_vibrometer_range_keeps_the_other_channels_sums(tmp_path, monkeypatch):
+    """A search re-ranges the vibrometer at the same drive: the screen is computed afresh,
+    but CH1 and CH2 show what they showed, so their sums of records are the last screen's
+    (`Screen.keep_sums_of`), and every record is, bit for bit, what fresh sums draw."""
+    from squeezebench import paths
+    from squeezebench.protocols.acquisition import AcquisitionSettings
+    from squeezebench.protocols.simulated_session import open_simulated
+
+    def records(keep_sums_of):
+        monkeypatch.setattr(traces.Screen, "keep_sums_of", keep_sums_of)
+        kept, screens = [], []
+        with open_simulated(paths.default_scene(), None, 0.5) as session:
+            session.acquisition(AcquisitionSettings(averages=16))   # configures the scope
+            session.drive.set_piezo_voltage(10.0)
+            session.drive.set_frequency(37000.0)
+            vibrometer, scope = session.bench.vibrometer, session.bench.scope
+            for name in list(vibrometer.ranges_mps_per_v)[:3]:
+                vibrometer.set_range(name)
+                scope.acquire()
+                kept.append(np.stack([scope.fetch_waveform(ch, allow_clipped=True).values for ch in (1, 2, 3)]))
+                screens.append(session.simulated._screen_cache[1])
+        return kept, screens
+
+    shared, shared_screens = records(traces.Screen.keep_sums_of)
+    fresh, fresh_screens = records(lambda self, earlier: None)
+    for a, b in zip(shared, fresh):
+        np.testing.assert_array_equal(a, b)
+    first, last = shared_screens[0], shared_screens[-1]
+    assert last is not first and all(last.sums[ch] is first.sums[ch] for ch in (0, 1)) and last.sums[2] is not first.sums[2]
+    assert all(fresh_screens[-1].sums[ch] is not fresh_screens[0].sums[ch] for ch in range(3))

@@ -4,6 +4,8 @@ bit for bit."""
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from squeezebench.simbench import effects as fx
 from squeezebench.simbench import physics, traces
@@ -40,6 +42,20 @@ def test_a_kept_rotation_gives_what_computing_it_afresh_gives():
     assert np.array_equal(kept, traces.synthesize(steady(29.9e3, 7.0), times_s.copy()))
     # the amplifier's output scales with the drive: the kept rotation is that frequency's
     assert np.allclose(kept[0], 7.0 / 5.0 * traces.synthesize(steady(29.9e3, 5.0), times_s)[0], rtol=1e-12, atol=0)
+
+
+@settings(max_examples=80, deadline=None)
+@given(n=st.integers(1, 20_000), frequency_hz=st.floats(100.0, 200e3), periods=st.floats(0.5, 50.0),
+       trigger_s=st.floats(-1e-4, 1e-4), start=st.floats(-1.0, 0.0))
+def test_a_rotation_by_blocks_is_the_sample_by_sample_one(n, frequency_hz, periods, trigger_s, start):
+    """The rotation of an evenly spaced time base, worked out by blocks (`_uniform_rotation`),
+    is cos + i sin of each sample's phase to within that phase's own rounding."""
+    step_s = periods / frequency_hz / n
+    times_s = start * n * step_s + np.arange(n) * step_s
+    phase = 2 * np.pi * frequency_hz * (times_s + trigger_s)
+    by_blocks = traces._uniform_rotation(2 * np.pi * frequency_hz, trigger_s, times_s)
+    assert by_blocks.shape == (n,)
+    assert np.max(np.abs(by_blocks - traces._cis(phase))) <= 8 * np.finfo(float).eps * (np.max(np.abs(phase)) + 1.0)
 
 
 @pytest.mark.parametrize("averages", [2, 4, 8, 16, 32])
