@@ -275,31 +275,31 @@ def grid_term(errors: np.ndarray, method: str) -> Term:
     its cell; the figure those points give differs from the vibration's over the cells by an
     error that depends on where the grid lands on the mode (an aliasing error: a standing
     wave's sampled mean square is off by a cosine of the grid's offset along it), and the
-    grid's place is not known: the plate is aligned on the stage by eye, to a millimetre or
-    so, and the mode's phase along the plate is not known to the analysis at all. `errors`
-    are that error for the grid placed at every sub-step offset across a cell
-    (`shifted_grid_errors`, read off the measured field's own smooth reconstruction), so
-    their root mean square is the standard deviation of the error of a grid at an unknown
+    grid's place is not known: the plate is aligned on the stage by eye, within its
+    placement (`specifications.SPECIFICATIONS["plate_placement"]`, +-1 mm per axis). `errors`
+    are that error for the grid placed across it (`shifted_grid_errors`, read off the
+    measured field's own bending reconstruction, the cells moving with the grid), so their
+    root mean square is the standard deviation of the error of a grid at an unknown
     place (GUM 4.3.1: a Type B evaluation from the information at hand; F.2.4.5: a
     correction not applied is carried in the uncertainty), taken as normal. No correction
     is applied: which offset the grid had is what is not known.
 
     Checked (tests/test_cartography_mode.py): on a standing wave the shifted grids' errors
     are the closed form's (a sampled sin^2 mean is off by a cosine of the offset) and the
-    term their root mean square. On the large plate's mode it is 1.3-1.7 times the true
-    errors' spread across a cell, the most at the paper campaign's 4 mm grid (2.4 points
-    per half-wave), where the cubic reading between the points is itself off. A CV's error
-    across offsets is nearly a cosine of the offset, within about sqrt(2) standard
-    deviations, so its U over-covers; the area above the share of the peak jumps by whole
-    columns of points as they cross the threshold, which the reading smooths, and at
-    registrations where the columns cross in pairs (a grid symmetric about a symmetric
-    mode) its error is beyond U. It does not hold a grid under two points per
-    half-wavelength, whose points read an aliased field that no interpolation between them
-    recovers."""
+    term their root mean square; on a cosine mode at the paper campaign's 4 mm grid (2.3
+    points per half-wave) the CV's term is within 2 % of the true errors' root mean square
+    over the placement (a cubic reading against the unshifted cells gave 0.84-1.77 times
+    it), and on the large plate's mode 1.03 times. A CV's error across offsets is nearly a
+    cosine of the offset, within about sqrt(2) standard deviations, so its U (k = 1.96)
+    still over-covers; the area above the share of the peak jumps by whole columns of
+    points as they cross the threshold, and at registrations where the columns cross in
+    pairs (a grid symmetric about a symmetric mode) its error is beyond U. It does not
+    hold a grid under one point per half-wavelength (k h >= pi), whose points read an
+    aliased field that no reading between them recovers."""
     errors = np.asarray(errors, dtype=float)
     u = float(np.sqrt(np.mean(errors**2))) if errors.size else 0.0
     return Term("grid (where it fell on the mode)", "B", u,
-                f"the points' figure vs the field's over their cells, the grid shifted across a cell "
+                f"the points' figure vs the field's over their cells, the grid shifted across the plate's placement "
                 f"({errors.size} offsets, the {method or 'no'} reading between the points), root mean square, "
                 "as a standard deviation", rectangular=False)
 
