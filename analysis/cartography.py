@@ -22,7 +22,6 @@ from typing import Callable
 
 import numpy as np
 import pandas as pd
-from scipy.interpolate import RegularGridInterpolator
 
 from squeezebench.analysis.budgets import Budget, Term
 from squeezebench.plates.specifications import SPECIFICATIONS
@@ -70,14 +69,17 @@ def coefficients_of_variation(amplitudes: np.ndarray) -> np.ndarray:
     return np.divide(std, mean, out=np.full(mean.shape, np.inf), where=mean > 0)
 
 
-#: Spots per axis over a grid point's cell at which `cell_readings` reads the field between
-#: the points (the midpoint rule over the interpolated field: 6 and 10 give the same figures),
-#: and so the sub-step shifts per axis at which `shifted_grid_errors` places the grid.
+#: Spots per axis over a grid point's cell at which the field between the points is read
+#: (the midpoint rule over the reconstructed field: 6 and 10 give the same figures), and the
+#: shifts per axis at which `shifted_grid_errors` places the grid.
 READING_SAMPLES = 8
 #: The readings of the field between the points, each with the points it needs along every
-#: axis it interpolates: bilinear, and the tensor-product cubic spline (scipy's
-#: `RegularGridInterpolator`); `cell_readings` takes the smoothest the grid allows.
-READING_ORDERS = (("linear", 2), ("cubic", 4))
+#: axis it reads across: straight lines, and the bending line through four points
+#: (`bending_weights`); `cell_readings` takes the smoothest the grid allows.
+READING_ORDERS = (("linear", 2), ("bending", 4))
+#: Terms of the series of `bending_functions`: at k x = 4 pi (a wave at the Nyquist limit,
+#: read 4 steps from a stencil's point) the last is below 1e-9 of the sum.
+BENDING_SERIES_TERMS = 12
 
 
 def cell_offsets(samples: int) -> np.ndarray:
@@ -86,14 +88,99 @@ def cell_offsets(samples: int) -> np.ndarray:
     return (np.arange(samples) + 0.5) / samples - 0.5
 
 
+def bending_functions(kh_fourth: float, x_steps: np.ndarray) -> np.ndarray:
+    """The Krylov-Duncan functions phi_m(x) = m! sum_n (k h)^(4n) x^(4n+m) / (4n+m)!, m = 0..3,
+    of x in grid steps h (last axis m): a basis of the solutions of the bending equation
+    along a line, w'''' = k^4 w (Kirchhoff plate, D grad^4 w = rho h omega^2 w, for the
+    x-dependence of an (n, 0) mode; an Euler-Bernoulli beam alike), spanned by cos, sin, cosh
+    and sinh of k x. In series form they stay well conditioned as k h -> 0, where they are
+    1, x, x^2 and x^3: the bending reading is then the cubic through four points."""
+    x = np.asarray(x_steps, dtype=float)[..., None]
+    m = np.arange(4)
+    return sum(kh_fourth**n * x ** (4 * n + m) * np.array([math.factorial(i) / math.factorial(4 * n + i) for i in m])
+               for n in range(BENDING_SERIES_TERMS))
+
+
+def wavenumber_per_step(grid: np.ndarray, axis: int) -> float:
+    """k h (rad) of the standing wave along `axis` of a table of the signed field at grid
+    steps h: any A cos(k x) + B sin(k x) sampled at equal steps obeys w[i-1] + w[i+1] =
+    2 cos(k h) w[i] (Prony's recurrence), whose cos(k h) the least squares over every line
+    give; above 1, the wave is evanescent, cosh(k h), whose k spans the same bending
+    solutions. Read from the map alone: the plate's drawn thickness and moduli move k by
+    a few per cent, and the map samples the mode it has. 0 for fewer than 3 points."""
+    lines = np.moveaxis(np.asarray(grid, dtype=float), axis, 0)
+    middle = lines[1:-1]
+    square = float(np.sum(middle**2))
+    if square == 0.0:
+        return 0.0
+    cosine = float(np.sum(middle * (lines[:-2] + lines[2:]))) / (2.0 * square)
+    return float(np.arccos(max(cosine, -1.0))) if cosine <= 1.0 else float(np.arccosh(cosine))
+
+
+def bending_weights(n: int, kh: float, positions_steps: np.ndarray, width: int) -> np.ndarray:
+    """Weights (positions x n points) reading a line of n points at `positions_steps` (grid
+    steps from the first point) with the `width` nearest points about each position (past
+    the outer points, the edge's own): exact for every solution of the bending equation of
+    wavenumber k (`bending_functions`) with 4 points, and for straight lines with 2. A
+    cubic spline misreads a standing wave sampled 2.4 times per half-wavelength by a few
+    per cent between the points, enough to move a CV's grid error by half."""
+    positions = np.asarray(positions_steps, dtype=float)
+    weights = np.zeros((positions.size, n))
+    if n == 1:
+        weights[:, 0] = 1.0
+        return weights
+    left = np.floor(positions).astype(int)
+    start = np.clip(left - (width // 2 - 1), 0, n - width)
+    nodes = start[:, None] + np.arange(width)
+    kh_fourth = kh**4 if width == 4 else 0.0
+    basis = bending_functions(kh_fourth, nodes - left[:, None])[..., :width]        # position, node, function
+    wanted = bending_functions(kh_fourth, positions - left)[..., :width, None]       # position, function, 1
+    np.put_along_axis(weights, nodes, np.linalg.solve(np.swapaxes(basis, 1, 2), wanted)[..., 0], axis=1)
+    return weights
+
+
 @dataclass(frozen=True)
 class CellReadings:
-    """|field| over every grid point's cell, read from the signed field between the points
-    (`cell_readings`): one row per point, one column per spot of its cell, the same spot
-    of every cell in one column."""
+    """The signed field of a map's points as a table over their x (rows) and y (columns)
+    values (`_point_grid`), read between the points by the bending line of each axis's
+    own wavenumber (`wavenumber_per_step`), or by straight lines on grids too small for it
+    (`method`, of READING_ORDERS). `values`: |field| over every point's cell, one row per
+    point, one column per spot (READING_SAMPLES per wide axis, the x offset the slower),
+    the same spot of every cell in one column."""
 
-    values: np.ndarray
-    method: str   # of READING_ORDERS
+    grid: np.ndarray
+    filled: np.ndarray
+    wavenumbers: tuple[float, float]   # k x step per axis, rad
+    steps_m: tuple[float, float]       # the grid's step per axis (inf along a single row or column)
+    method: str
+
+    @property
+    def values(self) -> np.ndarray:
+        return self.over_cells((0.0, 0.0))
+
+    def _field(self, positions: list[np.ndarray]) -> np.ndarray:
+        """The signed field at the tensor lattice of `positions` (grid steps per axis)."""
+        width = dict(READING_ORDERS)[self.method]
+        readers = [bending_weights(n, kh, p, width) for n, kh, p in zip(self.grid.shape, self.wavenumbers, positions)]
+        return readers[0] @ self.grid @ readers[1].T
+
+    def _spots(self, shift: tuple[float, float], spots: np.ndarray) -> np.ndarray:
+        """|field| at `spots` (steps) about every point of the grid shifted by `shift`
+        (steps per axis): points x spots per wide axis, the x spot the slower."""
+        wide = [n > 1 for n in self.grid.shape]
+        per_axis = [len(spots) if w else 1 for w in wide]
+        positions = [(np.arange(n)[:, None] + s + (spots if w else np.zeros(1))).ravel()
+                     for n, s, w in zip(self.grid.shape, shift, wide)]
+        field = self._field(positions).reshape(self.grid.shape[0], per_axis[0], self.grid.shape[1], per_axis[1])
+        return np.abs(field.transpose(0, 2, 1, 3)[self.filled].reshape(int(self.filled.sum()), -1))
+
+    def over_cells(self, shift: tuple[float, float]) -> np.ndarray:
+        """|field| over the cells of the grid shifted by `shift` (steps per axis)."""
+        return self._spots(shift, cell_offsets(READING_SAMPLES))
+
+    def at_points(self, shift: tuple[float, float]) -> np.ndarray:
+        """|field| at the points of the grid shifted by `shift` (steps per axis)."""
+        return self._spots(shift, np.zeros(1)).ravel()
 
 
 def _point_grid(x_m: np.ndarray, y_m: np.ndarray, signed: np.ndarray) -> tuple[list[np.ndarray], np.ndarray, np.ndarray]:
@@ -130,67 +217,55 @@ def _backward_filled(grid: np.ndarray, axis: int) -> np.ndarray:
     return np.flip(_forward_filled(np.flip(grid, axis), axis), axis)
 
 
-def _read_between(axes: list[np.ndarray], grid: np.ndarray, filled: np.ndarray, method: str) -> np.ndarray:
-    """|field| at READING_SAMPLES spots per wide axis over each point's cell (points x spots,
-    the x offset the slower; the points as `_point_grid` tables them), the signed field read
-    by `method` between the points (extrapolated past the outer points by the
-    edge's own polynomial)."""
-    spread = [len(axis) > 1 for axis in axes]   # a single row or column has no cell to read across
-    kept = tuple(axis for axis, wide in zip(axes, spread) if wide)
-    reader = RegularGridInterpolator(kept, grid.reshape([len(axis) for axis in kept]), method=method,
-                                     bounds_error=False, fill_value=None)
-    offsets = cell_offsets(READING_SAMPLES)
-    centres = [mesh[filled] for mesh in np.meshgrid(*axes, indexing="ij")]
-    spots = [(centre[:, None] + offsets[None, :] * np.diff(axis).min()) if wide else centre[:, None]
-             for centre, axis, wide in zip(centres, axes, spread)]
-    if all(spread):
-        spots = [np.repeat(spots[0], READING_SAMPLES, axis=1), np.tile(spots[1], (1, READING_SAMPLES))]
-    wide_spots = [spot for spot, wide in zip(spots, spread) if wide]
-    return np.abs(reader(np.stack(wide_spots, axis=-1)))
-
-
 def cell_readings(x_m: np.ndarray, y_m: np.ndarray, signed: np.ndarray) -> CellReadings | None:
-    """The vibration over the grid points' cells, read from the field between the points by
-    the smoothest of READING_ORDERS the grid allows (None for a single point, which has no
-    cell to read across): a plate's mode shape is smooth in its signed deflection (its
-    amplitude alone has a kink at each nodal line), so the signed map is interpolated and
-    its magnitude taken at READING_SAMPLES spots per axis over each cell."""
+    """The vibration over the grid points' cells, read from the field between the points
+    (None for a single point, which has no cell to read across): a plate's mode shape is
+    smooth in its signed deflection (its amplitude alone has a kink at each nodal line), so
+    the signed map is read between the points and its magnitude taken (`CellReadings`).
+    The bending reading (READING_ORDERS) holds a standing wave of any phase exactly from
+    just over one point per half-wavelength on (k h < pi), where a cubic does not."""
     points = [len(np.unique(np.round(np.asarray(axis, dtype=float), 9))) for axis in (x_m, y_m)]
     if points == [1, 1]:
         return None
     method = [name for name, least in READING_ORDERS if all(n >= least or n == 1 for n in points)][-1]
-    return CellReadings(_read_between(*_point_grid(x_m, y_m, signed), method), method)
+    axes, grid, filled = _point_grid(x_m, y_m, signed)
+    steps_m = tuple(float(np.diff(axis).min()) if len(axis) > 1 else math.inf for axis in axes)
+    wavenumbers = tuple(wavenumber_per_step(grid, axis) if method == "bending" else 0.0 for axis in (0, 1))
+    return CellReadings(grid, filled, wavenumbers, steps_m, method)
 
 
-GridError = Callable[[np.ndarray], Callable[[np.ndarray], float]]
-
-
-def grid_error(attribute: str, share_of_peak: float) -> GridError:
+def grid_error(attribute: str, share_of_peak: float) -> Callable[[np.ndarray, np.ndarray], float]:
     """The error of homogeneity figure `attribute` read as a grid's points' (`homogeneity`,
     each point standing for its cell) against the same figure of the vibration over their
-    cells: given the cells' amplitudes, a function of the points' amplitudes. The cells'
-    figure is one per map, whatever the grid's offset, so it is computed once; the area above
-    the share of the peak is the cells' above the share of each grid's own peak, as a map
-    reads it, so that comparison is made per grid."""
-    def against(cells: np.ndarray) -> Callable[[np.ndarray], float]:
+    cells, as a function of (points' amplitudes, the cells' amplitudes). The area above the
+    share of the peak is the cells' above the share of the points' peak, as a map reads it."""
+    def error(points: np.ndarray, cells: np.ndarray) -> float:
+        read = homogeneity(points, share_of_peak)
         if attribute == "fraction_above_share":
-            def error(points: np.ndarray) -> float:
-                read = homogeneity(points, share_of_peak)
-                return read.fraction_above_share - float(np.mean(cells >= share_of_peak * read.maximum))
-            return error
-        figure = getattr(homogeneity(cells, share_of_peak), attribute)
-        return lambda points: getattr(homogeneity(points, share_of_peak), attribute) - figure
-    return against
+            return read.fraction_above_share - float(np.mean(cells >= share_of_peak * read.maximum))
+        return getattr(read, attribute) - getattr(homogeneity(cells, share_of_peak), attribute)
+    return error
 
 
-def shifted_grid_errors(readings: CellReadings, error: GridError) -> np.ndarray:
-    """`error` (e.g. `grid_error`) of the grid shifted by each sub-step offset across a cell
-    (READING_SAMPLES per axis), read off the field between the points: column j of
-    `readings` is where the grid's points would be, shifted by spot j's offset; all the
-    columns together are the vibration over the cells."""
-    values = readings.values
-    of_points = error(values.ravel())
-    return np.array([of_points(values[:, j]) for j in range(values.shape[1])])
+def placement_shifts(readings: CellReadings) -> list[tuple[float, float]]:
+    """Where the grid may have fallen about where it did, in grid steps per axis: the
+    plate's placement on the stage (`specifications.SPECIFICATIONS["plate_placement"]`, a
+    rectangle per axis) at READING_SAMPLES spots of the midpoint rule across it, along the
+    axes the map spans (the x shift the slower)."""
+    half_width_m = 1e-3 * SPECIFICATIONS["plate_placement"].half_width
+    per_axis = [cell_offsets(READING_SAMPLES) * 2.0 * half_width_m / step if math.isfinite(step) else np.zeros(1)
+                for step in readings.steps_m]
+    return [(sx, sy) for sx in per_axis[0] for sy in per_axis[1]]
+
+
+def shifted_grid_errors(readings: CellReadings, error: Callable[[np.ndarray, np.ndarray], float]) -> np.ndarray:
+    """`error` (e.g. `grid_error`) of the grid shifted by each of `placement_shifts`, read
+    off the field between the points: the shifted grid's points against the vibration over
+    its own cells, which move with it (a map's figure is the vibration's over the area its
+    grid covers; against the unshifted cells, the shifted grid's error would also carry
+    how that area's own figure moves along the mode, which is no error of the map)."""
+    return np.array([error(readings.at_points(shift), readings.over_cells(shift).ravel())
+                     for shift in placement_shifts(readings)])
 
 
 def grid_term(errors: np.ndarray, method: str) -> Term:
@@ -200,31 +275,31 @@ def grid_term(errors: np.ndarray, method: str) -> Term:
     its cell; the figure those points give differs from the vibration's over the cells by an
     error that depends on where the grid lands on the mode (an aliasing error: a standing
     wave's sampled mean square is off by a cosine of the grid's offset along it), and the
-    grid's place is not known: the plate is aligned on the stage by eye, to a millimetre or
-    so, and the mode's phase along the plate is not known to the analysis at all. `errors`
-    are that error for the grid placed at every sub-step offset across a cell
-    (`shifted_grid_errors`, read off the measured field's own smooth reconstruction), so
-    their root mean square is the standard deviation of the error of a grid at an unknown
+    grid's place is not known: the plate is aligned on the stage by eye, within its
+    placement (`specifications.SPECIFICATIONS["plate_placement"]`, +-1 mm per axis). `errors`
+    are that error for the grid placed across it (`shifted_grid_errors`, read off the
+    measured field's own bending reconstruction, the cells moving with the grid), so their
+    root mean square is the standard deviation of the error of a grid at an unknown
     place (GUM 4.3.1: a Type B evaluation from the information at hand; F.2.4.5: a
     correction not applied is carried in the uncertainty), taken as normal. No correction
     is applied: which offset the grid had is what is not known.
 
     Checked (tests/test_cartography_mode.py): on a standing wave the shifted grids' errors
     are the closed form's (a sampled sin^2 mean is off by a cosine of the offset) and the
-    term their root mean square. On the large plate's mode it is 1.3-1.7 times the true
-    errors' spread across a cell, the most at the paper campaign's 4 mm grid (2.4 points
-    per half-wave), where the cubic reading between the points is itself off. A CV's error
-    across offsets is nearly a cosine of the offset, within about sqrt(2) standard
-    deviations, so its U over-covers; the area above the share of the peak jumps by whole
-    columns of points as they cross the threshold, which the reading smooths, and at
-    registrations where the columns cross in pairs (a grid symmetric about a symmetric
-    mode) its error is beyond U. It does not hold a grid under two points per
-    half-wavelength, whose points read an aliased field that no interpolation between them
-    recovers."""
+    term their root mean square; on a cosine mode at the paper campaign's 4 mm grid (2.3
+    points per half-wave) the CV's term is within 2 % of the true errors' root mean square
+    over the placement (a cubic reading against the unshifted cells gave 0.84-1.77 times
+    it), and on the large plate's mode 1.03 times. A CV's error across offsets is nearly a
+    cosine of the offset, within about sqrt(2) standard deviations, so its U (k = 1.96)
+    still over-covers; the area above the share of the peak jumps by whole columns of
+    points as they cross the threshold, and at registrations where the columns cross in
+    pairs (a grid symmetric about a symmetric mode) its error is beyond U. It does not
+    hold a grid under one point per half-wavelength (k h >= pi), whose points read an
+    aliased field that no reading between them recovers."""
     errors = np.asarray(errors, dtype=float)
     u = float(np.sqrt(np.mean(errors**2))) if errors.size else 0.0
     return Term("grid (where it fell on the mode)", "B", u,
-                f"the points' figure vs the field's over their cells, the grid shifted across a cell "
+                f"the points' figure vs the field's over their cells, the grid shifted across the plate's placement "
                 f"({errors.size} offsets, the {method or 'no'} reading between the points), root mean square, "
                 "as a standard deviation", rectangular=False)
 
