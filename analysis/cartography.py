@@ -16,6 +16,7 @@ from the simulated bench.
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 from typing import Callable
@@ -95,10 +96,15 @@ def bending_functions(kh_fourth: float, x_steps: np.ndarray) -> np.ndarray:
     x-dependence of an (n, 0) mode; an Euler-Bernoulli beam alike), spanned by cos, sin, cosh
     and sinh of k x. In series form they stay well conditioned as k h -> 0, where they are
     1, x, x^2 and x^3: the bending reading is then the cubic through four points."""
-    x = np.asarray(x_steps, dtype=float)[..., None]
-    m = np.arange(4)
-    return sum(kh_fourth**n * x ** (4 * n + m) * np.array([math.factorial(i) / math.factorial(4 * n + i) for i in m])
-               for n in range(BENDING_SERIES_TERMS))
+    x = np.asarray(x_steps, dtype=float)[..., None, None]   # ..., series term n, function m
+    return np.sum(kh_fourth ** _SERIES_ORDERS * _SERIES_COEFFICIENTS * x ** _SERIES_POWERS, axis=-2)
+
+
+# The series' constants, made once: a map's grid term evaluates the series some 10^4 times.
+_SERIES_ORDERS = np.arange(BENDING_SERIES_TERMS)[:, None]
+_SERIES_POWERS = 4 * _SERIES_ORDERS + np.arange(4)
+_SERIES_COEFFICIENTS = np.array([[math.factorial(m) / math.factorial(4 * n + m) for m in range(4)]
+                                 for n in range(BENDING_SERIES_TERMS)])
 
 
 def wavenumber_per_step(grid: np.ndarray, axis: int) -> float:
@@ -158,29 +164,38 @@ class CellReadings:
     def values(self) -> np.ndarray:
         return self.over_cells((0.0, 0.0))
 
-    def _field(self, positions: list[np.ndarray]) -> np.ndarray:
-        """The signed field at the tensor lattice of `positions` (grid steps per axis)."""
-        width = dict(READING_ORDERS)[self.method]
-        readers = [bending_weights(n, kh, p, width) for n, kh, p in zip(self.grid.shape, self.wavenumbers, positions)]
-        return readers[0] @ self.grid @ readers[1].T
+    def _reader(self, axis: int, shift: float, samples: int) -> np.ndarray:
+        """Weights reading the field along `axis` at `samples` spots (`cell_offsets`; one: the
+        point itself) about every point of the grid shifted by `shift` (steps)."""
+        n = self.grid.shape[axis]
+        spots = cell_offsets(samples) if n > 1 else np.zeros(1)
+        positions = (np.arange(n)[:, None] + shift + spots).ravel()
+        return bending_weights(n, self.wavenumbers[axis], positions, dict(READING_ORDERS)[self.method])
 
-    def _spots(self, shift: tuple[float, float], spots: np.ndarray) -> np.ndarray:
-        """|field| at `spots` (steps) about every point of the grid shifted by `shift`
-        (steps per axis): points x spots per wide axis, the x spot the slower."""
-        wide = [n > 1 for n in self.grid.shape]
-        per_axis = [len(spots) if w else 1 for w in wide]
-        positions = [(np.arange(n)[:, None] + s + (spots if w else np.zeros(1))).ravel()
-                     for n, s, w in zip(self.grid.shape, shift, wide)]
-        field = self._field(positions).reshape(self.grid.shape[0], per_axis[0], self.grid.shape[1], per_axis[1])
+    def _spots(self, readers: tuple[np.ndarray, np.ndarray], samples: int) -> np.ndarray:
+        """|field| at the spots `readers` read (`_reader`, `samples` per wide axis) about every
+        point: points x spots, the x spot the slower."""
+        per_axis = [samples if n > 1 else 1 for n in self.grid.shape]
+        field = (readers[0] @ self.grid @ readers[1].T).reshape(self.grid.shape[0], per_axis[0],
+                                                                self.grid.shape[1], per_axis[1])
         return np.abs(field.transpose(0, 2, 1, 3)[self.filled].reshape(int(self.filled.sum()), -1))
 
     def over_cells(self, shift: tuple[float, float]) -> np.ndarray:
         """|field| over the cells of the grid shifted by `shift` (steps per axis)."""
-        return self._spots(shift, cell_offsets(READING_SAMPLES))
+        return self._spots(tuple(self._reader(axis, s, READING_SAMPLES) for axis, s in enumerate(shift)),
+                           READING_SAMPLES)
 
-    def at_points(self, shift: tuple[float, float]) -> np.ndarray:
-        """|field| at the points of the grid shifted by `shift` (steps per axis)."""
-        return self._spots(shift, np.zeros(1)).ravel()
+    def placed(self, shifts: list[tuple[float, float]]) -> list[tuple[np.ndarray, np.ndarray]]:
+        """(|field| at the points, |field| over the cells) of the grid shifted by each of
+        `shifts` (steps per axis). A placement's shifts are a lattice, so each axis's weights
+        are made once per distinct shift along it: 8 per axis, not 64 (they were most of a
+        map's grid term)."""
+        @functools.cache
+        def reader(axis: int, shift: float, samples: int) -> np.ndarray:
+            return self._reader(axis, shift, samples)
+
+        return [tuple(self._spots(tuple(reader(axis, s, samples) for axis, s in enumerate(shift)), samples)
+                      for samples in (1, READING_SAMPLES)) for shift in shifts]
 
 
 def _point_grid(x_m: np.ndarray, y_m: np.ndarray, signed: np.ndarray) -> tuple[list[np.ndarray], np.ndarray, np.ndarray]:
@@ -264,8 +279,7 @@ def shifted_grid_errors(readings: CellReadings, error: Callable[[np.ndarray, np.
     its own cells, which move with it (a map's figure is the vibration's over the area its
     grid covers; against the unshifted cells, the shifted grid's error would also carry
     how that area's own figure moves along the mode, which is no error of the map)."""
-    return np.array([error(readings.at_points(shift), readings.over_cells(shift).ravel())
-                     for shift in placement_shifts(readings)])
+    return np.array([error(points.ravel(), cells.ravel()) for points, cells in readings.placed(placement_shifts(readings))])
 
 
 def grid_term(errors: np.ndarray, method: str) -> Term:
