@@ -185,17 +185,19 @@ class CellReadings:
         return self._spots(tuple(self._reader(axis, s, READING_SAMPLES) for axis, s in enumerate(shift)),
                            READING_SAMPLES)
 
-    def placed(self, shifts: list[tuple[float, float]]) -> list[tuple[np.ndarray, np.ndarray]]:
+    @functools.cached_property
+    def placements(self) -> list[tuple[np.ndarray, np.ndarray]]:
         """(|field| at the points, |field| over the cells) of the grid shifted by each of
-        `shifts` (steps per axis). A placement's shifts are a lattice, so each axis's weights
-        are made once per distinct shift along it: 8 per axis, not 64 (they were most of a
-        map's grid term)."""
+        `placement_shifts`: made once per map, for the grid term of every figure (the CV and
+        the area read the same shifted fields). The shifts are a lattice, so each axis's
+        weights are made once per distinct shift along it: 8 per axis, not 64 (they were most
+        of a map's grid term)."""
         @functools.cache
         def reader(axis: int, shift: float, samples: int) -> np.ndarray:
             return self._reader(axis, shift, samples)
 
         return [tuple(self._spots(tuple(reader(axis, s, samples) for axis, s in enumerate(shift)), samples)
-                      for samples in (1, READING_SAMPLES)) for shift in shifts]
+                      for samples in (1, READING_SAMPLES)) for shift in placement_shifts(self)]
 
 
 def _point_grid(x_m: np.ndarray, y_m: np.ndarray, signed: np.ndarray) -> tuple[list[np.ndarray], np.ndarray, np.ndarray]:
@@ -203,7 +205,7 @@ def _point_grid(x_m: np.ndarray, y_m: np.ndarray, signed: np.ndarray) -> tuple[l
     axes, the signed field at each cell (the mean of the points there; NaN readings count as
     missing) and which cells a point filled. A missing point takes its column's previous,
     then next, value along x, then its row's along y. In NumPy: a pandas pivot table took
-    13 ms, most of a reading's time, and a map's grid term reads two fields per map."""
+    13 ms, most of a reading's time."""
     x, y = (np.round(np.asarray(axis, dtype=float), 9) for axis in (x_m, y_m))
     v = np.asarray(signed, dtype=float)
     read = ~np.isnan(v)
@@ -215,9 +217,7 @@ def _point_grid(x_m: np.ndarray, y_m: np.ndarray, signed: np.ndarray) -> tuple[l
     grid = np.divide(sums, counts, out=np.full(sums.shape, np.nan), where=filled)
     for axis in (0, 1):
         grid = _backward_filled(_forward_filled(grid, axis), axis)
-    # read-only, as pandas handed its table over: scipy's linear reader then takes the NumPy
-    # path the map figures were computed on (its compiled path differs in the last bit)
-    grid.flags.writeable = False
+    grid.flags.writeable = False   # the readings' cached fields were read off it as it is
     return [xs, ys], grid, filled
 
 
@@ -279,7 +279,7 @@ def shifted_grid_errors(readings: CellReadings, error: Callable[[np.ndarray, np.
     its own cells, which move with it (a map's figure is the vibration's over the area its
     grid covers; against the unshifted cells, the shifted grid's error would also carry
     how that area's own figure moves along the mode, which is no error of the map)."""
-    return np.array([error(points.ravel(), cells.ravel()) for points, cells in readings.placed(placement_shifts(readings))])
+    return np.array([error(points.ravel(), cells.ravel()) for points, cells in readings.placements])
 
 
 def grid_term(errors: np.ndarray, method: str) -> Term:
