@@ -522,6 +522,18 @@ def within_expanded_interval(truth, value, u):
     return bool(inside) if inside.ndim == 0 else inside
 
 
+def interval_reach(truth, value, u):
+    """How far `truth` lies from `value` as a fraction of the shown interval's half on its side
+    (`expanded_interval`): at most 1 exactly where `within_expanded_interval` holds, so a
+    "largest error over U" beside a count of verdicts never says 0.3 of a miss. |truth - value|
+    / U on a value +- U interval; below the value of a factor interval, over value - value / F."""
+    low, high = expanded_interval(value, u)
+    value, truth = np.asarray(value, dtype=float), np.asarray(truth, dtype=float)
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        reach = np.where(truth >= value, (truth - value) / (high - value), (value - truth) / (value - low))
+    return float(reach) if reach.ndim == 0 else reach
+
+
 def drive_term_rel(fit_on: str = DRIVE_FIT_ON) -> dict[str, float]:
     """The drive's model-form term sized on `fit_on` (`drive_model_form`) as relative expanded
     uncertainties (k = 2, `log_term_expanded_rel`) of a response at a given voltage going as
@@ -561,7 +573,8 @@ def drive_cross_check() -> pd.DataFrame:
     """The drive's model-form term sized on each build in turn (`drive_model_form`) and judged on
     every build: per (fitted build, judged build) the term's size, and how many of the judged
     build's printed velocities and powers (at the printed voltage, and at the printed velocity)
-    the predictions' U then holds (`within_expanded_interval`), and the largest |error| / U
+    the predictions' U then holds (`within_expanded_interval`), and the largest reach into
+    the interval (`interval_reach`: above 1 exactly for a miss)
     (`role` "fitted" where the two builds are one: an in-sample figure, not a test)."""
     rows = []
     for fit_on in DRIVE_BUILDS:
@@ -578,10 +591,10 @@ def drive_cross_check() -> pd.DataFrame:
                                             ("power_at_velocity", "predicted_power_at_printed_velocity_w",
                                              "predicted_power_at_printed_velocity_u_w", "printed_power_w")):
                 scored = part[np.isfinite(part[printed])]
-                ratio = (scored[value] - scored[printed]).abs() / scored[u]
                 row[f"{name}_covered"] = int(within_expanded_interval(scored[printed], scored[value], scored[u]).sum())
                 row[f"{name}_scored"] = len(scored)
-                row[f"{name}_max_error_over_u"] = float(ratio.max()) if len(scored) else math.nan
+                row[f"{name}_max_error_over_u"] = (float(np.max(interval_reach(scored[printed], scored[value], scored[u])))
+                                                   if len(scored) else math.nan)
             rows.append(row)
     return pd.DataFrame(rows)
 

@@ -236,7 +236,8 @@ def predicted_section(context: ReportContext) -> Section:
         html_table(predicted_plates.drive_cross_check(),
                    "the term (standard uncertainties of ln force factor and ln Q, and the power's relative U it "
                    "gives) sized on each build in turn; how many of each build's printed velocities and powers "
-                   "the U then holds, and the largest |error| / U; 'fitted' rows are in-sample, not a test"))
+                   "the U then holds, and the largest error as a share of the interval's half on its side (above 1 for "
+                   "a miss); 'fitted' rows are in-sample, not a test"))
     fit = damping.fit_and_check()
     body += presentation.fold(
         f"Damping from physics: fitted on {damping.FIT_ON}, judged on the other builds", html_table(

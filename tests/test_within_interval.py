@@ -15,7 +15,7 @@ from hypothesis import strategies as st
 from uncertainties import ufloat
 
 from squeezebench.plates import predicted_plates
-from squeezebench.plates.predicted_plates import expanded_interval, within_expanded_interval
+from squeezebench.plates.predicted_plates import expanded_interval, interval_reach, within_expanded_interval
 
 #: U 30 past the value 10: F = 4, the interval 2.5 to 40; 1 lies within 10 +- 30, not within the interval.
 VALUE, U, BELOW_FACTOR_END = 10.0, 30.0, 1.0
@@ -148,13 +148,30 @@ def test_the_headlines_physics_count_is_the_factor_interval():
     assert count(BELOW_FACTOR_END) == "0 of 1" and count(3.0) == "1 of 1"
 
 
+def test_interval_reach_closed_forms():
+    assert interval_reach(12.0, 10.0, 2.0) == pytest.approx(1.0) and interval_reach(9.0, 10.0, 2.0) == pytest.approx(0.5)
+    assert interval_reach(40.0, VALUE, U) == pytest.approx(1.0) and interval_reach(2.5, VALUE, U) == pytest.approx(1.0)
+    assert interval_reach(-8.0, -3.0, 5.0) == pytest.approx(1.0)
+    assert list(interval_reach(np.array([11.0, 7.0]), 10.0, 2.0)) == pytest.approx([0.5, 1.5])
+
+
+@given(truth=finite, value=finite, u=uncertainty)
+@settings(max_examples=300)
+def test_interval_reach_is_past_one_exactly_outside_the_interval(truth, value, u):
+    low, high = expanded_interval(value, u)
+    # away from the ends, where the two sides of a rounding error could disagree
+    assume(u > 1e-9 and min(abs(truth - low), abs(truth - high)) > 1e-9 * max(1.0, abs(value), u))
+    assert (interval_reach(truth, value, u) <= 1.0) == within_expanded_interval(truth, value, u)
+
+
 def test_the_drive_cross_check_counts_the_factor_interval(monkeypatch):
     form = {"u_force_factor_ln": 0.5, "u_q_ln": 0.3, "u_power_ln": 0.9}
     monkeypatch.setattr(predicted_plates, "drive_model_form", lambda fit_on: form)
     monkeypatch.setattr(predicted_plates, "predictions", lambda fit_on: _plates(VALUE, U, BELOW_FACTOR_END))
     check = predicted_plates.drive_cross_check()
     assert (check["power_covered"] == 0).all() and (check["power_scored"] == 1).all()
-    assert check["power_max_error_over_u"].to_numpy() == pytest.approx(0.3)   # |error| / U below 1, yet outside
+    # |error| / U is 0.3, yet the truth is outside: the reach is (10 - 1) / (10 - 2.5) = 1.2, past 1 as a miss is
+    assert check["power_max_error_over_u"].to_numpy() == pytest.approx(1.2)
     assert (check["velocity_covered"] == 1).all()
     monkeypatch.setattr(predicted_plates, "predictions", lambda fit_on: _plates(VALUE, U, 3.0))
     assert (predicted_plates.drive_cross_check()["power_covered"] == 1).all()
