@@ -255,17 +255,38 @@ def cell_readings(x_m: np.ndarray, y_m: np.ndarray, signed: np.ndarray) -> CellR
     return CellReadings(grid, filled, wavenumbers, steps_m, method)
 
 
-def grid_error(attribute: str, share_of_peak: float) -> Callable[[np.ndarray, np.ndarray], float]:
+@dataclass(frozen=True)
+class GridError:
     """The error of homogeneity figure `attribute` read as a grid's points' (`homogeneity`,
     each point standing for its cell) against the same figure of the vibration over their
     cells, as a function of (points' amplitudes, the cells' amplitudes). The area above the
     share of the peak is the cells' above the share of the points' peak, as a map reads it."""
-    def error(points: np.ndarray, cells: np.ndarray) -> float:
-        read = homogeneity(points, share_of_peak)
-        if attribute == "fraction_above_share":
-            return read.fraction_above_share - float(np.mean(cells >= share_of_peak * read.maximum))
-        return getattr(read, attribute) - getattr(homogeneity(cells, share_of_peak), attribute)
-    return error
+
+    attribute: str
+    share_of_peak: float
+
+    def __call__(self, points: np.ndarray, cells: np.ndarray) -> float:
+        read = homogeneity(points, self.share_of_peak)
+        if self.attribute == "fraction_above_share":
+            return read.fraction_above_share - float(np.mean(cells >= self.share_of_peak * read.maximum))
+        return getattr(read, self.attribute) - getattr(homogeneity(cells, self.share_of_peak), self.attribute)
+
+    def of_rows(self, points: np.ndarray, cells: np.ndarray) -> np.ndarray:
+        """The error of each row of `points` and `cells` (a placement's |field| at the
+        points, over the cells), equal to calling it row by row to the last bit: the grid
+        term's 64 placements at once, where a `homogeneity` per placement took most of it."""
+        if self.attribute == "coefficient_of_variation":
+            return coefficients_of_variation(points) - coefficients_of_variation(cells)
+        if self.attribute == "fraction_above_share":
+            values = np.abs(points)
+            peak = self.share_of_peak * values.max(axis=1, keepdims=True)
+            return np.mean(values >= peak, axis=1) - np.mean(cells >= peak, axis=1)
+        return np.array([self(p, c) for p, c in zip(points, cells)])
+
+
+def grid_error(attribute: str, share_of_peak: float) -> GridError:
+    """`GridError` of figure `attribute` at `share_of_peak`."""
+    return GridError(attribute, share_of_peak)
 
 
 def placement_shifts(readings: CellReadings) -> list[tuple[float, float]]:
@@ -285,6 +306,8 @@ def shifted_grid_errors(readings: CellReadings, error: Callable[[np.ndarray, np.
     its own cells, which move with it (a map's figure is the vibration's over the area its
     grid covers; against the unshifted cells, the shifted grid's error would also carry
     how that area's own figure moves along the mode, which is no error of the map)."""
+    if isinstance(error, GridError):   # every placement at once
+        return error.of_rows(*(np.stack([placed[i].ravel() for placed in readings.placements]) for i in (0, 1)))
     return np.array([error(points.ravel(), cells.ravel()) for points, cells in readings.placements])
 
 
