@@ -13,10 +13,19 @@ messages unsent fails the test, as does any message out of order.
 
 from __future__ import annotations
 
-import fcntl
-import json
 import os
-import tempfile
+
+# One BLAS thread per test process, set before NumPy loads OpenBLAS (it reads these once):
+# the README's `pytest -n auto` runs a worker per core, and each worker's OpenBLAS threads
+# spinning for a core the other worker holds cost CPU-seconds, not time saved (a grid-term
+# test on the large plate's mode took 18 CPU-s with them, 8 without). Processes the tests
+# start inherit it; loky's workers set their own (joblib: cores over workers).
+for _variable in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_variable, "1")
+
+import fcntl  # noqa: E402
+import json  # noqa: E402
+import tempfile  # noqa: E402
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Any, Callable, Iterator
