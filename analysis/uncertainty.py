@@ -58,11 +58,12 @@ def delay_std_uncertainty_s() -> float:
     """CH2 delay against CH1 before any deskew, as the budgets carry it: a bias bound, not a
     zero-mean spread. The current probe lags by a delay of known sign up to
     `current_probe_lag` (beyond its +-10 ns specification when its cable is long), and the
-    scope's skew adds up to its limit: |tau| <= that sum, uncorrected. Carried in
-    quadrature as the standard uncertainty whose k-fold is the bound (u = bound / k, k the
-    normal's 1.96: the term is no rectangle, `delay_term`), so a U whose delay term
-    dominates holds any delay within the bound, of either sign (the former +-10 ns
-    rectangle about zero missed a 17 ns lag at the Fig. 2c stress point)."""
+    scope's skew adds up to its limit: |tau| <= that sum, uncorrected. Stored as the standard
+    uncertainty whose 1.96-fold is the bound (u = bound / 1.96) and budgeted as a bias bound
+    (`delay_term`, `budgets.Term.bias`): U holds the value at any delay within the bound, of
+    either sign, 95 % of the time whatever the rest (the former +-10 ns rectangle about zero
+    missed a 17 ns lag at the Fig. 2c stress point, and the bound in quadrature held a delay
+    at the bound, with the rest's errors, about half the time)."""
     bound_s = SPECIFICATIONS["current_probe_lag"].half_width + SPECIFICATIONS["scope_skew"].half_width
     return bound_s / P95_FACTOR
 
@@ -70,7 +71,7 @@ def delay_std_uncertainty_s() -> float:
 def delay_term(sensitivity: float) -> Term:
     """The uncorrected CH2 delay's bias bound in a budget, `sensitivity` per second."""
     return Term("CH2 delay vs CH1 (skew, TCP202)", "B", abs(sensitivity) * delay_std_uncertainty_s(), DELAY_SOURCE,
-                rectangular=False)
+                bias=True)
 
 
 #: Where the uncorrected CH2 delay's bound comes from.
@@ -265,11 +266,12 @@ DRIFT_TERM = "resonance drift (plate warming, room)"
 
 
 def drift_term(bound: float, sources) -> Term:
-    """The resonance's drift in a budget: a bias bound (k u = bound, no rectangle), Type A
-    when every bound came from the run's own readings (`analysis.resonance_drift`)."""
+    """The resonance's drift in a budget: a bias bound (`budgets.Term.bias`: one-sided, the
+    plate warms under drive; U holds any drift within it, not a spread about zero in
+    quadrature), Type A when every bound came from the run's own readings (`analysis.resonance_drift`)."""
     sources = list(dict.fromkeys(sources))
     return Term(DRIFT_TERM, "A" if all(s.startswith("Type A") for s in sources) else "B",
-                abs(bound) / P95_FACTOR, "bias bound (k u = bound): " + "; ".join(sources), rectangular=False)
+                abs(bound) / P95_FACTOR, "bias bound (k u = bound): " + "; ".join(sources), bias=True)
 
 
 def _power_drift_per_hz(points: pd.DataFrame | dict, slope) -> np.ndarray:
