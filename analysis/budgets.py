@@ -80,6 +80,15 @@ class Budget:
         return self.coverage_factor * self.std_uncertainty
 
     @property
+    def p95_bound(self) -> float:
+        """The |error| the budget allows 95 % of the time, for a floor (`uncertainty.systematic_floor`):
+        the normal's P95_FACTOR u, which no k of rectangles and normals exceeds; with a bias
+        bound its U, which is wider (a bias at its bound is no spread about zero)."""
+        if not any(t.bias for t in self.terms):
+            return P95_FACTOR * self.std_uncertainty
+        return max(P95_FACTOR * self.std_uncertainty, self.expanded_uncertainty)
+
+    @property
     def dominant(self) -> Term:
         return max(self.terms, key=lambda t: t.std_uncertainty)
 

@@ -632,7 +632,8 @@ def systematic_floor(points: pd.DataFrame, calibration: Deskew | None = None) ->
     """Per (run, quantity): the p95 relative error the instruments' specified errors leave
     when the noise is averaged away (Type A set to zero; the plate's resonance drift, which
     the run's own readings bound and no setting does, left out), at the run's worst point, with
-    the term that dominates there and the calibration that would lift it (if any).
+    the term that dominates there and the calibration that would lift it (if any); p95 as
+    `Budget.p95_bound` (1.96 u, or U where the uncorrected delay's bias bound widens it).
 
     `calibration`: the floor after that calibration (its uncertainties; its values do not matter).
     """
@@ -649,14 +650,14 @@ def systematic_floor(points: pd.DataFrame, calibration: Deskew | None = None) ->
                     continue
                 # the instruments' floor: the plate's drift is the run's, not the settings' (`_point_drift_terms`)
                 budget = point_budget(quantity, {**row, f"{quantity}_u": 0.0, "resonance_drift_hz": math.nan}, deskew)
-                relative = budget.std_uncertainty / abs(budget.value)
+                relative = budget.p95_bound / abs(budget.value)
                 if worst is None or relative > worst[0]:
                     worst = (relative, budget)
             if worst is None:
                 continue
             relative, budget = worst
             dominant = budget.dominant.name
-            rows.append({"run_name": run_name, "quantity": quantity, "floor_p95_rel": P95_FACTOR * relative,
+            rows.append({"run_name": run_name, "quantity": quantity, "floor_p95_rel": relative,
                          "dominant_term": dominant, "lifted_by": LIFTED_BY.get(dominant, "")})
     return pd.DataFrame(rows, columns=["run_name", "quantity", "floor_p95_rel", "dominant_term", "lifted_by"])
 
@@ -677,10 +678,10 @@ def characterisation_floor(run: RunData, calibration: Deskew | None = None,
     for plate in characterise_plates(run, convention).values():
         run_name = str(plate.points["run_name"].iat[0])
         for budget in characterisation_budgets(plate, convention, calibration, with_fit=False):
-            relative = budget.std_uncertainty / abs(budget.value)
+            relative = budget.p95_bound / abs(budget.value)
             if relative > worst.get((run_name, budget.quantity), (-1.0, None))[0]:
                 worst[(run_name, budget.quantity)] = (relative, budget)
-    return pd.DataFrame([{"run_name": run_name, "quantity": quantity, "floor_p95_rel": P95_FACTOR * relative,
+    return pd.DataFrame([{"run_name": run_name, "quantity": quantity, "floor_p95_rel": relative,
                           "dominant_term": budget.dominant.name, "lifted_by": LIFTED_BY.get(budget.dominant.name, "")}
                          for (run_name, quantity), (relative, budget) in worst.items()], columns=columns)
 
