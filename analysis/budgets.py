@@ -3,7 +3,10 @@ factor k for 95 % under every error model the budget claims to cover, from the b
 terms: its rectangular terms (stated limits) as the specifications state them, convolved with
 the normal rest on a grid, and as the world reads a limit (`plates.specifications.WORLD_READING`:
 normal with half the limit as its spread, now and then beyond it), a mixture of normals in
-closed form. Not k = 2 by default.
+closed form. Not k = 2 by default. A bias bound (an error of unknown size within +-B that no
+average removes: the resonance's drift, an uncorrected delay) is no spread about zero: U holds
+95 % whatever the bias within its bound, so it adds to the rest's U nearly linearly rather
+than in quadrature (GUM F.2.4.5).
 `analysis.uncertainty` builds the stored values' budgets from these.
 """
 
@@ -41,12 +44,21 @@ class Term:
     std_uncertainty: float  # in the unit of the budget's value
     source: str
     #: A stated limit read as a rectangle (GUM 4.3.7): a Type B term unless it says otherwise
-    #: (a bias bound whose k-fold is the bound is no rectangle about zero).
+    #: (a standard deviation is normal).
     rectangular: bool | None = None
+    #: A bias bound: the error is one value within +-`bound` (P95_FACTOR u), of a sign or size
+    #: nothing here knows, the same on every reading (a one-sided drift, an uncorrected delay):
+    #: U must hold the value at any bias within it, not on average over a spread about zero.
+    bias: bool = False
 
     @property
     def is_rectangular(self) -> bool:
-        return self.type == "B" if self.rectangular is None else self.rectangular
+        return not self.bias and (self.type == "B" if self.rectangular is None else self.rectangular)
+
+    @property
+    def bound(self) -> float:
+        """A bias bound's half-width (the standard uncertainty it is stored as is bound / P95_FACTOR)."""
+        return P95_FACTOR * self.std_uncertainty if self.bias else 0.0
 
 
 @dataclass(frozen=True)
@@ -68,19 +80,32 @@ class Budget:
         return self.coverage_factor * self.std_uncertainty
 
     @property
+    def p95_bound(self) -> float:
+        """The |error| the budget allows 95 % of the time, for a floor (`uncertainty.systematic_floor`):
+        the normal's P95_FACTOR u, which no k of rectangles and normals exceeds; with a bias
+        bound its U, which is wider (a bias at its bound is no spread about zero)."""
+        if not any(t.bias for t in self.terms):
+            return P95_FACTOR * self.std_uncertainty
+        return max(P95_FACTOR * self.std_uncertainty, self.expanded_uncertainty)
+
+    @property
     def dominant(self) -> Term:
         return max(self.terms, key=lambda t: t.std_uncertainty)
 
     @property
     def coverage_factor(self) -> float:
         """The smallest k such that +-k u holds the value with COVERAGE_PROBABILITY under every
-        error model in ERROR_MODELS (`shape_coverage_factor`). Under the specified rectangles
+        error model in ERROR_MODELS, at every bias within the budget's bias bounds
+        (`shape_coverage_factor`). Under the specified rectangles
         alone k runs from 1.96 for a normal down to 1.65 (0.95 sqrt(3)) when one rectangle is
         the whole budget (GUM G.2.3 / G.6.5; JCGM 101 5.3: k from the distribution, not 2 by
         default); but a limit read as the world reads it (normal, half the limit as spread, one
         in 100 at 1.5 times it) leaves that 1.65 covering 93.3 %, so such a budget takes the
-        world's 1.78, and a budget of normal terms keeps 1.96."""
-        return shape_coverage_factor(self._shape())
+        world's 1.78, and a budget of normal terms keeps 1.96. A bias bound B with a normal rest
+        of u_r takes U with Phi((U - B) / u_r) - Phi((-U - B) / u_r) = 0.95: B + 1.645 u_r once
+        B >> u_r, where a quadrature of B / 1.96 would give U = sqrt(B^2 + (1.96 u_r)^2) and
+        hold a bias at its bound 1 time in 2."""
+        return shape_coverage_factor(*self._shape())
 
     def coverage_probability(self, k: float = COVERAGE_FACTOR, error_model: str = SPECIFIED) -> float:
         """The probability that +-k u holds the value under the budget's distribution in
@@ -88,22 +113,28 @@ class Budget:
         (`budget_distribution`) or as the world reads their limits (`WorldMixture`), the rest normal (GUM G.2: a sum of
         several terms tends to one). k = 2 gives 95 % only near normal; where one rectangular
         term dominates it gives more under the specifications (1 at most for the rectangle
-        alone once k u >= sqrt(3) u)."""
+        alone once k u >= sqrt(3) u). With bias bounds, the least such probability over every
+        bias within them (`worst_bias_probability`): what the U promises whatever the bias."""
+        rectangles, rest, bias = self._shape()
         if error_model == WORLD:
-            return WorldMixture.of(*self._shape()).probability(k)
+            return worst_bias_probability(WorldMixture.of(rectangles, rest).biased_probability, k, bias)
         if error_model == SPECIFIED:
-            return budget_distribution(*self._shape()).probability(k)
+            return worst_bias_probability(budget_distribution(rectangles, rest).biased_probability, k, bias)
         raise ValueError(f"unknown error model {error_model!r}: one of {', '.join(ERROR_MODELS)}")
 
-    def _shape(self) -> tuple[tuple[float, ...], float]:
-        """The rectangles' half-widths and the rest's standard deviation, in units of u
-        (rounded: budgets of one shape share one distribution)."""
+    def _shape(self) -> tuple[tuple[float, ...], float, float]:
+        """The rectangles' half-widths, the rest's standard deviation and the bias bounds'
+        sum (bounds of unknown signs add: their worst case is all at one side), in units of u
+        (rounded: budgets of one shape share one distribution; the rest and the bias up, as
+        a U a hair wide is no fault and one a hair short of a large bias is)."""
         u = self.std_uncertainty
         if u == 0.0:
-            return (), 1.0
+            return (), 1.0, 0.0
         rectangles = [math.sqrt(3.0) * t.std_uncertainty / u for t in self.terms if t.is_rectangular]
-        rest = math.sqrt(max(1.0 - sum(a * a / 3.0 for a in rectangles), 0.0))
-        return tuple(sorted(round(a, 3) for a in rectangles if a >= 1e-3)), round(rest, 3)
+        bias_variance = sum((t.std_uncertainty / u) ** 2 for t in self.terms if t.bias)
+        rest = math.sqrt(max(1.0 - sum(a * a / 3.0 for a in rectangles) - bias_variance, 0.0))
+        bias = sum(t.bound for t in self.terms) / u
+        return tuple(sorted(round(a, 3) for a in rectangles if a >= 1e-3)), _rounded_up(rest), _rounded_up(bias)
 
     def as_frame(self) -> pd.DataFrame:
         """One row per term, largest first, with its share of the combined variance."""
@@ -116,6 +147,11 @@ class Budget:
         return pd.DataFrame(rows, columns=BUDGET_COLUMNS)
 
 
+def _rounded_up(x: float) -> float:
+    """x to the next 1e-3 above it (a shape's rounding; not past x itself when x is on one)."""
+    return math.ceil(x * 1e3 - 1e-6) / 1e3
+
+
 @dataclass(frozen=True)
 class Distribution:
     """P(|X| <= x) on a grid of x >= 0, X in units of its standard deviation."""
@@ -126,9 +162,19 @@ class Distribution:
     def probability(self, k: float) -> float:
         return float(np.interp(k, self.x, self.covered))
 
-    def factor(self, probability: float) -> float:
-        """The smallest k with P(|X| <= k) >= probability."""
-        return float(self.x[min(int(np.searchsorted(self.covered, probability)), len(self.x) - 1)])
+    def biased_probability(self, k, bias: float):
+        """P(|X + bias| <= k) for X symmetric about 0: F(k - b) - F(-k - b) with
+        F(x) = (1 + sign(x) P(|X| <= |x|)) / 2; `k` a number or an array."""
+        k = np.asarray(k, dtype=float)
+        return 0.5 * (np.sign(k - bias) * np.interp(np.abs(k - bias), self.x, self.covered)
+                      + np.interp(k + bias, self.x, self.covered))
+
+    def factor(self, probability: float, bias: float = 0.0) -> float:
+        """The smallest k with P(|X + b| <= k) >= probability for every |b| <= `bias` (X's
+        density is symmetric and unimodal, a convolution of such: the least coverage is at
+        |b| = bias, Anderson's theorem), on the grid; increasing in k."""
+        held = self.biased_probability(self.x + bias, bias) if bias else self.covered
+        return float(self.x[min(int(np.searchsorted(held, probability)), len(self.x) - 1)] + bias)
 
 
 #: Grid steps per unit of the standard deviation on which a budget's specified distribution is convolved.
@@ -136,13 +182,25 @@ STEPS_PER_U = 2000
 
 
 @functools.lru_cache(maxsize=4096)
-def shape_coverage_factor(shape: tuple[tuple[float, ...], float]) -> float:
-    """The smallest k giving COVERAGE_PROBABILITY under every one of ERROR_MODELS for a
-    budget of `shape` (`Budget._shape`): the largest of their 95 % factors, the specified
-    one from its convolved grid (kept for `Budget.coverage_probability`), the world's in
-    closed form (`world_coverage_factor`)."""
-    return max(budget_distribution(*shape).factor(COVERAGE_PROBABILITY),
-               world_coverage_factor(*shape, COVERAGE_PROBABILITY))
+def shape_coverage_factor(rectangles: tuple[float, ...], rest: float, bias: float = 0.0) -> float:
+    """The smallest k giving COVERAGE_PROBABILITY under every one of ERROR_MODELS, at any bias
+    within +-`bias`, for a budget of this shape (`Budget._shape`): the largest of their 95 %
+    factors, the specified one from its convolved grid (kept for
+    `Budget.coverage_probability`), the world's in closed form (`world_coverage_factor`)."""
+    return max(budget_distribution(rectangles, rest).factor(COVERAGE_PROBABILITY, bias),
+               world_coverage_factor(rectangles, rest, COVERAGE_PROBABILITY, bias))
+
+
+#: Biases at which the least coverage over +-B is sought where X's distribution may not be
+#: unimodal (the world's mixture: its beyond-the-limit components): 0, B / 16, ..., B.
+BIAS_STEPS = 16
+
+
+def worst_bias_probability(biased_probability, k: float, bias: float) -> float:
+    """The least P(|X + b| <= k) over |b| <= `bias` (symmetric X: b >= 0 suffice), on
+    BIAS_STEPS + 1 biases, B among them: where X is symmetric and unimodal the least is at B."""
+    biases = np.linspace(0.0, bias, BIAS_STEPS + 1) if bias else np.zeros(1)
+    return float(min(np.min(biased_probability(k, b)) for b in biases))
 
 
 #: The largest share of the world's error distribution a `WorldMixture` may leave out: its
@@ -194,29 +252,40 @@ class WorldMixture:
 
     def probability(self, k: float) -> float:
         """P(|X| <= k) of the components kept: at most `dropped` below the whole's."""
+        return self.biased_probability(k, 0.0)
+
+    def biased_probability(self, k: float, bias: float) -> float:
+        """P(|X + bias| <= k) of the components kept. Each distinct component stands for
+        itself and its mirror (-mean), which hold the same share of +-k about 0 but not
+        about -bias: both halves are summed."""
         # Imported here: scipy.special is some 0.4 CPU-s to import, which every study and plan
         # worker importing this module would pay, most never asking for a k.
         from scipy.special import ndtr
 
-        with np.errstate(divide="ignore", invalid="ignore"):
-            held = np.where(self.sigmas > 0.0,
-                            ndtr((k - self.means) / self.sigmas) - ndtr((-k - self.means) / self.sigmas),
-                            np.abs(self.means) <= k)   # all limits beyond and no rest: a point
-        return float(np.dot(self.weights, held))
+        def held(means: np.ndarray) -> np.ndarray:
+            with np.errstate(divide="ignore", invalid="ignore"):
+                return np.where(self.sigmas > 0.0,
+                                ndtr((k - means) / self.sigmas) - ndtr((-k - means) / self.sigmas),
+                                np.abs(means) <= k)   # all limits beyond and no rest: a point
 
-    def factor(self, probability: float) -> float:
-        """The smallest k with P(|X| <= k) >= probability, to 1e-10 (Brent's method on the
-        kept components, whose coverage never exceeds the whole's: so no smaller than the
-        whole's k, and above it by at most `dropped` over the density there)."""
+        if not bias:
+            return float(np.dot(self.weights, held(self.means)))
+        return float(np.dot(self.weights, 0.5 * (held(self.means + bias) + held(-self.means + bias))))
+
+    def factor(self, probability: float, bias: float = 0.0) -> float:
+        """The smallest k with P(|X + b| <= k) >= probability for every |b| <= `bias`, to 1e-10
+        (Brent's method on the kept components, whose coverage never exceeds the whole's: so
+        no smaller than the whole's k, and above it by at most `dropped` over the density there)."""
         from scipy.optimize import brentq
 
-        reach = float(np.max(np.abs(self.means) + 8.0 * self.sigmas))
-        return float(brentq(lambda k: self.probability(k) - probability, 0.0, reach, xtol=1e-10))
+        reach = float(np.max(np.abs(self.means) + 8.0 * self.sigmas)) + bias
+        return float(brentq(lambda k: worst_bias_probability(self.biased_probability, k, bias) - probability,
+                            0.0, reach, xtol=1e-10))
 
 
-def world_coverage_factor(rectangles: tuple[float, ...], rest: float, probability: float) -> float:
-    """The world's 95 % factor of a budget's shape (`WorldMixture`)."""
-    return WorldMixture.of(rectangles, rest).factor(probability)
+def world_coverage_factor(rectangles: tuple[float, ...], rest: float, probability: float, bias: float = 0.0) -> float:
+    """The world's 95 % factor of a budget's shape (`WorldMixture`), at any bias within +-`bias`."""
+    return WorldMixture.of(rectangles, rest).factor(probability, bias)
 
 
 #: Specified distributions built lately, by shape: budgets of one shape share one (its k, then

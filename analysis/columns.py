@@ -114,7 +114,7 @@ COLUMNS: dict[str, tuple[str, str]] = {
     "unit": ("", "SI unit of value, uncertainties and paper_value"),
     "value": ("unit", "this run's value"),
     "std_uncertainty": ("unit", "standard uncertainty (k = 1) of value from the record fits"),
-    "expanded_uncertainty": ("unit", "expanded uncertainty (k for 95 % under its budget's distribution, its limits as specified and as the world reads them; Table 5: k = 2) of value: its whole budget (noise, instrument "
+    "expanded_uncertainty": ("unit", "expanded uncertainty (k for 95 % under its budget's distribution, its limits as specified and as the world reads them, at any bias within its bias bounds; Table 5: k = 2) of value: its whole budget (noise, instrument "
                                      "specifications; for Q and tan theta' also the geometry and NCE 41 tolerances)"),
     "scope_value": ("unit", "the scope's on-line number for the same quantity (cross-check)"),
     "paper_value": ("unit", "value printed in the paper"),

@@ -58,11 +58,12 @@ def delay_std_uncertainty_s() -> float:
     """CH2 delay against CH1 before any deskew, as the budgets carry it: a bias bound, not a
     zero-mean spread. The current probe lags by a delay of known sign up to
     `current_probe_lag` (beyond its +-10 ns specification when its cable is long), and the
-    scope's skew adds up to its limit: |tau| <= that sum, uncorrected. Carried in
-    quadrature as the standard uncertainty whose k-fold is the bound (u = bound / k, k the
-    normal's 1.96: the term is no rectangle, `delay_term`), so a U whose delay term
-    dominates holds any delay within the bound, of either sign (the former +-10 ns
-    rectangle about zero missed a 17 ns lag at the Fig. 2c stress point)."""
+    scope's skew adds up to its limit: |tau| <= that sum, uncorrected. Stored as the standard
+    uncertainty whose 1.96-fold is the bound (u = bound / 1.96) and budgeted as a bias bound
+    (`delay_term`, `budgets.Term.bias`): U holds the value at any delay within the bound, of
+    either sign, 95 % of the time whatever the rest (the former +-10 ns rectangle about zero
+    missed a 17 ns lag at the Fig. 2c stress point, and the bound in quadrature held a delay
+    at the bound, with the rest's errors, about half the time)."""
     bound_s = SPECIFICATIONS["current_probe_lag"].half_width + SPECIFICATIONS["scope_skew"].half_width
     return bound_s / P95_FACTOR
 
@@ -70,7 +71,7 @@ def delay_std_uncertainty_s() -> float:
 def delay_term(sensitivity: float) -> Term:
     """The uncorrected CH2 delay's bias bound in a budget, `sensitivity` per second."""
     return Term("CH2 delay vs CH1 (skew, TCP202)", "B", abs(sensitivity) * delay_std_uncertainty_s(), DELAY_SOURCE,
-                rectangular=False)
+                bias=True)
 
 
 #: Where the uncorrected CH2 delay's bound comes from.
@@ -265,11 +266,12 @@ DRIFT_TERM = "resonance drift (plate warming, room)"
 
 
 def drift_term(bound: float, sources) -> Term:
-    """The resonance's drift in a budget: a bias bound (k u = bound, no rectangle), Type A
-    when every bound came from the run's own readings (`analysis.resonance_drift`)."""
+    """The resonance's drift in a budget: a bias bound (`budgets.Term.bias`: one-sided, the
+    plate warms under drive; U holds any drift within it, not a spread about zero in
+    quadrature), Type A when every bound came from the run's own readings (`analysis.resonance_drift`)."""
     sources = list(dict.fromkeys(sources))
     return Term(DRIFT_TERM, "A" if all(s.startswith("Type A") for s in sources) else "B",
-                abs(bound) / P95_FACTOR, "bias bound (k u = bound): " + "; ".join(sources), rectangular=False)
+                abs(bound) / P95_FACTOR, "bias bound (k u = bound): " + "; ".join(sources), bias=True)
 
 
 def _power_drift_per_hz(points: pd.DataFrame | dict, slope) -> np.ndarray:
@@ -630,7 +632,8 @@ def systematic_floor(points: pd.DataFrame, calibration: Deskew | None = None) ->
     """Per (run, quantity): the p95 relative error the instruments' specified errors leave
     when the noise is averaged away (Type A set to zero; the plate's resonance drift, which
     the run's own readings bound and no setting does, left out), at the run's worst point, with
-    the term that dominates there and the calibration that would lift it (if any).
+    the term that dominates there and the calibration that would lift it (if any); p95 as
+    `Budget.p95_bound` (1.96 u, or U where the uncorrected delay's bias bound widens it).
 
     `calibration`: the floor after that calibration (its uncertainties; its values do not matter).
     """
@@ -647,14 +650,14 @@ def systematic_floor(points: pd.DataFrame, calibration: Deskew | None = None) ->
                     continue
                 # the instruments' floor: the plate's drift is the run's, not the settings' (`_point_drift_terms`)
                 budget = point_budget(quantity, {**row, f"{quantity}_u": 0.0, "resonance_drift_hz": math.nan}, deskew)
-                relative = budget.std_uncertainty / abs(budget.value)
+                relative = budget.p95_bound / abs(budget.value)
                 if worst is None or relative > worst[0]:
                     worst = (relative, budget)
             if worst is None:
                 continue
             relative, budget = worst
             dominant = budget.dominant.name
-            rows.append({"run_name": run_name, "quantity": quantity, "floor_p95_rel": P95_FACTOR * relative,
+            rows.append({"run_name": run_name, "quantity": quantity, "floor_p95_rel": relative,
                          "dominant_term": dominant, "lifted_by": LIFTED_BY.get(dominant, "")})
     return pd.DataFrame(rows, columns=["run_name", "quantity", "floor_p95_rel", "dominant_term", "lifted_by"])
 
@@ -675,10 +678,10 @@ def characterisation_floor(run: RunData, calibration: Deskew | None = None,
     for plate in characterise_plates(run, convention).values():
         run_name = str(plate.points["run_name"].iat[0])
         for budget in characterisation_budgets(plate, convention, calibration, with_fit=False):
-            relative = budget.std_uncertainty / abs(budget.value)
+            relative = budget.p95_bound / abs(budget.value)
             if relative > worst.get((run_name, budget.quantity), (-1.0, None))[0]:
                 worst[(run_name, budget.quantity)] = (relative, budget)
-    return pd.DataFrame([{"run_name": run_name, "quantity": quantity, "floor_p95_rel": P95_FACTOR * relative,
+    return pd.DataFrame([{"run_name": run_name, "quantity": quantity, "floor_p95_rel": relative,
                           "dominant_term": budget.dominant.name, "lifted_by": LIFTED_BY.get(budget.dominant.name, "")}
                          for (run_name, quantity), (relative, budget) in worst.items()], columns=columns)
 

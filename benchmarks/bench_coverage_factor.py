@@ -29,10 +29,10 @@ def report_shapes(run_dir: Path) -> tuple[list, int]:
     """The distinct shapes whose k `report` asks for, in order, and how many times it asks."""
     shapes, asked, factor = {}, [0], budgets.shape_coverage_factor
 
-    def noted(shape):
+    def noted(*shape):
         asked[0] += 1
         shapes.setdefault(shape, None)
-        return factor(shape)
+        return factor(*shape)
 
     budgets.shape_coverage_factor = noted
     try:
@@ -49,7 +49,7 @@ def every_factor_cpu_s(shapes: list) -> float:
     budgets._DISTRIBUTIONS.clear()
     start = time.process_time()
     for shape in shapes:
-        budgets.shape_coverage_factor(shape)
+        budgets.shape_coverage_factor(*shape)
     return time.process_time() - start
 
 
@@ -63,7 +63,7 @@ def main() -> None:
     unit = reference.mean(before, reference.measure())
     print(unit.line())
     print(f"report asked for k {asked} times, {len(shapes)} distinct shapes "
-          f"(at most {max(len(rectangles) for rectangles, _ in shapes)} limits in one)")
+          f"(at most {max(len(rectangles) for rectangles, *_ in shapes)} limits in one)")
     print(f"every k of the report from nothing: {unit.both(cpu_s, 2)} CPU "
           f"({1e3 * cpu_s / len(shapes):.2f} ms a shape; load {os.getloadavg()[0]:.2f})")
 

@@ -153,6 +153,32 @@ MODEL_TOLERANCES: dict[str, Specification] = {
                    "0.01-0.05 (0.03 +-67 %); fitted on one build in `plates.damping.fit_and_check`"),
 }
 
+#: The plate's warming under drive (`simbench.effects.HeatingDrift`: its resonance falls as it
+#: warms, Fig. 2's resonance drift): relative half-widths about the effect's nominal parameters,
+#: drawn per plate on a coverage study's bench (a real plate's alloy, surface and mounting are
+#: each lab's own). Keyed by the effect's parameter names.
+HEATING_TOLERANCES: dict[str, Specification] = {
+    "frequency_coefficient_per_k": Specification(
+        0.3, "1", "assumed: a plate's resonance goes as sqrt(E / rho) times its geometry, so its "
+                  "temperature coefficient is half its modulus's plus half the expansion's (aluminium's "
+                  "23e-6/K: +1e-5/K, which the nominal -2e-4/K leaves out); wrought aluminium alloys' "
+                  "moduli fall by some 3-5e-4 per kelvin near room temperature (their moduli fall by "
+                  "several GPa of about 70 between room temperature and 150 C, the faster in the "
+                  "softer alloys), so -1.5 to -2.5e-4/K: +-30 % about -2e-4/K"),
+    "convection_w_per_m2_k": Specification(
+        0.5, "1", "assumed: free convection from a plate of a few centimetres in still room air is "
+                  "5-15 W/m^2K (its laminar correlations: h ~ 1.3 (dT / L)^0.25 W/m^2K, a few kelvin over "
+                  "a few centimetres), radiation from bare or lightly oxidised aluminium (emissivity "
+                  "0.05-0.2) adds under 1.2 W/m^2K, and the cushion the plate lies on shields part of "
+                  "its lower face: +-50 % about the nominal 10 W/m^2K. It sets the plate's heating rate "
+                  "per watt (1 / h A) and, with its thermal mass, its time constant rho c h_plate / 2 h"),
+    "specific_heat_j_per_kg_k": Specification(
+        0.05, "1", "alloy family: wrought aluminium alloys' specific heats at room temperature run from "
+                   "about 860 to 960 J/kgK (ASM Handbook Vol. 2, as the modulus's and density's "
+                   "tolerances: 2024 875, 6061 896, 7075 960): +-5 % about 900 J/kgK, the plate's "
+                   "thermal mass with its density's tolerance"),
+}
+
 #: ISO 2768-1 (1989), Table 1, tolerance class c (coarse): permissible deviation (+-mm) of a
 #: linear size without an individual tolerance, by nominal size (over, up to and including; mm).
 #: Assumed for a plate cut to length in a lab (the paper's 59 and 28 mm plates were cut from

@@ -42,7 +42,8 @@ from squeezebench.protocols.campaign import run_campaign
 from squeezebench.protocols.parallel import map_unordered
 from squeezebench.protocols.storage import sha256_file, write_frame_atomic
 from squeezebench.protocols.variants import (MAP_PROTOCOLS, PLATE_DRAW_EFFECT, SYSTEMATIC_EFFECTS, campaign_with_effects,
-                                             coarser_maps, plate_draw_effects, systematic_effects)
+                                             coarser_maps, plate_draw_effects, plate_warming_effects,
+                                             systematic_effects)
 
 QUANTITIES = ("power_w", "velocity_pp_mps")
 #: What the coverage study scores: every stored point's QUANTITIES and amplitude (Table 4; the
@@ -75,18 +76,22 @@ def errors_on_bench(campaign_file: Path, bench_seed: int, work_dir: Path,
     COVERAGE_QUANTITIES) against the truth, with its expanded uncertainty; and the bench
     time. With `draw_plates` the plates too are drawn within their tolerances, erring and
     ideal benches alike (the coverage study; the accuracy study and the planner keep the
-    nominal plates their figures are about). The erring bench reads its own noise too (its
+    nominal plates their figures are about), and they warm under drive as a real plate does
+    (`variants.plate_warming_effects`, drawn likewise), their resonances drifting while a run
+    measures; the truth is the plate cold, as mounted, at the point's setting: the drift is
+    an error the budgets claim to cover (`uncertainty.drift_term`). The erring bench reads its own noise too (its
     scenes' seed is `bench_seed`): benches that shared one realisation of the noise would
     score the same readings again, not independent ones. `work_dir` is scratch: the run
     there is not kept, so it is not made durable."""
     plates = plate_draw_effects(bench_seed, error_model) if draw_plates else []
+    warming = plate_warming_effects(bench_seed, error_model) if draw_plates else []
     maps = bool(set(MAP_QUANTITIES) & set(quantities))
     erring = campaign_with_effects(campaign_file, work_dir / "erring",
-                                   systematic_effects(bench_seed, error_model=error_model) + plates,
+                                   systematic_effects(bench_seed, error_model=error_model) + plates + warming,
                                    noise_seed=bench_seed, keep_maps=maps)
     if maps:
         coarser_maps(erring, MAP_STEP_FACTOR)
-    campaign_with_effects(campaign_file, work_dir / "plain", plates)   # the same plates without the errors
+    campaign_with_effects(campaign_file, work_dir / "plain", plates)   # the same plates, cold, without the errors
     run_dir = run_campaign(erring, out_dir=work_dir / "run", progress=False, durable=False)
     run = load_run(run_dir)
     found = run_uncertainties(run)

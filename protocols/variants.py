@@ -95,6 +95,18 @@ def plate_draw_effects(bench_seed: int, error_model: str = "specified") -> list[
     return [{PLATE_DRAW_EFFECT: dict(draw)}, {PLATE_PLACEMENT_EFFECT: dict(draw)}]
 
 
+#: The plate warming under its drive as a real one does (`simbench.effects.HeatingDrift`): the
+#: resonance drift Fig. 2's budgets claim to cover (`uncertainty.drift_term`).
+PLATE_WARMING_EFFECT = "heating_drift"
+
+
+def plate_warming_effects(bench_seed: int, error_model: str = "specified") -> list[dict]:
+    """Scene `effects:` entries of the plates of bench `bench_seed` warming under drive, each
+    plate's thermal parameters drawn once within their tolerances
+    (`specifications.HEATING_TOLERANCES`) under `error_model` (`ERROR_MODELS`)."""
+    return [{PLATE_WARMING_EFFECT: {"draw": ERROR_MODELS[error_model], "bench_seed": int(bench_seed)}}]
+
+
 def campaign_with_effects(campaign_file: Path, out_dir: Path, effects: list, noise_seed: int | None = None,
                           keep_maps: bool = False) -> Path:
     """Write `out_dir/<campaign>` whose every scene also lists `effects` (and reads its noise

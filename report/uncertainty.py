@@ -47,7 +47,7 @@ def uncertainty_section(context: ReportContext) -> Section | None:
                 plates.append({"plate": name, "quantity": budget.quantity, "value": budget.value,
                                "expanded_uncertainty": budget.expanded_uncertainty,
                                "dominant_term": budget.dominant.name,
-                               "floor_p95_rel": P95_FACTOR * floor.std_uncertainty / abs(floor.value)})
+                               "floor_p95_rel": floor.p95_bound / abs(floor.value)})
     context.tables["uncertainty_q_tan_theta"] = pd.DataFrame(plates)
     context.tables["uncertainty_floors"] = uncertainty.systematic_floor(found.points, found.deskew)
     deskew = (_delay_flag(found.points) if found.deskew is None else

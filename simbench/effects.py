@@ -36,6 +36,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from squeezebench.plates import damping
+from squeezebench.plates.specifications import HEATING_TOLERANCES
 from squeezebench.simbench import physics
 from squeezebench.simbench.effect_base import CHANNELS, VIBROMETER_CHANNEL, AcquisitionContext, Effect
 from squeezebench.simbench.fault_effects import (BusTimeout, ClippedTrace, Disconnect, GarbledReplyFault,
@@ -43,8 +44,8 @@ from squeezebench.simbench.fault_effects import (BusTimeout, ClippedTrace, Disco
 from squeezebench.simbench.spot_effects import PlateOffset, PlatePlacement, PlateTilt, Spot, StageBacklash
 from squeezebench.simbench.systematic_effects import (ChannelSkew, CurrentProbeDelay, CurrentProbeGainError,
                                                       GeneratorAmplitudeError, GeneratorFrequencyError, ScopeGainError,
-                                                      VibrometerScaleError,
-                                                      VoltageProbeCompensation, VoltageProbeError)
+                                                      VibrometerScaleError, VoltageProbeCompensation,
+                                                      VoltageProbeError, draw_stream, drawn_fraction)
 
 
 class Shunt(Effect):
@@ -131,15 +132,26 @@ class HeatingDrift(Effect):
     from both faces, h = 10 W/m2K (the plate lies on a cushion); aluminium specific heat
     900 J/kgK and Table 2's density 2790 kg/m3; frequency coefficient -2e-4 per kelvin
     (the Young's modulus of aluminium falls about 4e-4/K, f scales with its square root).
+
+    With `draw: 1` (or 2) the parameters of `specifications.HEATING_TOLERANCES` are drawn
+    once per plate and `bench_seed`, within their tolerances (or as the world errs,
+    `systematic_effects.drawn_fraction`), about the values the scene gives: a coverage
+    study's plate warms as one real plate might, not as the nominal one.
     """
 
     name = "heating_drift"
     defaults = {"frequency_coefficient_per_k": -2e-4, "convection_w_per_m2_k": 10.0,
-                "specific_heat_j_per_kg_k": 900.0, "density_kg_m3": 2790.0}
+                "specific_heat_j_per_kg_k": 900.0, "density_kg_m3": 2790.0, "draw": 0.0, "bench_seed": 0.0}
+    limits = {"draw": (0.0, 2.0), "bench_seed": (0.0, 2.0**32 - 1)}
     stages = frozenset({"load"})
 
     def __init__(self, scene, **parameters: float) -> None:
         super().__init__(scene, **parameters)
+        if self.parameters["draw"]:
+            rng = draw_stream(self.parameters["bench_seed"], self.name, scene.plate.name)
+            self.parameters.update({key: self.parameters[key] * (1.0 + drawn_fraction(rng, self.parameters["draw"])
+                                                                 * tolerance.half_width)
+                                    for key, tolerance in HEATING_TOLERANCES.items()})
         p, plate = self.parameters, scene.plate
         area_m2 = 2.0 * plate.length_mm * plate.width_mm * 1e-6
         mass_kg = p["density_kg_m3"] * plate.length_mm * plate.width_mm * plate.thickness_mm * 1e-9

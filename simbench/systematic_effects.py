@@ -51,11 +51,8 @@ class SystematicEffect(Effect):
         p = self.parameters
         if p["draw"]:
             rng = self.rng()
-            if int(p["draw"]) == 2:
-                self.values = {k: world_draw(rng, self.world_bias, self.world_spread) * abs(p[k])
-                               for k in self.errors}
-            else:
-                self.values = {k: float(rng.uniform(-1.0, 1.0)) * abs(p[k]) for k in self.errors}
+            self.values = {k: drawn_fraction(rng, p["draw"], self.world_bias, self.world_spread) * abs(p[k])
+                           for k in self.errors}
         else:
             self.values = {k: p[k] for k in self.errors}
 
@@ -67,10 +64,24 @@ class SystematicEffect(Effect):
         """The draw's stream: the bench's, the same for every plate it measures, or with
         `per_plate` the plate's on that bench (every scene of the plate, its cuts and runs,
         shares it; another plate on the same bench has its own)."""
-        key = [int(self.parameters["bench_seed"]), zlib.crc32(self.name.encode())]
-        if self.per_plate:
-            key.append(zlib.crc32(self.scene.plate.name.encode()))
-        return np.random.default_rng(key)
+        return draw_stream(self.parameters["bench_seed"], self.name, self.scene.plate.name if self.per_plate else None)
+
+
+def draw_stream(bench_seed: float, name: str, plate: str | None = None) -> np.random.Generator:
+    """The stream effect `name` draws from on bench `bench_seed` (with `plate`, that plate's own)."""
+    key = [int(bench_seed), zlib.crc32(name.encode())]
+    if plate is not None:
+        key.append(zlib.crc32(plate.encode()))
+    return np.random.default_rng(key)
+
+
+def drawn_fraction(rng: np.random.Generator, draw: float, bias: float = 0.0,
+                   spread: float = WORLD_READING.spread) -> float:
+    """An error as a fraction of its limit, drawn once: uniformly within it (`draw` 1, as the
+    budgets assume) or as the world errs (`draw` 2, `world_draw`)."""
+    if int(draw) == 2:
+        return world_draw(rng, bias, spread)
+    return float(rng.uniform(-1.0, 1.0))
 
 
 def world_draw(rng: np.random.Generator, bias: float, spread: float) -> float:

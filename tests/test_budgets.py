@@ -53,9 +53,80 @@ def test_one_limit_covers_the_worlds_errors_too():
 
 
 def test_a_normal_budget_keeps_the_normals_k():
-    """Noise and a bias bound are normal in both models: k = 1.96."""
-    for term in (Term("noise", "A", 0.01, "fit"), Term("delay", "B", 0.01, "a bias bound", rectangular=False)):
+    """Noise and a standard deviation are normal in both models: k = 1.96; a bias bound
+    alone is held by U = its bound, 1.96 u as it is stored."""
+    for term in (Term("noise", "A", 0.01, "fit"), Term("grid", "B", 0.01, "a standard deviation", rectangular=False),
+                 Term("delay", "B", 0.01, "a bias bound", bias=True)):
         assert Budget("x", "1", 1.0, (term,)).coverage_factor == pytest.approx(1.959964, abs=1e-3)
+
+
+def normal_with_bias_u(rest_u: float, bound: float) -> float:
+    """The smallest U with P(|N + B| <= U) = 95 % for N normal (standard deviation `rest_u`)
+    and a bias B at its bound: Phi((U - B) / u) - Phi((-U - B) / u) = 0.95 (the least
+    coverage over |b| <= B is at |b| = B, the normal being symmetric and unimodal)."""
+    from scipy.optimize import brentq
+    from scipy.stats import norm
+
+    return brentq(lambda u: norm.cdf((u - bound) / rest_u) - norm.cdf((-u - bound) / rest_u) - 0.95,
+                  0.0, bound + 10.0 * rest_u, xtol=1e-12)
+
+
+@pytest.mark.parametrize("bound_u", [0.0, 0.1, 0.5, 1.0, 1.96, 4.0, 20.0])
+def test_a_bias_bound_beside_a_normal_covers_exactly_95_percent_at_its_bound(bound_u):
+    """One normal (u = 1) and one bias bound B (the resonance's drift): U is the closed
+    form's (`normal_with_bias_u`); on a grid of biases over +-B the normal's exact coverage
+    of +-U is never below 95 % and is 95 % at +-B; between the quadrature's U
+    (sqrt(B^2 + 1.96^2), which holds a bias at B with less) and the linear sum 1.96 + B
+    (GUM F.2.4.5), B + 1.645 once B >> u."""
+    from scipy.stats import norm
+
+    budget = Budget("x", "1", 1.0, (Term("noise", "A", 1.0, "fit"),
+                                    Term("drift", "A", bound_u / P95_FACTOR, "a bias bound", bias=True)))
+    expanded = budget.expanded_uncertainty
+    # the budget's shape is rounded up to 1e-3 u_c (`Budget._shape`): U a hair wide, never short
+    assert 0.0 <= expanded - normal_with_bias_u(1.0, bound_u) <= 4e-3 * budget.std_uncertainty
+    biases = np.linspace(-bound_u, bound_u, 101)
+    held = norm.cdf(expanded - biases) - norm.cdf(-expanded - biases)
+    assert held.min() >= 0.95 - 1e-4
+    # 95 % at +-B but for the shape's rounding up (1e-3 u_c of U, some 1e-3 of coverage at B = 20 u)
+    assert 0.95 - 1e-4 <= held[0] == held[-1] <= 0.95 + 1.5e-3
+    assert math.hypot(bound_u, P95_FACTOR) <= expanded <= bound_u + P95_FACTOR + 4e-3 * budget.std_uncertainty
+    for error_model in ERROR_MODELS:   # no limit: both models read the budget alike
+        assert 0.95 - 1e-4 <= budget.coverage_probability(budget.coverage_factor, error_model) <= 0.95 + 1.5e-3
+
+
+def biased_coverage(limit: float, rest_u: float, bias: float, expanded: float, error_model: str) -> float:
+    """P(|L + N + b| <= U), L a limit +-`limit` as `error_model` reads it, N normal: the
+    normal's cdf integrated over L (Gauss-Legendre on the rectangle; the world's normal
+    within the limit and its two points beyond it in closed form)."""
+    from scipy.stats import norm
+
+    def held(centre, sigma):
+        return norm.cdf((expanded - bias - centre) / sigma) - norm.cdf((-expanded - bias - centre) / sigma)
+
+    if error_model == SPECIFIED:
+        nodes, weights = np.polynomial.legendre.leggauss(400)
+        return float(np.dot(weights, held(limit * nodes, max(rest_u, 1e-12))) / 2.0)
+    p, factor = WORLD_READING.out_of_spec_probability, WORLD_READING.out_of_spec_factor
+    within = math.hypot(rest_u, WORLD_READING.spread * limit)
+    return float((1 - p) * held(0.0, within) + 0.5 * p * (held(factor * limit, max(rest_u, 1e-12))
+                                                           + held(-factor * limit, max(rest_u, 1e-12))))
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.floats(0.0, 5.0), st.floats(0.05, 3.0), st.floats(0.0, 3.0), st.floats(-1.0, 1.0))
+def test_u_holds_95_percent_at_any_bias_within_its_bound(bound_u, normal_u, limit_u, where):
+    """Whatever the bias bound B, the normal's u and a limit's (a gain's), and wherever
+    the bias lies within +-B, +-U holds at least 95 % under both error models (exact
+    coverage by quadrature, not through the budget's grid), and U is never above the
+    linear sum of the rest's 95 % U and B (GUM F.2.4.5)."""
+    budget = Budget("x", "1", 1.0, (Term("gain", "B", limit_u, "a limit"), Term("noise", "A", normal_u, "fit"),
+                                    Term("drift", "A", bound_u / P95_FACTOR, "a bias bound", bias=True)))
+    expanded = budget.expanded_uncertainty
+    for error_model in ERROR_MODELS:
+        assert biased_coverage(math.sqrt(3.0) * limit_u, normal_u, where * bound_u, expanded, error_model) >= 0.9495
+    rest = Budget("x", "1", 1.0, (Term("gain", "B", limit_u, "a limit"), Term("noise", "A", normal_u, "fit")))
+    assert expanded <= rest.expanded_uncertainty + bound_u + 4e-3 * budget.std_uncertainty
 
 
 @settings(max_examples=20, deadline=None)
@@ -132,7 +203,7 @@ def test_the_worlds_closed_form_is_the_fine_grids_convolution(limits_u, normal_u
         return
     budget = Budget("x", "1", 1.0, (*(Term(f"limit {i}", "B", u, "a limit") for i, u in enumerate(limits_u)),
                                     Term("noise", "A", normal_u, "fit")))
-    shape = budget._shape()
+    shape = budget._shape()[:2]   # no bias bound: the rectangles and the rest
     mixture = WorldMixture.of(*shape)
     assert 0.0 <= mixture.dropped <= WORLD_DROPPED_MAX
     assert mixture.weights.sum() + mixture.dropped == pytest.approx(1.0, abs=1e-12)
@@ -161,13 +232,18 @@ def test_an_unknown_error_model_is_refused():
 @settings(max_examples=30, deadline=None)
 @given(st.lists(st.floats(0.0, 3.0), min_size=1, max_size=4), st.floats(0.0, 3.0))
 def test_the_planners_floor_bounds_every_u_the_budget_states(limits_u, normal_u):
-    """The planner's floors are P95_FACTOR u (`uncertainty.systematic_floor`): no k, under
-    either model, exceeds the normal's, so a floor is never below the U the report prints."""
+    """The planner's floors are `Budget.p95_bound` (`uncertainty.systematic_floor`): P95_FACTOR
+    u, as no k of limits and normals, under either model, exceeds the normal's; with a bias
+    bound (the CH2 delay without deskew) U, which does. A floor is never below the U the
+    report prints."""
     if sum(limits_u) + normal_u < 1e-3:
         return
-    budget = Budget("x", "1", 1.0, (*(Term(f"limit {i}", "B", u, "a limit") for i, u in enumerate(limits_u)),
-                                    Term("noise", "A", normal_u, "fit")))
+    terms = (*(Term(f"limit {i}", "B", u, "a limit") for i, u in enumerate(limits_u)), Term("noise", "A", normal_u, "fit"))
+    budget = Budget("x", "1", 1.0, terms)
     assert budget.coverage_factor <= P95_FACTOR + 2e-3
+    assert budget.p95_bound == P95_FACTOR * budget.std_uncertainty
+    biased = Budget("x", "1", 1.0, (*terms, Term("delay", "B", normal_u + limits_u[0], "a bias bound", bias=True)))
+    assert biased.p95_bound == max(P95_FACTOR * biased.std_uncertainty, biased.expanded_uncertainty)
 
 
 def test_the_distributions_kept_stay_bounded_over_many_benches_shapes():

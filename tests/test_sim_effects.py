@@ -9,7 +9,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from squeezebench.plates.specifications import VOLTAGE_PROBE_POLE_HZ, WORLD_READING, compensation_phase_rad
+from squeezebench.plates.specifications import (HEATING_TOLERANCES, VOLTAGE_PROBE_POLE_HZ, WORLD_READING,
+                                                compensation_phase_rad)
 from squeezebench.instruments.bench import open_bench, sim_bench_config
 from squeezebench.instruments.errors import ConnectionLost, GarbledReply, InstrumentError, InstrumentTimeout
 from squeezebench.protocols.variants import PLATE_DRAW_EFFECT, PLATE_PLACEMENT_EFFECT, SYSTEMATIC_EFFECTS
@@ -117,6 +118,35 @@ def test_heating_drift(tmp_path):
     bench.generator.write("VOLT 0.05")
     bench.sim.clock.sleep(20 * heating.time_constant_s)
     assert heating.temperature_rise_k < 0.01 * rise_k  # cooled down
+
+
+def test_a_coverage_benchs_plate_warms_with_its_own_thermal_parameters_within_their_tolerances(tmp_path):
+    """`heating_drift` with `draw` (the coverage study's benches, `variants.plate_warming_effects`):
+    each plate and bench has its own temperature coefficient, convection and specific heat,
+    within `HEATING_TOLERANCES` about the scene's values when drawn as specified, and the
+    thermal resistance (1 / h A) and time constant (rho c V R_th) follow them; the same seed
+    and plate draw the same; without `draw` the nominal plate."""
+    nominal = fx.EFFECTS["heating_drift"].defaults
+    drawn = {}
+    for seed in range(1, 13):
+        for model, draw in (("specified", 1), ("world", 2)):
+            bench = bench_with(tmp_path, [{"heating_drift": {"draw": draw, "bench_seed": seed}}])
+            heating = bench.sim.effects.get("heating_drift")
+            p = heating.parameters
+            drawn[model, seed] = {key: p[key] / nominal[key] - 1.0 for key in HEATING_TOLERANCES}
+            plate = bench.sim.scene.plate
+            area_m2 = 2e-6 * plate.length_mm * plate.width_mm
+            assert heating.thermal_resistance_k_per_w == pytest.approx(1.0 / (p["convection_w_per_m2_k"] * area_m2))
+            assert heating.time_constant_s == pytest.approx(
+                heating.thermal_resistance_k_per_w * p["density_kg_m3"] * p["specific_heat_j_per_kg_k"]
+                * area_m2 / 2 * plate.thickness_mm * 1e-3)
+    for seed in range(1, 13):
+        assert all(abs(deviation) <= HEATING_TOLERANCES[key].half_width
+                   for key, deviation in drawn["specified", seed].items())
+    assert len({tuple(d.values()) for d in drawn.values()}) == len(drawn)   # every bench its own
+    again = bench_with(tmp_path, [{"heating_drift": {"draw": 1, "bench_seed": 1}}]).sim.effects.get("heating_drift")
+    assert {key: again.parameters[key] / nominal[key] - 1.0 for key in HEATING_TOLERANCES} == drawn["specified", 1]
+    assert bench_with(tmp_path, ["heating_drift"]).sim.effects.get("heating_drift").parameters == nominal
 
 
 def test_settling_transient(tmp_path):
