@@ -192,6 +192,11 @@ class CellReadings:
                            READING_SAMPLES)
 
     @functools.cached_property
+    def registered(self) -> tuple[np.ndarray, np.ndarray]:
+        """(|field| at the points, |field| over their cells) of the grid where it fell."""
+        return self._spots(tuple(self._reader(axis, 0.0, 1) for axis in (0, 1)), 1), self.values
+
+    @functools.cached_property
     def placements(self) -> list[tuple[np.ndarray, np.ndarray]]:
         """(|field| at the points, |field| over the cells) of the grid shifted by each of
         `placement_shifts`: made once per map, for the grid term of every figure (the CV and
@@ -311,8 +316,33 @@ def shifted_grid_errors(readings: CellReadings, error: Callable[[np.ndarray, np.
     return np.array([error(points.ravel(), cells.ravel()) for points, cells in readings.placements])
 
 
+def grid_bias(readings: CellReadings | None, error: Callable[[np.ndarray, np.ndarray], float]) -> float:
+    """`error` (e.g. `grid_error`) of the grid where it fell: its points against the field
+    read over their own cells (`CellReadings.values`), a bias of known sign that the map's
+    figure carries (0 without readings).
+
+    A grid of 2.3 points per half-wavelength reads |a standing wave| at a mix of antinodes
+    and flanks that its registration on the mode sets, and the bending reading holds the
+    field between the points exactly for a standing wave: on the paper's 4 mm map of the
+    large plate at its own registration the true CV error (the points against the mode
+    over their cells, 8 x 8 spots) is -0.0208 and the reading gives -0.0214; the area's
+    +0.0555 and +0.0538. The errors of the grid shifted across the placement share most
+    of that (their mean -0.0141, their spread 0.0037 for the CV): carried as a zero-mean
+    normal of their root mean square, as it was, the bias became a U that the error at a
+    registration a little off the symmetric one is half of, and at the symmetric one
+    (where the area's error is largest) too small. It is carried as a bias bound beside
+    the spread (`summarise_map`: U = k u + |B|, GUM F.2.4.5 for a known systematic effect
+    whose correction is not applied), not in quadrature."""
+    if readings is None:
+        return 0.0
+    points, cells = readings.registered
+    return float(error(points.ravel(), cells.ravel()))
+
+
 def grid_term(errors: np.ndarray, method: str) -> Term:
-    """Type B term of a homogeneity figure for not knowing where the grid fell on the mode.
+    """Type B term of a homogeneity figure for not knowing where the grid fell on the mode:
+    the spread of its error over where it may have fallen, beside the error where it fell
+    (`grid_bias`).
 
     A map reads the vibration over the touch area at its grid's points, each standing for
     its cell; the figure those points give differs from the vibration's over the cells by an
@@ -321,30 +351,32 @@ def grid_term(errors: np.ndarray, method: str) -> Term:
     grid's place is not known: the plate is aligned on the stage by eye, within its
     placement (`specifications.SPECIFICATIONS["plate_placement"]`, +-1 mm per axis). `errors`
     are that error for the grid placed across it (`shifted_grid_errors`, read off the
-    measured field's own bending reconstruction, the cells moving with the grid), so their
-    root mean square is the standard deviation of the error of a grid at an unknown
-    place (GUM 4.3.1: a Type B evaluation from the information at hand; F.2.4.5: a
-    correction not applied is carried in the uncertainty), taken as normal. No correction
-    is applied: which offset the grid had is what is not known.
+    measured field's own bending reconstruction, the cells moving with the grid). The error
+    where the grid fell is read off the same reconstruction (`grid_bias`, bounded apart);
+    what is not known is how well the reading placed the grid on the mode (its phase, from
+    the points alone), and a misplaced mode is a shifted grid: the shifted errors' standard
+    deviation about their mean is the uncertainty of that bias (GUM 4.3.1: a Type B
+    evaluation from the information at hand; conservative: the reading misplaces the mode
+    by far less than the placement spans), taken as normal: over a
+    placement that spans whole periods of the offset the error is a cosine of it (arcsine,
+    95 % within 1.41 standard deviations), but a placement of +-1 mm spans a fraction of
+    the 9.2 mm period of the large plate's aliasing, where the shifted errors are no clean
+    cosine (V-shaped about a symmetric registration, the area's jumping by columns), so no
+    narrower shape is claimed.
 
     Checked (tests/test_cartography_mode.py): on a standing wave the shifted grids' errors
-    are the closed form's (a sampled sin^2 mean is off by a cosine of the offset) and the
-    term their root mean square; on a cosine mode at the paper campaign's 4 mm grid (2.3
-    points per half-wave) the CV's term is within 2 % of the true errors' root mean square
-    over the placement (a cubic reading against the unshifted cells gave 0.84-1.77 times
-    it), and on the large plate's mode 1.03 times. A CV's error across offsets is nearly a
-    cosine of the offset, within about sqrt(2) standard deviations, so its U (k = 1.96)
-    still over-covers; the area above the share of the peak jumps by whole columns of
-    points as they cross the threshold, and at registrations where the columns cross in
-    pairs (a grid symmetric about a symmetric mode) its error is beyond U. It does not
-    hold a grid under one point per half-wavelength (k h >= pi), whose points read an
-    aliased field that no reading between them recovers."""
+    are the closed form's (a sampled sin^2 mean is off by a cosine of the offset) and their
+    mean and spread the closed form's; on a cosine mode at the paper campaign's 4 mm grid
+    (2.3 points per half-wave) their root mean square is within 2 % of the true errors'
+    over the placement, and on the large plate's mode 1.03 times. It does not hold a grid
+    under one point per half-wavelength (k h >= pi), whose points read an aliased field
+    that no reading between them recovers."""
     errors = np.asarray(errors, dtype=float)
-    u = float(np.sqrt(np.mean(errors**2))) if errors.size else 0.0
+    u = float(np.std(errors)) if errors.size else 0.0
     return Term("grid (where it fell on the mode)", "B", u,
                 f"the points' figure vs the field's over their cells, the grid shifted across the plate's placement "
-                f"({errors.size} offsets, the {method or 'no'} reading between the points), root mean square, "
-                "as a standard deviation", rectangular=False)
+                f"({errors.size} offsets, the {method or 'no'} reading between the points), standard deviation "
+                "about their mean, as a normal (the error where the grid fell is bounded apart)", rectangular=False)
 
 
 def modal_assurance(measured: np.ndarray, predicted: np.ndarray) -> float:
@@ -494,7 +526,8 @@ def summarise_map(points: pd.DataFrame, predicted: np.ndarray | None = None, sha
     the generator's frequency error through the level steps between the map's re-tuned
     steps (`retuning_term`). The coefficient of variation and the area above the share of
     the mapped peak are the vibration's over the touch area, which the points' figures
-    estimate to the spread of their error over where the grid fell (`grid_term`). With `predicted` (the model's shape at the same points)
+    estimate to their error where the grid fell (`grid_bias`, read between the points and
+    added to k u as a bound) and its spread over where it may have fallen (`grid_term`). With `predicted` (the model's shape at the same points)
     the modal assurance criterion of the signed map against it."""
     touch = points[points["in_touch_area"]]
     amplitude = touch["velocity_pp_mps"].to_numpy()
@@ -507,10 +540,12 @@ def summarise_map(points: pd.DataFrame, predicted: np.ndarray | None = None, sha
     readings = cell_readings(touch["x_m"].to_numpy(), touch["y_m"].to_numpy(),
                              np.copysign(amplitude, touch["signed_velocity_pp_mps"].to_numpy()))
 
-    def between(attribute: str) -> tuple:
-        if readings is None:
-            return (grid_term(np.array([]), ""),)
-        return (grid_term(shifted_grid_errors(readings, grid_error(attribute, share_of_peak)), readings.method),)
+    def expanded_between(attribute: str) -> float:
+        error = grid_error(attribute, share_of_peak)
+        errors = np.array([]) if readings is None else shifted_grid_errors(readings, error)
+        # the grid's error where it fell bounds the figure's beside k u (GUM F.2.4.5), not in quadrature
+        return (expanded(attribute, own=(grid_term(errors, readings.method if readings else ""),))
+                + abs(grid_bias(readings, error)))
 
     def expanded(attribute: str, scaled: bool = False, own: tuple = ()) -> float:
         noise = Term("points' noise", "A", float(np.std([getattr(s, attribute) for s in spread], ddof=1)),
@@ -529,9 +564,9 @@ def summarise_map(points: pd.DataFrame, predicted: np.ndarray | None = None, sha
         "min_velocity_pp_mps": h.minimum, "max_velocity_pp_mps": h.maximum,
         "max_velocity_pp_mps_U": expanded("maximum", scaled=True),
         "coefficient_of_variation": h.coefficient_of_variation,
-        "coefficient_of_variation_U": expanded("coefficient_of_variation", own=between("coefficient_of_variation")),
+        "coefficient_of_variation_U": expanded_between("coefficient_of_variation"),
         "share_of_peak": share_of_peak, "fraction_above_share": h.fraction_above_share,
-        "fraction_above_share_U": expanded("fraction_above_share", own=between("fraction_above_share")),
+        "fraction_above_share_U": expanded_between("fraction_above_share"),
         "width_uniformity": width_uniformity(touch["x_m"].to_numpy(), touch["signed_velocity_pp_mps"].to_numpy()),
         "n_nodal_lines": len(lines),
         "nodal_line_spacing_m": float(np.diff(lines).mean()) if len(lines) >= 2 else float("nan"),

@@ -82,12 +82,13 @@ COLUMNS: dict[str, tuple[str, str]] = {
     "max_velocity_pp_mps": ("m/s pp", "largest velocity amplitude over the touch area"),
     "max_velocity_pp_mps_U": ("m/s pp", "expanded uncertainty (k for 95 % under its budget) of the largest: noise and the shared velocity scale"),
     "coefficient_of_variation": ("1", "standard deviation over mean of the touch area's velocity amplitudes"),
-    "coefficient_of_variation_U": ("1", "expanded uncertainty (k for 95 % under its budget) of the coefficient of variation (points' noise; generator frequency through the re-tuned steps' levels; the grid's error for not knowing where it fell on the mode)"),
+    "coefficient_of_variation_U": ("1", "expanded uncertainty (k for 95 % under its budget) of the coefficient of variation (points' noise; generator frequency through the re-tuned steps' levels; the grid's spread over where it may have fallen on the mode) plus, as a bias bound, the grid's error where it fell"),
     "share_of_peak": ("1", "threshold, as a share of the largest amplitude, for fraction_above_share"),
     "fraction_above_share": ("1", "share of the touch area at or above share_of_peak of the largest amplitude, "
                                   "as the share of its points"),
     "fraction_above_share_U": ("1", "expanded uncertainty (k for 95 % under its budget) of fraction_above_share "
-                                    "(points' noise, the grid's error for not knowing where it fell on the mode)"),
+                                    "(points' noise, the grid's spread over where it may have fallen on the mode) plus, as a bias "
+                                    "bound, the grid's error where it fell"),
     "width_uniformity": ("1", "share of the map's mean square in its width-averaged part: 1 for an (n, 0) mode"),
     "n_nodal_lines": ("1", "sign changes of the width-averaged signed map along x"),
     "nodal_line_spacing_m": ("m", "mean spacing of those nodal lines (half a flexural wavelength)"),

@@ -5,7 +5,8 @@
 map's figures (coefficient of variation, area above half the peak, mean and peak velocity)
 depend on the map run alone, which opens a bench of its own (the same scene, seed and
 drawn errors as within the campaign), so the campaign cut to that run scores the same
-values in a fraction of the time (about 7 CPU-s a bench). Each bench places the plate
+values in a fraction of the time (about 14 CPU-s a bench, most of it the truth over each
+cell's 8 x 8 spots). Each bench places the plate
 within its alignment (`variants.plate_draw_effects`: `plate_placement`), so the grid lands
 at another place on the mode on every bench, as the grid's term claims to cover.
 
