@@ -24,7 +24,7 @@ from typing import Callable
 import numpy as np
 import pandas as pd
 
-from squeezebench.analysis.budgets import Budget, Term
+from squeezebench.analysis.budgets import P95_FACTOR, Budget, Term
 from squeezebench.plates.specifications import SPECIFICATIONS
 
 
@@ -331,8 +331,9 @@ def grid_bias(readings: CellReadings | None, error: Callable[[np.ndarray, np.nda
     normal of their root mean square, as it was, the bias became a U that the error at a
     registration a little off the symmetric one is half of, and at the symmetric one
     (where the area's error is largest) too small. It is carried as a bias bound beside
-    the spread (`summarise_map`: U = k u + |B|, GUM F.2.4.5 for a known systematic effect
-    whose correction is not applied), not in quadrature."""
+    the spread (`grid_bias_term`: U holds it at any bias within +-|B|, B + 1.645 u once B
+    dominates, GUM F.2.4.5 for a known systematic effect whose correction is not applied),
+    not in quadrature."""
     if readings is None:
         return 0.0
     points, cells = readings.registered
@@ -377,6 +378,14 @@ def grid_term(errors: np.ndarray, method: str) -> Term:
                 f"the points' figure vs the field's over their cells, the grid shifted across the plate's placement "
                 f"({errors.size} offsets, the {method or 'no'} reading between the points), standard deviation "
                 "about their mean, as a normal (the error where the grid fell is bounded apart)", rectangular=False)
+
+
+def grid_bias_term(bias: float) -> Term:
+    """The grid's error where it fell (`grid_bias`) as a bias bound of the figure's budget
+    (`Term.bias`): one value, the same on every reading of the map, that U must hold as it
+    is, not as a spread about zero in quadrature (GUM F.2.4.5, a correction not applied)."""
+    return Term("grid (its error where it fell)", "B", abs(bias) / P95_FACTOR,
+                "the points' figure vs the field's over their own cells, read between the points", bias=True)
 
 
 def modal_assurance(measured: np.ndarray, predicted: np.ndarray) -> float:
@@ -527,7 +536,7 @@ def summarise_map(points: pd.DataFrame, predicted: np.ndarray | None = None, sha
     steps (`retuning_term`). The coefficient of variation and the area above the share of
     the mapped peak are the vibration's over the touch area, which the points' figures
     estimate to their error where the grid fell (`grid_bias`, read between the points and
-    added to k u as a bound) and its spread over where it may have fallen (`grid_term`). With `predicted` (the model's shape at the same points)
+    carried as a bias bound, `grid_bias_term`) and its spread over where it may have fallen (`grid_term`). With `predicted` (the model's shape at the same points)
     the modal assurance criterion of the signed map against it."""
     touch = points[points["in_touch_area"]]
     amplitude = touch["velocity_pp_mps"].to_numpy()
@@ -543,9 +552,8 @@ def summarise_map(points: pd.DataFrame, predicted: np.ndarray | None = None, sha
     def expanded_between(attribute: str) -> float:
         error = grid_error(attribute, share_of_peak)
         errors = np.array([]) if readings is None else shifted_grid_errors(readings, error)
-        # the grid's error where it fell bounds the figure's beside k u (GUM F.2.4.5), not in quadrature
-        return (expanded(attribute, own=(grid_term(errors, readings.method if readings else ""),))
-                + abs(grid_bias(readings, error)))
+        return expanded(attribute, own=(grid_term(errors, readings.method if readings else ""),
+                                        grid_bias_term(grid_bias(readings, error))))
 
     def expanded(attribute: str, scaled: bool = False, own: tuple = ()) -> float:
         noise = Term("points' noise", "A", float(np.std([getattr(s, attribute) for s in spread], ddof=1)),
