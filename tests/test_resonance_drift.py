@@ -184,7 +184,8 @@ def test_pt_over_p0_on_a_warming_plate_is_within_its_u_only_with_the_drift_term(
     by Hz while the run measures, Pt on the slope reads a few per cent low against the plate as
     mounted at the recorded setting. With the drift term every Pt/P0 is within U; without it
     (the same budget less that term) neither is; each stored power and velocity is within its
-    own U, which carries the drift through the slope too."""
+    own U, which carries the drift through the slope too. The run's closing re-centring
+    brackets its last level, so no point's drift is extrapolated."""
     paper = load_strict(paths.paper_campaign().read_text())
     fig2a = next(run for run in paper["runs"] if run["name"] == "fig2a_one_column")
     fig2a["parameters"].update(velocity_levels_pp_mps=[0.25, 0.375], velocity_ratios=[0.8])
@@ -197,6 +198,8 @@ def test_pt_over_p0_on_a_warming_plate_is_within_its_u_only_with_the_drift_term(
     run = load_run(run_campaign(erring, out_dir=tmp_path / "run", progress=False, durable=False))
     points = run_uncertainties(run).points
     points = points[points["protocol"] == "detuning"]
+    # the closing re-centring (a row without a power) brackets the last level: nothing extrapolated
+    assert not points["resonance_drift_source"].str.contains("after the last reading").any()
     truths = _truths(points, tmp_path / "plain")
     for quantity in ("power_w", "velocity_pp_mps"):   # each stored point carries the drift too
         error = points[quantity] - pd.Series({index: truth[quantity] for index, truth in truths.items()})
