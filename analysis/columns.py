@@ -44,14 +44,16 @@ COLUMNS: dict[str, tuple[str, str]] = {
     "bench_input_sha256": ("", "sha256 of that file"),
     "instrument_ids": ("", "JSON: role -> the instrument's identification reply"),
     "resonance_frequency_hz": ("Hz", "resonance found by the search"),
-    "tracked_resonance_frequency_hz": ("Hz", "resonance as the re-centring before a Fig. 2 P0 read it (the "
-                                             "vertex of its readings' top; P0 is set at its best reading)"),
+    "tracked_resonance_frequency_hz": ("Hz", "resonance as the re-centring before a Fig. 2 P0 (or, on the "
+                                             "closing row, after the plate's last point) read it (the vertex "
+                                             "of its readings' top; P0 is set at its best reading)"),
     "tracked_resonance_frequency_hz_u": ("Hz", "standard uncertainty of tracked_resonance_frequency_hz (the fit's)"),
     "tracked_resonance_bench_time_s": ("s", "mean bench time of that re-centring's readings"),
     "sweep": ("", "true for a point of the resonance search's frequency sweep"),
     "velocity_level_pp_mps": ("m/s pp", "velocity level v0 of a detuning series (Fig. 2)"),
     "target_velocity_ratio": ("1", "velocity fraction reached by detuning before regaining v0"),
-    "detuning_phase": ("", "resonance, detuned, regained or stress (Fig. 2)"),
+    "detuning_phase": ("", "resonance, detuned, regained, stress or closing "
+                              "(Fig. 2; closing: the re-centring after the plate's last point, no power)"),
     "reachable": ("", "false when the safety limit prevented the point"),
     "plate_length_mm": ("mm", "resonator length after cutting (Table 3)"),
     "n_antinodes": ("1", "antinodes along the length (Table 3)"),

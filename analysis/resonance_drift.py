@@ -12,21 +12,31 @@ on the re-centred resonance, is off the mounted plate's by its setting's offset,
 (`uncertainty.power_ratio_budget`).
 
 Type A, from the run's dated readings of its resonance: its search's (the plate as mounted,
-at the search's low drive: the reference) and each Fig. 2 level's re-centring before P0
-(`tracked_resonance_frequency_hz`, the vertex of its readings' top, with that fit's u, at its
-readings' mean time; its best reading, where P0 is set, where that strays less, as on a top
-far wider than the re-centring's steps). Between two readings the drift is the larger of theirs
-(a plate that warms under a rising drive drifts one way; a line between them lagged the
-warming on seeded benches: the later reading is at the next, higher, level); after the
-last it goes on at the steepest rate per watt the readings resolve, times the last reading's
-power (a plate warms at up to its power over its heat capacity, fastest just after its drive
-rose; where no interval resolves a rate, the best-measured one's). The bound at a point is
-|drift| + 1.96 u(drift): the reference's u and the bracketing readings' larger one in
-quadrature, and after the last reading that rate's own u times the time since. A run stored
-before the re-centrings were recorded has its P0 settings as readings, dated by P0's end: the
-best reading of a golden section on a flat top, scattering by h SEARCH_STOP_SPREAD sqrt(s) (s
-the search's readings' relative scatter, Q the search sweep's, `resonance_searches`); the
-source says so.
+at the search's low drive: the reference), each Fig. 2 level's re-centring before P0 and the
+plate's closing re-centring after its last point (`tracked_resonance_frequency_hz`, the
+vertex of its readings' top, with that fit's u, at its readings' mean time; its best reading,
+where P0 is set, where that strays less, as on a top far wider than the re-centring's
+steps). Each reading j gives the drift since the reference, d_j = f_j - f_ref, with
+u_j = sqrt(u(f_j)^2 + u(f_ref)^2) (0 at the reference itself). A point between two readings
+is bounded by the larger of theirs (a plate that warms under a rising drive drifts one way
+between two readings; a line between them lagged the warming on seeded benches: the later
+reading is at the next, higher, level): the larger of Q(d_j, u_j) at its two readings, Q the
+95th percentile of |d| for d normal about d_j with u_j (`folded_quantile`): 1.96 u_j where
+the readings resolve no drift, their scatter entering once as u, and |d_j| + 1.645 u_j where
+they resolve one (the readings' scatter is not added to a bound it already widens). A P0 or
+closing row is read at its setting: its drift is its setting's offset from the reference,
+Q(offset, u(f_ref)).
+
+A point after the run's last reading (a run stored before the closing re-centring was
+recorded) has its drift extrapolated, and its source says so: it goes on at the steepest rate
+per watt the readings resolve, times the last reading's power (a plate warms at up to its
+power over its heat capacity, fastest just after its drive rose; where no interval resolves
+a rate, the best-measured one's), bounded by |d_last| + rate t + 1.96 u with u the last
+reading's and the rate's u times the time since in quadrature. A run stored before the
+re-centrings were recorded has its P0 settings as readings, dated by P0's end: the best
+reading of a golden section on a flat top, scattering by h SEARCH_STOP_SPREAD sqrt(s) (s the
+search's readings' relative scatter, Q the search sweep's, `resonance_searches`); the source
+says so.
 
 Type B where the run holds no repeated reading of its resonance (a single dated one):
 FALLBACK_DRIFT_RATE_REL_PER_S times the time since that reading. A point without a stored
@@ -39,8 +49,9 @@ import math
 
 import numpy as np
 import pandas as pd
+from scipy import stats
 
-from squeezebench.analysis.budgets import P95_FACTOR
+from squeezebench.analysis.budgets import COVERAGE_PROBABILITY, P95_FACTOR
 from squeezebench.analysis.resonance_searches import (SEARCH_STOP_SPREAD, mechanical_q_from_sweep, peak_of_readings,
                                                       reading_scatter_rel)
 
@@ -54,24 +65,33 @@ NOT_DATED = "no reading times stored: the resonance's drift is not estimated"
 #: A run stored before the re-centrings were recorded.
 UNTRACKED = ("; re-centrings read from P0's settings dated by P0's end (a run stored before "
              "tracked_resonance_frequency_hz): best readings on a flat top, a few seconds late")
+#: A run stored before the closing re-centring: its last level's points come after its last reading.
+EXTRAPOLATED = ("; the last level's points after the last reading (a run stored before the closing "
+                "re-centring was recorded) at {rate:.3f} +- {rate_u:.3f} Hz/s, the steepest per watt resolved")
+#: The Fig. 2 rows that read the resonance at their own setting (no slope under them).
+AT_SETTING = ("resonance", "closing")
 _COLUMNS = ("tracked_resonance_bench_time_s", "tracked_resonance_frequency_hz", "tracked_resonance_frequency_hz_u")
 
 
-def with_resonance_drift(points: pd.DataFrame, searches: pd.DataFrame | None = None) -> pd.DataFrame:
+def with_resonance_drift(points: pd.DataFrame, searches: pd.DataFrame | None = None,
+                         closings: pd.DataFrame | None = None) -> pd.DataFrame:
     """`points` (Fig. 2 points, any runs) with `resonance_drift_hz`, a bound on how far the
     resonance had moved from the run's first reading of it when each point was read (a P0 row:
     its setting's offset), and `resonance_drift_source`. `searches`: the runs'
     resonance_search rows (sweep and found, velocities reduced or the scope's): the reference
     reading, and the scatter and Q of a best reading; without them, the runs' re-centrings
-    are the only readings."""
+    are the only readings. `closings`: the runs' closing re-centrings where `points` does
+    not hold them (they store no power, so a frame of powers leaves them out)."""
     out = points.copy()
     out["resonance_drift_hz"] = 0.0
     out["resonance_drift_source"] = NOT_DATED
     if out.empty or "bench_time_s" not in out or "run_name" not in out:
         return out
     searches = pd.DataFrame(columns=["run_name"]) if searches is None else searches
+    closings = pd.DataFrame(columns=["run_name"]) if closings is None else closings
     for run_name, group in out.groupby("run_name", sort=False):
-        bounds, source = _drift_bounds(group, searches[searches["run_name"] == run_name])
+        bounds, source = _drift_bounds(group, searches[searches["run_name"] == run_name],
+                                       closings[closings["run_name"] == run_name])
         out.loc[group.index, "resonance_drift_hz"] = bounds
         out.loc[group.index, "resonance_drift_source"] = source
     return out
@@ -95,7 +115,18 @@ def _sweep(searches: pd.DataFrame) -> pd.DataFrame:
     return searches[searches["sweep"].astype(bool)]
 
 
-def _readings(points: pd.DataFrame, searches: pd.DataFrame) -> tuple[pd.DataFrame, bool]:
+def folded_quantile(offset_hz, u_hz, probability: float = COVERAGE_PROBABILITY) -> np.ndarray:
+    """The `probability` quantile of |d| for d normal with mean `offset_hz` and standard
+    deviation `u_hz` (the folded normal): P95_FACTOR u at offset 0, |offset| + 1.645 u far
+    from it, |offset| where u is 0."""
+    offset_hz, u_hz = np.broadcast_arrays(np.abs(np.asarray(offset_hz, dtype=float)), np.asarray(u_hz, dtype=float))
+    spread = u_hz > 0
+    scale = np.where(spread, u_hz, 1.0)
+    return np.where(spread, stats.foldnorm.ppf(probability, offset_hz / scale, scale=scale), offset_hz)
+
+
+def _readings(points: pd.DataFrame, searches: pd.DataFrame,
+              closings: pd.DataFrame) -> tuple[pd.DataFrame, bool]:
     """The run's dated readings of its resonance (time_s, frequency_hz, u_hz), in time order,
     and whether its re-centrings were recorded as such."""
     best_u = best_reading_scatter_hz(float(points["generator_frequency_hz"].iloc[0]), searches)
@@ -107,7 +138,9 @@ def _readings(points: pd.DataFrame, searches: pd.DataFrame) -> tuple[pd.DataFram
             fitted = fit is not None and not np.isin(found.resonance_frequency_hz, sweep["generator_frequency_hz"])
             rows.append((found.bench_time_s, found.resonance_frequency_hz, fit.std_uncertainty_hz if fitted else best_u,
                          getattr(found, "power_w", math.nan)))
-    at_resonance = points[points["detuning_phase"] == "resonance"] if "detuning_phase" in points else points.iloc[0:0]
+    at_resonance = points[points["detuning_phase"].isin(AT_SETTING)] if "detuning_phase" in points else points.iloc[0:0]
+    if len(closings):
+        at_resonance = pd.concat([at_resonance, closings], ignore_index=True)
     tracked = all(column in at_resonance for column in _COLUMNS) and bool(
         at_resonance["tracked_resonance_frequency_hz"].notna().all())
     power_w = at_resonance.get("power_w", pd.Series(math.nan, index=at_resonance.index))
@@ -144,29 +177,34 @@ def _rate_after(readings: pd.DataFrame) -> tuple[float, float]:
     return float(rates[chosen]), float(rates_u[chosen])
 
 
-def _drift_bounds(points: pd.DataFrame, searches: pd.DataFrame) -> tuple[np.ndarray, str]:
+def _drift_bounds(points: pd.DataFrame, searches: pd.DataFrame, closings: pd.DataFrame) -> tuple[np.ndarray, str]:
     """Each point's bound on |drift| (Hz) and the source of the bounds, for one run."""
-    readings, tracked = _readings(points, searches)
+    readings, tracked = _readings(points, searches, closings)
     at_s = points["bench_time_s"].to_numpy(float)
     if readings.empty or not np.all(np.isfinite(at_s)):
         return np.zeros(len(points)), NOT_DATED
     times, frequencies, u_hz = (readings[c].to_numpy() for c in ("time_s", "frequency_hz", "u_hz"))
     if len(times) < 2:
         return FALLBACK_DRIFT_RATE_REL_PER_S * frequencies[0] * np.maximum(at_s - times[0], 0.0), FALLBACK_SOURCE
-    rate, rate_u = _rate_after(readings)
-    after = np.searchsorted(times, at_s, side="right")   # readings at or before each point
+    # each reading's drift since the reference and its u (the reference's own is exact)
+    drift_hz = frequencies - frequencies[0]
+    drift_u_hz = np.hypot(u_hz[0], u_hz) * (np.arange(len(times)) > 0)
+    after = np.clip(np.searchsorted(times, at_s, side="right"), 1, len(times) - 1)   # the reading closing each span
+    bound_hz = np.maximum(folded_quantile(drift_hz[after - 1], drift_u_hz[after - 1]),
+                          folded_quantile(drift_hz[after], drift_u_hz[after]))
+    # P0 (and the closing row) is read at its setting: the mounted plate's resonance is off it by the setting's offset
+    at_setting = points["detuning_phase"].isin(AT_SETTING).to_numpy() if "detuning_phase" in points else False
     beyond_s = np.maximum(at_s - times[-1], 0.0)
-    drift_hz = np.where(beyond_s > 0, abs(frequencies[-1] - frequencies[0]) + abs(rate) * beyond_s,
-                        np.maximum(np.abs(frequencies[np.clip(after - 1, 0, len(times) - 1)] - frequencies[0]),
-                                   np.abs(frequencies[np.clip(after, 0, len(times) - 1)] - frequencies[0])))
-    u_at = np.where(beyond_s > 0, np.hypot(u_hz[-1], rate_u * beyond_s),
-                    np.maximum(u_hz[np.clip(after - 1, 0, len(times) - 1)], u_hz[np.clip(after, 0, len(times) - 1)]))
-    # P0 is read at its setting: the mounted plate's resonance is off it by the setting's offset
-    at_resonance = (points["detuning_phase"] == "resonance").to_numpy() if "detuning_phase" in points else False
-    drift_hz = np.where(at_resonance, np.abs(points["generator_frequency_hz"].to_numpy(float) - frequencies[0]), drift_hz)
-    u_at = np.where(at_resonance, 0.0, u_at)
+    extrapolated = (beyond_s > 0) & ~at_setting
+    if extrapolated.any():
+        rate, rate_u = _rate_after(readings)
+        bound_hz = np.where(extrapolated, abs(drift_hz[-1]) + abs(rate) * beyond_s
+                            + P95_FACTOR * np.hypot(u_hz[0], np.hypot(u_hz[-1], rate_u * beyond_s)), bound_hz)
+    bound_hz = np.where(at_setting, folded_quantile(points["generator_frequency_hz"].to_numpy(float) - frequencies[0],
+                                                    u_hz[0]), bound_hz)
     source = (f"Type A, the run's {len(times)} dated readings of its resonance (search, re-centrings), from the "
-              f"first (u {u_hz[0]:.2f} Hz): |drift| + {P95_FACTOR} u, readings' u {np.max(u_hz[1:]):.2f} Hz at most; "
-              f"after the last reading at {abs(rate):.3f} +- {rate_u:.3f} Hz/s (the steepest per watt resolved)"
+              f"first (u {u_hz[0]:.2f} Hz): the larger of the bracketing readings' 95 % bounds on |drift| "
+              f"(1.96 u where they resolve none), readings' u {np.max(u_hz[1:]):.2f} Hz at most"
+              + (EXTRAPOLATED.format(rate=abs(rate), rate_u=rate_u) if extrapolated.any() else "")
               + ("" if tracked else UNTRACKED))
-    return drift_hz + P95_FACTOR * np.hypot(u_hz[0], u_at), source
+    return bound_hz, source

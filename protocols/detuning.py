@@ -14,7 +14,13 @@ where regaining v0 took 240 V instead of 37.6 V. It is the same "regain" with a 
 frequency, and only runs whose `safety` section allows such a voltage can do it.
 
 Steps: `resonance` (search), then per level `level_<v>` (re-centre on the resonance at the
-level's voltage, record v0/P0) and `level_<v>_ratio_<r>` (detune, regain), then `stress`.
+level's voltage, record v0/P0) and `level_<v>_ratio_<r>` (detune, regain), then `stress`,
+then `closing`: one more re-centring at the last level's voltage, so that every Fig. 2 point
+lies between two dated readings of the resonance (the next level's re-centring follows every
+other level's points), and the resonance's drift at it is bounded by readings rather than
+extrapolated (`analysis.resonance_drift`). It records no power: one row, the re-centring's
+best reading (`detuning_phase` 'closing', no waveforms), with the re-centring's reading in
+the `tracked_resonance_*` columns as on a P0 row.
 """
 
 from __future__ import annotations
@@ -69,6 +75,8 @@ def plan(params: Parameters, plate: Plate) -> list[Step]:
             previous_key = ratio_key
     if params.stress_frequency_hz is not None:
         steps.append(Step("stress", plate, lambda ctx: _stress(ctx, params)))
+    if params.velocity_levels_pp_mps:
+        steps.append(Step("closing", plate, lambda ctx: _closing(ctx, params, params.velocity_levels_pp_mps[-1])))
     return steps
 
 
@@ -97,8 +105,21 @@ def _at_resonance(ctx: StepContext, params: Parameters, level_pp_mps: float) -> 
         "v0_pp_mps": point.velocity_pp_mps, "p0_w": point.scope_power_w}
 
 
+def _closing(ctx: StepContext, params: Parameters, level_pp_mps: float) -> None:
+    """Re-centre on the resonance after the plate's last Fig. 2 point, from the last level's
+    resonance and at its P0 voltage (the tracking its re-centring did, once), and record the
+    best reading with the re-centring as a dated reading of the resonance (`_tracked_reading`)."""
+    at_resonance = ctx.context[_level_key(level_pp_mps)]
+    ctx.drive.set_frequency(at_resonance["resonance_frequency_hz"])
+    ctx.drive.set_piezo_voltage(at_resonance["piezo_voltage_vpp"])
+    tracked = track_resonance(ctx.acquisition.measure_at, at_resonance["resonance_frequency_hz"], params.search)
+    best = next(p for p in reversed(tracked.points) if p.generator_frequency_hz == tracked.frequency_hz)
+    ctx.record(best, velocity_level_pp_mps=level_pp_mps, target_velocity_ratio=math.nan, detuning_phase="closing",
+               reachable=True, **_tracked_reading(ctx, tracked))
+
+
 def _tracked_reading(ctx: StepContext, tracked: Resonance) -> dict[str, float]:
-    """The last re-centring as a dated reading of the resonance, for the drift between P0 and
+    """A re-centring as a dated reading of the resonance, for the drift between P0 and
     Pt (`analysis.resonance_drift`): the vertex its readings' top puts the peak at, with that
     fit's u (the best reading, which P0 is set at, scatters several times more on a flat
     top), dated by its readings' mean time (the plate drifts under them). NaN u where they

@@ -70,3 +70,21 @@ def test_stress_point_needs_the_raised_limit(tmp_path):
     stress = results(rows, "detuning").query("detuning_phase == 'stress'").iloc[0]
     assert stress["generator_frequency_hz"] == 37560.0
     assert 100.0 < stress["piezo_voltage_setpoint_vpp"] <= 240.0
+    # the closing re-centring comes after every Fig. 2 point, the stress point's too
+    assert results(rows, "detuning").sort_values("bench_time_s")["detuning_phase"].iloc[-1] == "closing"
+
+
+def test_a_closing_recentring_after_the_last_point_reads_the_resonance_without_a_power(one_column):
+    """The plate's last row is its closing re-centring: after every Fig. 2 point, at the last
+    level's P0 voltage, a dated reading of the resonance (on the noise-free bench, where P0's
+    re-centring put it) that keeps no waveform, so no power is reduced from it."""
+    by_time = one_column.sort_values("bench_time_s")
+    closing = by_time.iloc[-1]
+    assert closing["detuning_phase"] == "closing" and closing["step_id"] == "closing"
+    assert (one_column["detuning_phase"] == "closing").sum() == 1 and closing["waveform_file"] is None
+    last_p0 = by_time[(by_time["detuning_phase"] == "resonance") & (by_time["velocity_level_pp_mps"] == 0.25)].iloc[0]
+    assert closing["velocity_level_pp_mps"] == 0.25
+    assert closing["piezo_voltage_setpoint_vpp"] == pytest.approx(last_p0["piezo_voltage_setpoint_vpp"])
+    assert closing["tracked_resonance_frequency_hz"] == pytest.approx(last_p0["tracked_resonance_frequency_hz"],
+                                                                      abs=SEARCH["tolerance_hz"])
+    assert closing["tracked_resonance_bench_time_s"] > by_time.iloc[-2]["bench_time_s"]

@@ -57,22 +57,61 @@ def _two_levels() -> pd.DataFrame:
             lambda f: f.assign(power_w=f["power_w_override"].fillna(f["power_w"])).drop(columns="power_w_override"))
 
 
-def test_the_drift_bound_interpolates_between_readings_and_goes_on_at_the_steepest_rate_per_watt():
-    """Between the re-centrings the drift is the larger of theirs, after the last it goes on at
-    the steepest rate per watt times the last reading's power; each bound adds 1.96 u of the
-    readings it rests on, and a P0 is off the mounted plate by its setting's offset."""
+def _folded_coverage(bound: float, offset: float, u: float) -> float:
+    """P(|d| <= bound) for d normal about `offset` with spread `u` (the folded normal's CDF)."""
+    phi = lambda x: 0.5 * (1.0 + math.erf(x / math.sqrt(2.0)))   # noqa: E731
+    return phi((bound - offset) / u) - phi((-bound - offset) / u)
+
+
+def test_the_drift_bound_takes_the_larger_of_the_bracketing_readings_and_goes_on_at_the_steepest_rate_per_watt():
+    """Between the re-centrings the drift is the larger of the two readings' 95 % bounds on
+    |drift| (the folded normal's quantile: the readings' scatter enters once), after the last
+    (a run without its closing re-centring) it goes on at the steepest rate per watt times the
+    last reading's power, and says so; a P0 is off the mounted plate by its setting's offset."""
     points = resonance_drift.with_resonance_drift(_two_levels())
     bound = points["resonance_drift_hz"].to_numpy()
     u = 0.1
-    # P0 rows: the setting's offset from the first reading, 1.96 u of that reading
-    assert bound[0] == pytest.approx(0.2 + P95_FACTOR * u)
-    assert bound[2] == pytest.approx(1.9 + P95_FACTOR * u)
-    # between the readings: the later one's 2 Hz, with the reference's and the bracketing readings' u
-    assert bound[1] == pytest.approx(2.0 + P95_FACTOR * math.hypot(u, u))
+    # P0 rows: the setting's offset from the first reading, with that reading's u
+    assert _folded_coverage(bound[0], 0.2, u) == pytest.approx(0.95, abs=1e-9)
+    assert _folded_coverage(bound[2], 1.9, u) == pytest.approx(0.95, abs=1e-9)
+    # between the readings: the later one's 2 Hz, with the reference's and its own u
+    assert _folded_coverage(bound[1], 2.0, math.hypot(u, u)) == pytest.approx(0.95, abs=1e-9)
+    assert 2.0 + 1.6448 * math.hypot(u, u) < bound[1] < 2.0 + P95_FACTOR * math.hypot(u, u)
     # 20 s after the last: -2 Hz in 100 s at 25 mW mean, run on at 40 mW
     rate, rate_u = 0.02 * 0.04 / 0.025, math.hypot(u, u) / 100.0 * 0.04 / 0.025
     assert bound[3] == pytest.approx(2.0 + rate * 20.0 + P95_FACTOR * math.hypot(u, math.hypot(u, rate_u * 20.0)))
     assert points["resonance_drift_source"].str.startswith("Type A").all()
+    assert "after the last reading" in points["resonance_drift_source"].iat[0]
+
+
+def test_a_closing_recentring_brackets_the_last_levels_points_whether_read_with_them_or_apart():
+    """The plate's closing re-centring after its last point: the last level's Pt lies between
+    two readings, so its bound is theirs (none extrapolated, and the source no longer says
+    so); the closing row handed apart (`closings`, as a frame of powers leaves it out) gives
+    the same bounds as read among the points."""
+    closing = _row("closing", math.nan, 37177.5, 241.0, 0.25, **_tracked(240.0, 37177.4, 0.1))
+    with_closing = pd.concat([_two_levels(), pd.DataFrame([closing])], ignore_index=True)
+    among = resonance_drift.with_resonance_drift(with_closing)
+    apart = resonance_drift.with_resonance_drift(_two_levels(), closings=pd.DataFrame([closing]))
+    np.testing.assert_allclose(apart["resonance_drift_hz"], among["resonance_drift_hz"].iloc[:4], rtol=1e-12)
+    u = math.hypot(0.1, 0.1)
+    assert _folded_coverage(among["resonance_drift_hz"].iat[3], 2.4, u) == pytest.approx(0.95, abs=1e-9)
+    assert "after the last reading" not in among["resonance_drift_source"].iat[0]
+    # the closing row itself is read at its setting, like a P0
+    assert _folded_coverage(among["resonance_drift_hz"].iat[4], 2.3, 0.1) == pytest.approx(0.95, abs=1e-9)
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.floats(-50.0, 50.0), st.one_of(st.just(0.0), st.floats(1e-3, 10.0)))
+def test_the_folded_quantile_holds_95_percent_and_lies_between_the_one_and_two_sided_bounds(offset_hz, u_hz):
+    """Q(d, u) is the 95 % quantile of |d| (d normal about `offset` with spread u): 1.96 u at
+    no offset, never below |offset| + 1.645 u nor above |offset| + 1.96 u; |offset| at u 0."""
+    bound = float(resonance_drift.folded_quantile(offset_hz, u_hz))
+    if u_hz == 0:
+        assert bound == abs(offset_hz)
+        return
+    assert _folded_coverage(bound, offset_hz, u_hz) == pytest.approx(0.95, abs=1e-7)
+    assert abs(offset_hz) + 1.6448 * u_hz - 1e-9 <= bound <= abs(offset_hz) + P95_FACTOR * u_hz + 1e-9
 
 
 @settings(max_examples=60, deadline=None)
@@ -145,7 +184,8 @@ def test_pt_over_p0_on_a_warming_plate_is_within_its_u_only_with_the_drift_term(
     by Hz while the run measures, Pt on the slope reads a few per cent low against the plate as
     mounted at the recorded setting. With the drift term every Pt/P0 is within U; without it
     (the same budget less that term) neither is; each stored power and velocity is within its
-    own U, which carries the drift through the slope too."""
+    own U, which carries the drift through the slope too. The run's closing re-centring
+    brackets its last level, so no point's drift is extrapolated."""
     paper = load_strict(paths.paper_campaign().read_text())
     fig2a = next(run for run in paper["runs"] if run["name"] == "fig2a_one_column")
     fig2a["parameters"].update(velocity_levels_pp_mps=[0.25, 0.375], velocity_ratios=[0.8])
@@ -158,6 +198,8 @@ def test_pt_over_p0_on_a_warming_plate_is_within_its_u_only_with_the_drift_term(
     run = load_run(run_campaign(erring, out_dir=tmp_path / "run", progress=False, durable=False))
     points = run_uncertainties(run).points
     points = points[points["protocol"] == "detuning"]
+    # the closing re-centring (a row without a power) brackets the last level: nothing extrapolated
+    assert not points["resonance_drift_source"].str.contains("after the last reading").any()
     truths = _truths(points, tmp_path / "plain")
     for quantity in ("power_w", "velocity_pp_mps"):   # each stored point carries the drift too
         error = points[quantity] - pd.Series({index: truth[quantity] for index, truth in truths.items()})
