@@ -122,7 +122,18 @@ def folded_quantile(offset_hz, u_hz, probability: float = COVERAGE_PROBABILITY) 
     offset_hz, u_hz = np.broadcast_arrays(np.abs(np.asarray(offset_hz, dtype=float)), np.asarray(u_hz, dtype=float))
     spread = u_hz > 0
     scale = np.where(spread, u_hz, 1.0)
-    return np.where(spread, stats.foldnorm.ppf(probability, offset_hz / scale, scale=scale), offset_hz)
+    with np.errstate(over="ignore"):
+        c = offset_hz / scale
+    # Past FOLD_NEGLIGIBLE the fold below zero holds under Phi(-2 c) of the mass: the one-sided
+    # quantile is exact to it, and scipy's root search fails on an overflowing c.
+    far = c > FOLD_NEGLIGIBLE
+    folded = stats.foldnorm.ppf(probability, np.where(far, 0.0, c), scale=scale)
+    one_sided = offset_hz + stats.norm.ppf(probability) * u_hz
+    return np.where(spread, np.where(far, one_sided, folded), offset_hz)
+
+
+#: The mean over spread of a folded normal past which its fold is negligible (Phi(-16) ~ 1e-58).
+FOLD_NEGLIGIBLE = 8.0
 
 
 def _readings(points: pd.DataFrame, searches: pd.DataFrame,

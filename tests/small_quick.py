@@ -46,8 +46,8 @@ MEASURING_RUNS = """
         - {plate_length_mm: 75, state: 75x41, n_antinodes: 9}
 """
 SMALL_QUICK = HEADER + DESKEW_RUN + MEASURING_RUNS
-#: The steps it stores: the deskew's, the detuning's three, the cut's.
-SMALL_QUICK_STEPS = 5
+#: The steps it stores: the deskew's, the detuning's four (its closing re-centring last), the cut's.
+SMALL_QUICK_STEPS = 6
 
 
 def small_quick(folder: Path) -> Path:
