@@ -164,7 +164,7 @@ class Distribution:
 
     def biased_probability(self, k, bias: float):
         """P(|X + bias| <= k) for X symmetric about 0: F(k - b) - F(-k - b) with
-        F(x) = (1 + sign(x) P(|X| <= |x|)) / 2; `k` a number or an array."""
+        F(x) = (1 + sign(x) P(|X| <= |x|)) / 2; `k` or `bias` a number or an array."""
         k = np.asarray(k, dtype=float)
         return 0.5 * (np.sign(k - bias) * np.interp(np.abs(k - bias), self.x, self.covered)
                       + np.interp(k + bias, self.x, self.covered))
@@ -200,7 +200,7 @@ def worst_bias_probability(biased_probability, k: float, bias: float) -> float:
     """The least P(|X + b| <= k) over |b| <= `bias` (symmetric X: b >= 0 suffice), on
     BIAS_STEPS + 1 biases, B among them: where X is symmetric and unimodal the least is at B."""
     biases = np.linspace(0.0, bias, BIAS_STEPS + 1) if bias else np.zeros(1)
-    return float(min(np.min(biased_probability(k, b)) for b in biases))
+    return float(np.min(biased_probability(k, biases)))   # every bias at once: a k search asks this a dozen times
 
 
 #: The largest share of the world's error distribution a `WorldMixture` may leave out: its
@@ -254,10 +254,10 @@ class WorldMixture:
         """P(|X| <= k) of the components kept: at most `dropped` below the whole's."""
         return self.biased_probability(k, 0.0)
 
-    def biased_probability(self, k: float, bias: float) -> float:
-        """P(|X + bias| <= k) of the components kept. Each distinct component stands for
-        itself and its mirror (-mean), which hold the same share of +-k about 0 but not
-        about -bias: both halves are summed."""
+    def biased_probability(self, k: float, bias):
+        """P(|X + bias| <= k) of the components kept, `bias` a number or an array (one
+        probability each). Each distinct component stands for itself and its mirror (-mean),
+        which hold the same share of +-k about 0 but not about -bias: both halves are summed."""
         # Imported here: scipy.special is some 0.4 CPU-s to import, which every study and plan
         # worker importing this module would pay, most never asking for a k.
         from scipy.special import ndtr
@@ -268,9 +268,11 @@ class WorldMixture:
                                 ndtr((k - means) / self.sigmas) - ndtr((-k - means) / self.sigmas),
                                 np.abs(means) <= k)   # all limits beyond and no rest: a point
 
-        if not bias:
-            return float(np.dot(self.weights, held(self.means)))
-        return float(np.dot(self.weights, 0.5 * (held(self.means + bias) + held(-self.means + bias))))
+        shift = np.asarray(bias, dtype=float)[..., None]   # bias, component
+        held_by_bias = (held(self.means + shift) if not np.any(shift) else
+                        0.5 * (held(self.means + shift) + held(-self.means + shift)))
+        out = held_by_bias @ self.weights
+        return float(out) if out.ndim == 0 else out
 
     def factor(self, probability: float, bias: float = 0.0) -> float:
         """The smallest k with P(|X + b| <= k) >= probability for every |b| <= `bias`, to 1e-10
