@@ -289,11 +289,6 @@ class GridError:
         return np.array([self(p, c) for p, c in zip(points, cells)])
 
 
-def grid_error(attribute: str, share_of_peak: float) -> GridError:
-    """`GridError` of figure `attribute` at `share_of_peak`."""
-    return GridError(attribute, share_of_peak)
-
-
 def placement_shifts(readings: CellReadings) -> list[tuple[float, float]]:
     """Where the grid may have fallen about where it did, in grid steps per axis: the
     plate's placement on the stage (`specifications.SPECIFICATIONS["plate_placement"]`, a
@@ -306,7 +301,7 @@ def placement_shifts(readings: CellReadings) -> list[tuple[float, float]]:
 
 
 def shifted_grid_errors(readings: CellReadings, error: Callable[[np.ndarray, np.ndarray], float]) -> np.ndarray:
-    """`error` (e.g. `grid_error`) of the grid shifted by each of `placement_shifts`, read
+    """`error` (e.g. a `GridError`) of the grid shifted by each of `placement_shifts`, read
     off the field between the points: the shifted grid's points against the vibration over
     its own cells, which move with it (a map's figure is the vibration's over the area its
     grid covers; against the unshifted cells, the shifted grid's error would also carry
@@ -317,7 +312,7 @@ def shifted_grid_errors(readings: CellReadings, error: Callable[[np.ndarray, np.
 
 
 def grid_bias(readings: CellReadings | None, error: Callable[[np.ndarray, np.ndarray], float]) -> float:
-    """`error` (e.g. `grid_error`) of the grid where it fell: its points against the field
+    """`error` (e.g. a `GridError`) of the grid where it fell: its points against the field
     read over their own cells (`CellReadings.values`), a bias of known sign that the map's
     figure carries (0 without readings).
 
@@ -550,7 +545,7 @@ def summarise_map(points: pd.DataFrame, predicted: np.ndarray | None = None, sha
                              np.copysign(amplitude, touch["signed_velocity_pp_mps"].to_numpy()))
 
     def expanded_between(attribute: str) -> float:
-        error = grid_error(attribute, share_of_peak)
+        error = GridError(attribute, share_of_peak)
         errors = np.array([]) if readings is None else shifted_grid_errors(readings, error)
         return expanded(attribute, own=(grid_term(errors, readings.method if readings else ""),
                                         grid_bias_term(grid_bias(readings, error))))

@@ -115,6 +115,10 @@ def _sweep(searches: pd.DataFrame) -> pd.DataFrame:
     return searches[searches["sweep"].astype(bool)]
 
 
+#: The mean over spread of a folded normal past which its fold is negligible (Phi(-16) ~ 1e-58).
+FOLD_NEGLIGIBLE = 8.0
+
+
 def folded_quantile(offset_hz, u_hz, probability: float = COVERAGE_PROBABILITY) -> np.ndarray:
     """The `probability` quantile of |d| for d normal with mean `offset_hz` and standard
     deviation `u_hz` (the folded normal): P95_FACTOR u at offset 0, |offset| + 1.645 u far
@@ -130,10 +134,6 @@ def folded_quantile(offset_hz, u_hz, probability: float = COVERAGE_PROBABILITY) 
     folded = stats.foldnorm.ppf(probability, np.where(far, 0.0, c), scale=scale)
     one_sided = offset_hz + stats.norm.ppf(probability) * u_hz
     return np.where(spread, np.where(far, one_sided, folded), offset_hz)
-
-
-#: The mean over spread of a folded normal past which its fold is negligible (Phi(-16) ~ 1e-58).
-FOLD_NEGLIGIBLE = 8.0
 
 
 def _readings(points: pd.DataFrame, searches: pd.DataFrame,

@@ -12,7 +12,7 @@ import pytest
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
-from squeezebench.analysis.cartography import (cell_offsets, cell_readings, coefficients_of_variation, grid_error,
+from squeezebench.analysis.cartography import (cell_offsets, cell_readings, coefficients_of_variation, GridError,
                                                grid_bias, grid_term, homogeneity, modal_assurance, retuning_log_levels,
                                                retuning_term, shifted_grid_errors, signed_amplitude)
 from squeezebench.paths import scenes_dir
@@ -203,7 +203,7 @@ STEP_M = 2e-3
 
 def _grid_errors(readings, figure: str) -> np.ndarray:
     """The shifted grids' errors of `figure` (half the points' peak for the area) from `readings`."""
-    return shifted_grid_errors(readings, grid_error(figure, 0.5))
+    return shifted_grid_errors(readings, GridError(figure, 0.5))
 
 
 def _grid_u(readings, figure: str) -> float:
@@ -217,7 +217,7 @@ def _grid_expanded(readings, figure: str) -> float:
     """The grid's part of the figure's U: the bias bound (the error where the grid fell)
     plus k = 1.96 times the spread over the placement."""
     errors = _grid_errors(readings, figure)
-    return (abs(grid_bias(readings, grid_error(figure, 0.5)))
+    return (abs(grid_bias(readings, GridError(figure, 0.5)))
             + 1.96 * grid_term(errors, readings.method).std_uncertainty)
 
 
@@ -278,7 +278,7 @@ def test_the_grids_bound_covers_the_continuous_figures_of_a_cosine_mode(kind):
         x, y, sampled, fine = _sampled_mode(rng, kind, rng.uniform(2.0, 4.0))
         readings = cell_readings(STEP_M * x, STEP_M * y, sampled)
         for figure in FIGURES:
-            errors[figure].append(abs(grid_error(figure, 0.5)(np.abs(sampled), fine)))
+            errors[figure].append(abs(GridError(figure, 0.5)(np.abs(sampled), fine)))
             expanded[figure].append(_grid_expanded(readings, figure))
     assert not grid_term(np.ones(3), "cubic").is_rectangular   # a standard deviation: normal, k = 1.96
     for figure in FIGURES:
@@ -298,7 +298,7 @@ def _large_plate_map(large, step_mm: float, dx_mm: float, dy_mm: float = 0.0) ->
     spots = cell_offsets(8) * step_mm
     cells = np.abs(np.concatenate([mode_shape(scene, state, x + a, y + b).ravel() for a in spots for b in spots]))
     readings = cell_readings(1e-3 * x.ravel(), 1e-3 * y.ravel(), signed)
-    return ([grid_error(figure, 0.5)(np.abs(signed), cells) for figure in FIGURES],
+    return ([GridError(figure, 0.5)(np.abs(signed), cells) for figure in FIGURES],
             [_grid_u(readings, figure) for figure in FIGURES], [_grid_expanded(readings, figure) for figure in FIGURES])
 
 
@@ -358,7 +358,7 @@ def test_on_a_cosine_mode_at_the_paper_maps_grid_the_term_is_the_true_spread_of_
     for phase in np.linspace(0.0, math.pi, 13)[:-1]:
         readings = cell_readings(1e-3 * x.ravel(), 1e-3 * y.ravel(), np.cos(k * x + phase).ravel())
         terms = np.array([_grid_u(readings, figure) for figure in FIGURES])
-        true = [[grid_error(figure, 0.5)(np.abs(np.cos(k * (xs + dx) + phase)),
+        true = [[GridError(figure, 0.5)(np.abs(np.cos(k * (xs + dx) + phase)),
                                          np.abs(np.cos(k * ((xs + dx)[:, None] + fine) + phase)).ravel())
                  for figure in FIGURES] for dx, _ in PLACEMENTS_MM]
         ratio = terms / np.sqrt(np.mean(np.square(true), axis=0))
