@@ -45,15 +45,19 @@ time has no estimate: drift 0, and the source says so.
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
 import pandas as pd
 from scipy import stats
 
+from squeezebench.analysis import provenance
 from squeezebench.analysis.budgets import COVERAGE_PROBABILITY, P95_FACTOR
 from squeezebench.analysis.resonance_searches import (SEARCH_STOP_SPREAD, mechanical_q_from_sweep, peak_of_readings,
                                                       reading_scatter_rel)
+from squeezebench.plates import warming
+from squeezebench.plates.laminate import ALUMINIUM_TABLE2
 
 #: Relative resonance drift per second where a run holds a single reading of its resonance:
 #: the frequency's temperature coefficient times an assumed warming rate.
@@ -74,14 +78,17 @@ _COLUMNS = ("tracked_resonance_bench_time_s", "tracked_resonance_frequency_hz", 
 
 
 def with_resonance_drift(points: pd.DataFrame, searches: pd.DataFrame | None = None,
-                         closings: pd.DataFrame | None = None) -> pd.DataFrame:
+                         closings: pd.DataFrame | None = None, scenes: dict[str, dict] | None = None) -> pd.DataFrame:
     """`points` (Fig. 2 points, any runs) with `resonance_drift_hz`, a bound on how far the
     resonance had moved from the run's first reading of it when each point was read (a P0 row:
     its setting's offset), and `resonance_drift_source`. `searches`: the runs'
     resonance_search rows (sweep and found, velocities reduced or the scope's): the reference
     reading, and the scatter and Q of a best reading; without them, the runs' re-centrings
     are the only readings. `closings`: the runs' closing re-centrings where `points` does
-    not hold them (they store no power, so a frame of powers leaves them out)."""
+    not hold them (they store no power, so a frame of powers leaves them out). `scenes`: the
+    run's scene copies (`RunData.scenes`); where one gives the plate, its drift is bounded
+    by its warming under the run's own stored powers (`_warming_bounds`), else by its
+    readings alone (`_drift_bounds`)."""
     out = points.copy()
     out["resonance_drift_hz"] = 0.0
     out["resonance_drift_source"] = NOT_DATED
@@ -90,8 +97,10 @@ def with_resonance_drift(points: pd.DataFrame, searches: pd.DataFrame | None = N
     searches = pd.DataFrame(columns=["run_name"]) if searches is None else searches
     closings = pd.DataFrame(columns=["run_name"]) if closings is None else closings
     for run_name, group in out.groupby("run_name", sort=False):
-        bounds, source = _drift_bounds(group, searches[searches["run_name"] == run_name],
-                                       closings[closings["run_name"] == run_name])
+        dimensions = _plate_dimensions(group, scenes) if scenes else None
+        bound = _drift_bounds if dimensions is None else functools.partial(_warming_bounds, dimensions=dimensions)
+        bounds, source = bound(group, searches[searches["run_name"] == run_name],
+                               closings[closings["run_name"] == run_name])
         out.loc[group.index, "resonance_drift_hz"] = bounds
         out.loc[group.index, "resonance_drift_source"] = source
     return out
@@ -219,3 +228,108 @@ def _drift_bounds(points: pd.DataFrame, searches: pd.DataFrame, closings: pd.Dat
               + (EXTRAPOLATED.format(rate=abs(rate), rate_u=rate_u) if extrapolated.any() else "")
               + ("" if tracked else UNTRACKED))
     return bound_hz, source
+
+
+#: The plate materials whose density the warming bound knows (`_plate_dimensions`).
+DENSITY_KG_M3 = {"aluminium": ALUMINIUM_TABLE2.density_kg_m3}
+#: Time constants tried across the tolerances' range (`_warming_bounds`), log-spaced.
+TIME_CONSTANT_STEPS = 13
+#: chi^2 with one degree of freedom at 95 %: the time constants the readings do not reject
+#: (profile likelihood, its minimum plus this).
+CHI2_95_ONE = 3.841
+WARMING_SOURCE = ("Type A/B, the plate's warming under the run's {n} dated stored powers (lumped thermal model, "
+                  "`plates.warming`, tau {tau_low:.0f}-{tau_high:.0f} s within the heating tolerances) scaled by "
+                  "the run's {readings} dated readings of its resonance (the 95 % upper bound of the scale they "
+                  "fit, within the tolerances' {low:.3g}-{high:.3g} Hz/J), and the room's (up to {room:g} K/h)")
+
+
+def _plate_dimensions(points: pd.DataFrame, scenes: dict[str, dict]) -> tuple[float, float, float, float] | None:
+    """Length, width, thickness (mm) and density (kg/m^3) of the plate of the scene the run's
+    points ran on; None where its copy is missing or its material's density unknown."""
+    plate = scenes.get(provenance.scene_files(points.iloc[:1]).iat[0], {}).get("plate", {})
+    density = DENSITY_KG_M3.get(plate.get("material"))
+    if density is None or not all(key in plate for key in ("length_mm", "width_mm", "thickness_mm")):
+        return None
+    return float(plate["length_mm"]), float(plate["width_mm"]), float(plate["thickness_mm"]), density
+
+
+def _power_history(*frames: pd.DataFrame) -> tuple[np.ndarray, np.ndarray]:
+    """The run's dated powers in time order (its stored power, else the scope's), each held
+    over the interval before it at the larger of its own and the previous one: a drive that
+    rose (a regain) or fell (a detuning at the level's voltage) between two stored readings
+    stayed between them, and the larger of the two bounds the heat."""
+    rows = []
+    for frame in frames:
+        if "bench_time_s" not in frame:
+            continue
+        power = frame["power_w"] if "power_w" in frame else pd.Series(math.nan, index=frame.index)
+        if "scope_power_w" in frame:
+            power = power.fillna(frame["scope_power_w"])
+        rows.append(pd.DataFrame({"time_s": frame["bench_time_s"].to_numpy(float), "power_w": power.to_numpy(float)}))
+    history = pd.concat(rows, ignore_index=True) if rows else pd.DataFrame(columns=["time_s", "power_w"], dtype=float)
+    history = history[np.isfinite(history["time_s"]) & np.isfinite(history["power_w"])].sort_values("time_s")
+    times_s, power_w = history["time_s"].to_numpy(float), np.abs(history["power_w"].to_numpy(float))
+    return times_s, np.maximum(power_w, np.concatenate([power_w[:1], power_w[:-1]]))
+
+
+def _warming_scale_bound(held_j: np.ndarray, readings: pd.DataFrame, times_s: np.ndarray,
+                         low: float, high: float) -> tuple[float, float]:
+    """The 95 % upper bound on k (Hz/J) in drift = -k E, E the heat held (`held_heat_j` at
+    `times_s`), from the readings' drifts since the first, d_j = -k (E_j - E_0) + e_j with
+    u_j = sqrt(u(f_j)^2 + u(f_0)^2) (weighted least squares, k + 1.645 u(k)), within
+    [`low`, `high`], the tolerances' range; and the fit's chi^2 (0 where the readings fit
+    nothing: `high`)."""
+    at_j = np.interp(readings["time_s"].to_numpy(float), times_s, held_j)
+    model = at_j[1:] - at_j[0]
+    drift_hz = readings["frequency_hz"].to_numpy(float)[1:] - readings["frequency_hz"].iat[0]
+    u_hz = np.hypot(readings["u_hz"].to_numpy(float)[1:], readings["u_hz"].iat[0])
+    usable = (u_hz > 0) & (model > 0)
+    if not usable.any():
+        return high, 0.0
+    weight = 1.0 / u_hz[usable] ** 2
+    information = float(np.sum(weight * model[usable] ** 2))
+    scale = float(np.sum(weight * model[usable] * -drift_hz[usable])) / information
+    chi2 = float(np.sum(weight * (drift_hz[usable] + scale * model[usable]) ** 2))
+    upper = scale + stats.norm.ppf(COVERAGE_PROBABILITY) / math.sqrt(information)
+    return float(np.clip(upper, low, high)), chi2
+
+
+def _warming_bounds(points: pd.DataFrame, searches: pd.DataFrame, closings: pd.DataFrame,
+                    dimensions: tuple[float, float, float, float]) -> tuple[np.ndarray, str]:
+    """Each point's bound on |drift| (Hz) from the plate's warming, for one run.
+
+    The plate warms as one body (`plates.warming`): its resonance has fallen by k E(t), E the
+    heat it holds from the run's stored powers (`_power_history`, cold at the run's first
+    stored reading), k = f |alpha| / C. Its time constant tau and k lie within the heating
+    tolerances' ranges (`warming.time_constant_range_s`, `warming.drift_per_joule_range_hz`);
+    the run's dated readings of its resonance (`_readings`) fit k at each tau, and the bound
+    is the largest k_95 E(t) over the taus the readings do not reject (`_warming_scale_bound`;
+    chi^2 within CHI2_95_ONE of its least). A plate whose readings resolve its drift is
+    bounded near it; one whose readings resolve nothing, at the tolerances' limits. The
+    room's drift since the first reading adds (`warming.room_drift_bound_hz`). A P0 or
+    closing row is read at its setting: the mounted plate's resonance is off it by the
+    setting's offset from the first reading (`folded_quantile` with that reading's u) and by
+    the drift, their sum bounding both."""
+    times_s, power_w = _power_history(points, searches, closings)
+    at_s = points["bench_time_s"].to_numpy(float)
+    readings, _ = _readings(points, searches, closings)
+    if len(times_s) < 2 or readings.empty or not np.all(np.isfinite(at_s)):
+        return _drift_bounds(points, searches, closings)
+    frequency_hz = float(readings["frequency_hz"].iat[0])
+    low, high = warming.drift_per_joule_range_hz(frequency_hz, *dimensions)
+    shortest, longest = warming.time_constant_range_s(*dimensions)
+    fits = []
+    for tau_s in np.geomspace(shortest, longest, TIME_CONSTANT_STEPS):
+        held_j = warming.held_heat_j(times_s, power_w, tau_s)
+        scale, chi2 = _warming_scale_bound(held_j, readings, times_s, low, high)
+        fits.append((chi2, scale * np.interp(at_s, times_s, held_j)))
+    least = min(chi2 for chi2, _ in fits)
+    bound_hz = np.max([drift for chi2, drift in fits if chi2 <= least + CHI2_95_ONE], axis=0)
+    bound_hz = bound_hz + warming.room_drift_bound_hz(points["generator_frequency_hz"].to_numpy(float),
+                                                      at_s - times_s[0])
+    at_setting = points["detuning_phase"].isin(AT_SETTING).to_numpy() if "detuning_phase" in points else False
+    offset_hz = folded_quantile(points["generator_frequency_hz"].to_numpy(float) - frequency_hz, readings["u_hz"].iat[0])
+    bound_hz = np.where(at_setting, bound_hz + offset_hz, bound_hz)
+    return bound_hz, WARMING_SOURCE.format(n=len(times_s), tau_low=shortest, tau_high=longest,
+                                           readings=len(readings), low=low, high=high,
+                                           room=3600.0 * warming.ROOM_DRIFT_K_PER_S)

@@ -469,7 +469,7 @@ def detuning_points(run: RunData) -> pd.DataFrame:
     from squeezebench.analysis import dielectric, resonance_drift   # they read points through this module
 
     points = dielectric.with_dielectric_power(with_scope_fallback(protocol_points(run, "detuning")), run.scenes)
-    return resonance_drift.with_resonance_drift(points, resonance_search_points(run))
+    return resonance_drift.with_resonance_drift(points, resonance_search_points(run), scenes=run.scenes)
 
 
 def resonance_search_points(run: RunData) -> pd.DataFrame | None:

@@ -587,7 +587,8 @@ def stored_points(run: RunData) -> tuple[pd.DataFrame | None, Deskew | None]:
     if fig2.any():   # a warming plate moves its resonance under Fig. 2's slope (`analysis.resonance_drift`)
         detuning = run.protocol("detuning")   # the closing re-centrings store no power: read them from the rows
         closings = detuning[detuning["detuning_phase"] == "closing"] if "detuning_phase" in detuning else None
-        drifts = resonance_drift.with_resonance_drift(points[fig2], resonance_search_points(run), closings)
+        drifts = resonance_drift.with_resonance_drift(points[fig2], resonance_search_points(run), closings,
+                                                      run.scenes)
         points = pd.concat([drifts, points[~fig2]]).loc[points.index]
     return points, deskew
 

@@ -153,6 +153,14 @@ MODEL_TOLERANCES: dict[str, Specification] = {
                    "0.01-0.05 (0.03 +-67 %); fitted on one build in `plates.damping.fit_and_check`"),
 }
 
+#: The plate's warming under drive (`plates.warming`, `simbench.effects.HeatingDrift`): nominal
+#: values, the assumptions HEATING_TOLERANCES widens: free convection from both faces at
+#: 10 W/m^2K (the plate lies on a cushion), aluminium's specific heat 900 J/kgK (its density
+#: is Table 2's, `laminate.ALUMINIUM_TABLE2`), and a frequency coefficient of -2e-4 per kelvin
+#: (the Young's modulus of aluminium falls about 4e-4/K, f goes with its square root).
+HEATING_NOMINAL: dict[str, float] = {"frequency_coefficient_per_k": -2e-4, "convection_w_per_m2_k": 10.0,
+                                     "specific_heat_j_per_kg_k": 900.0}
+
 #: The plate's warming under drive (`simbench.effects.HeatingDrift`: its resonance falls as it
 #: warms, Fig. 2's resonance drift): relative half-widths about the effect's nominal parameters,
 #: drawn per plate on a coverage study's bench (a real plate's alloy, surface and mounting are

@@ -36,7 +36,8 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from squeezebench.plates import damping
-from squeezebench.plates.specifications import HEATING_TOLERANCES
+from squeezebench.plates.laminate import ALUMINIUM_TABLE2
+from squeezebench.plates.specifications import HEATING_NOMINAL, HEATING_TOLERANCES
 from squeezebench.simbench import physics
 from squeezebench.simbench.effect_base import CHANNELS, VIBROMETER_CHANNEL, AcquisitionContext, Effect
 from squeezebench.simbench.fault_effects import (BusTimeout, ClippedTrace, Disconnect, GarbledReplyFault,
@@ -128,10 +129,9 @@ class HeatingDrift(Effect):
     """The plate warms with the power it dissipates and its resonance falls.
 
     First-order thermal model dT/dt = (P R_th - dT) / tau_th, advanced with the bench
-    clock (power piecewise constant between clock advances). Assumed: free convection
-    from both faces, h = 10 W/m2K (the plate lies on a cushion); aluminium specific heat
-    900 J/kgK and Table 2's density 2790 kg/m3; frequency coefficient -2e-4 per kelvin
-    (the Young's modulus of aluminium falls about 4e-4/K, f scales with its square root).
+    clock (power piecewise constant between clock advances), about the nominal values
+    `specifications.HEATING_NOMINAL` states (free convection from both faces, aluminium's
+    specific heat, Table 2's density, the frequency's temperature coefficient).
 
     With `draw: 1` (or 2) the parameters of `specifications.HEATING_TOLERANCES` are drawn
     once per plate and `bench_seed`, within their tolerances (or as the world errs,
@@ -140,8 +140,7 @@ class HeatingDrift(Effect):
     """
 
     name = "heating_drift"
-    defaults = {"frequency_coefficient_per_k": -2e-4, "convection_w_per_m2_k": 10.0,
-                "specific_heat_j_per_kg_k": 900.0, "density_kg_m3": 2790.0, "draw": 0.0, "bench_seed": 0.0}
+    defaults = {**HEATING_NOMINAL, "density_kg_m3": ALUMINIUM_TABLE2.density_kg_m3, "draw": 0.0, "bench_seed": 0.0}
     limits = {"draw": (0.0, 2.0), "bench_seed": (0.0, 2.0**32 - 1)}
     stages = frozenset({"load"})
 

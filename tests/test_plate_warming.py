@@ -1,0 +1,144 @@
+"""The plate's warming under its drive (`plates.warming`, issue 46's Fig. 2 drift): the lumped
+thermal model against its closed form, its tolerance ranges about the nominal plate, and the
+drift bound `analysis.resonance_drift` draws from it and the run's readings: at or above a
+drift the model makes within the tolerances, tight where the readings resolve the drift."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pandas as pd
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from squeezebench.analysis import resonance_drift
+from squeezebench.plates import warming
+from squeezebench.plates.specifications import HEATING_NOMINAL
+
+PLATE_MM = (76.0, 41.0, 1.0)
+DENSITY_KG_M3 = 2790.0
+F0_HZ = 38000.0
+
+
+def _nominal() -> warming.ThermalPlate:
+    return warming.thermal_plate(*PLATE_MM, DENSITY_KG_M3, HEATING_NOMINAL["specific_heat_j_per_kg_k"],
+                                 HEATING_NOMINAL["convection_w_per_m2_k"])
+
+
+def test_a_constant_power_warms_the_plate_as_the_first_order_step_response():
+    """From cold under a constant P: T = P / G (1 - exp(-t / tau)), tau = rho c t / (2 h)
+    for a plate cooled from both faces."""
+    plate = _nominal()
+    assert plate.time_constant_s == pytest.approx(DENSITY_KG_M3 * 900.0 * 1e-3 / (2 * 10.0), rel=1e-12)
+    times_s = np.linspace(0.0, 600.0, 31)
+    rise_k = warming.temperature_rise_k(times_s, np.full(31, 0.5), plate)
+    expected = 0.5 / plate.conductance_w_per_k * (1.0 - np.exp(-times_s / plate.time_constant_s))
+    np.testing.assert_allclose(rise_k, expected, rtol=1e-12, atol=1e-15)
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.lists(st.floats(0.0, 2.0), min_size=2, max_size=12), st.floats(20.0, 500.0), st.floats(1.05, 4.0))
+def test_the_heat_held_grows_with_tau_and_never_exceeds_the_energy_put_in(power_w, tau_s, longer):
+    """E(t) = int P exp(-(t - t') / tau) dt': at most int P dt', and larger for a longer tau
+    (the kernel grows with tau), which is why the tolerance's longest tau is the warmest."""
+    times_s = np.arange(len(power_w)) * 7.0
+    held_j = warming.held_heat_j(times_s, power_w, tau_s)
+    energy_j = np.concatenate([[0.0], np.cumsum(np.asarray(power_w[1:]) * 7.0)])
+    assert np.all(held_j <= energy_j * (1 + 1e-12) + 1e-15)
+    assert np.all(warming.held_heat_j(times_s, power_w, tau_s * longer) >= held_j * (1 - 1e-12) - 1e-15)
+
+
+def test_the_tolerance_ranges_hold_the_nominal_plate():
+    """tau and f |alpha| / C of the nominal plate lie within the ranges the bound searches;
+    h +-50 % and c +-5 % put tau within 0.95 / 1.5 and 1.05 / 0.5 of its nominal."""
+    shortest, longest = warming.time_constant_range_s(*PLATE_MM, DENSITY_KG_M3)
+    low, high = warming.drift_per_joule_range_hz(F0_HZ, *PLATE_MM, DENSITY_KG_M3)
+    nominal = _nominal()
+    assert shortest == pytest.approx(nominal.time_constant_s * 0.95 / 1.5, rel=1e-12)
+    assert longest == pytest.approx(nominal.time_constant_s * 1.05 / 0.5, rel=1e-12)
+    per_joule = F0_HZ * 2e-4 / nominal.heat_capacity_j_per_k
+    assert low < per_joule < high
+    assert high == pytest.approx(per_joule * 1.3 / 0.95, rel=1e-12)
+
+
+def _warming_run(scale_hz_per_j: float, tau_s: float,
+                 reading_u_hz: float) -> tuple[pd.DataFrame, dict, pd.DataFrame, np.ndarray]:
+    """A run whose plate warms under three rising levels (a P0 with its re-centring and three
+    Pt each), its drift -scale E(t) exactly; its re-centrings read it with `reading_u_hz`.
+    Returns the points, the scene copies, the search and each point's true |drift|."""
+    rows, time_s = [{"phase": "search", "time_s": 0.0, "power_w": 0.001}], 0.0
+    for level, power_w in ((0.125, 0.06), (0.25, 0.22), (0.375, 0.5)):
+        for phase in ("resonance", "regained", "regained", "regained"):
+            time_s += 4.0 if phase == "regained" else 12.0
+            rows.append({"phase": phase, "time_s": time_s, "power_w": power_w * (1.1 if phase == "regained" else 1.0),
+                         "level": level})
+    time_s += 12.0
+    rows.append({"phase": "closing", "time_s": time_s, "power_w": 0.5, "level": 0.375})
+    times, powers = [r["time_s"] for r in rows], [r["power_w"] for r in rows]
+    held = warming.held_heat_j(times, np.maximum(powers, np.concatenate([powers[:1], powers[:-1]])), tau_s)
+    drift = scale_hz_per_j * held
+    frame = []
+    for row, drift_hz in zip(rows[1:], drift[1:]):
+        at_resonance = row["phase"] in ("resonance", "closing")
+        frame.append({"run_name": "fig2_nine_column", "plate": "nine", "bench_input": "inputs/nine.yaml",
+                      "detuning_phase": row["phase"], "velocity_level_pp_mps": row["level"],
+                      "target_velocity_ratio": 1.0 if at_resonance else 0.8,
+                      "generator_frequency_hz": F0_HZ - drift_hz if at_resonance else F0_HZ + 250.0,
+                      "bench_time_s": row["time_s"], "power_w": row["power_w"],
+                      "tracked_resonance_bench_time_s": row["time_s"] if at_resonance else math.nan,
+                      "tracked_resonance_frequency_hz": F0_HZ - drift_hz if at_resonance else math.nan,
+                      "tracked_resonance_frequency_hz_u": reading_u_hz if at_resonance else math.nan})
+    searches = pd.DataFrame([{"run_name": "fig2_nine_column", "sweep": False, "bench_time_s": 0.0,
+                              "resonance_frequency_hz": F0_HZ, "power_w": 0.001}])
+    scenes = {"nine.yaml": {"plate": {"material": "aluminium", "length_mm": PLATE_MM[0], "width_mm": PLATE_MM[1],
+                                      "thickness_mm": PLATE_MM[2]}}}
+    return pd.DataFrame(frame), scenes, searches, drift[1:]
+
+
+@pytest.mark.parametrize("tau_factor", [0.7, 1.0, 2.0])
+@pytest.mark.parametrize("scale_factor", [0.72, 1.0, 1.35])
+def test_the_warming_bound_holds_a_drift_the_model_makes_within_the_tolerances(tau_factor, scale_factor):
+    """A plate within the heating tolerances (scale and tau anywhere in their ranges) drifts
+    as the lumped model says: every point's bound is at least its true |drift|, and where the
+    re-centrings resolve the drift (0.05 Hz) the bound of the last level's Pt stays within
+    25 % of it (the scale's 95 % bound, the longest tau the readings allow, the room)."""
+    nominal = _nominal()
+    scale = scale_factor * F0_HZ * 2e-4 / nominal.heat_capacity_j_per_k
+    points, scenes, searches, true_hz = _warming_run(scale, tau_factor * nominal.time_constant_s, 0.05)
+    bound = resonance_drift.with_resonance_drift(points, searches, scenes=scenes)
+    assert np.all(bound["resonance_drift_hz"].to_numpy() >= true_hz)
+    assert bound["resonance_drift_source"].iat[0].startswith("Type A/B, the plate's warming")
+    last_pt = (points["velocity_level_pp_mps"] == 0.375) & (points["detuning_phase"] == "regained")
+    assert np.all(bound["resonance_drift_hz"][last_pt].to_numpy() <= 1.25 * true_hz[last_pt.to_numpy()])
+
+
+def test_readings_that_resolve_nothing_leave_the_bound_at_the_tolerances_limit():
+    """Re-centrings that cannot tell 100 Hz leave the scale at the tolerances' largest and
+    the time constant at the longest: the bound is high E_(tau max)(t) plus the room's."""
+    nominal = _nominal()
+    points, scenes, searches, _ = _warming_run(F0_HZ * 2e-4 / nominal.heat_capacity_j_per_k,
+                                               nominal.time_constant_s, 100.0)
+    bound = resonance_drift.with_resonance_drift(points, searches, scenes=scenes)
+    _, high = warming.drift_per_joule_range_hz(F0_HZ, *PLATE_MM, DENSITY_KG_M3)
+    _, longest = warming.time_constant_range_s(*PLATE_MM, DENSITY_KG_M3)
+    times_s, power_w = resonance_drift._power_history(points, searches, pd.DataFrame())
+    held = np.interp(points["bench_time_s"], times_s, warming.held_heat_j(times_s, power_w, longest))
+    room = warming.room_drift_bound_hz(points["generator_frequency_hz"].to_numpy(), points["bench_time_s"].to_numpy())
+    pt = (points["detuning_phase"] == "regained").to_numpy()
+    np.testing.assert_allclose(bound["resonance_drift_hz"].to_numpy()[pt], (high * held + room)[pt], rtol=1e-9)
+
+
+def test_the_scale_bound_is_the_weighted_fit_plus_its_one_sided_95_percent():
+    """k_95 = k + 1.645 / sqrt(sum w m^2) with k the weighted least squares of -d on m."""
+    readings = pd.DataFrame({"time_s": [0.0, 1.0, 2.0, 3.0], "frequency_hz": [F0_HZ, F0_HZ - 1.0, F0_HZ - 2.2,
+                                                                               F0_HZ - 2.9],
+                             "u_hz": [0.0, 0.1, 0.2, 0.1]})
+    held_j = np.array([0.0, 10.0, 20.0, 30.0])
+    upper, _ = resonance_drift._warming_scale_bound(held_j, readings, readings["time_s"].to_numpy(), 0.0, 1.0)
+    w, m, d = 1 / np.array([0.1, 0.2, 0.1]) ** 2, held_j[1:], np.array([1.0, 2.2, 2.9])
+    k = np.sum(w * m * d) / np.sum(w * m**2)
+    assert upper == pytest.approx(k + 1.6448536269514722 / math.sqrt(np.sum(w * m**2)), rel=1e-9)
+    clipped, _ = resonance_drift._warming_scale_bound(held_j, readings, readings["time_s"].to_numpy(), 0.0, 0.05)
+    assert clipped == 0.05
