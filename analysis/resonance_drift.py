@@ -1,5 +1,5 @@
-"""How far a plate's resonance had moved when each Fig. 2 point was read, from the run's own
-readings of it.
+"""How far a plate's resonance had moved when each Fig. 2 point was read, from the plate's
+warming under the run's own stored powers and the run's readings of its resonance.
 
 A plate's resonance moves while a run measures it: the plate warms under its drive (the
 modulus falls, the resonance with its square root: about -2e-4 per kelvin for aluminium) and
@@ -10,6 +10,17 @@ frequency error of -delta / f on the part of the power that follows the resonanc
 on the re-centred resonance, is off the mounted plate's by its setting's offset, a change of
 (offset / h)^2 only on the flat top, h = f / (2 Q) the half-width
 (`uncertainty.power_ratio_budget`).
+
+Where the run's scene gives the plate (`_warming_bounds`), the drift is the plate's warming:
+a lumped thermal model (`plates.warming`) driven by every stored power of the run, its time
+constant and its hertz per joule held within the heating tolerances, the scale fitted to the
+run's dated readings below (the 95 % upper bound of that fit), and the room's drift on top.
+The bound follows the power the plate took: small at a low level (the plate barely warms),
+and it keeps growing under the last level's Pt, which the readings on a broad top (the
+nine-column plate's, Q ~ 56) need not see: there a re-centring's walk of 5 Hz steps changes
+the velocity by less than its scatter, and a closing re-centring read -5 +- 5 Hz on a seeded
+bench whose plate had fallen 17 Hz. The readings alone (below) bound the drift where no
+scene gives the plate.
 
 Type A, from the run's dated readings of its resonance: its search's (the plate as mounted,
 at the search's low drive: the reference), each Fig. 2 level's re-centring before P0 and the
@@ -325,11 +336,11 @@ def _warming_bounds(points: pd.DataFrame, searches: pd.DataFrame, closings: pd.D
         fits.append((chi2, scale * np.interp(at_s, times_s, held_j)))
     least = min(chi2 for chi2, _ in fits)
     bound_hz = np.max([drift for chi2, drift in fits if chi2 <= least + CHI2_95_ONE], axis=0)
-    bound_hz = bound_hz + warming.room_drift_bound_hz(points["generator_frequency_hz"].to_numpy(float),
-                                                      at_s - times_s[0])
+    setting_hz = points["generator_frequency_hz"].to_numpy(float)
+    bound_hz = bound_hz + warming.room_drift_bound_hz(setting_hz, at_s - times_s[0])
     at_setting = points["detuning_phase"].isin(AT_SETTING).to_numpy() if "detuning_phase" in points else False
-    offset_hz = folded_quantile(points["generator_frequency_hz"].to_numpy(float) - frequency_hz, readings["u_hz"].iat[0])
-    bound_hz = np.where(at_setting, bound_hz + offset_hz, bound_hz)
+    bound_hz = np.where(at_setting, bound_hz + folded_quantile(setting_hz - frequency_hz, readings["u_hz"].iat[0]),
+                        bound_hz)
     return bound_hz, WARMING_SOURCE.format(n=len(times_s), tau_low=shortest, tau_high=longest,
                                            readings=len(readings), low=low, high=high,
                                            room=3600.0 * warming.ROOM_DRIFT_K_PER_S)

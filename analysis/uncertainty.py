@@ -197,8 +197,9 @@ def power_ratio_budget(numerator: pd.DataFrame, denominator: pd.DataFrame) -> Bu
     resonance's drift: a point read when the plate's resonance had moved by delta from where
     it was mounted reads the curve displaced, a frequency error -delta / f on the part that
     follows it: |dR/R| <= (1 - d_t) 2 |s_t| B_t + (B_0 / h)^2, B the bound on |delta| at each
-    reading (`analysis.resonance_drift`: from the run's dated readings of its resonance, Type
-    A; Type B where it holds one), P_0 set on the re-centred resonance and on the flat top
+    reading (`analysis.resonance_drift`: the plate's warming under the run's stored powers,
+    scaled by the run's dated readings of its resonance within the heating tolerances; from
+    the readings alone where no scene gives the plate), P_0 set on the re-centred resonance and on the flat top
     (1 / h^2 = s_t^2 / (r^2 (1 - r^2)) at P_t's velocity ratio r), carried as a bias bound,
     u(drift) = bound / 1.96 (`_resonance_drift_term`). The noise of each mean is its own (Type A):
     u(R)^2 / R^2 = u(P_t)^2 / P_t^2 + u(P_0)^2 / P_0^2 + (w_t Q'_t / P_t - w_0 Q'_0 / P_0)^2 u(tau)^2
