@@ -288,8 +288,9 @@ def _warming_scale_bound(held_j: np.ndarray, readings: pd.DataFrame, times_s: np
     """The 95 % upper bound on k (Hz/J) in drift = -k E, E the heat held (`held_heat_j` at
     `times_s`), from the readings' drifts since the first, d_j = -k (E_j - E_0) + e_j with
     u_j = sqrt(u(f_j)^2 + u(f_0)^2) (weighted least squares, k + 1.645 u(k)), within
-    [`low`, `high`], the tolerances' range; and the fit's chi^2 (0 where the readings fit
-    nothing: `high`)."""
+    [`low`, `high`], the tolerances' range, unless the readings resolve k above `high` (k -
+    1.645 u(k) > high: a plate beyond its tolerances, which the run itself shows); and the
+    fit's chi^2 (0 where the readings fit nothing: `high`)."""
     at_j = np.interp(readings["time_s"].to_numpy(float), times_s, held_j)
     model = at_j[1:] - at_j[0]
     drift_hz = readings["frequency_hz"].to_numpy(float)[1:] - readings["frequency_hz"].iat[0]
@@ -301,8 +302,9 @@ def _warming_scale_bound(held_j: np.ndarray, readings: pd.DataFrame, times_s: np
     information = float(np.sum(weight * model[usable] ** 2))
     scale = float(np.sum(weight * model[usable] * -drift_hz[usable])) / information
     chi2 = float(np.sum(weight * (drift_hz[usable] + scale * model[usable]) ** 2))
-    upper = scale + stats.norm.ppf(COVERAGE_PROBABILITY) / math.sqrt(information)
-    return float(np.clip(upper, low, high)), chi2
+    spread = stats.norm.ppf(COVERAGE_PROBABILITY) / math.sqrt(information)
+    beyond = scale - spread > high
+    return float(scale + spread if beyond else np.clip(scale + spread, low, high)), chi2
 
 
 def _warming_bounds(points: pd.DataFrame, searches: pd.DataFrame, closings: pd.DataFrame,

@@ -131,7 +131,8 @@ def test_readings_that_resolve_nothing_leave_the_bound_at_the_tolerances_limit()
 
 
 def test_the_scale_bound_is_the_weighted_fit_plus_its_one_sided_95_percent():
-    """k_95 = k + 1.645 / sqrt(sum w m^2) with k the weighted least squares of -d on m."""
+    """k_95 = k + 1.645 / sqrt(sum w m^2) with k the weighted least squares of -d on m, held
+    to the tolerances' largest k unless the readings resolve a larger one."""
     readings = pd.DataFrame({"time_s": [0.0, 1.0, 2.0, 3.0], "frequency_hz": [F0_HZ, F0_HZ - 1.0, F0_HZ - 2.2,
                                                                                F0_HZ - 2.9],
                              "u_hz": [0.0, 0.1, 0.2, 0.1]})
@@ -140,5 +141,7 @@ def test_the_scale_bound_is_the_weighted_fit_plus_its_one_sided_95_percent():
     w, m, d = 1 / np.array([0.1, 0.2, 0.1]) ** 2, held_j[1:], np.array([1.0, 2.2, 2.9])
     k = np.sum(w * m * d) / np.sum(w * m**2)
     assert upper == pytest.approx(k + 1.6448536269514722 / math.sqrt(np.sum(w * m**2)), rel=1e-9)
-    clipped, _ = resonance_drift._warming_scale_bound(held_j, readings, readings["time_s"].to_numpy(), 0.0, 0.05)
-    assert clipped == 0.05
+    clipped, _ = resonance_drift._warming_scale_bound(held_j, readings, readings["time_s"].to_numpy(), 0.0, 0.095)
+    assert clipped == 0.095   # k - 1.645 u(k) = 0.0932 does not resolve k above the tolerance
+    beyond, _ = resonance_drift._warming_scale_bound(held_j, readings, readings["time_s"].to_numpy(), 0.0, 0.09)
+    assert beyond == pytest.approx(upper, rel=1e-12)   # it does above 0.09: the readings are kept
