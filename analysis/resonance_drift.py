@@ -61,7 +61,7 @@ import math
 
 import numpy as np
 import pandas as pd
-from scipy import stats
+from scipy.special import ndtri
 
 from squeezebench.analysis import provenance
 from squeezebench.analysis.budgets import COVERAGE_PROBABILITY, P95_FACTOR
@@ -151,8 +151,9 @@ def folded_quantile(offset_hz, u_hz, probability: float = COVERAGE_PROBABILITY) 
     # Past FOLD_NEGLIGIBLE the fold below zero holds under Phi(-2 c) of the mass: the one-sided
     # quantile is exact to it, and scipy's root search fails on an overflowing c.
     far = c > FOLD_NEGLIGIBLE
+    from scipy import stats   # here, not at the top: every simulator process imports this module, few call this
     folded = stats.foldnorm.ppf(probability, np.where(far, 0.0, c), scale=scale)
-    one_sided = offset_hz + stats.norm.ppf(probability) * u_hz
+    one_sided = offset_hz + ndtri(probability) * u_hz
     return np.where(spread, np.where(far, one_sided, folded), offset_hz)
 
 
@@ -302,7 +303,7 @@ def _warming_scale_bound(held_j: np.ndarray, readings: pd.DataFrame, times_s: np
     information = float(np.sum(weight * model[usable] ** 2))
     scale = float(np.sum(weight * model[usable] * -drift_hz[usable])) / information
     chi2 = float(np.sum(weight * (drift_hz[usable] + scale * model[usable]) ** 2))
-    spread = stats.norm.ppf(COVERAGE_PROBABILITY) / math.sqrt(information)
+    spread = ndtri(COVERAGE_PROBABILITY) / math.sqrt(information)
     beyond = scale - spread > high
     return float(scale + spread if beyond else np.clip(scale + spread, low, high)), chi2
 
