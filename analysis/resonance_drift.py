@@ -250,7 +250,7 @@ TIME_CONSTANT_STEPS = 13
 #: (profile likelihood, its minimum plus this).
 CHI2_95_ONE = 3.841
 WARMING_SOURCE = ("Type A/B, the plate's warming under the run's {n} dated stored powers (lumped thermal model, "
-                  "`plates.warming`, tau {tau_low:.0f}-{tau_high:.0f} s within the heating tolerances) scaled by "
+                  "plates.warming, tau {tau_low:.0f}-{tau_high:.0f} s within the heating tolerances) scaled by "
                   "the run's {readings} dated readings of its resonance (the 95 % upper bound of the scale they "
                   "fit, within the tolerances' {low:.3g}-{high:.3g} Hz/J), and the room's (up to {room:g} K/h)")
 
