@@ -82,8 +82,10 @@ class Budget:
     @property
     def p95_bound(self) -> float:
         """The |error| the budget allows 95 % of the time, for a floor (`uncertainty.systematic_floor`):
-        the normal's P95_FACTOR u, which no k of rectangles and normals exceeds; with a bias
-        bound its U, which is wider (a bias at its bound is no spread about zero)."""
+        the normal's P95_FACTOR u, which a k of rectangles and normals exceeds by 0.2 % at most
+        (the world's tail beyond a small rectangle's limit, and the k search's rounding up: a
+        floor's share of U, not worth a k search per stored point); with a bias bound its U,
+        which is wider (a bias at its bound is no spread about zero)."""
         if not any(t.bias for t in self.terms):
             return P95_FACTOR * self.std_uncertainty
         return max(P95_FACTOR * self.std_uncertainty, self.expanded_uncertainty)
