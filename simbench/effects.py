@@ -35,7 +35,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from squeezebench.plates import damping
+from squeezebench.plates import damping, thermal
 from squeezebench.plates.specifications import HEATING_TOLERANCES
 from squeezebench.simbench import physics
 from squeezebench.simbench.effect_base import CHANNELS, VIBROMETER_CHANNEL, AcquisitionContext, Effect
@@ -127,11 +127,12 @@ TEMPERATURE_RESOLUTION_K = 1e-3
 class HeatingDrift(Effect):
     """The plate warms with the power it dissipates and its resonance falls.
 
-    First-order thermal model dT/dt = (P R_th - dT) / tau_th, advanced with the bench
-    clock (power piecewise constant between clock advances). Assumed: free convection
-    from both faces, h = 10 W/m2K (the plate lies on a cushion); aluminium specific heat
-    900 J/kgK and Table 2's density 2790 kg/m3; frequency coefficient -2e-4 per kelvin
-    (the Young's modulus of aluminium falls about 4e-4/K, f scales with its square root).
+    First-order thermal model dT/dt = (P R_th - dT) / tau_th (`plates.thermal`), advanced
+    with the bench clock (power piecewise constant between clock advances). Its nominal
+    values are `plates.thermal`'s: free convection from both faces, h = 10 W/m2K (the
+    plate lies on a cushion); aluminium specific heat 900 J/kgK and Table 2's density
+    2790 kg/m3; frequency coefficient -2e-4 per kelvin (the Young's modulus of aluminium
+    falls about 4e-4/K, f scales with its square root).
 
     With `draw: 1` (or 2) the parameters of `specifications.HEATING_TOLERANCES` are drawn
     once per plate and `bench_seed`, within their tolerances (or as the world errs,
@@ -140,8 +141,10 @@ class HeatingDrift(Effect):
     """
 
     name = "heating_drift"
-    defaults = {"frequency_coefficient_per_k": -2e-4, "convection_w_per_m2_k": 10.0,
-                "specific_heat_j_per_kg_k": 900.0, "density_kg_m3": 2790.0, "draw": 0.0, "bench_seed": 0.0}
+    defaults = {"frequency_coefficient_per_k": thermal.FREQUENCY_COEFFICIENT_PER_K,
+                "convection_w_per_m2_k": thermal.CONVECTION_W_PER_M2_K,
+                "specific_heat_j_per_kg_k": thermal.SPECIFIC_HEAT_J_PER_KG_K, "density_kg_m3": thermal.DENSITY_KG_M3,
+                "draw": 0.0, "bench_seed": 0.0}
     limits = {"draw": (0.0, 2.0), "bench_seed": (0.0, 2.0**32 - 1)}
     stages = frozenset({"load"})
 
@@ -153,10 +156,10 @@ class HeatingDrift(Effect):
                                                                  * tolerance.half_width)
                                     for key, tolerance in HEATING_TOLERANCES.items()})
         p, plate = self.parameters, scene.plate
-        area_m2 = 2.0 * plate.length_mm * plate.width_mm * 1e-6
-        mass_kg = p["density_kg_m3"] * plate.length_mm * plate.width_mm * plate.thickness_mm * 1e-9
-        self.thermal_resistance_k_per_w = 1.0 / (p["convection_w_per_m2_k"] * area_m2)
-        self.time_constant_s = self.thermal_resistance_k_per_w * mass_kg * p["specific_heat_j_per_kg_k"]
+        length_m, width_m = plate.length_mm * 1e-3, plate.width_mm * 1e-3
+        self.thermal_resistance_k_per_w = 1.0 / thermal.conductance_w_per_k(length_m, width_m, p["convection_w_per_m2_k"])
+        self.time_constant_s = self.thermal_resistance_k_per_w * thermal.heat_capacity_j_per_k(
+            length_m, width_m, plate.thickness_mm * 1e-3, p["density_kg_m3"], p["specific_heat_j_per_kg_k"])
         self.temperature_rise_k = 0.0
         self._plate_power_w = None
 
