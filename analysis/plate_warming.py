@@ -86,20 +86,31 @@ def top_readings_time_s(sweep_time_s: np.ndarray, sweep_velocity: np.ndarray) ->
     return float(np.mean(sweep_time_s[top]))
 
 
-def plate_size_m(scene: dict) -> tuple[float, float, float] | None:
-    """The plate's length, width and thickness (m) from its scene copy (None if it lacks one)."""
+def plate_size_m(scene: dict, states=()) -> tuple[float, float, float] | None:
+    """The plate's length, width and thickness (m) from its scene copy (None if it lacks one);
+    its length the shortest of `states` (scene states, Table 3's cuts: `plate_length_mm`)
+    that state one: a plate cut shorter warms faster, and the heat a longer one took spreads
+    over more metal, so the shortest bounds them all."""
     plate = scene.get("plate") if isinstance(scene, dict) else None
     sizes = [plate.get(key) if isinstance(plate, dict) else None for key in ("length_mm", "width_mm", "thickness_mm")]
     if not all(isinstance(size, (int, float)) and size > 0 for size in sizes):
         return None
+    declared = scene.get("states") if isinstance(scene.get("states"), dict) else {}
+    cut = [declared[state]["plate_length_mm"] for state in states
+           if isinstance(declared.get(state), dict) and isinstance(declared[state].get("plate_length_mm"), (int, float))]
+    sizes[0] = min([sizes[0], *cut])
     return tuple(size * 1e-3 for size in sizes)
 
 
 def search_warming_term(history: pd.DataFrame, plate: str, scene: dict, frequency_hz: float, at_s: float) -> Term | None:
     """The bias bound of a search of `plate` read at `at_s` (module docstring); None where the
     run's readings hold no power or the plate's scene no size."""
-    size = plate_size_m(scene)
-    if size is None or not set(HISTORY_COLUMNS) <= set(history.columns) or not math.isfinite(at_s):
+    if not set(HISTORY_COLUMNS) <= set(history.columns) or not math.isfinite(at_s):
+        return None
+    states = history.loc[(history["plate"] == plate) & (history["bench_time_s"] <= at_s),
+                         "scene_state"].dropna().unique() if "scene_state" in history else ()
+    size = plate_size_m(scene, states)
+    if size is None:
         return None
     warming_k = warming_bound_k(history, plate, at_s, *size)
     bound_hz = frequency_shift_bound_hz(frequency_hz, warming_k)

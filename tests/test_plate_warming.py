@@ -11,6 +11,7 @@ from types import SimpleNamespace
 
 import numpy as np
 import pandas as pd
+import pytest
 from hypothesis import given, settings, strategies as st
 
 from squeezebench.analysis import plate_warming
@@ -164,3 +165,18 @@ def test_a_run_without_stored_powers_or_a_plate_size_gets_no_warming_term():
     for history, scenes in ((rows.drop(columns="scope_power_w"), SCENES), (rows, {"warm.yaml": {}}), (None, None)):
         ((_, _, budget),) = search_budgets(searches, setups, history, scenes)
         assert plate_warming.TERM not in {t.name for t in budget.terms}
+
+
+def test_a_plate_cut_shorter_is_bounded_at_its_shortest_length():
+    """Table 3 cuts one plate from 75 to 28 mm: the bound takes the shortest length its
+    readings were in (the heat capacity goes with the length, the time constant does not)."""
+    scene = {"plate": {"length_mm": 75, "width_mm": 41, "thickness_mm": 1.0},
+             "states": {"75x41": {"plate_length_mm": 75}, "28x41": {"plate_length_mm": 28}, "other": {}}}
+    assert plate_warming.plate_size_m(scene) == (0.075, 0.041, 0.001)
+    assert plate_warming.plate_size_m(scene, ["75x41", "28x41", "other", "unknown"])[0] == 0.028
+    history = pd.DataFrame({"run_name": "cut", "plate": "p", "bench_time_s": [10.0, 20.0], "scope_power_w": 0.05,
+                            "scene_state": ["75x41", "28x41"]})
+    bounds = [plate_warming.search_warming_term(history, "p", scene, 37e3, at_s).bound for at_s in (10.0, 20.0)]
+    uncut = plate_warming.frequency_shift_bound_hz(37e3, plate_warming.warming_bound_k(history, "p", 20.0, 0.075,
+                                                                                       0.041, 0.001))
+    assert bounds[1] == pytest.approx(uncut * 75 / 28, rel=1e-9) and bounds[0] < bounds[1]
