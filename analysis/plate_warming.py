@@ -12,8 +12,9 @@ The bound is the energy balance of `plates.thermal` over the run's stored readin
 plate (every protocol's: sweeps, points, re-centrings), each interval between two readings
 of the run dissipating at most the larger |power| the scope read at its ends on this plate
 (the drive holds one reading's setting until the next's), the plate at rest before the
-run's first reading, evaluated at the mean time of the readings on the peak's top the search
-read its resonance from (as a re-centring's vertex is dated, `resonance_drift`). Each
+run's first reading (which took as long as the next: the rows' clock is the campaign's),
+evaluated at the mean time of the readings on the peak's top the search read its resonance
+from (as a re-centring's vertex is dated, `resonance_drift`). Each
 constant at the end of its tolerance that warms the plate most: |alpha| at its upper limit, the
 heat capacity at its lower (specific heat, density, sheet thickness; the piezos' and bond's
 own left out, which only cool it), the time constant at its upper (convection at its lower
@@ -48,8 +49,10 @@ def warming_bound_k(history: pd.DataFrame, plate: str, at_s: float, length_m: fl
     power_w = np.where(on_plate, np.abs(rows["scope_power_w"].to_numpy(float)), 0.0)
     if on_plate.any():   # a reading without a power: the plate's largest, not none
         power_w = np.where(on_plate & ~np.isfinite(power_w), np.nanmax(np.where(on_plate, power_w, np.nan)), power_w)
-    # interval k runs from reading k - 1 (the run's start for the first) to reading k
-    starts_s = np.concatenate([[0.0], times_s[:-1]])
+    # interval k runs from reading k - 1 to reading k; the first, as long as the next (a
+    # reading's own time): the rows store no run start, and their clock is the campaign's
+    first_s = times_s[0] - (times_s[1] - times_s[0] if len(times_s) > 1 else 0.0)
+    starts_s = np.concatenate([[first_s], times_s[:-1]])
     held_w = np.maximum(power_w, np.concatenate([[0.0], power_w[:-1]]))
     thin = 1.0 - sheet_thickness_tolerance(thickness_m)
     low_capacity = thermal.heat_capacity_j_per_k(

@@ -81,7 +81,8 @@ def _warm_plate_search(factors, previous_w: float, previous_s: float, peak_w: fl
     state = {"t": previous_s, "T": previous_w * tau_s / capacity * (1.0 - math.exp(-previous_s / tau_s))}
     common = {"run_name": "table4", "plate": "warm", "vibrometer_scale_mps_per_v": 1.0, "power_w": math.nan}
     rows = [{**common, "step_id": "previous", "protocol": "powered_columns", "sweep": False,
-             "bench_time_s": previous_s, "scope_power_w": previous_w}]
+             "bench_time_s": at_s, "scope_power_w": previous_w}   # read throughout it, as a step's points
+            for at_s in np.linspace(0.0, previous_s, math.ceil(previous_s / READING_S) + 1)[1:]]
 
     def measure_at(setting_hz: float) -> SimpleNamespace:
         f0_hz = F0_HZ * (1.0 + thermal.FREQUENCY_COEFFICIENT_PER_K * alpha * state["T"])
@@ -130,6 +131,14 @@ def test_the_warming_bound_holds_the_displacement_at_every_corner_of_the_constan
         assert all(d <= b for d, b in zip(displacements_hz, bounds_hz))
         assert max(displacements_hz) > 0.5 * max(bounds_hz)   # a bound, not a multiple of the effect
         assert max(displacements_hz) > max(others_hz)
+
+
+def test_the_bound_is_the_same_whenever_the_run_started_on_the_campaigns_clock():
+    """The rows' bench time is the campaign's: a run that starts an hour in is bounded as one
+    that starts at once (its plate at rest before its first reading)."""
+    rows, _ = _warm_plate_search((1.0,) * 5, 0.11, 45.0, peak_w=0.066)
+    late = rows.assign(bench_time_s=rows["bench_time_s"] + 3600.0)
+    assert _budget(late).expanded_uncertainty == pytest.approx(_budget(rows).expanded_uncertainty, rel=1e-9)
 
 
 def test_a_search_on_a_plate_at_rest_reads_only_its_own_warming():
