@@ -108,7 +108,8 @@ def plate_size_m(scene: dict, states=()) -> tuple[float, float, float] | None:
 def search_warming_term(history: pd.DataFrame, plate: str, scene: dict, frequency_hz: float, at_s: float) -> Term | None:
     """The bias bound of a search of `plate` read at `at_s` (module docstring); None where the
     run's readings hold no power or the plate's scene no size."""
-    if not set(HISTORY_COLUMNS) <= set(history.columns) or not math.isfinite(at_s):
+    if (not set(HISTORY_COLUMNS) <= set(history.columns) or not math.isfinite(at_s)
+            or not np.isfinite(history.loc[history["plate"] == plate, "scope_power_w"].to_numpy(float)).any()):
         return None
     states = history.loc[(history["plate"] == plate) & (history["bench_time_s"] <= at_s),
                          "scene_state"].dropna().unique() if "scene_state" in history else ()

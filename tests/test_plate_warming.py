@@ -171,7 +171,8 @@ def test_a_run_without_stored_powers_or_a_plate_size_gets_no_warming_term():
     rows, _ = _warm_plate_search((1.0,) * 5, 0.11, 45.0, peak_w=0.066)
     searches = rows[rows["protocol"] == "resonance_search"].reset_index(drop=True)
     setups = {"table4": SearchSetup(tolerance_hz=SEARCH.tolerance_hz)}
-    for history, scenes in ((rows.drop(columns="scope_power_w"), SCENES), (rows, {"warm.yaml": {}}), (None, None)):
+    for history, scenes in ((rows.drop(columns="scope_power_w"), SCENES), (rows.assign(scope_power_w=math.nan), SCENES),
+                            (rows, {"warm.yaml": {}}), (None, None)):
         ((_, _, budget),) = search_budgets(searches, setups, history, scenes)
         assert plate_warming.TERM not in {t.name for t in budget.terms}
 
