@@ -19,7 +19,7 @@ import pandas as pd
 from scipy import optimize
 
 from squeezebench.analysis import provenance
-from squeezebench.analysis.budgets import COVERAGE_FACTOR
+from squeezebench.analysis.budgets import COVERAGE_FACTOR, Budget
 from squeezebench.paper import paper_table, printed_step
 from squeezebench.analysis.rundata import RunData
 from squeezebench.analysis.waveforms import Estimate, PointReduction, reduce_record
@@ -201,7 +201,7 @@ def _side_by_side(run: RunData | None, table: str, paper_name: str, items: dict[
     """One row per (paper item, quantity): recomputed value with its uncertainties and
     origin, scope value, printed value."""
     paper = paper_table(paper_name)
-    searches = _search_std_uncertainties(run) if run is not None and "frequency_hz" in quantities else {}
+    searches = _search_budgets(run) if run is not None and "frequency_hz" in quantities else {}
     rows = []
     for item in paper["item"].unique():
         if item == "plate":
@@ -279,29 +279,30 @@ def _expanded(points: pd.DataFrame, column: str, estimate: Estimate) -> float:
     return COVERAGE_FACTOR * estimate.std_uncertainty
 
 
-def _search_std_uncertainties(run: RunData) -> dict[tuple[str, str], float]:
-    """{(run, step): standard uncertainty of where that step's resonance search put the
-    resonance} (`uncertainty.run_search_budgets`: the flat top's sampling and noise, the
-    bracket, the generator)."""
+def _search_budgets(run: RunData) -> dict[tuple[str, str], Budget]:
+    """{(run, step): the budget of where that step's resonance search put the resonance}
+    (`uncertainty.run_search_budgets`: the flat top's sampling and noise, the bracket, the
+    generator, the plate's warming)."""
     from squeezebench.analysis import uncertainty   # imports this module, see _expanded
 
     if run.protocol("resonance_search").empty:
         return {}
-    return {(name, step): budget.std_uncertainty for name, step, budget in uncertainty.run_search_budgets(run)}
+    return {(name, step): budget for name, step, budget in uncertainty.run_search_budgets(run)}
 
 
-def _with_search_uncertainty(row: dict, points: pd.DataFrame, searches: dict[tuple[str, str], float]) -> dict:
+def _with_search_uncertainty(row: dict, points: pd.DataFrame, searches: dict[tuple[str, str], Budget]) -> dict:
     """A frequency compared with a printed resonance is where a resonance search set the
     generator: its uncertainty also takes how well the search found the resonance, in
-    quadrature, from the largest of the points' searches (`searches`:
-    `_search_std_uncertainties`)."""
+    quadrature, from the widest of the points' searches (`searches`: `_search_budgets`), its
+    U the search's own (k from its budget: a warm plate's bias bound adds nearly linearly)."""
     if not {"run_name", "step_id"} <= set(points):
         return {}
     found = [searches[key] for key in zip(points["run_name"], points["step_id"]) if key in searches]
     if not found:
         return {}
-    return {"std_uncertainty": math.hypot(row["std_uncertainty"], max(found)),
-            "expanded_uncertainty": math.hypot(row["expanded_uncertainty"], COVERAGE_FACTOR * max(found))}
+    widest = max(found, key=lambda budget: budget.expanded_uncertainty)
+    return {"std_uncertainty": math.hypot(row["std_uncertainty"], widest.std_uncertainty),
+            "expanded_uncertainty": math.hypot(row["expanded_uncertainty"], widest.expanded_uncertainty)}
 
 
 def protocol_points(run: RunData, protocol: str) -> pd.DataFrame:

@@ -34,7 +34,7 @@ import numpy as np
 import pandas as pd
 import uncertainties
 
-from squeezebench.analysis import dielectric, model, resonance_drift
+from squeezebench.analysis import dielectric, model, plate_warming, provenance, resonance_drift
 from squeezebench.analysis.budgets import P95_FACTOR, Budget, Term
 from squeezebench.analysis.calibration import Deskew, deskew_of_run, gain_weight
 from squeezebench.analysis.resonance_searches import (PEAK_FIT_SHARE, SEARCH_STOP_SPREAD, SearchSetup,
@@ -381,9 +381,12 @@ def frequency_budget(point: dict) -> Budget:
         _spec_term("scope time base", "scope_timebase", value)))
 
 
-def search_budgets(rows: pd.DataFrame, setups: dict[str, SearchSetup]) -> list[tuple[str, str, Budget]]:
+def search_budgets(rows: pd.DataFrame, setups: dict[str, SearchSetup], history: pd.DataFrame | None = None,
+                   scenes: dict[str, dict] | None = None) -> list[tuple[str, str, Budget]]:
     """(run, step, budget) of the resonance frequency of every search in `rows`
-    (resonance_search rows, reduced).
+    (resonance_search rows, reduced); with `history` (the runs' stored readings, every
+    protocol's) and `scenes` (their scene copies), the bias bound of the plate's warming
+    when the search read it (`plate_warming`).
 
     The search stores where the driven mode's 1/v^2 fitted to its readings on the peak's top
     is least (`resonance_searches.peak_of_readings`): its Type A term is that fit's, from the
@@ -395,6 +398,9 @@ def search_budgets(rows: pd.DataFrame, setups: dict[str, SearchSetup]) -> list[t
     `reading_scatter_rel`) stop the golden section at |x| ~ sqrt(s): normal, standard
     deviation SEARCH_STOP_SPREAD sqrt(s) of the half-width f0 / (2 Q), and the final
     bracket holds it. The generator's error moves the setting the search finds by -e f0.
+    A plate warmer than at rest reads a resonance lower by |alpha| f dT: a bias bound
+    (`plate_warming`), where a previous step drove the plate shortly before (Table 4's third
+    configuration) and, less, from the search's own readings on the peak.
     """
     budgets = []
     if rows.empty:   # a run that searched nothing stores none of the columns read below
@@ -409,10 +415,13 @@ def search_budgets(rows: pd.DataFrame, setups: dict[str, SearchSetup]) -> list[t
     is_sweep = rows["sweep"].astype(bool).to_numpy()
     setting_hz = rows["generator_frequency_hz"].to_numpy(float, na_value=np.nan)
     velocity = rows["velocity_pp_mps"].to_numpy(float, na_value=np.nan)
+    time_s = rows["bench_time_s"].to_numpy(float, na_value=np.nan) if "bench_time_s" in rows else None
+    scene_files = provenance.scene_files(rows) if history is not None else None
     for (run_name, step_id), positions in steps.items():
         setup = setups.get(run_name)
         in_sweep = [p for p in positions if is_sweep[p]]
-        for found in (records[p] for p in positions if not is_sweep[p]):
+        for position in (p for p in positions if not is_sweep[p]):
+            found = records[position]
             if setup is None or not _has_reduction(found):
                 continue
             frequency_hz = float(found["resonance_frequency_hz"])
@@ -424,6 +433,12 @@ def search_budgets(rows: pd.DataFrame, setups: dict[str, SearchSetup]) -> list[t
                                   "of the peak (resonance_searches.peak_of_readings)"))
             else:
                 terms += _best_reading_terms(found, rows.iloc[in_sweep], setup)
+            if scene_files is not None and time_s is not None and in_sweep:
+                warming = plate_warming.search_warming_term(
+                    history[history["run_name"] == run_name], found["plate"],
+                    (scenes or {}).get(scene_files.iloc[position], {}), frequency_hz,
+                    plate_warming.top_readings_time_s(time_s[in_sweep], velocity[in_sweep]))
+                terms += [warming] if warming is not None else []
             budgets.append((run_name, step_id, Budget("resonance_frequency_hz", "Hz", frequency_hz, tuple(terms))))
     return budgets
 
@@ -449,7 +464,8 @@ def _best_reading_terms(found: dict, sweep: pd.DataFrame, setup: SearchSetup) ->
 
 def run_search_budgets(run: RunData) -> list[tuple[str, str, Budget]]:
     """`search_budgets` of every resonance search stored in `run`."""
-    return search_budgets(reduced_points(run, run.protocol("resonance_search")), search_setups(run))
+    return search_budgets(reduced_points(run, run.protocol("resonance_search")), search_setups(run),
+                          run.measurements, run.scenes)
 
 
 POINT_BUDGETS = {"power_w": power_budget, "velocity_pp_mps": velocity_budget,

@@ -35,7 +35,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from squeezebench.plates import damping
+from squeezebench.plates import damping, warming
 from squeezebench.plates.laminate import ALUMINIUM_TABLE2
 from squeezebench.plates.specifications import HEATING_NOMINAL, HEATING_TOLERANCES
 from squeezebench.simbench import physics
@@ -128,10 +128,11 @@ TEMPERATURE_RESOLUTION_K = 1e-3
 class HeatingDrift(Effect):
     """The plate warms with the power it dissipates and its resonance falls.
 
-    First-order thermal model dT/dt = (P R_th - dT) / tau_th, advanced with the bench
-    clock (power piecewise constant between clock advances), about the nominal values
-    `specifications.HEATING_NOMINAL` states (free convection from both faces, aluminium's
-    specific heat, Table 2's density, the frequency's temperature coefficient).
+    First-order thermal model dT/dt = (P R_th - dT) / tau_th of `plates.warming`'s lumped
+    body, advanced with the bench clock (power piecewise constant between clock advances),
+    about the nominal values `specifications.HEATING_NOMINAL` states (free convection from
+    both faces, aluminium's specific heat, Table 2's density, the frequency's temperature
+    coefficient).
 
     With `draw: 1` (or 2) the parameters of `specifications.HEATING_TOLERANCES` are drawn
     once per plate and `bench_seed`, within their tolerances (or as the world errs,
@@ -152,10 +153,10 @@ class HeatingDrift(Effect):
                                                                  * tolerance.half_width)
                                     for key, tolerance in HEATING_TOLERANCES.items()})
         p, plate = self.parameters, scene.plate
-        area_m2 = 2.0 * plate.length_mm * plate.width_mm * 1e-6
-        mass_kg = p["density_kg_m3"] * plate.length_mm * plate.width_mm * plate.thickness_mm * 1e-9
-        self.thermal_resistance_k_per_w = 1.0 / (p["convection_w_per_m2_k"] * area_m2)
-        self.time_constant_s = self.thermal_resistance_k_per_w * mass_kg * p["specific_heat_j_per_kg_k"]
+        body = warming.thermal_plate(plate.length_mm, plate.width_mm, plate.thickness_mm, p["density_kg_m3"],
+                                     p["specific_heat_j_per_kg_k"], p["convection_w_per_m2_k"])
+        self.thermal_resistance_k_per_w = 1.0 / body.conductance_w_per_k
+        self.time_constant_s = body.time_constant_s
         self.temperature_rise_k = 0.0
         self._plate_power_w = None
 

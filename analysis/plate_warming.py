@@ -1,0 +1,127 @@
+"""How far a plate's warming had moved its resonance when a search read it: a bias bound from
+the run's own record of the power the plate dissipated.
+
+A search states the resonance of the plate as mounted, at rest at the room's temperature
+(the truth a coverage study scores it against); but a plate driven earlier in the run (Table
+4's third configuration is searched on the plate its second just drove at 24 V pp, a minute
+later) or by the search's own readings on the peak is warmer, and its resonance lower by
+|alpha| f dT (`plates.warming`). Nothing in a search's readings tells that displacement from
+the resonance itself, and its sign is known but not its size: a bias bound (`budgets.Term.bias`).
+
+The bound is the energy balance of `plates.warming`'s lumped body over the run's stored readings on the
+plate (every protocol's: sweeps, points, re-centrings), each interval between two readings
+of the run dissipating at most the larger |power| the scope read at its ends on this plate
+(the drive holds one reading's setting until the next's), the plate at rest before the
+run's first reading (which took as long as the next: the rows' clock is the campaign's),
+evaluated at the mean time of the readings on the peak's top the search read its resonance
+from (as a re-centring's vertex is dated, `resonance_drift`). Each
+constant at the end of its tolerance that warms the plate most: |alpha| at its upper limit, the
+heat capacity at its lower (specific heat, density, sheet thickness; the piezos' and bond's
+own left out, which only cool it), the time constant at its upper (convection at its lower
+limit, the heat capacity at its upper). A plate driven in an earlier run is at rest when
+the next starts: each run's readings are timed by its own clock.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pandas as pd
+
+from squeezebench.analysis.budgets import P95_FACTOR, Term
+from squeezebench.analysis.resonance_searches import PEAK_FIT_SHARE
+from squeezebench.plates import warming
+from squeezebench.plates.laminate import ALUMINIUM_TABLE2
+from squeezebench.plates.specifications import (HEATING_NOMINAL, HEATING_TOLERANCES, MODEL_TOLERANCES,
+                                                sheet_thickness_tolerance)
+
+#: The columns a run's readings need for the bound.
+HISTORY_COLUMNS = ("run_name", "plate", "bench_time_s", "scope_power_w")
+TERM = "plate warming since at rest"
+
+
+def warming_bound_k(history: pd.DataFrame, plate: str, at_s: float, length_m: float, width_m: float,
+                    thickness_m: float) -> float:
+    """The largest temperature rise of `plate` at `at_s` the run's readings (`history`: one
+    run's HISTORY_COLUMNS) allow, its constants at their warmest ends (module docstring)."""
+    rows = history.sort_values("bench_time_s", kind="stable")
+    times_s = rows["bench_time_s"].to_numpy(float)
+    on_plate = (rows["plate"] == plate).to_numpy()
+    power_w = np.where(on_plate, np.abs(rows["scope_power_w"].to_numpy(float)), 0.0)
+    if on_plate.any():   # a reading without a power: the plate's largest, not none
+        power_w = np.where(on_plate & ~np.isfinite(power_w), np.nanmax(np.where(on_plate, power_w, np.nan)), power_w)
+    # interval k runs from reading k - 1 to reading k; the first, as long as the next (a
+    # reading's own time): the rows store no run start, and their clock is the campaign's
+    first_s = times_s[0] - (times_s[1] - times_s[0] if len(times_s) > 1 else 0.0)
+    held_w = np.maximum(power_w, np.concatenate([[0.0], power_w[:-1]]))
+    thin = 1.0 - sheet_thickness_tolerance(thickness_m)
+    coolest = warming.thermal_plate(   # the least heat capacity and conductance: the warmest plate
+        length_m * 1e3, width_m * 1e3, thickness_m * thin * 1e3,
+        ALUMINIUM_TABLE2.density_kg_m3 * (1.0 - _tolerance(MODEL_TOLERANCES, "density_kg_m3")),
+        HEATING_NOMINAL["specific_heat_j_per_kg_k"] * (1.0 - _tolerance(HEATING_TOLERANCES, "specific_heat_j_per_kg_k")),
+        HEATING_NOMINAL["convection_w_per_m2_k"] * (1.0 - _tolerance(HEATING_TOLERANCES, "convection_w_per_m2_k")))
+    slowest_s = coolest.heat_capacity_j_per_k * _capacity_span(thickness_m) / coolest.conductance_w_per_k
+    body = warming.ThermalPlate(coolest.heat_capacity_j_per_k, coolest.heat_capacity_j_per_k / slowest_s)
+    # the rise at at_s: the intervals before it, the one holding it cut there, none after
+    grid_s = np.concatenate([[first_s], times_s])
+    before = int(np.searchsorted(grid_s, at_s))
+    if before == 0:
+        return 0.0
+    held_w = np.concatenate([[0.0], held_w, [0.0]])
+    return float(warming.temperature_rise_k(np.append(grid_s[:before], at_s), held_w[:before + 1], body)[-1])
+
+
+def _tolerance(table: dict, key: str) -> float:
+    return table[key].half_width
+
+
+def _capacity_span(thickness_m: float) -> float:
+    """The heat capacity at the upper ends of its tolerances over it at the lower."""
+    return math.prod((1.0 + t) / (1.0 - t) for t in (sheet_thickness_tolerance(thickness_m),
+                                                      _tolerance(MODEL_TOLERANCES, "density_kg_m3"),
+                                                      _tolerance(HEATING_TOLERANCES, "specific_heat_j_per_kg_k")))
+
+
+def top_readings_time_s(sweep_time_s: np.ndarray, sweep_velocity: np.ndarray) -> float:
+    """When a search read its resonance: the mean time of its readings on the peak's top
+    (those at PEAK_FIT_SHARE of the largest or above, the ones its vertex is fitted to)."""
+    top = sweep_velocity >= PEAK_FIT_SHARE * np.nanmax(sweep_velocity)
+    return float(np.mean(sweep_time_s[top]))
+
+
+def plate_size_m(scene: dict, states=()) -> tuple[float, float, float] | None:
+    """The plate's length, width and thickness (m) from its scene copy (None if it lacks one);
+    its length the shortest of `states` (scene states, Table 3's cuts: `plate_length_mm`)
+    that state one: a plate cut shorter warms faster, and the heat a longer one took spreads
+    over more metal, so the shortest bounds them all."""
+    plate = scene.get("plate") if isinstance(scene, dict) else None
+    sizes = [plate.get(key) if isinstance(plate, dict) else None for key in ("length_mm", "width_mm", "thickness_mm")]
+    if not all(isinstance(size, (int, float)) and size > 0 for size in sizes):
+        return None
+    declared = scene.get("states") if isinstance(scene.get("states"), dict) else {}
+    cut = [declared[state]["plate_length_mm"] for state in states
+           if isinstance(declared.get(state), dict) and isinstance(declared[state].get("plate_length_mm"), (int, float))]
+    sizes[0] = min([sizes[0], *cut])
+    return tuple(size * 1e-3 for size in sizes)
+
+
+def search_warming_term(history: pd.DataFrame, plate: str, scene: dict, frequency_hz: float, at_s: float) -> Term | None:
+    """The bias bound of a search of `plate` read at `at_s` (module docstring); None where the
+    run's readings hold no power or the plate's scene no size."""
+    if (not set(HISTORY_COLUMNS) <= set(history.columns) or not math.isfinite(at_s)
+            or not np.isfinite(history.loc[history["plate"] == plate, "scope_power_w"].to_numpy(float)).any()):
+        return None
+    states = history.loc[(history["plate"] == plate) & (history["bench_time_s"] <= at_s),
+                         "scene_state"].dropna().unique() if "scene_state" in history else ()
+    size = plate_size_m(scene, states)
+    if size is None:
+        return None
+    warming_k = warming_bound_k(history, plate, at_s, *size)
+    bound_hz = float(warming.resonance_drift_bound_hz(frequency_hz, warming_k))
+    return Term(TERM, "B", bound_hz / P95_FACTOR,
+                f"bias bound: the plate up to {warming_k * 1e3:.1f} mK warmer than at rest when the search read its "
+                "top (its readings' mean time), from the run's stored powers on it (energy balance, "
+                "plates.warming: heat capacity, convection and the resonance's "
+                f"{HEATING_NOMINAL['frequency_coefficient_per_k']:.0e}/K at their warmest ends), the resonance lower by up "
+                f"to {bound_hz:.2f} Hz", bias=True)

@@ -1,0 +1,180 @@
+"""A search's plate as one thermal body (`plates.warming`: its time constant against the
+closed form), and the bias bound a search on a warm plate takes (`analysis.plate_warming`)
+against the protocol's own search run on a plate that warms as it is read, its constants
+anywhere within their tolerances. Seeded."""
+
+from __future__ import annotations
+
+import itertools
+import math
+from types import SimpleNamespace
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from squeezebench.analysis import plate_warming
+from squeezebench.analysis.resonance_searches import SearchSetup
+from squeezebench.analysis.uncertainty import search_budgets
+from squeezebench.plates import warming
+from squeezebench.plates.laminate import ALUMINIUM_TABLE2
+from squeezebench.plates.specifications import (HEATING_NOMINAL, HEATING_TOLERANCES, MODEL_TOLERANCES, SPECIFICATIONS,
+                                                sheet_thickness_tolerance)
+from squeezebench.protocols.resonance import SearchSettings, find_resonance
+
+#: Table 4's two-column plate (76 x 41 x 1.2 mm, its both-columns state: 44.72 kHz, Q 250)
+LENGTH_M, WIDTH_M, THICKNESS_M = 0.076, 0.041, 0.0012
+F0_HZ, Q = 44720.0, 250.0
+SEARCH = SearchSettings(start_hz=42500.0, stop_hz=46000.0, points=36)   # the paper campaign's
+SCENES = {"warm.yaml": {"plate": {"length_mm": 76, "width_mm": 41, "thickness_mm": 1.2}}}
+READING_S = 0.73   # a search reading's bench time (the paper campaign's sweep: 16 averages)
+
+
+def test_the_plates_time_constant_is_its_thickness_over_twice_the_convection():
+    """tau = rho c h / (2 h_c), whatever the plate's length and width: 150 s at 1.2 mm."""
+    tau_s = _body(1.0, 1.0, 1.0, 1.0).time_constant_s
+    assert math.isclose(tau_s, 2790.0 * 900.0 * THICKNESS_M / (2 * 10.0), rel_tol=1e-12)
+
+
+def _body(c: float, rho: float, h: float, convection: float) -> warming.ThermalPlate:
+    """The plate as one thermal body, its specific heat, density, thickness and convection
+    at these factors of their nominal values."""
+    return warming.thermal_plate(LENGTH_M * 1e3, WIDTH_M * 1e3, THICKNESS_M * h * 1e3,
+                                 ALUMINIUM_TABLE2.density_kg_m3 * rho, HEATING_NOMINAL["specific_heat_j_per_kg_k"] * c,
+                                 HEATING_NOMINAL["convection_w_per_m2_k"] * convection)
+
+
+def _corners():
+    """Every corner of the warming's constants within their tolerances: (alpha, c, rho,
+    thickness, convection) as factors of their nominal values."""
+    tolerances = (HEATING_TOLERANCES["frequency_coefficient_per_k"].half_width,
+                  HEATING_TOLERANCES["specific_heat_j_per_kg_k"].half_width,
+                  MODEL_TOLERANCES["density_kg_m3"].half_width, sheet_thickness_tolerance(THICKNESS_M),
+                  HEATING_TOLERANCES["convection_w_per_m2_k"].half_width)
+    return [tuple(1.0 + s * t for s, t in zip(signs, tolerances)) for signs in itertools.product((-1, 1), repeat=5)]
+
+
+def _warm_plate_search(factors, previous_w: float, previous_s: float, peak_w: float, generator_rel: float = 0.0,
+                       seed: int = 0) -> tuple[pd.DataFrame, float]:
+    """The protocol's search (`find_resonance`) of a plate whose resonance falls as it warms
+    (F0_HZ cold, times 1 + alpha T), dissipating `peak_w` / (1 + x^2) at each reading, after
+    a previous step that dissipated `previous_w` over `previous_s` and ended as the search
+    began; T advanced exactly (the first-order step response) over each reading. `factors`:
+    the constants' (`_corners`). The rows a run stores (the previous step's reading among
+    them) and the cold resonance."""
+    alpha, c, rho, h, convection = factors
+    body = _body(c, rho, h, convection)
+    capacity, tau_s = body.heat_capacity_j_per_k, body.time_constant_s
+    rng = np.random.default_rng(seed)
+    state = {"t": previous_s, "T": previous_w * tau_s / capacity * (1.0 - math.exp(-previous_s / tau_s))}
+    common = {"run_name": "table4", "plate": "warm", "vibrometer_scale_mps_per_v": 1.0, "power_w": math.nan}
+    rows = [{**common, "step_id": "previous", "protocol": "powered_columns", "sweep": False,
+             "bench_time_s": at_s, "scope_power_w": previous_w}   # read throughout it, as a step's points
+            for at_s in np.linspace(0.0, previous_s, math.ceil(previous_s / READING_S) + 1)[1:]]
+
+    def measure_at(setting_hz: float) -> SimpleNamespace:
+        f0_hz = F0_HZ * (1.0 + HEATING_NOMINAL["frequency_coefficient_per_k"] * alpha * state["T"])
+        ratio = setting_hz * (1.0 + generator_rel) / f0_hz
+        x = Q * (ratio - 1.0 / ratio)
+        power_w = peak_w / (1.0 + x * x)
+        steady_k = power_w * tau_s / capacity
+        state["T"] = steady_k + (state["T"] - steady_k) * math.exp(-READING_S / tau_s)
+        state["t"] += READING_S
+        velocity = (1.0 + 1e-4 * rng.standard_normal()) / math.sqrt(1.0 + x * x)
+        rows.append({**common, "step_id": "search", "protocol": "resonance_search", "sweep": True,
+                     "generator_frequency_hz": setting_hz, "velocity_pp_mps": math.nan,
+                     "scope_velocity_pp_v": velocity, "bench_time_s": state["t"], "scope_power_w": power_w})
+        return SimpleNamespace(frequency_hz=setting_hz, velocity_pp_mps=velocity)
+
+    found = find_resonance(measure_at, SEARCH)
+    rows = pd.DataFrame(rows).assign(resonance_frequency_hz=found.frequency_hz)
+    stored = rows.iloc[-1].to_dict() | {"sweep": False, "generator_frequency_hz": found.frequency_hz,
+                                        "velocity_pp_mps": found.velocity_pp_mps, "velocity_pp_mps_u": 1e-6,
+                                        "power_w_u": 1e-6, "bench_time_s": state["t"] + READING_S}
+    return pd.concat([rows, pd.DataFrame([stored])], ignore_index=True), F0_HZ
+
+
+def _budget(rows: pd.DataFrame):
+    searches = rows[rows["protocol"] == "resonance_search"].reset_index(drop=True)
+    ((_, _, budget),) = search_budgets(searches, {"table4": SearchSetup(tolerance_hz=SEARCH.tolerance_hz)},
+                                       rows, SCENES)
+    return budget
+
+
+def test_the_warming_bound_holds_the_displacement_at_every_corner_of_the_constants():
+    """Table 4's case, a search a few seconds after a step drove the plate at 0.11 W, and
+    a harder one (0.3 W for a minute): at every corner of the constants' tolerances the found
+    resonance is displaced from the cold plate's by no more than the term's bound, and by
+    more than the budget without it allows at the warmest."""
+    for previous_w, previous_s in ((0.11, 45.0), (0.3, 60.0)):
+        displacements_hz, bounds_hz, others_hz = [], [], []
+        for factors in _corners():
+            rows, cold_hz = _warm_plate_search(factors, previous_w, previous_s, peak_w=0.066)
+            budget = _budget(rows)
+            (term,) = [t for t in budget.terms if t.name == plate_warming.TERM]
+            displacements_hz.append(cold_hz - budget.value)
+            bounds_hz.append(term.bound)
+            others_hz.append(budget.coverage_factor * math.sqrt(budget.std_uncertainty**2 - term.std_uncertainty**2))
+        assert min(displacements_hz) > 0   # warmer, lower
+        assert all(d <= b for d, b in zip(displacements_hz, bounds_hz))
+        assert max(displacements_hz) > 0.5 * max(bounds_hz)   # a bound, not a multiple of the effect
+        assert max(displacements_hz) > max(others_hz)
+
+
+def test_the_bound_is_the_same_whenever_the_run_started_on_the_campaigns_clock():
+    """The rows' bench time is the campaign's: a run that starts an hour in is bounded as one
+    that starts at once (its plate at rest before its first reading)."""
+    rows, _ = _warm_plate_search((1.0,) * 5, 0.11, 45.0, peak_w=0.066)
+    late = rows.assign(bench_time_s=rows["bench_time_s"] + 3600.0)
+    assert _budget(late).expanded_uncertainty == pytest.approx(_budget(rows).expanded_uncertainty, rel=1e-9)
+
+
+def test_a_search_on_a_plate_at_rest_reads_only_its_own_warming():
+    """Nothing before the search: the bound is the search's own readings' warming, a
+    fraction of the generator's term; another plate's powers do not count."""
+    rows, cold_hz = _warm_plate_search((1.0,) * 5, 0.0, 1.0, peak_w=0.02)
+    other = rows.iloc[[0]].assign(plate="another", scope_power_w=5.0, bench_time_s=0.5)
+    budget = _budget(pd.concat([other, rows], ignore_index=True))
+    term = next(t for t in budget.terms if t.name == plate_warming.TERM)
+    generator = next(t for t in budget.terms if t.name == "generator frequency")
+    assert 0.0 < term.bound < generator.std_uncertainty
+    assert cold_hz - budget.value <= term.bound
+
+
+def test_the_warm_searchs_budget_covers_the_cold_plate_with_the_generator_erring_within_its_specification():
+    """Table 4's third configuration as the paper campaign runs it, the generator anywhere
+    within +-20 ppm (its limits and 9 values between) and the warming's constants at
+    random within their tolerances: every U holds the cold plate's resonance."""
+    rng = np.random.default_rng(46)
+    limit = SPECIFICATIONS["generator_frequency"].half_width
+    for generator_rel in np.linspace(-limit, limit, 11):
+        factors = tuple(rng.uniform(_corners()[0], _corners()[-1]))
+        rows, cold_hz = _warm_plate_search(factors, 0.11, 45.0, peak_w=0.066, generator_rel=generator_rel,
+                                           seed=int(rng.integers(1 << 30)))
+        budget = _budget(rows)
+        assert abs(budget.value - cold_hz) <= budget.expanded_uncertainty
+
+
+def test_a_run_without_stored_powers_or_a_plate_size_gets_no_warming_term():
+    rows, _ = _warm_plate_search((1.0,) * 5, 0.11, 45.0, peak_w=0.066)
+    searches = rows[rows["protocol"] == "resonance_search"].reset_index(drop=True)
+    setups = {"table4": SearchSetup(tolerance_hz=SEARCH.tolerance_hz)}
+    for history, scenes in ((rows.drop(columns="scope_power_w"), SCENES), (rows.assign(scope_power_w=math.nan), SCENES),
+                            (rows, {"warm.yaml": {}}), (None, None)):
+        ((_, _, budget),) = search_budgets(searches, setups, history, scenes)
+        assert plate_warming.TERM not in {t.name for t in budget.terms}
+
+
+def test_a_plate_cut_shorter_is_bounded_at_its_shortest_length():
+    """Table 3 cuts one plate from 75 to 28 mm: the bound takes the shortest length its
+    readings were in (the heat capacity goes with the length, the time constant does not)."""
+    scene = {"plate": {"length_mm": 75, "width_mm": 41, "thickness_mm": 1.0},
+             "states": {"75x41": {"plate_length_mm": 75}, "28x41": {"plate_length_mm": 28}, "other": {}}}
+    assert plate_warming.plate_size_m(scene) == (0.075, 0.041, 0.001)
+    assert plate_warming.plate_size_m(scene, ["75x41", "28x41", "other", "unknown"])[0] == 0.028
+    history = pd.DataFrame({"run_name": "cut", "plate": "p", "bench_time_s": [10.0, 20.0], "scope_power_w": 0.05,
+                            "scene_state": ["75x41", "28x41"]})
+    bounds = [plate_warming.search_warming_term(history, "p", scene, 37e3, at_s).bound for at_s in (10.0, 20.0)]
+    uncut = warming.resonance_drift_bound_hz(37e3, plate_warming.warming_bound_k(history, "p", 20.0, 0.075,
+                                                                                0.041, 0.001))
+    assert bounds[1] == pytest.approx(uncut * 75 / 28, rel=1e-9) and bounds[0] < bounds[1]
