@@ -83,14 +83,18 @@ COLUMNS: dict[str, tuple[str, str]] = {
     "min_velocity_pp_mps": ("m/s pp", "smallest velocity amplitude over the touch area"),
     "max_velocity_pp_mps": ("m/s pp", "largest velocity amplitude over the touch area"),
     "max_velocity_pp_mps_U": ("m/s pp", "expanded uncertainty (k for 95 % under its budget) of the largest: noise and the shared velocity scale"),
-    "coefficient_of_variation": ("1", "standard deviation over mean of the touch area's velocity amplitudes"),
-    "coefficient_of_variation_U": ("1", "expanded uncertainty (k for 95 % under its budget) of the coefficient of variation (points' noise; generator frequency through the re-tuned steps' levels; the grid's spread over where it may have fallen on the mode) plus, as a bias bound, the grid's error where it fell"),
+    "coefficient_of_variation": ("1", "standard deviation over mean of the touch area's velocity amplitudes over their cells: "
+                                      "the points' figure corrected for where the grid fell on the mode (read between the points)"),
+    "coefficient_of_variation_U": ("1", "expanded uncertainty (k for 95 % under its budget) of the coefficient of variation (points' noise; generator frequency through the re-tuned steps' levels; the grid correction's own error, the reading's misfit; the cells' quadrature)"),
+    "coefficient_of_variation_uncorrected": ("1", "the coefficient of variation of the touch area's points alone, before the grid correction"),
+    "coefficient_of_variation_grid_correction": ("1", "what the grid correction added to the points' coefficient of variation (minus the grid's error where it fell)"),
     "share_of_peak": ("1", "threshold, as a share of the largest amplitude, for fraction_above_share"),
     "fraction_above_share": ("1", "share of the touch area at or above share_of_peak of the largest amplitude, "
-                                  "as the share of its points"),
+                                  "over the points' cells: the share of the points corrected for where the grid fell on the mode"),
     "fraction_above_share_U": ("1", "expanded uncertainty (k for 95 % under its budget) of fraction_above_share "
-                                    "(points' noise, the grid's spread over where it may have fallen on the mode) plus, as a bias "
-                                    "bound, the grid's error where it fell"),
+                                    "(points' noise; the grid correction's own error, the reading's misfit; the cells' quadrature)"),
+    "fraction_above_share_uncorrected": ("1", "the share of the touch area's points at or above share_of_peak of the largest, before the grid correction"),
+    "fraction_above_share_grid_correction": ("1", "what the grid correction added to the points' share (minus the grid's error where it fell)"),
     "width_uniformity": ("1", "share of the map's mean square in its width-averaged part: 1 for an (n, 0) mode"),
     "n_nodal_lines": ("1", "sign changes of the width-averaged signed map along x"),
     "nodal_line_spacing_m": ("m", "mean spacing of those nodal lines (half a flexural wavelength)"),

@@ -217,6 +217,14 @@ def with_uncertainty_or_range(value: float, u: float, digits: int = 2, unit: str
     return f"{figures(value)}{unit} (×/÷ {figures(high / value)}: {figures(low)} to {figures(high)}{unit})"
 
 
+def grid_corrected_percent(value: float, u: float, correction: float) -> str:
+    """A map's homogeneity figure (a fraction) as "value ± U %" with the correction it took
+    for where the grid fell on the mode (`cartography.grid_bias`), in percentage points, and
+    what the points alone read: a reader sees both what is given and by how much it moved."""
+    return (f"{with_uncertainty(100 * value, 100 * u, unit='%')} (corrected by {100 * correction:+.2f} points for "
+            f"where the grid fell on the mode; the points alone {100 * (value - correction):.2f} %)").replace("-", "−")
+
+
 def percent(fraction: float) -> str:
     """A relative difference in %, two significant digits below 1 % (never "+0.0 %"), at
     most three from 1 % on ("+96.0 %", "−1061 %")."""
