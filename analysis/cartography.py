@@ -98,7 +98,7 @@ def bending_functions(kh_fourth: float, x_steps: np.ndarray) -> np.ndarray:
     x = np.asarray(x_steps, dtype=float)
     # x^(4n+m) are x^0..x^47 in order: running products times the
     # series' coefficients as one matrix product, not 48 pow calls per spot, which were
-    # most of a map's grid term.
+    # most of a map's reading between the points.
     coefficients = (kh_fourth ** _SERIES_ORDERS * _SERIES_COEFFICIENTS)[:, :, None] * np.eye(4)   # n, m, function
     factors = np.empty((4 * BENDING_SERIES_TERMS, x.size))   # power, spot: the running product runs along rows
     factors[0], factors[1:] = 1.0, x.ravel()
@@ -106,7 +106,7 @@ def bending_functions(kh_fourth: float, x_steps: np.ndarray) -> np.ndarray:
     return (coefficients.reshape(4 * BENDING_SERIES_TERMS, 4).T @ powers).T.reshape(x.shape + (4,))
 
 
-# The series' constants, made once: a map's grid term evaluates the series some 10^4 times.
+# The series' constants, made once: every reading of every map evaluates the series.
 _SERIES_ORDERS = np.arange(BENDING_SERIES_TERMS)[:, None]
 _SERIES_COEFFICIENTS = np.array([[math.factorial(m) / math.factorial(4 * n + m) for m in range(4)]
                                  for n in range(BENDING_SERIES_TERMS)])

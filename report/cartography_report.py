@@ -11,7 +11,7 @@ import pandas as pd
 
 from squeezebench.analysis import cartography
 from squeezebench.plates import predicted_plates
-from squeezebench.report.presentation import fold, grid_corrected_percent, with_uncertainty
+from squeezebench.report.presentation import fold, grid_correction_note, with_uncertainty
 from squeezebench.report.section import ReportContext, Section, html_table
 
 
@@ -135,9 +135,11 @@ def cartography_section(context: ReportContext) -> Section | None:
                  f"average, a displacement of {with_uncertainty(1e6 * row.mean_amplitude_pp_m, 1e6 * row.mean_amplitude_pp_m_U)} "
                  f"µm pp against the {1e6 * row.criterion_amplitude_pp_m:g} µm pp a fingertip needs (about "
                  f"{row.voltage_for_criterion_vpp:.0f} V pp reaches it); coefficient of variation "
-                 f"{grid_corrected_percent(row.coefficient_of_variation, row.coefficient_of_variation_U, row.coefficient_of_variation_grid_correction)}, "
-                 f"{grid_corrected_percent(row.fraction_above_share, row.fraction_above_share_U, row.fraction_above_share_grid_correction)} "
-                 f"of the area above {row.share_of_peak:.0%} of the peak, with "
+                 f"{with_uncertainty(100 * row.coefficient_of_variation, 100 * row.coefficient_of_variation_U, unit='%')}"
+                 f"{grid_correction_note(row.coefficient_of_variation, row.coefficient_of_variation_grid_correction)}, "
+                 f"{with_uncertainty(100 * row.fraction_above_share, 100 * row.fraction_above_share_U, unit='%')} "
+                 f"of the area above {row.share_of_peak:.0%} of the peak"
+                 f"{grid_correction_note(row.fraction_above_share, row.fraction_above_share_grid_correction)}, with "
                  f"{row.n_nodal_lines} nodal lines {row.nodal_line_spacing_m * 1e3:.2f} mm apart; "
                  f"{row.width_uniformity:.1%} of the map's mean square is uniform across the width "
                  f"(the paper's \"uniform across the plate\", Sec. 5.2){mac}.</p>")
