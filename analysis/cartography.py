@@ -218,6 +218,7 @@ class CellReadings:
 
     @functools.cached_property
     def at_points(self) -> np.ndarray:
+        """|field| at the points themselves, read as the cells are (one spot a point)."""
         return self._spots(tuple(self._reader(axis, 1) for axis in (0, 1)), 1)
 
     def over_cells(self, samples: int) -> np.ndarray:
