@@ -353,6 +353,26 @@ def test_the_correction_term_is_the_misfit_times_the_cvs_bias_and_a_cosines_has_
     assert not grid_correction_term(pure, error).is_rectangular   # normal, k = 1.96
 
 
+@settings(max_examples=30, deadline=None)
+@given(st.integers(-12, 10), st.booleans(), st.floats(2.0, 4.0), st.floats(0.0, 2 * math.pi), st.floats(0.0, 0.2))
+def test_the_correction_and_its_terms_do_not_depend_on_the_fields_scale_or_sign(power, flip, points_per_half_wave,
+                                                                               phase, slope):
+    """The CV and the area are ratios of the field to itself: on a standing wave under an
+    envelope (1 + slope x / 10, which the recurrence misfits), scaled by any factor and of
+    either sign, the grid bias and both terms of the corrected figures are the same (to the
+    last bit for a power of 2, which scales every reading exactly: a spot at the share of
+    the peak stays on its side)."""
+    x, y = np.meshgrid(np.arange(20.0), np.arange(5.0))
+    signed = ((1.0 + slope * x / 10.0) * np.cos(math.pi / points_per_half_wave * x + phase)).ravel()
+    base = cell_readings(STEP_M * x.ravel(), STEP_M * y.ravel(), signed)
+    moved = cell_readings(STEP_M * x.ravel(), STEP_M * y.ravel(), (-1.0 if flip else 1.0) * 2.0**power * signed)
+    for figure in FIGURES:
+        error = GridError(figure, 0.5)
+        for found in (grid_bias, lambda r, e: grid_correction_term(r, e).std_uncertainty,
+                      lambda r, e: grid_quadrature_term(r, e).std_uncertainty):
+            assert found(moved, error) == found(base, error)
+
+
 def test_the_cell_readings_of_a_linear_field_are_the_continuous_uniform_distribution():
     """v = 1 + x at x = 0..4 (any rows, any order, any sign convention of the field): over
     the cells [-0.5, 4.5] the field is uniform on [0.5, 5.5], mean 3 and standard deviation
