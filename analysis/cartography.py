@@ -24,7 +24,7 @@ from typing import Callable
 import numpy as np
 import pandas as pd
 
-from squeezebench.analysis.budgets import P95_FACTOR, Budget, Term
+from squeezebench.analysis.budgets import Budget, Term
 from squeezebench.plates.specifications import SPECIFICATIONS
 
 
@@ -37,7 +37,7 @@ class Homogeneity:
     maximum: float
     coefficient_of_variation: float   # standard deviation / mean, population (ddof 0)
     share_of_peak: float              # the stated share of the peak amplitude
-    fraction_above_share: float       # fraction of the points above it: of the area, to `grid_term`
+    fraction_above_share: float       # fraction of the points above it (of the area once corrected, `grid_bias`)
     n_points: int
 
 
@@ -71,8 +71,7 @@ def coefficients_of_variation(amplitudes: np.ndarray) -> np.ndarray:
 
 
 #: Spots per axis over a grid point's cell at which the field between the points is read
-#: (the midpoint rule over the reconstructed field: 6 and 10 give the same figures), and the
-#: shifts per axis at which `shifted_grid_errors` places the grid.
+#: (the midpoint rule over the reconstructed field: 6 and 10 give the same figures).
 READING_SAMPLES = 8
 #: The readings of the field between the points, each with the points it needs along every
 #: axis it reads across: straight lines, and the bending line through four points
@@ -99,7 +98,7 @@ def bending_functions(kh_fourth: float, x_steps: np.ndarray) -> np.ndarray:
     x = np.asarray(x_steps, dtype=float)
     # x^(4n+m) are x^0..x^47 in order: running products times the
     # series' coefficients as one matrix product, not 48 pow calls per spot, which were
-    # most of a map's grid term.
+    # most of a map's reading between the points.
     coefficients = (kh_fourth ** _SERIES_ORDERS * _SERIES_COEFFICIENTS)[:, :, None] * np.eye(4)   # n, m, function
     factors = np.empty((4 * BENDING_SERIES_TERMS, x.size))   # power, spot: the running product runs along rows
     factors[0], factors[1:] = 1.0, x.ravel()
@@ -107,7 +106,7 @@ def bending_functions(kh_fourth: float, x_steps: np.ndarray) -> np.ndarray:
     return (coefficients.reshape(4 * BENDING_SERIES_TERMS, 4).T @ powers).T.reshape(x.shape + (4,))
 
 
-# The series' constants, made once: a map's grid term evaluates the series some 10^4 times.
+# The series' constants, made once: every reading of every map evaluates the series.
 _SERIES_ORDERS = np.arange(BENDING_SERIES_TERMS)[:, None]
 _SERIES_COEFFICIENTS = np.array([[math.factorial(m) / math.factorial(4 * n + m) for m in range(4)]
                                  for n in range(BENDING_SERIES_TERMS)])
@@ -120,13 +119,39 @@ def wavenumber_per_step(grid: np.ndarray, axis: int) -> float:
     give; above 1, the wave is evanescent, cosh(k h), whose k spans the same bending
     solutions. Read from the map alone: the plate's drawn thickness and moduli move k by
     a few per cent, and the map samples the mode it has. 0 for fewer than 3 points."""
-    lines = np.moveaxis(np.asarray(grid, dtype=float), axis, 0)
+    cosine = _recurrence_cosine(np.moveaxis(np.asarray(grid, dtype=float), axis, 0))
+    if cosine is None:
+        return 0.0
+    return float(np.arccos(max(cosine, -1.0))) if cosine <= 1.0 else float(np.arccosh(cosine))
+
+
+def _recurrence_cosine(lines: np.ndarray) -> float | None:
+    """The least-squares cos(k h) of Prony's recurrence over `lines` (the axis read first);
+    None for fewer than 3 points or a field of zeros in the middle."""
     middle = lines[1:-1]
     square = float(np.sum(middle**2))
     if square == 0.0:
+        return None
+    return float(np.sum(middle * (lines[:-2] + lines[2:]))) / (2.0 * square)
+
+
+def recurrence_misfit(grid: np.ndarray, axis: int, straight: bool) -> float:
+    """Share of the field along `axis` that a standing wave (its recurrence's own least-squares
+    cosine, `wavenumber_per_step`), or with `straight` a line (cos k h = 1), does not hold:
+    the rms of Prony's residual w[i-1] + w[i+1] - 2 cos(k h) w[i] over twice the rms of the
+    middle points, 0 for a pure standing wave (or line). A mode's envelope, its edges'
+    evanescent parts and the points' noise leave it above 0: what the reading between the
+    points misreads. 1 (nothing checked) for an axis of 2 points, which no recurrence tests;
+    0 for a single one, which is not read across."""
+    lines = np.moveaxis(np.asarray(grid, dtype=float), axis, 0)
+    if lines.shape[0] < 3:
+        return 1.0 if lines.shape[0] == 2 else 0.0
+    cosine = 1.0 if straight else _recurrence_cosine(lines)
+    if cosine is None:
         return 0.0
-    cosine = float(np.sum(middle * (lines[:-2] + lines[2:]))) / (2.0 * square)
-    return float(np.arccos(max(cosine, -1.0))) if cosine <= 1.0 else float(np.arccosh(cosine))
+    middle = lines[1:-1]
+    residual = lines[:-2] + lines[2:] - 2.0 * cosine * middle
+    return math.sqrt(float(np.sum(residual**2)) / float(np.sum(middle**2))) / 2.0
 
 
 def bending_weights(n: int, kh: float, positions_steps: np.ndarray, width: int) -> np.ndarray:
@@ -168,14 +193,14 @@ class CellReadings:
 
     @property
     def values(self) -> np.ndarray:
-        return self.over_cells((0.0, 0.0))
+        return self.registered[1]
 
-    def _reader(self, axis: int, shift: float, samples: int) -> np.ndarray:
+    def _reader(self, axis: int, samples: int) -> np.ndarray:
         """Weights reading the field along `axis` at `samples` spots (`cell_offsets`; one: the
-        point itself) about every point of the grid shifted by `shift` (steps)."""
+        point itself) about every point of the grid."""
         n = self.grid.shape[axis]
         spots = cell_offsets(samples) if n > 1 else np.zeros(1)
-        positions = (np.arange(n)[:, None] + shift + spots).ravel()
+        positions = (np.arange(n)[:, None] + spots).ravel()
         return bending_weights(n, self.wavenumbers[axis], positions, dict(READING_ORDERS)[self.method])
 
     def _spots(self, readers: tuple[np.ndarray, np.ndarray], samples: int) -> np.ndarray:
@@ -186,29 +211,19 @@ class CellReadings:
                                                                 self.grid.shape[1], per_axis[1])
         return np.abs(field.transpose(0, 2, 1, 3)[self.filled].reshape(int(self.filled.sum()), -1))
 
-    def over_cells(self, shift: tuple[float, float]) -> np.ndarray:
-        """|field| over the cells of the grid shifted by `shift` (steps per axis)."""
-        return self._spots(tuple(self._reader(axis, s, READING_SAMPLES) for axis, s in enumerate(shift)),
-                           READING_SAMPLES)
-
     @functools.cached_property
     def registered(self) -> tuple[np.ndarray, np.ndarray]:
         """(|field| at the points, |field| over their cells) of the grid where it fell."""
-        return self._spots(tuple(self._reader(axis, 0.0, 1) for axis in (0, 1)), 1), self.values
+        return self.at_points, self.over_cells(READING_SAMPLES)
 
     @functools.cached_property
-    def placements(self) -> list[tuple[np.ndarray, np.ndarray]]:
-        """(|field| at the points, |field| over the cells) of the grid shifted by each of
-        `placement_shifts`: made once per map, for the grid term of every figure (the CV and
-        the area read the same shifted fields). The shifts are a lattice, so each axis's
-        weights are made once per distinct shift along it: 8 per axis, not 64 (they were most
-        of a map's grid term)."""
-        @functools.cache
-        def reader(axis: int, shift: float, samples: int) -> np.ndarray:
-            return self._reader(axis, shift, samples)
+    def at_points(self) -> np.ndarray:
+        """|field| at the points themselves, read as the cells are (one spot a point)."""
+        return self._spots(tuple(self._reader(axis, 1) for axis in (0, 1)), 1)
 
-        return [tuple(self._spots(tuple(reader(axis, s, samples) for axis, s in enumerate(shift)), samples)
-                      for samples in (1, READING_SAMPLES)) for shift in placement_shifts(self)]
+    def over_cells(self, samples: int) -> np.ndarray:
+        """|field| over the cells at `samples` spots per wide axis (`cell_offsets`)."""
+        return self._spots(tuple(self._reader(axis, samples) for axis in (0, 1)), samples)
 
 
 def _point_grid(x_m: np.ndarray, y_m: np.ndarray, signed: np.ndarray) -> tuple[list[np.ndarray], np.ndarray, np.ndarray]:
@@ -276,111 +291,79 @@ class GridError:
             return read.fraction_above_share - float(np.mean(cells >= self.share_of_peak * read.maximum))
         return getattr(read, self.attribute) - getattr(homogeneity(cells, self.share_of_peak), self.attribute)
 
-    def of_rows(self, points: np.ndarray, cells: np.ndarray) -> np.ndarray:
-        """The error of each row of `points` and `cells` (a placement's |field| at the
-        points, over the cells), equal to calling it row by row to the last bit: the grid
-        term's 64 placements at once, where a `homogeneity` per placement took most of it."""
-        if self.attribute == "coefficient_of_variation":
-            return coefficients_of_variation(points) - coefficients_of_variation(cells)
-        if self.attribute == "fraction_above_share":
-            values = np.abs(points)
-            peak = self.share_of_peak * values.max(axis=1, keepdims=True)
-            return np.mean(values >= peak, axis=1) - np.mean(cells >= peak, axis=1)
-        return np.array([self(p, c) for p, c in zip(points, cells)])
-
-
-def placement_shifts(readings: CellReadings) -> list[tuple[float, float]]:
-    """Where the grid may have fallen about where it did, in grid steps per axis: the
-    plate's placement on the stage (`specifications.SPECIFICATIONS["plate_placement"]`, a
-    rectangle per axis) at READING_SAMPLES spots of the midpoint rule across it, along the
-    axes the map spans (the x shift the slower)."""
-    half_width_m = 1e-3 * SPECIFICATIONS["plate_placement"].half_width
-    per_axis = [cell_offsets(READING_SAMPLES) * 2.0 * half_width_m / step if math.isfinite(step) else np.zeros(1)
-                for step in readings.steps_m]
-    return [(sx, sy) for sx in per_axis[0] for sy in per_axis[1]]
-
-
-def shifted_grid_errors(readings: CellReadings, error: Callable[[np.ndarray, np.ndarray], float]) -> np.ndarray:
-    """`error` (e.g. a `GridError`) of the grid shifted by each of `placement_shifts`, read
-    off the field between the points: the shifted grid's points against the vibration over
-    its own cells, which move with it (a map's figure is the vibration's over the area its
-    grid covers; against the unshifted cells, the shifted grid's error would also carry
-    how that area's own figure moves along the mode, which is no error of the map)."""
-    if isinstance(error, GridError):   # every placement at once
-        return error.of_rows(*(np.stack([placed[i].ravel() for placed in readings.placements]) for i in (0, 1)))
-    return np.array([error(points.ravel(), cells.ravel()) for points, cells in readings.placements])
-
 
 def grid_bias(readings: CellReadings | None, error: Callable[[np.ndarray, np.ndarray], float]) -> float:
     """`error` (e.g. a `GridError`) of the grid where it fell: its points against the field
-    read over their own cells (`CellReadings.values`), a bias of known sign that the map's
-    figure carries (0 without readings).
+    read over their own cells (`CellReadings.values`), the correction the map's figure takes
+    (`grid_correction_term` its own error; 0 without readings).
 
     A grid of 2.3 points per half-wavelength reads |a standing wave| at a mix of antinodes
     and flanks that its registration on the mode sets, and the bending reading holds the
     field between the points exactly for a standing wave: on the paper's 4 mm map of the
     large plate at its own registration the true CV error (the points against the mode
     over their cells, 8 x 8 spots) is -0.0208 and the reading gives -0.0214; the area's
-    +0.0555 and +0.0538. The errors of the grid shifted across the placement share most
-    of that (their mean -0.0141, their spread 0.0037 for the CV): carried as a zero-mean
-    normal of their root mean square, as it was, the bias became a U that the error at a
-    registration a little off the symmetric one is half of, and at the symmetric one
-    (where the area's error is largest) too small. It is carried as a bias bound beside
-    the spread (`grid_bias_term`: U holds it at any bias within +-|B|, B + 1.645 u once B
-    dominates, GUM F.2.4.5 for a known systematic effect whose correction is not applied),
-    not in quadrature."""
+    +0.0555 and +0.0538. A known systematic effect is corrected (GUM 3.2.4, F.2.4.5): the
+    map's homogeneity figures are the points' less this bias, the vibration's over the cells
+    as the reading gives it. It was carried as a bias bound, which held the error at
+    p95 |error| / U 0.75 (CV) and 0.6 (area) on 40 benches: a U of the bias's size for an
+    error the reading gets to 3 %."""
     if readings is None:
         return 0.0
     points, cells = readings.registered
     return float(error(points.ravel(), cells.ravel()))
 
 
-def grid_term(errors: np.ndarray, method: str) -> Term:
-    """Type B term of a homogeneity figure for not knowing where the grid fell on the mode:
-    the spread of its error over where it may have fallen, beside the error where it fell
-    (`grid_bias`).
+def grid_correction_term(readings: CellReadings | None, error: GridError) -> Term:
+    """Type B term of a homogeneity figure corrected by its grid bias (`grid_bias`): the
+    correction's own error from the reading's misfit, propagated through it (GUM 5.1.3).
 
-    A map reads the vibration over the touch area at its grid's points, each standing for
-    its cell; the figure those points give differs from the vibration's over the cells by an
-    error that depends on where the grid lands on the mode (an aliasing error: a standing
-    wave's sampled mean square is off by a cosine of the grid's offset along it), and the
-    grid's place is not known: the plate is aligned on the stage by eye, within its
-    placement (`specifications.SPECIFICATIONS["plate_placement"]`, +-1 mm per axis). `errors`
-    are that error for the grid placed across it (`shifted_grid_errors`, read off the
-    measured field's own bending reconstruction, the cells moving with the grid). The error
-    where the grid fell is read off the same reconstruction (`grid_bias`, bounded apart);
-    what is not known is how well the reading placed the grid on the mode (its phase, from
-    the points alone), and a misplaced mode is a shifted grid: the shifted errors' standard
-    deviation about their mean is the uncertainty of that bias (GUM 4.3.1: a Type B
-    evaluation from the information at hand; conservative: the reading misplaces the mode
-    by far less than the placement spans), taken as normal: over a
-    placement that spans whole periods of the offset the error is a cosine of it (arcsine,
-    95 % within 1.41 standard deviations), but a placement of +-1 mm spans a fraction of
-    the 9.2 mm period of the large plate's aliasing, where the shifted errors are no clean
-    cosine (V-shaped about a symmetric registration, the area's jumping by columns), so no
-    narrower shape is claimed.
-
-    Checked (tests/test_cartography_mode.py): on a standing wave the shifted grids' errors
-    are the closed form's (a sampled sin^2 mean is off by a cosine of the offset) and their
-    mean and spread the closed form's; on a cosine mode at the paper campaign's 4 mm grid
-    (2.3 points per half-wave) their root mean square is within 2 % of the true errors'
-    over the placement, and on the large plate's mode 1.03 times. It does not hold a grid
-    under one point per half-wavelength (k h >= pi), whose points read an aliased field
-    that no reading between them recovers."""
-    errors = np.asarray(errors, dtype=float)
-    u = float(np.std(errors)) if errors.size else 0.0
-    return Term("grid (where it fell on the mode)", "B", u,
-                f"the points' figure vs the field's over their cells, the grid shifted across the plate's placement "
-                f"({errors.size} offsets, the {method or 'no'} reading between the points), standard deviation "
-                "about their mean, as a normal (the error where the grid fell is bounded apart)", rectangular=False)
+    The bending reading holds the part of the field that obeys the standing wave's recurrence
+    along each axis; the rest, a share e of the field (`recurrence_misfit`, the axes in
+    quadrature), it may misread between the points as a whole. The CV's bias is made by the
+    field between the points, so the corrected CV is uncertain by e |B|: on the large plate's
+    mode at the placements a bench draws e = 0.038 (4 mm grid) and 0.011 (2 mm), and the
+    reading's true residual is 0.4 to 0.8 e |B| (4 mm) and about e |B| (2 mm). The area moves
+    as spots cross the share of the peak: its term is half the change of the area as the read
+    field's departures from their cell's point scale by 1 +- e. Normal: the misfit is a sum
+    over many points, of either sign."""
+    if readings is None:
+        return Term("grid (its correction's reading)", "B", 0.0, "a single point: no grid correction", rectangular=False)
+    misfit = math.hypot(*(recurrence_misfit(readings.grid, axis, readings.method == "linear") for axis in (0, 1)))
+    points, cells = readings.registered
+    bias = error(points.ravel(), cells.ravel())
+    if error.attribute == "fraction_above_share":
+        moved = [error(points.ravel(), (points + (1.0 + sign * misfit) * (cells - points)).ravel())
+                 for sign in (1.0, -1.0)]
+        u = abs(moved[0] - moved[1]) / 2.0
+    else:
+        u = misfit * abs(bias)
+    return Term("grid (its correction's reading)", "B", u,
+                f"the bias {bias:+.4g} subtracted, read between the points by the {readings.method} reading, whose "
+                f"recurrence misfits {misfit:.3g} of the field", rectangular=False)
 
 
-def grid_bias_term(bias: float) -> Term:
-    """The grid's error where it fell (`grid_bias`) as a bias bound of the figure's budget
-    (`Term.bias`): one value, the same on every reading of the map, that U must hold as it
-    is, not as a spread about zero in quadrature (GUM F.2.4.5, a correction not applied)."""
-    return Term("grid (its error where it fell)", "B", abs(bias) / P95_FACTOR,
-                "the points' figure vs the field's over their own cells, read between the points", bias=True)
+#: The order p of the midpoint rule's error over the cells, h^p (Richardson): a figure of
+#: mean squares (the CV) integrates a continuous field, kinks at nodal lines included, to
+#: h^2; the area counts the spots above a threshold, a step, to h.
+QUADRATURE_ORDERS = {"coefficient_of_variation": 2, "fraction_above_share": 1}
+
+
+def grid_quadrature_term(readings: CellReadings | None, error: GridError) -> Term:
+    """Type B term of a corrected homogeneity figure for reading the cells at READING_SAMPLES
+    spots per axis (the midpoint rule) instead of over their whole area: Richardson's
+    estimate of the rule's error from the change D of the figure as the spots double,
+    |D| / (1 - 2^-p) for an error of order p (QUADRATURE_ORDERS: 4/3 |D| for the CV, 2 |D|
+    for the area), as its standard uncertainty, normal (the error is a sum over many cells,
+    of either sign)."""
+    if readings is None:
+        return Term("grid (the cells' quadrature)", "B", 0.0, "a single point: no cells", rectangular=False)
+    points = readings.at_points.ravel()
+    change = (error(points, readings.registered[1].ravel())
+              - error(points, readings.over_cells(2 * READING_SAMPLES).ravel()))
+    order = QUADRATURE_ORDERS[error.attribute]
+    return Term("grid (the cells' quadrature)", "B", abs(change) / (1.0 - 2.0**-order),
+                f"{READING_SAMPLES} against {2 * READING_SAMPLES} spots per axis over each cell, an error of order "
+                f"{order} (Richardson)", rectangular=False)
 
 
 def modal_assurance(measured: np.ndarray, predicted: np.ndarray) -> float:
@@ -529,10 +512,13 @@ def summarise_map(points: pd.DataFrame, predicted: np.ndarray | None = None, sha
     which does not average away, and, given the resonance's `resonance_q` (`map_resonance_q`),
     the generator's frequency error through the level steps between the map's re-tuned
     steps (`retuning_term`). The coefficient of variation and the area above the share of
-    the mapped peak are the vibration's over the touch area, which the points' figures
-    estimate to their error where the grid fell (`grid_bias`, read between the points and
-    carried as a bias bound, `grid_bias_term`) and its spread over where it may have fallen (`grid_term`). With `predicted` (the model's shape at the same points)
-    the modal assurance criterion of the signed map against it."""
+    the mapped peak are the vibration's over the touch area: the points' figures corrected
+    by their error where the grid fell (`grid_bias`, read between the points; the points'
+    own figure `*_uncorrected`, the correction added `*_grid_correction`), with the
+    correction's own error as a term (`grid_correction_term`). The mean and the peak are
+    the points' own (what the stage put the vibrometer on), no cell's: they take no grid
+    correction. With `predicted` (the model's shape at the same points) the modal assurance
+    criterion of the signed map against it."""
     touch = points[points["in_touch_area"]]
     amplitude = touch["velocity_pp_mps"].to_numpy()
     h = homogeneity(amplitude, share_of_peak)
@@ -544,16 +530,18 @@ def summarise_map(points: pd.DataFrame, predicted: np.ndarray | None = None, sha
     readings = cell_readings(touch["x_m"].to_numpy(), touch["y_m"].to_numpy(),
                              np.copysign(amplitude, touch["signed_velocity_pp_mps"].to_numpy()))
 
-    def expanded_between(attribute: str) -> float:
+    def corrected(attribute: str) -> dict:
+        """The figure over the cells (the points' less their grid bias), its U, and both parts."""
         error = GridError(attribute, share_of_peak)
-        errors = np.array([]) if readings is None else shifted_grid_errors(readings, error)
-        return expanded(attribute, own=(grid_term(errors, readings.method if readings else ""),
-                                        grid_bias_term(grid_bias(readings, error))))
+        bias = grid_bias(readings, error)
+        value = getattr(h, attribute) - bias
+        terms = (grid_correction_term(readings, error), grid_quadrature_term(readings, error))
+        return {attribute: value, f"{attribute}_U": expanded(attribute, value, own=terms),
+                f"{attribute}_uncorrected": getattr(h, attribute), f"{attribute}_grid_correction": -bias}
 
-    def expanded(attribute: str, scaled: bool = False, own: tuple = ()) -> float:
+    def expanded(attribute: str, value: float, scaled: bool = False, own: tuple = ()) -> float:
         noise = Term("points' noise", "A", float(np.std([getattr(s, attribute) for s in spread], ddof=1)),
                      f"{NOISE_DRAWS} draws of the points' record-fit noise")
-        value = getattr(h, attribute)
         shared = (*own, *velocity_scale_terms(value)) if scaled else own
         if resonance_q is not None:
             shared = (*shared, retuning_term(lambda v: getattr(homogeneity(v, share_of_peak), attribute), amplitude,
@@ -563,13 +551,11 @@ def summarise_map(points: pd.DataFrame, predicted: np.ndarray | None = None, sha
     lines = nodal_lines_m(points["x_m"].to_numpy(), points["signed_velocity_pp_mps"].to_numpy())
     summary = {
         "n_points": len(points), "n_touch_points": h.n_points,
-        "mean_velocity_pp_mps": h.mean, "mean_velocity_pp_mps_U": expanded("mean", scaled=True),
+        "mean_velocity_pp_mps": h.mean, "mean_velocity_pp_mps_U": expanded("mean", h.mean, scaled=True),
         "min_velocity_pp_mps": h.minimum, "max_velocity_pp_mps": h.maximum,
-        "max_velocity_pp_mps_U": expanded("maximum", scaled=True),
-        "coefficient_of_variation": h.coefficient_of_variation,
-        "coefficient_of_variation_U": expanded_between("coefficient_of_variation"),
-        "share_of_peak": share_of_peak, "fraction_above_share": h.fraction_above_share,
-        "fraction_above_share_U": expanded_between("fraction_above_share"),
+        "max_velocity_pp_mps_U": expanded("maximum", h.maximum, scaled=True),
+        **corrected("coefficient_of_variation"),
+        "share_of_peak": share_of_peak, **corrected("fraction_above_share"),
         "width_uniformity": width_uniformity(touch["x_m"].to_numpy(), touch["signed_velocity_pp_mps"].to_numpy()),
         "n_nodal_lines": len(lines),
         "nodal_line_spacing_m": float(np.diff(lines).mean()) if len(lines) >= 2 else float("nan"),

@@ -8,7 +8,7 @@ drawn errors as within the campaign), so the campaign cut to that run scores the
 values in a fraction of the time (about 14 CPU-s a bench, most of it the truth over each
 cell's 8 x 8 spots). Each bench places the plate
 within its alignment (`variants.plate_draw_effects`: `plate_placement`), so the grid lands
-at another place on the mode on every bench, as the grid's term claims to cover.
+at another place on the mode on every bench, which the grid's correction reads off the points.
 
 Run: python benchmarks/map_coverage.py OUT [--benches 40] [--errors specified world] [--workers 1]
 (rows go to OUT/study/<coverage dir>/bench_<k>.parquet as the full study's do; --resume keeps them)

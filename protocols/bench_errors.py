@@ -60,10 +60,10 @@ MAP_QUANTITIES = ("map_coefficient_of_variation", "map_fraction_above_share", "m
 COVERAGE_QUANTITIES = (*QUANTITIES, "amplitude_pp_m", "power_ratio", "resonance_frequency_hz", "q", "tan_theta",
                        *MAP_QUANTITIES)
 #: The coverage study maps at this multiple of each map's grid step: the campaign's own. The
-#: grid's term (`cartography.grid_term`) holds grids of two points or more per
-#: half-wavelength; twice the paper map's 4 mm step puts 1.15 points on the large plate's
+#: grid's correction (`cartography.grid_bias`, the bending reading between the points) holds
+#: grids of two points or more per half-wavelength; twice the paper map's 4 mm step puts 1.15 points on the large plate's
 #: 9.2 mm half-wavelength, an aliased field the points cannot tell from a smoother one,
-#: so a coarser map would score a grid outside the term's stated use.
+#: so a coarser map would score a grid outside the correction's stated use.
 MAP_STEP_FACTOR = 1.0
 ERROR_PERCENTILE = 95.0
 

@@ -82,7 +82,7 @@ def systematic_effects(bench_seed: int, draw: bool = True, only: tuple[str, ...]
 PLATE_DRAW_EFFECT = "plate_tolerances"
 #: The plate placed on the stage within the alignment a lab reaches by eye
 #: (`simbench.spot_effects.PlatePlacement`): where a map's grid lands on the mode, which the
-#: grid's term of its homogeneity figures (`analysis.cartography.grid_term`) claims to cover.
+#: correction of its homogeneity figures (`analysis.cartography.grid_bias`) reads off the points.
 PLATE_PLACEMENT_EFFECT = "plate_placement"
 
 

@@ -11,7 +11,7 @@ import pandas as pd
 
 from squeezebench.analysis import cartography
 from squeezebench.plates import predicted_plates
-from squeezebench.report.presentation import fold, with_uncertainty
+from squeezebench.report.presentation import fold, grid_correction_note, with_uncertainty
 from squeezebench.report.section import ReportContext, Section, html_table
 
 
@@ -107,6 +107,8 @@ def map_summaries(run) -> tuple[pd.DataFrame, dict[str, pd.DataFrame]]:
 
 
 CRITERION_HEADER = f"V pp for {1e6 * cartography.HAPTICS_AMPLITUDE_PP_M:g} µm pp"
+#: The column of the corrections the CV and the area took for where the grid fell (percentage points).
+GRID_CORRECTION_HEADER = "grid correction, CV / area (points of %)"
 
 
 def cartography_section(context: ReportContext) -> Section | None:
@@ -132,9 +134,12 @@ def cartography_section(context: ReportContext) -> Section | None:
                  f"the velocity is {with_uncertainty(row.mean_velocity_pp_mps, row.mean_velocity_pp_mps_U)} m/s pp on "
                  f"average, a displacement of {with_uncertainty(1e6 * row.mean_amplitude_pp_m, 1e6 * row.mean_amplitude_pp_m_U)} "
                  f"µm pp against the {1e6 * row.criterion_amplitude_pp_m:g} µm pp a fingertip needs (about "
-                 f"{row.voltage_for_criterion_vpp:.0f} V pp reaches it; coefficient of variation "
-                 f"{with_uncertainty(100 * row.coefficient_of_variation, 100 * row.coefficient_of_variation_U, unit='%')}, "
-                 f"{row.fraction_above_share:.0%} of the area above {row.share_of_peak:.0%} of the peak), with "
+                 f"{row.voltage_for_criterion_vpp:.0f} V pp reaches it); coefficient of variation "
+                 f"{with_uncertainty(100 * row.coefficient_of_variation, 100 * row.coefficient_of_variation_U, unit='%')}"
+                 f"{grid_correction_note(row.coefficient_of_variation, row.coefficient_of_variation_grid_correction)}, "
+                 f"{with_uncertainty(100 * row.fraction_above_share, 100 * row.fraction_above_share_U, unit='%')} "
+                 f"of the area above {row.share_of_peak:.0%} of the peak"
+                 f"{grid_correction_note(row.fraction_above_share, row.fraction_above_share_grid_correction)}, with "
                  f"{row.n_nodal_lines} nodal lines {row.nodal_line_spacing_m * 1e3:.2f} mm apart; "
                  f"{row.width_uniformity:.1%} of the map's mean square is uniform across the width "
                  f"(the paper's \"uniform across the plate\", Sec. 5.2){mac}.</p>")
@@ -152,19 +157,23 @@ def cartography_section(context: ReportContext) -> Section | None:
             summaries["coefficient_of_variation"], summaries["coefficient_of_variation_U"])],
         "area above share of peak (%)": [with_uncertainty(100 * f, 100 * u) for f, u in zip(
             summaries["fraction_above_share"], summaries["fraction_above_share_U"])],
+        GRID_CORRECTION_HEADER: [f"{100 * c:+.2f} / {100 * f:+.2f}".replace("-", "−") for c, f in zip(
+            summaries["coefficient_of_variation_grid_correction"], summaries["fraction_above_share_grid_correction"])],
         "min / max (m/s pp)": [f"{a:.3f} / {b:.3f}" for a, b in zip(summaries["min_velocity_pp_mps"],
                                                                     summaries["max_velocity_pp_mps"])],
         "width uniformity": [f"{w:.1%}" for w in summaries["width_uniformity"]],
         "nodal-line spacing (mm)": [f"{s * 1e3:.2f}" for s in summaries["nodal_line_spacing_m"]],
         "MAC with model": [f"{m:.3f}" if np.isfinite(m) else "no model" for m in summaries["mac_with_predicted"]],
     })[["run_name", "n_points", "mean velocity (m/s pp)", "mean amplitude (µm pp)", CRITERION_HEADER, "min / max (m/s pp)", "coefficient of variation (%)",
-        "area above share of peak (%)", "width uniformity", "nodal-line spacing (mm)", "MAC with model"]]
+        "area above share of peak (%)", GRID_CORRECTION_HEADER, "width uniformity", "nodal-line spacing (mm)", "MAC with model"]]
     body += fold("Homogeneity of each map as numbers, with the voltage that reaches the haptics criterion",
                  html_table(shown.rename(columns={"run_name": "map", "n_points": "points"}),
                             "homogeneity of each map's touch area, ± U (k for 95 % under its budget): the points' noise, the generator's "
                             "frequency error through the level steps between the map's re-tuned steps, for velocities "
                             "the scale all points share (CH3 gain, decoder), and for the coefficient of variation and "
-                            "the area the grid's reading of the vibration between its points"))
+                            "the area, which are the vibration's over the touch area (the points' figures corrected "
+                            "for where the grid fell on the mode, read between the points), that correction's own "
+                            "error (the reading's misfit) and the cells' quadrature"))
     context.tables["map_summary"] = summaries
     context.tables["map_points"] = pd.concat(maps.values(), ignore_index=True)
     body += ("<p class='csv'>Machine-readable: <a href='map_summary.csv'>map_summary.csv</a>, "

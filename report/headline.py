@@ -19,7 +19,7 @@ import numpy as np
 import pandas as pd
 
 from squeezebench.analysis import provenance
-from squeezebench.report.presentation import DISPLAY, header, percent, with_uncertainty
+from squeezebench.report.presentation import DISPLAY, grid_correction_note, header, percent, with_uncertainty
 from squeezebench.analysis.tables import INPUT_ORIGINS, ROUND_TRIP, is_put_in
 from squeezebench.plates.predicted_plates import within_expanded_interval
 
@@ -218,5 +218,6 @@ def map_lines(maps: pd.DataFrame | None) -> list[Line]:
     return [Line(f"Vibration map {row['run_name']}: {row['n_touch_points']} points over the touch area, velocity "
                  f"{with_uncertainty(row['mean_velocity_pp_mps'], row['mean_velocity_pp_mps_U'])} m/s pp on "
                  f"average{amplitude}; coefficient of variation "
-                 f"{with_uncertainty(100 * row['coefficient_of_variation'], 100 * row['coefficient_of_variation_U'], unit='%')}, "
+                 f"{with_uncertainty(100 * row['coefficient_of_variation'], 100 * row['coefficient_of_variation_U'], unit='%')}"
+                 f"{grid_correction_note(row['coefficient_of_variation'], row['coefficient_of_variation_grid_correction'])}, "
                  f"{row['width_uniformity']:.1%} uniform across the width{more}.", "#map", "map")]

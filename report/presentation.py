@@ -217,6 +217,14 @@ def with_uncertainty_or_range(value: float, u: float, digits: int = 2, unit: str
     return f"{figures(value)}{unit} (×/÷ {figures(high / value)}: {figures(low)} to {figures(high)}{unit})"
 
 
+def grid_correction_note(value: float, correction: float) -> str:
+    """What a map's homogeneity figure `value` (a fraction) took for where the grid fell on
+    the mode (`cartography.grid_bias`), in percentage points, and what the points alone
+    read: a reader sees both what is given and by how much it moved."""
+    return (f" (corrected by {100 * correction:+.2f} points for where the grid fell on the mode; "
+            f"the points alone {100 * (value - correction):.2f} %)").replace("-", "−")
+
+
 def percent(fraction: float) -> str:
     """A relative difference in %, two significant digits below 1 % (never "+0.0 %"), at
     most three from 1 % on ("+96.0 %", "−1061 %")."""
