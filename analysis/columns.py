@@ -150,7 +150,10 @@ COLUMNS: dict[str, tuple[str, str]] = {
     "power_ratio": ("1", "Pt / P0 (Fig. 2)"),
     "power_ratio_U": ("1", "expanded uncertainty (k for 95 % under its budget) of Pt / P0: noise, CH2 delay, "
                                 "compensation, generator frequency and amplitude (through the piezos' dielectric "
-                                "share, which does not follow the resonance); the gains cancel"),
+                                "share, which does not follow the resonance), the resonance's drift as the plate warms "
+                                "(a bias bound); the gains cancel"),
+    "power_ratio_largest_term": ("", "the term of power_ratio_U's budget with the largest standard uncertainty: "
+                                     "what to act on to narrow it"),
     # per-plate readings and Table 5 under each reading (analysis.audit)
     "reading": ("", "reading of the paper's open conventions: 'paper' (the text's) or 'inferred' (analysis.readings)"),
     "q": ("1", "quality factor Q of the plate (Eq. 27)"),

@@ -429,8 +429,8 @@ def detuning_table(run: RunData) -> pd.DataFrame:
     """Fig. 2 (Sec. 2.2): Pt / P0 per plate, velocity level and target velocity ratio,
     where P0 is the power at resonance (its own row has ratio 1) and Pt the power once v0
     is regained (or at the stress point), with the ratio's expanded uncertainty
-    (`uncertainty.power_ratio_budget`: the gains cancel, the CH2 delay does not).
-    Unreachable targets stay as rows with status 'not reachable'."""
+    (`uncertainty.power_ratio_budget`: the gains cancel, the CH2 delay does not) and the
+    name of its largest term. Unreachable targets stay as rows with status 'not reachable'."""
     from squeezebench.analysis import uncertainty   # see _expanded
 
     points = detuning_points(run)
@@ -445,8 +445,8 @@ def detuning_table(run: RunData) -> pd.DataFrame:
             for ratio, target in group[group["detuning_phase"] == phase].groupby("target_velocity_ratio"):
                 reachable = bool(flag(target["reachable"], default=True).all()) if "reachable" in target else True
                 power = float(target["power_w"].mean())
-                ratio_expanded = uncertainty.power_ratio_budget(target, at_resonance).expanded_uncertainty \
-                    if reachable and len(at_resonance) and "reactive_power_var" in target else math.nan
+                budget = uncertainty.power_ratio_budget(target, at_resonance) \
+                    if reachable and len(at_resonance) and "reactive_power_var" in target else None
                 rows.append({"run_name": run_name, "plate": plate, "velocity_level_pp_mps": float(level),
                              "detuning_phase": phase,
                              "target_velocity_ratio": float(ratio),
@@ -456,11 +456,13 @@ def detuning_table(run: RunData) -> pd.DataFrame:
                              "power_w": power if reachable else math.nan,
                              "power_resonance_w": p0,
                              "power_ratio": power / p0 if reachable and p0 > 0 else math.nan,
-                             "power_ratio_U": ratio_expanded,
+                             "power_ratio_U": math.nan if budget is None else budget.expanded_uncertainty,
+                             "power_ratio_largest_term": "" if budget is None else budget.dominant.name,
                              "status": "measured" if reachable else NOT_REACHABLE})
     return pd.DataFrame(rows, columns=["run_name", "plate", "velocity_level_pp_mps", "detuning_phase",
                                        "target_velocity_ratio", "frequency_hz", "voltage_vpp", "power_w",
-                                       "power_resonance_w", "power_ratio", "power_ratio_U", "status"])
+                                       "power_resonance_w", "power_ratio", "power_ratio_U", "power_ratio_largest_term",
+                                       "status"])
 
 
 def detuning_points(run: RunData) -> pd.DataFrame:

@@ -12,6 +12,7 @@ import pandas as pd
 
 from squeezebench.analysis import characterisation, model, tables
 from squeezebench.analysis.budgets import COVERAGE_FACTOR
+from squeezebench.analysis.uncertainty import DRIFT_TERM
 from squeezebench.report import figures, presentation
 from squeezebench.plates import damping, predicted_plates
 from squeezebench.paper import paper_value
@@ -166,7 +167,7 @@ def _detuning_grid(summary: pd.DataFrame, bench_words: str) -> str:
     regained = summary[summary["detuning_phase"] != "resonance"]
     columns = sorted(regained["target_velocity_ratio"].unique(), reverse=True)
     head = ("<tr><th>campaign run</th><th>plate</th><th>v0 (m/s pp)</th><th>P0 (mW)</th>"
-            + "".join(f"<th>Pt/P0 at {r:.2f} v0</th>" for r in columns) + "</tr>")
+            + "".join(f"<th>Pt/P0 at {r:.2f} v0</th>" for r in columns) + "<th>largest term of the widest U</th></tr>")
     rows = []
     for (run, plate, level), group in summary.groupby(["run_name", "plate", "velocity_level_pp_mps"], sort=True):
         cells = []
@@ -182,12 +183,20 @@ def _detuning_grid(summary: pd.DataFrame, bench_words: str) -> str:
                 spread = f" ± {ratio_u:.3f}" if math.isfinite(ratio_u) else ""
                 cells.append(f"<td>{match['power_ratio'].iloc[0]:.3f}{spread}{phase}</td>")
         p0 = group["power_resonance_w"].iloc[0] * 1e3
+        widest = group.loc[group["power_ratio_U"].idxmax(), "power_ratio_largest_term"] \
+            if group["power_ratio_U"].notna().any() else ""
         rows.append(f"<tr><td>{html.escape(run)}</td><td>{html.escape(plate)}</td><td>{level:g}</td>"
-                    f"<td>{p0:.1f}</td>{''.join(cells)}</tr>")
+                    f"<td>{p0:.1f}</td>{''.join(cells)}<td>{html.escape(widest)}</td></tr>")
     caption = (f"{bench_words} Fig. 2 as numbers: Pt/P0 ± U (k for 95 %) for each series once v0 is regained "
-               "after detuning to the given velocity fraction; the gains cancel in the ratio, the CH2 delay and the "
+               "after detuning to the given velocity fraction; the gains cancel in the ratio, the generator's "
+               "frequency (P0 on the flat top, Pt on the slope), the resonance's drift, the CH2 delay and the "
                "noise do not; 'not reachable': the safety limit stopped the voltage.")
-    return f"<table><caption>{html.escape(caption)}</caption><thead>{head}</thead><tbody>{''.join(rows)}</tbody></table>"
+    act = (f" Where the {DRIFT_TERM} is the largest term, the plate's warming under the drive sets U: it grows "
+           "with the heat the plate holds when Pt is read, so a lower level, or a pause for the plate to cool "
+           "(its time constant is minutes) before each level, narrows it; more averages do not."
+           if (summary["power_ratio_largest_term"] == DRIFT_TERM).any() else "")
+    return (f"<table><caption>{html.escape(caption)}</caption><thead>{head}</thead><tbody>{''.join(rows)}</tbody>"
+            f"</table>" + (f"<p>{html.escape(act.strip())}</p>" if act else ""))
 
 
 def resonance_section(context: ReportContext) -> Section | None:

@@ -19,6 +19,7 @@ from squeezebench.analysis import resonance_drift
 from squeezebench.analysis.budgets import P95_FACTOR, Budget
 from squeezebench.analysis.rundata import load_run
 from squeezebench.analysis.tables import detuning_points, detuning_table
+from squeezebench.report.physics import _detuning_grid
 from squeezebench.analysis.uncertainty import DRIFT_TERM, power_ratio_budget, run_uncertainties
 from squeezebench.protocols.bench_errors import _power_ratios, _truths
 from squeezebench.protocols.campaign import run_campaign
@@ -218,6 +219,12 @@ def test_pt_over_p0_on_a_warming_plate_is_within_its_u_only_with_the_drift_term(
     errors = scored.set_index("step_id").loc[["level_0p25_ratio_0p8", "level_0p375_ratio_0p8"], "rel_error"].abs()
     assert np.all(errors.to_numpy() > np.array(without)) and errors.iat[1] > 2 * without[1]   # outside without it
     assert np.all(errors.to_numpy() <= regained["power_ratio_U"] / regained["power_ratio"])
+    # the table names each U's largest term, and the report says what narrows a warming-set one
+    assert regained["power_ratio_largest_term"].iat[-1] == DRIFT_TERM
+    assert [_budget_of(run, level).dominant.name for level in regained["velocity_level_pp_mps"]] == \
+        regained["power_ratio_largest_term"].tolist()
+    shown = _detuning_grid(table, "")
+    assert f"<td>{DRIFT_TERM}</td>" in shown and "a pause for the plate to cool" in shown
 
 
 def _budget_of(run, level: float) -> Budget:
