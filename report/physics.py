@@ -191,12 +191,12 @@ def _detuning_grid(summary: pd.DataFrame, bench_words: str) -> str:
                "after detuning to the given velocity fraction; the gains cancel in the ratio, the generator's "
                "frequency (P0 on the flat top, Pt on the slope), the resonance's drift, the CH2 delay and the "
                "noise do not; 'not reachable': the safety limit stopped the voltage.")
-    act = (f" Where the {DRIFT_TERM} is the largest term, the plate's warming under the drive sets U: it grows "
+    act = (f"Where the {DRIFT_TERM} is the largest term, the plate's warming under the drive sets U: it grows "
            "with the heat the plate holds when Pt is read, so a lower level, or a pause for the plate to cool "
            "(its time constant is minutes) before each level, narrows it; more averages do not."
            if (summary["power_ratio_largest_term"] == DRIFT_TERM).any() else "")
     return (f"<table><caption>{html.escape(caption)}</caption><thead>{head}</thead><tbody>{''.join(rows)}</tbody>"
-            f"</table>" + (f"<p>{html.escape(act.strip())}</p>" if act else ""))
+            f"</table>" + (f"<p>{html.escape(act)}</p>" if act else ""))
 
 
 def resonance_section(context: ReportContext) -> Section | None:
