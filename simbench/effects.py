@@ -39,6 +39,7 @@ from squeezebench.plates import damping, warming
 from squeezebench.plates.laminate import ALUMINIUM_TABLE2
 from squeezebench.plates.specifications import HEATING_NOMINAL, HEATING_TOLERANCES
 from squeezebench.simbench import physics
+from squeezebench.simbench.scene_model import SceneError
 from squeezebench.simbench.effect_base import CHANNELS, VIBROMETER_CHANNEL, AcquisitionContext, Effect
 from squeezebench.simbench.fault_effects import (BusTimeout, ClippedTrace, Disconnect, GarbledReplyFault,
                                                  InstrumentErrorEntry, TruncatedReplyFault)
@@ -152,13 +153,21 @@ class HeatingDrift(Effect):
             self.parameters.update({key: self.parameters[key] * (1.0 + drawn_fraction(rng, self.parameters["draw"])
                                                                  * tolerance.half_width)
                                     for key, tolerance in HEATING_TOLERANCES.items()})
-        p, plate = self.parameters, scene.plate
-        body = warming.thermal_plate(plate.length_mm, plate.width_mm, plate.thickness_mm, p["density_kg_m3"],
-                                     p["specific_heat_j_per_kg_k"], p["convection_w_per_m2_k"])
-        self.thermal_resistance_k_per_w = 1.0 / body.conductance_w_per_k
-        self.time_constant_s = body.time_constant_s
+        self._scene = scene
+        self._size(scene.plate.length_mm)
         self.temperature_rise_k = 0.0
         self._plate_power_w = None
+        self._plate_length_mm = lambda: scene.plate.length_mm
+
+    def _size(self, length_mm: float) -> None:
+        """The body of the plate at `length_mm` (a cut state is shorter: less metal and less
+        face for the same power, so it warms further; its time constant does not change)."""
+        p, plate = self.parameters, self._scene.plate
+        body = warming.thermal_plate(length_mm, plate.width_mm, plate.thickness_mm, p["density_kg_m3"],
+                                     p["specific_heat_j_per_kg_k"], p["convection_w_per_m2_k"])
+        self.length_mm = length_mm
+        self.thermal_resistance_k_per_w = 1.0 / body.conductance_w_per_k
+        self.time_constant_s = body.time_constant_s
 
     def load(self, load: physics.PlateLoad) -> physics.PlateLoad:
         factor = 1.0 + self.parameters["frequency_coefficient_per_k"] * self.state_key()
@@ -166,6 +175,7 @@ class HeatingDrift(Effect):
 
     def attach(self, bench) -> None:
         self._plate_power_w = bench.plate_power_w
+        self._plate_length_mm = lambda: _state_length_mm(bench, self.length_mm)
         bench.clock.subscribe(self._advance)
 
     def detach(self, bench) -> None:
@@ -178,11 +188,22 @@ class HeatingDrift(Effect):
     def _advance(self, start_s: float, duration_s: float) -> None:
         # Sub-steps of a tenth of tau keep the power (which depends on the temperature
         # through the detuning) nearly constant within each step.
+        if self._plate_length_mm() != self.length_mm:   # cut: the piece kept holds its temperature
+            self._size(self._plate_length_mm())
         steps = max(1, math.ceil(10.0 * duration_s / self.time_constant_s))
         decay = math.exp(-duration_s / steps / self.time_constant_s)
         for _ in range(steps):
             final_k = self._plate_power_w() * self.thermal_resistance_k_per_w
             self.temperature_rise_k = final_k + (self.temperature_rise_k - final_k) * decay
+
+
+def _state_length_mm(bench, otherwise_mm: float) -> float:
+    """The plate's length in the bench's present state (a Table 3 cut), or `otherwise_mm`
+    while a calibration resistor, not a state of the scene, stands in for the plate."""
+    try:
+        return bench.scene.plate_in(bench.state).length_mm
+    except SceneError:
+        return otherwise_mm
 
 
 class SettlingTransient(Effect):

@@ -120,6 +120,29 @@ def test_heating_drift(tmp_path):
     assert heating.temperature_rise_k < 0.01 * rise_k  # cooled down
 
 
+def test_a_cut_plate_warms_as_its_own_length(tmp_path):
+    """Table 3 cuts the one-column plate from 76 mm to 28 mm (scene states): the piece kept has
+    less metal and less face for its power, so its steady rise per watt, 1 / (h 2 L W), grows
+    as 76 / 28, and its time constant, rho c t / (2 h), does not change; the piece keeps its
+    temperature when cut (a temperature, not a heat)."""
+    bench = bench_with(tmp_path, ["heating_drift"])
+    heating = bench.sim.effects.get("heating_drift")
+    uncut_r, uncut_tau = heating.thermal_resistance_k_per_w, heating.time_constant_s
+    bench.sim.clock.sleep(heating.time_constant_s)
+    before_k = heating.temperature_rise_k
+    bench.sim.set_state("28x41")
+    bench.sim.clock.sleep(1e-9)
+    assert heating.length_mm == 28
+    assert heating.thermal_resistance_k_per_w == pytest.approx(uncut_r * bench.sim.scene.plate.length_mm / 28,
+                                                                rel=1e-12)
+    assert heating.time_constant_s == pytest.approx(uncut_tau, rel=1e-12)
+    assert heating.temperature_rise_k == pytest.approx(before_k, rel=1e-6)
+    bench.sim.clock.sleep(10 * heating.time_constant_s)
+    # the power is read at the resonance of the temperature to its millikelvin (`state_key`)
+    assert heating.temperature_rise_k == pytest.approx(
+        bench.sim.truth().plate_power_w * heating.thermal_resistance_k_per_w, rel=5e-3)
+
+
 def test_a_coverage_benchs_plate_warms_with_its_own_thermal_parameters_within_their_tolerances(tmp_path):
     """`heating_drift` with `draw` (the coverage study's benches, `variants.plate_warming_effects`):
     each plate and bench has its own temperature coefficient, convection and specific heat,
