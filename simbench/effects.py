@@ -130,8 +130,8 @@ class HeatingDrift(Effect):
     """The plate warms with the power it dissipates and its resonance falls.
 
     First-order thermal model dT/dt = (P R_th - dT) / tau_th of `plates.warming`'s lumped
-    body, advanced with the bench clock (power piecewise constant between clock advances),
-    about the nominal values `specifications.HEATING_NOMINAL` states (free convection from
+    body at the plate's present length (a cut state's), advanced with the bench clock (power
+    piecewise constant between clock advances), about the nominal values `specifications.HEATING_NOMINAL` states (free convection from
     both faces, aluminium's specific heat, Table 2's density, the frequency's temperature
     coefficient).
 
@@ -186,10 +186,10 @@ class HeatingDrift(Effect):
         return round(self.temperature_rise_k / TEMPERATURE_RESOLUTION_K) * TEMPERATURE_RESOLUTION_K
 
     def _advance(self, start_s: float, duration_s: float) -> None:
-        # Sub-steps of a tenth of tau keep the power (which depends on the temperature
-        # through the detuning) nearly constant within each step.
         if self._plate_length_mm() != self.length_mm:   # cut: the piece kept holds its temperature
             self._size(self._plate_length_mm())
+        # Sub-steps of a tenth of tau keep the power (which depends on the temperature
+        # through the detuning) nearly constant within each step.
         steps = max(1, math.ceil(10.0 * duration_s / self.time_constant_s))
         decay = math.exp(-duration_s / steps / self.time_constant_s)
         for _ in range(steps):
