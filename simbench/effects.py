@@ -156,8 +156,7 @@ class HeatingDrift(Effect):
         self._scene = scene
         self._size(scene.plate.length_mm)
         self.temperature_rise_k = 0.0
-        self._plate_power_w = None
-        self._plate_length_mm = lambda: scene.plate.length_mm
+        self._bench = self._state_name = None
 
     def _size(self, length_mm: float) -> None:
         """The body of the plate at `length_mm` (a cut state is shorter: less metal and less
@@ -174,8 +173,7 @@ class HeatingDrift(Effect):
         return load.with_branch_frequencies_scaled(factor)
 
     def attach(self, bench) -> None:
-        self._plate_power_w = bench.plate_power_w
-        self._plate_length_mm = lambda: _state_length_mm(bench, self.length_mm)
+        self._bench = bench
         bench.clock.subscribe(self._advance)
 
     def detach(self, bench) -> None:
@@ -186,14 +184,15 @@ class HeatingDrift(Effect):
         return round(self.temperature_rise_k / TEMPERATURE_RESOLUTION_K) * TEMPERATURE_RESOLUTION_K
 
     def _advance(self, start_s: float, duration_s: float) -> None:
-        if self._plate_length_mm() != self.length_mm:   # cut: the piece kept holds its temperature
-            self._size(self._plate_length_mm())
+        if self._bench.state_name != self._state_name:   # a cut: the piece kept holds its temperature
+            self._state_name = self._bench.state_name
+            self._size(_state_length_mm(self._bench, self.length_mm))
         # Sub-steps of a tenth of tau keep the power (which depends on the temperature
         # through the detuning) nearly constant within each step.
         steps = max(1, math.ceil(10.0 * duration_s / self.time_constant_s))
         decay = math.exp(-duration_s / steps / self.time_constant_s)
         for _ in range(steps):
-            final_k = self._plate_power_w() * self.thermal_resistance_k_per_w
+            final_k = self._bench.plate_power_w() * self.thermal_resistance_k_per_w
             self.temperature_rise_k = final_k + (self.temperature_rise_k - final_k) * decay
 
 
