@@ -54,7 +54,7 @@ def warming_bound_k(history: pd.DataFrame, plate: str, at_s: float, length_m: fl
     # interval k runs from reading k - 1 to reading k; the first, as long as the next (a
     # reading's own time): the rows store no run start, and their clock is the campaign's
     first_s = times_s[0] - (times_s[1] - times_s[0] if len(times_s) > 1 else 0.0)
-    held_w = np.maximum(power_w, np.concatenate([[0.0], power_w[:-1]]))
+    held_w = warming.held_powers_w(power_w)
     thin = 1.0 - sheet_thickness_tolerance(thickness_m)
     coolest = warming.thermal_plate(   # the least heat capacity and conductance: the warmest plate
         length_m * 1e3, width_m * 1e3, thickness_m * thin * 1e3,

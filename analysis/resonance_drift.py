@@ -63,7 +63,7 @@ import numpy as np
 import pandas as pd
 from scipy.special import ndtri
 
-from squeezebench.analysis import provenance
+from squeezebench.analysis import plate_warming, provenance
 from squeezebench.analysis.budgets import COVERAGE_PROBABILITY, P95_FACTOR
 from squeezebench.analysis.resonance_searches import (SEARCH_STOP_SPREAD, mechanical_q_from_sweep, peak_of_readings,
                                                       reading_scatter_rel)
@@ -258,18 +258,17 @@ WARMING_SOURCE = ("Type A/B, the plate's warming under the run's {n} dated store
 def _plate_dimensions(points: pd.DataFrame, scenes: dict[str, dict]) -> tuple[float, float, float, float] | None:
     """Length, width, thickness (mm) and density (kg/m^3) of the plate of the scene the run's
     points ran on; None where its copy is missing or its material's density unknown."""
-    plate = scenes.get(provenance.scene_files(points.iloc[:1]).iat[0], {}).get("plate", {})
-    density = DENSITY_KG_M3.get(plate.get("material"))
-    if density is None or not all(key in plate for key in ("length_mm", "width_mm", "thickness_mm")):
+    scene = scenes.get(provenance.scene_files(points.iloc[:1]).iat[0], {})
+    density = DENSITY_KG_M3.get(scene.get("plate", {}).get("material"))
+    size_m = plate_warming.plate_size_m(scene)
+    if density is None or size_m is None:
         return None
-    return float(plate["length_mm"]), float(plate["width_mm"]), float(plate["thickness_mm"]), density
+    return (*(1e3 * size for size in size_m), density)
 
 
 def _power_history(*frames: pd.DataFrame) -> tuple[np.ndarray, np.ndarray]:
     """The run's dated powers in time order (its stored power, else the scope's), each held
-    over the interval before it at the larger of its own and the previous one: a drive that
-    rose (a regain) or fell (a detuning at the level's voltage) between two stored readings
-    stayed between them, and the larger of the two bounds the heat."""
+    over the interval before it (`warming.held_powers_w`)."""
     rows = []
     for frame in frames:
         if "bench_time_s" not in frame:
@@ -281,7 +280,7 @@ def _power_history(*frames: pd.DataFrame) -> tuple[np.ndarray, np.ndarray]:
     history = pd.concat(rows, ignore_index=True) if rows else pd.DataFrame(columns=["time_s", "power_w"], dtype=float)
     history = history[np.isfinite(history["time_s"]) & np.isfinite(history["power_w"])].sort_values("time_s")
     times_s, power_w = history["time_s"].to_numpy(float), np.abs(history["power_w"].to_numpy(float))
-    return times_s, np.maximum(power_w, np.concatenate([power_w[:1], power_w[:-1]]))
+    return times_s, warming.held_powers_w(power_w)
 
 
 def _warming_scale_bound(held_j: np.ndarray, readings: pd.DataFrame, times_s: np.ndarray,
