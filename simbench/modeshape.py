@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import hashlib
 from pathlib import Path
+from typing import Any, Callable
 
 import numpy as np
 
@@ -107,6 +108,14 @@ MIN_REFERENCE_SHARE = 0.1
 def mode_shape(scene, state, x_mm, y_mm) -> np.ndarray:
     """The working mode's deflection at (x, y) in mm from the plate's corner (x along its
     length) over its deflection at the scene's measurement point; 0 off the plate."""
+    return shape_of(scene, state)(x_mm, y_mm)
+
+
+def shape_of(scene, state) -> Callable[[Any, Any], np.ndarray]:
+    """`mode_shape` of the state's plate as a function of (x_mm, y_mm): its solve is found,
+    and its reference read, once. The stage keeps it while the state stays (a read of the
+    solve by its key hashes the whole plate, most of a spot's cost where a study reads the
+    cells of a map's points, some 20,000 spots)."""
     table = _table(*working_mode(scene, state))
     offset_mm = (scene.plate.length_mm - (state.plate_length_mm or scene.plate.length_mm)) / 2
     point = scene.measurement_point
@@ -115,5 +124,8 @@ def mode_shape(scene, state, x_mm, y_mm) -> np.ndarray:
         raise SceneError(f"{scene.path}: measurement_point ({point.x_mm}, {point.y_mm}) mm is at "
                          f"{abs(reference):.0%} of the working mode's largest deflection in state "
                          f"{state.name!r}, near a nodal line: move it to an antinode to map this plate")
-    x_m, y_m = np.broadcast_arrays(np.asarray(x_mm, dtype=float) * 1e-3, np.asarray(y_mm, dtype=float) * 1e-3)
-    return table(np.stack([x_m.ravel(), y_m.ravel()], axis=-1)).reshape(x_m.shape) / reference
+
+    def shape(x_mm, y_mm) -> np.ndarray:
+        x_m, y_m = np.broadcast_arrays(np.asarray(x_mm, dtype=float) * 1e-3, np.asarray(y_mm, dtype=float) * 1e-3)
+        return table(np.stack([x_m.ravel(), y_m.ravel()], axis=-1)).reshape(x_m.shape) / reference
+    return shape

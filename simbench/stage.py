@@ -20,7 +20,7 @@ from dataclasses import dataclass, field
 from squeezebench.analysis.cartography import move_time_s
 from squeezebench.simbench import command_tables
 from squeezebench.simbench.device_base import SimulatedInstrument
-from squeezebench.simbench.modeshape import mode_shape
+from squeezebench.simbench.modeshape import shape_of
 
 #: Assumed figures of a typical SMC100 stage (no datasheet survives for this bench).
 TRAVEL_MM = {"1": (0.0, 300.0), "2": (0.0, 200.0)}
@@ -65,6 +65,8 @@ class Stage(SimulatedInstrument):
         self.used = False   # a bench whose stage never moved measures where the scene says
         self._gain_key: tuple | None = None
         self._gain = 1.0
+        self._shape_key: tuple | None = None   # (scene, state name) of `_shape`, the working mode's shape_of
+        self._shape = None
 
     def leave(self, x_mm: float, y_mm: float, velocity_mm_per_s: float, error: str) -> None:
         """As a previous session may leave the pair (no power cycle): both axes READY at
@@ -86,8 +88,16 @@ class Stage(SimulatedInstrument):
         if key != self._gain_key:   # a point is acquired many times (ranging, averaging)
             self._gain_key = key
             spot = self.bench.effects.spot(*key[:2])
-            self._gain = spot.beam_share * float(mode_shape(self.bench.scene, self.bench.state, spot.x_mm, spot.y_mm))
+            self._gain = spot.beam_share * float(self._mode_shape()(spot.x_mm, spot.y_mm))
         return self._gain
+
+    def _mode_shape(self):
+        """The working mode's `shape_of` for the bench's scene and state, found again only when
+        either changes (a cut, another plate mounted, a reseeded scene)."""
+        scene = self.bench.scene
+        if self._shape_key is None or self._shape_key[0] is not scene or self._shape_key[1] != self.bench.state_name:
+            self._shape_key, self._shape = (scene, self.bench.state_name), shape_of(scene, self.bench.state)
+        return self._shape
 
     def is_query(self, message: bytes) -> bool:
         match = _LINE.match(message.decode("ascii", errors="replace").strip())
