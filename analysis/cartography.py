@@ -203,10 +203,10 @@ class CellReadings:
         positions = (np.arange(n)[:, None] + spots).ravel()
         return bending_weights(n, self.wavenumbers[axis], positions, dict(READING_ORDERS)[self.method])
 
-    def _spots(self, readers: tuple[np.ndarray, np.ndarray], samples: int) -> np.ndarray:
-        """|field| at the spots `readers` read (`_reader`, `samples` per wide axis) about every
-        point: points x spots, the x spot the slower."""
-        per_axis = [samples if n > 1 else 1 for n in self.grid.shape]
+    def _spots(self, readers: tuple[np.ndarray, np.ndarray]) -> np.ndarray:
+        """|field| at the spots `readers` read (`_reader`) about every point: points x spots,
+        the x spot the slower."""
+        per_axis = [reader.shape[0] // n for reader, n in zip(readers, self.grid.shape)]
         field = (readers[0] @ self.grid @ readers[1].T).reshape(self.grid.shape[0], per_axis[0],
                                                                 self.grid.shape[1], per_axis[1])
         return np.abs(field.transpose(0, 2, 1, 3)[self.filled].reshape(int(self.filled.sum()), -1))
@@ -219,12 +219,17 @@ class CellReadings:
     @functools.cached_property
     def at_points(self) -> np.ndarray:
         """|field| at the points themselves, read as the cells are (one spot a point)."""
-        return self._spots(tuple(self._reader(axis, 1) for axis in (0, 1)), 1)
+        return self._spots(tuple(self._reader(axis, 1) for axis in (0, 1)))
 
     def over_cells(self, samples: int, shift: tuple[float, float] = (0.0, 0.0)) -> np.ndarray:
         """|field| over the cells at `samples` spots per wide axis (`cell_offsets`), the spots'
         lattice moved by `shift` grid steps per axis (`grid_quadrature_term`'s registrations)."""
-        return self._spots(tuple(self._reader(axis, samples, shift[axis]) for axis in (0, 1)), samples)
+        return self._spots(tuple(self._reader(axis, samples, shift[axis]) for axis in (0, 1)))
+
+    def across(self, axis: int) -> np.ndarray:
+        """|field| over the cells read across `axis` alone (READING_SAMPLES spots along it, the
+        other axis at the point): what the reading between the points along that axis gives."""
+        return self._spots(tuple(self._reader(a, READING_SAMPLES if a == axis else 1) for a in (0, 1)))
 
 
 def _point_grid(x_m: np.ndarray, y_m: np.ndarray, signed: np.ndarray) -> tuple[list[np.ndarray], np.ndarray, np.ndarray]:
@@ -323,35 +328,48 @@ def grid_correction_term(readings: CellReadings | None, error: GridError) -> Ter
     correction's own error from the reading's misfit, propagated through it (GUM 5.1.3).
 
     The bending reading holds the part of the field that obeys the standing wave's recurrence
-    along each axis; the rest, a share e of the field (`recurrence_misfit`, the axes in
-    quadrature), it may misread between the points as a whole. The CV's bias is made by the
-    field between the points, so the corrected CV is uncertain by e |B|: on the large plate's
-    mode at the placements a bench draws e = 0.038 (4 mm grid) and 0.011 (2 mm), and the
-    reading's true residual is 0.34 to 0.82 e |B| (4 mm) and 1.0 to 1.6 e |B| (2 mm). Normal:
-    the misfit is a sum over many points, of either sign.
+    along each axis; the rest, a share e_a of the field along axis a (`recurrence_misfit`),
+    it may misread between the points along that axis as a whole. Each axis's reading makes
+    its own part B_a of the CV's bias (the points against the field read across that axis
+    alone, `CellReadings.across`), so the corrected CV is uncertain by e_a |B_a|, the axes in
+    quadrature (independent readings). An (n, 0) mode's bias is made along its length: the
+    misfit across its width (0.029 on the paper map, its edges' evanescent parts) reads a
+    field that hardly varies there (|B_y| under 2 % of |B_x|), and taken with the length's
+    (0.025) as one share of the whole bias it made the term 1.5 times what the length's
+    reading can misread. On the large plate's mode at the placements a bench draws the
+    reading's true residual is 0.5 to 1.3 of the term (4 mm grid) and 1.5 to 2.3 (2 mm, where
+    the cells' quadrature term is 5 to 11 times larger). Normal: the misfit is a sum over
+    many points, of either sign; the residual's spread over the grids it was checked on is
+    no bound (a rectangle at e |B| would not hold the 2 mm grid's).
 
     The area moves as spots cross the share of the peak, each cell's as its own stencil of
-    points reads the field there: a cell's part is half the change of its spots above the
-    share as its read departures from its point scale by 1 +- e, and the cells add in
-    quadrature. Their net change (the whole field's departures scaled at once) let the
-    crossings of rising and falling flanks cancel, which the reading's error does not do:
-    on the paper map's benches it ranged 0.00004 to 0.003 where the reading's true area error
-    was 0.0001 to 0.0015 with no relation of sign; the cells in quadrature give 0.0008 to
-    0.0011."""
+    points reads the field there: a cell's part along axis a is half the change of its spots
+    above the share as the departures from its point read across that axis scale by 1 +- e_a,
+    and the cells and axes add in quadrature. Their net change (the whole field's departures
+    scaled at once) let the crossings of rising and falling flanks cancel, which the
+    reading's error does not do: on the paper map's benches it ranged 0.00004 to 0.003 where
+    the reading's true area error was 0.0001 to 0.0015, with no relation of sign."""
     if readings is None:
         return Term("grid (its correction's reading)", "B", 0.0, "a single point: no grid correction", rectangular=False)
-    misfit = math.hypot(*(recurrence_misfit(readings.grid, axis, readings.method == "linear") for axis in (0, 1)))
+    misfits = [recurrence_misfit(readings.grid, axis, readings.method == "linear") for axis in (0, 1)]
     points, cells = readings.registered
     bias = error(points.ravel(), cells.ravel())
     if error.attribute == "fraction_above_share":
         threshold = error.threshold(points.ravel())
-        above = [np.sum(points + (1.0 + sign * misfit) * (cells - points) >= threshold, axis=1) for sign in (1.0, -1.0)]
-        u = float(np.linalg.norm(above[0] - above[1])) / (2.0 * cells.size)
+        parts = []
+        for axis, misfit in enumerate(misfits):
+            across = readings.across(axis)
+            above = [np.sum(points + (1.0 + sign * misfit) * (across - points) >= threshold, axis=1)
+                     for sign in (1.0, -1.0)]
+            parts.append((above[0] - above[1]) / (2.0 * across.size))
+        u = float(np.linalg.norm(parts))
     else:
-        u = misfit * abs(bias)
+        u = math.hypot(*(misfit * error(points.ravel(), readings.across(axis).ravel())
+                         for axis, misfit in enumerate(misfits)))
     return Term("grid (its correction's reading)", "B", u,
                 f"the bias {bias:+.4g} subtracted, read between the points by the {readings.method} reading, whose "
-                f"recurrence misfits {misfit:.3g} of the field", rectangular=False)
+                f"recurrence misfits {misfits[0]:.3g} and {misfits[1]:.3g} of the field along x and y",
+                rectangular=False)
 
 
 #: The order p of the midpoint rule's error over the cells for the CV, a figure of mean

@@ -356,6 +356,24 @@ def test_the_correction_term_is_the_misfit_times_the_cvs_bias_and_a_cosines_has_
     assert not grid_correction_term(pure, error).is_rectangular   # normal, k = 1.96
 
 
+def test_each_axis_misfit_is_propagated_through_the_bias_its_own_reading_makes():
+    """A standing wave along x (a pure one: no misfit there) under an envelope across the
+    width, sqrt(1 + y), which the recurrence across y misfits: the CV's bias is mostly made
+    by reading between the points along x, where nothing is misread, so the term is the y
+    misfit times the small bias reading across y makes (the field read across that axis
+    alone), not the y misfit times the whole bias."""
+    x, y = np.meshgrid(np.arange(25.0), np.arange(6.0))
+    signed = (np.cos(math.pi / 2.3 * x + 0.3) * np.sqrt(1.0 + y)).ravel()
+    readings = cell_readings(STEP_M * x.ravel(), STEP_M * y.ravel(), signed)
+    error = GridError("coefficient_of_variation", 0.5)
+    misfit_x, misfit_y = (recurrence_misfit(readings.grid, axis, False) for axis in (0, 1))
+    assert misfit_x < 1e-9 < 0.005 < misfit_y
+    across_y = error(readings.at_points.ravel(), readings.across(1).ravel())
+    term = grid_correction_term(readings, error).std_uncertainty
+    assert term == pytest.approx(misfit_y * abs(across_y), rel=1e-6)
+    assert term < 0.25 * misfit_y * abs(grid_bias(readings, error))
+
+
 @settings(max_examples=30, deadline=None)
 @given(st.integers(-12, 10), st.booleans(), st.floats(2.0, 4.0), st.floats(0.0, 2 * math.pi), st.floats(0.0, 0.2))
 def test_the_correction_and_its_terms_do_not_depend_on_the_fields_scale_or_sign(power, flip, points_per_half_wave,
