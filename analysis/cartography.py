@@ -348,7 +348,8 @@ def grid_correction_term(readings: CellReadings | None, error: GridError) -> Ter
     and the cells and axes add in quadrature. Their net change (the whole field's departures
     scaled at once) let the crossings of rising and falling flanks cancel, which the
     reading's error does not do: on the paper map's benches it ranged 0.00004 to 0.003 where
-    the reading's true area error was 0.0001 to 0.0015, with no relation of sign."""
+    the reading's true area error was up to 0.0015, with no relation of sign; in quadrature the
+    cells give 0.0008 to 0.0011."""
     if readings is None:
         return Term("grid (its correction's reading)", "B", 0.0, "a single point: no grid correction", rectangular=False)
     misfits = [recurrence_misfit(readings.grid, axis, readings.method == "linear") for axis in (0, 1)]
@@ -567,8 +568,8 @@ def summarise_map(points: pd.DataFrame, predicted: np.ndarray | None = None, sha
     correction's own error as terms (`grid_correction_term`, `grid_quadrature_term`); the
     noise and the level steps reach them through the figures over the cells, the field read
     again for each draw (the points' own area moves only when a point crosses the share of
-    the peak, and carried no noise nor generator term on the paper map, where the cells'
-    area, whose threshold moves with the peak, does). The mean and the peak are
+    the peak, and carried no noise nor generator term on most of the paper map's benches;
+    the cells' area, whose threshold moves with the peak, does). The mean and the peak are
     the points' own (what the stage put the vibrometer on), no cell's: they take no grid
     correction. With `predicted` (the model's shape at the same points) the modal assurance
     criterion of the signed map against it."""
