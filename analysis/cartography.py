@@ -195,18 +195,18 @@ class CellReadings:
     def values(self) -> np.ndarray:
         return self.registered[1]
 
-    def _reader(self, axis: int, samples: int) -> np.ndarray:
-        """Weights reading the field along `axis` at `samples` spots (`cell_offsets`; one: the
-        point itself) about every point of the grid."""
+    def _reader(self, axis: int, samples: int, shift: float = 0.0) -> np.ndarray:
+        """Weights reading the field along `axis` at `samples` spots (`cell_offsets`, all moved
+        by `shift` grid steps; one: the point itself) about every point of the grid."""
         n = self.grid.shape[axis]
-        spots = cell_offsets(samples) if n > 1 else np.zeros(1)
+        spots = cell_offsets(samples) + shift if n > 1 else np.zeros(1)
         positions = (np.arange(n)[:, None] + spots).ravel()
         return bending_weights(n, self.wavenumbers[axis], positions, dict(READING_ORDERS)[self.method])
 
-    def _spots(self, readers: tuple[np.ndarray, np.ndarray], samples: int) -> np.ndarray:
-        """|field| at the spots `readers` read (`_reader`, `samples` per wide axis) about every
-        point: points x spots, the x spot the slower."""
-        per_axis = [samples if n > 1 else 1 for n in self.grid.shape]
+    def _spots(self, readers: tuple[np.ndarray, np.ndarray]) -> np.ndarray:
+        """|field| at the spots `readers` read (`_reader`) about every point: points x spots,
+        the x spot the slower."""
+        per_axis = [reader.shape[0] // n for reader, n in zip(readers, self.grid.shape)]
         field = (readers[0] @ self.grid @ readers[1].T).reshape(self.grid.shape[0], per_axis[0],
                                                                 self.grid.shape[1], per_axis[1])
         return np.abs(field.transpose(0, 2, 1, 3)[self.filled].reshape(int(self.filled.sum()), -1))
@@ -219,11 +219,17 @@ class CellReadings:
     @functools.cached_property
     def at_points(self) -> np.ndarray:
         """|field| at the points themselves, read as the cells are (one spot a point)."""
-        return self._spots(tuple(self._reader(axis, 1) for axis in (0, 1)), 1)
+        return self._spots(tuple(self._reader(axis, 1) for axis in (0, 1)))
 
-    def over_cells(self, samples: int) -> np.ndarray:
-        """|field| over the cells at `samples` spots per wide axis (`cell_offsets`)."""
-        return self._spots(tuple(self._reader(axis, samples) for axis in (0, 1)), samples)
+    def over_cells(self, samples: int, shift: tuple[float, float] = (0.0, 0.0)) -> np.ndarray:
+        """|field| over the cells at `samples` spots per wide axis (`cell_offsets`), the spots'
+        lattice moved by `shift` grid steps per axis (`grid_quadrature_term`'s registrations)."""
+        return self._spots(tuple(self._reader(axis, samples, shift[axis]) for axis in (0, 1)))
+
+    def across(self, axis: int) -> np.ndarray:
+        """|field| over the cells read across `axis` alone (READING_SAMPLES spots along it, the
+        other axis at the point): what the reading between the points along that axis gives."""
+        return self._spots(tuple(self._reader(a, READING_SAMPLES if a == axis else 1) for a in (0, 1)))
 
 
 def _point_grid(x_m: np.ndarray, y_m: np.ndarray, signed: np.ndarray) -> tuple[list[np.ndarray], np.ndarray, np.ndarray]:
@@ -285,10 +291,14 @@ class GridError:
     attribute: str
     share_of_peak: float
 
+    def threshold(self, points: np.ndarray) -> float:
+        """The share of the points' peak amplitude, above which the area counts a cell's spots."""
+        return self.share_of_peak * homogeneity(points, self.share_of_peak).maximum
+
     def __call__(self, points: np.ndarray, cells: np.ndarray) -> float:
         read = homogeneity(points, self.share_of_peak)
         if self.attribute == "fraction_above_share":
-            return read.fraction_above_share - float(np.mean(cells >= self.share_of_peak * read.maximum))
+            return read.fraction_above_share - float(np.mean(cells >= self.threshold(points)))
         return getattr(read, self.attribute) - getattr(homogeneity(cells, self.share_of_peak), self.attribute)
 
 
@@ -318,52 +328,90 @@ def grid_correction_term(readings: CellReadings | None, error: GridError) -> Ter
     correction's own error from the reading's misfit, propagated through it (GUM 5.1.3).
 
     The bending reading holds the part of the field that obeys the standing wave's recurrence
-    along each axis; the rest, a share e of the field (`recurrence_misfit`, the axes in
-    quadrature), it may misread between the points as a whole. The CV's bias is made by the
-    field between the points, so the corrected CV is uncertain by e |B|: on the large plate's
-    mode at the placements a bench draws e = 0.038 (4 mm grid) and 0.011 (2 mm), and the
-    reading's true residual is 0.4 to 0.8 e |B| (4 mm) and about e |B| (2 mm). The area moves
-    as spots cross the share of the peak: its term is half the change of the area as the read
-    field's departures from their cell's point scale by 1 +- e. Normal: the misfit is a sum
-    over many points, of either sign."""
+    along each axis; the rest, a share e_a of the field along axis a (`recurrence_misfit`),
+    it may misread between the points along that axis as a whole. Each axis's reading makes
+    its own part B_a of the CV's bias (the points against the field read across that axis
+    alone, `CellReadings.across`), so the corrected CV is uncertain by e_a |B_a|, the axes in
+    quadrature (independent readings). An (n, 0) mode's bias is made along its length: the
+    misfit across its width (0.029 on the paper map, its edges' evanescent parts) reads a
+    field that hardly varies there (|B_y| under 2 % of |B_x|), and taken with the length's
+    (0.025) as one share of the whole bias it made the term 1.5 times what the length's
+    reading can misread. On the large plate's mode at the placements a bench draws the
+    reading's true residual is 0.5 to 1.3 of the term (4 mm grid) and 1.5 to 2.3 (2 mm, where
+    the cells' quadrature term is 5 to 11 times larger). Normal: the misfit is a sum over
+    many points, of either sign; the residual's spread over the grids it was checked on is
+    no bound (a rectangle at e |B| would not hold the 2 mm grid's).
+
+    The area moves as spots cross the share of the peak, each cell's as its own stencil of
+    points reads the field there: a cell's part along axis a is half the change of its spots
+    above the share as the departures from its point read across that axis scale by 1 +- e_a,
+    and the cells and axes add in quadrature. Their net change (the whole field's departures
+    scaled at once) let the crossings of rising and falling flanks cancel, which the
+    reading's error does not do: on the paper map's benches it ranged 0.00004 to 0.003 where
+    the reading's true area error was up to 0.0015, with no relation of sign; in quadrature the
+    cells give 0.0008 to 0.0011."""
     if readings is None:
         return Term("grid (its correction's reading)", "B", 0.0, "a single point: no grid correction", rectangular=False)
-    misfit = math.hypot(*(recurrence_misfit(readings.grid, axis, readings.method == "linear") for axis in (0, 1)))
+    misfits = [recurrence_misfit(readings.grid, axis, readings.method == "linear") for axis in (0, 1)]
     points, cells = readings.registered
     bias = error(points.ravel(), cells.ravel())
     if error.attribute == "fraction_above_share":
-        moved = [error(points.ravel(), (points + (1.0 + sign * misfit) * (cells - points)).ravel())
-                 for sign in (1.0, -1.0)]
-        u = abs(moved[0] - moved[1]) / 2.0
+        threshold = error.threshold(points.ravel())
+        parts = []
+        for axis, misfit in enumerate(misfits):
+            across = readings.across(axis)
+            above = [np.sum(points + (1.0 + sign * misfit) * (across - points) >= threshold, axis=1)
+                     for sign in (1.0, -1.0)]
+            parts.append((above[0] - above[1]) / (2.0 * across.size))
+        u = float(np.linalg.norm(parts))
     else:
-        u = misfit * abs(bias)
+        u = math.hypot(*(misfit * error(points.ravel(), readings.across(axis).ravel())
+                         for axis, misfit in enumerate(misfits)))
     return Term("grid (its correction's reading)", "B", u,
                 f"the bias {bias:+.4g} subtracted, read between the points by the {readings.method} reading, whose "
-                f"recurrence misfits {misfit:.3g} of the field", rectangular=False)
+                f"recurrence misfits {misfits[0]:.3g} and {misfits[1]:.3g} of the field along x and y",
+                rectangular=False)
 
 
-#: The order p of the midpoint rule's error over the cells, h^p (Richardson): a figure of
-#: mean squares (the CV) integrates a continuous field, kinks at nodal lines included, to
-#: h^2; the area counts the spots above a threshold, a step, to h.
-QUADRATURE_ORDERS = {"coefficient_of_variation": 2, "fraction_above_share": 1}
+#: The order p of the midpoint rule's error over the cells for the CV, a figure of mean
+#: squares of a continuous field (kinks at nodal lines included): h^2 (Richardson).
+CV_QUADRATURE_ORDER = 2
+#: Registrations per axis of the area's lattice of spots within one spot (`grid_quadrature_term`):
+#: 4 x 4 lattices of READING_SAMPLES^2 spots a cell, which together are the midpoint rule of
+#: 4 READING_SAMPLES spots per axis.
+LATTICE_REGISTRATIONS = 4
 
 
 def grid_quadrature_term(readings: CellReadings | None, error: GridError) -> Term:
-    """Type B term of a corrected homogeneity figure for reading the cells at READING_SAMPLES
-    spots per axis (the midpoint rule) instead of over their whole area: Richardson's
-    estimate of the rule's error from the change D of the figure as the spots double,
-    |D| / (1 - 2^-p) for an error of order p (QUADRATURE_ORDERS: 4/3 |D| for the CV, 2 |D|
-    for the area), as its standard uncertainty, normal (the error is a sum over many cells,
-    of either sign)."""
+    """Term of a corrected homogeneity figure for reading the cells at READING_SAMPLES spots
+    per axis (the midpoint rule) instead of over their whole area, normal (a sum over many
+    cells, of either sign). The two figures err differently:
+
+    - the CV integrates a continuous field, so the rule errs by c h^2, the same at every
+      registration of its spots: Richardson's estimate from the change D of the figure as
+      the spots double, |D| / (1 - 2^-p), p = CV_QUADRATURE_ORDER (4/3 |D|), Type B;
+    - the area counts the spots above the share of the peak, a step: its error is where the
+      lattice of spots falls on the threshold's contour, of either sign and with no order in
+      h that one doubling could extrapolate (it read the paper map's term 0.001 to 0.013
+      between benches). Its standard uncertainty is the spread (ddof 1) of the figure over
+      the lattice's registrations within one spot (LATTICE_REGISTRATIONS^2 lattices moved by
+      cell_offsets(LATTICE_REGISTRATIONS) of a spot per axis, together the finer midpoint
+      rule, whose own error is a quarter of the READING_SAMPLES rule's): the registration
+      the figure is read at is one of them, Type A."""
     if readings is None:
         return Term("grid (the cells' quadrature)", "B", 0.0, "a single point: no cells", rectangular=False)
     points = readings.at_points.ravel()
+    if error.attribute == "fraction_above_share":
+        shifts = cell_offsets(LATTICE_REGISTRATIONS) / READING_SAMPLES
+        figures = [error(points, readings.over_cells(READING_SAMPLES, (dx, dy)).ravel()) for dx in shifts for dy in shifts]
+        return Term("grid (the cells' quadrature)", "A", float(np.std(figures, ddof=1)),
+                    f"{READING_SAMPLES} spots per axis over each cell at {LATTICE_REGISTRATIONS ** 2} registrations "
+                    "of their lattice within a spot", rectangular=False)
     change = (error(points, readings.registered[1].ravel())
               - error(points, readings.over_cells(2 * READING_SAMPLES).ravel()))
-    order = QUADRATURE_ORDERS[error.attribute]
-    return Term("grid (the cells' quadrature)", "B", abs(change) / (1.0 - 2.0**-order),
+    return Term("grid (the cells' quadrature)", "B", abs(change) / (1.0 - 2.0**-CV_QUADRATURE_ORDER),
                 f"{READING_SAMPLES} against {2 * READING_SAMPLES} spots per axis over each cell, an error of order "
-                f"{order} (Richardson)", rectangular=False)
+                f"{CV_QUADRATURE_ORDER} (Richardson)", rectangular=False)
 
 
 def modal_assurance(measured: np.ndarray, predicted: np.ndarray) -> float:
@@ -393,6 +441,8 @@ def move_time_s(distance_mm: float, velocity_mm_per_s: float, acceleration_mm_pe
 MAP_COLUMNS = ["run_name", "plate", "grid_row", "x_m", "y_m", "in_touch_area", "generator_frequency_hz",
                "piezo_voltage_setpoint_vpp", "velocity_pp_mps", "velocity_pp_mps_u", "velocity_phase_rad",
                "velocity_phase_rad_u", "signed_velocity_pp_mps"]
+#: The homogeneity figures a map reports over the cells (corrected by `grid_bias`).
+GRID_FIGURES = ("coefficient_of_variation", "fraction_above_share")
 #: Draws of the points' noise behind the homogeneity figures' uncertainty (seeded).
 NOISE_DRAWS = 400
 
@@ -515,20 +565,34 @@ def summarise_map(points: pd.DataFrame, predicted: np.ndarray | None = None, sha
     the mapped peak are the vibration's over the touch area: the points' figures corrected
     by their error where the grid fell (`grid_bias`, read between the points; the points'
     own figure `*_uncorrected`, the correction added `*_grid_correction`), with the
-    correction's own error as a term (`grid_correction_term`). The mean and the peak are
+    correction's own error as terms (`grid_correction_term`, `grid_quadrature_term`); the
+    noise and the level steps reach them through the figures over the cells, the field read
+    again for each draw (the points' own area moves only when a point crosses the share of
+    the peak, and carried no noise nor generator term on most of the paper map's benches;
+    the cells' area, whose threshold moves with the peak, does). The mean and the peak are
     the points' own (what the stage put the vibrometer on), no cell's: they take no grid
     correction. With `predicted` (the model's shape at the same points) the modal assurance
     criterion of the signed map against it."""
     touch = points[points["in_touch_area"]]
     amplitude = touch["velocity_pp_mps"].to_numpy()
+    x_m, y_m, sign = (touch[column].to_numpy() for column in ("x_m", "y_m", "signed_velocity_pp_mps"))
     h = homogeneity(amplitude, share_of_peak)
+    # the points' own amplitudes with the mode's sign: a phase off 0 or pi is no smaller vibration
+    readings = cell_readings(x_m, y_m, np.copysign(amplitude, sign))
+
+    def figures(values: np.ndarray) -> dict[str, float]:
+        """The figures of amplitudes `values` at the touch points as the summary gives them: the
+        points' mean and peak, and the CV and area over the cells, the points' less the grid
+        bias of their own field read again (the area's threshold is their own peak's share and
+        its spots move with the levels: the points' own area stays put until a point crosses)."""
+        read = homogeneity(values, share_of_peak)
+        again = cell_readings(x_m, y_m, np.copysign(values, sign))
+        return {"mean": read.mean, "maximum": read.maximum,
+                **{a: getattr(read, a) - grid_bias(again, GridError(a, share_of_peak)) for a in GRID_FIGURES}}
+
     rng = np.random.default_rng(seed)
     drawn = amplitude + rng.normal(size=(NOISE_DRAWS, amplitude.size)) * touch["velocity_pp_mps_u"].to_numpy()
-    spread = [homogeneity(d, share_of_peak) for d in drawn]
-
-    # the points' own amplitudes with the mode's sign: a phase off 0 or pi is no smaller vibration
-    readings = cell_readings(touch["x_m"].to_numpy(), touch["y_m"].to_numpy(),
-                             np.copysign(amplitude, touch["signed_velocity_pp_mps"].to_numpy()))
+    spread = [figures(d) for d in drawn]
 
     def corrected(attribute: str) -> dict:
         """The figure over the cells (the points' less their grid bias), its U, and both parts."""
@@ -540,11 +604,11 @@ def summarise_map(points: pd.DataFrame, predicted: np.ndarray | None = None, sha
                 f"{attribute}_uncorrected": getattr(h, attribute), f"{attribute}_grid_correction": -bias}
 
     def expanded(attribute: str, value: float, scaled: bool = False, own: tuple = ()) -> float:
-        noise = Term("points' noise", "A", float(np.std([getattr(s, attribute) for s in spread], ddof=1)),
+        noise = Term("points' noise", "A", float(np.std([s[attribute] for s in spread], ddof=1)),
                      f"{NOISE_DRAWS} draws of the points' record-fit noise")
         shared = (*own, *velocity_scale_terms(value)) if scaled else own
         if resonance_q is not None:
-            shared = (*shared, retuning_term(lambda v: getattr(homogeneity(v, share_of_peak), attribute), amplitude,
+            shared = (*shared, retuning_term(lambda v: figures(v)[attribute], amplitude,
                                              touch["generator_frequency_hz"].to_numpy(), resonance_q))
         return Budget(attribute, "1", value, (noise, *shared)).expanded_uncertainty
 

@@ -12,10 +12,13 @@ import pytest
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
-from squeezebench.analysis.cartography import (cell_offsets, cell_readings, coefficients_of_variation, GridError,
-                                               grid_bias, grid_correction_term, grid_quadrature_term, homogeneity,
-                                               modal_assurance, recurrence_misfit, retuning_log_levels, retuning_term,
-                                               signed_amplitude)
+import pandas as pd
+
+from squeezebench.analysis.budgets import Budget, Term
+from squeezebench.analysis.cartography import (LATTICE_REGISTRATIONS, READING_SAMPLES, cell_offsets, cell_readings,
+                                               coefficients_of_variation, GridError, grid_bias, grid_correction_term,
+                                               grid_quadrature_term, homogeneity, modal_assurance, recurrence_misfit,
+                                               retuning_log_levels, retuning_term, signed_amplitude, summarise_map)
 from squeezebench.paths import scenes_dir
 from squeezebench.plates.specifications import SPECIFICATIONS
 from squeezebench.simbench.modeshape import mode_shape, working_mode
@@ -353,6 +356,24 @@ def test_the_correction_term_is_the_misfit_times_the_cvs_bias_and_a_cosines_has_
     assert not grid_correction_term(pure, error).is_rectangular   # normal, k = 1.96
 
 
+def test_each_axis_misfit_is_propagated_through_the_bias_its_own_reading_makes():
+    """A standing wave along x (a pure one: no misfit there) under an envelope across the
+    width, sqrt(1 + y), which the recurrence across y misfits: the CV's bias is mostly made
+    by reading between the points along x, where nothing is misread, so the term is the y
+    misfit times the small bias reading across y makes (the field read across that axis
+    alone), not the y misfit times the whole bias."""
+    x, y = np.meshgrid(np.arange(25.0), np.arange(6.0))
+    signed = (np.cos(math.pi / 2.3 * x + 0.3) * np.sqrt(1.0 + y)).ravel()
+    readings = cell_readings(STEP_M * x.ravel(), STEP_M * y.ravel(), signed)
+    error = GridError("coefficient_of_variation", 0.5)
+    misfit_x, misfit_y = (recurrence_misfit(readings.grid, axis, False) for axis in (0, 1))
+    assert misfit_x < 1e-9 < 0.005 < misfit_y
+    across_y = error(readings.at_points.ravel(), readings.across(1).ravel())
+    term = grid_correction_term(readings, error).std_uncertainty
+    assert term == pytest.approx(misfit_y * abs(across_y), rel=1e-6)
+    assert term < 0.25 * misfit_y * abs(grid_bias(readings, error))
+
+
 @settings(max_examples=30, deadline=None)
 @given(st.integers(-12, 10), st.booleans(), st.floats(2.0, 4.0), st.floats(0.0, 2 * math.pi), st.floats(0.0, 0.2))
 def test_the_correction_and_its_terms_do_not_depend_on_the_fields_scale_or_sign(power, flip, points_per_half_wave,
@@ -395,6 +416,44 @@ def test_the_cell_readings_of_a_linear_field_are_the_continuous_uniform_distribu
     assert np.array_equal(cell_readings(STEP_M * x, STEP_M * y, -v).values, readings.values)
     flat = cell_readings(STEP_M * x, STEP_M * y, np.full(20, 0.3))
     assert grid_bias(flat, error) == pytest.approx(0.0, abs=1e-12)
+
+
+@pytest.mark.parametrize("share", [0.37, 0.43, 0.61])
+def test_the_areas_quadrature_term_is_the_spread_of_the_closed_form_count_over_the_lattices_registrations(share):
+    """v = 1 + x at x = 0..5 (3 rows), read exactly: the area above `share` of the peak (6)
+    is the spots right of t = 6 share - 1, whose count over the cells [-1/2, 11/2] errs by
+    where the lattice of spots falls on t. Counted in closed form for each registration of
+    the lattice (its spots at i + cell_offsets(8) + d, d over cell_offsets(4) / 8, the y
+    moves changing nothing), the term is the spread of those counts' errors against the
+    continuum's (5.5 - t) / 6, and within half a column of spots (1 / 48) of the area."""
+    x, y = np.meshgrid(np.arange(6.0), np.arange(3.0))
+    readings = cell_readings(STEP_M * x.ravel(), STEP_M * y.ravel(), (1.0 + x).ravel())
+    t = 6.0 * share - 1.0
+    lattice = (np.arange(6.0)[:, None] + cell_offsets(READING_SAMPLES)).ravel()
+    moves = cell_offsets(LATTICE_REGISTRATIONS) / READING_SAMPLES
+    errors = [np.mean(lattice + d >= t) - (5.5 - t) / 6.0 for d in moves for _ in moves]
+    term = grid_quadrature_term(readings, GridError("fraction_above_share", share))
+    assert term.std_uncertainty == pytest.approx(np.std(errors, ddof=1), rel=1e-9)
+    assert 0.0 < term.std_uncertainty <= 0.5 / (READING_SAMPLES * 6) and term.type == "A"
+
+
+def test_the_noise_of_the_peak_moves_the_corrected_area_as_its_threshold_does():
+    """A line scan v = 1 + x at x = 0..7 whose peak alone is noisy (sigma 0.4): no point
+    crosses half of the peak, so the points' own area stays put, but the threshold over the
+    cells, half the peak, moves by sigma / 2 across a field rising 1 a step, and the
+    corrected area, the cells' right of it over 8 steps, by sigma / 16: the area's U is that
+    times its k, to the spots' steps of 1/64 (the threshold, at x = 3, lies between two
+    spots at every registration of their lattice: no quadrature term)."""
+    x = np.arange(8.0)
+    value = 1.0 + x
+    sigma = 0.4
+    points = pd.DataFrame({"x_m": STEP_M * x, "y_m": 0.0, "in_touch_area": True, "velocity_pp_mps": value,
+                           "velocity_pp_mps_u": np.where(x == 7.0, sigma, 0.0), "signed_velocity_pp_mps": value,
+                           "generator_frequency_hz": 50e3})
+    readings = cell_readings(STEP_M * x, np.zeros(8), value)
+    assert grid_quadrature_term(readings, GridError("fraction_above_share", 0.5)).std_uncertainty == 0.0
+    k = Budget("area", "1", 1.0, (Term("noise", "A", 1.0, "normal"),)).coverage_factor
+    assert summarise_map(points)["fraction_above_share_U"] / k == pytest.approx(sigma / 16.0, rel=0.05)
 
 
 def test_the_bending_reading_of_a_cosine_over_whole_half_waves_is_the_closed_form_cv():
