@@ -147,11 +147,12 @@ COLUMNS: dict[str, tuple[str, str]] = {
     "voltage_vpp": ("V pp", "piezo voltage"),
     "power_w": ("W", "electrical power into the piezos"),
     "power_resonance_w": ("W", "power at resonance P0 of the series"),
-    "power_ratio": ("1", "Pt / P0 (Fig. 2)"),
+    "power_ratio": ("1", "Pt / P0 (Fig. 2), corrected for the resonance's drift the run estimates (the plate's "
+                         "warming) where it has a budget: power_w / power_resonance_w as read, corrected"),
     "power_ratio_U": ("1", "expanded uncertainty (k for 95 % under its budget) of Pt / P0: noise, CH2 delay, "
                                 "compensation, generator frequency and amplitude (through the piezos' dielectric "
                                 "share, which does not follow the resonance), the resonance's drift as the plate warms "
-                                "(a bias bound); the gains cancel"),
+                                "(its estimate's u; a bias bound where the readings alone give it); the gains cancel"),
     "power_ratio_largest_term": ("", "the term of power_ratio_U's budget with the largest standard uncertainty: "
                                      "what to act on to narrow it"),
     # per-plate readings and Table 5 under each reading (analysis.audit)

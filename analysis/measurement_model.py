@@ -118,10 +118,13 @@ def model_table(point: dict, deskew: Deskew | None) -> pd.DataFrame:
     rows.append({"quantity": "power_ratio", "input": "noise of each mean; CH2 delay through w Q'/P at both points; "
                  "the generator's frequency and amplitude through each power's share on the resonance, its "
                  "dielectric share and the shunt's loss from the capacitive current (analysis.dielectric); the "
-                 "resonance's drift between the readings, a bias bound (analysis.resonance_drift)",
+                 "resonance's drift between the readings: its estimate (the plate's warming scaled by the run's "
+                 "readings of its resonance), corrected for, and its u, normal; a bias bound where the readings "
+                 "alone give it (analysis.resonance_drift)",
                  "type": "A and B", "distribution": "as listed for power_w",
                  "relative_std_uncertainty": float("nan"),
-                 "correction": "the deskew's, when the run has one; the gains cancel",
+                 "correction": "the deskew's, when the run has one; the resonance's estimated drift (GUM 3.2.4); "
+                               "the gains cancel",
                  "source": "analysis.uncertainty.power_ratio_std_uncertainty"})
     for quantity, name, why in NOT_BUDGETED:
         rows.append({"quantity": quantity, "input": name, "type": "not budgeted", "distribution": "",

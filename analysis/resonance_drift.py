@@ -11,32 +11,37 @@ on the re-centred resonance, is off the mounted plate's by its setting's offset,
 (offset / h)^2 only on the flat top, h = f / (2 Q) the half-width
 (`uncertainty.power_ratio_budget`).
 
-Where the run's scene gives the plate (`_warming_bounds`), the drift is the plate's warming:
-a lumped thermal model (`plates.warming`) driven by every stored power of the run, its time
-constant and its hertz per joule held within the heating tolerances, the scale fitted to the
-run's dated readings below (the 95 % upper bound of that fit), and the room's drift on top.
-The bound follows the power the plate took: small at a low level (the plate barely warms),
-and it keeps growing under the last level's Pt, which the readings on a broad top (the
-nine-column plate's, Q ~ 56) need not see: there a re-centring's walk of 5 Hz steps changes
-the velocity by less than its scatter, and a closing re-centring read -5 +- 5 Hz on a seeded
-bench whose plate had fallen 17 Hz. The readings alone (below) bound the drift where no
-scene gives the plate.
+Where the run's scene gives the plate (`_warming_estimates`), the drift is estimated from the
+plate's warming: a lumped thermal model (`plates.warming`) driven by every stored power of
+the run, its time constant and its hertz per joule held within the heating tolerances, the
+scale fitted to the run's dated readings below. The warming's sign is known (the resonance
+falls), so the drift is an estimate with a standard uncertainty (the scale's fit, the spread
+over the time constants the readings allow, the room's drift), which Fig. 2's ratio is
+corrected for (GUM 3.2.4; `uncertainty.power_ratio_budget`), not a bound that U must hold
+at its edge: a one-sided 95 % bound carried as a bias bound stacked two 95 % margins, and
+Pt/P0 covered 99.2 % of 40 benches. The estimate follows the power the plate took: small at
+a low level (the plate barely warms), and it keeps growing under the last level's Pt, which
+the readings on a broad top (the nine-column plate's, Q ~ 56) need not see: there a
+re-centring's walk of 5 Hz steps changes the velocity by less than its scatter, and a
+closing re-centring read -5 +- 5 Hz on a seeded bench whose plate had fallen 17 Hz. The
+readings alone (below) bound the drift where no scene gives the plate.
 
-Type A, from the run's dated readings of its resonance: its search's (the plate as mounted,
-at the search's low drive: the reference), each Fig. 2 level's re-centring before P0 and the
-plate's closing re-centring after its last point (`tracked_resonance_frequency_hz`, the
-vertex of its readings' top, with that fit's u, at its readings' mean time; its best reading,
-where P0 is set, where that strays less, as on a top far wider than the re-centring's
-steps). Each reading j gives the drift since the reference, d_j = f_j - f_ref, with
-u_j = sqrt(u(f_j)^2 + u(f_ref)^2) (0 at the reference itself). A point between two readings
-is bounded by the larger of theirs (a plate that warms under a rising drive drifts one way
-between two readings; a line between them lagged the warming on seeded benches: the later
-reading is at the next, higher, level): the larger of Q(d_j, u_j) at its two readings, Q the
-95th percentile of |d| for d normal about d_j with u_j (`folded_quantile`): 1.96 u_j where
-the readings resolve no drift, their scatter entering once as u, and |d_j| + 1.645 u_j where
-they resolve one (the readings' scatter is not added to a bound it already widens). A P0 or
-closing row is read at its setting: its drift is its setting's offset from the reference,
-Q(offset, u(f_ref)).
+Type A, from the run's dated readings of its resonance (`_drift_bounds`: a bias bound,
+`resonance_drift_bound_hz`, and no estimate; the same readings scale the warming): its
+search's (the plate as mounted, at the search's low drive: the reference), each Fig. 2
+level's re-centring before P0 and the plate's closing re-centring after its last point
+(`tracked_resonance_frequency_hz`, the vertex of its readings' top, with that fit's u, at its
+readings' mean time; its best reading, where P0 is set, where that strays less, as on a top
+far wider than the re-centring's steps). Each reading j gives the drift since the reference,
+d_j = f_j - f_ref, with u_j = sqrt(u(f_j)^2 + u(f_ref)^2) (0 at the reference itself). A
+point between two readings is bounded by the larger of theirs (a plate that warms under a
+rising drive drifts one way between two readings; a line between them lagged the warming on
+seeded benches: the later reading is at the next, higher, level): the larger of Q(d_j, u_j)
+at its two readings, Q the 95th percentile of |d| for d normal about d_j with u_j
+(`folded_quantile`): 1.96 u_j where the readings resolve no drift, their scatter entering
+once as u, and |d_j| + 1.645 u_j where they resolve one (the readings' scatter is not added
+to a bound it already widens). A P0 or closing row is read at its setting: its drift is its
+setting's offset from the reference, Q(offset, u(f_ref)).
 
 A point after the run's last reading (a run stored before the closing re-centring was
 recorded) has its drift extrapolated, and its source says so: it goes on at the steepest rate
@@ -51,7 +56,7 @@ says so.
 
 Type B where the run holds no repeated reading of its resonance (a single dated one):
 FALLBACK_DRIFT_RATE_REL_PER_S times the time since that reading. A point without a stored
-time has no estimate: drift 0, and the source says so.
+time has no estimate: drift, u and bound 0, and the source says so.
 """
 
 from __future__ import annotations
@@ -85,23 +90,32 @@ EXTRAPOLATED = ("; the last level's points after the last reading (a run stored 
                 "re-centring was recorded) at {rate:.3f} +- {rate_u:.3f} Hz/s, the steepest per watt resolved")
 #: The Fig. 2 rows that read the resonance at their own setting (no slope under them).
 AT_SETTING = ("resonance", "closing")
+#: Each point's drift estimate, its u and a bias bound (Hz; `DRIFT_COLUMNS`), and their source.
+DriftColumns = tuple[np.ndarray, np.ndarray, np.ndarray, str]
 _COLUMNS = ("tracked_resonance_bench_time_s", "tracked_resonance_frequency_hz", "tracked_resonance_frequency_hz_u")
+#: What `with_resonance_drift` gives each point: the drift's estimate, its standard uncertainty
+#: and a bias bound on what the estimate leaves (Hz).
+DRIFT_COLUMNS = ("resonance_drift_hz", "resonance_drift_u_hz", "resonance_drift_bound_hz")
 
 
 def with_resonance_drift(points: pd.DataFrame, searches: pd.DataFrame | None = None,
                          closings: pd.DataFrame | None = None, scenes: dict[str, dict] | None = None) -> pd.DataFrame:
-    """`points` (Fig. 2 points, any runs) with `resonance_drift_hz`, a bound on how far the
-    resonance had moved from the run's first reading of it when each point was read (a P0 row:
-    its setting's offset), and `resonance_drift_source`. `searches`: the runs'
+    """`points` (Fig. 2 points, any runs) with how far the resonance had moved from the run's
+    first reading of it when each point was read: `resonance_drift_hz`, its estimate (signed:
+    negative where it fell; a P0 or closing row, its setting's offset), `resonance_drift_u_hz`
+    that estimate's standard uncertainty (normal), `resonance_drift_bound_hz` a bias bound on
+    what the estimate leaves where the run gives no estimate (0 where it does), and
+    `resonance_drift_source`. `searches`: the runs'
     resonance_search rows (sweep and found, velocities reduced or the scope's): the reference
     reading, and the scatter and Q of a best reading; without them, the runs' re-centrings
     are the only readings. `closings`: the runs' closing re-centrings where `points` does
     not hold them (they store no power, so a frame of powers leaves them out). `scenes`: the
-    run's scene copies (`RunData.scenes`); where one gives the plate, its drift is bounded
-    by its warming under the run's own stored powers (`_warming_bounds`), else by its
-    readings alone (`_drift_bounds`)."""
+    run's scene copies (`RunData.scenes`); where one gives the plate, its drift is estimated
+    from its warming under the run's own stored powers (`_warming_estimates`), else bounded
+    by its readings alone (`_drift_bounds`)."""
     out = points.copy()
-    out["resonance_drift_hz"] = 0.0
+    for column in DRIFT_COLUMNS:
+        out[column] = 0.0
     out["resonance_drift_source"] = NOT_DATED
     if out.empty or "bench_time_s" not in out or "run_name" not in out:
         return out
@@ -109,10 +123,11 @@ def with_resonance_drift(points: pd.DataFrame, searches: pd.DataFrame | None = N
     closings = pd.DataFrame(columns=["run_name"]) if closings is None else closings
     for run_name, group in out.groupby("run_name", sort=False):
         dimensions = _plate_dimensions(group, scenes) if scenes else None
-        bound = _drift_bounds if dimensions is None else functools.partial(_warming_bounds, dimensions=dimensions)
-        bounds, source = bound(group, searches[searches["run_name"] == run_name],
-                               closings[closings["run_name"] == run_name])
-        out.loc[group.index, "resonance_drift_hz"] = bounds
+        drift = _drift_bounds if dimensions is None else functools.partial(_warming_estimates, dimensions=dimensions)
+        *values, source = drift(group, searches[searches["run_name"] == run_name],
+                                closings[closings["run_name"] == run_name])
+        for column, value in zip(DRIFT_COLUMNS, values):
+            out.loc[group.index, column] = value
         out.loc[group.index, "resonance_drift_source"] = source
     return out
 
@@ -173,22 +188,34 @@ def _readings(points: pd.DataFrame, searches: pd.DataFrame,
     at_resonance = points[points["detuning_phase"].isin(AT_SETTING)] if "detuning_phase" in points else points.iloc[0:0]
     if len(closings):
         at_resonance = pd.concat([at_resonance, closings], ignore_index=True)
-    tracked = all(column in at_resonance for column in _COLUMNS) and bool(
-        at_resonance["tracked_resonance_frequency_hz"].notna().all())
-    power_w = at_resonance.get("power_w", pd.Series(math.nan, index=at_resonance.index))
-    if tracked:   # the fit's vertex, or the best reading P0 is set at where that strays less (a broad top)
-        fit_u = at_resonance[_COLUMNS[2]].fillna(math.inf).to_numpy(float)
-        vertex = fit_u <= (best_u if np.isfinite(best_u) else math.inf)
-        rows += list(zip(at_resonance[_COLUMNS[0]],
-                         np.where(vertex, at_resonance[_COLUMNS[1]], at_resonance["generator_frequency_hz"]),
-                         np.where(vertex, fit_u, best_u), power_w))
-    else:
-        rows += [(t, f, best_u, p) for t, f, p in zip(at_resonance["bench_time_s"],
-                                                      at_resonance["generator_frequency_hz"], power_w)]
+    at_setting, tracked = _setting_readings(at_resonance, best_u)
+    rows += list(at_setting.itertuples(index=False, name=None))
     readings = pd.DataFrame(rows, columns=["time_s", "frequency_hz", "u_hz", "power_w"], dtype=float)
     readings = readings[np.isfinite(readings["time_s"]) & np.isfinite(readings["frequency_hz"])]
     readings["u_hz"] = readings["u_hz"].fillna(0.0)   # a scatter the search cannot tell: the estimate alone
     return readings.sort_values("time_s", kind="stable").reset_index(drop=True), tracked
+
+
+def _setting_readings(at_resonance: pd.DataFrame, best_u: float) -> tuple[pd.DataFrame, bool]:
+    """The readings of the resonance that rows read at their setting (P0, closing) hold, by
+    their index: (time_s, frequency_hz, u_hz, power_w), and whether the re-centrings were
+    recorded as such. A recorded one gives the vertex its readings' top puts the peak at, with
+    that fit's u, or the best reading P0 is set at where that strays less (`best_u`: a broad
+    top); an older run, its settings at `best_u`, dated by the row."""
+    tracked = all(column in at_resonance for column in _COLUMNS) and bool(
+        at_resonance["tracked_resonance_frequency_hz"].notna().all())
+    power_w = at_resonance.get("power_w", pd.Series(math.nan, index=at_resonance.index)).to_numpy(float)
+    setting_hz = at_resonance["generator_frequency_hz"].to_numpy(float)
+    if tracked:
+        fit_u = at_resonance[_COLUMNS[2]].fillna(math.inf).to_numpy(float)
+        vertex = fit_u <= (best_u if np.isfinite(best_u) else math.inf)
+        columns = (at_resonance[_COLUMNS[0]].to_numpy(float),
+                   np.where(vertex, at_resonance[_COLUMNS[1]].to_numpy(float), setting_hz),
+                   np.where(vertex, fit_u, best_u))
+    else:
+        columns = (at_resonance["bench_time_s"].to_numpy(float), setting_hz, np.full(len(at_resonance), best_u))
+    return pd.DataFrame(dict(zip(("time_s", "frequency_hz", "u_hz", "power_w"), (*columns, power_w))),
+                        index=at_resonance.index, dtype=float), tracked
 
 
 def _rate_after(readings: pd.DataFrame) -> tuple[float, float]:
@@ -209,15 +236,18 @@ def _rate_after(readings: pd.DataFrame) -> tuple[float, float]:
     return float(rates[chosen]), float(rates_u[chosen])
 
 
-def _drift_bounds(points: pd.DataFrame, searches: pd.DataFrame, closings: pd.DataFrame) -> tuple[np.ndarray, str]:
-    """Each point's bound on |drift| (Hz) and the source of the bounds, for one run."""
+def _drift_bounds(points: pd.DataFrame, searches: pd.DataFrame, closings: pd.DataFrame) -> DriftColumns:
+    """Each point's bound on |drift| (Hz), for one run, from its readings alone: no estimate
+    (0, its u 0), the bound `resonance_drift_bound_hz`, and the source of the bounds."""
     readings, tracked = _readings(points, searches, closings)
     at_s = points["bench_time_s"].to_numpy(float)
+    nothing = np.zeros(len(points))
     if readings.empty or not np.all(np.isfinite(at_s)):
-        return np.zeros(len(points)), NOT_DATED
+        return nothing, nothing, nothing, NOT_DATED
     times, frequencies, u_hz = (readings[c].to_numpy() for c in ("time_s", "frequency_hz", "u_hz"))
     if len(times) < 2:
-        return FALLBACK_DRIFT_RATE_REL_PER_S * frequencies[0] * np.maximum(at_s - times[0], 0.0), FALLBACK_SOURCE
+        return (nothing, nothing, FALLBACK_DRIFT_RATE_REL_PER_S * frequencies[0] * np.maximum(at_s - times[0], 0.0),
+                FALLBACK_SOURCE)
     # each reading's drift since the reference and its u (the reference's own is exact)
     drift_hz = frequencies - frequencies[0]
     drift_u_hz = np.hypot(u_hz[0], u_hz) * (np.arange(len(times)) > 0)
@@ -239,20 +269,22 @@ def _drift_bounds(points: pd.DataFrame, searches: pd.DataFrame, closings: pd.Dat
               f"(1.96 u where they resolve none), readings' u {np.max(u_hz[1:]):.2f} Hz at most"
               + (EXTRAPOLATED.format(rate=abs(rate), rate_u=rate_u) if extrapolated.any() else "")
               + ("" if tracked else UNTRACKED))
-    return bound_hz, source
+    return nothing, nothing, bound_hz, source
 
 
 #: The plate materials whose density the warming bound knows (`_plate_dimensions`).
 DENSITY_KG_M3 = {"aluminium": ALUMINIUM_TABLE2.density_kg_m3}
-#: Time constants tried across the tolerances' range (`_warming_bounds`), log-spaced.
+#: Time constants tried across the tolerances' range (`_warming_estimates`), log-spaced.
 TIME_CONSTANT_STEPS = 13
 #: chi^2 with one degree of freedom at 95 %: the time constants the readings do not reject
 #: (profile likelihood, its minimum plus this).
 CHI2_95_ONE = 3.841
 WARMING_SOURCE = ("Type A/B, the plate's warming under the run's {n} dated stored powers (lumped thermal model, "
                   "plates.warming, tau {tau_low:.0f}-{tau_high:.0f} s within the heating tolerances) scaled by "
-                  "the run's {readings} dated readings of its resonance (the 95 % upper bound of the scale they "
-                  "fit, within the tolerances' {low:.3g}-{high:.3g} Hz/J), and the room's (up to {room:g} K/h)")
+                  "the run's {readings} dated readings of its resonance (the scale they fit, weighed with the "
+                  "tolerances' {low:.3g}-{high:.3g} Hz/J), estimated and corrected for: its u the scale's, the "
+                  "spread over the time constants the readings allow and the room's (up to {room:g} K/h), "
+                  "the last two rectangles")
 
 
 def _plate_dimensions(points: pd.DataFrame, scenes: dict[str, dict]) -> tuple[float, float, float, float] | None:
@@ -283,66 +315,96 @@ def _power_history(*frames: pd.DataFrame) -> tuple[np.ndarray, np.ndarray]:
     return times_s, warming.held_powers_w(power_w)
 
 
-def _warming_scale_bound(held_j: np.ndarray, readings: pd.DataFrame, times_s: np.ndarray,
-                         low: float, high: float) -> tuple[float, float]:
-    """The 95 % upper bound on k (Hz/J) in drift = -k E, E the heat held (`held_heat_j` at
-    `times_s`), from the readings' drifts since the first, d_j = -k (E_j - E_0) + e_j with
-    u_j = sqrt(u(f_j)^2 + u(f_0)^2) (weighted least squares, k + 1.645 u(k)), within
-    [`low`, `high`], the tolerances' range, unless the readings resolve k above `high` (k -
-    1.645 u(k) > high: a plate beyond its tolerances, which the run itself shows); and the
-    fit's chi^2 (0 where the readings fit nothing: `high`)."""
+def _warming_scale(held_j: np.ndarray, readings: pd.DataFrame, times_s: np.ndarray,
+                   low: float, high: float) -> tuple[float, float, float]:
+    """k (Hz/J) in drift = -k (E - E_0), E the heat held (`held_heat_j` at `times_s`), its
+    standard uncertainty and the readings' chi^2 about their own fit (0 where they fit
+    nothing). The readings' drifts since the first, d_j = -k (E_j - E_0) + e_j with
+    u_j = sqrt(u(f_j)^2 + u(f_0)^2), fit k by weighted least squares, k_r = sum(w m (-d)) /
+    sum(w m^2), u(k_r)^2 = 1 / sum(w m^2) (w = 1 / u_j^2, m = E_j - E_0); the tolerances
+    state k within [`low`, `high`], a rectangle of mean k_t = (low + high) / 2 and u_t =
+    (high - low) / sqrt(12) (GUM 4.3.7). The two are weighed by their inverse variances (the
+    normal approximation of the rectangle: the readings' k where they resolve it, even
+    beyond the tolerances, the tolerances' middle where they resolve nothing), and where
+    they disagree beyond their u the combined u grows by the Birge ratio (the consistency
+    check of a weighted mean): the readings' own, sqrt(chi^2 / (n - 1)), and the two
+    sources', |k_r - k_t| / sqrt(u(k_r)^2 + u_t^2), where above 1. A broad top's re-centring
+    on the nine-column plate read its vertex 6 Hz off with u 1.3 Hz on a seeded bench, and
+    its run's k_r came out at a quarter of the plate's, 3.4 u from the tolerances' middle."""
+    prior_k, prior_u = 0.5 * (low + high), (high - low) / math.sqrt(12.0)
     at_j = np.interp(readings["time_s"].to_numpy(float), times_s, held_j)
     model = at_j[1:] - at_j[0]
     drift_hz = readings["frequency_hz"].to_numpy(float)[1:] - readings["frequency_hz"].iat[0]
     u_hz = np.hypot(readings["u_hz"].to_numpy(float)[1:], readings["u_hz"].iat[0])
     usable = (u_hz > 0) & (model > 0)
     if not usable.any():
-        return high, 0.0
+        return prior_k, prior_u, 0.0
     weight = 1.0 / u_hz[usable] ** 2
     information = float(np.sum(weight * model[usable] ** 2))
     scale = float(np.sum(weight * model[usable] * -drift_hz[usable])) / information
     chi2 = float(np.sum(weight * (drift_hz[usable] + scale * model[usable]) ** 2))
-    spread = ndtri(COVERAGE_PROBABILITY) / math.sqrt(information)
-    beyond = scale - spread > high
-    return float(scale + spread if beyond else np.clip(scale + spread, low, high)), chi2
+    if usable.sum() > 1:
+        information /= max(1.0, chi2 / (usable.sum() - 1))
+    combined = information + prior_u**-2
+    disagreement = abs(scale - prior_k) / math.sqrt(1.0 / information + prior_u**2)
+    return ((scale * information + prior_k * prior_u**-2) / combined, max(1.0, disagreement) / math.sqrt(combined),
+            chi2)
 
 
-def _warming_bounds(points: pd.DataFrame, searches: pd.DataFrame, closings: pd.DataFrame,
-                    dimensions: tuple[float, float, float, float]) -> tuple[np.ndarray, str]:
-    """Each point's bound on |drift| (Hz) from the plate's warming, for one run.
+def _warming_estimates(points: pd.DataFrame, searches: pd.DataFrame, closings: pd.DataFrame,
+                       dimensions: tuple[float, float, float, float]) -> DriftColumns:
+    """Each point's drift estimate and its u (Hz) from the plate's warming, for one run.
 
     The plate warms as one body (`plates.warming`): its resonance has fallen by k E(t), E the
     heat it holds from the run's stored powers (`_power_history`, cold at the run's first
     stored reading), k = f |alpha| / C. Its time constant tau and k lie within the heating
     tolerances' ranges (`warming.time_constant_range_s`, `warming.drift_per_joule_range_hz`);
-    the run's dated readings of its resonance (`_readings`) fit k at each tau, and the bound
-    is the largest k_95 E(t) over the taus the readings do not reject (`_warming_scale_bound`;
-    chi^2 within CHI2_95_ONE of its least). A plate whose readings resolve its drift is
-    bounded near it; one whose readings resolve nothing, at the tolerances' limits. The
-    room's drift since the first reading adds (`warming.room_drift_bound_hz`). A P0 or
-    closing row is read at its setting: the mounted plate's resonance is off it by the
-    setting's offset from the first reading (`folded_quantile` with that reading's u) and by
-    the drift, their sum bounding both."""
+    the run's dated readings of its resonance (`_readings`) fit k at each tau
+    (`_warming_scale`), and the taus they do not reject (chi^2 within CHI2_95_ONE of its
+    least) give the drift since the first reading, -k (E(t) - E(t_0)), each its own: the
+    estimate is the middle of their range, which enters its u as a rectangle, with the
+    largest of their scales' u times E (the warming's sign is known: the estimate is one, not
+    a bound). The room's drift since the first reading (`warming.room_drift_bound_hz`, sign
+    unknown) is a rectangle about 0. A plate whose readings resolve its drift is estimated
+    near it; one whose readings resolve nothing, at the tolerances' middle, with their spread.
+
+    A P0 or closing row is read at its setting s on the re-centred resonance, which the
+    mounted plate's is off by s - f_0 (f_0 the first reading): its estimate is that offset,
+    its u that of f_0 and of the row's own reading of the resonance it was set on (the
+    setting's offset from that reading in quadrature: P0 is set at the best reading, the
+    reading may be its readings' vertex), `uncertainty.power_ratio_budget` takes (offset /
+    h)^2."""
     times_s, power_w = _power_history(points, searches, closings)
     at_s = points["bench_time_s"].to_numpy(float)
     readings, _ = _readings(points, searches, closings)
     if len(times_s) < 2 or readings.empty or not np.all(np.isfinite(at_s)):
         return _drift_bounds(points, searches, closings)
-    frequency_hz = float(readings["frequency_hz"].iat[0])
+    frequency_hz, reference_s = float(readings["frequency_hz"].iat[0]), float(readings["time_s"].iat[0])
     low, high = warming.drift_per_joule_range_hz(frequency_hz, *dimensions)
     shortest, longest = warming.time_constant_range_s(*dimensions)
     fits = []
     for tau_s in np.geomspace(shortest, longest, TIME_CONSTANT_STEPS):
         held_j = warming.held_heat_j(times_s, power_w, tau_s)
-        scale, chi2 = _warming_scale_bound(held_j, readings, times_s, low, high)
-        fits.append((chi2, scale * np.interp(at_s, times_s, held_j)))
-    least = min(chi2 for chi2, _ in fits)
-    bound_hz = np.max([drift for chi2, drift in fits if chi2 <= least + CHI2_95_ONE], axis=0)
+        scale, scale_u, chi2 = _warming_scale(held_j, readings, times_s, low, high)
+        since_j = np.interp(at_s, times_s, held_j) - np.interp(reference_s, times_s, held_j)
+        fits.append((chi2, -scale * since_j, scale_u * np.abs(since_j)))
+    least = min(chi2 for chi2, _, _ in fits)
+    allowed = [(drift, drift_u) for chi2, drift, drift_u in fits if chi2 <= least + CHI2_95_ONE]
+    drifts = np.array([drift for drift, _ in allowed])
+    lowest, highest = drifts.min(axis=0), drifts.max(axis=0)
     setting_hz = points["generator_frequency_hz"].to_numpy(float)
-    bound_hz = bound_hz + warming.room_drift_bound_hz(setting_hz, at_s - times_s[0])
-    at_setting = points["detuning_phase"].isin(AT_SETTING).to_numpy() if "detuning_phase" in points else False
-    bound_hz = np.where(at_setting, bound_hz + folded_quantile(setting_hz - frequency_hz, readings["u_hz"].iat[0]),
-                        bound_hz)
-    return bound_hz, WARMING_SOURCE.format(n=len(times_s), tau_low=shortest, tau_high=longest,
-                                           readings=len(readings), low=low, high=high,
-                                           room=3600.0 * warming.ROOM_DRIFT_K_PER_S)
+    room_hz = warming.room_drift_bound_hz(setting_hz, at_s - reference_s)
+    estimate_hz = 0.5 * (lowest + highest)
+    u_hz = np.sqrt(np.max([drift_u for _, drift_u in allowed], axis=0) ** 2
+                   + ((highest - lowest) ** 2 / 4.0 + room_hz**2) / 3.0)
+    at_setting = points["detuning_phase"].isin(AT_SETTING).to_numpy() if "detuning_phase" in points else \
+        np.zeros(len(points), bool)
+    if at_setting.any():
+        best_u = best_reading_scatter_hz(float(setting_hz[0]), searches)
+        own, _ = _setting_readings(points[at_setting], best_u)
+        estimate_hz[at_setting] = setting_hz[at_setting] - frequency_hz
+        u_hz[at_setting] = np.sqrt(readings["u_hz"].iat[0] ** 2 + own["u_hz"].fillna(0.0).to_numpy() ** 2
+                                   + (setting_hz[at_setting] - own["frequency_hz"].to_numpy()) ** 2)
+    return estimate_hz, u_hz, np.zeros(len(points)), WARMING_SOURCE.format(
+        n=len(times_s), tau_low=shortest, tau_high=longest, readings=len(readings), low=low, high=high,
+        room=3600.0 * warming.ROOM_DRIFT_K_PER_S)

@@ -429,8 +429,9 @@ def detuning_table(run: RunData) -> pd.DataFrame:
     """Fig. 2 (Sec. 2.2): Pt / P0 per plate, velocity level and target velocity ratio,
     where P0 is the power at resonance (its own row has ratio 1) and Pt the power once v0
     is regained (or at the stress point), with the ratio's expanded uncertainty
-    (`uncertainty.power_ratio_budget`: the gains cancel, the CH2 delay does not) and the
-    name of its largest term. Unreachable targets stay as rows with status 'not reachable'."""
+    (`uncertainty.power_ratio_budget`: the gains cancel, the CH2 delay does not; the ratio
+    corrected for the resonance's estimated drift where it has a budget, so it is not
+    power_w / power_resonance_w, which are as read) and the name of its largest term. Unreachable targets stay as rows with status 'not reachable'."""
     from squeezebench.analysis import uncertainty   # see _expanded
 
     points = detuning_points(run)
@@ -455,7 +456,8 @@ def detuning_table(run: RunData) -> pd.DataFrame:
                              "voltage_vpp": float(target["piezo_voltage_setpoint_vpp"].mean()),
                              "power_w": power if reachable else math.nan,
                              "power_resonance_w": p0,
-                             "power_ratio": power / p0 if reachable and p0 > 0 else math.nan,
+                             "power_ratio": (budget.value if budget is not None else power / p0)
+                             if reachable and p0 > 0 else math.nan,
                              "power_ratio_U": math.nan if budget is None else budget.expanded_uncertainty,
                              "power_ratio_largest_term": "" if budget is None else budget.dominant.name,
                              "status": "measured" if reachable else NOT_REACHABLE})

@@ -196,20 +196,24 @@ def power_ratio_budget(numerator: pd.DataFrame, denominator: pd.DataFrame) -> Bu
     in the dielectric ones (V^(2+n)): dR/R = (S_a,t - S_a,0) a = n (d_t - d_0) a. Nor does the
     resonance's drift: a point read when the plate's resonance had moved by delta from where
     it was mounted reads the curve displaced, a frequency error -delta / f on the part that
-    follows it: |dR/R| <= (1 - d_t) 2 |s_t| B_t + (B_0 / h)^2, B the bound on |delta| at each
-    reading (`analysis.resonance_drift`: the plate's warming under the run's stored powers,
-    scaled by the run's dated readings of its resonance within the heating tolerances; from
-    the readings alone where no scene gives the plate), P_0 set on the re-centred resonance and on the flat top
-    (1 / h^2 = s_t^2 / (r^2 (1 - r^2)) at P_t's velocity ratio r), carried as a bias bound,
-    u(drift) = bound / 1.96 (`_resonance_drift_term`). The noise of each mean is its own (Type A):
+    follows it. Its sign is known (the plate warms under its drive, its resonance falls) and
+    the run estimates it (`analysis.resonance_drift`: the plate's warming under the run's
+    stored powers, scaled by the run's dated readings of its resonance within the heating
+    tolerances), so R is corrected for the estimate (GUM 3.2.4; `_resonance_drift`: Pt on
+    the slope by -(1 - d_t) 2 s_t delta_t, P0 set on the re-centred resonance and on the flat
+    top by (offset / h)^2, 1 / h^2 = s_t^2 / (r^2 (1 - r^2)) at P_t's velocity ratio r) and
+    the estimate's u is a normal term; where no scene gives the plate, the readings alone
+    bound it and that bound is a bias bound (`drift_terms`). The value is still the plate as
+    mounted at the recorded settings; the correction brings the reading to it. The noise of
+    each mean is its own (Type A):
     u(R)^2 / R^2 = u(P_t)^2 / P_t^2 + u(P_0)^2 / P_0^2 + (w_t Q'_t / P_t - w_0 Q'_0 / P_0)^2 u(tau)^2
                    + (S_e,t - S_e,0)^2 u(e)^2 + (S_a,t - S_a,0)^2 u(a)^2 + u(drift)^2 / R^2,
     with u(tau) the deskew's when the points were corrected, else the specified bound's.
-    Points without `resonance_drift_hz` get it from their own P0 rows (no search: a single
-    reading is the Type B rate). NaN terms when a point has no stored record to reduce."""
+    Points without `resonance_drift.DRIFT_COLUMNS` get them from their own P0 rows (no search:
+    a single reading is the Type B rate). NaN terms when a point has no stored record to reduce."""
     applied = Deskew.applied_in(numerator)
     slopes = _slopes_of(numerator, denominator)
-    if "resonance_drift_hz" not in numerator or "resonance_drift_hz" not in denominator:
+    if not all(column in points for points in (numerator, denominator) for column in resonance_drift.DRIFT_COLUMNS):
         both = resonance_drift.with_resonance_drift(pd.concat([numerator, denominator]))
         numerator, denominator = both.iloc[:len(numerator)], both.iloc[len(numerator):]
     parts, described = [], True
@@ -227,8 +231,8 @@ def power_ratio_budget(numerator: pd.DataFrame, denominator: pd.DataFrame) -> Bu
         described &= known or not np.any(slopes.loc[points.index].to_numpy(float))
         parts.append((power, noise / power, phase, lead, float(np.mean(to_frequency)), float(np.mean(to_amplitude))))
     (p_t, noise_t, phase_t, lead_t, pull_t, gain_t), (p_0, noise_0, phase_0, lead_0, pull_0, gain_0) = parts
-    ratio = p_t / p_0
-    drift = _resonance_drift_term(ratio, numerator, denominator, slopes)
+    correction, drift_rel, drift_bound_rel = _resonance_drift(numerator, denominator, slopes)
+    ratio = p_t / p_0 * correction
     delay = (delay_term(ratio * (phase_t - phase_0)) if applied is None else
              Term("CH2 delay after deskew", "B", abs(ratio * (phase_t - phase_0)) * applied.std_uncertainty_s,
                   applied.source))
@@ -238,60 +242,90 @@ def power_ratio_budget(numerator: pd.DataFrame, denominator: pd.DataFrame) -> Bu
         delay,
         _spec_term("voltage probe compensation (CH1 phase)", "voltage_probe_compensation", ratio * (lead_t - lead_0)),
         _generator_frequency_term(ratio * (pull_t - pull_0), described),
-        _spec_term("generator amplitude", "generator_amplitude", ratio * (gain_t - gain_0)), drift))
+        _spec_term("generator amplitude", "generator_amplitude", ratio * (gain_t - gain_0)),
+        *drift_terms(ratio * drift_bound_rel, ratio * drift_rel,
+                     pd.concat([numerator, denominator])["resonance_drift_source"], always=True)))
 
 
-def _resonance_drift_term(ratio: float, numerator: pd.DataFrame, denominator: pd.DataFrame,
-                          slopes: pd.Series) -> Term:
-    """The resonance's drift in R = P_t / P_0 (`power_ratio_budget`), a bias bound from each
-    point's `resonance_drift_hz` B (`analysis.resonance_drift`): on the slope the power moves by
-    `_power_drift_per_hz` B, on the flat top by (B / h)^2, 1 / h^2 = s_t^2 / (r^2 (1 - r^2))
-    the Lorentzian's curvature at P_t's ratio r."""
+def _resonance_drift(numerator: pd.DataFrame, denominator: pd.DataFrame,
+                     slopes: pd.Series) -> tuple[float, float, float]:
+    """The resonance's drift in R = P_t / P_0 (`power_ratio_budget`) from each point's
+    estimate e, its u and a bias bound B (`analysis.resonance_drift.DRIFT_COLUMNS`): the
+    factor that corrects R for the estimate (GUM 3.2.4), and the relative u and bias bound it
+    leaves. A point read when the resonance had moved by e reads the curve displaced by e: on
+    the slope ln P moves by -D e, D = `_power_per_resonance_hz` (signed); on the flat top (a
+    P0, whose e is its setting's offset from the mounted plate's resonance, the reading on
+    the re-centred peak) by (e / h)^2, 1 / h^2 = s_t^2 / (r^2 (1 - r^2)) the Lorentzian's
+    curvature at P_t's ratio r. R read = R (1 + d_t) / (1 + d_0), so the stored value is
+    R read (1 + d_0) / (1 + d_t). u: |D| u on the slope, sqrt(4 e^2 u^2 + 2 u^4) / h^2 on the
+    top (the variance of a squared normal); B: |D| B and (B^2 + 2 |e| B) / h^2. A phase's
+    points (one drift, the same plate) average: their terms add linearly."""
     slope_t = slopes.loc[numerator.index].to_numpy(float)
     ratio_t = numerator["target_velocity_ratio"].to_numpy(float) if "target_velocity_ratio" in numerator else \
         np.full(len(numerator), np.nan)
     inside = (ratio_t > 0) & (ratio_t < 1)
     curvature = float(np.mean(np.where(inside, slope_t**2 / np.where(inside, ratio_t**2 * (1 - ratio_t**2), 1.0),
                                        0.0)))
-    bound_rel = 0.0
+    shifts, u_rel, bound_rel = [], 0.0, 0.0
     for points in (numerator, denominator):
         slope = slopes.loc[points.index].to_numpy(float)
-        drift_hz = points["resonance_drift_hz"].to_numpy(float)
-        bound_rel += float(np.mean(_power_drift_per_hz(points, slope) * drift_hz
-                                   + np.where(slope == 0, curvature * drift_hz**2, 0.0)))
-    return drift_term(ratio * bound_rel, pd.concat([numerator, denominator])["resonance_drift_source"])
+        drift_hz, drift_u_hz, drift_bound_hz = (points[c].to_numpy(float) for c in resonance_drift.DRIFT_COLUMNS)
+        per_hz = _power_per_resonance_hz(points, slope)
+        top = np.where(slope == 0, curvature, 0.0)
+        shifts.append(float(np.mean(-per_hz * drift_hz + top * drift_hz**2)))
+        u_rel = math.hypot(u_rel, float(np.mean(np.abs(per_hz) * drift_u_hz
+                                                + top * np.sqrt(4 * drift_hz**2 * drift_u_hz**2 + 2 * drift_u_hz**4))))
+        bound_rel += float(np.mean(np.abs(per_hz) * drift_bound_hz
+                                   + top * (drift_bound_hz**2 + 2 * np.abs(drift_hz) * drift_bound_hz)))
+    return (1.0 + shifts[1]) / (1.0 + shifts[0]), u_rel, bound_rel
 
 
 #: The name of the resonance's drift in a budget.
 DRIFT_TERM = "resonance drift (plate warming, room)"
+#: Its estimate's u where the estimate itself is carried beside it as a bias (a stored point's value, not corrected).
+DRIFT_U_TERM = "resonance drift's estimate (its u)"
 
 
-def drift_term(bound: float, sources) -> Term:
-    """The resonance's drift in a budget: a bias bound (`budgets.Term.bias`: one-sided, the
-    plate warms under drive; U holds any drift within it, not a spread about zero in
-    quadrature), Type A when every bound came from the run's own readings (`analysis.resonance_drift`)."""
+def drift_terms(bias_bound: float, std_uncertainty: float, sources, always: bool = False) -> tuple[Term, ...]:
+    """The resonance's drift in a budget: a bias bound where the value carries drift it was
+    not corrected for (`budgets.Term.bias`: the warming's estimate a stored point keeps, or
+    the readings' bound where the run gives no estimate; U holds any drift within it, not a
+    spread about zero in quadrature), and the estimate's standard uncertainty as a normal
+    term (`analysis.resonance_drift`: the fit's, the time constants' and the room's). Type A
+    when every value came from the run's own readings. Named DRIFT_TERM, the u DRIFT_U_TERM
+    beside a bias; `always`: a zero term where the run shows no drift."""
     sources = list(dict.fromkeys(sources))
-    return Term(DRIFT_TERM, "A" if all(s.startswith("Type A") for s in sources) else "B",
-                abs(bound) / P95_FACTOR, "bias bound (k u = bound): " + "; ".join(sources), bias=True)
+    kind = "A" if all(s.startswith("Type A") for s in sources) else "B"
+    terms = []
+    if bias_bound:
+        terms.append(Term(DRIFT_TERM, kind, abs(bias_bound) / P95_FACTOR,
+                          "bias bound (k u = bound): " + "; ".join(sources), bias=True))
+    if std_uncertainty or (always and not terms):
+        terms.append(Term(DRIFT_U_TERM if terms else DRIFT_TERM, kind, abs(std_uncertainty),
+                          "estimate's u, normal: " + "; ".join(sources), rectangular=False))
+    return tuple(terms)
 
 
-def _power_drift_per_hz(points: pd.DataFrame | dict, slope) -> np.ndarray:
-    """|d ln P / d f0| of each point's power: the resonant part's 2 s (the dielectric share d
-    and the shunt's capacitive one d_C do not follow the resonance) and the shunt's cross
-    term's 2 s + 1 / (f - f0) (`generator_sensitivities`)."""
+def _power_per_resonance_hz(points: pd.DataFrame | dict, slope) -> np.ndarray:
+    """d ln P / d f of each point's power along the part that follows the resonance (signed:
+    a resonance moved by e moves ln P by minus this times e): the resonant part's 2 s (the
+    dielectric share d and the shunt's capacitive one d_C do not follow the resonance) and
+    the shunt's cross term's 1 / (f - f0) (`generator_sensitivities`)."""
     share, _, _ = _dielectric_share(points)
     shunt = _shunt_shares(points)
-    return np.abs((1.0 - share - shunt["shunt_share"]) * 2.0 * np.asarray(slope, dtype=float)
-                  + shunt["cross_share"] * (shunt["cross_exponent"] - 1.0)
-                  / np.asarray(points["frequency_hz"], dtype=float))
+    return ((1.0 - share - shunt["shunt_share"]) * 2.0 * np.asarray(slope, dtype=float)
+            + shunt["cross_share"] * (shunt["cross_exponent"] - 1.0) / np.asarray(points["frequency_hz"], dtype=float))
 
 
 def _point_drift_terms(point: dict, value: float, per_hz: float) -> tuple[Term, ...]:
-    """A stored point's drift term (none where it carries no estimate): `per_hz` |d ln / d f0|."""
+    """A stored point's drift terms (none where it carries no estimate): `per_hz` |d ln / d f0|.
+    A stored value is not corrected for the drift: its estimate is a bias (`drift_terms`)."""
     drift_hz = point.get("resonance_drift_hz")
     if not isinstance(drift_hz, (int, float)) or not math.isfinite(drift_hz):
         return ()
-    return (drift_term(value * per_hz * drift_hz, [point["resonance_drift_source"]]),)
+    scale = abs(value * per_hz)
+    return drift_terms(scale * (abs(drift_hz) + point.get("resonance_drift_bound_hz", 0.0)),
+                       scale * point.get("resonance_drift_u_hz", 0.0), [point["resonance_drift_source"]])
 
 
 def _slopes_of(numerator: pd.DataFrame, denominator: pd.DataFrame) -> pd.Series:
@@ -336,7 +370,7 @@ def power_budget(point: dict, deskew: Deskew | None = None) -> Budget:
 def _power_drift_terms(point: dict) -> tuple[Term, ...]:
     """A stored power's resonance-drift term (`_point_drift_terms`)."""
     one = {key: [point.get(key, math.nan)] for key in ("power_w", "frequency_hz", *_SHARE_COLUMNS)}
-    per_hz = float(_power_drift_per_hz(one, [point.get("detuning_slope_per_hz", 0.0)])[0])
+    per_hz = abs(float(_power_per_resonance_hz(one, [point.get("detuning_slope_per_hz", 0.0)])[0]))
     return _point_drift_terms(point, float(point["power_w"]), per_hz)
 
 
