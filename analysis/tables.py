@@ -431,7 +431,8 @@ def detuning_table(run: RunData) -> pd.DataFrame:
     is regained (or at the stress point), with the ratio's expanded uncertainty
     (`uncertainty.power_ratio_budget`: the gains cancel, the CH2 delay does not; the ratio
     corrected for the resonance's estimated drift where it has a budget, so it is not
-    power_w / power_resonance_w, which are as read) and the name of its largest term. Unreachable targets stay as rows with status 'not reachable'."""
+    power_w / power_resonance_w, which are as read) and the name of its largest term.
+    Unreachable targets stay as rows with status 'not reachable'."""
     from squeezebench.analysis import uncertainty   # see _expanded
 
     points = detuning_points(run)
