@@ -173,9 +173,10 @@ def folded_quantile(offset_hz, u_hz, probability: float = COVERAGE_PROBABILITY) 
 
 
 def _readings(points: pd.DataFrame, searches: pd.DataFrame,
-              closings: pd.DataFrame) -> tuple[pd.DataFrame, bool]:
+              closings: pd.DataFrame) -> tuple[pd.DataFrame, bool, float]:
     """The run's dated readings of its resonance (time_s, frequency_hz, u_hz), in time order,
-    and whether its re-centrings were recorded as such."""
+    whether its re-centrings were recorded as such, and the u of a best reading on its flat
+    top they were read with (`best_reading_scatter_hz`)."""
     best_u = best_reading_scatter_hz(float(points["generator_frequency_hz"].iloc[0]), searches)
     rows = []
     if "sweep" in searches:
@@ -193,7 +194,7 @@ def _readings(points: pd.DataFrame, searches: pd.DataFrame,
     readings = pd.DataFrame(rows, columns=["time_s", "frequency_hz", "u_hz", "power_w"], dtype=float)
     readings = readings[np.isfinite(readings["time_s"]) & np.isfinite(readings["frequency_hz"])]
     readings["u_hz"] = readings["u_hz"].fillna(0.0)   # a scatter the search cannot tell: the estimate alone
-    return readings.sort_values("time_s", kind="stable").reset_index(drop=True), tracked
+    return readings.sort_values("time_s", kind="stable").reset_index(drop=True), tracked, best_u
 
 
 def _setting_readings(at_resonance: pd.DataFrame, best_u: float) -> tuple[pd.DataFrame, bool]:
@@ -239,7 +240,7 @@ def _rate_after(readings: pd.DataFrame) -> tuple[float, float]:
 def _drift_bounds(points: pd.DataFrame, searches: pd.DataFrame, closings: pd.DataFrame) -> DriftColumns:
     """Each point's bound on |drift| (Hz), for one run, from its readings alone: no estimate
     (0, its u 0), the bound `resonance_drift_bound_hz`, and the source of the bounds."""
-    readings, tracked = _readings(points, searches, closings)
+    readings, tracked, _ = _readings(points, searches, closings)
     at_s = points["bench_time_s"].to_numpy(float)
     nothing = np.zeros(len(points))
     if readings.empty or not np.all(np.isfinite(at_s)):
@@ -376,7 +377,7 @@ def _warming_estimates(points: pd.DataFrame, searches: pd.DataFrame, closings: p
     h)^2."""
     times_s, power_w = _power_history(points, searches, closings)
     at_s = points["bench_time_s"].to_numpy(float)
-    readings, _ = _readings(points, searches, closings)
+    readings, _, best_u = _readings(points, searches, closings)
     if len(times_s) < 2 or readings.empty or not np.all(np.isfinite(at_s)):
         return _drift_bounds(points, searches, closings)
     frequency_hz, reference_s = float(readings["frequency_hz"].iat[0]), float(readings["time_s"].iat[0])
@@ -400,7 +401,6 @@ def _warming_estimates(points: pd.DataFrame, searches: pd.DataFrame, closings: p
     at_setting = points["detuning_phase"].isin(AT_SETTING).to_numpy() if "detuning_phase" in points else \
         np.zeros(len(points), bool)
     if at_setting.any():
-        best_u = best_reading_scatter_hz(float(setting_hz[0]), searches)
         own, _ = _setting_readings(points[at_setting], best_u)
         estimate_hz[at_setting] = setting_hz[at_setting] - frequency_hz
         u_hz[at_setting] = np.sqrt(readings["u_hz"].iat[0] ** 2 + own["u_hz"].fillna(0.0).to_numpy() ** 2
