@@ -17,6 +17,7 @@ the phasors, and every name says pp or amplitude.
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass, field, replace
 
@@ -446,9 +447,10 @@ class SteadyState:
         """Real power measured at the amplifier output (includes a series shunt)."""
         return _real_power_w(self.output_voltage_phasors_v, self.current_phasors_a)
 
-    @property
+    @functools.cached_property
     def plate_power_w(self) -> float:
-        """Real power dissipated in the plate itself (heats it)."""
+        """Real power dissipated in the plate itself (heats it). Kept: a warming plate asks
+        its steady state for it at every advance of the bench clock."""
         return _real_power_w(self.piezo_voltage_phasors_v, self.current_phasors_a)
 
     @property

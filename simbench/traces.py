@@ -99,15 +99,35 @@ def synthesize(steady: physics.SteadyState, times_s: np.ndarray,
     rotation = _rotation(omega, float(trigger_s), times_s)
     orders = steady.orders
     harmonics = rotation[None, :] if len(orders) == 1 else rotation[None, :] ** orders[:, None]
-    voltage = np.real(steady.output_voltage_phasors_v @ harmonics) + steady.output_dc_v
-    capacitive = np.real(steady.capacitive_current_phasors_a @ harmonics)
-    branch = np.real(steady.branch_velocity_phasors_mps @ harmonics)
+    branch = _real_part(steady.branch_velocity_phasors_mps, harmonics)
     if fundamentals is not None:
         steady_fundamental = steady.branch_velocity_phasors_mps[:, :1] * rotation[None, :]
         branch = branch + np.real(fundamentals * rotation[None, :] - steady_fundamental)
     forces = np.array([b.force_factor_n_per_v for b in steady.branches])
     visibility = np.array([b.visibility for b in steady.branches])
-    return np.stack([voltage, capacitive + forces @ branch, visibility @ branch])
+    signals = np.empty((3, times_s.size))
+    np.add(_real_part(steady.output_voltage_phasors_v, harmonics), steady.output_dc_v, out=signals[0])
+    np.add(_real_part(steady.capacitive_current_phasors_a, harmonics), _weighted(forces, branch), out=signals[1])
+    signals[2] = _weighted(visibility, branch)
+    return signals
+
+
+def _real_part(phasors: np.ndarray, harmonics: np.ndarray) -> np.ndarray:
+    """Re(phasors @ harmonics). With one order it is Re(X) Re(h) - Im(X) Im(h), worked out
+    alone: the numbers the complex product gives (one product per sample, no sum), at half
+    its cost (a screen's synthesis ran three of them)."""
+    if harmonics.shape[0] != 1:
+        return np.real(phasors @ harmonics)
+    phasor = phasors[..., :1]
+    real = phasor.real * harmonics.real
+    real -= phasor.imag * harmonics.imag
+    return real if phasors.ndim == 2 else real[0]
+
+
+def _weighted(weights: np.ndarray, rows: np.ndarray) -> np.ndarray:
+    """weights @ rows: with one row, its product by the weight (the same numbers; the
+    matrix product of one term costs twice as much)."""
+    return weights[0] * rows[0] if len(weights) == 1 else weights @ rows
 
 
 #: The steady signals of the last few drives and time bases (3 x 10,000 samples: 240 kB
