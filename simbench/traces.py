@@ -295,10 +295,13 @@ def screen(steady: physics.SteadyState, setup: ScopeSetup, sensor_gains: np.ndar
         for ch in np.flatnonzero(delays_s):
             signals[ch] = synthesize(steady, times - delays_s[ch], fundamentals)[ch]
     signals = signals * (sensor_gains * np.array([c.input_gain for c in setup.channels]))[:, None]
-    signals = pipeline.signals(signals, ctx)
-    channel_values = _couple(signals * ctx.display_gain[:, None], setup, steady.frequency_hz)
+    signals = pipeline.signals(signals, ctx)   # a new array (the effects keep none), so in place below
+    signals *= ctx.display_gain[:, None]
+    channel_values = _couple(signals, setup, steady.frequency_hz)
     position, scale, offset = _screen_placement(setup)
-    signal_div = (channel_values - offset) / scale + position
+    signal_div = channel_values - offset
+    signal_div /= scale
+    signal_div += position
     return Screen(setup, steady.frequency_hz, signal_div, pipeline.noise_div_rms(ctx), channel_values=channel_values)
 
 
