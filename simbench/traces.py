@@ -113,12 +113,15 @@ def synthesize(steady: physics.SteadyState, times_s: np.ndarray,
 
 
 def _real_part(phasors: np.ndarray, harmonics: np.ndarray) -> np.ndarray:
-    """Re(phasors @ harmonics). With one order it is Re(X) Re(h) - Im(X) Im(h), worked out
-    alone: the numbers the complex product gives (one product per sample, no sum), at half
-    its cost (a screen's synthesis ran three of them)."""
-    if harmonics.shape[0] != 1:
+    """Re(phasors @ harmonics). With one order and one row (a channel's phasor, or the one
+    branch) it is Re(X) Re(h) - Im(X) Im(h), worked out alone: the numbers the complex
+    product gives (one product per sample, no sum), at half its cost (a screen's synthesis
+    ran three). Several branches keep the complex product's real part, a strided view: on
+    it the sums over the branches (`_weighted`) run numpy's own loop, in the branches'
+    order, where a contiguous array would go to BLAS, which sums in another order."""
+    if harmonics.shape[0] != 1 or phasors.ndim == 2 and phasors.shape[0] != 1:
         return np.real(phasors @ harmonics)
-    phasor = phasors[..., :1]
+    phasor = complex(phasors.flat[0])
     real = phasor.real * harmonics.real
     real -= phasor.imag * harmonics.imag
     return real if phasors.ndim == 2 else real[0]

@@ -44,6 +44,41 @@ def test_a_kept_rotation_gives_what_computing_it_afresh_gives():
     assert np.allclose(kept[0], 7.0 / 5.0 * traces.synthesize(steady(29.9e3, 5.0), times_s)[0], rtol=1e-12, atol=0)
 
 
+@pytest.mark.parametrize("orders", [(1,), (1, 2, 3)])
+@pytest.mark.parametrize("branches", [1, 2, 3])
+@pytest.mark.parametrize("transient", [False, True])
+def test_a_synthesis_is_the_complex_products_real_part_bit_for_bit(orders, branches, transient):
+    """`synthesize` works out a one-order product's real part alone: the numbers taking the
+    real part of the complex product gives, for one plate mode or several (their sums in
+    the modes' order), in steady state or during a transient."""
+    rng = np.random.default_rng(branches * 10 + len(orders))
+
+    def phasors(*shape):
+        return rng.normal(size=shape) + 1j * rng.normal(size=shape)
+
+    modes = tuple(physics.MotionalBranch(frequency_hz=30e3 + 100 * k, q_mech=200.0, force_factor_n_per_v=rng.normal(),
+                                         resistance_ns_per_m=0.4, visibility=rng.uniform(-1, 1))
+                  for k in range(branches))
+    n_orders = len(orders)
+    state = physics.SteadyState(frequency_hz=30.05e3, orders=np.array(orders), output_voltage_phasors_v=10 * phasors(n_orders),
+                                output_dc_v=0.01, piezo_voltage_phasors_v=phasors(n_orders),
+                                capacitive_current_phasors_a=1e-3 * phasors(n_orders),
+                                branch_velocity_phasors_mps=0.1 * phasors(branches, n_orders), branches=modes)
+    times_s = SETUP.times_s().copy()
+    fundamentals = 0.1 * phasors(branches, times_s.size) if transient else None
+    omega = 2 * np.pi * state.frequency_hz
+    trigger_s = (-0.5 * np.pi - np.angle(state.output_voltage_phasors_v[0])) / omega
+    rotation = traces._uniform_rotation(omega, float(trigger_s), times_s)
+    harmonics = rotation[None, :] ** np.array(orders)[:, None]
+    branch = np.real(state.branch_velocity_phasors_mps @ harmonics)
+    if transient:
+        branch = branch + np.real(fundamentals * rotation - state.branch_velocity_phasors_mps[:, :1] * rotation)
+    forces, visibility = (np.array([getattr(m, name) for m in modes]) for name in ("force_factor_n_per_v", "visibility"))
+    expected = np.stack([np.real(state.output_voltage_phasors_v @ harmonics) + state.output_dc_v,
+                         np.real(state.capacitive_current_phasors_a @ harmonics) + forces @ branch, visibility @ branch])
+    assert np.array_equal(traces.synthesize(state, times_s, fundamentals), expected)
+
+
 @settings(max_examples=80, deadline=None)
 @given(n=st.integers(1, 20_000), frequency_hz=st.floats(100.0, 200e3), periods=st.floats(0.5, 50.0),
        trigger_s=st.floats(-1e-4, 1e-4), start=st.floats(-1.0, 0.0))
