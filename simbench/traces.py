@@ -128,8 +128,9 @@ def _real_part(phasors: np.ndarray, harmonics: np.ndarray) -> np.ndarray:
 
 
 def _weighted(weights: np.ndarray, rows: np.ndarray) -> np.ndarray:
-    """weights @ rows: with one row, its product by the weight (the same numbers; the
-    matrix product of one term costs twice as much)."""
+    """weights @ rows: with one row, its product by the weight (the same numbers, but that
+    a zero product keeps its sign where the matrix product's sum from 0 gave +0; the matrix
+    product of one term costs twice as much)."""
     return weights[0] * rows[0] if len(weights) == 1 else weights @ rows
 
 
