@@ -28,6 +28,7 @@ MM = 1e-3
 HALF_WAVE_TOLERANCE_MM = 1.0
 
 
+@functools.cache   # 7 ms of beam shape a call, and a map plan builds the large plate 25 times
 def half_wave_edge_gap_mm(length_mm: float, antinodes: int, piezo_x_mm: float) -> float:
     """The edge gap at which an end piezo `piezo_x_mm` long sits centred on the first half-wave
     from the free edge, between the first two nodal lines of the free-free beam mode of
