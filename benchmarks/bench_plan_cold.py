@@ -37,8 +37,11 @@ NOT_THE_PLAN = ("cache", "campaign")
 def cold_plan(python: str, target: float) -> tuple[float, str, dict]:
     """Wall seconds, the CPU and load line, and the plan (JSON) of one plan from an empty cache."""
     with tempfile.TemporaryDirectory(prefix="squeezebench-plan-cold-") as cache:
+        # PYTHONSAFEPATH: the checkout the command runs from (this one) is not first on
+        # sys.path, or another checkout's Python would take this one's squeezebench/ package
         elapsed_s, figures, out = command_output(["plan", "paper", "--target-rel-error", f"{target:g}", "--json"],
-                                                 {"SQUEEZEBENCH_CACHE": cache}, allowed=(0, 2), python=python)
+                                                 {"SQUEEZEBENCH_CACHE": cache, "PYTHONSAFEPATH": "1"},
+                                                 allowed=(0, 2), python=python)
     plan = json.loads(out)
     return elapsed_s, figures, {key: value for key, value in plan.items() if key not in NOT_THE_PLAN}
 
