@@ -15,6 +15,7 @@ from pathlib import Path
 from typing import Any, Callable
 
 from squeezebench import paths
+from squeezebench.lru import RecentlyUsed
 from squeezebench.yamlfiles import dump_yaml, load_strict
 
 #: Where the deskew calibration drives its resistor: a pure delay is the same at every
@@ -146,15 +147,29 @@ def scene_with_effects(scene: str | Path, out_dir: Path, effects: list, noise_se
     copy's `seed` (its reading noise's stream) is that: another bench is other readings, not
     the scene's one realisation of them again."""
     source = Path(scene) if Path(scene).is_absolute() else paths.scenes_dir() / scene
-    data = load_strict(source.read_text())
+    text = source.read_text()
+    # repr tells apart what the YAML would (1 and 1.0, a list and a tuple): one key, one text.
+    composed = _SCENES_WITH_EFFECTS.get((text, repr(effects), noise_seed),
+                                        lambda: _text_with_effects(text, effects, noise_seed))
+    Path(out_dir).mkdir(parents=True, exist_ok=True)
+    target = Path(out_dir) / source.name
+    target.write_text(composed)
+    return target
+
+
+#: Scene texts with a bench's effects, by (scene text, effects, noise seed): a study writes
+#: the same bench of the same scene for each configuration it measures there, and parsing
+#: and dumping the scene cost more than the rest of opening that bench's files.
+_SCENES_WITH_EFFECTS: RecentlyUsed[str] = RecentlyUsed(64)
+
+
+def _text_with_effects(text: str, effects: list, noise_seed: int | None) -> str:
+    data = load_strict(text)
     listed = {_effect_name(e) for e in data.get("effects", [])}
     data["effects"] = list(data.get("effects", [])) + [e for e in effects if _effect_name(e) not in listed]
     if noise_seed is not None:
         data["seed"] = int(noise_seed)
-    Path(out_dir).mkdir(parents=True, exist_ok=True)
-    target = Path(out_dir) / source.name
-    target.write_text(dump_yaml(data))
-    return target
+    return dump_yaml(data)
 
 
 def _effect_name(entry) -> str:
