@@ -39,6 +39,7 @@ from squeezebench.plates.specifications import (HEATING_NOMINAL, HEATING_TOLERAN
 #: The columns a run's readings need for the bound.
 HISTORY_COLUMNS = ("run_name", "plate", "bench_time_s", "scope_power_w")
 TERM = "plate warming since at rest"
+ROOM_TERM = "room drift since the run started"
 
 
 def warming_bound_k(history: pd.DataFrame, plate: str, at_s: float, length_m: float, width_m: float,
@@ -51,9 +52,7 @@ def warming_bound_k(history: pd.DataFrame, plate: str, at_s: float, length_m: fl
     power_w = np.where(on_plate, np.abs(rows["scope_power_w"].to_numpy(float)), 0.0)
     if on_plate.any():   # a reading without a power: the plate's largest, not none
         power_w = np.where(on_plate & ~np.isfinite(power_w), np.nanmax(np.where(on_plate, power_w, np.nan)), power_w)
-    # interval k runs from reading k - 1 to reading k; the first, as long as the next (a
-    # reading's own time): the rows store no run start, and their clock is the campaign's
-    first_s = times_s[0] - (times_s[1] - times_s[0] if len(times_s) > 1 else 0.0)
+    first_s = run_start_s(times_s)
     held_w = warming.held_powers_w(power_w)
     thin = 1.0 - sheet_thickness_tolerance(thickness_m)
     coolest = warming.thermal_plate(   # the least heat capacity and conductance: the warmest plate
@@ -70,6 +69,13 @@ def warming_bound_k(history: pd.DataFrame, plate: str, at_s: float, length_m: fl
         return 0.0
     held_w = np.concatenate([[0.0], held_w, [0.0]])
     return float(warming.temperature_rise_k(np.append(grid_s[:before], at_s), held_w[:before + 1], body)[-1])
+
+
+def run_start_s(times_s: np.ndarray) -> float:
+    """When a run's plate was last at rest, from its readings' sorted times: the first reading
+    took as long as the next (a reading's own time; the rows store no run start, and their
+    clock is the campaign's)."""
+    return float(times_s[0] - (times_s[1] - times_s[0] if len(times_s) > 1 else 0.0))
 
 
 def _tolerance(table: dict, key: str) -> float:
@@ -104,6 +110,24 @@ def plate_size_m(scene: dict, states=()) -> tuple[float, float, float] | None:
            if isinstance(declared.get(state), dict) and isinstance(declared[state].get("plate_length_mm"), (int, float))]
     sizes[0] = min([sizes[0], *cut])
     return tuple(size * 1e-3 for size in sizes)
+
+
+def search_room_term(history: pd.DataFrame, frequency_hz: float, at_s: float) -> Term | None:
+    """The room's drift since the run started (`run_start_s` of the run's readings, `history`)
+    until `at_s`: the plate follows the room, whose temperature moves by up to
+    `warming.ROOM_DRIFT_K_PER_S` t of a sign nothing here knows, and the resonance with it by
+    f |alpha| of that (`warming.room_drift_bound_hz`): a rectangle about zero (GUM 4.3.7),
+    as in the drift's estimate (`resonance_drift`). None where the run holds no dated reading."""
+    times_s = np.sort(history["bench_time_s"].to_numpy(float)) if "bench_time_s" in history else np.array([])
+    times_s = times_s[np.isfinite(times_s)]
+    if not len(times_s) or not math.isfinite(at_s):
+        return None
+    elapsed_s = at_s - run_start_s(times_s)
+    bound_hz = float(warming.room_drift_bound_hz(frequency_hz, elapsed_s))
+    return Term(ROOM_TERM, "B", bound_hz / math.sqrt(3.0),
+                f"the room's air drifting by up to {3600.0 * warming.ROOM_DRIFT_K_PER_S:g} K/h over the "
+                f"{elapsed_s:.0f} s since the run started, the plate following it: the resonance within "
+                f"+-{bound_hz:.2f} Hz (f |alpha|, alpha at its limit; sign unknown)", rectangular=True)
 
 
 def search_warming_term(history: pd.DataFrame, plate: str, scene: dict, frequency_hz: float, at_s: float) -> Term | None:

@@ -434,7 +434,10 @@ def search_budgets(rows: pd.DataFrame, setups: dict[str, SearchSetup], history: 
     bracket holds it. The generator's error moves the setting the search finds by -e f0.
     A plate warmer than at rest reads a resonance lower by |alpha| f dT: a bias bound
     (`plate_warming`), where a previous step drove the plate shortly before (Table 4's third
-    configuration) and, less, from the search's own readings on the peak.
+    configuration) and, less, from the search's own readings on the peak; and the room's
+    drift since the run started moves it by up to f |alpha| of the room's (a rectangle,
+    `plate_warming.search_room_term`): a search late in a run reads a plate the room has
+    moved.
     """
     budgets = []
     if rows.empty:   # a run that searched nothing stores none of the columns read below
@@ -468,11 +471,12 @@ def search_budgets(rows: pd.DataFrame, setups: dict[str, SearchSetup], history: 
             else:
                 terms += _best_reading_terms(found, rows.iloc[in_sweep], setup)
             if scene_files is not None and time_s is not None and in_sweep:
+                run_history = history[history["run_name"] == run_name]
+                read_s = plate_warming.top_readings_time_s(time_s[in_sweep], velocity[in_sweep])
                 warming = plate_warming.search_warming_term(
-                    history[history["run_name"] == run_name], found["plate"],
-                    (scenes or {}).get(scene_files.iloc[position], {}), frequency_hz,
-                    plate_warming.top_readings_time_s(time_s[in_sweep], velocity[in_sweep]))
-                terms += [warming] if warming is not None else []
+                    run_history, found["plate"], (scenes or {}).get(scene_files.iloc[position], {}), frequency_hz, read_s)
+                room = plate_warming.search_room_term(run_history, frequency_hz, read_s)
+                terms += [term for term in (warming, room) if term is not None]
             budgets.append((run_name, step_id, Budget("resonance_frequency_hz", "Hz", frequency_hz, tuple(terms))))
     return budgets
 

@@ -178,3 +178,24 @@ def test_a_plate_cut_shorter_is_bounded_at_its_shortest_length():
     uncut = warming.resonance_drift_bound_hz(37e3, plate_warming.warming_bound_k(history, "p", 20.0, 0.075,
                                                                                 0.041, 0.001))
     assert bounds[1] == pytest.approx(uncut * 75 / 28, rel=1e-9) and bounds[0] < bounds[1]
+
+
+def test_a_search_carries_the_rooms_drift_since_its_run_started():
+    """The room drifting by up to ROOM_DRIFT_K_PER_S moves the plate's resonance by up to
+    f |alpha| r t (alpha at its limit), t from the run's start (its first reading less that
+    reading's own time) to the search's top readings: a rectangle about zero of that
+    half-width, the same whenever the run started on the campaign's clock."""
+    rows, _ = _warm_plate_search((1.0,) * 5, 0.11, 45.0, peak_w=0.066)
+    sweep = rows[(rows["protocol"] == "resonance_search") & rows["sweep"].astype(bool)]
+    read_s = plate_warming.top_readings_time_s(sweep["bench_time_s"].to_numpy(float),
+                                               sweep["scope_velocity_pp_v"].to_numpy(float))
+    elapsed_s = read_s - (2 * rows["bench_time_s"].iat[0] - rows["bench_time_s"].iat[1])
+    for shift_s in (0.0, 3600.0):
+        budget = _budget(rows.assign(bench_time_s=rows["bench_time_s"] + shift_s))
+        (room,) = [t for t in budget.terms if t.name == plate_warming.ROOM_TERM]
+        alpha = abs(HEATING_NOMINAL["frequency_coefficient_per_k"]) * (
+            1 + HEATING_TOLERANCES["frequency_coefficient_per_k"].half_width)
+        assert room.is_rectangular and not room.bias
+        assert math.sqrt(3.0) * room.std_uncertainty == pytest.approx(
+            budget.value * alpha * warming.ROOM_DRIFT_K_PER_S * elapsed_s, rel=1e-9)
+    assert elapsed_s > 45.0   # the previous step's 45 s and the search's own readings
