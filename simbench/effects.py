@@ -140,7 +140,7 @@ class HeatingDrift(Effect):
     The room's air drifts at `room_drift_k_per_s` (K/s, constant over a run) and the plate
     follows it through the same lag: tau dT/dt = P R_th + r t - T, T the plate's temperature
     over the room's when the bench opened (the run's start), whose response to the ramp r t
-    is r (t - tau) once settled.
+    is r (t - tau) once settled; a plate mounted during the run has followed the room as well.
 
     With `draw: 1` (or 2) the parameters of `specifications.HEATING_TOLERANCES` are drawn
     once per plate and `bench_seed`, within their tolerances (or as the world errs,
@@ -186,6 +186,11 @@ class HeatingDrift(Effect):
 
     def attach(self, bench) -> None:
         self._bench = bench
+        # a plate mounted during the run sat in the same room since it began, at rest: it
+        # followed the room's ramp as a plate on the bench would, r (t - tau (1 - exp(-t / tau)))
+        now_s = bench.clock.now_s()
+        self.temperature_rise_k = self.parameters["room_drift_k_per_s"] * (
+            now_s - self.time_constant_s * -math.expm1(-now_s / self.time_constant_s))
         bench.clock.subscribe(self._advance)
 
     def detach(self, bench) -> None:

@@ -195,6 +195,13 @@ def test_the_room_drifting_moves_the_resonance_by_f_alpha_times_the_plates_lagge
     assert drifting.sim.truth().branches[0].frequency_hz == pytest.approx(
         F_HZ * (1.0 + alpha * heating.state_key()), rel=1e-12)
     assert abs(heating.state_key() - heating.temperature_rise_k) <= fx.TEMPERATURE_RESOLUTION_K / 2
+    # a plate mounted now (Fig. 5's next plate) sat in the same room: its own lag, not a cold start
+    drifting.sim.mount(scene_file(tmp_path, "small_plate_6.yaml",
+                                  effects=[{"heating_drift": {"room_drift_k_per_s": rate_k_per_s}}]))
+    mounted = drifting.sim.effects.get("heating_drift")
+    assert mounted.time_constant_s != pytest.approx(tau_s)
+    assert mounted.temperature_rise_k == pytest.approx(
+        rate_k_per_s * (now_s - mounted.time_constant_s * (1.0 - math.exp(-now_s / mounted.time_constant_s))), rel=1e-12)
 
 
 def test_a_coverage_bench_draws_its_rooms_drift_once_within_the_limit_the_budgets_claim(tmp_path):
