@@ -101,23 +101,27 @@ def _budget(rows: pd.DataFrame):
     return budget
 
 
-def test_the_warming_bound_holds_the_displacement_at_every_corner_of_the_constants():
+def test_the_warming_correction_leaves_every_corner_of_the_constants_within_its_rectangle():
     """Table 4's case, a search a few seconds after a step drove the plate at 0.11 W, and
-    a harder one (0.3 W for a minute): at every corner of the constants' tolerances the found
-    resonance is displaced from the cold plate's by no more than the term's bound, and by
-    more than the budget without it allows at the warmest."""
+    a harder one (0.3 W for a minute): at every corner of the constants' tolerances the
+    corrected resonance is off the cold plate's by no more than the term's half-width (its
+    rectangle holds the range the tolerances give), the warmest and the coolest corners
+    reach near either end, and the plate's displacement is more than the budget without the
+    term allows at the warmest."""
     for previous_w, previous_s in ((0.11, 45.0), (0.3, 60.0)):
-        displacements_hz, bounds_hz, others_hz = [], [], []
+        residuals_hz, halves_hz, displacements_hz, others_hz = [], [], [], []
         for factors in _corners():
             rows, cold_hz = _warm_plate_search(factors, previous_w, previous_s, peak_w=0.066)
             budget = _budget(rows)
             (term,) = [t for t in budget.terms if t.name == plate_warming.TERM]
-            displacements_hz.append(cold_hz - budget.value)
-            bounds_hz.append(term.bound)
+            assert term.is_rectangular and not term.bias
+            residuals_hz.append(cold_hz - budget.value)
+            halves_hz.append(math.sqrt(3.0) * term.std_uncertainty)
+            displacements_hz.append(cold_hz - rows["resonance_frequency_hz"].iat[-1])
             others_hz.append(budget.coverage_factor * math.sqrt(budget.std_uncertainty**2 - term.std_uncertainty**2))
         assert min(displacements_hz) > 0   # warmer, lower
-        assert all(d <= b for d, b in zip(displacements_hz, bounds_hz))
-        assert max(displacements_hz) > 0.5 * max(bounds_hz)   # a bound, not a multiple of the effect
+        assert all(abs(r) <= h for r, h in zip(residuals_hz, halves_hz))
+        assert max(residuals_hz) > 0.5 * max(halves_hz) and min(residuals_hz) < -0.5 * max(halves_hz)
         assert max(displacements_hz) > max(others_hz)
 
 
@@ -130,15 +134,16 @@ def test_the_bound_is_the_same_whenever_the_run_started_on_the_campaigns_clock()
 
 
 def test_a_search_on_a_plate_at_rest_reads_only_its_own_warming():
-    """Nothing before the search: the bound is the search's own readings' warming, a
-    fraction of the generator's term; another plate's powers do not count."""
+    """Nothing before the search: the correction and its term are the search's own readings'
+    warming, a fraction of the generator's term; another plate's powers do not count."""
     rows, cold_hz = _warm_plate_search((1.0,) * 5, 0.0, 1.0, peak_w=0.02)
     other = rows.iloc[[0]].assign(plate="another", scope_power_w=5.0, bench_time_s=0.5)
     budget = _budget(pd.concat([other, rows], ignore_index=True))
     term = next(t for t in budget.terms if t.name == plate_warming.TERM)
     generator = next(t for t in budget.terms if t.name == "generator frequency")
-    assert 0.0 < term.bound < generator.std_uncertainty
-    assert cold_hz - budget.value <= term.bound
+    correction_hz = budget.value - rows["resonance_frequency_hz"].iat[-1]
+    assert 0.0 < term.std_uncertainty < correction_hz < generator.std_uncertainty
+    assert abs(cold_hz - budget.value) <= budget.expanded_uncertainty
 
 
 def test_the_warm_searchs_budget_covers_the_cold_plate_with_the_generator_erring_within_its_specification():
@@ -174,7 +179,10 @@ def test_a_plate_cut_shorter_is_bounded_at_its_shortest_length():
     assert plate_warming.plate_size_m(scene, ["75x41", "28x41", "other", "unknown"])[0] == 0.028
     history = pd.DataFrame({"run_name": "cut", "plate": "p", "bench_time_s": [10.0, 20.0], "scope_power_w": 0.05,
                             "scene_state": ["75x41", "28x41"]})
-    bounds = [plate_warming.search_warming_term(history, "p", scene, 37e3, at_s).bound for at_s in (10.0, 20.0)]
+    bounds = []
+    for at_s in (10.0, 20.0):
+        correction_hz, term = plate_warming.search_warming_term(history, "p", scene, 37e3, at_s)
+        bounds.append(correction_hz + math.sqrt(3.0) * term.std_uncertainty)   # the range's warmest end
     uncut = warming.resonance_drift_bound_hz(37e3, plate_warming.warming_bound_k(history, "p", 20.0, 0.075,
                                                                                 0.041, 0.001))
     assert bounds[1] == pytest.approx(uncut * 75 / 28, rel=1e-9) and bounds[0] < bounds[1]
@@ -197,5 +205,23 @@ def test_a_search_carries_the_rooms_drift_since_its_run_started():
             1 + HEATING_TOLERANCES["frequency_coefficient_per_k"].half_width)
         assert room.is_rectangular and not room.bias
         assert math.sqrt(3.0) * room.std_uncertainty == pytest.approx(
-            budget.value * alpha * warming.ROOM_DRIFT_K_PER_S * elapsed_s, rel=1e-9)
+            rows["resonance_frequency_hz"].iat[-1] * alpha * warming.ROOM_DRIFT_K_PER_S * elapsed_s, rel=1e-9)
     assert elapsed_s > 45.0   # the previous step's 45 s and the search's own readings
+
+
+def test_the_warmings_range_is_the_lumped_bodys_step_response_at_either_end_of_the_tolerances():
+    """A plate held at 0.2 W from its run's start (readings every 2 s): the least rise is
+    P tau / C (1 - exp(-t / tau)) with the heat capacity at its upper end and the time
+    constant at its lower (convection at its upper), the largest with the opposite ends."""
+    times_s = np.arange(2.0, 62.0, 2.0)
+    history = pd.DataFrame({"run_name": "r", "plate": "p", "bench_time_s": times_s, "scope_power_w": 0.2})
+    least_k, largest_k = plate_warming.warming_range_k(history, "p", times_s[-1], LENGTH_M, WIDTH_M, THICKNESS_M)
+    tolerances = {"c": HEATING_TOLERANCES["specific_heat_j_per_kg_k"].half_width,
+                  "rho": MODEL_TOLERANCES["density_kg_m3"].half_width, "h": sheet_thickness_tolerance(THICKNESS_M),
+                  "convection": HEATING_TOLERANCES["convection_w_per_m2_k"].half_width}
+    for rise_k, sign in ((least_k, 1.0), (largest_k, -1.0)):
+        capacity = _body(*(1.0 + sign * tolerances[key] for key in ("c", "rho", "h")), 1.0).heat_capacity_j_per_k
+        tau_s = _body(*(1.0 - sign * tolerances[key] for key in ("c", "rho", "h")),
+                      1.0 + sign * tolerances["convection"]).time_constant_s
+        assert rise_k == pytest.approx(0.2 * tau_s / capacity * -math.expm1(-times_s[-1] / tau_s), rel=1e-9)
+    assert 0.0 < least_k < largest_k
