@@ -6,28 +6,29 @@ A search states the resonance of the plate as mounted, at rest at the room's tem
 4's third configuration is searched on the plate its second just drove at 24 V pp, a minute
 later) or by the search's own readings on the peak is warmer, and its resonance lower by
 |alpha| f dT (`plates.warming`). Nothing in a search's readings tells that displacement from
-the resonance itself; its sign is known, and its size lies within the range the heating
-tolerances give: a known systematic effect, corrected (GUM 3.2.4) by the middle of that
-range, which enters the budget as a rectangle (GUM 4.3.7), as Fig. 2's drift estimate does
-where its readings resolve nothing (`resonance_drift`). It was a bias bound at the range's
-warmest end: U then held a plate at its warmest constants, and the searches of benches
-within specification, whose plates warm by 20 to 35 % of that, were covered 97.6 % of the
-time (their budgets claim 95.5 % at the bound, 98.9 % at a quarter of it).
+the resonance itself; its sign is known, and its size follows from the run's powers and the
+heating constants, whose tolerances are stated: a known systematic effect, corrected (GUM
+3.2.4) by its estimate with the inputs at their best estimates (GUM 4.1.4), its u from each
+input's tolerance read as a rectangle (GUM 4.3.7). It was a bias bound at the warmest end of
+every tolerance at once: U then held a plate at its warmest constants, where the specified
+benches' plates warm by 20 to 35 % of that, and the searches of benches within specification
+were covered 97.6 % of the time (their budgets claim 95.5 % at the bound, 98.9 % at a quarter
+of it). The middle of the range the tolerances span at once was tried and left: it sits above
+what a plate with each constant anywhere within its tolerance gives, and the corrected
+searches read high on the warming steps (+0.3 to +0.5 U on average, 20 benches).
 
-The range is the energy balance of `plates.warming`'s lumped body over the run's stored
+The estimate is the energy balance of `plates.warming`'s lumped body over the run's stored
 readings on the plate (every protocol's: sweeps, points, re-centrings), each interval
-between two readings of the run dissipating between the smaller and the larger |power| the
-scope read at its ends on this plate (the drive holds one reading's setting until the
-next's), the plate at rest before the run's first reading (which took as long as the next:
-the rows' clock is the campaign's), evaluated at the mean time of the readings on the
-peak's top the search read its resonance from (as a re-centring's vertex is dated,
-`resonance_drift`). Its warmest end takes each constant at the end of its tolerance that
-warms the plate most: |alpha| at its upper limit, the heat capacity at its lower (specific
-heat, density, sheet thickness; the piezos' and bond's own left out, which only cool it),
-the time constant at its upper (convection at its lower limit, the heat capacity at its
-upper), a cut plate at its shortest length; its coolest end the opposite ends, the plate
-at its scene's length. A plate driven in an earlier run is at rest when the next starts:
-each run's readings are timed by its own clock.
+between two readings of the run dissipating the mean of the |powers| the scope read at its
+ends on this plate (the drive holds one reading's setting until the next's: between them),
+the plate at rest before the run's first reading (which took as long as the next: the rows'
+clock is the campaign's), evaluated at the mean time of the readings on the peak's top the
+search read its resonance from (as a re-centring's vertex is dated, `resonance_drift`). Its
+u: |alpha| within +-30 %, the heat capacity (sheet thickness, density, specific heat at their
+limits together), the convection, the intervals' powers at the smaller or the larger of their
+ends, and, for a plate cut during the run, its length between the cut's and the scene's. A
+plate driven in an earlier run is at rest when the next starts: each run's readings are
+timed by its own clock.
 """
 
 from __future__ import annotations
@@ -50,49 +51,56 @@ TERM = "plate warming since at rest"
 ROOM_TERM = "room drift since the run started"
 
 
-def warming_bound_k(history: pd.DataFrame, plate: str, at_s: float, length_m: float, width_m: float,
-                    thickness_m: float) -> float:
-    """The largest temperature rise of `plate` at `at_s` the run's readings (`history`: one
-    run's HISTORY_COLUMNS) allow, its constants at their warmest ends (module docstring)."""
-    return warming_range_k(history, plate, at_s, length_m, width_m, thickness_m)[1]
+def warming_estimate_k(history: pd.DataFrame, plate: str, at_s: float, length_m: float, width_m: float,
+                       thickness_m: float) -> tuple[float, list[float]]:
+    """The temperature rise of `plate` at `at_s` with its constants at their nominal values and
+    each interval at the mean of the powers read at its ends (the inputs' best estimates, GUM
+    4.1.4), and the half-widths of the rise's rectangles (GUM 4.3.7, 5.1.3) as each input
+    alone runs over its tolerance: the capacity's (sheet thickness, density, specific heat:
+    C and tau together), the convection's (tau) and the intervals' powers (the smaller and the
+    larger of their ends)."""
+    times_s, power_w = _plate_powers(history, plate)
+    mean_w = 0.5 * (warming.held_powers_w(power_w, np.minimum) + warming.held_powers_w(power_w))
+
+    def rise(capacity: float = 0.0, convection: float = 0.0, held_w: np.ndarray = mean_w) -> float:
+        return _rise_at_k(times_s, held_w, at_s, _body(length_m, width_m, thickness_m, capacity, convection))
+
+    halves = [0.5 * abs(rise(capacity=1.0) - rise(capacity=-1.0)), 0.5 * abs(rise(convection=1.0) - rise(convection=-1.0)),
+              0.5 * (rise(held_w=warming.held_powers_w(power_w)) - rise(held_w=warming.held_powers_w(power_w, np.minimum)))]
+    return rise(), halves
 
 
-def warming_range_k(history: pd.DataFrame, plate: str, at_s: float, length_m: float, width_m: float,
-                    thickness_m: float) -> tuple[float, float]:
-    """The least and the largest temperature rise of `plate` at `at_s` the run's readings
-    (`history`: one run's HISTORY_COLUMNS) allow: each interval at the smaller or the larger
-    power read at its ends (`warming.held_powers_w`), the heat capacity at its upper or lower
-    end and the time constant at its lower or upper end (module docstring)."""
+def _plate_powers(history: pd.DataFrame, plate: str) -> tuple[np.ndarray, np.ndarray]:
+    """The run's readings' sorted times and the |power| each read on `plate` (0 on another; a
+    reading without a power, the plate's largest)."""
     rows = history.sort_values("bench_time_s", kind="stable")
-    times_s = rows["bench_time_s"].to_numpy(float)
     on_plate = (rows["plate"] == plate).to_numpy()
     power_w = np.where(on_plate, np.abs(rows["scope_power_w"].to_numpy(float)), 0.0)
-    if on_plate.any():   # a reading without a power: the plate's largest, not none
+    if on_plate.any():
         power_w = np.where(on_plate & ~np.isfinite(power_w), np.nanmax(np.where(on_plate, power_w, np.nan)), power_w)
-    first_s = run_start_s(times_s)
-    thin = 1.0 - sheet_thickness_tolerance(thickness_m)
-    coolest = warming.thermal_plate(   # the least heat capacity and conductance: the warmest plate
-        length_m * 1e3, width_m * 1e3, thickness_m * thin * 1e3,
-        ALUMINIUM_TABLE2.density_kg_m3 * (1.0 - _tolerance(MODEL_TOLERANCES, "density_kg_m3")),
-        HEATING_NOMINAL["specific_heat_j_per_kg_k"] * (1.0 - _tolerance(HEATING_TOLERANCES, "specific_heat_j_per_kg_k")),
-        HEATING_NOMINAL["convection_w_per_m2_k"] * (1.0 - _tolerance(HEATING_TOLERANCES, "convection_w_per_m2_k")))
-    span = _capacity_span(thickness_m)
-    least_c, largest_c = coolest.heat_capacity_j_per_k, coolest.heat_capacity_j_per_k * span
-    conductance_span = (1.0 + _tolerance(HEATING_TOLERANCES, "convection_w_per_m2_k")) / (
-        1.0 - _tolerance(HEATING_TOLERANCES, "convection_w_per_m2_k"))
-    slowest_s = largest_c / coolest.conductance_w_per_k
-    fastest_s = least_c / (coolest.conductance_w_per_k * conductance_span)
-    bodies = (warming.ThermalPlate(largest_c, largest_c / fastest_s), warming.ThermalPlate(least_c, least_c / slowest_s))
-    # the rise at at_s: the intervals before it, the one holding it cut there, none after
-    grid_s = np.concatenate([[first_s], times_s])
+    return rows["bench_time_s"].to_numpy(float), power_w
+
+
+def _body(length_m: float, width_m: float, thickness_m: float, capacity: float, convection: float) -> warming.ThermalPlate:
+    """The plate's lumped body with its heat capacity's inputs (sheet thickness, density,
+    specific heat) at `capacity` times their tolerances from nominal and its convection at
+    `convection` times its own (-1, 0 or 1)."""
+    return warming.thermal_plate(
+        length_m * 1e3, width_m * 1e3, thickness_m * (1.0 + capacity * sheet_thickness_tolerance(thickness_m)) * 1e3,
+        ALUMINIUM_TABLE2.density_kg_m3 * (1.0 + capacity * _tolerance(MODEL_TOLERANCES, "density_kg_m3")),
+        HEATING_NOMINAL["specific_heat_j_per_kg_k"] * (1.0 + capacity * _tolerance(HEATING_TOLERANCES, "specific_heat_j_per_kg_k")),
+        HEATING_NOMINAL["convection_w_per_m2_k"] * (1.0 + convection * _tolerance(HEATING_TOLERANCES, "convection_w_per_m2_k")))
+
+
+def _rise_at_k(times_s: np.ndarray, held_w: np.ndarray, at_s: float, body: warming.ThermalPlate) -> float:
+    """The body's rise at `at_s` under the run's held powers, at rest before the run's first
+    reading: the intervals before `at_s`, the one holding it cut there, none after."""
+    grid_s = np.concatenate([[run_start_s(times_s)], times_s])
     before = int(np.searchsorted(grid_s, at_s))
     if before == 0:
-        return 0.0, 0.0
-    rises = []
-    for body, held_w in zip(bodies, (warming.held_powers_w(power_w, np.minimum), warming.held_powers_w(power_w))):
-        held_w = np.concatenate([[0.0], held_w, [0.0]])
-        rises.append(float(warming.temperature_rise_k(np.append(grid_s[:before], at_s), held_w[:before + 1], body)[-1]))
-    return rises[0], rises[1]
+        return 0.0
+    held_w = np.concatenate([[0.0], held_w, [0.0]])
+    return float(warming.temperature_rise_k(np.append(grid_s[:before], at_s), held_w[:before + 1], body)[-1])
 
 
 def run_start_s(times_s: np.ndarray) -> float:
@@ -104,13 +112,6 @@ def run_start_s(times_s: np.ndarray) -> float:
 
 def _tolerance(table: dict, key: str) -> float:
     return table[key].half_width
-
-
-def _capacity_span(thickness_m: float) -> float:
-    """The heat capacity at the upper ends of its tolerances over it at the lower."""
-    return math.prod((1.0 + t) / (1.0 - t) for t in (sheet_thickness_tolerance(thickness_m),
-                                                      _tolerance(MODEL_TOLERANCES, "density_kg_m3"),
-                                                      _tolerance(HEATING_TOLERANCES, "specific_heat_j_per_kg_k")))
 
 
 def top_readings_time_s(sweep_time_s: np.ndarray, sweep_velocity: np.ndarray) -> float:
@@ -167,16 +168,18 @@ def search_warming_term(history: pd.DataFrame, plate: str, scene: dict, frequenc
     shortest, longest = plate_size_m(scene, states), plate_size_m(scene)
     if shortest is None:
         return None
-    least_k = warming_range_k(history, plate, at_s, *longest)[0]
-    largest_k = warming_range_k(history, plate, at_s, *shortest)[1]
+    (cut_k, cut_halves), (uncut_k, uncut_halves) = (warming_estimate_k(history, plate, at_s, *size)
+                                                    for size in (shortest, longest))
+    rise_k = 0.5 * (cut_k + uncut_k)   # a plate cut in the run held each length part of the time
+    halves_k = [*np.maximum(cut_halves, uncut_halves), 0.5 * (cut_k - uncut_k)]
     alpha = abs(HEATING_NOMINAL["frequency_coefficient_per_k"])
-    least_hz = frequency_hz * alpha * (1.0 - _tolerance(HEATING_TOLERANCES, "frequency_coefficient_per_k")) * least_k
-    largest_hz = float(warming.resonance_drift_bound_hz(frequency_hz, largest_k))
-    correction_hz = 0.5 * (least_hz + largest_hz)
+    correction_hz = frequency_hz * alpha * rise_k
+    alpha_half = _tolerance(HEATING_TOLERANCES, "frequency_coefficient_per_k")
+    u_hz = frequency_hz * alpha * math.hypot(alpha_half * rise_k, *halves_k) / math.sqrt(3.0)
     return correction_hz, Term(
-        TERM, "B", 0.5 * (largest_hz - least_hz) / math.sqrt(3.0),
-        f"corrected by +{correction_hz:.2f} Hz: the plate {least_k * 1e3:.1f} to {largest_k * 1e3:.1f} mK warmer than "
-        "at rest when the search read its top (its readings' mean time), from the run's stored powers on it "
-        "(energy balance, plates.warming: heat capacity, convection and the resonance's "
-        f"{HEATING_NOMINAL['frequency_coefficient_per_k']:.0e}/K at their coolest and warmest ends), the resonance "
-        f"lower by {least_hz:.2f} to {largest_hz:.2f} Hz: the middle, a rectangle over the range", rectangular=True)
+        TERM, "B", u_hz,
+        f"corrected by +{correction_hz:.2f} Hz: the plate {rise_k * 1e3:.1f} mK warmer than at rest when the search "
+        "read its top (its readings' mean time), from the run's stored powers on it (energy balance, "
+        "plates.warming, the constants nominal); u from the heating tolerances (the resonance's "
+        f"{HEATING_NOMINAL['frequency_coefficient_per_k']:.0e}/K +-{alpha_half:.0%}, heat capacity, convection), "
+        "the powers between their readings and a cut plate's length, each a rectangle", rectangular=False)
