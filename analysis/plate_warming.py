@@ -1,25 +1,34 @@
-"""How far a plate's warming had moved its resonance when a search read it: a bias bound from
-the run's own record of the power the plate dissipated.
+"""How far a plate's warming had moved its resonance when a search read it: a correction and
+its uncertainty from the run's own record of the power the plate dissipated.
 
 A search states the resonance of the plate as mounted, at rest at the room's temperature
 (the truth a coverage study scores it against); but a plate driven earlier in the run (Table
 4's third configuration is searched on the plate its second just drove at 24 V pp, a minute
 later) or by the search's own readings on the peak is warmer, and its resonance lower by
 |alpha| f dT (`plates.warming`). Nothing in a search's readings tells that displacement from
-the resonance itself, and its sign is known but not its size: a bias bound (`budgets.Term.bias`).
+the resonance itself; its sign is known, and its size follows from the run's powers and the
+heating constants, whose tolerances are stated: a known systematic effect, corrected (GUM
+3.2.4) by its estimate with the inputs at their best estimates (GUM 4.1.4), its u from each
+input's tolerance read as a rectangle (GUM 4.3.7). It was a bias bound at the warmest end of
+every tolerance at once: U then held a plate at its warmest constants, where the specified
+benches' plates warm by 20 to 35 % of that, and the searches of benches within specification
+were covered 97.6 % of the time (their budgets claim 95.5 % at the bound, 98.9 % at a quarter
+of it). The middle of the range the tolerances span at once was tried and left: it sits above
+what a plate with each constant anywhere within its tolerance gives, and the corrected
+searches read high on the warming steps (+0.3 to +0.5 U on average, 20 benches).
 
-The bound is the energy balance of `plates.warming`'s lumped body over the run's stored readings on the
-plate (every protocol's: sweeps, points, re-centrings), each interval between two readings
-of the run dissipating at most the larger |power| the scope read at its ends on this plate
-(the drive holds one reading's setting until the next's), the plate at rest before the
-run's first reading (which took as long as the next: the rows' clock is the campaign's),
-evaluated at the mean time of the readings on the peak's top the search read its resonance
-from (as a re-centring's vertex is dated, `resonance_drift`). Each
-constant at the end of its tolerance that warms the plate most: |alpha| at its upper limit, the
-heat capacity at its lower (specific heat, density, sheet thickness; the piezos' and bond's
-own left out, which only cool it), the time constant at its upper (convection at its lower
-limit, the heat capacity at its upper). A plate driven in an earlier run is at rest when
-the next starts: each run's readings are timed by its own clock.
+The estimate is the energy balance of `plates.warming`'s lumped body over the run's stored
+readings on the plate (every protocol's: sweeps, points, re-centrings), each interval
+between two readings of the run dissipating the mean of the |powers| the scope read at its
+ends on this plate (the drive holds one reading's setting until the next's: between them),
+the plate at rest before the run's first reading (which took as long as the next: the rows'
+clock is the campaign's), evaluated at the mean time of the readings on the peak's top the
+search read its resonance from (as a re-centring's vertex is dated, `resonance_drift`). Its
+u: |alpha| within +-30 %, the heat capacity (sheet thickness, density, specific heat at their
+limits together), the convection, the intervals' powers at the smaller or the larger of their
+ends, and, for a plate cut during the run, its length between the cut's and the scene's. A
+plate driven in an earlier run is at rest when the next starts: each run's readings are
+timed by its own clock.
 """
 
 from __future__ import annotations
@@ -29,7 +38,7 @@ import math
 import numpy as np
 import pandas as pd
 
-from squeezebench.analysis.budgets import P95_FACTOR, Term
+from squeezebench.analysis.budgets import Term
 from squeezebench.analysis.resonance_searches import PEAK_FIT_SHARE
 from squeezebench.plates import warming
 from squeezebench.plates.laminate import ALUMINIUM_TABLE2
@@ -39,32 +48,54 @@ from squeezebench.plates.specifications import (HEATING_NOMINAL, HEATING_TOLERAN
 #: The columns a run's readings need for the bound.
 HISTORY_COLUMNS = ("run_name", "plate", "bench_time_s", "scope_power_w")
 TERM = "plate warming since at rest"
+ROOM_TERM = "room drift since the run started"
 
 
-def warming_bound_k(history: pd.DataFrame, plate: str, at_s: float, length_m: float, width_m: float,
-                    thickness_m: float) -> float:
-    """The largest temperature rise of `plate` at `at_s` the run's readings (`history`: one
-    run's HISTORY_COLUMNS) allow, its constants at their warmest ends (module docstring)."""
+def warming_estimate_k(history: pd.DataFrame, plate: str, at_s: float, length_m: float, width_m: float,
+                       thickness_m: float) -> tuple[float, list[float]]:
+    """The temperature rise of `plate` at `at_s` with its constants at their nominal values and
+    each interval at the mean of the powers read at its ends (the inputs' best estimates, GUM
+    4.1.4), and the half-widths of the rise's rectangles (GUM 4.3.7, 5.1.3) as each input
+    alone runs over its tolerance: the capacity's (sheet thickness, density, specific heat:
+    C and tau together), the convection's (tau) and the intervals' powers (the smaller and the
+    larger of their ends)."""
+    times_s, power_w = _plate_powers(history, plate)
+    mean_w = 0.5 * (warming.held_powers_w(power_w, np.minimum) + warming.held_powers_w(power_w))
+
+    def rise(capacity: float = 0.0, convection: float = 0.0, held_w: np.ndarray = mean_w) -> float:
+        return _rise_at_k(times_s, held_w, at_s, _body(length_m, width_m, thickness_m, capacity, convection))
+
+    halves = [0.5 * abs(rise(capacity=1.0) - rise(capacity=-1.0)), 0.5 * abs(rise(convection=1.0) - rise(convection=-1.0)),
+              0.5 * (rise(held_w=warming.held_powers_w(power_w)) - rise(held_w=warming.held_powers_w(power_w, np.minimum)))]
+    return rise(), halves
+
+
+def _plate_powers(history: pd.DataFrame, plate: str) -> tuple[np.ndarray, np.ndarray]:
+    """The run's readings' sorted times and the |power| each read on `plate` (0 on another; a
+    reading without a power, the plate's largest)."""
     rows = history.sort_values("bench_time_s", kind="stable")
-    times_s = rows["bench_time_s"].to_numpy(float)
     on_plate = (rows["plate"] == plate).to_numpy()
     power_w = np.where(on_plate, np.abs(rows["scope_power_w"].to_numpy(float)), 0.0)
-    if on_plate.any():   # a reading without a power: the plate's largest, not none
+    if on_plate.any():
         power_w = np.where(on_plate & ~np.isfinite(power_w), np.nanmax(np.where(on_plate, power_w, np.nan)), power_w)
-    # interval k runs from reading k - 1 to reading k; the first, as long as the next (a
-    # reading's own time): the rows store no run start, and their clock is the campaign's
-    first_s = times_s[0] - (times_s[1] - times_s[0] if len(times_s) > 1 else 0.0)
-    held_w = warming.held_powers_w(power_w)
-    thin = 1.0 - sheet_thickness_tolerance(thickness_m)
-    coolest = warming.thermal_plate(   # the least heat capacity and conductance: the warmest plate
-        length_m * 1e3, width_m * 1e3, thickness_m * thin * 1e3,
-        ALUMINIUM_TABLE2.density_kg_m3 * (1.0 - _tolerance(MODEL_TOLERANCES, "density_kg_m3")),
-        HEATING_NOMINAL["specific_heat_j_per_kg_k"] * (1.0 - _tolerance(HEATING_TOLERANCES, "specific_heat_j_per_kg_k")),
-        HEATING_NOMINAL["convection_w_per_m2_k"] * (1.0 - _tolerance(HEATING_TOLERANCES, "convection_w_per_m2_k")))
-    slowest_s = coolest.heat_capacity_j_per_k * _capacity_span(thickness_m) / coolest.conductance_w_per_k
-    body = warming.ThermalPlate(coolest.heat_capacity_j_per_k, coolest.heat_capacity_j_per_k / slowest_s)
-    # the rise at at_s: the intervals before it, the one holding it cut there, none after
-    grid_s = np.concatenate([[first_s], times_s])
+    return rows["bench_time_s"].to_numpy(float), power_w
+
+
+def _body(length_m: float, width_m: float, thickness_m: float, capacity: float, convection: float) -> warming.ThermalPlate:
+    """The plate's lumped body with its heat capacity's inputs (sheet thickness, density,
+    specific heat) at `capacity` times their tolerances from nominal and its convection at
+    `convection` times its own (-1, 0 or 1)."""
+    return warming.thermal_plate(
+        length_m * 1e3, width_m * 1e3, thickness_m * (1.0 + capacity * sheet_thickness_tolerance(thickness_m)) * 1e3,
+        ALUMINIUM_TABLE2.density_kg_m3 * (1.0 + capacity * _tolerance(MODEL_TOLERANCES, "density_kg_m3")),
+        HEATING_NOMINAL["specific_heat_j_per_kg_k"] * (1.0 + capacity * _tolerance(HEATING_TOLERANCES, "specific_heat_j_per_kg_k")),
+        HEATING_NOMINAL["convection_w_per_m2_k"] * (1.0 + convection * _tolerance(HEATING_TOLERANCES, "convection_w_per_m2_k")))
+
+
+def _rise_at_k(times_s: np.ndarray, held_w: np.ndarray, at_s: float, body: warming.ThermalPlate) -> float:
+    """The body's rise at `at_s` under the run's held powers, at rest before the run's first
+    reading: the intervals before `at_s`, the one holding it cut there, none after."""
+    grid_s = np.concatenate([[run_start_s(times_s)], times_s])
     before = int(np.searchsorted(grid_s, at_s))
     if before == 0:
         return 0.0
@@ -72,15 +103,15 @@ def warming_bound_k(history: pd.DataFrame, plate: str, at_s: float, length_m: fl
     return float(warming.temperature_rise_k(np.append(grid_s[:before], at_s), held_w[:before + 1], body)[-1])
 
 
+def run_start_s(times_s: np.ndarray) -> float:
+    """When a run's plate was last at rest, from its readings' sorted times: the first reading
+    took as long as the next (a reading's own time; the rows store no run start, and their
+    clock is the campaign's)."""
+    return float(times_s[0] - (times_s[1] - times_s[0] if len(times_s) > 1 else 0.0))
+
+
 def _tolerance(table: dict, key: str) -> float:
     return table[key].half_width
-
-
-def _capacity_span(thickness_m: float) -> float:
-    """The heat capacity at the upper ends of its tolerances over it at the lower."""
-    return math.prod((1.0 + t) / (1.0 - t) for t in (sheet_thickness_tolerance(thickness_m),
-                                                      _tolerance(MODEL_TOLERANCES, "density_kg_m3"),
-                                                      _tolerance(HEATING_TOLERANCES, "specific_heat_j_per_kg_k")))
 
 
 def top_readings_time_s(sweep_time_s: np.ndarray, sweep_velocity: np.ndarray) -> float:
@@ -106,22 +137,49 @@ def plate_size_m(scene: dict, states=()) -> tuple[float, float, float] | None:
     return tuple(size * 1e-3 for size in sizes)
 
 
-def search_warming_term(history: pd.DataFrame, plate: str, scene: dict, frequency_hz: float, at_s: float) -> Term | None:
-    """The bias bound of a search of `plate` read at `at_s` (module docstring); None where the
-    run's readings hold no power or the plate's scene no size."""
+def search_room_term(history: pd.DataFrame, frequency_hz: float, at_s: float) -> Term | None:
+    """The room's drift since the run started (`run_start_s` of the run's readings, `history`)
+    until `at_s`: the plate follows the room, whose temperature moves by up to
+    `warming.ROOM_DRIFT_K_PER_S` t of a sign nothing here knows, and the resonance with it by
+    f |alpha| of that (`warming.room_drift_bound_hz`): a rectangle about zero (GUM 4.3.7),
+    as in the drift's estimate (`resonance_drift`). None where the run holds no dated reading."""
+    times_s = np.sort(history["bench_time_s"].to_numpy(float)) if "bench_time_s" in history else np.array([])
+    times_s = times_s[np.isfinite(times_s)]
+    if not len(times_s) or not math.isfinite(at_s):
+        return None
+    elapsed_s = at_s - run_start_s(times_s)
+    bound_hz = float(warming.room_drift_bound_hz(frequency_hz, elapsed_s))
+    return Term(ROOM_TERM, "B", bound_hz / math.sqrt(3.0),
+                f"the room's air drifting by up to {3600.0 * warming.ROOM_DRIFT_K_PER_S:g} K/h over the "
+                f"{elapsed_s:.0f} s since the run started, the plate following it: the resonance within "
+                f"+-{bound_hz:.2f} Hz (f |alpha|, alpha at its limit; sign unknown)", rectangular=True)
+
+
+def search_warming_term(history: pd.DataFrame, plate: str, scene: dict, frequency_hz: float,
+                        at_s: float) -> tuple[float, Term] | None:
+    """The correction of a search of `plate` read at `at_s` for its plate's warming, and its
+    term (module docstring); None where the run's readings hold no power or the plate's
+    scene no size."""
     if (not set(HISTORY_COLUMNS) <= set(history.columns) or not math.isfinite(at_s)
             or not np.isfinite(history.loc[history["plate"] == plate, "scope_power_w"].to_numpy(float)).any()):
         return None
     states = history.loc[(history["plate"] == plate) & (history["bench_time_s"] <= at_s),
                          "scene_state"].dropna().unique() if "scene_state" in history else ()
-    size = plate_size_m(scene, states)
-    if size is None:
+    shortest, longest = plate_size_m(scene, states), plate_size_m(scene)
+    if shortest is None:
         return None
-    warming_k = warming_bound_k(history, plate, at_s, *size)
-    bound_hz = float(warming.resonance_drift_bound_hz(frequency_hz, warming_k))
-    return Term(TERM, "B", bound_hz / P95_FACTOR,
-                f"bias bound: the plate up to {warming_k * 1e3:.1f} mK warmer than at rest when the search read its "
-                "top (its readings' mean time), from the run's stored powers on it (energy balance, "
-                "plates.warming: heat capacity, convection and the resonance's "
-                f"{HEATING_NOMINAL['frequency_coefficient_per_k']:.0e}/K at their warmest ends), the resonance lower by up "
-                f"to {bound_hz:.2f} Hz", bias=True)
+    (cut_k, cut_halves), (uncut_k, uncut_halves) = (warming_estimate_k(history, plate, at_s, *size)
+                                                    for size in (shortest, longest))
+    rise_k = 0.5 * (cut_k + uncut_k)   # a plate cut in the run held each length part of the time
+    halves_k = [*np.maximum(cut_halves, uncut_halves), 0.5 * (cut_k - uncut_k)]
+    alpha = abs(HEATING_NOMINAL["frequency_coefficient_per_k"])
+    correction_hz = frequency_hz * alpha * rise_k
+    alpha_half = _tolerance(HEATING_TOLERANCES, "frequency_coefficient_per_k")
+    u_hz = frequency_hz * alpha * math.hypot(alpha_half * rise_k, *halves_k) / math.sqrt(3.0)
+    return correction_hz, Term(
+        TERM, "B", u_hz,
+        f"corrected by +{correction_hz:.2f} Hz: the plate {rise_k * 1e3:.1f} mK warmer than at rest when the search "
+        "read its top (its readings' mean time), from the run's stored powers on it (energy balance, "
+        "plates.warming, the constants nominal); u from the heating tolerances (the resonance's "
+        f"{HEATING_NOMINAL['frequency_coefficient_per_k']:.0e}/K +-{alpha_half:.0%}, heat capacity, convection), "
+        "the powers between their readings and a cut plate's length, each a rectangle", rectangular=False)

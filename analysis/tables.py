@@ -294,7 +294,7 @@ def _with_search_uncertainty(row: dict, points: pd.DataFrame, searches: dict[tup
     """A frequency compared with a printed resonance is where a resonance search set the
     generator: its uncertainty also takes how well the search found the resonance, in
     quadrature, from the widest of the points' searches (`searches`: `_search_budgets`), its
-    U the search's own (k from its budget: a warm plate's bias bound adds nearly linearly)."""
+    U the search's own (k from its budget)."""
     if not {"run_name", "step_id"} <= set(points):
         return {}
     found = [searches[key] for key in zip(points["run_name"], points["step_id"]) if key in searches]

@@ -419,8 +419,8 @@ def search_budgets(rows: pd.DataFrame, setups: dict[str, SearchSetup], history: 
                    scenes: dict[str, dict] | None = None) -> list[tuple[str, str, Budget]]:
     """(run, step, budget) of the resonance frequency of every search in `rows`
     (resonance_search rows, reduced); with `history` (the runs' stored readings, every
-    protocol's) and `scenes` (their scene copies), the bias bound of the plate's warming
-    when the search read it (`plate_warming`).
+    protocol's) and `scenes` (their scene copies), the value corrected for the plate's
+    warming when the search read it, with its term (`plate_warming`).
 
     The search stores where the driven mode's 1/v^2 fitted to its readings on the peak's top
     is least (`resonance_searches.peak_of_readings`): its Type A term is that fit's, from the
@@ -432,9 +432,13 @@ def search_budgets(rows: pd.DataFrame, setups: dict[str, SearchSetup], history: 
     `reading_scatter_rel`) stop the golden section at |x| ~ sqrt(s): normal, standard
     deviation SEARCH_STOP_SPREAD sqrt(s) of the half-width f0 / (2 Q), and the final
     bracket holds it. The generator's error moves the setting the search finds by -e f0.
-    A plate warmer than at rest reads a resonance lower by |alpha| f dT: a bias bound
-    (`plate_warming`), where a previous step drove the plate shortly before (Table 4's third
-    configuration) and, less, from the search's own readings on the peak.
+    A plate warmer than at rest reads a resonance lower by |alpha| f dT, where a previous step
+    drove the plate shortly before (Table 4's third configuration) and, less, from the search's
+    own readings on the peak: the stored value is corrected by the middle of the range the
+    heating tolerances give, which enters as a rectangle (`plate_warming`); and the room's
+    drift since the run started moves it by up to f |alpha| of the room's (a rectangle,
+    `plate_warming.search_room_term`): a search late in a run reads a plate the room has
+    moved.
     """
     budgets = []
     if rows.empty:   # a run that searched nothing stores none of the columns read below
@@ -468,11 +472,15 @@ def search_budgets(rows: pd.DataFrame, setups: dict[str, SearchSetup], history: 
             else:
                 terms += _best_reading_terms(found, rows.iloc[in_sweep], setup)
             if scene_files is not None and time_s is not None and in_sweep:
+                run_history = history[history["run_name"] == run_name]
+                read_s = plate_warming.top_readings_time_s(time_s[in_sweep], velocity[in_sweep])
+                room = plate_warming.search_room_term(run_history, frequency_hz, read_s)
                 warming = plate_warming.search_warming_term(
-                    history[history["run_name"] == run_name], found["plate"],
-                    (scenes or {}).get(scene_files.iloc[position], {}), frequency_hz,
-                    plate_warming.top_readings_time_s(time_s[in_sweep], velocity[in_sweep]))
-                terms += [warming] if warming is not None else []
+                    run_history, found["plate"], (scenes or {}).get(scene_files.iloc[position], {}), frequency_hz, read_s)
+                terms += [room] if room is not None else []
+                if warming is not None:   # the plate as mounted, at rest: corrected for its warming (GUM 3.2.4)
+                    frequency_hz += warming[0]
+                    terms.append(warming[1])
             budgets.append((run_name, step_id, Budget("resonance_frequency_hz", "Hz", frequency_hz, tuple(terms))))
     return budgets
 

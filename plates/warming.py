@@ -68,13 +68,14 @@ def drift_per_joule_range_hz(frequency_hz: float, length_mm: float, width_mm: fl
             frequency_hz * alpha * (1 + da) / (capacity * (1 - dc)))
 
 
-def held_powers_w(power_w) -> np.ndarray:
+def held_powers_w(power_w, bound=np.maximum) -> np.ndarray:
     """The power over the interval before each of a run's dated readings, for
     `temperature_rise_k`: the larger of that reading's and the previous one's (the first,
-    its own). A drive that rose (a regain) or fell (a detuning at the level's voltage) between
-    two readings stayed between their settings, so the larger bounds the heat."""
+    its own), or with `bound` np.minimum the smaller. A drive that rose (a regain) or fell (a
+    detuning at the level's voltage) between two readings stayed between their settings, so
+    the larger bounds the heat from above and the smaller from below."""
     power_w = np.asarray(power_w, dtype=float)
-    return np.maximum(power_w, np.concatenate([power_w[:1], power_w[:-1]]))
+    return bound(power_w, np.concatenate([power_w[:1], power_w[:-1]]))
 
 
 def held_heat_j(times_s, power_w, time_constant_s: float) -> np.ndarray:

@@ -124,6 +124,8 @@ class NeighbouringMode(Effect):
 #: under a hundredth of a hertz): the steady state is solved again when the plate has
 #: warmed by that much, not at every message that advances the clock.
 TEMPERATURE_RESOLUTION_K = 1e-3
+#: The stream the room's drift is drawn from: the bench's, not a plate's (`draw_stream`).
+ROOM_DRIFT_STREAM = "room_drift"
 
 
 class HeatingDrift(Effect):
@@ -135,14 +137,22 @@ class HeatingDrift(Effect):
     both faces, aluminium's specific heat, Table 2's density, the frequency's temperature
     coefficient).
 
+    The room's air drifts at `room_drift_k_per_s` (K/s, constant over a run) and the plate
+    follows it through the same lag: tau dT/dt = P R_th + r t - T, T the plate's temperature
+    over the room's when the bench opened (the run's start), whose response to the ramp r t
+    is r (t - tau) once settled; a plate mounted during the run has followed the room as well.
+
     With `draw: 1` (or 2) the parameters of `specifications.HEATING_TOLERANCES` are drawn
     once per plate and `bench_seed`, within their tolerances (or as the world errs,
     `systematic_effects.drawn_fraction`), about the values the scene gives: a coverage
-    study's plate warms as one real plate might, not as the nominal one.
+    study's plate warms as one real plate might, not as the nominal one. The room's rate is
+    drawn once per bench (every plate on it shares its room) within
+    +-`warming.ROOM_DRIFT_K_PER_S`, the limit the drift budgets claim, added to the scene's.
     """
 
     name = "heating_drift"
-    defaults = {**HEATING_NOMINAL, "density_kg_m3": ALUMINIUM_TABLE2.density_kg_m3, "draw": 0.0, "bench_seed": 0.0}
+    defaults = {**HEATING_NOMINAL, "density_kg_m3": ALUMINIUM_TABLE2.density_kg_m3, "room_drift_k_per_s": 0.0,
+                "draw": 0.0, "bench_seed": 0.0}
     limits = {"draw": (0.0, 2.0), "bench_seed": (0.0, 2.0**32 - 1)}
     stages = frozenset({"load"})
 
@@ -153,6 +163,8 @@ class HeatingDrift(Effect):
             self.parameters.update({key: self.parameters[key] * (1.0 + drawn_fraction(rng, self.parameters["draw"])
                                                                  * tolerance.half_width)
                                     for key, tolerance in HEATING_TOLERANCES.items()})
+            room = draw_stream(self.parameters["bench_seed"], ROOM_DRIFT_STREAM)
+            self.parameters["room_drift_k_per_s"] += drawn_fraction(room, self.parameters["draw"]) * warming.ROOM_DRIFT_K_PER_S
         self._scene = scene
         self._size(scene.plate.length_mm)
         self.temperature_rise_k = 0.0
@@ -174,6 +186,11 @@ class HeatingDrift(Effect):
 
     def attach(self, bench) -> None:
         self._bench = bench
+        # a plate mounted during the run sat in the same room since it began, at rest: it
+        # followed the room's ramp as a plate on the bench would, r (t - tau (1 - exp(-t / tau)))
+        now_s = bench.clock.now_s()
+        self.temperature_rise_k = self.parameters["room_drift_k_per_s"] * (
+            now_s - self.time_constant_s * -math.expm1(-now_s / self.time_constant_s))
         bench.clock.subscribe(self._advance)
 
     def detach(self, bench) -> None:
@@ -188,12 +205,17 @@ class HeatingDrift(Effect):
             self._state_name = self._bench.state_name
             self._size(_state_length_mm(self._bench, self.length_mm))
         # Sub-steps of a tenth of tau keep the power (which depends on the temperature
-        # through the detuning) nearly constant within each step.
+        # through the detuning) nearly constant within each step; the room's ramp is exact
+        # in each: T(t + h) = T_p(t + h) + (T(t) - T_p(t)) exp(-h / tau), T_p = P R + r (t - tau).
         steps = max(1, math.ceil(10.0 * duration_s / self.time_constant_s))
-        decay = math.exp(-duration_s / steps / self.time_constant_s)
-        for _ in range(steps):
-            final_k = self._bench.plate_power_w() * self.thermal_resistance_k_per_w
-            self.temperature_rise_k = final_k + (self.temperature_rise_k - final_k) * decay
+        step_s = duration_s / steps
+        decay = math.exp(-step_s / self.time_constant_s)
+        room_k_per_s = self.parameters["room_drift_k_per_s"]
+        for i in range(steps):
+            held_k = self._bench.plate_power_w() * self.thermal_resistance_k_per_w
+            lagged_s = start_s + i * step_s - self.time_constant_s   # the ramp the plate follows, lagged by tau
+            self.temperature_rise_k = (held_k + room_k_per_s * (lagged_s + step_s)
+                                       + (self.temperature_rise_k - held_k - room_k_per_s * lagged_s) * decay)
 
 
 def _state_length_mm(bench, otherwise_mm: float) -> float:

@@ -9,6 +9,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from squeezebench.plates import warming
 from squeezebench.plates.specifications import (HEATING_TOLERANCES, VOLTAGE_PROBE_POLE_HZ, WORLD_READING,
                                                 compensation_phase_rad)
 from squeezebench.instruments.bench import open_bench, sim_bench_config
@@ -170,6 +171,55 @@ def test_a_coverage_benchs_plate_warms_with_its_own_thermal_parameters_within_th
     again = bench_with(tmp_path, [{"heating_drift": {"draw": 1, "bench_seed": 1}}]).sim.effects.get("heating_drift")
     assert {key: again.parameters[key] / nominal[key] - 1.0 for key in HEATING_TOLERANCES} == drawn["specified", 1]
     assert bench_with(tmp_path, ["heating_drift"]).sim.effects.get("heating_drift").parameters == nominal
+
+
+def test_the_room_drifting_moves_the_resonance_by_f_alpha_times_the_plates_lagged_temperature(tmp_path):
+    """The room's air drifting at r K/s (`heating_drift`'s `room_drift_k_per_s`): the plate
+    follows it through its lag, T(t) = r (t - tau (1 - exp(-t / tau))) (a first-order body's
+    response to a ramp, its drive's own rise apart: two benches driven alike, one in a
+    drifting room), and its resonance moves by f alpha T."""
+    rate_k_per_s = -warming.ROOM_DRIFT_K_PER_S   # a room cooling at the limit: the resonance rises
+    still = bench_with(tmp_path, ["heating_drift"], generator_vpp=0.05)
+    drifting = bench_with(tmp_path, [{"heating_drift": {"room_drift_k_per_s": rate_k_per_s}}], generator_vpp=0.05)
+    heating = drifting.sim.effects.get("heating_drift")
+    tau_s = heating.time_constant_s
+    for bench in (still, drifting):
+        bench.sim.clock.sleep(0.7 * tau_s)
+        bench.sim.clock.sleep(2.3 * tau_s)
+    now_s = drifting.sim.clock.now_s()
+    room_k = heating.temperature_rise_k - still.sim.effects.get("heating_drift").temperature_rise_k
+    # to 1e-4: the weak drive's own rise differs by a hair where the resonance moved
+    assert room_k == pytest.approx(rate_k_per_s * (now_s - tau_s * (1.0 - math.exp(-now_s / tau_s))), rel=1e-4)
+    assert room_k < -0.5 * warming.ROOM_DRIFT_K_PER_S * now_s   # most of the room's fall, not its lag
+    alpha = heating.parameters["frequency_coefficient_per_k"]
+    assert drifting.sim.truth().branches[0].frequency_hz == pytest.approx(
+        F_HZ * (1.0 + alpha * heating.state_key()), rel=1e-12)
+    assert abs(heating.state_key() - heating.temperature_rise_k) <= fx.TEMPERATURE_RESOLUTION_K / 2
+    # a plate mounted now (Fig. 5's next plate) sat in the same room: its own lag, not a cold start
+    drifting.sim.mount(scene_file(tmp_path, "small_plate_6.yaml",
+                                  effects=[{"heating_drift": {"room_drift_k_per_s": rate_k_per_s}}]))
+    mounted = drifting.sim.effects.get("heating_drift")
+    assert mounted.time_constant_s != pytest.approx(tau_s)
+    assert mounted.temperature_rise_k == pytest.approx(
+        rate_k_per_s * (now_s - mounted.time_constant_s * (1.0 - math.exp(-now_s / mounted.time_constant_s))), rel=1e-12)
+
+
+def test_a_coverage_bench_draws_its_rooms_drift_once_within_the_limit_the_budgets_claim(tmp_path):
+    """With `draw` the room's rate is the bench's (every plate on it shares the room), within
+    +-ROOM_DRIFT_K_PER_S as specified (uniform: the budgets' rectangle), its own on each
+    bench, beyond the limit now and then as the world errs; without `draw`, a still room."""
+    def rate(name, seed, draw):
+        bench = bench_with(tmp_path, [{"heating_drift": {"draw": draw, "bench_seed": seed}}], name=name)
+        return bench.sim.effects.get("heating_drift").parameters["room_drift_k_per_s"]
+
+    specified = [rate("one_column_1mm.yaml", seed, 1) for seed in range(1, 41)]
+    assert max(abs(r) for r in specified) <= warming.ROOM_DRIFT_K_PER_S
+    assert len(set(specified)) == len(specified)
+    assert min(specified) < -0.5 * warming.ROOM_DRIFT_K_PER_S and max(specified) > 0.5 * warming.ROOM_DRIFT_K_PER_S
+    assert rate("four_column_1mm.yaml", 3, 1) == specified[2]   # another plate, the same room
+    world = [rate("one_column_1mm.yaml", seed, 2) for seed in range(1, 41)]
+    assert world != specified
+    assert rate("one_column_1mm.yaml", 3, 0) == 0.0
 
 
 def test_settling_transient(tmp_path):

@@ -117,22 +117,29 @@ def test_a_benchs_velocity_errors_are_one_draw_for_all_its_plates(tmp_path):
 @pytest.mark.parametrize("previous_w", [0.0, 0.11])
 def test_the_resonance_frequencys_u_covers_the_simulated_benches_generators(scene, error_model, previous_w):
     """A search's resonance is off by its bench's drawn generator error (the setting that
-    reaches f0 is f0 / (1 + e)), its fit's scatter and a warm plate's displacement, here at
-    its bound (`plate_warming`, the least covered bias): its budget's U (`search_budgets`,
+    reaches f0 is f0 / (1 + e)), its room's drift (the bench's drawn rate, at the budget's
+    limit of alpha and without the plate's lag: its term's rectangle, as the budget reads it),
+    its fit's scatter and what the warm plate's correction leaves (`plate_warming`: normal,
+    from the heating tolerances): its budget's U (`search_budgets`,
     of a search on a plate at rest and of Table 4's third configuration after a step at
     0.11 W) covers it as often as its budget claims under the error model, and at least 95 %
     of the time: the world factor holds the world's generators, its out-of-specification
     benches among them."""
     from test_search_warming import _budget, _warm_plate_search
-    from squeezebench.analysis.plate_warming import TERM
+    from squeezebench.analysis.plate_warming import ROOM_TERM, TERM
+    from squeezebench.plates.warming import ROOM_DRIFT_K_PER_S
 
     budget = _budget(_warm_plate_search((1.0,) * 5, previous_w, 45.0, peak_w=0.066)[0])
     generator = np.array([effect.values["frequency_rel"] for effect in drawn(scene, "generator_frequency_error",
                                                                              error_model)])
     fit = next(t for t in budget.terms if t.name == "resonance fit on the top")
+    room = np.array([effect.parameters["room_drift_k_per_s"] / ROOM_DRIFT_K_PER_S
+                     for effect in drawn(scene, "heating_drift", error_model)])
     warming = next(t for t in budget.terms if t.name == TERM)
-    errors_hz = (-generator / (1.0 + generator) * budget.value - warming.bound
-                 + np.random.default_rng(46).normal(0.0, fit.std_uncertainty, BENCHES))
+    room_hz = math.sqrt(3.0) * next(t for t in budget.terms if t.name == ROOM_TERM).std_uncertainty
+    rng = np.random.default_rng(46)
+    errors_hz = (-generator / (1.0 + generator) * budget.value + room * room_hz
+                 + rng.normal(0.0, fit.std_uncertainty, BENCHES) + rng.normal(0.0, warming.std_uncertainty, BENCHES))
     share = float(np.mean(np.abs(errors_hz) <= budget.expanded_uncertainty))
     expected = budget.coverage_probability(budget.coverage_factor, error_model)
     assert expected >= 0.95 - 1e-3
