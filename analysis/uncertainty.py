@@ -434,8 +434,8 @@ def search_budgets(rows: pd.DataFrame, setups: dict[str, SearchSetup], history: 
     bracket holds it. The generator's error moves the setting the search finds by -e f0.
     A plate warmer than at rest reads a resonance lower by |alpha| f dT, where a previous step
     drove the plate shortly before (Table 4's third configuration) and, less, from the search's
-    own readings on the peak: the stored value is corrected by the middle of the range the
-    heating tolerances give, which enters as a rectangle (`plate_warming`); and the room's
+    own readings on the peak: the stored value is corrected by the warming estimated at the
+    heating constants' nominal values, u from their tolerances (`plate_warming`); and the room's
     drift since the run started moves it by up to f |alpha| of the room's (a rectangle,
     `plate_warming.search_room_term`): a search late in a run reads a plate the room has
     moved.
