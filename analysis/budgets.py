@@ -69,6 +69,9 @@ class Budget:
     unit: str
     value: float
     terms: tuple[Term, ...]
+    #: What `value` was corrected by for a known systematic effect (GUM 3.2.4), already in it:
+    #: another reading of the same quantity, uncorrected, adds it to stand for what this does.
+    correction: float = 0.0
 
     @property
     def std_uncertainty(self) -> float:

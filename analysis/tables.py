@@ -294,14 +294,17 @@ def _with_search_uncertainty(row: dict, points: pd.DataFrame, searches: dict[tup
     """A frequency compared with a printed resonance is where a resonance search set the
     generator: its uncertainty also takes how well the search found the resonance, in
     quadrature, from the widest of the points' searches (`searches`: `_search_budgets`), its
-    U the search's own (k from its budget)."""
+    U the search's own (k from its budget); and its value the searches' correction (a warm
+    plate's, `Budget.correction`, each point its own search's), which their U no longer holds
+    as a bias: the plate as mounted, at rest, as the search states it."""
     if not {"run_name", "step_id"} <= set(points):
         return {}
     found = [searches[key] for key in zip(points["run_name"], points["step_id"]) if key in searches]
     if not found:
         return {}
     widest = max(found, key=lambda budget: budget.expanded_uncertainty)
-    return {"std_uncertainty": math.hypot(row["std_uncertainty"], widest.std_uncertainty),
+    return {"value": row["value"] + float(np.mean([budget.correction for budget in found])),
+            "std_uncertainty": math.hypot(row["std_uncertainty"], widest.std_uncertainty),
             "expanded_uncertainty": math.hypot(row["expanded_uncertainty"], widest.expanded_uncertainty)}
 
 

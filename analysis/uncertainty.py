@@ -462,7 +462,7 @@ def search_budgets(rows: pd.DataFrame, setups: dict[str, SearchSetup], history: 
             found = records[position]
             if setup is None or not _has_reduction(found):
                 continue
-            frequency_hz = float(found["resonance_frequency_hz"])
+            frequency_hz, correction_hz = float(found["resonance_frequency_hz"]), 0.0
             terms = [_spec_term("generator frequency", "generator_frequency", frequency_hz)]
             fit = peak_of_readings(setting_hz[in_sweep], velocity[in_sweep]) if in_sweep else None
             if fit is not None and not np.isin(frequency_hz, setting_hz[in_sweep]):
@@ -479,9 +479,10 @@ def search_budgets(rows: pd.DataFrame, setups: dict[str, SearchSetup], history: 
                     run_history, found["plate"], (scenes or {}).get(scene_files.iloc[position], {}), frequency_hz, read_s)
                 terms += [room] if room is not None else []
                 if warming is not None:   # the plate as mounted, at rest: corrected for its warming (GUM 3.2.4)
-                    frequency_hz += warming[0]
+                    correction_hz = warming[0]
                     terms.append(warming[1])
-            budgets.append((run_name, step_id, Budget("resonance_frequency_hz", "Hz", frequency_hz, tuple(terms))))
+            budgets.append((run_name, step_id, Budget("resonance_frequency_hz", "Hz", frequency_hz + correction_hz,
+                                                      tuple(terms), correction=correction_hz)))
     return budgets
 
 

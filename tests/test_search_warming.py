@@ -5,6 +5,7 @@ anywhere within their tolerances. Seeded."""
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 import math
 from types import SimpleNamespace
@@ -13,7 +14,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from squeezebench.analysis import plate_warming
+from squeezebench.analysis import plate_warming, tables
 from squeezebench.analysis.resonance_searches import SearchSetup
 from squeezebench.analysis.uncertainty import search_budgets
 from squeezebench.plates import warming
@@ -160,6 +161,26 @@ def test_the_warm_searchs_budget_covers_the_cold_plate_with_the_generator_erring
                                            seed=int(rng.integers(1 << 30)))
         budget = _budget(rows)
         assert abs(budget.value - cold_hz) <= budget.expanded_uncertainty
+
+
+def test_a_tables_frequency_read_where_the_warm_search_set_the_generator_takes_its_correction():
+    """Table 4's third configuration's frequency is its points' reading at the search's
+    setting: the value the search's budget corrected for the warming (`Budget.correction`),
+    whose U no longer holds it as a bias, so the table's row is corrected by the same, each
+    point by its own search's, and its U holds the cold plate."""
+    rows, cold_hz = _warm_plate_search((1.0,) * 5, 0.11, 45.0, peak_w=0.066)
+    budget = _budget(rows)
+    stored_hz = rows.loc[rows["protocol"] == "resonance_search", "resonance_frequency_hz"].dropna().iat[-1]
+    assert budget.correction == pytest.approx(budget.value - stored_hz, abs=1e-9) and budget.correction > 0.0
+    points = pd.DataFrame({"run_name": ["table4"] * 3, "step_id": ["configuration_3", "configuration_3", "other"]})
+    searches = {("table4", "configuration_3"): budget,
+                ("table4", "other"): dataclasses.replace(budget, correction=0.0)}
+    row = {"value": stored_hz, "std_uncertainty": 0.0, "expanded_uncertainty": 0.0}
+    corrected = tables._with_search_uncertainty(row, points, searches)
+    assert corrected["value"] == pytest.approx(stored_hz + 2.0 / 3.0 * budget.correction, rel=1e-15)
+    alone = tables._with_search_uncertainty(row, points.iloc[:2], searches)
+    # the reading as stored is off the cold plate by more than that U: uncorrected, it would miss
+    assert abs(alone["value"] - cold_hz) <= alone["expanded_uncertainty"] < abs(stored_hz - cold_hz)
 
 
 def test_a_run_without_stored_powers_or_a_plate_size_gets_no_warming_term():
