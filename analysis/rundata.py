@@ -57,6 +57,9 @@ class RunData:
     #: convention -> every plate's characterisation, filled by analysis.characterisation: the
     #: report's sections and its readings audit ask for the same few conventions a dozen times
     characterisations: dict[object, dict] = field(default_factory=dict, repr=False)
+    #: every resonance search's (run, step, budget), filled by analysis.uncertainty: Tables 3
+    #: and 4 and the uncertainty section each ask for all of them (not carried by a `replace`)
+    search_budgets: list[tuple] | None = field(default=None, init=False, repr=False)
 
     def protocol(self, name: str) -> pd.DataFrame:
         """The measurement rows of one protocol (empty frame when it was not run)."""

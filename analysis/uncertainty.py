@@ -506,9 +506,12 @@ def _best_reading_terms(found: dict, sweep: pd.DataFrame, setup: SearchSetup) ->
 
 
 def run_search_budgets(run: RunData) -> list[tuple[str, str, Budget]]:
-    """`search_budgets` of every resonance search stored in `run`."""
-    return search_budgets(reduced_points(run, run.protocol("resonance_search")), search_setups(run),
-                          run.measurements, run.scenes)
+    """`search_budgets` of every resonance search stored in `run`, worked out once per run
+    (`RunData.search_budgets`: Tables 3 and 4 and the uncertainty section each read them all)."""
+    if run.search_budgets is None:
+        run.search_budgets = search_budgets(reduced_points(run, run.protocol("resonance_search")),
+                                            search_setups(run), run.measurements, run.scenes)
+    return list(run.search_budgets)
 
 
 POINT_BUDGETS = {"power_w": power_budget, "velocity_pp_mps": velocity_budget,
