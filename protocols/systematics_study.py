@@ -129,11 +129,26 @@ def _calibration(scene_file: str, scene_text: str, state: str | None, repeat: in
 
 
 def _truth_at_setting(run: "TaskRun", frequency_hz: float, generator_vpp: float, limits: SafetyLimits):
-    """The plate without the errors at the same generator setting."""
-    with open_simulated(run.scene, run.task.state, run.settings.base.settle_s, limits) as plain:
-        plain.bench.generator.set_frequency(frequency_hz)
-        plain.bench.generator.set_amplitude_vpp(generator_vpp)
-        return plain.simulated.truth()
+    """The plate without the errors at the same generator setting (`_plain_truth`)."""
+    task = run.task
+    return _plain_truth(task.scene_file, task.scene_text, task.state, run.settings.base.settle_s, limits,
+                        frequency_hz, generator_vpp)
+
+
+@functools.lru_cache(maxsize=64)
+def _plain_truth(scene_file: str, scene_text: str, state: str | None, settle_s: float, limits: SafetyLimits,
+                 frequency_hz: float, generator_vpp: float):
+    """The truth of a fresh bench of the scene without the errors, its generator at this
+    setting: a function of its arguments only, so kept for the worker's next trial (every
+    averaging of every bench, as it is and calibrated, asks for the same few settings: the
+    reproduction's 120 point trials for 2)."""
+    with tempfile.TemporaryDirectory(prefix="squeezebench-truth-") as tmp:
+        scene = Path(tmp) / scene_file
+        scene.write_text(scene_text, encoding="utf-8")
+        with open_simulated(scene, state, settle_s, limits) as plain:
+            plain.bench.generator.set_frequency(frequency_hz)
+            plain.bench.generator.set_amplitude_vpp(generator_vpp)
+            return plain.simulated.truth()
 
 
 def point_trials(point: str, calibrated: bool, run: "TaskRun") -> None:
