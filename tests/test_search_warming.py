@@ -235,17 +235,20 @@ def test_a_search_carries_the_rooms_drift_since_its_run_started():
 
 
 def test_the_warmings_estimate_is_the_lumped_bodys_step_response_at_the_nominal_constants():
-    """A plate held at 0.2 W from its run's start (readings every 2 s): the rise is
-    P tau / C (1 - exp(-t / tau)) at the nominal constants; the convection's rectangle is half
-    the difference of the same at its limits, the heat capacity's likewise, the powers' none
-    (every reading the same)."""
+    """A plate read at 0.2 W through a 2 ohm shunt from its run's start (readings every 2 s,
+    0.3 A pp): it takes P = 0.2 - 2 x 0.3^2 / 8 W, and the rise is P tau / C (1 - exp(-t /
+    tau)) at the nominal constants; the convection's rectangle is half the difference of the
+    same at its limits, the heat capacity's likewise, the shunt's that of its loss at +-1 %,
+    the powers' none (every reading the same)."""
     times_s = np.arange(2.0, 62.0, 2.0)
-    history = pd.DataFrame({"run_name": "r", "plate": "p", "bench_time_s": times_s, "scope_power_w": 0.2})
-    rise_k, (capacity_k, convection_k, power_k) = plate_warming.warming_estimate_k(
-        history, "p", times_s[-1], LENGTH_M, WIDTH_M, THICKNESS_M)
+    history = pd.DataFrame({"run_name": "r", "plate": "p", "bench_time_s": times_s, "scope_power_w": 0.2,
+                            "scope_current_pp_a": 0.3})
+    rise_k, (capacity_k, convection_k, power_k, shunt_k) = plate_warming.warming_estimate_k(
+        history, "p", times_s[-1], LENGTH_M, WIDTH_M, THICKNESS_M, 2.0)
+    shunt_w = 2.0 * 0.3**2 / 8.0
 
-    def closed_form(body) -> float:
-        return 0.2 * body.time_constant_s / body.heat_capacity_j_per_k * -math.expm1(-times_s[-1] / body.time_constant_s)
+    def closed_form(body, power_w: float = 0.2 - shunt_w) -> float:
+        return power_w * body.time_constant_s / body.heat_capacity_j_per_k * -math.expm1(-times_s[-1] / body.time_constant_s)
 
     assert rise_k == pytest.approx(closed_form(_body(1.0, 1.0, 1.0, 1.0)), rel=1e-9)
     h = HEATING_TOLERANCES["convection_w_per_m2_k"].half_width
@@ -255,4 +258,5 @@ def test_the_warmings_estimate_is_the_lumped_bodys_step_response_at_the_nominal_
                  sheet_thickness_tolerance(THICKNESS_M))
     assert capacity_k == pytest.approx(0.5 * abs(closed_form(_body(1 + c, 1 + rho, 1 + t, 1))
                                                  - closed_form(_body(1 - c, 1 - rho, 1 - t, 1))), rel=1e-9)
+    assert shunt_k == pytest.approx(closed_form(_body(1, 1, 1, 1), 0.01 * shunt_w), rel=1e-9)
     assert power_k == 0.0 and 0.0 < convection_k < rise_k
