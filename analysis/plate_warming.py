@@ -30,9 +30,13 @@ clock is the campaign's), evaluated at the mean time of the readings on the peak
 search read its resonance from (as a re-centring's vertex is dated, `resonance_drift`). Its
 u: |alpha| within +-30 %, the heat capacity (sheet thickness, density, specific heat at their
 limits together), the convection, the intervals' powers at the smaller or the larger of their
-ends, the shunt's resistance within `dielectric.SHUNT_TOLERANCE_REL`, and, for a plate cut
-during the run, its length between the cut's and the scene's. A plate driven in an earlier
-run is at rest when the next starts: each run's readings are timed by its own clock.
+ends and the shunt's resistance within `dielectric.SHUNT_TOLERANCE_REL`. A plate cut during
+the run (Table 3) heats at each reading's length: its heat capacity and convection go with
+its length, its time constant does not, and its temperature carries through the cut
+(`_plate_powers`, as the simulator's plate keeps it); the mean of the cut and the uncut
+plate's estimates, each over the whole run, was taken before, and on a seeded bench put the
+28 mm plate 69 mK warm where it was 29. A plate driven in an earlier run is at rest when
+the next starts: each run's readings are timed by its own clock.
 """
 
 from __future__ import annotations
@@ -57,7 +61,8 @@ ROOM_TERM = "room drift since the run started"
 
 
 def warming_estimate_k(history: pd.DataFrame, plate: str, at_s: float, length_m: float, width_m: float,
-                       thickness_m: float, shunt_ohm: float = 0.0) -> tuple[float, list[float]]:
+                       thickness_m: float, shunt_ohm: float = 0.0,
+                       state_lengths_m: dict[str, float] | None = None) -> tuple[float, list[float]]:
     """The temperature rise of `plate` at `at_s` with its constants at their nominal values and
     each interval at the mean of the powers the plate dissipated at its ends (`_plate_powers`:
     the stored ones less the loss of the `shunt_ohm` shunt they were read through; the inputs'
@@ -65,8 +70,11 @@ def warming_estimate_k(history: pd.DataFrame, plate: str, at_s: float, length_m:
     5.1.3) as each input alone runs over its tolerance: the capacity's (sheet thickness,
     density, specific heat: C and tau together), the convection's (tau), the intervals'
     powers (the smaller and the larger of their ends) and the shunt's resistance
-    (`dielectric.SHUNT_TOLERANCE_REL`: more of it leaves the plate less)."""
-    times_s, power_w = _plate_powers(history, plate, shunt_ohm)
+    (`dielectric.SHUNT_TOLERANCE_REL`: more of it leaves the plate less). A reading in a state
+    of `state_lengths_m` (a plate cut during the run) heats the plate at its cut length
+    (`_plate_powers`)."""
+    lengths = (length_m, state_lengths_m or {})
+    times_s, power_w = _plate_powers(history, plate, shunt_ohm, *lengths)
 
     def mean_w(power_w: np.ndarray) -> np.ndarray:
         return 0.5 * (warming.held_powers_w(power_w, np.minimum) + warming.held_powers_w(power_w))
@@ -75,22 +83,30 @@ def warming_estimate_k(history: pd.DataFrame, plate: str, at_s: float, length_m:
         return _rise_at_k(times_s, held_w, at_s, _body(length_m, width_m, thickness_m, capacity, convection))
 
     less_shunt_w, more_shunt_w = (
-        _plate_powers(history, plate, shunt_ohm * (1.0 + sign * dielectric.SHUNT_TOLERANCE_REL))[1] for sign in (-1, 1))
+        _plate_powers(history, plate, shunt_ohm * (1.0 + sign * dielectric.SHUNT_TOLERANCE_REL), *lengths)[1]
+        for sign in (-1, 1))
     halves = [0.5 * abs(rise(capacity=1.0) - rise(capacity=-1.0)), 0.5 * abs(rise(convection=1.0) - rise(convection=-1.0)),
               0.5 * (rise(held_w=warming.held_powers_w(power_w)) - rise(held_w=warming.held_powers_w(power_w, np.minimum))),
               0.5 * (rise(held_w=mean_w(less_shunt_w)) - rise(held_w=mean_w(more_shunt_w)))]
     return rise(), halves
 
 
-def _plate_powers(history: pd.DataFrame, plate: str, shunt_ohm: float) -> tuple[np.ndarray, np.ndarray]:
+def _plate_powers(history: pd.DataFrame, plate: str, shunt_ohm: float, length_m: float,
+                  state_lengths_m: dict[str, float]) -> tuple[np.ndarray, np.ndarray]:
     """The run's readings' sorted times and the power each dissipated in `plate`
     (`dielectric.plate_power_w`: the scope's less the `shunt_ohm` shunt's loss; 0 on another
-    plate; a reading without a power, the plate's largest)."""
+    plate; a reading without a power, the plate's largest), as the plate at `length_m` would
+    take it: a plate cut to L (its reading's state in `state_lengths_m`) has its heat
+    capacity and its convection both in proportion to L (tau unchanged), so
+    C(L) dT/dt = P - G(L) T is C(L0) dT/dt = P L0 / L - G(L0) T, its temperature carried
+    through the cut (a temperature, not a heat: the piece kept holds it)."""
     rows = history.sort_values("bench_time_s", kind="stable")
     on_plate = (rows["plate"] == plate).to_numpy()
     current_pp_a = rows["scope_current_pp_a"].to_numpy(float) if "scope_current_pp_a" in rows else math.nan
-    power_w = np.where(on_plate, dielectric.plate_power_w(rows["scope_power_w"].to_numpy(float), current_pp_a,
-                                                          shunt_ohm), 0.0)
+    states = rows["scene_state"] if "scene_state" in rows else pd.Series(None, index=rows.index, dtype=object)
+    per_length = length_m / states.map(state_lengths_m).fillna(length_m).to_numpy(float)
+    power_w = np.where(on_plate, per_length * dielectric.plate_power_w(rows["scope_power_w"].to_numpy(float),
+                                                                       current_pp_a, shunt_ohm), 0.0)
     if on_plate.any():
         power_w = np.where(on_plate & ~np.isfinite(power_w), np.nanmax(np.where(on_plate, power_w, np.nan)), power_w)
     return rows["bench_time_s"].to_numpy(float), power_w
@@ -136,20 +152,23 @@ def top_readings_time_s(sweep_time_s: np.ndarray, sweep_velocity: np.ndarray) ->
     return float(np.mean(sweep_time_s[top]))
 
 
-def plate_size_m(scene: dict, states=()) -> tuple[float, float, float] | None:
-    """The plate's length, width and thickness (m) from its scene copy (None if it lacks one);
-    its length the shortest of `states` (scene states, Table 3's cuts: `plate_length_mm`)
-    that state one: a plate cut shorter warms faster, and the heat a longer one took spreads
-    over more metal, so the shortest bounds them all."""
+def plate_size_m(scene: dict) -> tuple[float, float, float] | None:
+    """The plate's length, width and thickness (m) from its scene copy, as mounted (None if
+    it lacks one)."""
     plate = scene.get("plate") if isinstance(scene, dict) else None
     sizes = [plate.get(key) if isinstance(plate, dict) else None for key in ("length_mm", "width_mm", "thickness_mm")]
     if not all(isinstance(size, (int, float)) and size > 0 for size in sizes):
         return None
-    declared = scene.get("states") if isinstance(scene.get("states"), dict) else {}
-    cut = [declared[state]["plate_length_mm"] for state in states
-           if isinstance(declared.get(state), dict) and isinstance(declared[state].get("plate_length_mm"), (int, float))]
-    sizes[0] = min([sizes[0], *cut])
     return tuple(size * 1e-3 for size in sizes)
+
+
+def state_lengths_m(scene: dict) -> dict[str, float]:
+    """The plate's length (m) in each scene state that states one (`plate_length_mm`: Table
+    3's cuts)."""
+    declared = scene.get("states") if isinstance(scene, dict) and isinstance(scene.get("states"), dict) else {}
+    return {state: 1e-3 * values["plate_length_mm"] for state, values in declared.items()
+            if isinstance(values, dict) and isinstance(values.get("plate_length_mm"), (int, float))
+            and values["plate_length_mm"] > 0}
 
 
 def search_room_term(history: pd.DataFrame, frequency_hz: float, at_s: float) -> Term | None:
@@ -178,16 +197,11 @@ def search_warming_term(history: pd.DataFrame, plate: str, scene: dict, frequenc
     if (not set(HISTORY_COLUMNS) <= set(history.columns) or not math.isfinite(at_s)
             or not np.isfinite(history.loc[history["plate"] == plate, "scope_power_w"].to_numpy(float)).any()):
         return None
-    states = history.loc[(history["plate"] == plate) & (history["bench_time_s"] <= at_s),
-                         "scene_state"].dropna().unique() if "scene_state" in history else ()
-    shortest, longest = plate_size_m(scene, states), plate_size_m(scene)
-    if shortest is None:
+    size_m = plate_size_m(scene)
+    if size_m is None:
         return None
     ohm = dielectric.shunt_ohm(scene) or 0.0   # a scene that names none: the whole stored power, an upper bound
-    (cut_k, cut_halves), (uncut_k, uncut_halves) = (warming_estimate_k(history, plate, at_s, *size, ohm)
-                                                    for size in (shortest, longest))
-    rise_k = 0.5 * (cut_k + uncut_k)   # a plate cut in the run held each length part of the time
-    halves_k = [*np.maximum(cut_halves, uncut_halves), 0.5 * (cut_k - uncut_k)]
+    rise_k, halves_k = warming_estimate_k(history, plate, at_s, *size_m, ohm, state_lengths_m(scene))
     alpha = abs(HEATING_NOMINAL["frequency_coefficient_per_k"])
     correction_hz = frequency_hz * alpha * rise_k
     alpha_half = _tolerance(HEATING_TOLERANCES, "frequency_coefficient_per_k")
@@ -198,5 +212,5 @@ def search_warming_term(history: pd.DataFrame, plate: str, scene: dict, frequenc
         "read its top (its readings' mean time), from the run's stored powers on it less the "
         f"{ohm:g} ohm shunt's loss (energy balance, plates.warming, the constants nominal); u from the heating "
         f"tolerances (the resonance's {HEATING_NOMINAL['frequency_coefficient_per_k']:.0e}/K +-{alpha_half:.0%}, "
-        "heat capacity, convection), the powers between their readings, the shunt's resistance and a cut "
-        "plate's length, each a rectangle", rectangular=False)
+        "heat capacity, convection), the powers between their readings and the shunt's resistance, each a "
+        "rectangle", rectangular=False)
