@@ -22,6 +22,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 import pandas as pd
 
+from squeezebench.analysis.dielectric import SHUNT_TOLERANCE_REL
 from squeezebench.analysis.rundata import RunData
 from squeezebench.plates.specifications import SPECIFICATIONS, Specification
 from squeezebench.analysis.tables import reduced_points
@@ -30,7 +31,6 @@ from squeezebench.analysis.waveforms import Estimate
 PROTOCOL = "deskew_calibration"
 RESISTOR_TIME_CONSTANT = Specification(
     0.5e-9, "s", "assumed: a low-inductance precision resistor, L/R within 0.5 ns (50 nH in 100 ohm)")
-SHUNT_TOLERANCE_REL = 0.01   # assumed: the 2 ohm shunt within 1 %
 
 
 #: Weight of the gain check in the power's gain correction (see `Deskew.gain_weight`).

@@ -116,6 +116,25 @@ def shunt_ohm(stored: dict) -> float | None:
     return float(value)
 
 
+#: The shunt's resistance about its stated value (a rectangle's half-width, relative).
+SHUNT_TOLERANCE_REL = 0.01   # assumed: the 2 ohm shunt within 1 %
+
+
+def plate_power_w(stored_power_w, current_pp_a, shunt_ohm: float) -> np.ndarray:
+    """The power the plate itself dissipates, the one that warms it (`plates.warming`): the
+    stored power, read through the series shunt at the amplifier's output (Sec. 2.1), less the
+    shunt's loss R_s I_rms^2, I_rms = I_pp / (2 sqrt 2) for the sinusoidal current CH2 reads:
+
+        P_plate = |P| - R_s I_pp^2 / 8   (never below 0)
+
+    It keeps the piezos' dielectric loss: they are bonded to the plate and warm with it. A
+    reading without a stored current keeps its whole power, which bounds the plate's from
+    above (the shunt takes under 10 % of it at resonance: `simbench.scene_bounds`)."""
+    current_pp_a = np.asarray(current_pp_a, dtype=float)
+    shunt_w = np.where(np.isfinite(current_pp_a), shunt_ohm * current_pp_a**2 / 8.0, 0.0)
+    return np.maximum(np.abs(np.asarray(stored_power_w, dtype=float)) - shunt_w, 0.0)
+
+
 def shunt_capacitive_power_w(shunt_ohm: float, capacitance_f: float, frequency_hz: float, voltage_vpp: float) -> float:
     """R_s |I_C|^2 / 2, I_C = w C0 V0 (V0 = V_pp / 2): the shunt's loss from the capacitive current."""
     return 0.5 * shunt_ohm * (2.0 * math.pi * frequency_hz * capacitance_f * voltage_vpp / 2.0) ** 2

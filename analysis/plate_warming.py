@@ -19,16 +19,24 @@ searches read high on the warming steps (+0.3 to +0.5 U on average, 20 benches).
 
 The estimate is the energy balance of `plates.warming`'s lumped body over the run's stored
 readings on the plate (every protocol's: sweeps, points, re-centrings), each interval
-between two readings of the run dissipating the mean of the |powers| the scope read at its
-ends on this plate (the drive holds one reading's setting until the next's: between them),
+between two readings of the run dissipating the mean of the powers the plate took at its
+ends (the drive holds one reading's setting until the next's: between them): the |power| the
+scope read less the series shunt's loss R_s I_pp^2 / 8 (`dielectric.plate_power_w`; the scope
+reads the power at the amplifier's output, Sec. 2.1, and the shunt's loss heats the shunt:
+8.6 % of the nine-column plate's power at resonance, 0.4 % of the one-column plate's), R_s
+the run's scene's (`dielectric.shunt_ohm`; a scene that names none, the whole power, a bound),
 the plate at rest before the run's first reading (which took as long as the next: the rows'
 clock is the campaign's), evaluated at the mean time of the readings on the peak's top the
 search read its resonance from (as a re-centring's vertex is dated, `resonance_drift`). Its
 u: |alpha| within +-30 %, the heat capacity (sheet thickness, density, specific heat at their
 limits together), the convection, the intervals' powers at the smaller or the larger of their
-ends, and, for a plate cut during the run, its length between the cut's and the scene's. A
-plate driven in an earlier run is at rest when the next starts: each run's readings are
-timed by its own clock.
+ends and the shunt's resistance within `dielectric.SHUNT_TOLERANCE_REL`. A plate cut during
+the run (Table 3) heats at each reading's length: its heat capacity and convection go with
+its length, its time constant does not, and its temperature carries through the cut
+(`_plate_powers`, as the simulator's plate keeps it); the mean of the cut and the uncut
+plate's estimates, each over the whole run, was taken before, and on a seeded bench put the
+28 mm plate 69 mK warm where it was 29. A plate driven in an earlier run is at rest when
+the next starts: each run's readings are timed by its own clock.
 """
 
 from __future__ import annotations
@@ -39,6 +47,7 @@ import numpy as np
 import pandas as pd
 
 from squeezebench.analysis.budgets import Term
+from squeezebench.analysis import dielectric
 from squeezebench.analysis.resonance_searches import PEAK_FIT_SHARE
 from squeezebench.plates import warming
 from squeezebench.plates.laminate import ALUMINIUM_TABLE2
@@ -52,30 +61,52 @@ ROOM_TERM = "room drift since the run started"
 
 
 def warming_estimate_k(history: pd.DataFrame, plate: str, at_s: float, length_m: float, width_m: float,
-                       thickness_m: float) -> tuple[float, list[float]]:
+                       thickness_m: float, shunt_ohm: float = 0.0,
+                       state_lengths_m: dict[str, float] | None = None) -> tuple[float, list[float]]:
     """The temperature rise of `plate` at `at_s` with its constants at their nominal values and
-    each interval at the mean of the powers read at its ends (the inputs' best estimates, GUM
-    4.1.4), and the half-widths of the rise's rectangles (GUM 4.3.7, 5.1.3) as each input
-    alone runs over its tolerance: the capacity's (sheet thickness, density, specific heat:
-    C and tau together), the convection's (tau) and the intervals' powers (the smaller and the
-    larger of their ends)."""
-    times_s, power_w = _plate_powers(history, plate)
-    mean_w = 0.5 * (warming.held_powers_w(power_w, np.minimum) + warming.held_powers_w(power_w))
+    each interval at the mean of the powers the plate dissipated at its ends (`_plate_powers`:
+    the stored ones less the loss of the `shunt_ohm` shunt they were read through; the inputs'
+    best estimates, GUM 4.1.4), and the half-widths of the rise's rectangles (GUM 4.3.7,
+    5.1.3) as each input alone runs over its tolerance: the capacity's (sheet thickness,
+    density, specific heat: C and tau together), the convection's (tau), the intervals'
+    powers (the smaller and the larger of their ends) and the shunt's resistance
+    (`dielectric.SHUNT_TOLERANCE_REL`: more of it leaves the plate less). A reading in a state
+    of `state_lengths_m` (a plate cut during the run) heats the plate at its cut length
+    (`_plate_powers`)."""
+    lengths = (length_m, state_lengths_m or {})
+    times_s, power_w = _plate_powers(history, plate, shunt_ohm, *lengths)
 
-    def rise(capacity: float = 0.0, convection: float = 0.0, held_w: np.ndarray = mean_w) -> float:
+    def mean_w(power_w: np.ndarray) -> np.ndarray:
+        return 0.5 * (warming.held_powers_w(power_w, np.minimum) + warming.held_powers_w(power_w))
+
+    def rise(capacity: float = 0.0, convection: float = 0.0, held_w: np.ndarray = mean_w(power_w)) -> float:
         return _rise_at_k(times_s, held_w, at_s, _body(length_m, width_m, thickness_m, capacity, convection))
 
+    less_shunt_w, more_shunt_w = (
+        _plate_powers(history, plate, shunt_ohm * (1.0 + sign * dielectric.SHUNT_TOLERANCE_REL), *lengths)[1]
+        for sign in (-1, 1))
     halves = [0.5 * abs(rise(capacity=1.0) - rise(capacity=-1.0)), 0.5 * abs(rise(convection=1.0) - rise(convection=-1.0)),
-              0.5 * (rise(held_w=warming.held_powers_w(power_w)) - rise(held_w=warming.held_powers_w(power_w, np.minimum)))]
+              0.5 * (rise(held_w=warming.held_powers_w(power_w)) - rise(held_w=warming.held_powers_w(power_w, np.minimum))),
+              0.5 * (rise(held_w=mean_w(less_shunt_w)) - rise(held_w=mean_w(more_shunt_w)))]
     return rise(), halves
 
 
-def _plate_powers(history: pd.DataFrame, plate: str) -> tuple[np.ndarray, np.ndarray]:
-    """The run's readings' sorted times and the |power| each read on `plate` (0 on another; a
-    reading without a power, the plate's largest)."""
+def _plate_powers(history: pd.DataFrame, plate: str, shunt_ohm: float, length_m: float,
+                  state_lengths_m: dict[str, float]) -> tuple[np.ndarray, np.ndarray]:
+    """The run's readings' sorted times and the power each dissipated in `plate`
+    (`dielectric.plate_power_w`: the scope's less the `shunt_ohm` shunt's loss; 0 on another
+    plate; a reading without a power, the plate's largest), as the plate at `length_m` would
+    take it: a plate cut to L (its reading's state in `state_lengths_m`) has its heat
+    capacity and its convection both in proportion to L (tau unchanged), so
+    C(L) dT/dt = P - G(L) T is C(L0) dT/dt = P L0 / L - G(L0) T, its temperature carried
+    through the cut (a temperature, not a heat: the piece kept holds it)."""
     rows = history.sort_values("bench_time_s", kind="stable")
     on_plate = (rows["plate"] == plate).to_numpy()
-    power_w = np.where(on_plate, np.abs(rows["scope_power_w"].to_numpy(float)), 0.0)
+    current_pp_a = rows["scope_current_pp_a"].to_numpy(float) if "scope_current_pp_a" in rows else math.nan
+    states = rows["scene_state"] if "scene_state" in rows else pd.Series(None, index=rows.index, dtype=object)
+    per_length = length_m / states.map(state_lengths_m).fillna(length_m).to_numpy(float)
+    power_w = np.where(on_plate, per_length * dielectric.plate_power_w(rows["scope_power_w"].to_numpy(float),
+                                                                       current_pp_a, shunt_ohm), 0.0)
     if on_plate.any():
         power_w = np.where(on_plate & ~np.isfinite(power_w), np.nanmax(np.where(on_plate, power_w, np.nan)), power_w)
     return rows["bench_time_s"].to_numpy(float), power_w
@@ -121,20 +152,23 @@ def top_readings_time_s(sweep_time_s: np.ndarray, sweep_velocity: np.ndarray) ->
     return float(np.mean(sweep_time_s[top]))
 
 
-def plate_size_m(scene: dict, states=()) -> tuple[float, float, float] | None:
-    """The plate's length, width and thickness (m) from its scene copy (None if it lacks one);
-    its length the shortest of `states` (scene states, Table 3's cuts: `plate_length_mm`)
-    that state one: a plate cut shorter warms faster, and the heat a longer one took spreads
-    over more metal, so the shortest bounds them all."""
+def plate_size_m(scene: dict) -> tuple[float, float, float] | None:
+    """The plate's length, width and thickness (m) from its scene copy, as mounted (None if
+    it lacks one)."""
     plate = scene.get("plate") if isinstance(scene, dict) else None
     sizes = [plate.get(key) if isinstance(plate, dict) else None for key in ("length_mm", "width_mm", "thickness_mm")]
     if not all(isinstance(size, (int, float)) and size > 0 for size in sizes):
         return None
-    declared = scene.get("states") if isinstance(scene.get("states"), dict) else {}
-    cut = [declared[state]["plate_length_mm"] for state in states
-           if isinstance(declared.get(state), dict) and isinstance(declared[state].get("plate_length_mm"), (int, float))]
-    sizes[0] = min([sizes[0], *cut])
     return tuple(size * 1e-3 for size in sizes)
+
+
+def state_lengths_m(scene: dict) -> dict[str, float]:
+    """The plate's length (m) in each scene state that states one (`plate_length_mm`: Table
+    3's cuts)."""
+    declared = scene.get("states") if isinstance(scene, dict) and isinstance(scene.get("states"), dict) else {}
+    return {state: 1e-3 * values["plate_length_mm"] for state, values in declared.items()
+            if isinstance(values, dict) and isinstance(values.get("plate_length_mm"), (int, float))
+            and values["plate_length_mm"] > 0}
 
 
 def search_room_term(history: pd.DataFrame, frequency_hz: float, at_s: float) -> Term | None:
@@ -163,15 +197,11 @@ def search_warming_term(history: pd.DataFrame, plate: str, scene: dict, frequenc
     if (not set(HISTORY_COLUMNS) <= set(history.columns) or not math.isfinite(at_s)
             or not np.isfinite(history.loc[history["plate"] == plate, "scope_power_w"].to_numpy(float)).any()):
         return None
-    states = history.loc[(history["plate"] == plate) & (history["bench_time_s"] <= at_s),
-                         "scene_state"].dropna().unique() if "scene_state" in history else ()
-    shortest, longest = plate_size_m(scene, states), plate_size_m(scene)
-    if shortest is None:
+    size_m = plate_size_m(scene)
+    if size_m is None:
         return None
-    (cut_k, cut_halves), (uncut_k, uncut_halves) = (warming_estimate_k(history, plate, at_s, *size)
-                                                    for size in (shortest, longest))
-    rise_k = 0.5 * (cut_k + uncut_k)   # a plate cut in the run held each length part of the time
-    halves_k = [*np.maximum(cut_halves, uncut_halves), 0.5 * (cut_k - uncut_k)]
+    ohm = dielectric.shunt_ohm(scene) or 0.0   # a scene that names none: the whole stored power, an upper bound
+    rise_k, halves_k = warming_estimate_k(history, plate, at_s, *size_m, ohm, state_lengths_m(scene))
     alpha = abs(HEATING_NOMINAL["frequency_coefficient_per_k"])
     correction_hz = frequency_hz * alpha * rise_k
     alpha_half = _tolerance(HEATING_TOLERANCES, "frequency_coefficient_per_k")
@@ -179,7 +209,8 @@ def search_warming_term(history: pd.DataFrame, plate: str, scene: dict, frequenc
     return correction_hz, Term(
         TERM, "B", u_hz,
         f"corrected by +{correction_hz:.2f} Hz: the plate {rise_k * 1e3:.1f} mK warmer than at rest when the search "
-        "read its top (its readings' mean time), from the run's stored powers on it (energy balance, "
-        "plates.warming, the constants nominal); u from the heating tolerances (the resonance's "
-        f"{HEATING_NOMINAL['frequency_coefficient_per_k']:.0e}/K +-{alpha_half:.0%}, heat capacity, convection), "
-        "the powers between their readings and a cut plate's length, each a rectangle", rectangular=False)
+        "read its top (its readings' mean time), from the run's stored powers on it less the "
+        f"{ohm:g} ohm shunt's loss (energy balance, plates.warming, the constants nominal); u from the heating "
+        f"tolerances (the resonance's {HEATING_NOMINAL['frequency_coefficient_per_k']:.0e}/K +-{alpha_half:.0%}, "
+        "heat capacity, convection), the powers between their readings and the shunt's resistance, each a "
+        "rectangle", rectangular=False)

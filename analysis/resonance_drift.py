@@ -12,9 +12,11 @@ on the re-centred resonance, is off the mounted plate's by its setting's offset,
 (`uncertainty.power_ratio_budget`).
 
 Where the run's scene gives the plate (`_warming_estimates`), the drift is estimated from the
-plate's warming: a lumped thermal model (`plates.warming`) driven by every stored power of
-the run, its time constant and its hertz per joule held within the heating tolerances, the
-scale fitted to the run's dated readings below. The warming's sign is known (the resonance
+plate's warming: a lumped thermal model (`plates.warming`) driven by the power the plate took
+at every stored reading of the run (the stored power less the series shunt's loss,
+`dielectric.plate_power_w`: the scope reads it at the amplifier's output), its time
+constant and its hertz per joule held within the heating tolerances, the scale fitted to the
+run's dated readings below. The warming's sign is known (the resonance
 falls), so the drift is an estimate with a standard uncertainty (the scale's fit, the spread
 over the time constants the readings allow, the room's drift), which Fig. 2's ratio is
 corrected for (GUM 3.2.4; `uncertainty.power_ratio_budget`), not a bound that U must hold
@@ -68,7 +70,7 @@ import numpy as np
 import pandas as pd
 from scipy.special import ndtri
 
-from squeezebench.analysis import plate_warming, provenance
+from squeezebench.analysis import dielectric, plate_warming, provenance
 from squeezebench.analysis.budgets import COVERAGE_PROBABILITY, P95_FACTOR
 from squeezebench.analysis.resonance_searches import (SEARCH_STOP_SPREAD, mechanical_q_from_sweep, peak_of_readings,
                                                       reading_scatter_rel)
@@ -122,8 +124,11 @@ def with_resonance_drift(points: pd.DataFrame, searches: pd.DataFrame | None = N
     searches = pd.DataFrame(columns=["run_name"]) if searches is None else searches
     closings = pd.DataFrame(columns=["run_name"]) if closings is None else closings
     for run_name, group in out.groupby("run_name", sort=False):
-        dimensions = _plate_dimensions(group, scenes) if scenes else None
-        drift = _drift_bounds if dimensions is None else functools.partial(_warming_estimates, dimensions=dimensions)
+        scene = scenes.get(provenance.scene_files(group.iloc[:1]).iat[0], {}) if scenes else {}
+        dimensions = _plate_dimensions(scene)
+        # a scene that names no shunt: the whole stored power heats the plate, a bound
+        drift = _drift_bounds if dimensions is None else functools.partial(
+            _warming_estimates, dimensions=dimensions, shunt_ohm=dielectric.shunt_ohm(scene) or 0.0)
         *values, source = drift(group, searches[searches["run_name"] == run_name],
                                 closings[closings["run_name"] == run_name])
         for column, value in zip(DRIFT_COLUMNS, values):
@@ -288,10 +293,9 @@ WARMING_SOURCE = ("Type A/B, the plate's warming under the run's {n} dated store
                   "the last two rectangles")
 
 
-def _plate_dimensions(points: pd.DataFrame, scenes: dict[str, dict]) -> tuple[float, float, float, float] | None:
-    """Length, width, thickness (mm) and density (kg/m^3) of the plate of the scene the run's
-    points ran on; None where its copy is missing or its material's density unknown."""
-    scene = scenes.get(provenance.scene_files(points.iloc[:1]).iat[0], {})
+def _plate_dimensions(scene: dict) -> tuple[float, float, float, float] | None:
+    """Length, width, thickness (mm) and density (kg/m^3) of the plate of the scene copy the
+    run's points ran on; None where the copy is missing or its material's density unknown."""
     density = DENSITY_KG_M3.get(scene.get("plate", {}).get("material"))
     size_m = plate_warming.plate_size_m(scene)
     if density is None or size_m is None:
@@ -299,9 +303,10 @@ def _plate_dimensions(points: pd.DataFrame, scenes: dict[str, dict]) -> tuple[fl
     return (*(1e3 * size for size in size_m), density)
 
 
-def _power_history(*frames: pd.DataFrame) -> tuple[np.ndarray, np.ndarray]:
-    """The run's dated powers in time order (its stored power, else the scope's), each held
-    over the interval before it (`warming.held_powers_w`)."""
+def _power_history(*frames: pd.DataFrame, shunt_ohm: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+    """The run's dated powers on the plate in time order (its stored power, else the scope's,
+    less the loss of the `shunt_ohm` shunt it was read through: `dielectric.plate_power_w`),
+    each held over the interval before it (`warming.held_powers_w`)."""
     rows = []
     for frame in frames:
         if "bench_time_s" not in frame:
@@ -309,10 +314,12 @@ def _power_history(*frames: pd.DataFrame) -> tuple[np.ndarray, np.ndarray]:
         power = frame["power_w"] if "power_w" in frame else pd.Series(math.nan, index=frame.index)
         if "scope_power_w" in frame:
             power = power.fillna(frame["scope_power_w"])
-        rows.append(pd.DataFrame({"time_s": frame["bench_time_s"].to_numpy(float), "power_w": power.to_numpy(float)}))
+        current_pp_a = frame["scope_current_pp_a"].to_numpy(float) if "scope_current_pp_a" in frame else math.nan
+        rows.append(pd.DataFrame({"time_s": frame["bench_time_s"].to_numpy(float),
+                                  "power_w": dielectric.plate_power_w(power.to_numpy(float), current_pp_a, shunt_ohm)}))
     history = pd.concat(rows, ignore_index=True) if rows else pd.DataFrame(columns=["time_s", "power_w"], dtype=float)
     history = history[np.isfinite(history["time_s"]) & np.isfinite(history["power_w"])].sort_values("time_s")
-    times_s, power_w = history["time_s"].to_numpy(float), np.abs(history["power_w"].to_numpy(float))
+    times_s, power_w = history["time_s"].to_numpy(float), history["power_w"].to_numpy(float)
     return times_s, warming.held_powers_w(power_w)
 
 
@@ -353,13 +360,15 @@ def _warming_scale(held_j: np.ndarray, readings: pd.DataFrame, times_s: np.ndarr
 
 
 def _warming_estimates(points: pd.DataFrame, searches: pd.DataFrame, closings: pd.DataFrame,
-                       dimensions: tuple[float, float, float, float]) -> DriftColumns:
+                       dimensions: tuple[float, float, float, float], shunt_ohm: float = 0.0) -> DriftColumns:
     """Each point's drift estimate and its u (Hz) from the plate's warming, for one run.
 
     The plate warms as one body (`plates.warming`): its resonance has fallen by k E(t), E the
-    heat it holds from the run's stored powers (`_power_history`, cold at the run's first
-    stored reading), k = f |alpha| / C. Its time constant tau and k lie within the heating
-    tolerances' ranges (`warming.time_constant_range_s`, `warming.drift_per_joule_range_hz`);
+    heat it holds from the powers it took (`_power_history`, cold at the run's first stored
+    reading: the stored powers less the `shunt_ohm` shunt's loss, whose 1 % tolerance moves
+    the heat by under 0.1 %, far inside the scale's u, and is left out), k = f |alpha| / C.
+    Its time constant tau and k lie within the heating tolerances' ranges
+    (`warming.time_constant_range_s`, `warming.drift_per_joule_range_hz`);
     the run's dated readings of its resonance (`_readings`) fit k at each tau
     (`_warming_scale`), and the taus they do not reject (chi^2 within CHI2_95_ONE of its
     least) give the drift since the first reading, -k (E(t) - E(t_0)), each its own: the
@@ -375,7 +384,7 @@ def _warming_estimates(points: pd.DataFrame, searches: pd.DataFrame, closings: p
     setting's offset from that reading in quadrature: P0 is set at the best reading, the
     reading may be its readings' vertex), `uncertainty.power_ratio_budget` takes (offset /
     h)^2."""
-    times_s, power_w = _power_history(points, searches, closings)
+    times_s, power_w = _power_history(points, searches, closings, shunt_ohm=shunt_ohm)
     at_s = points["bench_time_s"].to_numpy(float)
     readings, _, best_u = _readings(points, searches, closings)
     if len(times_s) < 2 or readings.empty or not np.all(np.isfinite(at_s)):

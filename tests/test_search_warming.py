@@ -193,24 +193,39 @@ def test_a_run_without_stored_powers_or_a_plate_size_gets_no_warming_term():
         assert plate_warming.TERM not in {t.name for t in budget.terms}
 
 
-def test_a_plate_cut_shorter_is_bounded_at_its_shortest_length():
-    """Table 3 cuts one plate from 75 to 28 mm: the bound takes the shortest length its
-    readings were in (the heat capacity goes with the length, the time constant does not)."""
+def test_a_plate_cut_shorter_warms_at_its_cut_length_and_keeps_its_temperature_through_the_cut():
+    """Table 3 cuts one plate from 75 to 28 mm: its heat capacity and convection go with its
+    length, its time constant does not. Read at 28 mm from its run's start it warms as the
+    28 mm body, 75 / 28 times the 75 mm one's rise; driven at 75 mm for a minute and then
+    cut and left undriven, its temperature at the cut decays with tau (a temperature, not a
+    heat: the mean of the cut and uncut plates' estimates gave (1 + 75 / 28) / 2 of it)."""
     scene = {"plate": {"length_mm": 75, "width_mm": 41, "thickness_mm": 1.0},
              "states": {"75x41": {"plate_length_mm": 75}, "28x41": {"plate_length_mm": 28}, "other": {}}}
     assert plate_warming.plate_size_m(scene) == (0.075, 0.041, 0.001)
-    assert plate_warming.plate_size_m(scene, ["75x41", "28x41", "other", "unknown"])[0] == 0.028
-    history = pd.DataFrame({"run_name": "cut", "plate": "p", "bench_time_s": [10.0, 20.0], "scope_power_w": 0.05,
-                            "scene_state": ["75x41", "28x41"]})
-    (short_k, _), (long_k, _) = (plate_warming.warming_estimate_k(history, "p", 20.0, length_m, 0.041, 0.001)
-                                 for length_m in (0.028, 0.075))
-    assert short_k == pytest.approx(long_k * 75 / 28, rel=1e-9)
-    correction_hz, term = plate_warming.search_warming_term(history, "p", scene, 37e3, 20.0)
-    assert correction_hz == pytest.approx(37e3 * 2e-4 * 0.5 * (short_k + long_k), rel=1e-9)
-    assert math.sqrt(3.0) * term.std_uncertainty >= 37e3 * 2e-4 * 0.5 * (short_k - long_k)
-    uncut_hz, _ = plate_warming.search_warming_term(history, "p", scene, 37e3, 10.0)   # read before the cut
-    assert uncut_hz == pytest.approx(37e3 * 2e-4 * plate_warming.warming_estimate_k(history, "p", 10.0, 0.075, 0.041,
-                                                                                     0.001)[0], rel=1e-9)
+    assert plate_warming.state_lengths_m(scene) == {"75x41": 0.075, "28x41": 0.028}
+    times_s = np.arange(2.0, 62.0, 2.0)
+    cut = pd.DataFrame({"run_name": "cut", "plate": "p", "bench_time_s": times_s, "scope_power_w": 0.05,
+                        "scene_state": "28x41"})
+    (cut_k, _), (uncut_k, _) = (plate_warming.warming_estimate_k(history, "p", times_s[-1], 0.075, 0.041, 0.001,
+                                                                 state_lengths_m=plate_warming.state_lengths_m(scene))
+                                for history in (cut, cut.assign(scene_state="75x41")))
+    assert cut_k == pytest.approx(uncut_k * 75 / 28, rel=1e-12)
+    body = warming.thermal_plate(28.0, 41.0, 1.0, ALUMINIUM_TABLE2.density_kg_m3,
+                                 HEATING_NOMINAL["specific_heat_j_per_kg_k"], HEATING_NOMINAL["convection_w_per_m2_k"])
+    assert cut_k == pytest.approx(0.05 * body.time_constant_s / body.heat_capacity_j_per_k
+                                  * -math.expm1(-times_s[-1] / body.time_constant_s), rel=1e-9)
+    # a minute at 75 mm, the drive off at its last reading, then 20 s undriven at 28 mm
+    after_s = np.arange(62.0, 82.0, 2.0)
+    powers_w = np.concatenate([np.full(len(times_s) - 1, 0.05), np.zeros(1 + len(after_s))])
+    history = pd.DataFrame({"run_name": "cut", "plate": "p", "bench_time_s": np.concatenate([times_s, after_s]),
+                            "scope_power_w": powers_w,
+                            "scene_state": ["75x41"] * len(times_s) + ["28x41"] * len(after_s)})
+    at_cut_k, _ = plate_warming.warming_estimate_k(history, "p", times_s[-1], 0.075, 0.041, 0.001)
+    correction_hz, term = plate_warming.search_warming_term(history, "p", scene, 37e3, after_s[-1])
+    tau_s = body.time_constant_s
+    assert correction_hz == pytest.approx(37e3 * 2e-4 * at_cut_k * math.exp(-(after_s[-1] - times_s[-1]) / tau_s),
+                                          rel=1e-9)
+    assert "cut" not in term.source
 
 
 def test_a_search_carries_the_rooms_drift_since_its_run_started():
@@ -235,17 +250,20 @@ def test_a_search_carries_the_rooms_drift_since_its_run_started():
 
 
 def test_the_warmings_estimate_is_the_lumped_bodys_step_response_at_the_nominal_constants():
-    """A plate held at 0.2 W from its run's start (readings every 2 s): the rise is
-    P tau / C (1 - exp(-t / tau)) at the nominal constants; the convection's rectangle is half
-    the difference of the same at its limits, the heat capacity's likewise, the powers' none
-    (every reading the same)."""
+    """A plate read at 0.2 W through a 2 ohm shunt from its run's start (readings every 2 s,
+    0.3 A pp): it takes P = 0.2 - 2 x 0.3^2 / 8 W, and the rise is P tau / C (1 - exp(-t /
+    tau)) at the nominal constants; the convection's rectangle is half the difference of the
+    same at its limits, the heat capacity's likewise, the shunt's that of its loss at +-1 %,
+    the powers' none (every reading the same)."""
     times_s = np.arange(2.0, 62.0, 2.0)
-    history = pd.DataFrame({"run_name": "r", "plate": "p", "bench_time_s": times_s, "scope_power_w": 0.2})
-    rise_k, (capacity_k, convection_k, power_k) = plate_warming.warming_estimate_k(
-        history, "p", times_s[-1], LENGTH_M, WIDTH_M, THICKNESS_M)
+    history = pd.DataFrame({"run_name": "r", "plate": "p", "bench_time_s": times_s, "scope_power_w": 0.2,
+                            "scope_current_pp_a": 0.3})
+    rise_k, (capacity_k, convection_k, power_k, shunt_k) = plate_warming.warming_estimate_k(
+        history, "p", times_s[-1], LENGTH_M, WIDTH_M, THICKNESS_M, 2.0)
+    shunt_w = 2.0 * 0.3**2 / 8.0
 
-    def closed_form(body) -> float:
-        return 0.2 * body.time_constant_s / body.heat_capacity_j_per_k * -math.expm1(-times_s[-1] / body.time_constant_s)
+    def closed_form(body, power_w: float = 0.2 - shunt_w) -> float:
+        return power_w * body.time_constant_s / body.heat_capacity_j_per_k * -math.expm1(-times_s[-1] / body.time_constant_s)
 
     assert rise_k == pytest.approx(closed_form(_body(1.0, 1.0, 1.0, 1.0)), rel=1e-9)
     h = HEATING_TOLERANCES["convection_w_per_m2_k"].half_width
@@ -255,4 +273,5 @@ def test_the_warmings_estimate_is_the_lumped_bodys_step_response_at_the_nominal_
                  sheet_thickness_tolerance(THICKNESS_M))
     assert capacity_k == pytest.approx(0.5 * abs(closed_form(_body(1 + c, 1 + rho, 1 + t, 1))
                                                  - closed_form(_body(1 - c, 1 - rho, 1 - t, 1))), rel=1e-9)
+    assert shunt_k == pytest.approx(closed_form(_body(1, 1, 1, 1), 0.01 * shunt_w), rel=1e-9)
     assert power_k == 0.0 and 0.0 < convection_k < rise_k
