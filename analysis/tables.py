@@ -214,11 +214,10 @@ def _side_by_side(run: RunData | None, table: str, paper_name: str, items: dict[
                    "value": math.nan, "std_uncertainty": math.nan, "expanded_uncertainty": math.nan,
                    "scope_value": math.nan, "origin": "", "calibrated_on": "", "status": NOT_MEASURED}
             if points is not None and len(points):
-                reachable = flag(points["reachable"], default=True) if "reachable" in points else None
-                if reachable is not None and not reachable.any():
+                used = reachable_points(points)
+                if used.empty:
                     row["status"] = NOT_REACHABLE
                 else:
-                    used = points[reachable] if reachable is not None else points
                     row.update(_quantity_value(used, quantity, constant_columns))
                     if quantity == "frequency_hz":
                         row.update(_with_search_uncertainty(row, used, searches))
@@ -227,6 +226,12 @@ def _side_by_side(run: RunData | None, table: str, paper_name: str, items: dict[
                     row["calibrated_on"] = calibrated.get(quantity, "")
             rows.append(compare_with_paper(row, printed))
     return pd.DataFrame(rows, columns=TABLE_COLUMNS)
+
+
+def reachable_points(points: pd.DataFrame) -> pd.DataFrame:
+    """The points of a table's item that its value is made of: those that reached their
+    setting (all of them where the run does not say)."""
+    return points[flag(points["reachable"], default=True)] if "reachable" in points else points
 
 
 def _origin(points: pd.DataFrame, quantity: str, calibrated: dict[str, str], run: RunData,
@@ -337,6 +342,12 @@ def empty_table(name: str, quantities: list[str]) -> pd.DataFrame:
 
 def table3(run: RunData) -> pd.DataFrame:
     """Table 3 (Sec. 2.3.1): the one-column plate cut to shorter lengths, 20 Vpp."""
+    return with_prediction(_side_by_side(run, "table3", "table3", table3_items(run), TABLE3_QUANTITIES,
+                                         {"n_antinodes": "n_antinodes"}), "Table 3")
+
+
+def table3_items(run: RunData) -> dict[str, pd.DataFrame]:
+    """{Table 3's printed length: the run's points of that cut}."""
     points = protocol_points(run, "resonator_cutting")
     printed_lengths = [float(i) for i in paper_table("table3")["item"].unique() if i != "plate"]
     items: dict[str, pd.DataFrame] = {}
@@ -345,15 +356,24 @@ def table3(run: RunData) -> pd.DataFrame:
         nearest = min(printed_lengths, key=lambda p: abs(p - float(length)))
         if abs(nearest - float(length)) <= 1.5:
             items[f"{nearest:g}"] = group
-    return with_prediction(_side_by_side(run, "table3", "table3", items, TABLE3_QUANTITIES,
-                                         {"n_antinodes": "n_antinodes"}), "Table 3")
+    return items
 
 
 def table4(run: RunData) -> pd.DataFrame:
     """Table 4 (Sec. 2.3.2): one- and two-column plates, one or two columns powered."""
+    return with_prediction(_side_by_side(run, "table4", "table4", table4_items(run), TABLE4_QUANTITIES, {}),
+                           "Table 4")
+
+
+def table4_items(run: RunData) -> dict[str, pd.DataFrame]:
+    """{Table 4's configuration: the run's points of it}."""
     points = protocol_points(run, "powered_columns")
-    items = {str(name): group for name, group in points.groupby("configuration")}
-    return with_prediction(_side_by_side(run, "table4", "table4", items, TABLE4_QUANTITIES, {}), "Table 4")
+    return {str(name): group for name, group in points.groupby("configuration")}
+
+
+#: Each paper table of stored points: (the protocol it is measured by, the table, its items).
+POINT_TABLES = {"table3": ("resonator_cutting", table3, table3_items),
+                "table4": ("powered_columns", table4, table4_items)}
 
 
 def with_prediction(frame: pd.DataFrame, table: str) -> pd.DataFrame:
