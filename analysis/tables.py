@@ -12,7 +12,7 @@ one dtype per column: a value that could not be obtained is NaN, with the row's 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 import pandas as pd
@@ -21,6 +21,7 @@ from scipy import optimize
 from squeezebench.analysis import provenance
 from squeezebench.analysis.budgets import COVERAGE_FACTOR, Budget
 from squeezebench.paper import paper_table, printed_step
+from squeezebench.plates.specifications import SPECIFICATIONS
 from squeezebench.analysis.rundata import RunData
 from squeezebench.analysis.waveforms import Estimate, PointReduction, reduce_record
 from squeezebench.errors import UserError
@@ -299,18 +300,29 @@ def _with_search_uncertainty(row: dict, points: pd.DataFrame, searches: dict[tup
     """A frequency compared with a printed resonance is where a resonance search set the
     generator: its uncertainty also takes how well the search found the resonance, in
     quadrature, from the widest of the points' searches (`searches`: `_search_budgets`), its
-    U the search's own (k from its budget); and its value the searches' correction (a warm
-    plate's, `Budget.correction`, each point its own search's), which their U no longer holds
-    as a bias: the plate as mounted, at rest, as the search states it."""
+    U the search's own (k from its budget) less the generator's frequency error
+    (`_placement`); and its value the searches' correction (a warm plate's,
+    `Budget.correction`, each point its own search's), which their U no longer holds as a
+    bias: the plate as mounted, at rest, as the search states it."""
     if not {"run_name", "step_id"} <= set(points):
         return {}
-    found = [searches[key] for key in zip(points["run_name"], points["step_id"]) if key in searches]
+    found = [_placement(searches[key]) for key in zip(points["run_name"], points["step_id"]) if key in searches]
     if not found:
         return {}
     widest = max(found, key=lambda budget: budget.expanded_uncertainty)
     return {"value": row["value"] + float(np.mean([budget.correction for budget in found])),
             "std_uncertainty": math.hypot(row["std_uncertainty"], widest.std_uncertainty),
             "expanded_uncertainty": math.hypot(row["expanded_uncertainty"], widest.expanded_uncertainty)}
+
+
+def _placement(search: Budget) -> Budget:
+    """A search's budget as it bears on the drive's frequency read by the scope: without its
+    generator-frequency term. An output off its setting by e f moved the setting the search
+    found by -e f (so the search's value, a setting, carries it), while the drive, read
+    by the scope's fit (`frequency_budget`: the time base, its own reference), still sits on
+    the resonance: the generator's error is not in the table's value."""
+    generator = SPECIFICATIONS["generator_frequency"].source
+    return replace(search, terms=tuple(term for term in search.terms if term.source != generator))
 
 
 def protocol_points(run: RunData, protocol: str) -> pd.DataFrame:

@@ -87,3 +87,28 @@ def test_a_resumed_study_runs_again_a_bench_stored_before_the_tables_were_scored
     run_coverage_study(tmp_path, 2, campaign, resume=True)
     assert ran == [1]
     assert set(pd.read_parquet(older)["scored"]) == {",".join(bench_errors.COVERAGE_QUANTITIES)}
+
+
+def test_the_generators_error_moves_the_searchs_setting_not_the_drive_the_scope_reads(tmp_path, monkeypatch):
+    """A generator 20 ppm off (its limit, alone): the search's setting is off the cold plate
+    by those 20 ppm, which its budget holds; the table's frequency is the scope's fit of the
+    drive, which sits on the resonance whatever the setting reads, so its U takes the
+    search's budget without that term (`tables._placement`) and still holds it."""
+    from squeezebench.analysis import tables
+    from squeezebench.analysis.rundata import load_run
+    from squeezebench.protocols.variants import systematic_effects
+
+    campaign = tmp_path / "twice_cut.yaml"
+    campaign.write_text(TWICE_CUT)
+    monkeypatch.setattr(bench_errors, "systematic_effects", lambda *args, **kwargs: systematic_effects(
+        1, draw=False, only=("generator_frequency_error",)))
+    frame = errors_on_bench(campaign, 1, tmp_path / "bench", quantities=("resonance_frequency_hz", *TABLE_QUANTITIES))
+    searches = frame[frame["quantity"] == "resonance_frequency_hz"]
+    assert searches["rel_error"].to_numpy() == pytest.approx(-20e-6, abs=2e-6)
+    table = frame[frame["quantity"] == "table_frequency_hz"].iloc[0]
+    # the records' fit (0.18 Hz each, 10 periods) where the setting is 0.74 Hz off
+    assert abs(table["measured_value"] - table["true_value"]) < 0.5 and table["covered"]
+    for _, budget in tables._search_budgets(load_run(tmp_path / "bench" / "run")).items():
+        kept = {term.name for term in tables._placement(budget).terms}
+        assert kept == {term.name for term in budget.terms} - {"generator frequency"}
+        assert "generator frequency" in {term.name for term in budget.terms}
