@@ -219,21 +219,27 @@ def estimate_large_from_small(plates: dict[str, PlateCharacterisation],
     large, template = plates[LARGE_PLATE], plates[TEMPLATE_SMALL_PLATE]
     ratio = model.q_large_from_small(1.0, large.geometry.piezo_length_m, template.geometry.piezo_length_m,
                                      as_printed=convention.eq29_as_printed)
-    same_thickness = [p for name, p in plates.items() if name != LARGE_PLATE and math.isclose(
-        p.geometry.resonator_thickness_m, large.geometry.resonator_thickness_m, rel_tol=1e-6)]
+    same_thickness = as_thick_as_large(plates)
     if not same_thickness:
         raise MissingDataError("Table 5 needs small plates as thick as the large plate")
-    tan = mean_over_plates(same_thickness, "tan_theta")
+    tan = mean_over_plates([plates[name] for name in same_thickness], "tan_theta")
     calibrated = {}
     if "q" in template.calibrated_on:
         calibrated["q"] = f"{TEMPLATE_SMALL_PLATE}: {template.calibrated_on['q']}"
-    tan_sources = [f"{name}: {p.calibrated_on['tan_theta']}" for name, p in plates.items()
-                   if name != LARGE_PLATE and "tan_theta" in p.calibrated_on and math.isclose(
-                       p.geometry.resonator_thickness_m, large.geometry.resonator_thickness_m, rel_tol=1e-6)]
+    tan_sources = [f"{name}: {plates[name].calibrated_on['tan_theta']}" for name in same_thickness
+                   if "tan_theta" in plates[name].calibrated_on]
     if tan_sources:
         calibrated["tan_theta"] = "; ".join(tan_sources)
     return Table5Estimate(q=Estimate(template.q.value * ratio, template.q.std_uncertainty * ratio),
                           tan_theta=tan, calibrated_on=calibrated)
+
+
+def as_thick_as_large(plates: dict[str, PlateCharacterisation]) -> list[str]:
+    """The small plates whose resonator is as thick as the large plate's: Table 5's tan(theta')
+    is their mean (Sec. 5.3.2)."""
+    large = plates[LARGE_PLATE]
+    return [name for name, p in plates.items() if name != LARGE_PLATE and math.isclose(
+        p.geometry.resonator_thickness_m, large.geometry.resonator_thickness_m, rel_tol=1e-6)]
 
 
 def table5(plates: dict[str, PlateCharacterisation], convention: model.Convention) -> pd.DataFrame:

@@ -12,7 +12,7 @@ one dtype per column: a value that could not be obtained is NaN, with the row's 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 import pandas as pd
@@ -21,6 +21,7 @@ from scipy import optimize
 from squeezebench.analysis import provenance
 from squeezebench.analysis.budgets import COVERAGE_FACTOR, Budget
 from squeezebench.paper import paper_table, printed_step
+from squeezebench.plates.specifications import SPECIFICATIONS
 from squeezebench.analysis.rundata import RunData
 from squeezebench.analysis.waveforms import Estimate, PointReduction, reduce_record
 from squeezebench.errors import UserError
@@ -214,11 +215,10 @@ def _side_by_side(run: RunData | None, table: str, paper_name: str, items: dict[
                    "value": math.nan, "std_uncertainty": math.nan, "expanded_uncertainty": math.nan,
                    "scope_value": math.nan, "origin": "", "calibrated_on": "", "status": NOT_MEASURED}
             if points is not None and len(points):
-                reachable = flag(points["reachable"], default=True) if "reachable" in points else None
-                if reachable is not None and not reachable.any():
+                used = reachable_points(points)
+                if used.empty:
                     row["status"] = NOT_REACHABLE
                 else:
-                    used = points[reachable] if reachable is not None else points
                     row.update(_quantity_value(used, quantity, constant_columns))
                     if quantity == "frequency_hz":
                         row.update(_with_search_uncertainty(row, used, searches))
@@ -227,6 +227,12 @@ def _side_by_side(run: RunData | None, table: str, paper_name: str, items: dict[
                     row["calibrated_on"] = calibrated.get(quantity, "")
             rows.append(compare_with_paper(row, printed))
     return pd.DataFrame(rows, columns=TABLE_COLUMNS)
+
+
+def reachable_points(points: pd.DataFrame) -> pd.DataFrame:
+    """The points of a table's item that its value is made of: those that reached their
+    setting (all of them where the run does not say)."""
+    return points[flag(points["reachable"], default=True)] if "reachable" in points else points
 
 
 def _origin(points: pd.DataFrame, quantity: str, calibrated: dict[str, str], run: RunData,
@@ -294,18 +300,29 @@ def _with_search_uncertainty(row: dict, points: pd.DataFrame, searches: dict[tup
     """A frequency compared with a printed resonance is where a resonance search set the
     generator: its uncertainty also takes how well the search found the resonance, in
     quadrature, from the widest of the points' searches (`searches`: `_search_budgets`), its
-    U the search's own (k from its budget); and its value the searches' correction (a warm
-    plate's, `Budget.correction`, each point its own search's), which their U no longer holds
-    as a bias: the plate as mounted, at rest, as the search states it."""
+    U the search's own (k from its budget) less the generator's frequency error
+    (`_placement`); and its value the searches' correction (a warm plate's,
+    `Budget.correction`, each point its own search's), which their U no longer holds as a
+    bias: the plate as mounted, at rest, as the search states it."""
     if not {"run_name", "step_id"} <= set(points):
         return {}
-    found = [searches[key] for key in zip(points["run_name"], points["step_id"]) if key in searches]
+    found = [_placement(searches[key]) for key in zip(points["run_name"], points["step_id"]) if key in searches]
     if not found:
         return {}
     widest = max(found, key=lambda budget: budget.expanded_uncertainty)
     return {"value": row["value"] + float(np.mean([budget.correction for budget in found])),
             "std_uncertainty": math.hypot(row["std_uncertainty"], widest.std_uncertainty),
             "expanded_uncertainty": math.hypot(row["expanded_uncertainty"], widest.expanded_uncertainty)}
+
+
+def _placement(search: Budget) -> Budget:
+    """A search's budget as it bears on the drive's frequency read by the scope: without its
+    generator-frequency term. An output off its setting by e f moved the setting the search
+    found by -e f (so the search's value, a setting, carries it), while the drive, read
+    by the scope's fit (`frequency_budget`: the time base, its own reference), still sits on
+    the resonance: the generator's error is not in the table's value."""
+    generator = SPECIFICATIONS["generator_frequency"].source
+    return replace(search, terms=tuple(term for term in search.terms if term.source != generator))
 
 
 def protocol_points(run: RunData, protocol: str) -> pd.DataFrame:
@@ -337,6 +354,12 @@ def empty_table(name: str, quantities: list[str]) -> pd.DataFrame:
 
 def table3(run: RunData) -> pd.DataFrame:
     """Table 3 (Sec. 2.3.1): the one-column plate cut to shorter lengths, 20 Vpp."""
+    return with_prediction(_side_by_side(run, "table3", "table3", table3_items(run), TABLE3_QUANTITIES,
+                                         {"n_antinodes": "n_antinodes"}), "Table 3")
+
+
+def table3_items(run: RunData) -> dict[str, pd.DataFrame]:
+    """{Table 3's printed length: the run's points of that cut}."""
     points = protocol_points(run, "resonator_cutting")
     printed_lengths = [float(i) for i in paper_table("table3")["item"].unique() if i != "plate"]
     items: dict[str, pd.DataFrame] = {}
@@ -345,15 +368,24 @@ def table3(run: RunData) -> pd.DataFrame:
         nearest = min(printed_lengths, key=lambda p: abs(p - float(length)))
         if abs(nearest - float(length)) <= 1.5:
             items[f"{nearest:g}"] = group
-    return with_prediction(_side_by_side(run, "table3", "table3", items, TABLE3_QUANTITIES,
-                                         {"n_antinodes": "n_antinodes"}), "Table 3")
+    return items
 
 
 def table4(run: RunData) -> pd.DataFrame:
     """Table 4 (Sec. 2.3.2): one- and two-column plates, one or two columns powered."""
+    return with_prediction(_side_by_side(run, "table4", "table4", table4_items(run), TABLE4_QUANTITIES, {}),
+                           "Table 4")
+
+
+def table4_items(run: RunData) -> dict[str, pd.DataFrame]:
+    """{Table 4's configuration: the run's points of it}."""
     points = protocol_points(run, "powered_columns")
-    items = {str(name): group for name, group in points.groupby("configuration")}
-    return with_prediction(_side_by_side(run, "table4", "table4", items, TABLE4_QUANTITIES, {}), "Table 4")
+    return {str(name): group for name, group in points.groupby("configuration")}
+
+
+#: Each paper table of stored points: (the protocol it is measured by, the table, its items).
+POINT_TABLES = {"table3": ("resonator_cutting", table3, table3_items),
+                "table4": ("powered_columns", table4, table4_items)}
 
 
 def with_prediction(frame: pd.DataFrame, table: str) -> pd.DataFrame:

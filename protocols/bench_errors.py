@@ -32,8 +32,9 @@ from squeezebench.analysis.rundata import load_run
 from squeezebench.analysis.study import COVERAGE_FILE, STUDY_DIR, coverage_dir
 from squeezebench.analysis.cartography import (READING_SAMPLES, cell_offsets, homogeneity, map_points,
                                                map_resonance_q, summarise_map)
-from squeezebench.analysis.characterisation import characterise_plates
-from squeezebench.analysis.tables import detuning_table, fit_line
+from squeezebench.analysis.characterisation import (LARGE_PLATE, TEMPLATE_SMALL_PLATE, as_thick_as_large,
+                                                    characterise_plates, estimate_large_from_small)
+from squeezebench.analysis.tables import POINT_TABLES, detuning_table, fit_line, reachable_points
 from squeezebench.analysis.budgets import COVERAGE_FACTOR
 from squeezebench.analysis.uncertainty import run_uncertainties, with_deviations
 from squeezebench.instruments.bench import open_bench, sim_bench_config
@@ -57,8 +58,17 @@ QUANTITIES = ("power_w", "velocity_pp_mps")
 #: asked for, on the campaign's map runs (`MAP_PROTOCOLS`).
 MAP_QUANTITIES = ("map_coefficient_of_variation", "map_fraction_above_share", "map_mean_velocity_pp_mps",
                   "map_max_velocity_pp_mps")
+#: Tables 3 and 4's values with a U (`tables.POINT_TABLES`: each item's value combined from its
+#: points, the frequency where its searches put the resonance) and Table 5's estimated tan
+#: theta' (the mean over the small plates as thick as the large one), each against the same
+#: combination of its points' truths: `table_<the table's quantity>`. Table 5's other values
+#: are scored already: its measured Q and tan theta' are the large plate's, its estimated Q
+#: Plate 4's times a constant of geometry (Eq. 29), the same relative error under the same
+#: relative U.
+TABLE_QUANTITIES = tuple(f"table_{quantity}" for quantity in
+                         ("frequency_hz", "voltage_vpp", "power_w", "velocity_pp_mps", "amplitude_pp_m", "tan_theta"))
 COVERAGE_QUANTITIES = (*QUANTITIES, "amplitude_pp_m", "power_ratio", "resonance_frequency_hz", "q", "tan_theta",
-                       *MAP_QUANTITIES)
+                       *MAP_QUANTITIES, *TABLE_QUANTITIES)
 #: The coverage study maps at this multiple of each map's grid step: the campaign's own. The
 #: grid's correction (`cartography.grid_bias`, the bending reading between the points) holds
 #: grids of two points or more per half-wavelength; twice the paper map's 4 mm step puts 1.15 points on the large plate's
@@ -111,9 +121,11 @@ def errors_on_bench(campaign_file: Path, bench_seed: int, work_dir: Path,
         rows += _power_ratios(run, points, truths)
     if "resonance_frequency_hz" in quantities:
         rows += _resonance_frequencies(run, searches, work_dir / "plain")
-    if {"q", "tan_theta"} & set(quantities):
+    if {"q", "tan_theta", "table_tan_theta"} & set(quantities):
         rows += [row for row in _characterisations(run, points, truths, work_dir / "plain")
                  if row["quantity"] in quantities]
+    if set(TABLE_QUANTITIES) & set(quantities):
+        rows += [row for row in _table_values(run, points, truths, work_dir / "plain") if row["quantity"] in quantities]
     if maps:
         rows += [row for row in _map_homogeneities(run, work_dir / "plain") if row["quantity"] in quantities]
     frame = pd.DataFrame(rows).assign(error_model=error_model, bench_seed=bench_seed,
@@ -203,13 +215,12 @@ def _characterisations(run, points: pd.DataFrame, truths: dict, plain_dir: Path)
     materials (`uncertainty.with_deviations`), where the report reads them with the nominal."""
     if run.protocol("characterisation").empty:
         return []
-    keys = ["run_name", "step_id", "point_index"]
-    index_of = {tuple(key): index for key, index in zip(points[keys].itertuples(index=False), points.index)}
-    rows = []
-    for name, plate in characterise_plates(run, REPORT_CONVENTION).items():
+    index_of = _index_of(points)
+    rows, true_tan_theta = [], {}
+    plates = characterise_plates(run, REPORT_CONVENTION)
+    for name, plate in plates.items():
         points = plate.points
-        truth = pd.DataFrame([truths[index_of[tuple(key)]] for key in points[keys].itertuples(index=False)],
-                             index=points.index)
+        truth = pd.DataFrame(_truths_of(points, truths, index_of), index=points.index)
         geometry, convention = with_deviations(plate.geometry, REPORT_CONVENTION, _drawn_deviations(plain_dir, name))
         amplitude = fit_line(truth["piezo_voltage_vpp"], truth["amplitude_pp_m"], points["amplitude_pp_m_u"],
                              what=f"{name}: true amplitude vs voltage").slope.value
@@ -218,9 +229,59 @@ def _characterisations(run, points: pd.DataFrame, truths: dict, plain_dir: Path)
         q = model.q_from_amplitude(amplitude, 1.0, geometry, convention)
         tan_theta = model.tan_theta_from_power(power, 1.0, q, float(truth["frequency_hz"].mean()), geometry, convention)
         first = points.iloc[0]
+        true_tan_theta[name] = tan_theta
         for quantity, true in (("q", q), ("tan_theta", tan_theta)):
             estimate = getattr(plate, quantity)
             rows.append(_scored(first, quantity, estimate.value, true, COVERAGE_FACTOR * estimate.std_uncertainty))
+    if {LARGE_PLATE, TEMPLATE_SMALL_PLATE} <= set(plates) and as_thick_as_large(plates):
+        # Table 5's estimate as `characterisation.table5` prints it (U = k u, `_derived_row`)
+        same = as_thick_as_large(plates)
+        estimate = estimate_large_from_small(plates, REPORT_CONVENTION).tan_theta
+        rows.append(_scored(plates[same[0]].points.iloc[0], "table_tan_theta", estimate.value,
+                            float(np.mean([true_tan_theta[name] for name in same])),
+                            COVERAGE_FACTOR * estimate.std_uncertainty))
+    return rows
+
+
+def _index_of(points: pd.DataFrame) -> dict[tuple, Any]:
+    """(run, step, point) -> the index of that point in `points` (`_truths`' keys)."""
+    keys = points[["run_name", "step_id", "point_index"]].itertuples(index=False)
+    return {tuple(key): index for key, index in zip(keys, points.index)}
+
+
+def _truths_of(points: pd.DataFrame, truths: dict, index_of: dict[tuple, Any]) -> list[dict]:
+    """The truths (`_truths`) of `points` read anew (another frame of the same stored points)."""
+    return [truths[index_of[tuple(key)]] for key in points[["run_name", "step_id", "point_index"]].itertuples(index=False)]
+
+
+#: The truth (`_truths`' key) of each quantity a table averages over its points.
+TABLE_TRUTHS = {"voltage_vpp": "piezo_voltage_vpp", "power_w": "power_w", "velocity_pp_mps": "velocity_pp_mps",
+                "amplitude_pp_m": "amplitude_pp_m"}
+
+
+def _table_values(run, points: pd.DataFrame, truths: dict, plain_dir: Path) -> list[dict]:
+    """Each value Tables 3 and 4 print with a U (`tables.POINT_TABLES`), scored as
+    `table_<quantity>` against the same mean of its points' truths (`_truths`: the ideal
+    readings at each point's setting); a frequency, where its searches set the generator,
+    against the mean of the resonances of the plate as drawn, cold, at each point's drive
+    (`_true_resonance_hz`), the plate the searches' correction states."""
+    index_of = _index_of(points)
+    rows = []
+    for protocol, table, items_of in POINT_TABLES.values():
+        if run.protocol(protocol).empty:
+            continue
+        items = items_of(run)
+        frame = table(run)
+        for row in frame[(frame["status"] == "measured") & (frame["expanded_uncertainty"] > 0)].itertuples():
+            used = reachable_points(items[row.item])
+            if row.quantity == "frequency_hz":
+                reach_hz = max(3.0 * row.expanded_uncertainty, 20.0)
+                true = np.mean([_true_resonance_hz(plain_dir, point, point["frequency_hz"], reach_hz)
+                                for _, point in used.iterrows()])
+            else:
+                true = np.mean([truth[TABLE_TRUTHS[row.quantity]] for truth in _truths_of(used, truths, index_of)])
+            rows.append(_scored(used.iloc[0], f"table_{row.quantity}", row.value, float(true),
+                                row.expanded_uncertainty))
     return rows
 
 
@@ -313,24 +374,31 @@ def _resonance_frequencies(run, searches: pd.DataFrame, plain_dir: Path) -> list
     rows = []
     for search in searches.itertuples():
         row = found[(found["run_name"] == search.run_name) & (found["step_id"] == search.step_id)].iloc[0]
-        with open_bench(sim_bench_config(plain_dir / f"{row['plate']}.yaml")) as bench:
-            simulated = bench.resource_manager.visalib.bench
-            if isinstance(row["scene_state"], str):
-                simulated.set_state(row["scene_state"])
-            bench.generator.set_amplitude_vpp(float(row["generator_amplitude_vpp"]))
-
-            def slower(frequency_hz: float) -> float:
-                bench.generator.set_frequency(float(frequency_hz))
-                return -simulated.truth().velocity_pp_mps
-
-            reach_hz = max(3.0 * search.resonance_frequency_hz_U, 20.0)
-            peak = optimize.minimize_scalar(slower, bounds=(search.resonance_frequency_hz - reach_hz,
-                                                            search.resonance_frequency_hz + reach_hz),
-                                            method="bounded", options={"xatol": 1e-2})
+        true_hz = _true_resonance_hz(plain_dir, row, search.resonance_frequency_hz,
+                                     max(3.0 * search.resonance_frequency_hz_U, 20.0))
         rows.append(_scored({"run_name": search.run_name, "step_id": search.step_id, "point_index": row["point_index"]},
-                            "resonance_frequency_hz", search.resonance_frequency_hz, float(peak.x),
+                            "resonance_frequency_hz", search.resonance_frequency_hz, true_hz,
                             search.resonance_frequency_hz_U))
     return rows
+
+
+def _true_resonance_hz(plain_dir: Path, point, around_hz: float, reach_hz: float) -> float:
+    """The setting at which an ideal generator gives the most velocity on `point`'s plate
+    without the errors (`plain_dir`), in its state, at its drive (bounded search within
+    `reach_hz` of `around_hz`, 10 mHz)."""
+    with open_bench(sim_bench_config(plain_dir / f"{point['plate']}.yaml")) as bench:
+        simulated = bench.resource_manager.visalib.bench
+        if isinstance(point["scene_state"], str):
+            simulated.set_state(point["scene_state"])
+        bench.generator.set_amplitude_vpp(float(point["generator_amplitude_vpp"]))
+
+        def slower(frequency_hz: float) -> float:
+            bench.generator.set_frequency(float(frequency_hz))
+            return -simulated.truth().velocity_pp_mps
+
+        peak = optimize.minimize_scalar(slower, bounds=(around_hz - reach_hz, around_hz + reach_hz),
+                                        method="bounded", options={"xatol": 1e-2})
+    return float(peak.x)
 
 
 def bench_time_by_run_s(run_dir: Path) -> dict[str, float]:
@@ -376,8 +444,9 @@ def run_coverage_study(out_dir: Path, benches: int, campaign_file: Path | None =
     each bench's plates drawn within their tolerances under the same model and its noise its
     own, every stored point and each map's homogeneity (`MAP_QUANTITIES`) scored. Each bench's rows go to
     OUT_DIR/study/<coverage_dir(error_model)>/bench_<k>.parquet as it completes (`resume`
-    keeps those already there of the same campaign file); all of them to points.parquet
-    beside them. Returns that path."""
+    keeps those already there of the same campaign file scored for the same quantities,
+    column `scored`: a bench stored before a quantity was scored is run again); all of them to
+    points.parquet beside them. Returns that path."""
     campaign_file = Path(campaign_file or paths.paper_campaign())
     directory = Path(out_dir) / STUDY_DIR / coverage_dir(error_model)
     if not resume:
@@ -386,9 +455,14 @@ def run_coverage_study(out_dir: Path, benches: int, campaign_file: Path | None =
     seeds = range(1, benches + 1)
     digest = sha256_file(campaign_file)
 
-    def stored(seed: int) -> bool:   # a bench of this very campaign file (another's is redone)
+    scored = ",".join(COVERAGE_QUANTITIES)
+
+    def stored(seed: int) -> bool:   # a bench of this very campaign file scored for every quantity (others: redone)
         path = directory / f"bench_{seed}.parquet"
-        return path.exists() and set(pd.read_parquet(path, columns=["campaign_sha256"])["campaign_sha256"]) == {digest}
+        if not path.exists():
+            return False
+        frame = pd.read_parquet(path)
+        return "scored" in frame and set(zip(frame["campaign_sha256"], frame["scored"])) == {(digest, scored)}
 
     pending = [seed for seed in seeds if not stored(seed)]
     progress(f"coverage: {campaign_file.name} on {len(pending)} of {benches} simulated benches "
@@ -397,7 +471,8 @@ def run_coverage_study(out_dir: Path, benches: int, campaign_file: Path | None =
                             quantities=COVERAGE_QUANTITIES, draw_plates=True)
     for seed, (frame, bench_time_s) in map_unordered(job, pending, workers, scheduler, "coverage"):
         write_frame_atomic(directory / f"bench_{seed}.parquet",
-                           frame.assign(bench_time_s=bench_time_s, campaign=campaign_file.name, campaign_sha256=digest))
+                           frame.assign(bench_time_s=bench_time_s, campaign=campaign_file.name, campaign_sha256=digest,
+                                        scored=scored))
     points = pd.concat([pd.read_parquet(directory / f"bench_{seed}.parquet") for seed in seeds], ignore_index=True)
     write_frame_atomic(directory / COVERAGE_FILE, points)
     progress(f"coverage: stored in {directory / COVERAGE_FILE}")

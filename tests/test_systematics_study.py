@@ -112,7 +112,9 @@ def test_the_coverage_study_scores_every_stored_point_and_resumes_by_bench(tmp_p
     points = load_coverage(tmp_path)
     assert path.is_file() and set(points["bench_seed"]) == {1, 2}
     assert set(points["quantity"]) == {"power_w", "velocity_pp_mps", "amplitude_pp_m", "power_ratio",
-                                       "resonance_frequency_hz"}   # every quantity the report gives a U
+                                       "resonance_frequency_hz", "table_frequency_hz", "table_voltage_vpp",
+                                       "table_power_w", "table_velocity_pp_mps"}   # every quantity the report gives a U
+    assert len(points[points["quantity"] == "table_power_w"]) == 2 * 2   # Table 3's two cut lengths on each bench
     point_values = points[points["quantity"].isin(["power_w", "velocity_pp_mps", "amplitude_pp_m"])]
     assert (point_values["rel_expanded_u"] > 0.01).all()   # the specifications, not the noise alone
     ratios = points[points["quantity"] == "power_ratio"]
@@ -165,9 +167,10 @@ def test_a_coverage_study_on_benches_erring_as_the_world_errs_is_stored_and_tabl
                                          quiet=True), tmp_path, 2)
     printed = capsys.readouterr().out.splitlines()
     assert all(line.startswith("coverage: ") for line in printed)
-    assert len(printed) == 5 + len(DESIGN_PREDICTIONS)   # one per quantity, and the design's predictions against the print
+    # one per quantity (Table 3's four with a U among them), and the design's predictions against the print
+    assert len(printed) == 9 + len(DESIGN_PREDICTIONS)
     assert "on 2 benches" in printed[0] and "bootstrap 95 % interval" in printed[0] and "as the world errs" in printed[0]
-    assert "predicted_frequency_hz" in printed[5] and "the paper's plates" in printed[5]
+    assert "predicted_frequency_hz" in printed[9] and "the paper's plates" in printed[9]
 
 
 def test_a_negative_number_of_benches_is_refused(tmp_path, capsys):
