@@ -89,7 +89,11 @@ def cell(row: pd.Series, places: int | None, explain_href: str | None = None) ->
     has_u = isinstance(expanded, (int, float)) and math.isfinite(expanded) and expanded > 0
     shown_places = places
     if has_u and quantity in DISPLAY:   # the uncertainty sets the figures: two on U, the value to match
-        shown_places = 1 - math.floor(math.log10(expanded * DISPLAY[quantity].scale))
+        scale = DISPLAY[quantity].scale
+        shown_places = 1 - math.floor(math.log10(expanded * scale))
+        shown = abs(row["value"]) * scale
+        if math.isfinite(shown) and shown > 0 and math.floor(math.log10(shown)) + 1 + shown_places > MAX_FIGURES:
+            shown_places -= 1   # one figure on U (GUM 7.2.6: one or two): 37160.0 ± 0.8, not 37160.00 ± 0.77
     run = number(row["value"], quantity, shown_places)
     if has_u:
         run += f" ± {number(expanded, quantity, shown_places)}"

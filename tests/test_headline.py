@@ -123,6 +123,21 @@ def test_no_number_is_shown_past_six_figures():
     assert with_uncertainty(44593.0, 2471.0) == "44600 ± 2500"   # two figures on U, left of the units too
 
 
+def test_a_tables_cell_gives_u_one_figure_where_two_would_put_its_value_past_six():
+    """A 37 kHz resonance read to 0.77 Hz: "37160.0 ± 0.8" (GUM 7.2.6 allows one figure on U),
+    not seven figures; where two keep the value within six, two."""
+    from squeezebench.report.presentation import cell
+
+    def run_text(value: float, u: float, quantity: str = "frequency_hz") -> str:
+        row = pd.Series({"quantity": quantity, "status": "measured", "value": value, "expanded_uncertainty": u})
+        return cell(row, None).split("<div class='run'>")[1].split("</div>")[0]
+
+    assert run_text(37160.004, 0.77) == "37160.0 ± 0.8"
+    assert run_text(37160.004, 1.5) == "37160.0 ± 1.5"
+    assert run_text(4716.0, 0.77) == "4716.00 ± 0.77"
+    assert run_text(0.0312, 0.0011, "power_w") == "31.2 ± 1.1"   # in mW
+
+
 def test_a_u_past_its_value_is_shown_as_a_factor_range_never_as_value_plus_minus_u():
     """"56 +- 70 Vpp" would hold zero and negative voltages: a U at least the value is the
     log-normal k-interval value / F to value F, F = 1 + U / value; below it, value +- U."""
