@@ -68,7 +68,7 @@ SPECIFICATIONS: dict[str, Specification] = {
                    "output +-1 % (sinusoidal vibration, 70 % of full scale)"),
     "scope_timebase": Specification(
         20e-6, "1", "TDS3000B Series User Manual, App. A: sample rate and delay time accuracy +-20 ppm "
-                    "(the frequency a record's fit measures; not simulated)"),
+                    "(the frequency a record's fit measures; simulated as the scope_timebase_error effect)"),
     "plate_placement": Specification(
         1.0, "mm", "assumed: the paper does not say how its map's grid was registered on the plate; a plate "
                    "laid on its mount by hand and the grid's origin set by jogging the laser spot onto the "

@@ -25,7 +25,8 @@ CALIBRATION_FREQUENCY_HZ = 37000.0
 #: The systematic effects of `simbench.systematic_effects` (scene vocabulary: names, not imports, as
 #: protocols never import the simulator): the instruments' errors within specification.
 SYSTEMATIC_EFFECTS = ("scope_gain_error", "voltage_probe_error", "current_probe_gain_error", "vibrometer_scale_error",
-                      "channel_skew", "current_probe_delay", "voltage_probe_compensation", "generator_frequency_error")
+                      "channel_skew", "current_probe_delay", "voltage_probe_compensation", "generator_frequency_error",
+                      "scope_timebase_error")
 
 
 #: Protocols whose points are read away from the scene's measurement point (the stage

@@ -12,6 +12,8 @@ acts at one or more stages of the simulation:
 - `generator`: what the generator really puts out for its settings (frequency error);
 - `timing`: a channel's delay at the drive frequency (skew, current-probe delay, a voltage
   probe's compensation phase);
+- `timebase`: the scope's sample clock off its nominal rate: when the samples it labels at
+  its nominal interval were really taken (the scope's time-base error);
 - `spot`: where the vibrometer's laser meets the plate when the x-y stage moves it
   (backlash, a plate off the stage's zero or rotated, one bench's placement of it, a tilted
   plate);
@@ -46,8 +48,9 @@ from squeezebench.simbench.fault_effects import (BusTimeout, ClippedTrace, Disco
 from squeezebench.simbench.spot_effects import PlateOffset, PlatePlacement, PlateTilt, Spot, StageBacklash
 from squeezebench.simbench.systematic_effects import (ChannelSkew, CurrentProbeDelay, CurrentProbeGainError,
                                                       GeneratorAmplitudeError, GeneratorFrequencyError, ScopeGainError,
-                                                      VibrometerScaleError, VoltageProbeCompensation,
-                                                      VoltageProbeError, draw_stream, drawn_fraction)
+                                                      ScopeTimebaseError, VibrometerScaleError,
+                                                      VoltageProbeCompensation, VoltageProbeError, draw_stream,
+                                                      drawn_fraction)
 
 
 class Shunt(Effect):
@@ -377,7 +380,7 @@ EFFECTS: dict[str, type[Effect]] = {cls.name: cls for cls in (
     Quantisation, Averaging, ClippedTrace, BusTimeout, GarbledReplyFault, TruncatedReplyFault,
     InstrumentErrorEntry, Disconnect, ScopeGainError, VoltageProbeError, CurrentProbeGainError, VibrometerScaleError,
     ChannelSkew, CurrentProbeDelay, VoltageProbeCompensation, GeneratorFrequencyError, GeneratorAmplitudeError,
-    StageBacklash, PlateOffset, PlatePlacement, PlateTilt)}
+    ScopeTimebaseError, StageBacklash, PlateOffset, PlatePlacement, PlateTilt)}
 # the plate drawn within its tolerances (a module of its own; it registers itself in EFFECTS)
 from squeezebench.simbench import plate_draws  # noqa: E402,F401
 
@@ -402,13 +405,15 @@ class DigitizerSettings:
 class EffectPipeline:
     """The effects of a scene, sorted by the stage they act at."""
 
-    STAGES = ("generator", "amplifier", "load", "motion", "timing", "signals", "noise", "digitizer", "spot", "bus")
+    STAGES = ("generator", "amplifier", "load", "motion", "timing", "timebase", "signals", "noise", "digitizer",
+              "spot", "bus")
 
     def __init__(self, effects: list[Effect]) -> None:
         self.effects = effects
         self.by_stage = {stage: [e for e in effects if stage in e.stages] for stage in self.STAGES}
         self._generator = [e.generator for e in self.by_stage["generator"]]
         self._delays = [e.delays_s for e in self.by_stage["timing"]]
+        self._timebase = [e.sample_interval_scale for e in self.by_stage["timebase"]]
         self._amplifier = [e.amplifier for e in self.by_stage["amplifier"]]
         self._load = [e.load for e in self.by_stage["load"]]
         self._motion = [e.motion for e in self.by_stage["motion"]]
@@ -445,6 +450,15 @@ class EffectPipeline:
     def channel_delays_s(self, frequency_hz: float) -> np.ndarray | None:
         """Delay of each channel at the drive frequency (delays add); None when no effect delays."""
         return sum(stage(frequency_hz) for stage in self._delays) if self._delays else None
+
+    def sampled(self, setup):
+        """The scope setup `setup` (`traces.ScopeSetup`) as its samples were really taken: its
+        time base scaled by the sample clock's errors (the horizontal scale sets the sample
+        interval and the record's start from the trigger); `setup` itself, the same object,
+        when no effect acts on the time base."""
+        if not self._timebase:
+            return setup
+        return replace(setup, horizontal_scale_s=setup.horizontal_scale_s * math.prod(s() for s in self._timebase))
 
     def amplifier(self, amplifier: physics.Amplifier) -> physics.Amplifier:
         for stage in self._amplifier:

@@ -1,5 +1,5 @@
 """Systematic errors of the bench's instruments within their specifications (issue 15):
-gains, delays and the generator's frequency, fixed or drawn once per bench.
+gains, delays, the scope's time base and the generator's frequency, fixed or drawn once per bench.
 """
 
 from __future__ import annotations
@@ -216,6 +216,25 @@ class GeneratorFrequencyError(SystematicEffect,
 
     def generator(self, settings: physics.GeneratorSettings) -> physics.GeneratorSettings:
         return replace(settings, frequency_hz=settings.frequency_hz * (1.0 + self.values["frequency_rel"]))
+
+
+class ScopeTimebaseError(SystematicEffect, errors={"interval_rel": SPECIFICATIONS["scope_timebase"].half_width}):
+    """The TDS3054B's sample clock off its nominal rate: its samples are (1 + interval_rel)
+    times the nominal interval apart, so the sample it labels t from the trigger (WFMPre
+    XINcr, the cursors) was taken at t (1 + interval_rel). A sine of frequency f,
+    cos(2 pi f t (1 + interval_rel)) on the labelled times, reads f (1 + interval_rel):
+    a clock running slow (rate 1 / (1 + interval_rel)) reads every frequency high by
+    interval_rel, and the record's fit, MEASUrement FREQuency and PERIod alike. Amplitudes
+    and powers are the signal's, sampled at other instants of the same steady state.
+    Default +-20 ppm: TDS3000B Series User Manual, App. A, sample rate and delay time
+    accuracy."""
+
+    name = "scope_timebase_error"
+    stages = frozenset({"timebase"})
+
+    def sample_interval_scale(self) -> float:
+        """The sample interval over the nominal one."""
+        return 1.0 + self.values["interval_rel"]
 
 
 class GeneratorAmplitudeError(Effect):

@@ -75,7 +75,7 @@ class Record:
 
     setup: ScopeSetup
     values: np.ndarray  # (3, n): CH1, CH2, CH3
-    frequency_hz: float
+    frequency_hz: float  # the drive's, as the record shows it on its own time base
     #: CH1 * CH2, worked out once: the scope measures it several times per record.
     _math: np.ndarray | None = field(default=None, init=False, repr=False, compare=False)
 
@@ -287,12 +287,15 @@ def screen(steady: physics.SteadyState, setup: ScopeSetup, sensor_gains: np.ndar
            acquisition_period_s: float) -> Screen:
     """What one (possibly averaged) acquisition of the three channels shows through the
     effects before the digitiser. `sensor_gains` turn the physical signals into what
-    reaches the scope inputs (probe attenuation, current probe A/A, 1 / decoder range)."""
-    ctx = _context(setup, vibrometer_range_mps_per_v, start_s, acquisition_period_s)
+    reaches the scope inputs (probe attenuation, current probe A/A, 1 / decoder range).
+    The signals are synthesised at the instants the samples were really taken (`sampled`:
+    the scope's time base as it errs) and shown at the times the scope labels them with."""
+    sampled = pipeline.sampled(setup)
+    ctx = _context(sampled, vibrometer_range_mps_per_v, start_s, acquisition_period_s)
     times = ctx.record_times_s
     fundamentals = pipeline.motion(steady.branch_velocity_phasors_mps[:, :1], ctx) \
         if pipeline.has_motion else None
-    signals = synthesize(steady, times, fundamentals) if fundamentals is not None else _steady_signals(steady, setup)
+    signals = synthesize(steady, times, fundamentals) if fundamentals is not None else _steady_signals(steady, sampled)
     delays_s = pipeline.channel_delays_s(steady.frequency_hz)
     if delays_s is not None:   # a delayed channel shows its signal from tau earlier
         signals = signals.copy()
@@ -301,12 +304,13 @@ def screen(steady: physics.SteadyState, setup: ScopeSetup, sensor_gains: np.ndar
     signals = signals * (sensor_gains * np.array([c.input_gain for c in setup.channels]))[:, None]
     signals = pipeline.signals(signals, ctx)   # a new array (the effects keep none), so in place below
     signals *= ctx.display_gain[:, None]
-    channel_values = _couple(signals, setup, steady.frequency_hz)
+    channel_values = _couple(signals, sampled, steady.frequency_hz)
     position, scale, offset = _screen_placement(setup)
     signal_div = channel_values - offset
     signal_div /= scale
     signal_div += position
-    return Screen(setup, steady.frequency_hz, signal_div, pipeline.noise_div_rms(ctx), channel_values=channel_values)
+    shown_hz = steady.frequency_hz * (sampled.horizontal_scale_s / setup.horizontal_scale_s)   # on the labelled times
+    return Screen(setup, shown_hz, signal_div, pipeline.noise_div_rms(ctx), channel_values=channel_values)
 
 
 def _unplaced(setup: ScopeSetup) -> ScopeSetup:

@@ -9,6 +9,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from squeezebench.analysis.waveforms import reduce_point
 from squeezebench.plates import warming
 from squeezebench.plates.specifications import (HEATING_TOLERANCES, VOLTAGE_PROBE_POLE_HZ, WORLD_READING,
                                                 compensation_phase_rad)
@@ -522,6 +523,44 @@ def test_generator_frequency_error(tmp_path):
     assert bench.sim.truth().velocity_pp_mps == pytest.approx(moved.sim.truth().velocity_pp_mps, rel=1e-12)
     bench.acquire()
     assert bench.measure("CH1", "FREQ") == pytest.approx(F_HZ * (1 + 1e-3), rel=2e-5)   # the scope sees it
+
+
+def reduced(bench: RawBench):
+    """The point the analysis reduces from the bench's record (`waveforms.reduce_point`: the
+    frequency fitted on CH1, on the times WFMPre labels the samples with)."""
+    bench.acquire()
+    (time_s, voltage, _, v_pre), (_, current, _, i_pre), (_, output, _, o_pre) = \
+        (bench.fetch(source) for source in ("CH1", "CH2", "CH3"))
+    return reduce_point(time_s, voltage, current, output, bench.range_mps_per_v, frequency_hint_hz=F_HZ,
+                        y_increments={"piezo_voltage_v": v_pre["y_mult"], "current_a": i_pre["y_mult"],
+                                      "vibrometer_output_v": o_pre["y_mult"]}, averages=16)
+
+
+def test_scope_timebase_error(tmp_path):
+    """The sample clock 20 ppm slow: every frequency the scope reads, its record's fit and its
+    own FREQuency, is the drive's times 1 + 20e-6 (to a thousandth of the shift); the plate, and the
+    power and velocity read from the record, are unchanged."""
+    interval_rel = 20e-6
+    bench = bench_with(tmp_path, [{"scope_timebase_error": {"draw": 0, "interval_rel": interval_rel}}],
+                       record_length=10000, periods=200)
+    plain = bench_with(tmp_path, [], record_length=10000, periods=200)
+    assert bench.sim.truth().frequency_hz == plain.sim.truth().frequency_hz == F_HZ   # the plate's drive is the same
+    point, plain_point = reduced(bench), reduced(plain)
+    # the shift to a thousandth, the fit's own error (its quantised record's, a few 1e-9) well inside
+    assert 10 * point.frequency_hz.std_uncertainty < 1e-3 * F_HZ * interval_rel
+    assert point.frequency_hz.value == pytest.approx(F_HZ * (1 + interval_rel), abs=1e-3 * F_HZ * interval_rel)
+    assert plain_point.frequency_hz.value == pytest.approx(F_HZ, abs=1e-3 * F_HZ * interval_rel)
+    assert bench.measure("CH1", "FREQ") / plain.measure("CH1", "FREQ") == pytest.approx(1 + interval_rel, abs=1e-6)
+    for quantity in ("power_w", "velocity_pp_mps", "piezo_voltage_vpp"):
+        got, ideal = getattr(point, quantity), getattr(plain_point, quantity)
+        assert abs(got.value - ideal.value) < 3 * math.hypot(got.std_uncertainty, ideal.std_uncertainty), quantity
+
+
+def test_a_bench_without_a_timebase_error_synthesises_on_the_nominal_time_base(tmp_path):
+    """The ideal path's setup is passed through, not copied: no other cache key, no work."""
+    pipeline = bench_with(tmp_path, []).sim.effects
+    setup = object()
+    assert pipeline.sampled(setup) is setup
 
 
 def test_generator_amplitude_error(tmp_path):
