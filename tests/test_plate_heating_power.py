@@ -53,7 +53,7 @@ def test_the_heating_power_is_the_simulators_plate_power_on_a_seeded_point(nine_
 def test_a_search_on_the_nine_column_plate_is_corrected_for_its_plates_power_alone(nine_column_point):
     """A search read after a minute at that point: its warming correction with the scene's
     2 ohm shunt is the one without it times P_plate / P (energy balance linear in the power,
-    8.6 % less), and its u holds the shunt's 1 % as a fifth of the rise's rectangles."""
+    8.6 % less), and its u holds the shunt's 1 % as the fourth of the rise's rectangles."""
     power_w, current_pp_a, truth = nine_column_point
     times_s = np.arange(2.0, 62.0, 2.0)
     history = pd.DataFrame({"run_name": "fig2", "plate": "nine_column_1mm", "bench_time_s": times_s,
