@@ -17,6 +17,8 @@ from __future__ import annotations
 import re
 from dataclasses import dataclass, field
 
+import numpy as np
+
 from squeezebench.analysis.cartography import move_time_s
 from squeezebench.simbench import command_tables
 from squeezebench.simbench.device_base import SimulatedInstrument
@@ -90,6 +92,15 @@ class Stage(SimulatedInstrument):
             spot = self.bench.effects.spot(*key[:2])
             self._gain = spot.beam_share * float(self._mode_shape()(spot.x_mm, spot.y_mm))
         return self._gain
+
+    def spot_gains(self, x_mm: np.ndarray, y_mm: np.ndarray) -> np.ndarray:
+        """`spot_gain` at stage positions (x_mm, y_mm), arrays, each approached as the stage
+        last moved (its axes' directions): the coverage study's truth over a map's cells reads
+        some 350,000 spots a map (`bench_errors._map_homogeneities`), which a move each would
+        take minutes to read. The spot effects and the mode's table take arrays as they come."""
+        spot = self.bench.effects.spot((np.asarray(x_mm, dtype=float), np.asarray(y_mm, dtype=float)),
+                                       tuple(axis.direction for axis in self.axes.values()))
+        return spot.beam_share * self._mode_shape()(spot.x_mm, spot.y_mm)
 
     def _mode_shape(self):
         """The working mode's `shape_of` for the bench's scene and state, found again only when

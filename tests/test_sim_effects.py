@@ -710,3 +710,26 @@ def test_plate_tilt(tmp_path):
         assert _gain(bench) == pytest.approx(c * _shape(bench, 150.0 / c, 69.0), rel=1e-9)
     finally:
         rm.close()
+
+
+def test_the_spot_gains_of_many_positions_at_once_are_the_stages_own_at_each(tmp_path):
+    """`Stage.spot_gains` (the coverage study's truth over a map's cells) reads at once what
+    the stage reads moved to each position, approached as it last moved: every spot effect
+    (backlash, an offset rotated plate, its placement, a tilt) on arrays, to the last bit."""
+    effects = [{"stage_backlash": {"x_mm": 0.5, "y_mm": 0.2}},
+               {"plate_offset": {"x_mm": 2.0, "y_mm": -1.5, "rotation_deg": 1.0}},
+               {"plate_placement": {"draw": 0}}, {"plate_tilt": {"tilt_x_deg": 3.0, "tilt_y_deg": 1.0}}]
+    rm, bench, stage = _spot_bench(tmp_path, effects)
+    try:
+        x_mm, y_mm = np.array([60.0, 61.25, 97.5, 130.0]), np.array([40.0, 44.5, 69.0, 90.0])
+        stage.move_to_mm(50.0, 30.0)
+        stage.move_to_mm(55.0, 35.0)   # both axes last moved forward, as to each position below
+        at_once = bench.stage.spot_gains(x_mm, y_mm)
+        one_by_one = []
+        for x, y in zip(x_mm, y_mm):
+            stage.move_to_mm(x, y)
+            one_by_one.append(bench.stage.spot_gain())
+        assert at_once.tolist() == one_by_one
+        assert len(set(one_by_one)) == 4 and 0.0 not in one_by_one
+    finally:
+        rm.close()

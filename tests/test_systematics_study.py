@@ -270,7 +270,7 @@ def test_the_coverage_study_scores_the_maps_homogeneity_against_the_ideal_readin
     assert set(points.index) == set(MAP_QUANTITIES)
     cv = points.loc["map_coefficient_of_variation"]
     # the coefficient of variation: the points' is not the vibration's over the cells (by -0.021
-    # at the map's own registration, against the mode over 8 x 8 spots a cell, 4.5 % of it);
+    # at the map's own registration, against the mode over its cells, 4.5 % of it);
     # corrected for where the grid fell, what is left is the reading's few per cent of that,
     # which its U (the correction's own error and the cells' quadrature, under 1 % of the CV)
     # holds: no bound of the bias's size (the bias bound's U was 5 % of it)
