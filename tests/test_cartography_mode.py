@@ -423,14 +423,17 @@ def test_the_areas_quadrature_term_is_the_spread_of_the_closed_form_count_over_t
     """v = 1 + x at x = 0..5 (3 rows), read exactly: the area above `share` of the peak (6)
     is the spots right of t = 6 share - 1, whose count over the cells [-1/2, 11/2] errs by
     where the lattice of spots falls on t. Counted in closed form for each registration of
-    the lattice (its spots at i + cell_offsets(8) + d, d over cell_offsets(4) / 8, the y
+    the lattice (its spots at i + cell_offsets(8) + d, d over cell_offsets(5) / 8, the y
     moves changing nothing), the term is the spread of those counts' errors against the
-    continuum's (5.5 - t) / 6, and within half a column of spots (1 / 48) of the area."""
+    continuum's (5.5 - t) / 6, and within half a column of spots (1 / 48) of the area. The
+    lattice the figure is read at (d = 0) is one of them: its count is the one the term is
+    about."""
     x, y = np.meshgrid(np.arange(6.0), np.arange(3.0))
     readings = cell_readings(STEP_M * x.ravel(), STEP_M * y.ravel(), (1.0 + x).ravel())
     t = 6.0 * share - 1.0
     lattice = (np.arange(6.0)[:, None] + cell_offsets(READING_SAMPLES)).ravel()
     moves = cell_offsets(LATTICE_REGISTRATIONS) / READING_SAMPLES
+    assert 0.0 in moves
     errors = [np.mean(lattice + d >= t) - (5.5 - t) / 6.0 for d in moves for _ in moves]
     term = grid_quadrature_term(readings, GridError("fraction_above_share", share))
     assert term.std_uncertainty == pytest.approx(np.std(errors, ddof=1), rel=1e-9)
