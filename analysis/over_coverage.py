@@ -27,6 +27,21 @@ WORLD = "world"
 MIN_BENCHES = 10
 
 
+#: Quantities whose surplus no plan can price, and why: a map's figures. `squeezebench plan
+#: --coverage` prices a surplus by lowering the floors of the points' runs; a map plan
+#: (`protocols.map_planning`) chooses its grid and averaging by the points' sampling error and
+#: noise, not by these U, so a narrower one changes no plan. The CV's and the area's U is the
+#: grid correction's own error and the cells' quadrature (`cartography.grid_correction_term`,
+#: `grid_quadrature_term`), which averaging does not shrink (the points' noise is about 1 % of
+#: the CV's u and under 10 % of the area's on the paper map's benches); the mean's and the
+#: peak's is the velocity scale all points share (`cartography.velocity_scale_terms`).
+UNPRICED = {quantity: f"a map figure, its U {what}: narrower, it changes no plan, no bench time saved"
+            for quantity, what in (("map_coefficient_of_variation", "the grid correction's, not the noise's"),
+                                   ("map_fraction_above_share", "the grid correction's, not the noise's"),
+                                   ("map_mean_velocity_pp_mps", "the velocity scale's"),
+                                   ("map_max_velocity_pp_mps", "the velocity scale's"))}
+
+
 def shrink_factors(table: pd.DataFrame, error_model: str = WORLD) -> dict[str, float]:
     """{quantity: factor} for each quantity of `table` (`study.coverage_table`) that
     over-covers under `error_model`: scored on at least `MIN_BENCHES` benches, its
@@ -40,10 +55,11 @@ def shrink_factors(table: pd.DataFrame, error_model: str = WORLD) -> dict[str, f
 
 def shrink_lines(table: pd.DataFrame, quantity_words=str, error_model: str = WORLD) -> list[str]:
     """One line per quantity `shrink_factors` finds (what the report's coverage section
-    says): how far it over-covers and how much narrower its U could be."""
+    says): how far it over-covers and how much narrower its U could be; for one no plan
+    prices (`UNPRICED`), why its surplus costs no bench time."""
     by_quantity = table[table["error_model"] == error_model].set_index("quantity")
     return [f"{quantity_words(quantity)} over-covers on benches erring as the world errs "
             f"({by_quantity.at[quantity, 'covered_fraction']:.1%}, interval from "
             f"{by_quantity.at[quantity, 'coverage_interval_low']:.1%}): a U {factor:.2f} times as wide would still "
-            f"cover 95 %"
+            f"cover 95 %" + (f" ({UNPRICED[quantity]})" if quantity in UNPRICED else "")
             for quantity, factor in shrink_factors(table, error_model).items()]

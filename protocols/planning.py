@@ -36,6 +36,7 @@ from typing import Any, Callable, Sequence
 import numpy as np
 import pandas as pd
 
+from squeezebench.analysis.over_coverage import UNPRICED
 from squeezebench.analysis.waveforms import integer_period_mean_power_w, sample_interval_s
 from squeezebench.protocols.accuracy_plan import CALIBRATION_RUN, AccuracyFloors, accuracy_floors, measure_floors
 from squeezebench.protocols.simulated_session import SimulatedSession, open_simulated
@@ -439,8 +440,8 @@ class OverCoverageCost:
         if not self.narrower:
             return [f"over-coverage on the world model{where}: no quantity over-covers; nothing to save"]
         planned = {f.quantity for f in plan.floors.floors} if plan.floors else set()
-        factors = ", ".join(f"{q} {factor:.2f}{'' if q in planned else ' (no floor in this plan)'}"
-                            for q, factor in self.shrink_factors.items())
+        unplanned = {q: f" ({UNPRICED.get(q, 'no floor in this plan')})" for q in self.shrink_factors if q not in planned}
+        factors = ", ".join(f"{q} {factor:.2f}{unplanned.get(q, '')}" for q, factor in self.shrink_factors.items())
         saved_s = self.saved_s(plan)
         out = [f"over-coverage on the world model{where}: U could be this fraction of itself and still cover "
                f"95 %: {factors}; with floors that much lower the plan would take "

@@ -275,11 +275,13 @@ def world_coverage_study(run_dir: Path, factor: float) -> Path:
 def test_a_narrower_power_budget_drops_the_calibration_the_plan_needs(user_small_quick):
     """At 5.3 % the detuning run's power floor (5.8 %) needs the deskew calibration; with power
     budgets half as wide the floors are under 3 %: no calibration, and the plan says what the
-    over-coverage costs (the calibration's bench time at least), run by run."""
+    over-coverage costs (the calibration's bench time at least), run by run; a map figure's
+    surplus, which no plan prices, is named with why (`over_coverage.UNPRICED`) and changes nothing."""
+    from squeezebench.analysis.over_coverage import UNPRICED
     from squeezebench.protocols.planning import CALIBRATION_RUN, make_plan
 
-    plan = make_plan(user_small_quick, 0.053, repeats=2, check_benches=0, shrink_factors={"power_w": 0.5},
-                     shrink_source="a study")
+    plan = make_plan(user_small_quick, 0.053, repeats=2, check_benches=0,
+                     shrink_factors={"power_w": 0.5, "map_coefficient_of_variation": 0.8}, shrink_source="a study")
     cost = plan.over_coverage
     assert plan.calibrate and not cost.narrower.calibrate
     assert [f.floor_p95_rel for f in cost.narrower.floors.floors] == pytest.approx(
@@ -291,6 +293,7 @@ def test_a_narrower_power_budget_drops_the_calibration_the_plan_needs(user_small
     text = plan.table()
     assert "over-coverage on the world model (coverage study in a study)" in text
     assert f"the over-coverage costs {cost.saved_s(plan):.1f} s" in text and f"{CALIBRATION_RUN}: " in text
+    assert f"map_coefficient_of_variation 0.80 ({UNPRICED['map_coefficient_of_variation']})" in text
     assert make_plan(user_small_quick, 0.053, repeats=2, check_benches=0, shrink_factors={}).table().endswith(
         "no quantity over-covers; nothing to save")
 

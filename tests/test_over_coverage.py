@@ -105,3 +105,21 @@ def test_the_reports_coverage_section_says_how_much_narrower_and_where_the_price
     assert "over-covers on benches erring as the world errs" in paragraph
     assert f"a U {factor:.2f} times as wide would still cover 95 %" in paragraph
     assert "squeezebench plan CAMPAIGN --coverage RUN_DIR" in paragraph
+
+
+def test_a_map_figures_surplus_is_said_to_cost_no_bench_time_for_the_reason_no_plan_prices_it():
+    """A map's CV over-covering as the world errs gets the line any quantity gets, and why its
+    surplus saves no bench time (its U is the grid correction's, which no map plan is chosen
+    by: `UNPRICED`); a point's power, which a plan's floors price, gets no such words."""
+    from squeezebench.analysis.over_coverage import UNPRICED
+    from squeezebench.protocols.bench_errors import MAP_QUANTITIES
+
+    assert set(UNPRICED) == set(MAP_QUANTITIES)
+    errors = np.random.default_rng(7).normal(0.0, 0.01, 2000)
+    table = coverage_table(pd.concat([coverage_rows(errors, 0.04, "map_coefficient_of_variation", benches=40),
+                                      coverage_rows(errors, 0.04, "power_w", benches=40)], ignore_index=True))
+    cv, power = sorted(shrink_lines(table))
+    assert cv.startswith("map_coefficient_of_variation over-covers") and cv.endswith(
+        f"({UNPRICED['map_coefficient_of_variation']})")
+    assert "grid correction's" in cv and "no bench time" in cv
+    assert power.startswith("power_w over-covers") and power.endswith("would still cover 95 %")
