@@ -30,8 +30,18 @@ def user_small_quick(tmp_path_factory) -> Path:
 
 
 @pytest.fixture(scope="module")
-def floors(user_small_quick):
-    return accuracy_floors(user_small_quick, 0.01)
+def measured_floors(user_small_quick):
+    """`measure_floors` of the campaign, through its plan cache as `make_plan` calls it: the
+    floors' tests and the module's plans read one run of it (each ran it again before)."""
+    from squeezebench.protocols.accuracy_plan import measure_floors
+    from squeezebench.protocols.planning import campaign_cache
+
+    return campaign_cache(user_small_quick).call(measure_floors, user_small_quick)
+
+
+@pytest.fixture(scope="module")
+def floors(user_small_quick, measured_floors):
+    return accuracy_floors(user_small_quick, 0.01, measured_floors)
 
 
 def test_a_one_percent_target_is_below_the_gain_floor(floors):
@@ -56,14 +66,14 @@ def test_a_one_percent_target_is_below_the_gain_floor(floors):
     assert "below the reachable floor" in text and "voltage reference" in text
 
 
-def test_the_deskew_calibration_lifts_the_delay_term_at_its_cost(floors, user_small_quick):
+def test_the_deskew_calibration_lifts_the_delay_term_at_its_cost(floors, user_small_quick, measured_floors):
     assert floors.calibration_bench_time_s > 1.0
     assert floors.deskew_std_uncertainty_s < 1e-9
     assert set(floors.own_bench_time_s) == {"detuning", "cutting"}
     for f in floors.floors:
         assert f.calibrated_floor_p95_rel <= f.floor_p95_rel + 1e-12
     # the gains alone leave 5.25 % (p95) on the cut's power, 5.8 % on the detuning's (5.2 % calibrated)
-    relaxed = accuracy_floors(user_small_quick, 0.053)
+    relaxed = accuracy_floors(user_small_quick, 0.053, measured_floors)
     assert relaxed.below_floor() == []
     for run in relaxed.calibrated_runs():   # the calibration is planned only where it is needed
         assert relaxed.floor(run, calibrated=False) > 0.053 >= relaxed.floor(run, calibrated=True)

@@ -13,6 +13,7 @@ from squeezebench.analysis.cartography import homogeneity, map_points
 from squeezebench.analysis.rundata import load_run
 from squeezebench.protocols.campaign import run_campaign
 from squeezebench.protocols.map_planning import AVERAGES, map_runs, plan_map, write_planned_maps
+from squeezebench.protocols.planning import campaign_cache
 from squeezebench.yamlfiles import dump_yaml, load_strict
 from test_cartography_protocol import map_campaign
 
@@ -23,7 +24,8 @@ TARGET = 0.08   # a 4 mm grid meets it over this area, a 2 mm one with room: the
 def planned(tmp_path_factory):
     tmp_path = tmp_path_factory.mktemp("plan")
     campaign = map_campaign(tmp_path, grid={"x_range_mm": [60, 140], "y_range_mm": [45, 93], "step_mm": 2})
-    return campaign, plan_map(map_runs(campaign)[0], TARGET)
+    # through the campaign's plan cache, as `plan` plans it: the CLI's test reads these candidates
+    return campaign, plan_map(map_runs(campaign)[0], TARGET, cache=campaign_cache(campaign))
 
 
 def test_the_plan_is_the_cheapest_candidate_meeting_the_target(planned):
