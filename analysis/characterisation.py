@@ -10,11 +10,10 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field, replace
 
-import numpy as np
 import pandas as pd
 
 from squeezebench.analysis import model, provenance
-from squeezebench.analysis.budgets import COVERAGE_FACTOR
+from squeezebench.analysis.budgets import COVERAGE_FACTOR, Budget
 from squeezebench.paper import paper_table
 from squeezebench.analysis.rundata import RunData
 from squeezebench.analysis.waveforms import Estimate
@@ -88,22 +87,34 @@ class PlateCharacterisation:
     points: pd.DataFrame
     origin: str = provenance.NOT_RECORDED   # of the points (simulated / measured)
     calibrated_on: dict[str, str] = field(default_factory=dict)   # provenance.calibrated_on
-    #: The part of q's and tan_theta's standard uncertainty the instruments' specifications
-    #: and the geometry's and materials' tolerances give (shared by every plate on the same
-    #: bench and from the same stock; 0 until `with_whole_budget`).
+    #: The part of q's and tan_theta's standard uncertainty the plates measured on one bench
+    #: share: the instruments' specifications and the tolerances of the stock they are built
+    #: from (the sheet's, the piezo lot's: `uncertainty.SHEET`, `PIEZO_LOT`); 0 until
+    #: `with_whole_budget`.
     systematic_u: dict[str, float] = field(default_factory=dict)
+    #: The part that is this plate's own: the tolerances of what is cut for it
+    #: (`uncertainty.PLATE`: its length, its piezos' length); independent between plates.
+    own_u: dict[str, float] = field(default_factory=dict)
 
-    def with_whole_budget(self, q_systematic_u: float, tan_theta_systematic_u: float) -> "PlateCharacterisation":
-        """Q and tan(theta') with the systematic part added to the fits' uncertainty."""
-        return replace(self, q=Estimate(self.q.value, math.hypot(self.q.std_uncertainty, q_systematic_u)),
-                       tan_theta=Estimate(self.tan_theta.value,
-                                          math.hypot(self.tan_theta.std_uncertainty, tan_theta_systematic_u)),
-                       systematic_u={"q": q_systematic_u, "tan_theta": tan_theta_systematic_u})
+    def with_whole_budget(self, q: Budget, tan_theta: Budget) -> "PlateCharacterisation":
+        """Q and tan(theta') with their budgets' Type B terms (`uncertainty.characterisation_budgets`
+        without the fits) added to the fits' uncertainty, split into the plates' shared part
+        and this plate's own (`uncertainty.plate_own_u`): the total is the budget's whatever the split."""
+        from squeezebench.analysis import uncertainty   # as in _characterise_plates
+
+        whole = {b.quantity: Estimate(getattr(self, b.quantity).value,
+                                      math.hypot(getattr(self, b.quantity).std_uncertainty, b.std_uncertainty))
+                 for b in (q, tan_theta)}
+        own = {b.quantity: uncertainty.plate_own_u(b, self.geometry) for b in (q, tan_theta)}
+        return replace(self, **whole, own_u=own,
+                       systematic_u={b.quantity: math.sqrt(max(b.std_uncertainty**2 - own[b.quantity]**2, 0.0))
+                                     for b in (q, tan_theta)})
 
     def fit_u(self, quantity: str) -> float:
         """The fits' own (independent) part of the quantity's standard uncertainty."""
         whole = getattr(self, quantity).std_uncertainty
-        return math.sqrt(max(whole**2 - self.systematic_u.get(quantity, 0.0) ** 2, 0.0))
+        return math.sqrt(max(whole**2 - self.systematic_u.get(quantity, 0.0) ** 2 - self.own_u.get(quantity, 0.0) ** 2,
+                             0.0))
 
 
 def characterise_plate(plate: str, points: pd.DataFrame, geometry: model.PlateGeometry,
@@ -152,17 +163,19 @@ def _characterise_plates(run: RunData, convention: model.Convention) -> dict[str
                          origin=provenance.point_origin(group, run.manifest, run.scenes),
                          calibrated_on=provenance.calibrated_on(run, group))
         q, tan = uncertainty.characterisation_budgets(result, convention, deskew, with_fit=False)
-        results[str(plate)] = result.with_whole_budget(q.std_uncertainty, tan.std_uncertainty)
+        results[str(plate)] = result.with_whole_budget(q, tan)
     return results
 
 
 def mean_over_plates(plates: list[PlateCharacterisation], quantity: str) -> Estimate:
-    """Mean of a quantity over plates: the fits' parts are independent (and the scatter
-    says as much), the systematic parts are shared (same bench, same stock) and do not
-    average down."""
-    fitted = mean_estimate([getattr(p, quantity).value for p in plates], [p.fit_u(quantity) for p in plates])
-    shared = float(np.mean([p.systematic_u.get(quantity, 0.0) for p in plates]))
-    return Estimate(fitted.value, math.hypot(fitted.std_uncertainty, shared))
+    """Mean of a quantity over plates measured on one bench and built from one stock (GUM
+    5.2.2): each plate's independent part (its fits and its own cuts' tolerances,
+    `PlateCharacterisation.own_u`) averages down as 1/n in quadrature; the part they share
+    (the instruments, the sheet's and piezo lot's tolerances: r = 1) is kept whole, as the
+    plates' mean of it; beside them the plates' scatter (`tables.mean_estimate`)."""
+    return mean_estimate([getattr(p, quantity).value for p in plates],
+                         [math.hypot(p.fit_u(quantity), p.own_u.get(quantity, 0.0)) for p in plates],
+                         shared=[p.systematic_u.get(quantity, 0.0) for p in plates])
 
 
 def fig5_table(plates: dict[str, PlateCharacterisation]) -> pd.DataFrame:

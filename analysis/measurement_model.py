@@ -108,7 +108,8 @@ def model_table(point: dict, deskew: Deskew | None) -> pd.DataFrame:
                      "correction": "as listed for those quantities", "source": "analysis.uncertainty.model_budgets"})
         # the sheet's thickness tolerance depends on the plate: its source gives it per thickness
         sheet = {"resonator_thickness_m": uncertainty.Tolerance(
-            float("nan"), "one value per plate, from its nominal thickness: " + uncertainty.SHEET_THICKNESS_SOURCE)}
+            float("nan"), "one value per plate, from its nominal thickness: " + uncertainty.SHEET_THICKNESS_SOURCE,
+            uncertainty.SHEET)}
         for name, tolerance in {**sheet, **uncertainty.TOLERANCES}.items():
             rows.append({"quantity": quantity, "input": name, "type": "B",
                          "distribution": _distribution(Term(name, "B", 0.0, "")),

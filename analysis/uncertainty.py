@@ -753,21 +753,36 @@ def characterisation_floor(run: RunData, calibration: Deskew | None = None,
 
 
 # -- Q and tan theta' through the paper's model ----------------------------------------------
+#: Who shares a tolerated input's departure (GUM 5.2: an input common to several results
+#: correlates them). A lab builds its plates from stock: the plates of one thickness are cut
+#: from one sheet, whose gauge and alloy (its modulus) are one roll's and one melt's, so they
+#: depart together (EN 485-4's thickness band is a sheet's against its nominal gauge, not the
+#: spread between neighbouring cuts); the piezos are one lot of one product, diced from wafers
+#: lapped to the lot's thickness and fired from one powder batch, so the data sheet's +-5 % on
+#: d31 and s11^E (and +-10 % on the permittivity) is the lot's offset, shared by every plate it
+#: equips. What is cut, diced or set out for each plate is its own: the plate's length (its
+#: half-wavelength) and its piezos' length along the nodal lines.
+SHEET, PIEZO_LOT, PLATE = "sheet", "piezo lot", "plate"
+
+
 @dataclass(frozen=True)
 class Tolerance:
     half_width_rel: float  # relative, rectangular
     source: str
+    shared_by: str   # SHEET, PIEZO_LOT or PLATE: whose departure it is
 
 
 #: Tolerances of the model's inputs that no measurement gives (relative, rectangular); the
 #: resonator's thickness has its sheet's, which depends on the plate (`tolerances_for`).
 TOLERANCES: dict[str, Tolerance] = {
-    "piezo_thickness_m": Tolerance(0.02, "assumed: lapped piezo plates, +-0.01 mm on 0.5 mm"),
-    "piezo_length_m": Tolerance(0.01, "assumed: diced piezo plates, +-0.1 mm on 9 mm"),
-    "half_wavelength_m": Tolerance(0.01, "assumed: plate length / antinodes, +-0.1 mm on 8.4 mm"),
-    "piezo_d31_c_per_n": Tolerance(0.05, "Noliac NCE41 data sheet (ver. 1203): electromechanical tolerance +-5 %"),
-    "piezo_c11_pa": Tolerance(0.05, "Noliac NCE41 data sheet (ver. 1203): physical tolerance +-5 % (s11^E)"),
-    "resonator_young_pa": Tolerance(0.03, "assumed: aluminium alloys 67-71 GPa, +-3 %"),
+    "piezo_thickness_m": Tolerance(0.02, "assumed: lapped piezo plates, +-0.01 mm on 0.5 mm", PIEZO_LOT),
+    "piezo_length_m": Tolerance(0.01, "assumed: diced piezo plates, +-0.1 mm on 9 mm", PLATE),
+    "half_wavelength_m": Tolerance(0.01, "assumed: plate length / antinodes, +-0.1 mm on 8.4 mm", PLATE),
+    "piezo_d31_c_per_n": Tolerance(0.05, "Noliac NCE41 data sheet (ver. 1203): electromechanical tolerance +-5 %",
+                                   PIEZO_LOT),
+    "piezo_c11_pa": Tolerance(0.05, "Noliac NCE41 data sheet (ver. 1203): physical tolerance +-5 % (s11^E)",
+                              PIEZO_LOT),
+    "resonator_young_pa": Tolerance(0.03, "assumed: aluminium alloys 67-71 GPa, +-3 %", SHEET),
 }
 _GEOMETRY_FIELDS = ("resonator_thickness_m", "piezo_thickness_m", "piezo_length_m", "half_wavelength_m")
 _MATERIAL_FIELDS = ("piezo_d31_c_per_n", "piezo_c11_pa", "resonator_young_pa")
@@ -798,7 +813,16 @@ def with_deviations(geometry: model.PlateGeometry, convention: model.Convention,
 def tolerances_for(geometry: model.PlateGeometry) -> dict[str, Tolerance]:
     """`TOLERANCES` and the resonator thickness's, its sheet's at the plate's nominal thickness."""
     return {"resonator_thickness_m": Tolerance(sheet_thickness_tolerance(geometry.resonator_thickness_m),
-                                               SHEET_THICKNESS_SOURCE), **TOLERANCES}
+                                               SHEET_THICKNESS_SOURCE, SHEET), **TOLERANCES}
+
+
+def plate_own_u(budget: Budget, geometry: model.PlateGeometry) -> float:
+    """The part of a plate's Q or tan theta' budget (`model_budgets`' terms, by input name)
+    that is the plate's own: its `PLATE` tolerances in quadrature, independent of every other
+    plate's. The rest (the bench's instruments, the sheet's and piezo lot's tolerances) the
+    plates measured on one bench share."""
+    own = {name for name, tolerance in tolerances_for(geometry).items() if tolerance.shared_by == PLATE}
+    return math.sqrt(sum(term.std_uncertainty**2 for term in budget.terms if term.name in own))
 
 
 def model_budgets(amplitude: Budget, power: Budget, voltage: Budget, frequency_hz: float,

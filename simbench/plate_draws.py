@@ -4,10 +4,23 @@ The budgets of Q and tan(theta') (`analysis.uncertainty.model_budgets`) claim to
 the tolerances of the paper model's inputs, the plate's and piezos' dimensions and their
 materials' constants, which no measurement on the bench gives. A coverage study can only
 test that claim on plates that really depart from their nominal values: the effect
-`plate_tolerances` draws, once per plate (the scene's plate name) and bench, each input's
-relative departure within its tolerance (`uncertainty.tolerances_for`, and the piezo
-permittivity's, `specifications.MODEL_TOLERANCES`) and gives the simulated plate the
-response that departure makes:
+`plate_tolerances` draws, once per bench, each input's relative departure within its
+tolerance (`uncertainty.tolerances_for`, and the piezo permittivity's,
+`specifications.MODEL_TOLERANCES`) and gives the simulated plate the response that
+departure makes.
+
+A lab's plates are built from stock, so a departure is drawn once for whoever shares it
+(`uncertainty.SHEET`, `PIEZO_LOT`, `PLATE` say why; every scene of a plate, its cuts and
+runs, draws the same):
+
+- the sheet (one per alloy and nominal thickness: the plates as thick as each other are
+  cut from one): the resonator's thickness and Young's modulus;
+- the piezo lot (one per ceramic and nominal thickness): the piezos' thickness, d31,
+  c11 and permittivity;
+- the plate itself: its length (the half-wavelength) and its piezos' length.
+
+A mean over plates (`characterisation.mean_over_plates`) keeps the first two whole and
+averages the third down, as its budget says. The response:
 
 - the motional branch answers as the paper's model (Eqs. 25 and 27, the physical
   reading) says a plate with those inputs does: amplitude per volt times a, power per volt
@@ -27,10 +40,12 @@ from __future__ import annotations
 
 from dataclasses import replace
 
+import numpy as np
+
 from squeezebench.plates.specifications import MODEL_TOLERANCES
 from squeezebench.simbench import physics
 from squeezebench.simbench.effects import EFFECTS
-from squeezebench.simbench.systematic_effects import SystematicEffect
+from squeezebench.simbench.systematic_effects import SystematicEffect, draw_stream
 
 #: The drawn inputs: the paper model's tolerated inputs (`uncertainty.TOLERANCES` and the
 #: resonator's sheet thickness, whose half-width depends on the plate: 0 here means the
@@ -39,19 +54,26 @@ RESONATOR_THICKNESS = "resonator_thickness_m"
 PERMITTIVITY = "relative_permittivity_t"
 
 
-def _model_tolerances() -> dict[str, float]:
-    from squeezebench.analysis.uncertainty import TOLERANCES   # analysis's budgets: imported once, here
+def _model_inputs() -> dict[str, tuple[float, str]]:
+    """Each drawn input's (half-width, who shares its departure): the permittivity is the
+    ceramic's, the piezo lot's as its d31 and c11 are."""
+    from squeezebench.analysis.uncertainty import PIEZO_LOT, SHEET, TOLERANCES   # analysis's budgets: imported here
 
-    return {RESONATOR_THICKNESS: 0.0, **{name: t.half_width_rel for name, t in TOLERANCES.items()},
-            PERMITTIVITY: MODEL_TOLERANCES[PERMITTIVITY].half_width}
+    return {RESONATOR_THICKNESS: (0.0, SHEET),
+            **{name: (t.half_width_rel, t.shared_by) for name, t in TOLERANCES.items()},
+            PERMITTIVITY: (MODEL_TOLERANCES[PERMITTIVITY].half_width, PIEZO_LOT)}
 
 
-class PlateTolerances(SystematicEffect, errors=_model_tolerances()):
+_INPUTS = _model_inputs()
+
+
+class PlateTolerances(SystematicEffect, errors={name: width for name, (width, _) in _INPUTS.items()}):
     """The plate's geometry and materials drawn within their tolerances (module docstring)."""
 
     name = "plate_tolerances"
     stages = frozenset({"load"})
-    per_plate = True   # one draw per plate and bench
+    #: Whose departure each input is (`uncertainty.SHEET`, `PIEZO_LOT` or `PLATE`).
+    shared_by = {name: owner for name, (_, owner) in _INPUTS.items()}
 
     def __init__(self, scene, **parameters: float) -> None:
         from squeezebench.plates.specifications import sheet_thickness_tolerance
@@ -65,6 +87,28 @@ class PlateTolerances(SystematicEffect, errors=_model_tolerances()):
         piezo = self.deviations_rel
         self.capacitance_ratio = ((1.0 + piezo[PERMITTIVITY]) * (1.0 + piezo["piezo_length_m"])
                                   / (1.0 + piezo["piezo_thickness_m"]))
+
+    def drawn_values(self) -> dict[str, float]:
+        """Each input drawn in turn from its owner's stream on this bench (`owner`): every
+        plate of one sheet or piezo lot draws the same departures of it, in the same order."""
+        streams: dict[str, np.random.Generator] = {}
+        values = {}
+        for name in self.errors:
+            owner = self.owner(self.shared_by[name])
+            rng = streams.setdefault(owner, draw_stream(self.parameters["bench_seed"], self.name, owner))
+            values[name] = self.drawn(rng, name)
+        return values
+
+    def owner(self, shared_by: str) -> str:
+        """The stream's name of this plate's sheet, piezo lot or itself."""
+        from squeezebench.analysis.uncertainty import PIEZO_LOT, SHEET
+
+        plate, piezo = self.scene.plate, self.scene.actuators.piezo
+        if shared_by == SHEET:
+            return f"sheet of {plate.material.name}, {plate.thickness_mm:g} mm"
+        if shared_by == PIEZO_LOT:
+            return f"lot of {piezo.material.name}, {piezo.thickness_mm:g} mm"
+        return plate.name
 
     def load(self, load: physics.PlateLoad) -> physics.PlateLoad:
         if load.capacitance_f == 0.0:   # the calibration resistor in the plate's place: no plate to draw

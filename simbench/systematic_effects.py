@@ -49,12 +49,17 @@ class SystematicEffect(Effect):
     def __init__(self, scene, **parameters: float) -> None:
         super().__init__(scene, **parameters)
         p = self.parameters
-        if p["draw"]:
-            rng = self.rng()
-            self.values = {k: drawn_fraction(rng, p["draw"], self.world_bias, self.world_spread) * abs(p[k])
-                           for k in self.errors}
-        else:
-            self.values = {k: p[k] for k in self.errors}
+        self.values = self.drawn_values() if p["draw"] else {k: p[k] for k in self.errors}
+
+    def drawn_values(self) -> dict[str, float]:
+        """Each error parameter drawn once, in turn from `rng()`."""
+        rng = self.rng()
+        return {k: self.drawn(rng, k) for k in self.errors}
+
+    def drawn(self, rng: np.random.Generator, name: str) -> float:
+        """Error parameter `name` drawn from `rng` within its half-width (`drawn_fraction`)."""
+        p = self.parameters
+        return drawn_fraction(rng, p["draw"], self.world_bias, self.world_spread) * abs(p[name])
 
     #: True when each plate has its own draw on a bench (its build, its mounting) rather
     #: than one the bench's instruments share across every plate they measure.
@@ -67,11 +72,12 @@ class SystematicEffect(Effect):
         return draw_stream(self.parameters["bench_seed"], self.name, self.scene.plate.name if self.per_plate else None)
 
 
-def draw_stream(bench_seed: float, name: str, plate: str | None = None) -> np.random.Generator:
-    """The stream effect `name` draws from on bench `bench_seed` (with `plate`, that plate's own)."""
+def draw_stream(bench_seed: float, name: str, owner: str | None = None) -> np.random.Generator:
+    """The stream effect `name` draws from on bench `bench_seed` (with `owner`, that plate's
+    own, or that stock's, `plate_draws.PlateTolerances`)."""
     key = [int(bench_seed), zlib.crc32(name.encode())]
-    if plate is not None:
-        key.append(zlib.crc32(plate.encode()))
+    if owner is not None:
+        key.append(zlib.crc32(owner.encode()))
     return np.random.default_rng(key)
 
 

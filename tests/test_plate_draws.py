@@ -64,16 +64,30 @@ def test_a_plate_at_its_tolerances_limits_answers_as_eqs_25_and_27_say(tmp_path)
     assert capacitive == pytest.approx(1.10 * 1.01 / 1.02, rel=1e-9)
 
 
-def test_each_plate_has_its_own_draw_within_its_tolerances_and_keeps_it_across_scenes(tmp_path):
+def test_plates_on_a_bench_share_their_stocks_draw_and_differ_in_their_own_and_keep_it_across_scenes(tmp_path):
+    """Plates 1 and 2 (2 mm) are cut from one sheet and carry piezos of one lot: the sheet's and
+    the lot's departures are one draw; their cuts (length, piezo length) are each plate's own.
+    Plate 5 (1.2 mm) is cut from another sheet but carries the same piezo lot."""
+    from squeezebench.analysis.uncertainty import PIEZO_LOT, PLATE, SHEET
     from squeezebench.simbench.effects import build_pipeline
 
     def drawn(scene_name, seed, model_name="specified"):
         path = scene_with_effects(scene_name, tmp_path / f"{seed}{model_name}", plate_draw_effects(seed, model_name))
         return build_pipeline(load_scene(path)).get("plate_tolerances").deviations_rel
 
+    def of(values, shared_by):
+        return {n: v for n, v in values.items() if PlateTolerances.shared_by[n] == shared_by}
+
+    assert {PlateTolerances.shared_by[n] for n in ("half_wavelength_m", "piezo_length_m")} == {PLATE}
     first = drawn("small_plate_1.yaml", 3)
     assert first == drawn("small_plate_1.yaml", 3)   # the same plate on the same bench: one draw
-    assert first != drawn("small_plate_2.yaml", 3) and first != drawn("small_plate_1.yaml", 4)
+    second, thinner = drawn("small_plate_2.yaml", 3), drawn("small_plate_5.yaml", 3)
+    assert of(second, SHEET) == of(first, SHEET) and of(second, PIEZO_LOT) == of(first, PIEZO_LOT)
+    assert all(second[n] != first[n] for n in of(first, PLATE))
+    assert of(thinner, PIEZO_LOT) == of(first, PIEZO_LOT)
+    assert thinner["resonator_young_pa"] != first["resonator_young_pa"]   # another sheet
+    other_bench = drawn("small_plate_1.yaml", 4)
+    assert all(other_bench[n] != first[n] for n in first)
     limits = {**{n: t.half_width_rel for n, t in tolerances_for(
         model.PlateGeometry(2e-3, 5e-4, 9e-3, 9.5e-3, 4, 1)).items()}, PERMITTIVITY: 0.10}
     for seed in range(1, 30):

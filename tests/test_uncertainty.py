@@ -353,6 +353,55 @@ def test_a_mean_over_plates_keeps_their_shared_uncertainty(erring_bench_points):
                                                        for p in plates]) / len(plates))
 
 
+def test_a_mean_over_plates_keeps_the_shared_terms_whole_and_averages_each_plates_own_as_the_gum_gives():
+    """n plates of one geometry (terms proportional: a plate's budget is its value times the
+    same relative sensitivities), one bench, one stock: the mean's u is, by GUM 5.1.2 with one
+    variable per shared input (r = 1) and one per plate for its cuts and fits, computed here by
+    `uncertainties`; each plate's own u is its budget's total whatever the split."""
+    import uncertainties
+
+    from squeezebench.analysis.characterisation import characterise_plate, mean_over_plates
+
+    voltages = np.array([10.0, 20.0, 30.0, 40.0])
+    points = pd.DataFrame({"piezo_voltage_vpp": voltages, "amplitude_pp_m": 2e-8 * voltages,
+                           "amplitude_pp_m_u": 1e-8 * np.ones(4), "power_w": 1e-4 * voltages**2,
+                           "power_w_u": 2e-2 * np.ones(4), "frequency_hz": 48e3})
+    geometry = model.PlateGeometry(2e-3, 5e-4, 9e-3, 9.5e-3, 4, 1)
+    rel = {"CH2 gain": 0.012, "piezo_d31_c_per_n": 0.029, "resonator_thickness_m": 0.026,   # shared
+           "half_wavelength_m": 0.006, "piezo_length_m": 0.0058}                             # each plate's
+    scales = (1.0, 1.3, 0.8)
+    own_names = ("half_wavelength_m", "piezo_length_m")
+    stock = {n: uncertainties.ufloat(0, 1, n) for n in rel if n not in own_names}   # one variable for all plates
+    plates, truths = [], []
+    for i, scale in enumerate(scales):
+        fitted = characterise_plate(f"p{i}", points, geometry, model.PHYSICAL_CONVENTION)
+        budgets = [Budget(q, "1", getattr(fitted, q).value,
+                          tuple(Term(n, "B", scale * r * abs(getattr(fitted, q).value), "") for n, r in rel.items()))
+                   for q in ("q", "tan_theta")]
+        plate = fitted.with_whole_budget(*budgets)
+        for q, budget in zip(("q", "tan_theta"), budgets):   # the plate's total is its budget's
+            assert getattr(plate, q).std_uncertainty == pytest.approx(
+                math.hypot(getattr(fitted, q).std_uncertainty, budget.std_uncertainty), rel=1e-12)
+        assert plate.fit_u("tan_theta") == pytest.approx(fitted.tan_theta.std_uncertainty, rel=1e-9)
+        own = scale * math.hypot(rel["half_wavelength_m"], rel["piezo_length_m"]) * abs(fitted.tan_theta.value)
+        assert plate.own_u["tan_theta"] == pytest.approx(own, rel=1e-12)
+        plates.append(plate)
+        value = plate.tan_theta.value
+        x = value + plate.fit_u("tan_theta") * uncertainties.ufloat(0, 1, f"fit {i}")
+        for name, r in rel.items():
+            variable = stock[name] if name in stock else uncertainties.ufloat(0, 1, f"{name} {i}")
+            x = x + scale * r * abs(value) * variable
+        truths.append(x)
+    gum = sum(truths) / len(truths)
+    mean = mean_over_plates(plates, "tan_theta")   # equal values: no scatter
+    assert mean.value == pytest.approx(gum.nominal_value, rel=1e-12)
+    assert mean.std_uncertainty == pytest.approx(gum.std_dev, rel=1e-9)
+    # all held shared, as before this split, the mean's u would be larger (the plates' cuts do average)
+    as_shared = math.hypot(np.mean([p.systematic_u["tan_theta"] for p in plates]),
+                           np.mean([p.own_u["tan_theta"] for p in plates]))
+    assert mean.std_uncertainty < math.hypot(as_shared, math.sqrt(sum(p.fit_u("tan_theta") ** 2 for p in plates)) / 3)
+
+
 def test_a_mean_of_repeats_of_one_point_keeps_its_shared_type_b_part():
     """The same instruments measured every repeat: their specifications' part is common to
     all and does not average down; only the record noise does (issue 28: 1, 2, 4 copies
