@@ -95,3 +95,18 @@ def test_a_searchs_warming_is_the_simulated_plates_reading_by_reading(warm_run):
             run_name, step_id, plate_warming.top_readings_time_s(time_s, velocity))
         assert dated_hz > (1 + 2 * HELD_TOLERANCE_REL) * true_hz   # the mean time's plate was warmer than the fit's
 
+
+def test_fig2s_nine_column_drift_holds_the_simulated_plates_within_its_u(warm_run):
+    """Each Pt of the nine-column plate (three levels, three ratios): its drift's estimate,
+    since the plate was at rest, is the simulated plate's displacement f |alpha| T within its
+    u, on the side it falls (the re-centrings' readings on its broad top scale it down: about
+    two thirds of the plate's on this bench, README)."""
+    run, true_rise_k = warm_run
+    points, _ = uncertainty.stored_points(run)
+    regained = points[(points["protocol"] == "detuning") & (points["detuning_phase"] == "regained")]
+    assert len(regained) == 9
+    true_hz = np.array([-ALPHA_PER_K * point.generator_frequency_hz * true_rise_k(point.run_name, point.step_id,
+                                                                                 point.bench_time_s)
+                        for point in regained.itertuples()])
+    estimate_hz, u_hz = regained["resonance_drift_hz"].to_numpy(), regained["resonance_drift_u_hz"].to_numpy()
+    assert np.all(estimate_hz < 0) and np.all(np.abs(estimate_hz - true_hz) <= u_hz)
