@@ -25,7 +25,11 @@ Pt/P0 covered 99.2 % of 40 benches. The estimate follows the power the plate too
 a low level (the plate barely warms), and it keeps growing under the last level's Pt, which
 the readings on a broad top (the nine-column plate's, Q ~ 56) need not see: there a
 re-centring's walk of 5 Hz steps changes the velocity by less than its scatter, and a
-closing re-centring read -5 +- 5 Hz on a seeded bench whose plate had fallen 17 Hz. The
+closing re-centring read -5 +- 5 Hz on a seeded bench whose plate had fallen 17 Hz. Those
+readings still scale the estimate down: its re-centrings start from the search's resonance
+at every level and mostly keep a best reading within a step or two of it, so on twelve
+seeded benches the nine-column plate's Pt estimates are 79-81 % of the simulated plate's
+drift (the tolerances' middle alone, 103-105 %; its re-centrings' vertices alone, 90-91 %). The
 readings alone (below) bound the drift where no scene gives the plate.
 
 Type A, from the run's dated readings of its resonance (`_drift_bounds`: a bias bound,
@@ -306,7 +310,12 @@ def _plate_dimensions(scene: dict) -> tuple[float, float, float, float] | None:
 def _power_history(*frames: pd.DataFrame, shunt_ohm: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
     """The run's dated powers on the plate in time order (its stored power, else the scope's,
     less the loss of the `shunt_ohm` shunt it was read through: `dielectric.plate_power_w`),
-    each held over the interval before it (`warming.held_powers_w`)."""
+    each held over the interval that closes at it: the drive between two stored readings is
+    mostly the later one's (its re-centring's and its voltage's unstored readings are at its
+    level, `protocols.detuning`; `plate_warming`). Against the simulated plate's own
+    temperature on six seeded benches the heat this holds at Fig. 2's Pt is 4-8 % over the
+    plate's (a step's start and end at the generator's minimum), the larger of the
+    interval's ends 14-24 % over, their mean 12-22 % under."""
     rows = []
     for frame in frames:
         if "bench_time_s" not in frame:
@@ -320,7 +329,7 @@ def _power_history(*frames: pd.DataFrame, shunt_ohm: float = 0.0) -> tuple[np.nd
     history = pd.concat(rows, ignore_index=True) if rows else pd.DataFrame(columns=["time_s", "power_w"], dtype=float)
     history = history[np.isfinite(history["time_s"]) & np.isfinite(history["power_w"])].sort_values("time_s")
     times_s, power_w = history["time_s"].to_numpy(float), history["power_w"].to_numpy(float)
-    return times_s, warming.held_powers_w(power_w)
+    return times_s, power_w
 
 
 def _warming_scale(held_j: np.ndarray, readings: pd.DataFrame, times_s: np.ndarray,
@@ -371,16 +380,21 @@ def _warming_estimates(points: pd.DataFrame, searches: pd.DataFrame, closings: p
     (`warming.time_constant_range_s`, `warming.drift_per_joule_range_hz`);
     the run's dated readings of its resonance (`_readings`) fit k at each tau
     (`_warming_scale`), and the taus they do not reject (chi^2 within CHI2_95_ONE of its
-    least) give the drift since the first reading, -k (E(t) - E(t_0)), each its own: the
-    estimate is the middle of their range, which enters its u as a rectangle, with the
-    largest of their scales' u times E (the warming's sign is known: the estimate is one, not
-    a bound). The room's drift since the first reading (`warming.room_drift_bound_hz`, sign
+    least) give the drift since the plate was at rest, -k E(t), each its own: the estimate is
+    the middle of their range, which enters its u as a rectangle, with the largest of their
+    scales' u times E (the warming's sign is known: the estimate is one, not a bound). Since
+    rest, not since the first reading (-k (E(t) - E(t_0)), as it was): a stored value states
+    the plate as mounted, and the first reading, the search, read a plate its own readings had
+    warmed (the nine-column plate's 25 mK, 0.19 Hz; on twelve seeded benches the one-column
+    plate's Pt estimates went from 65-93 % of the simulated plate's drift to 94-95 %). The
+    room's drift since the run's first stored reading (`warming.room_drift_bound_hz`, sign
     unknown) is a rectangle about 0. A plate whose readings resolve its drift is estimated
     near it; one whose readings resolve nothing, at the tolerances' middle, with their spread.
 
     A P0 or closing row is read at its setting s on the re-centred resonance, which the
-    mounted plate's is off by s - f_0 (f_0 the first reading): its estimate is that offset,
-    its u that of f_0 and of the row's own reading of the resonance it was set on (the
+    mounted plate's is off by s - f_0 + d_0 (f_0 the first reading, d_0 the drift's estimate
+    at it): its estimate is that offset, its u that of f_0, of d_0 and of the row's own
+    reading of the resonance it was set on (the
     setting's offset from that reading in quadrature: P0 is set at the best reading, the
     reading may be its readings' vertex), `uncertainty.power_ratio_budget` takes (offset /
     h)^2."""
@@ -392,27 +406,32 @@ def _warming_estimates(points: pd.DataFrame, searches: pd.DataFrame, closings: p
     frequency_hz, reference_s = float(readings["frequency_hz"].iat[0]), float(readings["time_s"].iat[0])
     low, high = warming.drift_per_joule_range_hz(frequency_hz, *dimensions)
     shortest, longest = warming.time_constant_range_s(*dimensions)
+    # the drift since the plate was at rest (before the run's first stored reading: the plate
+    # as mounted, which a stored value states), at the points and at the first reading of the
+    # resonance, itself read on a plate its own readings had warmed
+    when_s = np.append(at_s, reference_s)
     fits = []
     for tau_s in np.geomspace(shortest, longest, TIME_CONSTANT_STEPS):
         held_j = warming.held_heat_j(times_s, power_w, tau_s)
         scale, scale_u, chi2 = _warming_scale(held_j, readings, times_s, low, high)
-        since_j = np.interp(at_s, times_s, held_j) - np.interp(reference_s, times_s, held_j)
-        fits.append((chi2, -scale * since_j, scale_u * np.abs(since_j)))
+        since_rest_j = np.interp(when_s, times_s, held_j)
+        fits.append((chi2, -scale * since_rest_j, scale_u * since_rest_j))
     least = min(chi2 for chi2, _, _ in fits)
     allowed = [(drift, drift_u) for chi2, drift, drift_u in fits if chi2 <= least + CHI2_95_ONE]
     drifts = np.array([drift for drift, _ in allowed])
     lowest, highest = drifts.min(axis=0), drifts.max(axis=0)
     setting_hz = points["generator_frequency_hz"].to_numpy(float)
-    room_hz = warming.room_drift_bound_hz(setting_hz, at_s - reference_s)
+    room_hz = warming.room_drift_bound_hz(np.append(setting_hz, frequency_hz), when_s - times_s[0])
     estimate_hz = 0.5 * (lowest + highest)
     u_hz = np.sqrt(np.max([drift_u for _, drift_u in allowed], axis=0) ** 2
                    + ((highest - lowest) ** 2 / 4.0 + room_hz**2) / 3.0)
+    (estimate_hz, reference_hz), (u_hz, reference_u_hz) = (estimate_hz[:-1], estimate_hz[-1]), (u_hz[:-1], u_hz[-1])
     at_setting = points["detuning_phase"].isin(AT_SETTING).to_numpy() if "detuning_phase" in points else \
         np.zeros(len(points), bool)
-    if at_setting.any():
+    if at_setting.any():   # the setting's offset from the plate at rest's resonance, f_0 - reference_hz
         own, _ = _setting_readings(points[at_setting], best_u)
-        estimate_hz[at_setting] = setting_hz[at_setting] - frequency_hz
-        u_hz[at_setting] = np.sqrt(readings["u_hz"].iat[0] ** 2 + own["u_hz"].fillna(0.0).to_numpy() ** 2
+        estimate_hz[at_setting] = setting_hz[at_setting] - frequency_hz + reference_hz
+        u_hz[at_setting] = np.sqrt(readings["u_hz"].iat[0] ** 2 + reference_u_hz**2 + own["u_hz"].fillna(0.0).to_numpy() ** 2
                                    + (setting_hz[at_setting] - own["frequency_hz"].to_numpy()) ** 2)
     return estimate_hz, u_hz, np.zeros(len(points)), WARMING_SOURCE.format(
         n=len(times_s), tau_low=shortest, tau_high=longest, readings=len(readings), low=low, high=high,

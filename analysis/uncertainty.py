@@ -435,7 +435,8 @@ def search_budgets(rows: pd.DataFrame, setups: dict[str, SearchSetup], history: 
     A plate warmer than at rest reads a resonance lower by |alpha| f dT, where a previous step
     drove the plate shortly before (Table 4's third configuration) and, less, from the search's
     own readings on the peak: the stored value is corrected by the warming estimated at the
-    heating constants' nominal values, u from their tolerances (`plate_warming`); and the room's
+    heating constants' nominal values at each of its readings, the vertex fitted again to the
+    readings referred to the plate at rest, u from their tolerances (`plate_warming`); and the room's
     drift since the run started moves it by up to f |alpha| of the room's (a rectangle,
     `plate_warming.search_room_term`): a search late in a run reads a plate the room has
     moved.
@@ -476,7 +477,8 @@ def search_budgets(rows: pd.DataFrame, setups: dict[str, SearchSetup], history: 
                 read_s = plate_warming.top_readings_time_s(time_s[in_sweep], velocity[in_sweep])
                 room = plate_warming.search_room_term(run_history, frequency_hz, read_s)
                 warming = plate_warming.search_warming_term(
-                    run_history, found["plate"], (scenes or {}).get(scene_files.iloc[position], {}), frequency_hz, read_s)
+                    run_history, found["plate"], (scenes or {}).get(scene_files.iloc[position], {}), frequency_hz,
+                    time_s[in_sweep], setting_hz[in_sweep], velocity[in_sweep])
                 terms += [room] if room is not None else []
                 if warming is not None:   # the plate as mounted, at rest: corrected for its warming (GUM 3.2.4)
                     correction_hz = warming[0]

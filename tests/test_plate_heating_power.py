@@ -62,7 +62,8 @@ def test_a_search_on_the_nine_column_plate_is_corrected_for_its_plates_power_alo
     assert dielectric.shunt_ohm(scene) == 2.0
     unshunted = {**scene, "effects": [e for e in scene["effects"] if e != dielectric.SHUNT_EFFECT]}
     (with_hz, term), (without_hz, _) = (plate_warming.search_warming_term(history, "nine_column_1mm", s, RESONANCE_HZ,
-                                                                          times_s[-1]) for s in (scene, unshunted))
+                                                                          times_s[-1:], [RESONANCE_HZ], [1.0])
+                                        for s in (scene, unshunted))
     share = 1.0 - float(dielectric.plate_power_w(power_w, current_pp_a, 2.0)) / power_w
     assert with_hz == pytest.approx(without_hz * (1.0 - share), rel=1e-9)
     assert share == pytest.approx(1.0 - truth.plate_power_w / truth.power_w, abs=5e-3)

@@ -68,7 +68,9 @@ def _warming_run(scale_hz_per_j: float, tau_s: float,
                  reading_u_hz: float) -> tuple[pd.DataFrame, dict, pd.DataFrame, np.ndarray]:
     """A run whose plate warms under three rising levels (a P0 with its re-centring and three
     Pt each), its drift -scale E(t) exactly; its re-centrings read it with `reading_u_hz`.
-    Returns the points, the scene copies, the search and each point's true |drift|."""
+    The plate at rest at the search, each reading's power held from the reading before it (the
+    protocol sets a reading's drive just after the reading before). Returns the points, the
+    scene copies, the search and each point's true |drift|."""
     rows, time_s = [{"phase": "search", "time_s": 0.0, "power_w": 0.001}], 0.0
     for level, power_w in ((0.125, 0.06), (0.25, 0.22), (0.375, 0.5)):
         for phase in ("resonance", "regained", "regained", "regained"):
@@ -78,7 +80,7 @@ def _warming_run(scale_hz_per_j: float, tau_s: float,
     time_s += 12.0
     rows.append({"phase": "closing", "time_s": time_s, "power_w": 0.5, "level": 0.375})
     times, powers = [r["time_s"] for r in rows], [r["power_w"] for r in rows]
-    held = warming.held_heat_j(times, np.maximum(powers, np.concatenate([powers[:1], powers[:-1]])), tau_s)
+    held = warming.held_heat_j(times, powers, tau_s)   # each reading's drive from the reading before it
     drift = scale_hz_per_j * held
     frame = []
     for row, drift_hz in zip(rows[1:], drift[1:]):
