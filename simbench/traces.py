@@ -687,9 +687,11 @@ def reaches_limits(extremes: tuple[float, float], offset: float, scale_per_div: 
     vertical setting reaches the ADC's top, and its bottom (within 1e-9 division): the
     clipping of TDS PM Table 3-5. A screen position rises with the value (the scale is
     positive, and rounding keeps that order), so the extremes' positions are the positions'
-    extremes: two values are placed, not the record."""
+    extremes: two values are placed, not the record (as floats: the operations an array of
+    two would do, without its cost at every measurement)."""
     lowest, highest = extremes
-    highest, lowest = (np.array([highest, lowest]) - offset) / scale_per_div + position_div
+    highest = (highest - offset) / scale_per_div + position_div
+    lowest = (lowest - offset) / scale_per_div + position_div
     return bool(highest >= fx.ADC_MAX_DIV - 1e-9), bool(lowest <= fx.ADC_MIN_DIV + 1e-9)
 
 
