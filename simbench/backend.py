@@ -109,7 +109,11 @@ class SceneVisaLibrary(SimVisaLibrary):
         return super().close(session)
 
 
+#: The attribute every read asks its session for (an enum member's lookup, kept).
+_TIMEOUT_VALUE = constants.ResourceAttribute.timeout_value
+
+
 def _timeout_s(session) -> float:
     """The session's VISA timeout in seconds (infinite stays infinite)."""
-    timeout_ms, _ = session.get_attribute(constants.ResourceAttribute.timeout_value)
+    timeout_ms, _ = session.get_attribute(_TIMEOUT_VALUE)
     return float("inf") if timeout_ms == constants.VI_TMO_INFINITE else timeout_ms / 1000.0

@@ -416,6 +416,8 @@ class EffectPipeline:
         self._timebase = [e.sample_interval_scale for e in self.by_stage["timebase"]]
         self._amplifier = [e.amplifier for e in self.by_stage["amplifier"]]
         self._load = [e.load for e in self.by_stage["load"]]
+        # the load effects with a state of their own (a plate's temperature): asked at every clock advance
+        self._load_states = [e.state_key for e in self.by_stage["load"] if type(e).state_key is not Effect.state_key]
         self._motion = [e.motion for e in self.by_stage["motion"]]
         self._signals = [e.signals for e in self.by_stage["signals"]]
         self._noise = [e.noise_div_rms for e in self.by_stage["noise"]]
@@ -469,6 +471,10 @@ class EffectPipeline:
         for stage in self._load:
             load = stage(load)
         return load
+
+    def load_state(self) -> tuple:
+        """The load effects' own states (`Effect.state_key`) the steady state depends on."""
+        return tuple([state() for state in self._load_states])
 
     def motion(self, fundamentals: np.ndarray, ctx: AcquisitionContext) -> np.ndarray:
         for stage in self._motion:

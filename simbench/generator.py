@@ -97,6 +97,16 @@ class Generator(ScpiInstrument):
                                          voltage_unit="VPP", offset_v=s["offset"], load_ohm=s["load"],
                                          shape=s["shape"])
 
+    def settings_key(self):
+        """What `settings()` depends on, cheaper to build and compare than the settings:
+        the programmed drive, or the settings themselves while a modulation moves them with
+        bench time (the bench asks at every clock advance whether its steady state still
+        holds)."""
+        s = self.state
+        if s["modulation"] is not None:
+            return self.settings()
+        return s["frequency"], s["amplitude_vpp"], s["offset"], s["load"], s["shape"]
+
     def changed(self, key: str, unit: Unit) -> None:
         """Every setting command reprograms the synthesiser or the attenuators, even one
         repeating the present value: the busy time depends on the command alone (so a

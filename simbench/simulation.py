@@ -85,10 +85,9 @@ class SimulatedBench:
     # -- physics ----------------------------------------------------------------------------
     def steady_state(self) -> physics.SteadyState:
         """Steady state at the present generator settings (cached until they change)."""
-        generator = self.generator.settings()
-        key = (self.state_name, generator, *(e.state_key() for e in self.effects.by_stage["load"]))
+        key = (self.state_name, self.generator.settings_key(), self.effects.load_state())
         if self._steady_cache[0] != key:
-            self._steady_cache = (key, self._solve(self.effects.generator(generator),
+            self._steady_cache = (key, self._solve(self.effects.generator(self.generator.settings()),
                                                    self.effects.load(self.plate_load())))
         return self._steady_cache[1]
 

@@ -40,6 +40,14 @@ MODELLED = frozenset({"AC", "OR", "PA", "PR", "PT", "SL", "SR", "ST", "TE", "TH"
 _ANSWERING = frozenset(code for code, entry in COMMANDS.items() if "report" in entry.forms) | {"PT"}
 
 
+#: The replies of the queries the stage models, from an axis (a map polls TS some 80,000 times).
+_QUERIES = {"TS": lambda axis: f"{0:04X}{axis.state}", "TP": lambda axis: f"{axis.position_mm:.6g}",
+            "TH": lambda axis: f"{axis.target_mm if axis.state in ('1E', '28') else axis.position_mm:.6g}",
+            "VE": lambda axis: f" {REVISION}", "SL": lambda axis: f"{axis.low_mm:g}",
+            "SR": lambda axis: f"{axis.high_mm:g}", "VA": lambda axis: f"{axis.velocity_mm_per_s:g}",
+            "AC": lambda axis: f"{axis.acceleration_mm_per_s2:g}", "PA": lambda axis: f"{axis.target_mm:.6g}"}
+
+
 @dataclass
 class Axis:
     low_mm: float
@@ -139,16 +147,11 @@ class Stage(SimulatedInstrument):
         return [] if reply is None else [f"{address}{command}{reply}".encode() + b"\r"]
 
     def _command(self, axis: Axis, command: str, argument: str) -> str | None:
-        queries = {"TS": lambda: f"{0:04X}{axis.state}", "TP": lambda: f"{axis.position_mm:.6g}",
-                   "TH": lambda: f"{axis.target_mm if axis.state in ('1E', '28') else axis.position_mm:.6g}",
-                   "VE": lambda: f" {REVISION}", "SL": lambda: f"{axis.low_mm:g}", "SR": lambda: f"{axis.high_mm:g}",
-                   "VA": lambda: f"{axis.velocity_mm_per_s:g}", "AC": lambda: f"{axis.acceleration_mm_per_s2:g}",
-                   "PA": lambda: f"{axis.target_mm:.6g}"}
         if command == "TE":
             letter, axis.error = axis.error, "@"
             return letter
-        if command in queries and argument in ("", "?") and (argument == "?") == (command in _PARAMETERS):
-            return queries[command]()
+        if command in _QUERIES and argument in ("", "?") and (argument == "?") == (command in _PARAMETERS):
+            return _QUERIES[command](axis)
         if command == "OR" and argument == "":
             self._home(axis)
         elif command == "PA":

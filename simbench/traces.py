@@ -88,8 +88,10 @@ class Record:
 
 
 def synthesize(steady: physics.SteadyState, times_s: np.ndarray,
-               fundamentals: np.ndarray | None = None) -> np.ndarray:
-    """Noise-free physical signals (3, n) at `times_s` from the trigger.
+               fundamentals: np.ndarray | None = None, channels: tuple[int, ...] = (0, 1, 2)) -> np.ndarray:
+    """Noise-free physical signals of `channels` (rows in that order; by default all three:
+    (3, n)) at `times_s` from the trigger. A channel's row is the same whichever others are
+    asked for (a delayed channel is synthesised alone, at its own times).
 
     The scope triggers on the rising zero crossing of CH1's fundamental. `fundamentals`
     (n_branches, n) replaces the modes' steady fundamental phasors during a transient.
@@ -99,16 +101,21 @@ def synthesize(steady: physics.SteadyState, times_s: np.ndarray,
     rotation = _rotation(omega, float(trigger_s), times_s)
     orders = steady.orders
     harmonics = rotation[None, :] if len(orders) == 1 else rotation[None, :] ** orders[:, None]
-    branch = _real_part(steady.branch_velocity_phasors_mps, harmonics)
-    if fundamentals is not None:
-        steady_fundamental = steady.branch_velocity_phasors_mps[:, :1] * rotation[None, :]
-        branch = branch + np.real(fundamentals * rotation[None, :] - steady_fundamental)
-    forces = np.array([b.force_factor_n_per_v for b in steady.branches])
-    visibility = np.array([b.visibility for b in steady.branches])
-    signals = np.empty((3, times_s.size))
-    np.add(_real_part(steady.output_voltage_phasors_v, harmonics), steady.output_dc_v, out=signals[0])
-    np.add(_real_part(steady.capacitive_current_phasors_a, harmonics), _weighted(forces, branch), out=signals[1])
-    signals[2] = _weighted(visibility, branch)
+    signals = np.empty((len(channels), times_s.size))
+    if any(channels):   # CH2 and CH3 carry the plate's motion
+        branch = _real_part(steady.branch_velocity_phasors_mps, harmonics)
+        if fundamentals is not None:
+            steady_fundamental = steady.branch_velocity_phasors_mps[:, :1] * rotation[None, :]
+            branch = branch + np.real(fundamentals * rotation[None, :] - steady_fundamental)
+    for row, channel in enumerate(channels):
+        if channel == 0:
+            np.add(_real_part(steady.output_voltage_phasors_v, harmonics), steady.output_dc_v, out=signals[row])
+        elif channel == 1:
+            forces = np.array([b.force_factor_n_per_v for b in steady.branches])
+            np.add(_real_part(steady.capacitive_current_phasors_a, harmonics), _weighted(forces, branch),
+                   out=signals[row])
+        else:
+            signals[row] = _weighted(np.array([b.visibility for b in steady.branches]), branch)
     return signals
 
 
@@ -141,21 +148,40 @@ def _weighted(weights: np.ndarray, rows: np.ndarray) -> np.ndarray:
 _SYNTHESIZED: RecentlyUsed[np.ndarray] = RecentlyUsed(16)
 
 
-def _steady_signals(steady: physics.SteadyState, setup: ScopeSetup) -> np.ndarray:
-    """`synthesize(steady, setup.times_s())`, read-only, kept by what it depends on: the
-    steady state's phasors and its branches' gains, and the time base."""
+def _steady_signals(steady: physics.SteadyState, setup: ScopeSetup, delays_s: np.ndarray | None = None) -> np.ndarray:
+    """`_delayed_signals(steady, setup.times_s(), delays_s)`, read-only, kept by what it
+    depends on: the steady state's phasors and its branches' gains, the time base and the
+    channels' delays."""
     velocity = steady.branch_velocity_phasors_mps
     key = (steady.frequency_hz, steady.orders.tobytes(), steady.output_voltage_phasors_v.tobytes(),
            steady.output_dc_v, steady.capacitive_current_phasors_a.tobytes(), velocity.shape, velocity.tobytes(),
            tuple((b.force_factor_n_per_v, b.visibility) for b in steady.branches),
-           setup.first_sample_s, setup.sample_interval_s, setup.record_length)
+           setup.first_sample_s, setup.sample_interval_s, setup.record_length,
+           None if delays_s is None else delays_s.tobytes())
 
     def build() -> np.ndarray:
-        signals = synthesize(steady, setup.times_s())
+        signals = _delayed_signals(steady, setup.times_s(), delays_s)
         signals.flags.writeable = False
         return signals
 
     return _SYNTHESIZED.get(key, build)
+
+
+def _delayed_signals(steady: physics.SteadyState, times_s: np.ndarray, delays_s: np.ndarray | None,
+                     fundamentals: np.ndarray | None = None) -> np.ndarray:
+    """The three channels' signals (3, n), each at `times_s` less its delay (`delays_s`,
+    None: no channel is delayed): a delayed channel shows its signal from tau earlier. Each
+    row is synthesised once, at the times it is shown at."""
+    delayed = () if delays_s is None else tuple(int(ch) for ch in np.flatnonzero(delays_s))
+    if not delayed:
+        return synthesize(steady, times_s, fundamentals)
+    signals = np.empty((3, times_s.size))
+    undelayed = tuple(ch for ch in range(3) if ch not in delayed)
+    if undelayed:
+        signals[list(undelayed)] = synthesize(steady, times_s, fundamentals, undelayed)
+    for ch in delayed:
+        signals[ch] = synthesize(steady, times_s - delays_s[ch], fundamentals, (ch,))[0]
+    return signals
 
 
 #: The fundamental's rotation of the last drive frequencies (and trigger phases) on a shared
@@ -295,12 +321,9 @@ def screen(steady: physics.SteadyState, setup: ScopeSetup, sensor_gains: np.ndar
     times = ctx.record_times_s
     fundamentals = pipeline.motion(steady.branch_velocity_phasors_mps[:, :1], ctx) \
         if pipeline.has_motion else None
-    signals = synthesize(steady, times, fundamentals) if fundamentals is not None else _steady_signals(steady, sampled)
     delays_s = pipeline.channel_delays_s(steady.frequency_hz)
-    if delays_s is not None:   # a delayed channel shows its signal from tau earlier
-        signals = signals.copy()
-        for ch in np.flatnonzero(delays_s):
-            signals[ch] = synthesize(steady, times - delays_s[ch], fundamentals)[ch]
+    signals = _delayed_signals(steady, times, delays_s, fundamentals) if fundamentals is not None \
+        else _steady_signals(steady, sampled, delays_s)
     signals = signals * (sensor_gains * np.array([c.input_gain for c in setup.channels]))[:, None]
     signals = pipeline.signals(signals, ctx)   # a new array (the effects keep none), so in place below
     signals *= ctx.display_gain[:, None]
@@ -664,9 +687,11 @@ def reaches_limits(extremes: tuple[float, float], offset: float, scale_per_div: 
     vertical setting reaches the ADC's top, and its bottom (within 1e-9 division): the
     clipping of TDS PM Table 3-5. A screen position rises with the value (the scale is
     positive, and rounding keeps that order), so the extremes' positions are the positions'
-    extremes: two values are placed, not the record."""
+    extremes: two values are placed, not the record (as floats: the operations an array of
+    two would do, without its cost at every measurement)."""
     lowest, highest = extremes
-    highest, lowest = (np.array([highest, lowest]) - offset) / scale_per_div + position_div
+    highest = (highest - offset) / scale_per_div + position_div
+    lowest = (lowest - offset) / scale_per_div + position_div
     return bool(highest >= fx.ADC_MAX_DIV - 1e-9), bool(lowest <= fx.ADC_MIN_DIV + 1e-9)
 
 

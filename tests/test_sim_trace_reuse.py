@@ -44,14 +44,9 @@ def test_a_kept_rotation_gives_what_computing_it_afresh_gives():
     assert np.allclose(kept[0], 7.0 / 5.0 * traces.synthesize(steady(29.9e3, 5.0), times_s)[0], rtol=1e-12, atol=0)
 
 
-@pytest.mark.parametrize("orders", [(1,), (1, 2, 3)])
-@pytest.mark.parametrize("branches", [1, 2, 3])
-@pytest.mark.parametrize("transient", [False, True])
-def test_a_synthesis_is_the_complex_products_real_part_bit_for_bit(orders, branches, transient):
-    """`synthesize` works out a one-order product's real part alone: the numbers taking the
-    real part of the complex product gives, for one plate mode or several (their sums in
-    the modes' order), in steady state or during a transient."""
-    rng = np.random.default_rng(branches * 10 + len(orders))
+def random_state(branches: int, orders: tuple[int, ...], seed: int) -> physics.SteadyState:
+    """A steady state of `branches` plate modes and harmonic `orders`, its phasors and gains drawn."""
+    rng = np.random.default_rng(seed)
 
     def phasors(*shape):
         return rng.normal(size=shape) + 1j * rng.normal(size=shape)
@@ -60,12 +55,29 @@ def test_a_synthesis_is_the_complex_products_real_part_bit_for_bit(orders, branc
                                          resistance_ns_per_m=0.4, visibility=rng.uniform(-1, 1))
                   for k in range(branches))
     n_orders = len(orders)
-    state = physics.SteadyState(frequency_hz=30.05e3, orders=np.array(orders), output_voltage_phasors_v=10 * phasors(n_orders),
-                                output_dc_v=0.01, piezo_voltage_phasors_v=phasors(n_orders),
-                                capacitive_current_phasors_a=1e-3 * phasors(n_orders),
-                                branch_velocity_phasors_mps=0.1 * phasors(branches, n_orders), branches=modes)
+    return physics.SteadyState(frequency_hz=30.05e3, orders=np.array(orders), output_voltage_phasors_v=10 * phasors(n_orders),
+                               output_dc_v=0.01, piezo_voltage_phasors_v=phasors(n_orders),
+                               capacitive_current_phasors_a=1e-3 * phasors(n_orders),
+                               branch_velocity_phasors_mps=0.1 * phasors(branches, n_orders), branches=modes)
+
+
+def transient_fundamentals(state: physics.SteadyState, n: int) -> np.ndarray:
+    rng = np.random.default_rng(n)
+    shape = (len(state.branches), n)
+    return 0.1 * (rng.normal(size=shape) + 1j * rng.normal(size=shape))
+
+
+@pytest.mark.parametrize("orders", [(1,), (1, 2, 3)])
+@pytest.mark.parametrize("branches", [1, 2, 3])
+@pytest.mark.parametrize("transient", [False, True])
+def test_a_synthesis_is_the_complex_products_real_part_bit_for_bit(orders, branches, transient):
+    """`synthesize` works out a one-order product's real part alone: the numbers taking the
+    real part of the complex product gives, for one plate mode or several (their sums in
+    the modes' order), in steady state or during a transient."""
+    state = random_state(branches, orders, branches * 10 + len(orders))
+    modes = state.branches
     times_s = SETUP.times_s().copy()
-    fundamentals = 0.1 * phasors(branches, times_s.size) if transient else None
+    fundamentals = transient_fundamentals(state, times_s.size) if transient else None
     omega = 2 * np.pi * state.frequency_hz
     trigger_s = (-0.5 * np.pi - np.angle(state.output_voltage_phasors_v[0])) / omega
     rotation = traces._uniform_rotation(omega, float(trigger_s), times_s)
@@ -77,6 +89,25 @@ def test_a_synthesis_is_the_complex_products_real_part_bit_for_bit(orders, branc
     expected = np.stack([np.real(state.output_voltage_phasors_v @ harmonics) + state.output_dc_v,
                          np.real(state.capacitive_current_phasors_a @ harmonics) + forces @ branch, visibility @ branch])
     assert np.array_equal(traces.synthesize(state, times_s, fundamentals), expected)
+
+
+@pytest.mark.parametrize("branches", [1, 3])
+@pytest.mark.parametrize("transient", [False, True])
+@pytest.mark.parametrize("delays_s", [(0.0, 1e-9, 0.0), (-2e-9, 3e-9, 0.0), (1e-9, 1e-9, 5e-9)])
+def test_delayed_channels_are_each_the_row_of_a_whole_synthesis_at_their_times(branches, transient, delays_s):
+    """`_delayed_signals` synthesises a delayed channel alone at its own times, the others
+    together (and `_steady_signals` keeps that): each row is the one a synthesis of all
+    three channels at that channel's times gives, bit for bit."""
+    state = random_state(branches, (1, 2), branches)
+    times_s = SETUP.times_s()
+    delays_s = np.array(delays_s)
+    fundamentals = transient_fundamentals(state, times_s.size) if transient else None
+    expected = np.stack([traces.synthesize(state, times_s - delay, fundamentals)[ch] if delay else
+                         traces.synthesize(state, times_s, fundamentals)[ch] for ch, delay in enumerate(delays_s)])
+    assert np.array_equal(traces._delayed_signals(state, times_s, delays_s, fundamentals), expected)
+    if not transient:
+        kept = traces._steady_signals(state, SETUP, delays_s)
+        assert np.array_equal(kept, expected) and traces._steady_signals(state, SETUP, delays_s) is kept
 
 
 @settings(max_examples=80, deadline=None)
