@@ -6,7 +6,11 @@ as ``tcp://head:8786``, or a cluster object, e.g. a dask-jobqueue ``SLURMCluster
 Results come back as the tasks finish, whatever the order, and feed a progress bar on a
 terminal. A task must be a module-level function of picklable arguments whose result
 does not depend on which worker runs it or on what ran before (the study and the
-planner seed every trial from what defines it).
+planner seed every trial from what defines it). Every task runs its numerical libraries'
+thread pools (OpenBLAS, OpenMP) at one thread, in this process as on a worker: a sum split
+over threads adds in another order, and loky gives its workers cpu_count // N threads each,
+so a plate mode solved in a task read otherwise in the 16th digit with N (`plan paper`'s map
+at `--workers 1` against 2), which `--workers` promises it does not.
 """
 
 from __future__ import annotations
@@ -18,6 +22,7 @@ import warnings
 from typing import Any, Callable, Iterable, Iterator, TypeVar
 
 import joblib
+from threadpoolctl import threadpool_limits
 from tqdm import tqdm
 
 from squeezebench.errors import UserError
@@ -32,7 +37,8 @@ warnings.filterwarnings("ignore", message=r"\d+ tasks (have been successfully ex
 
 
 def _indexed(function: Callable[[T], Any], index: int, item: T) -> tuple[int, Any]:
-    return index, function(item)
+    with threadpool_limits(limits=1):   # the same sums in the same order wherever it runs (module docstring)
+        return index, function(item)
 
 
 @contextlib.contextmanager

@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import os
+import subprocess
+import sys
 
 import pytest
 
@@ -61,3 +63,29 @@ def test_ci_runs_exactly_the_readmes_test_command():
     command = next(line for line in readme.splitlines() if "pip install -e '.[test]'" in line)
     assert "apt-get install -y chromium" in command and "pytest -n auto" in command
     assert command in (root / ".ci" / "run").read_text().splitlines()
+
+
+
+#: Run with the BLAS free to take every core (the suite's conftest sets one thread for its own
+#: processes): a task in this process, and the process outside any task.
+_BLAS_THREADS = """
+import numpy
+from threadpoolctl import threadpool_info
+from squeezebench.protocols.parallel import map_unordered
+def threads(_):
+    return max(pool["num_threads"] for pool in threadpool_info())
+inside = [t for _, t in map_unordered(threads, range(3), workers=1, bar=False)]
+print(threads(None), max(inside))
+"""
+
+
+def test_a_task_runs_its_blas_on_one_thread_whatever_runs_it():
+    """A task's sums add in one order wherever it runs: loky's workers get cpu_count // N
+    BLAS threads, this process (--workers 1) every core, and `plan paper`'s map read otherwise
+    in the 16th digit at --workers 1 and 2 before each task was held to one thread."""
+    env = {k: v for k, v in os.environ.items() if k not in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")}
+    done = subprocess.run([sys.executable, "-c", _BLAS_THREADS], env=env, capture_output=True, text=True,
+                          timeout=120, check=True)
+    outside, inside = map(int, done.stdout.split())
+    assert inside == 1
+    assert outside > 1 or len(os.sched_getaffinity(0)) == 1   # else this test shows nothing
