@@ -233,9 +233,9 @@ def _characterisations(run, points: pd.DataFrame, truths: dict, plain_dir: Path)
         for quantity, true in (("q", q), ("tan_theta", tan_theta)):
             estimate = getattr(plate, quantity)
             rows.append(_scored(first, quantity, estimate.value, true, COVERAGE_FACTOR * estimate.std_uncertainty))
-    if {LARGE_PLATE, TEMPLATE_SMALL_PLATE} <= set(plates) and as_thick_as_large(plates):
+    same = as_thick_as_large(plates) if LARGE_PLATE in plates else []
+    if TEMPLATE_SMALL_PLATE in plates and same:
         # Table 5's estimate as `characterisation.table5` prints it (U = k u, `_derived_row`)
-        same = as_thick_as_large(plates)
         estimate = estimate_large_from_small(plates, REPORT_CONVENTION).tan_theta
         rows.append(_scored(plates[same[0]].points.iloc[0], "table_tan_theta", estimate.value,
                             float(np.mean([true_tan_theta[name] for name in same])),
