@@ -113,17 +113,23 @@ def fit_line(x, y, y_std=None, *, what: str) -> LineFit:
 
 
 def mean_estimate(values, uncertainties, shared=None) -> Estimate:
-    """Mean of repeated points; uncertainty combines the stated ones (independent between
-    points: they average down), the scatter, and `shared`, each point's part that is common
-    to all of them (the same instruments' Type B errors: fully correlated, so the mean
-    keeps their mean, GUM 5.2.2 with r = 1)."""
+    """Mean of repeated points; uncertainty combines their independent part and `shared`,
+    each point's part that is common to all of them (the same instruments' Type B errors:
+    fully correlated, so the mean keeps their mean, GUM 5.2.2 with r = 1).
+
+    The independent part has two estimates: the stated `uncertainties` averaged down
+    (internal, 1/n in quadrature) and the points' scatter about their mean (external,
+    s / sqrt(n), GUM 4.2.3). Both measure the same errors (the scatter is what those
+    errors do to the points), so adding them counts the errors twice; the larger is kept
+    (the Birge ratio's rule: the stated part unless the points scatter more than it
+    allows, which then tells of a variation it leaves out)."""
     values = np.asarray(values, dtype=float)
     uncertainties = np.asarray(uncertainties, dtype=float)
     n = values.size
     stated = math.sqrt(float(np.sum(uncertainties**2))) / n
     scatter = float(np.std(values, ddof=1)) / math.sqrt(n) if n > 1 else 0.0
     common = float(np.mean(np.asarray(shared, dtype=float))) if shared is not None else 0.0
-    return Estimate(float(values.mean()), math.sqrt(stated**2 + scatter**2 + common**2))
+    return Estimate(float(values.mean()), math.hypot(max(stated, scatter), common))
 
 
 def flag(column: pd.Series, default: bool) -> pd.Series:

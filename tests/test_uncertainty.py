@@ -402,6 +402,23 @@ def test_a_mean_over_plates_keeps_the_shared_terms_whole_and_averages_each_plate
     assert mean.std_uncertainty < math.hypot(as_shared, math.sqrt(sum(p.fit_u("tan_theta") ** 2 for p in plates)) / 3)
 
 
+def test_a_mean_of_points_counts_their_independent_errors_once():
+    """The points' stated u and their scatter measure the same independent errors: the
+    mean keeps the larger (internal or external, Birge), not both in quadrature, which
+    made 2 u cover 99.5 % of draws of four points with the stated u."""
+    from squeezebench.analysis.tables import mean_estimate
+
+    rng = np.random.default_rng(46)
+    u, n, draws = 0.5, 4, 4000
+    points = rng.normal(0.0, u, size=(draws, n))
+    covered = [abs(row.mean()) <= 2 * mean_estimate(row, [u] * n).std_uncertainty for row in points]
+    assert 0.95 <= np.mean(covered) <= 0.98   # >= 95.4 % (max >= stated), well short of 99.5 %
+    # Points that scatter more than their u allow tell of a variation the u leave out.
+    assert mean_estimate([0.0, 10.0, 20.0], [0.1] * 3).std_uncertainty == pytest.approx(10.0 / math.sqrt(3))
+    assert mean_estimate([1.0, 2.0, 3.0], [10.0] * 3, shared=[3.0] * 3).std_uncertainty == \
+        pytest.approx(math.hypot(10.0 / math.sqrt(3), 3.0))
+
+
 def test_a_mean_of_repeats_of_one_point_keeps_its_shared_type_b_part():
     """The same instruments measured every repeat: their specifications' part is common to
     all and does not average down; only the record noise does (issue 28: 1, 2, 4 copies
