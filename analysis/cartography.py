@@ -447,7 +447,7 @@ def grid_quadrature_term(readings: CellReadings | None, error: GridError) -> Ter
       sawtooth at a fifth of the spot, which the five's spread does not bound. On cosine
       modes against their continuum (`tests/test_cartography_mode.py`, 2 to 4 points per
       half-wavelength) 1.96 times the spread alone held the union's error on 78 % of (n, 0)
-      modes and 99-100 % of 2-D ones and plane waves, the change alone on 84-88 %, the two
+      modes and 99-100 % of 2-D ones and plane waves, the change alone on 83-88 %, the two
       in quadrature on 95 % and 100 %. Type B."""
     if readings is None:
         return Term("grid (the cells' quadrature)", "B", 0.0, "a single point: no cells", rectangular=False)
