@@ -15,10 +15,11 @@ from hypothesis import strategies as st
 import pandas as pd
 
 from squeezebench.analysis.budgets import Budget, Term
-from squeezebench.analysis.cartography import (LATTICE_REGISTRATIONS, READING_SAMPLES, cell_offsets, cell_readings,
-                                               coefficients_of_variation, GridError, grid_bias, grid_correction_term,
-                                               grid_quadrature_term, homogeneity, modal_assurance, recurrence_misfit,
-                                               retuning_log_levels, retuning_term, signed_amplitude, summarise_map)
+from squeezebench.analysis.cartography import (AREA_SAMPLES, LATTICE_REGISTRATIONS, READING_SAMPLES, cell_offsets,
+                                               cell_readings, coefficients_of_variation, GridError, grid_bias,
+                                               grid_correction_term, grid_quadrature_term, homogeneity, modal_assurance,
+                                               recurrence_misfit, retuning_log_levels, retuning_term, signed_amplitude,
+                                               summarise_map)
 from squeezebench.paths import scenes_dir
 from squeezebench.plates.specifications import SPECIFICATIONS
 from squeezebench.simbench.modeshape import mode_shape, working_mode
@@ -181,11 +182,12 @@ def test_width_uniformity_is_the_width_averaged_share_of_the_mean_square(columns
     assert width_uniformity(x, np.repeat(f, rows)) == pytest.approx(1.0, rel=1e-12)
 
 
-def _sampled_mode(rng, kind: str, points_per_half_wave: float, n_x: int = 13, n_y: int = 7, refine: int = 24):
+def _sampled_mode(rng, kind: str, points_per_half_wave: float, n_x: int = 13, n_y: int = 7,
+                  refine: tuple[int, int] = (24, 24)):
     """A cosine mode shape cos(k x + a) ((n, 0): contours across the grid's rows),
     cos(k x + a) cos(0.7 k y + b) (2-D) or a plane wave at a random angle, signed, sampled
     on a unit grid; and the continuous shape's magnitude over the same cells, on a grid
-    `refine` times finer."""
+    `refine` times finer along x and y."""
     k = math.pi * points_per_half_wave ** -1.0
     a, b, angle = rng.uniform(0, 2 * math.pi), rng.uniform(0, 2 * math.pi), rng.uniform(0, math.pi)
     shapes = {"n0": lambda x, y: np.cos(k * x + a) + 0.0 * y,
@@ -193,9 +195,8 @@ def _sampled_mode(rng, kind: str, points_per_half_wave: float, n_x: int = 13, n_
               "plane": lambda x, y: np.cos(k * (x * math.cos(angle) + y * math.sin(angle)) + a)}
     shape = shapes[kind]
     x, y = np.meshgrid(np.arange(n_x, dtype=float), np.arange(n_y, dtype=float))
-    offsets = cell_offsets(refine)
-    fine_x, fine_y = np.meshgrid((np.arange(n_x)[:, None] + offsets).ravel(),
-                                 (np.arange(n_y)[:, None] + offsets).ravel())
+    fine_x, fine_y = np.meshgrid((np.arange(n_x)[:, None] + cell_offsets(refine[0])).ravel(),
+                                 (np.arange(n_y)[:, None] + cell_offsets(refine[1])).ravel())
     return x.ravel(), y.ravel(), shape(x, y).ravel(), np.abs(shape(fine_x, fine_y)).ravel()
 
 
@@ -225,6 +226,13 @@ def _sin2_mean_offset_error(n: int, k: float, x0: float) -> float:
     return sampled - (0.5 + (math.sin(2 * k * b) - math.sin(2 * k * a)) / (4 * k * n))
 
 
+class _MeanSquare(GridError):
+    """The mean of the field's square over the points against its mean over their cells."""
+
+    def __call__(self, points: np.ndarray, cells: np.ndarray) -> float:
+        return float(np.mean(points**2) - np.mean(cells**2))
+
+
 @settings(max_examples=40, deadline=None)
 @given(st.floats(2.0, 8.0), st.integers(12, 24), st.floats(0.0, 10.0), st.floats(0.0, 2 * math.pi))
 def test_the_grid_bias_of_a_standing_waves_sampled_mean_square_is_the_closed_form(points_per_half_wave, n, x0, phase):
@@ -239,9 +247,8 @@ def test_the_grid_bias_of_a_standing_waves_sampled_mean_square_is_the_closed_for
     assume(amplitude > 0.02)   # a grid of nearly whole half-waves has no aliasing error to find
     x, y = np.meshgrid(x0 + np.arange(n, dtype=float), np.arange(6.0))
     readings = cell_readings(STEP_M * x.ravel(), STEP_M * y.ravel(), np.cos(k * x + phase).ravel())
-    mean_square = lambda points, cells: float(np.mean(points**2) - np.mean(cells**2))   # noqa: E731
     assert readings.method == "bending"
-    assert grid_bias(readings, mean_square) == pytest.approx(_sin2_mean_offset_error(n, k, x0 + phase / k),
+    assert grid_bias(readings, _MeanSquare("mean_square", 0.5)) == pytest.approx(_sin2_mean_offset_error(n, k, x0 + phase / k),
                                                              abs=0.01 * amplitude)
     assert max(recurrence_misfit(readings.grid, axis, False) for axis in (0, 1)) < 1e-9
 
@@ -271,22 +278,25 @@ def test_a_standing_wave_or_a_line_leaves_no_recurrence_misfit_and_a_parabola_th
 @pytest.mark.parametrize("kind", ["n0", "2d", "plane"])
 def test_the_corrected_figures_of_a_cosine_mode_are_its_continuous_ones(kind):
     """The points' figure against the same figure of the continuous mode shape over their
-    cells (24 x 24 spots), grids of 2 to 4 points per half-wavelength at random phases (300
-    of each, seeded): corrected by the grid bias the reading gives, the error left is a
-    small part of the points' (the midpoint rule's, which the quadrature term reads by
-    doubling the spots; the reading holds a cosine exactly), and the grid's U, from the
-    correction's and the quadrature's terms, holds it 90 % of the time or more, to the
-    reference's own resolution (the area's error jumps as whole columns of spots cross half
-    the peak)."""
+    cells (24 x 24 spots; the (n, 0) mode, constant across y, 480 along x and one across),
+    grids of 2 to 4 points per half-wavelength at random phases (300 of each, seeded):
+    corrected by the grid bias the reading gives, the error left is a small part of the
+    points' (the midpoint rule's; the reading holds a cosine exactly), and the grid's U,
+    from the correction's and the quadrature's terms, holds it 90 % of the time or more, to
+    the reference's own resolution (the area's error jumps as whole columns of spots cross
+    half the peak). The (n, 0) mode's reference is finer along x than the area's union of
+    lattices (AREA_SAMPLES): its contours cross the cells as straight lines, the count's
+    error is a column of spots per contour, and 24 would score the reference's error."""
+    refine = (480, 1) if kind == "n0" else (24, 24)
     rng = np.random.default_rng(46)
     found = {figure: [] for figure in FIGURES}
     for _ in range(300):
-        x, y, sampled, fine = _sampled_mode(rng, kind, rng.uniform(2.0, 4.0))
+        x, y, sampled, fine = _sampled_mode(rng, kind, rng.uniform(2.0, 4.0), refine=refine)
         readings = cell_readings(STEP_M * x, STEP_M * y, sampled)
         for figure in FIGURES:
             found[figure].append(_corrected(readings, np.abs(sampled), fine, figure))
     # the reference's own resolution: a column of its spots (a (n, 0) mode's cross half the peak a column at a time)
-    resolution = {"coefficient_of_variation": 0.0, "fraction_above_share": 1.0 / (24 * 13)}
+    resolution = {"coefficient_of_variation": 0.0, "fraction_above_share": 1.0 / (refine[0] * 13)}
     for figure, most in zip(FIGURES, (0.05, 0.1)):
         uncorrected, left, expanded = np.abs(np.array(found[figure])).T
         assert np.median(uncorrected) > 0.004   # the grid's error is real: a correction of 0 would leave it
@@ -294,18 +304,29 @@ def test_the_corrected_figures_of_a_cosine_mode_are_its_continuous_ones(kind):
         assert np.mean(left <= expanded + resolution[figure]) >= 0.9
 
 
+#: Spots (along x, across y) of each cell at which the large plate's mode is the area's
+#: reference: along the length, which its (21, 0) mode's contours cross, finer than the area's
+#: union of lattices (AREA_SAMPLES, 40), and on none of its spots; across the width, along which
+#: they run nearly straight, 4 (4 and 32 give the same area to 5e-5 on the 2 and 4 mm grids).
+AREA_REFERENCE_SPOTS = (96, 4)
+
+
 def _large_plate_map(large, step_mm: float, dx_mm: float, dy_mm: float = 0.0) -> list[tuple[float, float, float]]:
     """The paper's map area (51-147 x 43-95 mm) of the large plate's working mode on a grid
     of `step_mm` shifted by (dx, dy): per figure, the points' error against the mode over
-    their cells (8 x 8 spots each, as the coverage study scores it), the error left once
-    corrected, and the grid's U (`_corrected`)."""
+    their cells (the CV's over 8 x 8 spots each, the area's over AREA_REFERENCE_SPOTS), the
+    error left once corrected, and the grid's U (`_corrected`)."""
     scene, state = large
     x, y = np.meshgrid(np.arange(51.0, 147.1, step_mm) + dx_mm, np.arange(43.0, 95.1, step_mm) + dy_mm)
     signed = mode_shape(scene, state, x, y).ravel()
-    spots = cell_offsets(8) * step_mm
-    cells = np.abs(np.stack([mode_shape(scene, state, x + a, y + b).ravel() for a in spots for b in spots], axis=1))
     readings = cell_readings(1e-3 * x.ravel(), 1e-3 * y.ravel(), signed)
-    return [_corrected(readings, np.abs(signed), cells.ravel(), figure) for figure in FIGURES]
+
+    def over_cells(along_x: int, across_y: int) -> np.ndarray:
+        a, b = np.meshgrid(cell_offsets(along_x) * step_mm, cell_offsets(across_y) * step_mm, indexing="ij")
+        return np.abs(mode_shape(scene, state, x.ravel()[:, None] + a.ravel(), y.ravel()[:, None] + b.ravel())).ravel()
+
+    return [_corrected(readings, np.abs(signed), over_cells(*spots), figure)
+            for figure, spots in zip(FIGURES, ((8, 8), AREA_REFERENCE_SPOTS))]
 
 
 #: The placements a bench draws (+-1 mm per axis, `specifications.SPECIFICATIONS["plate_placement"]`),
@@ -419,25 +440,52 @@ def test_the_cell_readings_of_a_linear_field_are_the_continuous_uniform_distribu
 
 
 @pytest.mark.parametrize("share", [0.37, 0.43, 0.61])
-def test_the_areas_quadrature_term_is_the_spread_of_the_closed_form_count_over_the_lattices_registrations(share):
+def test_the_area_is_the_union_of_the_lattices_registrations_and_its_term_the_closed_forms(share):
     """v = 1 + x at x = 0..5 (3 rows), read exactly: the area above `share` of the peak (6)
-    is the spots right of t = 6 share - 1, whose count over the cells [-1/2, 11/2] errs by
-    where the lattice of spots falls on t. Counted in closed form for each registration of
+    is the spots right of t = 6 share - 1, counted in closed form for each registration of
     the lattice (its spots at i + cell_offsets(8) + d, d over cell_offsets(5) / 8, the y
-    moves changing nothing), the term is the spread of those counts' errors against the
-    continuum's (5.5 - t) / 6, and within half a column of spots (1 / 48) of the area. The
-    lattice the figure is read at (d = 0) is one of them: its count is the one the term is
-    about."""
+    moves changing nothing). The corrected area is their mean, the count over the union's
+    AREA_SAMPLES spots a cell, within half a column of them (1 / 480) of the continuum's
+    (5.5 - t) / 6; its term is their spread over 5 and the change from the coarser union's
+    count (3 x 3 registrations, 24 spots a cell) in quadrature."""
     x, y = np.meshgrid(np.arange(6.0), np.arange(3.0))
     readings = cell_readings(STEP_M * x.ravel(), STEP_M * y.ravel(), (1.0 + x).ravel())
     t = 6.0 * share - 1.0
-    lattice = (np.arange(6.0)[:, None] + cell_offsets(READING_SAMPLES)).ravel()
+
+    def count(samples: int, move: float = 0.0) -> float:
+        return float(np.mean((np.arange(6.0)[:, None] + cell_offsets(samples)).ravel() + move >= t))
+
     moves = cell_offsets(LATTICE_REGISTRATIONS) / READING_SAMPLES
-    assert 0.0 in moves
-    errors = [np.mean(lattice + d >= t) - (5.5 - t) / 6.0 for d in moves for _ in moves]
-    term = grid_quadrature_term(readings, GridError("fraction_above_share", share))
-    assert term.std_uncertainty == pytest.approx(np.std(errors, ddof=1), rel=1e-9)
-    assert 0.0 < term.std_uncertainty <= 0.5 / (READING_SAMPLES * 6) and term.type == "A"
+    counts = [count(READING_SAMPLES, d) for d in moves for _ in moves]
+    union = float(np.mean(counts))
+    assert union == pytest.approx(count(AREA_SAMPLES), abs=1e-12)
+    assert abs(union - (5.5 - t) / 6.0) <= 0.5 / (AREA_SAMPLES * 6)
+    error = GridError("fraction_above_share", share)
+    assert homogeneity(1.0 + x, share).fraction_above_share - grid_bias(readings, error) == pytest.approx(union, abs=1e-12)
+    term = grid_quadrature_term(readings, error)
+    assert term.std_uncertainty == pytest.approx(
+        math.hypot(np.std(counts, ddof=1) / LATTICE_REGISTRATIONS, count(3 * READING_SAMPLES) - union), rel=1e-9)
+    assert 0.0 < term.std_uncertainty <= 0.5 / (READING_SAMPLES * 6)
+
+
+def test_an_n0_modes_area_is_read_over_the_union_closer_than_on_its_own_lattice():
+    """(n, 0) cosine modes cos(k x + a), 2 to 4 points per half-wavelength at random phases
+    (100, seeded), against the continuum (480 spots a cell along x, the contours straight
+    across y): their contours cross every cell's spots as straight lines, so the count of
+    the figure's own lattice of 8 spots a cell dips or rises by whole columns of spots at a
+    time (up to 0.031 here); the corrected area, the count over the union of its 25
+    registrations (40 spots per axis), errs under 0.3 of the own lattice's error (rms: a
+    fifth of the spot, a fifth of the error)."""
+    rng = np.random.default_rng(46)
+    own, union = [], []
+    for _ in range(100):
+        x, y, sampled, fine = _sampled_mode(rng, "n0", rng.uniform(2.0, 4.0), refine=(480, 1))
+        readings = cell_readings(STEP_M * x, STEP_M * y, sampled)
+        error = GridError("fraction_above_share", 0.5)
+        continuum = float(np.mean(fine >= error.threshold(np.abs(sampled))))
+        own.append(float(np.mean(readings.values >= error.threshold(np.abs(sampled)))) - continuum)
+        union.append(homogeneity(sampled).fraction_above_share - grid_bias(readings, error) - continuum)
+    assert np.sqrt(np.mean(np.square(union))) < 0.3 * np.sqrt(np.mean(np.square(own)))
 
 
 def test_the_noise_of_the_peak_moves_the_corrected_area_as_its_threshold_does():
