@@ -7,6 +7,7 @@ Bounds: a sample mean within 4.5 standard errors, a sample variance within 4.5 o
 standard deviations (2 sigma^4 / (n - 1) for a normal), a correlation within 4.5 / sqrt(n)."""
 
 import math
+import zlib
 
 import numpy as np
 import pytest
@@ -70,6 +71,20 @@ def test_acquisitions_draw_independent_noise_and_a_seed_draws_the_same(averages,
         for channel in range(3):
             assert abs(correlation(first[channel], other[channel])) <= BOUND / math.sqrt(N_SAMPLES)
     np.testing.assert_array_equal(noise_of(averages, settings, counter=0), first)
+
+
+@pytest.mark.parametrize("scene_seed", [0, 7, 2**32 - 1, 2**32, 2**64 + 3])
+@pytest.mark.parametrize("spot", [None, "(1.0, 2.0)"])
+def test_a_seed_is_the_stream_of_its_keys_whichever_way_they_reach_seedsequence(scene_seed, spot):
+    """`acquisition_seed` hands keys below 2^32 over as uint32 words: the stream is the one
+    SeedSequence makes of the keys as a list of ints (as the benches drew before), big keys
+    included (handed over as ints)."""
+    keys = [scene_seed, zlib.crc32(b"mounted"), zlib.crc32(b"37180 Hz 1.88 Vpp"), 3]
+    if spot is not None:
+        keys.append(zlib.crc32(spot.encode()))
+    seed = traces.acquisition_seed(scene_seed, "mounted", "37180 Hz 1.88 Vpp", 3, spot)
+    np.testing.assert_array_equal(seed.generate_state(4, np.uint64),
+                                  np.random.SeedSequence(keys).generate_state(4, np.uint64))
 
 
 @pytest.mark.parametrize("averages", [1, 4])
