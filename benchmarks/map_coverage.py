@@ -5,7 +5,7 @@
 map's figures (coefficient of variation, area above half the peak, mean and peak velocity)
 depend on the map run alone, which opens a bench of its own (the same scene, seed and
 drawn errors as within the campaign), so the campaign cut to that run scores the same
-values in a fraction of the time (5-7 CPU-s a bench; the truth over each cell's 32 x 32
+values in a fraction of the time (5-7 CPU-s a bench; the truth over each cell's 96 x 96
 spots is read at once, `simbench.stage.Stage.spot_gains`). Each bench places the plate
 within its alignment (`variants.plate_draw_effects`: `plate_placement`), so the grid lands
 at another place on the mode on every bench, which the grid's correction reads off the points.

@@ -30,7 +30,7 @@ from squeezebench.analysis import model
 from squeezebench.analysis.model import REPORT_CONVENTION
 from squeezebench.analysis.rundata import load_run
 from squeezebench.analysis.study import COVERAGE_FILE, STUDY_DIR, coverage_dir
-from squeezebench.analysis.cartography import (READING_SAMPLES, cell_offsets, homogeneity, map_points,
+from squeezebench.analysis.cartography import (TRUTH_CELL_SAMPLES, cell_offsets, homogeneity, map_points,
                                                map_resonance_q, summarise_map)
 from squeezebench.analysis.characterisation import (LARGE_PLATE, TEMPLATE_SMALL_PLATE, as_thick_as_large,
                                                     characterise_plates, estimate_large_from_small)
@@ -285,21 +285,6 @@ def _table_values(run, points: pd.DataFrame, truths: dict, plain_dir: Path) -> l
     return rows
 
 
-#: Points per axis at which the coverage study samples each mapped point's cell for the
-#: continuous area above the share of the peak and coefficient of variation (`_map_homogeneities`).
-#: 3 x 3 were too few for the paper map's 2.3 points per half-wavelength: a cell's mean of
-#: cos(2 k x) is sin(k h) / (k h) = 0.718 of its amplitude at k h = 1.36, the 3-spot rule's
-#: sin(k h) / (3 sin(k h / 3)) = 0.744, and at the map's own registration the true CV
-#: error over 8 x 8 spots is -0.0208, over 3 x 3 -0.0145: the study scored a smaller
-#: error than the grid makes (p95 |error| / U 0.56 where 0.73 was due). The map's own rule,
-#: `cartography.READING_SAMPLES` (8), was then taken, which scored the reading's own 8 x 8 spots
-#: against the same spots of the truth: the error of reading the cells at those spots, which
-#: `cartography.grid_quadrature_term` claims to cover, was never drawn (the study tested
-#: nothing of it). Four times finer, the truth is the continuum's to what that term is about:
-#: on bench 45's map the true area over 8, 16, 32, 64 and 128 spots reads 0.6480, 0.6530, 0.6534,
-#: 0.6527 and 0.6528 (the 8-spot lattice's error -0.0048, 32's +0.0007), its CV 0.476339,
-#: 0.476389, 0.476329, 0.476336 and 0.476338.
-CELL_SAMPLES = 4 * READING_SAMPLES
 
 
 def _map_homogeneities(run, plain_dir: Path) -> list[dict]:
@@ -311,7 +296,7 @@ def _map_homogeneities(run, plain_dir: Path) -> list[dict]:
     mode where the mounting put it, the error the grid's term claims to cover).
     The area above the share of the peak and the coefficient of variation are what the
     report says they are, the vibration's over the touch area: the ideal vibration over each
-    point's cell (CELL_SAMPLES^2 spots at that point's setting); the area against the share
+    point's cell (TRUTH_CELL_SAMPLES^2 spots at that point's setting); the area against the share
     of the ideal readings' peak at the mapped points."""
     rows_of = run.protocol(MAP_PROTOCOLS[0])
     if rows_of.empty:
@@ -321,7 +306,7 @@ def _map_homogeneities(run, plain_dir: Path) -> list[dict]:
         step_m = {axis: np.diff(np.unique(np.round(group[axis].to_numpy(), 9))).min(initial=np.inf)
                   for axis in ("x_m", "y_m")}
         # a map of one row or one column has no cell to sample across
-        offsets = cell_offsets(CELL_SAMPLES) if np.isfinite(step_m["x_m"] + step_m["y_m"]) else np.array([])
+        offsets = cell_offsets(TRUTH_CELL_SAMPLES) if np.isfinite(step_m["x_m"] + step_m["y_m"]) else np.array([])
         with open_bench(sim_bench_config(plain_dir / f"{plate}.yaml")) as bench:
             simulated = bench.resource_manager.visalib.bench
             bench.stage.home()

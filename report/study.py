@@ -12,7 +12,7 @@ import numpy as np
 import pandas as pd
 
 from squeezebench.analysis import over_coverage, study, uncertainty
-from squeezebench.analysis.cartography import READING_SAMPLES
+from squeezebench.analysis.cartography import TRUTH_CELL_SAMPLES
 from squeezebench.report import figures, presentation
 from squeezebench.analysis.tables import MissingDataError
 from squeezebench.report.section import ReportContext, Section, cell_text, html_table, run_budgets, words_for_missing, words_of
@@ -175,7 +175,7 @@ def _coverage_part(context: ReportContext) -> str:
             "map's figures "
             "(coefficient of variation, area above the share of the peak, mean and peak velocity; the map at "
             "its campaign's own grid step; the coefficient of variation and the area against the ideal vibration "
-            f"over the points' cells, {READING_SAMPLES} x {READING_SAMPLES} spots each) "
+            f"over the points' cells, {TRUTH_CELL_SAMPLES} x {TRUTH_CELL_SAMPLES} spots each) "
             "compared with the truth at its setting; each bench reads its own noise, and its plates are drawn "
             "within their geometry's and materials' tolerances (simbench.plate_draws): Q and tan theta' are "
             "scored against the plate as drawn, which the report reads with the nominal inputs. Benches "

@@ -135,11 +135,11 @@ def test_the_coverage_study_scores_every_stored_point_and_resumes_by_bench(tmp_p
     # the report's paragraph says how the map's figures were scored as the study scores them
     from types import SimpleNamespace
 
-    from squeezebench.analysis.cartography import READING_SAMPLES
+    from squeezebench.analysis.cartography import TRUTH_CELL_SAMPLES
     from squeezebench.report.section import ReportContext
     from squeezebench.report.study import _coverage_part
     paragraph = _coverage_part(ReportContext(run=SimpleNamespace(run_dir=tmp_path), out_dir=tmp_path / "report"))
-    assert f"{READING_SAMPLES} x {READING_SAMPLES} spots each" in paragraph and "twice its grid step" not in paragraph
+    assert f"{TRUTH_CELL_SAMPLES} x {TRUTH_CELL_SAMPLES} spots each" in paragraph and "twice its grid step" not in paragraph
     first = (path.parent / "bench_1.parquet").stat().st_mtime_ns
     run_coverage_study(tmp_path, 3, quick, resume=True)   # one more bench; the first two kept
     assert (path.parent / "bench_1.parquet").stat().st_mtime_ns == first
