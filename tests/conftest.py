@@ -240,6 +240,29 @@ def small_study(tmp_path_factory) -> Path:
     return made_once(tmp_path_factory, "small-study", lambda folder: run_study(folder, SMALL, progress=lambda m: None))
 
 
+@pytest.fixture(scope="session")
+def small_campaign_run(tmp_path_factory) -> tuple[Path, Path, int]:
+    """test_campaign_resume's small campaign run once, uninterrupted, for the session's
+    workers (`made_once`): the uninterrupted run the kill-and-resume tests compare with
+    (test_campaign_resume, test_stop_signals) and the completed run the storage tests copy
+    and damage (test_run_storage, test_report_integrity), which ran it once each. Its
+    campaign file, its run folder, and the instrument writes it made (where a kill may fall)."""
+    from test_campaign_resume import WriteCounter, small_campaign
+
+    from squeezebench.protocols.campaign import run_campaign
+
+    def make(folder: Path) -> None:
+        campaign = small_campaign(folder)
+        with pytest.MonkeyPatch.context() as patch:
+            counter = WriteCounter(patch)
+            run_campaign(campaign, out_dir=folder / "run", say=lambda message: None)
+        (folder / "writes.json").write_text(json.dumps({"campaign": campaign.name, "writes": counter.count}))
+
+    folder = made_once(tmp_path_factory, "small-campaign-run", make)
+    made = json.loads((folder / "writes.json").read_text())
+    return folder / made["campaign"], folder / "run", made["writes"]
+
+
 # Drive records (protocols.drive_record) outlive a process: this test process and its
 # children keep theirs out of the user's state folder, and each test has its own, so a run
 # one test kills does not tell another test's bench it was left driven.

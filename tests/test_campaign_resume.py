@@ -58,13 +58,10 @@ class WriteCounter:
 
 
 @pytest.fixture(scope="module")
-def reference(tmp_path_factory):
-    tmp_path = tmp_path_factory.mktemp("reference")
-    campaign = small_campaign(tmp_path)
-    with pytest.MonkeyPatch.context() as monkeypatch:
-        counter = WriteCounter(monkeypatch)
-        run_dir = run_campaign(campaign, out_dir=tmp_path / "run")
-    return campaign, read_measurements(run_dir), counter.count
+def reference(small_campaign_run):
+    """The small campaign uninterrupted (the session's, conftest): its campaign, its rows, its writes."""
+    campaign, run_dir, n_writes = small_campaign_run
+    return campaign, read_measurements(run_dir), n_writes
 
 
 def assert_same_rows(actual: pd.DataFrame, expected: pd.DataFrame) -> None:

@@ -27,10 +27,9 @@ from test_campaign_resume import small_campaign
 
 
 @pytest.fixture(scope="module")
-def completed(tmp_path_factory):
-    tmp_path = tmp_path_factory.mktemp("completed")
-    campaign = small_campaign(tmp_path)
-    run_dir = run_campaign(campaign, out_dir=tmp_path / "run", say=lambda message: None)
+def completed(small_campaign_run):
+    """The small campaign completed (the session's, conftest; never written into): its campaign, its run."""
+    campaign, run_dir, _ = small_campaign_run
     return campaign, run_dir
 
 
