@@ -16,6 +16,9 @@ at `--workers 1` against 2), which `--workers` promises it does not.
 from __future__ import annotations
 
 import contextlib
+import ctypes
+import ctypes.util
+import functools
 import importlib
 import threading
 import warnings
@@ -37,8 +40,33 @@ warnings.filterwarnings("ignore", message=r"\d+ tasks (have been successfully ex
 
 
 def _indexed(function: Callable[[T], Any], index: int, item: T) -> tuple[int, Any]:
-    with threadpool_limits(limits=1):   # the same sums in the same order wherever it runs (module docstring)
-        return index, function(item)
+    try:
+        with threadpool_limits(limits=1):   # the same sums in the same order wherever it runs (module docstring)
+            return index, function(item)
+    finally:
+        _return_freed_memory()
+
+
+@functools.cache
+def _malloc_trim() -> Callable[[int], int] | None:
+    """glibc's malloc_trim, or None where the C library has none (macOS, musl)."""
+    try:
+        return ctypes.CDLL(ctypes.util.find_library("c") or "libc.so.6").malloc_trim
+    except (OSError, AttributeError):
+        return None
+
+
+def _return_freed_memory() -> None:
+    """Hand the heap a task freed back to the system. glibc keeps freed blocks for reuse, so
+    a worker's resident size only grows with the arrays its tasks made and dropped, and loky
+    retires a worker whose resident size grew 300 MB past its size after its first task as
+    leaking ("A worker stopped while some jobs were given to the executor"), to start another
+    from nothing: a coverage study warned so about twice in 40 benches. One process running
+    benches one after another held 376, 415, 417, 420, 421 MB after each (kept caches and
+    freed heap), trimmed 344, 354, 354, 356, 356 MB."""
+    trim = _malloc_trim()
+    if trim is not None:
+        trim(0)
 
 
 @contextlib.contextmanager
