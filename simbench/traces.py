@@ -245,7 +245,8 @@ def acquisition_seed(scene_seed: int, state: str, generator_key: str, counter: i
 
     Keys below 2^32 are handed over as the uint32 words SeedSequence makes of them (one
     each), which it takes as they are instead of converting the keys one by one: the same
-    stream, the seed at a fifth of the cost."""
+    stream, SeedSequence made in under half the time (4 against 11 us a seed on a loaded
+    machine; an acquisition's seeding as a whole 0.110 -> 0.084 ms)."""
     keys = [scene_seed, zlib.crc32(state.encode()), zlib.crc32(generator_key.encode()), counter]
     if spot_key is not None:
         keys.append(zlib.crc32(spot_key.encode()))
