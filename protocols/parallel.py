@@ -20,7 +20,9 @@ import ctypes
 import ctypes.util
 import functools
 import importlib
+import math
 import threading
+import time
 import warnings
 from typing import Any, Callable, Iterable, Iterator, TypeVar
 
@@ -56,17 +58,29 @@ def _malloc_trim() -> Callable[[int], int] | None:
         return None
 
 
+#: Seconds at least between two trims in one process: a trim costs 1-20 ms and the pages it
+#: returns are faulted in again, and the study's trials (tasks of tens of ms) spent 8 % more CPU
+#: trimming after each (20.5 -> 22.2 CPU-s, two interleaved pairs on one worker), 3 % trimming
+#: once a second. A worker's freed heap grows by some 5 MB a coverage bench (12 CPU-s), so a
+#: trim every 10 s keeps it far under loky's 300 MB.
+TRIM_INTERVAL_S = 10.0
+_last_trim_s = -math.inf
+
+
 def _return_freed_memory() -> None:
-    """Hand the heap a task freed back to the system. glibc keeps freed blocks for reuse, so
-    a worker's resident size only grows with the arrays its tasks made and dropped, and loky
-    retires a worker whose resident size grew 300 MB past its size after its first task as
-    leaking ("A worker stopped while some jobs were given to the executor"), to start another
-    from nothing: a coverage study warned so about twice in 40 benches. One process running
-    benches one after another held 376, 415, 417, 420, 421 MB after each (kept caches and
-    freed heap), trimmed 344, 354, 354, 356, 356 MB."""
+    """Hand the heap the tasks freed back to the system, at most once a TRIM_INTERVAL_S. glibc
+    keeps freed blocks for reuse, so a worker's resident size only grows with the arrays its
+    tasks made and dropped, and loky retires a worker whose resident size grew 300 MB past its
+    size after its first task as leaking ("A worker stopped while some jobs were given to the
+    executor"), to start another from nothing: a coverage study warned so about twice in 40
+    benches. One process running benches one after another held 376, 415, 417, 420, 421 MB
+    after each (kept caches and freed heap), trimmed 344, 354, 354, 356, 356 MB."""
+    global _last_trim_s
     trim = _malloc_trim()
-    if trim is not None:
-        trim(0)
+    if trim is None or time.monotonic() - _last_trim_s < TRIM_INTERVAL_S:
+        return
+    trim(0)
+    _last_trim_s = time.monotonic()
 
 
 @contextlib.contextmanager

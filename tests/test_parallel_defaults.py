@@ -99,8 +99,8 @@ def _fails_on_two(item: int) -> int:
 
 def test_every_task_hands_its_freed_heap_back(monkeypatch):
     """loky retires a worker whose resident size grew 300 MB past its first task's as leaking;
-    freed heap that glibc keeps counts in that size, so each task, failed ones too, ends by
-    trimming it (`parallel._return_freed_memory`)."""
+    freed heap that glibc keeps counts in that size, so a task, failed ones too, ends by
+    trimming it (`parallel._return_freed_memory`), once a TRIM_INTERVAL_S at most."""
     import platform
 
     from squeezebench.protocols import parallel
@@ -109,8 +109,13 @@ def test_every_task_hands_its_freed_heap_back(monkeypatch):
         assert parallel._malloc_trim() is not None   # the machines the project runs on
     trims = []
     monkeypatch.setattr(parallel, "_malloc_trim", lambda: trims.append)
+    monkeypatch.setattr(parallel, "TRIM_INTERVAL_S", 0.0)
     assert dict(parallel.map_unordered(_fails_on_two, [0, 1], workers=1, bar=False)) == {0: 0, 1: 1}
     assert trims == [0, 0]
     with pytest.raises(ValueError, match="task 2 fails"):
         list(parallel.map_unordered(_fails_on_two, [2], workers=1, bar=False))
+    assert trims == [0, 0, 0]
+    # within the interval since the last trim, short tasks do not trim again: a trim costs milliseconds
+    monkeypatch.setattr(parallel, "TRIM_INTERVAL_S", 3600.0)
+    assert len(dict(parallel.map_unordered(_fails_on_two, [0, 1, 3], workers=1, bar=False))) == 3
     assert trims == [0, 0, 0]
