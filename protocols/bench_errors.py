@@ -285,8 +285,6 @@ def _table_values(run, points: pd.DataFrame, truths: dict, plain_dir: Path) -> l
     return rows
 
 
-
-
 def _map_homogeneities(run, plain_dir: Path) -> list[dict]:
     """Each map's homogeneity figures as the report gives them (`cartography_report.map_summaries`:
     `cartography.summarise_map`, each with the U of its budget) scored against

@@ -60,8 +60,8 @@ def _malloc_trim() -> Callable[[int], int] | None:
 
 #: Seconds at least between two trims in one process: a trim costs 1-20 ms and the pages it
 #: returns are faulted in again, and the study's trials (tasks of tens of ms) spent 8 % more CPU
-#: trimming after each (20.5 -> 22.2 CPU-s, two interleaved pairs on one worker), 3 % trimming
-#: once a second. A worker's freed heap grows by some 5 MB a coverage bench (12 CPU-s), so a
+#: trimming after each (20.5 -> 22.2 CPU-s, two interleaved pairs on one worker), 5 % trimming
+#: once a second (16.4 -> 17.2). A worker's freed heap grows by some 5 MB a coverage bench (12 CPU-s), so a
 #: trim every 10 s keeps it far under loky's 300 MB.
 TRIM_INTERVAL_S = 10.0
 _last_trim_s = -math.inf
