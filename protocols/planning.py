@@ -17,7 +17,8 @@ target could still be found (`SettingsStudy`): the choice is the one measuring a
 gives. The campaign is then run twice on the simulated bench into
 temporary directories, with the planned settings and with 512 averages everywhere (the
 fixed baseline, at the campaign's record lengths), and the virtual bench time of each run
-is read from the journals.
+is read from the journals; a run whose setting is the one the campaign names (which the
+floors' run measured, `accuracy_plan`) or the baseline's is not run again.
 
 Only simulated benches (`bench: {scene: ...}`) can be planned: the truth is needed.
 """
@@ -513,8 +514,10 @@ def make_plan(campaign_path: Path, target_rel_error: float, repeats: int = REPEA
     # The floors and the 512-average baseline do not depend on the settings' study either:
     # they run beside its first round, as do the `alongside` jobs (the caller's map plans).
     cache = cache or campaign_cache(campaign_path)
+    # a run written at 512 averages is the baseline as it stands: the floors' run times it
     baseline = bench_time_jobs(cache, campaign_path, {run.name: {"averages": BASELINE_AVERAGES}
-                                                      for run in campaign.runs})
+                                                      for run in campaign.runs
+                                                      if run.acquisition.averages != BASELINE_AVERAGES})
     floors_job = cache.job(measure_floors, campaign_path)
     # the settings' first round too: no choice can be made before the floors are known
     settings = SettingsStudy(cache, list(plates), repeats)
@@ -522,7 +525,8 @@ def make_plan(campaign_path: Path, target_rel_error: float, repeats: int = REPEA
     done = cache.run([floors_job, *alongside, *baseline, *first_round], workers, scheduler, "plan")   # longest first
     settings.absorb(first_round, done)
     floors = accuracy_floors(campaign_path, target_rel_error, done[floors_job])
-    baseline_s = {name: done[job] for job, name in baseline.items()}
+    at_512_s = {name: done[job] for job, name in baseline.items()}
+    baseline_s = {run.name: at_512_s.get(run.name, floors.own_bench_time_s[run.name]) for run in campaign.runs}
     noise_scale = {run.name: 1.0 for run in campaign.runs}
 
     def choose() -> Plan:
@@ -578,15 +582,22 @@ def _choose(campaign, campaign_path: Path, target_rel_error: float, repeats: int
     studies_by_run = {name: [settings.study(key) for key in keys] for name, keys in plates_by_run.items()}
     error_by_run = {name: max(s.result(setting).p95_rel_error for s in studies_by_run[name])
                     for name, setting in settings_by_run.items()}
+    # A run opens a bench of its own, so it takes the bench time it took where it already ran
+    # at the setting chosen: in the floors' run (the campaign as written) or in the baseline.
+    timed_s = {run.name: {Setting(run.acquisition.record_length, BASELINE_AVERAGES): baseline_s[run.name],
+                          Setting(run.acquisition.record_length, run.acquisition.averages):
+                              floors.own_bench_time_s[run.name]} for run in campaign.runs}
     timing = bench_time_jobs(cache, campaign_path, {name: dataclasses.asdict(setting)
-                                                    for name, setting in settings_by_run.items()})
+                                                    for name, setting in settings_by_run.items()
+                                                    if setting not in timed_s[name]})
     # longest first, the runs' own bench time a proxy for their simulation's: the workers end together
     done = cache.run(sorted(timing, key=lambda job: -floors.own_bench_time_s[timing[job]]), workers, scheduler,
                      "planned bench time")
-    # The calibration a calibrated plan starts with is the floors' own: a run opens a bench
-    # of its own, so it takes there the bench time it takes first in the planned campaign.
+    for job, seconds in done.items():
+        timed_s[timing[job]][settings_by_run[timing[job]]] = seconds
+    # The calibration a calibrated plan starts with is the floors' own, for the same reason.
     planned_s = {**({CALIBRATION_RUN: floors.calibration_bench_time_s} if floors.calibrate else {}),
-                 **{name: done[job] for job, name in timing.items()}}
+                 **{name: timed_s[name][setting] for name, setting in settings_by_run.items()}}
     return Plan(target_rel_error, studies_by_run, settings_by_run, error_by_run, planned_s, baseline_s,
                 repeats=repeats, floors=floors, own_s=floors.own_bench_time_with_calibration_s,
                 noise_scale={name: scale for name, scale in noise_scale.items() if scale != 1.0},

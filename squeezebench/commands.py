@@ -515,16 +515,17 @@ def _world_shrink_factors(run_dir: Path) -> dict[str, float]:
 
 def cmd_plan(args: argparse.Namespace) -> int:
     from squeezebench.protocols import parallel, plan_cache
+    from squeezebench.protocols.variants import MAP_PROTOCOLS
 
-    # nothing kept: all is simulated, on the workers, which import its code while this process does
-    if args.scheduler is None and plan_cache.holds_nothing():
+    campaign = paths.shipped_of_kind(args.campaign, "campaigns")
+    # nothing kept: all is simulated, on the workers, which import its code while this process
+    # does; a campaign of maps alone starts none (its map is planned here, `plan_map`)
+    if args.scheduler is None and not _maps_only(campaign) and plan_cache.holds_nothing():
         parallel.warm(args.workers, "squeezebench.protocols.planning")
     from squeezebench.protocols.campaign import load_campaign
     from squeezebench.protocols.map_planning import map_job, plan_map, write_planned_maps
     from squeezebench.protocols.planning import campaign_cache, make_plan, plan_text, write_planned_campaign
-    from squeezebench.protocols.variants import MAP_PROTOCOLS
 
-    campaign = paths.shipped_of_kind(args.campaign, "campaigns")
     if args.write is not None:   # refused before minutes of planning, not after
         from squeezebench.protocols.storage import check_writable_file
 
@@ -561,6 +562,21 @@ def cmd_plan(args: argparse.Namespace) -> int:
         print(f"squeezebench plan: no grid step meets the map target {args.target_rel_error:g}", file=sys.stderr)
         return EXIT_USER_ERROR
     return 0
+
+
+def _maps_only(campaign: Path) -> bool:
+    """Whether every run of the campaign file is a map, read from the file alone (before the
+    campaign's code is imported); a file that cannot be read is `load_campaign`'s to report."""
+    from squeezebench.protocols.variants import MAP_PROTOCOLS
+    from squeezebench.yamlfiles import FileFormatError, read_yaml
+
+    try:
+        data = read_yaml(campaign)
+    except FileFormatError:
+        return True
+    runs = data.get("runs") if isinstance(data, dict) else None
+    return isinstance(runs, list) and all(isinstance(run, dict) and run.get("protocol") in MAP_PROTOCOLS
+                                          for run in runs)
 
 
 def cmd_design(args: argparse.Namespace) -> int:

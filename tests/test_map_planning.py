@@ -78,12 +78,22 @@ def test_a_map_run_as_planned_measures_the_homogeneity_within_the_target(planned
     assert abs(measured / plan.continuum_cv - 1.0) <= TARGET
 
 
-def test_plan_cli_answers_for_a_map_and_exits_2_when_no_grid_meets_the_target(planned, capsys):
+def test_plan_cli_answers_for_a_map_and_exits_2_when_no_grid_meets_the_target(planned, capsys, monkeypatch):
+    from squeezebench import paths
+    from squeezebench.commands import _maps_only
+    from squeezebench.protocols import parallel, plan_cache
+
     campaign, _ = planned
+    warmed = []
+    monkeypatch.setattr(plan_cache, "holds_nothing", lambda: True)   # as from an empty cache
+    monkeypatch.setattr(parallel, "warm", lambda *args: warmed.append(args))
     assert cli.main(["plan", str(campaign), "--target-rel-error", "0.0001", "--json"]) == 2
     answer = json.loads(capsys.readouterr().out)
     assert answer["maps"][0]["chosen"] is None and answer["maps"][0]["as_written"]["step_mm"] == 2
     assert np.isfinite(answer["maps"][0]["continuum_coefficient_of_variation"])
+    # a map is planned in this process: no worker is started to import the point planner for nothing
+    assert warmed == [] and _maps_only(campaign)
+    assert not _maps_only(paths.campaign_file("paper"))   # its maps beside points: the workers are warmed
 
 
 def test_a_plate_without_a_model_is_refused_with_the_reason(tmp_path):

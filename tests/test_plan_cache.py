@@ -101,3 +101,23 @@ def test_a_replanned_campaign_is_the_same_plan_read_not_simulated(cache_folder):
         {run: [s.results for s in studies] for run, studies in second.studies.items()}
     assert first.floors.floors == second.floors.floors and first.baseline_s == second.baseline_s
     assert "read from" in second.table() and second.as_dict()["cache"] == second.cache
+
+
+def test_a_run_already_timed_at_its_setting_is_not_run_again(tmp_path, cache_folder):
+    """The floors' run is the campaign as written, and the baseline runs at 512 averages: a
+    run planned at the setting it is written with, or written at 512 averages, takes its
+    bench time from there."""
+    from squeezebench.protocols.planning import Setting, make_plan, simulate_run_bench_time_s
+    from squeezebench.protocols.variants import with_acquisition
+
+    written = {"detuning": {"record_length": 500, "averages": 1}, "cutting": {"averages": 512}}
+    campaign = with_acquisition(QUICK, written, tmp_path / QUICK.name)
+    plan = make_plan(campaign, 0.5, repeats=2, check_benches=0)   # sample mode meets 50 %
+    assert plan.settings_by_run == {"detuning": Setting(500, 1), "cutting": Setting(500, 1)}
+    # the settings' first round on the 3 plates, the floors, detuning's baseline, cutting's plan
+    assert plan.cache["simulated"] == 3 + 1 + 1 + 1
+    assert plan.planned_s["detuning"] == plan.own_s["detuning"]
+    assert plan.baseline_s["cutting"] == plan.own_s["cutting"] != plan.planned_s["cutting"]
+    # what a timing of its own would have read
+    assert plan.planned_s["detuning"] == pytest.approx(
+        simulate_run_bench_time_s(campaign, "detuning", written["detuning"]), rel=1e-9)
