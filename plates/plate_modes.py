@@ -535,12 +535,29 @@ def _solve(geometry, resonator, piezo, near_hz, n_modes, elements_per_half_wave,
     sections = patch_sections(geometry, resonator, piezo, bond)
 
     def solved() -> dict[str, np.ndarray]:
-        return _eigenpairs(geometry, resonator, piezo, near_hz, n_modes, sections, mesh, basis())
+        # One BLAS thread (`single_threaded`): the same bits in whichever process solves, and
+        # no second thread spinning on a core the campaign and the study keep busy.
+        with single_threaded():
+            return _eigenpairs(geometry, resonator, piezo, near_hz, n_modes, sections, mesh, basis())
 
     found = stored_solves().get(stored_key, solved)
     return replace(modes_from_vectors(geometry, resonator, piezo, bond, thick_plate, sections, found["eigenvalues"],
                                       found["vectors"], gx, gy, grid_probe, probe, found["patch_laplacians"],
                                       found["added_energy"], found["face_integrals"]), stored_key=stored_key)
+
+
+def single_threaded():
+    """The numerical libraries' thread pools (OpenBLAS, OpenMP) at one thread, for a block
+    (threadpoolctl). ARPACK's and the B-spline solver's vector sums split over two threads
+    add in another order, so a solve read otherwise in the 16th digit depending on the
+    process that made it (`protocols.parallel` runs its tasks at one thread, the report's
+    drawing process ran at two); and a plate's products are too small to gain from a second
+    thread: at two, OpenBLAS's waiting thread spun, and the cold `reproduce`'s solves and
+    tables took 14.2 CPU-s against 6.1 at one (eigsh 7.9 against 2.8, the tables' spline fit
+    2.2 against 0.1), on a machine whose two cores the campaign and the study kept busy."""
+    from threadpoolctl import threadpool_limits
+
+    return threadpool_limits(limits=1)
 
 
 def _eigenpairs(geometry, resonator, piezo, kirchhoff_hz, n_modes, sections, mesh, basis) -> dict[str, np.ndarray]:
