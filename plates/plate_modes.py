@@ -499,26 +499,31 @@ def stiffness_and_mass(basis, rigidity_per_element: np.ndarray, mass_per_element
     basis with Hessians): the bilinear forms D [(1 - nu) w,ab v,ab + nu w,aa v,bb] and
     rho h w v, D and rho h constant on each element. The same quadrature as skfem's `asm`,
     each element's 21 x 21 block as one batched matrix product instead of a loop over the
-    pairs of basis functions (four times faster on the large plate; equal to roundoff)."""
+    pairs of basis functions (four times faster on the large plate; equal to roundoff).
+    An element of zero rigidity gets a zero stiffness block without its products: a solve's
+    second assembly, of the patches' added rigidity alone, is zero off the patches (the large
+    plate's took 0.05-0.07 CPU-s, 0.023 so; its matrices the same to the bit)."""
     from scipy.sparse import coo_matrix
 
     fields = [functions[0] for functions in basis.basis]
     n = len(fields)
     dx = basis.dx   # quadrature weight x Jacobian, (elements, points)
     elements, points = dx.shape
-    hessians = np.stack([f.hess for f in fields]).reshape(n, 4, elements, points).transpose(2, 0, 1, 3)
-    traces = hessians[:, :, 0, :] + hessians[:, :, 3, :]   # (elements, n, points)
-    hessians = hessians.reshape(elements, n, 4 * points)
-    weight = rigidity_per_element[:, None] * dx
+    rigid = np.flatnonzero(rigidity_per_element)
+    hessians = np.stack([f.hess[:, :, rigid] for f in fields]).reshape(n, 4, len(rigid), points).transpose(2, 0, 1, 3)
+    traces = hessians[:, :, 0, :] + hessians[:, :, 3, :]   # (rigid elements, n, points)
+    hessians = hessians.reshape(len(rigid), n, 4 * points)
+    weight = rigidity_per_element[rigid, None] * dx[rigid]
     full = np.matmul(hessians * np.tile(weight, 4)[:, None, :], hessians.transpose(0, 2, 1))
     laplacians = np.matmul(traces * weight[:, None, :], traces.transpose(0, 2, 1))
+    stiffness = np.zeros((elements, n, n))
+    stiffness[rigid] = (1 - poisson) * full + poisson * laplacians
     values = np.stack([f.get(0) for f in fields]).transpose(1, 0, 2)   # (elements, n, points)
     mass = np.matmul(values * (mass_per_element[:, None] * dx)[:, None, :], values.transpose(0, 2, 1))
     dofs = basis.element_dofs.T   # block (e, j, i) couples dof i (row) with dof j (column)
     rows = np.broadcast_to(dofs[:, None, :], (elements, n, n)).ravel()
     columns = np.broadcast_to(dofs[:, :, None], (elements, n, n)).ravel()
     shape = (basis.N, basis.N)
-    stiffness = (1 - poisson) * full + poisson * laplacians
     return (coo_matrix((stiffness.ravel(), (rows, columns)), shape=shape).tocsr(),
             coo_matrix((mass.ravel(), (rows, columns)), shape=shape).tocsr())
 
@@ -535,12 +540,29 @@ def _solve(geometry, resonator, piezo, near_hz, n_modes, elements_per_half_wave,
     sections = patch_sections(geometry, resonator, piezo, bond)
 
     def solved() -> dict[str, np.ndarray]:
-        return _eigenpairs(geometry, resonator, piezo, near_hz, n_modes, sections, mesh, basis())
+        # One BLAS thread (`single_threaded`): the same bits in whichever process solves, and
+        # no second thread spinning on a core the campaign and the study keep busy.
+        with single_threaded():
+            return _eigenpairs(geometry, resonator, piezo, near_hz, n_modes, sections, mesh, basis())
 
     found = stored_solves().get(stored_key, solved)
     return replace(modes_from_vectors(geometry, resonator, piezo, bond, thick_plate, sections, found["eigenvalues"],
                                       found["vectors"], gx, gy, grid_probe, probe, found["patch_laplacians"],
                                       found["added_energy"], found["face_integrals"]), stored_key=stored_key)
+
+
+def single_threaded():
+    """The numerical libraries' thread pools (OpenBLAS, OpenMP) at one thread, for a block
+    (threadpoolctl). ARPACK's and the B-spline solver's vector sums split over two threads
+    add in another order, so a solve read otherwise in the 16th digit depending on the
+    process that made it (`protocols.parallel` runs its tasks at one thread, the report's
+    drawing process ran at two); and a plate's products are too small to gain from a second
+    thread: at two, OpenBLAS's waiting thread spun, and the cold `reproduce`'s solves and
+    tables took 14.2 CPU-s against 6.1 at one (eigsh 7.9 against 2.8, the tables' spline fit
+    2.2 against 0.1), on a machine whose two cores the campaign and the study kept busy."""
+    from threadpoolctl import threadpool_limits
+
+    return threadpool_limits(limits=1)
 
 
 def _eigenpairs(geometry, resonator, piezo, kirchhoff_hz, n_modes, sections, mesh, basis) -> dict[str, np.ndarray]:

@@ -69,7 +69,8 @@ def _table(modes: plate_modes.PlateModes, k: int) -> RegularGridInterpolator:
 
         def tabulated() -> dict[str, np.ndarray]:
             values = modes.shape_at(k, *np.meshgrid(x_m, y_m, indexing="ij"))
-            spline = RegularGridInterpolator((x_m, y_m), values, method="cubic")._spline
+            with plate_modes.single_threaded():   # as the solve: the same bits wherever, no spinning thread
+                spline = RegularGridInterpolator((x_m, y_m), values, method="cubic")._spline
             return {"values": values, "coefficients": spline.c, "knots_x": spline.t[0], "knots_y": spline.t[1]}
 
         # a solve the disk cache does not hold (it is off): nor its table

@@ -112,6 +112,33 @@ def test_a_solve_read_from_the_disk_cache_assembles_nothing_and_is_the_assembled
         assert np.array_equal(read.shape_at(k, x_m, y_m), assembled.shape_at(k, x_m, y_m))
 
 
+def test_a_solve_and_its_map_table_run_at_one_blas_thread_whatever_the_callers_pool(monkeypatch):
+    """Wherever a solve runs (a study's task at one thread, the report's drawing process at
+    the machine's), its eigenproblem and the map's spline table run at one BLAS thread: the
+    same bits in every process, and no OpenBLAS thread spinning beside the campaign (a cold
+    `reproduce`'s solves and tables took 14.2 CPU-s at two threads, 6.1 at one)."""
+    from threadpoolctl import threadpool_info, threadpool_limits
+
+    from squeezebench.simbench import modeshape
+
+    monkeypatch.setenv("SQUEEZEBENCH_CACHE", "off")
+    seen = {}
+
+    def recording(name, function):
+        def call(*args, **kwargs):
+            seen[name] = max(pool["num_threads"] for pool in threadpool_info())
+            return function(*args, **kwargs)
+        return call
+
+    monkeypatch.setattr(plate_modes, "eigsh", recording("eigsh", plate_modes.eigsh))
+    monkeypatch.setattr(modeshape, "RegularGridInterpolator",
+                        recording("spline", modeshape.RegularGridInterpolator))
+    with threadpool_limits(limits=2):
+        modes = solve_plate(_one_column_1mm(59), near_hz=38e3, n_modes=6, elements_per_half_wave=1.1)
+        modeshape._table(modes, 0)
+    assert seen == {"eigsh": 1, "spline": 1}
+
+
 def test_plates_differing_only_in_what_is_powered_share_one_solve(monkeypatch):
     """Which patches a drive is wired to, and their names, change no eigenpair: one solve,
     each plate keeping its own powered set (so its own summed force factor), each cached."""
