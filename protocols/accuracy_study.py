@@ -178,6 +178,10 @@ class Experiment:
     #: Its configurations share each bench's calibration (`systematics_study.bench_calibration`,
     #: kept by the worker): one worker runs them all, so no bench is calibrated twice.
     shares_calibrations: bool = False
+    #: The experiment whose trials' readings its trials take, configuration for configuration and
+    #: repeat for repeat (`Task.seed`): a calibrated experiment corrects what its plain twin read,
+    #: and the worker that runs both reads once (`work_units`).
+    readings_of: str | None = None
 
 
 def _at_the_point(run: "TaskRun") -> None:
@@ -287,7 +291,8 @@ EXPERIMENTS: dict[str, Experiment] = {
                          lambda s: [{"record_length": length, "periods_per_record": periods}
                                     for length in s.record_lengths for periods in s.periods_per_record],
                          _at_the_point),
-    # A search reads only the velocity's peak-to-peak: the short record does. One task
+    # A search's readings take the record that reads their crest (`acquisition.search_record_length`:
+    # 10,000 points from these 500 of 20 periods), as the campaign's do. One task
     # searches to the finest tolerance; the coarser ones are read from its points.
     "search": Experiment(lambda s: SceneSpec(s.point_scene), lambda s: s.point_state,
                          lambda s: [{"averages": n, "record_length": 500, "search_points": points,
@@ -307,7 +312,8 @@ EXPERIMENTS: dict[str, Experiment] = {
         lambda s: SceneSpec(s.point_scene),
         (lambda s: s.point_state) if point == "table3" else (lambda s: s.systematics.stress_state),
         lambda s: [{"averages": n} for n in s.systematics.averages],
-        functools.partial(systematics_study.point_trials, point, calibrated), shares_calibrations=calibrated)
+        functools.partial(systematics_study.point_trials, point, calibrated), shares_calibrations=calibrated,
+        readings_of=f"systematics_{point}" if calibrated else None)
        for point in ("table3", "stress") for calibrated in (False, True)},
     "systematics_search": Experiment(
         lambda s: SceneSpec(s.point_scene), lambda s: s.point_state,
@@ -323,7 +329,8 @@ EXPERIMENTS: dict[str, Experiment] = {
     **{f"systematics_sweep{'_calibrated' if calibrated else ''}": Experiment(
         lambda s: SceneSpec(s.sweep_scene), lambda s: None,
         lambda s: [{"n_voltages": s.systematics.sweep_voltages, "averages": n} for n in s.systematics.sweep_averages],
-        functools.partial(systematics_study.sweep_trials, calibrated), shares_calibrations=calibrated)
+        functools.partial(systematics_study.sweep_trials, calibrated), shares_calibrations=calibrated,
+        readings_of="systematics_sweep" if calibrated else None)
        for calibrated in (False, True)},
 }
 
@@ -352,16 +359,17 @@ class Task:
 
     def seed(self, trial: int | str) -> int:
         """The noise of one trial (or of the configuration's setup): from what defines it,
-        never from what ran before, so any order, partition or worker count draws the same."""
-        return self._seed(self.key, trial)
+        never from what ran before, so any order, partition or worker count draws the same;
+        the same configuration's of the experiment whose readings it takes (`Experiment.readings_of`)."""
+        return self._seed(EXPERIMENTS[self.experiment].readings_of or self.experiment, self.key, trial)
 
     def bench_seed(self, what: str, repeat: int) -> int:
         """The noise of `what` every configuration of the experiment shares on bench
         `repeat` (its calibration): from the experiment and the bench, not the configuration."""
-        return self._seed(what, repeat)
+        return self._seed(self.experiment, what, repeat)
 
     def _seed(self, *parts: Any) -> int:
-        entropy = [self.settings.seed, *(zlib.crc32(str(part).encode()) for part in (self.experiment, *parts))]
+        entropy = [self.settings.seed, *(zlib.crc32(str(part).encode()) for part in parts)]
         return int(np.random.SeedSequence(entropy).generate_state(1)[0])
 
 
@@ -416,16 +424,21 @@ class TaskRun:
 def work_units(tasks: list[Task]) -> list[tuple[Task, ...]]:
     """What one worker runs at a time: the configurations of an experiment that shares its
     benches' calibrations together (on two workers, calibrating every bench in both cost
-    the study 16 calibrations of 40), each other task alone; the shared ones first, being
-    the longest, so the last units to finish are short."""
+    the study 16 calibrations of 40), after those of the experiment whose readings it takes
+    (`Experiment.readings_of`: read once, then corrected), each other task alone; the shared
+    ones first, being the longest, so the last units to finish are short."""
+    read = {experiment.readings_of for experiment in EXPERIMENTS.values()}
     shared: dict[str, list[Task]] = {}
     alone = []
     for task in tasks:
-        if EXPERIMENTS[task.experiment].shares_calibrations:
-            shared.setdefault(task.experiment, []).append(task)
+        experiment = EXPERIMENTS[task.experiment]
+        if experiment.shares_calibrations or task.experiment in read:
+            shared.setdefault(experiment.readings_of or task.experiment, []).append(task)
         else:
             alone.append((task,))
-    return [tuple(unit) for unit in shared.values()] + alone
+    # the readings' own experiment first in its unit (a stable sort: configuration order kept)
+    return [tuple(sorted(unit, key=lambda task: EXPERIMENTS[task.experiment].readings_of is not None))
+            for unit in shared.values()] + alone
 
 
 def run_tasks(unit: tuple[Task, ...]) -> list[pd.DataFrame]:

@@ -12,7 +12,7 @@ from __future__ import annotations
 import contextlib
 import dataclasses
 from pathlib import Path
-from typing import Callable, Iterator
+from typing import Iterator
 
 import pandas as pd
 
@@ -65,13 +65,10 @@ def reduce_point(point: Point) -> PointReduction:
                          averages=point.averages, frequency_hint_hz=point.generator_frequency_hz)
 
 
-def characterise_at_resonance(session: SimulatedSession, plate_name: str, voltages_vpp, geometry,
-                              measure: Acquisition | None,
-                              correct_power: Callable[[pd.DataFrame], pd.Series] | None = None
-                              ) -> PlateCharacterisation:
-    """Q and tan(theta') from points at resonance (measured, or the closed-form truth at
-    the same voltages when `measure` is None), by the report's own reduction;
-    `correct_power` replaces the measured points' power (a calibration's correction)."""
+def points_at_resonance(session: SimulatedSession, voltages_vpp, measure: Acquisition | None) -> pd.DataFrame:
+    """Points at resonance at each voltage, with the columns the report's points carry:
+    measured and reduced by the report's own reduction, or the closed-form truth at the
+    same voltages when `measure` is None."""
     rows = []
     for voltage_vpp in voltages_vpp:
         session.drive.set_piezo_voltage(float(voltage_vpp))
@@ -82,8 +79,12 @@ def characterise_at_resonance(session: SimulatedSession, plate_name: str, voltag
                          "amplitude_pp_m_u": 0.0, "power_w": truth.power_w, "power_w_u": 0.0,
                          "frequency_hz": truth.frequency_hz})
         else:
-            rows.append(reduce_point(measure.measure()).as_row())   # the columns the report's points carry
-    points = pd.DataFrame(rows)
-    if correct_power is not None:
-        points["power_w"] = correct_power(points)
-    return characterise_plate(plate_name, points, geometry, model.PAPER_CONVENTION)
+            rows.append(reduce_point(measure.measure()).as_row())
+    return pd.DataFrame(rows)
+
+
+def characterise_at_resonance(session: SimulatedSession, plate_name: str, voltages_vpp, geometry,
+                              measure: Acquisition | None) -> PlateCharacterisation:
+    """Q and tan(theta') from `points_at_resonance`, by the report's own reduction."""
+    return characterise_plate(plate_name, points_at_resonance(session, voltages_vpp, measure), geometry,
+                              model.PAPER_CONVENTION)

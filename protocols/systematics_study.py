@@ -17,7 +17,10 @@ point scored and the campaign's bench time the cost (minutes of computing: `repr
 leaves it to `study`). Each but the search is also run, in the experiment
 `..._calibrated`, after the deskew and gain check (`protocols.calibration`) on the same
 bench, whose correction the power takes and whose bench time the trial is charged (per
-point: the worst case; a campaign pays it once). As on a real bench, a bench is
+point: the worst case; a campaign pays it once). A calibrated point or sweep trial corrects
+the very reading its plain twin's trial scores (the same bench and noise: the two columns
+differ by the calibration alone, and a worker measures the reading once, `_point_reading`,
+`_sweep_reading`). As on a real bench, a bench is
 calibrated once and every configuration measured on it takes that calibration: it is
 measured on a bench of its own with the same drawn errors and its own seed
 (`bench_calibration`), kept by the worker that runs all of them
@@ -39,14 +42,15 @@ import pandas as pd
 
 from squeezebench import paths
 from squeezebench.yamlfiles import load_strict
+from squeezebench.analysis import model
 from squeezebench.analysis.calibration import Deskew, calibration_from_points
+from squeezebench.analysis.characterisation import characterise_plate
 from squeezebench.protocols import calibration
 from squeezebench.protocols.acquisition import AcquisitionSettings
-from squeezebench.protocols.bench_errors import errors_on_bench
 from squeezebench.protocols.resonance import SearchSettings, find_resonance
 from squeezebench.protocols.safety import SafetyLimits
 from squeezebench.protocols.simulated_session import (
-    SimulatedSession, characterise_at_resonance, open_simulated, reduce_point)
+    SimulatedSession, characterise_at_resonance, open_simulated, points_at_resonance, reduce_point)
 from squeezebench.protocols.variants import (CALIBRATION_PROTOCOL, planned_campaign, scene_with_effects,
                                              systematic_effects)
 
@@ -73,14 +77,6 @@ class SystematicsSettings:
     calibration: calibration.Parameters = calibration.Parameters()
     calibration_acquisition: AcquisitionSettings = AcquisitionSettings(averages=64, record_length=10000,
                                                                        periods_per_record=20.0, settle_s=0.05)
-
-
-@contextlib.contextmanager
-def erring_bench(run: "TaskRun", repeat: int, limits: SafetyLimits) -> Iterator[SimulatedSession]:
-    """Bench `repeat + 1`: the task's plate, the instruments' errors drawn from that seed."""
-    with open_simulated(_bench_scene(run.scene, repeat), run.task.state, run.settings.base.settle_s, limits) as session:
-        session.simulated.reseed(run.task.seed(repeat))
-        yield session
 
 
 def _bench_scene(scene: Path, repeat: int) -> Path:
@@ -128,20 +124,13 @@ def _calibration(scene_file: str, scene_text: str, state: str | None, repeat: in
             return measure_calibration(session, settings), session.now_s() - start_s
 
 
-def _truth_at_setting(run: "TaskRun", frequency_hz: float, generator_vpp: float, limits: SafetyLimits):
-    """The plate without the errors at the same generator setting (`_plain_truth`)."""
-    task = run.task
-    return _plain_truth(task.scene_file, task.scene_text, task.state, run.settings.base.settle_s, limits,
-                        frequency_hz, generator_vpp)
-
-
 @functools.lru_cache(maxsize=64)
 def _plain_truth(scene_file: str, scene_text: str, state: str | None, settle_s: float, limits: SafetyLimits,
                  frequency_hz: float, generator_vpp: float):
     """The truth of a fresh bench of the scene without the errors, its generator at this
-    setting: a function of its arguments only, so kept for the worker's next trial (every
-    averaging of every bench, as it is and calibrated, asks for the same few settings: the
-    reproduction's 120 point trials for 2)."""
+    setting (the point's value, `analysis.uncertainty`): a function of its arguments only, so
+    kept for the worker's next trial (every averaging of every bench asks for the same few
+    settings: the reproduction's 60 point readings for 2)."""
     with tempfile.TemporaryDirectory(prefix="squeezebench-truth-") as tmp:
         scene = Path(tmp) / scene_file
         scene.write_text(scene_text, encoding="utf-8")
@@ -151,43 +140,91 @@ def _plain_truth(scene_file: str, scene_text: str, state: str | None, settle_s: 
             return plain.simulated.truth()
 
 
+@dataclasses.dataclass(frozen=True)
+class Reading:
+    """What one trial of a point or a sweep reads on its bench, whatever is done with it
+    after (as the bench is, or deskewed): `_point_reading`, `_sweep_reading`."""
+
+    scene_file: str
+    scene_text: str
+    state: str | None
+    settle_s: float
+    limits: SafetyLimits
+    acquisition: AcquisitionSettings
+    repeat: int
+    seed: int   # the trial's noise (`accuracy_study.Task.seed`: the plain experiment's)
+
+    @classmethod
+    def of(cls, run: "TaskRun", repeat: int, limits: SafetyLimits) -> "Reading":
+        task = run.task
+        return cls(task.scene_file, task.scene_text, task.state, run.settings.base.settle_s, limits,
+                   run.acquisition_settings(), repeat, task.seed(repeat))
+
+    @contextlib.contextmanager
+    def bench(self) -> Iterator[SimulatedSession]:
+        """Bench `repeat + 1`: the plate, the instruments' errors drawn from that seed, its noise from `seed`."""
+        with tempfile.TemporaryDirectory(prefix="squeezebench-reading-") as tmp:
+            scene = Path(tmp) / self.scene_file
+            scene.write_text(self.scene_text, encoding="utf-8")
+            with open_simulated(_bench_scene(scene, self.repeat), self.state, self.settle_s, self.limits) as session:
+                session.simulated.reseed(self.seed)
+                yield session
+
+
+# A calibrated experiment reads what its plain twin read, trial for trial (the same bench, the
+# same noise: `accuracy_study.Experiment.readings_of`), and a worker runs both: these keep a
+# worker's readings for the twin's trials, which then only correct them.
+@functools.lru_cache(maxsize=128)
+def _point_reading(reading: Reading, point: str, voltage_vpp: float, stress_frequency_hz: float):
+    """(reduction, truth, bench time) of one point trial: `point_trials`."""
+    with reading.bench() as session:
+        session.drive.set_piezo_voltage(voltage_vpp)
+        if point == "table3":
+            session.go_to_resonance()
+        else:
+            session.drive.set_frequency(stress_frequency_hz)
+        truth = _plain_truth(reading.scene_file, reading.scene_text, reading.state, reading.settle_s, reading.limits,
+                             session.drive.frequency_hz, session.drive.generator_amplitude_vpp)
+        acquisition = session.acquisition(reading.acquisition)
+        acquisition.measure(keep_waveforms=False)   # ranging, as a step's earlier points do
+        start_s = session.now_s()
+        reduction = reduce_point(acquisition.measure())
+        return reduction, truth, session.now_s() - start_s
+
+
 def point_trials(point: str, calibrated: bool, run: "TaskRun") -> None:
     """Power and velocity at the Table 3 point (`point="table3"`, at resonance) or the
-    stress point (`"stress"`, at its fixed frequency), one trial per bench."""
+    stress point (`"stress"`, at its fixed frequency), one trial per bench; calibrated, the
+    same reading with the bench's deskew correction, its bench time the calibration's more."""
     s, x = run.settings, run.settings.systematics
     voltage_vpp = s.point_voltage_vpp if point == "table3" else x.stress_voltage_vpp
     limits = SafetyLimits(max_piezo_voltage_vpp=max(voltage_vpp, SafetyLimits().max_piezo_voltage_vpp))
     for repeat in range(s.repeats):
         correction, calibration_s = bench_calibration(run, repeat, limits) if calibrated else (None, 0.0)
-        with erring_bench(run, repeat, limits) as session:
-            session.drive.set_piezo_voltage(voltage_vpp)
-            if point == "table3":
-                session.go_to_resonance()
-            else:
-                session.drive.set_frequency(x.stress_frequency_hz)
-            truth = _truth_at_setting(run, session.drive.frequency_hz, session.drive.generator_amplitude_vpp, limits)
-            acquisition = session.acquisition(run.acquisition_settings())
-            acquisition.measure(keep_waveforms=False)   # ranging, as a step's earlier points do
-            start_s = session.now_s()
-            reduction = reduce_point(acquisition.measure())
-            power_w = reduction.power_w.value
-            if correction is not None:
-                power_w = correction.corrected_power_w(power_w, reduction.reactive_power_var.value,
-                                                       reduction.frequency_hz.value)
-            run.add(repeat, session.now_s() - start_s + calibration_s,
-                    {"power_w": (power_w, truth.power_w),
-                     "velocity_pp_mps": (reduction.velocity_pp_mps.value, truth.velocity_pp_mps)})
+        reduction, truth, bench_time_s = _point_reading(Reading.of(run, repeat, limits), point, voltage_vpp,
+                                                        x.stress_frequency_hz)
+        power_w = reduction.power_w.value
+        if correction is not None:
+            power_w = correction.corrected_power_w(power_w, reduction.reactive_power_var.value,
+                                                   reduction.frequency_hz.value)
+        run.add(repeat, bench_time_s + calibration_s,
+                {"power_w": (power_w, truth.power_w),
+                 "velocity_pp_mps": (reduction.velocity_pp_mps.value, truth.velocity_pp_mps)})
 
 
-def _deskewed_power_w(correction: Deskew, points: pd.DataFrame) -> pd.Series:
-    """The points' power with a calibration's correction (`Deskew.corrected_power_w`)."""
-    return correction.corrected_power_w(points["power_w"], points["reactive_power_var"], points["frequency_hz"])
+@functools.lru_cache(maxsize=32)
+def _sweep_reading(reading: Reading, voltages_vpp: tuple[float, ...]) -> tuple[pd.DataFrame, float]:
+    """(the points at resonance, bench time) of one sweep trial: `sweep_trials` (read-only)."""
+    with reading.bench() as session:
+        start_s = session.now_s()
+        points = points_at_resonance(session, voltages_vpp, session.acquisition(reading.acquisition))
+        return points, session.now_s() - start_s
 
 
 def sweep_trials(calibrated: bool, run: "TaskRun") -> None:
     """Q and tan theta' of a Fig. 5 plate, characterised at resonance over the sweep's
-    voltages, one trial per bench; the truth is the same characterisation of the plate
-    without the errors, from its closed-form points."""
+    voltages, one trial per bench (calibrated: the same points, their power deskewed); the
+    truth is the same characterisation of the plate without the errors, from its closed-form points."""
     s = run.settings
     voltages_vpp = np.linspace(*s.sweep_voltage_range_vpp, run.knobs["n_voltages"])
     limits = SafetyLimits()
@@ -196,16 +233,14 @@ def sweep_trials(calibrated: bool, run: "TaskRun") -> None:
         truth = characterise_at_resonance(plain, s.sweep_scene, voltages_vpp, geometry, measure=None)
     for repeat in range(s.repeats):
         correction, calibration_s = bench_calibration(run, repeat, limits) if calibrated else (None, 0.0)
-        correct = None if correction is None else functools.partial(_deskewed_power_w, correction)
-        with erring_bench(run, repeat, limits) as session:
-            start_s = session.now_s()
-            acquisition = session.acquisition(run.acquisition_settings())
-            measured = characterise_at_resonance(session, s.sweep_scene, voltages_vpp, geometry, acquisition,
-                                                 correct)
-            run.add(repeat, session.now_s() - start_s + calibration_s,
-                    {"q": (measured.q.value, truth.q.value),
-                     "tan_theta": (measured.tan_theta.value, truth.tan_theta.value)})
-
+        points, bench_time_s = _sweep_reading(Reading.of(run, repeat, limits), tuple(voltages_vpp))
+        if correction is not None:
+            points = points.assign(power_w=correction.corrected_power_w(
+                points["power_w"], points["reactive_power_var"], points["frequency_hz"]))
+        measured = characterise_plate(s.sweep_scene, points, geometry, model.PAPER_CONVENTION)
+        run.add(repeat, bench_time_s + calibration_s,
+                {"q": (measured.q.value, truth.q.value),
+                 "tan_theta": (measured.tan_theta.value, truth.tan_theta.value)})
 
 
 def search_trials(run: "TaskRun") -> None:
@@ -215,13 +250,14 @@ def search_trials(run: "TaskRun") -> None:
     s = run.settings
     offsets_hz = np.random.default_rng(s.seed).uniform(-0.5, 0.5, size=s.repeats) * s.search_half_span_hz
     for repeat in range(s.repeats):
-        with erring_bench(run, repeat, SafetyLimits()) as session:
+        reading = Reading.of(run, repeat, SafetyLimits())
+        with reading.bench() as session:
             session.drive.set_piezo_voltage(s.search_voltage_vpp)
             true_hz = session.simulated.resonance_truth().frequency_hz
             centre_hz = true_hz + offsets_hz[repeat]   # where the peak falls in the range is luck
             search = SearchSettings(centre_hz - s.search_half_span_hz, centre_hz + s.search_half_span_hz,
                                     points=run.knobs["search_points"], tolerance_hz=run.knobs["search_tolerance_hz"])
-            acquisition = session.acquisition(run.acquisition_settings())
+            acquisition = session.acquisition(reading.acquisition)
             start_s = session.now_s()
             run.add_search(repeat, start_s, find_resonance(acquisition.measure_at, search), search, true_hz,
                            s.systematics.search_tolerances_hz)
@@ -247,6 +283,10 @@ def campaign_trials(calibrated: bool, run: "TaskRun") -> None:
     averaging, after the deskew calibration when `calibrated`, one trial per bench: every
     stored point's power and velocity against the truth at its setting; the cost is the
     campaign's bench time (the calibration's included)."""
+    # Imported here: every study worker imports this module, and only this experiment,
+    # which `reproduce` leaves out, needs the coverage study's machinery (0.25 CPU-s of imports).
+    from squeezebench.protocols.bench_errors import errors_on_bench
+
     names = [entry["name"] for entry in load_strict(run.scene.read_text(encoding="utf-8"))["runs"]
              if entry["protocol"] != CALIBRATION_PROTOCOL]   # the calibration keeps its own averaging
     settings = {name: {"averages": run.knobs["averages"]} for name in names}

@@ -23,12 +23,17 @@ EXPERIMENTS = (*(f"systematics_{point}{suffix}" for point in ("table3", "stress"
 
 
 @pytest.fixture(scope="module")
-def summary(tmp_path_factory):
+def trials(tmp_path_factory):
     out = tmp_path_factory.mktemp("systematics")
     settings = StudySettings(repeats=3, systematics=SystematicsSettings(
         averages=(1, 64), sweep_averages=(4,), sweep_voltages=3, search_tolerances_hz=(10.0, 0.1)))
     run_study(out, settings, EXPERIMENTS, progress=lambda message: None)
-    return summarise(load_trials(out))
+    return load_trials(out)
+
+
+@pytest.fixture(scope="module")
+def summary(trials):
+    return summarise(trials)
 
 
 def _at(summary, experiment, quantity, averages):
@@ -87,6 +92,16 @@ def test_the_floors_table_names_every_point_and_quantity(summary):
     calibrated = floors.drop(("search", "resonance_frequency_hz"))
     assert (calibrated["calibrated_bench_time_s"] > calibrated["bench_time_s"]).all()
     assert pd.isna(floors.loc[("search", "resonance_frequency_hz"), "calibrated_floor_p95_rel"])   # none lifts it
+
+
+def test_a_calibrated_trial_corrects_the_very_reading_its_plain_twin_scores(trials):
+    for point in ("table3", "stress"):
+        plain, calibrated = (trials[trials["experiment"] == experiment].reset_index(drop=True)
+                             for experiment in (f"systematics_{point}", f"systematics_{point}_calibrated"))
+        velocity = plain["quantity"] == "velocity_pp_mps"
+        assert calibrated[velocity]["measured_value"].tolist() == plain[velocity]["measured_value"].tolist()
+        assert (calibrated[~velocity]["measured_value"] != plain[~velocity]["measured_value"]).all()   # deskewed
+        assert (calibrated["bench_time_s"] > plain["bench_time_s"] + 1.0).all()   # and the calibration's time
 
 
 def test_bench_k_is_the_same_bench_in_every_experiment(summary, tmp_path):
