@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import functools
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Callable
 
 import numpy as np
@@ -201,10 +201,13 @@ class CellReadings:
     wavenumbers: tuple[float, float]   # k x step per axis, rad
     steps_m: tuple[float, float]       # the grid's step per axis (inf along a single row or column)
     method: str
+    # over_cells' readings at each count of spots, unmoved: a summary reads a figure's cells for
+    # its correction (`grid_bias`), again for its correction's term and for its quadrature term
+    _unmoved: dict[int, np.ndarray] = field(default_factory=dict, init=False, repr=False, compare=False)
 
     @property
     def values(self) -> np.ndarray:
-        return self.registered[1]
+        return self.over_cells(READING_SAMPLES)
 
     def _reader(self, axis: int, samples: int, shift: float = 0.0) -> np.ndarray:
         """Weights reading the field along `axis` at `samples` spots (`cell_offsets`, all moved
@@ -216,14 +219,9 @@ class CellReadings:
         """|field| at the spots `readers` read (`_reader`) about every point: points x spots,
         the x spot the slower."""
         per_axis = [reader.shape[0] // n for reader, n in zip(readers, self.grid.shape)]
-        field = (readers[0] @ self.grid @ readers[1].T).reshape(self.grid.shape[0], per_axis[0],
-                                                                self.grid.shape[1], per_axis[1])
-        return np.abs(field.transpose(0, 2, 1, 3)[self.filled].reshape(int(self.filled.sum()), -1))
-
-    @functools.cached_property
-    def registered(self) -> tuple[np.ndarray, np.ndarray]:
-        """(|field| at the points, |field| over their cells) of the grid where it fell."""
-        return self.at_points, self.over_cells(READING_SAMPLES)
+        read = (readers[0] @ self.grid @ readers[1].T).reshape(self.grid.shape[0], per_axis[0],
+                                                               self.grid.shape[1], per_axis[1])
+        return np.abs(read.transpose(0, 2, 1, 3)[self.filled].reshape(int(self.filled.sum()), -1))
 
     @functools.cached_property
     def at_points(self) -> np.ndarray:
@@ -232,8 +230,15 @@ class CellReadings:
 
     def over_cells(self, samples: int, shift: tuple[float, float] = (0.0, 0.0)) -> np.ndarray:
         """|field| over the cells at `samples` spots per wide axis (`cell_offsets`), the spots'
-        lattice moved by `shift` grid steps per axis (`grid_quadrature_term`'s registrations)."""
-        return self._spots(tuple(self._reader(axis, samples, shift[axis]) for axis in (0, 1)))
+        lattice moved by `shift` grid steps per axis (`grid_quadrature_term`'s registrations);
+        an unmoved lattice's reading is kept (read-only)."""
+        if shift != (0.0, 0.0):
+            return self._spots(tuple(self._reader(axis, samples, shift[axis]) for axis in (0, 1)))
+        if samples not in self._unmoved:
+            cells = self._spots(tuple(self._reader(axis, samples) for axis in (0, 1)))
+            cells.flags.writeable = False
+            self._unmoved[samples] = cells
+        return self._unmoved[samples]
 
     def across(self, axis: int) -> np.ndarray:
         """|field| over the cells read across `axis` alone (READING_SAMPLES spots along it, the
@@ -482,7 +487,7 @@ def grid_quadrature_term(readings: CellReadings | None, error: GridError) -> Ter
                     f"{AREA_SAMPLES} spots per axis over each cell, the union of {LATTICE_REGISTRATIONS ** 2} "
                     f"registrations of {READING_SAMPLES}: their spread over {LATTICE_REGISTRATIONS} ({spread:.2g}) "
                     f"and the change from {coarser} ({change:+.2g}) in quadrature", rectangular=False)
-    change = (error(points, readings.registered[1].ravel())
+    change = (error(points, readings.over_cells(READING_SAMPLES).ravel())
               - error(points, readings.over_cells(2 * READING_SAMPLES).ravel()))
     return Term("grid (the cells' quadrature)", "B", abs(change) / (1.0 - 2.0**-CV_QUADRATURE_ORDER),
                 f"{READING_SAMPLES} against {2 * READING_SAMPLES} spots per axis over each cell, an error of order "
