@@ -165,8 +165,10 @@ def reduced_points(run: RunData, rows: pd.DataFrame) -> pd.DataFrame:
     with `_u`). Reductions are cached on the run, so every table sees the same numbers."""
     cache = run.reductions
     reduced = []
-    for row in rows.itertuples(index=False):
-        path = getattr(row, "waveform_file", None)
+    # the three columns read, not the rows' sixty-odd: a row tuple of all of them cost more than a cached reduction
+    read = [rows[c] if c in rows else [None] * len(rows)
+            for c in ("waveform_file", "vibrometer_scale_mps_per_v", "generator_frequency_hz")]
+    for path, scale, frequency in zip(*read):
         if not isinstance(path, str) or not path:
             reduced.append({})
             continue
@@ -174,9 +176,9 @@ def reduced_points(run: RunData, rows: pd.DataFrame) -> pd.DataFrame:
             waveform = run.waveform(path)
             try:
                 cache[path] = reduce_record(
-                    waveform.samples, float(row.vibrometer_scale_mps_per_v),
+                    waveform.samples, float(scale),
                     y_increments=waveform.y_increments(), averages=waveform.averages(),
-                    frequency_hint_hz=float(row.generator_frequency_hz)).as_row()
+                    frequency_hint_hz=float(frequency)).as_row()
             except (ValueError, KeyError) as exc:
                 raise MissingDataError(f"{run.run_dir / path}: cannot reduce this record ({exc})") from exc
         reduced.append(cache[path])

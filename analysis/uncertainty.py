@@ -536,20 +536,18 @@ def detuning_slope_per_hz(points: pd.DataFrame) -> pd.Series:
     -(1 - r^2)/(f - f0), with f0 the run's resonance at the same velocity level. Points
     at resonance (or without a level) have slope 0 (the curve is flat at its top).
     """
-    slope = pd.Series(0.0, index=points.index)
     if "detuning_phase" not in points or "target_velocity_ratio" not in points:
-        return slope
+        return pd.Series(0.0, index=points.index)
     at_resonance = points[points["detuning_phase"] == "resonance"]
-    f0 = at_resonance.groupby(["run_name", "velocity_level_pp_mps"])["generator_frequency_hz"].first()
-    for index, row in points.iterrows():
-        ratio = row.get("target_velocity_ratio")
-        key = (row.get("run_name"), row.get("velocity_level_pp_mps"))
-        if not isinstance(ratio, (int, float)) or not 0 < ratio < 1 or key not in f0.index:
-            continue
-        offset_hz = float(row["generator_frequency_hz"]) - float(f0[key])
-        if offset_hz != 0:
-            slope[index] = -(1.0 - ratio**2) / offset_hz
-    return slope
+    f0 = at_resonance.groupby(["run_name", "velocity_level_pp_mps"])["generator_frequency_hz"].first().to_dict()
+    slope = []
+    # the four columns read, not a pandas row per point: Fig. 2's budgets ask this of every point set they see
+    for ratio, run_name, level, frequency_hz in zip(*(points[c] if c in points else [None] * len(points) for c in (
+            "target_velocity_ratio", "run_name", "velocity_level_pp_mps", "generator_frequency_hz"))):
+        offset_hz = (float(frequency_hz) - float(f0[run_name, level])
+                     if isinstance(ratio, (int, float)) and 0 < ratio < 1 and (run_name, level) in f0 else 0.0)
+        slope.append(-(1.0 - ratio**2) / offset_hz if offset_hz != 0 else 0.0)
+    return pd.Series(slope, index=points.index, dtype=float)
 
 
 def with_expanded_uncertainties(points: pd.DataFrame, deskew: Deskew | None = None) -> pd.DataFrame:
@@ -598,7 +596,7 @@ def deskewed(points: pd.DataFrame, deskew: Deskew | None) -> tuple[pd.DataFrame,
 def _rows(points: pd.DataFrame) -> list[dict]:
     """Each point as a dict of its values, made once for every quantity's budgets (a
     pandas row per point and quantity was most of the report's budget time)."""
-    return [row.to_dict() for _, row in points.iterrows()]
+    return points.to_dict("records")   # the values iterrows' rows give, without a Series per row
 
 
 def _has_reduction(row: dict) -> bool:
@@ -613,7 +611,7 @@ def example_budgets(points: pd.DataFrame, deskew: Deskew | None = None) -> pd.Da
     points["detuning_slope_per_hz"] = detuning_slope_per_hz(points)
     frames = []
     for protocol, rows in points.groupby("protocol", sort=False):
-        stored = [row.to_dict() for _, row in rows.iterrows() if _has_reduction(row.to_dict())]
+        stored = [row for row in _rows(rows) if _has_reduction(row)]
         if not stored:
             continue
         row = stored[0]

@@ -109,10 +109,10 @@ def _delay_flag(points: pd.DataFrame) -> str:
 def measurement_model_section(context: ReportContext) -> Section | None:
     """Measurement model: measurand, equation and inputs of every quantity (issue 28)"""
     found = run_budgets(context)
-    stored = [row for _, row in found.points.iterrows() if pd.notna(row.get("power_w_u"))]
-    if not stored:
+    stored = found.points[found.points["power_w_u"].notna()] if "power_w_u" in found.points else found.points.iloc[0:0]
+    if stored.empty:
         return None
-    table = measurement_model.model_table(stored[0].to_dict(), found.deskew)
+    table = measurement_model.model_table(stored.iloc[0].to_dict(), found.deskew)
     context.tables["measurement_model"] = table
     blocks = []
     for quantity, rows in table.groupby("quantity", sort=False):
