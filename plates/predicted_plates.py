@@ -703,17 +703,24 @@ def what_would_agree() -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
-def large_plate_mode_figure(path: Path) -> dict:
-    """The large plate's predicted working mode, drawn to `path`; returns its figures. Drawn
-    once per process (it depends on the model alone): every report of a process writes the
-    same PNG, and a test session writes dozens."""
-    png, figures = _large_plate_mode_png()
-    path.write_bytes(png)
-    return dict(figures)
+def large_plate_mode() -> dict:
+    """The large plate's predicted working mode's figures: its frequency, interior antinodes and
+    nodal-line spacing (what `large_plate_mode_figure` draws, without drawing it)."""
+    modes, k = _solve_working(large_plate(), STATED_ANTINODES["large"], None)
+    return {"frequency_hz": float(modes.frequencies_hz[k]), "interior_antinodes": modes.interior_antinodes(k),
+            "half_wavelength_mm": modes.half_wavelength_m(k) * 1e3}
+
+
+def large_plate_mode_figure(path: Path) -> Path:
+    """The large plate's predicted working mode, drawn to `path`. Drawn once per process (it
+    depends on the model alone): every report of a process writes the same PNG, and a test
+    session writes dozens."""
+    path.write_bytes(_large_plate_mode_png())
+    return path
 
 
 @functools.cache
-def _large_plate_mode_png() -> tuple[bytes, dict]:
+def _large_plate_mode_png() -> bytes:
     import io
 
     import matplotlib
@@ -736,9 +743,7 @@ def _large_plate_mode_png() -> tuple[bytes, dict]:
     png = io.BytesIO()
     fig.savefig(png, format="png", dpi=100, bbox_inches="tight")
     plt.close(fig)
-    return png.getvalue(), {"frequency_hz": float(modes.frequencies_hz[k]),
-                            "interior_antinodes": modes.interior_antinodes(k),
-                            "half_wavelength_mm": modes.half_wavelength_m(k) * 1e3}
+    return png.getvalue()
 
 
 def modes_patches(geometry: plate_modes.PlateGeometry) -> list[tuple[tuple[float, float], float, float]]:
