@@ -540,6 +540,11 @@ def drive_term_rel(fit_on: str = DRIVE_FIT_ON) -> dict[str, float]:
     uncertainties (k = 2, `log_term_expanded_rel`) of a response at a given voltage going as
     A Q (velocity, amplitude), as A^2 Q (mechanical power), and of one going as 1 / Q (the power
     at a given velocity)."""
+    return dict(_drive_term_rel(fit_on))
+
+
+@functools.cache   # the model and the print alone, as `_predictions`: a report asks it two dozen times
+def _drive_term_rel(fit_on: str) -> dict[str, float]:
     form = drive_model_form(fit_on)
     return {"velocity": log_term_expanded_rel(form["u_velocity_ln"]), "power": log_term_expanded_rel(form["u_power_ln"]),
             "power_at_velocity": log_term_expanded_rel(form["u_q_ln"])}
