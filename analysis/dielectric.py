@@ -169,9 +169,10 @@ def with_dielectric_power(points: pd.DataFrame, scenes: dict[str, dict]) -> pd.D
                                               float(group["piezo_voltage_vpp"].mean()))
                    for key, group in levels}
     resonance_hz = levels["frequency_hz"].mean().to_dict()
-    for index, row in out.iterrows():
+    shunt_parts = np.full((len(out), len(SHUNT_COLUMNS)), math.nan)   # set as whole columns: a .loc per row cost more than its sums
+    for position, (index, row) in enumerate(zip(out.index, out.to_dict("records"))):
         stored = scenes.get(scene_files[index], {})
-        law = loss_law(stored) or stated_law(row.to_dict())
+        law = loss_law(stored) or stated_law(row)
         key = (row["run_name"], row["velocity_level_pp_mps"])
         c0 = capacitance.get(key)
         if c0 is None or not np.isfinite(row["piezo_voltage_vpp"]):
@@ -184,7 +185,8 @@ def with_dielectric_power(points: pd.DataFrame, scenes: dict[str, dict]) -> pd.D
             out.at[index, "dielectric_voltage_exponent"] = 2.0 + law["exponent"]
         ohm = shunt_ohm(stored)
         if ohm is not None:
-            out.loc[index, list(SHUNT_COLUMNS)] = _shunt_parts(ohm, c0, row, resonance_hz[key], loss_w)
+            shunt_parts[position] = _shunt_parts(ohm, c0, row, resonance_hz[key], loss_w)
+    out[list(SHUNT_COLUMNS)] = shunt_parts
     return out
 
 
@@ -192,7 +194,7 @@ def with_dielectric_power(points: pd.DataFrame, scenes: dict[str, dict]) -> pd.D
 SHUNT_COLUMNS = ("shunt_capacitive_power_w", "shunt_cross_power_w", "shunt_cross_frequency_exponent")
 
 
-def _shunt_parts(ohm: float, c0: float, row: pd.Series, resonance_hz: float, loss_w: float) -> list[float]:
+def _shunt_parts(ohm: float, c0: float, row: dict, resonance_hz: float, loss_w: float) -> list[float]:
     """A point's shunt loss from the capacitive current, its cross term and that term's
     frequency exponent; x from the point's velocity ratio (0 at resonance), the resonant part
     of its power what the rest leaves."""

