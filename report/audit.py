@@ -12,7 +12,8 @@ import pandas as pd
 from squeezebench.analysis import audit, readings
 from squeezebench.report import presentation
 from squeezebench.errors import UserError
-from squeezebench.report.section import ReportContext, Section, bench_words, cell_text, paper_findings, html_table, slug
+from squeezebench.report.section import (ReportContext, Section, bench_words, cell_text, paper_findings, html_table, slug,
+                                         table5_readings)
 
 
 def audit_section(context: ReportContext) -> Section:
@@ -103,7 +104,7 @@ def readings_section(context: ReportContext) -> Section | None:
                                 "".join(f"<p>{html.escape(words)}</p>" for words in readings.search_words())
                                 + html_table(plates, f"Q and tan θ′ of every plate under each reading. {bench_words(context)}")))
     try:
-        table5 = audit.table5_under_readings(context.run)
+        table5 = table5_readings(context)
     except UserError as exc:
         return Section("Plates under each reading", body + f"<p>Table 5 and Fig. 9 under each reading: "
                        f"{html.escape(str(exc))}.</p>", "readings", appendix=True)

@@ -18,7 +18,8 @@ from squeezebench.plates import predicted_plates
 from squeezebench.paper import paper_value
 from squeezebench.analysis.rundata import RunData
 from squeezebench.errors import UserError
-from squeezebench.report.section import ReportContext, Section, bench_words, paper_findings, html_table, signed, slug
+from squeezebench.report.section import (ReportContext, Section, bench_words, paper_findings, html_table, signed, slug,
+                                         table5_readings)
 
 
 def _explanation(context: ReportContext, table: str, item: str, quantity: str,
@@ -120,12 +121,10 @@ def _scene_readings(context: ReportContext) -> set[str]:
 
 
 def _table5_under_readings(context: ReportContext) -> pd.DataFrame | None:
-    if "table5_readings" not in context.cache:
-        try:
-            context.cache["table5_readings"] = audit.table5_under_readings(context.run)
-        except UserError:
-            context.cache["table5_readings"] = None
-    return context.cache["table5_readings"]
+    try:
+        return table5_readings(context)
+    except UserError:
+        return None
 
 
 def _flag(context: ReportContext, title: str, anchor: str, frame: pd.DataFrame) -> dict[str, str]:

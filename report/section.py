@@ -19,6 +19,7 @@ from squeezebench.report import headline, presentation
 from squeezebench.report.drawing import Drawing
 from squeezebench.analysis.model import REPORT_CONVENTION
 from squeezebench.analysis.rundata import RunData
+from squeezebench.errors import UserError
 
 
 @dataclass
@@ -98,6 +99,20 @@ def run_budgets(context: ReportContext) -> uncertainty.RunUncertainties:
     if "uncertainties" not in context.cache:
         context.cache["uncertainties"] = uncertainty.run_uncertainties(context.run)
     return context.cache["uncertainties"]
+
+
+def table5_readings(context: ReportContext) -> pd.DataFrame:
+    """Table 5 and Fig. 9 under each reading (`audit.table5_under_readings`), computed once for
+    the sections that show or cite it; a run that cannot give it raises its UserError each time."""
+    if "table5_readings" not in context.cache:
+        try:
+            context.cache["table5_readings"] = audit.table5_under_readings(context.run)
+        except UserError as exc:
+            context.cache["table5_readings"] = exc
+    found = context.cache["table5_readings"]
+    if isinstance(found, UserError):
+        raise found
+    return found
 
 
 def cell_text(value) -> str:
