@@ -15,7 +15,8 @@ from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from squeezebench.analysis.budgets import (COVERAGE_PROBABILITY, ERROR_MODELS, P95_FACTOR, SPECIFIED, WORLD,
-                                           WORLD_DROPPED_MAX, Budget, Term, WorldMixture, _box_convolved)
+                                           WORLD_DROPPED_MAX, Budget, Term, WorldMixture, _box_convolved,
+                                           _distinct_rows)
 from squeezebench.plates.specifications import WORLD_READING
 
 DRAWS = 400_000
@@ -222,6 +223,18 @@ def test_a_specified_rectangle_is_the_grids_moving_mean(values, width):
     density = np.array(values)
     expected = np.convolve(density, np.full(2 * width + 1, 1.0 / (2 * width + 1)))[width:width + len(density)]
     assert np.allclose(_box_convolved(density, width), expected, rtol=0.0, atol=1e-12)
+
+
+@settings(max_examples=30, deadline=None)
+@given(st.lists(st.tuples(st.sampled_from([0.0, 0.5, 1.25, 3.0]), st.sampled_from([0.0, 0.25, 1.0])), min_size=1,
+                max_size=40))
+def test_the_mixtures_distinct_components_are_numpys_unique_rows(rows):
+    """`_distinct_rows` gives np.unique's rows, in its order, and its inverse (ties and repeats
+    drawn on purpose): the world factor's mixture must not move by a bit for being faster."""
+    rows = np.array(rows, dtype=float)
+    distinct, which = _distinct_rows(rows)
+    expected, expected_which = np.unique(rows, axis=0, return_inverse=True)
+    assert np.array_equal(distinct, expected) and np.array_equal(which, expected_which.ravel())
 
 
 def test_an_unknown_error_model_is_refused():
