@@ -199,9 +199,11 @@ def power_ratio_budget(numerator: pd.DataFrame, denominator: pd.DataFrame) -> Bu
     follows it. Its sign is known (the plate warms under its drive, its resonance falls) and
     the run estimates it (`analysis.resonance_drift`: the plate's warming under the run's
     stored powers, scaled by the run's dated readings of its resonance within the heating
-    tolerances), so R is corrected for the estimate (GUM 3.2.4; `_resonance_drift`: Pt on
-    the slope by -(1 - d_t) 2 s_t delta_t, P0 set on the re-centred resonance and on the flat
-    top by (offset / h)^2, 1 / h^2 = s_t^2 / (r^2 (1 - r^2)) at P_t's velocity ratio r) and
+    tolerances), so R is corrected for the estimate (GUM 3.2.4; `_resonance_drift`: the part
+    of each power that follows the resonance by the Lorentzian's displacement
+    (`lorentzian_power_change`), Pt on the slope at its velocity ratio r, about
+    -(1 - d_t) 2 s_t delta_t, P0 set on the re-centred resonance and on the flat top by
+    (offset / h)^2, 1 / h^2 = s_t^2 / (r^2 (1 - r^2))) and
     the estimate's u is a normal term; where no scene gives the plate, the readings alone
     bound it and that bound is a bias bound (`drift_terms`). The value is still the plate as
     mounted at the recorded settings; the correction brings the reading to it. The noise of
@@ -252,14 +254,17 @@ def _resonance_drift(numerator: pd.DataFrame, denominator: pd.DataFrame,
     """The resonance's drift in R = P_t / P_0 (`power_ratio_budget`) from each point's
     estimate e, its u and a bias bound B (`analysis.resonance_drift.DRIFT_COLUMNS`): the
     factor that corrects R for the estimate (GUM 3.2.4), and the relative u and bias bound it
-    leaves. A point read when the resonance had moved by e reads the curve displaced by e: on
-    the slope ln P moves by -D e, D = `_power_per_resonance_hz` (signed); on the flat top (a
-    P0, whose e is its setting's offset from the mounted plate's resonance, the reading on
-    the re-centred peak) by (e / h)^2, 1 / h^2 = s_t^2 / (r^2 (1 - r^2)) the Lorentzian's
-    curvature at P_t's ratio r. R read = R (1 + d_t) / (1 + d_0), so the stored value is
-    R read (1 + d_0) / (1 + d_t). u: |D| u on the slope, sqrt(4 e^2 u^2 + 2 u^4) / h^2 on the
-    top (the variance of a squared normal); B: |D| B and (B^2 + 2 |e| B) / h^2. A phase's
-    points (one drift, the same plate) average: their terms add linearly."""
+    leaves. A point read when the resonance had moved by e reads the curve displaced by e:
+    its part that follows the resonance, the share 1 - d - d_C of its power, by
+    `lorentzian_power_change` at its offset x from the resonance as read (P_t on the slope:
+    x from its velocity ratio r on the side its slope s says, 1 / h = |s| / sqrt(r^2 (1 - r^2));
+    a P0, whose e is its setting's offset from the mounted plate's resonance: set on the
+    re-centred peak, x = 0, with P_t's 1 / h^2 = s_t^2 / (r^2 (1 - r^2))), and the shunt's
+    cross term by its first order (`_power_per_resonance_hz`). R read = R (1 + d_t) / (1 + d_0),
+    so the stored value is R read (1 + d_0) / (1 + d_t). u and B at first order: |D| u on the
+    slope (D = `_power_per_resonance_hz`), sqrt(4 e^2 u^2 + 2 u^4) / h^2 on the top (the
+    variance of a squared normal); B: |D| B and (B^2 + 2 |e| B) / h^2. A phase's points (one
+    drift, the same plate) average: their terms add linearly."""
     slope_t = slopes.loc[numerator.index].to_numpy(float)
     ratio_t = numerator["target_velocity_ratio"].to_numpy(float) if "target_velocity_ratio" in numerator else \
         np.full(len(numerator), np.nan)
@@ -272,12 +277,37 @@ def _resonance_drift(numerator: pd.DataFrame, denominator: pd.DataFrame,
         drift_hz, drift_u_hz, drift_bound_hz = (points[c].to_numpy(float) for c in resonance_drift.DRIFT_COLUMNS)
         per_hz = _power_per_resonance_hz(points, slope)
         top = np.where(slope == 0, curvature, 0.0)
-        shifts.append(float(np.mean(-per_hz * drift_hz + top * drift_hz**2)))
+        # a point on the slope has 0 < r < 1 (`detuning_slope_per_hz` gives no slope elsewhere)
+        ratio = np.where(slope == 0, 0.5, np.asarray(points.get("target_velocity_ratio", np.nan), dtype=float))
+        spread = np.sqrt(ratio**2 * (1.0 - ratio**2))
+        offset_x = np.where(slope == 0, 0.0, -np.sign(slope) * np.sqrt(1.0 - ratio**2) / ratio)
+        inverse_h = np.where(slope == 0, math.sqrt(curvature), np.abs(slope) / spread)
+        resonant = _resonant_share(points)
+        cross_per_hz = per_hz - resonant * 2.0 * slope   # the shunt's cross term, at first order
+        shifts.append(float(np.mean(resonant * lorentzian_power_change(offset_x, drift_hz * inverse_h)
+                                    - cross_per_hz * drift_hz)))
         u_rel = math.hypot(u_rel, float(np.mean(np.abs(per_hz) * drift_u_hz
                                                 + top * np.sqrt(4 * drift_hz**2 * drift_u_hz**2 + 2 * drift_u_hz**4))))
         bound_rel += float(np.mean(np.abs(per_hz) * drift_bound_hz
                                    + top * (drift_bound_hz**2 + 2 * np.abs(drift_hz) * drift_bound_hz)))
     return (1.0 + shifts[1]) / (1.0 + shifts[0]), u_rel, bound_rel
+
+
+def lorentzian_power_change(offset_x, shift_x):
+    """P_read / P_mounted - 1 of the power that follows a resonance (numbers or arrays),
+    read at x = 2 Q (f - f_r) / f_r from the resonance f_r as it was then, when the mounted
+    plate's lay `shift_x` half-widths h = f_r / (2 Q) below it (the drift delta / h, signed:
+    negative where the resonance fell). The motional branch's power at a constant voltage
+    goes as |v|^2 = v_0^2 / (1 + x^2) (a series RLC near its resonance, Eq. 1's v ~ V), so
+    at the same setting the mounted plate reads at x + delta / h:
+        P_read / P_mounted = (1 + (x + delta / h)^2) / (1 + x^2).
+    Its first order, -2 x / (1 + x^2) delta / h = 2 s delta (s = d ln v / d f), was the
+    correction's; taken as a relative change of P (R (1 + d_t) / (1 + d_0)) it over-corrected
+    P_t by nearly d_t^2 (a 6 % shift at r = 0.8: R 0.28 % high), so Fig. 2's ratios read
+    high on every plate given the simulated plate's own drift. At x = 0 (P0 on the re-centred
+    peak) it is (delta / h)^2, the flat top's term."""
+    offset_x = np.asarray(offset_x, dtype=float)
+    return ((1.0 + (offset_x + shift_x) ** 2) / (1.0 + offset_x**2)) - 1.0
 
 
 #: The name of the resonance's drift in a budget.
@@ -308,13 +338,19 @@ def drift_terms(bias_bound: float, std_uncertainty: float, sources, always: bool
 
 def _power_per_resonance_hz(points: pd.DataFrame | dict, slope) -> np.ndarray:
     """d ln P / d f of each point's power along the part that follows the resonance (signed:
-    a resonance moved by e moves ln P by minus this times e): the resonant part's 2 s (the
-    dielectric share d and the shunt's capacitive one d_C do not follow the resonance) and
-    the shunt's cross term's 1 / (f - f0) (`generator_sensitivities`)."""
-    share, _, _ = _dielectric_share(points)
+    a resonance moved by e moves ln P by minus this times e): the resonant part's 2 s
+    (`_resonant_share`: the dielectric share d and the shunt's capacitive one d_C do not
+    follow the resonance) and the shunt's cross term's 1 / (f - f0) (`generator_sensitivities`)."""
     shunt = _shunt_shares(points)
-    return ((1.0 - share - shunt["shunt_share"]) * 2.0 * np.asarray(slope, dtype=float)
+    return (_resonant_share(points) * 2.0 * np.asarray(slope, dtype=float)
             + shunt["cross_share"] * (shunt["cross_exponent"] - 1.0) / np.asarray(points["frequency_hz"], dtype=float))
+
+
+def _resonant_share(points: pd.DataFrame | dict) -> np.ndarray:
+    """Each point's share of its power that follows the resonance, 1 - d - d_C (the
+    dielectric loss and the shunt's loss from the capacitive current do not)."""
+    share, _, _ = _dielectric_share(points)
+    return 1.0 - share - _shunt_shares(points)["shunt_share"]
 
 
 def _point_drift_terms(point: dict, value: float, per_hz: float) -> tuple[Term, ...]:
