@@ -724,10 +724,11 @@ def whole_periods(times_s: np.ndarray, frequency_hz: float, first_only: bool = F
 EXTREME_KINDS = frozenset({"PK2", "AMP", "MAX", "MINI", "HIGH", "LOW", "FREQ", "PERI"})
 
 
-def measure(record: Record, source: str, kind: str, extremes: tuple[float, float] | None = None) -> float:
-    """The scope's immediate measurement `kind` of `source` on the record; `extremes`:
-    the trace's (lowest, highest) if already known (`extremes_of`)."""
-    trace = record.trace(source)
+def measure(trace: np.ndarray, setup: ScopeSetup, frequency_hz: float, kind: str,
+            extremes: tuple[float, float] | None = None) -> float:
+    """The scope's immediate measurement `kind` of `trace`, samples of a record of `setup`
+    (from its first) showing a drive of `frequency_hz`; `extremes`: the trace's (lowest,
+    highest) if already known (`extremes_of`)."""
     if kind in EXTREME_KINDS:
         lowest, highest = extremes or extremes_of(trace)
         if kind in ("PK2", "AMP"):  # AMP (high - low) equals PK2 on a sine without overshoot
@@ -736,16 +737,16 @@ def measure(record: Record, source: str, kind: str, extremes: tuple[float, float
             return highest
         if kind in ("MINI", "LOW"):
             return lowest
-        frequency_hz = crossing_frequency_hz(trace, record.setup.times_s(), 0.5 * (highest + lowest))
-        return frequency_hz if kind == "FREQ" else 1.0 / frequency_hz
+        crossing_hz = crossing_frequency_hz(trace, setup.times_s(), 0.5 * (highest + lowest))
+        return crossing_hz if kind == "FREQ" else 1.0 / crossing_hz
     if kind == "MEAN":
         return float(trace.mean())
     if kind == "CME":  # cycle mean: over the first period
-        return float(trace[whole_periods(record.setup.times_s(), record.frequency_hz, True)].mean())
+        return float(trace[whole_periods(setup.times_s(), frequency_hz, True)].mean())
     if kind == "RMS":
         return float(np.sqrt(np.mean(trace**2)))
     if kind == "CRM":  # cycle RMS: over the first period
-        return float(np.sqrt(np.mean(trace[whole_periods(record.setup.times_s(), record.frequency_hz, True)] ** 2)))
+        return float(np.sqrt(np.mean(trace[whole_periods(setup.times_s(), frequency_hz, True)] ** 2)))
     raise ValueError(f"measurement type {kind!r} is not simulated")
 
 
