@@ -280,6 +280,8 @@ class Screen:
     sums: dict = field(default_factory=dict)
     #: The signals in channel units before they are placed on the screen (3, n).
     channel_values: np.ndarray | None = field(default=None, repr=False)
+    #: `_screen_placement(setup)`, worked out once with the screen: every record of it asks.
+    placement: tuple[np.ndarray, np.ndarray, np.ndarray] | None = field(default=None, repr=False)
 
     def keep_sums_of(self, earlier: "Screen") -> None:
         """Take `earlier`'s sums of records for each channel showing exactly what it showed
@@ -294,7 +296,7 @@ class Screen:
 
     def values(self, divisions: np.ndarray) -> np.ndarray:
         """Channel values of screen positions (3, n), in place of `divisions`."""
-        position, scale, offset = _screen_placement(self.setup)
+        position, scale, offset = self.placement
         divisions -= position
         divisions *= scale
         divisions += offset
@@ -338,12 +340,13 @@ def screen(steady: physics.SteadyState, setup: ScopeSetup, sensor_gains: np.ndar
     signals = pipeline.signals(signals, ctx)   # a new array (the effects keep none), so in place below
     signals *= ctx.display_gain[:, None]
     channel_values = _couple(signals, sampled, steady.frequency_hz)
-    position, scale, offset = _screen_placement(setup)
+    position, scale, offset = placement = _screen_placement(setup)
     signal_div = channel_values - offset
     signal_div /= scale
     signal_div += position
     shown_hz = steady.frequency_hz * (sampled.horizontal_scale_s / setup.horizontal_scale_s)   # on the labelled times
-    return Screen(setup, shown_hz, signal_div, pipeline.noise_div_rms(ctx), channel_values=channel_values)
+    return Screen(setup, shown_hz, signal_div, pipeline.noise_div_rms(ctx), channel_values=channel_values,
+                  placement=placement)
 
 
 def _unplaced(setup: ScopeSetup) -> ScopeSetup:
@@ -364,8 +367,8 @@ def placed_anew(shown: Screen, setup: ScopeSetup, pipeline: fx.EffectPipeline,
             or _unplaced(setup) != _unplaced(shown.setup)):
         return None
     noise_div_rms = pipeline.noise_div_rms(_context(setup, vibrometer_range_mps_per_v, start_s, acquisition_period_s))
-    position, scale, offset = _screen_placement(setup)
-    old_position, old_scale, old_offset = _screen_placement(shown.setup)
+    position, scale, offset = placement = _screen_placement(setup)
+    old_position, old_scale, old_offset = shown.placement
     signal_div, sums = shown.signal_div.copy(), {}
     for ch in range(len(setup.channels)):
         if (position[ch, 0], scale[ch, 0], offset[ch, 0], noise_div_rms[ch]) == \
@@ -374,7 +377,7 @@ def placed_anew(shown: Screen, setup: ScopeSetup, pipeline: fx.EffectPipeline,
                 sums[ch] = shown.sums[ch]
         else:
             signal_div[ch] = (shown.channel_values[ch] - offset[ch]) / scale[ch] + position[ch]
-    return Screen(setup, shown.frequency_hz, signal_div, noise_div_rms, sums, shown.channel_values)
+    return Screen(setup, shown.frequency_hz, signal_div, noise_div_rms, sums, shown.channel_values, placement)
 
 
 def record_of(shown: Screen, settings: fx.DigitizerSettings, rng: np.random.Generator | None) -> Record:
@@ -579,17 +582,21 @@ def _kept_average(total: np.ndarray, averages: int, settings: fx.DigitizerSettin
         return total
     steps_per_sample_step = round(lsb / average_lsb)
     mean = total
-    mean *= steps_per_sample_step / averages   # in average steps, exact
     if steps_per_sample_step % averages == 0:
         # N no more than the steps' ratio (16 averages of 8-bit samples in 13 bits): the
         # mean is whole average steps, there is nothing to round and no tie. Adding 0
-        # turns the -0.0 of a rounded-down sum into the +0.0 the rounding gives.
+        # turns the -0.0 of a rounded-down sum into the +0.0 the rounding gives. Both counts
+        # are powers of two (bit depths, NUMAVG), so is their ratio: scaling by it is exact,
+        # and one product by it times the average step gives the numbers that the mean in
+        # average steps, then its product by the step, gave (one pass over the record).
+        mean *= steps_per_sample_step // averages * average_lsb
         mean += 0.0
-        mean *= average_lsb
         return mean
+    mean *= steps_per_sample_step / averages   # in average steps, exact
     kept = mean + 0.5
     np.floor(kept, out=kept)
-    ties = np.flatnonzero(kept - mean == 0.5)
+    # In place of the mean, no longer needed: the distance to the kept step, 0.5 at a tie.
+    ties = np.flatnonzero(np.subtract(kept, mean, out=mean) == 0.5)
     if ties.size:
         kept[ties] -= rng.integers(0, 2, size=ties.size)
     kept *= average_lsb
