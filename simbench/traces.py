@@ -286,12 +286,16 @@ class Screen:
     def keep_sums_of(self, earlier: "Screen") -> None:
         """Take `earlier`'s sums of records for each channel showing exactly what it showed
         (its row and noise, the same number of averages): what `sum_of_records` depends on,
-        besides the digitiser's settings, which a bench keeps until a new plate is mounted."""
+        besides the digitiser's settings, which a bench keeps until a new plate is mounted.
+        Rows are compared as `np.array_equal` does; most differ from their first sample on
+        (another drive), which is looked at first."""
         if earlier.setup.averages != self.setup.averages:
             return
         for ch, sums in earlier.sums.items():
+            row, earlier_row = self.signal_div[ch], earlier.signal_div[ch]
             if (ch not in self.sums and self.noise_div_rms[ch] == earlier.noise_div_rms[ch]
-                    and np.array_equal(self.signal_div[ch], earlier.signal_div[ch])):
+                    and row.shape == earlier_row.shape and row[0] == earlier_row[0]
+                    and bool((row == earlier_row).all())):
                 self.sums[ch] = sums
 
     def values(self, divisions: np.ndarray) -> np.ndarray:
@@ -473,7 +477,7 @@ def sum_of_records(signal: np.ndarray, sigma: float, averages: int,
         direct = np.full(steps.shape, summed_variance >= MIN_SPREAD_LSB**2 or variance == 0.0)
         steps *= averages
         return SumOfRecords(steps, math.sqrt(max(summed_variance - 1.0 / 12.0, 0.0)), direct, quantised=True)
-    mean_offset, step_variance = _step_moments(sigma / lsb)
+    moments = _step_moments(sigma / lsb)
     if all_far and not _some_sum_is_direct(sigma / lsb, averages):
         # Every record is drawn (few averages of noise within a step or so: 4 or 8 of the
         # search's): the per-sample moments below would only tell so, at a third of the cost
@@ -486,17 +490,17 @@ def sum_of_records(signal: np.ndarray, sigma: float, averages: int,
     index = weight.astype(np.intp)
     np.minimum(index, STEP_PHASES - 1, out=index)
     weight -= index
-    rest, after = 1.0 - weight, index + 1   # take: the same gather as [index], faster
-    mean = mean_offset.take(index)
-    mean *= rest
+    rest = 1.0 - weight
+    # The tabulated (mean offset, variance) pairs at the index and the one after (the table
+    # shifted by one), each gathered as a pair: two gathers where each moment's own took
+    # four, the same numbers. take: the same gather as [index], faster.
+    below, above = moments.take(index, axis=0), moments[1:].take(index, axis=0)
+    mean = np.multiply(below[:, 0], rest)
     mean += steps
-    upper = mean_offset.take(after)
-    upper *= weight
+    upper = np.multiply(above[:, 0], weight)
     mean += upper
-    variance = step_variance.take(index)
-    variance *= rest
-    step_variance.take(after, out=upper)
-    upper *= weight
+    variance = np.multiply(below[:, 1], rest)
+    np.multiply(above[:, 1], weight, out=upper)
     variance += upper
     if not all_far:
         near = ~((signal >= low) & (signal <= high))
@@ -609,13 +613,16 @@ STEP_PHASES = 4096
 
 
 @functools.lru_cache(maxsize=64)
-def _step_moments(sigma_steps: float) -> tuple[np.ndarray, np.ndarray]:
+def _step_moments(sigma_steps: float) -> np.ndarray:
     """Away from the clip, one quantised record's mean minus the signal, and its variance
     (in steps), at STEP_PHASES + 1 evenly spaced phases of the signal within a step
-    (0..1): both have period one step."""
+    (0..1): both have period one step. Rows are phases, the two columns the moments
+    (read-only: shared by every screen of this noise)."""
     grid = np.linspace(0.0, 1.0, STEP_PHASES + 1)
     mean, variance = _level_moments(grid, sigma_steps)
-    return mean - grid, variance
+    moments = np.stack([mean - grid, variance], axis=1)
+    moments.flags.writeable = False
+    return moments
 
 
 @functools.lru_cache(maxsize=256)
@@ -625,7 +632,7 @@ def _some_sum_is_direct(sigma_steps: float, averages: int) -> bool:
     step. A sample's v is interpolated between two of `_step_moments`' tabulated values,
     with weights summing to one: it is no more than their largest (the margin covers the
     rounding) and no less than half their smallest, which must not be 0."""
-    _, step_variance = _step_moments(sigma_steps)
+    step_variance = _step_moments(sigma_steps)[:, 1]
     return bool(averages * float(step_variance.max()) * (1.0 + 1e-9) >= MIN_SPREAD_LSB**2
                 or float(step_variance.min()) <= 1e-300)
 
