@@ -335,6 +335,7 @@ class TDS3054B(SCPIInstrument):
         self.write("HEADER OFF")  # p. 2-143 HEADer: replies without command headers
         self.write("VERBOSE ON")  # p. 2-308 VERBose: keywords in replies in their long form
         self._channels = {n: Channel(self, n) for n in CHANNELS}
+        self._immediate_messages: dict[tuple[tuple[str, str], ...], str] = {}
 
     def channel(self, number: int) -> Channel:
         if number not in self._channels:
@@ -472,12 +473,8 @@ class TDS3054B(SCPIInstrument):
         several missing, the queue is read and each is asked again alone."""
         if not requests:
             return []
-        commands = []
-        for source, kind in requests:
-            commands += [TDS3054B.measurement_source.set_message(self, source_name(source)),
-                         TDS3054B.measurement_type.set_message(self, self._measurement_kind(kind)),
-                         "MEASUREMENT:IMMED:VALUE?"]  # p. 2-213
-        message = concatenated(commands)
+        message = self._immediate_message(tuple((source_name(source), self._measurement_kind(kind))
+                                                for source, kind in requests))
         reply = self.query(message)
         values: list[float | ClippedTraceError] = [self.parse_reply(message, part) for part in reply.split(";")]
         if len(values) != len(requests):
@@ -508,6 +505,19 @@ class TDS3054B(SCPIInstrument):
                                       clipping[0] + (f" (also: {others})" if others else ""))]
         raise NoValidMeasurement(self.role, self.resource_name,
                                  f"no valid {what} (the scope answered {reply}: {why})")
+
+    def _immediate_message(self, requests: tuple[tuple[str, str], ...]) -> str:
+        """The message of `_immediate` for (source name, long measurement kind) requests, kept:
+        a campaign asks the same few lists of measurements thousands of times."""
+        message = self._immediate_messages.get(requests)
+        if message is None:
+            commands = []
+            for source, kind in requests:
+                commands += [TDS3054B.measurement_source.set_message(self, source),
+                             TDS3054B.measurement_type.set_message(self, kind),
+                             "MEASUREMENT:IMMED:VALUE?"]  # p. 2-213
+            message = self._immediate_messages[requests] = concatenated(commands)
+        return message
 
     def _measurement_kind(self, kind: str) -> str:
         """A MEASUrement:IMMed:TYPe long form, from the long or the short form."""

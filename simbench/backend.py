@@ -11,6 +11,7 @@ closed-form truth).
 
 from __future__ import annotations
 
+import contextlib
 from pathlib import Path
 from typing import Any, Tuple
 
@@ -58,10 +59,21 @@ def options_of(library_path: str) -> dict[str, str]:
     return dict(f.split("=", 1) for f in fragments if "=" in f)
 
 
+#: What `SceneVisaLibrary.ignore_warning` hands out (reusable: it does nothing).
+_NOTHING_TO_IGNORE = contextlib.nullcontext()
+
+
 class SceneVisaLibrary(SimVisaLibrary):
     """pyvisa-sim's library with instruments backed by a scene's physics."""
 
     bench: SimulatedBench
+
+    def ignore_warning(self, session, *warnings_constants) -> contextlib.AbstractContextManager:
+        """PyVISA consults the warnings a session ignores only where a library hands it a
+        VISA return value (`handle_return_value`), which this one, like pyvisa-sim's, never
+        does: there is nothing to switch off and on again around every read PyVISA makes
+        (its generator-based context manager cost more than the simulated reply)."""
+        return _NOTHING_TO_IGNORE
 
     @staticmethod
     def get_library_paths() -> Tuple[LibraryPath]:

@@ -83,7 +83,7 @@ class Scope(ScpiInstrument):
         # an acquisition asks for the same (six extremes, a mean and a frequency per point).
         self._clipped: tuple = (None, {})
         self._extremes_kept: tuple = (None, {})   # (record, {(source, gate): (lowest, highest)}): `_extremes`
-        self._gated: tuple = (None, None)
+        self._gated: tuple = (None, None, None, None)   # (setup, cursors, time base and cursors, gate): `_gate`
 
     # -- status and events (TDS PM Section 3) ------------------------------------------------
     def report(self, error: ScpiError) -> None:
@@ -427,8 +427,7 @@ class Scope(ScpiInstrument):
             return NO_VALUE
         kind = _SIMULATED_MEASUREMENTS[kind]
         extremes = self._extremes(record, source, trace, gate) if kind in traces.EXTREME_KINDS else None
-        value = traces.measure(traces.Record(record.setup, trace[None, gate], record.frequency_hz), "CH1",
-                               kind, extremes)
+        value = traces.measure(trace[gate], record.setup, record.frequency_hz, kind, extremes)
         if not math.isfinite(value):
             self.event(2202, "Measurement error, No period found")
             return NO_VALUE
@@ -436,16 +435,24 @@ class Scope(ScpiInstrument):
 
     def _gate(self, setup: traces.ScopeSetup) -> slice | None:
         """The samples a measurement uses: the whole record, or with MEASUrement:GATing
-        CURSor those between the vertical bar cursors (p. 2-207); None if none are."""
+        CURSor those between the vertical bar cursors (p. 2-207); None if none are. Kept
+        for the time base and cursors it was found for, and for the setup object asked
+        with: every measurement of a record asks with the same (the cursors compared as
+        numbers, which is all the gate compares them by)."""
         if self.state["gating"] != "CURSOR":
             return slice(None)
-        low, high = sorted((self.state["vbar", 1], self.state["vbar", 2]))
+        cursors = (self.state["vbar", 1], self.state["vbar", 2])
+        kept_setup, kept_cursors, kept_key, gate = self._gated
+        if kept_setup is setup and kept_cursors == cursors:
+            return gate
+        low, high = sorted(cursors)
         key = (setup.first_sample_s, setup.sample_interval_s, setup.record_length, low, high)
-        if self._gated[0] != key:
+        if kept_key != key:
             times_s = setup.times_s()
             inside = np.flatnonzero((times_s >= low) & (times_s <= high))
-            self._gated = (key, slice(int(inside[0]), int(inside[-1]) + 1) if inside.size else None)
-        return self._gated[1]
+            gate = slice(int(inside[0]), int(inside[-1]) + 1) if inside.size else None
+        self._gated = (setup, cursors, key, gate)
+        return gate
 
     def _measurement_units(self, unit: Unit) -> bytes:
         scpi.no_arguments(unit.arguments)

@@ -280,21 +280,27 @@ class Screen:
     sums: dict = field(default_factory=dict)
     #: The signals in channel units before they are placed on the screen (3, n).
     channel_values: np.ndarray | None = field(default=None, repr=False)
+    #: `_screen_placement(setup)`, worked out once with the screen: every record of it asks.
+    placement: tuple[np.ndarray, np.ndarray, np.ndarray] | None = field(default=None, repr=False)
 
     def keep_sums_of(self, earlier: "Screen") -> None:
         """Take `earlier`'s sums of records for each channel showing exactly what it showed
         (its row and noise, the same number of averages): what `sum_of_records` depends on,
-        besides the digitiser's settings, which a bench keeps until a new plate is mounted."""
+        besides the digitiser's settings, which a bench keeps until a new plate is mounted.
+        Rows are compared as `np.array_equal` does; most differ from their first sample on
+        (another drive), which is looked at first."""
         if earlier.setup.averages != self.setup.averages:
             return
         for ch, sums in earlier.sums.items():
+            row, earlier_row = self.signal_div[ch], earlier.signal_div[ch]
             if (ch not in self.sums and self.noise_div_rms[ch] == earlier.noise_div_rms[ch]
-                    and np.array_equal(self.signal_div[ch], earlier.signal_div[ch])):
+                    and row.shape == earlier_row.shape and row[0] == earlier_row[0]
+                    and bool((row == earlier_row).all())):
                 self.sums[ch] = sums
 
     def values(self, divisions: np.ndarray) -> np.ndarray:
         """Channel values of screen positions (3, n), in place of `divisions`."""
-        position, scale, offset = _screen_placement(self.setup)
+        position, scale, offset = self.placement
         divisions -= position
         divisions *= scale
         divisions += offset
@@ -338,12 +344,13 @@ def screen(steady: physics.SteadyState, setup: ScopeSetup, sensor_gains: np.ndar
     signals = pipeline.signals(signals, ctx)   # a new array (the effects keep none), so in place below
     signals *= ctx.display_gain[:, None]
     channel_values = _couple(signals, sampled, steady.frequency_hz)
-    position, scale, offset = _screen_placement(setup)
+    position, scale, offset = placement = _screen_placement(setup)
     signal_div = channel_values - offset
     signal_div /= scale
     signal_div += position
     shown_hz = steady.frequency_hz * (sampled.horizontal_scale_s / setup.horizontal_scale_s)   # on the labelled times
-    return Screen(setup, shown_hz, signal_div, pipeline.noise_div_rms(ctx), channel_values=channel_values)
+    return Screen(setup, shown_hz, signal_div, pipeline.noise_div_rms(ctx), channel_values=channel_values,
+                  placement=placement)
 
 
 def _unplaced(setup: ScopeSetup) -> ScopeSetup:
@@ -364,8 +371,8 @@ def placed_anew(shown: Screen, setup: ScopeSetup, pipeline: fx.EffectPipeline,
             or _unplaced(setup) != _unplaced(shown.setup)):
         return None
     noise_div_rms = pipeline.noise_div_rms(_context(setup, vibrometer_range_mps_per_v, start_s, acquisition_period_s))
-    position, scale, offset = _screen_placement(setup)
-    old_position, old_scale, old_offset = _screen_placement(shown.setup)
+    position, scale, offset = placement = _screen_placement(setup)
+    old_position, old_scale, old_offset = shown.placement
     signal_div, sums = shown.signal_div.copy(), {}
     for ch in range(len(setup.channels)):
         if (position[ch, 0], scale[ch, 0], offset[ch, 0], noise_div_rms[ch]) == \
@@ -374,7 +381,7 @@ def placed_anew(shown: Screen, setup: ScopeSetup, pipeline: fx.EffectPipeline,
                 sums[ch] = shown.sums[ch]
         else:
             signal_div[ch] = (shown.channel_values[ch] - offset[ch]) / scale[ch] + position[ch]
-    return Screen(setup, shown.frequency_hz, signal_div, noise_div_rms, sums, shown.channel_values)
+    return Screen(setup, shown.frequency_hz, signal_div, noise_div_rms, sums, shown.channel_values, placement)
 
 
 def record_of(shown: Screen, settings: fx.DigitizerSettings, rng: np.random.Generator | None) -> Record:
@@ -470,7 +477,7 @@ def sum_of_records(signal: np.ndarray, sigma: float, averages: int,
         direct = np.full(steps.shape, summed_variance >= MIN_SPREAD_LSB**2 or variance == 0.0)
         steps *= averages
         return SumOfRecords(steps, math.sqrt(max(summed_variance - 1.0 / 12.0, 0.0)), direct, quantised=True)
-    mean_offset, step_variance = _step_moments(sigma / lsb)
+    moments = _step_moments(sigma / lsb)
     if all_far and not _some_sum_is_direct(sigma / lsb, averages):
         # Every record is drawn (few averages of noise within a step or so: 4 or 8 of the
         # search's): the per-sample moments below would only tell so, at a third of the cost
@@ -483,17 +490,17 @@ def sum_of_records(signal: np.ndarray, sigma: float, averages: int,
     index = weight.astype(np.intp)
     np.minimum(index, STEP_PHASES - 1, out=index)
     weight -= index
-    rest, after = 1.0 - weight, index + 1   # take: the same gather as [index], faster
-    mean = mean_offset.take(index)
-    mean *= rest
+    rest = 1.0 - weight
+    # The tabulated (mean offset, variance) pairs at the index and the one after (the table
+    # shifted by one), each gathered as a pair: two gathers where each moment's own took
+    # four, the same numbers. take: the same gather as [index], faster.
+    below, above = moments.take(index, axis=0), moments[1:].take(index, axis=0)
+    mean = np.multiply(below[:, 0], rest)
     mean += steps
-    upper = mean_offset.take(after)
-    upper *= weight
+    upper = np.multiply(above[:, 0], weight)
     mean += upper
-    variance = step_variance.take(index)
-    variance *= rest
-    step_variance.take(after, out=upper)
-    upper *= weight
+    variance = np.multiply(below[:, 1], rest)
+    np.multiply(above[:, 1], weight, out=upper)
     variance += upper
     if not all_far:
         near = ~((signal >= low) & (signal <= high))
@@ -579,17 +586,21 @@ def _kept_average(total: np.ndarray, averages: int, settings: fx.DigitizerSettin
         return total
     steps_per_sample_step = round(lsb / average_lsb)
     mean = total
-    mean *= steps_per_sample_step / averages   # in average steps, exact
     if steps_per_sample_step % averages == 0:
         # N no more than the steps' ratio (16 averages of 8-bit samples in 13 bits): the
         # mean is whole average steps, there is nothing to round and no tie. Adding 0
-        # turns the -0.0 of a rounded-down sum into the +0.0 the rounding gives.
+        # turns the -0.0 of a rounded-down sum into the +0.0 the rounding gives. Both counts
+        # are powers of two (bit depths, NUMAVG), so is their ratio: scaling by it is exact,
+        # and one product by it times the average step gives the numbers that the mean in
+        # average steps, then its product by the step, gave (one pass over the record).
+        mean *= steps_per_sample_step // averages * average_lsb
         mean += 0.0
-        mean *= average_lsb
         return mean
+    mean *= steps_per_sample_step / averages   # in average steps, exact
     kept = mean + 0.5
     np.floor(kept, out=kept)
-    ties = np.flatnonzero(kept - mean == 0.5)
+    # In place of the mean, no longer needed: the distance to the kept step, 0.5 at a tie.
+    ties = np.flatnonzero(np.subtract(kept, mean, out=mean) == 0.5)
     if ties.size:
         kept[ties] -= rng.integers(0, 2, size=ties.size)
     kept *= average_lsb
@@ -602,13 +613,16 @@ STEP_PHASES = 4096
 
 
 @functools.lru_cache(maxsize=64)
-def _step_moments(sigma_steps: float) -> tuple[np.ndarray, np.ndarray]:
+def _step_moments(sigma_steps: float) -> np.ndarray:
     """Away from the clip, one quantised record's mean minus the signal, and its variance
     (in steps), at STEP_PHASES + 1 evenly spaced phases of the signal within a step
-    (0..1): both have period one step."""
+    (0..1): both have period one step. Rows are phases, the two columns the moments
+    (read-only: shared by every screen of this noise)."""
     grid = np.linspace(0.0, 1.0, STEP_PHASES + 1)
     mean, variance = _level_moments(grid, sigma_steps)
-    return mean - grid, variance
+    moments = np.stack([mean - grid, variance], axis=1)
+    moments.flags.writeable = False
+    return moments
 
 
 @functools.lru_cache(maxsize=256)
@@ -618,7 +632,7 @@ def _some_sum_is_direct(sigma_steps: float, averages: int) -> bool:
     step. A sample's v is interpolated between two of `_step_moments`' tabulated values,
     with weights summing to one: it is no more than their largest (the margin covers the
     rounding) and no less than half their smallest, which must not be 0."""
-    _, step_variance = _step_moments(sigma_steps)
+    step_variance = _step_moments(sigma_steps)[:, 1]
     return bool(averages * float(step_variance.max()) * (1.0 + 1e-9) >= MIN_SPREAD_LSB**2
                 or float(step_variance.min()) <= 1e-300)
 
@@ -724,10 +738,11 @@ def whole_periods(times_s: np.ndarray, frequency_hz: float, first_only: bool = F
 EXTREME_KINDS = frozenset({"PK2", "AMP", "MAX", "MINI", "HIGH", "LOW", "FREQ", "PERI"})
 
 
-def measure(record: Record, source: str, kind: str, extremes: tuple[float, float] | None = None) -> float:
-    """The scope's immediate measurement `kind` of `source` on the record; `extremes`:
-    the trace's (lowest, highest) if already known (`extremes_of`)."""
-    trace = record.trace(source)
+def measure(trace: np.ndarray, setup: ScopeSetup, frequency_hz: float, kind: str,
+            extremes: tuple[float, float] | None = None) -> float:
+    """The scope's immediate measurement `kind` of `trace`, samples of a record of `setup`
+    (from its first) showing a drive of `frequency_hz`; `extremes`: the trace's (lowest,
+    highest) if already known (`extremes_of`)."""
     if kind in EXTREME_KINDS:
         lowest, highest = extremes or extremes_of(trace)
         if kind in ("PK2", "AMP"):  # AMP (high - low) equals PK2 on a sine without overshoot
@@ -736,16 +751,16 @@ def measure(record: Record, source: str, kind: str, extremes: tuple[float, float
             return highest
         if kind in ("MINI", "LOW"):
             return lowest
-        frequency_hz = crossing_frequency_hz(trace, record.setup.times_s(), 0.5 * (highest + lowest))
-        return frequency_hz if kind == "FREQ" else 1.0 / frequency_hz
+        crossing_hz = crossing_frequency_hz(trace, setup.times_s(), 0.5 * (highest + lowest))
+        return crossing_hz if kind == "FREQ" else 1.0 / crossing_hz
     if kind == "MEAN":
         return float(trace.mean())
     if kind == "CME":  # cycle mean: over the first period
-        return float(trace[whole_periods(record.setup.times_s(), record.frequency_hz, True)].mean())
+        return float(trace[whole_periods(setup.times_s(), frequency_hz, True)].mean())
     if kind == "RMS":
         return float(np.sqrt(np.mean(trace**2)))
     if kind == "CRM":  # cycle RMS: over the first period
-        return float(np.sqrt(np.mean(trace[whole_periods(record.setup.times_s(), record.frequency_hz, True)] ** 2)))
+        return float(np.sqrt(np.mean(trace[whole_periods(setup.times_s(), frequency_hz, True)] ** 2)))
     raise ValueError(f"measurement type {kind!r} is not simulated")
 
 
