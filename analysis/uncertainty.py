@@ -260,9 +260,11 @@ def _resonance_drift(numerator: pd.DataFrame, denominator: pd.DataFrame,
     x from its velocity ratio r on the side its slope s says, 1 / h = |s| / sqrt(r^2 (1 - r^2));
     a P0, whose e is its setting's offset from the mounted plate's resonance: set on the
     re-centred peak, x = 0, with P_t's 1 / h^2 = s_t^2 / (r^2 (1 - r^2))), and the shunt's
-    cross term by its first order (`_power_per_resonance_hz`). R read = R (1 + d_t) / (1 + d_0),
+    cross term S_x = c x P_m by its first order, -c e / h of the power at P_t and at P0 alike
+    (`_cross_slope_share`: S_x is 0 on the peak, its slope in x is not; moved at P_t alone it
+    left R high by 2 R_s w C0 e_0 / h). R read = R (1 + d_t) / (1 + d_0),
     so the stored value is R read (1 + d_0) / (1 + d_t). u and B at first order: |D| u on the
-    slope (D = `_power_per_resonance_hz`), sqrt(4 e^2 u^2 + 2 u^4) / h^2 on the top (the
+    slope (D = 2 (1 - d - d_C) s + c / h), sqrt(4 e^2 u^2 + 2 u^4) / h^2 on the top (the
     variance of a squared normal); B: |D| B and (B^2 + 2 |e| B) / h^2. A phase's points (one
     drift, the same plate) average: their terms add linearly."""
     slope_t = slopes.loc[numerator.index].to_numpy(float)
@@ -275,7 +277,6 @@ def _resonance_drift(numerator: pd.DataFrame, denominator: pd.DataFrame,
     for points in (numerator, denominator):
         slope = slopes.loc[points.index].to_numpy(float)
         drift_hz, drift_u_hz, drift_bound_hz = (points[c].to_numpy(float) for c in resonance_drift.DRIFT_COLUMNS)
-        per_hz = _power_per_resonance_hz(points, slope)
         top = np.where(slope == 0, curvature, 0.0)
         # a point on the slope has 0 < r < 1 (`detuning_slope_per_hz` gives no slope elsewhere)
         ratio = np.where(slope == 0, 0.5, np.asarray(points.get("target_velocity_ratio", np.nan), dtype=float))
@@ -283,7 +284,9 @@ def _resonance_drift(numerator: pd.DataFrame, denominator: pd.DataFrame,
         offset_x = np.where(slope == 0, 0.0, -np.sign(slope) * np.sqrt(1.0 - ratio**2) / ratio)
         inverse_h = np.where(slope == 0, math.sqrt(curvature), np.abs(slope) / spread)
         resonant = _resonant_share(points)
-        cross_per_hz = per_hz - resonant * 2.0 * slope   # the shunt's cross term, at first order
+        # the shunt's cross term S_x = c x P_m at first order: a drift moves x by e / h, P0's too
+        cross_per_hz = _cross_slope_share(points) * inverse_h
+        per_hz = resonant * 2.0 * slope + cross_per_hz
         shifts.append(float(np.mean(resonant * lorentzian_power_change(offset_x, drift_hz * inverse_h)
                                     - cross_per_hz * drift_hz)))
         u_rel = math.hypot(u_rel, float(np.mean(np.abs(per_hz) * drift_u_hz
@@ -291,6 +294,15 @@ def _resonance_drift(numerator: pd.DataFrame, denominator: pd.DataFrame,
         bound_rel += float(np.mean(np.abs(per_hz) * drift_bound_hz
                                    + top * (drift_bound_hz**2 + 2 * np.abs(drift_hz) * drift_bound_hz)))
     return (1.0 + shifts[1]) / (1.0 + shifts[0]), u_rel, bound_rel
+
+
+def _cross_slope_share(points: pd.DataFrame | dict) -> np.ndarray:
+    """Each point's slope of the shunt's cross term in the detuning x over its power,
+    (dS_x / dx) / P = -2 R_s w C0 P_m / P (`dielectric.shunt_cross_power_w`; 0 where the run
+    stores no shunt). It is the same on the slope and at the peak, where S_x itself is 0."""
+    power = np.asarray(points["power_w"], dtype=float)
+    slope_w = np.asarray(points.get("shunt_cross_slope_w", np.full_like(power, np.nan)), dtype=float)
+    return np.where(np.isfinite(slope_w), slope_w / power, 0.0)
 
 
 def lorentzian_power_change(offset_x, shift_x):
