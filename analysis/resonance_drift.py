@@ -24,13 +24,16 @@ at its edge: a one-sided 95 % bound carried as a bias bound stacked two 95 % mar
 Pt/P0 covered 99.2 % of 40 benches. The estimate follows the power the plate took: small at
 a low level (the plate barely warms), and it keeps growing under the last level's Pt, which
 the readings on a broad top (the nine-column plate's, Q ~ 56) need not see: there a
-re-centring's walk of 5 Hz steps changes the velocity by less than its scatter, and a
-closing re-centring read -5 +- 5 Hz on a seeded bench whose plate had fallen 17 Hz. Those
-readings still scale the estimate down: its re-centrings start from the search's resonance
-at every level and mostly keep a best reading within a step or two of it, so on twelve
-seeded benches the nine-column plate's Pt estimates are 79-81 % of the simulated plate's
-drift (the tolerances' middle alone, 103-105 %; its re-centrings' vertices alone, 90-91 %). The
-readings alone (below) bound the drift where no scene gives the plate.
+re-centring's walk of 5 Hz steps stops wherever one step's rise hides in its readings'
+scatter, up to about 19 Hz from the peak (`recentring_blind_hz`), and its vertex and best
+reading, within a step of the stop, cannot see past it. Its re-centrings start from the
+last resonance, so on twelve seeded benches the nine-column plate's closing re-centrings
+read 7 Hz of its 21 Hz fall, 2-3 times their fits' u off (the one- and four-column plates'
+within their u). Weighed with their fits' u alone they scaled its Pt estimates to 69-71 % of
+the simulated plate's drift; each re-centring's reading carries that zone as a rectangle
+(`_readings`, the run's re-centring step from its settings), and they are 94-95 % (the
+one-column plate's 94-96 % to 97-98 %, the four-column's 98-99 % to 100-102 %). The readings
+alone (below) bound the drift where no scene gives the plate.
 
 Type A, from the run's dated readings of its resonance (`_drift_bounds`: a bias bound,
 `resonance_drift_bound_hz`, and no estimate; the same readings scale the warming): its
@@ -76,8 +79,8 @@ from scipy.special import ndtri
 
 from squeezebench.analysis import dielectric, plate_warming, provenance
 from squeezebench.analysis.budgets import COVERAGE_PROBABILITY, P95_FACTOR
-from squeezebench.analysis.resonance_searches import (SEARCH_STOP_SPREAD, mechanical_q_from_sweep, peak_of_readings,
-                                                      reading_scatter_rel)
+from squeezebench.analysis.resonance_searches import (SEARCH_STOP_SPREAD, SearchSetup, mechanical_q_from_sweep,
+                                                      peak_of_readings, reading_scatter_rel)
 from squeezebench.plates import warming
 from squeezebench.plates.laminate import ALUMINIUM_TABLE2
 
@@ -105,7 +108,8 @@ DRIFT_COLUMNS = ("resonance_drift_hz", "resonance_drift_u_hz", "resonance_drift_
 
 
 def with_resonance_drift(points: pd.DataFrame, searches: pd.DataFrame | None = None,
-                         closings: pd.DataFrame | None = None, scenes: dict[str, dict] | None = None) -> pd.DataFrame:
+                         closings: pd.DataFrame | None = None, scenes: dict[str, dict] | None = None,
+                         setups: dict[str, SearchSetup] | None = None) -> pd.DataFrame:
     """`points` (Fig. 2 points, any runs) with how far the resonance had moved from the run's
     first reading of it when each point was read: `resonance_drift_hz`, its estimate (signed:
     negative where it fell; a P0 or closing row, its setting's offset), `resonance_drift_u_hz`
@@ -118,7 +122,10 @@ def with_resonance_drift(points: pd.DataFrame, searches: pd.DataFrame | None = N
     not hold them (they store no power, so a frame of powers leaves them out). `scenes`: the
     run's scene copies (`RunData.scenes`); where one gives the plate, its drift is estimated
     from its warming under the run's own stored powers (`_warming_estimates`), else bounded
-    by its readings alone (`_drift_bounds`)."""
+    by its readings alone (`_drift_bounds`). `setups`: the runs' search settings
+    (`resonance_searches.search_setups`), whose re-centring step widens each re-centring's
+    reading by how far from the peak its walk may stop (`recentring_blind_hz`); without them
+    the readings keep their fits' u alone."""
     out = points.copy()
     for column in DRIFT_COLUMNS:
         out[column] = 0.0
@@ -130,9 +137,11 @@ def with_resonance_drift(points: pd.DataFrame, searches: pd.DataFrame | None = N
     for run_name, group in out.groupby("run_name", sort=False):
         scene = scenes.get(provenance.scene_files(group.iloc[:1]).iat[0], {}) if scenes else {}
         dimensions = _plate_dimensions(scene)
+        setup = (setups or {}).get(run_name)
+        step_hz = None if setup is None else setup.tracking_step_hz
         # a scene that names no shunt: the whole stored power heats the plate, a bound
-        drift = _drift_bounds if dimensions is None else functools.partial(
-            _warming_estimates, dimensions=dimensions, shunt_ohm=dielectric.shunt_ohm(scene) or 0.0)
+        drift = functools.partial(_drift_bounds, step_hz=step_hz) if dimensions is None else functools.partial(
+            _warming_estimates, dimensions=dimensions, shunt_ohm=dielectric.shunt_ohm(scene) or 0.0, step_hz=step_hz)
         *values, source = drift(group, searches[searches["run_name"] == run_name],
                                 closings[closings["run_name"] == run_name])
         for column, value in zip(DRIFT_COLUMNS, values):
@@ -141,16 +150,40 @@ def with_resonance_drift(points: pd.DataFrame, searches: pd.DataFrame | None = N
     return out
 
 
-def best_reading_scatter_hz(frequency_hz: float, searches: pd.DataFrame) -> float:
+def best_reading_scatter_hz(top: tuple[float, float] | None) -> float:
     """How far a golden section's best reading on the flat top strays (Hz): the stop spread
-    with the search's readings' scatter and Q (`resonance_searches`); NaN where the search
-    holds too few readings to tell."""
+    with the search's readings' scatter and Q (`resonance_searches`), `top` their half-width
+    and relative scatter (`_top_of`); NaN where the search holds too few readings to tell."""
+    return math.nan if top is None else top[0] * SEARCH_STOP_SPREAD * math.sqrt(top[1])
+
+
+def _top_of(frequency_hz: float, searches: pd.DataFrame) -> tuple[float, float] | None:
+    """The half-width h = f / (2 Q) of the top the search swept (Q its sweep's) and its
+    readings' relative scatter s; None where the search holds too few readings to tell."""
     sweep = _sweep(searches)
     scatter = reading_scatter_rel(sweep) if len(sweep) else None
     q = mechanical_q_from_sweep(frequency_hz, sweep) if len(sweep) else None
     if scatter is None or not q:
-        return math.nan
-    return frequency_hz / (2.0 * q) * SEARCH_STOP_SPREAD * math.sqrt(scatter)
+        return None
+    return frequency_hz / (2.0 * q), scatter
+
+
+def recentring_blind_hz(half_width_hz: float, scatter_rel: float, step_hz: float) -> float:
+    """How far from the peak a re-centring's walk (`protocols.resonance.track_resonance`:
+    readings a step either side of its centre, moving toward the larger until the centre is
+    the largest) may stop for its readings' relative scatter s (Hz).
+
+    Near the top v = v0 / sqrt(1 + x^2) ~ v0 (1 - x^2 / 2), x = (f - f0) / h, h = f / (2 Q):
+    with the centre at x and the step e = step / h, the reading a step toward the peak exceeds
+    the centre's by v0 (|x| e - e^2 / 2). The walk stops where the difference of two readings,
+    of scatter sqrt(2) s v0, hides that: |x| e < P95_FACTOR sqrt(2) s (+ e / 2, the step's own
+    quantization, which the golden section and the vertex within a step of the stop resolve),
+    i.e. within P95_FACTOR sqrt(2) s h^2 / step of the peak. A re-centring from the last
+    resonance that has moved less than that reads about where it started, and its golden
+    section and vertex, within a step of the stop, cannot see past it: on a broad top (the
+    nine-column plate's, Q ~ 56, h ~ 340 Hz) that is tens of hertz for 5 Hz steps, on a
+    narrow one (Q ~ 300) under a hertz."""
+    return P95_FACTOR * math.sqrt(2.0) * scatter_rel * half_width_hz**2 / step_hz
 
 
 def _sweep(searches: pd.DataFrame) -> pd.DataFrame:
@@ -181,12 +214,18 @@ def folded_quantile(offset_hz, u_hz, probability: float = COVERAGE_PROBABILITY) 
     return np.where(spread, np.where(far, one_sided, folded), offset_hz)
 
 
-def _readings(points: pd.DataFrame, searches: pd.DataFrame,
-              closings: pd.DataFrame) -> tuple[pd.DataFrame, bool, float]:
+def _readings(points: pd.DataFrame, searches: pd.DataFrame, closings: pd.DataFrame,
+              step_hz: float | None = None) -> tuple[pd.DataFrame, bool, float]:
     """The run's dated readings of its resonance (time_s, frequency_hz, u_hz), in time order,
     whether its re-centrings were recorded as such, and the u of a best reading on its flat
-    top they were read with (`best_reading_scatter_hz`)."""
-    best_u = best_reading_scatter_hz(float(points["generator_frequency_hz"].iloc[0]), searches)
+    top they were read with (`best_reading_scatter_hz`). A re-centring walked by `step_hz`
+    reads the peak anywhere within `recentring_blind_hz` of it, a rectangle (GUM 4.3.7) added
+    to its reading's u: a broad top's re-centrings stop near where they started (the last
+    resonance), and as dated readings of a drift they would state it near 0 (on twelve seeded
+    benches the nine-column plate's closing re-centrings read 7 Hz of the plate's 21 Hz fall,
+    2-3 times their fits' u off; the one- and four-column plates' within theirs)."""
+    top = _top_of(float(points["generator_frequency_hz"].iloc[0]), searches)
+    best_u = best_reading_scatter_hz(top)
     rows = []
     if "sweep" in searches:
         sweep = _sweep(searches)
@@ -199,6 +238,8 @@ def _readings(points: pd.DataFrame, searches: pd.DataFrame,
     if len(closings):
         at_resonance = pd.concat([at_resonance, closings], ignore_index=True)
     at_setting, tracked = _setting_readings(at_resonance, best_u)
+    if step_hz and top is not None:
+        at_setting["u_hz"] = np.hypot(at_setting["u_hz"], recentring_blind_hz(*top, step_hz) / math.sqrt(3.0))
     rows += list(at_setting.itertuples(index=False, name=None))
     readings = pd.DataFrame(rows, columns=["time_s", "frequency_hz", "u_hz", "power_w"], dtype=float)
     readings = readings[np.isfinite(readings["time_s"]) & np.isfinite(readings["frequency_hz"])]
@@ -246,10 +287,11 @@ def _rate_after(readings: pd.DataFrame) -> tuple[float, float]:
     return float(rates[chosen]), float(rates_u[chosen])
 
 
-def _drift_bounds(points: pd.DataFrame, searches: pd.DataFrame, closings: pd.DataFrame) -> DriftColumns:
+def _drift_bounds(points: pd.DataFrame, searches: pd.DataFrame, closings: pd.DataFrame,
+                  step_hz: float | None = None) -> DriftColumns:
     """Each point's bound on |drift| (Hz), for one run, from its readings alone: no estimate
     (0, its u 0), the bound `resonance_drift_bound_hz`, and the source of the bounds."""
-    readings, tracked, _ = _readings(points, searches, closings)
+    readings, tracked, _ = _readings(points, searches, closings, step_hz)
     at_s = points["bench_time_s"].to_numpy(float)
     nothing = np.zeros(len(points))
     if readings.empty or not np.all(np.isfinite(at_s)):
@@ -369,7 +411,8 @@ def _warming_scale(held_j: np.ndarray, readings: pd.DataFrame, times_s: np.ndarr
 
 
 def _warming_estimates(points: pd.DataFrame, searches: pd.DataFrame, closings: pd.DataFrame,
-                       dimensions: tuple[float, float, float, float], shunt_ohm: float = 0.0) -> DriftColumns:
+                       dimensions: tuple[float, float, float, float], shunt_ohm: float = 0.0,
+                       step_hz: float | None = None) -> DriftColumns:
     """Each point's drift estimate and its u (Hz) from the plate's warming, for one run.
 
     The plate warms as one body (`plates.warming`): its resonance has fallen by k E(t), E the
@@ -400,9 +443,9 @@ def _warming_estimates(points: pd.DataFrame, searches: pd.DataFrame, closings: p
     h)^2."""
     times_s, power_w = _power_history(points, searches, closings, shunt_ohm=shunt_ohm)
     at_s = points["bench_time_s"].to_numpy(float)
-    readings, _, best_u = _readings(points, searches, closings)
+    readings, _, best_u = _readings(points, searches, closings, step_hz)
     if len(times_s) < 2 or readings.empty or not np.all(np.isfinite(at_s)):
-        return _drift_bounds(points, searches, closings)
+        return _drift_bounds(points, searches, closings, step_hz)
     frequency_hz, reference_s = float(readings["frequency_hz"].iat[0]), float(readings["time_s"].iat[0])
     low, high = warming.drift_per_joule_range_hz(frequency_hz, *dimensions)
     shortest, longest = warming.time_constant_range_s(*dimensions)

@@ -130,9 +130,11 @@ def reading_scatter_rel(sweep: pd.DataFrame) -> float | None:
 
 @dataclass(frozen=True)
 class SearchSetup:
-    """What a run's resonance search was set to (RUN_DIR/settings/<run>.json)."""
+    """What a run's resonance search was set to (RUN_DIR/settings/<run>.json): its final
+    bracket and the step its re-centrings walk by (None where the settings hold none)."""
 
     tolerance_hz: float
+    tracking_step_hz: float | None = None
 
 
 def search_setups(run: RunData) -> dict[str, SearchSetup]:
@@ -142,5 +144,7 @@ def search_setups(run: RunData) -> dict[str, SearchSetup]:
         settings = json.loads(path.read_text(encoding="utf-8"))
         search = settings.get("parameters", {}).get("search")
         if search:
-            setups[settings["run"]] = SearchSetup(float(search["tolerance_hz"]))
+            step_hz = search.get("tracking_step_hz")
+            setups[settings["run"]] = SearchSetup(float(search["tolerance_hz"]),
+                                                  None if step_hz is None else float(step_hz))
     return setups

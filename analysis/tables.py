@@ -22,6 +22,7 @@ from squeezebench.analysis import provenance
 from squeezebench.analysis.budgets import COVERAGE_FACTOR, Budget
 from squeezebench.paper import paper_table, printed_step
 from squeezebench.plates.specifications import SPECIFICATIONS
+from squeezebench.analysis.resonance_searches import search_setups
 from squeezebench.analysis.rundata import RunData
 from squeezebench.analysis.waveforms import Estimate, PointReduction, reduce_record
 from squeezebench.errors import UserError
@@ -518,7 +519,8 @@ def detuning_points(run: RunData) -> pd.DataFrame:
     from squeezebench.analysis import dielectric, resonance_drift   # they read points through this module
 
     points = dielectric.with_dielectric_power(with_scope_fallback(protocol_points(run, "detuning")), run.scenes)
-    return resonance_drift.with_resonance_drift(points, resonance_search_points(run), scenes=run.scenes)
+    return resonance_drift.with_resonance_drift(points, resonance_search_points(run), scenes=run.scenes,
+                                                setups=search_setups(run))
 
 
 def resonance_search_points(run: RunData) -> pd.DataFrame | None:

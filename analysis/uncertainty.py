@@ -699,7 +699,7 @@ def stored_points(run: RunData) -> tuple[pd.DataFrame | None, Deskew | None]:
         detuning = run.protocol("detuning")   # the closing re-centrings store no power: read them from the rows
         closings = detuning[detuning["detuning_phase"] == "closing"] if "detuning_phase" in detuning else None
         drifts = resonance_drift.with_resonance_drift(points[fig2], resonance_search_points(run), closings,
-                                                      run.scenes)
+                                                      run.scenes, search_setups(run))
         points = pd.concat([drifts, points[~fig2]]).loc[points.index]
     return points, deskew
 

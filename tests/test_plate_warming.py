@@ -15,6 +15,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from squeezebench.analysis import resonance_drift
+from squeezebench.analysis.resonance_searches import SearchSetup
 from squeezebench.plates import warming
 from squeezebench.plates.specifications import HEATING_NOMINAL
 
@@ -194,3 +195,34 @@ def test_seeded_warming_plates_read_with_scatter_are_covered_by_the_estimates_u(
         ratios += list(np.abs(drift["resonance_drift_hz"].to_numpy() + true_hz)[last]
                        / drift["resonance_drift_u_hz"].to_numpy()[last])
     assert np.mean(np.array(ratios) <= 1.96) >= 0.95 and np.percentile(ratios, 95) > 1.0
+
+
+def test_recentrings_that_stayed_in_a_broad_tops_blind_zone_no_longer_pull_the_estimate_toward_no_drift():
+    """On a broad top (Q 56, h 340 Hz) a re-centring walked by 5 Hz steps stops wherever its
+    readings' scatter (3e-4) hides one step's rise, up to `recentring_blind_hz` (19 Hz) from
+    the peak: re-centrings that read the resonance where the search found it, the plate
+    having fallen by up to 17 Hz, are readings of "no drift" only to within that zone.
+    Weighed with their fits' u alone (no search settings: the analysis before) they scale the
+    estimate toward 0, under 70 % of the last level's drift (62 %); with the re-centring step
+    the zone widens them, and the estimate is within 15 % of the drift and half its u."""
+    rng = np.random.default_rng(46)
+    q, scatter_rel, step_hz = 56.0, 3e-4, 5.0
+    nominal = _nominal()
+    points, scenes, searches, true_hz = _warming_run(F0_HZ * 2e-4 / nominal.heat_capacity_j_per_k,
+                                                     nominal.time_constant_s, 3.0)
+    at_setting = points["detuning_phase"].isin(resonance_drift.AT_SETTING)
+    points = points.assign(tracked_resonance_frequency_hz=np.where(at_setting, F0_HZ, math.nan))
+    sweep_hz = F0_HZ + np.arange(-300.0, 301.0, 20.0)
+    velocity = ((1.0 + rng.normal(0.0, scatter_rel, len(sweep_hz)))
+                / np.sqrt(1.0 + (2.0 * q * (sweep_hz / F0_HZ - 1.0)) ** 2))
+    searches = pd.concat([searches, pd.DataFrame({"run_name": "fig2_nine_column", "sweep": True, "bench_time_s": 0.0,
+                                                  "generator_frequency_hz": sweep_hz, "velocity_pp_mps": velocity})],
+                         ignore_index=True)
+    last = ((points["velocity_level_pp_mps"] == 0.375) & ~at_setting).to_numpy()
+    assert np.max(true_hz[last]) < resonance_drift.recentring_blind_hz(F0_HZ / (2.0 * q), scatter_rel, step_hz)
+    setups = {"fig2_nine_column": SearchSetup(tolerance_hz=0.2, tracking_step_hz=step_hz)}
+    before, after = (resonance_drift.with_resonance_drift(points, searches, scenes=scenes, setups=given)
+                     for given in (None, setups))
+    assert np.all(-before["resonance_drift_hz"].to_numpy()[last] < 0.7 * true_hz[last])
+    estimate, u = after["resonance_drift_hz"].to_numpy()[last], after["resonance_drift_u_hz"].to_numpy()[last]
+    assert np.all(np.abs(estimate + true_hz[last]) <= np.minimum(0.15 * true_hz[last], 0.5 * u))

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import replace
+from types import SimpleNamespace
 
 import numpy as np
 import pandas as pd
@@ -18,12 +19,14 @@ from hypothesis import strategies as st
 from squeezebench import paths
 from squeezebench.analysis import resonance_drift
 from squeezebench.analysis.budgets import P95_FACTOR, Budget
+from squeezebench.analysis.resonance_searches import SEARCH_STOP_SPREAD
 from squeezebench.analysis.rundata import load_run
 from squeezebench.analysis.tables import detuning_points, detuning_table
 from squeezebench.report.physics import _detuning_grid
 from squeezebench.analysis.uncertainty import DRIFT_TERM, power_ratio_budget, run_uncertainties
 from squeezebench.protocols.bench_errors import _power_ratios, _truths
 from squeezebench.protocols.campaign import run_campaign
+from squeezebench.protocols.resonance import SearchSettings, track_resonance
 from squeezebench.protocols.variants import campaign_with_effects
 from squeezebench.yamlfiles import dump_yaml, load_strict
 
@@ -264,3 +267,25 @@ def _budget_of(run, level: float) -> Budget:
     level_points = points[points["velocity_level_pp_mps"] == level]
     return power_ratio_budget(level_points[level_points["detuning_phase"] == "regained"],
                               level_points[level_points["detuning_phase"] == "resonance"])
+
+
+def test_a_recentring_walk_on_a_broad_top_stops_within_its_blind_zone_of_the_peak():
+    """`track_resonance` on a Q 56 top (h 340 Hz) read with a relative scatter of 3e-4, walked
+    by 5 Hz steps from a resonance that has since moved anywhere within
+    `recentring_blind_hz` (19 Hz): 95 % of its readings or more land within that zone of the
+    peak, where more than 5 % land beyond 1.96 times a golden section's stop spread on the
+    same top (`best_reading_scatter_hz`'s u, which such a reading was weighed with)."""
+    q, scatter_rel, step_hz, start_hz = 56.0, 3e-4, 5.0, 38000.0
+    half_width_hz = start_hz / (2.0 * q)
+    blind_hz = resonance_drift.recentring_blind_hz(half_width_hz, scatter_rel, step_hz)
+    search = SearchSettings(36000.0, 39000.0, tolerance_hz=0.2, tracking_step_hz=step_hz)
+    rng = np.random.default_rng(46)
+    errors_hz = []
+    for peak_hz in start_hz + rng.uniform(-blind_hz, blind_hz, 200):
+        def measure_at(frequency_hz, peak_hz=peak_hz):
+            velocity = (1.0 + rng.normal(0.0, scatter_rel)) / math.hypot(1.0, (frequency_hz - peak_hz) / half_width_hz)
+            return SimpleNamespace(generator_frequency_hz=frequency_hz, velocity_pp_mps=velocity)
+        errors_hz.append(track_resonance(measure_at, start_hz, search).frequency_hz - peak_hz)
+    errors_hz = np.abs(errors_hz)
+    assert np.mean(errors_hz <= blind_hz) >= 0.95
+    assert np.mean(errors_hz > P95_FACTOR * half_width_hz * SEARCH_STOP_SPREAD * math.sqrt(scatter_rel)) > 0.05
