@@ -21,12 +21,16 @@ import ctypes.util
 import functools
 import importlib
 import math
+import multiprocessing
+import multiprocessing.context
+import os
 import threading
 import time
 import warnings
 from typing import Any, Callable, Iterable, Iterator, TypeVar
 
 import joblib
+from joblib.externals.loky.backend import context as loky_context
 from threadpoolctl import threadpool_limits
 from tqdm import tqdm
 
@@ -41,7 +45,13 @@ warnings.filterwarnings("ignore", message=r"\d+ tasks (have been successfully ex
                         category=UserWarning, module="joblib")
 
 
-def _indexed(function: Callable[[T], Any], index: int, item: T) -> tuple[int, Any]:
+def _indexed(function: Callable[[T], Any], index: int, item: T,
+             environment: dict[str, str] | None = None) -> tuple[int, Any]:
+    """`function(item)` at one BLAS thread, in `environment` (the caller's: a worker forked
+    from `preload`'s server otherwise has the server's, and loky reuses its workers)."""
+    if environment is not None and environment != os.environ:
+        os.environ.clear()
+        os.environ.update(environment)
     try:
         with threadpool_limits(limits=1):   # the same sums in the same order wherever it runs (module docstring)
             return index, function(item)
@@ -122,8 +132,10 @@ def map_unordered(function: Callable[[T], Any], items: Iterable[T], workers: int
     with _backend(workers, scheduler) as n_jobs, \
             tqdm(total=len(items), desc=description, unit="task", disable=None if bar else True,
                  leave=False, **bar_width()) as progress:
+        environment = dict(os.environ) if scheduler is None and n_jobs > 1 and worker_context() is not None else None
         run = joblib.Parallel(n_jobs=min(n_jobs, len(items)), return_as="generator_unordered")
-        for index, result in run(joblib.delayed(_indexed)(function, i, item) for i, item in enumerate(items)):
+        for index, result in run(joblib.delayed(_indexed)(function, i, item, environment)
+                                 for i, item in enumerate(items)):
             progress.update()
             yield items[index], result
 
@@ -167,6 +179,58 @@ class Beside:
 
 
 _warming: list[threading.Thread] = []   # the `warm` threads not yet waited for
+_preloaded: list[str] = []   # the modules `preload` named, in order
+
+
+class _ForkedProcess(multiprocessing.context.ForkServerProcess):
+    """A worker forked from `preload`'s server that runs in the environment of the process
+    starting it, with loky's `env` (the threads joblib gives a worker) over it, as a spawned
+    one does, where the server's children would keep the server's: a drawing process started
+    afresh sees the plate cache set since (`SQUEEZEBENCH_CACHE`)."""
+
+    def __init__(self, *args: Any, env: dict[str, str] | None = None, **kwargs: Any) -> None:
+        super().__init__(*args, **kwargs)
+        self._environment = {**os.environ, **(env or {})}
+
+    def run(self) -> None:
+        os.environ.clear()
+        os.environ.update(self._environment)
+        super().run()
+
+
+class _ForkedContext(multiprocessing.context.ForkServerContext):
+    Process = _ForkedProcess
+
+
+_forked: list[_ForkedContext] = []   # `preload`'s context, once it has been called
+
+
+def preload(*modules: str) -> None:
+    """This process's local workers (the trials' and the report's drawing processes,
+    `worker_context`) start as forks of one server process that imported `modules` once
+    (multiprocessing's forkserver, through loky), instead of each spawned to import NumPy,
+    pandas, SciPy and the package again: about 1 CPU-s a worker, and `reproduce` starts
+    three, `plan` and `study` two (one server's import for all). Call it before the first
+    worker starts: a server already running keeps what it imported, and the workers import
+    the rest themselves. The server is a fresh interpreter that forks nothing but itself, so
+    its workers are as safe beside this process's threads as spawned ones; a task's numerical
+    libraries run at one thread either way (`_indexed`). Where there is no forkserver
+    (Windows) the workers are spawned as before."""
+    if "forkserver" not in multiprocessing.get_all_start_methods():
+        return
+    _preloaded.extend(module for module in modules if module not in _preloaded)
+    multiprocessing.set_forkserver_preload(list(_preloaded))
+    if not _forked:
+        _forked.append(_ForkedContext())
+        # joblib hands loky no context of ours: its workers are the server's plain children,
+        # and each task brings its caller's environment instead (`map_unordered`, `_indexed`)
+        loky_context.set_start_method("forkserver", force=True)
+
+
+def worker_context() -> multiprocessing.context.BaseContext | None:
+    """The multiprocessing context local workers start in: `preload`'s, else None (loky's own,
+    which spawns each)."""
+    return _forked[0] if _forked else None
 
 
 def _import(module: str) -> None:
@@ -179,12 +243,14 @@ def _import(module: str) -> None:
 
 
 def warm(workers: int, module: str) -> None:
-    """Start the `workers` local processes a later `map_unordered` uses, each importing
-    `module` (what its tasks need), on a thread: the workers spawn and import (most of a
-    second) while this process reads its inputs and imports its own, instead of after.
-    The map waits for it before it starts, so the two never share the executor at once."""
+    """Start the `workers` local processes a later `map_unordered` uses, forked from a server
+    that imported `module` (what their tasks need, `preload`), on a thread: the server starts
+    and imports (most of a second) while this process reads its inputs and imports its own,
+    instead of after. The map waits for it before it starts, so the two never share the
+    executor at once."""
     if workers < 2:
         return
+    preload(module)
 
     def spawn_and_import() -> None:
         try:

@@ -20,6 +20,7 @@ from typing import Any, Callable
 from joblib.externals.loky import ProcessPoolExecutor
 
 from squeezebench.disk_cache import cache_dir
+from squeezebench.protocols.parallel import worker_context
 
 #: The drawing processes, kept for the next report of this process (a second report, a test
 #: session): (size, executor). Not joblib's reusable executor, which the trials resize.
@@ -32,8 +33,9 @@ def _executor(size: int, fresh: bool = False) -> ProcessPoolExecutor:
     if fresh or _EXECUTOR is None or _EXECUTOR[0] != size:
         if _EXECUTOR is not None:
             _EXECUTOR[1].shutdown(wait=False)
-        # loky's processes: spawned, not forked, so safe beside the threads of a busy parent
-        _EXECUTOR = (size, ProcessPoolExecutor(max_workers=size))
+        # loky's processes: spawned, or forked from `parallel.preload`'s server, never from this
+        # busy parent, so safe beside its threads
+        _EXECUTOR = (size, ProcessPoolExecutor(max_workers=size, context=worker_context()))
     return _EXECUTOR[1]
 
 

@@ -33,6 +33,12 @@ STUDY_REPEATS = 6
 REPRODUCE_EXPERIMENTS = tuple(e for e in STUDY_EXPERIMENTS if not e.startswith("systematics_campaign"))
 
 
+#: What `reproduce`'s worker processes run: the study's trials on the simulated bench (its
+#: VISA library), and the report's plate solves and figures (`parallel.preload`).
+REPRODUCE_WORKER_MODULES = ("squeezebench.protocols.accuracy_study", "pyvisa_simbench",
+                            "squeezebench.report.run_report")
+
+
 def say(args: argparse.Namespace, message: str) -> None:
     """A result line for a person: on stdout, unless `-q` or `--json`."""
     if not (args.quiet or getattr(args, "json", False)):
@@ -325,8 +331,12 @@ def cmd_reproduce(args: argparse.Namespace) -> int:
     from squeezebench.report.run_report import prepare, solve_ahead, write_report
     from squeezebench.protocols.accuracy_study import run_study
     from squeezebench.protocols.campaign import run_campaign
-    from squeezebench.protocols.parallel import Beside
+    from squeezebench.protocols.parallel import Beside, preload
 
+    from squeezebench.workers import default_workers
+
+    if (args.workers or default_workers()) > 1:   # three workers (the drawing process, the study's
+        preload(*REPRODUCE_WORKER_MODULES)       # two): one import of what they run, not three
     coverage_benches = _coverage_benches(args)
     if not args.resume:
         _clear_previous_reproduction(args, args.out)

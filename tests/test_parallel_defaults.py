@@ -119,3 +119,33 @@ def test_every_task_hands_its_freed_heap_back(monkeypatch):
     monkeypatch.setattr(parallel, "TRIM_INTERVAL_S", 3600.0)
     assert len(dict(parallel.map_unordered(_fails_on_two, [0, 1, 3], workers=1, bar=False))) == 3
     assert trims == [0, 0, 0]
+
+
+def _imported_parent_and_variable(module: str) -> tuple[bool, int, str | None]:
+    return module in sys.modules, os.getppid(), os.environ.get("SQUEEZEBENCH_TEST_VARIABLE")
+
+
+#: colorsys: a module nothing the workers run imports of itself.
+_PRELOADED = """
+import os, sys
+sys.path.insert(0, {tests!r})
+from squeezebench.protocols import parallel
+from test_parallel_defaults import _imported_parent_and_variable as task
+parallel.preload("colorsys")
+before = [r for _, r in parallel.map_unordered(task, ["colorsys"] * 4, workers=2, bar=False)]
+os.environ["SQUEEZEBENCH_TEST_VARIABLE"] = "set since"
+after = [r for _, r in parallel.map_unordered(task, ["colorsys"] * 4, workers=2, bar=False)]
+print(all(imported for imported, _, _ in before), all(parent != os.getpid() for _, parent, _ in before),
+      {{variable for _, _, variable in before}}, {{variable for _, _, variable in after}})
+"""
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="the forkserver is what Linux runs")
+def test_preloaded_workers_are_forked_from_a_server_that_imported_their_modules():
+    """`parallel.preload`: the workers start with what the server imported (one import for
+    all of them), as its children, not this process's (loky's spawned workers are); and a
+    task runs in its caller's environment of the moment, not the server's."""
+    env = {k: v for k, v in os.environ.items() if k != "SQUEEZEBENCH_TEST_VARIABLE"}
+    done = subprocess.run([sys.executable, "-c", _PRELOADED.format(tests=os.path.dirname(__file__))],
+                          env=env, capture_output=True, text=True, timeout=120, check=True)
+    assert done.stdout.split("\n")[0] == "True True {None} {'set since'}"
