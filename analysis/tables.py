@@ -11,8 +11,10 @@ one dtype per column: a value that could not be obtained is NaN, with the row's 
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass, replace
+from typing import Callable
 
 import numpy as np
 import pandas as pd
@@ -218,17 +220,18 @@ def _side_by_side(run: RunData | None, table: str, paper_name: str, items: dict[
             continue
         points = items.get(item)
         calibrated = provenance.calibrated_on(run, points) if run is not None and points is not None else {}
+        used = reachable_points(points) if points is not None and len(points) else None
+        budgets = functools.cache(functools.partial(_point_budgets, used))   # once for all of the item's quantities
         for quantity in quantities:
             printed = paper[(paper["item"] == item) & (paper["quantity"] == quantity)]
             row = {"table": table, "item": item, "quantity": quantity, "unit": UNITS[quantity],
                    "value": math.nan, "std_uncertainty": math.nan, "expanded_uncertainty": math.nan,
                    "scope_value": math.nan, "origin": "", "calibrated_on": "", "status": NOT_MEASURED}
-            if points is not None and len(points):
-                used = reachable_points(points)
+            if used is not None:
                 if used.empty:
                     row["status"] = NOT_REACHABLE
                 else:
-                    row.update(_quantity_value(used, quantity, constant_columns))
+                    row.update(_quantity_value(used, quantity, constant_columns, budgets))
                     if quantity == "frequency_hz":
                         row.update(_with_search_uncertainty(row, used, searches))
                     row["status"] = "measured"
@@ -253,7 +256,8 @@ def _origin(points: pd.DataFrame, quantity: str, calibrated: dict[str, str], run
     return provenance.point_origin(points, run.manifest, run.scenes)
 
 
-def _quantity_value(points: pd.DataFrame, quantity: str, constant_columns: dict[str, str]) -> dict:
+def _quantity_value(points: pd.DataFrame, quantity: str, constant_columns: dict[str, str],
+                    budgets: Callable[[], pd.DataFrame]) -> dict:
     if quantity in constant_columns:
         value = float(points[constant_columns[quantity]].iloc[0])
         return {"value": value, "std_uncertainty": 0.0, "expanded_uncertainty": 0.0}
@@ -267,23 +271,34 @@ def _quantity_value(points: pd.DataFrame, quantity: str, constant_columns: dict[
              "voltage_vpp": points.get("scope_piezo_voltage_pp_v", points["piezo_voltage_setpoint_vpp"]),
              }.get(quantity)
     return {"value": estimate.value, "std_uncertainty": estimate.std_uncertainty,
-            "expanded_uncertainty": _expanded(points, column, estimate),
+            "expanded_uncertainty": _expanded(points, column, estimate, budgets),
             "scope_value": float(scope.mean()) if scope is not None else math.nan}
 
 
-def _expanded(points: pd.DataFrame, column: str, estimate: Estimate) -> float:
-    """Expanded uncertainty of a mean of points from their whole budgets
-    (analysis.uncertainty: noise and the instruments' specifications); the amplitude
-    takes the velocity's relative budget. The noise averages down over the points, the
-    specifications' part (the same instruments for every point) does not. k is the points'
-    own (`Budget.coverage_factor`, their median); without a budget, 2 times the noise alone."""
+def _point_budgets(points: pd.DataFrame) -> pd.DataFrame:
+    """The points with their budgets' uncertainties (`uncertainty.with_expanded_uncertainties`)."""
     # analysis.uncertainty reads reduced points through analysis.calibration, which imports
     # this module: imported here, once both are loaded.
     from squeezebench.analysis import uncertainty
 
+    return uncertainty.with_expanded_uncertainties(points)
+
+
+def _expanded(points: pd.DataFrame, column: str, estimate: Estimate,
+              budgets: Callable[[], pd.DataFrame] | None = None) -> float:
+    """Expanded uncertainty of a mean of points from their whole budgets
+    (analysis.uncertainty: noise and the instruments' specifications); the amplitude
+    takes the velocity's relative budget. The noise averages down over the points, the
+    specifications' part (the same instruments for every point) does not. k is the points'
+    own (`Budget.coverage_factor`, their median); without a budget, 2 times the noise alone.
+    `budgets()`: `_point_budgets(points)` (worked out here without it), which holds every
+    budgeted quantity's, asked once for all of a table item's quantities (Tables 3 and 4 of
+    the paper run: 6 times, where 27)."""
+    from squeezebench.analysis import uncertainty   # here, as in `_point_budgets`
+
     budgeted = "velocity_pp_mps" if column == "amplitude_pp_m" else column
     if budgeted in uncertainty.POINT_BUDGETS and points["power_w_u"].notna().all():
-        budgets = uncertainty.with_expanded_uncertainties(points)
+        budgets = _point_budgets(points) if budgets is None else budgets()
         combined = budgets[f"{budgeted}_u_combined"]
         k = float((budgets[f"{budgeted}_U"] / combined).median())
         noise = points[f"{budgeted}_u"]
