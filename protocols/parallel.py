@@ -183,10 +183,11 @@ _preloaded: list[str] = []   # the modules `preload` named, in order
 
 
 class _ForkedProcess(multiprocessing.context.ForkServerProcess):
-    """A worker forked from `preload`'s server that runs in the environment of the process
-    starting it, with loky's `env` (the threads joblib gives a worker) over it, as a spawned
+    """A drawing process (`report.drawing`) forked from `preload`'s server that runs in the
+    environment of the process starting it (with loky's `env` over it, if any), as a spawned
     one does, where the server's children would keep the server's: a drawing process started
-    afresh sees the plate cache set since (`SQUEEZEBENCH_CACHE`)."""
+    afresh sees the plate cache set since (`SQUEEZEBENCH_CACHE`). joblib's workers cannot be
+    given it (it hands loky no context): their tasks bring the caller's environment instead."""
 
     def __init__(self, *args: Any, env: dict[str, str] | None = None, **kwargs: Any) -> None:
         super().__init__(*args, **kwargs)
