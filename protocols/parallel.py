@@ -24,6 +24,7 @@ import math
 import multiprocessing
 import multiprocessing.context
 import os
+import signal
 import threading
 import time
 import warnings
@@ -93,12 +94,34 @@ def _return_freed_memory() -> None:
     _last_trim_s = time.monotonic()
 
 
+def start_resource_trackers() -> None:
+    """Start multiprocessing's and loky's resource trackers (if not running) deaf to SIGHUP,
+    before the first local worker needs them. Python starts them with SIGINT and SIGTERM
+    blocked, so a stop sent to the whole process group leaves them be, but not SIGHUP: a hang
+    up killed them, the next worker call started new ones that knew none of the names the
+    first had registered, and each name unregistered printed a KeyError traceback under the
+    run's own stop message. The blocked mask is inherited by the trackers alone (it is
+    restored here at once); they still end when this process closes their pipe."""
+    from multiprocessing import resource_tracker   # here: only a run with local workers needs them
+    from joblib.externals.loky.backend import resource_tracker as loky_tracker
+    if not hasattr(signal, "pthread_sigmask"):
+        return
+    blocked = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGHUP})
+    try:
+        resource_tracker.ensure_running()
+        loky_tracker.ensure_running()
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, blocked)
+
+
 @contextlib.contextmanager
 def _backend(workers: int, scheduler: Any) -> Iterator[int]:
     """joblib's configuration for the run; yields the n_jobs to ask for."""
     if scheduler is None:
         if workers < 1:
             raise ValueError(f"workers must be at least 1, got {workers!r}")
+        if workers > 1:
+            start_resource_trackers()
         # loky: fresh processes that survive between calls (no fork of a busy parent).
         with joblib.parallel_config(backend="loky" if workers > 1 else "sequential"):
             yield workers

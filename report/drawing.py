@@ -20,7 +20,7 @@ from typing import Any, Callable
 from joblib.externals.loky import ProcessPoolExecutor
 
 from squeezebench.disk_cache import cache_dir
-from squeezebench.protocols.parallel import worker_context
+from squeezebench.protocols.parallel import start_resource_trackers, worker_context
 
 #: The drawing processes, kept for the next report of this process (a second report, a test
 #: session): (size, executor). Not joblib's reusable executor, which the trials resize.
@@ -35,6 +35,7 @@ def _executor(size: int, fresh: bool = False) -> ProcessPoolExecutor:
             _EXECUTOR[1].shutdown(wait=False)
         # loky's processes: spawned, or forked from `parallel.preload`'s server, never from this
         # busy parent, so safe beside its threads
+        start_resource_trackers()
         _EXECUTOR = (size, ProcessPoolExecutor(max_workers=size, context=worker_context()))
     return _EXECUTOR[1]
 

@@ -149,3 +149,28 @@ def test_preloaded_workers_are_forked_from_a_server_that_imported_their_modules(
     done = subprocess.run([sys.executable, "-c", _PRELOADED.format(tests=os.path.dirname(__file__))],
                           env=env, capture_output=True, text=True, timeout=120, check=True)
     assert done.stdout.split("\n")[0] == "True True {None} {'set since'}"
+
+
+_HANG_UP = """
+import os, signal, time
+from multiprocessing import resource_tracker
+from joblib.externals.loky.backend import resource_tracker as loky_tracker
+from squeezebench.protocols import parallel
+list(parallel.map_unordered(abs, [-1, -2, -3], workers=2, bar=False))
+trackers = [resource_tracker._resource_tracker._pid, loky_tracker._resource_tracker._pid]
+for pid in trackers:
+    os.kill(pid, signal.SIGHUP)
+time.sleep(0.5)
+print([os.waitpid(pid, os.WNOHANG)[0] == 0 for pid in trackers],
+      signal.SIGHUP in signal.pthread_sigmask(signal.SIG_BLOCK, []))
+"""
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="a hang-up is a POSIX signal")
+def test_the_workers_resource_trackers_outlive_a_hang_up_and_this_process_still_takes_it():
+    """`parallel.start_resource_trackers`: a SIGHUP to the whole process group (a closed
+    terminal, `kill -HUP -PGID`) used to kill the trackers, and the ones started in their place
+    printed a KeyError traceback per name under the run's stop message; they now outlive it,
+    and the process that started them still gets its hang-ups (its mask is as it was)."""
+    done = subprocess.run([sys.executable, "-c", _HANG_UP], capture_output=True, text=True, timeout=120, check=True)
+    assert done.stdout.split("\n")[0] == "[True, True] False"
