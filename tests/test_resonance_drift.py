@@ -9,6 +9,7 @@ from __future__ import annotations
 import math
 from dataclasses import replace
 from types import SimpleNamespace
+from unittest import mock
 
 import numpy as np
 import pandas as pd
@@ -26,6 +27,7 @@ from squeezebench.report.physics import _detuning_grid
 from squeezebench.analysis.uncertainty import DRIFT_TERM, power_ratio_budget, run_uncertainties
 from squeezebench.protocols.bench_errors import _power_ratios, _truths
 from squeezebench.protocols.campaign import run_campaign
+from squeezebench.protocols import resonance as resonance_protocol
 from squeezebench.protocols.resonance import SearchSettings, track_resonance
 from squeezebench.protocols.variants import campaign_with_effects
 from squeezebench.yamlfiles import dump_yaml, load_strict
@@ -289,3 +291,65 @@ def test_a_recentring_walk_on_a_broad_top_stops_within_its_blind_zone_of_the_pea
     errors_hz = np.abs(errors_hz)
     assert np.mean(errors_hz <= blind_hz) >= 0.95
     assert np.mean(errors_hz > P95_FACTOR * half_width_hz * SEARCH_STOP_SPREAD * math.sqrt(scatter_rel)) > 0.05
+
+
+def _walk_stops_hz(start_offsets_hz, rng, half_width_hz: float, scatter_rel: float, step_hz: float) -> np.ndarray:
+    """Where `track_resonance`'s walk stops (its centre when it hands over to the golden
+    section, whose bracket is a step either side of it), as offsets from the peak, for walks
+    started `start_offsets_hz` from it on a Lorentzian top read with seeded relative scatter."""
+    search = SearchSettings(36000.0, 39000.0, tolerance_hz=0.2, tracking_step_hz=step_hz)
+    peak_hz, stops_hz = 38000.0, []
+    bracket = {}
+
+    def golden(velocity, low_hz, high_hz, tolerance_hz):
+        bracket["centre"] = 0.5 * (low_hz + high_hz)
+        return original(velocity, low_hz, high_hz, tolerance_hz)
+
+    original = resonance_protocol.golden_section_maximum
+    def measure_at(frequency_hz):
+        velocity = (1.0 + rng.normal(0.0, scatter_rel)) / math.hypot(1.0, (frequency_hz - peak_hz) / half_width_hz)
+        return SimpleNamespace(generator_frequency_hz=frequency_hz, velocity_pp_mps=velocity)
+    with mock.patch.object(resonance_protocol, "golden_section_maximum", golden):
+        for start_hz in start_offsets_hz:
+            track_resonance(measure_at, peak_hz + start_hz, search)
+            stops_hz.append(bracket["centre"] - peak_hz)
+    return np.array(stops_hz)
+
+
+BROAD_TOP = (38000.0 / 112.0, 3e-4, 5.0)   # the nine-column plate's: h (Q 56), s, the re-centring step
+
+
+@pytest.mark.parametrize("start_hz", [0.0, 10.0, 19.0, 40.0])
+def test_the_walks_stop_distribution_is_track_resonances(start_hz):
+    """`recentring_stop_offsets_hz` against 400 seeded walks of the real `track_resonance`
+    from the same start on the nine-column plate's broad top: the mean stop within 1 Hz, its
+    RMS about the peak within 8 %, the 95th percentile of |offset| within a step, and the
+    probabilities sum to 1 within 1e-3 (the walks that give up lost)."""
+    offsets_hz, probabilities = resonance_drift.recentring_stop_offsets_hz(*BROAD_TOP, start_hz)
+    stops_hz = _walk_stops_hz(np.full(400, start_hz), np.random.default_rng(46), *BROAD_TOP)
+    assert abs(probabilities.sum() - 1.0) < 1e-3
+    assert np.sum(probabilities * offsets_hz) == pytest.approx(stops_hz.mean(), abs=1.0)
+    assert math.sqrt(np.sum(probabilities * offsets_hz**2)) == pytest.approx(math.sqrt(np.mean(stops_hz**2)), rel=0.08)
+    order = np.argsort(np.abs(offsets_hz))
+    derived_p95_hz = np.abs(offsets_hz[order])[np.searchsorted(np.cumsum(probabilities[order]), 0.95)]
+    assert abs(derived_p95_hz - np.percentile(np.abs(stops_hz), 95)) <= BROAD_TOP[2]
+
+
+def test_a_recentrings_u_is_its_walks_rms_not_a_rectangle_at_the_blind_zones_bound():
+    """Walks from where the resonance was, the peak having moved anywhere within
+    `recentring_blind_hz` (19 Hz) since (400 seeded `track_resonance` walks): where they stop
+    is not uniform out to that bound. The rectangle the readings carried before
+    (bound / sqrt(3), 11.1 Hz) is over 1.5 times the walks' RMS offset from the peak;
+    `recentring_stop_u_hz`, each start's u, is within 8 % of it (in quadrature over the
+    starts), and from starts beyond the zone (40-60 Hz) within 8 % of theirs."""
+    rng = np.random.default_rng(46)
+    bound_hz = resonance_drift.recentring_blind_hz(*BROAD_TOP)
+    starts_hz = rng.uniform(-bound_hz, bound_hz, 400)
+    walks_rms_hz = math.sqrt(np.mean(_walk_stops_hz(starts_hz, rng, *BROAD_TOP) ** 2))
+    assert bound_hz / math.sqrt(3.0) > 1.5 * walks_rms_hz
+    derived_hz = math.sqrt(np.mean([resonance_drift.recentring_stop_u_hz(*BROAD_TOP, float(start)) ** 2
+                                    for start in np.linspace(0.0, bound_hz, 9)]))
+    assert derived_hz == pytest.approx(walks_rms_hz, rel=0.08)
+    far_hz = rng.uniform(40.0, 60.0, 400)
+    assert resonance_drift.recentring_stop_u_hz(*BROAD_TOP, 50.0) == pytest.approx(
+        math.sqrt(np.mean(_walk_stops_hz(far_hz, rng, *BROAD_TOP) ** 2)), rel=0.08)
