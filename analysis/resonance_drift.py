@@ -306,6 +306,11 @@ def folded_quantile(offset_hz, u_hz, probability: float = COVERAGE_PROBABILITY) 
     return np.where(spread, np.where(far, one_sided, folded), offset_hz)
 
 
+#: A run's dated readings of its resonance (`_readings`): walk_u_hz, a re-centring's u from
+#: where its walk stopped (NaN: none, or no step stored), is in u_hz already.
+READING_COLUMNS = ["time_s", "frequency_hz", "u_hz", "power_w", "walk_u_hz"]
+
+
 def _readings(points: pd.DataFrame, searches: pd.DataFrame, closings: pd.DataFrame,
               step_hz: float | None = None, drift_at=None) -> tuple[pd.DataFrame, bool, float]:
     """The run's dated readings of its resonance (time_s, frequency_hz, u_hz), in time order,
@@ -336,10 +341,12 @@ def _readings(points: pd.DataFrame, searches: pd.DataFrame, closings: pd.DataFra
         closing = (at_resonance["detuning_phase"] == "closing").to_numpy() if "detuning_phase" in at_resonance else \
             np.zeros(len(at_resonance), bool)
         search_s = min((row[0] for row in rows), default=math.nan)
-        at_setting["u_hz"] = np.hypot(at_setting["u_hz"], _walk_stop_u_hz(
-            at_setting["time_s"].to_numpy(float), closing, search_s, top, step_hz, drift_at))
-    rows += list(at_setting.itertuples(index=False, name=None))
-    readings = pd.DataFrame(rows, columns=["time_s", "frequency_hz", "u_hz", "power_w"], dtype=float)
+        at_setting["walk_u_hz"] = _walk_stop_u_hz(at_setting["time_s"].to_numpy(float), closing, search_s, top,
+                                                  step_hz, drift_at)
+        at_setting["u_hz"] = np.hypot(at_setting["u_hz"], at_setting["walk_u_hz"])
+    rows = [(*row, math.nan) for row in rows] + list(at_setting.reindex(columns=READING_COLUMNS).itertuples(
+        index=False, name=None))
+    readings = pd.DataFrame(rows, columns=READING_COLUMNS, dtype=float)
     readings = readings[np.isfinite(readings["time_s"]) & np.isfinite(readings["frequency_hz"])]
     readings["u_hz"] = readings["u_hz"].fillna(0.0)   # a scatter the search cannot tell: the estimate alone
     return readings.sort_values("time_s", kind="stable").reset_index(drop=True), tracked, best_u
@@ -463,9 +470,14 @@ CHI2_95_ONE = 3.841
 WARMING_SOURCE = ("Type A/B, the plate's warming under the run's {n} dated stored powers (lumped thermal model, "
                   "plates.warming, tau {tau_low:.0f}-{tau_high:.0f} s within the heating tolerances) scaled by "
                   "the run's {readings} dated readings of its resonance (the scale they fit, weighed with the "
-                  "tolerances' {low:.3g}-{high:.3g} Hz/J), estimated and corrected for: its u the scale's, the "
+                  "tolerances' {low:.3g}-{high:.3g} Hz/J{blind}), estimated and corrected for: its u the scale's, the "
                   "spread over the time constants the readings allow and the room's (up to {room:g} K/h), "
                   "the last two rectangles")
+#: What WARMING_SOURCE says of the re-centrings' readings (`_walk_stop_u_hz`), where the run's
+#: search settings give their step and its search the top's width and scatter.
+BLIND_ZONE = ("; each re-centring's reading with where its {step:g} Hz walk stops, blind within {blind:.3g} Hz of the peak "
+              "(95 %): {low:.2g}-{high:.2g} Hz RMS, its start placed by the warming the tolerances predict")
+BLIND_ZONE_UNKNOWN = "; no re-centring's blind zone taken (no re-centring, its step or the search's readings stored)"
 
 
 def _plate_dimensions(scene: dict) -> tuple[float, float, float, float] | None:
@@ -586,6 +598,7 @@ def _warming_estimates(points: pd.DataFrame, searches: pd.DataFrame, closings: p
     at_s = points["bench_time_s"].to_numpy(float)
     readings, _, best_u = _readings(points, searches, closings, step_hz,
                                     _prior_drift(times_s, power_w, points, dimensions) if len(times_s) > 1 else None)
+    walk_u_hz = readings["walk_u_hz"].dropna()
     if len(times_s) < 2 or readings.empty or not np.all(np.isfinite(at_s)):
         return _drift_bounds(points, searches, closings, step_hz)
     frequency_hz, reference_s = float(readings["frequency_hz"].iat[0]), float(readings["time_s"].iat[0])
@@ -618,6 +631,9 @@ def _warming_estimates(points: pd.DataFrame, searches: pd.DataFrame, closings: p
         estimate_hz[at_setting] = setting_hz[at_setting] - frequency_hz + reference_hz
         u_hz[at_setting] = np.sqrt(readings["u_hz"].iat[0] ** 2 + reference_u_hz**2 + own["u_hz"].fillna(0.0).to_numpy() ** 2
                                    + (setting_hz[at_setting] - own["frequency_hz"].to_numpy()) ** 2)
+    top = _top_of(float(points["generator_frequency_hz"].iloc[0]), searches)
+    blind = BLIND_ZONE_UNKNOWN if walk_u_hz.empty else BLIND_ZONE.format(
+        step=step_hz, blind=recentring_blind_hz(*top, step_hz), low=walk_u_hz.min(), high=walk_u_hz.max())
     return estimate_hz, u_hz, np.zeros(len(points)), WARMING_SOURCE.format(
-        n=len(times_s), tau_low=shortest, tau_high=longest, readings=len(readings), low=low, high=high,
+        n=len(times_s), tau_low=shortest, tau_high=longest, readings=len(readings), blind=blind, low=low, high=high,
         room=3600.0 * warming.ROOM_DRIFT_K_PER_S)

@@ -231,7 +231,8 @@ def test_recentrings_walked_on_a_broad_top_no_longer_pull_the_estimate_toward_no
     readings (`_walked`, six seeded runs), each taking its walk's stop (`recentring_stop_u_hz`),
     give the last level's estimates within 15 % of the drift and 0.6 u of it, and weighed
     with their fits' u alone (no search settings: the analysis of two sessions ago) lower
-    ones, nearer no drift, on every run."""
+    ones, nearer no drift, on every run; the estimate's source names the walk's blind zone
+    (from the scatter the search reads)."""
     rng = np.random.default_rng(46)
     q, scatter_rel, step_hz = 56.0, 3e-4, 5.0
     nominal = _nominal()
@@ -251,4 +252,6 @@ def test_recentrings_walked_on_a_broad_top_no_longer_pull_the_estimate_toward_no
                            for given in (None, setups))
         estimate, u = after["resonance_drift_hz"].to_numpy()[last], after["resonance_drift_u_hz"].to_numpy()[last]
         assert np.all(np.abs(estimate + true_hz[last]) <= np.minimum(0.15 * true_hz[last], 0.6 * u))
+        assert "5 Hz walk stops, blind within" in after["resonance_drift_source"].iat[0]
+        assert "no re-centring's blind zone taken" in before["resonance_drift_source"].iat[0]
         assert np.all(-before["resonance_drift_hz"].to_numpy()[last] < -estimate)
