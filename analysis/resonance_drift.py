@@ -33,11 +33,12 @@ within their u). Weighed with their fits' u alone they scaled its Pt estimates t
 the simulated plate's drift; with that zone as a rectangle at its 95 % bound on each
 reading they were 94-95 % (the one-column plate's 94-96 % to 97-98 %, the four-column's
 98-99 % to 100-102 %). Where the walk stops is not uniform out to that bound: each reading
-now carries its walk's own stop (`recentring_stop_offsets_hz`, the walk's rule as a chain;
+now carries its walk's own stop beyond the golden section's bracket
+(`recentring_stop_offsets_hz`, the walk's rule as a chain; `recentring_stop_u_hz`;
 `_walk_stop_u_hz`, its start placed against the peak by the warming the tolerances
-predict), 4 Hz RMS from a start at the peak, 6 Hz from 10 Hz off, 8.8 Hz from beyond the
-zone, where the rectangle said 11.1 Hz from anywhere (the run's re-centring step from its
-settings). The readings
+predict): on that top 3.3 Hz RMS from a start at the peak, 5.6 Hz from 10 Hz off, 8.6 Hz
+from 30 Hz, on a narrow top (the one- and four-column plates') 0-0.2 Hz, where the rectangle
+said 11.1 Hz and up to 1.2 Hz from anywhere (the run's re-centring step from its settings). The readings
 alone (below) bound the drift where no scene gives the plate.
 
 Type A, from the run's dated readings of its resonance (`_drift_bounds`: a bias bound,
@@ -260,21 +261,35 @@ START_PHASES = 8
 
 @functools.lru_cache(maxsize=4096)
 def recentring_stop_u_hz(half_width_hz: float, scatter_rel: float, step_hz: float, moved_hz: float) -> float:
-    """The standard uncertainty (Hz) a re-centring's reading takes from where its walk stops:
-    the RMS offset from the peak (`recentring_stop_offsets_hz`; about the peak, not about its
-    mean, which the estimate does not correct for) of a walk that starts where the resonance
-    was `moved_hz` ago (the peak has moved that far since the start was read). The start's
-    place on the walk's lattice against the peak is not known to a step: the mean square is
-    averaged over START_PHASES starts spread evenly over a step about `moved_hz` (a rectangle).
-    A start within the blind zone (`recentring_blind_hz`) stops about where it started, so
-    the reading's error is bounded by the move since the start; a start beyond it walks in
-    and stops in the zone's near side."""
+    """The standard uncertainty (Hz) a re-centring's reading takes from where its walk stopped,
+    beyond what the golden section after it (`track_resonance`, on the stop c +- a step) and
+    the reading's own u (its vertex's fit, or `best_reading_scatter_hz`) already hold, for a
+    walk that starts where the resonance was `moved_hz` ago (the peak has moved that far since).
+
+    A stop within a step of the peak has it inside the golden section's bracket, which finds
+    it to its own scatter, the reading's u. A stop farther has the peak outside the bracket,
+    and the rule that stopped the walk, a step's rise hidden in the readings' scatter, hides
+    the bracket's slope from the golden section too: the reading stays about at the stop, off
+    the peak by c. So the term is the RMS of c over the stops beyond a step
+    (`recentring_stop_offsets_hz`; about the peak, not about their mean, which the estimate
+    does not correct for): sqrt(sum over |c| > step of p_c c^2). The start's place on the
+    walk's lattice against the peak is not known to a step: that mean square is averaged over
+    START_PHASES starts spread evenly over a step about `moved_hz` (a rectangle). A start
+    within the blind zone (`recentring_blind_hz`) mostly stops within a step of where it
+    started, so the term is bounded by the move since the start; a start beyond it walks in
+    and stops on the zone's near side. On a narrow top (the one- and four-column plates', h ~
+    60 Hz) every stop is within a step of the peak and the term is 0, where the rectangle at
+    the zone's bound gave up to 1.3 Hz; on the nine-column plate's broad top the readings of
+    300 seeded walks scatter by 2.9, 5.1 and 7.8 Hz from starts 0, 10 and 30 Hz off, their u
+    with this term is 4.7, 6.5 and 9.3 Hz (the term 3.3, 5.6 and 8.6 Hz), with the rectangle
+    11.5-11.6 Hz."""
     phases = (np.arange(START_PHASES) + 0.5) / START_PHASES - 0.5
     mean_squares = []
     for phase in phases:
         offsets, probabilities = recentring_stop_offsets_hz(half_width_hz, scatter_rel, step_hz,
                                                             abs(moved_hz) + phase * step_hz)
-        mean_squares.append(np.sum(probabilities * offsets**2) / np.sum(probabilities))
+        beyond = np.abs(offsets) > step_hz
+        mean_squares.append(np.sum(probabilities[beyond] * offsets[beyond] ** 2) / np.sum(probabilities))
     return float(math.sqrt(np.mean(mean_squares)))
 
 

@@ -20,7 +20,7 @@ from hypothesis import strategies as st
 from squeezebench import paths
 from squeezebench.analysis import resonance_drift
 from squeezebench.analysis.budgets import P95_FACTOR, Budget
-from squeezebench.analysis.resonance_searches import SEARCH_STOP_SPREAD
+from squeezebench.analysis.resonance_searches import SEARCH_STOP_SPREAD, peak_of_readings
 from squeezebench.analysis.rundata import load_run
 from squeezebench.analysis.tables import detuning_points, detuning_table
 from squeezebench.report.physics import _detuning_grid
@@ -335,21 +335,43 @@ def test_the_walks_stop_distribution_is_track_resonances(start_hz):
     assert abs(derived_p95_hz - np.percentile(np.abs(stops_hz), 95)) <= BROAD_TOP[2]
 
 
-def test_a_recentrings_u_is_its_walks_rms_not_a_rectangle_at_the_blind_zones_bound():
-    """Walks from where the resonance was, the peak having moved anywhere within
-    `recentring_blind_hz` (19 Hz) since (400 seeded `track_resonance` walks): where they stop
-    is not uniform out to that bound. The rectangle the readings carried before
-    (bound / sqrt(3), 11.1 Hz) is over 1.5 times the walks' RMS offset from the peak;
-    `recentring_stop_u_hz`, each start's u, is within 8 % of it (in quadrature over the
-    starts), and from starts beyond the zone (40-60 Hz) within 8 % of theirs."""
+def _readings_of_walks(start_hz: float, half_width_hz: float, scatter_rel: float, step_hz: float,
+                       rng) -> tuple[np.ndarray, np.ndarray]:
+    """300 re-centrings by the real `track_resonance` from `start_hz` off the peak (its lattice
+    phase uniform over a step), read as `protocols.detuning` stores them and `_readings` weighs
+    them: the vertex of the readings' top with its fit's u where that strays less than a best
+    reading, else the best reading with `best_reading_scatter_hz`. Their errors and u (Hz)."""
+    search = SearchSettings(30000.0, 45000.0, tolerance_hz=0.2, tracking_step_hz=step_hz)
+    best_u = resonance_drift.best_reading_scatter_hz((half_width_hz, scatter_rel))
+    peak_hz, errors_hz, u_hz = 38000.0, [], []
+    def measure_at(frequency_hz):
+        velocity = (1.0 + rng.normal(0.0, scatter_rel)) / math.hypot(1.0, (frequency_hz - peak_hz) / half_width_hz)
+        return SimpleNamespace(generator_frequency_hz=frequency_hz, velocity_pp_mps=velocity)
+    for phase in rng.uniform(-0.5, 0.5, 300):
+        found = track_resonance(measure_at, peak_hz + start_hz + phase * step_hz, search)
+        fit = peak_of_readings([p.generator_frequency_hz for p in found.points], [p.velocity_pp_mps for p in found.points])
+        vertex = fit is not None and fit.std_uncertainty_hz <= best_u
+        errors_hz.append((fit.frequency_hz if vertex else found.frequency_hz) - peak_hz)
+        u_hz.append(fit.std_uncertainty_hz if vertex else best_u)
+    return np.array(errors_hz), np.array(u_hz)
+
+
+@pytest.mark.parametrize("top", [BROAD_TOP, (62.0, 3e-4, 5.0), (62.0, 1e-3, 5.0)])
+def test_a_recentrings_u_holds_its_readings_without_a_rectangle_at_the_blind_zones_bound(top):
+    """Re-centrings by the real walk from starts 0, 10 and 30 Hz off the peak, on the
+    nine-column plate's broad top and on a narrow one (h 62 Hz, the one-column plate's; its
+    blind zone under a step): the reading's u with its walk's stop (`recentring_stop_u_hz` in
+    quadrature with its own) is at least 0.9 times the readings' RMS error and at most 1.7
+    times it (0.96-1.22 on the narrow top; on the broad one it over-states by 19-63 %: the
+    golden section pulls a stop a step off back toward the peak a little); with the blind zone
+    as a rectangle at its bound, as before, it was over 1.4 times their RMS at every start on
+    the broad top (1.5-4.0) and on the narrow top with the larger scatter (2.6-4.6)."""
     rng = np.random.default_rng(46)
-    bound_hz = resonance_drift.recentring_blind_hz(*BROAD_TOP)
-    starts_hz = rng.uniform(-bound_hz, bound_hz, 400)
-    walks_rms_hz = math.sqrt(np.mean(_walk_stops_hz(starts_hz, rng, *BROAD_TOP) ** 2))
-    assert bound_hz / math.sqrt(3.0) > 1.5 * walks_rms_hz
-    derived_hz = math.sqrt(np.mean([resonance_drift.recentring_stop_u_hz(*BROAD_TOP, float(start)) ** 2
-                                    for start in np.linspace(0.0, bound_hz, 9)]))
-    assert derived_hz == pytest.approx(walks_rms_hz, rel=0.08)
-    far_hz = rng.uniform(40.0, 60.0, 400)
-    assert resonance_drift.recentring_stop_u_hz(*BROAD_TOP, 50.0) == pytest.approx(
-        math.sqrt(np.mean(_walk_stops_hz(far_hz, rng, *BROAD_TOP) ** 2)), rel=0.08)
+    rectangle_hz = resonance_drift.recentring_blind_hz(*top) / math.sqrt(3.0)
+    for start_hz in (0.0, 10.0, 30.0):
+        errors_hz, u_hz = _readings_of_walks(start_hz, *top, rng)
+        rms_hz = math.sqrt(np.mean(errors_hz**2))
+        derived_hz = math.sqrt(np.mean(u_hz**2) + resonance_drift.recentring_stop_u_hz(*top, start_hz) ** 2)
+        assert 0.9 * rms_hz <= derived_hz <= 1.7 * rms_hz
+        if rectangle_hz > 1.0:
+            assert math.sqrt(np.mean(u_hz**2) + rectangle_hz**2) > 1.4 * rms_hz
