@@ -27,10 +27,10 @@ it holds R_s |I|^2 / 2 with I = I_m + I_C, the motional current and the capaciti
 I_C = j w C0 V0. Its parts: R_s |I_m|^2 / 2 goes as v^2, with the resonance;
 R_s (w C0 V0)^2 / 2 as f^2 V^2 (`shunt_capacitive_power_w`), not with it; and the cross term
 R_s Re(I_m I_C*) = -2 R_s w C0 x P_m (`shunt_cross_power_w`), x = 2 Q (f - f0) / f0 signed
-(x^2 = 1 / r^2 - 1 at a point's velocity ratio r), as f x P_m: d ln / d ln f = 1 + f / (f - f0)
-besides the resonance's 2 s f; its slope dS_x / dx = -2 R_s w C0 P_m (`shunt_cross_slope_w`) is
-the same at every x, the peak's too, where S_x is 0: a drift that moves P0 off the peak moves
-S_x there as on the slope (`uncertainty._resonance_drift`). C0 is the level's (above); R_s the scene copy's where it names
+(x^2 = 1 / r^2 - 1 at a point's velocity ratio r), as f x P_m; its slope dS_x / dx = -2 R_s w
+C0 P_m (`shunt_cross_slope_w`) is the same at every x, the peak's too, where S_x is 0: a drift
+or the generator's frequency error that moves P0 off the peak moves S_x there as on the slope
+(`uncertainty.resonance_power_per_hz`, `uncertainty.generator_sensitivities`). C0 is the level's (above); R_s the scene copy's where it names
 the `shunt` effect (0 where it does not: the simulated plate then has none), a bench file's
 `electronics.shunt_ohm`; a point without both has no estimate and its whole shunt loss counts
 as following the resonance (1.4 % of Fig. 2a's Pt at r = 0.5, 75 Vpp).
@@ -155,8 +155,8 @@ def with_dielectric_power(points: pd.DataFrame, scenes: dict[str, dict]) -> pd.D
     `dielectric_voltage_exponent` (2 + n: d ln P_d / d ln V) for every point of a detuning run
     whose run and level hold a reading at resonance and whose law is known: its scene copy in
     `scenes`, else the one its campaign stated; and the shunt's parts, `shunt_capacitive_power_w`,
-    `shunt_cross_power_w`, `shunt_cross_frequency_exponent` (1 + f / (f - f0)) and
-    `shunt_cross_slope_w` (dS_x / dx), where the stored copy gives the shunt (NaN where not)."""
+    `shunt_cross_power_w` and `shunt_cross_slope_w` (dS_x / dx), where the stored copy gives the
+    shunt (NaN where not)."""
     out = points.copy()
     for column in ("dielectric_power_w", "dielectric_voltage_exponent", *SHUNT_COLUMNS):
         out[column] = math.nan
@@ -193,13 +193,11 @@ def with_dielectric_power(points: pd.DataFrame, scenes: dict[str, dict]) -> pd.D
 
 
 #: The shunt's parts `with_dielectric_power` adds.
-SHUNT_COLUMNS = ("shunt_capacitive_power_w", "shunt_cross_power_w", "shunt_cross_frequency_exponent",
-                 "shunt_cross_slope_w")
+SHUNT_COLUMNS = ("shunt_capacitive_power_w", "shunt_cross_power_w", "shunt_cross_slope_w")
 
 
 def _shunt_parts(ohm: float, c0: float, row: dict, resonance_hz: float, loss_w: float) -> list[float]:
-    """A point's shunt loss from the capacitive current, its cross term, that term's
-    frequency exponent and its slope in x, dS_x / dx = -2 R_s w C0 P_m; x from the point's
+    """A point's shunt loss from the capacitive current, its cross term and its slope in x, dS_x / dx = -2 R_s w C0 P_m; x from the point's
     velocity ratio (0 at resonance, where S_x = 0 but its slope is not: a drift that moves P0
     off the peak moves it by the slope, as it moves Pt), the resonant part of its power what
     the rest leaves."""
@@ -210,7 +208,7 @@ def _shunt_parts(ohm: float, c0: float, row: dict, resonance_hz: float, loss_w: 
     if row["detuning_phase"] == "resonance" or not isinstance(ratio, (int, float)) or not 0 < ratio < 1 \
             or offset_hz == 0:
         resonant_w = float(row["power_w"]) - np.nan_to_num(loss_w) - capacitive_w
-        return [capacitive_w, 0.0, 1.0, per_x * resonant_w]
+        return [capacitive_w, 0.0, per_x * resonant_w]
     x = math.copysign(math.sqrt(1.0 / ratio**2 - 1.0), offset_hz)
     resonant_w = (float(row["power_w"]) - np.nan_to_num(loss_w) - capacitive_w) / (1.0 + per_x * x)
-    return [capacitive_w, per_x * x * resonant_w, 1.0 + frequency_hz / offset_hz, per_x * resonant_w]
+    return [capacitive_w, per_x * x * resonant_w, per_x * resonant_w]

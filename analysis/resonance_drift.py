@@ -30,9 +30,15 @@ reading, within a step of the stop, cannot see past it. Its re-centrings start f
 last resonance, so on twelve seeded benches the nine-column plate's closing re-centrings
 read 7 Hz of its 21 Hz fall, 2-3 times their fits' u off (the one- and four-column plates'
 within their u). Weighed with their fits' u alone they scaled its Pt estimates to 69-71 % of
-the simulated plate's drift; each re-centring's reading carries that zone as a rectangle
-(`_readings`, the run's re-centring step from its settings), and they are 94-95 % (the
-one-column plate's 94-96 % to 97-98 %, the four-column's 98-99 % to 100-102 %). The readings
+the simulated plate's drift; with that zone as a rectangle at its 95 % bound on each
+reading they were 94-95 % (the one-column plate's 94-96 % to 97-98 %, the four-column's
+98-99 % to 100-102 %). Where the walk stops is not uniform out to that bound: each reading
+now carries its walk's own stop beyond the golden section's bracket
+(`recentring_stop_offsets_hz`, the walk's rule as a chain; `recentring_stop_u_hz`;
+`_walk_stop_u_hz`, its start placed against the peak by the warming the tolerances
+predict): on that top 3.3 Hz RMS from a start at the peak, 5.6 Hz from 10 Hz off, 8.6 Hz
+from 30 Hz, on a narrow top (the one- and four-column plates') 0-0.2 Hz, where the rectangle
+said 11.1 Hz and up to 1.2 Hz from anywhere (the run's re-centring step from its settings). The readings
 alone (below) bound the drift where no scene gives the plate.
 
 Type A, from the run's dated readings of its resonance (`_drift_bounds`: a bias bound,
@@ -75,12 +81,13 @@ import math
 
 import numpy as np
 import pandas as pd
-from scipy.special import ndtri
+from scipy.integrate import cumulative_trapezoid, trapezoid
+from scipy.special import ndtr, ndtri
 
 from squeezebench.analysis import dielectric, plate_warming, provenance
 from squeezebench.analysis.budgets import COVERAGE_PROBABILITY, P95_FACTOR
-from squeezebench.analysis.resonance_searches import (SEARCH_STOP_SPREAD, SearchSetup, mechanical_q_from_sweep,
-                                                      peak_of_readings, reading_scatter_rel)
+from squeezebench.analysis.resonance_searches import (RECENTRING_MAX_STEPS, SEARCH_STOP_SPREAD, SearchSetup,
+                                                      mechanical_q_from_sweep, peak_of_readings, reading_scatter_rel)
 from squeezebench.plates import warming
 from squeezebench.plates.laminate import ALUMINIUM_TABLE2
 
@@ -171,19 +178,119 @@ def _top_of(frequency_hz: float, searches: pd.DataFrame) -> tuple[float, float] 
 def recentring_blind_hz(half_width_hz: float, scatter_rel: float, step_hz: float) -> float:
     """How far from the peak a re-centring's walk (`protocols.resonance.track_resonance`:
     readings a step either side of its centre, moving toward the larger until the centre is
-    the largest) may stop for its readings' relative scatter s (Hz).
+    the largest) may stop for its readings' relative scatter s (Hz): its 95 % bound.
 
     Near the top v = v0 / sqrt(1 + x^2) ~ v0 (1 - x^2 / 2), x = (f - f0) / h, h = f / (2 Q):
     with the centre at x and the step e = step / h, the reading a step toward the peak exceeds
     the centre's by v0 (|x| e - e^2 / 2). The walk stops where the difference of two readings,
     of scatter sqrt(2) s v0, hides that: |x| e < P95_FACTOR sqrt(2) s (+ e / 2, the step's own
     quantization, which the golden section and the vertex within a step of the stop resolve),
-    i.e. within P95_FACTOR sqrt(2) s h^2 / step of the peak. A re-centring from the last
-    resonance that has moved less than that reads about where it started, and its golden
-    section and vertex, within a step of the stop, cannot see past it: on a broad top (the
-    nine-column plate's, Q ~ 56, h ~ 340 Hz) that is tens of hertz for 5 Hz steps, on a
-    narrow one (Q ~ 300) under a hertz."""
+    i.e. within P95_FACTOR sqrt(2) s h^2 / step of the peak: on a broad top (the nine-column
+    plate's, Q ~ 56, h ~ 340 Hz) tens of hertz for 5 Hz steps, on a narrow one (Q ~ 300) under
+    a hertz. Where in that zone it stops is `recentring_stop_offsets_hz`."""
     return P95_FACTOR * math.sqrt(2.0) * scatter_rel * half_width_hz**2 / step_hz
+
+
+#: The reading noise's span on each position's grid (standard deviations either side) and the
+#: grid's points (`recentring_stop_offsets_hz`): the mass past 8 sd is ~1e-15.
+STOP_GRID_SD = 8.0
+STOP_GRID_POINTS = 321
+
+
+def recentring_stop_offsets_hz(half_width_hz: float, scatter_rel: float, step_hz: float,
+                               start_offset_hz: float) -> tuple[np.ndarray, np.ndarray]:
+    """Where a re-centring's walk (`protocols.resonance.track_resonance`) stops, as offsets
+    from the peak (Hz) and their probabilities, for a walk started `start_offset_hz` from the
+    peak (positive: above it) on a Lorentzian top of half-width h read with relative scatter s.
+
+    The walk reads y(x) = L(x) (1 + s z) (L = 1 / sqrt(1 + (x / h)^2), z standard normal, each
+    frequency read once: `_VelocityProbe` keeps its readings) at its centre x and a step e
+    either side. Its rule, stop where the centre is not below either neighbour, else move to
+    the larger neighbour, makes it a chain with one continuous state:
+    - from the start x0 it stops there where the centre's reading is the largest of the three,
+      P = int f_0(y) F_-(y) F_+(y) dy (f, F: a position's reading's density and distribution),
+      and moves to the neighbour whose reading is the largest, taking that reading y along
+      with density g_1(y) = f_+-(y) F_0(y) F_-+(y);
+    - once moved it never turns (the centre it left is below the one it stands on): at x_k
+      holding y it reads the next position ahead once, stops with probability
+      int g_k(y) F_k+1(y) dy, and moves on holding the new reading, g_k+1(y') = f_k+1(y')
+      int_{y < y'} g_k(y) dy (the readings it kept are the largest so far, so a walk into the
+      top stops short of the peak on the side it came from).
+    Each g is held on its position's own grid (STOP_GRID_SD sd either side of L, STOP_GRID_POINTS
+    points, trapezoids); a walk is cut at RECENTRING_MAX_STEPS - 1 moves, as the protocol's is
+    (its lost mass is left out: the probabilities sum to under 1 by it). On a Q 56 top (h 340
+    Hz, s 3e-4, 5 Hz steps; `recentring_blind_hz` 19 Hz) a walk from the peak stops 4.0 Hz
+    from it (RMS), from 10 Hz 6.0 Hz (mean +3.7: on the start's side), from 30 Hz or farther
+    8.8 Hz (mean +5.8), where the bound as a rectangle said 11.1 Hz from anywhere."""
+    moves = range(1, RECENTRING_MAX_STEPS)
+
+    def level(x_hz: float) -> tuple[float, float]:
+        mean = 1.0 / math.hypot(1.0, x_hz / half_width_hz)
+        return mean, scatter_rel * mean
+
+    def grid(x_hz: float) -> tuple[np.ndarray, np.ndarray]:
+        mean, sd = level(x_hz)
+        z = np.linspace(-STOP_GRID_SD, STOP_GRID_SD, STOP_GRID_POINTS)
+        return mean + sd * z, np.exp(-0.5 * z**2) / (math.sqrt(2.0 * math.pi) * sd)
+
+    def below(y: np.ndarray, x_hz: float) -> np.ndarray:   # P(the reading at x_hz < y)
+        mean, sd = level(x_hz)
+        return ndtr((y - mean) / sd)
+
+    y, density = grid(start_offset_hz)
+    offsets = [start_offset_hz]
+    probabilities = [trapezoid(density * below(y, start_offset_hz - step_hz) * below(y, start_offset_hz + step_hz), y)]
+    for direction in (1.0, -1.0):
+        x_hz = start_offset_hz + direction * step_hz
+        y, density = grid(x_hz)
+        held = density * below(y, start_offset_hz) * below(y, start_offset_hz - direction * step_hz)
+        for _ in moves:
+            ahead_hz = x_hz + direction * step_hz
+            offsets.append(x_hz)
+            probabilities.append(trapezoid(held * below(y, ahead_hz), y))
+            kept = cumulative_trapezoid(held, y, initial=0.0)
+            y_ahead, density = grid(ahead_hz)
+            held = density * np.interp(y_ahead, y, kept, left=0.0, right=kept[-1])
+            x_hz, y = ahead_hz, y_ahead
+    return np.array(offsets), np.array(probabilities)
+
+
+#: The lattice phases a walk's start is averaged over (`recentring_stop_u_hz`).
+START_PHASES = 8
+
+
+@functools.lru_cache(maxsize=4096)
+def recentring_stop_u_hz(half_width_hz: float, scatter_rel: float, step_hz: float, moved_hz: float) -> float:
+    """The standard uncertainty (Hz) a re-centring's reading takes from where its walk stopped,
+    beyond what the golden section after it (`track_resonance`, on the stop c +- a step) and
+    the reading's own u (its vertex's fit, or `best_reading_scatter_hz`) already hold, for a
+    walk that starts where the resonance was `moved_hz` ago (the peak has moved that far since).
+
+    A stop within a step of the peak has it inside the golden section's bracket, which finds
+    it to its own scatter, the reading's u. A stop farther has the peak outside the bracket,
+    and the rule that stopped the walk, a step's rise hidden in the readings' scatter, hides
+    the bracket's slope from the golden section too: the reading stays about at the stop, off
+    the peak by c. So the term is the RMS of c over the stops beyond a step
+    (`recentring_stop_offsets_hz`; about the peak, not about their mean, which the estimate
+    does not correct for): sqrt(sum over |c| > step of p_c c^2). The start's place on the
+    walk's lattice against the peak is not known to a step: that mean square is averaged over
+    START_PHASES starts spread evenly over a step about `moved_hz` (a rectangle). A start
+    within the blind zone (`recentring_blind_hz`) mostly stops within a step of where it
+    started, so the term is bounded by the move since the start; a start beyond it walks in
+    and stops on the zone's near side. On a narrow top (the one- and four-column plates', h ~
+    60 Hz) every stop is within a step of the peak and the term is 0, where the rectangle at
+    the zone's bound gave up to 1.3 Hz; on the nine-column plate's broad top the readings of
+    300 seeded walks scatter by 2.9, 5.1 and 7.8 Hz from starts 0, 10 and 30 Hz off, their u
+    with this term is 4.7, 6.5 and 9.3 Hz (the term 3.3, 5.6 and 8.6 Hz), with the rectangle
+    11.5-11.6 Hz."""
+    phases = (np.arange(START_PHASES) + 0.5) / START_PHASES - 0.5
+    mean_squares = []
+    for phase in phases:
+        offsets, probabilities = recentring_stop_offsets_hz(half_width_hz, scatter_rel, step_hz,
+                                                            abs(moved_hz) + phase * step_hz)
+        beyond = np.abs(offsets) > step_hz
+        mean_squares.append(np.sum(probabilities[beyond] * offsets[beyond] ** 2) / np.sum(probabilities))
+    return float(math.sqrt(np.mean(mean_squares)))
 
 
 def _sweep(searches: pd.DataFrame) -> pd.DataFrame:
@@ -214,16 +321,23 @@ def folded_quantile(offset_hz, u_hz, probability: float = COVERAGE_PROBABILITY) 
     return np.where(spread, np.where(far, one_sided, folded), offset_hz)
 
 
+#: A run's dated readings of its resonance (`_readings`): walk_u_hz, a re-centring's u from
+#: where its walk stopped (NaN: none, or no step stored), is in u_hz already.
+READING_COLUMNS = ["time_s", "frequency_hz", "u_hz", "power_w", "walk_u_hz"]
+
+
 def _readings(points: pd.DataFrame, searches: pd.DataFrame, closings: pd.DataFrame,
-              step_hz: float | None = None) -> tuple[pd.DataFrame, bool, float]:
+              step_hz: float | None = None, drift_at=None) -> tuple[pd.DataFrame, bool, float]:
     """The run's dated readings of its resonance (time_s, frequency_hz, u_hz), in time order,
     whether its re-centrings were recorded as such, and the u of a best reading on its flat
     top they were read with (`best_reading_scatter_hz`). A re-centring walked by `step_hz`
-    reads the peak anywhere within `recentring_blind_hz` of it, a rectangle (GUM 4.3.7) added
-    to its reading's u: a broad top's re-centrings stop near where they started (the last
-    resonance), and as dated readings of a drift they would state it near 0 (on twelve seeded
-    benches the nine-column plate's closing re-centrings read 7 Hz of the plate's 21 Hz fall,
-    2-3 times their fits' u off; the one- and four-column plates' within theirs)."""
+    reads the peak where its walk stopped, which its reading's u takes in quadrature
+    (`_walk_stop_u_hz`): a broad top's re-centrings stop near where they started, and as
+    dated readings of a drift they would state it near 0 (on twelve seeded benches the
+    nine-column plate's closing re-centrings read 7 Hz of the plate's 21 Hz fall, 2-3 times
+    their fits' u off; the one- and four-column plates' within theirs). `drift_at`: the
+    drift since rest (Hz) the warming predicts at given times, which places each walk's
+    start against the peak; None where nothing does."""
     top = _top_of(float(points["generator_frequency_hz"].iloc[0]), searches)
     best_u = best_reading_scatter_hz(top)
     rows = []
@@ -238,13 +352,50 @@ def _readings(points: pd.DataFrame, searches: pd.DataFrame, closings: pd.DataFra
     if len(closings):
         at_resonance = pd.concat([at_resonance, closings], ignore_index=True)
     at_setting, tracked = _setting_readings(at_resonance, best_u)
-    if step_hz and top is not None:
-        at_setting["u_hz"] = np.hypot(at_setting["u_hz"], recentring_blind_hz(*top, step_hz) / math.sqrt(3.0))
-    rows += list(at_setting.itertuples(index=False, name=None))
-    readings = pd.DataFrame(rows, columns=["time_s", "frequency_hz", "u_hz", "power_w"], dtype=float)
+    if step_hz and top is not None and len(at_setting):
+        closing = (at_resonance["detuning_phase"] == "closing").to_numpy() if "detuning_phase" in at_resonance else \
+            np.zeros(len(at_resonance), bool)
+        search_s = min((row[0] for row in rows), default=math.nan)
+        at_setting["walk_u_hz"] = _walk_stop_u_hz(at_setting["time_s"].to_numpy(float), closing, search_s, top,
+                                                  step_hz, drift_at)
+        at_setting["u_hz"] = np.hypot(at_setting["u_hz"], at_setting["walk_u_hz"])
+    rows = [(*row, math.nan) for row in rows] + list(at_setting.reindex(columns=READING_COLUMNS).itertuples(
+        index=False, name=None))
+    readings = pd.DataFrame(rows, columns=READING_COLUMNS, dtype=float)
     readings = readings[np.isfinite(readings["time_s"]) & np.isfinite(readings["frequency_hz"])]
     readings["u_hz"] = readings["u_hz"].fillna(0.0)   # a scatter the search cannot tell: the estimate alone
     return readings.sort_values("time_s", kind="stable").reset_index(drop=True), tracked, best_u
+
+
+#: How far out, in blind zones (`recentring_blind_hz`) and steps, a walk whose start is not
+#: placed against the peak is taken to start: from there or farther it walks into the zone and
+#: stops as from anywhere beyond (on a Q 56 top, 8.8 Hz RMS from 30 Hz and from 60 Hz).
+FAR_START_ZONES, FAR_START_STEPS = 2.0, 2.0
+
+
+def _walk_stop_u_hz(times_s: np.ndarray, closing: np.ndarray, search_s: float, top: tuple[float, float],
+                    step_hz: float, drift_at) -> np.ndarray:
+    """Each re-centring's u from where its walk stopped (`recentring_stop_u_hz`), its start
+    placed against the peak by how far `drift_at` (the warming's drift since rest, Hz, at
+    given times) says the resonance moved since the start was read: a level's re-centring
+    (`protocols.detuning`) starts from the search's resonance (read at `search_s`), the
+    closing one from the last level's, itself off its peak by that walk's own u (taken in
+    quadrature with the move since). Where `drift_at` is None or the search is not dated, a
+    start from beyond the zone (FAR_START_ZONES, FAR_START_STEPS): the largest a walk gives."""
+    half_width_hz, scatter_rel = top
+    far_hz = FAR_START_ZONES * recentring_blind_hz(half_width_hz, scatter_rel, step_hz) + FAR_START_STEPS * step_hz
+    stop_u = functools.partial(recentring_stop_u_hz, half_width_hz, scatter_rel, step_hz)
+    if drift_at is None or not math.isfinite(search_s):
+        return np.full(len(times_s), stop_u(far_hz))
+    drift_hz = drift_at(times_s)
+    level_u = np.array([stop_u(float(moved)) for moved in drift_hz - drift_at(np.array([search_s]))[0]])
+    u_hz = level_u.copy()
+    for index in np.flatnonzero(closing):
+        before = np.flatnonzero(~closing & (times_s < times_s[index]))
+        if len(before):
+            last = before[np.argmax(times_s[before])]
+            u_hz[index] = stop_u(math.hypot(drift_hz[index] - drift_hz[last], level_u[last]))
+    return u_hz
 
 
 def _setting_readings(at_resonance: pd.DataFrame, best_u: float) -> tuple[pd.DataFrame, bool]:
@@ -334,9 +485,14 @@ CHI2_95_ONE = 3.841
 WARMING_SOURCE = ("Type A/B, the plate's warming under the run's {n} dated stored powers (lumped thermal model, "
                   "plates.warming, tau {tau_low:.0f}-{tau_high:.0f} s within the heating tolerances) scaled by "
                   "the run's {readings} dated readings of its resonance (the scale they fit, weighed with the "
-                  "tolerances' {low:.3g}-{high:.3g} Hz/J), estimated and corrected for: its u the scale's, the "
+                  "tolerances' {low:.3g}-{high:.3g} Hz/J{blind}), estimated and corrected for: its u the scale's, the "
                   "spread over the time constants the readings allow and the room's (up to {room:g} K/h), "
                   "the last two rectangles")
+#: What WARMING_SOURCE says of the re-centrings' readings (`_walk_stop_u_hz`), where the run's
+#: search settings give their step and its search the top's width and scatter.
+BLIND_ZONE = ("; each re-centring's reading with where its {step:g} Hz walk stops, blind within {blind:.3g} Hz of the peak "
+              "(95 %): {low:.2g}-{high:.2g} Hz RMS, its start placed by the warming the tolerances predict")
+BLIND_ZONE_UNKNOWN = "; no re-centring's blind zone taken (no re-centring, its step or the search's readings stored)"
 
 
 def _plate_dimensions(scene: dict) -> tuple[float, float, float, float] | None:
@@ -410,6 +566,18 @@ def _warming_scale(held_j: np.ndarray, readings: pd.DataFrame, times_s: np.ndarr
             chi2)
 
 
+def _prior_drift(times_s: np.ndarray, power_w: np.ndarray, points: pd.DataFrame,
+                 dimensions: tuple[float, float, float, float]):
+    """The drift since rest (Hz) as a function of bench time that the heating tolerances
+    alone predict for the run's powers: the middle of their Hz per joule times the heat held
+    at the geometric middle of their time constants (`plates.warming`). It places each
+    re-centring's start against the peak (`_walk_stop_u_hz`) before the readings, which that
+    weighs, fit the scale."""
+    low, high = warming.drift_per_joule_range_hz(float(points["generator_frequency_hz"].iloc[0]), *dimensions)
+    held_j = warming.held_heat_j(times_s, power_w, math.sqrt(math.prod(warming.time_constant_range_s(*dimensions))))
+    return lambda when_s: -0.5 * (low + high) * np.interp(when_s, times_s, held_j)
+
+
 def _warming_estimates(points: pd.DataFrame, searches: pd.DataFrame, closings: pd.DataFrame,
                        dimensions: tuple[float, float, float, float], shunt_ohm: float = 0.0,
                        step_hz: float | None = None) -> DriftColumns:
@@ -443,7 +611,9 @@ def _warming_estimates(points: pd.DataFrame, searches: pd.DataFrame, closings: p
     h)^2."""
     times_s, power_w = _power_history(points, searches, closings, shunt_ohm=shunt_ohm)
     at_s = points["bench_time_s"].to_numpy(float)
-    readings, _, best_u = _readings(points, searches, closings, step_hz)
+    readings, _, best_u = _readings(points, searches, closings, step_hz,
+                                    _prior_drift(times_s, power_w, points, dimensions) if len(times_s) > 1 else None)
+    walk_u_hz = readings["walk_u_hz"].dropna()
     if len(times_s) < 2 or readings.empty or not np.all(np.isfinite(at_s)):
         return _drift_bounds(points, searches, closings, step_hz)
     frequency_hz, reference_s = float(readings["frequency_hz"].iat[0]), float(readings["time_s"].iat[0])
@@ -476,6 +646,9 @@ def _warming_estimates(points: pd.DataFrame, searches: pd.DataFrame, closings: p
         estimate_hz[at_setting] = setting_hz[at_setting] - frequency_hz + reference_hz
         u_hz[at_setting] = np.sqrt(readings["u_hz"].iat[0] ** 2 + reference_u_hz**2 + own["u_hz"].fillna(0.0).to_numpy() ** 2
                                    + (setting_hz[at_setting] - own["frequency_hz"].to_numpy()) ** 2)
+    top = _top_of(float(points["generator_frequency_hz"].iloc[0]), searches)
+    blind = BLIND_ZONE_UNKNOWN if walk_u_hz.empty else BLIND_ZONE.format(
+        step=step_hz, blind=recentring_blind_hz(*top, step_hz), low=walk_u_hz.min(), high=walk_u_hz.max())
     return estimate_hz, u_hz, np.zeros(len(points)), WARMING_SOURCE.format(
-        n=len(times_s), tau_low=shortest, tau_high=longest, readings=len(readings), low=low, high=high,
+        n=len(times_s), tau_low=shortest, tau_high=longest, readings=len(readings), blind=blind, low=low, high=high,
         room=3600.0 * warming.ROOM_DRIFT_K_PER_S)

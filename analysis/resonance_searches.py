@@ -109,6 +109,9 @@ TOP = 0.98
 #: that search on Lorentzians with seeded scatter (tests/test_resonance_search_budget.py
 #: re-measures it and fails if the search changes).
 SEARCH_STOP_SPREAD = 0.82
+#: The steps a re-centring's walk takes before it gives the resonance up
+#: (`protocols.resonance.track_resonance`; `resonance_drift.recentring_stop_offsets_hz`).
+RECENTRING_MAX_STEPS = 20
 
 
 def reading_scatter_rel(sweep: pd.DataFrame) -> float | None:

@@ -122,7 +122,7 @@ def needs_deskew(points: pd.DataFrame) -> pd.DataFrame:
 
 
 def generator_sensitivities(slope_per_hz, frequency_hz, dielectric_share, dielectric_voltage_exponent,
-                            shunt_share=0.0, cross_share=0.0, cross_exponent=1.0):
+                            shunt_share=0.0, cross_share=0.0, cross_slope_per_hz=0.0):
     """(d ln P / d e, d ln P / d a) of an electrical power read at the generator's frequency
     f (1 + e) and amplitude V (1 + a), numbers or arrays. P = M + D + S_C + S_x: the motional
     part M = R v^2 / 2 (with the shunt's R_s |I_m|^2 / 2) follows the velocity, v ~ V along the
@@ -131,14 +131,28 @@ def generator_sensitivities(slope_per_hz, frequency_hz, dielectric_share, dielec
     tan(delta) ~ E^n (`analysis.dielectric`, `plates.damping.field_tan_delta`), and not with
     the resonance; nor the shunt's loss from the capacitive current, S_C = R_s (w C0 V0)^2 / 2,
     as f^2 V^2; the cross term S_x = -2 R_s w C0 x P_m as V^2 and, besides the resonance's
-    2 s f, as f^e_x, e_x = 1 + f / (f - f0) (`dielectric.shunt_cross_power_w`). With the shares
-    d = D / P, d_C = S_C / P, d_x = S_x / P:
-        d ln P / d e = (1 - d - d_C) 2 s f + d + 2 d_C + d_x e_x,     d ln P / d a = 2 (1 - d) + m d;
-    d = d_C = d_x = 0 (the whole power on the resonance) gives 2 s f and 2, the form without them."""
+    2 s f, as w (its share d_x = S_x / P) and through x = (f - f0) / h, by its slope
+    c_x = (dS_x / dx) / (P h) per hertz (`dielectric.shunt_cross_slope_w`; on the slope
+    c_x f = d_x f / (f - f0), at the peak, where S_x is 0, not 0). The resonance's part and
+    that slope are the power's d ln P / d f along the resonance, `resonance_power_per_hz`.
+    With the shares d = D / P, d_C = S_C / P:
+        d ln P / d e = f ((1 - d - d_C) 2 s + c_x) + d + 2 d_C + d_x,     d ln P / d a = 2 (1 - d) + m d;
+    d = d_C = d_x = c_x = 0 (the whole power on the resonance) gives 2 s f and 2, the form
+    without them."""
     resonant = 1.0 - dielectric_share - shunt_share
-    return (resonant * 2.0 * slope_per_hz * frequency_hz + dielectric_share + 2.0 * shunt_share
-            + cross_share * cross_exponent,
+    return (frequency_hz * resonance_power_per_hz(slope_per_hz, resonant, cross_slope_per_hz) + dielectric_share
+            + 2.0 * shunt_share + cross_share,
             2.0 * (1.0 - dielectric_share) + dielectric_voltage_exponent * dielectric_share)
+
+
+def resonance_power_per_hz(slope_per_hz, resonant_share, cross_slope_per_hz):
+    """d ln P / d f of a power along its resonance (numbers or arrays; signed: a resonance
+    moved by delta moves ln P read at a setting by minus this times delta, at first order):
+    the resonant part's 2 s (its share 1 - d - d_C, s = d ln v / d f) and the series shunt's
+    cross term's slope c_x = (dS_x / dx) / (P h) (`generator_sensitivities`), which is not 0
+    at the peak, where s and S_x are. The generator's frequency error and the resonance's
+    drift move a power through it alike (`_resonance_drift`, `_power_drift_terms`)."""
+    return resonant_share * 2.0 * np.asarray(slope_per_hz, dtype=float) + cross_slope_per_hz
 
 
 def _dielectric_share(points: pd.DataFrame | dict) -> tuple:
@@ -153,17 +167,18 @@ def _dielectric_share(points: pd.DataFrame | dict) -> tuple:
             described)
 
 
-def _shunt_shares(points: pd.DataFrame | dict) -> dict[str, np.ndarray]:
+def _shunt_shares(points: pd.DataFrame | dict, inverse_half_width_per_hz=0.0) -> dict[str, np.ndarray]:
     """Each point's shunt shares as `generator_sensitivities` takes them (its keywords): the
-    capacitive current's loss and the cross term over the power, and that term's exponent;
-    0, 0 and 1 where the run stores no shunt (the whole shunt loss on the resonance)."""
+    capacitive current's loss and the cross term over the power, and that term's slope per
+    hertz at the points' 1 / h (`_cross_slope_share`); 0 where the run stores no shunt (the
+    whole shunt loss on the resonance)."""
     power = np.asarray(points["power_w"], dtype=float)
     nothing = np.full_like(power, np.nan)
     values = {column: np.asarray(points.get(column, nothing), dtype=float) for column in dielectric.SHUNT_COLUMNS}
     known = np.isfinite(values["shunt_capacitive_power_w"])
     return {"shunt_share": np.where(known, values["shunt_capacitive_power_w"] / power, 0.0),
             "cross_share": np.where(known, values["shunt_cross_power_w"] / power, 0.0),
-            "cross_exponent": np.where(known, values["shunt_cross_frequency_exponent"], 1.0)}
+            "cross_slope_per_hz": _cross_slope_share(points) * inverse_half_width_per_hz}
 
 
 def _generator_frequency_term(sensitivity: float, described: bool) -> Term:
@@ -187,10 +202,11 @@ def power_ratio_budget(numerator: pd.DataFrame, denominator: pd.DataFrame) -> Bu
     power, so dR/R = (w_t Q'_t / P_t - w_0 Q'_0 / P_0) tau, small at resonance (Q' ~ 0)
     and not at a detuned point. Nor does the generator's frequency error e: P_0 sits on the
     resonance's flat top, P_t on its slope, and each power moves by its own
-    `generator_sensitivities`, S_e = (1 - d - d_C) 2 s f + d + 2 d_C + d_x e_x with d its
+    `generator_sensitivities`, S_e = f ((1 - d - d_C) 2 s + c_x) + d + 2 d_C + d_x with d its
     dielectric share and d_C, d_x the series shunt's loss from the piezos' capacitive current
-    and its cross term with the motional one (`analysis.dielectric`: larger at P_t, read at a
-    higher voltage; 0 without an estimate, the conservative reading):
+    and its cross term with the motional one, c_x that term's slope per hertz (`analysis.dielectric`:
+    larger at P_t, read at a higher voltage; 0 without an estimate, the conservative reading),
+    at P0 too, where S_x is 0 but its slope is not (its 1 / h from P_t's, `_top_curvature`):
     dR/R = (S_e,t - S_e,0) e (1.2 % at r = 0.8 for 20 ppm with no shares).
     The generator's amplitude error a cancels in the motional parts (both go as V^2) but not
     in the dielectric ones (V^(2+n)): dR/R = (S_a,t - S_a,0) a = n (d_t - d_0) a. Nor does the
@@ -215,6 +231,7 @@ def power_ratio_budget(numerator: pd.DataFrame, denominator: pd.DataFrame) -> Bu
     a single reading is the Type B rate). NaN terms when a point has no stored record to reduce."""
     applied = Deskew.applied_in(numerator)
     slopes = _slopes_of(numerator, denominator)
+    curvature = _top_curvature(slopes.loc[numerator.index].to_numpy(float), _ratios(numerator))
     if not all(column in points for points in (numerator, denominator) for column in resonance_drift.DRIFT_COLUMNS):
         both = resonance_drift.with_resonance_drift(pd.concat([numerator, denominator]))
         numerator, denominator = both.iloc[:len(numerator)], both.iloc[len(numerator):]
@@ -227,13 +244,14 @@ def power_ratio_budget(numerator: pd.DataFrame, denominator: pd.DataFrame) -> Bu
                       * compensation_phase_per_mismatch(points["frequency_hz"], applied)).mean()) / power
         setting_hz = points["generator_frequency_hz"] if "generator_frequency_hz" in points else points["frequency_hz"]
         share, exponent, known = _dielectric_share(points)
-        to_frequency, to_amplitude = generator_sensitivities(slopes.loc[points.index].to_numpy(float),
-                                                             setting_hz.to_numpy(float), share, exponent,
-                                                             **_shunt_shares(points))
+        slope = slopes.loc[points.index].to_numpy(float)
+        inverse_h = _inverse_half_width_per_hz(slope, _ratios(points), curvature)
+        to_frequency, to_amplitude = generator_sensitivities(slope, setting_hz.to_numpy(float), share, exponent,
+                                                             **_shunt_shares(points, inverse_h))
         described &= known or not np.any(slopes.loc[points.index].to_numpy(float))
         parts.append((power, noise / power, phase, lead, float(np.mean(to_frequency)), float(np.mean(to_amplitude))))
     (p_t, noise_t, phase_t, lead_t, pull_t, gain_t), (p_0, noise_0, phase_0, lead_0, pull_0, gain_0) = parts
-    correction, drift_rel, drift_bound_rel = _resonance_drift(numerator, denominator, slopes)
+    correction, drift_rel, drift_bound_rel = _resonance_drift(numerator, denominator, slopes, curvature)
     ratio = p_t / p_0 * correction
     delay = (delay_term(ratio * (phase_t - phase_0)) if applied is None else
              Term("CH2 delay after deskew", "B", abs(ratio * (phase_t - phase_0)) * applied.std_uncertainty_s,
@@ -249,8 +267,8 @@ def power_ratio_budget(numerator: pd.DataFrame, denominator: pd.DataFrame) -> Bu
                      pd.concat([numerator, denominator])["resonance_drift_source"], always=True)))
 
 
-def _resonance_drift(numerator: pd.DataFrame, denominator: pd.DataFrame,
-                     slopes: pd.Series) -> tuple[float, float, float]:
+def _resonance_drift(numerator: pd.DataFrame, denominator: pd.DataFrame, slopes: pd.Series,
+                     curvature: float) -> tuple[float, float, float]:
     """The resonance's drift in R = P_t / P_0 (`power_ratio_budget`) from each point's
     estimate e, its u and a bias bound B (`analysis.resonance_drift.DRIFT_COLUMNS`): the
     factor that corrects R for the estimate (GUM 3.2.4), and the relative u and bias bound it
@@ -259,41 +277,56 @@ def _resonance_drift(numerator: pd.DataFrame, denominator: pd.DataFrame,
     `lorentzian_power_change` at its offset x from the resonance as read (P_t on the slope:
     x from its velocity ratio r on the side its slope s says, 1 / h = |s| / sqrt(r^2 (1 - r^2));
     a P0, whose e is its setting's offset from the mounted plate's resonance: set on the
-    re-centred peak, x = 0, with P_t's 1 / h^2 = s_t^2 / (r^2 (1 - r^2))), and the shunt's
-    cross term S_x = c x P_m by its first order, -c e / h of the power at P_t and at P0 alike
-    (`_cross_slope_share`: S_x is 0 on the peak, its slope in x is not; moved at P_t alone it
-    left R high by 2 R_s w C0 e_0 / h). R read = R (1 + d_t) / (1 + d_0),
-    so the stored value is R read (1 + d_0) / (1 + d_t). u and B at first order: |D| u on the
-    slope (D = 2 (1 - d - d_C) s + c / h), sqrt(4 e^2 u^2 + 2 u^4) / h^2 on the top (the
-    variance of a squared normal); B: |D| B and (B^2 + 2 |e| B) / h^2. A phase's points (one
-    drift, the same plate) average: their terms add linearly."""
-    slope_t = slopes.loc[numerator.index].to_numpy(float)
-    ratio_t = numerator["target_velocity_ratio"].to_numpy(float) if "target_velocity_ratio" in numerator else \
-        np.full(len(numerator), np.nan)
-    inside = (ratio_t > 0) & (ratio_t < 1)
-    curvature = float(np.mean(np.where(inside, slope_t**2 / np.where(inside, ratio_t**2 * (1 - ratio_t**2), 1.0),
-                                       0.0)))
+    re-centred peak, x = 0, with P_t's 1 / h^2 = s_t^2 / (r^2 (1 - r^2)), `curvature`:
+    `_top_curvature`), and the shunt's cross term S_x = c x P_m by its first order, -c e / h
+    of the power at P_t and at P0 alike (`_cross_slope_share`: S_x is 0 on the peak, its
+    slope in x is not; moved at P_t alone it left R high by 2 R_s w C0 e_0 / h). R read =
+    R (1 + d_t) / (1 + d_0), so the stored value is R read (1 + d_0) / (1 + d_t). u and B at
+    first order: |D| u on the slope (D = 2 (1 - d - d_C) s + c / h, `resonance_power_per_hz`),
+    sqrt(4 e^2 u^2 + 2 u^4) / h^2 on the top (the variance of a squared normal) with |c / h| u
+    beside it; B: |D| B and (B^2 + 2 |e| B) / h^2. A phase's points (one drift, the same plate)
+    average: their terms add linearly."""
     shifts, u_rel, bound_rel = [], 0.0, 0.0
     for points in (numerator, denominator):
         slope = slopes.loc[points.index].to_numpy(float)
         drift_hz, drift_u_hz, drift_bound_hz = (points[c].to_numpy(float) for c in resonance_drift.DRIFT_COLUMNS)
         top = np.where(slope == 0, curvature, 0.0)
-        # a point on the slope has 0 < r < 1 (`detuning_slope_per_hz` gives no slope elsewhere)
-        ratio = np.where(slope == 0, 0.5, np.asarray(points.get("target_velocity_ratio", np.nan), dtype=float))
-        spread = np.sqrt(ratio**2 * (1.0 - ratio**2))
+        ratio = _ratios(points)
         offset_x = np.where(slope == 0, 0.0, -np.sign(slope) * np.sqrt(1.0 - ratio**2) / ratio)
-        inverse_h = np.where(slope == 0, math.sqrt(curvature), np.abs(slope) / spread)
-        resonant = _resonant_share(points)
+        inverse_h = _inverse_half_width_per_hz(slope, ratio, curvature)
         # the shunt's cross term S_x = c x P_m at first order: a drift moves x by e / h, P0's too
         cross_per_hz = _cross_slope_share(points) * inverse_h
-        per_hz = resonant * 2.0 * slope + cross_per_hz
-        shifts.append(float(np.mean(resonant * lorentzian_power_change(offset_x, drift_hz * inverse_h)
+        per_hz = _power_per_resonance_hz(points, slope, inverse_h)
+        shifts.append(float(np.mean(_resonant_share(points) * lorentzian_power_change(offset_x, drift_hz * inverse_h)
                                     - cross_per_hz * drift_hz)))
         u_rel = math.hypot(u_rel, float(np.mean(np.abs(per_hz) * drift_u_hz
                                                 + top * np.sqrt(4 * drift_hz**2 * drift_u_hz**2 + 2 * drift_u_hz**4))))
         bound_rel += float(np.mean(np.abs(per_hz) * drift_bound_hz
                                    + top * (drift_bound_hz**2 + 2 * np.abs(drift_hz) * drift_bound_hz)))
     return (1.0 + shifts[1]) / (1.0 + shifts[0]), u_rel, bound_rel
+
+
+def _ratios(points: pd.DataFrame | dict) -> np.ndarray:
+    """Each point's target velocity ratio r (NaN where it has none)."""
+    return np.asarray(points.get("target_velocity_ratio", np.full(len(points["power_w"]), np.nan)), dtype=float)
+
+
+def _top_curvature(slope_per_hz: np.ndarray, ratio: np.ndarray) -> float:
+    """1 / h^2 of the resonance from points on its slope, the mean of s^2 / (r^2 (1 - r^2)) (a
+    Lorentzian's velocity ratio r at x = (f - f0) / h, r^2 = 1 / (1 + x^2), has slope s = d ln
+    v / d f = -x / ((1 + x^2) h)) over those with 0 < r < 1; 0 where none is."""
+    inside = (ratio > 0) & (ratio < 1) & (slope_per_hz != 0)
+    return float(np.mean(slope_per_hz[inside] ** 2 / (ratio[inside] ** 2 * (1 - ratio[inside] ** 2)))) \
+        if inside.any() else 0.0
+
+
+def _inverse_half_width_per_hz(slope_per_hz: np.ndarray, ratio: np.ndarray, curvature: float) -> np.ndarray:
+    """1 / h at each point: on the slope its own, |s| / sqrt(r^2 (1 - r^2)) (`_top_curvature`);
+    on the top (s = 0, where `detuning_slope_per_hz` puts every point not at 0 < r < 1) the
+    slope points' `curvature`'s square root."""
+    on_slope = slope_per_hz != 0
+    spread = np.sqrt(np.where(on_slope, ratio**2 * (1.0 - ratio**2), 1.0))
+    return np.where(on_slope, np.abs(slope_per_hz) / spread, math.sqrt(curvature))
 
 
 def _cross_slope_share(points: pd.DataFrame | dict) -> np.ndarray:
@@ -348,14 +381,12 @@ def drift_terms(bias_bound: float, std_uncertainty: float, sources, always: bool
     return tuple(terms)
 
 
-def _power_per_resonance_hz(points: pd.DataFrame | dict, slope) -> np.ndarray:
-    """d ln P / d f of each point's power along the part that follows the resonance (signed:
-    a resonance moved by e moves ln P by minus this times e): the resonant part's 2 s
-    (`_resonant_share`: the dielectric share d and the shunt's capacitive one d_C do not
-    follow the resonance) and the shunt's cross term's 1 / (f - f0) (`generator_sensitivities`)."""
-    shunt = _shunt_shares(points)
-    return (_resonant_share(points) * 2.0 * np.asarray(slope, dtype=float)
-            + shunt["cross_share"] * (shunt["cross_exponent"] - 1.0) / np.asarray(points["frequency_hz"], dtype=float))
+def _power_per_resonance_hz(points: pd.DataFrame | dict, slope, inverse_half_width_per_hz) -> np.ndarray:
+    """Each point's `resonance_power_per_hz`: its resonant share (`_resonant_share`: the
+    dielectric share d and the shunt's capacitive one d_C do not follow the resonance) and
+    its shunt's cross slope at its 1 / h (`_cross_slope_share`)."""
+    return resonance_power_per_hz(slope, _resonant_share(points),
+                                  _cross_slope_share(points) * inverse_half_width_per_hz)
 
 
 def _resonant_share(points: pd.DataFrame | dict) -> np.ndarray:
@@ -417,9 +448,16 @@ def power_budget(point: dict, deskew: Deskew | None = None) -> Budget:
 
 def _power_drift_terms(point: dict) -> tuple[Term, ...]:
     """A stored power's resonance-drift term (`_point_drift_terms`)."""
-    one = {key: [point.get(key, math.nan)] for key in ("power_w", "frequency_hz", *_SHARE_COLUMNS)}
-    per_hz = abs(float(_power_per_resonance_hz(one, [point.get("detuning_slope_per_hz", 0.0)])[0]))
+    one = {key: [point.get(key, math.nan)] for key in ("power_w", *_SHARE_COLUMNS)}
+    per_hz = abs(float(_power_per_resonance_hz(one, [point.get("detuning_slope_per_hz", 0.0)],
+                                               _stored_inverse_half_width(point))[0]))
     return _point_drift_terms(point, float(point["power_w"]), per_hz)
+
+
+def _stored_inverse_half_width(point: dict) -> float:
+    """A stored point's 1 / h (`detuning_inverse_half_width_per_hz`; 0 where it has none)."""
+    value = point.get("detuning_inverse_half_width_per_hz", 0.0)
+    return float(value) if isinstance(value, (int, float)) and math.isfinite(value) else 0.0
 
 
 #: The columns a point's shares are read from (`analysis.dielectric`).
@@ -432,8 +470,9 @@ def _power_generator_term(point: dict) -> Term:
     one = {key: [point.get(key, math.nan)] for key in ("power_w", *_SHARE_COLUMNS)}
     share, exponent, described = _dielectric_share(one)
     slope = point.get("detuning_slope_per_hz", 0.0)
+    shares = _shunt_shares(one, _stored_inverse_half_width(point))
     to_frequency, _ = generator_sensitivities(slope, float(point["frequency_hz"]), float(share[0]), float(exponent[0]),
-                                              **{k: float(v[0]) for k, v in _shunt_shares(one).items()})
+                                              **{k: float(v[0]) for k, v in shares.items()})
     return _generator_frequency_term(float(point["power_w"]) * to_frequency, described or not slope)
 
 
@@ -598,6 +637,22 @@ def detuning_slope_per_hz(points: pd.DataFrame) -> pd.Series:
     return pd.Series(slope, index=points.index, dtype=float)
 
 
+def with_detuning_shape(points: pd.DataFrame) -> pd.DataFrame:
+    """`points` with each one's resonance curve as its budgets take it: `detuning_slope_per_hz`
+    and `detuning_inverse_half_width_per_hz`, 1 / h (`_inverse_half_width_per_hz`: a point on
+    the slope its own, a reading at resonance its run and level's slope points' curvature; 0
+    where its level has none, or off the resonance without a slope)."""
+    slope = detuning_slope_per_hz(points)
+    inverse_h = np.zeros(len(points))
+    if {"detuning_phase", "run_name", "velocity_level_pp_mps"} <= set(points) and len(points):
+        slopes, ratio = slope.to_numpy(float), _ratios(points)
+        at_resonance = (points["detuning_phase"] == "resonance").to_numpy()
+        for at in points.groupby(["run_name", "velocity_level_pp_mps"], sort=False).indices.values():
+            at = at[(slopes[at] != 0) | at_resonance[at]]
+            inverse_h[at] = _inverse_half_width_per_hz(slopes[at], ratio[at], _top_curvature(slopes[at], ratio[at]))
+    return points.assign(detuning_slope_per_hz=slope, detuning_inverse_half_width_per_hz=inverse_h)
+
+
 def with_expanded_uncertainties(points: pd.DataFrame, deskew: Deskew | None = None) -> pd.DataFrame:
     """Reduced points with, per budgeted quantity q, `q_u_combined`, `q_U` (k from the
     budget's distribution, `Budget.coverage_factor`), `q_dominant` and `q_U_coverage`;
@@ -606,7 +661,7 @@ def with_expanded_uncertainties(points: pd.DataFrame, deskew: Deskew | None = No
     Rows without a stored record (no reduction) keep NaN."""
     points, deskew = deskewed(points, deskew)
     points = points.copy()
-    points["detuning_slope_per_hz"] = detuning_slope_per_hz(points)
+    points = with_detuning_shape(points)
     rows = _rows(points)
     for quantity in POINT_BUDGETS:
         combined, expanded, dominant, coverage = [], [], [], []
@@ -656,7 +711,7 @@ def example_budgets(points: pd.DataFrame, deskew: Deskew | None = None) -> pd.Da
     """The budget of every quantity for the first stored point of each protocol: what
     the report shows. Columns: protocol, run_name, step_id, point_index, BUDGET_COLUMNS."""
     points = points.copy()
-    points["detuning_slope_per_hz"] = detuning_slope_per_hz(points)
+    points = with_detuning_shape(points)
     frames = []
     for protocol, rows in points.groupby("protocol", sort=False):
         stored = [row for row in _rows(rows) if _has_reduction(row)]
@@ -752,7 +807,7 @@ def systematic_floor(points: pd.DataFrame, calibration: Deskew | None = None) ->
     `calibration`: the floor after that calibration (its uncertainties; its values do not matter).
     """
     points = points.copy()
-    points["detuning_slope_per_hz"] = detuning_slope_per_hz(points)
+    points = with_detuning_shape(points)
     deskew = calibration
     rows = []
     for run_name, run_points in points.groupby("run_name", sort=False):

@@ -22,7 +22,7 @@ import math
 from dataclasses import dataclass, replace
 from typing import Callable
 
-from squeezebench.analysis.resonance_searches import peak_of_readings
+from squeezebench.analysis.resonance_searches import RECENTRING_MAX_STEPS, peak_of_readings
 from squeezebench.protocols.acquisition import Point
 from squeezebench.protocols.steps import Plate, Step, StepContext
 from squeezebench.errors import UserError
@@ -142,7 +142,7 @@ def stopped_at(found: Resonance, search: SearchSettings, tolerance_hz: float) ->
 
 
 def track_resonance(measure_at: Callable[[float], Point], frequency_hz: float,
-                    search: SearchSettings, max_walk_steps: int = 20) -> Resonance:
+                    search: SearchSettings, max_walk_steps: int = RECENTRING_MAX_STEPS) -> Resonance:
     """Re-centre on a resonance last seen at `frequency_hz` that may have drifted."""
     probe = _VelocityProbe(measure_at)
     step_hz = search.tracking_step_hz

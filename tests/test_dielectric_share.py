@@ -14,10 +14,11 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from squeezebench import paths
-from squeezebench.analysis import dielectric
+from squeezebench.analysis import dielectric, uncertainty
+from squeezebench.analysis.budgets import P95_FACTOR
 from squeezebench.analysis.rundata import load_run
 from squeezebench.analysis.tables import detuning_table
-from squeezebench.analysis.uncertainty import (generator_sensitivities, power_budget, power_ratio_budget,
+from squeezebench.analysis.uncertainty import (DRIFT_TERM, generator_sensitivities, power_budget, power_ratio_budget,
                                                run_uncertainties)
 from squeezebench.plates.specifications import SPECIFICATIONS
 from squeezebench.protocols.bench_errors import _power_ratios, _truths
@@ -139,9 +140,10 @@ def test_the_shunts_loss_from_the_capacitive_current_is_a_share_of_its_own(tan_d
     slope_per_hz = (ln_velocity(h) - ln_velocity(-h)) / (2 * h * detuned_hz)
     exact = (ln_power(h) - ln_power(-h)) / (2 * h)
     share = np.nan_to_num(point["dielectric_power_w"]) / point["power_w"]
+    inverse_h = abs(slope_per_hz) / math.sqrt(ratio**2 * (1.0 - ratio**2))   # 1 / h as the analysis reads it
     shares = {"shunt_share": point["shunt_capacitive_power_w"] / point["power_w"],
               "cross_share": point["shunt_cross_power_w"] / point["power_w"],
-              "cross_exponent": point["shunt_cross_frequency_exponent"]}
+              "cross_slope_per_hz": point["shunt_cross_slope_w"] / point["power_w"] * inverse_h}
     with_shunt, _ = generator_sensitivities(slope_per_hz, detuned_hz, share, 3.0, **shares)
     resonant, _ = generator_sensitivities(slope_per_hz, detuned_hz, share, 3.0)
     assert with_shunt == pytest.approx(exact, rel=1.5e-3)
@@ -195,6 +197,56 @@ def test_the_shunts_cross_term_moves_p0_with_the_drift_as_it_moves_pt(shunt_ohm)
     without = _drift_corrected_error(0.0, drift_hz)
     assert abs(without) < 3e-4
     assert abs(_drift_corrected_error(shunt_ohm, drift_hz) - without) < 0.1 * first_order
+
+
+def test_the_generators_frequency_moves_p0_through_the_shunts_cross_slope():
+    """At the peak the shunt's cross term S_x = -2 R_s w C0 x P_m is 0, but the generator's
+    frequency moves x as it moves P_t's: P0's sensitivity holds its slope, f (dS_x / dx) /
+    (P h), with h from P_t's slope and velocity ratio (`with_detuning_shape`), which the
+    simulator's finite difference at the peak confirms to 5 % of that term (the peak's
+    resonant part is 0 only to second order), and the stored P0's drift term is no longer 0
+    (`power_budget`: the former form, d_x / (f - f0), was 0 at the peak). Taken at P_t alone,
+    the ratio's generator term at r = 0.8 missed it (0.4 % of the term with the 2-ohm shunt)."""
+    load = _load(0.002735, 1.0, shunt_ohm=2.0)
+    ratio = 0.8
+    detuned_hz = F0_HZ * (1.0 + math.sqrt(1.0 / ratio**2 - 1.0) / (2.0 * Q_MECH))
+    stored = pd.DataFrame([_stored(_read(load, F0_HZ, V0_PP), "resonance", V0_PP),
+                           _stored(_read(load, detuned_hz, V0_PP / ratio), "regained", V0_PP / ratio)])
+    stored = stored.assign(power_w_u=1e-9, generator_frequency_hz=stored["frequency_hz"], target_velocity_ratio=[1.0, ratio],
+                           resonance_drift_hz=-5.0, resonance_drift_u_hz=0.5, resonance_drift_bound_hz=0.0,
+                           resonance_drift_source="Type B: known")
+    scene = {**_scene(0.002735), "electronics": {"shunt_ohm": 2.0}}
+    points = uncertainty.with_detuning_shape(dielectric.with_dielectric_power(stored, {"plate.yaml": scene}))
+    p0 = points.iloc[0]
+    assert p0["detuning_inverse_half_width_per_hz"] == pytest.approx(2.0 * Q_MECH / F0_HZ, rel=2e-2)
+    cross_slope_per_hz = p0["shunt_cross_slope_w"] / p0["power_w"] * p0["detuning_inverse_half_width_per_hz"]
+    step = 1e-7
+    exact = (math.log(_read(load, F0_HZ * (1 + step), V0_PP).power_w)
+             - math.log(_read(load, F0_HZ * (1 - step), V0_PP).power_w)) / (2 * step)
+    share = np.nan_to_num(p0["dielectric_power_w"]) / p0["power_w"]
+    shares = {"shunt_share": p0["shunt_capacitive_power_w"] / p0["power_w"],
+              "cross_share": p0["shunt_cross_power_w"] / p0["power_w"]}
+    with_slope, _ = generator_sensitivities(0.0, F0_HZ, share, 3.0, **shares, cross_slope_per_hz=cross_slope_per_hz)
+    without, _ = generator_sensitivities(0.0, F0_HZ, share, 3.0, **shares)
+    assert abs(with_slope - exact) < 0.05 * abs(F0_HZ * cross_slope_per_hz)
+    assert abs(without - exact) > 0.5 * abs(F0_HZ * cross_slope_per_hz)
+    drift = {t.name: t for t in power_budget(p0.to_dict()).terms}[DRIFT_TERM]
+    assert drift.bias and drift.std_uncertainty == pytest.approx(
+        p0["power_w"] * abs(cross_slope_per_hz) * 5.0 / P95_FACTOR, rel=1e-9)
+    # the ratio's generator term takes P0's slope too: against P_t's alone it moves by under 1 %, not 0
+    budget = power_ratio_budget(points.iloc[[1]], points.iloc[[0]])
+    term = {t.name: t for t in budget.terms}["generator frequency"]
+    pt = points.iloc[1]
+    slope_t = pt["detuning_slope_per_hz"]
+    pulls = [generator_sensitivities(slope, row["generator_frequency_hz"], np.nan_to_num(row["dielectric_power_w"]) /
+                                     row["power_w"], 3.0, row["shunt_capacitive_power_w"] / row["power_w"],
+                                     row["shunt_cross_power_w"] / row["power_w"],
+                                     row["shunt_cross_slope_w"] / row["power_w"] * inverse_h)[0]
+             for slope, row, inverse_h in ((slope_t, pt, pt["detuning_inverse_half_width_per_hz"]), (0.0, p0, 0.0))]
+    at_pt_alone = budget.value * abs(pulls[0] - pulls[1]) * SPECIFICATIONS["generator_frequency"].std_uncertainty
+    assert term.std_uncertainty / at_pt_alone - 1.0 == pytest.approx(
+        -F0_HZ * cross_slope_per_hz / (pulls[0] - pulls[1]), rel=1e-6)
+    assert 2e-3 < abs(term.std_uncertainty / at_pt_alone - 1.0) < 1e-2
 
 
 def _fig2_points(scene: dict | None) -> tuple[pd.DataFrame, pd.DataFrame, dict]:
