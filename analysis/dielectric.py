@@ -30,10 +30,11 @@ R_s Re(I_m I_C*) = -2 R_s w C0 x P_m (`shunt_cross_power_w`), x = 2 Q (f - f0) /
 (x^2 = 1 / r^2 - 1 at a point's velocity ratio r), as f x P_m; its slope dS_x / dx = -2 R_s w
 C0 P_m (`shunt_cross_slope_w`) is the same at every x, the peak's too, where S_x is 0: a drift
 or the generator's frequency error that moves P0 off the peak moves S_x there as on the slope
-(`uncertainty.resonance_power_per_hz`, `uncertainty.generator_sensitivities`). C0 is the level's (above); R_s the scene copy's where it names
-the `shunt` effect (0 where it does not: the simulated plate then has none), a bench file's
-`electronics.shunt_ohm`; a point without both has no estimate and its whole shunt loss counts
-as following the resonance (1.4 % of Fig. 2a's Pt at r = 0.5, 75 Vpp).
+(`uncertainty.resonance_power_per_hz`, `uncertainty.generator_sensitivities`). C0 is the
+level's (above); R_s the scene copy's where it names the `shunt` effect (0 where it does not:
+the simulated plate then has none), a bench file's `electronics.shunt_ohm`; a point without
+both has no estimate and its whole shunt loss counts as following the resonance (1.4 % of
+Fig. 2a's Pt at r = 0.5, 75 Vpp).
 """
 
 from __future__ import annotations
@@ -197,10 +198,10 @@ SHUNT_COLUMNS = ("shunt_capacitive_power_w", "shunt_cross_power_w", "shunt_cross
 
 
 def _shunt_parts(ohm: float, c0: float, row: dict, resonance_hz: float, loss_w: float) -> list[float]:
-    """A point's shunt loss from the capacitive current, its cross term and its slope in x, dS_x / dx = -2 R_s w C0 P_m; x from the point's
-    velocity ratio (0 at resonance, where S_x = 0 but its slope is not: a drift that moves P0
-    off the peak moves it by the slope, as it moves Pt), the resonant part of its power what
-    the rest leaves."""
+    """A point's shunt loss from the capacitive current, its cross term and its slope in x,
+    dS_x / dx = -2 R_s w C0 P_m; x from the point's velocity ratio (0 at resonance, where S_x = 0
+    but its slope is not: a drift that moves P0 off the peak moves it by the slope, as it moves
+    Pt), the resonant part of its power what the rest leaves."""
     frequency_hz, voltage_vpp = float(row["frequency_hz"]), float(row["piezo_voltage_vpp"])
     capacitive_w = shunt_capacitive_power_w(ohm, c0, frequency_hz, voltage_vpp)
     per_x = shunt_cross_power_w(ohm, c0, frequency_hz, 1.0, 1.0)   # S_x = per_x x P_m
