@@ -333,10 +333,11 @@ READING_COLUMNS = ["time_s", "frequency_hz", "u_hz", "power_w", "walk_u_hz"]
 
 
 def _readings(points: pd.DataFrame, searches: pd.DataFrame, closings: pd.DataFrame,
-              step_hz: float | None = None, drift_at=None) -> tuple[pd.DataFrame, bool, float]:
+              step_hz: float | None = None, drift_at=None) -> tuple[pd.DataFrame, bool, tuple[float, float] | None]:
     """The run's dated readings of its resonance (time_s, frequency_hz, u_hz), in time order,
-    whether its re-centrings were recorded as such, and the u of a best reading on its flat
-    top they were read with (`best_reading_scatter_hz`). A re-centring walked by `step_hz`
+    whether its re-centrings were recorded as such, and the top its search swept (`_top_of`:
+    its half-width and readings' scatter, which give the u of a best reading on it,
+    `best_reading_scatter_hz`, and a walk's blind zone). A re-centring walked by `step_hz`
     reads the peak where its walk stopped, which its reading's u takes in quadrature
     (`_walk_stop_u_hz`): a broad top's re-centrings stop near where they started, and as
     dated readings of a drift they would state it near 0 (on twelve seeded benches the
@@ -370,7 +371,7 @@ def _readings(points: pd.DataFrame, searches: pd.DataFrame, closings: pd.DataFra
     readings = pd.DataFrame(rows, columns=READING_COLUMNS, dtype=float)
     readings = readings[np.isfinite(readings["time_s"]) & np.isfinite(readings["frequency_hz"])]
     readings["u_hz"] = readings["u_hz"].fillna(0.0)   # a scatter the search cannot tell: the estimate alone
-    return readings.sort_values("time_s", kind="stable").reset_index(drop=True), tracked, best_u
+    return readings.sort_values("time_s", kind="stable").reset_index(drop=True), tracked, top
 
 
 #: How far out, in blind zones (`recentring_blind_hz`) and steps, a walk whose start is not
@@ -617,8 +618,9 @@ def _warming_estimates(points: pd.DataFrame, searches: pd.DataFrame, closings: p
     h)^2."""
     times_s, power_w = _power_history(points, searches, closings, shunt_ohm=shunt_ohm)
     at_s = points["bench_time_s"].to_numpy(float)
-    readings, _, best_u = _readings(points, searches, closings, step_hz,
-                                    _prior_drift(times_s, power_w, points, dimensions) if len(times_s) > 1 else None)
+    readings, _, top = _readings(points, searches, closings, step_hz,
+                                 _prior_drift(times_s, power_w, points, dimensions) if len(times_s) > 1 else None)
+    best_u = best_reading_scatter_hz(top)
     walk_u_hz = readings["walk_u_hz"].dropna()
     if len(times_s) < 2 or readings.empty or not np.all(np.isfinite(at_s)):
         return _drift_bounds(points, searches, closings, step_hz)
@@ -652,7 +654,6 @@ def _warming_estimates(points: pd.DataFrame, searches: pd.DataFrame, closings: p
         estimate_hz[at_setting] = setting_hz[at_setting] - frequency_hz + reference_hz
         u_hz[at_setting] = np.sqrt(readings["u_hz"].iat[0] ** 2 + reference_u_hz**2 + own["u_hz"].fillna(0.0).to_numpy() ** 2
                                    + (setting_hz[at_setting] - own["frequency_hz"].to_numpy()) ** 2)
-    top = _top_of(float(points["generator_frequency_hz"].iloc[0]), searches)
     blind = BLIND_ZONE_UNKNOWN if walk_u_hz.empty else BLIND_ZONE.format(
         step=step_hz, blind=recentring_blind_hz(*top, step_hz), low=walk_u_hz.min(), high=walk_u_hz.max())
     return estimate_hz, u_hz, np.zeros(len(points)), WARMING_SOURCE.format(

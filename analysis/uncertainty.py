@@ -295,9 +295,9 @@ def _resonance_drift(numerator: pd.DataFrame, denominator: pd.DataFrame, slopes:
         offset_x = np.where(slope == 0, 0.0, -np.sign(slope) * np.sqrt(1.0 - ratio**2) / ratio)
         inverse_h = _inverse_half_width_per_hz(slope, ratio, curvature)
         # the shunt's cross term S_x = c x P_m at first order: a drift moves x by e / h, P0's too
-        cross_per_hz = _cross_slope_share(points) * inverse_h
-        per_hz = _power_per_resonance_hz(points, slope, inverse_h)
-        shifts.append(float(np.mean(_resonant_share(points) * lorentzian_power_change(offset_x, drift_hz * inverse_h)
+        resonant, cross_per_hz = _resonant_share(points), _cross_slope_share(points) * inverse_h
+        per_hz = resonance_power_per_hz(slope, resonant, cross_per_hz)
+        shifts.append(float(np.mean(resonant * lorentzian_power_change(offset_x, drift_hz * inverse_h)
                                     - cross_per_hz * drift_hz)))
         u_rel = math.hypot(u_rel, float(np.mean(np.abs(per_hz) * drift_u_hz
                                                 + top * np.sqrt(4 * drift_hz**2 * drift_u_hz**2 + 2 * drift_u_hz**4))))
