@@ -192,8 +192,8 @@ COLUMNS: dict[str, tuple[str, str]] = {
                                           "(outside what the specifications claim; the world model's, now and then)"),
     "covered_fraction_within_specification": ("1", "covered_fraction over the benches whose instruments are all "
                                                    "within specification"),
-    "coverage_interval_low": ("1", "bench-bootstrap 95 % interval of covered_fraction (benches resampled): low end"),
-    "coverage_interval_high": ("1", "bench-bootstrap 95 % interval of covered_fraction (benches resampled): high end"),
+    "coverage_interval_low": ("1", "95 % interval of covered_fraction, benches as trials (study.coverage_interval): low end"),
+    "coverage_interval_high": ("1", "95 % interval of covered_fraction, benches as trials (study.coverage_interval): high end"),
     "median_rel_expanded_u": ("1", "median relative expanded uncertainty of the points (k for 95 % under each budget)"),
     "p95_error_over_u": ("1", "95th percentile of |error| / U over the benches' values: below 1, U over-covers by "
                               "that factor"),

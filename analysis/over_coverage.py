@@ -8,9 +8,9 @@ sqrt(3)/2 = 0.87 of the budget's standard uncertainty (rectangle: limit / sqrt(3
 world: limit / 2), so its U covers more than the 95 % it states there. The factor
 U could be multiplied by and still cover 95 % is the 95th percentile of |error| / U over
 the coverage study's values (`study.coverage_table`'s `p95_error_over_u`): that fraction of
-values then lies within the narrower U. A quantity over-covers when its whole
-bench-bootstrap interval lies above 95 %: the surplus is then more than the few benches'
-luck. What the surplus costs in bench time is the planner's to say (`squeezebench plan
+values then lies within the narrower U. A quantity over-covers when its whole 95 %
+interval (`study.coverage_interval`, benches as trials) lies above 95 %: the surplus is then
+more than the few benches' luck. What the surplus costs in bench time is the planner's to say (`squeezebench plan
 --coverage RUN_DIR`): a floor that much lower leaves more of the target to the noise.
 """
 
@@ -22,8 +22,8 @@ import pandas as pd
 STATED_COVERAGE = 0.95
 #: The error model whose surplus is priced: the world's (the specified one is what the budgets assume).
 WORLD = "world"
-#: Fewer benches say nothing of a surplus: a handful all covered gives the bench bootstrap an
-#: interval of [100 %, 100 %], and their p95 |error| / U is one bench's luck.
+#: Fewer benches say nothing of a surplus: their p95 |error| / U is one bench's luck, even
+#: where many values a bench, as good as independent, narrow their interval.
 MIN_BENCHES = 10
 
 
@@ -45,7 +45,7 @@ UNPRICED = {quantity: f"a map figure, its U {what}: narrower, it changes no plan
 def shrink_factors(table: pd.DataFrame, error_model: str = WORLD) -> dict[str, float]:
     """{quantity: factor} for each quantity of `table` (`study.coverage_table`) that
     over-covers under `error_model`: scored on at least `MIN_BENCHES` benches, its
-    bench-bootstrap interval's lower end is above `STATED_COVERAGE`, and the factor (p95
+    interval's lower end is above `STATED_COVERAGE`, and the factor (p95
     |error| / U, below 1) is what its U could be multiplied by and still cover 95 %.
     Quantities that do not over-cover are left out."""
     rows = table[(table["error_model"] == error_model) & (table["benches"] >= MIN_BENCHES)

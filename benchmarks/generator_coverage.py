@@ -19,8 +19,8 @@ campaign (run, step) across the study's benches:
 4. What the k rule costs: the same exact budgets with the specified model's own k, their
    expected coverage within specification and under the world's draw, with the fitted
    offsets and without them (were every bias corrected).
-   And how often a study of 40 or 120 such benches has its bench-bootstrap interval
-   (`study.bench_bootstrap_interval`) reach 95 % (a bench's values covered binomially at its
+   And how often a study of 40 or 120 such benches has its 95 % interval
+   (`study.coverage_interval`) reach 95 % (a bench's values covered binomially at its
    expected share: they share its generator error, their residuals taken as independent).
 5. With --budgets-of-bench SEED, term by term: the campaign run once on that specified bench
    (some 10 CPU-s) and each value's stored budget, its generator term against the fitted
@@ -56,7 +56,7 @@ from squeezebench.analysis import uncertainty  # noqa: E402
 from squeezebench.analysis.budgets import (COVERAGE_PROBABILITY, SPECIFIED, WORLD, Budget, Term,  # noqa: E402
                                            budget_distribution)
 from squeezebench.analysis.rundata import load_run  # noqa: E402
-from squeezebench.analysis.study import bench_bootstrap_interval  # noqa: E402
+from squeezebench.analysis.study import coverage_interval  # noqa: E402
 from squeezebench.analysis.tables import detuning_points  # noqa: E402
 from squeezebench.plates.specifications import SPECIFICATIONS  # noqa: E402
 from squeezebench.protocols.bench_errors import _truths  # noqa: E402
@@ -116,12 +116,11 @@ def study_range(per_bench: np.ndarray, benches: int, rng: np.random.Generator) -
 def interval_reaches_95(per_bench: np.ndarray, values: int, benches: int, rng: np.random.Generator,
                         studies: int = 400) -> float:
     """The share of studies of `benches` benches drawn from `per_bench` (`values` values
-    each) whose bench-bootstrap interval holds 95 %."""
+    each) whose interval (`study.coverage_interval`) holds 95 %."""
     reached = 0
     for _ in range(studies):
         covered = rng.binomial(values, per_bench[rng.integers(0, len(per_bench), size=benches)])
-        low, high = bench_bootstrap_interval(covered, np.full(benches, values), draws=1000,
-                                             seed=int(rng.integers(2**31)))
+        low, high = coverage_interval(covered, np.full(benches, values), draws=1000, seed=int(rng.integers(2**31)))
         reached += low <= COVERAGE_PROBABILITY <= high
     return reached / studies
 
@@ -208,7 +207,7 @@ def main() -> int:
                   f"takes {values['k_specified'].median():.3f}")
             if error_model == SPECIFIED:
                 n = int(round(values["weight"].sum()))
-                print(f"    a study's bench-bootstrap interval reaches 95 %: on 40 benches "
+                print(f"    a study's 95 % interval reaches 95 %: on 40 benches "
                       f"{interval_reaches_95(expected, n, 40, rng):.0%} of the time, on 120 "
                       f"{interval_reaches_95(expected, n, 120, rng):.0%}")
                 unbiased = values.assign(offset=0.0)

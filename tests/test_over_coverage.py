@@ -116,8 +116,10 @@ def test_a_map_figures_surplus_is_said_to_cost_no_bench_time_for_the_reason_no_p
 
     assert set(UNPRICED) == set(MAP_QUANTITIES)
     errors = np.random.default_rng(7).normal(0.0, 0.01, 2000)
-    table = coverage_table(pd.concat([coverage_rows(errors, 0.04, "map_coefficient_of_variation", benches=40),
-                                      coverage_rows(errors, 0.04, "power_w", benches=40)], ignore_index=True))
+    # 2.5 sigma: 98.8 % covered, the misses spread over the benches (every bench all covered
+    # would leave 40 benches' 91.2-100 %, no surplus shown)
+    table = coverage_table(pd.concat([coverage_rows(errors, 0.025, "map_coefficient_of_variation", benches=40),
+                                      coverage_rows(errors, 0.025, "power_w", benches=40)], ignore_index=True))
     cv, power = sorted(shrink_lines(table))
     assert cv.startswith("map_coefficient_of_variation over-covers") and cv.endswith(
         f"({UNPRICED['map_coefficient_of_variation']})")

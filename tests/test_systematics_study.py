@@ -192,7 +192,7 @@ def test_a_coverage_study_on_benches_erring_as_the_world_errs_is_stored_and_tabl
     assert all(line.startswith("coverage: ") for line in printed)
     # one per quantity (Table 3's four with a U among them), and the design's predictions against the print
     assert len(printed) == 9 + len(DESIGN_PREDICTIONS)
-    assert "on 2 benches" in printed[0] and "bootstrap 95 % interval" in printed[0] and "as the world errs" in printed[0]
+    assert "on 2 benches" in printed[0] and "95 % interval" in printed[0] and "benches as trials" in printed[0] and "as the world errs" in printed[0]
     assert "predicted_frequency_hz" in printed[9] and "the paper's plates" in printed[9]
 
 
@@ -317,3 +317,4 @@ def test_benches_beyond_specification_are_counted_and_the_others_coverage_is_giv
     assert "outside what the specifications claim" in line
     within = coverage_table(pd.DataFrame(rows).assign(beyond_specification=False))
     assert "specification claim" not in coverage_lines(within)[0]
+

@@ -104,7 +104,7 @@ def test_the_velocitys_u_covers_the_simulated_benches_as_its_budget_claims(scene
         assert share == pytest.approx(expected, abs=4.5 * math.sqrt(expected * (1.0 - expected) / BENCHES))
 
 def test_a_benchs_velocity_errors_are_one_draw_for_all_its_plates(tmp_path):
-    """The study's bench bootstrap takes the benches, not the values, as its trials: every
+    """The study's coverage interval takes the benches, not the values, as its trials: every
     plate a bench measures reads through the same drawn CH3 gain, decoder scale and generator
     (a coverage study's misses come by whole benches), and another bench draws anew."""
     scenes = [load_scene(scene_file(tmp_path, name, effects=[])) for name in ("one_column_1mm.yaml", "large_plate.yaml")]
