@@ -7,6 +7,7 @@ arguments and dispatches here; nothing here imports the command line.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import re
 import shutil
@@ -422,6 +423,25 @@ def _solve_campaign_plates(campaign: Path) -> None:
     modeshape.solve_ahead(list(dict.fromkeys([*mapped_scenes(campaign), *characterised_scenes(campaign)])))
 
 
+def _solve_coverage_plates(campaign: Path) -> None:
+    """The plates every coverage bench reads, solved here into the disk cache before the
+    benches are handed to the workers: the modes the campaign's maps scan (a bench's drawn
+    tolerances leave a mode's shape the nominal plate's, `simbench.plate_draws`) and the paper's
+    plates Tables 3-4 are printed beside (`predicted_plates.predictions`). With a cold cache
+    the first two benches solved the same plates at once, each worker growing from about 130
+    to 480-500 MB, past what loky takes for a leak (300 MB over its size after its first task,
+    the warming's import): both were retired with a warning ("A worker stopped while some
+    jobs were given to the executor") and their other caches lost. With a warm cache this
+    reads them back (under 1 CPU-s)."""
+    from squeezebench.plates import predicted_plates
+    from squeezebench.protocols.campaign import mapped_scenes
+    from squeezebench.simbench import modeshape
+
+    modeshape.solve_ahead(mapped_scenes(campaign))
+    with contextlib.suppress(UserError):   # a plate the model cannot solve: each bench's table says so
+        predicted_plates.predictions()
+
+
 def _finished(index: Path) -> str:
     """What a person reads last: the report's headline, then where the report is."""
     from squeezebench.report.run_report import HEADLINE_FILE
@@ -471,8 +491,12 @@ def _run_coverage(args: argparse.Namespace, out: Path, benches: int) -> None:
         import pandas as pd
 
         from squeezebench.analysis.study import coverage_lines, coverage_table, design_coverage_points
+        from squeezebench.disk_cache import cache_dir
+        from squeezebench.workers import default_workers
 
         error_model = getattr(args, "coverage_errors", "specified")
+        if args.scheduler is None and (args.workers or default_workers()) > 1 and cache_dir() is not None:
+            _solve_coverage_plates(paths.paper_campaign())
         stored = run_coverage_study(out, benches, resume=args.resume, workers=args.workers, scheduler=args.scheduler,
                                     progress=lambda message: say(args, message), error_model=error_model)
         scored = pd.concat([pd.read_parquet(stored).assign(error_model=error_model), design_coverage_points()],
