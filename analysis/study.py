@@ -281,7 +281,7 @@ def coverage_interval(covered: np.ndarray, counts: np.ndarray, draws: int = COVE
 
     Not the bootstrap's own percentiles: a fraction near 1 of few benches gives them too
     narrow a range, and all benches covered gives [100 %, 100 %] whatever their number,
-    where 40 of 40 is as likely from a U holding 93 % (Wilson: 91.2-100 %). On 40 benches
+    where a U holding 93 % gives 40 of 40 one study in 18 (Wilson: 91.2-100 %). On 40 benches
     whose values share their bench's fate, at a true 95 %, the percentiles held it in 86 % of
     studies, this in 95 % (`tests/test_coverage_interval.py`)."""
     values = float(counts.sum())
