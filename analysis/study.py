@@ -318,6 +318,37 @@ COVERAGE_MODELS = {"specified": "benches within specification (instruments and p
                                  "(a 'bench' is a plate)"}
 
 
+#: Each error model in a few words, in the order a reader meets them (`coverage_verdict`,
+#: the report's coverage table).
+MODEL_HEADINGS = {"specified": "within specification", "world": "as the world errs",
+                  DESIGN_MODEL: "design vs the paper's print"}
+
+
+def coverage_verdict(table: pd.DataFrame, quantity_words=str) -> str:
+    """What a coverage study found (`coverage_table`), a sentence per error model: how many
+    quantities' 95 % intervals hold 95 %, and which lie above it (their U wider than their
+    errors need) or below it (their U too narrow), judged on the interval as printed (0.1 %:
+    95.0-99.6 % holds 95 %)."""
+    def listed(quantities: list[str], change: str) -> str:
+        return f"; {', '.join(quantities)} {'cover' if len(quantities) > 1 else 'covers'} {change}"
+
+    sentences = []
+    for model, heading in MODEL_HEADINGS.items():
+        rows = table[table["error_model"] == model]
+        if rows.empty:
+            continue
+        low, high = (rows[column].round(3) for column in ("coverage_interval_low", "coverage_interval_high"))
+        above, below = ([quantity_words(q) for q in rows.loc[beyond, "quantity"]] for beyond in (low > 0.95, high < 0.95))
+        sentence = (f"{heading[0].upper()}{heading[1:]} ({rows['benches'].max()} benches): the 95 % interval of "
+                    f"{len(rows) - len(above) - len(below)} of {len(rows)} quantities holds 95 %")
+        if above:
+            sentence += listed(above, "more (U wider than the errors need)")
+        if below:
+            sentence += listed(below, "less (U too narrow)")
+        sentences.append(sentence + ".")
+    return " ".join(sentences)
+
+
 def coverage_lines(table: pd.DataFrame, quantity_words=str) -> list[str]:
     """One line per row of `coverage_table` (what `study` prints and the report says):
     quantity, coverage, its 95 % interval (`coverage_interval`), benches, error model."""

@@ -154,7 +154,7 @@ def _systematics_part(context: ReportContext, summary: pd.DataFrame, drawn: Path
 
 def _coverage_part(context: ReportContext) -> str:
     """Whether the expanded uncertainties this report prints cover the truth, checked on
-    the paper campaign over simulated benches: what it found first (`_coverage_verdict`),
+    the paper campaign over simulated benches: what it found first (`study.coverage_verdict`),
     then each quantity's coverage under each error model (`_coverage_grid`), then how the
     benches erred and what was scored, and the whole table, each one click away."""
     points = study.load_coverage(context.run.run_dir)
@@ -191,7 +191,7 @@ def _coverage_part(context: ReportContext) -> str:
         "all: the interval takes benches as its trials (Wilson's, on the number of values the benches "
         "are worth; 40 benches all covered leave 91.2-100 %), and a handful of them decides it.")
     return ("<h3>Coverage of the expanded uncertainties</h3>"
-            f"<p>{html.escape(_coverage_verdict(table))}</p>"
+            f"<p>{html.escape(study.coverage_verdict(table, words_of))}</p>"
             + html_table(_coverage_grid(table),
                          "Share of each quantity's values whose ± U holds the truth, with its 95 % interval "
                          "(benches as trials), by how the simulated benches erred. Simulated bench.")
@@ -201,13 +201,10 @@ def _coverage_part(context: ReportContext) -> str:
                        "(study_coverage.csv). Simulated bench.")))
 
 
-#: The columns of `_coverage_grid`, by error model, in the order a reader meets them.
-COVERAGE_COLUMNS = {"specified": "within specification", "world": "as the world errs",
-                    study.DESIGN_MODEL: "design vs the paper's print"}
 
 
 def _coverage_grid(table: pd.DataFrame) -> pd.DataFrame:
-    """One row per quantity, one column per error model (`COVERAGE_COLUMNS`): its coverage and
+    """One row per quantity, one column per error model (`study.MODEL_HEADINGS`): its coverage and
     95 % interval on that model's benches ("" where it was not scored so; their number in the
     heading where every quantity had as many, else in each cell), and, beside the
     world's, its coverage on the world's benches whose instruments all err within
@@ -217,7 +214,7 @@ def _coverage_grid(table: pd.DataFrame) -> pd.DataFrame:
                 f"{100 * row.coverage_interval_high:.1f} %)" + ("" if benches_said else f", {row.benches} benches"))
 
     grid = pd.DataFrame(index=pd.Index(list(dict.fromkeys(table["quantity"])), name="quantity"))
-    for model, heading in COVERAGE_COLUMNS.items():
+    for model, heading in study.MODEL_HEADINGS.items():
         rows = table[table["error_model"] == model].set_index("quantity")
         if rows.empty:
             continue
@@ -232,32 +229,6 @@ def _coverage_grid(table: pd.DataFrame) -> pd.DataFrame:
                 for q in grid.index]
     grid.index = [words_of(q) for q in grid.index]
     return grid.rename_axis("quantity").reset_index()
-
-
-def _coverage_verdict(table: pd.DataFrame) -> str:
-    """What the coverage study found, in a sentence per error model: which quantities' 95 %
-    intervals hold 95 %, which lie above it (their U wider than their errors need) and which
-    below it (their U too narrow)."""
-    def listed(quantities: list[str], verb: str) -> str:
-        return f"; {', '.join(quantities)} {verb if len(quantities) > 1 else verb + 's'}"
-
-    sentences = []
-    for model, heading in COVERAGE_COLUMNS.items():
-        rows = table[table["error_model"] == model]
-        if rows.empty:
-            continue
-        # judged on the interval as the grid prints it (0.1 %): 95.0-99.6 % holds 95 %
-        low, high = (rows[column].round(3) for column in ("coverage_interval_low", "coverage_interval_high"))
-        above, below = ([words_of(q) for q in rows.loc[beyond, "quantity"]] for beyond in (low > 0.95, high < 0.95))
-        held = len(rows) - len(above) - len(below)
-        sentence = (f"{heading[0].upper()}{heading[1:]} ({rows['benches'].max()} benches): the 95 % interval of "
-                    f"{held} of {len(rows)} quantities holds 95 %")
-        if above:
-            sentence += listed(above, "cover") + " more (U wider than the errors need)"
-        if below:
-            sentence += listed(below, "cover") + " less (U too narrow)"
-        sentences.append(sentence + ".")
-    return " ".join(sentences)
 
 
 def _over_coverage_part(context: ReportContext) -> str:

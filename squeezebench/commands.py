@@ -490,7 +490,7 @@ def _run_coverage(args: argparse.Namespace, out: Path, benches: int) -> None:
 
         import pandas as pd
 
-        from squeezebench.analysis.study import coverage_lines, coverage_table, design_coverage_points
+        from squeezebench.analysis.study import coverage_lines, coverage_table, coverage_verdict, design_coverage_points
         from squeezebench.disk_cache import cache_dir
         from squeezebench.workers import default_workers
 
@@ -501,7 +501,8 @@ def _run_coverage(args: argparse.Namespace, out: Path, benches: int) -> None:
                                     progress=lambda message: say(args, message), error_model=error_model)
         scored = pd.concat([pd.read_parquet(stored).assign(error_model=error_model), design_coverage_points()],
                            ignore_index=True)   # the design's predictions against the paper's print
-        for line in coverage_lines(coverage_table(scored)):
+        table = coverage_table(scored)
+        for line in [coverage_verdict(table), *coverage_lines(table)]:   # what it found, then each quantity
             print(f"coverage: {line}", flush=True)
 
 

@@ -1,13 +1,15 @@
-"""The report's coverage part (`report.study`): what the study found first, in words, then one
-row per quantity with its coverage under each error model, from the coverage table alone."""
+"""What a coverage study found, in words (`study.coverage_verdict`: the report's coverage part
+and `study` print it first), then the report's row per quantity with its coverage under each
+error model (`report.study`), from the coverage table alone."""
 
 from __future__ import annotations
 
 import numpy as np
 import pandas as pd
 
-from squeezebench.analysis.study import coverage_table
-from squeezebench.report.study import _coverage_grid, _coverage_verdict
+from squeezebench.analysis.study import coverage_table, coverage_verdict
+from squeezebench.report.section import words_of
+from squeezebench.report.study import _coverage_grid
 
 
 def _points(quantity: str, model: str, covered_per_bench: list[int], values: int = 10,
@@ -33,7 +35,7 @@ def test_the_verdict_names_the_quantities_whose_interval_lies_above_or_below_95_
         _points("power_w", "world", [10] * 40, beyond=(3, 7)),
     ], ignore_index=True))
     assert table.set_index("quantity").loc["resonance_frequency_hz", "coverage_interval_low"].max() > 0.95
-    verdict = _coverage_verdict(table)
+    verdict = coverage_verdict(table, words_of)
     assert verdict.startswith("Within specification (40 benches): the 95 % interval of 1 of 3 quantities holds 95 %")
     assert "; resonance frequency covers more (U wider than the errors need)" in verdict
     assert "; velocity covers less (U too narrow)" in verdict

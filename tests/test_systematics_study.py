@@ -190,11 +190,14 @@ def test_a_coverage_study_on_benches_erring_as_the_world_errs_is_stored_and_tabl
                                          quiet=True), tmp_path, 2)
     printed = capsys.readouterr().out.splitlines()
     assert all(line.startswith("coverage: ") for line in printed)
-    # one per quantity (Table 3's four with a U among them), and the design's predictions against the print
-    assert len(printed) == 9 + len(DESIGN_PREDICTIONS)
-    assert "on 2 benches" in printed[0] and "as the world errs" in printed[0]
-    assert "95 % interval" in printed[0] and "benches as trials" in printed[0]
-    assert "predicted_frequency_hz" in printed[9] and "the paper's plates" in printed[9]
+    # what it found first, then one per quantity (Table 3's four with a U among them), and the
+    # design's predictions against the print
+    assert len(printed) == 1 + 9 + len(DESIGN_PREDICTIONS)
+    assert printed[0].startswith("coverage: As the world errs (2 benches): the 95 % interval of ")
+    assert "Design vs the paper's print (7 benches)" in printed[0]
+    assert "on 2 benches" in printed[1] and "as the world errs" in printed[1]
+    assert "95 % interval" in printed[1] and "benches as trials" in printed[1]
+    assert "predicted_frequency_hz" in printed[10] and "the paper's plates" in printed[10]
 
 
 def test_a_negative_number_of_benches_is_refused(tmp_path, capsys):
