@@ -585,6 +585,23 @@ def _prior_drift(times_s: np.ndarray, power_w: np.ndarray, points: pd.DataFrame,
     return lambda when_s: -0.5 * (low + high) * np.interp(when_s, times_s, held_j)
 
 
+def drifts_over_time_constants(times_s: np.ndarray, power_w: np.ndarray, readings: pd.DataFrame, when_s: np.ndarray,
+                               scale_range: tuple[float, float], time_constant_range_s: tuple[float, float]
+                               ) -> list[tuple[float, np.ndarray, np.ndarray]]:
+    """At each of TIME_CONSTANT_STEPS time constants log-spaced over `time_constant_range_s`,
+    the readings' chi^2 about the scale they fit (`_warming_scale`, within `scale_range` Hz/J),
+    the drift since rest at `when_s`, -k E, and its u from the scale's, u(k) E (Hz), E the heat
+    held under the run's powers `power_w` at `times_s` (`warming.held_heat_j`): what
+    `_warming_estimates` chooses among (and `benchmarks/drift_calibration.py` takes apart)."""
+    fits = []
+    for tau_s in np.geomspace(*time_constant_range_s, TIME_CONSTANT_STEPS):
+        held_j = warming.held_heat_j(times_s, power_w, tau_s)
+        scale, scale_u, chi2 = _warming_scale(held_j, readings, times_s, *scale_range)
+        since_rest_j = np.interp(when_s, times_s, held_j)
+        fits.append((chi2, -scale * since_rest_j, scale_u * since_rest_j))
+    return fits
+
+
 def _warming_estimates(points: pd.DataFrame, searches: pd.DataFrame, closings: pd.DataFrame,
                        dimensions: tuple[float, float, float, float], shunt_ohm: float = 0.0,
                        step_hz: float | None = None) -> DriftColumns:
@@ -631,12 +648,7 @@ def _warming_estimates(points: pd.DataFrame, searches: pd.DataFrame, closings: p
     # as mounted, which a stored value states), at the points and at the first reading of the
     # resonance, itself read on a plate its own readings had warmed
     when_s = np.append(at_s, reference_s)
-    fits = []
-    for tau_s in np.geomspace(shortest, longest, TIME_CONSTANT_STEPS):
-        held_j = warming.held_heat_j(times_s, power_w, tau_s)
-        scale, scale_u, chi2 = _warming_scale(held_j, readings, times_s, low, high)
-        since_rest_j = np.interp(when_s, times_s, held_j)
-        fits.append((chi2, -scale * since_rest_j, scale_u * since_rest_j))
+    fits = drifts_over_time_constants(times_s, power_w, readings, when_s, (low, high), (shortest, longest))
     least = min(chi2 for chi2, _, _ in fits)
     allowed = [(drift, drift_u) for chi2, drift, drift_u in fits if chi2 <= least + CHI2_95_ONE]
     drifts = np.array([drift for drift, _ in allowed])
