@@ -35,11 +35,17 @@ reading they were 94-95 % (the one-column plate's 94-96 % to 97-98 %, the four-c
 98-99 % to 100-102 %). Where the walk stops is not uniform out to that bound: each reading
 now carries its walk's own stop beyond the golden section's bracket
 (`recentring_stop_offsets_hz`, the walk's rule as a chain; `recentring_stop_u_hz`;
-`_walk_stop_u_hz`, its start placed against the peak by the warming the tolerances
+`_walk_stops_hz`, its start placed against the peak by the warming the tolerances
 predict): on that top 3.3 Hz RMS from a start at the peak, 5.6 Hz from 10 Hz off, 8.6 Hz
 from 30 Hz, on a narrow top (the one- and four-column plates') 0-0.2 Hz, where the rectangle
-said 11.1 Hz and up to 1.2 Hz from anywhere (the run's re-centring step from its settings). The readings
-alone (below) bound the drift where no scene gives the plate.
+said 11.1 Hz and up to 1.2 Hz from anywhere (the run's re-centring step from its settings).
+A walk stops on the side it came from, so a re-centring of a falling resonance reads high:
+where the warming places its start, the reading is corrected for its stop's mean
+(`recentring_stop_moments_hz`) and keeps its spread about it as u. On 40 seeded specified
+benches (`benchmarks/drift_calibration.py`, the simulated plate's own drift recorded) the
+nine-column plate's Pt estimates were 85 % of its drift (median) with u 4.4 Hz RMS,
+(e - true) / u +0.47 +- 0.53 (p95 |.| 1.47): the bias carried as u; corrected, 91 % with u
+3.4 Hz, +0.29 +- 0.56 (p95 1.07). The readings alone (below) bound the drift where no scene gives the plate.
 
 Type A, from the run's dated readings of its resonance (`_drift_bounds`: a bias bound,
 `resonance_drift_bound_hz`, and no estimate; the same readings scale the warming): its
@@ -261,42 +267,62 @@ def recentring_stop_offsets_hz(half_width_hz: float, scatter_rel: float, step_hz
     return np.array(offsets), np.array(probabilities)
 
 
-#: The lattice phases a walk's start is averaged over (`recentring_stop_u_hz`).
+#: The lattice phases a walk's start is averaged over (`recentring_stop_moments_hz`).
 START_PHASES = 8
 
 
 @functools.lru_cache(maxsize=4096)
-def recentring_stop_u_hz(half_width_hz: float, scatter_rel: float, step_hz: float, moved_hz: float) -> float:
-    """The standard uncertainty (Hz) a re-centring's reading takes from where its walk stopped,
-    beyond what the golden section after it (`track_resonance`, on the stop c +- a step) and
-    the reading's own u (its vertex's fit, or `best_reading_scatter_hz`) already hold, for a
-    walk that starts where the resonance was `moved_hz` ago (the peak has moved that far since).
+def recentring_stop_moments_hz(half_width_hz: float, scatter_rel: float, step_hz: float,
+                               start_offset_hz: float) -> tuple[float, float]:
+    """The mean and the mean square (Hz, Hz^2) of how far from the peak a re-centring's
+    reading sits for where its walk stopped, beyond what the golden section after it
+    (`track_resonance`, on the stop c +- a step) and the reading's own u (its vertex's fit, or
+    `best_reading_scatter_hz`) already hold, for a walk started `start_offset_hz` from the peak
+    (positive: above it; the peak moved the other way since the start was read).
 
     A stop within a step of the peak has it inside the golden section's bracket, which finds
-    it to its own scatter, the reading's u. A stop farther has the peak outside the bracket,
-    and the rule that stopped the walk, a step's rise hidden in the readings' scatter, hides
-    the bracket's slope from the golden section too: the reading stays about at the stop, off
-    the peak by c. So the term is the RMS of c over the stops beyond a step
-    (`recentring_stop_offsets_hz`; about the peak, not about their mean, which the estimate
-    does not correct for): sqrt(sum over |c| > step of p_c c^2). The start's place on the
-    walk's lattice against the peak is not known to a step: that mean square is averaged over
-    START_PHASES starts spread evenly over a step about `moved_hz` (a rectangle). A start
-    within the blind zone (`recentring_blind_hz`) mostly stops within a step of where it
-    started, so the term is bounded by the move since the start; a start beyond it walks in
-    and stops on the zone's near side. On a narrow top (the one- and four-column plates', h ~
-    60 Hz) every stop is within a step of the peak and the term is 0, where the rectangle at
-    the zone's bound gave up to 1.3 Hz; on the nine-column plate's broad top the readings of
-    300 seeded walks scatter by 2.9, 5.1 and 7.8 Hz from starts 0, 10 and 30 Hz off, their u
-    with this term is 4.7, 6.5 and 9.3 Hz (the term 3.3, 5.6 and 8.6 Hz), with the rectangle
-    11.5-11.6 Hz."""
+    it to its own scatter, the reading's u: it enters as 0. A stop farther has the peak
+    outside the bracket, and the rule that stopped the walk, a step's rise hidden in the
+    readings' scatter, hides the bracket's slope from the golden section too: the reading
+    stays about at the stop, off the peak by c. So the moments are sums over the stops
+    beyond a step (`recentring_stop_offsets_hz`), sum p_c c and sum p_c c^2 (the lost mass
+    of walks cut short left out of both). The start's place on the walk's lattice against
+    the peak is not known to a step: both are averaged over START_PHASES starts spread evenly
+    over a step about the start (a rectangle), a mixture whose variance is the mean square
+    less the mean's square. A walk stops on the side it came from (the readings it kept are
+    the largest so far): the mean has the start's sign, 0 from the peak. On the nine-column
+    plate's broad top (h 340 Hz, s 3e-4, 5 Hz steps) from starts 0, 5, 10, 20 and 30 Hz above
+    it: mean 0.0, +1.4, +3.1, +5.0 and +5.3 Hz, where 300 seeded walks of the real
+    `track_resonance` read their peaks off by -0.4, +2.1, +3.5, +4.2 and +4.9 Hz (as dated
+    drifts, uncorrected, they under-read a falling resonance's fall:
+    `benchmarks/drift_calibration.py`); on a narrow top (h ~ 60 Hz) every stop is within a
+    step and both are 0."""
+    sign = math.copysign(1.0, start_offset_hz)
     phases = (np.arange(START_PHASES) + 0.5) / START_PHASES - 0.5
-    mean_squares = []
+    means, mean_squares = [], []
     for phase in phases:
         offsets, probabilities = recentring_stop_offsets_hz(half_width_hz, scatter_rel, step_hz,
-                                                            abs(moved_hz) + phase * step_hz)
+                                                            abs(start_offset_hz) + phase * step_hz)
         beyond = np.abs(offsets) > step_hz
+        means.append(np.sum(probabilities[beyond] * offsets[beyond]) / np.sum(probabilities))
         mean_squares.append(np.sum(probabilities[beyond] * offsets[beyond] ** 2) / np.sum(probabilities))
-    return float(math.sqrt(np.mean(mean_squares)))
+    return sign * float(np.mean(means)), float(np.mean(mean_squares))
+
+
+def recentring_stop_u_hz(half_width_hz: float, scatter_rel: float, step_hz: float, moved_hz: float) -> float:
+    """The standard uncertainty (Hz) a re-centring's reading takes from where its walk stopped
+    about the peak (the RMS of `recentring_stop_moments_hz`: no correction for its mean), for
+    a walk that starts where the resonance was `moved_hz` ago: where the start's side against
+    the peak is not known (`_walk_stops_hz` without the warming's drift). A start within the
+    blind zone (`recentring_blind_hz`) mostly stops within a step of where it started, so the
+    term is bounded by the move since the start; a start beyond it walks in and stops on the
+    zone's near side. On a narrow top (the one- and four-column plates', h ~ 60 Hz) every
+    stop is within a step of the peak and the term is 0, where the rectangle at the zone's
+    bound gave up to 1.3 Hz; on the nine-column plate's broad top the readings of 300 seeded
+    walks scatter by 2.9, 5.1 and 7.8 Hz from starts 0, 10 and 30 Hz off, their u with this
+    term is 4.7, 6.5 and 9.3 Hz (the term 3.3, 5.6 and 8.6 Hz), with the rectangle
+    11.5-11.6 Hz."""
+    return math.sqrt(recentring_stop_moments_hz(half_width_hz, scatter_rel, step_hz, abs(moved_hz))[1])
 
 
 def _sweep(searches: pd.DataFrame) -> pd.DataFrame:
@@ -328,7 +354,8 @@ def folded_quantile(offset_hz, u_hz, probability: float = COVERAGE_PROBABILITY) 
 
 
 #: A run's dated readings of its resonance (`_readings`): walk_u_hz, a re-centring's u from
-#: where its walk stopped (NaN: none, or no step stored), is in u_hz already.
+#: where its walk stopped (NaN: none, or no step stored), is in u_hz already (and frequency_hz
+#: corrected for the stop's mean).
 READING_COLUMNS = ["time_s", "frequency_hz", "u_hz", "power_w", "walk_u_hz"]
 
 
@@ -338,8 +365,9 @@ def _readings(points: pd.DataFrame, searches: pd.DataFrame, closings: pd.DataFra
     whether its re-centrings were recorded as such, and the top its search swept (`_top_of`:
     its half-width and readings' scatter, which give the u of a best reading on it,
     `best_reading_scatter_hz`, and a walk's blind zone). A re-centring walked by `step_hz`
-    reads the peak where its walk stopped, which its reading's u takes in quadrature
-    (`_walk_stop_u_hz`): a broad top's re-centrings stop near where they started, and as
+    reads the peak where its walk stopped, for whose mean the reading is corrected and whose
+    u it takes in quadrature (`_walk_stops_hz`): a broad top's re-centrings stop near where
+    they started, on the side they came from, and as
     dated readings of a drift they would state it near 0 (on twelve seeded benches the
     nine-column plate's closing re-centrings read 7 Hz of the plate's 21 Hz fall, 2-3 times
     their fits' u off; the one- and four-column plates' within theirs). `drift_at`: the
@@ -363,8 +391,9 @@ def _readings(points: pd.DataFrame, searches: pd.DataFrame, closings: pd.DataFra
         closing = (at_resonance["detuning_phase"] == "closing").to_numpy() if "detuning_phase" in at_resonance else \
             np.zeros(len(at_resonance), bool)
         search_s = min((row[0] for row in rows), default=math.nan)
-        at_setting["walk_u_hz"] = _walk_stop_u_hz(at_setting["time_s"].to_numpy(float), closing, search_s, top,
-                                                  step_hz, drift_at)
+        offset_hz, at_setting["walk_u_hz"] = _walk_stops_hz(at_setting["time_s"].to_numpy(float), closing, search_s,
+                                                            top, step_hz, drift_at)
+        at_setting["frequency_hz"] -= offset_hz   # where the walk stops on average: corrected for
         at_setting["u_hz"] = np.hypot(at_setting["u_hz"], at_setting["walk_u_hz"])
     rows = [(*row, math.nan) for row in rows] + list(at_setting.reindex(columns=READING_COLUMNS).itertuples(
         index=False, name=None))
@@ -380,29 +409,41 @@ def _readings(points: pd.DataFrame, searches: pd.DataFrame, closings: pd.DataFra
 FAR_START_ZONES, FAR_START_STEPS = 2.0, 2.0
 
 
-def _walk_stop_u_hz(times_s: np.ndarray, closing: np.ndarray, search_s: float, top: tuple[float, float],
-                    step_hz: float, drift_at) -> np.ndarray:
-    """Each re-centring's u from where its walk stopped (`recentring_stop_u_hz`), its start
-    placed against the peak by how far `drift_at` (the warming's drift since rest, Hz, at
-    given times) says the resonance moved since the start was read: a level's re-centring
-    (`protocols.detuning`) starts from the search's resonance (read at `search_s`), the
-    closing one from the last level's, itself off its peak by that walk's own u (taken in
-    quadrature with the move since). Where `drift_at` is None or the search is not dated, a
-    start from beyond the zone (FAR_START_ZONES, FAR_START_STEPS): the largest a walk gives."""
+def _walk_stops_hz(times_s: np.ndarray, closing: np.ndarray, search_s: float, top: tuple[float, float],
+                   step_hz: float, drift_at) -> tuple[np.ndarray, np.ndarray]:
+    """Each re-centring's expected offset from the peak for where its walk stopped (Hz,
+    positive: the reading above its peak) and that offset's standard uncertainty
+    (`recentring_stop_moments_hz`), its start placed against the peak by how far `drift_at`
+    (the warming's drift since rest, Hz, at given times) says the resonance moved since the
+    start was read. A level's re-centring (`protocols.detuning`) starts from the search's
+    resonance (read at `search_s`): above a falling peak by the fall since. The closing one
+    starts from the last level's reading, off that level's peak by its walk's own offset, and
+    the peak has moved on since: its moments are averaged over that start +- the last walk's
+    u (two-point Gauss-Hermite: the start's spread as a normal, exact to its variance). The
+    reading is corrected for the offset (GUM 3.2.4: a walk stops on the side it came from,
+    so uncorrected readings of a falling resonance under-read its fall: on 40 seeded
+    benches the nine-column plate's readings scaled its drift to 0.84 of the plate's, median)
+    and keeps its u. Where `drift_at` is None or the search is not dated, the start's side
+    is not known: no offset, and the RMS about the peak of a start from beyond the zone
+    (FAR_START_ZONES, FAR_START_STEPS; `recentring_stop_u_hz`), the largest a walk gives."""
     half_width_hz, scatter_rel = top
-    far_hz = FAR_START_ZONES * recentring_blind_hz(half_width_hz, scatter_rel, step_hz) + FAR_START_STEPS * step_hz
-    stop_u = functools.partial(recentring_stop_u_hz, half_width_hz, scatter_rel, step_hz)
     if drift_at is None or not math.isfinite(search_s):
-        return np.full(len(times_s), stop_u(far_hz))
+        far_hz = FAR_START_ZONES * recentring_blind_hz(half_width_hz, scatter_rel, step_hz) + FAR_START_STEPS * step_hz
+        return (np.zeros(len(times_s)),
+                np.full(len(times_s), recentring_stop_u_hz(half_width_hz, scatter_rel, step_hz, far_hz)))
+    moments = functools.partial(recentring_stop_moments_hz, half_width_hz, scatter_rel, step_hz)
     drift_hz = drift_at(times_s)
-    level_u = np.array([stop_u(float(moved)) for moved in drift_hz - drift_at(np.array([search_s]))[0]])
-    u_hz = level_u.copy()
+    mean_hz, mean_square_hz2 = np.array([moments(float(start)) for start in drift_at(np.array([search_s]))[0]
+                                         - drift_hz]).T
+    level_u_hz = np.sqrt(np.maximum(mean_square_hz2 - mean_hz**2, 0.0))
     for index in np.flatnonzero(closing):
         before = np.flatnonzero(~closing & (times_s < times_s[index]))
         if len(before):
             last = before[np.argmax(times_s[before])]
-            u_hz[index] = stop_u(math.hypot(drift_hz[index] - drift_hz[last], level_u[last]))
-    return u_hz
+            start_hz = mean_hz[last] - (drift_hz[index] - drift_hz[last])
+            mean_hz[index], mean_square_hz2[index] = np.mean(
+                [moments(float(start_hz + side * level_u_hz[last])) for side in (-1.0, 1.0)], axis=0)
+    return mean_hz, np.sqrt(np.maximum(mean_square_hz2 - mean_hz**2, 0.0))
 
 
 def _setting_readings(at_resonance: pd.DataFrame, best_u: float) -> tuple[pd.DataFrame, bool]:
@@ -495,10 +536,11 @@ WARMING_SOURCE = ("Type A/B, the plate's warming under the run's {n} dated store
                   "tolerances' {low:.3g}-{high:.3g} Hz/J{blind}), estimated and corrected for: its u the scale's, the "
                   "spread over the time constants the readings allow and the room's (up to {room:g} K/h), "
                   "the last two rectangles")
-#: What WARMING_SOURCE says of the re-centrings' readings (`_walk_stop_u_hz`), where the run's
+#: What WARMING_SOURCE says of the re-centrings' readings (`_walk_stops_hz`), where the run's
 #: search settings give their step and its search the top's width and scatter.
 BLIND_ZONE = ("; each re-centring's reading with where its {step:g} Hz walk stops, blind within {blind:.3g} Hz of the peak "
-              "(95 %): {low:.2g}-{high:.2g} Hz RMS, its start placed by the warming the tolerances predict")
+              "(95 %): corrected for the stop's mean, u {low:.2g}-{high:.2g} Hz, its start placed by the warming the "
+              "tolerances predict")
 BLIND_ZONE_UNKNOWN = "; no re-centring's blind zone taken (no re-centring, its step or the search's readings stored)"
 
 
@@ -578,11 +620,28 @@ def _prior_drift(times_s: np.ndarray, power_w: np.ndarray, points: pd.DataFrame,
     """The drift since rest (Hz) as a function of bench time that the heating tolerances
     alone predict for the run's powers: the middle of their Hz per joule times the heat held
     at the geometric middle of their time constants (`plates.warming`). It places each
-    re-centring's start against the peak (`_walk_stop_u_hz`) before the readings, which that
+    re-centring's start against the peak (`_walk_stops_hz`) before the readings, which that
     weighs, fit the scale."""
     low, high = warming.drift_per_joule_range_hz(float(points["generator_frequency_hz"].iloc[0]), *dimensions)
     held_j = warming.held_heat_j(times_s, power_w, math.sqrt(math.prod(warming.time_constant_range_s(*dimensions))))
     return lambda when_s: -0.5 * (low + high) * np.interp(when_s, times_s, held_j)
+
+
+def drifts_over_time_constants(times_s: np.ndarray, power_w: np.ndarray, readings: pd.DataFrame, when_s: np.ndarray,
+                               scale_range: tuple[float, float], time_constant_range_s: tuple[float, float]
+                               ) -> list[tuple[float, np.ndarray, np.ndarray]]:
+    """At each of TIME_CONSTANT_STEPS time constants log-spaced over `time_constant_range_s`,
+    the readings' chi^2 about the scale they fit (`_warming_scale`, within `scale_range` Hz/J),
+    the drift since rest at `when_s`, -k E, and its u from the scale's, u(k) E (Hz), E the heat
+    held under the run's powers `power_w` at `times_s` (`warming.held_heat_j`): what
+    `_warming_estimates` chooses among (and `benchmarks/drift_calibration.py` takes apart)."""
+    fits = []
+    for tau_s in np.geomspace(*time_constant_range_s, TIME_CONSTANT_STEPS):
+        held_j = warming.held_heat_j(times_s, power_w, tau_s)
+        scale, scale_u, chi2 = _warming_scale(held_j, readings, times_s, *scale_range)
+        since_rest_j = np.interp(when_s, times_s, held_j)
+        fits.append((chi2, -scale * since_rest_j, scale_u * since_rest_j))
+    return fits
 
 
 def _warming_estimates(points: pd.DataFrame, searches: pd.DataFrame, closings: pd.DataFrame,
@@ -631,12 +690,7 @@ def _warming_estimates(points: pd.DataFrame, searches: pd.DataFrame, closings: p
     # as mounted, which a stored value states), at the points and at the first reading of the
     # resonance, itself read on a plate its own readings had warmed
     when_s = np.append(at_s, reference_s)
-    fits = []
-    for tau_s in np.geomspace(shortest, longest, TIME_CONSTANT_STEPS):
-        held_j = warming.held_heat_j(times_s, power_w, tau_s)
-        scale, scale_u, chi2 = _warming_scale(held_j, readings, times_s, low, high)
-        since_rest_j = np.interp(when_s, times_s, held_j)
-        fits.append((chi2, -scale * since_rest_j, scale_u * since_rest_j))
+    fits = drifts_over_time_constants(times_s, power_w, readings, when_s, (low, high), (shortest, longest))
     least = min(chi2 for chi2, _, _ in fits)
     allowed = [(drift, drift_u) for chi2, drift, drift_u in fits if chi2 <= least + CHI2_95_ONE]
     drifts = np.array([drift for drift, _ in allowed])

@@ -232,11 +232,14 @@ def test_recentrings_walked_on_a_broad_top_no_longer_pull_the_estimate_toward_no
     give the last level's estimates within 15 % of the drift and 0.6 u of it, and weighed
     with their fits' u alone (no search settings: the analysis of two sessions ago) lower
     ones, nearer no drift, on every run; the estimate's source names the walk's blind zone
-    (from the scatter the search reads)."""
+    (from the scatter the search reads). Each reading corrected for its stop's mean (a walk
+    stops on the side it came from, `recentring_stop_moments_hz`), the six runs' estimates
+    are 98 % of the drift on average, within 4 % (the mean in u alone: 94 %)."""
     rng = np.random.default_rng(46)
     q, scatter_rel, step_hz = 56.0, 3e-4, 5.0
     nominal = _nominal()
     setups = {"fig2_nine_column": SearchSetup(tolerance_hz=0.2, tracking_step_hz=step_hz)}
+    shares = []
     for _ in range(6):
         points, scenes, searches, true_hz = _warming_run(F0_HZ * 2e-4 / nominal.heat_capacity_j_per_k,
                                                          nominal.time_constant_s, 3.0)
@@ -255,3 +258,5 @@ def test_recentrings_walked_on_a_broad_top_no_longer_pull_the_estimate_toward_no
         assert "5 Hz walk stops, blind within" in after["resonance_drift_source"].iat[0]
         assert "no re-centring's blind zone taken" in before["resonance_drift_source"].iat[0]
         assert np.all(-before["resonance_drift_hz"].to_numpy()[last] < -estimate)
+        shares.append(np.mean(-estimate / true_hz[last]))
+    assert np.mean(shares) == pytest.approx(1.0, abs=0.04)
