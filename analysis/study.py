@@ -338,7 +338,8 @@ def coverage_verdict(table: pd.DataFrame, quantity_words=str) -> str:
         if rows.empty:
             continue
         low, high = (rows[column].round(3) for column in ("coverage_interval_low", "coverage_interval_high"))
-        above, below = ([quantity_words(q) for q in rows.loc[beyond, "quantity"]] for beyond in (low > 0.95, high < 0.95))
+        above, below = ([quantity_words(q) for q in rows.loc[beyond, "quantity"]]
+                        for beyond in (low > 0.95, high < 0.95))
         sentence = (f"{heading[0].upper()}{heading[1:]} ({rows['benches'].max()} benches): the 95 % interval of "
                     f"{len(rows) - len(above) - len(below)} of {len(rows)} quantities holds 95 %")
         if above:

@@ -201,8 +201,6 @@ def _coverage_part(context: ReportContext) -> str:
                        "(study_coverage.csv). Simulated bench.")))
 
 
-
-
 def _coverage_grid(table: pd.DataFrame) -> pd.DataFrame:
     """One row per quantity, one column per error model (`study.MODEL_HEADINGS`): its coverage and
     95 % interval on that model's benches ("" where it was not scored so; their number in the
@@ -224,9 +222,9 @@ def _coverage_grid(table: pd.DataFrame) -> pd.DataFrame:
         grid[heading] = [cell(rows.loc[q], one_count) if q in rows.index else "" for q in grid.index]
         if model == "world":
             within = (rows["benches"] - rows["benches_beyond_specification"]).unique()
-            grid["world, instruments within specification" + (f", {within[0]} benches" if len(within) == 1 else "")] = [
-                f"{100 * rows.at[q, 'covered_fraction_within_specification']:.1f} %" if q in rows.index else ""
-                for q in grid.index]
+            heading = "world, instruments within specification" + (f", {within[0]} benches" if len(within) == 1 else "")
+            grid[heading] = [f"{100 * rows.at[q, 'covered_fraction_within_specification']:.1f} %"
+                             if q in rows.index else "" for q in grid.index]
     grid.index = [words_of(q) for q in grid.index]
     return grid.rename_axis("quantity").reset_index()
 
