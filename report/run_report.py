@@ -89,10 +89,12 @@ def solve_ahead(workers: int | None = None) -> Future | None:
     reads them instead of solving them (most of a report's time). They depend on the
     paper's dimensions and the datasheets only, never on a run, so `reproduce` starts them
     with its campaign."""
-    return drawing.beside(workers or default_workers(), _solve_paper_plates)
+    return drawing.beside(workers or default_workers(), solve_paper_plates)
 
 
-def _solve_paper_plates() -> None:
+def solve_paper_plates() -> None:
+    """The paper's plates solved into the disk cache (`predicted_plates.predictions`), a plate the
+    model cannot solve left for the sections (or a coverage bench's table) to say so."""
     with contextlib.suppress(UserError):   # the sections say why, in their place
         predicted_plates.predictions()
 

@@ -7,7 +7,6 @@ arguments and dispatches here; nothing here imports the command line.
 from __future__ import annotations
 
 import argparse
-import contextlib
 import json
 import re
 import shutil
@@ -433,13 +432,12 @@ def _solve_coverage_plates(campaign: Path) -> None:
     the warming's import): both were retired with a warning ("A worker stopped while some
     jobs were given to the executor") and their other caches lost. With a warm cache this
     reads them back (under 1 CPU-s)."""
-    from squeezebench.plates import predicted_plates
     from squeezebench.protocols.campaign import mapped_scenes
+    from squeezebench.report.run_report import solve_paper_plates
     from squeezebench.simbench import modeshape
 
     modeshape.solve_ahead(mapped_scenes(campaign))
-    with contextlib.suppress(UserError):   # a plate the model cannot solve: each bench's table says so
-        predicted_plates.predictions()
+    solve_paper_plates()
 
 
 def _finished(index: Path) -> str:
